@@ -1,0 +1,318 @@
+!> Flat procedures for f2py (python/dyncontact/_core): c_int / c_double / c_int64_t
+!> arguments, explicit shapes, no derived types. A simulation is passed around as
+!> an opaque 64-bit handle to a heap object owned by the caller (no module state).
+!> Every procedure returns stat (0 = ok, 2 = bad input, 3 = numerical failure,
+!> 4 = internal) and a one-line errmsg.
+
+!> Library version string.
+subroutine dc_version(version)
+    use version_info, only: DYNCONTACT_VERSION
+    implicit none
+    character(len=32), intent(out) :: version   !! e.g. '0.1.0'
+    version = DYNCONTACT_VERSION
+end subroutine dc_version
+
+!> Read and validate a scene file; write the parsed scene (defaults filled) as JSON.
+subroutine dc_scene_dump(path, json_path, stat, errmsg)
+    use iso_c_binding, only: c_int
+    use errors, only: STAT_OK, STAT_INTERNAL
+    use scene, only: scene_t, scene_read, scene_to_json
+    implicit none
+    character(len=*), intent(in) :: path        !! scene file
+    character(len=*), intent(in) :: json_path   !! JSON file to write
+    integer(c_int), intent(out) :: stat         !! status
+    character(len=512), intent(out) :: errmsg   !! message
+    type(scene_t) :: scn
+    integer :: unit, ios, st
+    errmsg = ''
+    call scene_read(path, scn, st, errmsg)
+    stat = st
+    if (st /= STAT_OK) return
+    open (newunit=unit, file=json_path, status='replace', action='write', iostat=ios)
+    if (ios /= 0) then
+        stat = STAT_INTERNAL
+        errmsg = trim(json_path)//': cannot write'
+        return
+    end if
+    write (unit, '(a)') scene_to_json(scn)
+    close (unit)
+end subroutine dc_scene_dump
+
+!> Open a run: read the scene, build the model, open the outputs in out_dir
+!> ('' = the scene's &output dir) unless build_only /= 0.
+subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, elements, &
+                       contact_facets, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t, c_loc
+    use errors, only: STAT_OK
+    use simulation, only: simulation_t, sim_open
+    implicit none
+    character(len=*), intent(in) :: path         !! scene file
+    character(len=*), intent(in) :: out_dir      !! output folder override
+    integer(c_int), intent(in) :: build_only     !! 1: model only, no outputs
+    integer(c_int64_t), intent(out) :: handle    !! opaque run handle (0 on error)
+    integer(c_int), intent(out) :: n_steps       !! steps to t_end
+    integer(c_int), intent(out) :: dofs          !! free dofs
+    integer(c_int), intent(out) :: elements      !! cells
+    integer(c_int), intent(out) :: contact_facets !! contact facets
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st
+    errmsg = ''
+    handle = 0
+    n_steps = 0; dofs = 0; elements = 0; contact_facets = 0
+    allocate (sim)
+    call sim_open(sim, path, out_dir, build_only == 0, st, errmsg)
+    stat = st
+    if (st /= STAT_OK) then
+        deallocate (sim)
+        return
+    end if
+    n_steps = sim%n_steps
+    dofs = sim%n_dofs
+    elements = sim%n_cells
+    contact_facets = sim%n_contact
+    handle = transfer(c_loc(sim), handle)
+end subroutine dc_sim_open
+
+!> Advance a run by at most max_steps steps.
+subroutine dc_sim_advance(handle, max_steps, steps_done, step, finished, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t
+    use simulation, only: simulation_t, sim_advance
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    integer(c_int), intent(in) :: max_steps      !! step budget
+    integer(c_int), intent(out) :: steps_done    !! steps done in this call
+    integer(c_int), intent(out) :: step          !! steps done in all
+    integer(c_int), intent(out) :: finished      !! 1 when the run has ended
+    integer(c_int), intent(out) :: stat          !! status (3: unstable / Newton failure)
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st, done
+    errmsg = ''
+    call sim_from_handle(handle, sim)
+    call sim_advance(sim, max_steps, done, st, errmsg)
+    steps_done = done
+    step = sim%step
+    finished = merge(1, 0, sim%finished)
+    stat = st
+end subroutine dc_sim_advance
+
+!> Close a run: write summary.json (if outputs are open) and free it.
+subroutine dc_sim_close(handle, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t
+    use simulation, only: simulation_t, sim_close
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle (invalid afterwards)
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st
+    errmsg = ''
+    call sim_from_handle(handle, sim)
+    call sim_close(sim, st, errmsg)
+    deallocate (sim)
+    stat = st
+end subroutine dc_sim_close
+
+!> B(u) on the free dofs of an open run.
+subroutine dc_sim_eval_b(handle, n, u, b, active)
+    use iso_c_binding, only: c_int, c_int64_t, c_double
+    use simulation, only: simulation_t, sim_eval_b
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    integer(c_int), intent(in) :: n              !! free dofs
+    real(c_double), intent(in) :: u(n)           !! displacement
+    real(c_double), intent(out) :: b(n)          !! B(u)
+    integer(c_int), intent(out) :: active        !! active contact quadrature points
+    type(simulation_t), pointer :: sim
+    integer :: act
+    call sim_from_handle(handle, sim)
+    call sim_eval_b(sim, u, b, act)
+    active = act
+end subroutine dc_sim_eval_b
+
+!> B'(u) du (generalized derivative) on the free dofs of an open run.
+subroutine dc_sim_jacobian_apply(handle, n, u, du, jdu)
+    use iso_c_binding, only: c_int, c_int64_t, c_double
+    use simulation, only: simulation_t, sim_apply_jacobian
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    integer(c_int), intent(in) :: n              !! free dofs
+    real(c_double), intent(in) :: u(n)           !! linearization point
+    real(c_double), intent(in) :: du(n)          !! direction
+    real(c_double), intent(out) :: jdu(n)        !! B'(u) du
+    type(simulation_t), pointer :: sim
+    call sim_from_handle(handle, sim)
+    call sim_apply_jacobian(sim, u, du, jdu)
+end subroutine dc_sim_jacobian_apply
+
+!> Static solution K u = L of an open run (contact ignored).
+subroutine dc_sim_static(handle, n, u, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t, c_double
+    use simulation, only: simulation_t, sim_static
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    integer(c_int), intent(in) :: n              !! free dofs
+    real(c_double), intent(out) :: u(n)          !! displacement
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st
+    errmsg = ''
+    call sim_from_handle(handle, sim)
+    call sim_static(sim, u, st, errmsg)
+    stat = st
+end subroutine dc_sim_static
+
+!> Node (1-based) and component (1..dim) of each free dof of an open run.
+subroutine dc_sim_dof_map(handle, n, node, comp)
+    use iso_c_binding, only: c_int, c_int64_t
+    use simulation, only: simulation_t, sim_dof_map
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    integer(c_int), intent(in) :: n              !! free dofs
+    integer(c_int), intent(out) :: node(n)       !! node of each dof
+    integer(c_int), intent(out) :: comp(n)       !! component of each dof
+    type(simulation_t), pointer :: sim
+    integer :: nd(n), cp(n)
+    call sim_from_handle(handle, sim)
+    call sim_dof_map(sim, nd, cp)
+    node = nd
+    comp = cp
+end subroutine dc_sim_dof_map
+
+!> Solve A x = b with UMFPACK, A given as 1-based COO triplets (duplicates summed).
+subroutine dc_umf_solve(n, nnz, rows, cols, vals, b, x, stat, errmsg)
+    use iso_c_binding, only: c_int, c_double
+    use errors, only: STAT_OK
+    use sparse, only: csc_t, csc_from_coo
+    use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
+    implicit none
+    integer(c_int), intent(in) :: n              !! size
+    integer(c_int), intent(in) :: nnz            !! triplets
+    integer(c_int), intent(in) :: rows(nnz)      !! 1-based rows
+    integer(c_int), intent(in) :: cols(nnz)      !! 1-based columns
+    real(c_double), intent(in) :: vals(nnz)      !! values
+    real(c_double), intent(in) :: b(n)           !! right-hand side
+    real(c_double), intent(out) :: x(n)          !! solution
+    integer(c_int), intent(out) :: stat          !! status (3: singular)
+    character(len=512), intent(out) :: errmsg    !! message
+    type(csc_t) :: a
+    type(lu_t) :: lu
+    integer :: st
+    errmsg = ''
+    x = 0
+    call csc_from_coo(n, rows, cols, vals, a, st, errmsg)
+    if (st == STAT_OK) call lu_factor(lu, a, st, errmsg)
+    if (st == STAT_OK) call lu_solve(lu, a, b, x, st, errmsg)
+    call lu_free(lu)
+    stat = st
+end subroutine dc_umf_solve
+
+!> P1 element matrices of one cell: stiffness, consistent and lumped mass.
+!> dim = 1 uses the leading 2x2 blocks and x(1, 1:2).
+subroutine dc_p1_element(dim, x, young, poisson, density, ke, me, ml)
+    use iso_c_binding, only: c_int, c_double
+    use fe_p1, only: p1_stiffness, p1_mass, p1_lame
+    implicit none
+    integer(c_int), intent(in) :: dim            !! 1 or 2
+    real(c_double), intent(in) :: x(2, 3)        !! node coordinates
+    real(c_double), intent(in) :: young          !! E
+    real(c_double), intent(in) :: poisson        !! nu
+    real(c_double), intent(in) :: density        !! rho
+    real(c_double), intent(out) :: ke(6, 6)      !! stiffness
+    real(c_double), intent(out) :: me(6, 6)      !! consistent mass
+    real(c_double), intent(out) :: ml(6, 6)      !! lumped mass
+    real(c_double) :: lambda, mu
+    integer :: n
+    ke = 0; me = 0; ml = 0
+    n = dim * (dim + 1)
+    call p1_lame(young, poisson, lambda, mu)
+    call p1_stiffness(dim, x(1:dim, 1:dim + 1), lambda, mu, young, ke(1:n, 1:n))
+    call p1_mass(dim, x(1:dim, 1:dim + 1), density, .false., me(1:n, 1:n))
+    call p1_mass(dim, x(1:dim, 1:dim + 1), density, .true., ml(1:n, 1:n))
+end subroutine dc_p1_element
+
+!> Sizes of a mesh: a .msh file (path /= '') or the built-in bar (dim, length, width, h).
+subroutine dc_mesh_sizes(path, bar_dim, length, width, h, dim, n_nodes, n_cells, n_facets, &
+                         n_groups, stat, errmsg)
+    use iso_c_binding, only: c_int, c_double
+    use mesh, only: mesh_t
+    use api_handles, only: load_mesh
+    implicit none
+    character(len=*), intent(in) :: path         !! .msh file, '' = built-in bar
+    integer(c_int), intent(in) :: bar_dim        !! built-in bar dimension
+    real(c_double), intent(in) :: length         !! built-in bar length
+    real(c_double), intent(in) :: width          !! built-in bar width
+    real(c_double), intent(in) :: h              !! built-in bar mesh size
+    integer(c_int), intent(out) :: dim           !! mesh dimension
+    integer(c_int), intent(out) :: n_nodes       !! nodes
+    integer(c_int), intent(out) :: n_cells       !! cells
+    integer(c_int), intent(out) :: n_facets      !! tagged facets
+    integer(c_int), intent(out) :: n_groups      !! physical groups
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(mesh_t) :: msh
+    integer :: st
+    errmsg = ''
+    call load_mesh(path, bar_dim, length, width, h, msh, st, errmsg)
+    stat = st
+    dim = msh%dim; n_nodes = msh%n_nodes; n_cells = msh%n_cells
+    n_facets = msh%n_facets; n_groups = msh%n_groups
+end subroutine dc_mesh_sizes
+
+!> Arrays of a mesh (sizes from dc_mesh_sizes). Group names are joined by ','.
+subroutine dc_mesh_arrays(path, bar_dim, length, width, h, dim, n_nodes, n_cells, n_facets, &
+                          n_groups, x, cells, cell_group, facets, facet_group, group_dim, &
+                          group_names, stat, errmsg)
+    use iso_c_binding, only: c_int, c_double
+    use mesh, only: mesh_t
+    use api_handles, only: load_mesh
+    implicit none
+    character(len=*), intent(in) :: path         !! .msh file, '' = built-in bar
+    integer(c_int), intent(in) :: bar_dim        !! built-in bar dimension
+    real(c_double), intent(in) :: length         !! built-in bar length
+    real(c_double), intent(in) :: width          !! built-in bar width
+    real(c_double), intent(in) :: h              !! built-in bar mesh size
+    integer(c_int), intent(in) :: dim            !! mesh dimension
+    integer(c_int), intent(in) :: n_nodes        !! nodes
+    integer(c_int), intent(in) :: n_cells        !! cells
+    integer(c_int), intent(in) :: n_facets       !! tagged facets
+    integer(c_int), intent(in) :: n_groups       !! groups
+    real(c_double), intent(out) :: x(dim, n_nodes)          !! coordinates
+    integer(c_int), intent(out) :: cells(dim + 1, n_cells)  !! cell nodes (1-based)
+    integer(c_int), intent(out) :: cell_group(n_cells)      !! cell group (1-based, 0 none)
+    integer(c_int), intent(out) :: facets(dim, n_facets)    !! facet nodes (1-based)
+    integer(c_int), intent(out) :: facet_group(n_facets)    !! facet group (1-based)
+    integer(c_int), intent(out) :: group_dim(n_groups)      !! group dimension
+    character(len=4096), intent(out) :: group_names         !! names joined by ','
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(mesh_t) :: msh
+    integer :: st, g
+    errmsg = ''
+    group_names = ''
+    x = 0; cells = 0; cell_group = 0; facets = 0; facet_group = 0; group_dim = 0
+    call load_mesh(path, bar_dim, length, width, h, msh, st, errmsg)
+    stat = st
+    if (st /= 0) return
+    if (msh%dim /= dim .or. msh%n_nodes /= n_nodes .or. msh%n_cells /= n_cells .or. &
+        msh%n_facets /= n_facets .or. msh%n_groups /= n_groups) then
+        stat = 4
+        errmsg = 'dc_mesh_arrays: sizes differ from the mesh'
+        return
+    end if
+    x = msh%x; cells = msh%cells; cell_group = msh%cell_group
+    facets = msh%facets; facet_group = msh%facet_group; group_dim = msh%group_dim
+    do g = 1, n_groups
+        if (g > 1) group_names = trim(group_names)//','
+        group_names = trim(group_names)//trim(msh%group_name(g))
+    end do
+end subroutine dc_mesh_arrays

@@ -1,0 +1,130 @@
+!> P1 Lagrange elements: segments (1D bar) and triangles (plane strain), pure
+!> kernels. Dofs of a cell are ordered node by node: (u1x, u1y, u2x, u2y, ...).
+module fe_p1
+    use kinds, only: dp
+    implicit none
+    private
+
+    public :: p1_gradients, p1_measure, p1_diameter, p1_stiffness, p1_mass, p1_lame
+
+contains
+
+    !> Lame parameters (lambda, mu) from Young's modulus and Poisson's ratio.
+    pure subroutine p1_lame(young, poisson, lambda, mu)
+        real(dp), intent(in) :: young     !! E > 0
+        real(dp), intent(in) :: poisson   !! nu in (-1, 1/2)
+        real(dp), intent(out) :: lambda   !! E nu / ((1 + nu)(1 - 2 nu))
+        real(dp), intent(out) :: mu       !! E / (2 (1 + nu))
+        lambda = young * poisson / ((1.0_dp + poisson) * (1.0_dp - 2.0_dp * poisson))
+        mu = young / (2.0_dp * (1.0_dp + poisson))
+    end subroutine p1_lame
+
+    !> Signed measure of the cell: length in 1D, (signed) area in 2D.
+    pure function p1_measure(dim, xe) result(m)
+        integer, intent(in) :: dim          !! 1 or 2
+        real(dp), intent(in) :: xe(:, :)    !! (dim, dim+1) node coordinates
+        real(dp) :: m
+        if (dim == 1) then
+            m = xe(1, 2) - xe(1, 1)
+        else
+            m = 0.5_dp * ((xe(1, 2) - xe(1, 1)) * (xe(2, 3) - xe(2, 1)) &
+                          - (xe(1, 3) - xe(1, 1)) * (xe(2, 2) - xe(2, 1)))
+        end if
+    end function p1_measure
+
+    !> Diameter (longest edge) of the cell.
+    pure function p1_diameter(dim, xe) result(d)
+        integer, intent(in) :: dim          !! 1 or 2
+        real(dp), intent(in) :: xe(:, :)    !! (dim, dim+1) node coordinates
+        real(dp) :: d
+        if (dim == 1) then
+            d = abs(xe(1, 2) - xe(1, 1))
+        else
+            d = max(norm2(xe(:, 2) - xe(:, 1)), norm2(xe(:, 3) - xe(:, 2)), &
+                    norm2(xe(:, 1) - xe(:, 3)))
+        end if
+    end function p1_diameter
+
+    !> Gradients of the dim+1 shape functions (constant on the cell); either
+    !> orientation. grad(:, a) = grad phi_a.
+    pure subroutine p1_gradients(dim, xe, grad)
+        integer, intent(in) :: dim            !! 1 or 2
+        real(dp), intent(in) :: xe(:, :)      !! (dim, dim+1) node coordinates
+        real(dp), intent(out) :: grad(:, :)   !! (dim, dim+1)
+        real(dp) :: det
+        if (dim == 1) then
+            det = xe(1, 2) - xe(1, 1)
+            grad(1, 1) = -1.0_dp / det
+            grad(1, 2) = 1.0_dp / det
+        else
+            det = 2.0_dp * p1_measure(2, xe)
+            grad(:, 1) = [xe(2, 2) - xe(2, 3), xe(1, 3) - xe(1, 2)] / det
+            grad(:, 2) = [xe(2, 3) - xe(2, 1), xe(1, 1) - xe(1, 3)] / det
+            grad(:, 3) = [xe(2, 1) - xe(2, 2), xe(1, 2) - xe(1, 1)] / det
+        end if
+    end subroutine p1_gradients
+
+    !> Element stiffness: 1D E u' v' (per unit cross-section); 2D plane strain
+    !> isotropic elasticity. ke is (n, n) with n = dim (dim+1).
+    pure subroutine p1_stiffness(dim, xe, lambda, mu, young, ke)
+        integer, intent(in) :: dim           !! 1 or 2
+        real(dp), intent(in) :: xe(:, :)     !! (dim, dim+1) node coordinates
+        real(dp), intent(in) :: lambda       !! Lame lambda (2D)
+        real(dp), intent(in) :: mu           !! Lame mu (2D)
+        real(dp), intent(in) :: young        !! E (1D)
+        real(dp), intent(out) :: ke(:, :)    !! (dim (dim+1), dim (dim+1))
+        real(dp) :: grad(dim, dim + 1), area, bmat(3, 6), dmat(3, 3)
+        integer :: a
+        call p1_gradients(dim, xe, grad)
+        area = abs(p1_measure(dim, xe))
+        if (dim == 1) then
+            ke(:, 1) = young * area * grad(1, 1) * grad(1, :)
+            ke(:, 2) = young * area * grad(1, 2) * grad(1, :)
+            return
+        end if
+        bmat = 0.0_dp
+        do a = 1, 3
+            bmat(1, 2 * a - 1) = grad(1, a)
+            bmat(2, 2 * a) = grad(2, a)
+            bmat(3, 2 * a - 1) = grad(2, a)
+            bmat(3, 2 * a) = grad(1, a)
+        end do
+        dmat = reshape([lambda + 2 * mu, lambda, 0.0_dp, &
+                        lambda, lambda + 2 * mu, 0.0_dp, &
+                        0.0_dp, 0.0_dp, mu], [3, 3])
+        ke = area * matmul(transpose(bmat), matmul(dmat, bmat))
+    end subroutine p1_stiffness
+
+    !> Element mass, consistent (exact for P1) or row-sum lumped.
+    pure subroutine p1_mass(dim, xe, density, lumped, me)
+        integer, intent(in) :: dim           !! 1 or 2
+        real(dp), intent(in) :: xe(:, :)     !! (dim, dim+1) node coordinates
+        real(dp), intent(in) :: density      !! rho
+        logical, intent(in) :: lumped        !! .true.: diagonal (row sums)
+        real(dp), intent(out) :: me(:, :)    !! (dim (dim+1), dim (dim+1))
+        real(dp) :: m, scalar(dim + 1, dim + 1)
+        integer :: a, b, k, nn
+        nn = dim + 1
+        m = density * abs(p1_measure(dim, xe))
+        if (lumped) then
+            scalar = 0.0_dp
+            do a = 1, nn
+                scalar(a, a) = m / nn
+            end do
+        else
+            ! int phi_a phi_b = |T| (1 + delta_ab) / ((n+1)(n+2)) on a simplex of dim n
+            scalar = m / real(nn * (nn + 1), dp)
+            do a = 1, nn
+                scalar(a, a) = 2.0_dp * m / real(nn * (nn + 1), dp)
+            end do
+        end if
+        me = 0.0_dp
+        do b = 1, nn
+            do a = 1, nn
+                do k = 1, dim
+                    me(dim * (a - 1) + k, dim * (b - 1) + k) = scalar(a, b)
+                end do
+            end do
+        end do
+    end subroutine p1_mass
+end module fe_p1
