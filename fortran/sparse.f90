@@ -1,4 +1,9 @@
 !> Compressed sparse column matrices (the layout UMFPACK reads).
+!>
+!> Patterns are fixed once (csc_from_coo keeps explicit zeros), so matrices assembled
+!> from the same triplet positions share one pattern: their values can be combined
+!> entry by entry (csc_axpby_values) and refilled without sorting (csc_coo_map +
+!> csc_accumulate). Matrix-vector kernels do not allocate and do not check sizes.
 module sparse
     use iso_c_binding, only: c_int
     use kinds, only: dp
@@ -17,55 +22,319 @@ module sparse
     end type csc_t
 
     public :: csc_from_coo, csc_find, csc_matvec, csc_matvec_add, csc_drop_zeros
+    public :: csc_axpby_values, csc_dot_matvec, csc_same_pattern, csc_coo_map
+    public :: csc_accumulate
 
 contains
 
     !> Build an n x n CSC matrix from 1-based COO triplets (rows(k), cols(k), vals(k)),
     !> k = 1..size(rows); duplicates are summed, explicit zeros kept (they fix a pattern).
+    !> Row indices come out sorted within each column. O(nnz + n) (two counting sorts).
     subroutine csc_from_coo(n, rows, cols, vals, a, stat, errmsg)
-        integer, intent(in) :: n                            !! matrix size
+        integer, intent(in) :: n                            !! matrix size (>= 0)
         integer, intent(in) :: rows(:)                      !! 1-based row indices
         integer, intent(in) :: cols(:)                      !! 1-based column indices
         real(dp), intent(in) :: vals(:)                     !! values
         type(csc_t), intent(out) :: a                       !! result
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT (index out of range)
         character(len=*), intent(inout), optional :: errmsg !! message
+        integer, allocatable :: rowstart(:), byrow(:), colnext(:), trow(:)
+        real(dp), allocatable :: tval(:)
+        integer :: ntrip, k, kk, i, j, p, q, last, nout, ierr
+        character(len=160) :: buf
+
+        ntrip = size(rows)
+        if (n < 0) then
+            write (buf, '(a,i0)') 'csc_from_coo: negative matrix size ', n
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+            return
+        end if
+        if (size(cols) /= ntrip .or. size(vals) /= ntrip) then
+            write (buf, '(a,3(1x,i0))') 'csc_from_coo: rows, cols, vals differ in length:', &
+                ntrip, size(cols), size(vals)
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+            return
+        end if
+        do k = 1, ntrip
+            if (rows(k) < 1 .or. rows(k) > n .or. cols(k) < 1 .or. cols(k) > n) then
+                write (buf, '(a,i0,a,i0,a,i0,a,i0)') 'csc_from_coo: index out of range in entry ', &
+                    k, ': (', rows(k), ', ', cols(k), '), n = ', n
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                return
+            end if
+        end do
+
+        allocate (rowstart(n + 1), byrow(ntrip), colnext(n + 1), trow(ntrip), tval(ntrip), &
+                  stat=ierr)
+        if (ierr /= 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'csc_from_coo: out of memory')
+            return
+        end if
+
+        ! Counting sort of the triplets by row (stable): byrow lists k by increasing row.
+        rowstart = 0
+        do k = 1, ntrip
+            rowstart(rows(k) + 1) = rowstart(rows(k) + 1) + 1
+        end do
+        rowstart(1) = 1
+        do i = 1, n
+            rowstart(i + 1) = rowstart(i + 1) + rowstart(i)
+        end do
+        do k = 1, ntrip                    ! rowstart(i) = next free slot of row i
+            i = rows(k)
+            byrow(rowstart(i)) = k
+            rowstart(i) = rowstart(i) + 1
+        end do
+
+        ! Column counts, then distribute in row order: rows ascend within each column.
+        colnext = 0
+        do k = 1, ntrip
+            colnext(cols(k) + 1) = colnext(cols(k) + 1) + 1
+        end do
+        colnext(1) = 1
+        do j = 1, n
+            colnext(j + 1) = colnext(j + 1) + colnext(j)
+        end do
+        ! colnext(j) = first slot of column j (1-based); keep the starts in rowstart
+        rowstart = colnext
+        do kk = 1, ntrip
+            k = byrow(kk)
+            j = cols(k)
+            trow(colnext(j)) = rows(k)
+            tval(colnext(j)) = vals(k)
+            colnext(j) = colnext(j) + 1
+        end do
+
+        ! Sum adjacent duplicates in place; colnext(j) becomes the compacted start.
+        nout = 0
+        do j = 1, n
+            p = rowstart(j)
+            q = rowstart(j + 1) - 1
+            colnext(j) = nout
+            last = 0
+            do k = p, q
+                if (trow(k) == last) then
+                    tval(nout) = tval(nout) + tval(k)
+                else
+                    nout = nout + 1
+                    trow(nout) = trow(k)
+                    tval(nout) = tval(k)
+                    last = trow(k)
+                end if
+            end do
+        end do
+        colnext(n + 1) = nout
+
         a%n = n
-        call raise(stat, errmsg, STAT_INTERNAL, 'csc_from_coo: not implemented')
-        if (size(rows) + size(cols) + size(vals) < 0) return
+        a%nnz = nout
+        allocate (a%colptr(n + 1), a%rowind(nout), a%val(nout), stat=ierr)
+        if (ierr /= 0) then
+            a%n = 0
+            a%nnz = 0
+            call raise(stat, errmsg, STAT_INTERNAL, 'csc_from_coo: out of memory')
+            return
+        end if
+        a%colptr = int(colnext, c_int)
+        a%rowind = int(trow(1:nout) - 1, c_int)
+        a%val = tval(1:nout)
+        stat = STAT_OK
     end subroutine csc_from_coo
 
-    !> 1-based position in a%val of entry (i, j) (1-based), 0 if not stored.
+    !> 1-based position in a%val of entry (i, j) (1-based), 0 if not stored or out of
+    !> range. Binary search in column j: O(log(entries of column j)).
     pure function csc_find(a, i, j) result(pos)
         type(csc_t), intent(in) :: a   !! matrix
         integer, intent(in) :: i       !! row (1-based)
         integer, intent(in) :: j       !! column (1-based)
         integer :: pos
+        integer :: lo, hi, mid, r
         pos = 0
-        if (i + j + a%n < 0) pos = -1
+        if (i < 1 .or. i > a%n .or. j < 1 .or. j > a%n) return
+        r = i - 1
+        lo = a%colptr(j) + 1          ! 1-based positions of column j: lo..hi
+        hi = a%colptr(j + 1)
+        do while (lo <= hi)
+            mid = lo + (hi - lo) / 2
+            if (a%rowind(mid) < r) then
+                lo = mid + 1
+            else if (a%rowind(mid) > r) then
+                hi = mid - 1
+            else
+                pos = mid
+                return
+            end if
+        end do
     end function csc_find
 
-    !> y = A x.
+    !> y = A x. x and y must have (at least) n entries and must not alias.
     pure subroutine csc_matvec(a, x, y)
         type(csc_t), intent(in) :: a   !! matrix
         real(dp), intent(in) :: x(:)   !! (n)
         real(dp), intent(out) :: y(:)  !! (n)
-        y = 0.0_dp * x(1) + a%n
+        integer :: j, k
+        real(dp) :: xj
+        y(1:a%n) = 0.0_dp
+        do j = 1, a%n
+            xj = x(j)
+            do k = a%colptr(j) + 1, a%colptr(j + 1)
+                y(a%rowind(k) + 1) = y(a%rowind(k) + 1) + a%val(k) * xj
+            end do
+        end do
     end subroutine csc_matvec
 
-    !> y = y + alpha A x.
+    !> y = y + alpha A x. x and y must have (at least) n entries and must not alias.
     pure subroutine csc_matvec_add(a, alpha, x, y)
         type(csc_t), intent(in) :: a      !! matrix
         real(dp), intent(in) :: alpha     !! scale
         real(dp), intent(in) :: x(:)      !! (n)
         real(dp), intent(inout) :: y(:)   !! (n)
-        y = y + alpha * x * a%n
+        integer :: j, k
+        real(dp) :: xj
+        do j = 1, a%n
+            xj = alpha * x(j)
+            do k = a%colptr(j) + 1, a%colptr(j + 1)
+                y(a%rowind(k) + 1) = y(a%rowind(k) + 1) + a%val(k) * xj
+            end do
+        end do
     end subroutine csc_matvec_add
 
-    !> b = a without its stored zeros (|a_ij| == 0).
-    subroutine csc_drop_zeros(a, b)
-        type(csc_t), intent(in) :: a    !! matrix
-        type(csc_t), intent(out) :: b   !! compacted copy
-        b = a
+    !> x^T A x (twice the quadratic energy ½ x^T A x), without a temporary.
+    pure function csc_dot_matvec(a, x) result(e)
+        type(csc_t), intent(in) :: a   !! matrix
+        real(dp), intent(in) :: x(:)   !! (n)
+        real(dp) :: e
+        integer :: j, k
+        real(dp) :: s
+        e = 0.0_dp
+        do j = 1, a%n
+            s = 0.0_dp
+            do k = a%colptr(j) + 1, a%colptr(j + 1)
+                s = s + a%val(k) * x(a%rowind(k) + 1)
+            end do
+            e = e + s * x(j)
+        end do
+    end function csc_dot_matvec
+
+    !> True when a and b have the same size and the same stored pattern (O(nnz)).
+    pure function csc_same_pattern(a, b) result(same)
+        type(csc_t), intent(in) :: a   !! first matrix
+        type(csc_t), intent(in) :: b   !! second matrix
+        logical :: same
+        same = .false.
+        if (a%n /= b%n .or. a%nnz /= b%nnz) return
+        if (a%n == 0) then
+            same = .true.
+            return
+        end if
+        if (.not. (allocated(a%colptr) .and. allocated(b%colptr))) return
+        if (.not. (allocated(a%rowind) .and. allocated(b%rowind))) return
+        if (any(a%colptr /= b%colptr)) return
+        if (any(a%rowind /= b%rowind)) return
+        same = .true.
+    end function csc_same_pattern
+
+    !> c%val = alpha a%val + beta b%val for matrices of IDENTICAL pattern (same n,
+    !> colptr, rowind: e.g. built by csc_from_coo from the same triplet positions).
+    !> c must already hold that pattern (e.g. c = a once, outside the time loop); c may
+    !> be a or b. The pattern is not checked (use csc_same_pattern once beforehand).
+    pure subroutine csc_axpby_values(alpha, a, beta, b, c)
+        real(dp), intent(in) :: alpha      !! factor of a
+        type(csc_t), intent(in) :: a       !! first matrix
+        real(dp), intent(in) :: beta       !! factor of b
+        type(csc_t), intent(in) :: b       !! second matrix (pattern of a)
+        type(csc_t), intent(inout) :: c    !! result (pattern of a), values overwritten
+        integer :: k
+        do k = 1, a%nnz
+            c%val(k) = alpha * a%val(k) + beta * b%val(k)
+        end do
+    end subroutine csc_axpby_values
+
+    !> For each 1-based triplet (rows(k), cols(k)), its 1-based position map(k) in
+    !> a%val, so values of the same triplet list can be re-assembled with
+    !> csc_accumulate without sorting. STAT_BAD_INPUT if an entry is not in the pattern.
+    subroutine csc_coo_map(a, rows, cols, map, stat, errmsg)
+        type(csc_t), intent(in) :: a                        !! matrix holding the pattern
+        integer, intent(in) :: rows(:)                      !! 1-based row indices
+        integer, intent(in) :: cols(:)                      !! 1-based column indices
+        integer, intent(out) :: map(:)                      !! (size(rows)) positions in a%val
+        integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: k
+        character(len=160) :: buf
+        if (size(cols) /= size(rows) .or. size(map) /= size(rows)) then
+            write (buf, '(a,3(1x,i0))') 'csc_coo_map: rows, cols, map differ in length:', &
+                size(rows), size(cols), size(map)
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+            return
+        end if
+        do k = 1, size(rows)
+            map(k) = csc_find(a, rows(k), cols(k))
+            if (map(k) == 0) then
+                write (buf, '(a,i0,a,i0,a,i0,a)') 'csc_coo_map: entry ', k, ' (', rows(k), &
+                    ', ', cols(k), ') is not in the pattern'
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                return
+            end if
+        end do
+        stat = STAT_OK
+    end subroutine csc_coo_map
+
+    !> a%val(map(k)) += vals(k) for all k (map from csc_coo_map; zero a%val first to
+    !> re-assemble). No checks, no allocation.
+    pure subroutine csc_accumulate(a, map, vals)
+        type(csc_t), intent(inout) :: a   !! matrix whose values are updated
+        integer, intent(in) :: map(:)     !! positions in a%val (1-based)
+        real(dp), intent(in) :: vals(:)   !! (size(map)) values to add
+        integer :: k
+        do k = 1, size(map)
+            a%val(map(k)) = a%val(map(k)) + vals(k)
+        end do
+    end subroutine csc_accumulate
+
+    !> b = a without its stored zeros (|a_ij| == 0). Optional stat reports an
+    !> allocation failure (STAT_INTERNAL); b is then empty.
+    subroutine csc_drop_zeros(a, b, stat, errmsg)
+        type(csc_t), intent(in) :: a                        !! matrix
+        type(csc_t), intent(out) :: b                       !! compacted copy
+        integer, intent(out), optional :: stat              !! status (STAT_OK, STAT_INTERNAL)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: j, k, m, ierr, st
+        logical :: filled
+        st = STAT_OK
+        filled = a%n > 0 .and. allocated(a%colptr) .and. allocated(a%rowind) &
+                 .and. allocated(a%val)
+        m = 0
+        if (filled) m = count(.not. is_zero(a%val(1:a%nnz)))
+        b%n = max(a%n, 0)
+        allocate (b%colptr(b%n + 1), b%rowind(m), b%val(m), stat=ierr)
+        if (ierr /= 0) then
+            b%n = 0
+            call raise(st, errmsg, STAT_INTERNAL, 'csc_drop_zeros: out of memory')
+            if (present(stat)) stat = st
+            return
+        end if
+        b%colptr = 0
+        m = 0
+        if (filled) then
+            do j = 1, a%n
+                do k = a%colptr(j) + 1, a%colptr(j + 1)
+                    if (.not. is_zero(a%val(k))) then
+                        m = m + 1
+                        b%rowind(m) = a%rowind(k)
+                        b%val(m) = a%val(k)
+                    end if
+                end do
+                b%colptr(j + 1) = int(m, c_int)
+            end do
+        end if
+        b%nnz = m
+        if (present(stat)) stat = st
     end subroutine csc_drop_zeros
+
+    !> True for +0 and -0 (false for NaN, which is kept as a stored value).
+    elemental function is_zero(v) result(z)
+        real(dp), intent(in) :: v   !! value
+        logical :: z
+        z = abs(v) <= 0.0_dp
+    end function is_zero
 end module sparse

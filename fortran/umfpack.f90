@@ -1,12 +1,51 @@
 !> UMFPACK (SuiteSparse) binding through ISO_C_BINDING: LU factorization and
 !> solves of csc_t matrices, handles kept in lu_t.
+!>
+!> Usage in a time loop: call lu_factor(lu, a, ...) whenever the values of a change
+!> (the symbolic analysis is reused automatically while n and the pattern stay the
+!> same), lu_solve(lu, a, b, x, ...) as often as needed (any number of right-hand
+!> sides, one after the other; no allocation), and lu_free(lu) at the end.
+!> An lu_t owns C pointers: never copy one by assignment (double free).
 module umfpack
-    use iso_c_binding, only: c_ptr, c_null_ptr, c_double, c_int
+    use iso_c_binding, only: c_ptr, c_null_ptr, c_double, c_int, c_associated
     use kinds, only: dp
-    use errors, only: STAT_OK, STAT_NUMERIC, STAT_INTERNAL, raise
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
     use sparse, only: csc_t
     implicit none
     private
+
+    ! Sizes and indices from umfpack.h (SuiteSparse 5.12, UMFPACK 5.7.9). Indices are
+    ! C (0-based): Fortran reads control(UMFPACK_IRSTEP + 1).
+    integer, parameter, public :: UMFPACK_CONTROL = 20   !! length of Control
+    integer, parameter, public :: UMFPACK_INFO = 90      !! length of Info
+    integer, parameter, public :: UMFPACK_PRL = 0        !! Control: print level
+    integer, parameter, public :: UMFPACK_STRATEGY = 5   !! Control: strategy
+    integer, parameter, public :: UMFPACK_IRSTEP = 7     !! Control: max. iterative refinement steps
+    integer, parameter, public :: UMFPACK_ORDERING = 10  !! Control: ordering
+    integer, parameter, public :: UMFPACK_STATUS = 0     !! Info: status of the last call
+    integer, parameter, public :: UMFPACK_NUMERIC_SIZE = 40  !! Info: Numeric object size (Units)
+    integer, parameter, public :: UMFPACK_FLOPS = 42     !! Info: flops of the factorization
+    integer, parameter, public :: UMFPACK_LNZ = 43       !! Info: nnz(L) incl. diagonal
+    integer, parameter, public :: UMFPACK_UNZ = 44       !! Info: nnz(U) incl. diagonal
+    integer, parameter, public :: UMFPACK_RCOND = 67     !! Info: reciprocal condition estimate
+    integer(c_int), parameter, public :: UMFPACK_A = 0   !! solve code: A x = b
+    integer(c_int), parameter, public :: UMFPACK_At = 1  !! solve code: A' x = b
+
+    ! Status codes from umfpack.h.
+    integer, parameter, public :: UMFPACK_OK = 0                               !! success
+    integer, parameter, public :: UMFPACK_WARNING_singular_matrix = 1         !! numerically singular
+    integer, parameter, public :: UMFPACK_ERROR_out_of_memory = -1            !! out of memory
+    integer, parameter, public :: UMFPACK_ERROR_invalid_Numeric_object = -3   !! bad Numeric
+    integer, parameter, public :: UMFPACK_ERROR_invalid_Symbolic_object = -4  !! bad Symbolic
+    integer, parameter, public :: UMFPACK_ERROR_argument_missing = -5         !! NULL argument
+    integer, parameter, public :: UMFPACK_ERROR_n_nonpositive = -6            !! n <= 0
+    integer, parameter, public :: UMFPACK_ERROR_invalid_matrix = -8           !! bad Ap/Ai
+    integer, parameter, public :: UMFPACK_ERROR_different_pattern = -11       !! pattern changed
+    integer, parameter, public :: UMFPACK_ERROR_invalid_system = -13          !! bad sys
+    integer, parameter, public :: UMFPACK_ERROR_invalid_permutation = -15     !! bad permutation
+    integer, parameter, public :: UMFPACK_ERROR_file_IO = -17                 !! file I/O
+    integer, parameter, public :: UMFPACK_ERROR_ordering_failed = -18         !! ordering failed
+    integer, parameter, public :: UMFPACK_ERROR_internal_error = -911         !! UMFPACK bug
 
     !> LU factors of one matrix (symbolic analysis kept across numeric refactorizations
     !> of the same pattern).
@@ -14,30 +53,161 @@ module umfpack
         type(c_ptr) :: symbolic = c_null_ptr        !! UMFPACK symbolic object
         type(c_ptr) :: numeric = c_null_ptr         !! UMFPACK numeric object
         integer :: n = 0                            !! size factorized
-        integer :: factorizations = 0               !! numeric factorizations done
-        real(c_double) :: control(20) = 0.0_dp      !! UMFPACK control (defaults, no iterative refinement)
-        real(c_double) :: info(90) = 0.0_dp         !! UMFPACK info of the last call
-        integer(c_int), allocatable :: wi(:)        !! wsolve integer workspace
-        real(c_double), allocatable :: w(:)         !! wsolve real workspace
+        integer :: factorizations = 0               !! numeric factorizations done (kept by lu_free)
+        integer :: analyses = 0                     !! symbolic analyses done (kept by lu_free)
+        real(c_double) :: control(UMFPACK_CONTROL) = 0.0_dp  !! UMFPACK control (defaults, no iterative refinement)
+        real(c_double) :: info(UMFPACK_INFO) = 0.0_dp        !! UMFPACK info of the last call
+        integer(c_int), allocatable :: wi(:)        !! wsolve integer workspace (n)
+        real(c_double), allocatable :: w(:)         !! wsolve real workspace (5 n)
+        integer(c_int), allocatable :: colptr(:)    !! pattern of the analysed matrix (reuse test)
+        integer(c_int), allocatable :: rowind(:)    !! pattern of the analysed matrix (reuse test)
     end type lu_t
 
-    public :: lu_factor, lu_solve, lu_free
+    public :: lu_factor, lu_solve, lu_solve_many, lu_free, lu_rcond, umfpack_status_text
+
+    interface
+        !> void umfpack_di_defaults(double Control[UMFPACK_CONTROL])
+        subroutine umfpack_di_defaults(control) bind(C, name='umfpack_di_defaults')
+            import :: c_double
+            real(c_double), intent(out) :: control(*)   !! Control array
+        end subroutine umfpack_di_defaults
+
+        !> int umfpack_di_symbolic(n_row, n_col, Ap, Ai, Ax, &Symbolic, Control, Info)
+        function umfpack_di_symbolic(n_row, n_col, ap, ai, ax, symbolic, control, info) &
+            result(status) bind(C, name='umfpack_di_symbolic')
+            import :: c_int, c_double, c_ptr
+            integer(c_int), value :: n_row                !! rows
+            integer(c_int), value :: n_col                !! columns
+            integer(c_int), intent(in) :: ap(*)           !! column pointers (0-based)
+            integer(c_int), intent(in) :: ai(*)           !! row indices (0-based)
+            real(c_double), intent(in) :: ax(*)           !! values
+            type(c_ptr), intent(out) :: symbolic          !! new Symbolic object
+            real(c_double), intent(in) :: control(*)      !! Control
+            real(c_double), intent(inout) :: info(*)      !! Info
+            integer(c_int) :: status
+        end function umfpack_di_symbolic
+
+        !> int umfpack_di_numeric(Ap, Ai, Ax, Symbolic, &Numeric, Control, Info)
+        function umfpack_di_numeric(ap, ai, ax, symbolic, numeric, control, info) &
+            result(status) bind(C, name='umfpack_di_numeric')
+            import :: c_int, c_double, c_ptr
+            integer(c_int), intent(in) :: ap(*)           !! column pointers (0-based)
+            integer(c_int), intent(in) :: ai(*)           !! row indices (0-based)
+            real(c_double), intent(in) :: ax(*)           !! values
+            type(c_ptr), value :: symbolic                !! Symbolic object
+            type(c_ptr), intent(out) :: numeric           !! new Numeric object
+            real(c_double), intent(in) :: control(*)      !! Control
+            real(c_double), intent(inout) :: info(*)      !! Info
+            integer(c_int) :: status
+        end function umfpack_di_numeric
+
+        !> int umfpack_di_wsolve(sys, Ap, Ai, Ax, X, B, Numeric, Control, Info, Wi, W)
+        function umfpack_di_wsolve(sys, ap, ai, ax, x, b, numeric, control, info, wi, w) &
+            result(status) bind(C, name='umfpack_di_wsolve')
+            import :: c_int, c_double, c_ptr
+            integer(c_int), value :: sys                  !! system code (UMFPACK_A)
+            integer(c_int), intent(in) :: ap(*)           !! column pointers (0-based)
+            integer(c_int), intent(in) :: ai(*)           !! row indices (0-based)
+            real(c_double), intent(in) :: ax(*)           !! values
+            real(c_double), intent(out) :: x(*)           !! solution
+            real(c_double), intent(in) :: b(*)            !! right-hand side
+            type(c_ptr), value :: numeric                 !! Numeric object
+            real(c_double), intent(in) :: control(*)      !! Control
+            real(c_double), intent(inout) :: info(*)      !! Info
+            integer(c_int), intent(inout) :: wi(*)        !! workspace (n)
+            real(c_double), intent(inout) :: w(*)         !! workspace (5 n)
+            integer(c_int) :: status
+        end function umfpack_di_wsolve
+
+        !> void umfpack_di_free_symbolic(void **Symbolic)
+        subroutine umfpack_di_free_symbolic(symbolic) bind(C, name='umfpack_di_free_symbolic')
+            import :: c_ptr
+            type(c_ptr), intent(inout) :: symbolic        !! freed, set to NULL
+        end subroutine umfpack_di_free_symbolic
+
+        !> void umfpack_di_free_numeric(void **Numeric)
+        subroutine umfpack_di_free_numeric(numeric) bind(C, name='umfpack_di_free_numeric')
+            import :: c_ptr
+            type(c_ptr), intent(inout) :: numeric         !! freed, set to NULL
+        end subroutine umfpack_di_free_numeric
+    end interface
 
 contains
 
-    !> Factorize A (symbolic once per pattern, numeric every call). A singular matrix
-    !> (UMFPACK status +1) gives STAT_NUMERIC "singular matrix"; other negative statuses
-    !> STAT_INTERNAL with UMFPACK's status number.
+    !> Factorize A (symbolic once per pattern, numeric every call). The symbolic
+    !> analysis of the previous call is reused when n and the pattern (colptr, rowind,
+    !> compared in O(nnz)) are unchanged; otherwise it is redone with UMFPACK's default
+    !> control and no iterative refinement (Control[UMFPACK_IRSTEP] = 0). Counts in
+    !> lu%factorizations (numeric) and lu%analyses (symbolic). A singular matrix
+    !> (UMFPACK status +1) gives STAT_NUMERIC "singular matrix" (the numeric object is
+    !> freed, the analysis kept); other nonzero statuses give STAT_INTERNAL with
+    !> UMFPACK's status number and meaning; an inconsistent csc_t gives STAT_BAD_INPUT.
     subroutine lu_factor(lu, a, stat, errmsg)
         type(lu_t), intent(inout) :: lu                    !! factors (created or replaced)
         type(csc_t), intent(in) :: a                        !! matrix
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        lu%n = a%n
-        call raise(stat, errmsg, STAT_INTERNAL, 'lu_factor: not implemented')
+        integer(c_int) :: status
+        integer :: ierr
+        logical :: reuse
+
+        if (c_associated(lu%numeric)) call umfpack_di_free_numeric(lu%numeric)
+        lu%numeric = c_null_ptr
+        if (.not. csc_consistent(a)) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       'lu_factor: matrix is empty or its CSC arrays are inconsistent')
+            return
+        end if
+
+        reuse = c_associated(lu%symbolic) .and. lu%n == a%n
+        if (reuse) reuse = same_pattern(lu, a)
+        if (.not. reuse) then
+            if (c_associated(lu%symbolic)) call umfpack_di_free_symbolic(lu%symbolic)
+            lu%symbolic = c_null_ptr
+            lu%n = 0
+            call umfpack_di_defaults(lu%control)
+            lu%control(UMFPACK_IRSTEP + 1) = 0.0_dp
+            status = umfpack_di_symbolic(int(a%n, c_int), int(a%n, c_int), a%colptr, &
+                                         a%rowind, a%val, lu%symbolic, lu%control, lu%info)
+            if (status /= UMFPACK_OK) then
+                if (c_associated(lu%symbolic)) call umfpack_di_free_symbolic(lu%symbolic)
+                lu%symbolic = c_null_ptr
+                call raise(stat, errmsg, STAT_INTERNAL, &
+                           'lu_factor (symbolic): '//umfpack_status_text(int(status)))
+                return
+            end if
+            lu%analyses = lu%analyses + 1
+            call store_pattern(lu, a, ierr)
+            if (ierr == 0) call ensure_workspace(lu, a%n, ierr)
+            if (ierr /= 0) then
+                call umfpack_di_free_symbolic(lu%symbolic)
+                lu%symbolic = c_null_ptr
+                call raise(stat, errmsg, STAT_INTERNAL, 'lu_factor: out of memory')
+                return
+            end if
+            lu%n = a%n
+        end if
+
+        status = umfpack_di_numeric(a%colptr, a%rowind, a%val, lu%symbolic, lu%numeric, &
+                                    lu%control, lu%info)
+        lu%factorizations = lu%factorizations + 1
+        if (status == UMFPACK_OK) then
+            stat = STAT_OK
+        else
+            if (c_associated(lu%numeric)) call umfpack_di_free_numeric(lu%numeric)
+            lu%numeric = c_null_ptr
+            if (status == UMFPACK_WARNING_singular_matrix) then
+                call raise(stat, errmsg, STAT_NUMERIC, 'lu_factor: singular matrix')
+            else
+                call raise(stat, errmsg, STAT_INTERNAL, &
+                           'lu_factor (numeric): '//umfpack_status_text(int(status)))
+            end if
+        end if
     end subroutine lu_factor
 
     !> Solve A x = b with the factors of A (no allocation, no iterative refinement).
+    !> May be called any number of times per factorization. b and x must have n
+    !> entries (STAT_BAD_INPUT otherwise, or if lu holds no factors of an n x n matrix).
     subroutine lu_solve(lu, a, b, x, stat, errmsg)
         type(lu_t), intent(inout) :: lu                     !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
@@ -45,14 +215,163 @@ contains
         real(dp), intent(out) :: x(:)                       !! solution (n)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        x = b * a%n
-        lu%n = lu%n
-        call raise(stat, errmsg, STAT_INTERNAL, 'lu_solve: not implemented')
+        integer(c_int) :: status
+        if (.not. c_associated(lu%numeric) .or. lu%n /= a%n) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'lu_solve: no factors of this matrix')
+            return
+        end if
+        if (size(b) /= lu%n .or. size(x) /= lu%n) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'lu_solve: b or x does not have n entries')
+            return
+        end if
+        status = umfpack_di_wsolve(UMFPACK_A, a%colptr, a%rowind, a%val, x, b, lu%numeric, &
+                                   lu%control, lu%info, lu%wi, lu%w)
+        if (status == UMFPACK_OK) then
+            stat = STAT_OK
+        else if (status == UMFPACK_WARNING_singular_matrix) then
+            call raise(stat, errmsg, STAT_NUMERIC, 'lu_solve: singular matrix')
+        else
+            call raise(stat, errmsg, STAT_INTERNAL, 'lu_solve: '//umfpack_status_text(int(status)))
+        end if
     end subroutine lu_solve
 
-    !> Release the UMFPACK objects and workspaces.
+    !> Solve A X = B for the columns of B, one after the other (no allocation).
+    subroutine lu_solve_many(lu, a, b, x, stat, errmsg)
+        type(lu_t), intent(inout) :: lu                     !! factors of a
+        type(csc_t), intent(in) :: a                        !! the factorized matrix
+        real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)
+        real(dp), intent(out) :: x(:, :)                    !! solutions (n, m)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: k
+        if (size(b, 2) /= size(x, 2)) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       'lu_solve_many: b and x have different numbers of columns')
+            return
+        end if
+        stat = STAT_OK
+        do k = 1, size(b, 2)
+            call lu_solve(lu, a, b(:, k), x(:, k), stat, errmsg)
+            if (stat /= STAT_OK) return
+        end do
+    end subroutine lu_solve_many
+
+    !> Release the UMFPACK objects and workspaces (safe to call twice or on a fresh
+    !> lu_t). The counters factorizations and analyses are kept.
     subroutine lu_free(lu)
         type(lu_t), intent(inout) :: lu   !! factors to release
+        if (c_associated(lu%numeric)) call umfpack_di_free_numeric(lu%numeric)
+        if (c_associated(lu%symbolic)) call umfpack_di_free_symbolic(lu%symbolic)
+        lu%numeric = c_null_ptr
+        lu%symbolic = c_null_ptr
         lu%n = 0
+        if (allocated(lu%wi)) deallocate (lu%wi)
+        if (allocated(lu%w)) deallocate (lu%w)
+        if (allocated(lu%colptr)) deallocate (lu%colptr)
+        if (allocated(lu%rowind)) deallocate (lu%rowind)
     end subroutine lu_free
+
+    !> UMFPACK's reciprocal condition estimate of the last factorization
+    !> (min |U_ii| / max |U_ii|; 0 if singular, -1 if not available).
+    pure function lu_rcond(lu) result(rcond)
+        type(lu_t), intent(in) :: lu   !! factors
+        real(dp) :: rcond
+        rcond = lu%info(UMFPACK_RCOND + 1)
+    end function lu_rcond
+
+    !> 'UMFPACK status N (meaning)' for an UMFPACK status code.
+    pure function umfpack_status_text(status) result(text)
+        integer, intent(in) :: status   !! UMFPACK status code
+        character(len=:), allocatable :: text
+        character(len=16) :: num
+        character(len=:), allocatable :: meaning
+        select case (status)
+        case (UMFPACK_OK); meaning = 'ok'
+        case (UMFPACK_WARNING_singular_matrix); meaning = 'singular matrix'
+        case (2); meaning = 'determinant underflow'
+        case (3); meaning = 'determinant overflow'
+        case (UMFPACK_ERROR_out_of_memory); meaning = 'out of memory'
+        case (UMFPACK_ERROR_invalid_Numeric_object); meaning = 'invalid Numeric object'
+        case (UMFPACK_ERROR_invalid_Symbolic_object); meaning = 'invalid Symbolic object'
+        case (UMFPACK_ERROR_argument_missing); meaning = 'argument missing'
+        case (UMFPACK_ERROR_n_nonpositive); meaning = 'n nonpositive'
+        case (UMFPACK_ERROR_invalid_matrix); meaning = 'invalid matrix'
+        case (UMFPACK_ERROR_different_pattern); meaning = 'different pattern'
+        case (UMFPACK_ERROR_invalid_system); meaning = 'invalid system'
+        case (UMFPACK_ERROR_invalid_permutation); meaning = 'invalid permutation'
+        case (UMFPACK_ERROR_file_IO); meaning = 'file I/O error'
+        case (UMFPACK_ERROR_ordering_failed); meaning = 'ordering failed'
+        case (UMFPACK_ERROR_internal_error); meaning = 'internal error'
+        case default; meaning = 'unknown status'
+        end select
+        write (num, '(i0)') status
+        text = 'UMFPACK status '//trim(num)//' ('//meaning//')'
+    end function umfpack_status_text
+
+    !> The CSC arrays of a are allocated, sized and closed consistently (n >= 1).
+    pure function csc_consistent(a) result(ok)
+        type(csc_t), intent(in) :: a   !! matrix
+        logical :: ok
+        ok = .false.
+        if (a%n < 1 .or. a%nnz < 0) return
+        if (.not. (allocated(a%colptr) .and. allocated(a%rowind) .and. allocated(a%val))) return
+        if (size(a%colptr) < a%n + 1 .or. size(a%rowind) < a%nnz .or. size(a%val) < a%nnz) return
+        if (a%colptr(1) /= 0 .or. a%colptr(a%n + 1) /= a%nnz) return
+        ok = .true.
+    end function csc_consistent
+
+    !> The pattern of a equals the one analysed in lu.
+    pure function same_pattern(lu, a) result(same)
+        type(lu_t), intent(in) :: lu   !! factors holding a pattern copy
+        type(csc_t), intent(in) :: a   !! matrix (consistent)
+        logical :: same
+        integer :: k
+        same = .false.
+        if (.not. (allocated(lu%colptr) .and. allocated(lu%rowind))) return
+        if (size(lu%colptr) /= a%n + 1 .or. size(lu%rowind) /= a%nnz) return
+        do k = 1, a%n + 1
+            if (lu%colptr(k) /= a%colptr(k)) return
+        end do
+        do k = 1, a%nnz
+            if (lu%rowind(k) /= a%rowind(k)) return
+        end do
+        same = .true.
+    end function same_pattern
+
+    !> Keep a copy of the pattern of a in lu (for the reuse test).
+    subroutine store_pattern(lu, a, ierr)
+        type(lu_t), intent(inout) :: lu   !! factors
+        type(csc_t), intent(in) :: a      !! analysed matrix
+        integer, intent(out) :: ierr      !! allocation status
+        ierr = 0
+        if (allocated(lu%colptr)) then
+            if (size(lu%colptr) /= a%n + 1) deallocate (lu%colptr)
+        end if
+        if (allocated(lu%rowind)) then
+            if (size(lu%rowind) /= a%nnz) deallocate (lu%rowind)
+        end if
+        if (.not. allocated(lu%colptr)) allocate (lu%colptr(a%n + 1), stat=ierr)
+        if (ierr /= 0) return
+        if (.not. allocated(lu%rowind)) allocate (lu%rowind(a%nnz), stat=ierr)
+        if (ierr /= 0) return
+        lu%colptr = a%colptr(1:a%n + 1)
+        lu%rowind = a%rowind(1:a%nnz)
+    end subroutine store_pattern
+
+    !> wsolve workspaces Wi(n), W(5 n) (enough with iterative refinement too).
+    subroutine ensure_workspace(lu, n, ierr)
+        type(lu_t), intent(inout) :: lu   !! factors
+        integer, intent(in) :: n          !! matrix size
+        integer, intent(out) :: ierr      !! allocation status
+        ierr = 0
+        if (allocated(lu%wi)) then
+            if (size(lu%wi) /= n) deallocate (lu%wi)
+        end if
+        if (allocated(lu%w)) then
+            if (size(lu%w) /= 5 * n) deallocate (lu%w)
+        end if
+        if (.not. allocated(lu%wi)) allocate (lu%wi(n), stat=ierr)
+        if (ierr /= 0) return
+        if (.not. allocated(lu%w)) allocate (lu%w(5 * n), stat=ierr)
+    end subroutine ensure_workspace
 end module umfpack

@@ -1,0 +1,251 @@
+!> Unit tests of module sparse: COO -> CSC (sorting, duplicates, explicit zeros,
+!> bad indices), csc_find, matvec kernels against a dense product, drop_zeros,
+!> same-pattern value updates. Exit status 1 (error stop) on any failure.
+program test_sparse
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_BAD_INPUT, MSG_LEN
+    use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec, csc_matvec_add, &
+                      csc_drop_zeros, csc_axpby_values, csc_dot_matvec, csc_same_pattern, &
+                      csc_coo_map, csc_accumulate
+    implicit none
+
+    real(dp), parameter :: thr = 100 * epsilon(1.0_dp)   ! algebraic identities (relative)
+    integer :: nfail = 0
+
+    call test_small_exact()
+    call test_bad_input()
+    call test_empty()
+    call test_random_against_dense()
+    call test_drop_zeros()
+    call test_same_pattern_updates()
+
+    if (nfail > 0) then
+        write (*, '(i0,a)') nfail, ' check(s) failed'
+        error stop 1
+    end if
+    write (*, '(a)') 'test_sparse: all checks passed'
+
+contains
+
+    subroutine check(cond, what)
+        logical, intent(in) :: cond            !! condition that must hold
+        character(len=*), intent(in) :: what   !! description
+        if (.not. cond) then
+            nfail = nfail + 1
+            write (*, '(a)') 'FAIL: '//what
+        end if
+    end subroutine check
+
+    !> 3 x 3, unsorted, duplicates, an explicit zero, an empty column.
+    subroutine test_small_exact()
+        type(csc_t) :: a
+        integer :: stat
+        character(len=MSG_LEN) :: msg
+        ! entries: (3,1)=1 (1,1)=2 (3,1)+=4 (2,3)=0 (1,3)=5 (3,3)=-1 (1,1)+=0.5
+        integer, parameter :: r(7) = [3, 1, 3, 2, 1, 3, 1]
+        integer, parameter :: c(7) = [1, 1, 1, 3, 3, 3, 1]
+        real(dp), parameter :: v(7) = [1.0_dp, 2.0_dp, 4.0_dp, 0.0_dp, 5.0_dp, -1.0_dp, 0.5_dp]
+        msg = ''
+        call csc_from_coo(3, r, c, v, a, stat, msg)
+        call check(stat == STAT_OK, 'small: stat ok')
+        call check(a%n == 3 .and. a%nnz == 5, 'small: n, nnz')
+        call check(all(a%colptr == [0, 2, 2, 5]), 'small: colptr')
+        call check(all(a%rowind == [0, 2, 0, 1, 2]), 'small: rowind sorted')
+        call check(all(abs(a%val - [2.5_dp, 5.0_dp, 5.0_dp, 0.0_dp, -1.0_dp]) <= thr), &
+                   'small: values summed, zero kept')
+        call check(csc_find(a, 1, 1) == 1 .and. csc_find(a, 3, 1) == 2, 'small: find col 1')
+        call check(csc_find(a, 2, 3) == 4 .and. csc_find(a, 3, 3) == 5, 'small: find col 3')
+        call check(csc_find(a, 2, 1) == 0 .and. csc_find(a, 1, 2) == 0, 'small: find misses')
+        call check(csc_find(a, 0, 1) == 0 .and. csc_find(a, 1, 4) == 0, 'small: find out of range')
+    end subroutine test_small_exact
+
+    subroutine test_bad_input()
+        type(csc_t) :: a
+        integer :: stat
+        character(len=MSG_LEN) :: msg
+        msg = ''
+        call csc_from_coo(2, [1, 3], [1, 1], [1.0_dp, 1.0_dp], a, stat, msg)
+        call check(stat == STAT_BAD_INPUT, 'bad: row 3 > n')
+        call check(index(msg, 'out of range') > 0, 'bad: message names range: '//trim(msg))
+        call csc_from_coo(2, [1, 1], [0, 1], [1.0_dp, 1.0_dp], a, stat, msg)
+        call check(stat == STAT_BAD_INPUT, 'bad: column 0')
+        call csc_from_coo(2, [1, 1], [1, 1], [1.0_dp], a, stat, msg)
+        call check(stat == STAT_BAD_INPUT, 'bad: length mismatch')
+        call csc_from_coo(-1, [integer ::], [integer ::], [real(dp) ::], a, stat)
+        call check(stat == STAT_BAD_INPUT, 'bad: negative n')
+    end subroutine test_bad_input
+
+    subroutine test_empty()
+        type(csc_t) :: a, b
+        integer :: stat
+        real(dp) :: x(3), y(3)
+        call csc_from_coo(0, [integer ::], [integer ::], [real(dp) ::], a, stat)
+        call check(stat == STAT_OK .and. a%n == 0 .and. a%nnz == 0, 'empty: n = 0')
+        call check(size(a%colptr) == 1, 'empty: colptr(1)')
+        call csc_from_coo(3, [integer ::], [integer ::], [real(dp) ::], a, stat)
+        call check(stat == STAT_OK .and. all(a%colptr == 0), 'empty: zero matrix 3x3')
+        x = 1.0_dp
+        call csc_matvec(a, x, y)
+        call check(all(abs(y) <= 0.0_dp), 'empty: matvec zero')
+        call csc_drop_zeros(a, b, stat)
+        call check(stat == STAT_OK .and. b%n == 3 .and. b%nnz == 0, 'empty: drop_zeros')
+    end subroutine test_empty
+
+    !> Random unsorted COO with many duplicates: CSC kernels equal dense algebra.
+    subroutine test_random_against_dense()
+        integer, parameter :: sizes(4) = [1, 7, 50, 200]
+        integer :: t, n, m, k, stat, j, p
+        integer, allocatable :: r(:), c(:)
+        real(dp), allocatable :: v(:), u(:), dense(:, :), x(:), y(:), yd(:)
+        real(dp) :: scale, e, ed
+        type(csc_t) :: a
+        logical :: sorted
+        call seed(12345)
+        do t = 1, size(sizes)
+            n = sizes(t)
+            m = 4 * n + 3
+            allocate (r(m), c(m), v(m), u(m), dense(n, n), x(n), y(n), yd(n))
+            call random_number(u)
+            r = 1 + int(u * n)
+            call random_number(u)
+            c = 1 + int(u * n)
+            r(m) = r(1)            ! guaranteed duplicates
+            c(m) = c(1)
+            call random_number(v)
+            v = v - 0.5_dp
+            dense = 0.0_dp
+            do k = 1, m
+                dense(r(k), c(k)) = dense(r(k), c(k)) + v(k)
+            end do
+            call csc_from_coo(n, r, c, v, a, stat)
+            call check(stat == STAT_OK, 'random: stat')
+            sorted = .true.
+            do j = 1, n
+                do p = a%colptr(j) + 2, a%colptr(j + 1)
+                    if (a%rowind(p) <= a%rowind(p - 1)) sorted = .false.
+                end do
+            end do
+            call check(sorted, 'random: rows strictly increasing in each column')
+            call check(a%nnz == count_distinct(n, r, c), 'random: nnz = distinct positions')
+            do k = 1, m
+                p = csc_find(a, r(k), c(k))
+                if (p == 0) then
+                    call check(.false., 'random: stored entry found')
+                    exit
+                end if
+                if (abs(a%val(p) - dense(r(k), c(k))) > thr) then
+                    call check(.false., 'random: summed value')
+                    exit
+                end if
+            end do
+            call random_number(x)
+            x = 2 * x - 1
+            yd = matmul(dense, x)
+            scale = max(1.0_dp, maxval(abs(yd)))
+            call csc_matvec(a, x, y)
+            call check(maxval(abs(y - yd)) <= thr * scale, 'random: matvec')
+            y = 1.0_dp
+            call csc_matvec_add(a, -2.0_dp, x, y)
+            call check(maxval(abs(y - (1.0_dp - 2 * yd))) <= thr * scale, 'random: matvec_add')
+            e = csc_dot_matvec(a, x)
+            ed = dot_product(x, yd)
+            call check(abs(e - ed) <= thr * max(1.0_dp, abs(ed)) * n, 'random: x^T A x')
+            deallocate (r, c, v, u, dense, x, y, yd)
+        end do
+    end subroutine test_random_against_dense
+
+    subroutine test_drop_zeros()
+        type(csc_t) :: a, b
+        integer :: stat
+        real(dp) :: x(3), ya(3), yb(3)
+        call csc_from_coo(3, [1, 2, 3, 1, 3], [1, 1, 2, 3, 3], &
+                          [1.0_dp, 0.0_dp, 2.0_dp, -0.0_dp, 3.0_dp], a, stat)
+        call check(stat == STAT_OK .and. a%nnz == 5, 'drop: built with zeros')
+        call csc_drop_zeros(a, b, stat)
+        call check(stat == STAT_OK, 'drop: stat')
+        call check(b%n == 3 .and. b%nnz == 3, 'drop: nnz')
+        call check(all(b%colptr == [0, 1, 2, 3]), 'drop: colptr')
+        call check(all(b%rowind == [0, 2, 2]), 'drop: rowind')
+        x = [1.0_dp, 2.0_dp, 3.0_dp]
+        call csc_matvec(a, x, ya)
+        call csc_matvec(b, x, yb)
+        call check(all(abs(ya - yb) <= 0.0_dp), 'drop: same product')
+        call csc_drop_zeros(a, b)      ! stat is optional
+        call check(b%nnz == 3, 'drop: without stat')
+    end subroutine test_drop_zeros
+
+    !> Mass-like and stiffness-like matrices assembled on the same triplet positions.
+    subroutine test_same_pattern_updates()
+        integer, parameter :: n = 30
+        integer :: m, stat
+        integer, allocatable :: r(:), c(:), map(:)
+        real(dp), allocatable :: vm(:), vk(:), u(:)
+        type(csc_t) :: mm, kk, c_eff, refill, other
+        real(dp) :: x(n), y1(n), y2(n)
+        character(len=MSG_LEN) :: msg
+        call seed(777)
+        m = 6 * n
+        allocate (r(m), c(m), map(m), vm(m), vk(m), u(m))
+        call random_number(u)
+        r = 1 + int(u * n)
+        call random_number(u)
+        c = 1 + int(u * n)
+        call random_number(vm)
+        call random_number(vk)
+        vk(1:5) = 0.0_dp          ! zeros in one matrix only: pattern must still agree
+        call csc_from_coo(n, r, c, vm, mm, stat)
+        call csc_from_coo(n, r, c, vk, kk, stat)
+        call check(csc_same_pattern(mm, kk), 'pattern: M and K share the pattern')
+        c_eff = mm
+        call csc_axpby_values(1.0_dp, mm, 0.25_dp, kk, c_eff)
+        call random_number(x)
+        call csc_matvec(c_eff, x, y1)
+        call csc_matvec(mm, x, y2)
+        call csc_matvec_add(kk, 0.25_dp, x, y2)
+        call check(maxval(abs(y1 - y2)) <= thr * maxval(abs(y2)), 'pattern: axpby values')
+        call csc_axpby_values(2.0_dp, c_eff, -1.0_dp, mm, c_eff)   ! c aliases a
+        call csc_matvec(c_eff, x, y1)
+        call csc_matvec(mm, x, y2)
+        call csc_matvec_add(kk, 0.5_dp, x, y2)
+        call check(maxval(abs(y1 - y2)) <= thr * maxval(abs(y2)), 'pattern: axpby in place')
+
+        msg = ''
+        call csc_coo_map(mm, r, c, map, stat, msg)
+        call check(stat == STAT_OK, 'map: stat '//trim(msg))
+        refill = mm
+        refill%val = 0.0_dp
+        call csc_accumulate(refill, map, vk)
+        call check(maxval(abs(refill%val - kk%val)) <= thr, 'map: refill equals csc_from_coo')
+        call csc_from_coo(n, [1], [1], [1.0_dp], other, stat)
+        call csc_coo_map(other, r, c, map, stat, msg)
+        call check(stat == STAT_BAD_INPUT .or. all(r == 1 .and. c == 1), 'map: entry not in pattern')
+        call check(.not. csc_same_pattern(mm, other), 'pattern: differs')
+    end subroutine test_same_pattern_updates
+
+    !> Number of distinct (r, c) positions.
+    function count_distinct(n, r, c) result(cnt)
+        integer, intent(in) :: n        !! size
+        integer, intent(in) :: r(:)     !! rows
+        integer, intent(in) :: c(:)     !! columns
+        integer :: cnt
+        logical, allocatable :: seen(:, :)
+        integer :: k
+        allocate (seen(n, n))
+        seen = .false.
+        do k = 1, size(r)
+            seen(r(k), c(k)) = .true.
+        end do
+        cnt = count(seen)
+    end function count_distinct
+
+    !> Reproducible random_number stream.
+    subroutine seed(s)
+        integer, intent(in) :: s   !! seed
+        integer :: nseed, i
+        integer, allocatable :: vals(:)
+        call random_seed(size=nseed)
+        allocate (vals(nseed))
+        vals = [(s + 37 * i, i = 1, nseed)]
+        call random_seed(put=vals)
+    end subroutine seed
+end program test_sparse
