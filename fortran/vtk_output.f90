@@ -1,0 +1,256 @@
+!> Field snapshots for ParaView: ASCII VTK XML UnstructuredGrid (.vtu) files of a P1
+!> mesh with displacement and velocity point data, and the .pvd collection index
+!> that lists them with their times.
+module vtk_output
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
+    implicit none
+    private
+
+    integer, parameter, public :: VTK_LINE = 3       !! VTK cell type of a 2-node segment
+    integer, parameter, public :: VTK_TRIANGLE = 5   !! VTK cell type of a 3-node triangle
+    integer, parameter, public :: VTK_TETRA = 10     !! VTK cell type of a 4-node tetrahedron
+
+    character(len=*), parameter :: REAL_FMT = '(3(1x,es24.16e3))'   ! round-trips doubles
+
+    public :: vtk_write_vtu, vtk_write_pvd
+
+contains
+
+    !> Write an ASCII .vtu file of a P1 mesh: dim 1 segments (VTK_LINE), dim 2 triangles
+    !> (VTK_TRIANGLE), dim 3 tetrahedra (VTK_TETRA). Points are padded to 3D with zeros;
+    !> point data "displacement" and "velocity" have 3 components (padded with 0), plus
+    !> an optional scalar point field. Connectivity is written 0-based. The file is
+    !> replaced if it exists. STAT_BAD_INPUT on inconsistent shapes or cell indices
+    !> out of 1..n, STAT_INTERNAL if the file cannot be written.
+    subroutine vtk_write_vtu(path, dim, x, cells, u, v, stat, errmsg, scalar, scalar_name, time)
+        character(len=*), intent(in) :: path                !! file to write (.vtu)
+        integer, intent(in) :: dim                          !! space dimension 1, 2 or 3
+        real(dp), intent(in) :: x(:, :)                     !! (dim, n) node coordinates
+        integer, intent(in) :: cells(:, :)                  !! (dim+1, nc) 1-based node numbers
+        real(dp), intent(in) :: u(:, :)                     !! (dim, n) displacement
+        real(dp), intent(in) :: v(:, :)                     !! (dim, n) velocity
+        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: scalar(:)         !! (n) optional scalar point field
+        character(len=*), intent(in), optional :: scalar_name !! its name (default 'scalar')
+        real(dp), intent(in), optional :: time              !! optional TimeValue field data
+        integer :: n, nc, nv, unit, ios, k, ctype
+        character(len=256) :: iomsg
+        character(len=:), allocatable :: sname
+
+        n = size(x, 2)
+        nc = size(cells, 2)
+        nv = dim + 1
+        select case (dim)
+        case (1); ctype = VTK_LINE
+        case (2); ctype = VTK_TRIANGLE
+        case (3); ctype = VTK_TETRA
+        case default
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'vtk_write_vtu: dim must be 1, 2 or 3')
+            return
+        end select
+        if (size(x, 1) /= dim .or. size(u, 1) /= dim .or. size(v, 1) /= dim &
+            .or. size(u, 2) /= n .or. size(v, 2) /= n .or. size(cells, 1) /= nv) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       'vtk_write_vtu: x, u, v must be (dim, n) and cells (dim+1, nc)')
+            return
+        end if
+        if (present(scalar)) then
+            if (size(scalar) /= n) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, 'vtk_write_vtu: scalar must have n entries')
+                return
+            end if
+        end if
+        if (nc > 0) then
+            if (minval(cells) < 1 .or. maxval(cells) > n) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, &
+                           'vtk_write_vtu: cell node number out of range 1..n')
+                return
+            end if
+        end if
+        sname = 'scalar'
+        if (present(scalar_name)) sname = xml_escape(trim(scalar_name))
+
+        open (newunit=unit, file=path, status='replace', action='write', form='formatted', &
+              iostat=ios, iomsg=iomsg)
+        if (ios /= 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_vtu: cannot open '//trim(path) &
+                       //': '//trim(iomsg))
+            return
+        end if
+
+        write (unit, '(a)', iostat=ios, iomsg=iomsg) '<?xml version="1.0"?>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  <UnstructuredGrid>'
+        if (ios == 0 .and. present(time)) then
+            write (unit, '(a)', iostat=ios, iomsg=iomsg) '    <FieldData>'
+            if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+                '      <DataArray type="Float64" Name="TimeValue" NumberOfTuples="1" format="ascii">'
+            if (ios == 0) write (unit, '(es24.16e3)', iostat=ios, iomsg=iomsg) time
+            if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      </DataArray>'
+            if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '    </FieldData>'
+        end if
+        if (ios == 0) write (unit, '(a,i0,a,i0,a)', iostat=ios, iomsg=iomsg) &
+            '    <Piece NumberOfPoints="', n, '" NumberOfCells="', nc, '">'
+
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '      <PointData Vectors="displacement">'
+        if (ios == 0) call write_vectors(unit, 'displacement', dim, u, ios, iomsg)
+        if (ios == 0) call write_vectors(unit, 'velocity', dim, v, ios, iomsg)
+        if (ios == 0 .and. present(scalar)) then
+            write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+                '        <DataArray type="Float64" Name="'//sname//'" format="ascii">'
+            do k = 1, n
+                if (ios /= 0) exit
+                write (unit, '(es24.16e3)', iostat=ios, iomsg=iomsg) scalar(k)
+            end do
+            if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+        end if
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      </PointData>'
+
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      <Points>'
+        if (ios == 0) call write_vectors(unit, '', dim, x, ios, iomsg)
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      </Points>'
+
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      <Cells>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '        <DataArray type="Int32" Name="connectivity" format="ascii">'
+        do k = 1, nc
+            if (ios /= 0) exit
+            write (unit, '(4(1x,i0))', iostat=ios, iomsg=iomsg) cells(:, k) - 1
+        end do
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '        <DataArray type="Int32" Name="offsets" format="ascii">'
+        do k = 1, nc
+            if (ios /= 0) exit
+            write (unit, '(1x,i0)', iostat=ios, iomsg=iomsg) nv * k
+        end do
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '        <DataArray type="UInt8" Name="types" format="ascii">'
+        do k = 1, nc
+            if (ios /= 0) exit
+            write (unit, '(1x,i0)', iostat=ios, iomsg=iomsg) ctype
+        end do
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      </Cells>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '    </Piece>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </UnstructuredGrid>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
+
+        if (ios /= 0) then
+            close (unit, iostat=k)
+            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_vtu: cannot write '//trim(path) &
+                       //': '//trim(iomsg))
+            return
+        end if
+        close (unit, iostat=ios, iomsg=iomsg)
+        if (ios /= 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_vtu: cannot close '//trim(path) &
+                       //': '//trim(iomsg))
+            return
+        end if
+        stat = STAT_OK
+    end subroutine vtk_write_vtu
+
+    !> Write the ParaView collection index (.pvd) listing files(k) at times(k); file
+    !> names are written as given (trimmed), so give them relative to the .pvd's folder.
+    !> The index is replaced if it exists (rewrite it after each new snapshot).
+    subroutine vtk_write_pvd(path, times, files, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file to write (.pvd)
+        real(dp), intent(in) :: times(:)                    !! time of each snapshot
+        character(len=*), intent(in) :: files(:)            !! snapshot file names (.vtu)
+        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: unit, ios, k
+        character(len=256) :: iomsg
+        character(len=32) :: tbuf
+
+        if (size(times) /= size(files)) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       'vtk_write_pvd: times and files differ in length')
+            return
+        end if
+        open (newunit=unit, file=path, status='replace', action='write', form='formatted', &
+              iostat=ios, iomsg=iomsg)
+        if (ios /= 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_pvd: cannot open '//trim(path) &
+                       //': '//trim(iomsg))
+            return
+        end if
+        write (unit, '(a)', iostat=ios, iomsg=iomsg) '<?xml version="1.0"?>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  <Collection>'
+        do k = 1, size(times)
+            if (ios /= 0) exit
+            write (tbuf, '(es24.16e3)') times(k)
+            write (unit, '(a)', iostat=ios, iomsg=iomsg) '    <DataSet timestep="' &
+                //trim(adjustl(tbuf))//'" group="" part="0" file="' &
+                //xml_escape(trim(files(k)))//'"/>'
+        end do
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </Collection>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
+        if (ios /= 0) then
+            close (unit, iostat=k)
+            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_pvd: cannot write '//trim(path) &
+                       //': '//trim(iomsg))
+            return
+        end if
+        close (unit, iostat=ios, iomsg=iomsg)
+        if (ios /= 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_pvd: cannot close '//trim(path) &
+                       //': '//trim(iomsg))
+            return
+        end if
+        stat = STAT_OK
+    end subroutine vtk_write_pvd
+
+    !> One 3-component Float64 DataArray (rows of a (dim, n) array padded with zeros);
+    !> name '' writes an unnamed array (the Points).
+    subroutine write_vectors(unit, name, dim, a, ios, iomsg)
+        integer, intent(in) :: unit                  !! open formatted unit
+        character(len=*), intent(in) :: name         !! array name ('' for Points)
+        integer, intent(in) :: dim                   !! rows of a used (1..3)
+        real(dp), intent(in) :: a(:, :)              !! (dim, n) values
+        integer, intent(out) :: ios                  !! iostat
+        character(len=*), intent(inout) :: iomsg     !! iomsg
+        real(dp) :: p(3)
+        integer :: k
+        if (len(name) > 0) then
+            write (unit, '(a)', iostat=ios, iomsg=iomsg) '        <DataArray type="Float64" Name="' &
+                //name//'" NumberOfComponents="3" format="ascii">'
+        else
+            write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+                '        <DataArray type="Float64" NumberOfComponents="3" format="ascii">'
+        end if
+        p = 0.0_dp
+        do k = 1, size(a, 2)
+            if (ios /= 0) return
+            p(1:dim) = a(1:dim, k)
+            write (unit, REAL_FMT, iostat=ios, iomsg=iomsg) p
+        end do
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+    end subroutine write_vectors
+
+    !> s with the XML special characters & < > " ' replaced by entities.
+    pure function xml_escape(s) result(e)
+        character(len=*), intent(in) :: s   !! raw text
+        character(len=:), allocatable :: e
+        integer :: k
+        e = ''
+        do k = 1, len(s)
+            select case (s(k:k))
+            case ('&'); e = e//'&amp;'
+            case ('<'); e = e//'&lt;'
+            case ('>'); e = e//'&gt;'
+            case ('"'); e = e//'&quot;'
+            case (''''); e = e//'&apos;'
+            case default; e = e//s(k:k)
+            end select
+        end do
+    end function xml_escape
+end module vtk_output
