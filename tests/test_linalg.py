@@ -1,0 +1,163 @@
+"""UMFPACK through the f2py boundary: dyncontact._core.dc_umf_solve (1-based COO in)
+against dense numpy solves, and its error reporting (singular, bad indices).
+
+The Fortran-level unit tests of the same modules are tests/fortran/test_sparse.f90,
+test_umfpack.f90 and test_vtk_output.f90 (meson test()).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from dyncontact import _core, core
+
+#: relative accuracy of a UMFPACK solve (no iterative refinement) of the well-conditioned
+#: systems below, against numpy's dense LU
+RTOL_SOLVE = 1e-12
+
+STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC = 0, 2, 3
+
+
+def _msg(errmsg) -> str:
+    if isinstance(errmsg, bytes):
+        errmsg = errmsg.decode("utf-8", "replace")
+    return str(errmsg).strip().strip("\x00").strip()
+
+
+def umf_solve_1based(rows, cols, vals, b):
+    """Call dc_umf_solve with 1-based COO, arrays cast once (f2py must not copy)."""
+    rows = np.ascontiguousarray(rows, dtype=np.int32)
+    cols = np.ascontiguousarray(cols, dtype=np.int32)
+    vals = np.ascontiguousarray(vals, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    x, stat, errmsg = _core.dc_umf_solve(rows, cols, vals, b, b.shape[0], rows.shape[0])
+    return x, int(stat), _msg(errmsg)
+
+
+def random_coo(rng, n, density, dominance=1.0):
+    """Non-symmetric sparse n x n system as shuffled 1-based COO with duplicates.
+
+    Off-diagonal pattern at the given density, every diagonal entry present, values
+    split into several duplicate triplets (and a few entries that cancel to exact 0),
+    diagonal shifted to make the matrix diagonally dominant (well conditioned).
+    Returns (rows, cols, vals, dense).
+    """
+    nnz_off = max(1, int(density * n * n))
+    r = rng.integers(0, n, nnz_off)
+    c = rng.integers(0, n, nnz_off)
+    v = rng.uniform(-1.0, 1.0, nnz_off)
+    dense = np.zeros((n, n))
+    np.add.at(dense, (r, c), v)
+    diag = np.abs(dense).sum(axis=1) + dominance
+    r = np.concatenate([r, np.arange(n)])
+    c = np.concatenate([c, np.arange(n)])
+    v = np.concatenate([v, diag - np.diag(dense)])
+    dense[np.arange(n), np.arange(n)] = diag
+    # split every value into 1..3 duplicates
+    reps = rng.integers(1, 4, r.size)
+    r = np.repeat(r, reps)
+    c = np.repeat(c, reps)
+    v = np.repeat(v / reps, reps)
+    # explicit entries that cancel (kept as stored zeros by csc_from_coo)
+    k = rng.integers(0, n, 3)
+    l = rng.integers(0, n, 3)
+    r = np.concatenate([r, k, k])
+    c = np.concatenate([c, l, l])
+    v = np.concatenate([v, np.full(3, 0.5), np.full(3, -0.5)])
+    perm = rng.permutation(r.size)
+    return r[perm] + 1, c[perm] + 1, v[perm], dense
+
+
+@pytest.mark.parametrize("n", [1, 2, 17, 100, 400])
+@pytest.mark.parametrize("density", [0.01, 0.05, 0.3])
+def test_umf_solve_matches_dense(n, density):
+    rng = np.random.default_rng(1000 * n + int(100 * density))
+    rows, cols, vals, dense = random_coo(rng, n, density)
+    for _ in range(2):                     # two right-hand sides
+        b = rng.standard_normal(n)
+        x, stat, msg = umf_solve_1based(rows, cols, vals, b)
+        assert stat == STAT_OK, msg
+        x_ref = np.linalg.solve(dense, b)
+        np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max(),
+                                   err_msg=f"n={n} density={density}")
+
+
+def test_umf_solve_weak_diagonal():
+    """Not diagonally dominant (pivoting matters), still well conditioned."""
+    rng = np.random.default_rng(7)
+    n = 200
+    rows, cols, vals, dense = random_coo(rng, n, 0.05, dominance=1.0)
+    # permute the rows of the system: the large entries leave the diagonal
+    p = rng.permutation(n)
+    inv = np.empty(n, dtype=int)
+    inv[p] = np.arange(n)
+    rows = inv[rows - 1] + 1
+    dense = dense[p]
+    b = rng.standard_normal(n)
+    x, stat, msg = umf_solve_1based(rows, cols, vals, b)
+    assert stat == STAT_OK, msg
+    x_ref = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+
+
+def test_grid_operator_2d():
+    """5-point Laplacian with a drift term (non-symmetric) on a 30 x 30 grid."""
+    m = 30
+    n = m * m
+    weights = {(0, 0): 4.5, (1, 0): -1.2, (-1, 0): -0.8, (0, 1): -1.0, (0, -1): -1.0}
+    r, c, v = [], [], []
+    for i in range(m):
+        for j in range(m):
+            for (di, dj), w in weights.items():
+                if 0 <= i + di < m and 0 <= j + dj < m:
+                    r.append(i * m + j)
+                    c.append((i + di) * m + j + dj)
+                    v.append(w)
+    r, c, v = np.array(r), np.array(c), np.array(v)
+    dense = np.zeros((n, n))
+    np.add.at(dense, (r, c), v)
+    b = np.random.default_rng(3).standard_normal(n)
+    x, stat, msg = umf_solve_1based(r + 1, c + 1, v, b)
+    assert stat == STAT_OK, msg
+    x_ref = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+
+
+def test_singular_matrix_reported():
+    # rank 2: column 3 = column 1 + column 2
+    rows = np.array([1, 2, 2, 3, 1, 2, 3])
+    cols = np.array([1, 1, 2, 2, 3, 3, 3])
+    vals = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 2.0, 1.0])
+    _, stat, msg = umf_solve_1based(rows, cols, vals, np.ones(3))
+    assert stat == STAT_NUMERIC
+    assert "singular" in msg.lower(), msg
+
+
+def test_structurally_singular_matrix_reported():
+    # column 3 empty
+    _, stat, msg = umf_solve_1based([1, 2, 1], [1, 2, 2], [1.0, 1.0, 3.0], np.ones(3))
+    assert stat == STAT_NUMERIC
+    assert "singular" in msg.lower(), msg
+
+
+@pytest.mark.parametrize("rows, cols", [([1, 4], [1, 2]), ([1, 2], [0, 2]),
+                                        ([-1, 2], [1, 2]), ([1, 2], [1, 5])])
+def test_index_out_of_range_reported(rows, cols):
+    _, stat, msg = umf_solve_1based(rows, cols, [1.0, 1.0], np.ones(3))
+    assert stat == STAT_BAD_INPUT
+    assert "out of range" in msg, msg
+
+
+def test_python_wrapper_0based_and_exceptions():
+    """dyncontact.core.umf_solve: 0-based COO, stat mapped to exceptions."""
+    rng = np.random.default_rng(11)
+    rows, cols, vals, dense = random_coo(rng, 50, 0.1)
+    b = rng.standard_normal(50)
+    x = core.umf_solve(rows - 1, cols - 1, vals, b)
+    x_ref = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+    with pytest.raises(core.NumericalError, match="singular"):
+        core.umf_solve([0, 1], [0, 0], [1.0, 1.0], np.ones(2))
+    with pytest.raises(core.BadInputError, match="out of range"):
+        core.umf_solve([0, 2], [0, 1], [1.0, 1.0], np.ones(2))
