@@ -36,7 +36,7 @@ contains
         integer, intent(in) :: cols(:)                      !! 1-based column indices
         real(dp), intent(in) :: vals(:)                     !! values
         type(csc_t), intent(out) :: a                       !! result
-        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT (index out of range)
+        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT (bad index)
         character(len=*), intent(inout), optional :: errmsg !! message
         integer, allocatable :: rowstart(:), byrow(:), colnext(:), trow(:)
         real(dp), allocatable :: tval(:)

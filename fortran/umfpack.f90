@@ -33,7 +33,7 @@ module umfpack
 
     ! Status codes from umfpack.h.
     integer, parameter, public :: UMFPACK_OK = 0                               !! success
-    integer, parameter, public :: UMFPACK_WARNING_singular_matrix = 1         !! numerically singular
+    integer, parameter, public :: UMFPACK_WARNING_singular_matrix = 1         !! singular
     integer, parameter, public :: UMFPACK_ERROR_out_of_memory = -1            !! out of memory
     integer, parameter, public :: UMFPACK_ERROR_invalid_Numeric_object = -3   !! bad Numeric
     integer, parameter, public :: UMFPACK_ERROR_invalid_Symbolic_object = -4  !! bad Symbolic
@@ -55,7 +55,7 @@ module umfpack
         integer :: n = 0                            !! size factorized
         integer :: factorizations = 0               !! numeric factorizations done (kept by lu_free)
         integer :: analyses = 0                     !! symbolic analyses done (kept by lu_free)
-        real(c_double) :: control(UMFPACK_CONTROL) = 0.0_dp  !! UMFPACK control (defaults, no iterative refinement)
+        real(c_double) :: control(UMFPACK_CONTROL) = 0.0_dp  !! UMFPACK control (defaults, IRSTEP 0)
         real(c_double) :: info(UMFPACK_INFO) = 0.0_dp        !! UMFPACK info of the last call
         integer(c_int), allocatable :: wi(:)        !! wsolve integer workspace (n)
         real(c_double), allocatable :: w(:)         !! wsolve real workspace (5 n)

@@ -30,7 +30,7 @@ contains
         integer, intent(in) :: cells(:, :)                  !! (dim+1, nc) 1-based node numbers
         real(dp), intent(in) :: u(:, :)                     !! (dim, n) displacement
         real(dp), intent(in) :: v(:, :)                     !! (dim, n) velocity
-        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL
+        integer, intent(out) :: stat                        !! STAT_OK, _BAD_INPUT, _INTERNAL
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: scalar(:)         !! (n) optional scalar point field
         character(len=*), intent(in), optional :: scalar_name !! its name (default 'scalar')
@@ -58,7 +58,8 @@ contains
         end if
         if (present(scalar)) then
             if (size(scalar) /= n) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, 'vtk_write_vtu: scalar must have n entries')
+                call raise(stat, errmsg, STAT_BAD_INPUT, &
+                           'vtk_write_vtu: scalar must have n entries')
                 return
             end if
         end if
@@ -87,7 +88,8 @@ contains
         if (ios == 0 .and. present(time)) then
             write (unit, '(a)', iostat=ios, iomsg=iomsg) '    <FieldData>'
             if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
-                '      <DataArray type="Float64" Name="TimeValue" NumberOfTuples="1" format="ascii">'
+                '      <DataArray type="Float64" Name="TimeValue" NumberOfTuples="1"' &
+                //' format="ascii">'
             if (ios == 0) write (unit, '(es24.16e3)', iostat=ios, iomsg=iomsg) time
             if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      </DataArray>'
             if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '    </FieldData>'
@@ -163,7 +165,7 @@ contains
         character(len=*), intent(in) :: path                !! file to write (.pvd)
         real(dp), intent(in) :: times(:)                    !! time of each snapshot
         character(len=*), intent(in) :: files(:)            !! snapshot file names (.vtu)
-        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL
+        integer, intent(out) :: stat                        !! STAT_OK, _BAD_INPUT, _INTERNAL
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: unit, ios, k
         character(len=256) :: iomsg
@@ -221,8 +223,9 @@ contains
         real(dp) :: p(3)
         integer :: k
         if (len(name) > 0) then
-            write (unit, '(a)', iostat=ios, iomsg=iomsg) '        <DataArray type="Float64" Name="' &
-                //name//'" NumberOfComponents="3" format="ascii">'
+            write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+                '        <DataArray type="Float64" Name="'//name &
+                //'" NumberOfComponents="3" format="ascii">'
         else
             write (unit, '(a)', iostat=ios, iomsg=iomsg) &
                 '        <DataArray type="Float64" NumberOfComponents="3" format="ascii">'

@@ -218,7 +218,8 @@ contains
         call check(maxval(abs(refill%val - kk%val)) <= thr, 'map: refill equals csc_from_coo')
         call csc_from_coo(n, [1], [1], [1.0_dp], other, stat)
         call csc_coo_map(other, r, c, map, stat, msg)
-        call check(stat == STAT_BAD_INPUT .or. all(r == 1 .and. c == 1), 'map: entry not in pattern')
+        call check(stat == STAT_BAD_INPUT .or. all(r == 1 .and. c == 1), &
+                   'map: entry not in pattern')
         call check(.not. csc_same_pattern(mm, other), 'pattern: differs')
     end subroutine test_same_pattern_updates
 
