@@ -1,12 +1,16 @@
 !> Simplicial meshes: nodes, cells (segments in 1D, triangles in 2D), tagged
 !> boundary facets and named physical groups.
 module mesh
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp
-    use errors, only: STAT_OK, STAT_BAD_INPUT, raise
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
     implicit none
     private
 
     integer, parameter, public :: GROUP_NAME_LEN = 64   !! max length of a group name
+
+    !> Relative size below which a cell counts as degenerate (see mesh_check).
+    real(dp), parameter :: DEGENERATE_TOL = 1.0e-12_dp
 
     !> A mesh of dimension `dim` (spatial = cell dimension, 1 or 2).
     !> A facet that belongs to several groups is stored once per group.
@@ -26,6 +30,7 @@ module mesh
     end type mesh_t
 
     public :: mesh_free, mesh_check, mesh_find_group, mesh_group_nodes, mesh_group_facets
+    public :: mesh_facet_owner, mesh_cell_size
 
 contains
 
@@ -37,46 +42,394 @@ contains
 
     !> Check consistency: sizes, node numbers in range, no degenerate cell
     !> (|measure| <= 1e-12 * h^dim with h the cell's longest edge), facet nodes in range.
+    !> Also: finite coordinates, group indices in range, distinct facet nodes and
+    !> every facet a face of some cell (see mesh_facet_owner).
     subroutine mesh_check(this, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh to check
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! what is wrong (cell number, ...)
-        stat = STAT_OK
-        if (this%dim < 1) call raise(stat, errmsg, STAT_BAD_INPUT, 'mesh_check: not implemented')
+        integer, allocatable :: owner(:)
+        character(len=160) :: buf
+        integer :: c, f, k, nv
+        real(dp) :: meas, hmax
+
+        call check_sizes(this, stat, errmsg)
+        if (stat /= STAT_OK) return
+        nv = this%dim + 1
+
+        if (.not. all(ieee_is_finite(this%x))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'mesh check: non-finite node coordinates')
+            return
+        end if
+        do c = 1, this%n_cells
+            if (any(this%cells(:, c) < 1 .or. this%cells(:, c) > this%n_nodes)) then
+                write (buf, '(a, i0, a, i0)') 'mesh check: cell ', c, &
+                    ' has a node number outside 1..', this%n_nodes
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                return
+            end if
+            if (this%cell_group(c) < 0 .or. this%cell_group(c) > this%n_groups) then
+                write (buf, '(a, i0, a, i0)') 'mesh check: cell ', c, &
+                    ' has group index ', this%cell_group(c)
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                return
+            end if
+            call mesh_cell_size(this, c, meas, hmax)
+            if (abs(meas) <= DEGENERATE_TOL * hmax**this%dim) then
+                write (buf, '(a, i0, a, es10.3, a, es10.3, a)') 'mesh check: cell ', c, &
+                    ' is degenerate (measure ', abs(meas), ', longest edge ', hmax, ')'
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                return
+            end if
+        end do
+        do f = 1, this%n_facets
+            if (any(this%facets(:, f) < 1 .or. this%facets(:, f) > this%n_nodes)) then
+                write (buf, '(a, i0, a, i0)') 'mesh check: facet ', f, &
+                    ' has a node number outside 1..', this%n_nodes
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                return
+            end if
+            do k = 2, this%dim
+                if (any(this%facets(1:k - 1, f) == this%facets(k, f))) then
+                    write (buf, '(a, i0, a)') 'mesh check: facet ', f, ' repeats a node'
+                    call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                    return
+                end if
+            end do
+            if (this%facet_group(f) < 1 .or. this%facet_group(f) > this%n_groups) then
+                write (buf, '(a, i0, a, i0)') 'mesh check: facet ', f, &
+                    ' has group index ', this%facet_group(f)
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                return
+            end if
+        end do
+        call mesh_facet_owner(this, owner, stat, errmsg)
     end subroutine mesh_check
+
+    !> Shapes and sizes of the arrays of `this` agree with its counters.
+    subroutine check_sizes(this, stat, errmsg)
+        type(mesh_t), intent(in) :: this                  !! mesh to check
+        integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! what is wrong
+        character(len=160) :: buf
+        logical :: ok
+        integer :: d
+
+        stat = STAT_OK
+        d = this%dim
+        if (d < 1 .or. d > 2) then
+            write (buf, '(a, i0, a)') 'mesh check: dimension ', d, ' is not 1 or 2'
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+            return
+        end if
+        if (this%n_nodes < d + 1 .or. this%n_cells < 1) then
+            write (buf, '(a, i0, a, i0, a)') 'mesh check: too small (', this%n_nodes, &
+                ' nodes, ', this%n_cells, ' cells)'
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+            return
+        end if
+        if (this%n_facets < 0 .or. this%n_groups < 0) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'mesh check: negative facet or group count')
+            return
+        end if
+        ok = allocated(this%x) .and. allocated(this%cells) .and. allocated(this%cell_group) &
+             .and. allocated(this%facets) .and. allocated(this%facet_group) &
+             .and. allocated(this%group_name) .and. allocated(this%group_dim)
+        if (.not. ok) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'mesh check: arrays not allocated')
+            return
+        end if
+        ok = size(this%x, 1) == d .and. size(this%x, 2) == this%n_nodes &
+             .and. size(this%cells, 1) == d + 1 .and. size(this%cells, 2) == this%n_cells &
+             .and. size(this%cell_group) == this%n_cells &
+             .and. size(this%facets, 1) == d .and. size(this%facets, 2) == this%n_facets &
+             .and. size(this%facet_group) == this%n_facets &
+             .and. size(this%group_name) == this%n_groups &
+             .and. size(this%group_dim) == this%n_groups
+        if (.not. ok) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'mesh check: array shapes differ from the counts')
+        end if
+    end subroutine check_sizes
+
+    !> Signed measure (length in 1D, area in 2D) and longest edge of cell `c`.
+    pure subroutine mesh_cell_size(this, c, meas, hmax)
+        type(mesh_t), intent(in) :: this   !! mesh (nodes of cell c must be in range)
+        integer, intent(in) :: c           !! cell index
+        real(dp), intent(out) :: meas      !! signed length (1D) or area (2D, > 0 if counter-clockwise)
+        real(dp), intent(out) :: hmax      !! longest edge (diameter) of the cell
+        real(dp) :: a(2), b(2), p(2)
+        if (this%dim == 1) then
+            meas = this%x(1, this%cells(2, c)) - this%x(1, this%cells(1, c))
+            hmax = abs(meas)
+        else
+            p = this%x(:, this%cells(1, c))
+            a = this%x(:, this%cells(2, c)) - p
+            b = this%x(:, this%cells(3, c)) - p
+            meas = 0.5_dp * (a(1) * b(2) - a(2) * b(1))
+            hmax = max(norm2(a), norm2(b), norm2(b - a))
+        end if
+    end subroutine mesh_cell_size
+
+    !> For every facet, a cell that has it as a face and the local number
+    !> (1..dim+1) of the cell's node opposite to it. A facet that is no face of any
+    !> cell gives STAT_BAD_INPUT.
+    subroutine mesh_facet_owner(this, owner, stat, errmsg, opposite)
+        type(mesh_t), intent(in) :: this                  !! mesh (node numbers in range)
+        integer, allocatable, intent(out) :: owner(:)     !! (n_facets) owning cell of each facet
+        integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message naming the facet
+        integer, allocatable, intent(out), optional :: opposite(:) !! (n_facets) local node opposite the facet
+        integer, allocatable :: first(:), list(:)
+        character(len=160) :: buf
+        integer :: c, f, k, j, nv, loc
+
+        stat = STAT_OK
+        nv = this%dim + 1
+        allocate (owner(this%n_facets))
+        owner = 0
+        if (present(opposite)) then
+            allocate (opposite(this%n_facets))
+            opposite = 0
+        end if
+        call node_cells(this, first, list)
+        do f = 1, this%n_facets
+            do k = first(this%facets(1, f)), first(this%facets(1, f) + 1) - 1
+                c = list(k)
+                loc = 0
+                do j = 1, nv
+                    if (.not. any(this%facets(:, f) == this%cells(j, c))) then
+                        if (loc /= 0) then   ! two cell nodes outside the facet
+                            loc = -1
+                            exit
+                        end if
+                        loc = j
+                    end if
+                end do
+                if (loc > 0) then
+                    owner(f) = c
+                    if (present(opposite)) opposite(f) = loc
+                    exit
+                end if
+            end do
+            if (owner(f) == 0) then
+                write (buf, '(a, i0, a)') 'mesh check: facet ', f, ' is not a face of any cell'
+                if (this%facet_group(f) >= 1 .and. this%facet_group(f) <= this%n_groups) then
+                    buf = trim(buf)//" (group '"//trim(this%group_name(this%facet_group(f)))//"')"
+                end if
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                return
+            end if
+        end do
+    end subroutine mesh_facet_owner
+
+    !> Node-to-cell incidence in compressed form: the cells of node i are
+    !> list(first(i) : first(i+1)-1).
+    pure subroutine node_cells(this, first, list)
+        type(mesh_t), intent(in) :: this            !! mesh (node numbers in range)
+        integer, allocatable, intent(out) :: first(:) !! (n_nodes+1) offsets
+        integer, allocatable, intent(out) :: list(:)  !! (nv*n_cells) cell numbers
+        integer, allocatable :: fill(:)
+        integer :: c, j, i
+        allocate (first(this%n_nodes + 1), fill(this%n_nodes))
+        allocate (list(size(this%cells)))
+        fill = 0
+        do c = 1, this%n_cells
+            do j = 1, size(this%cells, 1)
+                i = this%cells(j, c)
+                fill(i) = fill(i) + 1
+            end do
+        end do
+        first(1) = 1
+        do i = 1, this%n_nodes
+            first(i + 1) = first(i) + fill(i)
+        end do
+        fill = 0
+        do c = 1, this%n_cells
+            do j = 1, size(this%cells, 1)
+                i = this%cells(j, c)
+                list(first(i) + fill(i)) = c
+                fill(i) = fill(i) + 1
+            end do
+        end do
+    end subroutine node_cells
 
     !> Index of the group called `name` (case-sensitive, blanks trimmed), 0 if absent.
     pure function mesh_find_group(this, name) result(idx)
         type(mesh_t), intent(in) :: this      !! mesh
         character(len=*), intent(in) :: name  !! group name
         integer :: idx
+        integer :: g
         idx = 0
+        if (.not. allocated(this%group_name)) return
+        do g = 1, min(this%n_groups, size(this%group_name))
+            if (trim(this%group_name(g)) == trim(adjustl(name))) then
+                idx = g
+                return
+            end if
+        end do
     end function mesh_find_group
+
+    !> Group indices of the comma-separated list `names` (blank entries ignored).
+    !> An unknown name gives STAT_BAD_INPUT "group 'NAME' not in mesh".
+    subroutine parse_group_list(this, names, groups, stat, errmsg)
+        type(mesh_t), intent(in) :: this                  !! mesh
+        character(len=*), intent(in) :: names             !! e.g. 'left,right'
+        integer, allocatable, intent(out) :: groups(:)    !! group indices, in list order
+        integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message naming the missing group
+        integer :: start, comma, g, n
+        character(len=len(names)) :: item
+
+        stat = STAT_OK
+        allocate (groups(count([(names(g:g) == ',', g = 1, len(names))]) + 1))
+        n = 0
+        start = 1
+        do while (start <= len(names))
+            comma = index(names(start:), ',')
+            if (comma == 0) then
+                item = names(start:)
+                start = len(names) + 1
+            else
+                item = names(start:start + comma - 2)
+                start = start + comma
+            end if
+            if (len_trim(item) == 0) cycle
+            g = mesh_find_group(this, item)
+            if (g == 0) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, &
+                           "group '"//trim(adjustl(item))//"' not in mesh")
+                return
+            end if
+            n = n + 1
+            groups(n) = g
+        end do
+        groups = groups(1:n)
+    end subroutine parse_group_list
 
     !> Mark the nodes of every facet or cell in the comma-separated list of groups
     !> `names` (blank entries ignored; '' marks nothing). An unknown name gives
-    !> STAT_BAD_INPUT with errmsg = "group 'NAME' not in mesh".
+    !> STAT_BAD_INPUT with errmsg = "group 'NAME' not in mesh"; a group with no
+    !> facet and no cell (e.g. a point group of a 2D mesh) gives STAT_BAD_INPUT too.
     subroutine mesh_group_nodes(this, names, mask, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh
         character(len=*), intent(in) :: names             !! e.g. 'left,right'
         logical, intent(inout) :: mask(:)                 !! (n_nodes) set .true. on the groups' nodes
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message naming the missing group
-        stat = STAT_OK
-        mask = mask
-        if (len_trim(names) > 0) call raise(stat, errmsg, STAT_BAD_INPUT, 'not implemented')
+        integer, allocatable :: groups(:)
+        integer :: k, g, f, c
+        logical :: found
+
+        call parse_group_list(this, names, groups, stat, errmsg)
+        if (stat /= STAT_OK) return
+        if (size(groups) > 0 .and. size(mask) /= this%n_nodes) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'mesh_group_nodes: mask size differs from n_nodes')
+            return
+        end if
+        do k = 1, size(groups)
+            g = groups(k)
+            found = .false.
+            do f = 1, this%n_facets
+                if (this%facet_group(f) == g) then
+                    mask(this%facets(:, f)) = .true.
+                    found = .true.
+                end if
+            end do
+            do c = 1, this%n_cells
+                if (this%cell_group(c) == g) then
+                    mask(this%cells(:, c)) = .true.
+                    found = .true.
+                end if
+            end do
+            if (.not. found) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, &
+                           "group '"//trim(this%group_name(g))//"' has no facets or cells in the mesh")
+                return
+            end if
+        end do
     end subroutine mesh_group_nodes
 
     !> Indices (into facets(:, :)) of the facets of the comma-separated groups `names`,
-    !> each facet once. Errors as mesh_group_nodes.
+    !> each facet once. Errors as mesh_group_nodes. A facet stored for several of
+    !> the groups (same nodes) is listed once, by its first index; the list is sorted.
+    !> A group without facets (e.g. the cell group 'body') gives STAT_BAD_INPUT.
     subroutine mesh_group_facets(this, names, list, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh
         character(len=*), intent(in) :: names             !! e.g. 'bottom'
         integer, allocatable, intent(out) :: list(:)      !! facet indices (size 0 if names = '')
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message naming the missing group
-        stat = STAT_OK
+        integer, allocatable :: groups(:)
+        logical, allocatable :: take(:)
+        integer :: k, g
+
         allocate (list(0))
-        if (len_trim(names) > 0) call raise(stat, errmsg, STAT_BAD_INPUT, 'not implemented')
+        call parse_group_list(this, names, groups, stat, errmsg)
+        if (stat /= STAT_OK .or. size(groups) == 0) return
+        allocate (take(this%n_facets))
+        take = .false.
+        do k = 1, size(groups)
+            g = groups(k)
+            if (.not. any(this%facet_group == g)) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, &
+                           "group '"//trim(this%group_name(g))//"' has no facets in the mesh")
+                return
+            end if
+            where (this%facet_group == g) take = .true.
+        end do
+        call drop_duplicate_facets(this, take)
+        list = pack([(k, k = 1, this%n_facets)], take)
     end subroutine mesh_group_facets
+
+    !> Among the facets with take = .true., keep only the first of those with
+    !> the same node set. Facets are bucketed by their smallest node.
+    pure subroutine drop_duplicate_facets(this, take)
+        type(mesh_t), intent(in) :: this        !! mesh
+        logical, intent(inout) :: take(:)       !! (n_facets) selection to thin out
+        integer, allocatable :: first(:), fill(:), list(:)
+        integer :: f, i, a, b, k
+        allocate (first(this%n_nodes + 1), fill(this%n_nodes), list(this%n_facets))
+        fill = 0
+        do f = 1, this%n_facets
+            if (.not. take(f)) cycle
+            i = minval(this%facets(:, f))
+            fill(i) = fill(i) + 1
+        end do
+        first(1) = 1
+        do i = 1, this%n_nodes
+            first(i + 1) = first(i) + fill(i)
+        end do
+        fill = 0
+        do f = 1, this%n_facets   ! increasing f: the first index comes first in each bucket
+            if (.not. take(f)) cycle
+            i = minval(this%facets(:, f))
+            list(first(i) + fill(i)) = f
+            fill(i) = fill(i) + 1
+        end do
+        do i = 1, this%n_nodes
+            do a = first(i), first(i + 1) - 1
+                f = list(a)
+                if (.not. take(f)) cycle
+                do b = a + 1, first(i + 1) - 1
+                    k = list(b)
+                    if (take(k) .and. same_nodes(this%facets(:, f), this%facets(:, k))) &
+                        take(k) = .false.
+                end do
+            end do
+        end do
+    end subroutine drop_duplicate_facets
+
+    !> Whether two node lists hold the same nodes (any order, no repeats).
+    pure logical function same_nodes(a, b)
+        integer, intent(in) :: a(:)   !! first list
+        integer, intent(in) :: b(:)   !! second list, same size
+        integer :: i
+        same_nodes = .true.
+        do i = 1, size(a)
+            if (.not. any(b == a(i))) then
+                same_nodes = .false.
+                return
+            end if
+        end do
+    end function same_nodes
 end module mesh

@@ -1,0 +1,472 @@
+"""Meshes in Python: gmsh .msh files read through the gmsh API, the bar generated
+from ``meshes/bar2d.geo``, and the Fortran reader / built-in bar as the same
+:class:`MeshData`.
+
+Conventions (the same as the Fortran reader ``fortran/gmsh_reader.f90``, with
+0-based indices here):
+
+- nodes are numbered in increasing order of their gmsh tags;
+- groups are the physical groups in the order of the file's ``$PhysicalNames``,
+  then the unnamed ones (named by their tag) in order of first use by an entity;
+- the mesh dimension is the highest element dimension present (1: segments,
+  2: triangles); cells are the elements of that dimension (in element-tag
+  order), with the first physical group of their entity (-1 if none);
+- facets are the elements of dimension ``dim - 1`` (points in 1D, segments in
+  2D) of entities with physical groups, stored once per group; others are
+  dropped;
+- ``x`` holds the first ``dim`` coordinates (the others must be constant).
+
+>>> from dyncontact import mesh_io
+>>> m = mesh_io.read_msh("meshes/bar2d_h0.02.msh")        # doctest: +SKIP
+>>> m.dim, m.x.shape, m.group_names                        # doctest: +SKIP
+(2, (306, 2), ['bottom', 'top', 'left', 'right', 'body'])
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import os
+import sys
+from pathlib import Path
+from typing import Iterator, Sequence
+
+import numpy as np
+
+from .core import BadInputError
+
+__all__ = ["MeshData", "read_msh", "read_msh_fortran", "builtin_bar", "generate_bar",
+           "find_geo", "main"]
+
+#: gmsh element types read: type -> (dimension, number of nodes).
+ELEMENT_TYPES = {15: (0, 1), 1: (1, 2), 2: (2, 3)}
+
+#: Relative tolerance of the test that the dropped coordinates are constant.
+PLANE_TOL = 1e-10
+
+#: Parameters of meshes/bar2d.geo set by :func:`generate_bar`.
+GEO_PARAMETERS = ("h", "length", "width")
+
+
+@dataclasses.dataclass
+class MeshData:
+    """A simplicial mesh with named physical groups (0-based indices).
+
+    Attributes
+    ----------
+    dim : int
+        1 (segments) or 2 (triangles).
+    x : ndarray, shape (n_nodes, dim), float64
+        Node coordinates.
+    cells : ndarray, shape (n_cells, dim + 1), int
+        Node indices of each cell.
+    cell_group : ndarray, shape (n_cells,), int
+        Group index of each cell, -1 if none.
+    facets : ndarray, shape (n_facets, dim), int
+        Node indices of each tagged boundary facet (a point in 1D, a segment in 2D).
+    facet_group : ndarray, shape (n_facets,), int
+        Group index of each facet.
+    group_names : list of str
+        Name of each group.
+    group_dim : ndarray, shape (n_groups,), int
+        Dimension of each group's entities.
+    """
+
+    dim: int
+    x: np.ndarray
+    cells: np.ndarray
+    cell_group: np.ndarray
+    facets: np.ndarray
+    facet_group: np.ndarray
+    group_names: list
+    group_dim: np.ndarray
+
+    def group(self, name: str) -> int:
+        """Index of the group called `name`; KeyError if absent."""
+        try:
+            return self.group_names.index(name)
+        except ValueError:
+            raise KeyError(f"group {name!r} not in mesh") from None
+
+
+# --------------------------------------------------------------------------- gmsh session
+
+@contextlib.contextmanager
+def _gmsh_session(model: str = "dyncontact") -> Iterator:
+    """gmsh with a fresh, empty current model; everything is undone on exit.
+
+    If gmsh is not initialized, it is initialized (no config files, no terminal
+    output) and finalized afterwards. If the caller already runs gmsh, a new model
+    is added and removed afterwards, and the caller's current model, options
+    and parser/ONELAB variables set here are restored.
+    """
+    import gmsh
+
+    own = not gmsh.isInitialized()
+    if own:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        saved = {}
+        previous_model = None
+        names_before: set = set()
+    else:
+        saved = {k: gmsh.option.getNumber(k)
+                 for k in ("General.Terminal", "Mesh.MshFileVersion", "Mesh.Binary")}
+        previous_model = gmsh.model.getCurrent()
+        names_before = set(gmsh.parser.getNames())
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(model)
+        yield gmsh
+    finally:
+        if own:
+            gmsh.finalize()
+        else:
+            with contextlib.suppress(Exception):
+                gmsh.model.setCurrent(model)
+                gmsh.model.remove()
+            with contextlib.suppress(Exception):
+                for name in set(gmsh.parser.getNames()) - names_before:
+                    gmsh.parser.clear(name)
+                for name in GEO_PARAMETERS:
+                    gmsh.onelab.clear("Parameters/" + name)
+            for key, value in saved.items():
+                gmsh.option.setNumber(key, value)
+            if previous_model is not None and previous_model in gmsh.model.list():
+                gmsh.model.setCurrent(previous_model)
+
+
+def _check_file(path: str) -> None:
+    """BadInputError naming `path` if it is not a readable file."""
+    if not os.path.exists(path):
+        raise BadInputError(f"{path}: no such file")
+    if not os.path.isfile(path):
+        raise BadInputError(f"{path}: not a file")
+    if os.path.getsize(path) == 0:
+        raise BadInputError(f"{path}: file is empty")
+
+
+# --------------------------------------------------------------------------- reading
+
+def _physical_names_order(path: str) -> list[tuple[int, int]]:
+    """(dim, tag) of the groups of the file's ``$PhysicalNames``, in file order.
+
+    That section is ASCII even in binary .msh files; [] if there is none.
+    """
+    with open(path, "rb") as f:
+        data = f.read()
+    start = data.find(b"$PhysicalNames")
+    end = data.find(b"$EndPhysicalNames", start)
+    if start < 0 or end < 0:
+        return []
+    lines = data[start:end].decode("latin-1").splitlines()[2:]
+    order = []
+    for line in lines:
+        words = line.split(maxsplit=2)
+        if len(words) >= 2:
+            with contextlib.suppress(ValueError):
+                order.append((int(words[0]), int(words[1])))
+    return order
+
+
+def _groups(gmsh, path: str) -> tuple[list[tuple[int, int]], dict]:
+    """Physical groups as (dim, tag) in the reader's order, and the group
+    indices of every entity (dim, tag) -> list."""
+    order = _physical_names_order(path)
+    known = set(gmsh.model.getPhysicalGroups())
+    groups = [g for g in order if g in known]
+    index = {g: i for i, g in enumerate(groups)}
+    # named groups no entity uses are still groups (as in the Fortran reader)
+    unused = [g for g in order if g not in known]
+    for g in unused:
+        index[g] = len(groups)
+        groups.append(g)
+    entity_groups = {}
+    for dim, tag in gmsh.model.getEntities():
+        ids = []
+        for ptag in gmsh.model.getPhysicalGroupsForEntity(dim, tag):
+            key = (dim, int(ptag))
+            if key not in index:
+                index[key] = len(groups)
+                groups.append(key)
+            if index[key] not in ids:
+                ids.append(index[key])
+        entity_groups[(dim, tag)] = ids
+    return groups, entity_groups
+
+
+def _elements(gmsh, path: str) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
+    """(dim, entity tag, element tags, node tags (n, nv)) of every element block."""
+    blocks = []
+    for dim, tag in gmsh.model.getEntities():
+        types, etags, ntags = gmsh.model.mesh.getElements(dim, tag)
+        for etype, et, nt in zip(types, etags, ntags):
+            etype = int(etype)
+            if etype == 4:
+                raise BadInputError(f"{path}: tetrahedra (element type 4): 3D meshes are "
+                                    "not supported yet")
+            if etype not in ELEMENT_TYPES:
+                raise BadInputError(f"{path}: element type {etype} is not supported (only 15 "
+                                    "point, 1 line, 2 triangle: first-order simplices)")
+            edim, nv = ELEMENT_TYPES[etype]
+            blocks.append((edim, tag, np.asarray(et, dtype=np.int64),
+                           np.asarray(nt, dtype=np.int64).reshape(-1, nv)))
+    return blocks
+
+
+def _node_index(sorted_tags: np.ndarray, tags: np.ndarray, path: str) -> np.ndarray:
+    """0-based node numbers of gmsh node tags."""
+    idx = np.searchsorted(sorted_tags, tags)
+    idx_c = np.minimum(idx, len(sorted_tags) - 1)
+    bad = sorted_tags[idx_c] != tags
+    if bad.any():
+        raise BadInputError(f"{path}: an element refers to unknown node {tags[bad][0]}")
+    return idx
+
+
+def _coordinates(xyz: np.ndarray, dim: int, path: str) -> np.ndarray:
+    """The first `dim` coordinates; the others must be constant."""
+    if len(xyz):
+        scale = float(np.max(xyz.max(axis=0) - xyz.min(axis=0)))
+        for j in range(dim, 3):
+            if np.ptp(xyz[:, j]) > PLANE_TOL * scale:
+                raise BadInputError(f"{path}: the mesh is {dim}D but its {'xyz'[j]} "
+                                    "coordinates are not constant")
+    return np.ascontiguousarray(xyz[:, :dim], dtype=np.float64)
+
+
+def read_msh(path: str | os.PathLike) -> MeshData:
+    """Read a gmsh mesh file through the gmsh Python API.
+
+    Any format gmsh reads is accepted (the Fortran reader wants .msh 4.1 ASCII).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The mesh file.
+
+    Returns
+    -------
+    MeshData
+
+    Raises
+    ------
+    BadInputError
+        Missing or unreadable file, unsupported elements, no segments/triangles.
+    """
+    path = os.fspath(path)
+    _check_file(path)
+    with _gmsh_session() as gmsh:
+        try:
+            gmsh.merge(path)
+        except Exception as exc:
+            raise BadInputError(f"{path}: gmsh cannot read it: {exc}") from None
+        return _extract(gmsh, path)
+
+
+def _extract(gmsh, path: str) -> MeshData:
+    """The current gmsh model as MeshData."""
+    groups, entity_groups = _groups(gmsh, path)
+    blocks = _elements(gmsh, path)
+    ntags, coord, _ = gmsh.model.mesh.getNodes()
+    ntags = np.asarray(ntags, dtype=np.int64)
+    order = np.argsort(ntags, kind="stable")
+    sorted_tags = ntags[order]
+    if np.any(np.diff(sorted_tags) == 0):
+        raise BadInputError(f"{path}: a node tag appears twice")
+    xyz = np.asarray(coord, dtype=np.float64).reshape(-1, 3)[order]
+
+    dim = max((b[0] for b in blocks if len(b[2])), default=0)
+    if dim < 1:
+        raise BadInputError(f"{path}: no segments or triangles")
+
+    cell_tags, cells, cell_group = [], [], []
+    facet_keys, facets, facet_group = [], [], []
+    for edim, etag, et, nt in blocks:
+        ids = entity_groups.get((edim, etag), [])
+        if edim == dim:
+            cell_tags.append(et)
+            cells.append(nt)
+            cell_group.append(np.full(len(et), ids[0] if ids else -1))
+        elif edim == dim - 1:
+            for k, g in enumerate(ids):
+                facet_keys.append(np.stack([et, np.full(len(et), k)], axis=1))
+                facets.append(nt)
+                facet_group.append(np.full(len(et), g))
+
+    cell_tags = np.concatenate(cell_tags)
+    corder = np.argsort(cell_tags, kind="stable")
+    cells = _node_index(sorted_tags, np.concatenate(cells)[corder], path)
+    cell_group = np.concatenate(cell_group)[corder]
+    if facets:
+        keys = np.concatenate(facet_keys)
+        forder = np.lexsort((keys[:, 1], keys[:, 0]))
+        facets = _node_index(sorted_tags, np.concatenate(facets)[forder], path)
+        facet_group = np.concatenate(facet_group)[forder]
+    else:
+        facets = np.zeros((0, dim), dtype=np.int64)
+        facet_group = np.zeros(0, dtype=np.int64)
+
+    names = [gmsh.model.getPhysicalName(d, t) or str(t) for d, t in groups]
+    return MeshData(
+        dim=int(dim),
+        x=_coordinates(xyz, dim, path),
+        cells=cells.astype(np.int64),
+        cell_group=cell_group.astype(np.int64),
+        facets=facets.astype(np.int64),
+        facet_group=facet_group.astype(np.int64),
+        group_names=names,
+        group_dim=np.array([d for d, _ in groups], dtype=np.int64),
+    )
+
+
+def _from_core(d: dict) -> MeshData:
+    """MeshData from the dict of :func:`dyncontact.core.load_mesh`."""
+    return MeshData(
+        dim=int(d["dim"]),
+        x=np.asarray(d["x"], dtype=np.float64),
+        cells=np.asarray(d["cells"], dtype=np.int64),
+        cell_group=np.asarray(d["cell_group"], dtype=np.int64),
+        facets=np.asarray(d["facets"], dtype=np.int64).reshape(-1, int(d["dim"])),
+        facet_group=np.asarray(d["facet_group"], dtype=np.int64),
+        group_names=list(d["group_names"]),
+        group_dim=np.asarray(d["group_dim"], dtype=np.int64),
+    )
+
+
+def read_msh_fortran(path: str | os.PathLike) -> MeshData:
+    """Read a .msh 4.1 ASCII file with the Fortran reader (``dyncontact._core``).
+
+    Raises
+    ------
+    BadInputError
+        With the Fortran message, which starts with the path.
+    """
+    from .core import load_mesh
+
+    path = os.fspath(path)
+    if not path.strip():
+        raise BadInputError("read_msh_fortran: empty file name")
+    return _from_core(load_mesh(path))
+
+
+def builtin_bar(dim: int = 2, length: float = 1.0, width: float = 0.1,
+                h: float = 0.05) -> MeshData:
+    """The Fortran built-in bar (``bar_mesh_build``): GetFEM's structured triangles in
+    2D, segments in 1D.
+
+    >>> builtin_bar(2, 1.0, 0.1, 0.05).cells.shape                 # doctest: +SKIP
+    (80, 3)
+    """
+    from .core import load_mesh
+
+    return _from_core(load_mesh("", dim=dim, length=length, width=width, h=h))
+
+
+# --------------------------------------------------------------------------- generation
+
+def find_geo(name: str = "bar2d.geo") -> Path:
+    """The .geo file `name`: next to this module, or in the source tree's meshes/."""
+    here = Path(__file__).resolve().parent
+    candidates = [here / name, here.parent.parent / "meshes" / name]
+    for c in candidates:
+        if c.is_file():
+            return c
+    raise FileNotFoundError(f"{name} not found (looked in {', '.join(map(str, candidates))})")
+
+
+def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
+                 width: float = 0.1, geo_path: str | os.PathLike | None = None) -> Path:
+    """Mesh ``meshes/bar2d.geo`` with gmsh and write it as .msh 4.1 ASCII.
+
+    Structured (transfinite) triangles of [0, width] x [0, length] with
+    ``round(width/h)`` by ``round(length/h)`` squares and alternating diagonals;
+    groups bottom, top, left, right (curves) and body (surface).
+
+    Parameters
+    ----------
+    h : float
+        Mesh size (> 0).
+    out_path : str or path-like
+        The .msh file to write (folders are created).
+    length, width : float
+        Bar size (> 0).
+    geo_path : str or path-like, optional
+        The .geo file (default: :func:`find_geo`).
+
+    Returns
+    -------
+    Path
+        `out_path`.
+    """
+    for name, value in (("h", h), ("length", length), ("width", width)):
+        if not (np.isfinite(value) and value > 0):
+            raise BadInputError(f"generate_bar: {name} = {value} (must be > 0)")
+    if round(length / h) * round(width / h) > 5e7:
+        raise BadInputError(f"generate_bar: h = {h} gives too many elements")
+    geo = Path(geo_path) if geo_path is not None else find_geo()
+    out = Path(out_path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with _gmsh_session("bar2d") as gmsh:
+        gmsh.parser.setNumber("h", [float(h)])
+        gmsh.parser.setNumber("length", [float(length)])
+        gmsh.parser.setNumber("width", [float(width)])
+        try:
+            gmsh.merge(str(geo))
+            gmsh.model.mesh.generate(2)
+        except Exception as exc:
+            raise BadInputError(f"{geo}: gmsh failed: {exc}") from None
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.option.setNumber("Mesh.Binary", 0)
+        gmsh.write(str(out))
+    return out
+
+
+# --------------------------------------------------------------------------- command line
+
+def _summary(m: MeshData) -> str:
+    """One line describing a mesh."""
+    kind = "triangles" if m.dim == 2 else "segments"
+    groups = ", ".join(f"{n} ({int((m.facet_group == i).sum() + (m.cell_group == i).sum())})"
+                       for i, n in enumerate(m.group_names))
+    return f"{len(m.x)} nodes, {len(m.cells)} {kind}; groups {groups}"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Parser of ``python -m dyncontact mesh``."""
+    p = argparse.ArgumentParser(
+        prog="dyncontact mesh",
+        description="Mesh the bar of meshes/bar2d.geo with gmsh (structured triangles) and "
+                    "write it as .msh 4.1 ASCII.")
+    p.add_argument("--h", type=float, default=0.05, help="mesh size (default 0.05)")
+    p.add_argument("--out", required=True, metavar="FILE.msh", help="mesh file to write")
+    p.add_argument("--length", type=float, default=1.0, help="bar length, y (default 1)")
+    p.add_argument("--width", type=float, default=0.1, help="bar width, x (default 0.1)")
+    p.add_argument("--geo", metavar="FILE.geo", help="geometry (default meshes/bar2d.geo)")
+    p.add_argument("--quiet", "-q", action="store_true", help="print nothing")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m dyncontact mesh --h 0.02 --out meshes/bar2d_h0.02.msh``.
+
+    Returns the exit status: 0, or 2 on bad input (message on stderr).
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "mesh":
+        argv = argv[1:]
+    args = build_parser().parse_args(argv)
+    try:
+        out = generate_bar(args.h, args.out, length=args.length, width=args.width,
+                           geo_path=args.geo)
+        mesh = read_msh(out)
+    except (BadInputError, FileNotFoundError) as exc:
+        print(f"dyncontact mesh: {exc}", file=sys.stderr)
+        return 2
+    if not args.quiet:
+        print(f"dyncontact mesh: wrote {out}: {_summary(mesh)}")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
