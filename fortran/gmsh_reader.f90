@@ -161,7 +161,7 @@ contains
         end do
 
         if (first) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, s%path//': file is empty')
+            call raise(stat, errmsg, STAT_BAD_INPUT, s%path//': file is empty (or not a regular file)')
         else if (.not. raw%has_nodes) then
             call raise(stat, errmsg, STAT_BAD_INPUT, s%path//': missing section $Nodes')
         else if (.not. raw%has_elements) then
@@ -689,9 +689,11 @@ contains
         allocate (gdim(n + size(raw%phys)), gtag(n + size(raw%phys)), gname(n + size(raw%phys)))
         allocate (ent_group(size(raw%phys)))
         ent_group = 0
-        gdim(1:n) = raw%name_dim
-        gtag(1:n) = raw%name_tag
-        gname(1:n) = raw%name_str
+        if (n > 0) then
+            gdim(1:n) = raw%name_dim
+            gtag(1:n) = raw%name_tag
+            gname(1:n) = raw%name_str
+        end if
         do e = 1, raw%n_ent
             do k = raw%phys_first(e), raw%phys_first(e + 1) - 1
                 found = 0

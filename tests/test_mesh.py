@@ -1,0 +1,543 @@
+"""Meshes: the Fortran .msh 4.1 reader against the gmsh Python API, the built-in bar
+against GetFEM's structured meshes (meshes/bar2d_getfem_h*.msh, copies of
+shared/reference/meshes), the generated bar of meshes/bar2d.geo, and clean errors
+on bad files (stat 2, message starting with the path).
+
+The Fortran side is reached through dyncontact._core.dc_mesh_sizes /
+dc_mesh_arrays (via dyncontact.core.load_mesh and mesh_io.read_msh_fortran /
+builtin_bar).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dyncontact import mesh_io
+from dyncontact.core import BadInputError
+
+ROOT = Path(__file__).resolve().parents[1]
+MESHES = ROOT / "meshes"
+REFERENCE_H = (0.05, 0.02, 0.01)
+
+#: GetFEM writes coordinates with 16 significant digits: the built-in bar (computed
+#: as i*(width/nx), like GetFEM) agrees with the files to one rounding of ~1 m
+ATOL_COORD = 1e-15
+#: coordinates are matched to nodes on this grid when comparing up to numbering
+KEY_GRID = 1e-9
+
+STAT_OK, STAT_BAD_INPUT = 0, 2
+
+
+def reference(h: float) -> Path:
+    return MESHES / f"bar2d_getfem_h{h}.msh"
+
+
+def _msg(errmsg) -> str:
+    if isinstance(errmsg, bytes):
+        errmsg = errmsg.decode("utf-8", "replace")
+    return str(errmsg).strip().strip("\x00").strip()
+
+
+def fortran_sizes(core_ext, path) -> tuple[int, str]:
+    """stat and message of the Fortran reader on `path`."""
+    *_, stat, errmsg = core_ext.dc_mesh_sizes(str(path), 2, 1.0, 0.1, 0.05)
+    return int(stat), _msg(errmsg)
+
+
+# --------------------------------------------------------------------------- comparisons
+
+def assert_same_mesh(a: mesh_io.MeshData, b: mesh_io.MeshData, atol: float = 0.0) -> None:
+    """Same arrays (same numbering)."""
+    assert a.dim == b.dim
+    assert a.group_names == b.group_names
+    np.testing.assert_array_equal(a.group_dim, b.group_dim)
+    np.testing.assert_allclose(a.x, b.x, rtol=0, atol=atol, err_msg="coordinates")
+    np.testing.assert_array_equal(a.cells, b.cells, err_msg="cells")
+    np.testing.assert_array_equal(a.cell_group, b.cell_group, err_msg="cell groups")
+    np.testing.assert_array_equal(a.facets, b.facets, err_msg="facets")
+    np.testing.assert_array_equal(a.facet_group, b.facet_group, err_msg="facet groups")
+
+
+def canonical(m: mesh_io.MeshData):
+    """Nodes, cells and facets as sets of coordinate keys: independent of numbering
+    and of the vertex order in each simplex."""
+    keys = [tuple(k) for k in np.round(m.x / KEY_GRID).astype(np.int64)]
+    assert len(set(keys)) == len(keys), "two nodes at the same place"
+    nodes = sorted(keys)
+    cells = sorted(tuple(sorted(keys[i] for i in c)) + (m.cell_group[k],)
+                   for k, c in enumerate(m.cells))
+    facets = sorted((m.group_names[g],) + tuple(sorted(keys[i] for i in f))
+                    for f, g in zip(m.facets, m.facet_group))
+    return nodes, cells, facets
+
+
+def assert_same_up_to_numbering(a: mesh_io.MeshData, b: mesh_io.MeshData) -> None:
+    assert a.dim == b.dim
+    assert a.group_names == b.group_names
+    np.testing.assert_array_equal(a.group_dim, b.group_dim)
+    na, ca, fa = canonical(a)
+    nb, cb, fb = canonical(b)
+    assert na == nb, "nodes differ"
+    assert ca == cb, "cells (as node sets, with groups) differ"
+    assert fa == fb, "facets (as node sets, with groups) differ"
+
+
+# --------------------------------------------------------------------------- generated files
+
+def write_line_mesh(path: Path, n: int, split: bool, extra_groups: bool) -> Path:
+    """A 1D gmsh mesh of [0, 1] (n segments per line), points bottom/top, line body."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("line")
+        geo = gmsh.model.geo
+        p1 = geo.addPoint(0, 0, 0, 1 / n)
+        p2 = geo.addPoint(1, 0, 0, 1 / n)
+        if split:
+            pm = geo.addPoint(0.4, 0, 0, 1 / n)
+            lines = [geo.addLine(p1, pm), geo.addLine(pm, p2)]
+        else:
+            lines = [geo.addLine(p1, p2)]
+        geo.synchronize()
+        gmsh.model.addPhysicalGroup(0, [p1], 1, "bottom")
+        gmsh.model.addPhysicalGroup(0, [p2], 2, "top")
+        gmsh.model.addPhysicalGroup(1, lines, 3, "body")
+        if extra_groups:
+            gmsh.model.addPhysicalGroup(0, [p1], 4, "contact")   # p1 in two groups
+            gmsh.model.addPhysicalGroup(0, [p1, p2], 7)          # unnamed
+            gmsh.model.addPhysicalGroup(1, lines[:1], 8, "left_part")
+        gmsh.model.mesh.generate(1)
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.option.setNumber("Mesh.Binary", 0)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
+
+
+def write_multi_group_mesh(path: Path) -> Path:
+    """An unstructured 2D rectangle whose boundary curves are in several groups
+    (named and unnamed), with a corner point group and two cell groups."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("multi")
+        r = gmsh.model.occ.addRectangle(0, 0, 0, 1, 0.5)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.2)
+        curves = [c[1] for c in gmsh.model.getBoundary([(2, r)], oriented=False)]
+        gmsh.model.addPhysicalGroup(1, curves[:1], 11, "contact")
+        gmsh.model.addPhysicalGroup(1, curves[:2], 12, "bottom")
+        gmsh.model.addPhysicalGroup(1, curves[2:3], 13)
+        gmsh.model.addPhysicalGroup(0, [1], 14, "corner")
+        gmsh.model.addPhysicalGroup(2, [r], 15, "body")
+        gmsh.model.addPhysicalGroup(2, [r], 16, "body2")
+        gmsh.model.mesh.generate(2)
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.option.setNumber("Mesh.Binary", 0)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
+
+
+@pytest.fixture(scope="module")
+def generated(tmp_path_factory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("meshes")
+    return {
+        "bar2d_h0.05": mesh_io.generate_bar(0.05, d / "bar2d_h0.05.msh"),
+        "bar2d_h0.02": mesh_io.generate_bar(0.02, d / "bar2d_h0.02.msh"),
+        "bar2d_wide": mesh_io.generate_bar(0.1, d / "bar2d_wide.msh", length=2.0, width=0.7),
+        "line": write_line_mesh(d / "line.msh", 10, split=False, extra_groups=False),
+        "line_multi": write_line_mesh(d / "line_multi.msh", 7, split=True, extra_groups=True),
+        "multi2d": write_multi_group_mesh(d / "multi2d.msh"),
+    }
+
+
+# --------------------------------------------------------------------------- Fortran vs gmsh
+
+@pytest.mark.parametrize("h", REFERENCE_H)
+def test_fortran_reader_matches_gmsh_api_reference(core_ext, h):
+    f = mesh_io.read_msh_fortran(reference(h))
+    g = mesh_io.read_msh(reference(h))
+    assert_same_mesh(f, g)
+    assert f.group_names == ["bottom", "top", "left", "right", "body"]
+    np.testing.assert_array_equal(f.group_dim, [1, 1, 1, 1, 2])
+
+
+@pytest.mark.parametrize("name", ["bar2d_h0.05", "bar2d_h0.02", "bar2d_wide", "line",
+                                  "line_multi", "multi2d"])
+def test_fortran_reader_matches_gmsh_api_generated(core_ext, generated, name):
+    f = mesh_io.read_msh_fortran(generated[name])
+    g = mesh_io.read_msh(generated[name])
+    assert_same_mesh(f, g)
+
+
+def test_multi_group_conventions(core_ext, generated):
+    m = mesh_io.read_msh_fortran(generated["multi2d"])
+    # $PhysicalNames order (gmsh writes it by dimension, then tag), unnamed ones last
+    assert m.group_names == ["corner", "contact", "bottom", "body", "body2", "13"]
+    np.testing.assert_array_equal(m.group_dim, [0, 1, 1, 2, 2, 1])
+    # cells take the first group of their entity; the corner point is dropped in 2D
+    assert set(m.cell_group) == {m.group("body")}
+    counts = np.bincount(m.facet_group, minlength=len(m.group_names))
+    assert counts[m.group("corner")] == 0
+    # the 'contact' curve's segments are stored again for 'bottom'
+    contact = {frozenset(f) for f in m.facets[m.facet_group == m.group("contact")]}
+    bottom = {frozenset(f) for f in m.facets[m.facet_group == m.group("bottom")]}
+    assert contact and contact < bottom
+
+
+def test_line_mesh_conventions(core_ext, generated):
+    m = mesh_io.read_msh_fortran(generated["line_multi"])
+    assert m.dim == 1 and m.x.shape[1] == 1
+    # $PhysicalNames order (by dimension, then tag, as gmsh writes it), unnamed last
+    assert m.group_names == ["bottom", "top", "contact", "body", "left_part", "7"]
+    np.testing.assert_array_equal(m.group_dim, [0, 0, 0, 1, 1, 0])
+    node0 = int(np.argmin(m.x[:, 0]))
+    node1 = int(np.argmax(m.x[:, 0]))
+    facets = sorted((m.group_names[g], int(f[0])) for f, g in zip(m.facets, m.facet_group))
+    assert facets == sorted([("bottom", node0), ("contact", node0), ("7", node0),
+                             ("top", node1), ("7", node1)])
+    # the first line is in body and left_part: its cells get the first, body
+    assert set(m.cell_group) == {m.group("body")}
+    assert np.isclose(np.abs(np.diff(m.x[m.cells][:, :, 0], axis=1)).sum(), 1.0)
+
+
+# --------------------------------------------------------------------------- built-in bar
+
+@pytest.mark.parametrize("h", REFERENCE_H)
+def test_builtin_bar_equals_getfem_mesh(core_ext, h):
+    bar = mesh_io.builtin_bar(2, 1.0, 0.1, h)
+    ref = mesh_io.read_msh(reference(h))
+    assert_same_up_to_numbering(bar, ref)
+    # stronger: GetFEM's numbering and vertex order too
+    assert_same_mesh(bar, ref, atol=ATOL_COORD)
+
+
+@pytest.mark.parametrize("h", [0.05, 0.02])
+def test_generated_bar_equals_builtin(core_ext, generated, h):
+    bar = mesh_io.builtin_bar(2, 1.0, 0.1, h)
+    gen = mesh_io.read_msh(generated[f"bar2d_h{h}"])
+    assert_same_up_to_numbering(bar, gen)
+
+
+def test_generated_wide_bar_equals_builtin(core_ext, generated):
+    bar = mesh_io.builtin_bar(2, 2.0, 0.7, 0.1)
+    assert_same_up_to_numbering(bar, mesh_io.read_msh(generated["bar2d_wide"]))
+
+
+def test_builtin_bar_2d_structure(core_ext):
+    m = mesh_io.builtin_bar(2, 1.0, 0.1, 0.05)
+    nx, ny = 2, 20
+    assert m.x.shape == ((nx + 1) * (ny + 1), 2)
+    assert m.cells.shape == (2 * nx * ny, 3)
+    x, y = m.x[:, 0], m.x[:, 1]
+    sides = {"bottom": (y, 0.0), "top": (y, 1.0), "left": (x, 0.0), "right": (x, 0.1)}
+    for name, (coord, value) in sides.items():
+        f = m.facets[m.facet_group == m.group(name)]
+        assert len(f) == (nx if name in ("bottom", "top") else ny)
+        assert np.all(coord[f] == value), name
+    assert np.all(m.cell_group == m.group("body"))
+    # all cells have area h^2/2, whatever their orientation
+    p = m.x[m.cells]
+    a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    area = 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+    np.testing.assert_allclose(area, 0.05 ** 2 / 2, rtol=1e-12)
+
+
+# n = nint(length/h) (half away from zero), at least 1
+@pytest.mark.parametrize("length,h,n", [(1.0, 0.1, 10), (1.0, 0.03, 33), (2.5, 1.0, 3),
+                                        (1.0, 5.0, 1)])
+def test_builtin_bar_1d(core_ext, length, h, n):
+    m = mesh_io.builtin_bar(1, length, 0.1, h)
+    assert m.dim == 1
+    np.testing.assert_allclose(m.x[:, 0], np.arange(n + 1) * (length / n), rtol=0,
+                               atol=4 * np.finfo(float).eps * length)
+    assert m.x[-1, 0] == length
+    np.testing.assert_array_equal(m.cells, np.stack([np.arange(n), np.arange(1, n + 1)], 1))
+    assert m.group_names == ["bottom", "top", "body"]
+    np.testing.assert_array_equal(m.group_dim, [0, 0, 1])
+    np.testing.assert_array_equal(m.facets[:, 0], [0, n])
+    np.testing.assert_array_equal(m.facet_group, [0, 1])
+    np.testing.assert_array_equal(m.cell_group, 2)
+
+
+def test_builtin_bar_1d_equals_gmsh_line(core_ext, generated):
+    bar = mesh_io.builtin_bar(1, 1.0, 0.1, 0.1)
+    line = mesh_io.read_msh(generated["line"])
+    assert_same_up_to_numbering(bar, line)
+
+
+@pytest.mark.parametrize("args,fragment", [
+    ((2, 1.0, 0.1, 0.0), "h = "),
+    ((2, 1.0, 0.1, -0.1), "h = "),
+    ((1, 1.0, 0.1, float("nan")), "h = "),
+    ((3, 1.0, 0.1, 0.1), "dim = 3"),
+    ((0, 1.0, 0.1, 0.1), "dim = 0"),
+    ((2, 1.0, 0.0, 0.1), "width = "),
+    ((2, -1.0, 0.1, 0.1), "length = "),
+    ((1, 1.0, 0.1, 1e-12), "cells"),
+])
+def test_builtin_bar_errors(core_ext, args, fragment):
+    dim, length, width, h = args
+    *_, stat, errmsg = core_ext.dc_mesh_sizes("", dim, length, width, h)
+    assert int(stat) == STAT_BAD_INPUT
+    assert fragment in _msg(errmsg)
+    with pytest.raises(BadInputError, match="built-in bar"):
+        mesh_io.builtin_bar(dim, length, width, h)
+
+
+def test_builtin_bar_1d_ignores_width(core_ext):
+    assert_same_mesh(mesh_io.builtin_bar(1, 1.0, 0.0, 0.1), mesh_io.builtin_bar(1, 1.0, 5.0, 0.1))
+
+
+# --------------------------------------------------------------------------- bad files
+
+def _ref_text() -> str:
+    return reference(0.05).read_text()
+
+
+def _cut(text: str, start: str, end: str) -> str:
+    i, j = text.index(start), text.index(end) + len(end) + 1
+    return text[:i] + text[j:]
+
+
+BAD_FILES = {
+    # name: (contents from the h = 0.05 reference file, expected message fragment)
+    "empty": (lambda t: "", "file is empty"),
+    "blank": (lambda t: "\n  \n\n", "file is empty"),
+    "garbage": (lambda t: "hello\nworld 1 2 3\n", "not a gmsh .msh file"),
+    "binary_junk": (lambda t: "".join(map(chr, range(1, 256))) * 4, "not a gmsh .msh file"),
+    "binary_header": (lambda t: t.replace("4.1 0 8", "4.1 1 8"), "binary"),
+    "version22": (lambda t: t.replace("4.1 0 8", "2.2 0 8"), "version '2.2'"),
+    "version40": (lambda t: t.replace("4.1 0 8", "4 0 8"), "version '4'"),
+    "truncated_nodes": (lambda t: t[:t.index("0.05 0.45 0")], "unexpected end of file in $Nodes"),
+    "truncated_elements": (lambda t: t[:t.index("57 47 43 46")],
+                           "unexpected end of file in $Elements"),
+    "no_end": (lambda t: t.replace("$EndElements\n", ""), "unexpected end of file"),
+    "missing_nodes": (lambda t: _cut(t, "$Nodes", "$EndNodes"), "missing section $Nodes"),
+    "missing_elements": (lambda t: _cut(t, "$Elements", "$EndElements"),
+                         "missing section $Elements"),
+    "missing_entities": (lambda t: _cut(t, "$Entities", "$EndEntities"),
+                         "missing section $Entities"),
+    "missing_format": (lambda t: _cut(t, "$MeshFormat", "$EndMeshFormat"),
+                       "not a gmsh .msh file"),
+    "too_few_nodes": (lambda t: t.replace("5 63 1 63", "5 64 1 64"), "bad count"),
+    "too_many_nodes": (lambda t: t.replace("5 63 1 63", "5 62 1 63"), "bad count"),
+    "too_few_elements": (lambda t: t.replace("2 1 2 80", "2 1 2 79"), "bad count"),
+    "too_many_elements": (lambda t: t.replace("2 1 2 80", "2 1 2 81"), "bad count"),
+    "unknown_node": (lambda t: t.replace("\n80 63 59 60", "\n80 63 59 99"), "unknown node 99"),
+    "duplicate_node": (lambda t: t.replace("\n63\n0 0 0", "\n62\n0 0 0"), "appears twice"),
+    "not_a_number": (lambda t: t.replace("\n0.05 0.45 0\n", "\n0.05 abc 0\n"), "'abc'"),
+    "nan": (lambda t: t.replace("\n0.05 0.45 0\n", "\n0.05 nan 0\n"), "'nan'"),
+    "tetrahedra": (lambda t: t.replace("2 1 2 80", "2 1 4 80"), "not supported yet"),
+    "quadrangles": (lambda t: t.replace("2 1 2 80", "2 1 3 80"), "element type 3"),
+    "unknown_entity": (lambda t: t.replace("1 4 1 20\n105", "1 9 1 20\n105"), "entity"),
+    "not_planar": (lambda t: t.replace("\n0.05 0.45 0\n", "\n0.05 0.45 0.01\n"), "not constant"),
+    "unquoted_name": (lambda t: t.replace('"body"', "body"), "double quotes"),
+    "comma_in_name": (lambda t: t.replace('"body"', '"bo,dy"'), "comma"),
+    "degenerate_cell": (lambda t: t.replace("\n80 63 59 60", "\n80 63 59 63"), "degenerate"),
+    "flat_cell": (lambda t: t.replace("\n80 63 59 60", "\n80 57 60 63"), "degenerate"),
+    "orphan_facet": (lambda t: t.replace("\n82 2 5", "\n82 2 63"), "not a face of any cell"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_FILES))
+def test_bad_file_clean_error(core_ext, tmp_path, name):
+    make, fragment = BAD_FILES[name]
+    path = tmp_path / f"{name}.msh"
+    path.write_text(make(_ref_text()))
+    stat, msg = fortran_sizes(core_ext, path)
+    assert stat == STAT_BAD_INPUT, msg
+    assert msg.startswith(str(path) + ": "), msg
+    assert fragment in msg, msg
+    assert "\n" not in msg
+    with pytest.raises(BadInputError) as exc:
+        mesh_io.read_msh_fortran(path)
+    assert str(path) in str(exc.value)
+
+
+def test_missing_file(core_ext, tmp_path):
+    path = tmp_path / "nope.msh"
+    stat, msg = fortran_sizes(core_ext, path)
+    assert stat == STAT_BAD_INPUT
+    assert msg == f"{path}: no such file"
+    with pytest.raises(BadInputError, match="no such file"):
+        mesh_io.read_msh(path)
+
+
+def test_directory_is_not_a_mesh(core_ext, tmp_path):
+    stat, msg = fortran_sizes(core_ext, tmp_path)
+    assert stat == STAT_BAD_INPUT and msg.startswith(str(tmp_path))
+
+
+def test_gmsh_binary_and_v22_files_rejected(core_ext, tmp_path):
+    """Files gmsh itself writes in the unsupported formats (the Python reader takes them)."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.merge(str(reference(0.05)))
+        for name, binary, version in [("bin41", 1, 4.1), ("ascii22", 0, 2.2), ("bin22", 1, 2.2)]:
+            gmsh.option.setNumber("Mesh.Binary", binary)
+            gmsh.option.setNumber("Mesh.MshFileVersion", version)
+            gmsh.write(str(tmp_path / f"{name}.msh"))
+    finally:
+        gmsh.finalize()
+    ref = mesh_io.read_msh(reference(0.05))
+    for name, fragment in [("bin41", "binary"), ("ascii22", "version '2.2'"),
+                           ("bin22", "binary")]:
+        path = tmp_path / f"{name}.msh"
+        stat, msg = fortran_sizes(core_ext, path)
+        assert stat == STAT_BAD_INPUT and msg.startswith(f"{path}: ") and fragment in msg, msg
+        assert_same_mesh(mesh_io.read_msh(path), ref)
+
+
+def test_tolerated_variants(core_ext, tmp_path):
+    """CRLF line ends, no final newline, unknown sections, parametric nodes and
+    non-contiguous node tags read as the original."""
+    text = _ref_text()
+    ref = mesh_io.read_msh_fortran(reference(0.05))
+    variants = {
+        "crlf": text.replace("\n", "\r\n"),
+        "no_final_newline": text.rstrip("\n"),
+        "comments": text.replace("$Nodes", "$Comments\n$Nodes in a comment\n$EndComments\n$Nodes"),
+        "shifted_tags": _shift_node_tags(text, 1000, 3),
+    }
+    for name, contents in variants.items():
+        path = tmp_path / f"{name}.msh"
+        path.write_bytes(contents.encode())
+        assert_same_mesh(mesh_io.read_msh_fortran(path), ref)
+    assert_same_mesh(mesh_io.read_msh(tmp_path / "shifted_tags.msh"), ref)
+
+
+def _shift_node_tags(text: str, offset: int, stride: int) -> str:
+    """The same mesh with node tag t renamed offset + stride*t (non-contiguous)."""
+    def rename(t: str) -> str:
+        return str(offset + stride * int(t))
+
+    lines = text.split("\n")
+    out, i = [], 0
+    while i < len(lines):
+        line = lines[i]
+        out.append(line)
+        i += 1
+        if line == "$Nodes":
+            nblocks, nnodes, _, _ = map(int, lines[i].split())
+            out.append(f"{nblocks} {nnodes} {rename('1')} {rename(str(nnodes))}")
+            i += 1
+            for _ in range(nblocks):
+                d, t, p, c = map(int, lines[i].split())
+                out.append(lines[i])
+                out += [rename(s) for s in lines[i + 1:i + 1 + c]]
+                out += lines[i + 1 + c:i + 1 + 2 * c]
+                i += 1 + 2 * c
+        elif line == "$Elements":
+            out.append(lines[i])
+            nblocks = int(lines[i].split()[0])
+            i += 1
+            for _ in range(nblocks):
+                c = int(lines[i].split()[3])
+                out.append(lines[i])
+                for s in lines[i + 1:i + 1 + c]:
+                    w = s.split()
+                    out.append(" ".join([w[0]] + [rename(v) for v in w[1:]]))
+                i += 1 + c
+    return "\n".join(out)
+
+
+def test_degenerate_1d_segment(core_ext, tmp_path, generated):
+    """A segment whose two nodes are the same node."""
+    lines = generated["line"].read_text().split("\n")
+    i = lines.index("$Elements") + 2
+    while lines[i].split()[2] != "1":       # the block of line elements (type 1)
+        i += 1 + int(lines[i].split()[3])
+    tag, n1, _ = lines[i + 1].split()
+    lines[i + 1] = f"{tag} {n1} {n1}"
+    path = tmp_path / "degenerate1d.msh"
+    path.write_text("\n".join(lines))
+    stat, msg = fortran_sizes(core_ext, path)
+    assert stat == STAT_BAD_INPUT and "degenerate" in msg and msg.startswith(str(path)), msg
+
+
+def test_python_reader_errors(tmp_path):
+    box = tmp_path / "box.msh"
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        gmsh.model.mesh.generate(3)
+        gmsh.write(str(box))
+    finally:
+        gmsh.finalize()
+    with pytest.raises(BadInputError, match="not supported yet"):
+        mesh_io.read_msh(box)
+    garbage = tmp_path / "garbage.msh"
+    garbage.write_text("hello\n")
+    with pytest.raises(BadInputError, match=str(garbage)):
+        mesh_io.read_msh(garbage)
+    empty = tmp_path / "empty.msh"
+    empty.write_text("")
+    with pytest.raises(BadInputError, match="empty"):
+        mesh_io.read_msh(empty)
+
+
+# --------------------------------------------------------------------------- gmsh hygiene, CLI
+
+def test_gmsh_left_finalized(tmp_path):
+    import gmsh
+
+    mesh_io.read_msh(reference(0.05))
+    mesh_io.generate_bar(0.1, tmp_path / "b.msh")
+    assert not gmsh.isInitialized()
+
+
+def test_gmsh_session_of_caller_kept(tmp_path):
+    """Inside a caller's gmsh session: its model, options and variables survive."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("mine")
+        gmsh.model.occ.addPoint(0, 0, 0)
+        gmsh.model.occ.synchronize()
+        binary = gmsh.option.getNumber("Mesh.Binary")
+        mesh_io.generate_bar(0.1, tmp_path / "b.msh")
+        m = mesh_io.read_msh(tmp_path / "b.msh")
+        assert gmsh.model.getCurrent() == "mine"
+        assert gmsh.model.getEntities() == [(0, 1)]
+        assert gmsh.model.list() == ["", "mine"]
+        assert gmsh.option.getNumber("Mesh.Binary") == binary
+        assert "h" not in gmsh.parser.getNames()
+    finally:
+        gmsh.finalize()
+    assert len(m.cells) == 2 * 1 * 10
+
+
+def test_mesh_command(tmp_path, capsys):
+    out = tmp_path / "sub" / "bar2d_h0.05.msh"
+    assert mesh_io.main(["--h", "0.05", "--out", str(out)]) == 0
+    assert out.read_text().startswith("$MeshFormat\n4.1 0 8\n")
+    assert "63 nodes, 80 triangles" in capsys.readouterr().out
+    assert mesh_io.main(["mesh", "--h", "-1", "--out", str(out)]) == 2
+    assert "h = -1" in capsys.readouterr().err
+
+
+def test_mesh_command_via_cli(run_cli, tmp_path):
+    r = run_cli("mesh", "--h", "0.1", "--out", "m.msh", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "m.msh").is_file()
