@@ -1,0 +1,217 @@
+"""Command line: ``python -m dyncontact {run,plot,mesh} ...``.
+
+Exit status: 0 ok, 2 bad input (one line ``dyncontact: MESSAGE`` on stderr, no
+traceback), 3 numerical failure (unstable / newton_failed; the trace is kept),
+4 internal error, 130 interrupted (Ctrl-C).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import Sequence
+
+from . import core
+
+PROG = "dyncontact"
+EXIT_OK, EXIT_BAD_INPUT, EXIT_NUMERIC, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
+
+
+class UsageError(Exception):
+    """A bad command line (exit 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: 'dyncontact: MESSAGE (see --help)', exit 2."""
+
+    def error(self, message):  # noqa: D102 - argparse API
+        raise UsageError(f"{message} (see `{self.prog} --help`)")
+
+
+def _fail(message: str, code: int) -> int:
+    first = " ".join(str(message).split())   # always exactly one line
+    print(f"{PROG}: {first}", file=sys.stderr, flush=True)
+    return code
+
+
+def parse_set(item: str) -> tuple[str, str, object]:
+    """'group.key=value' -> (group, key, value); the value is read as a namelist value
+    (numbers, .true./.false., 'quoted' or bare strings, comma-separated lists; a list of
+    strings is joined back with ',' since group lists are one string in a scene)."""
+    if "=" not in item:
+        raise UsageError(f"--set {item!r}: expected group.key=value")
+    lhs, raw = item.split("=", 1)
+    lhs = lhs.strip()
+    if lhs.count(".") != 1:
+        raise UsageError(f"--set {item!r}: expected group.key=value (e.g. scheme.dt=0.001)")
+    group, key = (s.strip().lower() for s in lhs.split("."))
+    if not (group.isidentifier() and key.isidentifier()):
+        raise UsageError(f"--set {item!r}: group and key must be names")
+    raw = raw.strip()
+    if raw == "":
+        raise UsageError(f"--set {item!r}: empty value (use '' for an empty string)")
+    if raw in ("''", '""'):
+        return group, key, ""
+    quoted = raw[0] in "'\""
+    import f90nml
+
+    try:
+        value = f90nml.reads(f"&g v = {raw} /")["g"]["v"]
+    except Exception:  # noqa: BLE001 - f90nml raises various types
+        if quoted:
+            raise UsageError(f"--set {item!r}: cannot read the value {raw!r}") from None
+        return group, key, raw
+    if not quoted and (isinstance(value, str) or (
+            isinstance(value, list) and all(isinstance(v, str) for v in value))):
+        return group, key, raw          # a bare string: names, lists of names, paths
+    if value is None or (isinstance(value, list) and any(v is None for v in value)):
+        raise UsageError(f"--set {item!r}: cannot read the value {raw!r}")
+    if isinstance(value, list) and all(isinstance(v, str) for v in value):
+        value = ",".join(value)
+    return group, key, value
+
+
+def _apply_set(scene, group: str, key: str, value) -> None:
+    """Set one key of a Scene (the Scene validates names and types)."""
+    setter = getattr(scene, "set", None)
+    if callable(setter):
+        setter(group, key, value)
+    else:
+        scene[group][key] = value
+
+
+def _bad_input_types() -> tuple[type, ...]:
+    types: list[type] = [core.BadInputError, UsageError]
+    try:
+        from .scene import SceneError
+    except ImportError:
+        pass
+    else:
+        types.append(SceneError)
+    return tuple(types)
+
+
+# --------------------------------------------------------------------------- commands
+
+def cmd_run(args) -> int:
+    sets = [parse_set(s) for s in (args.set or [])]
+    scene_path = args.scene
+    if not os.path.isfile(scene_path):
+        raise core.BadInputError(f"{scene_path}: no such scene file")
+    if sets:
+        from .scene import Scene
+
+        scene = Scene.read(scene_path)
+        for group, key, value in sets:
+            _apply_set(scene, group, key, value)
+    else:
+        scene = scene_path
+    progress = False if args.quiet else None
+    result = core.run(scene, out=args.out, progress=progress)
+    s = result.summary
+    if result.status != "ok":
+        t_stop = result.trace["t"][-1] if result.trace.get("t") is not None and \
+            len(result.trace["t"]) else float("nan")
+        msg = result.message or result.status
+        return _fail(f"{result.status} at t={t_stop:.6g}: {msg} (trace kept in "
+                     f"{result.out_dir})", EXIT_NUMERIC)
+    if not args.quiet:
+        wall = s.get("wall_s")
+        wall_txt = f", {float(wall):.2f} s" if isinstance(wall, (int, float)) else ""
+        print(f"{PROG}: ok, {s.get('steps', '?')} steps to t={s.get('t_end_reached', '?')}"
+              f"{wall_txt} -> {result.out_dir}")
+    return EXIT_OK
+
+
+def cmd_plot(args) -> int:
+    from .plotting import plot_traces
+
+    for d in args.dirs:
+        if not os.path.isfile(os.path.join(d, "trace.csv")):
+            raise core.BadInputError(f"{d}: no trace.csv")
+    labels = args.labels.split(",") if args.labels else None
+    if labels is not None and len(labels) != len(args.dirs):
+        raise UsageError(f"--labels: {len(labels)} labels for {len(args.dirs)} folders")
+    plot_traces(args.dirs, args.out, labels=labels, title=args.title)
+    if not args.quiet:
+        print(f"{PROG}: wrote {args.out}")
+    return EXIT_OK
+
+
+def cmd_mesh(argv: Sequence[str]) -> int:
+    from . import mesh_io
+
+    rc = mesh_io.main(list(argv))
+    return int(rc or 0)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog=PROG, description="Elastic bodies hitting a rigid obstacle "
+                "(Nitsche contact, P1 elements, implicit and explicit time schemes).")
+    p.add_argument("--version", action="version",
+                   version=f"%(prog)s {_version()}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    r = sub.add_parser("run", help="run a scene file", description="Run a scene file "
+                       "(Fortran namelist, see docs/scenes.md); writes trace.csv and "
+                       "summary.json into the output folder.")
+    r.add_argument("scene", metavar="SCENE.nml")
+    r.add_argument("--set", action="append", metavar="GROUP.KEY=VALUE",
+                   help="override one scene key, e.g. --set scheme.dt=0.001 (repeatable)")
+    r.add_argument("--out", metavar="DIR", help="output folder (default: the scene's "
+                   "&output dir)")
+    r.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
+    r.set_defaults(func=cmd_run)
+
+    pl = sub.add_parser("plot", help="overlay the traces of runs in one PNG",
+                        description="Draw u_n, v_n, p_n and the energy of one or more "
+                        "runs (folders holding trace.csv and summary.json).")
+    pl.add_argument("dirs", nargs="+", metavar="DIR")
+    pl.add_argument("--out", required=True, metavar="FILE.png")
+    pl.add_argument("--title", metavar="T")
+    pl.add_argument("--labels", metavar="L1,L2,...", help="legend labels (default: scheme "
+                    "and parameters from summary.json)")
+    pl.add_argument("--quiet", "-q", action="store_true")
+    pl.set_defaults(func=cmd_plot)
+
+    sub.add_parser("mesh", help="mesh tools (see `dyncontact mesh --help`)", add_help=False)
+    return p
+
+
+def _version() -> str:
+    from . import __version__
+
+    return __version__
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    bad_input = _bad_input_types()
+    try:
+        if argv and argv[0] == "mesh":
+            return cmd_mesh(argv[1:])
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help(sys.stderr)
+            return EXIT_BAD_INPUT
+        return args.func(args)
+    except KeyboardInterrupt:
+        return _fail("interrupted", EXIT_INTERRUPTED)
+    except bad_input as exc:
+        return _fail(str(exc), EXIT_BAD_INPUT)
+    except core.NumericalError as exc:
+        return _fail(str(exc), EXIT_NUMERIC)
+    except core.DyncontactError as exc:
+        return _fail(str(exc), EXIT_INTERNAL)
+    except BrokenPipeError:  # pragma: no cover - e.g. piped into head
+        return EXIT_OK
+    except OSError as exc:
+        name = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        return _fail(f"{name}{exc.strerror or exc}", EXIT_BAD_INPUT)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,449 @@
+"""The only module that calls the Fortran extension ``dyncontact._core``.
+
+Everything that crosses the f2py boundary goes through here: dtype/order
+conversion (done once, so f2py never copies), 0-based (Python) to 1-based
+(Fortran) indices, ``bytes`` -> ``str`` for fixed-length Fortran strings, and
+the Fortran ``stat`` codes to exceptions:
+
+====  =====================  ==========================================
+stat  meaning                Python
+====  =====================  ==========================================
+0     ok                     --
+2     bad input              :class:`BadInputError`
+3     numerical failure      :func:`run`: a :class:`RunResult` whose
+                             ``status`` is 'unstable' / 'newton_failed';
+                             elsewhere :class:`NumericalError`
+4     internal error         :class:`DyncontactError`
+====  =====================  ==========================================
+
+>>> import dyncontact
+>>> res = dyncontact.run("scripts/scenes/bar2d_hht.nml", out="out/bar2d_hht")  # doctest: +SKIP
+>>> res.status, res.trace["u_n"][-1]                                           # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import os
+import shutil
+import sys
+import tempfile
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+__all__ = [
+    "DyncontactError", "BadInputError", "NumericalError", "RunResult", "run",
+    "TRACE_COLUMNS", "read_trace", "read_summary", "fortran_version", "scene_dump",
+    "load_mesh", "p1_element", "umf_solve", "Model",
+]
+
+#: Header of trace.csv (SPEC section 4).
+TRACE_COLUMNS = ("t", "u_n", "v_n", "p_n", "e_kin", "e_el", "e_contact", "e_total",
+                 "newton_its", "active")
+
+STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL = 0, 2, 3, 4
+
+
+class DyncontactError(RuntimeError):
+    """A failure of the dyncontact core (Fortran stat 4, or anything unexpected)."""
+
+
+class BadInputError(DyncontactError, ValueError):
+    """Bad scene, mesh or argument (Fortran stat 2; exit status 2)."""
+
+
+class NumericalError(DyncontactError):
+    """Numerical failure outside a time loop (Fortran stat 3: singular matrix, ...)."""
+
+
+def _core():
+    """The extension module, imported on first use with a readable error."""
+    try:
+        from . import _core as core
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise DyncontactError(
+            f"the Fortran extension dyncontact._core cannot be imported ({exc}); "
+            "run scripts/setup (or `pip install .`)") from exc
+    return core
+
+
+def _str(b: bytes | str) -> str:
+    """A fixed-length Fortran string returned by f2py, as str."""
+    if isinstance(b, bytes):
+        b = b.decode("utf-8", "replace")
+    return b.strip().strip("\x00").strip()
+
+
+def _check(stat: int, errmsg: bytes | str, what: str) -> None:
+    """Raise the exception that belongs to a Fortran stat."""
+    stat = int(stat)
+    if stat == STAT_OK:
+        return
+    msg = _str(errmsg) or f"{what} failed (stat {stat})"
+    if stat == STAT_BAD_INPUT:
+        raise BadInputError(msg)
+    if stat == STAT_NUMERIC:
+        raise NumericalError(msg)
+    raise DyncontactError(msg)
+
+
+def _f64(a, shape=None) -> np.ndarray:
+    a = np.asfortranarray(a, dtype=np.float64)
+    if shape is not None and a.shape != shape:
+        raise ValueError(f"expected an array of shape {shape}, got {a.shape}")
+    return a
+
+
+def _i32(a) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.int32)
+
+
+# --------------------------------------------------------------------------- outputs
+
+def read_trace(out_dir: str | os.PathLike) -> dict[str, np.ndarray]:
+    """trace.csv of a run folder as {column: float64 array} (empty arrays if no rows).
+
+    A run killed halfway may leave a partial last line: it is dropped.
+    """
+    path = os.path.join(os.fspath(out_dir), "trace.csv")
+    with open(path, encoding="utf-8") as f:
+        lines = f.read().splitlines()
+    if not lines:
+        raise DyncontactError(f"{path}: empty file")
+    names = [c.strip() for c in lines[0].split(",")]
+    rows = []
+    for line in lines[1:]:
+        parts = line.split(",")
+        if len(parts) != len(names):
+            break  # partial line at the end of a killed run
+        try:
+            rows.append([float(p) for p in parts])
+        except ValueError:
+            break
+    data = np.array(rows, dtype=np.float64).reshape(len(rows), len(names))
+    return {name: np.ascontiguousarray(data[:, j]) for j, name in enumerate(names)}
+
+
+def read_summary(out_dir: str | os.PathLike) -> dict[str, Any]:
+    """summary.json of a run folder ({} if it does not exist)."""
+    path = os.path.join(os.fspath(out_dir), "summary.json")
+    if not os.path.exists(path):
+        return {}
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+@dataclasses.dataclass
+class RunResult:
+    """What :func:`run` returns.
+
+    Attributes
+    ----------
+    trace : dict of numpy arrays keyed by the trace.csv columns (``TRACE_COLUMNS``)
+    summary : the parsed summary.json (``status``, ``steps``, ``scheme``, ``scene``, ...)
+    out_dir : the folder that holds trace.csv and summary.json
+    message : the core's message when the run stopped early ('' otherwise)
+    """
+
+    trace: dict[str, np.ndarray]
+    summary: dict[str, Any]
+    out_dir: str
+    message: str = ""
+
+    @property
+    def status(self) -> str:
+        """'ok', 'unstable' or 'newton_failed' (summary.json's status)."""
+        return str(self.summary.get("status", "ok" if not self.message else "failed"))
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+# --------------------------------------------------------------------------- run
+
+def fortran_version() -> str:
+    """The version string compiled into the Fortran core (dc_version)."""
+    return _str(_core().dc_version())
+
+
+def scene_dump(path: str | os.PathLike) -> dict[str, Any]:
+    """The scene file as the Fortran core parses it (all keys, defaults filled in).
+
+    Raises :class:`BadInputError` with the core's one-line message on a bad scene.
+    """
+    path = os.fspath(path)
+    with tempfile.TemporaryDirectory(prefix="dyncontact-") as tmp:
+        json_path = os.path.join(tmp, "scene.json")
+        stat, errmsg = _core().dc_scene_dump(path, json_path)
+        _check(stat, errmsg, "reading the scene")
+        with open(json_path, encoding="utf-8") as f:
+            return json.load(f)
+
+
+def _scene_output_dir(scene_json: Mapping[str, Any]) -> str | None:
+    out = scene_json.get("output", {})
+    d = out.get("dir") if isinstance(out, Mapping) else None
+    return str(d) if d else None
+
+
+def _write_scene(scene, folder: str) -> str:
+    """Validate a Scene and write it as folder/scene.nml with an absolute mesh file."""
+    validate = getattr(scene, "validate", None)
+    if callable(validate):
+        validate()
+    path = os.path.join(folder, "scene.nml")
+    scene.write(path)
+    return path
+
+
+def _progress_bar(progress, total: int, desc: str):
+    """A tqdm bar on stderr (progress=None: only when stderr is a terminal)."""
+    if progress is None:
+        progress = hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
+    if not progress or total <= 0:
+        return contextlib.nullcontext(None)
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover
+        return contextlib.nullcontext(None)
+    return tqdm(total=total, desc=desc, unit="step", file=sys.stderr, leave=False,
+                dynamic_ncols=True)
+
+
+def run(scene, out: str | os.PathLike | None = None, progress: bool | None = None,
+        callback: Callable[[int, int], None] | None = None) -> RunResult:
+    """Run one scene to its end (or until it becomes unstable) and read its outputs.
+
+    Parameters
+    ----------
+    scene : path of a scene file (.nml), or a :class:`dyncontact.Scene`. A path is given
+        to the Fortran core as is; a Scene is validated and written to a temporary file
+        (mesh file made absolute) first.
+    out : output folder; None = the scene's ``&output dir``.
+    progress : None (default) shows a progress bar on stderr when it is a terminal;
+        True / False force it on / off.
+    callback : optional ``callback(step, n_steps)`` called after each chunk of steps.
+
+    Returns
+    -------
+    RunResult
+        ``status`` is 'ok', or 'unstable' / 'newton_failed' when the run stopped early
+        (Fortran stat 3; the CLI turns that into exit status 3).
+
+    Raises
+    ------
+    BadInputError
+        bad scene, mesh or argument (Fortran stat 2).
+    DyncontactError
+        internal failure (stat 4).
+    """
+    core = _core()
+    tmp = tempfile.mkdtemp(prefix="dyncontact-")
+    try:
+        if isinstance(scene, (str, bytes, os.PathLike)):
+            path = os.fsdecode(scene)
+            if not os.path.isfile(path):
+                raise BadInputError(f"{path}: no such scene file")
+            out_arg = "" if out is None else os.fspath(out)
+        else:
+            path = _write_scene(scene, tmp)
+            if out is None:
+                out_dir = _scene_attr_output_dir(scene) or "out"
+                out_arg = os.path.abspath(out_dir)
+            else:
+                out_arg = os.fspath(out)
+        if out_arg:
+            out_dir = out_arg
+        else:
+            out_dir = _scene_output_dir(scene_dump(path)) or "out"
+        out_dir = os.path.abspath(out_dir)
+        out_arg = out_dir
+
+        handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
+            path, out_arg, 0)
+        _check(stat, errmsg, "opening the run")
+        message = ""
+        try:
+            chunk = max(100, int(n_steps) // 200)
+            with _progress_bar(progress, int(n_steps), os.path.basename(out_dir)) as bar:
+                finished = 0
+                while not finished:
+                    done, step, finished, stat, errmsg = core.dc_sim_advance(handle, chunk)
+                    if bar is not None and done:
+                        bar.update(int(done))
+                    if callback is not None:
+                        callback(int(step), int(n_steps))
+                    if stat == STAT_NUMERIC:
+                        message = _str(errmsg) or "numerical failure"
+                        break
+                    _check(stat, errmsg, "advancing the run")
+                    if not finished and done == 0:
+                        raise DyncontactError(
+                            f"the run made no progress at step {int(step)} of {int(n_steps)}")
+        finally:
+            stat, errmsg = core.dc_sim_close(handle)
+        _check(stat, errmsg, "closing the run")
+        trace = read_trace(out_dir)
+        summary = read_summary(out_dir)
+        if message and summary.get("status", "ok") == "ok":
+            summary = dict(summary, status="unstable")
+        return RunResult(trace=trace, summary=summary, out_dir=out_dir, message=message)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _scene_attr_output_dir(scene) -> str | None:
+    """&output dir of a Scene object, whatever its access style."""
+    for getter in (
+        lambda s: s["output"]["dir"],
+        lambda s: s.get("output", "dir"),
+        lambda s: s.output.dir,
+        lambda s: s.output["dir"],
+    ):
+        try:
+            d = getter(scene)
+        except Exception:  # noqa: BLE001 - try the next access style
+            continue
+        if isinstance(d, (str, os.PathLike)) and os.fspath(d):
+            return os.fspath(d)
+    return None
+
+
+# --------------------------------------------------------------------------- helpers
+
+def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0,
+              width: float = 0.1, h: float = 0.05) -> dict[str, Any]:
+    """A mesh as the Fortran core reads it: a .msh file, or the built-in bar (path '').
+
+    Returns a dict with 0-based indices: ``x`` (n_nodes, dim), ``cells`` (n_cells, dim+1),
+    ``cell_group`` (n_cells; -1 = none), ``facets`` (n_facets, dim), ``facet_group``
+    (n_facets), ``group_dim`` and ``group_names`` (lists).
+    """
+    core = _core()
+    p = os.fspath(path)
+    dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(p, int(dim), float(length),
+                                                            float(width), float(h))
+    _check(stat, errmsg, "reading the mesh")
+    (x, cells, cell_group, facets, facet_group, group_dim, names, stat,
+     errmsg) = core.dc_mesh_arrays(p, int(dim), float(length), float(width), float(h),
+                                   dim_, nn, nc, nf, ng)
+    _check(stat, errmsg, "reading the mesh")
+    group_names = [s for s in _str(names).split(",")] if ng else []
+    return {
+        "dim": int(dim_),
+        "x": np.ascontiguousarray(np.asarray(x).T),
+        "cells": np.ascontiguousarray(np.asarray(cells).T) - 1,
+        "cell_group": np.asarray(cell_group) - 1,
+        "facets": np.ascontiguousarray(np.asarray(facets).T) - 1,
+        "facet_group": np.asarray(facet_group) - 1,
+        "group_dim": [int(g) for g in group_dim],
+        "group_names": group_names,
+    }
+
+
+def p1_element(dim: int, x, young: float, poisson: float, density: float):
+    """P1 element matrices of one cell: (stiffness, consistent mass, lumped mass).
+
+    ``x`` is (dim, dim+1) node coordinates (columns = nodes); the matrices are
+    (dim*(dim+1))-square with dofs ordered (x1, y1, x2, y2, ...).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    if x.shape != (dim, dim + 1):
+        raise ValueError(f"x must have shape ({dim}, {dim + 1}), got {x.shape}")
+    xf = np.zeros((2, 3), dtype=np.float64, order="F")
+    xf[:dim, :dim + 1] = x
+    ke, me, ml = _core().dc_p1_element(int(dim), xf, float(young), float(poisson),
+                                       float(density))
+    n = dim * (dim + 1)
+    return ke[:n, :n].copy(), me[:n, :n].copy(), ml[:n, :n].copy()
+
+
+def umf_solve(rows, cols, vals, b) -> np.ndarray:
+    """Solve A x = b with UMFPACK; A as 0-based COO triplets (duplicates summed)."""
+    rows = _i32(np.asarray(rows) + 1)
+    cols = _i32(np.asarray(cols) + 1)
+    vals = _f64(vals)
+    b = _f64(b)
+    if not (rows.shape == cols.shape == vals.shape) or rows.ndim != 1:
+        raise ValueError("rows, cols and vals must be 1-D arrays of the same length")
+    x, stat, errmsg = _core().dc_umf_solve(rows, cols, vals, b, b.shape[0], rows.shape[0])
+    _check(stat, errmsg, "umfpack solve")
+    return x
+
+
+class Model:
+    """The discrete model of a scene (no outputs written), for tests and scripts.
+
+    Use as a context manager so that the Fortran object is always freed::
+
+        with Model("scene.nml") as m:
+            b, active = m.eval_b(np.zeros(m.dofs))
+    """
+
+    def __init__(self, scene):
+        self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
+        self.handle = 0
+        try:
+            if isinstance(scene, (str, bytes, os.PathLike)):
+                path = os.fsdecode(scene)
+            else:
+                path = _write_scene(scene, self._tmp)
+            (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
+             errmsg) = _core().dc_sim_open(path, "", 1)
+            _check(stat, errmsg, "building the model")
+            self.handle = handle
+        except BaseException:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            raise
+
+    def _need(self):
+        if not self.handle:
+            raise DyncontactError("the model is closed")
+
+    def eval_b(self, u) -> tuple[np.ndarray, int]:
+        """(B(u), active contact quadrature points) on the free dofs."""
+        self._need()
+        b, active = _core().dc_sim_eval_b(self.handle, _f64(u, (self.dofs,)), self.dofs)
+        return b, int(active)
+
+    def jacobian_apply(self, u, du) -> np.ndarray:
+        """B'(u) du (generalized derivative) on the free dofs."""
+        self._need()
+        return _core().dc_sim_jacobian_apply(self.handle, _f64(u, (self.dofs,)),
+                                             _f64(du, (self.dofs,)), self.dofs)
+
+    def static(self) -> np.ndarray:
+        """Solution of K u = L (contact ignored) on the free dofs."""
+        self._need()
+        u, stat, errmsg = _core().dc_sim_static(self.handle, self.dofs)
+        _check(stat, errmsg, "static solve")
+        return u
+
+    def dof_map(self) -> tuple[np.ndarray, np.ndarray]:
+        """(node, component) of each free dof, both 0-based."""
+        self._need()
+        node, comp = _core().dc_sim_dof_map(self.handle, self.dofs)
+        return np.asarray(node) - 1, np.asarray(comp) - 1
+
+    def close(self) -> None:
+        if self.handle:
+            handle, self.handle = self.handle, 0
+            stat, errmsg = _core().dc_sim_close(handle)
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            _check(stat, errmsg, "closing the model")
+
+    def __enter__(self) -> "Model":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self):  # last resort; prefer close() / with
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001
+            pass

@@ -1,0 +1,68 @@
+"""Shared paths and fixtures of the pytest suite (run it with scripts/test)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+#: The repository root.
+ROOT = Path(__file__).resolve().parents[1]
+#: The standalone executable built by scripts/setup (meson build folder ./build).
+EXE = ROOT / "build" / "dyncontact"
+#: Seconds a subprocess of a test may take before it counts as hung.
+SUBPROCESS_TIMEOUT = 120
+
+
+@pytest.fixture(scope="session")
+def root() -> Path:
+    return ROOT
+
+
+@pytest.fixture(scope="session")
+def core_ext():
+    """The Fortran extension dyncontact._core; the test is skipped if it cannot be
+    imported (scripts/test builds it first, so a skip there means a broken set-up)."""
+    try:
+        from dyncontact import _core
+    except ImportError as exc:
+        pytest.skip(f"dyncontact._core cannot be imported ({exc}); run scripts/setup")
+    return _core
+
+
+@pytest.fixture(scope="session")
+def exe() -> Path:
+    """Path of build/dyncontact (skip if it has not been built)."""
+    if not EXE.is_file():
+        pytest.skip(f"{EXE} is not built; run scripts/setup")
+    return EXE
+
+
+def _run(cmd, cwd, timeout=SUBPROCESS_TIMEOUT) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    return subprocess.run([str(c) for c in cmd], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+@pytest.fixture
+def run_cli(tmp_path):
+    """run_cli(*args, cwd=tmp_path): `python -m dyncontact ARGS` as a subprocess."""
+
+    def run(*args, cwd=None):
+        return _run([sys.executable, "-m", "dyncontact", *args], cwd or tmp_path)
+
+    return run
+
+
+@pytest.fixture
+def run_exe(exe, tmp_path):
+    """run_exe(*args, cwd=tmp_path): build/dyncontact ARGS as a subprocess."""
+
+    def run(*args, cwd=None):
+        return _run([exe, *args], cwd or tmp_path)
+
+    return run

@@ -1,0 +1,125 @@
+"""The build: one version everywhere, the executable's usage, kinds across f2py."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+#: Round-off tolerance of the element-matrix check (float32 would miss it by 1e8).
+RTOL_DOUBLE = 1e-14
+
+
+def _meson_version() -> str:
+    text = (ROOT / "meson.build").read_text()
+    m = re.search(r"project\(\s*'dyncontact'.*?version:\s*'([^']+)'", text, re.S)
+    assert m, "meson.build: no project(version:)"
+    return m.group(1)
+
+
+def _fortran_source_version() -> str:
+    text = (ROOT / "fortran" / "version_info.f90").read_text()
+    m = re.search(r"DYNCONTACT_VERSION\s*=\s*'([^']+)'", text)
+    assert m, "fortran/version_info.f90: no DYNCONTACT_VERSION"
+    return m.group(1)
+
+
+def test_version_is_the_same_everywhere(core_ext):
+    import tomllib
+
+    import dyncontact
+    from dyncontact.core import fortran_version
+
+    meson = _meson_version()
+    assert re.fullmatch(r"\d+\.\d+\.\d+", meson)
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    # pyproject.toml takes the version from meson.build (no second copy to drift).
+    assert "version" in project.get("dynamic", []) and "version" not in project
+    assert dyncontact.__version__ == meson, "python/dyncontact/_version.py (generated)"
+    assert fortran_version() == meson, "dc_version() of the compiled core"
+    assert _fortran_source_version() == meson, "fortran/version_info.f90"
+
+
+def test_installed_metadata_version(core_ext):
+    from importlib.metadata import version
+
+    assert version("dyncontact") == _meson_version()
+
+
+def test_executable_without_argument_prints_usage(run_exe):
+    res = run_exe()
+    assert res.returncode == 2, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("usage: dyncontact"), res.stderr
+    assert "SCENE" in lines[0]
+
+
+def _p1_matrices_numpy(x, young, poisson, density):
+    """Plane-strain P1 triangle: stiffness and consistent mass, dofs (x1, y1, x2, ...)."""
+    lam = young * poisson / ((1 + poisson) * (1 - 2 * poisson))
+    mu = young / (2 * (1 + poisson))
+    jac = np.array([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]]).T
+    area = abs(np.linalg.det(jac)) / 2
+    grad = np.linalg.solve(jac.T, np.array([[-1.0, 1.0, 0.0], [-1.0, 0.0, 1.0]]))
+    b = np.zeros((3, 6))
+    b[0, 0::2] = grad[0]
+    b[1, 1::2] = grad[1]
+    b[2, 0::2] = grad[1]
+    b[2, 1::2] = grad[0]
+    d = np.array([[lam + 2 * mu, lam, 0], [lam, lam + 2 * mu, 0], [0, 0, mu]])
+    ke = area * b.T @ d @ b
+    scalar = density * area / 12 * (np.ones((3, 3)) + np.eye(3))
+    me = np.kron(scalar, np.eye(2))
+    return ke, me
+
+
+def test_double_precision_round_trip(core_ext):
+    """c_double is float64 through f2py: element matrices agree with numpy to round-off
+    on coordinates that float32 cannot represent."""
+    from dyncontact.core import p1_element
+
+    x = np.array([[0.1, 0.1 + 1 / 3, 0.1], [0.2, 0.2, 0.2 + np.pi / 10]])
+    young, poisson, density = 2 / 3, 1 / 3, 1.0 + 1e-12
+    ke, me, ml = p1_element(2, x, young, poisson, density)
+    for a in (ke, me, ml):
+        assert a.dtype == np.float64 and a.shape == (6, 6)
+    ke_ref, me_ref = _p1_matrices_numpy(x, young, poisson, density)
+    np.testing.assert_allclose(me, me_ref, rtol=RTOL_DOUBLE, atol=0,
+                               err_msg="consistent mass")
+    np.testing.assert_allclose(ke, ke_ref, rtol=0, atol=RTOL_DOUBLE * np.abs(ke_ref).max(),
+                               err_msg="stiffness")
+    np.testing.assert_allclose(ml.sum(), me_ref.sum(), rtol=RTOL_DOUBLE)
+    # The raw f2py call: float64, Fortran order in, float64 out.
+    xf = np.zeros((2, 3), order="F")
+    xf[:, :] = x
+    raw = core_ext.dc_p1_element(2, xf, young, poisson, density)
+    assert all(a.dtype == np.float64 for a in raw)
+    np.testing.assert_array_equal(raw[1], me)
+
+
+def test_fortran_strings_are_decoded(core_ext):
+    from dyncontact.core import fortran_version
+
+    raw = core_ext.dc_version()
+    assert isinstance(raw, bytes)
+    v = fortran_version()
+    assert isinstance(v, str) and v == v.strip() and v
+
+
+@pytest.mark.parametrize("name", ["main.f90", "api.f90"])
+def test_core_library_excludes_program_and_api(name):
+    """fortran/meson.build keeps main.f90 and api.f90 out of the core library."""
+    import json
+
+    plan = ROOT / "build" / "meson-info" / "intro-targets.json"
+    if not plan.is_file():
+        pytest.skip("build/ not configured")
+    targets = json.loads(plan.read_text())
+    core = [t for t in targets if t["name"] == "dyncontact_core"]
+    assert core, "no dyncontact_core target"
+    sources = [s for src in core[0]["target_sources"] for s in src.get("sources", [])]
+    assert not any(s.endswith("/" + name) for s in sources)
+    assert any(s.endswith("/kinds.f90") for s in sources)

@@ -1,0 +1,204 @@
+"""Command-line plumbing: plot, bad input, --set parsing (no simulation needed)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+HEADER = "t,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active"
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def _write_run(folder, n=200, t_end=3.0, status="ok", alpha=-0.1, dt=0.0025, h=0.05):
+    """A synthetic run folder shaped like the 1D exact solution (period 3)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    t = np.linspace(0.0, t_end, n)
+    u = np.where(t < 1, -0.5 + t / 2, np.where(t < 2, 0.0, -(t - 2) / 2))
+    v = np.where(t < 1, 0.5, np.where(t < 2, 0.0, -0.5))
+    p = np.where((t > 1) & (t < 2), -0.5, 0.0)
+    e_kin = 0.5 * v**2 / 2
+    e_el = 0.125 - e_kin
+    e_contact = np.where(p < 0, 1e-3, 0.0)
+    rows = np.column_stack([t, u, v, p, e_kin, e_el, e_contact, e_kin + e_el,
+                            np.ones_like(t), (p < 0) * 3.0])
+    np.savetxt(folder / "trace.csv", rows, delimiter=",", header=HEADER, comments="",
+               fmt="%.10e")
+    summary = {
+        "status": status, "steps": n - 1, "t_end_reached": float(t[-1]), "wall_s": 0.1,
+        "newton_its_total": n, "factorizations": 1, "dofs": 10, "elements": 4,
+        "contact_facets": 2, "scheme": "hht", "version": "0.1.0",
+        "scene": {"mesh": {"file": "", "dim": 2, "h": h},
+                  "scheme": {"name": "hht", "alpha": alpha, "dt": dt, "mass": "consistent"}},
+    }
+    (folder / "summary.json").write_text(json.dumps(summary))
+    return folder
+
+
+def _one_error_line(res, code):
+    assert res.returncode == code, (res.returncode, res.stdout, res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert lines[0].startswith("dyncontact: "), res.stderr
+    assert "Traceback" not in res.stderr
+    return lines[0]
+
+
+# --------------------------------------------------------------------------- plot
+
+def test_plot_two_runs_writes_png(run_cli, tmp_path):
+    a = _write_run(tmp_path / "a")
+    b = _write_run(tmp_path / "b", n=80, t_end=1.3, status="unstable", alpha=0.0)
+    png = tmp_path / "fig" / "both.png"
+    res = run_cli("plot", a, b, "--out", png, "--title", "two runs")
+    assert res.returncode == 0, res.stderr
+    assert png.is_file() and png.stat().st_size > 10_000
+    assert png.read_bytes()[:8] == PNG_MAGIC
+
+
+def test_plot_traces_api_labels(tmp_path):
+    from dyncontact.plotting import plot_traces, run_label
+
+    a = _write_run(tmp_path / "a")
+    b = _write_run(tmp_path / "b", n=50, t_end=1.2, status="unstable")
+    fig = plot_traces([a, b], tmp_path / "x.png")
+    assert (tmp_path / "x.png").stat().st_size > 0
+    assert len(fig.axes) == 4
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert labels[0] == "hht α=-0.1, Δt=0.0025, h=0.05"
+    assert labels[1].startswith("hht α=-0.1, Δt=0.0025, h=0.05 (unstable at t=1.2")
+    summary = json.loads((a / "summary.json").read_text())
+    summary["scene"]["scheme"] = {"name": "newmark", "beta": 0.3025, "gamma": 0.6,
+                                  "dt": 0.001, "mass": "lumped"}
+    assert run_label(summary) == "newmark β=0.3025, γ=0.6, Δt=0.001, h=0.05, lumped"
+    # e_total + e_contact is drawn dashed when e_contact is not all zero.
+    energy_lines = fig.axes[3].get_lines()
+    assert any(line.get_linestyle() == "--" for line in energy_lines)
+
+
+def test_plot_explicit_labels_and_result_objects(tmp_path):
+    from dyncontact.core import RunResult, read_summary, read_trace
+    from dyncontact.plotting import plot_traces
+
+    a = _write_run(tmp_path / "a")
+    res = RunResult(trace=read_trace(a), summary=read_summary(a), out_dir=str(a))
+    fig = plot_traces([res, a], None, labels=["first", "second"])
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == ["first", "second"]
+
+
+def test_plot_missing_trace_is_bad_input(run_cli, tmp_path):
+    (tmp_path / "empty").mkdir()
+    line = _one_error_line(run_cli("plot", tmp_path / "empty", "--out",
+                                   tmp_path / "x.png"), 2)
+    assert "trace.csv" in line
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_plot_needs_out(run_cli, tmp_path):
+    a = _write_run(tmp_path / "a")
+    _one_error_line(run_cli("plot", a), 2)
+
+
+# --------------------------------------------------------------------------- run: bad input
+
+def test_run_missing_scene_file(run_cli, tmp_path):
+    line = _one_error_line(run_cli("run", tmp_path / "nope.nml"), 2)
+    assert "nope.nml" in line
+
+
+@pytest.mark.parametrize("out", [False, True])
+def test_run_bad_scene_exits_2(run_cli, tmp_path, core_ext, out):
+    scene = tmp_path / "bad.nml"
+    scene.write_text("&scheme name = 'hht', dt = -1.0 /\n")
+    args = ["run", scene] + (["--out", tmp_path / "o"] if out else [])
+    line = _one_error_line(run_cli(*args), 2)
+    assert "bad.nml" in line
+    assert not (tmp_path / "o" / "trace.csv").exists()
+
+
+def test_exe_bad_scene_exits_2(run_exe, tmp_path):
+    scene = tmp_path / "bad.nml"
+    scene.write_text("&scheme name = 'no_such_scheme' /\n")
+    res = run_exe(scene, "--out", tmp_path / "o")
+    _one_error_line(res, 2)
+
+
+def test_api_bad_scene_raises(tmp_path, core_ext):
+    import dyncontact
+
+    scene = tmp_path / "bad.nml"
+    scene.write_text("&contact theta = 7 /\n")
+    with pytest.raises(dyncontact.BadInputError) as info:
+        dyncontact.run(scene, out=tmp_path / "o", progress=False)
+    assert isinstance(info.value, dyncontact.DyncontactError)
+    assert "bad.nml" in str(info.value)
+    with pytest.raises(dyncontact.BadInputError):
+        dyncontact.run(tmp_path / "missing.nml")
+
+
+# --------------------------------------------------------------------------- --set
+
+@pytest.mark.parametrize("item", ["scheme", "scheme.dt", "dt=0.1", "a.b.c=1", "scheme.dt=",
+                                  ".dt=1", "scheme.=1", "sch eme.dt=1"])
+def test_set_syntax_errors_exit_2(run_cli, tmp_path, item):
+    scene = tmp_path / "s.nml"
+    scene.write_text("&scheme dt = 0.01 /\n")
+    line = _one_error_line(run_cli("run", scene, "--set", item), 2)
+    assert "--set" in line
+
+
+@pytest.mark.parametrize("item, expected", [
+    ("scheme.dt=0.001", ("scheme", "dt", 0.001)),
+    ("Scheme.Name=hht", ("scheme", "name", "hht")),
+    ("scheme.name='pc_hht'", ("scheme", "name", "pc_hht")),
+    ("contact.theta=-1", ("contact", "theta", -1)),
+    ("contact.probe=0.05,0.0", ("contact", "probe", [0.05, 0.0])),
+    ("boundary.clamped=top,left", ("boundary", "clamped", "top,left")),
+    ("boundary.slip_x=''", ("boundary", "slip_x", "")),
+    ("scheme.newton_tol=1d-12", ("scheme", "newton_tol", 1e-12)),
+    ("mesh.file=meshes/a b.msh", ("mesh", "file", "meshes/a b.msh")),
+])
+def test_parse_set_values(item, expected):
+    from dyncontact.cli import parse_set
+
+    assert parse_set(item) == expected
+
+
+def test_bad_command_line_is_one_line(run_cli):
+    _one_error_line(run_cli("frobnicate"), 2)
+    _one_error_line(run_cli("run"), 2)
+    _one_error_line(run_cli("run", "x.nml", "--bogus"), 2)
+
+
+def test_version_and_help(run_cli):
+    import dyncontact
+
+    res = run_cli("--version")
+    assert res.returncode == 0 and dyncontact.__version__ in res.stdout
+    res = run_cli("run", "--help")
+    assert res.returncode == 0 and "--set" in res.stdout
+
+
+# --------------------------------------------------------------------------- outputs
+
+def test_read_trace_drops_a_partial_last_line(tmp_path):
+    from dyncontact.core import TRACE_COLUMNS, read_trace
+
+    assert ",".join(TRACE_COLUMNS) == HEADER
+    (tmp_path / "trace.csv").write_text(HEADER + "\n" + ",".join(["1.0"] * 10) + "\n"
+                                        + "2.0,3.0,4")
+    tr = read_trace(tmp_path)
+    assert list(tr) == list(TRACE_COLUMNS)
+    assert all(v.shape == (1,) and v.dtype == np.float64 for v in tr.values())
+    (tmp_path / "trace.csv").write_text(HEADER + "\n")
+    assert read_trace(tmp_path)["t"].shape == (0,)
+
+
+def test_readme_and_docs_exist():
+    readme = (ROOT / "README.md").read_text()
+    for text in ("scripts/demo", "scripts/test", "build/dyncontact", "docs/scenes.md"):
+        assert text in readme
+    assert (ROOT / "docs" / "scenes.md").is_file()
