@@ -1,0 +1,90 @@
+!> Predictor-corrector schemes pc (seed eq. 10), pc_hht (eq. 11, standard alpha)
+!> and pc_hht_seed (eq. 11 with the seed's printed beta, gamma). Explicit in the
+!> contact: no Newton, M factorized once (consistent) or no solve at all (lumped).
+!>   v~ = v + dt a,  u~ = u + dt v~,  a~ = M^{-1}(L + alpha B(u) - (1+alpha) B(u~)),
+!>   v' = v + dt ((1-gamma) a + gamma a~),
+!>   u' = u + dt v + dt^2/2 ((1 - 2 beta) a + 2 beta a~),
+!>   a' = M^{-1}(L + alpha B(u) - (1+alpha) B(u')).
+module explicit_schemes
+    use kinds, only: dp
+    use errors, only: STAT_OK
+    use model, only: model_t, model_eval_b
+    use scene, only: scene_t
+    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply
+    use time_scheme, only: time_scheme_t, state_t
+    implicit none
+    private
+
+    !> Predictor-corrector family.
+    type, extends(time_scheme_t), public :: pc_scheme_t
+        real(dp) :: alpha = 0.0_dp                !! HHT alpha (0 for pc)
+        real(dp) :: beta = 0.25_dp                !! corrector beta
+        real(dp) :: gamma = 0.5_dp                !! corrector gamma
+        type(mass_solver_t) :: ms                 !! M^{-1}
+        real(dp), allocatable :: vp(:), up(:), ap(:), bp(:), ktp(:), rhs(:), bold(:)
+    contains
+        procedure :: init => pc_init
+        procedure :: step => pc_step
+    end type pc_scheme_t
+
+contains
+
+    !> Coefficients, M factorization and a0 = M^{-1}(L - B(u0)).
+    subroutine pc_init(this, mdl, scn, st, stat, errmsg)
+        class(pc_scheme_t), intent(inout) :: this           !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(scene_t), intent(in) :: scn                    !! scene
+        type(state_t), intent(inout) :: st                  !! initial state
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: n
+        n = mdl%n_dofs
+        this%dt = scn%dt
+        select case (trim(scn%scheme_name))
+        case ('pc')
+            this%alpha = 0.0_dp; this%beta = scn%beta; this%gamma = scn%gamma
+        case ('pc_hht')
+            this%alpha = scn%alpha
+            this%beta = (1.0_dp - scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp - scn%alpha
+        case default ! pc_hht_seed
+            this%alpha = scn%alpha
+            this%beta = (1.0_dp + scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + scn%alpha
+        end select
+        allocate (this%vp(n), this%up(n), this%ap(n), this%bp(n), this%ktp(n), this%rhs(n), &
+                  this%bold(n))
+        call mass_solver_init(this%ms, mdl, stat, errmsg)
+        if (stat /= STAT_OK) return
+        if (.not. mdl%lumped) this%factorizations = this%factorizations + 1
+        st%ma = mdl%load - st%bu
+        call mass_solver_apply(this%ms, st%ma, st%a, stat, errmsg)
+    end subroutine pc_init
+
+    !> One predictor-corrector step: two B evaluations, two M^{-1} applications.
+    subroutine pc_step(this, mdl, st, stat, errmsg)
+        class(pc_scheme_t), intent(inout) :: this           !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(inout) :: st                  !! state
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: dt, e1, e2
+        integer :: act
+        dt = this%dt
+        this%vp = st%v + dt * st%a
+        this%up = st%u + dt * this%vp
+        call model_eval_b(mdl, this%up, this%bp, this%ktp, act, e1, e2)
+        this%rhs = mdl%load + this%alpha * st%bu - (1.0_dp + this%alpha) * this%bp
+        call mass_solver_apply(this%ms, this%rhs, this%ap, stat, errmsg)
+        if (stat /= STAT_OK) return
+        st%u = st%u + dt * st%v + 0.5_dp * dt**2 * ((1.0_dp - 2.0_dp * this%beta) * st%a &
+                                                   + 2.0_dp * this%beta * this%ap)
+        st%v = st%v + dt * ((1.0_dp - this%gamma) * st%a + this%gamma * this%ap)
+        ! M a~ = rhs exactly, so M v is updated without a product with M
+        st%mv = st%mv + dt * ((1.0_dp - this%gamma) * st%ma + this%gamma * this%rhs)
+        this%bold = st%bu
+        call model_eval_b(mdl, st%u, st%bu, st%ktu, st%active, st%e_pen, st%e_theta)
+        st%ma = mdl%load + this%alpha * this%bold - (1.0_dp + this%alpha) * st%bu
+        call mass_solver_apply(this%ms, st%ma, st%a, stat, errmsg)
+        st%newton_its = 0
+        st%t = st%t + dt
+    end subroutine pc_step
+end module explicit_schemes

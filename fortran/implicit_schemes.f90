@@ -1,0 +1,276 @@
+!> Implicit schemes newmark, hht, hht_seed and theta over one semi-smooth Newton
+!> driver. Every step solves
+!>     R(x) = M (x - u~) + c B(x) - b = 0,   J = M + c B'(x),
+!> with u~, c, b set by the scheme:
+!>   Newmark/HHT: M a' + (1+alpha) B(u') - alpha B(u) = L, u' = u~ + beta dt^2 a',
+!>     u~ = u + dt v + dt^2 (1/2 - beta) a, c = beta dt^2 (1+alpha),
+!>     b = beta dt^2 (L + alpha B(u)); v' = v + dt ((1-gamma) a + gamma a').
+!>   theta: u' = u + dt (theta v' + (1-theta) v), M (v' - v) = dt (L - theta B(u')
+!>     - (1-theta) B(u)), so u~ = u + dt v, c = theta^2 dt^2,
+!>     b = theta dt^2 (L - (1-theta) B(u)).
+!> J = J0 + c P^T D P where J0 = M + c K_theta is factorized once and D (dense,
+!> on the dofs of the contact cells) is the contact tangent: J^{-1} is applied
+!> with the Woodbury identity (Z = J0^{-1} P^T precomputed), so the active set
+!> changing never costs a factorization.
+module implicit_schemes
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_NUMERIC, raise
+    use sparse, only: csc_t, csc_matvec
+    use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
+    use dense_lu, only: dense_lu_factor, dense_lu_solve
+    use model, only: model_t, model_eval_b
+    use nitsche_contact, only: contact_eval
+    use scene, only: scene_t
+    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
+    use time_scheme, only: time_scheme_t, state_t
+    implicit none
+    private
+
+    integer, parameter :: KIND_NEWMARK = 1   ! newmark, hht, hht_seed
+    integer, parameter :: KIND_THETA = 2     ! theta
+
+    !> Newmark-family and theta schemes.
+    type, extends(time_scheme_t), public :: implicit_scheme_t
+        integer :: kind = KIND_NEWMARK            !! family
+        real(dp) :: alpha = 0.0_dp                !! HHT alpha (0 for newmark)
+        real(dp) :: beta = 0.25_dp                !! Newmark beta
+        real(dp) :: gamma = 0.5_dp                !! Newmark gamma
+        real(dp) :: theta = 0.5_dp                !! theta-scheme theta
+        real(dp) :: c = 0.0_dp                    !! coefficient of B in R
+        real(dp) :: tol = 1.0e-10_dp              !! relative residual tolerance
+        integer :: maxit = 50                     !! Newton iteration limit
+        type(csc_t) :: jac0                       !! J0 = M + c K_theta
+        type(lu_t) :: lu0                         !! its factors
+        integer :: m = 0                          !! contact-cell dofs
+        real(dp), allocatable :: z(:, :)          !! (n, m) J0^{-1} P^T
+        real(dp), allocatable :: w(:, :)          !! (m, m) P J0^{-1} P^T
+        real(dp), allocatable :: dmat(:, :)       !! (m, m) contact tangent at the iterate
+        real(dp), allocatable :: small(:, :)      !! (m, m) Woodbury system
+        real(dp), allocatable :: zs(:)            !! (m) its right-hand side
+        integer, allocatable :: piv(:)            !! (m) pivots
+        integer, allocatable :: sidx(:)           !! (m) active contact-cell dofs
+        logical, allocatable :: touched(:)        !! (m) active flags
+        real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
+        real(dp), allocatable :: ut(:), b(:), r(:), dx(:), x(:), bx(:), ktx(:), mx(:), scratch(:)
+    contains
+        procedure :: init => implicit_init
+        procedure :: step => implicit_step
+    end type implicit_scheme_t
+
+contains
+
+    !> Coefficients from the scene, J0 factorization, Woodbury blocks, and the
+    !> initial acceleration M a0 = L - B(u0) for the Newmark family.
+    subroutine implicit_init(this, mdl, scn, st, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(scene_t), intent(in) :: scn                    !! scene
+        type(state_t), intent(inout) :: st                  !! initial state
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        type(mass_solver_t) :: ms
+        integer :: n, j
+        real(dp), allocatable :: e(:)
+        n = mdl%n_dofs
+        this%dt = scn%dt
+        this%tol = scn%newton_tol
+        this%maxit = scn%newton_maxit
+        select case (trim(scn%scheme_name))
+        case ('newmark')
+            this%kind = KIND_NEWMARK; this%alpha = 0.0_dp
+            this%beta = scn%beta; this%gamma = scn%gamma
+        case ('hht')
+            this%kind = KIND_NEWMARK; this%alpha = scn%alpha
+            this%beta = (1.0_dp - scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp - scn%alpha
+        case ('hht_seed')
+            this%kind = KIND_NEWMARK; this%alpha = scn%alpha
+            this%beta = (1.0_dp + scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + scn%alpha
+        case default
+            this%kind = KIND_THETA; this%theta = scn%time_theta
+        end select
+        if (this%kind == KIND_NEWMARK) then
+            this%c = this%beta * this%dt**2 * (1.0_dp + this%alpha)
+        else
+            this%c = (this%theta * this%dt)**2
+        end if
+        allocate (this%ut(n), this%b(n), this%r(n), this%dx(n), this%x(n), this%bx(n), &
+                  this%ktx(n), this%mx(n), this%scratch(n))
+
+        ! initial acceleration (Newmark family only)
+        if (this%kind == KIND_NEWMARK) then
+            call mass_solver_init(ms, mdl, stat, errmsg)
+            if (stat /= STAT_OK) return
+            if (.not. ms%lumped) this%factorizations = this%factorizations + 1
+            st%ma = mdl%load - st%bu
+            call mass_solver_apply(ms, st%ma, st%a, stat, errmsg)
+            call mass_solver_free(ms)
+            if (stat /= STAT_OK) return
+        else
+            st%a = 0.0_dp
+            st%ma = 0.0_dp
+        end if
+
+        this%jac0 = mdl%mass
+        this%jac0%val = mdl%mass%val + this%c * mdl%stiff_theta%val
+        call lu_factor(this%lu0, this%jac0, stat, errmsg)
+        if (stat /= STAT_OK) return
+        this%factorizations = this%factorizations + 1
+
+        this%m = 0
+        if (mdl%has_contact) this%m = mdl%ct%m
+        allocate (this%z(n, this%m), this%w(this%m, this%m), this%dmat(this%m, this%m), &
+                  this%small(this%m, this%m), this%zs(this%m), this%piv(this%m), &
+                  this%sidx(this%m), this%touched(this%m), this%cx(this%m), this%cold(this%m), e(n))
+        this%scratch = 0.0_dp
+        do j = 1, this%m
+            e = 0.0_dp
+            e(mdl%ct%cdofs(j)) = 1.0_dp
+            call lu_solve(this%lu0, this%jac0, e, this%z(:, j), stat, errmsg)
+            if (stat /= STAT_OK) return
+        end do
+        if (this%m > 0) this%w = this%z(mdl%ct%cdofs, :)
+    end subroutine implicit_init
+
+    !> One step: semi-smooth Newton from x = u^n. M (x - u~) is known from the
+    !> tracked M v, M a; after each solve J dx = -R the residual is updated exactly
+    !> from the solve identity, R' = c (C(x') - C(x) - D dx) (C = contact part of
+    !> B, D its tangent), so a contact-free step costs one solve and one SpMV.
+    subroutine implicit_step(this, mdl, st, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(inout) :: st                  !! state
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: dt, rnorm, scale, e_pen, e_theta
+        integer :: it, active
+        character(len=160) :: msg
+        stat = STAT_OK
+        dt = this%dt
+        if (this%kind == KIND_NEWMARK) then
+            this%ut = st%u + dt * st%v + dt**2 * (0.5_dp - this%beta) * st%a
+            this%b = this%beta * dt**2 * (mdl%load + this%alpha * st%bu)
+            this%mx = -dt * st%mv - dt**2 * (0.5_dp - this%beta) * st%ma
+        else
+            this%ut = st%u + dt * st%v
+            this%b = this%theta * dt**2 * (mdl%load - (1.0_dp - this%theta) * st%bu)
+            this%mx = -dt * st%mv
+        end if
+        ! R(u^n) = M (u^n - u~) + c B(u^n) - b
+        this%r = this%mx + this%c * st%bu - this%b
+        scale = norm2(this%mx) + this%c * norm2(st%bu) + norm2(this%b)
+        this%x = st%u
+        active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
+        if (this%m > 0) call contact_part(this%x, this%cx, active, e_pen, e_theta)
+        it = 0
+        do
+            rnorm = norm2(this%r)
+            if (rnorm <= this%tol * scale) exit
+            if (.not. (rnorm == rnorm) .or. it >= this%maxit) then
+                write (msg, '(a, es12.5, a, i0, a, es10.3, a)') 'Newton did not converge at t = ', &
+                    st%t + dt, ' after ', it, ' iterations (relative residual ', &
+                    rnorm / max(scale, tiny(1.0_dp)), ')'
+                call raise(stat, errmsg, STAT_NUMERIC, trim(msg))
+                st%newton_its = it
+                this%newton_total = this%newton_total + it
+                return
+            end if
+            call solve_jacobian(-this%r, this%dx, stat)
+            if (stat /= STAT_OK) then
+                call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
+                           //real_str(st%t + dt))
+                return
+            end if
+            this%x = this%x + this%dx
+            it = it + 1
+            this%r = 0.0_dp
+            if (this%m == 0) exit
+            ! R' = c (C(x') - C(x) - D dx) on the contact-cell dofs
+            this%zs = matmul(this%dmat, this%dx(mdl%ct%cdofs))
+            this%cold = this%cx
+            call contact_part(this%x, this%cx, active, e_pen, e_theta)
+            this%r(mdl%ct%cdofs) = this%c * (this%cx - this%cold - this%zs)
+        end do
+        st%newton_its = it
+        this%newton_total = this%newton_total + it
+        ! B(x) = K_theta x + C(x); M (x - u~) = R - c B(x) + b
+        call csc_matvec(mdl%stiff_theta, this%x, this%ktx)
+        this%bx = this%ktx
+        if (this%m > 0) this%bx(mdl%ct%cdofs) = this%bx(mdl%ct%cdofs) + this%cx
+        this%mx = this%r - this%c * this%bx + this%b
+        if (this%kind == KIND_NEWMARK) then
+            ! a' = (x - u~) / (beta dt^2); v' = v + dt ((1-gamma) a + gamma a')
+            this%dx = (this%x - this%ut) / (this%beta * dt**2)
+            this%mx = this%mx / (this%beta * dt**2)
+            st%v = st%v + dt * ((1.0_dp - this%gamma) * st%a + this%gamma * this%dx)
+            st%mv = st%mv + dt * ((1.0_dp - this%gamma) * st%ma + this%gamma * this%mx)
+            st%a = this%dx
+            st%ma = this%mx
+        else
+            ! v' = (x - u - dt (1-theta) v) / (theta dt), M (x - u) = M (x - u~) + dt M v
+            st%v = (this%x - st%u - dt * (1.0_dp - this%theta) * st%v) / (this%theta * dt)
+            st%mv = (this%mx + dt * st%mv - dt * (1.0_dp - this%theta) * st%mv) / (this%theta * dt)
+        end if
+        st%u = this%x
+        st%bu = this%bx
+        st%ktu = this%ktx
+        st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
+        st%t = st%t + dt
+
+    contains
+
+        !> Contact part C(xx) of B on the contact-cell dofs, its tangent (dmat,
+        !> touched) and the contact energy parts.
+        subroutine contact_part(xx, cvec, act, ep, et)
+            real(dp), intent(in) :: xx(:)
+            real(dp), intent(out) :: cvec(:)
+            integer, intent(out) :: act
+            real(dp), intent(out) :: ep, et
+            this%scratch(mdl%ct%cdofs) = 0.0_dp
+            call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%dmat, this%touched)
+            cvec = this%scratch(mdl%ct%cdofs)
+        end subroutine contact_part
+
+        !> y = J^{-1} rhs with J = J0 + c P^T D P (Woodbury on the active dofs).
+        subroutine solve_jacobian(rhs, y, st2)
+            real(dp), intent(in) :: rhs(:)
+            real(dp), intent(out) :: y(:)
+            integer, intent(out) :: st2
+            integer :: p, i, info
+            call lu_solve(this%lu0, this%jac0, rhs, y, st2)
+            if (st2 /= STAT_OK .or. this%m == 0) return
+            p = 0
+            do i = 1, this%m
+                if (this%touched(i)) then
+                    p = p + 1
+                    this%sidx(p) = i
+                end if
+            end do
+            if (p == 0) return
+            associate (s => this%sidx(1:p))
+                this%small(1:p, 1:p) = this%c * matmul(this%dmat(s, s), this%w(s, s))
+                do i = 1, p
+                    this%small(i, i) = this%small(i, i) + 1.0_dp
+                end do
+                this%zs(1:p) = this%c * matmul(this%dmat(s, s), y(mdl%ct%cdofs(s)))
+                call dense_lu_factor(p, this%small, this%piv, info)
+                if (info /= 0) then
+                    st2 = STAT_NUMERIC
+                    return
+                end if
+                call dense_lu_solve(p, this%small, this%piv, this%zs)
+                do i = 1, p
+                    y = y - this%zs(i) * this%z(:, s(i))
+                end do
+            end associate
+        end subroutine solve_jacobian
+    end subroutine implicit_step
+
+    !> A real as text (messages).
+    function real_str(x) result(s)
+        real(dp), intent(in) :: x    !! value
+        character(len=:), allocatable :: s
+        character(len=24) :: buf
+        write (buf, '(es12.5)') x
+        s = trim(adjustl(buf))
+    end function real_str
+end module implicit_schemes

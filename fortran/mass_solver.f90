@@ -1,0 +1,62 @@
+!> M^{-1} applications: a diagonal for lumped mass, UMFPACK factors of the
+!> compacted consistent mass otherwise (factorized once).
+module mass_solver
+    use kinds, only: dp
+    use errors, only: STAT_OK
+    use sparse, only: csc_t, csc_drop_zeros
+    use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
+    use model, only: model_t
+    implicit none
+    private
+
+    !> Factors of M (or its inverse diagonal).
+    type, public :: mass_solver_t
+        logical :: lumped = .false.              !! diagonal mass
+        real(dp), allocatable :: inv_diag(:)     !! 1 / diag(M) when lumped
+        type(csc_t) :: mass                      !! M without structural zeros
+        type(lu_t) :: lu                         !! its factors
+    end type mass_solver_t
+
+    public :: mass_solver_init, mass_solver_apply, mass_solver_free
+
+contains
+
+    !> Prepare M^{-1}: factorizes a consistent M (one factorization).
+    subroutine mass_solver_init(ms, mdl, stat, errmsg)
+        type(mass_solver_t), intent(inout) :: ms            !! solver
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        stat = STAT_OK
+        call mass_solver_free(ms)
+        ms%lumped = mdl%lumped
+        if (ms%lumped) then
+            ms%inv_diag = 1.0_dp / mdl%mass_diag
+        else
+            call csc_drop_zeros(mdl%mass, ms%mass)
+            call lu_factor(ms%lu, ms%mass, stat, errmsg)
+        end if
+    end subroutine mass_solver_init
+
+    !> x = M^{-1} b.
+    subroutine mass_solver_apply(ms, b, x, stat, errmsg)
+        type(mass_solver_t), intent(inout) :: ms            !! solver
+        real(dp), intent(in) :: b(:)                        !! right-hand side
+        real(dp), intent(out) :: x(:)                       !! solution
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        if (ms%lumped) then
+            x = ms%inv_diag * b
+            stat = STAT_OK
+        else
+            call lu_solve(ms%lu, ms%mass, b, x, stat, errmsg)
+        end if
+    end subroutine mass_solver_apply
+
+    !> Release the factors.
+    subroutine mass_solver_free(ms)
+        type(mass_solver_t), intent(inout) :: ms   !! solver
+        call lu_free(ms%lu)
+        if (allocated(ms%inv_diag)) deallocate (ms%inv_diag)
+    end subroutine mass_solver_free
+end module mass_solver

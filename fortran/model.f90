@@ -1,0 +1,440 @@
+!> The semi-discrete model M u'' + B(u) = L of one scene: mesh, free dofs
+!> (Dirichlet conditions eliminated), assembled M, K, K_theta and L (one shared
+!> CSC pattern), contact facets and the probe.
+module model
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_BAD_INPUT, raise
+    use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets
+    use gmsh_reader, only: read_gmsh
+    use bar_mesh, only: bar_mesh_build
+    use scene, only: scene_t
+    use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
+    use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec
+    use nitsche_contact, only: contact_t, contact_init, contact_eval, facet_pressure, &
+                               facet_shape, QUAD_EXACT, QUAD_GAUSS
+    implicit none
+    private
+
+    !> Everything constant in time.
+    type, public :: model_t
+        integer :: dim = 0                        !! 1 or 2
+        integer :: n_dofs = 0                     !! free dofs
+        integer :: ndof_e = 0                     !! dofs per cell
+        type(mesh_t) :: msh                       !! the mesh
+        integer, allocatable :: dof(:, :)         !! (dim, n_nodes) free dof number, 0 = constrained
+        integer, allocatable :: dof_node(:)       !! (n_dofs) node of each free dof
+        integer, allocatable :: dof_comp(:)       !! (n_dofs) component of each free dof
+        integer, allocatable :: cell_pos(:, :, :) !! (ndof_e, ndof_e, n_cells) positions in the pattern, 0 = constrained
+        type(csc_t) :: mass                       !! M (consistent or lumped), shared pattern
+        type(csc_t) :: stiff                      !! K, shared pattern
+        type(csc_t) :: stiff_theta                !! K_theta = K - sum theta |F| / gamma s s^T
+        logical :: lumped = .false.               !! M is diagonal
+        real(dp), allocatable :: mass_diag(:)     !! (n_dofs) diagonal of M when lumped
+        real(dp), allocatable :: load(:)          !! (n_dofs) L = int rho g . v
+        logical :: has_contact = .false.          !! a contact boundary exists
+        type(contact_t) :: ct                     !! contact facets
+        real(dp) :: normal(2) = 0.0_dp            !! unit normal (into the obstacle)
+        integer :: n_probe = 0                    !! facets holding the probe (0, 1 or 2)
+        integer :: probe_facet(2) = 0             !! their indices in ct
+        real(dp) :: probe_xi(2) = 0.0_dp          !! probe position along each
+    end type model_t
+
+    public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
+              model_probe, model_mass_apply, model_full_field
+
+contains
+
+    !> Build the model of a validated scene. Errors (STAT_BAD_INPUT) name the scene
+    !> file and the key: unreadable mesh, a group the mesh lacks, a probe off Gamma_C.
+    subroutine model_build(scn, mdl, stat, errmsg)
+        type(scene_t), intent(in) :: scn                    !! scene
+        type(model_t), intent(out) :: mdl                   !! model
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=1024) :: msg, where
+        real(dp) :: lambda, mu
+        integer, allocatable :: facets(:)
+        integer :: dim
+        stat = STAT_OK
+        msg = ''
+        if (len_trim(scn%mesh_file) > 0) then
+            call read_gmsh(scn%mesh_file, mdl%msh, stat, msg)
+            where = "mesh '"//trim(scn%mesh_file)//"'"
+        else
+            call bar_mesh_build(scn%mesh_dim, scn%mesh_length, scn%mesh_width, scn%mesh_h, &
+                                mdl%msh, stat, msg)
+            where = 'the built-in bar'
+        end if
+        if (stat == STAT_OK) call mesh_check(mdl%msh, stat, msg)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &mesh: '//trim(msg))
+            return
+        end if
+        dim = mdl%msh%dim
+        mdl%dim = dim
+        mdl%ndof_e = dim * (dim + 1)
+        mdl%normal = 0.0_dp
+        mdl%normal(1:dim) = scn%obstacle_normal(1:dim) / norm2(scn%obstacle_normal(1:dim))
+        call p1_lame(scn%young, scn%poisson, lambda, mu)
+
+        call number_dofs(stat, msg)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &boundary '//trim(msg) &
+                       //' ('//trim(where)//')')
+            return
+        end if
+        call assemble(stat, msg)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': '//trim(msg))
+            return
+        end if
+
+        call mesh_group_facets(mdl%msh, scn%contact, facets, stat, msg)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &boundary contact: ' &
+                       //trim(msg)//' ('//trim(where)//')')
+            return
+        end if
+        mdl%has_contact = size(facets) > 0
+        call contact_init(mdl%ct, mdl%msh, facets, mdl%dof, scn%young, lambda, mu, &
+                          mdl%normal(1:dim), scn%obstacle_point(1:dim), scn%gamma0, &
+                          scn%nitsche_theta, merge(QUAD_GAUSS, QUAD_EXACT, &
+                                                   scn%quadrature == 'gauss'), &
+                          scn%quad_points, stat, msg)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &boundary contact: ' &
+                       //trim(msg))
+            return
+        end if
+        call add_theta_term()
+        if (mdl%has_contact) then
+            call locate_probe(stat)
+            if (stat /= STAT_OK) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &contact probe: ' &
+                           //'the point is not on the contact boundary')
+                return
+            end if
+        end if
+
+    contains
+
+        !> Dirichlet masks -> free dof numbering (node-major).
+        subroutine number_dofs(st, m)
+            integer, intent(out) :: st
+            character(len=*), intent(inout) :: m
+            logical, allocatable :: fixed(:, :), mask(:)
+            integer :: i, k, n
+            allocate (fixed(dim, mdl%msh%n_nodes), mask(mdl%msh%n_nodes))
+            fixed = .false.
+            mask = .false.
+            call mesh_group_nodes(mdl%msh, scn%clamped, mask, st, m)
+            if (st /= STAT_OK) then
+                m = 'clamped: '//trim(m)
+                return
+            end if
+            do k = 1, dim
+                fixed(k, :) = mask
+            end do
+            mask = .false.
+            call mesh_group_nodes(mdl%msh, scn%slip_x, mask, st, m)
+            if (st /= STAT_OK) then
+                m = 'slip_x: '//trim(m)
+                return
+            end if
+            fixed(1, :) = fixed(1, :) .or. mask
+            mask = .false.
+            call mesh_group_nodes(mdl%msh, scn%slip_y, mask, st, m)
+            if (st /= STAT_OK) then
+                m = 'slip_y: '//trim(m)
+                return
+            end if
+            if (dim == 1 .and. any(mask)) then
+                st = STAT_BAD_INPUT
+                m = 'slip_y: a 1D model has no y component'
+                return
+            end if
+            if (dim == 2) fixed(2, :) = fixed(2, :) .or. mask
+            allocate (mdl%dof(dim, mdl%msh%n_nodes))
+            n = 0
+            do i = 1, mdl%msh%n_nodes
+                do k = 1, dim
+                    if (fixed(k, i)) then
+                        mdl%dof(k, i) = 0
+                    else
+                        n = n + 1
+                        mdl%dof(k, i) = n
+                    end if
+                end do
+            end do
+            mdl%n_dofs = n
+            allocate (mdl%dof_node(n), mdl%dof_comp(n))
+            do i = 1, mdl%msh%n_nodes
+                do k = 1, dim
+                    if (mdl%dof(k, i) > 0) then
+                        mdl%dof_node(mdl%dof(k, i)) = i
+                        mdl%dof_comp(mdl%dof(k, i)) = k
+                    end if
+                end do
+            end do
+        end subroutine number_dofs
+
+        !> Pattern, cell positions, M, K, K_theta (= K for now) and L.
+        subroutine assemble(st, m)
+            integer, intent(out) :: st
+            character(len=*), intent(inout) :: m
+            integer :: c, a, b, i, j, nnz, ne, cd(6)
+            integer, allocatable :: rows(:), cols(:)
+            real(dp), allocatable :: zeros(:)
+            real(dp) :: xe(2, 3), ke(6, 6), me(6, 6)
+            real(dp) :: vol
+            ne = mdl%ndof_e
+            allocate (rows(ne * ne * mdl%msh%n_cells), cols(ne * ne * mdl%msh%n_cells))
+            nnz = 0
+            do c = 1, mdl%msh%n_cells
+                call cell_dofs(c, cd(1:ne))
+                do b = 1, ne
+                    if (cd(b) == 0) cycle
+                    do a = 1, ne
+                        if (cd(a) == 0) cycle
+                        nnz = nnz + 1
+                        rows(nnz) = cd(a)
+                        cols(nnz) = cd(b)
+                    end do
+                end do
+            end do
+            allocate (zeros(nnz))
+            zeros = 0.0_dp
+            call csc_from_coo(mdl%n_dofs, rows(1:nnz), cols(1:nnz), zeros, mdl%stiff, st, m)
+            if (st /= STAT_OK) return
+            mdl%mass = mdl%stiff
+            allocate (mdl%cell_pos(ne, ne, mdl%msh%n_cells), mdl%load(mdl%n_dofs))
+            mdl%load = 0.0_dp
+            mdl%lumped = scn%mass == 'lumped'
+            do c = 1, mdl%msh%n_cells
+                call cell_dofs(c, cd(1:ne))
+                do b = 1, ne
+                    do a = 1, ne
+                        mdl%cell_pos(a, b, c) = 0
+                        if (cd(a) > 0 .and. cd(b) > 0) mdl%cell_pos(a, b, c) = csc_find(mdl%stiff, cd(a), cd(b))
+                    end do
+                end do
+                xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, c))
+                call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, scn%young, ke(1:ne, 1:ne))
+                call p1_mass(dim, xe(1:dim, 1:dim + 1), scn%density, mdl%lumped, me(1:ne, 1:ne))
+                do b = 1, ne
+                    do a = 1, ne
+                        i = mdl%cell_pos(a, b, c)
+                        if (i == 0) cycle
+                        mdl%stiff%val(i) = mdl%stiff%val(i) + ke(a, b)
+                        mdl%mass%val(i) = mdl%mass%val(i) + me(a, b)
+                    end do
+                end do
+                vol = abs(p1_measure(dim, xe(1:dim, 1:dim + 1)))
+                do a = 1, dim + 1
+                    do j = 1, dim
+                        i = cd(dim * (a - 1) + j)
+                        if (i > 0) mdl%load(i) = mdl%load(i) + scn%density * scn%gravity(j) * vol / (dim + 1)
+                    end do
+                end do
+            end do
+            mdl%stiff_theta = mdl%stiff
+            if (mdl%lumped) then
+                allocate (mdl%mass_diag(mdl%n_dofs))
+                do j = 1, mdl%n_dofs
+                    mdl%mass_diag(j) = mdl%mass%val(csc_find(mdl%mass, j, j))
+                end do
+            end if
+        end subroutine assemble
+
+        !> Free dofs of cell c (0 = constrained).
+        subroutine cell_dofs(c, cd)
+            integer, intent(in) :: c
+            integer, intent(out) :: cd(:)
+            integer :: a, k
+            do a = 1, dim + 1
+                do k = 1, dim
+                    cd(dim * (a - 1) + k) = mdl%dof(k, mdl%msh%cells(a, c))
+                end do
+            end do
+        end subroutine cell_dofs
+
+        !> K_theta = K - sum_f theta |F| / gamma_N s_f s_f^T.
+        subroutine add_theta_term()
+            integer :: f, a, b, i
+            real(dp) :: coef
+            if (scn%nitsche_theta == 0) return
+            do f = 1, mdl%ct%n_facets
+                coef = scn%nitsche_theta * mdl%ct%measure(f) / mdl%ct%gamma(f)
+                do b = 1, mdl%ndof_e
+                    do a = 1, mdl%ndof_e
+                        i = mdl%cell_pos(a, b, mdl%ct%cell(f))
+                        if (i == 0) cycle
+                        mdl%stiff_theta%val(i) = mdl%stiff_theta%val(i) &
+                                                 - coef * mdl%ct%s(a, f) * mdl%ct%s(b, f)
+                    end do
+                end do
+            end do
+        end subroutine add_theta_term
+
+        !> Facets holding the probe point (two when it is a shared node).
+        subroutine locate_probe(st)
+            integer, intent(out) :: st
+            integer :: f
+            real(dp) :: p(dim), xa(dim), xb(dim), t, len2, dist, tol
+            st = STAT_OK
+            p = scn%probe(1:dim)
+            mdl%n_probe = 0
+            do f = 1, mdl%ct%n_facets
+                if (mdl%n_probe == 2) exit
+                xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
+                if (dim == 1) then
+                    tol = 1.0e-9_dp * max(1.0_dp, abs(xa(1)))
+                    if (abs(p(1) - xa(1)) <= tol) call add(f, 0.0_dp)
+                    cycle
+                end if
+                xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
+                len2 = sum((xb - xa)**2)
+                t = dot_product(p - xa, xb - xa) / len2
+                dist = norm2(p - xa - t * (xb - xa))
+                tol = 1.0e-9_dp * sqrt(len2)
+                if (dist > tol .or. t < -1.0e-9_dp .or. t > 1.0_dp + 1.0e-9_dp) cycle
+                call add(f, min(1.0_dp, max(0.0_dp, t)))
+            end do
+            if (mdl%n_probe == 0) st = STAT_BAD_INPUT
+        end subroutine locate_probe
+
+        subroutine add(f, xi)
+            integer, intent(in) :: f
+            real(dp), intent(in) :: xi
+            mdl%n_probe = mdl%n_probe + 1
+            mdl%probe_facet(mdl%n_probe) = f
+            mdl%probe_xi(mdl%n_probe) = xi
+        end subroutine add
+    end subroutine model_build
+
+    !> b = B(u) = K_theta u + contact part; ktu = K_theta u; active points and the
+    !> contact energy parts (see contact_eval).
+    subroutine model_eval_b(mdl, u, b, ktu, active, e_pen, e_theta)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(in) :: u(:)          !! free-dof displacement
+        real(dp), intent(out) :: b(:)         !! B(u)
+        real(dp), intent(out) :: ktu(:)       !! K_theta u
+        integer, intent(out) :: active        !! active contact quadrature points
+        real(dp), intent(out) :: e_pen        !! int [P]_-^2 / (2 gamma)
+        real(dp), intent(out) :: e_theta      !! sum theta |F| sigma_n^2 / (2 gamma)
+        call csc_matvec(mdl%stiff_theta, u, ktu)
+        b = ktu
+        active = 0; e_pen = 0.0_dp; e_theta = 0.0_dp
+        if (mdl%has_contact) call contact_eval(mdl%ct, u, b, active, e_pen, e_theta)
+    end subroutine model_eval_b
+
+    !> jdu = B'(u) du (generalized derivative).
+    subroutine model_apply_jacobian(mdl, u, du, jdu)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(in) :: u(:)          !! linearization point
+        real(dp), intent(in) :: du(:)         !! direction
+        real(dp), intent(out) :: jdu(:)       !! B'(u) du
+        real(dp), allocatable :: dmat(:, :), rdummy(:)
+        logical, allocatable :: touched(:)
+        integer :: active
+        real(dp) :: e1, e2
+        call csc_matvec(mdl%stiff_theta, du, jdu)
+        if (.not. mdl%has_contact) return
+        allocate (dmat(mdl%ct%m, mdl%ct%m), touched(mdl%ct%m), rdummy(size(u)))
+        rdummy = 0.0_dp
+        call contact_eval(mdl%ct, u, rdummy, active, e1, e2, dmat, touched)
+        jdu(mdl%ct%cdofs) = jdu(mdl%ct%cdofs) + matmul(dmat, du(mdl%ct%cdofs))
+    end subroutine model_apply_jacobian
+
+    !> Initial displacement and velocity (SPEC section 3, &initial).
+    subroutine model_initial(mdl, scn, u0, v0)
+        type(model_t), intent(in) :: mdl      !! model
+        type(scene_t), intent(in) :: scn      !! scene
+        real(dp), intent(out) :: u0(:)        !! (n_dofs)
+        real(dp), intent(out) :: v0(:)        !! (n_dofs)
+        integer :: i, node, k, dim
+        real(dp) :: d
+        dim = mdl%dim
+        u0 = 0.0_dp
+        v0 = 0.0_dp
+        do i = 1, mdl%n_dofs
+            node = mdl%dof_node(i)
+            k = mdl%dof_comp(i)
+            select case (trim(scn%initial_kind))
+            case ('velocity')
+                v0(i) = scn%velocity(k)
+            case ('compressed_bar')
+                d = dot_product(scn%obstacle_point(1:dim) - mdl%msh%x(:, node), mdl%normal(1:dim))
+                u0(i) = -scn%amplitude * (1.0_dp - d / scn%mesh_length) * mdl%normal(k)
+            end select
+        end do
+    end subroutine model_initial
+
+    !> Probe values: u_n, v_n interpolated; p_n = Nitsche pressure (mean over the
+    !> facets when the probe is a shared node). Zero without contact boundary.
+    subroutine model_probe(mdl, u, v, un, vn, pn)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(in) :: u(:)          !! displacement
+        real(dp), intent(in) :: v(:)          !! velocity
+        real(dp), intent(out) :: un           !! u . n at the probe
+        real(dp), intent(out) :: vn           !! v . n at the probe
+        real(dp), intent(out) :: pn           !! contact pressure (<= 0)
+        integer :: q, f
+        real(dp) :: ue(mdl%ndof_e), ve(mdl%ndof_e), nsh(mdl%ct%nfn)
+        un = 0.0_dp; vn = 0.0_dp; pn = 0.0_dp
+        if (mdl%n_probe == 0) return
+        do q = 1, mdl%n_probe
+            f = mdl%probe_facet(q)
+            call gather(f, u, ue)
+            call gather(f, v, ve)
+            nsh = facet_shape(mdl%ct%nfn, mdl%probe_xi(q))
+            pn = pn + facet_pressure(mdl%ndof_e, mdl%ct%nfn, ue, mdl%ct%s(:, f), &
+                                     mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), &
+                                     mdl%probe_xi(q))
+            if (q == 1) then
+                un = dot_product(nsh, matmul(ue, mdl%ct%nvec(:, :, f)))
+                vn = dot_product(nsh, matmul(ve, mdl%ct%nvec(:, :, f)))
+            end if
+        end do
+        pn = pn / mdl%n_probe
+
+    contains
+
+        pure subroutine gather(ff, w, we)
+            integer, intent(in) :: ff
+            real(dp), intent(in) :: w(:)
+            real(dp), intent(out) :: we(:)
+            integer :: i
+            do i = 1, size(we)
+                we(i) = 0.0_dp
+                if (mdl%ct%dofs(i, ff) > 0) we(i) = w(mdl%ct%dofs(i, ff))
+            end do
+        end subroutine gather
+    end subroutine model_probe
+
+    !> y = M x.
+    subroutine model_mass_apply(mdl, x, y)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(in) :: x(:)          !! vector
+        real(dp), intent(out) :: y(:)         !! M x
+        if (mdl%lumped) then
+            y = mdl%mass_diag * x
+        else
+            call csc_matvec(mdl%mass, x, y)
+        end if
+    end subroutine model_mass_apply
+
+    !> Expand a free-dof vector to (dim, n_nodes) with zeros on constrained dofs.
+    pure subroutine model_full_field(mdl, w, full)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(in) :: w(:)          !! free-dof vector
+        real(dp), intent(out) :: full(:, :)   !! (dim, n_nodes)
+        integer :: i, k
+        do i = 1, mdl%msh%n_nodes
+            do k = 1, mdl%dim
+                full(k, i) = 0.0_dp
+                if (mdl%dof(k, i) > 0) full(k, i) = w(mdl%dof(k, i))
+            end do
+        end do
+    end subroutine model_full_field
+end module model

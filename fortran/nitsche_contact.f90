@@ -1,0 +1,365 @@
+!> Nitsche's method for frictionless contact with a rigid plane (SPEC section 1):
+!> B(u).v = a_theta(u, v) + int_GammaC (1/gamma_N) [P_1(u) + gamma_N g]_- P_theta(v),
+!> P_theta(v) = theta sigma_n(v) - gamma_N v_n. This module holds the nonlinear facet
+!> part; the linear -theta/gamma_N sigma_n(u) sigma_n(v) part is assembled into K_theta.
+!>
+!> On a P1 facet sigma_n(u) is constant (it lives on the owner cell) and u_n, g are
+!> linear, so P(xi) = P_1(u) + gamma_N g is linear along the facet. Quadrature
+!> 'exact' splits the facet at the zero of P and integrates the active piece with
+!> 2 Gauss points: exact for the residual, the tangent and the energy (polynomials
+!> of degree <= 2 on the piece). 'gauss' uses quad_points Gauss points on the whole
+!> facet (GetFEM's reference runs used 3), which does not resolve the kink.
+module nitsche_contact
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
+    use mesh, only: mesh_t
+    use fe_p1, only: p1_gradients, p1_diameter
+    implicit none
+    private
+
+    integer, parameter, public :: QUAD_EXACT = 1   !! split at the kink
+    integer, parameter, public :: QUAD_GAUSS = 2   !! fixed Gauss rule
+
+    !> Contact facets with everything constant precomputed.
+    type, public :: contact_t
+        integer :: dim = 0                    !! 1 or 2
+        integer :: n_facets = 0               !! contact facets
+        integer :: ndof_e = 0                 !! dofs of an owner cell: dim (dim+1)
+        integer :: nfn = 0                    !! nodes per facet: dim
+        integer :: theta = 1                  !! Nitsche theta in {-1, 0, 1}
+        integer :: quad = QUAD_EXACT          !! QUAD_EXACT or QUAD_GAUSS
+        integer :: nq = 0                     !! Gauss points (QUAD_GAUSS)
+        real(dp) :: qx(6) = 0.0_dp            !! Gauss points on [0, 1]
+        real(dp) :: qw(6) = 0.0_dp            !! Gauss weights on [0, 1]
+        integer, allocatable :: cell(:)       !! (n_facets) owner cell
+        integer, allocatable :: nodes(:, :)   !! (nfn, n_facets) facet nodes (global)
+        integer, allocatable :: dofs(:, :)    !! (ndof_e, n_facets) owner free dofs, 0 = constrained
+        real(dp), allocatable :: s(:, :)      !! (ndof_e, n_facets) sigma_n(v) = s . v_e
+        real(dp), allocatable :: nvec(:, :, :) !! (ndof_e, nfn, n_facets) v_n at facet node j = nvec(:, j) . v_e
+        real(dp), allocatable :: gap(:, :)    !! (nfn, n_facets) initial gap g >= 0 at facet nodes
+        real(dp), allocatable :: gamma(:)     !! (n_facets) gamma_N = gamma0 / h_T
+        real(dp), allocatable :: measure(:)   !! (n_facets) facet length (1 in 1D)
+        integer :: m = 0                      !! distinct free dofs of all owner cells
+        integer, allocatable :: cdofs(:)      !! (m) those free dofs
+        integer, allocatable :: cloc(:, :)    !! (ndof_e, n_facets) index into cdofs, 0 = constrained
+    end type contact_t
+
+    public :: contact_init, contact_eval, nitsche_facet, facet_pressure, facet_shape
+
+contains
+
+    !> Values of the facet's nodal shape functions at xi in [0, 1].
+    pure function facet_shape(nfn, xi) result(nsh)
+        integer, intent(in) :: nfn     !! nodes per facet (1 or 2)
+        real(dp), intent(in) :: xi     !! position along the facet
+        real(dp) :: nsh(nfn)
+        if (nfn == 1) then
+            nsh = 1.0_dp
+        else
+            nsh = [1.0_dp - xi, xi]
+        end if
+    end function facet_shape
+
+    !> Residual, generalized tangent and penalty energy of one contact facet.
+    !> r = int (1/gamma) [P]_- P_theta, k = dr/du_e on the active part,
+    !> energy = int (1/(2 gamma)) [P]_-^2.
+    pure subroutine nitsche_facet(ndof_e, nfn, ue, s, nvec, gap, gamma, theta, measure, &
+                                  quad, nq, qx, qw, want_k, r, k, energy, active)
+        integer, intent(in) :: ndof_e          !! owner cell dofs
+        integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D)
+        real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
+        real(dp), intent(in) :: s(ndof_e)      !! sigma_n row
+        real(dp), intent(in) :: nvec(ndof_e, nfn) !! normal-displacement rows at facet nodes
+        real(dp), intent(in) :: gap(nfn)       !! initial gap at facet nodes
+        real(dp), intent(in) :: gamma          !! gamma_N > 0
+        integer, intent(in) :: theta           !! -1, 0, 1
+        real(dp), intent(in) :: measure        !! facet length (1 in 1D)
+        integer, intent(in) :: quad            !! QUAD_EXACT or QUAD_GAUSS
+        integer, intent(in) :: nq              !! Gauss points (QUAD_GAUSS)
+        real(dp), intent(in) :: qx(:)          !! Gauss points on [0, 1]
+        real(dp), intent(in) :: qw(:)          !! Gauss weights on [0, 1]
+        logical, intent(in) :: want_k          !! compute k
+        real(dp), intent(out) :: r(ndof_e)     !! residual contribution
+        real(dp), intent(out) :: k(ndof_e, ndof_e) !! tangent contribution (if want_k)
+        real(dp), intent(out) :: energy        !! int [P]_-^2 / (2 gamma)
+        integer, intent(out) :: active         !! active quadrature points
+        real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
+        real(dp) :: sn, pnode(nfn), xs(6), ws(6), a, b, xi_star
+        real(dp) :: nsh(nfn), pv, nn(ndof_e), ptheta(ndof_e), dp_du(ndof_e)
+        integer :: np, q, j
+        sn = dot_product(s, ue)
+        pnode = sn - gamma * (matmul(ue, nvec) - gap)
+        r = 0.0_dp
+        if (want_k) k = 0.0_dp
+        energy = 0.0_dp
+        active = 0
+        if (nfn == 1) then
+            np = 1; xs(1) = 0.0_dp; ws(1) = measure
+        else if (quad == QUAD_GAUSS) then
+            np = nq; xs(1:nq) = qx(1:nq); ws(1:nq) = measure * qw(1:nq)
+        else
+            if (pnode(1) >= 0.0_dp .and. pnode(2) >= 0.0_dp) return
+            if (pnode(1) < 0.0_dp .and. pnode(2) < 0.0_dp) then
+                a = 0.0_dp; b = 1.0_dp
+            else
+                xi_star = pnode(1) / (pnode(1) - pnode(2))
+                if (pnode(1) < 0.0_dp) then
+                    a = 0.0_dp; b = xi_star
+                else
+                    a = xi_star; b = 1.0_dp
+                end if
+            end if
+            np = 2
+            xs(1:2) = a + (b - a) * [0.5_dp - g2, 0.5_dp + g2]
+            ws(1:2) = 0.5_dp * measure * (b - a)
+        end if
+        do q = 1, np
+            nsh = facet_shape(nfn, xs(q))
+            pv = dot_product(nsh, pnode)
+            if (.not. (pv < 0.0_dp)) cycle
+            active = active + 1
+            nn = matmul(nvec, nsh)
+            ptheta = theta * s - gamma * nn
+            r = r + (ws(q) / gamma) * pv * ptheta
+            energy = energy + (0.5_dp * ws(q) / gamma) * pv**2
+            if (want_k) then
+                dp_du = s - gamma * nn
+                do j = 1, ndof_e
+                    k(:, j) = k(:, j) + (ws(q) / gamma) * ptheta * dp_du(j)
+                end do
+            end if
+        end do
+    end subroutine nitsche_facet
+
+    !> Nitsche contact pressure [P_1(u) + gamma g]_- at xi on one facet.
+    pure function facet_pressure(ndof_e, nfn, ue, s, nvec, gap, gamma, xi) result(p)
+        integer, intent(in) :: ndof_e          !! owner cell dofs
+        integer, intent(in) :: nfn             !! facet nodes
+        real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
+        real(dp), intent(in) :: s(ndof_e)      !! sigma_n row
+        real(dp), intent(in) :: nvec(ndof_e, nfn) !! normal rows
+        real(dp), intent(in) :: gap(nfn)       !! gap at facet nodes
+        real(dp), intent(in) :: gamma          !! gamma_N
+        real(dp), intent(in) :: xi             !! position along the facet
+        real(dp) :: p
+        real(dp) :: nsh(nfn)
+        nsh = facet_shape(nfn, xi)
+        p = dot_product(s, ue) - gamma * dot_product(nsh, matmul(ue, nvec) - gap)
+        p = min(p, 0.0_dp)
+    end function facet_pressure
+
+    !> Set up the contact facets `facets` (indices into msh%facets): owner cells,
+    !> sigma_n rows, normal rows, gaps, gamma_N = gamma0 / diameter(owner).
+    subroutine contact_init(ct, msh, facets, dof, young, lambda, mu, normal, point, gamma0, &
+                            theta, quad, nq, stat, errmsg)
+        type(contact_t), intent(out) :: ct                  !! contact data
+        type(mesh_t), intent(in) :: msh                     !! mesh
+        integer, intent(in) :: facets(:)                    !! contact facets
+        integer, intent(in) :: dof(:, :)                    !! (dim, n_nodes) free dof or 0
+        real(dp), intent(in) :: young                       !! E (1D)
+        real(dp), intent(in) :: lambda                      !! Lame lambda (2D)
+        real(dp), intent(in) :: mu                          !! Lame mu (2D)
+        real(dp), intent(in) :: normal(:)                   !! (dim) unit outward normal (into obstacle)
+        real(dp), intent(in) :: point(:)                    !! (dim) point of the obstacle plane
+        real(dp), intent(in) :: gamma0                      !! gamma0 > 0
+        integer, intent(in) :: theta                        !! -1, 0, 1
+        integer, intent(in) :: quad                         !! QUAD_EXACT or QUAD_GAUSS
+        integer, intent(in) :: nq                           !! Gauss points
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: dim, nf, f, c, j, a, kk, nloc, ndof_e, i, cnt
+        integer, allocatable :: first(:), adj(:), mark(:)
+        real(dp) :: grad(msh%dim, msh%dim + 1), xe(msh%dim, msh%dim + 1), gn
+        stat = STAT_OK
+        dim = msh%dim
+        nf = size(facets)
+        ndof_e = dim * (dim + 1)
+        ct%dim = dim; ct%n_facets = nf; ct%ndof_e = ndof_e; ct%nfn = dim
+        ct%theta = theta; ct%quad = quad; ct%nq = nq
+        if (quad == QUAD_GAUSS) call gauss_rule(nq, ct%qx, ct%qw)
+        allocate (ct%cell(nf), ct%nodes(dim, nf), ct%dofs(ndof_e, nf), ct%s(ndof_e, nf), &
+                  ct%nvec(ndof_e, dim, nf), ct%gap(dim, nf), ct%gamma(nf), ct%measure(nf), &
+                  ct%cloc(ndof_e, nf))
+        ! node -> cells adjacency (CSR)
+        allocate (first(msh%n_nodes + 1), adj(msh%n_cells * (dim + 1)))
+        first = 0
+        do c = 1, msh%n_cells
+            first(msh%cells(:, c) + 1) = first(msh%cells(:, c) + 1) + 1
+        end do
+        first(1) = 1
+        do i = 2, msh%n_nodes + 1
+            first(i) = first(i) + first(i - 1)
+        end do
+        allocate (mark(msh%n_nodes + 1))
+        mark = first
+        do c = 1, msh%n_cells
+            do a = 1, dim + 1
+                adj(mark(msh%cells(a, c))) = c
+                mark(msh%cells(a, c)) = mark(msh%cells(a, c)) + 1
+            end do
+        end do
+        do f = 1, nf
+            ct%nodes(:, f) = msh%facets(:, facets(f))
+            ct%cell(f) = 0
+            do i = first(ct%nodes(1, f)), first(ct%nodes(1, f) + 1) - 1
+                c = adj(i)
+                if (all([(any(msh%cells(:, c) == ct%nodes(j, f)), j=1, dim)])) then
+                    ct%cell(f) = c
+                    exit
+                end if
+            end do
+            if (ct%cell(f) == 0) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, 'a contact facet belongs to no cell')
+                return
+            end if
+            c = ct%cell(f)
+            xe = msh%x(:, msh%cells(:, c))
+            call p1_gradients(dim, xe, grad)
+            ct%gamma(f) = gamma0 / p1_diameter(dim, xe)
+            if (dim == 1) then
+                ct%measure(f) = 1.0_dp
+            else
+                ct%measure(f) = norm2(msh%x(:, ct%nodes(2, f)) - msh%x(:, ct%nodes(1, f)))
+            end if
+            ct%nvec(:, :, f) = 0.0_dp
+            do a = 1, dim + 1
+                gn = dot_product(normal(1:dim), grad(:, a))
+                do kk = 1, dim
+                    i = dim * (a - 1) + kk
+                    ct%dofs(i, f) = dof(kk, msh%cells(a, c))
+                    if (dim == 1) then
+                        ct%s(i, f) = young * grad(1, a)
+                    else
+                        ct%s(i, f) = lambda * grad(kk, a) + 2.0_dp * mu * gn * normal(kk)
+                    end if
+                end do
+            end do
+            do j = 1, dim
+                nloc = 0
+                do a = 1, dim + 1
+                    if (msh%cells(a, c) == ct%nodes(j, f)) nloc = a
+                end do
+                ct%nvec(dim * (nloc - 1) + 1:dim * nloc, j, f) = normal(1:dim)
+                ct%gap(j, f) = dot_product(point(1:dim) - msh%x(:, ct%nodes(j, f)), normal(1:dim))
+            end do
+        end do
+        ! distinct free dofs of the owner cells
+        deallocate (mark)
+        allocate (mark(maxval([0, dof])))
+        mark = 0
+        cnt = 0
+        do f = 1, nf
+            do i = 1, ndof_e
+                j = ct%dofs(i, f)
+                if (j == 0) cycle
+                if (mark(j) == 0) then
+                    cnt = cnt + 1
+                    mark(j) = cnt
+                end if
+            end do
+        end do
+        ct%m = cnt
+        allocate (ct%cdofs(cnt))
+        do j = 1, size(mark)
+            if (mark(j) > 0) ct%cdofs(mark(j)) = j
+        end do
+        do f = 1, nf
+            do i = 1, ndof_e
+                ct%cloc(i, f) = 0
+                if (ct%dofs(i, f) > 0) ct%cloc(i, f) = mark(ct%dofs(i, f))
+            end do
+        end do
+    end subroutine contact_init
+
+    !> Add the nonlinear contact part of B(u) to r (free dofs); count active points;
+    !> e_pen = int [P]_-^2/(2 gamma); e_theta = sum theta |F| sigma_n^2/(2 gamma).
+    !> With dmat present, also return the contact tangent on cdofs (m x m) and
+    !> touched(i) = .true. for the cdofs of facets with active points.
+    subroutine contact_eval(ct, u, r, active, e_pen, e_theta, dmat, touched)
+        type(contact_t), intent(in) :: ct                   !! contact data
+        real(dp), intent(in) :: u(:)                        !! free-dof displacement
+        real(dp), intent(inout) :: r(:)                     !! residual (added to)
+        integer, intent(out) :: active                      !! active quadrature points
+        real(dp), intent(out) :: e_pen                      !! penalty-like energy
+        real(dp), intent(out) :: e_theta                    !! theta sigma_n^2 energy term
+        real(dp), intent(inout), optional :: dmat(:, :)     !! (m, m) tangent (overwritten)
+        logical, intent(inout), optional :: touched(:)      !! (m) active cdofs (overwritten)
+        real(dp) :: ue(ct%ndof_e), rf(ct%ndof_e), kf(ct%ndof_e, ct%ndof_e), ef, sn
+        integer :: f, i, j, af
+        logical :: want_k
+        want_k = present(dmat)
+        if (want_k) then
+            dmat(1:ct%m, 1:ct%m) = 0.0_dp
+            touched(1:ct%m) = .false.
+        end if
+        active = 0
+        e_pen = 0.0_dp
+        e_theta = 0.0_dp
+        do f = 1, ct%n_facets
+            do i = 1, ct%ndof_e
+                ue(i) = 0.0_dp
+                if (ct%dofs(i, f) > 0) ue(i) = u(ct%dofs(i, f))
+            end do
+            sn = dot_product(ct%s(:, f), ue)
+            e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
+            call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), ct%gap(:, f), &
+                               ct%gamma(f), ct%theta, ct%measure(f), ct%quad, ct%nq, ct%qx, &
+                               ct%qw, want_k, rf, kf, ef, af)
+            if (af == 0) cycle
+            active = active + af
+            e_pen = e_pen + ef
+            do i = 1, ct%ndof_e
+                if (ct%dofs(i, f) > 0) r(ct%dofs(i, f)) = r(ct%dofs(i, f)) + rf(i)
+            end do
+            if (want_k) then
+                do j = 1, ct%ndof_e
+                    if (ct%cloc(j, f) == 0) cycle
+                    touched(ct%cloc(j, f)) = .true.
+                    do i = 1, ct%ndof_e
+                        if (ct%cloc(i, f) == 0) cycle
+                        dmat(ct%cloc(i, f), ct%cloc(j, f)) = dmat(ct%cloc(i, f), ct%cloc(j, f)) &
+                                                             + kf(i, j)
+                    end do
+                end do
+            end if
+        end do
+    end subroutine contact_eval
+
+    !> Gauss-Legendre rule with n (1..6) points on [0, 1].
+    pure subroutine gauss_rule(n, x, w)
+        integer, intent(in) :: n          !! points
+        real(dp), intent(out) :: x(6)     !! points on [0, 1]
+        real(dp), intent(out) :: w(6)     !! weights (sum 1)
+        real(dp) :: t(6), c(6)
+        t = 0.0_dp; c = 0.0_dp
+        select case (n)
+        case (1)
+            t(1) = 0.0_dp; c(1) = 2.0_dp
+        case (2)
+            t(1:2) = [-1.0_dp, 1.0_dp] / sqrt(3.0_dp); c(1:2) = 1.0_dp
+        case (3)
+            t(1:3) = [-sqrt(0.6_dp), 0.0_dp, sqrt(0.6_dp)]
+            c(1:3) = [5.0_dp, 8.0_dp, 5.0_dp] / 9.0_dp
+        case (4)
+            t(1:4) = [-0.8611363115940526_dp, -0.3399810435848563_dp, &
+                      0.3399810435848563_dp, 0.8611363115940526_dp]
+            c(1:4) = [0.3478548451374538_dp, 0.6521451548625461_dp, &
+                      0.6521451548625461_dp, 0.3478548451374538_dp]
+        case (5)
+            t(1:5) = [-0.9061798459386640_dp, -0.5384693101056831_dp, 0.0_dp, &
+                      0.5384693101056831_dp, 0.9061798459386640_dp]
+            c(1:5) = [0.2369268850561891_dp, 0.4786286704993665_dp, 0.5688888888888889_dp, &
+                      0.4786286704993665_dp, 0.2369268850561891_dp]
+        case default
+            t = [-0.9324695142031521_dp, -0.6612093864662645_dp, -0.2386191860831969_dp, &
+                 0.2386191860831969_dp, 0.6612093864662645_dp, 0.9324695142031521_dp]
+            c = [0.1713244923791704_dp, 0.3607615730481386_dp, 0.4679139345726910_dp, &
+                 0.4679139345726910_dp, 0.3607615730481386_dp, 0.1713244923791704_dp]
+        end select
+        x = 0.5_dp * (t + 1.0_dp)
+        w = 0.5_dp * c
+        if (n < 6) then
+            x(n + 1:) = 0.0_dp; w(n + 1:) = 0.0_dp
+        end if
+    end subroutine gauss_rule
+end module nitsche_contact
