@@ -35,10 +35,13 @@ def _fail(message: str, code: int) -> int:
     return code
 
 
-def parse_set(item: str) -> tuple[str, str, object]:
-    """'group.key=value' -> (group, key, value); the value is read as a namelist value
-    (numbers, .true./.false., 'quoted' or bare strings, comma-separated lists; a list of
-    strings is joined back with ',' since group lists are one string in a scene)."""
+def parse_set(item: str) -> tuple[str, str, str]:
+    """'group.key=value' -> ('group', 'key', 'value').
+
+    Only the syntax is checked here; the value stays a string that
+    :meth:`dyncontact.Scene.set` converts to the key's type (numbers, 'quoted' or bare
+    strings, comma-separated vectors) and checks, naming the key when it is wrong.
+    """
     if "=" not in item:
         raise UsageError(f"--set {item!r}: expected group.key=value")
     lhs, raw = item.split("=", 1)
@@ -50,35 +53,13 @@ def parse_set(item: str) -> tuple[str, str, object]:
         raise UsageError(f"--set {item!r}: group and key must be names")
     raw = raw.strip()
     if raw == "":
-        raise UsageError(f"--set {item!r}: empty value (use '' for an empty string)")
-    if raw in ("''", '""'):
-        return group, key, ""
-    quoted = raw[0] in "'\""
-    import f90nml
-
-    try:
-        value = f90nml.reads(f"&g v = {raw} /")["g"]["v"]
-    except Exception:  # noqa: BLE001 - f90nml raises various types
-        if quoted:
-            raise UsageError(f"--set {item!r}: cannot read the value {raw!r}") from None
-        return group, key, raw
-    if not quoted and (isinstance(value, str) or (
-            isinstance(value, list) and all(isinstance(v, str) for v in value))):
-        return group, key, raw          # a bare string: names, lists of names, paths
-    if value is None or (isinstance(value, list) and any(v is None for v in value)):
-        raise UsageError(f"--set {item!r}: cannot read the value {raw!r}")
-    if isinstance(value, list) and all(isinstance(v, str) for v in value):
-        value = ",".join(value)
-    return group, key, value
+        raise UsageError(f"--set {item!r}: empty value (write '' for an empty string)")
+    return group, key, raw
 
 
-def _apply_set(scene, group: str, key: str, value) -> None:
-    """Set one key of a Scene (the Scene validates names and types)."""
-    setter = getattr(scene, "set", None)
-    if callable(setter):
-        setter(group, key, value)
-    else:
-        scene[group][key] = value
+def _apply_set(scene, group: str, key: str, value: str) -> None:
+    """Set one key of a Scene (the Scene checks the name and converts the value)."""
+    scene.set(f"{group}.{key}", value)
 
 
 def _bad_input_types() -> tuple[type, ...]:

@@ -297,20 +297,12 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
 
 
 def _scene_attr_output_dir(scene) -> str | None:
-    """&output dir of a Scene object, whatever its access style."""
-    for getter in (
-        lambda s: s["output"]["dir"],
-        lambda s: s.get("output", "dir"),
-        lambda s: s.output.dir,
-        lambda s: s.output["dir"],
-    ):
-        try:
-            d = getter(scene)
-        except Exception:  # noqa: BLE001 - try the next access style
-            continue
-        if isinstance(d, (str, os.PathLike)) and os.fspath(d):
-            return os.fspath(d)
-    return None
+    """&output dir of a Scene object."""
+    try:
+        d = scene.get("output.dir")
+    except Exception:  # noqa: BLE001 - not a Scene: the caller falls back to 'out'
+        return None
+    return os.fspath(d) if d else None
 
 
 # --------------------------------------------------------------------------- helpers
