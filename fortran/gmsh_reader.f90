@@ -161,7 +161,8 @@ contains
         end do
 
         if (first) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, s%path//': file is empty (or not a regular file)')
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       s%path//': file is empty (or not a regular file)')
         else if (.not. raw%has_nodes) then
             call raise(stat, errmsg, STAT_BAD_INPUT, s%path//': missing section $Nodes')
         else if (.not. raw%has_elements) then
@@ -261,7 +262,8 @@ contains
             end if
             raw%name_str(k) = rest
             do j = 1, k - 1
-                if (raw%name_dim(j) == raw%name_dim(k) .and. raw%name_tag(j) == raw%name_tag(k)) then
+                if (raw%name_dim(j) == raw%name_dim(k) .and. &
+                    raw%name_tag(j) == raw%name_tag(k)) then
                     call fail(s, 'physical group named twice: '//quoted(rest), stat, errmsg)
                     return
                 end if
@@ -389,8 +391,8 @@ contains
             k = k + nb
         end do
         if (k /= n) then
-            write (buf, '(a, i0, a, i0, a)') 'bad count: ', n, ' nodes announced, the blocks hold ', &
-                k
+            write (buf, '(a, i0, a, i0)') 'bad count: ', n, &
+                ' nodes announced, the blocks hold ', k
             call fail(s, trim(buf), stat, errmsg)
             return
         end if
@@ -418,7 +420,8 @@ contains
         allocate (raw%blk_dim(n_blocks), raw%blk_ent(n_blocks), raw%blk_type(n_blocks), &
                   raw%blk_first(n_blocks + 1), raw%elem_tag(n), raw%elem_node(3, n), stat=ist)
         if (ist /= 0) then
-            call fail(s, 'bad count: cannot allocate the announced number of elements', stat, errmsg)
+            call fail(s, 'bad count: cannot allocate the announced number of elements', &
+                      stat, errmsg)
             return
         end if
         raw%n_blk = n_blocks
@@ -558,7 +561,8 @@ contains
             if (raw%blk_first(b + 1) > raw%blk_first(b)) dim = max(dim, raw%blk_dim(b))
         end do
         if (dim < 1) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, path//': no segments or triangles in $Elements')
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       path//': no segments or triangles in $Elements')
             return
         end if
 
@@ -610,6 +614,8 @@ contains
                 if (span > PLANE_TOL * scale) then
                     write (buf, '(a, i0, a, a, a)') ': the mesh is ', dim, 'D but its ', &
                         trim(merge('y', 'z', j == 2)), ' coordinates are not constant'
+                    if (dim == 1) buf = trim(buf)//' (a 2D geometry saved without triangles:'// &
+                        ' no Physical Surface?)'
                     call raise(stat, errmsg, STAT_BAD_INPUT, path//trim(buf))
                     return
                 end if
@@ -732,6 +738,7 @@ contains
         integer, allocatable, intent(out) :: perm(:)    !! permutation of 1..size(keys)
         integer, allocatable :: tmp(:)
         integer :: n, width, lo, mid, hi, i, j, k
+        logical :: take_left
         n = size(keys)
         allocate (perm(n), tmp(n))
         perm = [(i, i = 1, n)]
@@ -743,7 +750,11 @@ contains
                 hi = min(lo + 2 * width, n + 1)
                 i = lo; j = mid; k = lo
                 do while (k < hi)
-                    if (i < mid .and. (j >= hi .or. keys(perm(min(i, n))) <= keys(perm(min(j, n))))) then
+                    ! min() keeps the indices valid: Fortran may evaluate both operands
+                    take_left = i < mid
+                    if (take_left .and. j < hi) &
+                        take_left = keys(perm(min(i, n))) <= keys(perm(min(j, n)))
+                    if (take_left) then
                         tmp(k) = perm(i); i = i + 1
                     else
                         tmp(k) = perm(j); j = j + 1

@@ -42,8 +42,8 @@ contains
 
     !> Check consistency: sizes, node numbers in range, no degenerate cell
     !> (|measure| <= 1e-12 * h^dim with h the cell's longest edge), facet nodes in range.
-    !> Also: finite coordinates, group indices in range, distinct facet nodes and
-    !> every facet a face of some cell (see mesh_facet_owner).
+    !> Also: finite coordinates, group indices in range, distinct facet nodes,
+    !> every facet a face of some cell (see mesh_facet_owner), every node in a cell.
     subroutine mesh_check(this, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh to check
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
@@ -104,7 +104,30 @@ contains
             end if
         end do
         call mesh_facet_owner(this, owner, stat, errmsg)
+        if (stat /= STAT_OK) return
+        call check_nodes_used(this, stat, errmsg)
     end subroutine mesh_check
+
+    !> Every node belongs to a cell (a free node would make the stiffness singular).
+    subroutine check_nodes_used(this, stat, errmsg)
+        type(mesh_t), intent(in) :: this                  !! mesh (node numbers in range)
+        integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message naming the node
+        logical, allocatable :: used(:)
+        character(len=160) :: buf
+        integer :: c, i
+        stat = STAT_OK
+        allocate (used(this%n_nodes))
+        used = .false.
+        do c = 1, this%n_cells
+            used(this%cells(:, c)) = .true.
+        end do
+        if (all(used)) return
+        i = findloc(used, .false., dim=1)
+        write (buf, '(a, i0, a, i0, a)') 'mesh check: node ', i, ' (and ', count(.not. used) - 1, &
+            ' more) belongs to no cell'
+        call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+    end subroutine check_nodes_used
 
     !> Shapes and sizes of the arrays of `this` agree with its counters.
     subroutine check_sizes(this, stat, errmsg)
@@ -147,7 +170,8 @@ contains
              .and. size(this%group_name) == this%n_groups &
              .and. size(this%group_dim) == this%n_groups
         if (.not. ok) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'mesh check: array shapes differ from the counts')
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       'mesh check: array shapes differ from the counts')
         end if
     end subroutine check_sizes
 
@@ -155,7 +179,7 @@ contains
     pure subroutine mesh_cell_size(this, c, meas, hmax)
         type(mesh_t), intent(in) :: this   !! mesh (nodes of cell c must be in range)
         integer, intent(in) :: c           !! cell index
-        real(dp), intent(out) :: meas      !! signed length (1D) or area (2D, > 0 if counter-clockwise)
+        real(dp), intent(out) :: meas      !! signed length (1D) or area (2D, > 0 counter-clockwise)
         real(dp), intent(out) :: hmax      !! longest edge (diameter) of the cell
         real(dp) :: a(2), b(2), p(2)
         if (this%dim == 1) then
@@ -178,7 +202,7 @@ contains
         integer, allocatable, intent(out) :: owner(:)     !! (n_facets) owning cell of each facet
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message naming the facet
-        integer, allocatable, intent(out), optional :: opposite(:) !! (n_facets) local node opposite the facet
+        integer, allocatable, intent(out), optional :: opposite(:) !! (n_facets) opposite local node
         integer, allocatable :: first(:), list(:)
         character(len=160) :: buf
         integer :: c, f, k, j, nv, loc
@@ -313,7 +337,7 @@ contains
     subroutine mesh_group_nodes(this, names, mask, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh
         character(len=*), intent(in) :: names             !! e.g. 'left,right'
-        logical, intent(inout) :: mask(:)                 !! (n_nodes) set .true. on the groups' nodes
+        logical, intent(inout) :: mask(:)                 !! (n_nodes) set .true. on group nodes
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message naming the missing group
         integer, allocatable :: groups(:)
@@ -323,7 +347,8 @@ contains
         call parse_group_list(this, names, groups, stat, errmsg)
         if (stat /= STAT_OK) return
         if (size(groups) > 0 .and. size(mask) /= this%n_nodes) then
-            call raise(stat, errmsg, STAT_INTERNAL, 'mesh_group_nodes: mask size differs from n_nodes')
+            call raise(stat, errmsg, STAT_INTERNAL, &
+                       'mesh_group_nodes: mask size differs from n_nodes')
             return
         end if
         do k = 1, size(groups)
@@ -343,7 +368,8 @@ contains
             end do
             if (.not. found) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, &
-                           "group '"//trim(this%group_name(g))//"' has no facets or cells in the mesh")
+                           "group '"//trim(this%group_name(g))// &
+                           "' has no facets or cells in the mesh")
                 return
             end if
         end do

@@ -347,6 +347,10 @@ BAD_FILES = {
     "degenerate_cell": (lambda t: t.replace("\n80 63 59 60", "\n80 63 59 63"), "degenerate"),
     "flat_cell": (lambda t: t.replace("\n80 63 59 60", "\n80 57 60 63"), "degenerate"),
     "orphan_facet": (lambda t: t.replace("\n82 2 5", "\n82 2 63"), "not a face of any cell"),
+    "free_node": (lambda t: t.replace("5 63 1 63", "5 64 1 64").replace("2 1 0 63", "2 1 0 64")
+                  .replace("\n63\n0 0 0\n", "\n63\n64\n0 0 0\n")
+                  .replace("\n0.1 1 0\n$EndNodes", "\n0.1 1 0\n0.05 2 0\n$EndNodes"),
+                  "node 64 (and 0 more) belongs to no cell"),
 }
 
 
@@ -412,12 +416,29 @@ def test_tolerated_variants(core_ext, tmp_path):
         "no_final_newline": text.rstrip("\n"),
         "comments": text.replace("$Nodes", "$Comments\n$Nodes in a comment\n$EndComments\n$Nodes"),
         "shifted_tags": _shift_node_tags(text, 1000, 3),
+        "shuffled_nodes": _shuffle_nodes(text, np.random.default_rng(1)),
     }
     for name, contents in variants.items():
         path = tmp_path / f"{name}.msh"
         path.write_bytes(contents.encode())
         assert_same_mesh(mesh_io.read_msh_fortran(path), ref)
     assert_same_mesh(mesh_io.read_msh(tmp_path / "shifted_tags.msh"), ref)
+
+
+def _shuffle_nodes(text: str, rng) -> str:
+    """The same mesh with the nodes of each $Nodes block listed in random order."""
+    lines = text.split("\n")
+    i = lines.index("$Nodes") + 1
+    nblocks = int(lines[i].split()[0])
+    i += 1
+    for _ in range(nblocks):
+        c = int(lines[i].split()[3])
+        p = rng.permutation(c)
+        tags, xyz = lines[i + 1:i + 1 + c], lines[i + 1 + c:i + 1 + 2 * c]
+        lines[i + 1:i + 1 + c] = [tags[k] for k in p]
+        lines[i + 1 + c:i + 1 + 2 * c] = [xyz[k] for k in p]
+        i += 1 + 2 * c
+    return "\n".join(lines)
 
 
 def _shift_node_tags(text: str, offset: int, stride: int) -> str:
