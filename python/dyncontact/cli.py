@@ -81,8 +81,10 @@ def cmd_run(args) -> int:
     if not os.path.isfile(scene_path):
         raise core.BadInputError(f"{scene_path}: no such scene file")
     if sets:
-        from .scene import Scene
-
+        try:
+            from .scene import Scene
+        except ImportError as exc:  # pragma: no cover - broken installation
+            raise core.DyncontactError(f"--set needs dyncontact.scene ({exc})") from exc
         scene = Scene.read(scene_path)
         for group, key, value in sets:
             _apply_set(scene, group, key, value)

@@ -248,23 +248,17 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
             path = os.fsdecode(scene)
             if not os.path.isfile(path):
                 raise BadInputError(f"{path}: no such scene file")
-            out_arg = "" if out is None else os.fspath(out)
+            if out is None:   # the folder the core will use (a bad scene raises here)
+                out = _scene_output_dir(scene_dump(path)) or "out"
         else:
             path = _write_scene(scene, tmp)
             if out is None:
-                out_dir = _scene_attr_output_dir(scene) or "out"
-                out_arg = os.path.abspath(out_dir)
-            else:
-                out_arg = os.fspath(out)
-        if out_arg:
-            out_dir = out_arg
-        else:
-            out_dir = _scene_output_dir(scene_dump(path)) or "out"
-        out_dir = os.path.abspath(out_dir)
-        out_arg = out_dir
+                out = _scene_attr_output_dir(scene) or "out"
+        # Relative output folders count from the current folder, for both entry points.
+        out_dir = os.path.abspath(os.fspath(out))
 
         handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
-            path, out_arg, 0)
+            path, out_dir, 0)
         _check(stat, errmsg, "opening the run")
         message = ""
         try:
