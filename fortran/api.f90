@@ -316,3 +316,22 @@ subroutine dc_mesh_arrays(path, bar_dim, length, width, h, dim, n_nodes, n_cells
         group_names = trim(group_names)//trim(msh%group_name(g))
     end do
 end subroutine dc_mesh_arrays
+
+!> Cost floors of an open run's step (us): triangular solve with the cached factors
+!> of the iteration matrix (implicit), SpMV with K_theta, M^{-1} application (pc).
+subroutine dc_bench_floor(handle, n_rep, t_solve_us, t_spmv_us, t_mass_us)
+    use iso_c_binding, only: c_int, c_int64_t, c_double
+    use simulation, only: simulation_t, sim_bench_floor
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle (opened with outputs)
+    integer(c_int), intent(in) :: n_rep          !! repetitions
+    real(c_double), intent(out) :: t_solve_us    !! us per triangular solve (0 if none)
+    real(c_double), intent(out) :: t_spmv_us     !! us per SpMV
+    real(c_double), intent(out) :: t_mass_us     !! us per M^{-1} application (0 if none)
+    type(simulation_t), pointer :: sim
+    real(c_double) :: a, b, c
+    call sim_from_handle(handle, sim)
+    call sim_bench_floor(sim, max(1, int(n_rep)), a, b, c)
+    t_solve_us = a; t_spmv_us = b; t_mass_us = c
+end subroutine dc_bench_floor

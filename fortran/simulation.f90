@@ -11,7 +11,8 @@ module simulation
     use time_scheme, only: time_scheme_t, state_t, state_eval
     use implicit_schemes, only: implicit_scheme_t
     use explicit_schemes, only: pc_scheme_t
-    use sparse, only: csc_t
+    use sparse, only: csc_t, csc_matvec
+    use mass_solver, only: mass_solver_apply
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
     use trace_output, only: make_dirs, trace_open, trace_row, json_real, json_string
     use vtk_output, only: vtk_write_vtu, vtk_write_pvd
@@ -44,6 +45,7 @@ module simulation
         character(len=64), allocatable :: snap_file(:) !! their file names
     end type simulation_t
 
+    public :: sim_bench_floor
     public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_eval_b, sim_apply_jacobian, sim_static, &
               sim_dof_map
 
@@ -281,6 +283,47 @@ contains
         write (unit, '(a)') '}'
         close (unit)
     end subroutine write_summary
+
+    !> Cost floors of a run's step, in microseconds (mean over n_rep repetitions):
+    !> one triangular solve with the cached factors of the iteration matrix (implicit
+    !> schemes; 0 otherwise), one SpMV with K_theta, one M^{-1} application (pc
+    !> schemes; 0 otherwise).
+    subroutine sim_bench_floor(sim, n_rep, t_solve, t_spmv, t_mass)
+        type(simulation_t), intent(inout) :: sim   !! an open run
+        integer, intent(in) :: n_rep               !! repetitions (> 0)
+        real(dp), intent(out) :: t_solve           !! us per triangular solve
+        real(dp), intent(out) :: t_spmv            !! us per SpMV with K_theta
+        real(dp), intent(out) :: t_mass            !! us per M^{-1} application
+        real(dp), allocatable :: b(:), x(:)
+        integer(i8) :: c0, c1
+        integer :: i, st
+        allocate (b(sim%n_dofs), x(sim%n_dofs))
+        call random_number(b)
+        t_solve = 0.0_dp; t_mass = 0.0_dp
+        call system_clock(c0)
+        do i = 1, n_rep
+            call csc_matvec(sim%mdl%stiff_theta, b, x)
+        end do
+        call system_clock(c1)
+        t_spmv = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        if (.not. allocated(sim%scheme)) return
+        select type (s => sim%scheme)
+        type is (implicit_scheme_t)
+            call system_clock(c0)
+            do i = 1, n_rep
+                call lu_solve(s%lu0, s%jac0, b, x, st)
+            end do
+            call system_clock(c1)
+            t_solve = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        type is (pc_scheme_t)
+            call system_clock(c0)
+            do i = 1, n_rep
+                call mass_solver_apply(s%ms, b, x, st)
+            end do
+            call system_clock(c1)
+            t_mass = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        end select
+    end subroutine sim_bench_floor
 
     !> b = B(u) on the free dofs; active = active contact quadrature points.
     subroutine sim_eval_b(sim, u, b, active)
