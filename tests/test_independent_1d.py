@@ -1,0 +1,200 @@
+"""An independent implementation of the 1D problem (issue 3's cross-check).
+
+`Bar1D` and the two time loops below were written from SPEC section 1 alone (not from
+fortran/): the P1 bar of SPEC section 2 with dense numpy matrices, Nitsche's contact at
+the node x = 0 and HHT / Newmark (semi-smooth Newton) or the predictor-corrector of
+eq. (10). dyncontact's 1D trace must be the same sequence of numbers up to round-off.
+
+Discrete 1D contact term (the "facet" is the point x = 0, of measure 1): with n = -1,
+u_n = -u_0, sigma_n(u) = sigma n.n = E (u_1 - u_0)/h = s.u on the first element,
+gamma_N = gamma0/h, P_1(u) = s.u - gamma_N u_n = dP.u and
+    B(u) = K u - (theta/gamma_N) s (s.u) + (1/gamma_N) [P_1(u)]_- (theta s - gamma_N e_n).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dyncontact
+from dyncontact import Scene
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE_1D = ROOT / "scripts" / "scenes" / "bar1d.nml"
+H = 1.0 / 50.0
+T_END = 6.0
+
+#: Both codes solve the same piecewise-linear equations exactly (semi-smooth Newton
+#: ends on the right active set), so they differ by round-off only, which accumulates
+#: over the steps but does not grow from one period to the next.
+#: u_n and the energies: observed <= 7e-12 over 6000 steps.
+TOL_U = 1e-10
+#: v_n and p_n amplify displacement round-off: v through a = (u - u_pred)/(beta dt^2)
+#: (eps |u| / (beta dt^2) * dt ~ 2e-13 per step at dt = 1e-3), p_n through
+#: gamma_N = 500 (7e-12 in u_0 -> 3.5e-9). Observed <= 1.9e-9 (theta = 0, alpha = -0.1).
+TOL_VP = 1e-8
+
+TRACE = ("u_n", "v_n", "p_n", "e_kin", "e_el", "e_contact")
+
+
+# ----------------------------------------------------------------- the reference code
+
+class Bar1D:
+    """P1 bar [0, 1] clamped at x = 1, Nitsche contact at x = 0 (n = -1, no gap)."""
+
+    def __init__(self, h, young=1.0, rho=1.0, theta=1, gamma0=10.0, mass="consistent"):
+        n = int(round(1.0 / h))               # elements; free dofs = nodes 0 .. n-1
+        self.x = np.linspace(0.0, 1.0, n + 1)[:n]
+        K, M = np.zeros((n + 1, n + 1)), np.zeros((n + 1, n + 1))
+        for e in range(n):
+            i = np.ix_([e, e + 1], [e, e + 1])
+            K[i] += young / h * np.array([[1.0, -1.0], [-1.0, 1.0]])
+            M[i] += rho * h * (np.array([[2.0, 1.0], [1.0, 2.0]]) / 6.0
+                               if mass == "consistent" else np.eye(2) / 2.0)
+        self.K, self.M = K[:n, :n], M[:n, :n]
+        self.s = np.zeros(n)
+        self.s[:2] = [-young / h, young / h]      # sigma_n(u) = s.u
+        self.en = np.zeros(n)
+        self.en[0] = -1.0                         # u_n = en.u
+        self.theta, self.gam = theta, gamma0 / h
+        self.Kt = self.K - theta / self.gam * np.outer(self.s, self.s)
+        self.dP = self.s - self.gam * self.en     # P_1(u) = dP.u
+        self.dPt = theta * self.s - self.gam * self.en   # P_theta(v) = dPt.v
+
+    def B(self, u):
+        return self.Kt @ u + min(self.dP @ u, 0.0) / self.gam * self.dPt
+
+    def dB(self, active):
+        return self.Kt + (np.outer(self.dPt, self.dP) / self.gam if active else 0.0)
+
+    def u0(self):
+        return 0.5 - self.x / 2.0
+
+    def row(self, u, v):
+        """u_n, v_n, p_n, e_kin, e_el, e_contact (SPEC sections 1 and 4)."""
+        pm, sn = min(self.dP @ u, 0.0), self.s @ u
+        return (-u[0], -v[0], pm, 0.5 * v @ self.M @ v, 0.5 * u @ self.K @ u,
+                (pm * pm - self.theta * sn * sn) / (2.0 * self.gam))
+
+
+def run_implicit(bar, dt, t_end, alpha=0.0, beta=None, gamma=None):
+    """HHT (alpha; beta, gamma default to (1-alpha)^2/4, 1/2-alpha) or Newmark (alpha=0)."""
+    beta = (1 - alpha) ** 2 / 4 if beta is None else beta
+    gamma = 0.5 - alpha if gamma is None else gamma
+    u = bar.u0()
+    v = np.zeros_like(u)
+    a = np.linalg.solve(bar.M, -bar.B(u))
+    rows = [bar.row(u, v)]
+    c = 1.0 / (beta * dt * dt)
+    for _ in range(int(round(t_end / dt))):
+        u_pred = u + dt * v + dt * dt / 2 * (1 - 2 * beta) * a
+        b_old = bar.B(u)
+        w = u.copy()
+        for _ in range(50):   # semi-smooth Newton; exact once the active set repeats
+            act = bar.dP @ w < 0
+            res = c * bar.M @ (w - u_pred) + (1 + alpha) * bar.B(w) - alpha * b_old
+            w = w - np.linalg.solve(c * bar.M + (1 + alpha) * bar.dB(act), res)
+            if (bar.dP @ w < 0) == act:
+                break
+        else:
+            raise RuntimeError("reference Newton did not converge")
+        a_new = c * (w - u_pred)
+        v = v + dt * ((1 - gamma) * a + gamma * a_new)
+        u, a = w, a_new
+        rows.append(bar.row(u, v))
+    return np.array(rows)
+
+
+def run_pc(bar, dt, t_end, beta=0.25, gamma=0.5):
+    """SPEC eq. (10) as read in section 1: explicit predictor-corrector."""
+    u = bar.u0()
+    v = np.zeros_like(u)
+    acc = lambda w: np.linalg.solve(bar.M, -bar.B(w))   # noqa: E731
+    a = acc(u)
+    rows = [bar.row(u, v)]
+    for _ in range(int(round(t_end / dt))):
+        a_pred = acc(u + dt * (v + dt * a))
+        u_new = u + dt * v + dt * dt / 2 * ((1 - 2 * beta) * a + 2 * beta * a_pred)
+        v = v + dt * ((1 - gamma) * a + gamma * a_pred)
+        u = u_new
+        a = acc(u)
+        rows.append(bar.row(u, v))
+    return np.array(rows)
+
+
+# ----------------------------------------------------------------- the comparisons
+
+def core_run(tmp_path, name, **keys) -> dyncontact.RunResult:
+    s = Scene.read(SCENE_1D)
+    s.set("mesh.h", H)
+    s.set("scheme.dt", H / 20)
+    s.set("scheme.t_end", T_END)
+    for key, value in keys.items():
+        s.set(key.replace("__", "."), value)
+    return dyncontact.run(s, out=tmp_path / name, progress=False)
+
+
+def differences(trace, ref) -> dict[str, float]:
+    n = len(trace["t"])
+    assert n <= len(ref)
+    return {c: float(np.max(np.abs(trace[c] - ref[:n, j]))) for j, c in enumerate(TRACE)}
+
+
+def assert_same(trace, ref, what):
+    d = differences(trace, ref)
+    print(what, " ".join(f"{c}={v:.1e}" for c, v in d.items()))
+    for c, v in d.items():
+        assert v <= (TOL_VP if c in ("v_n", "p_n") else TOL_U), (what, c, v)
+
+
+@pytest.mark.parametrize("alpha", [0.0, -0.1])
+@pytest.mark.parametrize("gamma0", [10.0, 1.0])
+@pytest.mark.parametrize("theta", [-1, 0, 1])
+def test_hht_matches_independent_reference(theta, gamma0, alpha, tmp_path):
+    res = core_run(tmp_path, "hht", scheme__name="hht", scheme__alpha=alpha,
+                   contact__theta=theta, contact__gamma0=gamma0)
+    ref = run_implicit(Bar1D(H, theta=theta, gamma0=gamma0), H / 20, T_END, alpha=alpha)
+    assert_same(res.trace, ref, f"theta={theta} gamma0={gamma0} alpha={alpha}")
+    if theta == 1 and gamma0 == 1.0:
+        # gamma0 = E kills the first element's stiffness in K_theta = K - (1/gamma_N) s s^T:
+        # the contact node drifts and e_kin + e_el grows. Both codes must see the same
+        # growth, and the core must stop on the first row past blowup * e_total(0).
+        assert res.status == "unstable"
+        e_ref = ref[:, 3] + ref[:, 4]
+        first = int(np.argmax(e_ref > 10.0 * e_ref[0]))
+        assert first > 0 and len(res.trace["t"]) == first + 1
+    else:
+        assert res.status == "ok" and len(res.trace["t"]) == len(ref)
+        assert np.any(res.trace["p_n"] < 0)      # there was contact
+
+
+def test_dissipative_newmark_lumped_mass_matches_reference(tmp_path):
+    res = core_run(tmp_path, "nm", scheme__name="newmark", scheme__beta=0.3025,
+                   scheme__gamma=0.6, scheme__mass="lumped")
+    ref = run_implicit(Bar1D(H, mass="lumped"), H / 20, T_END, beta=0.3025, gamma=0.6)
+    assert res.status == "ok"
+    assert_same(res.trace, ref, "newmark 0.3025/0.6 lumped")
+
+
+def test_predictor_corrector_matches_reference(tmp_path):
+    """pc at the seed's dt = h/100 over T = 3 (one period: flight, contact, release; the
+    numpy loop needs two dense solves per step)."""
+    t_end = 3.0
+    res = core_run(tmp_path, "pc", scheme__name="pc", scheme__dt=H / 100,
+                   scheme__t_end=t_end)
+    ref = run_pc(Bar1D(H), H / 100, t_end)
+    assert res.status == "ok" and len(res.trace["t"]) == len(ref)
+    assert res.summary["newton_its_total"] == 0
+    assert_same(res.trace, ref, "pc")
+
+
+def test_reference_is_not_trivially_equal(tmp_path):
+    """The comparison can fail: a different gamma0 (or theta) in the reference shows up
+    far above the tolerances."""
+    res = core_run(tmp_path, "hht", scheme__t_end=2.0)
+    ref = run_implicit(Bar1D(H, gamma0=11.0), H / 20, 2.0)
+    assert differences(res.trace, ref)["u_n"] > 1e3 * TOL_U
+    ref = run_implicit(Bar1D(H, theta=0), H / 20, 2.0)
+    assert differences(res.trace, ref)["p_n"] > 1e3 * TOL_VP
