@@ -98,7 +98,7 @@ module scene
         T_PATH, T_INT, T_INT]
 
     integer, parameter :: MAX_FILE_BYTES = 1048576  !! larger files are rejected
-    integer, parameter :: MAX_TOKENS = 8            !! raw tokens kept per key (more is an error anyway)
+    integer, parameter :: MAX_TOKENS = 8            !! raw tokens kept per key (for messages)
     integer, parameter :: MAX_REPEAT = 1000         !! repeat counts are capped at this for counting
     integer, parameter :: EXCERPT_LEN = 40          !! characters of file text quoted in messages
     integer, parameter :: VALUE_LEN = 200           !! characters of a value quoted in messages
@@ -272,7 +272,7 @@ contains
                       excerpt(text, i)//''')'
                 return
             end if
-            gname = lower(text(i + 1:j - 1))
+            gname = sanitize(lower(text(i + 1:j - 1)), EXCERPT_LEN)
             g = group_index(gname)
             gtxt = path//': &'//gname
             if (g == 0) then
@@ -311,7 +311,7 @@ contains
                     msg = gtxt//': expected a key name (got '''//excerpt(text, i)//''')'
                     return
                 end if
-                key = lower(text(i:j - 1))
+                key = sanitize(lower(text(i:j - 1)), EXCERPT_LEN)
                 k = key_index(g, key)
                 if (k == 0) then
                     msg = gtxt//' '//key//': unknown key (expected one of '//key_list(g)//')'
@@ -636,7 +636,6 @@ contains
         character(len=:), allocatable, intent(inout) :: msg  !! error ('' = none)
         integer :: ios, s
         integer(i8) :: big
-        character(len=:), allocatable :: digits
         iv = 0
         big = 0
         if (tok%quoted) then
@@ -650,12 +649,9 @@ contains
         end if
         s = 1
         if (scan(tok%value(1:1), '+-') > 0) s = 2
-        digits = tok%value(s:)
-        do while (len(digits) > 1 .and. digits(1:1) == '0')
-            digits = digits(2:)
-        end do
+        ! more than 18 digits (leading zeros included) is out of range
         ios = 1
-        if (len(digits) <= 18) read (digits, *, iostat=ios) big
+        if (len(tok%value) - s + 1 <= 18) read (tok%value(s:), *, iostat=ios) big
         if (tok%value(1:1) == '-') big = -big
         if (ios /= 0 .or. big > huge(iv) .or. big < -huge(iv) - 1) then
             msg = ctx//': integer out of range (got '''//sanitize(tok%raw, VALUE_LEN)//''')'
@@ -709,7 +705,7 @@ contains
         s = trim(tok%value)
     end subroutine get_string
 
-    !> [+-]digits
+    !> Integer literal syntax: [+-]digits.
     pure logical function is_integer(s)
         character(len=*), intent(in) :: s   !! text
         integer :: i0
@@ -720,7 +716,7 @@ contains
         is_integer = len(s) >= i0 .and. verify(s(i0:), '0123456789') == 0
     end function is_integer
 
-    !> [+-] (digits [. [digits]] | . digits) [(e|E|d|D) [+-] digits]
+    !> Real literal syntax: [+-] (digits [. [digits]] | . digits) [(e|E|d|D) [+-] digits].
     pure logical function is_real(s)
         character(len=*), intent(in) :: s   !! text
         integer :: i, n, nm
@@ -793,8 +789,9 @@ contains
                 end block
             end if
             if (ios /= 0) then
-                msg = key_ctx(path, 1)//': cannot read mesh file '''//sanitize(resolved, VALUE_LEN)// &
-                      ''' (got '''//sanitize(trim(scn%mesh_file), VALUE_LEN)//''')'
+                msg = key_ctx(path, 1)//': cannot read mesh file '''// &
+                      sanitize(resolved, VALUE_LEN)//''' (got '''// &
+                      sanitize(trim(scn%mesh_file), VALUE_LEN)//''')'
                 return
             end if
             scn%mesh_file = resolved
@@ -841,7 +838,8 @@ contains
             nrm = sqrt(scn%obstacle_normal(1) * scn%obstacle_normal(1) &
                        + scn%obstacle_normal(2) * scn%obstacle_normal(2))
             if (.not. (nrm > 0.0_dp .and. nrm <= huge(nrm))) then
-                msg = bad(path, 18, 'must be a nonzero vector', vec_str(scn%obstacle_normal)); return
+                msg = bad(path, 18, 'must be a nonzero vector', &
+                          vec_str(scn%obstacle_normal)); return
             end if
             ! a normal already of unit length (to round-off) is kept as is, so that
             ! normalizing is idempotent and a written scene reads back the same
@@ -874,13 +872,14 @@ contains
                       real_repr(scn%alpha)); return
         end if
         if (name == 'newmark' .and. .not. scn%beta > 0.0_dp) then
-            msg = bad(path, 27, 'must be > 0 for scheme ''newmark'' (explicit Newmark, beta = 0, '// &
-                      'is not offered: use ''pc'')', real_repr(scn%beta)); return
+            msg = bad(path, 27, 'must be > 0 for scheme ''newmark'' (explicit Newmark, '// &
+                      'beta = 0, is not offered: use ''pc'')', real_repr(scn%beta)); return
         end if
         if (name == 'newmark' .and. .not. scn%gamma >= 0.0_dp) then
             msg = bad(path, 28, 'must be >= 0 for scheme ''newmark''', real_repr(scn%gamma)); return
         end if
-        if (name == 'theta' .and. .not. (scn%time_theta >= 0.5_dp .and. scn%time_theta <= 1.0_dp)) then
+        if (name == 'theta' .and. &
+            .not. (scn%time_theta >= 0.5_dp .and. scn%time_theta <= 1.0_dp)) then
             msg = bad(path, 29, 'must be in [1/2, 1] for scheme ''theta''', &
                       real_repr(scn%time_theta)); return
         end if
@@ -1187,11 +1186,13 @@ contains
         end do
     end function lower
 
+    !> ASCII letter?
     pure logical function is_letter(c)
         character(len=1), intent(in) :: c   !! character
         is_letter = (c >= 'a' .and. c <= 'z') .or. (c >= 'A' .and. c <= 'Z')
     end function is_letter
 
+    !> ASCII digit?
     pure logical function is_digit(c)
         character(len=1), intent(in) :: c   !! character
         is_digit = c >= '0' .and. c <= '9'

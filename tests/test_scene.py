@@ -62,6 +62,10 @@ BAD_CASES = [
     BadCase("garbage", "this is not a scene file\n", "", "text outside a group"),
     BadCase("garbage_symbols", "#%^ $$ {{ }} ::\n", "", "text outside a group"),
     BadCase("too_large", "! " + "x" * 1_100_000 + "\n&scheme /\n", "", "too large"),
+    BadCase("giant_key", "&scheme " + "k" * 100_000 + " = 1 /\n", "&scheme " + "k" * 40 + "...",
+            "unknown key"),
+    BadCase("giant_number", "&output every = " + "0" * 500_000 + "1 /\n", "&output every",
+            "out of range"),
     BadCase("missing_scene_file", MISSING, "", "cannot read scene file"),
     BadCase("scene_is_directory", DIRECTORY, "", "cannot read scene file"),
     # types

@@ -194,7 +194,7 @@ def _tokenize(path: str, text: str) -> dict[tuple[str, str], _Entry]:
         if j == i + 1:
             raise SceneError(f"{path}: line {line}: '&' without a group name "
                              f"(got '{_excerpt(text, i)}')")
-        group = text[i + 1:j].lower()
+        group = _sanitize(text[i + 1:j].lower(), EXCERPT_LEN)
         where = f"{path}: &{group}"
         if group not in GROUPS:
             known = ", ".join("&" + g for g in GROUPS)
@@ -220,7 +220,7 @@ def _tokenize(path: str, text: str) -> dict[tuple[str, str], _Entry]:
             j = _ident_end(text, i)
             if j == i:
                 raise SceneError(f"{where}: expected a key name (got '{_excerpt(text, i)}')")
-            key = text[i:j].lower()
+            key = _sanitize(text[i:j].lower(), EXCERPT_LEN)
             if (group, key) not in _SPEC:
                 known = ", ".join(k for g, k, *_ in SCHEMA if g == group)
                 raise SceneError(f"{where} {key}: unknown key (expected one of {known})")
@@ -355,7 +355,8 @@ def _check_tokens(where: str, typ: str, count: int, entry: _Entry) -> Any:
             raise SceneError(f"{where}: expected an integer, not a string (got '{got(t)}')")
         if not _INT.fullmatch(t.value):
             raise SceneError(f"{where}: expected an integer (got '{got(t)}')")
-        v = int(t.value)
+        # more than 18 digits (leading zeros included) is out of range
+        v = int(t.value) if len(t.value.lstrip("+-")) <= 18 else 2**63
         if not -2**31 <= v <= 2**31 - 1:
             raise SceneError(f"{where}: integer out of range (got '{got(t)}')")
         return v
