@@ -15,7 +15,7 @@
 module implicit_schemes
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_NUMERIC, raise
-    use sparse, only: csc_t, csc_matvec
+    use sparse, only: csc_t, csc_matvec_t
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b
@@ -47,6 +47,7 @@ module implicit_schemes
         real(dp), allocatable :: dmat(:, :)       !! (m, m) contact tangent at the iterate
         real(dp), allocatable :: small(:, :)      !! (m, m) Woodbury system
         real(dp), allocatable :: zs(:)            !! (m) its right-hand side
+        real(dp), allocatable :: zfull(:)         !! (m) its solution on all contact-cell dofs
         integer, allocatable :: piv(:)            !! (m) pivots
         integer, allocatable :: sidx(:)           !! (m) active contact-cell dofs
         logical, allocatable :: touched(:)        !! (m) active flags
@@ -119,7 +120,7 @@ contains
         this%m = 0
         if (mdl%has_contact) this%m = mdl%ct%m
         allocate (this%z(n, this%m), this%w(this%m, this%m), this%dmat(this%m, this%m), &
-                  this%small(this%m, this%m), this%zs(this%m), this%piv(this%m), &
+                  this%small(this%m, this%m), this%zs(this%m), this%zfull(this%m), this%piv(this%m), &
                   this%sidx(this%m), this%touched(this%m), this%cx(this%m), this%cold(this%m), e(n))
         this%scratch = 0.0_dp
         do j = 1, this%m
@@ -157,13 +158,13 @@ contains
         end if
         ! R(u^n) = M (u^n - u~) + c B(u^n) - b
         this%r = this%mx + this%c * st%bu - this%b
-        scale = norm2(this%mx) + this%c * norm2(st%bu) + norm2(this%b)
+        scale = norm(this%mx) + this%c * norm(st%bu) + norm(this%b)
         this%x = st%u
         active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
         if (this%m > 0) call contact_part(this%x, this%cx, active, e_pen, e_theta)
         it = 0
         do
-            rnorm = norm2(this%r)
+            rnorm = norm(this%r)
             if (rnorm <= this%tol * scale) exit
             if (.not. (rnorm == rnorm) .or. it >= this%maxit) then
                 write (msg, '(a, es12.5, a, i0, a, es10.3, a)') 'Newton did not converge at t = ', &
@@ -193,7 +194,7 @@ contains
         st%newton_its = it
         this%newton_total = this%newton_total + it
         ! B(x) = K_theta x + C(x); M (x - u~) = R - c B(x) + b
-        call csc_matvec(mdl%stiff_theta, this%x, this%ktx)
+        call csc_matvec_t(mdl%stiff_theta, this%x, this%ktx)   ! symmetric
         this%bx = this%ktx
         if (this%m > 0) this%bx(mdl%ct%cdofs) = this%bx(mdl%ct%cdofs) + this%cx
         this%mx = this%r - this%c * this%bx + this%b
@@ -258,12 +259,19 @@ contains
                     return
                 end if
                 call dense_lu_solve(p, this%small, this%piv, this%zs)
-                do i = 1, p
-                    y = y - this%zs(i) * this%z(:, s(i))
-                end do
+                this%zfull = 0.0_dp
+                this%zfull(s) = this%zs(1:p)
+                y = y - matmul(this%z, this%zfull)
             end associate
         end subroutine solve_jacobian
     end subroutine implicit_step
+
+    !> Euclidean norm (no overflow guard: a blow-up is caught as non-finite anyway).
+    pure function norm(x) result(r)
+        real(dp), intent(in) :: x(:)   !! vector
+        real(dp) :: r
+        r = sqrt(dot_product(x, x))
+    end function norm
 
     !> A real as text (messages).
     function real_str(x) result(s)

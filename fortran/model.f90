@@ -9,7 +9,7 @@ module model
     use bar_mesh, only: bar_mesh_build
     use scene, only: scene_t
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
-    use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec
+    use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t
     use nitsche_contact, only: contact_t, contact_init, contact_eval, facet_pressure, &
                                facet_shape, QUAD_EXACT, QUAD_GAUSS
     implicit none
@@ -322,7 +322,7 @@ contains
         integer, intent(out) :: active        !! active contact quadrature points
         real(dp), intent(out) :: e_pen        !! int [P]_-^2 / (2 gamma)
         real(dp), intent(out) :: e_theta      !! sum theta |F| sigma_n^2 / (2 gamma)
-        call csc_matvec(mdl%stiff_theta, u, ktu)
+        call csc_matvec_t(mdl%stiff_theta, u, ktu)   ! symmetric
         b = ktu
         active = 0; e_pen = 0.0_dp; e_theta = 0.0_dp
         if (mdl%has_contact) call contact_eval(mdl%ct, u, b, active, e_pen, e_theta)
@@ -338,7 +338,7 @@ contains
         logical, allocatable :: touched(:)
         integer :: active
         real(dp) :: e1, e2
-        call csc_matvec(mdl%stiff_theta, du, jdu)
+        call csc_matvec_t(mdl%stiff_theta, du, jdu)   ! symmetric
         if (.not. mdl%has_contact) return
         allocate (dmat(mdl%ct%m, mdl%ct%m), touched(mdl%ct%m), rdummy(size(u)))
         rdummy = 0.0_dp
@@ -420,7 +420,7 @@ contains
         if (mdl%lumped) then
             y = mdl%mass_diag * x
         else
-            call csc_matvec(mdl%mass, x, y)
+            call csc_matvec_t(mdl%mass, x, y)   ! symmetric
         end if
     end subroutine model_mass_apply
 

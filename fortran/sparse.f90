@@ -21,7 +21,7 @@ module sparse
         real(dp), allocatable :: val(:)               !! (nnz) values
     end type csc_t
 
-    public :: csc_from_coo, csc_find, csc_matvec, csc_matvec_add, csc_drop_zeros
+    public :: csc_from_coo, csc_find, csc_matvec, csc_matvec_t, csc_matvec_add, csc_drop_zeros
     public :: csc_axpby_values, csc_dot_matvec, csc_same_pattern, csc_coo_map
     public :: csc_accumulate
 
@@ -181,6 +181,23 @@ contains
             end do
         end do
     end subroutine csc_matvec
+
+    !> y = A^T x (gathers, no scattered writes: the fast product for a symmetric A,
+    !> where it equals A x). x and y must have (at least) n entries and must not alias.
+    pure subroutine csc_matvec_t(a, x, y)
+        type(csc_t), intent(in) :: a   !! matrix
+        real(dp), intent(in) :: x(:)   !! (n)
+        real(dp), intent(out) :: y(:)  !! (n)
+        integer :: j, k
+        real(dp) :: acc
+        do j = 1, a%n
+            acc = 0.0_dp
+            do k = a%colptr(j) + 1, a%colptr(j + 1)
+                acc = acc + a%val(k) * x(a%rowind(k) + 1)
+            end do
+            y(j) = acc
+        end do
+    end subroutine csc_matvec_t
 
     !> y = y + alpha A x. x and y must have (at least) n entries and must not alias.
     pure subroutine csc_matvec_add(a, alpha, x, y)
