@@ -61,11 +61,44 @@ module umfpack
         real(c_double), allocatable :: w(:)         !! wsolve real workspace (5 n)
         integer(c_int), allocatable :: colptr(:)    !! pattern of the analysed matrix (reuse test)
         integer(c_int), allocatable :: rowind(:)    !! pattern of the analysed matrix (reuse test)
+        ! Factors copied out of the Numeric object (P R A Q = L U), solved by our own
+        ! row-oriented triangular loops (UMFPACK's solve walks its frontal structure
+        ! and costs ~3x more per entry).
+        integer(c_int), allocatable :: perm_p(:)    !! (n) 0-based: row perm_p(k) of A is pivot row k
+        integer(c_int), allocatable :: perm_q(:)    !! (n) 0-based: column perm_q(k) of A is pivot column k
+        real(dp), allocatable :: rscale(:)          !! (n) 1/Rs (or Rs when UMFPACK says do_recip)
+        integer, allocatable :: l_ptr(:)            !! (n+1) strictly lower L, rows (1-based starts)
+        integer, allocatable :: l_col(:)            !! 1-based columns
+        real(dp), allocatable :: l_val(:)           !! values
+        integer, allocatable :: u_ptr(:)            !! (n+1) strictly upper U, rows (1-based starts)
+        integer, allocatable :: u_col(:)            !! 1-based columns
+        real(dp), allocatable :: u_val(:)           !! values
+        real(dp), allocatable :: u_dinv(:)          !! (n) 1 / diag(U)
     end type lu_t
 
     public :: lu_factor, lu_solve, lu_solve_many, lu_free, lu_rcond, umfpack_status_text
 
     interface
+        !> int umfpack_di_get_lunz(int *lnz, int *unz, int *n_row, int *n_col, int *nz_udiag, void *Numeric)
+        function umfpack_di_get_lunz(lnz, unz, n_row, n_col, nz_udiag, numeric) &
+            bind(C, name='umfpack_di_get_lunz') result(status)
+            import :: c_int, c_ptr
+            integer(c_int), intent(out) :: lnz, unz, n_row, n_col, nz_udiag
+            type(c_ptr), value :: numeric
+            integer(c_int) :: status
+        end function umfpack_di_get_lunz
+
+        !> int umfpack_di_get_numeric(Lp, Lj, Lx, Up, Ui, Ux, P, Q, Dx, do_recip, Rs, Numeric)
+        function umfpack_di_get_numeric(lp, lj, lx, up, ui, ux, p, q, dx, do_recip, rs, numeric) &
+            bind(C, name='umfpack_di_get_numeric') result(status)
+            import :: c_int, c_double, c_ptr
+            integer(c_int), intent(out) :: lp(*), lj(*), up(*), ui(*), p(*), q(*)
+            real(c_double), intent(out) :: lx(*), ux(*), dx(*), rs(*)
+            integer(c_int), intent(out) :: do_recip
+            type(c_ptr), value :: numeric
+            integer(c_int) :: status
+        end function umfpack_di_get_numeric
+
         !> void umfpack_di_defaults(double Control[UMFPACK_CONTROL])
         subroutine umfpack_di_defaults(control) bind(C, name='umfpack_di_defaults')
             import :: c_double
@@ -192,7 +225,7 @@ contains
                                     lu%control, lu%info)
         lu%factorizations = lu%factorizations + 1
         if (status == UMFPACK_OK) then
-            stat = STAT_OK
+            call extract_factors(lu, stat, errmsg)
         else
             if (c_associated(lu%numeric)) call umfpack_di_free_numeric(lu%numeric)
             lu%numeric = c_null_ptr
@@ -215,7 +248,8 @@ contains
         real(dp), intent(out) :: x(:)                       !! solution (n)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer(c_int) :: status
+        integer :: i, k
+        real(dp) :: acc
         if (.not. c_associated(lu%numeric) .or. lu%n /= a%n) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'lu_solve: no factors of this matrix')
             return
@@ -224,16 +258,119 @@ contains
             call raise(stat, errmsg, STAT_BAD_INPUT, 'lu_solve: b or x does not have n entries')
             return
         end if
-        status = umfpack_di_wsolve(UMFPACK_A, a%colptr, a%rowind, a%val, x, b, lu%numeric, &
-                                   lu%control, lu%info, lu%wi, lu%w)
-        if (status == UMFPACK_OK) then
-            stat = STAT_OK
-        else if (status == UMFPACK_WARNING_singular_matrix) then
-            call raise(stat, errmsg, STAT_NUMERIC, 'lu_solve: singular matrix')
-        else
-            call raise(stat, errmsg, STAT_INTERNAL, 'lu_solve: '//umfpack_status_text(int(status)))
-        end if
+        stat = STAT_OK
+        associate (w => lu%w, n => lu%n)
+            ! w = P R b
+            do k = 1, n
+                w(k) = b(lu%perm_p(k) + 1) * lu%rscale(lu%perm_p(k) + 1)
+            end do
+            ! L y = w (unit diagonal), rows in order
+            do i = 1, n
+                acc = w(i)
+                do k = lu%l_ptr(i), lu%l_ptr(i + 1) - 1
+                    acc = acc - lu%l_val(k) * w(lu%l_col(k))
+                end do
+                w(i) = acc
+            end do
+            ! U z = y, rows in reverse order
+            do i = n, 1, -1
+                acc = w(i)
+                do k = lu%u_ptr(i), lu%u_ptr(i + 1) - 1
+                    acc = acc - lu%u_val(k) * w(lu%u_col(k))
+                end do
+                w(i) = acc * lu%u_dinv(i)
+            end do
+            ! x = Q z
+            do k = 1, n
+                x(lu%perm_q(k) + 1) = w(k)
+            end do
+        end associate
     end subroutine lu_solve
+
+    !> Copy L, U, P, Q and the row scaling out of the Numeric object into the row
+    !> forms lu_solve uses (strictly triangular parts, inverse diagonal of U).
+    subroutine extract_factors(lu, stat, errmsg)
+        type(lu_t), intent(inout) :: lu                     !! factors
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(c_int) :: lnz, unz, nr, nc, nzd, status, do_recip
+        integer(c_int), allocatable :: lp(:), lj(:), up(:), ui(:)
+        real(c_double), allocatable :: lx(:), ux(:), dx(:), rs(:)
+        integer :: n, i, j, k, cnt, ierr
+        integer, allocatable :: fill(:)
+        stat = STAT_OK
+        status = umfpack_di_get_lunz(lnz, unz, nr, nc, nzd, lu%numeric)
+        if (status /= UMFPACK_OK) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'lu_factor (get_lunz): ' &
+                       //umfpack_status_text(int(status)))
+            return
+        end if
+        n = lu%n
+        allocate (lp(n + 1), lj(lnz), lx(lnz), up(n + 1), ui(unz), ux(unz), dx(n), rs(n), &
+                  fill(n + 1), stat=ierr)
+        if (ierr == 0 .and. allocated(lu%perm_p)) then
+            if (size(lu%perm_p) /= n) deallocate (lu%perm_p, lu%perm_q, lu%rscale, lu%u_dinv, &
+                                                  lu%l_ptr, lu%u_ptr)
+        end if
+        if (ierr == 0 .and. .not. allocated(lu%perm_p)) &
+            allocate (lu%perm_p(n), lu%perm_q(n), lu%rscale(n), lu%u_dinv(n), lu%l_ptr(n + 1), &
+                      lu%u_ptr(n + 1), stat=ierr)
+        if (ierr /= 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'lu_factor: out of memory')
+            return
+        end if
+        status = umfpack_di_get_numeric(lp, lj, lx, up, ui, ux, lu%perm_p, lu%perm_q, dx, &
+                                        do_recip, rs, lu%numeric)
+        if (status /= UMFPACK_OK) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'lu_factor (get_numeric): ' &
+                       //umfpack_status_text(int(status)))
+            return
+        end if
+        if (do_recip /= 0) then
+            lu%rscale = rs
+        else
+            lu%rscale = 1.0_dp / rs
+        end if
+        lu%u_dinv = 1.0_dp / dx
+        ! L: row form already; drop the unit diagonal (last in each row)
+        if (allocated(lu%l_col)) deallocate (lu%l_col, lu%l_val)
+        allocate (lu%l_col(lnz - n), lu%l_val(lnz - n))
+        cnt = 0
+        do i = 1, n
+            lu%l_ptr(i) = cnt + 1
+            do k = lp(i) + 1, lp(i + 1)
+                if (lj(k) + 1 == i) cycle
+                cnt = cnt + 1
+                lu%l_col(cnt) = lj(k) + 1
+                lu%l_val(cnt) = lx(k)
+            end do
+        end do
+        lu%l_ptr(n + 1) = cnt + 1
+        ! U: column form -> row form of its strictly upper part
+        fill = 0
+        do j = 1, n
+            do k = up(j) + 1, up(j + 1)
+                i = ui(k) + 1
+                if (i /= j) fill(i + 1) = fill(i + 1) + 1
+            end do
+        end do
+        fill(1) = 1
+        do i = 2, n + 1
+            fill(i) = fill(i) + fill(i - 1)
+        end do
+        lu%u_ptr = fill
+        if (allocated(lu%u_col)) deallocate (lu%u_col, lu%u_val)
+        allocate (lu%u_col(fill(n + 1) - 1), lu%u_val(fill(n + 1) - 1))
+        do j = 1, n
+            do k = up(j) + 1, up(j + 1)
+                i = ui(k) + 1
+                if (i == j) cycle
+                lu%u_col(fill(i)) = j
+                lu%u_val(fill(i)) = ux(k)
+                fill(i) = fill(i) + 1
+            end do
+        end do
+    end subroutine extract_factors
 
     !> Solve A X = B for the columns of B, one after the other (no allocation).
     subroutine lu_solve_many(lu, a, b, x, stat, errmsg)
@@ -269,6 +406,10 @@ contains
         if (allocated(lu%w)) deallocate (lu%w)
         if (allocated(lu%colptr)) deallocate (lu%colptr)
         if (allocated(lu%rowind)) deallocate (lu%rowind)
+        if (allocated(lu%perm_p)) deallocate (lu%perm_p, lu%perm_q, lu%rscale, lu%u_dinv, &
+                                              lu%l_ptr, lu%u_ptr)
+        if (allocated(lu%l_col)) deallocate (lu%l_col, lu%l_val)
+        if (allocated(lu%u_col)) deallocate (lu%u_col, lu%u_val)
     end subroutine lu_free
 
     !> UMFPACK's reciprocal condition estimate of the last factorization
