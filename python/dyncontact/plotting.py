@@ -15,7 +15,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-__all__ = ["plot_traces", "run_label"]
+__all__ = ["plot_traces", "run_label", "plot_field_snapshots", "read_pvd"]
 
 # (column, y label) of the first three panels; the fourth is the energy.
 _PANELS = (
@@ -91,6 +91,39 @@ def _load(item) -> tuple[dict[str, np.ndarray], dict, str]:
     return read_trace(d), read_summary(d), os.path.basename(os.path.normpath(d))
 
 
+def _last_finite(y: np.ndarray) -> float:
+    """The last finite value of y (nan if none)."""
+    finite = np.flatnonzero(np.isfinite(y))
+    return float(y[finite[-1]]) if finite.size else math.nan
+
+
+def _limit_blowups(ax, ok: list[np.ndarray], stopped: list[np.ndarray],
+                   factor: float = 1.0) -> None:
+    """Keep the runs that finished readable when a stopped run blew up.
+
+    If the stopped runs leave the range of the finished ones by more than ``factor``
+    times that range, the y axis shows the finished runs' range widened by ``factor``
+    on each side: the blow-up leaves the panel, its stop stays marked.
+    """
+    ok = [y for y in ok if y.size]
+    st = [y for y in stopped if y.size]
+    if not ok or not st:
+        return
+    lo = min(float(y.min()) for y in ok)
+    hi = max(float(y.max()) for y in ok)
+    span = hi - lo
+    if span <= 0:
+        span = max(abs(hi), 1e-12)
+    s_lo = min(float(y.min()) for y in st)
+    s_hi = max(float(y.max()) for y in st)
+    if s_lo >= lo - factor * span and s_hi <= hi + factor * span:
+        return   # the stopped runs stay on the scale of the others: autoscale
+    y_lo = max(min(lo, s_lo), lo - factor * span)
+    y_hi = min(max(hi, s_hi), hi + factor * span)
+    margin = 0.05 * (y_hi - y_lo)
+    ax.set_ylim(y_lo - margin, y_hi + margin)
+
+
 def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = None,
                 labels: Sequence[str] | None = None, title: str | None = None):
     """Draw the traces of one or more runs in four panels and save them as a PNG.
@@ -118,37 +151,59 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     if labels is not None and len(labels) != len(items):
         raise ValueError(f"{len(labels)} labels for {len(items)} runs")
 
-    fig = Figure(figsize=(11.0, 7.5), layout="constrained")
+    # A fixed layout (constrained layout costs about half of the drawing time): the
+    # legend, one row per two runs, goes under the panels.
+    fig = Figure(figsize=(11.0, 7.5))
+    legend_rows = math.ceil(len(items) / 2)
+    fig.subplots_adjust(left=0.08, right=0.985, top=0.94 if title else 0.97,
+                        bottom=0.085 + 0.024 * legend_rows, hspace=0.07, wspace=0.24)
     axes = fig.subplots(2, 2, sharex=True).ravel()
     colours = [f"C{i % 10}" for i in range(len(items))]
     handles = []
+    # Per panel: finite values of the runs that finished ('ok') and of the stopped ones,
+    # to keep a blow-up from flattening everything else (see _limit_blowups).
+    ok_values: list[list[np.ndarray]] = [[] for _ in axes]
+    stopped_values: list[list[np.ndarray]] = [[] for _ in axes]
+    stops = []   # (t_stop, colour, [(ax index, y_last)])
     for i, item in enumerate(items):
         trace, summary, default_name = _load(item)
         label = labels[i] if labels is not None else run_label(summary, default_name)
         t = np.asarray(trace.get("t", np.empty(0)), dtype=float)
         status = str(summary.get("status", "ok"))
         stopped = status != "ok"
+        t_stop = t[-1] if t.size else math.nan
         if stopped:
-            t_stop = t[-1] if t.size else math.nan
             what = "unstable" if status == "unstable" else status.replace("_", " ")
             label = f"{label} ({what} at t={t_stop:.4g})"
         colour = colours[i]
-        line = None
-        for ax, (col, _) in zip(axes[:3], _PANELS):
-            y = np.asarray(trace.get(col, np.full(t.shape, np.nan)), dtype=float)
-            (line,) = ax.plot(t, y, color=colour, lw=1.2, label=label)
-            if stopped and t.size:
-                ax.plot(t[-1:], y[-1:], "x", color=colour, ms=9, mew=2)
         e_total = np.asarray(trace.get("e_total", np.full(t.shape, np.nan)), dtype=float)
-        ax = axes[3]
-        (line,) = ax.plot(t, e_total, color=colour, lw=1.2, label=label)
+        columns = [np.asarray(trace.get(col, np.full(t.shape, np.nan)), dtype=float)
+                   for col, _ in _PANELS] + [e_total]
+        line = None
+        for k, (ax, y) in enumerate(zip(axes, columns)):
+            (line,) = ax.plot(t, y, color=colour, lw=1.2, label=label)
+            (stopped_values if stopped else ok_values)[k].append(y[np.isfinite(y)])
         e_contact = trace.get("e_contact")
         if e_contact is not None and np.any(np.asarray(e_contact) != 0):
-            ax.plot(t, e_total + np.asarray(e_contact, dtype=float), color=colour, lw=1.0,
-                    ls="--")
+            y = e_total + np.asarray(e_contact, dtype=float)
+            axes[3].plot(t, y, color=colour, lw=1.0, ls="--")
+            (stopped_values if stopped else ok_values)[3].append(y[np.isfinite(y)])
         if stopped and t.size:
-            ax.plot(t[-1:], e_total[-1:], "x", color=colour, ms=9, mew=2)
+            stops.append((t_stop, colour, [_last_finite(y) for y in columns]))
         handles.append(line)
+
+    for k, ax in enumerate(axes):
+        _limit_blowups(ax, ok_values[k], stopped_values[k])
+    # The stop of a run that did not finish: an 'x' at its last value (kept inside the
+    # panel when the value is off the scale or not finite) and a dotted vertical line.
+    for t_stop, colour, lasts in stops:
+        for ax, y_last in zip(axes, lasts):
+            lo, hi = ax.get_ylim()
+            y_mark = min(max(y_last, lo), hi) if math.isfinite(y_last) else hi
+            ax.plot([t_stop], [y_mark], "x", color=colour, ms=9, mew=2, gid="stop-marker",
+                    clip_on=False)
+            ax.axvline(t_stop, color=colour, lw=0.8, ls=":", gid="stop-line")
+            ax.set_ylim(lo, hi)
 
     for ax, (_, ylabel) in zip(axes[:3], _PANELS):
         ax.set_ylabel(ylabel)
@@ -157,8 +212,126 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         ax.grid(True, lw=0.4, alpha=0.5)
     for ax in axes[2:]:
         ax.set_xlabel("t")
-    fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 2),
-               fontsize="small", frameon=False)
+    fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.0),
+               ncols=min(len(handles), 2), fontsize="small", frameon=False)
+    if title:
+        fig.suptitle(title)
+    if out_png is not None:
+        out_png = os.fspath(out_png)
+        folder = os.path.dirname(out_png)
+        if folder:
+            os.makedirs(folder, exist_ok=True)
+        fig.savefig(out_png, dpi=120)
+    return fig
+
+
+# --------------------------------------------------------------------------- fields
+
+def read_pvd(path: str | os.PathLike) -> list[tuple[float, str]]:
+    """(time, absolute .vtu path) of each data set of a ParaView .pvd collection."""
+    import xml.etree.ElementTree as ET
+
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    root = ET.parse(path).getroot()
+    out = []
+    for ds in root.iter("DataSet"):
+        out.append((float(ds.get("timestep", "nan")),
+                    os.path.join(folder, ds.get("file", ""))))
+    return out
+
+
+def _pick(n: int, k: int) -> list[int]:
+    """k indices spread evenly over range(n), first and last included."""
+    if n <= k:
+        return list(range(n))
+    return sorted({int(round(i * (n - 1) / (k - 1))) for i in range(k)})
+
+
+def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike | None = None,
+                         title: str | None = None, max_snapshots: int = 12,
+                         field: str = "displacement"):
+    """Deformed meshes of a run's VTU snapshots side by side, coloured by |u|.
+
+    Parameters
+    ----------
+    run_dir : folder of a run with ``fields_every > 0`` (holding fields.pvd and fields/).
+    out_png : file to write (None: do not save).
+    title : figure title.
+    max_snapshots : at most this many snapshots, spread evenly over the run.
+    field : the point field that deforms the mesh and colours it.
+
+    Each snapshot is drawn at its true deformation (scale 1) on the nodes x + u, shifted
+    sideways from the previous one, with its time underneath; the obstacle plane is drawn
+    when it is horizontal (the seed's bar). Needs a 2D (triangle) mesh; reads the files
+    with meshio.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import meshio
+    from matplotlib.figure import Figure
+    from matplotlib.tri import Triangulation
+
+    from .core import read_summary
+
+    run_dir = os.fspath(run_dir)
+    pvd = os.path.join(run_dir, "fields.pvd")
+    if not os.path.isfile(pvd):
+        raise FileNotFoundError(f"{run_dir}: no fields.pvd (run with &output fields_every > 0)")
+    sets = read_pvd(pvd)
+    if not sets:
+        raise ValueError(f"{pvd}: no snapshots")
+    sets = [sets[i] for i in _pick(len(sets), max(2, max_snapshots))]
+    snaps = []
+    for t, vtu in sets:
+        m = meshio.read(vtu)
+        tri = m.cells_dict.get("triangle")
+        if tri is None:
+            raise ValueError(f"{vtu}: snapshots need a 2D triangle mesh")
+        u = np.asarray(m.point_data[field], dtype=float)[:, :2]
+        snaps.append((t, np.asarray(m.points, dtype=float)[:, :2], np.asarray(tri), u))
+    vmax = max(float(np.max(np.hypot(u[:, 0], u[:, 1]))) for _, _, _, u in snaps) or 1.0
+    x_all = np.concatenate([x[:, 0] + u[:, 0] for _, x, _, u in snaps])
+    y_all = np.concatenate([x[:, 1] + u[:, 1] for _, x, _, u in snaps])
+    width = float(x_all.max() - x_all.min())
+    height = float(y_all.max() - y_all.min()) or 1.0
+    gap = max(1.2 * width, 0.15 * height)
+
+    fig = Figure(figsize=(max(6.0, 1.0 + 0.75 * len(snaps)), 5.0), layout="constrained")
+    ax = fig.subplots()
+    mappable = None
+    for k, (t, x, tri, u) in enumerate(snaps):
+        mag = np.hypot(u[:, 0], u[:, 1])
+        xs = x[:, 0] + u[:, 0] + k * gap
+        tr = Triangulation(xs, x[:, 1] + u[:, 1], tri)
+        mappable = ax.tripcolor(tr, mag, shading="gouraud", cmap="viridis", vmin=0.0,
+                                vmax=vmax)
+        ax.triplot(tr, color="k", lw=0.15, alpha=0.35)
+        ax.text(float(np.mean(xs)), float(y_all.min()) - 0.06 * height, f"t={t:.3g}",
+                ha="center", va="top", fontsize="small")
+    # The obstacle plane, when horizontal (normal ±e_y).
+    scene = read_summary(run_dir).get("scene") or {}
+    contact = scene.get("contact", {}) if isinstance(scene, dict) else {}
+    normal = contact.get("obstacle_normal", [0.0, -1.0])
+    point = contact.get("obstacle_point", [0.0, 0.0])
+    try:
+        horizontal = abs(float(normal[0])) < 1e-12 and len(point) >= 2
+    except (TypeError, IndexError, ValueError):
+        horizontal = False
+    if horizontal:
+        y0 = float(point[1])
+        x_lo, x_hi = float(x_all.min()) - 0.5 * gap, float(x_all.max()) + (len(snaps) - 0.5) * gap
+        ax.axhline(y0, color="0.3", lw=1.5)
+        below = -1.0 if float(normal[1]) < 0 else 1.0
+        ax.fill_between([x_lo, x_hi], y0, y0 + below * 0.04 * height, color="0.85",
+                        hatch="///", edgecolor="0.5", lw=0)
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_ylabel("y (deformed)")
+    ax.set_ylim(float(y_all.min()) - 0.12 * height, float(y_all.max()) + 0.03 * height)
+    fig.colorbar(mappable, ax=ax, shrink=0.8, label=f"|{'u' if field == 'displacement' else field}|")
     if title:
         fig.suptitle(title)
     if out_png is not None:
