@@ -1,0 +1,203 @@
+"""scripts/figures --quick end to end (every figure file, index.md, the runs' outputs),
+and the pieces of dyncontact.studies that scripts/figures and scripts/bench use."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+
+import pytest
+
+from conftest import ROOT
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+#: scripts/figures --quick takes ~10 s on 2 idle cores; leave room for a busy machine.
+FIGURES_TIMEOUT = 600
+
+
+@pytest.fixture(scope="module")
+def quick_figures(tmp_path_factory):
+    """Run `scripts/figures --quick --out DIR` once for the module."""
+    out = tmp_path_factory.mktemp("figures")
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    res = subprocess.run([str(ROOT / "scripts" / "figures"), "--quick", "--out", str(out)],
+                         cwd=out, env=env, capture_output=True, text=True,
+                         timeout=FIGURES_TIMEOUT)
+    return out, res
+
+
+def test_quick_figures_exit_and_every_file(quick_figures):
+    from dyncontact.studies import figure_plan
+
+    out, res = quick_figures
+    assert res.returncode == 0, (res.stdout[-3000:], res.stderr[-3000:])
+    plan = figure_plan(quick=True)
+    assert [f.key for f in plan] == [f"fig{k}" for k in range(1, 8)]
+    for fig in plan:
+        png = out / fig.png
+        assert png.is_file(), fig.png
+        assert png.read_bytes()[:8] == PNG_MAGIC
+        assert png.stat().st_size > 10_000, fig.png
+    assert (out / "index.md").is_file()
+    assert (out / "index.json").is_file()
+
+
+def test_quick_index_lists_every_run_with_its_status(quick_figures):
+    from dyncontact.core import read_summary
+    from dyncontact.studies import figure_plan
+
+    out, res = quick_figures
+    index = (out / "index.md").read_text(encoding="utf-8")
+    assert "Total wall time:" in index
+    report = json.loads((out / "index.json").read_text(encoding="utf-8"))
+    assert report["quick"] is True and report["wall_s"] > 0
+    rows = {}
+    for line in index.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 10 and cells[0] not in ("run", "---"):
+            rows.setdefault(cells[0], cells)
+    for fig in figure_plan(quick=True):
+        assert fig.title in index
+        assert f"]({fig.png})" in index
+        for run in fig.runs:
+            assert run.name in rows, run.name
+            summary = read_summary(out / "runs" / run.name)
+            status, steps = rows[run.name][3], int(rows[run.name][4])
+            assert status == summary["status"]
+            assert steps == summary["steps"]
+            assert (out / "runs" / run.name / "trace.csv").is_file()
+    for fig in report["figures"]:
+        assert fig["plot"]["ok"], fig
+
+
+def test_quick_traces_are_short_and_fig1_has_fields(quick_figures):
+    from dyncontact.core import read_trace
+    from dyncontact.plotting import read_pvd
+    from dyncontact.studies import MAX_ROWS, figure_plan
+
+    out, _ = quick_figures
+    plan = figure_plan(quick=True)
+    for fig in plan:
+        for run in fig.runs:
+            t = read_trace(out / "runs" / run.name)["t"]
+            assert 1 < len(t) <= MAX_ROWS + 2
+    fig1 = plan[0]
+    pvd = out / "runs" / fig1.runs[0].name / "fields.pvd"
+    sets = read_pvd(pvd)
+    assert 8 <= len(sets) <= 12
+    assert all(os.path.isfile(p) for _, p in sets)
+    assert sets[0][0] == 0.0 and sets[-1][0] == pytest.approx(3.0)
+    assert f"runs/{fig1.runs[0].name}/fields.pvd" in (out / "index.md").read_text("utf-8")
+
+
+# --------------------------------------------------------------------------- studies
+
+def test_full_plan_matches_the_seed():
+    from dyncontact.studies import figure_plan
+
+    plan = figure_plan()
+    assert len(plan) == 7
+    f1 = plan[0].runs[0].settings
+    assert (f1["scheme.name"], f1["scheme.beta"], f1["scheme.gamma"]) == ("newmark", 0.25, 0.5)
+    assert (f1["mesh.h"], f1["scheme.dt"], f1["scheme.t_end"]) == (0.02, 0.001, 3.0)
+    assert 8 <= 3000 // f1["output.fields_every"] + 1 <= 12
+    for k, h in enumerate((0.05, 0.02, 0.01)):
+        hht = plan[1 + k].runs
+        assert len(hht) == 5
+        assert {r.settings["mesh.h"] for r in hht} == {h}
+        assert all(r.settings["scheme.dt"] == pytest.approx(h / 20) for r in hht)
+        assert {r.settings["scheme.t_end"] for r in hht} == {15.0}
+        assert sorted(r.settings.get("scheme.alpha", 1) for r in hht
+                      if r.settings["scheme.name"] == "hht") == [-0.1, -0.05, 0.0]
+        assert sorted((r.settings.get("scheme.beta"), r.settings.get("scheme.gamma"))
+                      for r in hht if r.settings["scheme.name"] == "newmark") == [
+            (0.25, 0.5), (0.3025, 0.6)]
+        pc = plan[4 + k].runs
+        assert sorted((r.settings["scheme.name"], round(h / r.settings["scheme.dt"]))
+                      for r in pc) == [("pc", 20), ("pc", 100), ("pc_hht", 20),
+                                       ("pc_hht", 100)]
+        assert all(r.settings.get("scheme.alpha", -0.1) == -0.1 for r in pc)
+        for r in hht + pc:
+            steps = r.estimated_steps()
+            assert steps / r.settings["output.every"] <= 3000
+
+
+def test_seed_spec_and_every():
+    from dyncontact.studies import every_for, seed_spec
+
+    assert every_for(15.0, 0.0001) == 50
+    assert every_for(3.0, 0.001) == 1
+    s = seed_spec("hht", 0.02, 0.02 / 20, 15.0, alpha=-0.05)
+    assert s.name == "hht_a-0.05_h0.02_dt0.001_T15"
+    assert s.settings["output.every"] == 5
+    scene = s.scene()
+    assert scene.get("scheme.alpha") == -0.05 and scene.get("mesh.h") == 0.02
+    lumped = seed_spec("pc", 0.05, 0.0005, 15.0, mass="lumped", max_rows=None)
+    assert lumped.name.endswith("_lumped") and lumped.settings["output.every"] == 1
+    assert lumped.estimated_dofs() == 120      # the seed bar at h = 0.05 (summary dofs)
+    with pytest.raises(ValueError):
+        seed_spec("hht", 0.05, 0.0025, 1.0, alfa=0.1)
+
+
+def test_run_spec_reports_instead_of_raising(tmp_path):
+    from dyncontact.studies import RunSpec, run_spec
+
+    rec = run_spec(RunSpec("bad", {"scheme.dt": -1.0}), str(tmp_path / "bad"))
+    assert rec["status"] == "error" and "dt" in rec["message"]
+    ok = run_spec(RunSpec("ok", {"scheme.t_end": 0.05}), str(tmp_path / "ok"))
+    assert ok["status"] == "ok" and ok["steps"] == 20 and ok["rows"] == 21
+    assert ok["wall_measured_s"] >= ok["wall_s"] > 0
+
+
+def test_write_index_shows_unstable_runs(tmp_path):
+    from dyncontact.studies import seed_spec, write_index
+
+    a = seed_spec("pc", 0.05, 0.0025, 15.0, beta=0.25, gamma=0.5)
+    b = seed_spec("pc_hht", 0.05, 0.0025, 15.0, alpha=-0.1)
+    recs = [dict(name=a.name, settings=a.settings, status="unstable", message="", steps=812,
+                 t_end_reached=2.03, wall_s=0.05, wall_measured_s=0.1, newton_its_total=0,
+                 dofs=120),
+            dict(name=b.name, settings=b.settings, status="error", message="boom",
+                 steps=None, t_end_reached=None, wall_s=None, wall_measured_s=0.01,
+                 newton_its_total=None, dofs=None)]
+    report = {"quick": False, "started": "now", "wall_s": 1.0, "jobs": 2, "cpu_count": 2,
+              "runs_wall_sum_s": 0.11, "plots_wall_sum_s": 0.5, "version": "x",
+              "runs": recs,
+              "figures": [{"key": "fig5", "png": "fig5.png", "title": "Fig. 5: pc",
+                           "kind": "traces", "note": "", "runs": [a.name, b.name],
+                           "plot": {"ok": True, "wall_s": 0.5}}]}
+    text = open(write_index(str(tmp_path), report), encoding="utf-8").read()
+    assert f"| {a.name} | pc β=0.25, γ=0.5 | 0.0025 | unstable | 812 | 2.03 |" in text
+    assert "error: boom" in text
+    assert json.loads((tmp_path / "index.json").read_text())["runs"][0]["status"] == \
+        "unstable"
+
+
+def test_bench_rows_and_table():
+    from dyncontact.studies import bench_specs, bench_table
+
+    names = [s.name for s in bench_specs()]
+    assert names == ["seed_h0.05", "seed_h0.02", "seed_h0.01",
+                     "pc_h0.05_consistent", "pc_h0.05_lumped", "pc_h0.02_consistent",
+                     "pc_h0.02_lumped", "pc_h0.01_consistent", "pc_h0.01_lumped"]
+    assert [s.name for s in bench_specs(quick=True)] == [
+        "seed_h0.05", "pc_h0.05_consistent", "pc_h0.05_lumped"]
+    assert [s.name for s in bench_specs(only=["pc_h0.02*"])] == [
+        "pc_h0.02_consistent", "pc_h0.02_lumped"]
+    seed = bench_specs(only=["seed_h0.01"])[0].settings
+    assert (seed["scheme.name"], seed["scheme.alpha"], seed["output.every"]) == ("hht", 0.0, 1)
+    assert seed["scheme.dt"] == pytest.approx(0.0005) and seed["scheme.t_end"] == 15.0
+    pc = bench_specs(only=["pc_h0.01_lumped"])[0].settings
+    assert pc["scheme.dt"] == pytest.approx(0.0001) and pc["scheme.mass"] == "lumped"
+    rows = [{"scene": "seed_h0.05", "dofs": 120, "steps": 6000, "wall_s": 0.2,
+             "status": "ok", "floor_solve_us": None, "floor_spmv_us": 2.0},
+            {"scene": "pc_h0.05_lumped", "dofs": 120, "steps": 30000, "wall_s": 0.5,
+             "status": "ok", "floor_mass_solve_us": None, "floor_spmv_us": None}]
+    table = bench_table(rows).splitlines()
+    assert table[0].split()[:3] == ["scene", "dofs", "steps"]
+    seed_cells, pc_cells = table[2].split(), table[3].split()
+    # floors: n/a when not measured, '-' where they do not apply to the scheme
+    assert seed_cells[-4:] == ["n/a", "-", "2.00", "ok"]
+    assert pc_cells[-4:] == ["-", "n/a", "n/a", "ok"]
