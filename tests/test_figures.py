@@ -117,7 +117,8 @@ def test_full_plan_matches_the_seed():
         pc = plan[4 + k].runs
         assert sorted((r.settings["scheme.name"], round(h / r.settings["scheme.dt"]))
                       for r in pc) == [("pc", 20), ("pc", 100), ("pc_hht", 20),
-                                       ("pc_hht", 100)]
+                                       ("pc_hht", 100), ("pc_hht_seed", 20),
+                                       ("pc_hht_seed", 100)]
         assert all(r.settings.get("scheme.alpha", -0.1) == -0.1 for r in pc)
         for r in hht + pc:
             steps = r.estimated_steps()
