@@ -15,10 +15,10 @@
 module implicit_schemes
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_NUMERIC, raise
-    use sparse, only: csc_t, csc_matvec_t
+    use sparse, only: csc_t
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
     use dense_lu, only: dense_lu_factor, dense_lu_solve
-    use model, only: model_t, model_eval_b
+    use model, only: model_t, model_eval_b, model_stiff_apply
     use nitsche_contact, only: contact_eval
     use scene, only: scene_t
     use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
@@ -194,7 +194,7 @@ contains
         st%newton_its = it
         this%newton_total = this%newton_total + it
         ! B(x) = K_theta x + C(x); M (x - u~) = R - c B(x) + b
-        call csc_matvec_t(mdl%stiff_theta, this%x, this%ktx)   ! symmetric
+        call model_stiff_apply(mdl, this%x, this%ktx)
         this%bx = this%ktx
         if (this%m > 0) this%bx(mdl%ct%cdofs) = this%bx(mdl%ct%cdofs) + this%cx
         this%mx = this%r - this%c * this%bx + this%b

@@ -9,7 +9,8 @@ module model
     use bar_mesh, only: bar_mesh_build
     use scene, only: scene_t
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
-    use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t
+    use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t, block2_t, block2_from_csc, &
+                      block2_matvec
     use nitsche_contact, only: contact_t, contact_init, contact_eval, facet_pressure, &
                                facet_shape, QUAD_EXACT, QUAD_GAUSS
     implicit none
@@ -28,6 +29,8 @@ module model
         type(csc_t) :: mass                       !! M (consistent or lumped), shared pattern
         type(csc_t) :: stiff                      !! K, shared pattern
         type(csc_t) :: stiff_theta                !! K_theta = K - sum theta |F| / gamma s s^T
+        logical :: blocked = .false.              !! K_theta also in 2x2 node blocks (2D)
+        type(block2_t) :: stiff_theta_b           !! its node-block copy (fast products)
         logical :: lumped = .false.               !! M is diagonal
         real(dp), allocatable :: mass_diag(:)     !! (n_dofs) diagonal of M when lumped
         real(dp), allocatable :: load(:)          !! (n_dofs) L = int rho g . v
@@ -40,7 +43,7 @@ module model
     end type model_t
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
-              model_probe, model_mass_apply, model_full_field
+              model_probe, model_mass_apply, model_stiff_apply, model_full_field
 
 contains
 
@@ -107,6 +110,11 @@ contains
             return
         end if
         call add_theta_term()
+        call block_copy(stat, msg)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': '//trim(msg))
+            return
+        end if
         if (mdl%has_contact) then
             call locate_probe(stat)
             if (stat /= STAT_OK) then
@@ -276,6 +284,27 @@ contains
             end do
         end subroutine add_theta_term
 
+        !> 2x2 node-block copy of K_theta (2D): the free dofs of a node are consecutive.
+        subroutine block_copy(st, m)
+            integer, intent(out) :: st
+            character(len=*), intent(inout) :: m
+            integer, allocatable :: first(:)
+            integer :: i, ng
+            st = STAT_OK
+            if (dim /= 2 .or. mdl%n_dofs == 0) return
+            allocate (first(mdl%msh%n_nodes + 1))
+            ng = 0
+            do i = 1, mdl%msh%n_nodes
+                if (any(mdl%dof(:, i) > 0)) then
+                    ng = ng + 1
+                    first(ng) = minval(mdl%dof(:, i), mask=mdl%dof(:, i) > 0)
+                end if
+            end do
+            first(ng + 1) = mdl%n_dofs + 1
+            call block2_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b, st, m)
+            mdl%blocked = st == STAT_OK
+        end subroutine block_copy
+
         !> Facets holding the probe point (two when it is a shared node).
         subroutine locate_probe(st)
             integer, intent(out) :: st
@@ -322,7 +351,7 @@ contains
         integer, intent(out) :: active        !! active contact quadrature points
         real(dp), intent(out) :: e_pen        !! int [P]_-^2 / (2 gamma)
         real(dp), intent(out) :: e_theta      !! sum theta |F| sigma_n^2 / (2 gamma)
-        call csc_matvec_t(mdl%stiff_theta, u, ktu)   ! symmetric
+        call model_stiff_apply(mdl, u, ktu)
         b = ktu
         active = 0; e_pen = 0.0_dp; e_theta = 0.0_dp
         if (mdl%has_contact) call contact_eval(mdl%ct, u, b, active, e_pen, e_theta)
@@ -338,7 +367,7 @@ contains
         logical, allocatable :: touched(:)
         integer :: active
         real(dp) :: e1, e2
-        call csc_matvec_t(mdl%stiff_theta, du, jdu)   ! symmetric
+        call model_stiff_apply(mdl, du, jdu)
         if (.not. mdl%has_contact) return
         allocate (dmat(mdl%ct%m, mdl%ct%m), touched(mdl%ct%m), rdummy(size(u)))
         rdummy = 0.0_dp
@@ -411,6 +440,18 @@ contains
             end do
         end subroutine gather
     end subroutine model_probe
+
+    !> y = K_theta x (node blocks in 2D, gather-form CSC product otherwise).
+    subroutine model_stiff_apply(mdl, x, y)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(in) :: x(:)          !! vector
+        real(dp), intent(out) :: y(:)         !! K_theta x
+        if (mdl%blocked) then
+            call block2_matvec(mdl%stiff_theta_b, x, y)
+        else
+            call csc_matvec_t(mdl%stiff_theta, x, y)   ! symmetric: A^T x = A x
+        end if
+    end subroutine model_stiff_apply
 
     !> y = M x.
     subroutine model_mass_apply(mdl, x, y)

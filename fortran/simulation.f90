@@ -7,11 +7,11 @@ module simulation
     use errors, only: STAT_OK, STAT_NUMERIC, STAT_INTERNAL, raise
     use scene, only: scene_t, scene_read, scene_to_json
     use model, only: model_t, model_build, model_eval_b, model_apply_jacobian, model_initial, &
-                     model_probe, model_mass_apply, model_full_field
+                     model_probe, model_mass_apply, model_stiff_apply, model_full_field
     use time_scheme, only: time_scheme_t, state_t, state_eval
     use implicit_schemes, only: implicit_scheme_t
     use explicit_schemes, only: pc_scheme_t
-    use sparse, only: csc_t, csc_matvec
+    use sparse, only: csc_t
     use mass_solver, only: mass_solver_apply
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
     use trace_output, only: make_dirs, trace_open, trace_row, json_real, json_string
@@ -302,7 +302,7 @@ contains
         t_solve = 0.0_dp; t_mass = 0.0_dp
         call system_clock(c0)
         do i = 1, n_rep
-            call csc_matvec(sim%mdl%stiff_theta, b, x)
+            call model_stiff_apply(sim%mdl, b, x)
         end do
         call system_clock(c1)
         t_spmv = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep

@@ -24,6 +24,23 @@ module sparse
     public :: csc_from_coo, csc_find, csc_matvec, csc_matvec_t, csc_matvec_add, csc_drop_zeros
     public :: csc_axpby_values, csc_dot_matvec, csc_same_pattern, csc_coo_map
     public :: csc_accumulate
+    public :: block2_from_csc, block2_matvec
+
+    !> A symmetric matrix stored by rows of 2x2 blocks: dofs grouped in runs of one or
+    !> two consecutive dofs (the free dofs of a node). Each block holds the rows of a
+    !> row group and the columns of a column group, padded with zeros to 2x2; a group
+    !> of one dof reads its single x entry twice (col2 = col1) against a zero column.
+    !> Four products per pair of index loads: about twice as fast as csc_matvec_t
+    !> on 2D elasticity matrices.
+    type, public :: block2_t
+        integer :: n = 0                          !! matrix size
+        integer :: n_groups = 0                   !! row/column groups
+        integer, allocatable :: first(:)          !! (n_groups + 1) first dof of each group
+        integer, allocatable :: row_ptr(:)        !! (n_groups + 1) block range of each row group
+        integer, allocatable :: col1(:)           !! (n_blocks) first dof of the column group
+        integer, allocatable :: col2(:)           !! (n_blocks) second dof (= col1 for a single)
+        real(dp), allocatable :: val(:, :)        !! (4, n_blocks) a11, a21, a12, a22
+    end type block2_t
 
 contains
 
@@ -198,6 +215,93 @@ contains
             y(j) = acc
         end do
     end subroutine csc_matvec_t
+
+    !> Block copy of a symmetric CSC matrix; `first` (n_groups + 1) gives the first dof
+    !> of each group of 1 or 2 consecutive dofs (first(n_groups + 1) = n + 1).
+    subroutine block2_from_csc(a, first, b, stat, errmsg)
+        type(csc_t), intent(in) :: a                        !! symmetric matrix
+        integer, intent(in) :: first(:)                     !! group starts
+        type(block2_t), intent(out) :: b                    !! block copy
+        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: ng, g, h, j, k, i, r, c, nb, slot
+        integer, allocatable :: group(:), mark(:)
+        stat = STAT_OK
+        ng = size(first) - 1
+        if (ng < 1 .or. first(1) /= 1 .or. first(ng + 1) /= a%n + 1 .or. &
+            any(first(2:) - first(:ng) < 1) .or. any(first(2:) - first(:ng) > 2)) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'block2_from_csc: bad groups')
+            return
+        end if
+        allocate (group(a%n), mark(ng))
+        do g = 1, ng
+            group(first(g):first(g + 1) - 1) = g
+        end do
+        b%n = a%n
+        b%n_groups = ng
+        b%first = first
+        allocate (b%row_ptr(ng + 1))
+        ! count blocks per row group (A symmetric: column j of A is row j)
+        mark = 0
+        nb = 0
+        b%row_ptr(1) = 1
+        do g = 1, ng
+            do j = first(g), first(g + 1) - 1
+                do k = a%colptr(j) + 1, a%colptr(j + 1)
+                    h = group(a%rowind(k) + 1)
+                    if (mark(h) /= g) then
+                        mark(h) = g
+                        nb = nb + 1
+                    end if
+                end do
+            end do
+            b%row_ptr(g + 1) = nb + 1
+        end do
+        allocate (b%col1(nb), b%col2(nb), b%val(4, nb))
+        b%val = 0.0_dp
+        mark = 0
+        nb = 0
+        do g = 1, ng
+            do j = first(g), first(g + 1) - 1
+                r = j - first(g)
+                do k = a%colptr(j) + 1, a%colptr(j + 1)
+                    i = a%rowind(k) + 1
+                    h = group(i)
+                    if (mark(h) < b%row_ptr(g)) then
+                        nb = nb + 1
+                        mark(h) = nb
+                        b%col1(nb) = first(h)
+                        b%col2(nb) = first(h + 1) - 1
+                    end if
+                    slot = mark(h)
+                    c = i - first(h)
+                    ! row r of group g, column c of group h (A(j, i) = A(i, j))
+                    b%val(1 + r + 2 * c, slot) = a%val(k)
+                end do
+            end do
+        end do
+    end subroutine block2_from_csc
+
+    !> y = B x for a block2_t matrix.
+    pure subroutine block2_matvec(b, x, y)
+        type(block2_t), intent(in) :: b    !! matrix
+        real(dp), intent(in) :: x(:)       !! (n)
+        real(dp), intent(out) :: y(:)      !! (n)
+        integer :: g, k
+        real(dp) :: y1, y2, x1, x2
+        do g = 1, b%n_groups
+            y1 = 0.0_dp
+            y2 = 0.0_dp
+            do k = b%row_ptr(g), b%row_ptr(g + 1) - 1
+                x1 = x(b%col1(k))
+                x2 = x(b%col2(k))
+                y1 = y1 + b%val(1, k) * x1 + b%val(3, k) * x2
+                y2 = y2 + b%val(2, k) * x1 + b%val(4, k) * x2
+            end do
+            y(b%first(g)) = y1
+            if (b%first(g + 1) - b%first(g) == 2) y(b%first(g) + 1) = y2
+        end do
+    end subroutine block2_matvec
 
     !> y = y + alpha A x. x and y must have (at least) n entries and must not alias.
     pure subroutine csc_matvec_add(a, alpha, x, y)
