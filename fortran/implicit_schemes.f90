@@ -143,7 +143,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: dt, rnorm, scale, e_pen, e_theta
-        integer :: it, active
+        integer :: it, active, i
         character(len=160) :: msg
         stat = STAT_OK
         dt = this%dt
@@ -186,7 +186,9 @@ contains
             this%r = 0.0_dp
             if (this%m == 0) exit
             ! R' = c (C(x') - C(x) - D dx) on the contact-cell dofs
-            this%zs = matmul(this%dmat, this%dx(mdl%ct%cdofs))
+            do i = 1, this%m
+                this%zs(i) = dot_product(this%dmat(i, :), this%dx(mdl%ct%cdofs))
+            end do
             this%cold = this%cx
             call contact_part(this%x, this%cx, active, e_pen, e_theta)
             this%r(mdl%ct%cdofs) = this%c * (this%cx - this%cold - this%zs)
@@ -236,7 +238,8 @@ contains
             real(dp), intent(in) :: rhs(:)
             real(dp), intent(out) :: y(:)
             integer, intent(out) :: st2
-            integer :: p, i, info
+            integer :: p, i, j, k, info
+            real(dp) :: acc
             call lu_solve(this%lu0, this%jac0, rhs, y, st2)
             if (st2 /= STAT_OK .or. this%m == 0) return
             p = 0
@@ -248,11 +251,24 @@ contains
             end do
             if (p == 0) return
             associate (s => this%sidx(1:p))
-                this%small(1:p, 1:p) = this%c * matmul(this%dmat(s, s), this%w(s, s))
-                do i = 1, p
-                    this%small(i, i) = this%small(i, i) + 1.0_dp
+                ! small = I + c D_SS W_SS, zs = c D_SS y_S (loops: no temporaries)
+                do j = 1, p
+                    do i = 1, p
+                        acc = 0.0_dp
+                        do k = 1, p
+                            acc = acc + this%dmat(s(i), s(k)) * this%w(s(k), s(j))
+                        end do
+                        this%small(i, j) = this%c * acc
+                    end do
+                    this%small(j, j) = this%small(j, j) + 1.0_dp
                 end do
-                this%zs(1:p) = this%c * matmul(this%dmat(s, s), y(mdl%ct%cdofs(s)))
+                do i = 1, p
+                    acc = 0.0_dp
+                    do k = 1, p
+                        acc = acc + this%dmat(s(i), s(k)) * y(mdl%ct%cdofs(s(k)))
+                    end do
+                    this%zs(i) = this%c * acc
+                end do
                 call dense_lu_factor(p, this%small, this%piv, info)
                 if (info /= 0) then
                     st2 = STAT_NUMERIC
@@ -260,7 +276,9 @@ contains
                 end if
                 call dense_lu_solve(p, this%small, this%piv, this%zs)
                 this%zfull = 0.0_dp
-                this%zfull(s) = this%zs(1:p)
+                do i = 1, p
+                    this%zfull(s(i)) = this%zs(i)
+                end do
                 y = y - matmul(this%z, this%zfull)
             end associate
         end subroutine solve_jacobian
