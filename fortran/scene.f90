@@ -251,6 +251,7 @@ contains
         character(len=32) :: buf, buf2
         logical :: closed
 
+        gname = ''; key = ''; gtxt = ''
         n = len(text)
         i = 1
         line = 1
@@ -556,6 +557,7 @@ contains
         integer :: iv
         real(dp) :: x, v(2)
 
+        s = ''; iv = 0; x = 0.0_dp; v = 0.0_dp
         ctx = path//': &'//trim(GROUP_NAMES(KEY_GROUP(k)))//' '//trim(KEY_NAMES(k))
         if (KEY_TYPE(k) == T_VEC) then
             if (entry%nval > 2) then
