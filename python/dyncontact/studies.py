@@ -365,7 +365,15 @@ def make_figures(out_root: str, quick: bool = False, jobs: int | None = None,
         try:
             for fut in cf.as_completed(pending):
                 name = pending[fut]
-                rec = fut.result()
+                try:
+                    rec = fut.result()
+                except Exception as exc:  # noqa: BLE001 - e.g. a worker that crashed
+                    rec = {"name": name, "out_dir": os.path.join(runs_root, name),
+                           "status": "error", "message": f"{type(exc).__name__}: {exc}",
+                           "steps": None, "t_end_reached": None, "wall_s": None,
+                           "wall_measured_s": None, "newton_its_total": None,
+                           "factorizations": None, "dofs": None, "elements": None,
+                           "rows": 0, "settings": dict(unique[name].settings)}
                 records[name] = rec
                 if log:
                     log(_run_line(rec, len(records), len(specs)))
