@@ -34,6 +34,10 @@ program main
     end if
     call sim_open(sim, scene_path, out_dir, .true., stat, errmsg)
     if (stat /= STAT_OK) call fail(stat, errmsg)
+    write (*, '(a, i0, a, i0, a, i0, a, i0, a)') 'dyncontact: '//trim(scene_path)//': ', &
+        sim%n_dofs, ' dofs, ', sim%n_cells, ' elements, ', sim%n_contact, &
+        ' contact facets; '//trim(sim%scn%scheme_name)//', ', sim%n_steps, &
+        ' steps -> '//trim(sim%scn%out_dir)
     do while (.not. sim%finished)
         call sim_advance(sim, 1000, done, stat, errmsg)
         if (stat /= STAT_OK) exit
@@ -48,6 +52,8 @@ program main
         end if
     end block
     if (stat /= STAT_OK) call fail(stat, errmsg)
+    write (*, '(a, i0, a, g0.6, a)') 'dyncontact: ok, ', sim%step, ' steps to t=', sim%st%t, &
+        ' -> '//trim(sim%scn%out_dir)
 
 contains
 

@@ -100,6 +100,9 @@ def cmd_run(args) -> int:
         return _fail(f"{result.status} at t={t_stop:.6g}: {msg} (trace kept in "
                      f"{result.out_dir})", EXIT_NUMERIC)
     if not args.quiet:
+        print(f"{PROG}: {args.scene}: {s.get('dofs', '?')} dofs, {s.get('elements', '?')} "
+              f"elements, {s.get('contact_facets', '?')} contact facets; "
+              f"{s.get('scheme', '?')}, {s.get('steps', '?')} steps")
         wall = s.get("wall_s")
         wall_txt = f", {float(wall):.2f} s" if isinstance(wall, (int, float)) else ""
         print(f"{PROG}: ok, {s.get('steps', '?')} steps to t={s.get('t_end_reached', '?')}"
