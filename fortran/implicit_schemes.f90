@@ -8,10 +8,11 @@
 !>   theta: u' = u + dt (theta v' + (1-theta) v), M (v' - v) = dt (L - theta B(u')
 !>     - (1-theta) B(u)), so u~ = u + dt v, c = theta^2 dt^2,
 !>     b = theta dt^2 (L - (1-theta) B(u)).
-!> J = J0 + c P^T D P where J0 = M + c K_theta is factorized once and D (dense,
-!> on the dofs of the contact cells) is the contact tangent: J^{-1} is applied
-!> with the Woodbury identity (Z = J0^{-1} P^T precomputed), so the active set
-!> changing never costs a factorization.
+!> J = J0 + c P^T U V^T P where J0 = M + c K_theta is factorized once and
+!> D = U V^T (one rank-one term per active contact quadrature point, on the dofs of
+!> the contact cells) is the contact tangent: J^{-1} is applied with the Woodbury
+!> identity (Z = J0^{-1} P^T precomputed), so the active set changing never costs a
+!> factorization, and the correction costs O(n m + m r + r^3).
 module implicit_schemes
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_NUMERIC, raise
@@ -19,7 +20,7 @@ module implicit_schemes
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_stiff_apply
-    use nitsche_contact, only: contact_eval
+    use nitsche_contact, only: contact_eval, contact_max_rank
     use scene, only: scene_t
     use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
     use time_scheme, only: time_scheme_t, state_t
@@ -44,13 +45,15 @@ module implicit_schemes
         integer :: m = 0                          !! contact-cell dofs
         real(dp), allocatable :: z(:, :)          !! (n, m) J0^{-1} P^T
         real(dp), allocatable :: w(:, :)          !! (m, m) P J0^{-1} P^T
-        real(dp), allocatable :: dmat(:, :)       !! (m, m) contact tangent at the iterate
-        real(dp), allocatable :: small(:, :)      !! (m, m) Woodbury system
-        real(dp), allocatable :: zs(:)            !! (m) its right-hand side
-        real(dp), allocatable :: zfull(:)         !! (m) its solution on all contact-cell dofs
-        integer, allocatable :: piv(:)            !! (m) pivots
-        integer, allocatable :: sidx(:)           !! (m) active contact-cell dofs
-        logical, allocatable :: touched(:)        !! (m) active flags
+        integer :: rank = 0                       !! rank of the contact tangent D = U V^T
+        real(dp), allocatable :: ua(:, :)         !! (ndof_e, rmax) columns of U (on qloc)
+        real(dp), allocatable :: vb(:, :)         !! (ndof_e, rmax) columns of V (on qloc)
+        integer, allocatable :: qloc(:, :)        !! (ndof_e, rmax) their contact-cell dofs
+        real(dp), allocatable :: wu(:, :)         !! (m, rmax) W U
+        real(dp), allocatable :: small(:, :)      !! (rmax, rmax) Woodbury system I + c V^T W U
+        real(dp), allocatable :: zs(:)            !! (rmax) its right-hand side / solution
+        integer, allocatable :: piv(:)            !! (rmax) pivots
+        real(dp), allocatable :: tvec(:)          !! (m) U z, the correction's coefficients
         real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
         real(dp), allocatable :: ut(:), b(:), r(:), dx(:), x(:), bx(:), ktx(:), mx(:), scratch(:)
     contains
@@ -70,7 +73,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         type(mass_solver_t) :: ms
-        integer :: n, j
+        integer :: n, j, rmax
         real(dp), allocatable :: e(:)
         n = mdl%n_dofs
         this%dt = scn%dt
@@ -119,9 +122,12 @@ contains
 
         this%m = 0
         if (mdl%has_contact) this%m = mdl%ct%m
-        allocate (this%z(n, this%m), this%w(this%m, this%m), this%dmat(this%m, this%m), &
-                  this%small(this%m, this%m), this%zs(this%m), this%zfull(this%m), this%piv(this%m), &
-                  this%sidx(this%m), this%touched(this%m), this%cx(this%m), this%cold(this%m), e(n))
+        rmax = 0
+        if (mdl%has_contact) rmax = contact_max_rank(mdl%ct)
+        allocate (this%z(n, this%m), this%w(this%m, this%m), this%ua(mdl%ndof_e, rmax), &
+                  this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), this%wu(this%m, rmax), &
+                  this%small(rmax, rmax), this%zs(rmax), this%piv(rmax), this%tvec(this%m), &
+                  this%cx(this%m), this%cold(this%m), e(n))
         this%scratch = 0.0_dp
         do j = 1, this%m
             e = 0.0_dp
@@ -142,8 +148,8 @@ contains
         type(state_t), intent(inout) :: st                  !! state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: dt, rnorm, scale, e_pen, e_theta
-        integer :: it, active, i
+        real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc
+        integer :: it, active, i, q
         character(len=160) :: msg
         stat = STAT_OK
         dt = this%dt
@@ -186,12 +192,22 @@ contains
             this%r = 0.0_dp
             if (this%m == 0) exit
             ! R' = c (C(x') - C(x) - D dx) on the contact-cell dofs
-            do i = 1, this%m
-                this%zs(i) = dot_product(this%dmat(i, :), this%dx(mdl%ct%cdofs))
+            ! tvec = D dx on the contact-cell dofs, D = U V^T at the previous iterate
+            this%tvec = 0.0_dp
+            do q = 1, this%rank
+                acc = 0.0_dp
+                do i = 1, mdl%ndof_e
+                    if (this%qloc(i, q) > 0) acc = acc + this%vb(i, q) &
+                                                   * this%dx(mdl%ct%cdofs(this%qloc(i, q)))
+                end do
+                do i = 1, mdl%ndof_e
+                    if (this%qloc(i, q) > 0) this%tvec(this%qloc(i, q)) = &
+                        this%tvec(this%qloc(i, q)) + this%ua(i, q) * acc
+                end do
             end do
             this%cold = this%cx
             call contact_part(this%x, this%cx, active, e_pen, e_theta)
-            this%r(mdl%ct%cdofs) = this%c * (this%cx - this%cold - this%zs)
+            this%r(mdl%ct%cdofs) = this%c * (this%cx - this%cold - this%tvec)
         end do
         st%newton_its = it
         this%newton_total = this%newton_total + it
@@ -221,66 +237,73 @@ contains
 
     contains
 
-        !> Contact part C(xx) of B on the contact-cell dofs, its tangent (dmat,
-        !> touched) and the contact energy parts.
+        !> Contact part C(xx) of B on the contact-cell dofs, its tangent in low-rank
+        !> form (rank, ua, vb, qloc) and the contact energy parts.
         subroutine contact_part(xx, cvec, act, ep, et)
             real(dp), intent(in) :: xx(:)
             real(dp), intent(out) :: cvec(:)
             integer, intent(out) :: act
             real(dp), intent(out) :: ep, et
             this%scratch(mdl%ct%cdofs) = 0.0_dp
-            call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%dmat, this%touched)
+            call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%rank, this%ua, this%vb, &
+                              this%qloc)
             cvec = this%scratch(mdl%ct%cdofs)
         end subroutine contact_part
 
-        !> y = J^{-1} rhs with J = J0 + c P^T D P (Woodbury on the active dofs).
+        !> y = J^{-1} rhs with J = J0 + c P^T U V^T P (Woodbury, rank r):
+        !> y = y0 - Z U (I + c V^T W U)^{-1} c V^T P y0, y0 = J0^{-1} rhs.
         subroutine solve_jacobian(rhs, y, st2)
             real(dp), intent(in) :: rhs(:)
             real(dp), intent(out) :: y(:)
             integer, intent(out) :: st2
-            integer :: p, i, j, k, info
-            real(dp) :: acc
+            integer :: r, i, j, k, info, l
+            real(dp) :: acc2
             call lu_solve(this%lu0, this%jac0, rhs, y, st2)
-            if (st2 /= STAT_OK .or. this%m == 0) return
-            p = 0
-            do i = 1, this%m
-                if (this%touched(i)) then
-                    p = p + 1
-                    this%sidx(p) = i
-                end if
+            r = this%rank
+            if (st2 /= STAT_OK .or. this%m == 0 .or. r == 0) return
+            ! W U: each column of U lives on <= ndof_e contact-cell dofs
+            do j = 1, r
+                this%wu(:, j) = 0.0_dp
+                do k = 1, mdl%ndof_e
+                    l = this%qloc(k, j)
+                    if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) * this%w(:, l)
+                end do
             end do
-            if (p == 0) return
-            associate (s => this%sidx(1:p))
-                ! small = I + c D_SS W_SS, zs = c D_SS y_S (loops: no temporaries)
-                do j = 1, p
-                    do i = 1, p
-                        acc = 0.0_dp
-                        do k = 1, p
-                            acc = acc + this%dmat(s(i), s(k)) * this%w(s(k), s(j))
-                        end do
-                        this%small(i, j) = this%c * acc
+            ! small = I + c V^T W U; zs = c V^T y_c
+            do i = 1, r
+                do j = 1, r
+                    acc2 = 0.0_dp
+                    do k = 1, mdl%ndof_e
+                        l = this%qloc(k, i)
+                        if (l > 0) acc2 = acc2 + this%vb(k, i) * this%wu(l, j)
                     end do
-                    this%small(j, j) = this%small(j, j) + 1.0_dp
+                    this%small(i, j) = this%c * acc2
                 end do
-                do i = 1, p
-                    acc = 0.0_dp
-                    do k = 1, p
-                        acc = acc + this%dmat(s(i), s(k)) * y(mdl%ct%cdofs(s(k)))
-                    end do
-                    this%zs(i) = this%c * acc
+                this%small(i, i) = this%small(i, i) + 1.0_dp
+                acc2 = 0.0_dp
+                do k = 1, mdl%ndof_e
+                    l = this%qloc(k, i)
+                    if (l > 0) acc2 = acc2 + this%vb(k, i) * y(mdl%ct%cdofs(l))
                 end do
-                call dense_lu_factor(p, this%small, this%piv, info)
-                if (info /= 0) then
-                    st2 = STAT_NUMERIC
-                    return
-                end if
-                call dense_lu_solve(p, this%small, this%piv, this%zs)
-                this%zfull = 0.0_dp
-                do i = 1, p
-                    this%zfull(s(i)) = this%zs(i)
+                this%zs(i) = this%c * acc2
+            end do
+            call dense_lu_factor(r, this%small, this%piv, info)
+            if (info /= 0) then
+                st2 = STAT_NUMERIC
+                return
+            end if
+            call dense_lu_solve(r, this%small, this%piv, this%zs)
+            ! y = y - Z (U z)
+            this%tvec = 0.0_dp
+            do j = 1, r
+                do k = 1, mdl%ndof_e
+                    l = this%qloc(k, j)
+                    if (l > 0) this%tvec(l) = this%tvec(l) + this%ua(k, j) * this%zs(j)
                 end do
-                y = y - matmul(this%z, this%zfull)
-            end associate
+            end do
+            do l = 1, this%m
+                if (this%tvec(l) /= 0.0_dp) y = y - this%tvec(l) * this%z(:, l)
+            end do
         end subroutine solve_jacobian
     end subroutine implicit_step
 

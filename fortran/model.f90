@@ -11,7 +11,8 @@ module model
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t, block2_t, block2_from_csc, &
                       block2_matvec
-    use nitsche_contact, only: contact_t, contact_init, contact_eval, facet_pressure, &
+    use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
+                               facet_pressure, &
                                facet_shape, QUAD_EXACT, QUAD_GAUSS
     implicit none
     private
@@ -363,16 +364,26 @@ contains
         real(dp), intent(in) :: u(:)          !! linearization point
         real(dp), intent(in) :: du(:)         !! direction
         real(dp), intent(out) :: jdu(:)       !! B'(u) du
-        real(dp), allocatable :: dmat(:, :), rdummy(:)
-        logical, allocatable :: touched(:)
-        integer :: active
-        real(dp) :: e1, e2
+        real(dp), allocatable :: ua(:, :), vb(:, :), rdummy(:)
+        integer, allocatable :: qloc(:, :)
+        integer :: active, rank, q, i
+        real(dp) :: e1, e2, vdu
         call model_stiff_apply(mdl, du, jdu)
         if (.not. mdl%has_contact) return
-        allocate (dmat(mdl%ct%m, mdl%ct%m), touched(mdl%ct%m), rdummy(size(u)))
+        allocate (ua(mdl%ndof_e, contact_max_rank(mdl%ct)), vb(mdl%ndof_e, contact_max_rank(mdl%ct)), &
+                  qloc(mdl%ndof_e, contact_max_rank(mdl%ct)), rdummy(size(u)))
         rdummy = 0.0_dp
-        call contact_eval(mdl%ct, u, rdummy, active, e1, e2, dmat, touched)
-        jdu(mdl%ct%cdofs) = jdu(mdl%ct%cdofs) + matmul(dmat, du(mdl%ct%cdofs))
+        call contact_eval(mdl%ct, u, rdummy, active, e1, e2, rank, ua, vb, qloc)
+        do q = 1, rank
+            vdu = 0.0_dp
+            do i = 1, mdl%ndof_e
+                if (qloc(i, q) > 0) vdu = vdu + vb(i, q) * du(mdl%ct%cdofs(qloc(i, q)))
+            end do
+            do i = 1, mdl%ndof_e
+                if (qloc(i, q) > 0) jdu(mdl%ct%cdofs(qloc(i, q))) = &
+                    jdu(mdl%ct%cdofs(qloc(i, q))) + ua(i, q) * vdu
+            end do
+        end do
     end subroutine model_apply_jacobian
 
     !> Initial displacement and velocity (SPEC section 3, &initial).

@@ -44,7 +44,7 @@ module nitsche_contact
         integer, allocatable :: cloc(:, :)    !! (ndof_e, n_facets) index into cdofs, 0 = constrained
     end type contact_t
 
-    public :: contact_init, contact_eval, nitsche_facet, facet_pressure, facet_shape
+    public :: contact_init, contact_eval, contact_max_rank, nitsche_facet, facet_pressure, facet_shape
 
 contains
 
@@ -64,7 +64,7 @@ contains
     !> r = int (1/gamma) [P]_- P_theta, k = dr/du_e on the active part,
     !> energy = int (1/(2 gamma)) [P]_-^2.
     pure subroutine nitsche_facet(ndof_e, nfn, ue, s, nvec, gap, gamma, theta, measure, &
-                                  quad, nq, qx, qw, want_k, r, k, energy, active)
+                                  quad, nq, qx, qw, want_k, r, k, energy, active, qa, qb)
         integer, intent(in) :: ndof_e          !! owner cell dofs
         integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D)
         real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
@@ -83,6 +83,8 @@ contains
         real(dp), intent(out) :: k(ndof_e, ndof_e) !! tangent contribution (if want_k)
         real(dp), intent(out) :: energy        !! int [P]_-^2 / (2 gamma)
         integer, intent(out) :: active         !! active quadrature points
+        real(dp), intent(out), optional :: qa(:, :) !! (ndof_e, >= active) k = sum_q qa_q qb_q^T:
+        real(dp), intent(out), optional :: qb(:, :) !! qa = (w/gamma) P_theta row, qb = dP/du_e
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: sn, pnode(nfn), xs(6), ws(6), a, b, xi_star
         real(dp) :: nsh(nfn), pv, nn(ndof_e), ptheta(ndof_e), dp_du(ndof_e)
@@ -122,6 +124,10 @@ contains
             ptheta = theta * s - gamma * nn
             r = r + (ws(q) / gamma) * pv * ptheta
             energy = energy + (0.5_dp * ws(q) / gamma) * pv**2
+            if (present(qa)) then
+                qa(:, active) = (ws(q) / gamma) * ptheta
+                qb(:, active) = s - gamma * nn
+            end if
             if (want_k) then
                 dp_du = s - gamma * nn
                 do j = 1, ndof_e
@@ -273,28 +279,26 @@ contains
 
     !> Add the nonlinear contact part of B(u) to r (free dofs); count active points;
     !> e_pen = int [P]_-^2/(2 gamma); e_theta = sum theta |F| sigma_n^2/(2 gamma).
-    !> With dmat present, also return the contact tangent on cdofs (m x m) and
-    !> touched(i) = .true. for the cdofs of facets with active points.
-    subroutine contact_eval(ct, u, r, active, e_pen, e_theta, dmat, touched)
+    !> With ua present, also return the contact tangent in low-rank form on the
+    !> contact-cell dofs (cdofs): D = sum_q ua(:, q) vb(:, q)^T, q = 1..rank, each pair
+    !> supported on the cdofs qloc(:, q) (0 = constrained dof, value 0).
+    subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc)
         type(contact_t), intent(in) :: ct                   !! contact data
         real(dp), intent(in) :: u(:)                        !! free-dof displacement
         real(dp), intent(inout) :: r(:)                     !! residual (added to)
         integer, intent(out) :: active                      !! active quadrature points
         real(dp), intent(out) :: e_pen                      !! penalty-like energy
         real(dp), intent(out) :: e_theta                    !! theta sigma_n^2 energy term
-        real(dp), intent(inout), optional :: dmat(:, :)     !! (m, m) tangent (overwritten)
-        logical, intent(inout), optional :: touched(:)      !! (m) active cdofs (overwritten)
-        real(dp) :: ue(ct%ndof_e), rf(ct%ndof_e), kf(ct%ndof_e, ct%ndof_e), ef, sn
-        integer :: f, i, j, af
-        logical :: want_k
-        want_k = present(dmat)
-        if (want_k) then
-            dmat(1:ct%m, 1:ct%m) = 0.0_dp
-            touched(1:ct%m) = .false.
-        end if
+        integer, intent(out), optional :: rank              !! number of rank-one terms
+        real(dp), intent(inout), optional :: ua(:, :)       !! (ndof_e, >= rank) left factors
+        real(dp), intent(inout), optional :: vb(:, :)       !! (ndof_e, >= rank) right factors
+        integer, intent(inout), optional :: qloc(:, :)      !! (ndof_e, >= rank) their cdofs
+        real(dp) :: ue(ct%ndof_e), rf(ct%ndof_e), kf(1, 1), ef, sn
+        integer :: f, i, af, nr
         active = 0
         e_pen = 0.0_dp
         e_theta = 0.0_dp
+        nr = 0
         do f = 1, ct%n_facets
             do i = 1, ct%ndof_e
                 ue(i) = 0.0_dp
@@ -302,28 +306,37 @@ contains
             end do
             sn = dot_product(ct%s(:, f), ue)
             e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
-            call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), ct%gap(:, f), &
-                               ct%gamma(f), ct%theta, ct%measure(f), ct%quad, ct%nq, ct%qx, &
-                               ct%qw, want_k, rf, kf, ef, af)
+            if (present(ua)) then
+                call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
+                                   ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
+                                   ct%nq, ct%qx, ct%qw, .false., rf, kf, ef, af, &
+                                   ua(:, nr + 1:), vb(:, nr + 1:))
+                do i = nr + 1, nr + af
+                    qloc(:, i) = ct%cloc(:, f)
+                end do
+                nr = nr + af
+            else
+                call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
+                                   ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
+                                   ct%nq, ct%qx, ct%qw, .false., rf, kf, ef, af)
+            end if
             if (af == 0) cycle
             active = active + af
             e_pen = e_pen + ef
             do i = 1, ct%ndof_e
                 if (ct%dofs(i, f) > 0) r(ct%dofs(i, f)) = r(ct%dofs(i, f)) + rf(i)
             end do
-            if (want_k) then
-                do j = 1, ct%ndof_e
-                    if (ct%cloc(j, f) == 0) cycle
-                    touched(ct%cloc(j, f)) = .true.
-                    do i = 1, ct%ndof_e
-                        if (ct%cloc(i, f) == 0) cycle
-                        dmat(ct%cloc(i, f), ct%cloc(j, f)) = dmat(ct%cloc(i, f), ct%cloc(j, f)) &
-                                                             + kf(i, j)
-                    end do
-                end do
-            end if
         end do
+        if (present(rank)) rank = nr
     end subroutine contact_eval
+
+    !> Largest rank contact_eval can return: active points per facet times facets.
+    pure function contact_max_rank(ct) result(rmax)
+        type(contact_t), intent(in) :: ct   !! contact data
+        integer :: rmax
+        rmax = ct%n_facets * merge(2, max(ct%nq, 1), ct%quad == QUAD_EXACT .or. ct%nfn == 1)
+        if (ct%nfn == 1) rmax = ct%n_facets
+    end function contact_max_rank
 
     !> Gauss-Legendre rule with n (1..6) points on [0, 1].
     pure subroutine gauss_rule(n, x, w)
