@@ -55,7 +55,7 @@ module implicit_schemes
         integer, allocatable :: piv(:)            !! (rmax) pivots
         real(dp), allocatable :: tvec(:)          !! (m) U z, the correction's coefficients
         real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
-        real(dp), allocatable :: ut(:), b(:), r(:), dx(:), x(:), bx(:), ktx(:), mx(:), scratch(:)
+        real(dp), allocatable :: ut(:), b(:), r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
     contains
         procedure :: init => implicit_init
         procedure :: step => implicit_step
@@ -97,8 +97,7 @@ contains
         else
             this%c = (this%theta * this%dt)**2
         end if
-        allocate (this%ut(n), this%b(n), this%r(n), this%dx(n), this%x(n), this%bx(n), &
-                  this%ktx(n), this%mx(n), this%scratch(n))
+        allocate (this%ut(n), this%b(n), this%r(n), this%dx(n), this%x(n), this%scratch(n))
 
         ! initial acceleration (Newmark family only)
         if (this%kind == KIND_NEWMARK) then
@@ -149,28 +148,43 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc
+        real(dp) :: s_mx, s_bu, s_b, s_r, c1, cb, mxi, ai, inv, g1, g2
         integer :: it, active, i, q
         character(len=160) :: msg
         stat = STAT_OK
         dt = this%dt
+        ! predictor u~, right-hand side b, M (u^n - u~) and R(u^n) = M (u^n - u~) + c B(u^n) - b
+        ! in one pass, with the sums of squares of the convergence test
+        s_mx = 0.0_dp; s_bu = 0.0_dp; s_b = 0.0_dp; s_r = 0.0_dp
         if (this%kind == KIND_NEWMARK) then
-            this%ut = st%u + dt * st%v + dt**2 * (0.5_dp - this%beta) * st%a
-            this%b = this%beta * dt**2 * (mdl%load + this%alpha * st%bu)
-            this%mx = -dt * st%mv - dt**2 * (0.5_dp - this%beta) * st%ma
+            c1 = dt**2 * (0.5_dp - this%beta)
+            cb = this%beta * dt**2
+            do i = 1, size(st%u)
+                this%ut(i) = st%u(i) + dt * st%v(i) + c1 * st%a(i)
+                this%b(i) = cb * (mdl%load(i) + this%alpha * st%bu(i))
+                mxi = -dt * st%mv(i) - c1 * st%ma(i)
+                this%r(i) = mxi + this%c * st%bu(i) - this%b(i)
+                s_mx = s_mx + mxi**2; s_bu = s_bu + st%bu(i)**2
+                s_b = s_b + this%b(i)**2; s_r = s_r + this%r(i)**2
+            end do
         else
-            this%ut = st%u + dt * st%v
-            this%b = this%theta * dt**2 * (mdl%load - (1.0_dp - this%theta) * st%bu)
-            this%mx = -dt * st%mv
+            cb = this%theta * dt**2
+            do i = 1, size(st%u)
+                this%ut(i) = st%u(i) + dt * st%v(i)
+                this%b(i) = cb * (mdl%load(i) - (1.0_dp - this%theta) * st%bu(i))
+                mxi = -dt * st%mv(i)
+                this%r(i) = mxi + this%c * st%bu(i) - this%b(i)
+                s_mx = s_mx + mxi**2; s_bu = s_bu + st%bu(i)**2
+                s_b = s_b + this%b(i)**2; s_r = s_r + this%r(i)**2
+            end do
         end if
-        ! R(u^n) = M (u^n - u~) + c B(u^n) - b
-        this%r = this%mx + this%c * st%bu - this%b
-        scale = norm(this%mx) + this%c * norm(st%bu) + norm(this%b)
+        scale = sqrt(s_mx) + this%c * sqrt(s_bu) + sqrt(s_b)
+        rnorm = sqrt(s_r)
         this%x = st%u
         active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
         if (this%m > 0) call contact_part(this%x, this%cx, active, e_pen, e_theta)
         it = 0
         do
-            rnorm = norm(this%r)
             if (rnorm <= this%tol * scale) exit
             if (.not. (rnorm == rnorm) .or. it >= this%maxit) then
                 write (msg, '(a, es12.5, a, i0, a, es10.3, a)') 'Newton did not converge at t = ', &
@@ -181,18 +195,21 @@ contains
                 this%newton_total = this%newton_total + it
                 return
             end if
-            call solve_jacobian(-this%r, this%dx, stat)
+            ! dx = J^{-1} R, the Newton step is x <- x - dx
+            call solve_jacobian(this%r, this%dx, stat)
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
                            //real_str(st%t + dt))
                 return
             end if
-            this%x = this%x + this%dx
+            this%x = this%x - this%dx
             it = it + 1
-            this%r = 0.0_dp
+            ! after a solve R is zero but on the contact-cell dofs
+            if (it == 1) this%r = 0.0_dp
+            rnorm = 0.0_dp
             if (this%m == 0) exit
-            ! R' = c (C(x') - C(x) - D dx) on the contact-cell dofs
-            ! tvec = D dx on the contact-cell dofs, D = U V^T at the previous iterate
+            ! R' = c (C(x') - C(x) - D (x' - x)) = c (C(x') - C(x) + D dx) on the
+            ! contact-cell dofs; tvec = D dx, D = U V^T at the previous iterate
             this%tvec = 0.0_dp
             do q = 1, this%rank
                 acc = 0.0_dp
@@ -207,31 +224,45 @@ contains
             end do
             this%cold = this%cx
             call contact_part(this%x, this%cx, active, e_pen, e_theta)
-            this%r(mdl%ct%cdofs) = this%c * (this%cx - this%cold - this%tvec)
+            s_r = 0.0_dp
+            do i = 1, this%m
+                this%r(mdl%ct%cdofs(i)) = this%c * (this%cx(i) - this%cold(i) + this%tvec(i))
+                s_r = s_r + this%r(mdl%ct%cdofs(i))**2
+            end do
+            rnorm = sqrt(s_r)
         end do
         st%newton_its = it
         this%newton_total = this%newton_total + it
-        ! B(x) = K_theta x + C(x); M (x - u~) = R - c B(x) + b
-        call model_stiff_apply(mdl, this%x, this%ktx)
-        this%bx = this%ktx
-        if (this%m > 0) this%bx(mdl%ct%cdofs) = this%bx(mdl%ct%cdofs) + this%cx
-        this%mx = this%r - this%c * this%bx + this%b
+        ! B(x) = K_theta x + C(x); M (x - u~) = R - c B(x) + b; then the scheme's update
+        ! of v, a (and M v, M a), in one pass
+        call model_stiff_apply(mdl, this%x, st%ktu)
+        st%bu = st%ktu
+        if (this%m > 0) st%bu(mdl%ct%cdofs) = st%bu(mdl%ct%cdofs) + this%cx
         if (this%kind == KIND_NEWMARK) then
             ! a' = (x - u~) / (beta dt^2); v' = v + dt ((1-gamma) a + gamma a')
-            this%dx = (this%x - this%ut) / (this%beta * dt**2)
-            this%mx = this%mx / (this%beta * dt**2)
-            st%v = st%v + dt * ((1.0_dp - this%gamma) * st%a + this%gamma * this%dx)
-            st%mv = st%mv + dt * ((1.0_dp - this%gamma) * st%ma + this%gamma * this%mx)
-            st%a = this%dx
-            st%ma = this%mx
+            inv = 1.0_dp / (this%beta * dt**2)
+            g1 = dt * (1.0_dp - this%gamma)
+            g2 = dt * this%gamma
+            do i = 1, size(st%u)
+                ai = (this%x(i) - this%ut(i)) * inv
+                mxi = (this%r(i) - this%c * st%bu(i) + this%b(i)) * inv
+                st%v(i) = st%v(i) + g1 * st%a(i) + g2 * ai
+                st%mv(i) = st%mv(i) + g1 * st%ma(i) + g2 * mxi
+                st%a(i) = ai
+                st%ma(i) = mxi
+                st%u(i) = this%x(i)
+            end do
         else
             ! v' = (x - u - dt (1-theta) v) / (theta dt), M (x - u) = M (x - u~) + dt M v
-            st%v = (this%x - st%u - dt * (1.0_dp - this%theta) * st%v) / (this%theta * dt)
-            st%mv = (this%mx + dt * st%mv - dt * (1.0_dp - this%theta) * st%mv) / (this%theta * dt)
+            inv = 1.0_dp / (this%theta * dt)
+            g1 = dt * (1.0_dp - this%theta)
+            do i = 1, size(st%u)
+                mxi = this%r(i) - this%c * st%bu(i) + this%b(i)
+                st%v(i) = (this%x(i) - st%u(i) - g1 * st%v(i)) * inv
+                st%mv(i) = (mxi + dt * st%mv(i) - g1 * st%mv(i)) * inv
+                st%u(i) = this%x(i)
+            end do
         end if
-        st%u = this%x
-        st%bu = this%bx
-        st%ktu = this%ktx
         st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
         st%t = st%t + dt
 
@@ -307,12 +338,6 @@ contains
         end subroutine solve_jacobian
     end subroutine implicit_step
 
-    !> Euclidean norm (no overflow guard: a blow-up is caught as non-finite anyway).
-    pure function norm(x) result(r)
-        real(dp), intent(in) :: x(:)   !! vector
-        real(dp) :: r
-        r = sqrt(dot_product(x, x))
-    end function norm
 
     !> A real as text (messages).
     function real_str(x) result(s)
