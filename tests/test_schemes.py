@@ -250,11 +250,13 @@ def test_small_gamma0_theta1_blows_up_at_once(tmp_path):
 
 
 def test_small_gamma0_skew_symmetric_is_stable_with_smaller_step(tmp_path):
-    """theta = -1, gamma0 = 0.01 stays bounded over T = 15 at dt = h/100 (observed: max
-    e_total 4.3 e_total(0); h/40 and h/80 are stopped late, at t = 5.5 and 14.7) and with
-    a dissipative Newmark at dt = h/20; with the trapezoidal rule at the seed's
-    dt = h/20 it gains energy at once (next test)."""
-    res = run(scene(contact__gamma0=0.01, contact__theta=-1, scheme__dt=0.05 / 100),
+    """theta = -1, gamma0 = 0.01 stays bounded over T = 15 at dt = h/200 (observed: max
+    e_total 4.3 to 4.7 e_total(0) for newton_tol 1e-8 to 1e-12) and with a dissipative
+    Newmark at dt = h/20. dt = h/100 is marginal: its outcome depends on round-off (max
+    e_total 2.9, 10.0 and 7.3 e_total(0) for newton_tol 1e-8, 1e-10, 1e-12; the middle one
+    trips blowup at t = 13.1); h/40 and h/80 are stopped at t = 5.5 and 14.7. With the
+    trapezoidal rule at the seed's dt = h/20 it gains energy at once (next test)."""
+    res = run(scene(contact__gamma0=0.01, contact__theta=-1, scheme__dt=0.05 / 200),
               tmp_path, "skew")
     assert res.status == "ok"
     assert np.max(res.trace["e_total"]) < 10 * res.trace["e_total"][0]
