@@ -57,9 +57,10 @@ program main
 
 contains
 
+    !> Print the one-line message and exit with the status of the code (2, 3 or 4).
     subroutine fail(code, msg)
-        integer, intent(in) :: code
-        character(len=*), intent(in) :: msg
+        integer, intent(in) :: code            !! STAT_* code
+        character(len=*), intent(in) :: msg   !! message
         write (0, '(a)') 'dyncontact: '//trim(msg)
         select case (code)
         case (2, 3); call c_exit(int(code, c_int))

@@ -333,6 +333,7 @@ contains
             if (mdl%n_probe == 0) st = STAT_BAD_INPUT
         end subroutine locate_probe
 
+        !> Record facet f (position xi along it) as holding the probe.
         subroutine add(f, xi)
             integer, intent(in) :: f
             real(dp), intent(in) :: xi
@@ -440,6 +441,7 @@ contains
 
     contains
 
+        !> Owner-cell values of a free-dof vector on contact facet ff (0 if constrained).
         pure subroutine gather(ff, w, we)
             integer, intent(in) :: ff
             real(dp), intent(in) :: w(:)

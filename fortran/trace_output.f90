@@ -10,6 +10,7 @@ module trace_output
         't,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active'  !! trace.csv header
 
     interface
+        !> int mkdir(const char *path, mode_t mode) from the C library.
         function c_mkdir(path, mode) bind(C, name='mkdir') result(r)
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: path(*)
