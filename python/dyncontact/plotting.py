@@ -216,13 +216,19 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
                ncols=min(len(handles), 2), fontsize="small", frameon=False)
     if title:
         fig.suptitle(title)
-    if out_png is not None:
-        out_png = os.fspath(out_png)
-        folder = os.path.dirname(out_png)
-        if folder:
-            os.makedirs(folder, exist_ok=True)
-        fig.savefig(out_png, dpi=120)
+    _save(fig, out_png)
     return fig
+
+
+def _save(fig, out_png) -> None:
+    """Write fig to out_png (folders created) unless out_png is None."""
+    if out_png is None:
+        return
+    out_png = os.fspath(out_png)
+    folder = os.path.dirname(out_png)
+    if folder:
+        os.makedirs(folder, exist_ok=True)
+    fig.savefig(out_png, dpi=120)
 
 
 # --------------------------------------------------------------------------- fields
@@ -334,10 +340,5 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     fig.colorbar(mappable, ax=ax, shrink=0.8, label=f"|{'u' if field == 'displacement' else field}|")
     if title:
         fig.suptitle(title)
-    if out_png is not None:
-        out_png = os.fspath(out_png)
-        folder = os.path.dirname(out_png)
-        if folder:
-            os.makedirs(folder, exist_ok=True)
-        fig.savefig(out_png, dpi=120)
+    _save(fig, out_png)
     return fig
