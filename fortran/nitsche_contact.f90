@@ -61,10 +61,10 @@ contains
     end function facet_shape
 
     !> Residual, generalized tangent and penalty energy of one contact facet.
-    !> r = int (1/gamma) [P]_- P_theta, k = dr/du_e on the active part,
-    !> energy = int (1/(2 gamma)) [P]_-^2.
+    !> r = int (1/gamma) [P]_- P_theta; the tangent dr/du_e = sum_q qa_q qb_q^T over the
+    !> active points (rank one each); energy = int (1/(2 gamma)) [P]_-^2.
     pure subroutine nitsche_facet(ndof_e, nfn, ue, s, nvec, gap, gamma, theta, measure, &
-                                  quad, nq, qx, qw, want_k, r, k, energy, active, qa, qb)
+                                  quad, nq, qx, qw, r, energy, active, qa, qb)
         integer, intent(in) :: ndof_e          !! owner cell dofs
         integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D)
         real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
@@ -78,21 +78,18 @@ contains
         integer, intent(in) :: nq              !! Gauss points (QUAD_GAUSS)
         real(dp), intent(in) :: qx(:)          !! Gauss points on [0, 1]
         real(dp), intent(in) :: qw(:)          !! Gauss weights on [0, 1]
-        logical, intent(in) :: want_k          !! compute k
         real(dp), intent(out) :: r(ndof_e)     !! residual contribution
-        real(dp), intent(out) :: k(ndof_e, ndof_e) !! tangent contribution (if want_k)
         real(dp), intent(out) :: energy        !! int [P]_-^2 / (2 gamma)
         integer, intent(out) :: active         !! active quadrature points
-        real(dp), intent(out), optional :: qa(:, :) !! (ndof_e, >= active) k = sum_q qa_q qb_q^T:
+        real(dp), intent(out), optional :: qa(:, :) !! (ndof_e, >= active) tangent factors:
         real(dp), intent(out), optional :: qb(:, :) !! qa = (w/gamma) P_theta row, qb = dP/du_e
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: sn, pnode(nfn), xs(6), ws(6), a, b, xi_star
-        real(dp) :: nsh(nfn), pv, nn(ndof_e), ptheta(ndof_e), dp_du(ndof_e)
-        integer :: np, q, j
+        real(dp) :: nsh(nfn), pv, nn(ndof_e), ptheta(ndof_e)
+        integer :: np, q
         sn = dot_product(s, ue)
         pnode = sn - gamma * (matmul(ue, nvec) - gap)
         r = 0.0_dp
-        if (want_k) k = 0.0_dp
         energy = 0.0_dp
         active = 0
         if (nfn == 1) then
@@ -127,12 +124,6 @@ contains
             if (present(qa)) then
                 qa(:, active) = (ws(q) / gamma) * ptheta
                 qb(:, active) = s - gamma * nn
-            end if
-            if (want_k) then
-                dp_du = s - gamma * nn
-                do j = 1, ndof_e
-                    k(:, j) = k(:, j) + (ws(q) / gamma) * ptheta * dp_du(j)
-                end do
             end if
         end do
     end subroutine nitsche_facet
@@ -293,7 +284,7 @@ contains
         real(dp), intent(inout), optional :: ua(:, :)       !! (ndof_e, >= rank) left factors
         real(dp), intent(inout), optional :: vb(:, :)       !! (ndof_e, >= rank) right factors
         integer, intent(inout), optional :: qloc(:, :)      !! (ndof_e, >= rank) their cdofs
-        real(dp) :: ue(ct%ndof_e), rf(ct%ndof_e), kf(1, 1), ef, sn
+        real(dp) :: ue(ct%ndof_e), rf(ct%ndof_e), ef, sn
         integer :: f, i, af, nr
         active = 0
         e_pen = 0.0_dp
@@ -309,8 +300,7 @@ contains
             if (present(ua)) then
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qx, ct%qw, .false., rf, kf, ef, af, &
-                                   ua(:, nr + 1:), vb(:, nr + 1:))
+                                   ct%nq, ct%qx, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:))
                 do i = nr + 1, nr + af
                     qloc(:, i) = ct%cloc(:, f)
                 end do
@@ -318,7 +308,7 @@ contains
             else
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qx, ct%qw, .false., rf, kf, ef, af)
+                                   ct%nq, ct%qx, ct%qw, rf, ef, af)
             end if
             if (af == 0) cycle
             active = active + af
