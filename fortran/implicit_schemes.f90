@@ -17,7 +17,7 @@ module implicit_schemes
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
-    use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
+    use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_stiff_apply
     use nitsche_contact, only: contact_eval, contact_max_rank
@@ -74,7 +74,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         type(mass_solver_t) :: ms
         integer :: n, j, rmax
-        real(dp), allocatable :: e(:)
+        real(dp), allocatable :: e(:, :)
         n = mdl%n_dofs
         this%dt = scn%dt
         this%tol = scn%newton_tol
@@ -126,14 +126,15 @@ contains
         allocate (this%z(n, this%m), this%w(this%m, this%m), this%ua(mdl%ndof_e, rmax), &
                   this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), this%wu(this%m, rmax), &
                   this%small(rmax, rmax), this%zs(rmax), this%piv(rmax), this%tvec(this%m), &
-                  this%cx(this%m), this%cold(this%m), e(n))
+                  this%cx(this%m), this%cold(this%m), e(n, this%m))
         this%scratch = 0.0_dp
+        ! Z = J0^{-1} P^T: one solve per contact-cell dof
+        e = 0.0_dp
         do j = 1, this%m
-            e = 0.0_dp
-            e(mdl%ct%cdofs(j)) = 1.0_dp
-            call lu_solve(this%lu0, this%jac0, e, this%z(:, j), stat, errmsg)
-            if (stat /= STAT_OK) return
+            e(mdl%ct%cdofs(j), j) = 1.0_dp
         end do
+        call lu_solve_many(this%lu0, this%jac0, e, this%z, stat, errmsg)
+        if (stat /= STAT_OK) return
         if (this%m > 0) this%w = this%z(mdl%ct%cdofs, :)
     end subroutine implicit_init
 

@@ -11,7 +11,6 @@ module simulation
     use time_scheme, only: time_scheme_t, state_t, state_eval
     use implicit_schemes, only: implicit_scheme_t
     use explicit_schemes, only: pc_scheme_t
-    use sparse, only: csc_t
     use mass_solver, only: mass_solver_apply
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
     use trace_output, only: make_dirs, trace_open, trace_row, json_real, json_string
