@@ -21,9 +21,7 @@ module sparse
         real(dp), allocatable :: val(:)               !! (nnz) values
     end type csc_t
 
-    public :: csc_from_coo, csc_find, csc_matvec, csc_matvec_t, csc_matvec_add, csc_drop_zeros
-    public :: csc_axpby_values, csc_dot_matvec, csc_same_pattern, csc_coo_map
-    public :: csc_accumulate
+    public :: csc_from_coo, csc_find, csc_matvec, csc_matvec_t, csc_drop_zeros
     public :: block2_from_csc, block2_matvec
 
     !> A symmetric matrix stored by rows of 2x2 blocks: dofs grouped in runs of one or
@@ -302,115 +300,6 @@ contains
             if (b%first(g + 1) - b%first(g) == 2) y(b%first(g) + 1) = y2
         end do
     end subroutine block2_matvec
-
-    !> y = y + alpha A x. x and y must have (at least) n entries and must not alias.
-    pure subroutine csc_matvec_add(a, alpha, x, y)
-        type(csc_t), intent(in) :: a      !! matrix
-        real(dp), intent(in) :: alpha     !! scale
-        real(dp), intent(in) :: x(:)      !! (n)
-        real(dp), intent(inout) :: y(:)   !! (n)
-        integer :: j, k
-        real(dp) :: xj
-        do j = 1, a%n
-            xj = alpha * x(j)
-            do k = a%colptr(j) + 1, a%colptr(j + 1)
-                y(a%rowind(k) + 1) = y(a%rowind(k) + 1) + a%val(k) * xj
-            end do
-        end do
-    end subroutine csc_matvec_add
-
-    !> x^T A x (twice the quadratic energy ½ x^T A x), without a temporary.
-    pure function csc_dot_matvec(a, x) result(e)
-        type(csc_t), intent(in) :: a   !! matrix
-        real(dp), intent(in) :: x(:)   !! (n)
-        real(dp) :: e
-        integer :: j, k
-        real(dp) :: s
-        e = 0.0_dp
-        do j = 1, a%n
-            s = 0.0_dp
-            do k = a%colptr(j) + 1, a%colptr(j + 1)
-                s = s + a%val(k) * x(a%rowind(k) + 1)
-            end do
-            e = e + s * x(j)
-        end do
-    end function csc_dot_matvec
-
-    !> True when a and b have the same size and the same stored pattern (O(nnz)).
-    pure function csc_same_pattern(a, b) result(same)
-        type(csc_t), intent(in) :: a   !! first matrix
-        type(csc_t), intent(in) :: b   !! second matrix
-        logical :: same
-        same = .false.
-        if (a%n /= b%n .or. a%nnz /= b%nnz) return
-        if (a%n == 0) then
-            same = .true.
-            return
-        end if
-        if (.not. (allocated(a%colptr) .and. allocated(b%colptr))) return
-        if (.not. (allocated(a%rowind) .and. allocated(b%rowind))) return
-        if (any(a%colptr /= b%colptr)) return
-        if (any(a%rowind /= b%rowind)) return
-        same = .true.
-    end function csc_same_pattern
-
-    !> c%val = alpha a%val + beta b%val for matrices of IDENTICAL pattern (same n,
-    !> colptr, rowind: e.g. built by csc_from_coo from the same triplet positions).
-    !> c must already hold that pattern (e.g. c = a once, outside the time loop); c may
-    !> be a or b. The pattern is not checked (use csc_same_pattern once beforehand).
-    pure subroutine csc_axpby_values(alpha, a, beta, b, c)
-        real(dp), intent(in) :: alpha      !! factor of a
-        type(csc_t), intent(in) :: a       !! first matrix
-        real(dp), intent(in) :: beta       !! factor of b
-        type(csc_t), intent(in) :: b       !! second matrix (pattern of a)
-        type(csc_t), intent(inout) :: c    !! result (pattern of a), values overwritten
-        integer :: k
-        do k = 1, a%nnz
-            c%val(k) = alpha * a%val(k) + beta * b%val(k)
-        end do
-    end subroutine csc_axpby_values
-
-    !> For each 1-based triplet (rows(k), cols(k)), its 1-based position map(k) in
-    !> a%val, so values of the same triplet list can be re-assembled with
-    !> csc_accumulate without sorting. STAT_BAD_INPUT if an entry is not in the pattern.
-    subroutine csc_coo_map(a, rows, cols, map, stat, errmsg)
-        type(csc_t), intent(in) :: a                        !! matrix holding the pattern
-        integer, intent(in) :: rows(:)                      !! 1-based row indices
-        integer, intent(in) :: cols(:)                      !! 1-based column indices
-        integer, intent(out) :: map(:)                      !! (size(rows)) positions in a%val
-        integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
-        character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: k
-        character(len=160) :: buf
-        if (size(cols) /= size(rows) .or. size(map) /= size(rows)) then
-            write (buf, '(a,3(1x,i0))') 'csc_coo_map: rows, cols, map differ in length:', &
-                size(rows), size(cols), size(map)
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
-            return
-        end if
-        do k = 1, size(rows)
-            map(k) = csc_find(a, rows(k), cols(k))
-            if (map(k) == 0) then
-                write (buf, '(a,i0,a,i0,a,i0,a)') 'csc_coo_map: entry ', k, ' (', rows(k), &
-                    ', ', cols(k), ') is not in the pattern'
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
-                return
-            end if
-        end do
-        stat = STAT_OK
-    end subroutine csc_coo_map
-
-    !> a%val(map(k)) += vals(k) for all k (map from csc_coo_map; zero a%val first to
-    !> re-assemble). No checks, no allocation.
-    pure subroutine csc_accumulate(a, map, vals)
-        type(csc_t), intent(inout) :: a   !! matrix whose values are updated
-        integer, intent(in) :: map(:)     !! positions in a%val (1-based)
-        real(dp), intent(in) :: vals(:)   !! (size(map)) values to add
-        integer :: k
-        do k = 1, size(map)
-            a%val(map(k)) = a%val(map(k)) + vals(k)
-        end do
-    end subroutine csc_accumulate
 
     !> b = a without its stored zeros (|a_ij| == 0). Optional stat reports an
     !> allocation failure (STAT_INTERNAL); b is then empty.

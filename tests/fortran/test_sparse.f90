@@ -4,9 +4,8 @@
 program test_sparse
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, MSG_LEN
-    use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec, csc_matvec_add, &
-                      csc_drop_zeros, csc_axpby_values, csc_dot_matvec, csc_same_pattern, &
-                      csc_coo_map, csc_accumulate
+    use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec, csc_matvec_t, &
+                      csc_drop_zeros, block2_t, block2_from_csc, block2_matvec
     implicit none
 
     real(dp), parameter :: thr = 100 * epsilon(1.0_dp)   ! algebraic identities (relative)
@@ -17,7 +16,7 @@ program test_sparse
     call test_empty()
     call test_random_against_dense()
     call test_drop_zeros()
-    call test_same_pattern_updates()
+    call test_block2()
 
     if (nfail > 0) then
         write (*, '(i0,a)') nfail, ' check(s) failed'
@@ -97,7 +96,7 @@ contains
         integer :: t, n, m, k, stat, j, p
         integer, allocatable :: r(:), c(:)
         real(dp), allocatable :: v(:), u(:), dense(:, :), x(:), y(:), yd(:)
-        real(dp) :: scale, e, ed
+        real(dp) :: scale
         type(csc_t) :: a
         logical :: sorted
         call seed(12345)
@@ -144,12 +143,10 @@ contains
             scale = max(1.0_dp, maxval(abs(yd)))
             call csc_matvec(a, x, y)
             call check(maxval(abs(y - yd)) <= thr * scale, 'random: matvec')
-            y = 1.0_dp
-            call csc_matvec_add(a, -2.0_dp, x, y)
-            call check(maxval(abs(y - (1.0_dp - 2 * yd))) <= thr * scale, 'random: matvec_add')
-            e = csc_dot_matvec(a, x)
-            ed = dot_product(x, yd)
-            call check(abs(e - ed) <= thr * max(1.0_dp, abs(ed)) * n, 'random: x^T A x')
+            yd = matmul(transpose(dense), x)
+            call csc_matvec_t(a, x, y)
+            call check(maxval(abs(y - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), &
+                       'random: transposed matvec')
             deallocate (r, c, v, u, dense, x, y, yd)
         end do
     end subroutine test_random_against_dense
@@ -174,54 +171,50 @@ contains
         call check(b%nnz == 3, 'drop: without stat')
     end subroutine test_drop_zeros
 
-    !> Mass-like and stiffness-like matrices assembled on the same triplet positions.
-    subroutine test_same_pattern_updates()
-        integer, parameter :: n = 30
-        integer :: m, stat
-        integer, allocatable :: r(:), c(:), map(:)
-        real(dp), allocatable :: vm(:), vk(:), u(:)
-        type(csc_t) :: mm, kk, c_eff, refill, other
-        real(dp) :: x(n), y1(n), y2(n)
-        character(len=MSG_LEN) :: msg
-        call seed(777)
-        m = 6 * n
-        allocate (r(m), c(m), map(m), vm(m), vk(m), u(m))
+    !> Node-block products of random symmetric matrices against dense ones, with
+    !> groups of one and two dofs mixed (nodes with one constrained component).
+    subroutine test_block2()
+        integer, parameter :: ng = 40
+        integer :: sizes(ng), first(ng + 1), n, m, k, stat, g
+        integer, allocatable :: r(:), c(:)
+        real(dp), allocatable :: v(:), u(:), dense(:, :), x(:), y(:), yd(:)
+        type(csc_t) :: a
+        type(block2_t) :: b
+        call seed(4242)
+        allocate (u(ng))
         call random_number(u)
-        r = 1 + int(u * n)
+        sizes = merge(1, 2, u < 0.3_dp)
+        first(1) = 1
+        do g = 1, ng
+            first(g + 1) = first(g) + sizes(g)
+        end do
+        n = first(ng + 1) - 1
+        m = 5 * n
+        deallocate (u)
+        allocate (r(2 * m), c(2 * m), v(2 * m), u(m), dense(n, n), x(n), y(n), yd(n))
         call random_number(u)
-        c = 1 + int(u * n)
-        call random_number(vm)
-        call random_number(vk)
-        vk(1:5) = 0.0_dp          ! zeros in one matrix only: pattern must still agree
-        call csc_from_coo(n, r, c, vm, mm, stat)
-        call csc_from_coo(n, r, c, vk, kk, stat)
-        call check(csc_same_pattern(mm, kk), 'pattern: M and K share the pattern')
-        c_eff = mm
-        call csc_axpby_values(1.0_dp, mm, 0.25_dp, kk, c_eff)
+        r(1:m) = 1 + int(u * n)
+        call random_number(u)
+        c(1:m) = 1 + int(u * n)
+        call random_number(v(1:m))
+        r(m + 1:) = c(1:m)          ! mirror: symmetric
+        c(m + 1:) = r(1:m)
+        v(m + 1:) = v(1:m)
+        dense = 0.0_dp
+        do k = 1, 2 * m
+            dense(r(k), c(k)) = dense(r(k), c(k)) + v(k)
+        end do
+        call csc_from_coo(n, r, c, v, a, stat)
+        call check(stat == STAT_OK, 'block2: coo')
+        call block2_from_csc(a, first, b, stat)
+        call check(stat == STAT_OK, 'block2: build')
         call random_number(x)
-        call csc_matvec(c_eff, x, y1)
-        call csc_matvec(mm, x, y2)
-        call csc_matvec_add(kk, 0.25_dp, x, y2)
-        call check(maxval(abs(y1 - y2)) <= thr * maxval(abs(y2)), 'pattern: axpby values')
-        call csc_axpby_values(2.0_dp, c_eff, -1.0_dp, mm, c_eff)   ! c aliases a
-        call csc_matvec(c_eff, x, y1)
-        call csc_matvec(mm, x, y2)
-        call csc_matvec_add(kk, 0.5_dp, x, y2)
-        call check(maxval(abs(y1 - y2)) <= thr * maxval(abs(y2)), 'pattern: axpby in place')
-
-        msg = ''
-        call csc_coo_map(mm, r, c, map, stat, msg)
-        call check(stat == STAT_OK, 'map: stat '//trim(msg))
-        refill = mm
-        refill%val = 0.0_dp
-        call csc_accumulate(refill, map, vk)
-        call check(maxval(abs(refill%val - kk%val)) <= thr, 'map: refill equals csc_from_coo')
-        call csc_from_coo(n, [1], [1], [1.0_dp], other, stat)
-        call csc_coo_map(other, r, c, map, stat, msg)
-        call check(stat == STAT_BAD_INPUT .or. all(r == 1 .and. c == 1), &
-                   'map: entry not in pattern')
-        call check(.not. csc_same_pattern(mm, other), 'pattern: differs')
-    end subroutine test_same_pattern_updates
+        yd = matmul(dense, x)
+        call block2_matvec(b, x, y)
+        call check(maxval(abs(y - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), 'block2: matvec')
+        call block2_from_csc(a, [1, 4, n + 1], b, stat)
+        call check(stat == STAT_BAD_INPUT, 'block2: a group of 3 dofs is refused')
+    end subroutine test_block2
 
     !> Number of distinct (r, c) positions.
     function count_distinct(n, r, c) result(cnt)
