@@ -335,3 +335,84 @@ subroutine dc_bench_floor(handle, n_rep, t_solve_us, t_spmv_us, t_mass_us)
     call sim_bench_floor(sim, max(1, int(n_rep)), a, b, c)
     t_solve_us = a; t_spmv_us = b; t_mass_us = c
 end subroutine dc_bench_floor
+
+!> The state of an open run (after dc_sim_open with outputs, and each dc_sim_advance):
+!> time, displacement, velocity, acceleration (0 for the theta scheme, which has none),
+!> the product M v the run's energies use, and the load L, on the free dofs.
+subroutine dc_sim_state(handle, n, t, u, v, a, mv, load)
+    use iso_c_binding, only: c_int, c_int64_t, c_double
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    integer(c_int), intent(in) :: n              !! free dofs
+    real(c_double), intent(out) :: t             !! time
+    real(c_double), intent(out) :: u(n)          !! displacement
+    real(c_double), intent(out) :: v(n)          !! velocity
+    real(c_double), intent(out) :: a(n)          !! acceleration
+    real(c_double), intent(out) :: mv(n)         !! M v as used for e_kin
+    real(c_double), intent(out) :: load(n)       !! L
+    type(simulation_t), pointer :: sim
+    call sim_from_handle(handle, sim)
+    t = sim%st%t
+    u = sim%st%u
+    v = sim%st%v
+    a = sim%st%a
+    mv = sim%st%mv
+    load = sim%mdl%load
+end subroutine dc_sim_state
+
+!> Stored entries of the assembled matrices of an open run (M, K, K_theta share a pattern).
+subroutine dc_sim_matrix_nnz(handle, nnz)
+    use iso_c_binding, only: c_int, c_int64_t
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    integer(c_int), intent(out) :: nnz           !! stored entries
+    type(simulation_t), pointer :: sim
+    call sim_from_handle(handle, sim)
+    nnz = sim%mdl%mass%nnz
+end subroutine dc_sim_matrix_nnz
+
+!> One assembled matrix of an open run on the free dofs, as 0-based CSC:
+!> which = 1: M (consistent or lumped, as the scene says), 2: K, 3: K_theta.
+subroutine dc_sim_matrix(handle, which, n, nnz, colptr, rowind, val, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t, c_double
+    use errors, only: STAT_OK, STAT_BAD_INPUT
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    integer(c_int), intent(in) :: which          !! 1 M, 2 K, 3 K_theta
+    integer(c_int), intent(in) :: n              !! free dofs
+    integer(c_int), intent(in) :: nnz            !! from dc_sim_matrix_nnz
+    integer(c_int), intent(out) :: colptr(n + 1) !! 0-based column starts
+    integer(c_int), intent(out) :: rowind(nnz)   !! 0-based row indices
+    real(c_double), intent(out) :: val(nnz)      !! values
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    errmsg = ''
+    colptr = 0; rowind = 0; val = 0.0_c_double
+    call sim_from_handle(handle, sim)
+    if (n /= sim%mdl%n_dofs .or. nnz /= sim%mdl%mass%nnz) then
+        stat = STAT_BAD_INPUT
+        errmsg = 'dc_sim_matrix: n or nnz do not match the model'
+        return
+    end if
+    stat = STAT_OK
+    colptr = sim%mdl%mass%colptr
+    rowind = sim%mdl%mass%rowind
+    select case (which)
+    case (1)
+        val = sim%mdl%mass%val
+    case (2)
+        val = sim%mdl%stiff%val
+    case (3)
+        val = sim%mdl%stiff_theta%val
+    case default
+        stat = STAT_BAD_INPUT
+        errmsg = 'dc_sim_matrix: which must be 1 (M), 2 (K) or 3 (K_theta)'
+    end select
+end subroutine dc_sim_matrix

@@ -5,10 +5,13 @@
 !>   v' = v + dt ((1-gamma) a + gamma a~),
 !>   u' = u + dt v + dt^2/2 ((1 - 2 beta) a + 2 beta a~),
 !>   a' = M^{-1}(L + alpha B(u) - (1+alpha) B(u')).
+!> State: u, v, a are vectors; M v' is formed by a product at the end of each step
+!> (in the same pass over the node blocks as K_theta u'), never carried by an update.
 module explicit_schemes
     use kinds, only: dp
     use errors, only: STAT_OK
-    use model, only: model_t, model_eval_b
+    use model, only: model_t, model_eval_b, model_step_products
+    use nitsche_contact, only: contact_eval
     use scene, only: scene_t
     use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply
     use time_scheme, only: time_scheme_t, state_t
@@ -21,7 +24,7 @@ module explicit_schemes
         real(dp) :: beta = 0.25_dp                !! corrector beta
         real(dp) :: gamma = 0.5_dp                !! corrector gamma
         type(mass_solver_t) :: ms                 !! M^{-1}
-        real(dp), allocatable :: vp(:), up(:), ap(:), bp(:), ktp(:), rhs(:), bold(:)
+        real(dp), allocatable :: vp(:), up(:), ap(:), bp(:), ktp(:), rhs(:), bold(:), scratch(:)
     contains
         procedure :: init => pc_init
         procedure :: step => pc_step
@@ -51,12 +54,12 @@ contains
             this%beta = (1.0_dp + scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + scn%alpha
         end select
         allocate (this%vp(n), this%up(n), this%ap(n), this%bp(n), this%ktp(n), this%rhs(n), &
-                  this%bold(n))
+                  this%bold(n), this%scratch(n))
         call mass_solver_init(this%ms, mdl, stat, errmsg)
         if (stat /= STAT_OK) return
         if (.not. mdl%lumped) this%factorizations = this%factorizations + 1
-        st%ma = mdl%load - st%bu
-        call mass_solver_apply(this%ms, st%ma, st%a, stat, errmsg)
+        this%rhs = mdl%load - st%bu
+        call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
     end subroutine pc_init
 
     !> One predictor-corrector step: two B evaluations, two M^{-1} applications.
@@ -78,12 +81,15 @@ contains
         st%u = st%u + dt * st%v + 0.5_dp * dt**2 * ((1.0_dp - 2.0_dp * this%beta) * st%a &
                                                    + 2.0_dp * this%beta * this%ap)
         st%v = st%v + dt * ((1.0_dp - this%gamma) * st%a + this%gamma * this%ap)
-        ! M a~ = rhs exactly, so M v is updated without a product with M
-        st%mv = st%mv + dt * ((1.0_dp - this%gamma) * st%ma + this%gamma * this%rhs)
         this%bold = st%bu
-        call model_eval_b(mdl, st%u, st%bu, st%ktu, st%active, st%e_pen, st%e_theta)
-        st%ma = mdl%load + this%alpha * this%bold - (1.0_dp + this%alpha) * st%bu
-        call mass_solver_apply(this%ms, st%ma, st%a, stat, errmsg)
+        ! B(u') = K_theta u' + C(u'), with M v' formed in the same pass
+        call model_step_products(mdl, st%u, st%v, st%v, st%ktu, st%mv, this%scratch)
+        st%bu = st%ktu
+        st%active = 0; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
+        if (mdl%has_contact) call contact_eval(mdl%ct, st%u, st%bu, st%active, st%e_pen, &
+                                               st%e_theta)
+        this%rhs = mdl%load + this%alpha * this%bold - (1.0_dp + this%alpha) * st%bu
+        call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
         st%newton_its = 0
         st%t = st%t + dt
     end subroutine pc_step

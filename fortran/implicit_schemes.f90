@@ -8,6 +8,12 @@
 !>   theta: u' = u + dt (theta v' + (1-theta) v), M (v' - v) = dt (L - theta B(u')
 !>     - (1-theta) B(u)), so u~ = u + dt v, c = theta^2 dt^2,
 !>     b = theta dt^2 (L - (1-theta) B(u)).
+!> State: u, v, a are the only copies of the truth. The predictor u~ is formed as a
+!> vector and M (u^n - u~) by a product with M (as GetFEM does); a' = (x - u~) /
+!> (beta dt^2) and v' are formed from vectors; M v' is a product formed at the end of
+!> the step, in the same pass over the node blocks as K_theta u' and the next step's
+!> M (u' - u~'). No product is carried across steps by an update identity, so none
+!> can drift from the vector it stands for.
 !> J = J0 + c P^T U V^T P where J0 = M + c K_theta is factorized once and
 !> D = U V^T (one rank-one term per active contact quadrature point, on the dofs of
 !> the contact cells) is the contact tangent: J^{-1} is applied with the Woodbury
@@ -19,7 +25,7 @@ module implicit_schemes
     use sparse, only: csc_t
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
     use dense_lu, only: dense_lu_factor, dense_lu_solve
-    use model, only: model_t, model_eval_b, model_stiff_apply
+    use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
     use scene, only: scene_t
     use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
@@ -55,7 +61,10 @@ module implicit_schemes
         integer, allocatable :: piv(:)            !! (rmax) pivots
         real(dp), allocatable :: tvec(:)          !! (m) U z, the correction's coefficients
         real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
-        real(dp), allocatable :: ut(:), b(:), r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
+        real(dp), allocatable :: ut(:)            !! (n) predictor u~ of the next step
+        real(dp), allocatable :: md(:)            !! (n) M (u - u~), formed with ut
+        real(dp), allocatable :: dvec(:)          !! (n) u - u~ (the vector multiplied by M)
+        real(dp), allocatable :: b(:), r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
     contains
         procedure :: init => implicit_init
         procedure :: step => implicit_step
@@ -97,21 +106,24 @@ contains
         else
             this%c = (this%theta * this%dt)**2
         end if
-        allocate (this%ut(n), this%b(n), this%r(n), this%dx(n), this%x(n), this%scratch(n))
+        allocate (this%ut(n), this%md(n), this%dvec(n), this%b(n), this%r(n), this%dx(n), &
+                  this%x(n), this%scratch(n))
 
         ! initial acceleration (Newmark family only)
         if (this%kind == KIND_NEWMARK) then
             call mass_solver_init(ms, mdl, stat, errmsg)
             if (stat /= STAT_OK) return
             if (.not. ms%lumped) this%factorizations = this%factorizations + 1
-            st%ma = mdl%load - st%bu
-            call mass_solver_apply(ms, st%ma, st%a, stat, errmsg)
+            this%b = mdl%load - st%bu
+            call mass_solver_apply(ms, this%b, st%a, stat, errmsg)
             call mass_solver_free(ms)
             if (stat /= STAT_OK) return
         else
             st%a = 0.0_dp
-            st%ma = 0.0_dp
         end if
+        ! the first step's predictor u~ and M (u0 - u~)
+        call form_predictor(this, st%u, st%v, st%a)
+        call model_mass_apply(mdl, this%dvec, this%md)
 
         this%jac0 = mdl%mass
         this%jac0%val = mdl%mass%val + this%c * mdl%stiff_theta%val
@@ -138,10 +150,11 @@ contains
         if (this%m > 0) this%w = this%z(mdl%ct%cdofs, :)
     end subroutine implicit_init
 
-    !> One step: semi-smooth Newton from x = u^n. M (x - u~) is known from the
-    !> tracked M v, M a; after each solve J dx = -R the residual is updated exactly
-    !> from the solve identity, R' = c (C(x') - C(x) - D dx) (C = contact part of
-    !> B, D its tangent), so a contact-free step costs one solve and one SpMV.
+    !> One step: semi-smooth Newton from x = u^n. u~ and M (u^n - u~) were formed at
+    !> the end of the previous step (or in init); after each solve J dx = -R the
+    !> residual is updated exactly from the solve identity, R' = c (C(x') - C(x) - D dx)
+    !> (C = contact part of B, D its tangent), so a contact-free step costs one solve
+    !> and one pass over the matrix blocks (K_theta u', M v', M (u' - u~')).
     subroutine implicit_step(this, mdl, st, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
@@ -149,33 +162,28 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc
-        real(dp) :: s_mx, s_bu, s_b, s_r, c1, cb, mxi, ai, inv, g1, g2
+        real(dp) :: s_mx, s_bu, s_b, s_r, cb, ai, inv, g1, g2
         integer :: it, active, i, q
         character(len=160) :: msg
         stat = STAT_OK
         dt = this%dt
-        ! predictor u~, right-hand side b, M (u^n - u~) and R(u^n) = M (u^n - u~) + c B(u^n) - b
-        ! in one pass, with the sums of squares of the convergence test
+        ! right-hand side b and R(u^n) = M (u^n - u~) + c B(u^n) - b in one pass, with the
+        ! sums of squares of the convergence test
         s_mx = 0.0_dp; s_bu = 0.0_dp; s_b = 0.0_dp; s_r = 0.0_dp
         if (this%kind == KIND_NEWMARK) then
-            c1 = dt**2 * (0.5_dp - this%beta)
             cb = this%beta * dt**2
             do i = 1, size(st%u)
-                this%ut(i) = st%u(i) + dt * st%v(i) + c1 * st%a(i)
                 this%b(i) = cb * (mdl%load(i) + this%alpha * st%bu(i))
-                mxi = -dt * st%mv(i) - c1 * st%ma(i)
-                this%r(i) = mxi + this%c * st%bu(i) - this%b(i)
-                s_mx = s_mx + mxi**2; s_bu = s_bu + st%bu(i)**2
+                this%r(i) = this%md(i) + this%c * st%bu(i) - this%b(i)
+                s_mx = s_mx + this%md(i)**2; s_bu = s_bu + st%bu(i)**2
                 s_b = s_b + this%b(i)**2; s_r = s_r + this%r(i)**2
             end do
         else
             cb = this%theta * dt**2
             do i = 1, size(st%u)
-                this%ut(i) = st%u(i) + dt * st%v(i)
                 this%b(i) = cb * (mdl%load(i) - (1.0_dp - this%theta) * st%bu(i))
-                mxi = -dt * st%mv(i)
-                this%r(i) = mxi + this%c * st%bu(i) - this%b(i)
-                s_mx = s_mx + mxi**2; s_bu = s_bu + st%bu(i)**2
+                this%r(i) = this%md(i) + this%c * st%bu(i) - this%b(i)
+                s_mx = s_mx + this%md(i)**2; s_bu = s_bu + st%bu(i)**2
                 s_b = s_b + this%b(i)**2; s_r = s_r + this%r(i)**2
             end do
         end if
@@ -234,11 +242,8 @@ contains
         end do
         st%newton_its = it
         this%newton_total = this%newton_total + it
-        ! B(x) = K_theta x + C(x); M (x - u~) = R - c B(x) + b; then the scheme's update
-        ! of v, a (and M v, M a), in one pass
-        call model_stiff_apply(mdl, this%x, st%ktu)
-        st%bu = st%ktu
-        if (this%m > 0) st%bu(mdl%ct%cdofs) = st%bu(mdl%ct%cdofs) + this%cx
+        ! the scheme's update of u, v, a from vectors, then the next predictor u~', and
+        ! K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u')
         if (this%kind == KIND_NEWMARK) then
             ! a' = (x - u~) / (beta dt^2); v' = v + dt ((1-gamma) a + gamma a')
             inv = 1.0_dp / (this%beta * dt**2)
@@ -246,24 +251,23 @@ contains
             g2 = dt * this%gamma
             do i = 1, size(st%u)
                 ai = (this%x(i) - this%ut(i)) * inv
-                mxi = (this%r(i) - this%c * st%bu(i) + this%b(i)) * inv
                 st%v(i) = st%v(i) + g1 * st%a(i) + g2 * ai
-                st%mv(i) = st%mv(i) + g1 * st%ma(i) + g2 * mxi
                 st%a(i) = ai
-                st%ma(i) = mxi
                 st%u(i) = this%x(i)
             end do
         else
-            ! v' = (x - u - dt (1-theta) v) / (theta dt), M (x - u) = M (x - u~) + dt M v
+            ! v' = (x - u - dt (1-theta) v) / (theta dt)
             inv = 1.0_dp / (this%theta * dt)
             g1 = dt * (1.0_dp - this%theta)
             do i = 1, size(st%u)
-                mxi = this%r(i) - this%c * st%bu(i) + this%b(i)
                 st%v(i) = (this%x(i) - st%u(i) - g1 * st%v(i)) * inv
-                st%mv(i) = (mxi + dt * st%mv(i) - g1 * st%mv(i)) * inv
                 st%u(i) = this%x(i)
             end do
         end if
+        call form_predictor(this, st%u, st%v, st%a)
+        call model_step_products(mdl, st%u, st%v, this%dvec, st%ktu, st%mv, this%md)
+        st%bu = st%ktu
+        if (this%m > 0) st%bu(mdl%ct%cdofs) = st%bu(mdl%ct%cdofs) + this%cx
         st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
         st%t = st%t + dt
 
@@ -339,6 +343,30 @@ contains
         end subroutine solve_jacobian
     end subroutine implicit_step
 
+
+    !> The predictor of the step that starts from (u, v, a): u~ = u + dt v + dt^2 (1/2 -
+    !> beta) a (Newmark family) or u + dt v (theta), formed as a vector, and dvec = u - u~,
+    !> the vector whose product with M enters the Newton residual.
+    pure subroutine form_predictor(this, u, v, a)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (ut, dvec set)
+        real(dp), intent(in) :: u(:)                        !! displacement
+        real(dp), intent(in) :: v(:)                        !! velocity
+        real(dp), intent(in) :: a(:)                        !! acceleration (Newmark family)
+        real(dp) :: c1
+        integer :: i
+        if (this%kind == KIND_NEWMARK) then
+            c1 = this%dt**2 * (0.5_dp - this%beta)
+            do i = 1, size(u)
+                this%ut(i) = u(i) + this%dt * v(i) + c1 * a(i)
+                this%dvec(i) = u(i) - this%ut(i)
+            end do
+        else
+            do i = 1, size(u)
+                this%ut(i) = u(i) + this%dt * v(i)
+                this%dvec(i) = u(i) - this%ut(i)
+            end do
+        end if
+    end subroutine form_predictor
 
     !> A real as text (messages).
     function real_str(x) result(s)

@@ -10,7 +10,7 @@ module model
     use scene, only: scene_t
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t, block2_t, block2_from_csc, &
-                      block2_matvec
+                      block2_matvec, block2_matvec_km
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
                                facet_shape, QUAD_EXACT, QUAD_GAUSS
@@ -32,6 +32,7 @@ module model
         type(csc_t) :: stiff_theta                !! K_theta = K - sum theta |F| / gamma s s^T
         logical :: blocked = .false.              !! K_theta also in 2x2 node blocks (2D)
         type(block2_t) :: stiff_theta_b           !! its node-block copy (fast products)
+        type(block2_t) :: mass_b                  !! node-block copy of M (same blocks)
         logical :: lumped = .false.               !! M is diagonal
         real(dp), allocatable :: mass_diag(:)     !! (n_dofs) diagonal of M when lumped
         real(dp), allocatable :: load(:)          !! (n_dofs) L = int rho g . v
@@ -44,7 +45,8 @@ module model
     end type model_t
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
-              model_probe, model_mass_apply, model_stiff_apply, model_full_field
+              model_probe, model_mass_apply, model_stiff_apply, model_full_field, &
+              model_step_products
 
 contains
 
@@ -303,6 +305,7 @@ contains
             end do
             first(ng + 1) = mdl%n_dofs + 1
             call block2_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b, st, m)
+            if (st == STAT_OK) call block2_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b, st, m)
             mdl%blocked = st == STAT_OK
         end subroutine block_copy
 
@@ -477,6 +480,29 @@ contains
             call csc_matvec_t(mdl%mass, x, y)   ! symmetric
         end if
     end subroutine model_mass_apply
+
+    !> The products a step ends with, formed from the vectors (never carried):
+    !> kx = K_theta x, mv = M v, md = M d; one pass over the shared node blocks in 2D.
+    subroutine model_step_products(mdl, x, v, d, kx, mv, md)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(in) :: x(:)          !! displacement
+        real(dp), intent(in) :: v(:)          !! velocity
+        real(dp), intent(in) :: d(:)          !! a second vector for M (the next predictor's u - u~)
+        real(dp), intent(out) :: kx(:)        !! K_theta x
+        real(dp), intent(out) :: mv(:)        !! M v
+        real(dp), intent(out) :: md(:)        !! M d
+        if (mdl%lumped) then
+            call model_stiff_apply(mdl, x, kx)
+            mv = mdl%mass_diag * v
+            md = mdl%mass_diag * d
+        else if (mdl%blocked) then
+            call block2_matvec_km(mdl%stiff_theta_b, mdl%mass_b, x, v, d, kx, mv, md)
+        else
+            call csc_matvec_t(mdl%stiff_theta, x, kx)
+            call csc_matvec_t(mdl%mass, v, mv)
+            call csc_matvec_t(mdl%mass, d, md)
+        end if
+    end subroutine model_step_products
 
     !> Expand a free-dof vector to (dim, n_nodes) with zeros on constrained dofs.
     pure subroutine model_full_field(mdl, w, full)

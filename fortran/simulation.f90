@@ -84,12 +84,11 @@ contains
         sim%n_contact = sim%mdl%ct%n_facets
         sim%n_steps = max(0, ceiling(sim%scn%t_end / sim%scn%dt - 1.0e-9_dp))
         allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
-                  sim%st%mv(n), sim%st%ma(n), sim%work(n))
+                  sim%st%mv(n), sim%work(n))
         call model_initial(sim%mdl, sim%scn, sim%st%u, sim%st%v)
         call state_eval(sim%mdl, sim%st)
         call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
         sim%st%a = 0.0_dp
-        sim%st%ma = 0.0_dp
         if (.not. write_output) return
         select case (trim(sim%scn%scheme_name))
         case ('pc', 'pc_hht', 'pc_hht_seed')

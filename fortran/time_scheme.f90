@@ -12,8 +12,8 @@ module time_scheme
         real(dp), allocatable :: u(:)           !! displacement (free dofs)
         real(dp), allocatable :: v(:)           !! velocity
         real(dp), allocatable :: a(:)           !! acceleration (schemes that track it)
-        real(dp), allocatable :: mv(:)          !! M v, kept exactly by the schemes (no SpMV)
-        real(dp), allocatable :: ma(:)          !! M a (schemes that track a)
+        real(dp), allocatable :: mv(:)          !! M v, formed from v by a product whenever v
+                                                !! changes (never updated incrementally)
         real(dp), allocatable :: bu(:)          !! B(u)
         real(dp), allocatable :: ktu(:)         !! K_theta u
         integer :: active = 0                   !! active contact quadrature points at u

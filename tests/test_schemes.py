@@ -209,12 +209,14 @@ def test_hht_negative_alpha_dissipates(alpha, tmp_path):
 
 def test_hht_seed_with_negative_alpha_gains_energy(tmp_path):
     """The seed's printed coefficients with alpha < 0 give gamma < 1/2: energy grows
-    in flight (anti-dissipative), where hht dissipates."""
+    in flight (anti-dissipative), where hht dissipates. The growth is physical, not
+    round-off: +38 % over the first flight (t < 1) with the state formed from vectors
+    (issue 7), against -0.03 % for hht; 10 % is asserted."""
     seed = run(scene(scheme__name="hht_seed", scheme__alpha=-0.1, scheme__t_end=1.0),
                tmp_path, "seed").trace
     w = _flight_windows(seed)[0]
     conserved = seed["e_total"] + seed["e_contact"]
-    assert conserved[w[-1]] > conserved[w[0]] * (1 + 1e-6)
+    assert conserved[w[-1]] > conserved[w[0]] * 1.1
 
 
 @pytest.mark.parametrize("time_theta, conserving", [(0.5, True), (1.0, False)])

@@ -433,3 +433,82 @@ class Model:
             self.close()
         except Exception:  # noqa: BLE001
             pass
+
+
+class Stepper:
+    """A run advanced step by step, whose state can be read between steps (tests,
+    invariant checks, scripts that need the fields). Outputs go to ``out`` as for
+    :func:`run`; use it as a context manager so that summary.json is written::
+
+        with Stepper(scene, out) as s:
+            s.advance(10)
+            st = s.state()          # t, u, v, a, mv, load on the free dofs
+            M = s.matrix("M")       # scipy-free: (colptr, rowind, val) -> dense
+    """
+
+    _WHICH = {"M": 1, "K": 2, "K_theta": 3}
+
+    def __init__(self, scene, out: str | os.PathLike):
+        self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
+        self.handle = 0
+        try:
+            if isinstance(scene, (str, bytes, os.PathLike)):
+                path = os.fsdecode(scene)
+            else:
+                path = _write_scene(scene, self._tmp)
+            (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
+             errmsg) = _core().dc_sim_open(path, os.path.abspath(os.fspath(out)), 0)
+            _check(stat, errmsg, "opening the run")
+            self.handle = handle
+            self.finished = False
+        except BaseException:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            raise
+
+    def advance(self, steps: int = 1) -> int:
+        """Advance by at most ``steps`` steps; returns the steps done. A numerical
+        failure (unstable, Newton) raises :class:`NumericalError`."""
+        done, _step, finished, stat, errmsg = _core().dc_sim_advance(self.handle, steps)
+        self.finished = bool(finished)
+        if stat == STAT_NUMERIC:
+            raise NumericalError(_str(errmsg))
+        _check(stat, errmsg, "advancing the run")
+        return int(done)
+
+    def state(self) -> dict[str, Any]:
+        """t, u, v, a, mv (the product M v the energies use) and load, free dofs."""
+        t, u, v, a, mv, load = _core().dc_sim_state(self.handle, self.dofs)
+        return {"t": float(t), "u": u, "v": v, "a": a, "mv": mv, "load": load}
+
+    def matrix(self, which: str) -> np.ndarray:
+        """The assembled 'M', 'K' or 'K_theta' on the free dofs, as a dense array."""
+        nnz = int(_core().dc_sim_matrix_nnz(self.handle))
+        colptr, rowind, val, stat, errmsg = _core().dc_sim_matrix(
+            self.handle, self._WHICH[which], self.dofs, nnz)
+        _check(stat, errmsg, "reading a matrix")
+        dense = np.zeros((self.dofs, self.dofs))
+        for j in range(self.dofs):
+            rows = rowind[colptr[j]:colptr[j + 1]]
+            dense[rows, j] += val[colptr[j]:colptr[j + 1]]
+        return dense
+
+    def eval_b(self, u) -> np.ndarray:
+        """B(u) on the free dofs."""
+        b, _active = _core().dc_sim_eval_b(self.handle, _f64(u, (self.dofs,)), self.dofs)
+        return b
+
+    def close(self) -> None:
+        if self.handle:
+            handle, self.handle = self.handle, 0
+            stat, errmsg = _core().dc_sim_close(handle)
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            _check(stat, errmsg, "closing the run")
+
+    def __enter__(self) -> "Stepper":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+__all__ += ["Stepper"]

@@ -1,0 +1,145 @@
+"""Invariants of the state a run writes out (issue 7): for every scheme and both masses,
+at sampled steps through an impact, recompute from the state (u, v, a through
+dyncontact.core.Stepper) and the assembled matrices:
+
+- the product M v that e_kin uses equals M v formed from v (no carried copy drifts);
+- the trace's e_kin = 1/2 v.M v and e_el = 1/2 u.K u;
+- the scheme's update relations and its balance equation, to round-off (the Newton
+  tolerance is set below round-off of the residual, so a converged step is exact);
+- e_kin >= 0 in every trace row.
+
+The scene is the seed bar at h = 0.05 (120 dofs) with gravity on (so the load L enters
+the balance), run past the first impact (contact starts at t ~ 1.15).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import dyncontact
+from dyncontact.core import Stepper, read_trace
+
+from conftest import ROOT
+
+SCENE = ROOT / "scripts" / "scenes" / "bar2d_hht.nml"
+
+#: Relative round-off bound for identities evaluated in double precision over
+#: O(100) terms (products with M, K, the update formulas).
+THR = 1e-12
+#: The balance equation is met to the Newton tolerance: NEWTON_TOL relative to the
+#: residual's scale, which is below THR. Its scale includes the terms the step cancels:
+#: a' = (u' - u~) / (beta dt^2) carries the round-off of u' divided by beta dt^2, so
+#: M a' is exact only relative to |M u'| / (beta dt^2) (likewise v' in the theta scheme,
+#: relative to |M u'| / (theta dt)).
+NEWTON_TOL = 1e-14
+T_END = 1.4      # past the start of the first impact
+N_SAMPLES = 12   # sampled steps per run (each: the state before and after one step)
+
+# (scheme keys, dt): implicit at the seed's h/20, predictor-correctors at h/100.
+SCHEMES = {
+    "newmark_0.25_0.5": ({"name": "newmark", "beta": 0.25, "gamma": 0.5}, 0.0025),
+    "newmark_0.2_0.5": ({"name": "newmark", "beta": 0.2, "gamma": 0.5}, 0.0025),
+    "newmark_0.25_0.6": ({"name": "newmark", "beta": 0.25, "gamma": 0.6}, 0.0025),
+    "hht_-0.1": ({"name": "hht", "alpha": -0.1}, 0.0025),
+    "hht_seed_-0.05": ({"name": "hht_seed", "alpha": -0.05}, 0.0025),
+    "theta_0.5": ({"name": "theta", "theta": 0.5}, 0.0025),
+    "theta_1": ({"name": "theta", "theta": 1.0}, 0.0025),
+    "pc": ({"name": "pc", "beta": 0.25, "gamma": 0.5}, 0.0005),
+    "pc_hht_-0.1": ({"name": "pc_hht", "alpha": -0.1}, 0.0005),
+    "pc_hht_seed_-0.05": ({"name": "pc_hht_seed", "alpha": -0.05}, 0.0005),
+}
+
+
+def coefficients(keys):
+    """(family, alpha, beta, gamma, theta) of a scheme as SPEC section 1 defines them."""
+    name, a = keys["name"], keys.get("alpha", 0.0)
+    if name in ("newmark", "pc"):
+        return name, 0.0, keys["beta"], keys["gamma"], None
+    if name in ("hht", "pc_hht"):
+        return name.replace("_hht", ""), a, (1 - a) ** 2 / 4, 0.5 - a, None
+    if name in ("hht_seed", "pc_hht_seed"):
+        return name.split("_")[0], a, (1 + a) ** 2 / 4, 0.5 + a, None
+    return "theta", 0.0, None, None, keys["theta"]
+
+
+def rel(x, scale):
+    return float(np.max(np.abs(x)) / max(scale, np.finfo(float).tiny))
+
+
+@pytest.mark.parametrize("mass", ["consistent", "lumped"])
+@pytest.mark.parametrize("label", list(SCHEMES))
+def test_state_invariants(label, mass, tmp_path):
+    keys, dt = SCHEMES[label]
+    family, alpha, beta, gamma, theta = coefficients(keys)
+    scene = dyncontact.Scene.read(SCENE)
+    for k, v in keys.items():
+        scene.set(f"scheme.{k}", v)
+    scene.set("scheme.dt", dt)
+    scene.set("scheme.t_end", T_END)
+    scene.set("scheme.mass", mass)
+    scene.set("scheme.newton_tol", NEWTON_TOL)
+    scene.set("material.gravity", [0.0, -0.2])
+    out = tmp_path / "run"
+    n_steps = int(round(T_END / dt))
+    samples = set(np.linspace(0, n_steps - 1, N_SAMPLES).astype(int).tolist())
+    states = {}
+    with Stepper(scene, out) as run:
+        M, K = run.matrix("M"), run.matrix("K")
+        step = 0
+        while step < n_steps:
+            if step in samples:
+                s0 = run.state()
+                run.advance(1)
+                s1 = run.state()
+                states[step] = (s0, s1, run.eval_b(s0["u"]), run.eval_b(s1["u"]))
+                step += 1
+            else:
+                step += run.advance(min(n_steps - step, min(s for s in samples | {n_steps}
+                                                             if s > step) - step))
+    trace = read_trace(out)
+    assert len(trace["t"]) == n_steps + 1
+    assert np.all(trace["e_kin"] >= 0.0), "e_kin < 0 in the trace"
+    assert np.any(trace["active"] > 0), "the run never reached contact"
+
+    for step, (s0, s1, b0, b1) in states.items():
+        u0, v0, a0, u1, v1, a1 = s0["u"], s0["v"], s0["a"], s1["u"], s1["v"], s1["a"]
+        load = s1["load"]
+        where = f"{label} {mass} step {step + 1} (t = {s1['t']:.4f})"
+        # the product the energies use is M v, formed from v
+        mv = M @ v1
+        assert rel(s1["mv"] - mv, np.max(np.abs(mv)) + 1e-300) <= THR, where
+        # the trace row of that step holds the energies of this state
+        row = step + 1
+        e_kin = 0.5 * v1 @ mv
+        e_el = 0.5 * u1 @ K @ u1
+        scale_e = abs(e_kin) + abs(e_el)
+        assert abs(trace["e_kin"][row] - e_kin) <= THR * scale_e, (where, "e_kin")
+        assert abs(trace["e_el"][row] - e_el) <= THR * scale_e, (where, "e_el")
+        assert abs(trace["t"][row] - s1["t"]) <= THR, where
+        # the scheme's relations
+        if family in ("newmark", "hht"):
+            u_rel = u1 - (u0 + dt * v0 + dt * dt * ((0.5 - beta) * a0 + beta * a1))
+            v_rel = v1 - (v0 + dt * ((1 - gamma) * a0 + gamma * a1))
+            bal = M @ a1 + (1 + alpha) * b1 - alpha * b0 - load
+            bal_scale = (np.max(np.abs(M @ a1)) + (1 + alpha) * np.max(np.abs(b1))
+                         + abs(alpha) * np.max(np.abs(b0)) + np.max(np.abs(load))
+                         + np.max(np.abs(M @ u1)) / (beta * dt * dt))
+        elif family == "theta":
+            u_rel = u1 - (u0 + dt * (theta * v1 + (1 - theta) * v0))
+            v_rel = np.zeros(1)
+            bal = M @ (v1 - v0) - dt * (load - theta * b1 - (1 - theta) * b0)
+            bal_scale = (np.max(np.abs(M @ (v1 - v0))) + np.max(np.abs(M @ u1)) / theta
+                         + dt * (np.max(np.abs(b1)) + np.max(np.abs(b0))
+                                 + np.max(np.abs(load))))
+        else:  # predictor-correctors: the acceleration of the written state
+            u_rel = np.zeros(1)
+            v_rel = np.zeros(1)
+            bal = M @ a1 - (load + alpha * b0 - (1 + alpha) * b1)
+            bal_scale = (np.max(np.abs(M @ a1)) + (1 + abs(alpha)) * np.max(np.abs(b1))
+                         + abs(alpha) * np.max(np.abs(b0)) + np.max(np.abs(load)))
+        u_scale = np.max(np.abs(u1)) + np.max(np.abs(u0))
+        v_scale = np.max(np.abs(v1)) + np.max(np.abs(v0)) + dt * np.max(np.abs(a0))
+        assert rel(u_rel, u_scale) <= THR, (where, "u update", rel(u_rel, u_scale))
+        assert rel(v_rel, v_scale) <= THR, (where, "v update", rel(v_rel, v_scale))
+        assert rel(bal, bal_scale) <= THR, (where, "balance", rel(bal, bal_scale))
