@@ -2,9 +2,15 @@
 !> driver. Every step solves
 !>     R(x) = M (x - u~) + c B(x) - b = 0,   J = M + c B'(x),
 !> with u~, c, b set by the scheme:
-!>   Newmark/HHT: M a' + (1+alpha) B(u') - alpha B(u) = L, u' = u~ + beta dt^2 a',
-!>     u~ = u + dt v + dt^2 (1/2 - beta) a, c = beta dt^2 (1+alpha),
-!>     b = beta dt^2 (L + alpha B(u)); v' = v + dt ((1-gamma) a + gamma a').
+!>   Newmark family (newmark, hht, hht_seed, galpha), in generalized-alpha form:
+!>     (1-am) M a' + am M a + (1-af) B(u') + af B(u) = L, u' = u~ + beta dt^2 a',
+!>     u~ = u + dt v + dt^2 (1/2 - beta) a, v' = v + dt ((1-gamma) a + gamma a');
+!>     newmark: am = af = 0; hht/hht_seed (alpha <= 0): am = 0, af = -alpha;
+!>     galpha (Chung-Hulbert 1993, rho_inf in [0, 1]): am = (2 rho - 1)/(rho + 1),
+!>     af = rho/(rho + 1), beta = (1 - am + af)^2/4, gamma = 1/2 - am + af.
+!>     Multiplied by beta dt^2/(1-am): c = beta dt^2 (1-af)/(1-am),
+!>     b = beta dt^2/(1-am) (L - af B(u)), and M (u - u~) becomes M (u - u~ + k a) with
+!>     k = beta dt^2 am/(1-am) (k = 0 and the same operations as plain HHT when am = 0).
 !>   theta: u' = u + dt (theta v' + (1-theta) v), M (v' - v) = dt (L - theta B(u')
 !>     - (1-theta) B(u)), so u~ = u + dt v, c = theta^2 dt^2,
 !>     b = theta dt^2 (L - (1-theta) B(u)).
@@ -39,7 +45,8 @@ module implicit_schemes
     !> Newmark-family and theta schemes.
     type, extends(time_scheme_t), public :: implicit_scheme_t
         integer :: kind = KIND_NEWMARK            !! family
-        real(dp) :: alpha = 0.0_dp                !! HHT alpha (0 for newmark)
+        real(dp) :: alpha_m = 0.0_dp              !! generalized-alpha alpha_m (0 but for galpha)
+        real(dp) :: alpha_f = 0.0_dp              !! alpha_f (-alpha for hht, hht_seed)
         real(dp) :: beta = 0.25_dp                !! Newmark beta
         real(dp) :: gamma = 0.5_dp                !! Newmark gamma
         real(dp) :: theta = 0.5_dp                !! theta-scheme theta
@@ -90,19 +97,25 @@ contains
         this%maxit = scn%newton_maxit
         select case (trim(scn%scheme_name))
         case ('newmark')
-            this%kind = KIND_NEWMARK; this%alpha = 0.0_dp
+            this%kind = KIND_NEWMARK
             this%beta = scn%beta; this%gamma = scn%gamma
         case ('hht')
-            this%kind = KIND_NEWMARK; this%alpha = scn%alpha
+            this%kind = KIND_NEWMARK; this%alpha_f = -scn%alpha
             this%beta = (1.0_dp - scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp - scn%alpha
         case ('hht_seed')
-            this%kind = KIND_NEWMARK; this%alpha = scn%alpha
+            this%kind = KIND_NEWMARK; this%alpha_f = -scn%alpha
             this%beta = (1.0_dp + scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + scn%alpha
+        case ('galpha')
+            this%kind = KIND_NEWMARK
+            this%alpha_m = (2.0_dp * scn%rho_inf - 1.0_dp) / (scn%rho_inf + 1.0_dp)
+            this%alpha_f = scn%rho_inf / (scn%rho_inf + 1.0_dp)
+            this%beta = (1.0_dp - this%alpha_m + this%alpha_f)**2 / 4.0_dp
+            this%gamma = 0.5_dp - this%alpha_m + this%alpha_f
         case default
             this%kind = KIND_THETA; this%theta = scn%time_theta
         end select
         if (this%kind == KIND_NEWMARK) then
-            this%c = this%beta * this%dt**2 * (1.0_dp + this%alpha)
+            this%c = this%beta * this%dt**2 * (1.0_dp - this%alpha_f) / (1.0_dp - this%alpha_m)
         else
             this%c = (this%theta * this%dt)**2
         end if
@@ -171,9 +184,9 @@ contains
         ! sums of squares of the convergence test
         s_mx = 0.0_dp; s_bu = 0.0_dp; s_b = 0.0_dp; s_r = 0.0_dp
         if (this%kind == KIND_NEWMARK) then
-            cb = this%beta * dt**2
+            cb = this%beta * dt**2 / (1.0_dp - this%alpha_m)
             do i = 1, size(st%u)
-                this%b(i) = cb * (mdl%load(i) + this%alpha * st%bu(i))
+                this%b(i) = cb * (mdl%load(i) - this%alpha_f * st%bu(i))
                 this%r(i) = this%md(i) + this%c * st%bu(i) - this%b(i)
                 s_mx = s_mx + this%md(i)**2; s_bu = s_bu + st%bu(i)**2
                 s_b = s_b + this%b(i)**2; s_r = s_r + this%r(i)**2
@@ -243,7 +256,13 @@ contains
         st%newton_its = it
         this%newton_total = this%newton_total + it
         ! the scheme's update of u, v, a from vectors, then the next predictor u~', and
-        ! K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u')
+        ! K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u').
+        ! Dofs without inertia (redistributed mass) are quasi-static: their v, a do not
+        ! enter the dynamics (zero rows of M), and are reported as v = (u' - u)/dt, a = 0.
+        do q = 1, size(mdl%massless_dofs)
+            i = mdl%massless_dofs(q)
+            this%dvec(i) = (this%x(i) - st%u(i)) / dt
+        end do
         if (this%kind == KIND_NEWMARK) then
             ! a' = (x - u~) / (beta dt^2); v' = v + dt ((1-gamma) a + gamma a')
             inv = 1.0_dp / (this%beta * dt**2)
@@ -264,6 +283,11 @@ contains
                 st%u(i) = this%x(i)
             end do
         end if
+        do q = 1, size(mdl%massless_dofs)
+            i = mdl%massless_dofs(q)
+            st%v(i) = this%dvec(i)
+            if (this%kind == KIND_NEWMARK) st%a(i) = 0.0_dp
+        end do
         call form_predictor(this, st%u, st%v, st%a)
         call model_step_products(mdl, st%u, st%v, this%dvec, st%ktu, st%mv, this%md)
         st%bu = st%ktu
@@ -345,14 +369,15 @@ contains
 
 
     !> The predictor of the step that starts from (u, v, a): u~ = u + dt v + dt^2 (1/2 -
-    !> beta) a (Newmark family) or u + dt v (theta), formed as a vector, and dvec = u - u~,
-    !> the vector whose product with M enters the Newton residual.
+    !> beta) a (Newmark family) or u + dt v (theta), formed as a vector, and dvec = u - u~
+    !> (+ k a for generalized-alpha, k = beta dt^2 am/(1-am)), the vector whose product
+    !> with M enters the Newton residual.
     pure subroutine form_predictor(this, u, v, a)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme (ut, dvec set)
         real(dp), intent(in) :: u(:)                        !! displacement
         real(dp), intent(in) :: v(:)                        !! velocity
         real(dp), intent(in) :: a(:)                        !! acceleration (Newmark family)
-        real(dp) :: c1
+        real(dp) :: c1, k
         integer :: i
         if (this%kind == KIND_NEWMARK) then
             c1 = this%dt**2 * (0.5_dp - this%beta)
@@ -360,6 +385,10 @@ contains
                 this%ut(i) = u(i) + this%dt * v(i) + c1 * a(i)
                 this%dvec(i) = u(i) - this%ut(i)
             end do
+            if (this%alpha_m /= 0.0_dp) then
+                k = this%beta * this%dt**2 * this%alpha_m / (1.0_dp - this%alpha_m)
+                this%dvec = this%dvec + k * a
+            end if
         else
             do i = 1, size(u)
                 this%ut(i) = u(i) + this%dt * v(i)

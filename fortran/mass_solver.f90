@@ -15,13 +15,16 @@ module mass_solver
         real(dp), allocatable :: inv_diag(:)     !! 1 / diag(M) when lumped
         type(csc_t) :: mass                      !! M without structural zeros
         type(lu_t) :: lu                         !! its factors
+        integer, allocatable :: massless(:)      !! dofs with no inertia: x = 0 there
     end type mass_solver_t
 
     public :: mass_solver_init, mass_solver_apply, mass_solver_free
 
 contains
 
-    !> Prepare M^{-1}: factorizes a consistent M (one factorization).
+    !> Prepare M^{-1}: factorizes a consistent M (one factorization). Dofs without
+    !> inertia (redistributed mass: zero rows and columns) get a unit diagonal, so the
+    !> rest is solved exactly and x = 0 there.
     subroutine mass_solver_init(ms, mdl, stat, errmsg)
         type(mass_solver_t), intent(inout) :: ms            !! solver
         type(model_t), intent(in) :: mdl                    !! model
@@ -33,7 +36,23 @@ contains
         if (ms%lumped) then
             ms%inv_diag = 1.0_dp / mdl%mass_diag
         else
-            call csc_drop_zeros(mdl%mass, ms%mass)
+            ms%massless = mdl%massless_dofs
+            if (size(ms%massless) > 0) then
+                block
+                    type(csc_t) :: m1
+                    integer :: k, j, p
+                    m1 = mdl%mass
+                    do k = 1, size(ms%massless)
+                        j = ms%massless(k)
+                        do p = m1%colptr(j) + 1, m1%colptr(j + 1)
+                            if (m1%rowind(p) + 1 == j) m1%val(p) = 1.0_dp
+                        end do
+                    end do
+                    call csc_drop_zeros(m1, ms%mass)
+                end block
+            else
+                call csc_drop_zeros(mdl%mass, ms%mass)
+            end if
             call lu_factor(ms%lu, ms%mass, stat, errmsg)
         end if
     end subroutine mass_solver_init
@@ -50,6 +69,7 @@ contains
             stat = STAT_OK
         else
             call lu_solve(ms%lu, ms%mass, b, x, stat, errmsg)
+            if (allocated(ms%massless)) x(ms%massless) = 0.0_dp
         end if
     end subroutine mass_solver_apply
 

@@ -11,6 +11,7 @@ module model
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t, block2_t, block2_from_csc, &
                       block2_matvec, block2_matvec_km
+    use mass_redistribution, only: mass_region, mass_redistribute
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
                                facet_shape, QUAD_EXACT, QUAD_GAUSS
@@ -35,6 +36,8 @@ module model
         type(block2_t) :: mass_b                  !! node-block copy of M (same blocks)
         logical :: lumped = .false.               !! M is diagonal
         real(dp), allocatable :: mass_diag(:)     !! (n_dofs) diagonal of M when lumped
+        logical, allocatable :: massless(:)       !! (n_dofs) no inertia (redistributed mass)
+        integer, allocatable :: massless_dofs(:)  !! those dofs
         real(dp), allocatable :: load(:)          !! (n_dofs) L = int rho g . v
         logical :: has_contact = .false.          !! a contact boundary exists
         type(contact_t) :: ct                     !! contact facets
@@ -60,7 +63,7 @@ contains
         character(len=1024) :: msg, where
         real(dp) :: lambda, mu
         integer, allocatable :: facets(:)
-        integer :: dim
+        integer :: dim, j
         stat = STAT_OK
         msg = ''
         if (len_trim(scn%mesh_file) > 0) then
@@ -102,11 +105,22 @@ contains
             return
         end if
         mdl%has_contact = size(facets) > 0
+        allocate (mdl%massless(mdl%n_dofs))
+        mdl%massless = .false.
+        if (scn%mass == 'redistributed') then
+            call redistribute(stat, msg)
+            if (stat /= STAT_OK) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &scheme mass: ' &
+                           //trim(msg)//' ('//trim(where)//')')
+                return
+            end if
+        end if
+        mdl%massless_dofs = pack([(j, j=1, mdl%n_dofs)], mdl%massless)
         call contact_init(mdl%ct, mdl%msh, facets, mdl%dof, scn%young, lambda, mu, &
                           mdl%normal(1:dim), scn%obstacle_point(1:dim), scn%gamma0, &
                           scn%nitsche_theta, merge(QUAD_GAUSS, QUAD_EXACT, &
                                                    scn%quadrature == 'gauss'), &
-                          scn%quad_points, stat, msg)
+                          scn%quad_points, stat, msg, penalty=scn%contact_method == 'penalty')
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &boundary contact: ' &
                        //trim(msg))
@@ -273,9 +287,9 @@ contains
         subroutine add_theta_term()
             integer :: f, a, b, i
             real(dp) :: coef
-            if (scn%nitsche_theta == 0) return
+            if (mdl%ct%theta == 0) return     ! theta = 0, or penalty
             do f = 1, mdl%ct%n_facets
-                coef = scn%nitsche_theta * mdl%ct%measure(f) / mdl%ct%gamma(f)
+                coef = mdl%ct%theta * mdl%ct%measure(f) / mdl%ct%gamma(f)
                 do b = 1, mdl%ndof_e
                     do a = 1, mdl%ndof_e
                         i = mdl%cell_pos(a, b, mdl%ct%cell(f))
@@ -286,6 +300,21 @@ contains
                 end do
             end do
         end subroutine add_theta_term
+
+        !> Redistributed mass: no inertia on the contact nodes (module mass_redistribution).
+        subroutine redistribute(st, m)
+            integer, intent(out) :: st
+            character(len=*), intent(inout) :: m
+            logical, allocatable :: contact_node(:), region(:)
+            integer, parameter :: LAYERS = 2
+            allocate (contact_node(mdl%msh%n_nodes), region(mdl%msh%n_nodes))
+            contact_node = .false.
+            if (size(facets) > 0) contact_node(reshape(mdl%msh%facets(:, facets), [size(facets) &
+                                               * size(mdl%msh%facets, 1)])) = .true.
+            call mass_region(mdl%msh%cells, contact_node, LAYERS, region)
+            call mass_redistribute(mdl%mass, mdl%dof_node, mdl%dof_comp, mdl%msh%x, contact_node, &
+                                   region, mdl%massless, st, m)
+        end subroutine redistribute
 
         !> 2x2 node-block copy of K_theta (2D): the free dofs of a node are consecutive.
         subroutine block_copy(st, m)

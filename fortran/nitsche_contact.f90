@@ -9,6 +9,12 @@
 !> 2 Gauss points: exact for the residual, the tangent and the energy (polynomials
 !> of degree <= 2 on the piece). 'gauss' uses quad_points Gauss points on the whole
 !> facet (GetFEM's reference runs used 3), which does not resolve the kink.
+!>
+!> Penalty contact (`&contact method = 'penalty'`, eps_N = gamma0 / h_T) is the same
+!> term with the sigma_n parts removed: P(u) = -eps_N (u_n - g), theta = 0, so
+!> B(u).v = a(u, v) + int eps_N [u_n - g]_+ v_n and the contact energy is
+!> int (eps_N / 2) [u_n - g]_+^2 = int (1/(2 eps_N)) [P]_-^2: the facet kernels serve
+!> both, with s = 0.
 module nitsche_contact
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
@@ -147,8 +153,10 @@ contains
 
     !> Set up the contact facets `facets` (indices into msh%facets): owner cells,
     !> sigma_n rows, normal rows, gaps, gamma_N = gamma0 / diameter(owner).
+    !> Contact data of the facets: owner cells, sigma_n rows s, normal rows, gaps, gamma_N.
+    !> With penalty, s = 0 and theta = 0 (penalty contact, see the module header).
     subroutine contact_init(ct, msh, facets, dof, young, lambda, mu, normal, point, gamma0, &
-                            theta, quad, nq, stat, errmsg)
+                            theta, quad, nq, stat, errmsg, penalty)
         type(contact_t), intent(out) :: ct                  !! contact data
         type(mesh_t), intent(in) :: msh                     !! mesh
         integer, intent(in) :: facets(:)                    !! contact facets
@@ -164,6 +172,7 @@ contains
         integer, intent(in) :: nq                           !! Gauss points
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(in), optional :: penalty            !! penalty contact (default .false.)
         integer :: dim, nf, f, c, j, a, kk, nloc, ndof_e, i, cnt
         integer, allocatable :: first(:), adj(:), mark(:)
         real(dp) :: grad(msh%dim, msh%dim + 1), xe(msh%dim, msh%dim + 1), gn
@@ -266,6 +275,12 @@ contains
                 if (ct%dofs(i, f) > 0) ct%cloc(i, f) = mark(ct%dofs(i, f))
             end do
         end do
+        if (present(penalty)) then
+            if (penalty) then
+                ct%s = 0.0_dp
+                ct%theta = 0
+            end if
+        end if
     end subroutine contact_init
 
     !> Add the nonlinear contact part of B(u) to r (free dofs); count active points;

@@ -57,6 +57,7 @@ module scene
         real(dp) :: beta = 0.25_dp                        !! Newmark / pc beta
         real(dp) :: gamma = 0.5_dp                        !! Newmark / pc gamma
         real(dp) :: time_theta = 0.5_dp                   !! theta-scheme theta in [1/2, 1]
+        real(dp) :: rho_inf = 1.0_dp                      !! galpha spectral radius at infinity, [0, 1]
         real(dp) :: dt = 0.0025_dp                        !! time step > 0
         real(dp) :: t_end = 15.0_dp                       !! final time >= 0
         character(len=NAME_LEN) :: mass = 'consistent'    !! 'consistent' | 'lumped'

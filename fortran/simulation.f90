@@ -11,6 +11,7 @@ module simulation
     use time_scheme, only: time_scheme_t, state_t, state_eval
     use implicit_schemes, only: implicit_scheme_t
     use explicit_schemes, only: pc_scheme_t
+    use central_difference, only: central_scheme_t
     use mass_solver, only: mass_solver_apply
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
     use trace_output, only: make_dirs, trace_open, trace_row, json_real, json_string
@@ -93,11 +94,18 @@ contains
         select case (trim(sim%scn%scheme_name))
         case ('pc', 'pc_hht', 'pc_hht_seed')
             allocate (pc_scheme_t :: sim%scheme)
+        case ('central')
+            allocate (central_scheme_t :: sim%scheme)
         case default
             allocate (implicit_scheme_t :: sim%scheme)
         end select
         call sim%scheme%init(sim%mdl, sim%scn, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
+        ! a scheme may choose its step (central with dt = 0): the run uses the scheme's
+        if (sim%scheme%dt /= sim%scn%dt) then
+            sim%scn%dt = sim%scheme%dt
+            sim%n_steps = max(0, ceiling(sim%scn%t_end / sim%scn%dt - 1.0e-9_dp))
+        end if
 
         call make_dirs(sim%scn%out_dir, stat, errmsg)
         if (stat /= STAT_OK) return
@@ -194,6 +202,8 @@ contains
                 call lu_free(s%lu0)
             type is (pc_scheme_t)
                 call lu_free(s%ms%lu)
+            type is (central_scheme_t)
+                call lu_free(s%ms%lu)
             end select
         end if
     end subroutine sim_close
@@ -276,6 +286,12 @@ contains
         write (buf, '(i0)') sim%n_contact
         write (unit, '(a)') '  "contact_facets": '//trim(buf)//','
         write (unit, '(a)') '  "scheme": '//json_string(sim%scn%scheme_name)//','
+        if (allocated(sim%scheme)) then
+            select type (s => sim%scheme)
+            type is (central_scheme_t)
+                write (unit, '(a)') '  "dt_crit_estimate": '//json_real(s%dt_crit)//','
+            end select
+        end if
         write (unit, '(a)') '  "scene": '//scene_to_json(sim%scn)//','
         write (unit, '(a)') '  "version": '//json_string(DYNCONTACT_VERSION)
         write (unit, '(a)') '}'

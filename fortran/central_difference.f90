@@ -1,0 +1,140 @@
+!> Explicit central differences (Newmark beta = 0, gamma = 1/2), scheme `central`:
+!>     u' = u + dt v + dt^2/2 a,   a' = M^{-1} (L - B(u')),   v' = v + dt/2 (a + a').
+!> One evaluation of B and one M^{-1} application per step; with lumped mass M^{-1} is a
+!> diagonal scaling, so a step costs one SpMV with K_theta plus the contact terms.
+!>
+!> Stability: for the linearized system the scheme is stable iff dt < 2 / omega_max,
+!> omega_max^2 the largest eigenvalue of M^{-1} (K_theta + D), D the contact tangent.
+!> The run estimates omega_max^2 at full contact (every contact quadrature point active,
+!> the stiffest state the contact can reach) by power iteration; with `&scheme dt = 0`
+!> it runs at SAFETY times the estimate. Power iteration approaches omega_max^2 from
+!> below, so the estimate of dt_crit is from above: SAFETY covers that and the
+!> nonlinearity.
+!>
+!> In flight (no active point, L = 0) the scheme conserves the modified energy
+!>     1/2 v.M v + 1/2 u.K_theta u - dt^2/8 a.M a
+!> exactly (the quadratic invariant of its amplification matrix).
+module central_difference
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_NUMERIC, raise
+    use model, only: model_t, model_apply_jacobian, model_stiff_apply, model_mass_apply
+    use nitsche_contact, only: contact_eval
+    use scene, only: scene_t
+    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply
+    use time_scheme, only: time_scheme_t, state_t
+    implicit none
+    private
+
+    real(dp), parameter, public :: CENTRAL_SAFETY = 0.9_dp   !! dt = SAFETY dt_crit when dt = 0
+    integer, parameter :: POWER_ITERATIONS = 200             !! power iterations for omega_max
+
+    !> Central differences.
+    type, extends(time_scheme_t), public :: central_scheme_t
+        real(dp) :: dt_crit = 0.0_dp              !! estimated critical step 2 / omega_max
+        type(mass_solver_t) :: ms                 !! M^{-1}
+        real(dp), allocatable :: rhs(:)           !! (n) work vector
+    contains
+        procedure :: init => central_init
+        procedure :: step => central_step
+    end type central_scheme_t
+
+    public :: central_critical_dt
+
+contains
+
+    !> M factorization (consistent mass), a0 = M^{-1}(L - B(u0)), the critical step
+    !> estimate, and dt (SAFETY dt_crit when the scene's dt is 0).
+    subroutine central_init(this, mdl, scn, st, stat, errmsg)
+        class(central_scheme_t), intent(inout) :: this      !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(scene_t), intent(in) :: scn                    !! scene
+        type(state_t), intent(inout) :: st                  !! initial state
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: n
+        n = mdl%n_dofs
+        allocate (this%rhs(n))
+        call mass_solver_init(this%ms, mdl, stat, errmsg)
+        if (stat /= STAT_OK) return
+        if (.not. mdl%lumped) this%factorizations = this%factorizations + 1
+        this%rhs = mdl%load - st%bu
+        call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
+        if (stat /= STAT_OK) return
+        call central_critical_dt(mdl, this%ms, this%dt_crit, stat, errmsg)
+        if (stat /= STAT_OK) return
+        this%dt = scn%dt
+        if (scn%dt == 0.0_dp) this%dt = CENTRAL_SAFETY * this%dt_crit
+    end subroutine central_init
+
+    !> One step: u' from (u, v, a), B(u') and M v' products, a' = M^{-1}(L - B(u')).
+    subroutine central_step(this, mdl, st, stat, errmsg)
+        class(central_scheme_t), intent(inout) :: this      !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(inout) :: st                  !! state
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: dt, h2
+        integer :: i
+        dt = this%dt
+        h2 = 0.5_dp * dt * dt
+        do i = 1, size(st%u)
+            st%u(i) = st%u(i) + dt * st%v(i) + h2 * st%a(i)
+            st%v(i) = st%v(i) + 0.5_dp * dt * st%a(i)      ! the half of v' known now
+        end do
+        call model_stiff_apply(mdl, st%u, st%ktu)
+        st%bu = st%ktu
+        st%active = 0; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
+        if (mdl%has_contact) call contact_eval(mdl%ct, st%u, st%bu, st%active, st%e_pen, &
+                                               st%e_theta)
+        this%rhs = mdl%load - st%bu
+        call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
+        if (stat /= STAT_OK) return
+        st%v = st%v + 0.5_dp * dt * st%a
+        call model_mass_apply(mdl, st%v, st%mv)      ! M v', formed from v'
+        st%newton_its = 0
+        st%t = st%t + dt
+    end subroutine central_step
+
+    !> Critical step 2 / omega_max of central differences, omega_max^2 the largest
+    !> eigenvalue of M^{-1} (K_theta + D_full), D_full the contact tangent with every
+    !> contact quadrature point active (a deep uniform penetration), by power iteration
+    !> from a fixed start vector. 0 when there are no free dofs.
+    subroutine central_critical_dt(mdl, ms, dt_crit, stat, errmsg)
+        type(model_t), intent(in) :: mdl                    !! model
+        type(mass_solver_t), intent(inout) :: ms            !! M^{-1}
+        real(dp), intent(out) :: dt_crit                    !! 2 / omega_max
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), allocatable :: x(:), y(:), upen(:)
+        real(dp) :: lam, nrm, extent
+        integer :: it, i, n
+        stat = STAT_OK
+        dt_crit = 0.0_dp
+        n = mdl%n_dofs
+        if (n == 0) return
+        allocate (x(n), y(n), upen(n))
+        ! a uniform penetration far beyond any strain the mesh can show: every contact
+        ! quadrature point is active there
+        extent = 1.0e6_dp * max(1.0_dp, maxval(abs(mdl%msh%x)))
+        do i = 1, n
+            upen(i) = extent * mdl%normal(mdl%dof_comp(i))
+            x(i) = 1.0_dp + real(mod(7 * i, 11), dp) / 11.0_dp   ! fixed, generic start
+        end do
+        x = x / norm2(x)
+        lam = 0.0_dp
+        do it = 1, POWER_ITERATIONS
+            call model_apply_jacobian(mdl, upen, x, y)
+            call mass_solver_apply(ms, y, x, stat, errmsg)
+            if (stat /= STAT_OK) return
+            nrm = norm2(x)
+            if (.not. (nrm > 0.0_dp .and. nrm <= huge(nrm))) then
+                call raise(stat, errmsg, STAT_NUMERIC, &
+                           'central: the critical step estimate failed (M^-1 K not finite)')
+                return
+            end if
+            lam = nrm
+            x = x / nrm
+        end do
+        dt_crit = 2.0_dp / sqrt(lam)
+    end subroutine central_critical_dt
+end module central_difference

@@ -1,0 +1,118 @@
+!> The redistributed ("modified") mass matrix of Khenous, Laborde and Renard (2008),
+!> `&scheme mass = 'redistributed'`: no inertia on the contact-boundary nodes, the mass
+!> moved to interior neighbours so that the total mass and the first moments are kept.
+!>
+!> On the free-dof matrix M (consistent P1 mass) and for each displacement component k:
+!> - every entry M_ij with i or j a dof of a contact node is removed (set to 0); the removed
+!>   mass is dT = sum M_ij and its first moment dX = sum M_ij (x_i + x_j)/2 (d values;
+!>   x_i the position of dof i's node; for a symmetric M, sum_ij M_ij x_j = sum_ij M_ij
+!>   (x_i + x_j)/2);
+!> - the receiving set P is the pattern entries (i, j) between dofs of component k of the
+!>   region nodes: the non-contact nodes within `layers` cells of the contact nodes
+!>   (two layers, so that the first moment across the boundary can be matched);
+!> - the correction E on P of least Frobenius norm with sum_P E_ij = dT and
+!>   sum_P E_ij (x_i + x_j)/2 = dX is E_ij = phi_ij . lambda, phi_ij = (1, (x_i + x_j)/2),
+!>   G lambda = (dT, dX), G = sum_P phi_ij phi_ij^T ((d+1) x (d+1), symmetric E).
+!> So M' keeps 1.M.1 and 1.M.x per component exactly, is symmetric, and has zero rows and
+!> columns on the contact dofs. Whether M' stays positive definite on the other dofs is
+!> checked where it is factorized (the initial acceleration).
+module mass_redistribution
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_BAD_INPUT, raise
+    use sparse, only: csc_t
+    use dense_lu, only: dense_lu_factor, dense_lu_solve
+    implicit none
+    private
+
+    public :: mass_region, mass_redistribute
+
+contains
+
+    !> Nodes within `layers` cells of the contact nodes, contact nodes excluded.
+    pure subroutine mass_region(cells, contact_node, layers, region)
+        integer, intent(in) :: cells(:, :)           !! (nodes per cell, n_cells) connectivity
+        logical, intent(in) :: contact_node(:)       !! (n_nodes) nodes of Gamma_C
+        integer, intent(in) :: layers                !! cell layers (>= 1)
+        logical, intent(out) :: region(:)            !! (n_nodes) receiving nodes
+        logical :: reached(size(contact_node)), next(size(contact_node))
+        integer :: layer, c
+        reached = contact_node
+        do layer = 1, layers
+            next = reached
+            do c = 1, size(cells, 2)
+                if (any(reached(cells(:, c)))) next(cells(:, c)) = .true.
+            end do
+            reached = next
+        end do
+        region = reached .and. .not. contact_node
+    end subroutine mass_region
+
+    !> Remove the contact dofs' rows and columns of M and spread their mass over the
+    !> region (see the module header). massless marks the dofs with no inertia.
+    subroutine mass_redistribute(mass, dof_node, dof_comp, x, contact_node, region, massless, &
+                                 stat, errmsg)
+        type(csc_t), intent(inout) :: mass                  !! M on the free dofs (symmetric)
+        integer, intent(in) :: dof_node(:)                  !! (n_dofs) node of each dof
+        integer, intent(in) :: dof_comp(:)                  !! (n_dofs) component of each dof
+        real(dp), intent(in) :: x(:, :)                     !! (dim, n_nodes) coordinates
+        logical, intent(in) :: contact_node(:)              !! (n_nodes) nodes of Gamma_C
+        logical, intent(in) :: region(:)                    !! (n_nodes) receiving nodes
+        logical, intent(out) :: massless(:)                 !! (n_dofs) dofs of contact nodes
+        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: dim, k, j, p, i, info, piv(size(x, 1) + 1)
+        real(dp) :: g(size(x, 1) + 1, size(x, 1) + 1), rhs(size(x, 1) + 1), phi(size(x, 1) + 1)
+        logical :: removed, receiving
+        stat = STAT_OK
+        dim = size(x, 1)
+        massless = contact_node(dof_node)
+        do k = 1, dim
+            g = 0.0_dp
+            rhs = 0.0_dp
+            do j = 1, mass%n
+                if (dof_comp(j) /= k) cycle
+                do p = mass%colptr(j) + 1, mass%colptr(j + 1)
+                    i = mass%rowind(p) + 1
+                    if (dof_comp(i) /= k) cycle
+                    call classify(i, j, removed, receiving)
+                    if (removed) then
+                        rhs = rhs + mass%val(p) * phi
+                        mass%val(p) = 0.0_dp
+                    else if (receiving) then
+                        g = g + spread(phi, 2, dim + 1) * spread(phi, 1, dim + 1)
+                    end if
+                end do
+            end do
+            if (all(rhs == 0.0_dp)) cycle
+            call dense_lu_factor(dim + 1, g, piv, info)
+            if (info /= 0) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, 'mass redistribution: the nodes next '// &
+                           'to the contact boundary cannot carry its mass and first moments')
+                return
+            end if
+            call dense_lu_solve(dim + 1, g, piv, rhs)
+            do j = 1, mass%n
+                if (dof_comp(j) /= k) cycle
+                do p = mass%colptr(j) + 1, mass%colptr(j + 1)
+                    i = mass%rowind(p) + 1
+                    if (dof_comp(i) /= k) cycle
+                    call classify(i, j, removed, receiving)
+                    if (receiving) mass%val(p) = mass%val(p) + dot_product(phi, rhs)
+                end do
+            end do
+        end do
+
+    contains
+
+        !> Entry (ii, jj): removed (touches a contact node) or receiving (both in the
+        !> region); phi = (1, (x_ii + x_jj)/2).
+        subroutine classify(ii, jj, rem, rec)
+            integer, intent(in) :: ii, jj
+            logical, intent(out) :: rem, rec
+            rem = contact_node(dof_node(ii)) .or. contact_node(dof_node(jj))
+            rec = region(dof_node(ii)) .and. region(dof_node(jj))
+            phi(1) = 1.0_dp
+            phi(2:) = 0.5_dp * (x(:, dof_node(ii)) + x(:, dof_node(jj)))
+        end subroutine classify
+    end subroutine mass_redistribute
+end module mass_redistribution
