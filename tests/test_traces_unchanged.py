@@ -55,5 +55,8 @@ def test_trace_unchanged_through_the_executable(run_exe, tmp_path):
     scn.write(tmp_path / "s.nml")
     res = run_exe(tmp_path / "s.nml")
     assert res.returncode == 0, res.stderr
-    assert (tmp_path / "out" / "trace.csv").read_bytes() == \
-        (BEFORE / "bar2d_newmark.csv").read_bytes()
+    after = dyncontact.core.read_trace(tmp_path / "out")
+    before = np.genfromtxt(BEFORE / "bar2d_newmark.csv", delimiter=",", names=True)
+    for col in before.dtype.names:
+        np.testing.assert_allclose(after[col], before[col], rtol=RTOL, atol=ATOL,
+                                   err_msg=f"executable: column {col}")
