@@ -51,7 +51,7 @@ module scene
         character(len=NAME_LEN) :: initial_kind    !! 'rest' | 'velocity' | 'compressed_bar'
         real(dp) :: amplitude                      !! compressed_bar lift
         real(dp) :: velocity(2)                    !! 'velocity' initial velocity
-        character(len=NAME_LEN) :: scheme_name     !! newmark|hht|hht_seed|theta|pc|pc_hht|pc_hht_seed
+        character(len=NAME_LEN) :: scheme_name     !! newmark|hht|hht_seed|theta|pc|pc_hht|..._seed
         real(dp) :: alpha                          !! HHT alpha
         real(dp) :: beta                           !! Newmark / pc beta
         real(dp) :: gamma                          !! Newmark / pc gamma
@@ -62,7 +62,7 @@ module scene
         character(len=NAME_LEN) :: mass            !! 'consistent' | 'lumped'
         real(dp) :: newton_tol                     !! relative residual tolerance
         integer :: newton_maxit                    !! max Newton iterations
-        real(dp) :: blowup                         !! unstable when the energy exceeds blowup x scale
+        real(dp) :: blowup                         !! unstable above blowup x the energy scale
         character(len=PATH_LEN) :: out_dir         !! output folder
         integer :: every                           !! trace row every this many steps
         integer :: fields_every                    !! VTU snapshot every this many steps (0 = none)
@@ -97,7 +97,7 @@ contains
 
     !> The key table: one row per key, in the order of the JSON dump and of the checks.
     !> check: '> x', '>= x', 'in (a, b)' (brackets as in maths, a/b fractions allowed),
-    !> 'in m..n', 'not empty', a list of allowed integers ('1 or 2') or quoted names.
+    !> 'in m..n', 'not be empty', a list of allowed integers ('1 or 2') or quoted names.
     subroutine scene_keys(scn, keys)
         type(scene_t), target, intent(inout) :: scn          !! the scene the rows point into
         type(key_t), allocatable, intent(out) :: keys(:)     !! the table
@@ -142,7 +142,7 @@ contains
             row('scheme', 'newton_tol', '1e-10', '> 0', r=scn%newton_tol), &
             row('scheme', 'newton_maxit', '50', '> 0', i=scn%newton_maxit), &
             row('scheme', 'blowup', '10.0', '> 1', r=scn%blowup), &
-            row('output', 'dir', "'out'", 'not empty', s=scn%out_dir), &
+            row('output', 'dir', "'out'", 'not be empty', s=scn%out_dir), &
             row('output', 'every', '1', '> 0', i=scn%every), &
             row('output', 'fields_every', '0', '>= 0', i=scn%fields_every)]
     end subroutine scene_keys
@@ -177,37 +177,40 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         character(len=:), allocatable :: text
         integer :: unit, ios, n
-        stat = STAT_OK
+
         ios = 1
+        n = 0
+        text = ''
         if (len_trim(path) > 0) open (newunit=unit, file=trim(path), access='stream', &
             form='unformatted', action='read', status='old', iostat=ios)
         if (ios == 0) then
             inquire (unit=unit, size=n, iostat=ios)
-            if (ios == 0 .and. n > MAX_FILE_BYTES) then
-                close (unit)
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
-                           '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
-                return
+            if (n < 0) ios = 1
+            if (ios == 0 .and. n > 0 .and. n <= MAX_FILE_BYTES) then
+                deallocate (text)
+                allocate (character(len=n) :: text)
+                read (unit, iostat=ios) text
             end if
-            if (ios == 0) allocate (character(len=max(n, 0)) :: text, stat=ios)
-            if (ios == 0 .and. n > 0) read (unit, iostat=ios) text
             close (unit)
         end if
         if (ios /= 0) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': cannot read scene file')
-            return
+        else if (n > MAX_FILE_BYTES) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
+                       '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
+        else
+            call scene_parse(text, trim(path), path(1:index(path, '/', back=.true.)), .true., &
+                             scn, stat, errmsg)
         end if
-        call scene_parse(text, trim(path), path(1:index(path, '/', back=.true.)), .true., &
-                         scn, stat, errmsg)
     end subroutine scene_read
 
-    !> Parse a scene given as text: defaults, then the values given, then (if check) the
-    !> checks of the table and validate_cross.
-    subroutine scene_parse(text, name, base, check, scn, stat, errmsg)
+    !> Parse a scene given as text: the defaults, then the values given, then (if full)
+    !> the checks of the table and validate_cross.
+    subroutine scene_parse(text, name, base, full, scn, stat, errmsg)
         character(len=*), intent(in) :: text                !! scene text
         character(len=*), intent(in) :: name                !! its name in messages
         character(len=*), intent(in) :: base                !! prefix of a relative mesh file
-        logical, intent(in) :: check                        !! .false.: syntax and types only
+        logical, intent(in) :: full                         !! .false.: syntax and types only
         type(scene_t), target, intent(out) :: scn           !! the scene
         integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message
@@ -218,22 +221,17 @@ contains
         scn%path = name
         call scene_keys(scn, keys)
         msg = ''
-        do k = 1, size(keys)
+        do k = 1, size(keys)   ! the defaults are read as values in a scene are
             pos = 1
-            call read_values(trim(keys(k)%default), pos, keys(k), '', msg)
-            if (len(msg) == 0) call convert(keys(k), '', msg)
-            if (len(msg) > 0) then
-                msg = 'internal: default of '//trim(keys(k)%name)//msg
-                exit
-            end if
+            call read_values(trim(keys(k)%default), pos, keys(k), 'default', msg)
+            call convert(keys(k), 'default of '//trim(keys(k)%name), msg)
         end do
         if (len(msg) == 0) call tokenize(text, name, keys, msg)
         do k = 1, size(keys)
-            if (len(msg) > 0) exit
             if (keys(k)%given) call convert(keys(k), key_ctx(name, keys(k)), msg)
         end do
-        if (check .and. len(msg) == 0) call validate(keys, name, msg)
-        if (check .and. len(msg) == 0) call validate_cross(keys, scn, name, base, msg)
+        if (full .and. len(msg) == 0) call validate(keys, name, msg)
+        if (full .and. len(msg) == 0) call validate_cross(keys, scn, name, base, msg)
         stat = STAT_OK
         if (len(msg) > 0) call raise(stat, errmsg, STAT_BAD_INPUT, msg)
     end subroutine scene_parse
@@ -245,22 +243,21 @@ contains
         type(scene_t), target :: copy
         type(key_t), allocatable :: keys(:)
         integer :: k
+
         copy = scn
         call scene_keys(copy, keys)
-        json = '{'
+        json = '{"'//trim(keys(1)%group)//'": {'
         do k = 1, size(keys)
-            if (k == 1) then
-                json = json//'"'//trim(keys(k)%group)//'": {'
-            else if (keys(k)%group /= keys(k - 1)%group) then
+            if (k > 1 .and. keys(k)%group /= keys(max(k - 1, 1))%group) then
                 json = json//'}, "'//trim(keys(k)%group)//'": {'
-            else
+            else if (k > 1) then
                 json = json//', '
             end if
             json = json//'"'//trim(keys(k)%name)//'": '
             if (associated(keys(k)%i)) json = json//int_text(keys(k)%i)
             if (associated(keys(k)%r)) json = json//real_text(keys(k)%r)
-            if (associated(keys(k)%v)) json = json//'['//real_text(keys(k)%v(1))//', '// &
-                                              real_text(keys(k)%v(2))//']'
+            if (associated(keys(k)%v)) json = json//'['//real_text(keys(k)%v(1))//', ' &
+                                              //real_text(keys(k)%v(2))//']'
             if (associated(keys(k)%s)) json = json//json_string(trim(keys(k)%s))
         end do
         json = json//'}}'
@@ -274,8 +271,8 @@ contains
         character(len=*), intent(in) :: name                 !! scene name (messages)
         type(key_t), intent(inout) :: keys(:)                !! the table
         character(len=:), allocatable, intent(inout) :: msg  !! error ('' = none)
-        character(len=:), allocatable :: group, key, ctx
-        integer :: i, j, k, g, seen(size(keys))
+        character(len=:), allocatable :: ctx, group, key
+        integer :: i, j, k, seen(size(keys))
 
         do i = 1, len(text)
             k = iachar(text(i:i))
@@ -286,71 +283,52 @@ contains
             end if
         end do
         seen = 0
-        group = ""; key = ""; ctx = ""
+        group = ''
         i = 1
         do
             call skip_blanks(text, i)
             if (i > len(text)) return
-            if (text(i:i) /= '&') then
-                msg = name//': line '//int_text(line_of(text, i))// &
-                      ': text outside a group'//got(text, i)
-                return
-            end if
+            ctx = name//': line '//int_text(line_of(text, i))
             j = ident_end(text, i + 1)
-            if (j == i + 1) then
-                msg = name//': line '//int_text(line_of(text, i))// &
-                      ': ''&'' without a group name'//got(text, i)
-                return
+            if (text(i:i) /= '&') then
+                msg = ctx//': text outside a group'//got(text, i); return
+            else if (j == i + 1) then
+                msg = ctx//': ''&'' without a group name'//got(text, i); return
             end if
             group = shown(lower(text(i + 1:j - 1)))
             ctx = name//': &'//group
-            g = 0
-            do k = size(keys), 1, -1
-                if (keys(k)%group == group .and. len(group) <= len(keys(k)%group)) g = k
-            end do
-            if (g == 0) then
-                msg = ctx//': unknown group (expected one of '//group_list(keys)//')'
-                return
+            k = key_index(keys, group, '')
+            if (k == 0) then
+                msg = ctx//': unknown group (expected one of '//names(keys, '')//')'; return
+            else if (seen(k) > 0) then
+                msg = ctx//': group given twice (lines '//int_text(seen(k))//' and '// &
+                      int_text(line_of(text, i))//')'; return
+            else if (verify(text(j:min(j, len(text))), BLANKS//'/!') /= 0) then
+                msg = ctx//': expected a blank after the group name'//got(text, j); return
             end if
-            if (seen(g) > 0) then
-                msg = ctx//': group given twice (lines '//int_text(seen(g))//' and '// &
-                      int_text(line_of(text, i))//')'
-                return
-            end if
-            seen(g) = line_of(text, i)
+            seen(k) = line_of(text, i)
             i = j
-            if (i <= len(text)) then
-                if (index(BLANKS//'/!', text(i:i)) == 0) then
-                    msg = ctx//': expected a blank after the group name'//got(text, i)
-                    return
-                end if
-            end if
             do    ! the group's keys
                 call skip_blanks(text, i)
                 if (i > len(text)) exit
                 if (text(i:i) == '/' .or. text(i:i) == '&') exit
                 j = ident_end(text, i)
                 if (j == i) then
-                    msg = ctx//': expected a key name'//got(text, i)
-                    return
+                    msg = ctx//': expected a key name'//got(text, i); return
                 end if
                 key = shown(lower(text(i:j - 1)))
                 k = key_index(keys, group, key)
                 if (k == 0) then
                     msg = ctx//' '//key//': unknown key (expected one of '// &
-                          key_list(keys, group)//')'
-                    return
-                end if
-                if (keys(k)%given) then
-                    msg = ctx//' '//key//': key given twice'
-                    return
+                          names(keys, group)//')'; return
+                else if (keys(k)%given) then
+                    msg = ctx//' '//key//': key given twice'; return
                 end if
                 i = j
                 call skip_blanks(text, i)
                 if (i > len(text)) exit
                 if (text(i:i) /= '=') then
-                    msg = ctx//' '//key//': expected ''='' after the key'//got(text, i)
-                    return
+                    msg = ctx//' '//key//': expected ''='' after the key'//got(text, i); return
                 end if
                 i = i + 1
                 keys(k)%given = .true.
@@ -358,11 +336,10 @@ contains
                 if (len(msg) > 0) return
             end do
             if (i > len(text)) then
-                msg = ctx//': unterminated group (no ''/'' before the end of the file)'
-                return
+                msg = ctx//': unterminated group (no ''/'' before the end of the file)'; return
             else if (text(i:i) == '&') then
-                msg = ctx//': unterminated group (no ''/'' before '''//excerpt(text, i)//''')'
-                return
+                msg = ctx//': unterminated group (no ''/'' before the next group)'// &
+                      got(text, i); return
             end if
             i = i + 1
         end do
@@ -377,7 +354,7 @@ contains
         character(len=*), intent(in) :: ctx                  !! 'NAME: &group key'
         character(len=:), allocatable, intent(inout) :: msg  !! error ('' = none)
         logical :: expect
-        integer :: j, p, rep, ios
+        integer :: j, p, rep
 
         key%text = ''
         key%nval = 0
@@ -387,57 +364,40 @@ contains
             call skip_blanks(text, i)
             if (i > len(text)) exit
             if (text(i:i) == '/' .or. text(i:i) == '&') exit
-            if (text(i:i) == ',') then
-                if (expect) then
-                    msg = ctx//': empty value'//got(text, i)
-                    return
-                end if
+            if (text(i:i) == ',' .and. expect) then
+                msg = ctx//': empty value'//got(text, i); return
+            else if (text(i:i) == ',') then
                 expect = .true.
                 i = i + 1
                 cycle
-            end if
-            if (text(i:i) == '=') then
-                msg = ctx//': unexpected ''='''//got(text, i)
-                return
+            else if (text(i:i) == '=') then
+                msg = ctx//': unexpected ''='''//got(text, i); return
             end if
             rep = 1
             if (text(i:i) == '''' .or. text(i:i) == '"') then
                 j = string_end(text, i)
                 if (j == 0) then
-                    msg = ctx//': unterminated string'//got(text, i)
-                    return
+                    msg = ctx//': unterminated string'//got(text, i); return
+                else if (verify(text(j:min(j, len(text))), BLANKS//',/!') /= 0) then
+                    msg = ctx//': unexpected text after a string'//got(text, i); return
                 end if
-                if (j <= len(text)) then
-                    if (index(BLANKS//',/!', text(j:j)) == 0) then
-                        msg = ctx//': unexpected text after a string'//got(text, i)
-                        return
-                    end if
-                end if
-                if (key%nval == 0) key%quoted = .true.
+                key%quoted = key%quoted .or. key%nval == 0
             else
-                j = i
-                do while (j <= len(text))
-                    if (index(BLANKS//',/!=', text(j:j)) > 0) exit
-                    j = j + 1
-                end do
+                j = scan(text(i:), BLANKS//',/!=')
+                j = merge(len(text) + 1, i + j - 1, j == 0)
                 p = j    ! an identifier followed by '=' is the next key
                 call skip_blanks(text, p)
                 if (ident_end(text, i) == j .and. p <= len(text)) then
                     if (text(p:p) == '=') exit
                 end if
-                p = index(text(i:j - 1), '*')
-                if (p > 1) then
-                    if (verify(text(i:i + p - 2), '0123456789') == 0) then
-                        if (i + p > j - 1) then
-                            msg = ctx//': empty value'//got(text, i)
-                            return
-                        end if
-                        rep = 1000    ! more than any key takes
-                        if (p <= 4) read (text(i:i + p - 2), *, iostat=ios) rep
-                        if (rep == 0) then
-                            msg = ctx//': repeat count must be > 0'//got(text, i)
-                            return
-                        end if
+                p = index(text(i:j - 1), '*')    ! r*value
+                if (p > 1 .and. verify(text(i:i + p - 2), '0123456789') == 0) then
+                    rep = 1000    ! more than any key takes
+                    if (p <= 4) read (text(i:i + p - 2), *) rep
+                    if (i + p > j - 1) then
+                        msg = ctx//': empty value'//got(text, i); return
+                    else if (rep == 0) then
+                        msg = ctx//': repeat count must be > 0'//got(text, i); return
                     end if
                 end if
             end if
@@ -450,7 +410,7 @@ contains
         if (key%nval == 0) msg = ctx//': missing value'//got(text, i)
     end subroutine read_values
 
-    !> Convert key%text into the key's component (count, type and range of the type).
+    !> Convert key%text into the key's component: count, type, range of the type.
     subroutine convert(key, ctx, msg)
         type(key_t), intent(inout) :: key                    !! the key
         character(len=*), intent(in) :: ctx                  !! 'NAME: &group key'
@@ -461,32 +421,42 @@ contains
         real(dp) :: x(2)
         integer :: ios
 
+        if (len(msg) > 0) return
         what = ''
         x = 0.0_dp
-        if (associated(key%v)) then
-            if (key%nval > 2) what = 'expected 1 or 2 values'
-        else if (key%nval /= 1) then
+        ios = 1
+        if (associated(key%v) .and. key%nval > 2) then
+            what = 'expected 1 or 2 values'
+        else if (.not. associated(key%v) .and. key%nval /= 1) then
             what = 'expected 1 value'
-        end if
-        if (len(what) == 0 .and. associated(key%i)) then
-            ios = 1
+        else if (associated(key%i)) then
             ! more than 18 characters (leading zeros included) is out of range
             if (len(key%text) <= 18) read (key%text, *, iostat=ios) big
             if (key%quoted) then
                 what = 'expected an integer, not a string'
             else if (verify(key%text(1:1), '+-0123456789') /= 0 .or. &
-                     verify(key%text(2:), '0123456789') /= 0 .or. scan(key%text, '0123456789') == 0) then
+                     verify(key%text(2:), '0123456789') /= 0 .or. &
+                     scan(key%text, '0123456789') == 0) then
                 what = 'expected an integer'
             else if (ios /= 0 .or. abs(big) > huge(key%i)) then
                 what = 'integer out of range'
             else
                 key%i = int(big)
             end if
-        else if (len(what) == 0 .and. (associated(key%r) .or. associated(key%v))) then
+        else if (associated(key%s)) then
+            read (key%text, *, iostat=ios) buf
+            if (.not. key%quoted .or. ios /= 0) then
+                what = 'expected a quoted string'
+            else if (len_trim(buf) > len(key%s)) then
+                msg = ctx//': string too long (more than '//int_text(len(key%s))//' characters)'
+            else
+                key%s = buf
+            end if
+        else
             read (key%text, *, iostat=ios) x(1:key%nval)
             if (key%quoted) then
                 what = 'expected a real number, not a string'
-            else if (ios /= 0 .or. scan(key%text, 'nNiI') > 0) then
+            else if (ios /= 0 .or. scan(key%text, 'nNiI') > 0) then    ! no nan, inf
                 what = 'expected a real number'
             else if (.not. all(abs(x) <= huge(x))) then
                 what = 'real number out of range'
@@ -494,16 +464,6 @@ contains
                 key%r = x(1)
             else
                 key%v = x
-            end if
-        else if (len(what) == 0) then
-            read (key%text, *, iostat=ios) buf
-            if (.not. key%quoted .or. ios /= 0) then
-                what = 'expected a quoted string'
-            else if (len_trim(buf) > len(key%s)) then
-                msg = ctx//': string too long (more than '//int_text(len(key%s))//' characters)'
-                return
-            else
-                key%s = buf
             end if
         end if
         if (len(what) > 0) msg = ctx//': '//what//' (got '''//shown(key%text, VALUE_LEN)//''')'
@@ -516,8 +476,8 @@ contains
         type(key_t), intent(in) :: keys(:)                   !! the table, values read
         character(len=*), intent(in) :: name                 !! scene name (messages)
         character(len=:), allocatable, intent(inout) :: msg  !! error ('' = none)
-        character(len=:), allocatable :: c, scheme, for
-        real(dp) :: x, a, b
+        character(len=:), allocatable :: c, scheme, what
+        real(dp) :: x
         integer :: k, p
         logical :: ok
 
@@ -525,41 +485,36 @@ contains
         do k = 1, size(keys)
             c = trim(keys(k)%check)
             if (len(c) == 0) cycle
-            for = ''
-            if (len_trim(keys(k)%when) > 0) then
-                if (index(' '//trim(keys(k)%when)//' ', ' '//scheme//' ') == 0) cycle
-                for = ' for scheme '''//scheme//''''
-            end if
+            if (len_trim(keys(k)%when) > 0 .and. &
+                index(' '//trim(keys(k)%when)//' ', ' '//scheme//' ') == 0) cycle
             x = 0.0_dp
             if (associated(keys(k)%i)) x = real(keys(k)%i, dp)
             if (associated(keys(k)%r)) x = keys(k)%r
+            p = max(index(c, ','), index(c, '..'))
             if (c(1:1) == '>') then
                 p = merge(3, 2, c(2:2) == '=')
                 ok = x > number(c(p:)) .or. (p == 3 .and. x >= number(c(p:)))
-            else if (c(1:min(3, len(c))) == 'in ' .and. index(c, '..') > 0) then
-                p = index(c, '..')
+            else if (c(1:min(len(c), 4)) == 'in [' .or. c(1:min(len(c), 4)) == 'in (') then
+                ok = (x > number(c(5:p - 1)) .or. (c(4:4) == '[' .and. x >= number(c(5:p - 1)))) &
+                     .and. (x < number(c(p + 1:len(c) - 1)) .or. &
+                            (c(len(c):) == ']' .and. x <= number(c(p + 1:len(c) - 1))))
+            else if (c(1:min(len(c), 3)) == 'in ') then
                 ok = x >= number(c(4:p - 1)) .and. x <= number(c(p + 2:))
-            else if (c(1:min(3, len(c))) == 'in ') then
-                p = index(c, ',')
-                a = number(c(5:p - 1))
-                b = number(c(p + 1:len(c) - 1))
-                ok = (x > a .or. (c(4:4) == '[' .and. x >= a)) .and. &
-                     (x < b .or. (c(len(c):len(c)) == ']' .and. x <= b))
-            else if (c == 'not empty') then
+            else if (c == 'not be empty') then
                 ok = len_trim(keys(k)%s) > 0
             else if (associated(keys(k)%s)) then
-                ok = index(c, ''''//trim(keys(k)%s)//'''') > 0 .and. index(trim(keys(k)%s), '''') == 0
-            else
-                ok = index(' '//translate(c, ',', ' ')//' ', ' '//int_text(keys(k)%i)//' ') > 0
+                ok = index(c, ''''//trim(keys(k)%s)//'''') > 0 .and. scan(keys(k)%s, '''') == 0
+            else    ! '1 or 2', '-1, 0 or 1'
+                ok = index(' '//c//' ', ' '//int_text(keys(k)%i)//' ') > 0 .or. &
+                     index(' '//c, ' '//int_text(keys(k)%i)//',') > 0
             end if
-            if (.not. ok) then
-                if (c == 'not empty') c = 'must not be empty'
-                if (c /= 'must not be empty') c = 'must be '//c
-                msg = key_ctx(name, keys(k))//': '//c//for
-                if (len_trim(keys(k)%hint) > 0) msg = msg//' '//trim(keys(k)%hint)
-                msg = msg//' (got '''//value_shown(keys(k))//''')'
-                return
-            end if
+            if (ok) cycle
+            what = 'must '//merge('    ', 'be  ', c(1:3) == 'not')
+            what = trim(what)//' '//c
+            if (len_trim(keys(k)%when) > 0) what = what//' for scheme '''//scheme//''''
+            if (len_trim(keys(k)%hint) > 0) what = what//' '//trim(keys(k)%hint)
+            msg = bad(keys, name, keys(k)%group, keys(k)%name, what)
+            return
         end do
     end subroutine validate
 
@@ -576,83 +531,75 @@ contains
         real(dp) :: nrm, n_elem
         integer :: unit, ios, nbytes
 
-        if (len_trim(scn%mesh_file) > 0) then
-            file = trim(scn%mesh_file)
+        file = trim(scn%mesh_file)
+        if (len(file) > 0) then
             if (file(1:1) /= '/') file = base//file
-            if (len(file) > PATH_LEN) then
-                msg = bad(keys, name, 'mesh file', 'resolved path too long'); return
-            end if
-            open (newunit=unit, file=file, access='stream', form='unformatted', &
-                  action='read', status='old', iostat=ios)
+            ios = 1
+            if (len(file) <= PATH_LEN) open (newunit=unit, file=file, access='stream', &
+                form='unformatted', action='read', status='old', iostat=ios)
             if (ios == 0) then
                 inquire (unit=unit, size=nbytes)
                 if (nbytes > 0) read (unit, iostat=ios) c1
                 close (unit)
             end if
-            if (ios /= 0) then
-                msg = bad(keys, name, 'mesh file', 'cannot read mesh file '''//shown(file, VALUE_LEN)//''''); return
+            if (len(file) > PATH_LEN) then
+                msg = bad(keys, name, 'mesh', 'file', 'resolved path too long'); return
+            else if (ios /= 0) then
+                msg = bad(keys, name, 'mesh', 'file', 'cannot read mesh file '''// &
+                          shown(file, VALUE_LEN)//''''); return
             end if
             scn%mesh_file = file
         else
             ! the built-in bar: 1D n segments, 2D 2 nx ny triangles (bar_mesh.f90)
             n_elem = max(1.0_dp, anint(scn%mesh_length / scn%mesh_h))
-            if (scn%mesh_dim == 2) n_elem = 2 * n_elem * max(1.0_dp, anint(scn%mesh_width / scn%mesh_h))
+            if (scn%mesh_dim == 2) &
+                n_elem = 2 * n_elem * max(1.0_dp, anint(scn%mesh_width / scn%mesh_h))
             if (n_elem > scn%max_elements) then
-                msg = bad(keys, name, 'mesh h', 'the built-in bar would have '//real_text(n_elem, 4)// &
-                          ' elements, more than &mesh max_elements = '//int_text(scn%max_elements)); return
+                msg = bad(keys, name, 'mesh', 'h', 'the built-in bar would have '// &
+                          real_text(n_elem, 4)//' elements, more than &mesh max_elements = ' &
+                          //int_text(scn%max_elements)); return
             end if
         end if
-        ! dim is ignored when a mesh file is given
-        if (scn%mesh_dim == 1 .and. len_trim(scn%mesh_file) == 0) then
+        nrm = norm2(scn%obstacle_normal)
+        if (scn%mesh_dim == 1 .and. len(file) == 0) then    ! dim counts for the bar only
             if (scn%obstacle_normal(1) == 0.0_dp) then
-                msg = bad(keys, name, 'contact obstacle_normal', 'component 1 must be nonzero in 1D'); return
+                msg = bad(keys, name, 'contact', 'obstacle_normal', &
+                          'component 1 must be nonzero in 1D'); return
             end if
             scn%obstacle_normal = [sign(1.0_dp, scn%obstacle_normal(1)), 0.0_dp]
-        else
-            nrm = norm2(scn%obstacle_normal)
-            if (.not. (nrm > 0.0_dp .and. nrm <= huge(nrm))) then
-                msg = bad(keys, name, 'contact obstacle_normal', 'must be a nonzero vector'); return
-            end if
+        else if (.not. (nrm > 0.0_dp .and. nrm <= huge(nrm))) then
+            msg = bad(keys, name, 'contact', 'obstacle_normal', 'must be a nonzero vector'); return
+        else if (abs(nrm - 1.0_dp) > 4.0_dp * epsilon(nrm)) then
             ! a unit normal (to round-off) is kept as is: normalizing twice changes nothing
-            if (abs(nrm - 1.0_dp) > 4.0_dp * epsilon(nrm)) &
-                scn%obstacle_normal = scn%obstacle_normal / nrm
+            scn%obstacle_normal = scn%obstacle_normal / nrm
         end if
         ! the run makes ceiling(t_end/dt - 1e-9) steps (simulation.f90)
         if (scn%t_end > 0.0_dp .and. scn%t_end / scn%dt < 1.0_dp - 1.0e-9_dp) then
-            msg = bad(keys, name, 'scheme t_end', 'must be 0 or at least dt = '// &
-                      real_text(scn%dt, 4)); return
-        end if
-        if (scn%t_end / scn%dt - 1.0e-9_dp > scn%max_steps) then
-            msg = bad(keys, name, 'scheme dt', 't_end / dt = '//real_text(scn%t_end / scn%dt, 4)// &
-                      ' steps, more than &scheme max_steps = '//int_text(scn%max_steps)); return
+            msg = bad(keys, name, 'scheme', 't_end', 'must be 0 or at least dt = '// &
+                      real_text(scn%dt, 4))
+        else if (scn%t_end / scn%dt - 1.0e-9_dp > scn%max_steps) then
+            msg = bad(keys, name, 'scheme', 'dt', 't_end / dt = '// &
+                      real_text(scn%t_end / scn%dt, 4)//' steps, more than &scheme max_steps = ' &
+                      //int_text(scn%max_steps))
         end if
     end subroutine validate_cross
 
-    !> 'NAME: &group key: what (got 'VALUE')' for the key 'group key'.
-    function bad(keys, name, group_key, what) result(s)
+    ! ---------------------------------------------------------------- helpers
+
+    !> 'NAME: &group key: what (got 'VALUE')', VALUE as written (a string unquoted).
+    function bad(keys, name, group, key, what) result(s)
         type(key_t), intent(in) :: keys(:)        !! the table
         character(len=*), intent(in) :: name      !! scene name
-        character(len=*), intent(in) :: group_key !! 'group key'
+        character(len=*), intent(in) :: group     !! group of the key
+        character(len=*), intent(in) :: key       !! the key
         character(len=*), intent(in) :: what      !! what is wrong
         character(len=:), allocatable :: s
         integer :: k
-        k = key_index(keys, group_key(1:index(group_key, ' ') - 1), &
-                      group_key(index(group_key, ' ') + 1:))
-        s = key_ctx(name, keys(k))//': '//what//' (got '''//value_shown(keys(k))//''')'
+        k = key_index(keys, group, key)
+        s = keys(k)%text
+        if (associated(keys(k)%s)) s = trim(keys(k)%s)
+        s = key_ctx(name, keys(k))//': '//what//' (got '''//shown(s, VALUE_LEN)//''')'
     end function bad
-
-    ! ---------------------------------------------------------------- helpers
-
-    !> The value of a key for messages: a string unquoted, anything else as written.
-    function value_shown(key) result(s)
-        type(key_t), intent(in) :: key   !! the key
-        character(len=:), allocatable :: s
-        if (associated(key%s)) then
-            s = shown(trim(key%s), VALUE_LEN)
-        else
-            s = shown(key%text, VALUE_LEN)
-        end if
-    end function value_shown
 
     !> 'NAME: &group key'
     function key_ctx(name, key) result(s)
@@ -662,43 +609,37 @@ contains
         s = name//': &'//trim(key%group)//' '//trim(key%name)
     end function key_ctx
 
-    !> Index of key `name` of `group` in the table (0 = unknown).
+    !> Index of key `name` of `group` in the table, or of the group's first key if
+    !> name = ''; 0 if unknown.
     pure integer function key_index(keys, group, name)
         type(key_t), intent(in) :: keys(:)     !! the table
         character(len=*), intent(in) :: group  !! group name
         character(len=*), intent(in) :: name   !! key name
         integer :: k
         key_index = 0
-        if (len(name) > len(keys(1)%name)) return
-        do k = 1, size(keys)
-            if (keys(k)%group == group .and. keys(k)%name == name) key_index = k
+        if (len(group) > len(keys(1)%group) .or. len(name) > len(keys(1)%name)) return
+        do k = size(keys), 1, -1
+            if (keys(k)%group == group .and. (keys(k)%name == name .or. name == '')) &
+                key_index = k
         end do
     end function key_index
 
-    !> '&mesh, &boundary, ...'
-    function group_list(keys) result(s)
-        type(key_t), intent(in) :: keys(:)   !! the table
-        character(len=:), allocatable :: s
-        integer :: k
-        s = '&'//trim(keys(1)%group)
-        do k = 2, size(keys)
-            if (keys(k)%group /= keys(k - 1)%group) s = s//', &'//trim(keys(k)%group)
-        end do
-    end function group_list
-
-    !> The keys of a group, comma-separated.
-    function key_list(keys, group) result(s)
+    !> The keys of `group`, or ('') the groups, comma-separated.
+    function names(keys, group) result(s)
         type(key_t), intent(in) :: keys(:)     !! the table
-        character(len=*), intent(in) :: group  !! group name
+        character(len=*), intent(in) :: group  !! group name, '' = list the groups
         character(len=:), allocatable :: s
         integer :: k
         s = ''
         do k = 1, size(keys)
-            if (keys(k)%group /= group) cycle
-            if (len(s) > 0) s = s//', '
-            s = s//trim(keys(k)%name)
+            if (len(group) == 0 .and. key_index(keys, keys(k)%group, '') == k) then
+                s = s//', &'//trim(keys(k)%group)
+            else if (len(group) > 0 .and. keys(k)%group == group) then
+                s = s//', '//trim(keys(k)%name)
+            end if
         end do
-    end function key_list
+        s = s(3:)
+    end function names
 
     !> Advance i over blanks, line breaks and `!` comments.
     pure subroutine skip_blanks(text, i)
@@ -706,14 +647,11 @@ contains
         integer, intent(inout) :: i            !! position
         do while (i <= len(text))
             if (text(i:i) == '!') then
-                do while (i <= len(text))
-                    if (text(i:i) == achar(10)) exit
-                    i = i + 1
-                end do
-            else if (index(BLANKS, text(i:i)) == 0) then
-                exit
-            else
+                i = i + index(text(i:)//achar(10), achar(10)) - 1
+            else if (index(BLANKS, text(i:i)) > 0) then
                 i = i + 1
+            else
+                exit
             end if
         end do
     end subroutine skip_blanks
@@ -735,19 +673,19 @@ contains
     pure integer function string_end(text, i) result(j)
         character(len=*), intent(in) :: text   !! scene text
         integer, intent(in) :: i               !! position of the opening quote
-        integer :: p
-        j = 0
-        p = i + 1
-        do while (p <= len(text))
-            if (text(p:p) == achar(10) .or. text(p:p) == achar(13)) return
-            if (text(p:p) == text(i:i)) then
-                if (p == len(text)) exit
-                if (text(p + 1:p + 1) /= text(i:i)) exit
-                p = p + 1    ! a doubled quote
+        j = i + 1
+        do while (j <= len(text))
+            if (text(j:j) == achar(10) .or. text(j:j) == achar(13)) exit
+            if (text(j:j) == text(i:i)) then
+                if (text(j + 1:min(j + 1, len(text))) /= text(i:i) .or. j == len(text)) then
+                    j = j + 1
+                    return
+                end if
+                j = j + 1    ! a doubled quote
             end if
-            p = p + 1
+            j = j + 1
         end do
-        if (p <= len(text)) j = p + 1
+        j = 0
     end function string_end
 
     !> Line number of position i.
@@ -761,28 +699,15 @@ contains
         end do
     end function line_of
 
-    !> " (got 'TEXT')" with the text from i to the end of its line.
+    !> " (got 'TEXT')", TEXT = the scene text from i to the end of its line, shortened.
     function got(text, i) result(s)
         character(len=*), intent(in) :: text   !! scene text
         integer, intent(in) :: i               !! start
         character(len=:), allocatable :: s
-        s = ' (got '''//excerpt(text, i)//''')'
-    end function got
-
-    !> The text from i to the end of its line, shortened for messages.
-    function excerpt(text, i) result(s)
-        character(len=*), intent(in) :: text   !! scene text
-        integer, intent(in) :: i               !! start
-        character(len=:), allocatable :: s
         integer :: j
-        if (i > len(text)) then
-            s = ''
-            return
-        end if
-        j = scan(text(i:), achar(10)//achar(13))
-        if (j == 0) j = len(text) - i + 2
-        s = shown(trim(text(i:i + j - 2)))
-    end function excerpt
+        j = scan(text(min(i, len(text) + 1):)//achar(10), achar(10)//achar(13))
+        s = ' (got '''//shown(trim(text(min(i, len(text) + 1):i + j - 2)))//''')'
+    end function got
 
     !> Printable ASCII only ('?' for other bytes), at most maxlen (default EXCERPT_LEN)
     !> characters + '...'.
@@ -811,27 +736,14 @@ contains
         end do
     end function lower
 
-    !> s with every character `from` replaced by `to`.
-    pure function translate(s, from, to) result(r)
-        character(len=*), intent(in) :: s          !! text
-        character(len=1), intent(in) :: from, to   !! characters
-        character(len=len(s)) :: r
-        integer :: i
-        r = s
-        do i = 1, len(s)
-            if (s(i:i) == from) r(i:i) = to
-        end do
-    end function translate
-
     !> The number written in a check: a real or a fraction 'a/b'.
     real(dp) function number(s)
         character(len=*), intent(in) :: s   !! text
-        integer :: p
         real(dp) :: den
-        p = index(s, '/')
+        integer :: p
+        p = index(s//'/', '/')
         den = 1.0_dp
-        if (p > 0) read (s(p + 1:), *) den
-        if (p == 0) p = len(s) + 1
+        if (p <= len(s)) read (s(p + 1:), *) den
         read (s(1:p - 1), *) number
         number = number / den
     end function number
@@ -845,23 +757,23 @@ contains
         s = trim(buf)
     end function int_text
 
-    !> A real in ES format with an exponent of 3 digits: `digits` significant digits, or
-    !> (default) the fewest that read back to x.
+    !> A real in ES format with a 3-digit exponent: `digits` significant digits, or (by
+    !> default) the fewest that read back to x.
     function real_text(x, digits) result(s)
         real(dp), intent(in) :: x                !! value
         integer, intent(in), optional :: digits  !! significant digits
         character(len=:), allocatable :: s
         character(len=32) :: buf, fmt
         real(dp) :: y
-        integer :: p, ios
+        integer :: p
         do p = 1, 16
             write (fmt, '(a, i0, a)') '(es32.', p, 'e3)'
             write (buf, fmt) x
+            read (buf, *) y
             if (present(digits)) then
                 if (p + 1 >= digits) exit
-            else
-                read (buf, *, iostat=ios) y
-                if (ios == 0 .and. y == x) exit
+            else if (y == x) then
+                exit
             end if
         end do
         s = trim(adjustl(buf))
