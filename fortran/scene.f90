@@ -401,8 +401,10 @@ contains
                     end if
                 end if
             end if
-            if (key%nval > 0) key%text = key%text//', '
-            key%text = key%text//text(i:j - 1)
+            if (key%nval < 3) then    ! more is too many for any key: not kept
+                if (key%nval > 0) key%text = key%text//', '
+                key%text = key%text//text(i:j - 1)
+            end if
             key%nval = min(key%nval + rep, 1000)
             expect = .false.
             i = j

@@ -92,6 +92,8 @@ BAD_CASES = [
             "expected a quoted string"),
     BadCase("too_many_values", "&contact probe = 0.05, 0.0, 0.0 /\n", "&contact probe",
             "expected 1 or 2 values"),
+    BadCase("many_values", "&scheme dt = " + "1, " * 300_000 + "1 /\n", "&scheme dt",
+            "expected 1 value (got '1, 1, 1')"),
     BadCase("two_values_for_scalar", "&scheme dt = 1e-3, 2e-3 /\n", "&scheme dt",
             "expected 1 value"),
     # files named in the scene
