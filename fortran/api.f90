@@ -38,6 +38,35 @@ subroutine dc_scene_dump(path, json_path, stat, errmsg)
     close (unit)
 end subroutine dc_scene_dump
 
+!> Parse a scene given as text (as dc_scene_dump does a file) and return it as JSON.
+!> full = 0 checks only the syntax and the types of the values (for editing a scene);
+!> full = 1 also the ranges and the cross-checks. A relative mesh file counts from the
+!> current folder.
+subroutine dc_scene_text(text, name, full, json, stat, errmsg)
+    use iso_c_binding, only: c_int
+    use errors, only: STAT_OK, STAT_INTERNAL
+    use scene, only: scene_t, scene_parse, scene_to_json
+    implicit none
+    character(len=*), intent(in) :: text        !! scene text
+    character(len=*), intent(in) :: name        !! its name in messages
+    integer(c_int), intent(in) :: full          !! 1: full validation, 0: syntax and types
+    character(len=32768), intent(out) :: json   !! the scene as JSON
+    integer(c_int), intent(out) :: stat         !! status
+    character(len=512), intent(out) :: errmsg   !! message
+    type(scene_t) :: scn
+    integer :: st
+    errmsg = ''
+    json = ''
+    call scene_parse(text, name, '', full /= 0, scn, st, errmsg)
+    stat = st
+    if (st /= STAT_OK) return
+    json = scene_to_json(scn)
+    if (json(32768:32768) /= ' ') then
+        stat = STAT_INTERNAL
+        errmsg = 'dc_scene_text: the scene does not fit in 32768 bytes of JSON'
+    end if
+end subroutine dc_scene_text
+
 !> Open a run: read the scene, build the model, open the outputs in out_dir
 !> ('' = the scene's &output dir) unless build_only /= 0.
 subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, elements, &

@@ -306,7 +306,7 @@ contains
             integer, intent(out) :: st
             character(len=*), intent(inout) :: m
             logical, allocatable :: contact_node(:), region(:)
-            integer, parameter :: LAYERS = 2
+            integer, parameter :: LAYERS = 4
             allocate (contact_node(mdl%msh%n_nodes), region(mdl%msh%n_nodes))
             contact_node = .false.
             if (size(facets) > 0) contact_node(reshape(mdl%msh%facets(:, facets), [size(facets) &

@@ -12,7 +12,14 @@ from test_scene import BAD_CASES, MESH_CASES, write_case
 #: Exit status of bad input (SPEC section 3).
 EXIT_BAD_INPUT = 2
 
-ALL_CASES = BAD_CASES + MESH_CASES
+#: Cases run by the quick suite (`pytest -m "not slow"`): one of each kind; the others
+#: start two subprocesses each and are marked slow (scripts/test runs them all).
+QUICK = {"unknown_key", "unterminated_group", "binary_file", "missing_scene_file",
+         "unquoted_string", "missing_mesh_file", "dt_zero", "t_end_below_dt",
+         "steps_over_limit", "bar_too_fine", "output_dir_empty", "boundary_group_missing",
+         "probe_off_contact"}
+ALL_CASES = [pytest.param(c, id=c.id, marks=() if c.id in QUICK else pytest.mark.slow)
+             for c in BAD_CASES + MESH_CASES]
 
 
 def check_one_line(res, path, case):
@@ -27,14 +34,18 @@ def check_one_line(res, path, case):
     assert not (path.parent / "out" / "trace.csv").exists()
 
 
-@pytest.mark.parametrize("case", ALL_CASES, ids=lambda c: c.id)
+def test_quick_cases_exist():
+    assert QUICK <= {c.id for c in BAD_CASES + MESH_CASES}
+
+
+@pytest.mark.parametrize("case", ALL_CASES)
 def test_exe_bad_scene(run_exe, case, tmp_path):
     path = write_case(case, tmp_path)
     res = run_exe(path, cwd=tmp_path)
     check_one_line(res, path, case)
 
 
-@pytest.mark.parametrize("case", ALL_CASES, ids=lambda c: c.id)
+@pytest.mark.parametrize("case", ALL_CASES)
 def test_python_cli_bad_scene(run_cli, case, tmp_path):
     path = write_case(case, tmp_path)
     res = run_cli("run", path, cwd=tmp_path)

@@ -261,6 +261,7 @@ def test_newmark_fields_match_exact_and_converge(newmark_runs):
 SAME_SIZE = 1.5
 
 
+@pytest.mark.slow
 def test_pc_errors_same_size_as_newmark(pc_runs, newmark_runs):
     for h in HS:
         e_pc, e_nm = u_n_error(pc_runs[h]), u_n_error(newmark_runs[h])

@@ -28,6 +28,7 @@ def quick_figures(tmp_path_factory):
     return out, res
 
 
+@pytest.mark.slow
 def test_quick_figures_exit_and_every_file(quick_figures):
     from dyncontact.studies import figure_plan
 
@@ -44,6 +45,7 @@ def test_quick_figures_exit_and_every_file(quick_figures):
     assert (out / "index.json").is_file()
 
 
+@pytest.mark.slow
 def test_quick_index_lists_every_run_with_its_status(quick_figures):
     from dyncontact.core import read_summary
     from dyncontact.studies import figure_plan
@@ -72,6 +74,7 @@ def test_quick_index_lists_every_run_with_its_status(quick_figures):
         assert fig["plot"]["ok"], fig
 
 
+@pytest.mark.slow
 def test_quick_traces_are_short_and_fig1_has_fields(quick_figures):
     from dyncontact.core import read_trace
     from dyncontact.plotting import read_pvd

@@ -149,6 +149,7 @@ def assert_same(trace, ref, what):
         assert v <= (TOL_VP if c in ("v_n", "p_n") else TOL_U), (what, c, v)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("alpha", [0.0, -0.1])
 @pytest.mark.parametrize("gamma0", [10.0, 1.0])
 @pytest.mark.parametrize("theta", [-1, 0, 1])

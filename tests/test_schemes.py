@@ -251,6 +251,7 @@ def test_small_gamma0_theta1_blows_up_at_once(tmp_path):
     assert res.summary["t_end_reached"] < 0.1
 
 
+@pytest.mark.slow
 def test_small_gamma0_skew_symmetric_is_stable_with_smaller_step(tmp_path):
     """theta = -1, gamma0 = 0.01 stays bounded over T = 15 at dt = h/200 (observed: max
     e_total 4.3 to 4.7 e_total(0) for newton_tol 1e-8 to 1e-12) and with a dissipative

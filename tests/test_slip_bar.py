@@ -116,6 +116,7 @@ def test_slip_bar_close_to_1d_bar_but_not_to_round_off(theta, tmp_path):
     assert d["u_n"] > 1e3 * SAME_TOL_U           # a real difference, explained above
 
 
+@pytest.mark.slow
 def test_slip_bar_difference_from_1d_shrinks_with_h(tmp_path):
     """Both discretize the same continuum problem: the 2D-1D difference of u_n and of
     the energy per width decreases with h (observed u_n 2.1e-2, 1.2e-2, 6.6e-3, order

@@ -13,20 +13,7 @@ except ImportError:  # pragma: no cover - source tree without a build
     __version__ = "0+unknown"
 
 from .core import BadInputError, DyncontactError, NumericalError, RunResult, run
+from .scene import Scene, SceneError
 
 __all__ = ["Scene", "SceneError", "run", "RunResult", "DyncontactError", "BadInputError",
            "NumericalError", "__version__"]
-
-
-def __getattr__(name):
-    # Scene and SceneError (dyncontact.scene) are imported on first use, which keeps
-    # `import dyncontact` light (f90nml is loaded only when a Scene is needed).
-    if name in ("Scene", "SceneError"):
-        from . import scene
-
-        return getattr(scene, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__():
-    return sorted(set(globals()) | {"Scene", "SceneError"})

@@ -57,22 +57,6 @@ def parse_set(item: str) -> tuple[str, str, str]:
     return group, key, raw
 
 
-def _apply_set(scene, group: str, key: str, value: str) -> None:
-    """Set one key of a Scene (the Scene checks the name and converts the value)."""
-    scene.set(f"{group}.{key}", value)
-
-
-def _bad_input_types() -> tuple[type, ...]:
-    types: list[type] = [core.BadInputError, UsageError]
-    try:
-        from .scene import SceneError
-    except ImportError:
-        pass
-    else:
-        types.append(SceneError)
-    return tuple(types)
-
-
 # --------------------------------------------------------------------------- commands
 
 def cmd_run(args) -> int:
@@ -81,13 +65,11 @@ def cmd_run(args) -> int:
     if not os.path.isfile(scene_path):
         raise core.BadInputError(f"{scene_path}: no such scene file")
     if sets:
-        try:
-            from .scene import Scene
-        except ImportError as exc:  # pragma: no cover - broken installation
-            raise core.DyncontactError(f"--set needs dyncontact.scene ({exc})") from exc
+        from .scene import Scene
+
         scene = Scene.read(scene_path)
         for group, key, value in sets:
-            _apply_set(scene, group, key, value)
+            scene.set(f"{group}.{key}", value)   # the core converts and checks the value
     else:
         scene = scene_path
     progress = False if args.quiet else None
@@ -174,7 +156,6 @@ def _version() -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    bad_input = _bad_input_types()
     try:
         if argv and argv[0] == "mesh":
             return cmd_mesh(argv[1:])
@@ -186,7 +167,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return args.func(args)
     except KeyboardInterrupt:
         return _fail("interrupted", EXIT_INTERRUPTED)
-    except bad_input as exc:
+    except (core.BadInputError, UsageError) as exc:
         return _fail(str(exc), EXIT_BAD_INPUT)
     except core.NumericalError as exc:
         return _fail(str(exc), EXIT_NUMERIC)

@@ -36,7 +36,7 @@ import numpy as np
 
 __all__ = [
     "DyncontactError", "BadInputError", "NumericalError", "RunResult", "run",
-    "TRACE_COLUMNS", "read_trace", "read_summary", "fortran_version", "scene_dump",
+    "TRACE_COLUMNS", "read_trace", "read_summary", "fortran_version", "scene_dump", "scene_parse",
     "load_mesh", "p1_element", "umf_solve", "Model",
 ]
 
@@ -73,7 +73,7 @@ def _core():
 def _str(b: bytes | str) -> str:
     """A fixed-length Fortran string returned by f2py, as str."""
     if isinstance(b, bytes):
-        b = b.decode("utf-8", "replace")
+        b = b.decode("utf-8", "surrogateescape")
     return b.strip().strip("\x00").strip()
 
 
@@ -171,17 +171,32 @@ def fortran_version() -> str:
 
 
 def scene_dump(path: str | os.PathLike) -> dict[str, Any]:
-    """The scene file as the Fortran core parses it (all keys, defaults filled in).
+    """The scene file as the Fortran core reads it (all keys, defaults filled in).
 
     Raises :class:`BadInputError` with the core's one-line message on a bad scene.
     """
-    path = os.fspath(path)
     with tempfile.TemporaryDirectory(prefix="dyncontact-") as tmp:
         json_path = os.path.join(tmp, "scene.json")
-        stat, errmsg = _core().dc_scene_dump(path, json_path)
+        stat, errmsg = _core().dc_scene_dump(os.fsencode(path), os.fsencode(json_path))
         _check(stat, errmsg, "reading the scene")
-        with open(json_path, encoding="utf-8") as f:
+        with open(json_path, encoding="utf-8", errors="surrogateescape") as f:
             return json.load(f)
+
+
+def scene_parse(text: str, name: str, full: bool = False) -> dict[str, Any]:
+    """A scene given as namelist text, as the Fortran core reads it (all keys, defaults
+    filled in). ``full=False`` checks only the syntax and the types of the values;
+    ``full=True`` also the ranges and the cross-checks, as for a file. ``name`` stands
+    for the scene in messages; a relative mesh file counts from the current folder.
+
+    Raises :class:`BadInputError` with the core's one-line message on a bad scene.
+    """
+    enc = ("utf-8", "surrogateescape")
+    js, stat, errmsg = _core().dc_scene_text(text.encode(*enc), name.encode(*enc), int(full))
+    _check(stat, errmsg, "reading the scene")
+    if isinstance(js, bytes):
+        js = js.decode(*enc)
+    return json.loads(js.rstrip(" \x00"))
 
 
 def _scene_output_dir(scene_json: Mapping[str, Any]) -> str | None:
@@ -241,6 +256,11 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     DyncontactError
         internal failure (stat 4).
     """
+    from .scene import Scene
+
+    if not isinstance(scene, (str, bytes, os.PathLike, Scene)):
+        raise TypeError("run(): scene must be a path (str, bytes or os.PathLike) or a "
+                        f"dyncontact.Scene, not {type(scene).__name__}")
     core = _core()
     tmp = tempfile.mkdtemp(prefix="dyncontact-")
     try:

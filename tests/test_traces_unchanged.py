@@ -1,0 +1,62 @@
+"""The traces of a handful of scenes are those written before the scene reader was
+rewritten (issue 9): tests/data/traces_before/ holds them, with a README saying which
+commit and command wrote them. Every column of those files is compared."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+import dyncontact
+from dyncontact import Scene
+
+BEFORE = ROOT / "tests" / "data" / "traces_before"
+#: Same binary, same scene values: the traces agree to round-off at most.
+RTOL = 1e-14
+ATOL = 1e-14
+
+#: name -> (scene file, keys set besides t_end = 0.5), as in BEFORE/README.md
+CASES = {
+    "bar1d": ("bar1d", {"output.every": 5}),
+    "bar2d_pc": ("bar2d_pc", {"output.every": 5}),
+    "bar2d_pc_hht": ("bar2d_pc_hht", {"output.every": 5}),
+    "bar2d_pc_hht_seed": ("bar2d_pc_hht_seed", {"output.every": 5}),
+    "bar2d_hht": ("bar2d_hht", {}),
+    "bar2d_hht_seed": ("bar2d_hht_seed", {}),
+    "bar2d_newmark": ("bar2d_newmark", {}),
+    "bar2d_theta": ("bar2d_theta", {}),
+    "bar2d_hht_mshfile": ("bar2d_hht", {
+        "mesh.file": str(ROOT / "meshes" / "bar2d_getfem_h0.05.msh"),
+        "material.gravity": "0,-0.5", "scheme.mass": "lumped"}),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_trace_unchanged(name, tmp_path):
+    scene, keys = CASES[name]
+    scn = Scene.read(ROOT / "scripts" / "scenes" / f"{scene}.nml")
+    scn.set("scheme.t_end", 0.5)
+    for key, value in keys.items():
+        scn.set(key, value)
+    res = dyncontact.run(scn, out=tmp_path / name, progress=False)
+    before = np.genfromtxt(BEFORE / f"{name}.csv", delimiter=",", names=True)
+    assert res.trace["t"].shape == before["t"].shape, name
+    for col in before.dtype.names:
+        np.testing.assert_allclose(res.trace[col], before[col], rtol=RTOL, atol=ATOL,
+                                   err_msg=f"{name}: column {col}")
+
+
+def test_trace_unchanged_through_the_executable(run_exe, tmp_path):
+    scn = Scene.read(ROOT / "scripts" / "scenes" / "bar2d_newmark.nml")
+    scn.set("scheme.t_end", 0.5)
+    scn.set("output.dir", str(tmp_path / "out"))
+    scn.write(tmp_path / "s.nml")
+    res = run_exe(tmp_path / "s.nml")
+    assert res.returncode == 0, res.stderr
+    after = dyncontact.core.read_trace(tmp_path / "out")
+    before = np.genfromtxt(BEFORE / "bar2d_newmark.csv", delimiter=",", names=True)
+    for col in before.dtype.names:
+        np.testing.assert_allclose(after[col], before[col], rtol=RTOL, atol=ATOL,
+                                   err_msg=f"executable: column {col}")
