@@ -156,32 +156,6 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
     return DC_OK;
 }
 
-/* Copy the factor out: perm[n] (0-based, row perm[k] of A is pivot k), the strictly
- * lower part of L by columns (lp[n+1] 0-based starts, li[lnz] 0-based rows, lx[lnz])
- * and d[n]. Returns DC_OK or DC_FAILED (no numeric LDL' factor). */
-int dc_cholmod_export(void *handle, int *perm, int *lp, int *li, double *lx, double *d)
-{
-    dc_cholmod *h = handle;
-    const int *p, *i, *nz, *pm;
-    const double *x;
-    int j, k, cnt = 0;
-    if (h == NULL || h->L == NULL || h->L->is_super || h->L->is_ll
-        || h->L->xtype != CHOLMOD_REAL) return DC_FAILED;
-    p = h->L->p; i = h->L->i; nz = h->L->nz; x = h->L->x; pm = h->L->Perm;
-    for (j = 0; j < h->n; j++) {
-        perm[j] = pm ? pm[j] : j;
-        d[j] = x[p[j]];
-        lp[j] = cnt;
-        for (k = p[j] + 1; k < p[j] + nz[j]; k++) {
-            li[cnt] = i[k];
-            lx[cnt] = x[k];
-            cnt++;
-        }
-    }
-    lp[h->n] = cnt;
-    return DC_OK;
-}
-
 /* Solve A X = B for ncol right-hand sides (b and x column-major, n x ncol) with
  * cholmod_solve2 (workspaces kept in the handle). Returns DC_OK or DC_FAILED. */
 int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)

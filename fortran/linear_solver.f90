@@ -12,7 +12,7 @@ module linear_solver
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
     use sparse, only: csc_t, csc_find
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
-    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_free
+    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free
     implicit none
     private
 
@@ -93,7 +93,8 @@ contains
         end if
     end subroutine ls_solve
 
-    !> Solve A X = B for the columns of B, one after the other (no allocation).
+    !> Solve A X = B for the columns of B (CHOLMOD: one blocked solve; UMFPACK: one
+    !> column after the other).
     subroutine ls_solve_many(f, a, b, x, stat, errmsg)
         type(factor_t), intent(inout) :: f                  !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
@@ -105,6 +106,10 @@ contains
         if (size(b, 2) /= size(x, 2)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, &
                        'ls_solve_many: b and x have different numbers of columns')
+            return
+        end if
+        if (f%backend == BACKEND_CHOLMOD .and. f%n == a%n) then
+            call chol_solve_many(f%ch, b, x, stat, errmsg)
             return
         end if
         stat = STAT_OK
