@@ -9,7 +9,7 @@
 !>
 !> Solves go through cholmod_solve2 with workspaces kept in the shim (no allocation
 !> per solve). Own triangular loops on the copied factors (as umfpack.f90 does) were
-!> measured and are slower: CHOLMOD's simplicial solve treats chains of 2-4 columns
+!> measured and are slower: CHOLMOD's simplicial solve treats chains of up to 3 columns
 !> with the same pattern at once (docs/numerics.md, "Linear solvers").
 !> A cholmod_t owns a C handle: never copy one by assignment (double free).
 module cholmod
