@@ -245,6 +245,39 @@ subroutine dc_umf_solve(n, nnz, rows, cols, vals, b, x, stat, errmsg)
     stat = st
 end subroutine dc_umf_solve
 
+!> Solve A x = b with linear_solver (CHOLMOD LDL^T when A is symmetric positive
+!> definite, UMFPACK LU otherwise), A as 1-based COO triplets (duplicates summed);
+!> backend = 'cholmod_ldlt' or 'umfpack_lu' (the one that solved), '' on failure.
+subroutine dc_ls_solve(n, nnz, rows, cols, vals, b, x, backend, stat, errmsg)
+    use iso_c_binding, only: c_int, c_double
+    use errors, only: STAT_OK
+    use sparse, only: csc_t, csc_from_coo
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
+    implicit none
+    integer(c_int), intent(in) :: n              !! size
+    integer(c_int), intent(in) :: nnz            !! triplets
+    integer(c_int), intent(in) :: rows(nnz)      !! 1-based rows
+    integer(c_int), intent(in) :: cols(nnz)      !! 1-based columns
+    real(c_double), intent(in) :: vals(nnz)      !! values
+    real(c_double), intent(in) :: b(n)           !! right-hand side
+    real(c_double), intent(out) :: x(n)          !! solution
+    character(len=16), intent(out) :: backend    !! solver that ran
+    integer(c_int), intent(out) :: stat          !! status (3: singular)
+    character(len=512), intent(out) :: errmsg    !! message
+    type(csc_t) :: a
+    type(factor_t) :: f
+    integer :: st
+    errmsg = ''
+    backend = ''
+    x = 0
+    call csc_from_coo(n, rows, cols, vals, a, st, errmsg)
+    if (st == STAT_OK) call ls_factor(f, a, st, errmsg)
+    if (st == STAT_OK) call ls_solve(f, a, b, x, st, errmsg)
+    if (st == STAT_OK) backend = f%backend
+    call ls_free(f)
+    stat = st
+end subroutine dc_ls_solve
+
 !> P1 element matrices of one cell: stiffness, consistent and lumped mass.
 !> dim = 1 uses the leading 2x2 blocks and x(1, 1:2).
 subroutine dc_p1_element(dim, x, young, poisson, density, ke, me, ml)

@@ -29,7 +29,7 @@ module implicit_schemes
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
-    use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
@@ -54,7 +54,7 @@ module implicit_schemes
         real(dp) :: tol = 1.0e-10_dp              !! relative residual tolerance
         integer :: maxit = 50                     !! Newton iteration limit
         type(csc_t) :: jac0                       !! J0 = M + c K_theta
-        type(lu_t) :: lu0                         !! its factors
+        type(factor_t) :: lu0                     !! its factors
         integer :: m = 0                          !! contact-cell dofs
         real(dp), allocatable :: z(:, :)          !! (n, m) J0^{-1} P^T
         real(dp), allocatable :: w(:, :)          !! (m, m) P J0^{-1} P^T
@@ -140,7 +140,7 @@ contains
 
         this%jac0 = mdl%mass
         this%jac0%val = mdl%mass%val + this%c * mdl%stiff_theta%val
-        call lu_factor(this%lu0, this%jac0, stat, errmsg)
+        call ls_factor(this%lu0, this%jac0, stat, errmsg)
         if (stat /= STAT_OK) return
         this%factorizations = this%factorizations + 1
 
@@ -158,7 +158,7 @@ contains
         do j = 1, this%m
             e(mdl%ct%cdofs(j), j) = 1.0_dp
         end do
-        call lu_solve_many(this%lu0, this%jac0, e, this%z, stat, errmsg)
+        call ls_solve_many(this%lu0, this%jac0, e, this%z, stat, errmsg)
         if (stat /= STAT_OK) return
         if (this%m > 0) this%w = this%z(mdl%ct%cdofs, :)
     end subroutine implicit_init
@@ -318,7 +318,7 @@ contains
             integer, intent(out) :: st2
             integer :: r, i, j, k, info, l
             real(dp) :: acc2
-            call lu_solve(this%lu0, this%jac0, rhs, y, st2)
+            call ls_solve(this%lu0, this%jac0, rhs, y, st2)
             r = this%rank
             if (st2 /= STAT_OK .or. this%m == 0 .or. r == 0) return
             ! W U: each column of U lives on <= ndof_e contact-cell dofs

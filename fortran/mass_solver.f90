@@ -1,10 +1,10 @@
-!> M^{-1} applications: a diagonal for lumped mass, UMFPACK factors of the
-!> compacted consistent mass otherwise (factorized once).
+!> M^{-1} applications: a diagonal for lumped mass, linear_solver factors (CHOLMOD
+!> LDL^T) of the compacted consistent mass otherwise (factorized once).
 module mass_solver
     use kinds, only: dp
     use errors, only: STAT_OK
     use sparse, only: csc_t, csc_drop_zeros
-    use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
     use model, only: model_t
     implicit none
     private
@@ -14,7 +14,7 @@ module mass_solver
         logical :: lumped = .false.              !! diagonal mass
         real(dp), allocatable :: inv_diag(:)     !! 1 / diag(M) when lumped
         type(csc_t) :: mass                      !! M without structural zeros
-        type(lu_t) :: lu                         !! its factors
+        type(factor_t) :: lu                     !! its factors (LDL^T, or LU as fallback)
         integer, allocatable :: massless(:)      !! dofs with no inertia: x = 0 there
     end type mass_solver_t
 
@@ -53,7 +53,7 @@ contains
             else
                 call csc_drop_zeros(mdl%mass, ms%mass)
             end if
-            call lu_factor(ms%lu, ms%mass, stat, errmsg)
+            call ls_factor(ms%lu, ms%mass, stat, errmsg)
         end if
     end subroutine mass_solver_init
 
@@ -68,7 +68,7 @@ contains
             x = ms%inv_diag * b
             stat = STAT_OK
         else
-            call lu_solve(ms%lu, ms%mass, b, x, stat, errmsg)
+            call ls_solve(ms%lu, ms%mass, b, x, stat, errmsg)
             if (allocated(ms%massless)) x(ms%massless) = 0.0_dp
         end if
     end subroutine mass_solver_apply
@@ -76,7 +76,7 @@ contains
     !> Release the factors.
     subroutine mass_solver_free(ms)
         type(mass_solver_t), intent(inout) :: ms   !! solver
-        call lu_free(ms%lu)
+        call ls_free(ms%lu)
         if (allocated(ms%inv_diag)) deallocate (ms%inv_diag)
     end subroutine mass_solver_free
 end module mass_solver

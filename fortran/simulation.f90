@@ -13,7 +13,7 @@ module simulation
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
     use mass_solver, only: mass_solver_apply
-    use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
     use trace_output, only: make_dirs, trace_open, trace_row, json_real, json_string
     use vtk_output, only: vtk_write_vtu, vtk_write_pvd
     use version_info, only: DYNCONTACT_VERSION
@@ -199,11 +199,11 @@ contains
         if (allocated(sim%scheme)) then
             select type (s => sim%scheme)
             type is (implicit_scheme_t)
-                call lu_free(s%lu0)
+                call ls_free(s%lu0)
             type is (pc_scheme_t)
-                call lu_free(s%ms%lu)
+                call ls_free(s%ms%lu)
             type is (central_scheme_t)
-                call lu_free(s%ms%lu)
+                call ls_free(s%ms%lu)
             end select
         end if
     end subroutine sim_close
@@ -292,16 +292,37 @@ contains
                 write (unit, '(a)') '  "dt_crit_estimate": '//json_real(s%dt_crit)//','
             end select
         end if
+        write (unit, '(a)') '  "solver": '//json_string(sim_solver(sim))//','
         write (unit, '(a)') '  "scene": '//scene_to_json(sim%scn)//','
         write (unit, '(a)') '  "version": '//json_string(DYNCONTACT_VERSION)
         write (unit, '(a)') '}'
         close (unit)
     end subroutine write_summary
 
+    !> The solver of the run's linear systems: the backend of the J0 factors (implicit
+    !> schemes) or of the M factors (pc schemes; 'diagonal' for lumped mass); '' before
+    !> the scheme is set up.
+    function sim_solver(sim) result(name)
+        type(simulation_t), intent(in) :: sim   !! the run
+        character(len=:), allocatable :: name
+        name = ''
+        if (.not. allocated(sim%scheme)) return
+        select type (s => sim%scheme)
+        type is (implicit_scheme_t)
+            name = trim(s%lu0%backend)
+        type is (pc_scheme_t)
+            name = trim(s%ms%lu%backend)
+            if (s%ms%lumped) name = 'diagonal'
+        type is (central_scheme_t)
+            name = trim(s%ms%lu%backend)
+            if (s%ms%lumped) name = 'diagonal'
+        end select
+    end function sim_solver
+
     !> Cost floors of a run's step, in microseconds (mean over n_rep repetitions):
-    !> one triangular solve with the cached factors of the iteration matrix (implicit
-    !> schemes; 0 otherwise), one SpMV with K_theta, one M^{-1} application (pc
-    !> schemes; 0 otherwise).
+    !> one solve with the cached factors of the iteration matrix by the backend the run
+    !> uses (CHOLMOD LDL^T or UMFPACK LU, see sim_solver; implicit schemes; 0 otherwise),
+    !> one SpMV with K_theta, one M^{-1} application (pc schemes; 0 otherwise).
     subroutine sim_bench_floor(sim, n_rep, t_solve, t_spmv, t_mass)
         type(simulation_t), intent(inout) :: sim   !! an open run
         integer, intent(in) :: n_rep               !! repetitions (> 0)
@@ -325,11 +346,18 @@ contains
         type is (implicit_scheme_t)
             call system_clock(c0)
             do i = 1, n_rep
-                call lu_solve(s%lu0, s%jac0, b, x, st)
+                call ls_solve(s%lu0, s%jac0, b, x, st)
             end do
             call system_clock(c1)
             t_solve = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
         type is (pc_scheme_t)
+            call system_clock(c0)
+            do i = 1, n_rep
+                call mass_solver_apply(s%ms, b, x, st)
+            end do
+            call system_clock(c1)
+            t_mass = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        type is (central_scheme_t)
             call system_clock(c0)
             do i = 1, n_rep
                 call mass_solver_apply(s%ms, b, x, st)
@@ -364,10 +392,10 @@ contains
         real(dp), intent(out) :: u(:)                       !! displacement (free dofs)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        type(lu_t) :: lu
-        call lu_factor(lu, sim%mdl%stiff, stat, errmsg)
-        if (stat == STAT_OK) call lu_solve(lu, sim%mdl%stiff, sim%mdl%load, u, stat, errmsg)
-        call lu_free(lu)
+        type(factor_t) :: lu
+        call ls_factor(lu, sim%mdl%stiff, stat, errmsg)
+        if (stat == STAT_OK) call ls_solve(lu, sim%mdl%stiff, sim%mdl%load, u, stat, errmsg)
+        call ls_free(lu)
     end subroutine sim_static
 
     !> Node (1-based) and component (1..dim) of each free dof.

@@ -28,8 +28,6 @@ module umfpack
     integer, parameter, public :: UMFPACK_LNZ = 43       !! Info: nnz(L) incl. diagonal
     integer, parameter, public :: UMFPACK_UNZ = 44       !! Info: nnz(U) incl. diagonal
     integer, parameter, public :: UMFPACK_RCOND = 67     !! Info: reciprocal condition estimate
-    integer(c_int), parameter, public :: UMFPACK_A = 0   !! solve code: A x = b
-    integer(c_int), parameter, public :: UMFPACK_At = 1  !! solve code: A' x = b
 
     ! Status codes from umfpack.h.
     integer, parameter, public :: UMFPACK_OK = 0                               !! success
@@ -57,13 +55,12 @@ module umfpack
         integer :: analyses = 0                     !! symbolic analyses done (kept by lu_free)
         real(c_double) :: control(UMFPACK_CONTROL) = 0.0_dp  !! UMFPACK control (defaults, IRSTEP 0)
         real(c_double) :: info(UMFPACK_INFO) = 0.0_dp        !! UMFPACK info of the last call
-        integer(c_int), allocatable :: wi(:)        !! wsolve integer workspace (n)
-        real(c_double), allocatable :: w(:)         !! wsolve real workspace (5 n)
+        real(dp), allocatable :: w(:)               !! (n) lu_solve workspace
         integer(c_int), allocatable :: colptr(:)    !! pattern of the analysed matrix (reuse test)
         integer(c_int), allocatable :: rowind(:)    !! pattern of the analysed matrix (reuse test)
         ! Factors copied out of the Numeric object (P R A Q = L U), solved by our own
-        ! row-oriented triangular loops (UMFPACK's solve walks its frontal structure
-        ! and costs ~3x more per entry).
+        ! row-oriented triangular loops: 2.3x faster than umfpack_di_wsolve on the
+        ! h = 0.01 iteration matrix (56 against 127 us, docs/numerics.md).
         integer(c_int), allocatable :: perm_p(:)    !! (n) 0-based: row perm_p(k) of A is pivot row k
         integer(c_int), allocatable :: perm_q(:)    !! (n) 0-based: column perm_q(k) of A is pivot column k
         real(dp), allocatable :: rscale(:)          !! (n) 1/Rs (or Rs when UMFPACK says do_recip)
@@ -133,24 +130,6 @@ module umfpack
             real(c_double), intent(inout) :: info(*)      !! Info
             integer(c_int) :: status
         end function umfpack_di_numeric
-
-        !> int umfpack_di_wsolve(sys, Ap, Ai, Ax, X, B, Numeric, Control, Info, Wi, W)
-        function umfpack_di_wsolve(sys, ap, ai, ax, x, b, numeric, control, info, wi, w) &
-            result(status) bind(C, name='umfpack_di_wsolve')
-            import :: c_int, c_double, c_ptr
-            integer(c_int), value :: sys                  !! system code (UMFPACK_A)
-            integer(c_int), intent(in) :: ap(*)           !! column pointers (0-based)
-            integer(c_int), intent(in) :: ai(*)           !! row indices (0-based)
-            real(c_double), intent(in) :: ax(*)           !! values
-            real(c_double), intent(out) :: x(*)           !! solution
-            real(c_double), intent(in) :: b(*)            !! right-hand side
-            type(c_ptr), value :: numeric                 !! Numeric object
-            real(c_double), intent(in) :: control(*)      !! Control
-            real(c_double), intent(inout) :: info(*)      !! Info
-            integer(c_int), intent(inout) :: wi(*)        !! workspace (n)
-            real(c_double), intent(inout) :: w(*)         !! workspace (5 n)
-            integer(c_int) :: status
-        end function umfpack_di_wsolve
 
         !> void umfpack_di_free_symbolic(void **Symbolic)
         subroutine umfpack_di_free_symbolic(symbolic) bind(C, name='umfpack_di_free_symbolic')
@@ -393,7 +372,7 @@ contains
         end do
     end subroutine lu_solve_many
 
-    !> Release the UMFPACK objects and workspaces (safe to call twice or on a fresh
+    !> Release the UMFPACK objects and the workspace (safe to call twice or on a fresh
     !> lu_t). The counters factorizations and analyses are kept.
     subroutine lu_free(lu)
         type(lu_t), intent(inout) :: lu   !! factors to release
@@ -402,7 +381,6 @@ contains
         lu%numeric = c_null_ptr
         lu%symbolic = c_null_ptr
         lu%n = 0
-        if (allocated(lu%wi)) deallocate (lu%wi)
         if (allocated(lu%w)) deallocate (lu%w)
         if (allocated(lu%colptr)) deallocate (lu%colptr)
         if (allocated(lu%rowind)) deallocate (lu%rowind)
@@ -499,20 +477,15 @@ contains
         lu%rowind = a%rowind(1:a%nnz)
     end subroutine store_pattern
 
-    !> wsolve workspaces Wi(n), W(5 n) (enough with iterative refinement too).
+    !> The lu_solve workspace w(n).
     subroutine ensure_workspace(lu, n, ierr)
         type(lu_t), intent(inout) :: lu   !! factors
         integer, intent(in) :: n          !! matrix size
         integer, intent(out) :: ierr      !! allocation status
         ierr = 0
-        if (allocated(lu%wi)) then
-            if (size(lu%wi) /= n) deallocate (lu%wi)
-        end if
         if (allocated(lu%w)) then
-            if (size(lu%w) /= 5 * n) deallocate (lu%w)
+            if (size(lu%w) /= n) deallocate (lu%w)
         end if
-        if (.not. allocated(lu%wi)) allocate (lu%wi(n), stat=ierr)
-        if (ierr /= 0) return
-        if (.not. allocated(lu%w)) allocate (lu%w(5 * n), stat=ierr)
+        if (.not. allocated(lu%w)) allocate (lu%w(n), stat=ierr)
     end subroutine ensure_workspace
 end module umfpack

@@ -1,8 +1,9 @@
 """UMFPACK through the f2py boundary: dyncontact._core.dc_umf_solve (1-based COO in)
-against dense numpy solves, and its error reporting (singular, bad indices).
+against dense numpy solves, and its error reporting (singular, bad indices); the solver
+choice of linear_solver (CHOLMOD LDLᵀ or UMFPACK LU) through dc_ls_solve.
 
 The Fortran-level unit tests of the same modules are tests/fortran/test_sparse.f90,
-test_umfpack.f90 and test_vtk_output.f90 (meson test()).
+test_umfpack.f90, test_cholmod.f90 and test_vtk_output.f90 (meson test()).
 """
 
 from __future__ import annotations
@@ -161,3 +162,162 @@ def test_python_wrapper_0based_and_exceptions():
         core.umf_solve([0, 1], [0, 0], [1.0, 1.0], np.ones(2))
     with pytest.raises(core.BadInputError, match="out of range"):
         core.umf_solve([0, 2], [0, 1], [1.0, 1.0], np.ones(2))
+
+
+# ---------------------------------------------------------------------------------------
+# linear_solver (issue 10): CHOLMOD LDLᵀ for symmetric positive definite matrices,
+# UMFPACK LU for the rest, through dyncontact._core.dc_ls_solve.
+
+def ls_solve_1based(rows, cols, vals, b):
+    """Call dc_ls_solve with 1-based COO; returns (x, backend, stat, message)."""
+    rows = np.ascontiguousarray(rows, dtype=np.int32)
+    cols = np.ascontiguousarray(cols, dtype=np.int32)
+    vals = np.ascontiguousarray(vals, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    x, backend, stat, errmsg = _core.dc_ls_solve(rows, cols, vals, b, b.shape[0], rows.shape[0])
+    return x, _msg(backend), int(stat), _msg(errmsg)
+
+
+def symmetric_coo(rng, n, density, shift):
+    """Symmetric sparse n x n matrix S + Sᵀ + shift I (diagonal always stored) as shuffled
+    1-based COO with duplicates; shift > Gershgorin radius: positive definite, shift <
+    -radius: negative definite, shift = 0: in general indefinite. Returns (rows, cols,
+    vals, dense)."""
+    nnz_off = max(1, int(density * n * n / 2))
+    r = rng.integers(0, n, nnz_off)
+    c = rng.integers(0, n, nnz_off)
+    v = rng.uniform(-1.0, 1.0, nnz_off)
+    r, c, v = np.concatenate([r, c, np.arange(n)]), np.concatenate([c, r, np.arange(n)]), \
+        np.concatenate([v, v, np.full(n, shift)])
+    dense = np.zeros((n, n))
+    np.add.at(dense, (r, c), v)
+    perm = rng.permutation(r.size)
+    return r[perm] + 1, c[perm] + 1, v[perm], dense
+
+
+@pytest.mark.parametrize("n", [1, 2, 17, 100, 400])
+@pytest.mark.parametrize("density", [0.01, 0.05, 0.3])
+def test_ls_solve_spd_uses_cholmod(n, density):
+    rng = np.random.default_rng(2000 * n + int(100 * density))
+    rows, cols, vals, dense = symmetric_coo(rng, n, density, shift=0.0)
+    shift = np.abs(dense).sum(axis=1).max() + 1.0      # above the Gershgorin radius: SPD
+    rows = np.concatenate([rows, np.arange(1, n + 1)])  # as duplicate diagonal triplets
+    cols = np.concatenate([cols, np.arange(1, n + 1)])
+    vals = np.concatenate([vals, np.full(n, shift)])
+    dense = dense + shift * np.eye(n)
+    b = rng.standard_normal(n)
+    x, backend, stat, msg = ls_solve_1based(rows, cols, vals, b)
+    assert stat == STAT_OK, msg
+    assert backend == "cholmod_ldlt"
+    x_ref = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+
+
+def test_ls_solve_indefinite_symmetric_falls_back_exactly():
+    """Symmetric but indefinite (LDLᵀ meets a negative pivot): UMFPACK solves it, to the
+    same accuracy as a dense solve."""
+    rng = np.random.default_rng(21)
+    n = 300
+    rows, cols, vals, dense = symmetric_coo(rng, n, 0.05, shift=0.0)
+    eig = np.linalg.eigvalsh(dense)
+    assert eig.min() < 0 < eig.max()                   # really indefinite
+    cond = np.linalg.cond(dense)
+    assert cond < 1e6
+    b = rng.standard_normal(n)
+    x, backend, stat, msg = ls_solve_1based(rows, cols, vals, b)
+    assert stat == STAT_OK, msg
+    assert backend == "umfpack_lu"
+    x_ref = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x, x_ref, rtol=0,
+                               atol=cond * np.finfo(float).eps * 10 * np.abs(x_ref).max())
+
+
+def test_ls_solve_negative_definite_falls_back():
+    # the first pivot is already negative
+    rng = np.random.default_rng(22)
+    rows, cols, vals, dense = symmetric_coo(rng, 60, 0.1, shift=-30.0)
+    assert np.linalg.eigvalsh(dense).max() < 0
+    b = rng.standard_normal(60)
+    x, backend, stat, msg = ls_solve_1based(rows, cols, vals, b)
+    assert stat == STAT_OK, msg
+    assert backend == "umfpack_lu"
+    x_ref = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+
+
+def test_ls_solve_nonsymmetric_uses_umfpack():
+    rng = np.random.default_rng(23)
+    rows, cols, vals, dense = random_coo(rng, 200, 0.05)
+    assert not np.allclose(dense, dense.T)
+    b = rng.standard_normal(200)
+    x, backend, stat, msg = ls_solve_1based(rows, cols, vals, b)
+    assert stat == STAT_OK, msg
+    assert backend == "umfpack_lu"
+    x_ref = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+
+
+def test_ls_solve_slightly_nonsymmetric_uses_umfpack():
+    """An SPD matrix with one off-diagonal pair differing in the 10th digit is not
+    symmetric for the solver (far above assembly round-off): LU, exact solve."""
+    rows = np.array([1, 2, 3, 1, 2, 2, 3])
+    cols = np.array([1, 2, 3, 2, 1, 3, 2])
+    vals = np.array([4.0, 4.0, 4.0, 1.0, 1.0 + 1e-10, 1.0, 1.0])
+    dense = np.zeros((3, 3))
+    np.add.at(dense, (rows - 1, cols - 1), vals)
+    x, backend, stat, msg = ls_solve_1based(rows, cols, vals, np.ones(3))
+    assert stat == STAT_OK, msg
+    assert backend == "umfpack_lu"
+    np.testing.assert_allclose(x, np.linalg.solve(dense, np.ones(3)), rtol=RTOL_SOLVE)
+
+
+def test_ls_solve_singular_symmetric_reported():
+    # symmetric, rank 2: row 3 = row 1 + row 2
+    dense = np.array([[2.0, 1.0, 3.0], [1.0, 2.0, 3.0], [3.0, 3.0, 6.0]])
+    r, c = np.nonzero(dense)
+    _, backend, stat, msg = ls_solve_1based(r + 1, c + 1, dense[r, c], np.ones(3))
+    assert stat == STAT_NUMERIC
+    assert "singular" in msg.lower(), msg
+    assert backend == ""
+
+
+def test_linear_solve_python_wrapper():
+    rng = np.random.default_rng(24)
+    rows, cols, vals, dense = symmetric_coo(rng, 40, 0.1, shift=50.0)
+    b = rng.standard_normal(40)
+    x, backend = core.linear_solve(rows - 1, cols - 1, vals, b)
+    assert backend == "cholmod_ldlt"
+    x_ref = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+    with pytest.raises(core.NumericalError, match="singular"):
+        core.linear_solve([0, 1, 0, 1], [0, 1, 1, 0], [1.0, 1.0, 1.0, 1.0], np.ones(2))
+
+
+# Which solver a run used: summary.json "solver" (SPEC section 4, docs/scenes.md).
+
+def _short_run(tmp_path, scene_file, **keys):
+    from dyncontact.scene import Scene
+    from conftest import ROOT
+    scn = Scene.read(str(ROOT / "scripts" / "scenes" / scene_file))
+    for k, v in keys.items():
+        scn.set(k.replace("__", "."), v)
+    return core.run(scn, out=tmp_path, progress=False).summary
+
+
+@pytest.mark.parametrize("scene_file, keys, solver", [
+    ("bar2d_hht.nml", {}, "cholmod_ldlt"),                       # J0 = M + c K_θ, SPD
+    ("bar2d_theta.nml", {}, "cholmod_ldlt"),
+    ("bar2d_pc.nml", {}, "cholmod_ldlt"),                        # consistent M
+    ("bar2d_pc.nml", {"scheme__mass": "lumped"}, "diagonal"),
+    # Nitsche θ = 1 with a small γ0: K_θ, and with it J0, is indefinite
+    ("bar2d_hht.nml", {"contact__gamma0": 0.01}, "umfpack_lu"),
+    # θ = 0: K_θ = K, SPD again
+    ("bar2d_hht.nml", {"contact__gamma0": 0.01, "contact__theta": 0}, "cholmod_ldlt"),
+    # θ = -1: K_θ stays symmetric (θ only scales the s sᵀ term), the non-symmetric
+    # part of the tangent is in the Woodbury correction
+    ("bar2d_hht.nml", {"contact__theta": -1}, "cholmod_ldlt"),
+])
+def test_summary_reports_solver(tmp_path, scene_file, keys, solver):
+    s = _short_run(tmp_path, scene_file, scheme__t_end=0.01, **keys)
+    assert s["solver"] == solver
+    assert s["steps"] >= 1

@@ -1,6 +1,10 @@
-"""The traces of a handful of scenes are those written before the scene reader was
-rewritten (issue 9): tests/data/traces_before/ holds them, with a README saying which
-commit and command wrote them. Every column of those files is compared."""
+"""A guard for refactors: the traces of a handful of scenes are those written by the last
+commit that changed the numerics on purpose (tests/data/traces_before/, with a README
+saying which commit wrote them). Every column is compared to round-off of the same binary.
+
+A change that moves the numerics on purpose (a new solver, a new formula) regenerates the
+files with `python tests/test_traces_unchanged.py` and says so in its commit and in the
+README; a refactor must leave them unchanged."""
 
 from __future__ import annotations
 
@@ -33,14 +37,18 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("name", sorted(CASES))
-def test_trace_unchanged(name, tmp_path):
+def run_case(name, out):
     scene, keys = CASES[name]
     scn = Scene.read(ROOT / "scripts" / "scenes" / f"{scene}.nml")
     scn.set("scheme.t_end", 0.5)
     for key, value in keys.items():
         scn.set(key, value)
-    res = dyncontact.run(scn, out=tmp_path / name, progress=False)
+    return dyncontact.run(scn, out=out, progress=False)
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_trace_unchanged(name, tmp_path):
+    res = run_case(name, tmp_path / name)
     before = np.genfromtxt(BEFORE / f"{name}.csv", delimiter=",", names=True)
     assert res.trace["t"].shape == before["t"].shape, name
     for col in before.dtype.names:
@@ -60,3 +68,14 @@ def test_trace_unchanged_through_the_executable(run_exe, tmp_path):
     for col in before.dtype.names:
         np.testing.assert_allclose(after[col], before[col], rtol=RTOL, atol=ATOL,
                                    err_msg=f"executable: column {col}")
+
+
+if __name__ == "__main__":      # regenerate BEFORE (see the module docstring)
+    import shutil
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for case in sorted(CASES):
+            run_case(case, f"{tmp}/{case}")
+            shutil.copy(f"{tmp}/{case}/trace.csv", BEFORE / f"{case}.csv")
+            print("wrote", BEFORE / f"{case}.csv")

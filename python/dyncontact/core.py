@@ -37,7 +37,7 @@ import numpy as np
 __all__ = [
     "DyncontactError", "BadInputError", "NumericalError", "RunResult", "run",
     "TRACE_COLUMNS", "read_trace", "read_summary", "fortran_version", "scene_dump", "scene_parse",
-    "load_mesh", "p1_element", "umf_solve", "Model",
+    "load_mesh", "p1_element", "umf_solve", "linear_solve", "Model",
 ]
 
 #: Header of trace.csv (SPEC section 4).
@@ -379,6 +379,24 @@ def umf_solve(rows, cols, vals, b) -> np.ndarray:
     x, stat, errmsg = _core().dc_umf_solve(rows, cols, vals, b, b.shape[0], rows.shape[0])
     _check(stat, errmsg, "umfpack solve")
     return x
+
+
+def linear_solve(rows, cols, vals, b) -> tuple[np.ndarray, str]:
+    """Solve A x = b with the core's solver choice (CHOLMOD LDLᵀ when A is symmetric
+    positive definite, UMFPACK LU otherwise); A as 0-based COO triplets (duplicates
+    summed). Returns (x, backend) with backend 'cholmod_ldlt' or 'umfpack_lu'."""
+    rows = _i32(np.asarray(rows) + 1)
+    cols = _i32(np.asarray(cols) + 1)
+    vals = _f64(vals)
+    b = _f64(b)
+    if not (rows.shape == cols.shape == vals.shape) or rows.ndim != 1:
+        raise ValueError("rows, cols and vals must be 1-D arrays of the same length")
+    x, backend, stat, errmsg = _core().dc_ls_solve(rows, cols, vals, b, b.shape[0],
+                                                   rows.shape[0])
+    _check(stat, errmsg, "linear solve")
+    if isinstance(backend, bytes):
+        backend = backend.decode("ascii", "replace")
+    return x, str(backend).strip().strip("\x00").strip()
 
 
 class Model:

@@ -1,0 +1,184 @@
+!> CHOLMOD (SuiteSparse) binding: simplicial LDL^T factorization of symmetric csc_t
+!> matrices, through the flat C shim cholmod_shim.c (which owns cholmod_common and
+!> cholmod_factor; Fortran only holds an opaque handle).
+!>
+!> P A P^T = L D L^T, L unit lower triangular, D diagonal, P CHOLMOD's fill-reducing
+!> permutation. Only the upper triangle of A is read. A zero, negative or non-finite
+!> pivot gives STAT_NUMERIC ('not positive definite'): the caller decides what to do
+!> (linear_solver falls back to UMFPACK's LU).
+!>
+!> Solves go through cholmod_solve2 with workspaces kept in the shim (no allocation
+!> per solve). Own triangular loops on the copied factors (as umfpack.f90 does) were
+!> measured and are slower: CHOLMOD's simplicial solve treats chains of up to 3 columns
+!> with the same pattern at once (docs/numerics.md, "Linear solvers").
+!> A cholmod_t owns a C handle: never copy one by assignment (double free).
+module cholmod
+    use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
+    use sparse, only: csc_t
+    implicit none
+    private
+
+    ! Statuses of cholmod_shim.c.
+    integer(c_int), parameter :: DC_OK = 0, DC_NOT_POSDEF = 1, DC_OUT_OF_MEMORY = 2
+
+    !> LDL^T factors of one symmetric matrix (the symbolic analysis is kept across
+    !> numeric refactorizations of the same pattern).
+    type, public :: cholmod_t
+        type(c_ptr) :: handle = c_null_ptr       !! cholmod_shim handle
+        integer :: n = 0                         !! size factorized (0: no factors)
+        integer :: lnz = 0                       !! entries of L below the diagonal
+        integer :: factorizations = 0            !! numeric factorizations done (kept by chol_free)
+        integer :: analyses = 0                  !! symbolic analyses done (kept by chol_free)
+    end type cholmod_t
+
+    public :: chol_factor, chol_solve, chol_solve_many, chol_free
+
+    interface
+        !> void *dc_cholmod_new(void)
+        function dc_cholmod_new() result(h) bind(C, name='dc_cholmod_new')
+            import :: c_ptr
+            type(c_ptr) :: h
+        end function dc_cholmod_new
+
+        !> void dc_cholmod_free(void *h)
+        subroutine dc_cholmod_free(h) bind(C, name='dc_cholmod_free')
+            import :: c_ptr
+            type(c_ptr), value :: h                      !! handle
+        end subroutine dc_cholmod_free
+
+        !> int dc_cholmod_factor(h, n, colptr, rowind, val, &analysed, &lnz, &minor)
+        function dc_cholmod_factor(h, n, colptr, rowind, val, analysed, lnz, minor) &
+            result(status) bind(C, name='dc_cholmod_factor')
+            import :: c_ptr, c_int, c_long, c_double
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int), value :: n                   !! size
+            integer(c_int), intent(in) :: colptr(*)      !! column starts (0-based)
+            integer(c_int), intent(in) :: rowind(*)      !! row indices (0-based)
+            real(c_double), intent(in) :: val(*)         !! values
+            integer(c_int), intent(out) :: analysed      !! 1 if the analysis was redone
+            integer(c_long), intent(out) :: lnz          !! entries of L below the diagonal
+            integer(c_int), intent(out) :: minor         !! failing column (0-based) or -1
+            integer(c_int) :: status
+        end function dc_cholmod_factor
+
+        !> int dc_cholmod_solve(h, ncol, b, x)
+        function dc_cholmod_solve(h, ncol, b, x) result(status) bind(C, name='dc_cholmod_solve')
+            import :: c_ptr, c_int, c_double
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int), value :: ncol                !! right-hand sides
+            real(c_double), intent(in) :: b(*)           !! (n, ncol)
+            real(c_double), intent(out) :: x(*)          !! (n, ncol)
+            integer(c_int) :: status
+        end function dc_cholmod_solve
+    end interface
+
+contains
+
+    !> Factorize the symmetric matrix a (its upper triangle is read): P A P^T = L D L^T,
+    !> simplicial. The analysis is redone only when n or the pattern changed. A zero,
+    !> negative or non-finite pivot gives STAT_NUMERIC (no factors kept); CHOLMOD
+    !> errors give STAT_INTERNAL; an inconsistent csc_t gives STAT_BAD_INPUT.
+    subroutine chol_factor(ch, a, stat, errmsg)
+        type(cholmod_t), intent(inout) :: ch                !! factors (created or replaced)
+        type(csc_t), intent(in) :: a                        !! symmetric matrix
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(c_int) :: status, analysed, minor
+        integer(c_long) :: lnz
+        character(len=160) :: buf
+
+        ch%n = 0
+        if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
+                                allocated(a%val))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_factor: matrix is empty or not allocated')
+            return
+        end if
+        if (size(a%colptr) < a%n + 1 .or. a%colptr(1) /= 0 .or. a%colptr(a%n + 1) /= a%nnz &
+            .or. size(a%rowind) < a%nnz .or. size(a%val) < a%nnz) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_factor: inconsistent CSC arrays')
+            return
+        end if
+        if (.not. c_associated(ch%handle)) ch%handle = dc_cholmod_new()
+        if (.not. c_associated(ch%handle)) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'chol_factor: out of memory')
+            return
+        end if
+        status = dc_cholmod_factor(ch%handle, int(a%n, c_int), a%colptr, a%rowind, a%val, &
+                                   analysed, lnz, minor)
+        if (analysed /= 0) ch%analyses = ch%analyses + 1
+        ch%factorizations = ch%factorizations + 1
+        select case (status)
+        case (DC_OK)
+        case (DC_NOT_POSDEF)
+            write (buf, '(a, i0, a)') 'chol_factor: not positive definite (pivot ', minor + 1, &
+                ' is zero, negative or not finite)'
+            call raise(stat, errmsg, STAT_NUMERIC, trim(buf))
+            return
+        case (DC_OUT_OF_MEMORY)
+            call raise(stat, errmsg, STAT_INTERNAL, 'chol_factor: out of memory')
+            return
+        case default
+            call raise(stat, errmsg, STAT_INTERNAL, 'chol_factor: CHOLMOD failed')
+            return
+        end select
+
+        ch%lnz = int(lnz)
+        ch%n = a%n
+        stat = STAT_OK
+    end subroutine chol_factor
+
+    !> Solve A x = b with cholmod_solve2 (workspaces reused, no allocation after the
+    !> first call). b and x must have n entries (STAT_BAD_INPUT otherwise, or without
+    !> factors); STAT_INTERNAL if CHOLMOD fails.
+    subroutine chol_solve(ch, b, x, stat, errmsg)
+        type(cholmod_t), intent(inout) :: ch                !! factors
+        real(dp), intent(in) :: b(:)                        !! right-hand side (n)
+        real(dp), intent(out) :: x(:)                       !! solution (n)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        if (ch%n < 1) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_solve: no factors')
+            return
+        end if
+        if (size(b) /= ch%n .or. size(x) /= ch%n) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_solve: b or x does not have n entries')
+            return
+        end if
+        stat = STAT_OK
+        if (dc_cholmod_solve(ch%handle, 1_c_int, b, x) /= DC_OK) &
+            call raise(stat, errmsg, STAT_INTERNAL, 'chol_solve: cholmod_solve2 failed')
+    end subroutine chol_solve
+
+    !> Solve A X = B for all columns of B in one cholmod_solve2 call.
+    subroutine chol_solve_many(ch, b, x, stat, errmsg)
+        type(cholmod_t), intent(inout) :: ch                !! factors
+        real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)
+        real(dp), intent(out) :: x(:, :)                    !! solutions (n, m)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        if (ch%n < 1) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_solve_many: no factors')
+            return
+        end if
+        if (size(b, 1) /= ch%n .or. size(x, 1) /= ch%n .or. size(b, 2) /= size(x, 2)) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_solve_many: b or x has a bad shape')
+            return
+        end if
+        stat = STAT_OK
+        if (size(b, 2) == 0) return
+        if (dc_cholmod_solve(ch%handle, int(size(b, 2), c_int), b, x) /= DC_OK) &
+            call raise(stat, errmsg, STAT_INTERNAL, 'chol_solve_many: cholmod_solve2 failed')
+    end subroutine chol_solve_many
+
+    !> Release the CHOLMOD objects and the copied factors (safe to call twice or on a
+    !> fresh cholmod_t). The counters are kept.
+    subroutine chol_free(ch)
+        type(cholmod_t), intent(inout) :: ch   !! factors to release
+        if (c_associated(ch%handle)) call dc_cholmod_free(ch%handle)
+        ch%handle = c_null_ptr
+        ch%n = 0
+        ch%lnz = 0
+    end subroutine chol_free
+end module cholmod

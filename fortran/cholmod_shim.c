@@ -1,0 +1,184 @@
+/* Flat C interface to CHOLMOD (SuiteSparse 5.12, CHOLMOD 3.0) for fortran/cholmod.f90.
+ *
+ * cholmod_common is a large C struct whose layout depends on the build, so Fortran never
+ * sees it: one dc_cholmod handle owns the common block, the factor, a copy of the
+ * analysed pattern (the symbolic analysis is reused while the pattern stays the same)
+ * and the dense workspaces of cholmod_solve2 (no allocation per solve).
+ *
+ * Factorization: simplicial LDL' (Common->supernodal = CHOLMOD_SIMPLICIAL,
+ * final_ll = FALSE), fill-reducing ordering chosen by CHOLMOD (AMD, METIS if it helps).
+ * Only the upper triangle of the CSC matrix is read (stype = +1): pass the full
+ * symmetric matrix or its upper triangle.
+ */
+#include <stdlib.h>
+#include <string.h>
+#include <math.h>
+#include "cholmod.h"
+
+typedef struct {
+    cholmod_common c;
+    cholmod_factor *L;
+    int n;
+    int nnz;
+    int *colptr;           /* copy of the analysed pattern (reuse test) */
+    int *rowind;
+    cholmod_dense *B, *X, *Y, *E;   /* solve2 right-hand side header and workspaces */
+    int bcols;             /* columns of B */
+} dc_cholmod;
+
+/* Statuses returned to Fortran. */
+enum { DC_OK = 0, DC_NOT_POSDEF = 1, DC_OUT_OF_MEMORY = 2, DC_FAILED = 3 };
+
+/* New handle (NULL when out of memory). */
+void *dc_cholmod_new(void)
+{
+    dc_cholmod *h = calloc(1, sizeof(dc_cholmod));
+    if (h == NULL) return NULL;
+    cholmod_start(&h->c);
+    h->c.print = 0;                       /* the caller reports errors */
+    h->c.supernodal = CHOLMOD_SIMPLICIAL;
+    h->c.final_ll = 0;                    /* keep LDL' */
+    h->c.final_pack = 1;
+    h->c.final_monotonic = 1;
+    return h;
+}
+
+static void free_dense(dc_cholmod *h)
+{
+    if (h->X) cholmod_free_dense(&h->X, &h->c);
+    if (h->Y) cholmod_free_dense(&h->Y, &h->c);
+    if (h->E) cholmod_free_dense(&h->E, &h->c);
+    free(h->B);
+    h->B = NULL;
+    h->bcols = 0;
+}
+
+static void free_factor(dc_cholmod *h)
+{
+    if (h->L) cholmod_free_factor(&h->L, &h->c);
+    free(h->colptr);
+    free(h->rowind);
+    h->colptr = NULL;
+    h->rowind = NULL;
+    h->n = 0;
+    h->nnz = 0;
+    free_dense(h);
+}
+
+/* Release everything (NULL is allowed). */
+void dc_cholmod_free(void *handle)
+{
+    dc_cholmod *h = handle;
+    if (h == NULL) return;
+    free_factor(h);
+    cholmod_finish(&h->c);
+    free(h);
+}
+
+/* Analyse (when n or the pattern changed) and factorize P A P' = L D L' for the n x n
+ * CSC matrix (0-based colptr[n+1], rowind[nnz], sorted rows, values val), reading its
+ * upper triangle. Returns DC_OK; DC_NOT_POSDEF when a pivot is zero, negative or not
+ * finite (minor = its column, 0-based; the factor is kept but must not be used);
+ * DC_OUT_OF_MEMORY; DC_FAILED (other CHOLMOD errors). *analysed = 1 when the symbolic
+ * analysis was redone, *lnz = stored entries of L (unit diagonal not counted). */
+int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
+                      const double *val, int *analysed, long *lnz, int *minor)
+{
+    dc_cholmod *h = handle;
+    cholmod_sparse a;
+    int nnz = colptr[n], j, k, ok;
+    const double *d;
+    const int *lp;
+
+    *analysed = 0;
+    *lnz = 0;
+    *minor = -1;
+    memset(&a, 0, sizeof(a));
+    a.nrow = (size_t) n;
+    a.ncol = (size_t) n;
+    a.nzmax = (size_t) nnz;
+    a.p = (void *) colptr;
+    a.i = (void *) rowind;
+    a.x = (void *) val;
+    a.stype = 1;
+    a.itype = CHOLMOD_INT;
+    a.xtype = CHOLMOD_REAL;
+    a.dtype = CHOLMOD_DOUBLE;
+    a.sorted = 1;
+    a.packed = 1;
+
+    if (h->L == NULL || h->n != n || h->nnz != nnz
+        || memcmp(h->colptr, colptr, sizeof(int) * (size_t) (n + 1)) != 0
+        || memcmp(h->rowind, rowind, sizeof(int) * (size_t) nnz) != 0) {
+        free_factor(h);
+        h->colptr = malloc(sizeof(int) * (size_t) (n + 1));
+        h->rowind = malloc(sizeof(int) * (size_t) (nnz > 0 ? nnz : 1));
+        if (h->colptr == NULL || h->rowind == NULL) {
+            free_factor(h);
+            return DC_OUT_OF_MEMORY;
+        }
+        h->c.status = CHOLMOD_OK;
+        h->L = cholmod_analyze(&a, &h->c);
+        if (h->L == NULL) {
+            int st = h->c.status;
+            free_factor(h);
+            return st == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
+        }
+        memcpy(h->colptr, colptr, sizeof(int) * (size_t) (n + 1));
+        memcpy(h->rowind, rowind, sizeof(int) * (size_t) nnz);
+        h->n = n;
+        h->nnz = nnz;
+        *analysed = 1;
+    }
+
+    h->c.status = CHOLMOD_OK;
+    ok = cholmod_factorize(&a, h->L, &h->c);
+    if (!ok || h->c.status < CHOLMOD_OK)
+        return h->c.status == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
+    if (h->L->is_super || h->L->is_ll || h->L->xtype != CHOLMOD_REAL) return DC_FAILED;
+    if (h->c.status == CHOLMOD_NOT_POSDEF || h->L->minor < h->L->n) {
+        *minor = (int) h->L->minor;
+        return DC_NOT_POSDEF;
+    }
+    /* LDL' does not stop at a negative pivot: check D (first entry of each column). */
+    d = h->L->x;
+    lp = h->L->p;
+    for (j = 0; j < n; j++) {
+        double djj = d[lp[j]];
+        if (!(djj > 0.0) || !isfinite(djj)) {
+            *minor = j;
+            return DC_NOT_POSDEF;
+        }
+    }
+    k = 0;
+    for (j = 0; j < n; j++) k += ((const int *) h->L->nz)[j] - 1;
+    *lnz = k;
+    return DC_OK;
+}
+
+/* Solve A X = B for ncol right-hand sides (b and x column-major, n x ncol) with
+ * cholmod_solve2 (workspaces kept in the handle). Returns DC_OK or DC_FAILED. */
+int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
+{
+    dc_cholmod *h = handle;
+    if (h == NULL || h->L == NULL || h->L->is_super || h->L->is_ll
+        || h->L->xtype != CHOLMOD_REAL) return DC_FAILED;
+    if (h->B == NULL || h->bcols != ncol) {
+        free_dense(h);
+        h->B = calloc(1, sizeof(cholmod_dense));
+        if (h->B == NULL) return DC_FAILED;
+        h->bcols = ncol;
+    }
+    h->B->nrow = (size_t) h->n;
+    h->B->ncol = (size_t) ncol;
+    h->B->nzmax = (size_t) h->n * (size_t) ncol;
+    h->B->d = (size_t) h->n;
+    h->B->x = (void *) b;
+    h->B->z = NULL;
+    h->B->xtype = CHOLMOD_REAL;
+    h->B->dtype = CHOLMOD_DOUBLE;
+    if (!cholmod_solve2(CHOLMOD_A, h->L, h->B, NULL, &h->X, NULL, &h->Y, &h->E, &h->c))
+        return DC_FAILED;
+    memcpy(x, h->X->x, sizeof(double) * (size_t) h->n * (size_t) ncol);
+    return DC_OK;
+}

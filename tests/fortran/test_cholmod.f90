@@ -1,0 +1,397 @@
+!> Unit tests of modules cholmod and linear_solver: LDL^T solves against known
+!> solutions (full symmetric matrix and upper triangle only), reuse of the analysis,
+!> blocked solves, bad pivots, the solver choice (symmetric positive definite ->
+!> CHOLMOD, indefinite or non-symmetric -> UMFPACK, exact either way), singular
+!> matrices, the symmetry test. Exit status 1 (error stop) on any failure.
+program test_cholmod
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, MSG_LEN
+    use sparse, only: csc_t, csc_from_coo, csc_matvec
+    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, &
+                             csc_is_symmetric, BACKEND_CHOLMOD, BACKEND_UMFPACK, SYM_RTOL
+    implicit none
+
+    real(dp), parameter :: thr = 1.0e-12_dp   ! solves of well-conditioned systems (relative)
+    integer :: nfail = 0
+
+    call test_known_solution()
+    call test_upper_triangle_only()
+    call test_refactor()
+    call test_many_rhs()
+    call test_bad_pivot()
+    call test_choice_spd()
+    call test_choice_indefinite()
+    call test_choice_nonsymmetric()
+    call test_singular()
+    call test_symmetry_test()
+    call test_bad_use()
+
+    if (nfail > 0) then
+        write (*, '(i0,a)') nfail, ' check(s) failed'
+        error stop 1
+    end if
+    write (*, '(a)') 'test_cholmod: all checks passed'
+
+contains
+
+    subroutine check(cond, what)
+        logical, intent(in) :: cond            !! condition that must hold
+        character(len=*), intent(in) :: what   !! description
+        if (.not. cond) then
+            nfail = nfail + 1
+            write (*, '(a)') 'FAIL: '//what
+        end if
+    end subroutine check
+
+    !> Symmetric n x n matrix S + S^T + D with about 6 entries per column (unsorted COO
+    !> with duplicates), off-diagonals in s (-1/2, 1/2); D_kk = shift + the Gershgorin
+    !> radius of row k (diagonally dominant: SPD for shift > s), with alternating signs
+    !> when indefinite (still well conditioned); upper = .true. keeps the upper triangle.
+    subroutine sym_matrix(n, s, shift, a, upper, indefinite)
+        integer, intent(in) :: n             !! size
+        real(dp), intent(in) :: s            !! off-diagonal scale
+        real(dp), intent(in) :: shift        !! diagonal margin (> s)
+        type(csc_t), intent(out) :: a        !! matrix
+        logical, intent(in), optional :: upper      !! upper triangle only
+        logical, intent(in), optional :: indefinite !! D_kk sign (-1)^k
+        integer :: m, k, stat, i, j
+        integer, allocatable :: r(:), c(:)
+        real(dp), allocatable :: v(:), u(:)
+        logical :: up, indef
+        up = .false.
+        if (present(upper)) up = upper
+        indef = .false.
+        if (present(indefinite)) indef = indefinite
+        m = 3 * n
+        allocate (r(2 * m + n), c(2 * m + n), v(2 * m + n), u(m))
+        call random_number(u)
+        r(1:m) = 1 + int(u * n)
+        call random_number(u)
+        c(1:m) = 1 + int(u * n)
+        call random_number(v(1:m))
+        v(1:m) = s * (v(1:m) - 0.5_dp)
+        where (r(1:m) == c(1:m)) v(1:m) = 0.0_dp
+        r(m + 1:2 * m) = c(1:m)
+        c(m + 1:2 * m) = r(1:m)
+        v(m + 1:2 * m) = v(1:m)
+        do k = 1, n
+            r(2 * m + k) = k
+            c(2 * m + k) = k
+            v(2 * m + k) = shift + sum(abs(v(1:2 * m)), mask=r(1:2 * m) == k)
+            if (indef .and. mod(k, 2) == 0) v(2 * m + k) = -v(2 * m + k)
+        end do
+        if (up) then
+            do k = 1, 2 * m + n
+                i = r(k); j = c(k)
+                if (i > j) v(k) = 0.0_dp
+            end do
+        end if
+        call csc_from_coo(n, r, c, v, a, stat)
+        call check(stat == STAT_OK, 'sym_matrix: built')
+    end subroutine sym_matrix
+
+    !> b = A xe for the full symmetric matrix whose upper triangle a holds.
+    subroutine sym_matvec_upper(a, x, y)
+        type(csc_t), intent(in) :: a   !! upper triangle
+        real(dp), intent(in) :: x(:)   !! vector
+        real(dp), intent(out) :: y(:)  !! A x
+        integer :: i, j, k
+        y = 0.0_dp
+        do j = 1, a%n
+            do k = a%colptr(j) + 1, a%colptr(j + 1)
+                i = a%rowind(k) + 1
+                if (i > j) cycle
+                y(i) = y(i) + a%val(k) * x(j)
+                if (i /= j) y(j) = y(j) + a%val(k) * x(i)
+            end do
+        end do
+    end subroutine sym_matvec_upper
+
+    subroutine test_known_solution()
+        integer, parameter :: sizes(3) = [1, 10, 500]
+        type(csc_t) :: a
+        type(cholmod_t) :: ch
+        real(dp), allocatable :: xe(:), b(:), x(:)
+        integer :: t, n, stat
+        character(len=MSG_LEN) :: msg
+        call seed(1)
+        do t = 1, size(sizes)
+            n = sizes(t)
+            call sym_matrix(n, 1.0_dp, 1.0_dp, a)
+            allocate (xe(n), b(n), x(n))
+            call random_number(xe)
+            call csc_matvec(a, xe, b)
+            msg = ''
+            call chol_factor(ch, a, stat, msg)
+            call check(stat == STAT_OK, 'known: factor '//trim(msg))
+            call check(ch%lnz >= 0 .and. ch%lnz <= n * (n - 1) / 2, 'known: lnz in range')
+            call chol_solve(ch, b, x, stat, msg)
+            call check(stat == STAT_OK, 'known: solve '//trim(msg))
+            call check(maxval(abs(x - xe)) <= thr * maxval(abs(xe)), 'known: x = xe')
+            call chol_free(ch)
+            deallocate (xe, b, x)
+        end do
+    end subroutine test_known_solution
+
+    !> Only the upper triangle is read: the same solution from the upper triangle alone.
+    subroutine test_upper_triangle_only()
+        integer, parameter :: n = 300
+        type(csc_t) :: a
+        type(cholmod_t) :: ch
+        real(dp) :: xe(n), b(n), x(n)
+        integer :: stat
+        call seed(5)
+        call sym_matrix(n, 1.0_dp, 1.0_dp, a, upper=.true.)
+        call random_number(xe)
+        call sym_matvec_upper(a, xe, b)
+        call chol_factor(ch, a, stat)
+        call chol_solve(ch, b, x, stat)
+        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
+                   'upper: x = xe')
+        call chol_free(ch)
+    end subroutine test_upper_triangle_only
+
+    !> Same pattern, new values: one analysis; a new pattern: a new analysis.
+    subroutine test_refactor()
+        integer, parameter :: n = 200
+        type(csc_t) :: a, a2, b3
+        type(cholmod_t) :: ch
+        real(dp) :: xe(n), b(n), x(n)
+        integer :: stat
+        call seed(2)
+        call sym_matrix(n, 1.0_dp, 1.0_dp, a)
+        call sym_matrix(n, 2.0_dp, 1.0_dp, b3)
+        a2 = a
+        a2%val = 2.0_dp * a%val
+        call chol_factor(ch, a, stat)
+        call check(stat == STAT_OK .and. ch%analyses == 1 .and. ch%factorizations == 1, &
+                   'refactor: first')
+        call chol_factor(ch, a2, stat)
+        call check(stat == STAT_OK .and. ch%analyses == 1 .and. ch%factorizations == 2, &
+                   'refactor: analysis reused')
+        call random_number(xe)
+        call csc_matvec(a2, xe, b)
+        call chol_solve(ch, b, x, stat)
+        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve a2')
+        call chol_factor(ch, b3, stat)
+        call check(stat == STAT_OK .and. ch%analyses == 2 .and. ch%factorizations == 3, &
+                   'refactor: new pattern analysed')
+        call csc_matvec(b3, xe, b)
+        call chol_solve(ch, b, x, stat)
+        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve b3')
+        call chol_free(ch)
+        call chol_free(ch)                       ! twice is safe
+        call check(ch%n == 0 .and. ch%factorizations == 3, 'refactor: free keeps counters')
+    end subroutine test_refactor
+
+    subroutine test_many_rhs()
+        integer, parameter :: n = 100, m = 5
+        type(csc_t) :: a
+        type(cholmod_t) :: ch
+        type(factor_t) :: f
+        real(dp) :: xe(n, m), b(n, m), x(n, m)
+        integer :: k, stat
+        call seed(3)
+        call sym_matrix(n, 1.0_dp, 1.0_dp, a)
+        call random_number(xe)
+        do k = 1, m
+            call csc_matvec(a, xe(:, k), b(:, k))
+        end do
+        call chol_factor(ch, a, stat)
+        call chol_solve_many(ch, b, x, stat)
+        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: chol_solve_many')
+        call chol_solve_many(ch, b(:, 1:2), x(:, 1:2), stat)   ! fewer columns: workspace resized
+        call check(stat == STAT_OK .and. maxval(abs(x(:, 1:2) - xe(:, 1:2))) <= thr, &
+                   'many: two columns')
+        call chol_free(ch)
+        call ls_factor(f, a, stat)
+        x = 0.0_dp
+        call ls_solve_many(f, a, b, x, stat)
+        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: ls_solve_many')
+        call ls_free(f)
+    end subroutine test_many_rhs
+
+    !> Negative and zero pivots: STAT_NUMERIC, no factors to solve with.
+    subroutine test_bad_pivot()
+        type(csc_t) :: a
+        type(cholmod_t) :: ch
+        integer :: stat
+        real(dp) :: x(2)
+        character(len=MSG_LEN) :: msg
+        ! [[1, 2], [2, 1]]: eigenvalues 3 and -1
+        call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [1.0_dp, 2.0_dp, 2.0_dp, 1.0_dp], a, stat)
+        msg = ''
+        call chol_factor(ch, a, stat, msg)
+        call check(stat == STAT_NUMERIC, 'pivot: indefinite gives STAT_NUMERIC')
+        call check(index(msg, 'not positive definite') > 0, 'pivot: message '//trim(msg))
+        call chol_solve(ch, [1.0_dp, 1.0_dp], x, stat)
+        call check(stat == STAT_BAD_INPUT, 'pivot: no solve without factors')
+        ! [[1, 1], [1, 1]]: zero pivot
+        call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp], a, stat)
+        call chol_factor(ch, a, stat, msg)
+        call check(stat == STAT_NUMERIC, 'pivot: zero pivot gives STAT_NUMERIC')
+        call chol_free(ch)
+    end subroutine test_bad_pivot
+
+    subroutine test_choice_spd()
+        integer, parameter :: n = 400
+        type(csc_t) :: a
+        type(factor_t) :: f
+        real(dp) :: xe(n), b(n), x(n)
+        integer :: stat
+        call seed(4)
+        call sym_matrix(n, 1.0_dp, 1.0_dp, a)
+        call random_number(xe)
+        call csc_matvec(a, xe, b)
+        call ls_factor(f, a, stat)
+        call check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD .and. f%symmetric &
+                   .and. .not. f%fell_back, 'spd: CHOLMOD LDL^T')
+        call ls_solve(f, a, b, x, stat)
+        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
+                   'spd: x = xe')
+        call ls_free(f)
+    end subroutine test_choice_spd
+
+    !> Symmetric indefinite (diagonal of alternating sign): LDL^T meets a negative pivot,
+    !> UMFPACK solves it exactly; refactorizing an SPD matrix afterwards goes back to CHOLMOD.
+    subroutine test_choice_indefinite()
+        integer, parameter :: n = 300
+        type(csc_t) :: a, spd
+        type(factor_t) :: f
+        real(dp) :: xe(n), b(n), x(n)
+        integer :: stat
+        call seed(6)
+        call sym_matrix(n, 1.0_dp, 1.0_dp, a, indefinite=.true.)
+        call random_number(xe)
+        call csc_matvec(a, xe, b)
+        call ls_factor(f, a, stat)
+        call check(stat == STAT_OK .and. f%backend == BACKEND_UMFPACK .and. f%symmetric &
+                   .and. f%fell_back, 'indefinite: fell back to UMFPACK')
+        call ls_solve(f, a, b, x, stat)
+        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
+                   'indefinite: x = xe')
+        call sym_matrix(n, 1.0_dp, 1.0_dp, spd)
+        call ls_factor(f, spd, stat)
+        call check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD, 'indefinite: back to CHOLMOD')
+        call csc_matvec(spd, xe, b)
+        call ls_solve(f, spd, b, x, stat)
+        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'indefinite: then SPD solve')
+        call check(f%factorizations == 2, 'indefinite: two factorizations counted')
+        call ls_free(f)
+    end subroutine test_choice_indefinite
+
+    subroutine test_choice_nonsymmetric()
+        integer, parameter :: n = 200
+        type(csc_t) :: a
+        type(factor_t) :: f
+        real(dp) :: xe(n), b(n), x(n)
+        integer :: stat
+        call seed(7)
+        call sym_matrix(n, 1.0_dp, 1.0_dp, a)
+        call perturb_off_diagonal(a)
+        call check(.not. csc_is_symmetric(a), 'nonsymmetric: detected')
+        call random_number(xe)
+        call csc_matvec(a, xe, b)
+        call ls_factor(f, a, stat)
+        call check(stat == STAT_OK .and. f%backend == BACKEND_UMFPACK .and. .not. f%symmetric, &
+                   'nonsymmetric: UMFPACK')
+        call ls_solve(f, a, b, x, stat)
+        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
+                   'nonsymmetric: x = xe')
+        call ls_free(f)
+    end subroutine test_choice_nonsymmetric
+
+    !> Multiply the first strictly-upper entry by 1.5 (its lower partner unchanged).
+    subroutine perturb_off_diagonal(a)
+        type(csc_t), intent(inout) :: a   !! symmetric matrix
+        integer :: j, k
+        do j = 1, a%n
+            do k = a%colptr(j) + 1, a%colptr(j + 1)
+                if (a%rowind(k) + 1 < j .and. a%val(k) /= 0.0_dp) then
+                    a%val(k) = 1.5_dp * a%val(k)
+                    return
+                end if
+            end do
+        end do
+    end subroutine perturb_off_diagonal
+
+    subroutine test_singular()
+        type(csc_t) :: a
+        type(factor_t) :: f
+        integer :: stat
+        real(dp) :: x(3)
+        character(len=MSG_LEN) :: msg
+        ! symmetric, rank 2: row 3 = row 1 + row 2
+        call csc_from_coo(3, [1, 2, 3, 1, 2, 3, 1, 2, 3], [1, 1, 1, 2, 2, 2, 3, 3, 3], &
+                          [2.0_dp, 1.0_dp, 3.0_dp, 1.0_dp, 2.0_dp, 3.0_dp, 3.0_dp, 3.0_dp, &
+                           6.0_dp], a, stat)
+        call check(csc_is_symmetric(a), 'singular: symmetric')
+        msg = ''
+        call ls_factor(f, a, stat, msg)
+        call check(stat == STAT_NUMERIC, 'singular: STAT_NUMERIC')
+        call check(index(msg, 'singular') > 0, 'singular: message '//trim(msg))
+        call check(f%backend == '', 'singular: no backend')
+        call ls_solve(f, a, [1.0_dp, 1.0_dp, 1.0_dp], x, stat)
+        call check(stat == STAT_BAD_INPUT, 'singular: no solve without factors')
+        call ls_free(f)
+    end subroutine test_singular
+
+    !> Round-off asymmetry is accepted, a larger one or a missing partner is not.
+    subroutine test_symmetry_test()
+        type(csc_t) :: a
+        integer :: stat
+        real(dp) :: e
+        e = 0.1_dp * SYM_RTOL
+        call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [4.0_dp, 1.0_dp, 1.0_dp + e, 4.0_dp], &
+                          a, stat)
+        call check(csc_is_symmetric(a), 'symmetry: round-off accepted')
+        e = 10.0_dp * SYM_RTOL * 4.0_dp
+        call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [4.0_dp, 1.0_dp, 1.0_dp + e, 4.0_dp], &
+                          a, stat)
+        call check(.not. csc_is_symmetric(a), 'symmetry: 10 SYM_RTOL rejected')
+        ! near-cancelled pair: judged against the diagonal scale
+        call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [4.0_dp, 1.0e-30_dp, 2.0e-30_dp, 4.0_dp], &
+                          a, stat)
+        call check(csc_is_symmetric(a), 'symmetry: tiny pair against the diagonal')
+        call csc_from_coo(2, [1, 2, 2], [1, 1, 2], [4.0_dp, 1.0_dp, 4.0_dp], a, stat)
+        call check(.not. csc_is_symmetric(a), 'symmetry: missing partner')
+        call csc_from_coo(2, [1, 2, 2, 1], [1, 1, 2, 2], [4.0_dp, 1.0_dp, 4.0_dp, 0.0_dp], a, stat)
+        call check(.not. csc_is_symmetric(a), 'symmetry: stored zero partner of a nonzero')
+    end subroutine test_symmetry_test
+
+    subroutine test_bad_use()
+        type(csc_t) :: a, empty
+        type(cholmod_t) :: ch
+        type(factor_t) :: f
+        integer :: stat
+        real(dp) :: x(2), y(3)
+        character(len=MSG_LEN) :: msg
+        msg = ''
+        call chol_factor(ch, empty, stat, msg)
+        call check(stat == STAT_BAD_INPUT, 'bad: empty matrix (cholmod)')
+        call ls_factor(f, empty, stat, msg)
+        call check(stat == STAT_BAD_INPUT, 'bad: empty matrix (linear_solver)')
+        call csc_from_coo(3, [1, 2, 3], [1, 2, 3], [1.0_dp, 1.0_dp, 1.0_dp], a, stat)
+        call ls_solve(f, a, [1.0_dp, 1.0_dp, 1.0_dp], y, stat, msg)
+        call check(stat == STAT_BAD_INPUT, 'bad: solve before factor')
+        call ls_factor(f, a, stat, msg)
+        call check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD, 'bad: identity by CHOLMOD')
+        call ls_solve(f, a, [1.0_dp, 1.0_dp], x, stat, msg)
+        call check(stat == STAT_BAD_INPUT, 'bad: wrong b size')
+        call ls_free(f)
+        call ls_free(f)
+        call chol_free(ch)
+    end subroutine test_bad_use
+
+    !> Reproducible random_number stream.
+    subroutine seed(s)
+        integer, intent(in) :: s   !! seed
+        integer :: nseed, i
+        integer, allocatable :: vals(:)
+        call random_seed(size=nseed)
+        allocate (vals(nseed))
+        vals = [(s + 37 * i, i = 1, nseed)]
+        call random_seed(put=vals)
+    end subroutine seed
+end program test_cholmod
