@@ -41,6 +41,7 @@ module model
         integer :: n_probe = 0                    !! facets holding the probe (0, 1 or 2)
         integer :: probe_facet(2) = 0             !! their indices in ct
         real(dp) :: probe_xi(2) = 0.0_dp          !! probe position along each
+        character(len=4096) :: notes = ''          !! warnings and notes for the user, one per line
     end type model_t
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &

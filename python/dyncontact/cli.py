@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from typing import Sequence
 
 from . import core
@@ -91,7 +92,18 @@ def cmd_run(args) -> int:
     else:
         scene = scene_path
     progress = False if args.quiet else None
-    result = core.run(scene, out=args.out, progress=progress)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", core.DyncontactWarning)
+        previous = warnings.showwarning
+
+        def show(message, category, *rest, **kw):
+            if issubclass(category, core.DyncontactWarning):
+                print(f"{PROG}: {' '.join(str(message).split())}", file=sys.stderr, flush=True)
+            else:  # pragma: no cover - other libraries' warnings
+                previous(message, category, *rest, **kw)
+
+        warnings.showwarning = show
+        result = core.run(scene, out=args.out, progress=progress)
     s = result.summary
     if result.status != "ok":
         t_stop = result.trace["t"][-1] if result.trace.get("t") is not None and \
@@ -119,10 +131,21 @@ def cmd_plot(args) -> int:
     labels = args.labels.split(",") if args.labels else None
     if labels is not None and len(labels) != len(args.dirs):
         raise UsageError(f"--labels: {len(labels)} labels for {len(args.dirs)} folders")
-    plot_traces(args.dirs, args.out, labels=labels, title=args.title)
+    out = _png_path(args.out)
+    plot_traces(args.dirs, out, labels=labels, title=args.title)
     if not args.quiet:
-        print(f"{PROG}: wrote {args.out}")
+        print(f"{PROG}: wrote {out}")
     return EXIT_OK
+
+
+def _png_path(out: str) -> str:
+    """The file `plot --out OUT` really writes: OUT/traces.png for an existing folder,
+    OUT.png when OUT has no extension (as matplotlib would), else OUT."""
+    if os.path.isdir(out):
+        return os.path.join(out, "traces.png")
+    if not os.path.splitext(out)[1]:
+        return out + ".png"
+    return out
 
 
 def cmd_mesh(argv: Sequence[str]) -> int:
@@ -154,7 +177,9 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Draw u_n, v_n, p_n and the energy of one or more "
                         "runs (folders holding trace.csv and summary.json).")
     pl.add_argument("dirs", nargs="+", metavar="DIR")
-    pl.add_argument("--out", required=True, metavar="FILE.png")
+    pl.add_argument("--out", required=True, metavar="FILE.png",
+                    help="PNG to write (an existing folder: FOLDER/traces.png; no extension: "
+                    ".png added)")
     pl.add_argument("--title", metavar="T")
     pl.add_argument("--labels", metavar="L1,L2,...", help="legend labels (default: scheme "
                     "and parameters from summary.json)")
