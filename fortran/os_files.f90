@@ -201,13 +201,16 @@ contains
     end subroutine lock_release
 
     !> Write a whole text file atomically: path.tmp, then rename over path. On any
-    !> failure the previous file is left as it was and the temporary one removed.
-    subroutine write_text_atomic(path, text, stat, errmsg)
+    !> failure the previous file is left as it was and the temporary one removed;
+    !> with `in_place`, a failure is followed by one attempt to rewrite path itself
+    !> (a last summary on a full disk, where a second file does not fit).
+    recursive subroutine write_text_atomic(path, text, stat, errmsg, in_place)
         character(len=*), intent(in) :: path                !! file
         character(len=*), intent(in) :: text                !! contents
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: fd, st2
+        logical, intent(in), optional :: in_place           !! fall back to rewriting path
+        integer :: fd, st2, r
         character(len=:), allocatable :: tmp
         tmp = trim(path)//'.tmp'
         call fd_open(tmp, fd, stat, errmsg)
@@ -220,5 +223,16 @@ contains
         end if
         if (stat == STAT_OK) call file_rename(tmp, path, stat, errmsg)
         if (stat /= STAT_OK) call file_remove(tmp)
+        if (stat == STAT_OK .or. .not. present(in_place)) return
+        if (.not. in_place) return
+        call fd_open(path, fd, st2)
+        if (st2 /= STAT_OK) return
+        call fd_write(fd, text, path, st2)
+        if (st2 == STAT_OK) then
+            call fd_close(fd, path, st2)
+        else
+            call fd_close(fd, path, r)
+        end if
+        if (st2 == STAT_OK) stat = STAT_OK
     end subroutine write_text_atomic
 end module os_files

@@ -45,17 +45,30 @@ int dc_fd_open(const char *path)
     return fd >= 0 ? fd : -errno;
 }
 
-/* Write all n bytes of buf (one write(2) per call unless the kernel takes less). */
+/* Write all n bytes of buf (one write(2) per call unless the kernel takes less). On
+ * failure (e.g. ENOSPC after a short write) the file is cut back to the last newline
+ * written, so that it never ends with part of a line (a trace keeps whole rows). */
 int dc_fd_write(int fd, const char *buf, long n)
 {
     long done = 0;
+    off_t start = lseek(fd, 0, SEEK_CUR);
     while (done < n) {
         ssize_t w = write(fd, buf + done, (size_t)(n - done));
+        int err = 0;
         if (w < 0) {
             if (errno == EINTR) continue;
-            return errno;
+            err = errno;
+        } else if (w == 0) {
+            err = ENOSPC;
         }
-        if (w == 0) return ENOSPC;
+        if (err != 0) {
+            if (start >= 0 && done > 0) {
+                long keep = done;
+                while (keep > 0 && buf[keep - 1] != '\n') keep--;
+                if (ftruncate(fd, start + keep) == 0) lseek(fd, start + keep, SEEK_SET);
+            }
+            return err;
+        }
         done += w;
     }
     return 0;

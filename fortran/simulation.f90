@@ -147,8 +147,10 @@ contains
 
         call open_outputs(stat, errmsg)
         if (stat /= STAT_OK) then
-            if (sim%trace%fd >= 0) call trace_close(sim%trace, n)
-            call file_remove(trim(sim%scn%out_dir)//'/trace.csv.tmp')
+            if (sim%trace%fd >= 0) then    ! ours: remove it (never another run's)
+                call trace_close(sim%trace, n)
+                call file_remove(trim(sim%scn%out_dir)//'/trace.csv.tmp')
+            end if
             if (sim%locked) call lock_release(sim%scn%out_dir)
             sim%locked = .false.
             sim%outputs = .false.
@@ -201,18 +203,24 @@ contains
         end subroutine open_outputs
 
         !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
-        !> blowup x e_total(0) as always; with a load L the test energy is
-        !> e_total - u.L and the scale adds the load's energy 1/2 L.(K + M/t_end^2)^{-1} L
-        !> (the static energy 1/2 L.K^{-1} L when K dominates; the work of L on the
-        !> free body over t_end when K has rigid modes), plus the stored penalty energy.
+        !> blowup x e_total(0) as always (the stored penalty energy when e_total(0) = 0,
+        !> e.g. a body at rest starting in the obstacle). With a load L the test energy
+        !> is e_total - u.L and the scale |e_total(0) - u0.L| + the stored penalty energy
+        !> + the load's energy 1/2 L.(K + M/t_end^2)^{-1} L (the static energy
+        !> 1/2 L.K^{-1} L when K dominates; the work of L on the free body over t_end
+        !> when K has rigid modes). Never a running maximum (growth must be seen).
         subroutine energy_limit()
             real(dp) :: e_tot, e_scale
             sim%has_load = any(sim%mdl%load /= 0.0_dp)
             e_tot = 0.5_dp * dot_product(sim%st%v, sim%st%mv) &
                     + 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
-            e_scale = e_tot + max(sim%st%e_pen, 0.0_dp)
-            if (sim%has_load) e_scale = abs(e_tot - dot_product(sim%st%u, sim%mdl%load)) &
-                                        + max(sim%st%e_pen, 0.0_dp) + load_energy()
+            e_scale = e_tot
+            if (sim%has_load) then
+                e_scale = abs(e_tot - dot_product(sim%st%u, sim%mdl%load)) &
+                          + max(sim%st%e_pen, 0.0_dp) + load_energy()
+            else if (.not. e_scale > 0.0_dp) then
+                e_scale = max(sim%st%e_pen, 0.0_dp)
+            end if
             sim%e_limit = sim%scn%blowup * max(e_scale, tiny(1.0_dp))
         end subroutine energy_limit
 
@@ -307,9 +315,13 @@ contains
                     write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
                         sim%st%t, ': e_total + e_load = ', e_test, ' exceeds blowup x energy scale = ', &
                         sim%e_limit, ' (run stopped, trace kept)'
-                else
+                else if (sim%e0 > 0.0_dp) then
                     write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
                         sim%st%t, ': e_total = ', e_total, ' exceeds blowup x e_total(0) = ', &
+                        sim%e_limit, ' (run stopped, trace kept)'
+                else
+                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                        sim%st%t, ': e_total = ', e_total, ' exceeds blowup x energy scale = ', &
                         sim%e_limit, ' (run stopped, trace kept)'
                 end if
                 sim%message = msg
@@ -372,7 +384,7 @@ contains
                 sim%status = 'write_failed'
                 if (present(errmsg)) sim%message = errmsg
             end if
-            call write_summary(sim, st2, msg2)
+            call write_summary(sim, st2, msg2, last=.true.)
             if (stat == STAT_OK .and. st2 /= STAT_OK) call raise(stat, errmsg, st2, msg2)
             if (stat == STAT_OK .and. sim%n_snap > 0) &
                 call vtk_write_pvd(trim(sim%scn%out_dir)//'/fields.pvd', sim%snap_t(1:sim%n_snap), &
@@ -434,10 +446,11 @@ contains
     end subroutine snapshot
 
     !> summary.json (SPEC section 4), written atomically (temporary file + rename).
-    subroutine write_summary(sim, stat, errmsg)
+    subroutine write_summary(sim, stat, errmsg, last)
         type(simulation_t), intent(in) :: sim               !! the run
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(in), optional :: last               !! the final one: rewrite in place if need be
         integer :: its, facts
         integer(i8) :: clock
         character(len=:), allocatable :: text
@@ -462,7 +475,8 @@ contains
                '  "scheme": '//json_string(sim%scn%scheme_name)//','//nl// &
                '  "scene": '//scene_to_json(sim%scn)//','//nl// &
                '  "version": '//json_string(DYNCONTACT_VERSION)//nl//'}'//nl
-        call write_text_atomic(trim(sim%scn%out_dir)//'/summary.json', text, stat, errmsg)
+        call write_text_atomic(trim(sim%scn%out_dir)//'/summary.json', text, stat, errmsg, &
+                               in_place=present(last))
     end subroutine write_summary
 
     !> An integer as text.
