@@ -360,7 +360,7 @@ contains
                 st = STAT_BAD_INPUT
                 write (buf, '(a, es10.3e3, a, 2(es12.5e3, 1x))') 'the point is not on the contact boundary: ' &
                     //'distance ', dbest, ' to its nearest point ', best
-                m = trim(buf)//'(snapped only within '//trim(real_str(PROBE_SNAP))//' x the facet length)'
+                m = trim(buf)//' (snapped only within '//trim(real_str(PROBE_SNAP))//' x the facet length)'
                 return
             end if
             call locate_probe(best, st)

@@ -191,6 +191,30 @@ def test_stale_lock_is_taken_over_and_released(kind, tmp_path):
     assert not list(out.glob("*.tmp"))
 
 
+def test_cli_wait_waits_for_the_lock(tmp_path):
+    holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        out = tmp_path / "o"
+        out.mkdir()
+        (out / ".dyncontact.lock").write_text(f"{holder.pid}\n")
+        scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.1")
+        env = dict(os.environ)
+        env.pop("PYTHONPATH", None)
+        proc = subprocess.Popen(entry("cli") + [str(scene), "--out", str(out), "--wait"],
+                                cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        time.sleep(2.0)
+        assert proc.poll() is None          # still waiting
+        assert not (out / "trace.csv").exists()
+    finally:
+        holder.kill()
+        holder.wait()
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == EXIT_OK, err
+    assert "waiting (--wait)" in err
+    assert json.loads((out / "summary.json").read_text())["status"] == "ok"
+
+
 def test_two_runs_into_one_folder(tmp_path):
     """Started together: exactly one runs, the other is refused with exit 2."""
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="3.0")

@@ -10,12 +10,17 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 import warnings
 from typing import Sequence
 
 from . import core
 
 PROG = "dyncontact"
+#: Part of the core's message when another live run holds the output folder's lock.
+LOCK_HELD = "is writing into this output folder"
+#: Seconds between two attempts of `run --wait`.
+WAIT_POLL_S = 0.5
 EXIT_OK, EXIT_BAD_INPUT, EXIT_NUMERIC, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 
 
@@ -92,6 +97,7 @@ def cmd_run(args) -> int:
     else:
         scene = scene_path
     progress = False if args.quiet else None
+    waited = False
     with warnings.catch_warnings():
         warnings.simplefilter("always", core.DyncontactWarning)
         previous = warnings.showwarning
@@ -103,7 +109,18 @@ def cmd_run(args) -> int:
                 previous(message, category, *rest, **kw)
 
         warnings.showwarning = show
-        result = core.run(scene, out=args.out, progress=progress)
+        while True:
+            try:
+                result = core.run(scene, out=args.out, progress=progress)
+                break
+            except core.BadInputError as exc:
+                if not (args.wait and LOCK_HELD in str(exc)):
+                    raise
+                if not waited:
+                    print(f"{PROG}: {' '.join(str(exc).split())}; waiting (--wait)",
+                          file=sys.stderr, flush=True)
+                waited = True
+                time.sleep(WAIT_POLL_S)
     s = result.summary
     if result.status != "ok":
         t_stop = result.trace["t"][-1] if result.trace.get("t") is not None and \
@@ -171,6 +188,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", metavar="DIR", help="output folder (default: the scene's "
                    "&output dir)")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
+    r.add_argument("--wait", action="store_true", help="when another run holds the output "
+                   "folder's lock, wait for it to end instead of stopping (exit 2)")
     r.set_defaults(func=cmd_run)
 
     pl = sub.add_parser("plot", help="overlay the traces of runs in one PNG",
