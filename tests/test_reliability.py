@@ -139,6 +139,16 @@ def test_disk_full_during_run_exits_4_and_says_so(kind, small_disk, tmp_path):
 
 
 @pytest.mark.parametrize("kind", ENTRIES)
+def test_disk_full_while_writing_fields_exits_4(kind, small_disk, tmp_path):
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0", output__every="1000",
+                        output__fields_every="10")
+    out = small_disk / "o"
+    line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), EXIT_WRITE)
+    assert ".vtu" in line
+    assert json.loads((out / "summary.json").read_text())["status"] == "write_failed"
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
 def test_disk_already_full_exits_4(kind, small_disk, tmp_path):
     fill(small_disk)
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="1.0")
@@ -270,16 +280,13 @@ def _wait_for_rows(folder: Path, n: int):
 @pytest.mark.parametrize("kind", ENTRIES)
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_signal_stops_at_end_of_step(kind, sig, tmp_path):
-    if kind == "cli" and sig == signal.SIGTERM:
-        pytest.skip("the Python CLI handles Ctrl-C (SIGINT) only")
     proc = _start_long(kind, tmp_path)
     _wait_for_rows(tmp_path / "o", 2000)
     proc.send_signal(sig)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == EXIT_SIGNAL, (out, err)
     assert "interrupted" in err
-    if kind == "exe":
-        assert "the trace will take about" in err     # announced before the run
+    assert "the trace will take about" in err     # announced before the run
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["status"] == "interrupted"
     rows = trace_rows(tmp_path / "o")

@@ -2,14 +2,16 @@
 
 Exit status: 0 ok, 2 bad input (one line ``dyncontact: MESSAGE`` on stderr, no
 traceback), 3 numerical failure (unstable / newton_failed; the trace is kept),
-4 internal error, 130 interrupted (Ctrl-C).
+4 write failure or internal error, 130 interrupted (Ctrl-C or SIGTERM).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 import time
 import warnings
 from typing import Sequence
@@ -81,6 +83,12 @@ def _bad_input_types() -> tuple[type, ...]:
 
 # --------------------------------------------------------------------------- commands
 
+def _sigterm_as_interrupt(signum, frame):  # noqa: ARG001 - signal handler signature
+    """SIGTERM stops a run like Ctrl-C: at the end of the current chunk of steps, with
+    summary.json saying 'interrupted' (exit 130), as the executable does."""
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
 def cmd_run(args) -> int:
     sets = [parse_set(s) for s in (args.set or [])]
     scene_path = args.scene
@@ -98,6 +106,8 @@ def cmd_run(args) -> int:
         scene = scene_path
     progress = False if args.quiet else None
     waited = False
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
     with warnings.catch_warnings():
         warnings.simplefilter("always", core.DyncontactWarning)
         previous = warnings.showwarning
