@@ -362,6 +362,44 @@ def test_body_at_rest_under_gravity_runs_and_conserves_energy_with_e_load(tmp_pa
     assert np.all(tr["u_n"][1:] < 0) and np.all(tr["active"] == 0)
 
 
+def test_block_sliding_under_gravity_is_not_called_unstable(tmp_path):
+    """A free block (nothing clamped) on a frictionless obstacle, gravity (1, -1): it
+    slides with the horizontal acceleration g_x, so e_kin(T) >= 1/2 m (g_x T)^2 (the
+    vertical vibration only adds to it) while e_total + e_load stays near 0 (HHT dissipates
+    a little). e_total alone grows without bound: the old test called it unstable."""
+    import dyncontact
+
+    g_x, t_end, mass = 1.0, 3.0, 1.0 * 0.1      # rho x area of the 1 x 0.1 bar
+    scene = write_scene(tmp_path / "s.nml", boundary__clamped="''",
+                        material__gravity=f"{g_x}, -1.0", initial__kind="'rest'",
+                        scheme__t_end=str(t_end))
+    res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
+    assert res.status == "ok", res.message
+    tr = res.trace
+    assert tr["e_kin"][-1] >= 0.5 * mass * (g_x * t_end) ** 2
+    assert tr["e_total"][-1] > 10 * np.max(tr["e_total"][:2])
+    e = tr["e_total"] + tr["e_load"]
+    assert np.max(np.abs(e)) < 1e-3 * np.max(np.abs(tr["e_load"]))
+
+
+def test_body_starting_in_the_obstacle_runs(tmp_path):
+    """At rest with its contact nodes 0.01 inside the obstacle and no load: e_total(0) = 0
+    (the old limit was blowup x tiny). The stored penalty energy (e_contact(0) here, where
+    sigma_n(u0) = 0) is the scale; the body is pushed out and e_total + e_contact stays at
+    its initial value (energy-conserving Nitsche, theta = 1)."""
+    import dyncontact
+
+    scene = write_scene(tmp_path / "s.nml", initial__kind="'rest'",
+                        contact__obstacle_point="0.0, 0.01", scheme__t_end="3.0")
+    res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
+    assert res.status == "ok", res.message
+    tr = res.trace
+    assert tr["e_total"][0] == 0.0 and tr["e_contact"][0] > 0
+    assert np.max(tr["e_total"]) > 0.5 * tr["e_contact"][0]      # it was pushed out
+    e = tr["e_total"] + tr["e_contact"]
+    assert np.max(np.abs(e - e[0])) < 0.01 * e[0]
+
+
 def test_no_load_keeps_the_seed_threshold(tmp_path):
     """Without a load the limit is blowup x e_total(0), as before (message and verdict)."""
     import dyncontact
