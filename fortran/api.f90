@@ -97,7 +97,7 @@ subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, element
         deallocate (sim)
         return
     end if
-    n_steps = sim%n_steps
+    n_steps = int(min(sim%n_steps, int(huge(n_steps), kind(sim%n_steps))), c_int)  ! full count: dc_sim_info
     dofs = sim%n_dofs
     elements = sim%n_cells
     contact_facets = sim%n_contact
@@ -123,7 +123,7 @@ subroutine dc_sim_advance(handle, max_steps, steps_done, step, finished, stat, e
     call sim_from_handle(handle, sim)
     call sim_advance(sim, max_steps, done, st, errmsg)
     steps_done = done
-    step = sim%step
+    step = int(min(sim%step, int(huge(step), kind(sim%step))), c_int)
     finished = merge(1, 0, sim%finished)
     stat = st
 end subroutine dc_sim_advance
@@ -478,3 +478,21 @@ subroutine dc_sim_matrix(handle, which, n, nnz, colptr, rowind, val, stat, errms
         errmsg = 'dc_sim_matrix: which must be 1 (M), 2 (K) or 3 (K_theta)'
     end select
 end subroutine dc_sim_matrix
+
+!> Facts about an open run: the 64-bit step count, the expected trace size and the
+!> model's warnings and notes (lines separated by new_line, to print before the run).
+subroutine dc_sim_info(handle, n_steps, trace_bytes, notes)
+    use iso_c_binding, only: c_int64_t
+    use simulation, only: simulation_t, sim_trace_bytes
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle       !! run handle
+    integer(c_int64_t), intent(out) :: n_steps     !! steps to t_end
+    integer(c_int64_t), intent(out) :: trace_bytes !! expected size of trace.csv
+    character(len=4096), intent(out) :: notes      !! warnings and notes
+    type(simulation_t), pointer :: sim
+    call sim_from_handle(handle, sim)
+    n_steps = sim%n_steps
+    trace_bytes = sim_trace_bytes(sim)
+    notes = sim%mdl%notes
+end subroutine dc_sim_info

@@ -8,6 +8,7 @@ module errors
     integer, parameter, public :: STAT_BAD_INPUT = 2     !! bad scene, mesh or argument
     integer, parameter, public :: STAT_NUMERIC = 3       !! blow-up, Newton failure, singular matrix
     integer, parameter, public :: STAT_INTERNAL = 4      !! solver failure, allocation, I/O writing
+    integer, parameter, public :: STAT_INTERRUPTED = 5   !! SIGINT / SIGTERM caught (exit 130)
 
     integer, parameter, public :: MSG_LEN = 512          !! length of error messages
 
@@ -33,6 +34,7 @@ contains
         case (STAT_OK); name = 'ok'
         case (STAT_BAD_INPUT); name = 'bad_input'
         case (STAT_NUMERIC); name = 'numeric_failure'
+        case (STAT_INTERRUPTED); name = 'interrupted'
         case default; name = 'internal_error'
         end select
     end function stat_name

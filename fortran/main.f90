@@ -2,7 +2,10 @@
 program main
     use simulation, only: simulation_t, sim_open, sim_advance, sim_close
     use iso_c_binding, only: c_int
-    use errors, only: STAT_OK, MSG_LEN
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERRUPTED, MSG_LEN
+    use scene, only: PATH_LEN
+    use os_files, only: signals_install
+    use version_info, only: DYNCONTACT_VERSION
     implicit none
     interface
         !> C exit(): ends the program with a status and no extra output.
@@ -11,33 +14,58 @@ program main
             integer(c_int), value :: status
         end subroutine c_exit
     end interface
+    character(len=*), parameter :: USAGE = 'usage: dyncontact SCENE.nml [--out DIR] | --help | --version'
     type(simulation_t) :: sim
-    character(len=1024) :: scene_path, out_dir, arg
+    character(len=PATH_LEN) :: scene_path, out_dir
+    character(len=:), allocatable :: arg
     character(len=MSG_LEN) :: errmsg
     integer :: stat, nargs, i, done
     scene_path = ''; out_dir = ''; errmsg = ''
     nargs = command_argument_count()
     i = 1
     do while (i <= nargs)
-        call get_command_argument(i, arg)
-        if (arg == '--out') then
+        arg = argument(i)
+        select case (arg)
+        case ('--help', '-h')
+            write (*, '(a)') USAGE
+            write (*, '(a)') 'Runs a scene file (Fortran namelist, docs/scenes.md) and writes trace.csv and'
+            write (*, '(a)') 'summary.json into the output folder (&output dir, or DIR).'
+            write (*, '(a)') 'Exit status: 0 ok, 2 bad input, 3 numerical failure, 4 write/internal error,'
+            write (*, '(a)') '130 interrupted (SIGINT/SIGTERM).'
+            call c_exit(0_c_int)
+        case ('--version', '-V')
+            write (*, '(a)') 'dyncontact '//DYNCONTACT_VERSION
+            call c_exit(0_c_int)
+        case ('--out')
+            if (i == nargs) call fail(STAT_BAD_INPUT, '--out needs a folder ('//USAGE//')')
             i = i + 1
-            call get_command_argument(i, out_dir)
-        else
+            arg = argument(i)
+            if (len(arg) == 0) call fail(STAT_BAD_INPUT, '--out: empty folder name')
+            out_dir = arg
+        case default
+            if (len(arg) > 1) then
+                if (arg(1:1) == '-') call fail(STAT_BAD_INPUT, 'unknown option '//arg//' ('//USAGE//')')
+            end if
+            if (len_trim(scene_path) > 0) call fail(STAT_BAD_INPUT, 'two scene files given ('// &
+                                                    trim(scene_path)//', '//arg//'); '//USAGE)
             scene_path = arg
-        end if
+        end select
         i = i + 1
     end do
     if (len_trim(scene_path) == 0) then
-        write (0, '(a)') 'usage: dyncontact SCENE.nml [--out DIR]'
+        write (0, '(a)') USAGE
         call c_exit(2_c_int)
     end if
+    call signals_install(stat, errmsg)
+    if (stat /= STAT_OK) call fail(stat, errmsg)
     call sim_open(sim, scene_path, out_dir, .true., stat, errmsg)
     if (stat /= STAT_OK) call fail(stat, errmsg)
     write (*, '(a, i0, a, i0, a, i0, a, i0, a)') 'dyncontact: '//trim(scene_path)//': ', &
         sim%n_dofs, ' dofs, ', sim%n_cells, ' elements, ', sim%n_contact, &
         ' contact facets; '//trim(sim%scn%scheme_name)//', ', sim%n_steps, &
         ' steps -> '//trim(sim%scn%out_dir)
+    call print_warnings(sim%mdl%notes)
+    flush (6)
     do while (.not. sim%finished)
         call sim_advance(sim, 1000, done, stat, errmsg)
         if (stat /= STAT_OK) exit
@@ -57,13 +85,54 @@ program main
 
 contains
 
-    !> Print the one-line message and exit with the status of the code (2, 3 or 4).
+    !> Command argument i, whole (an argument longer than the path limit is an error).
+    function argument(k) result(a)
+        integer, intent(in) :: k    !! argument number
+        character(len=:), allocatable :: a
+        integer :: n, st
+        call get_command_argument(k, length=n, status=st)
+        if (n > PATH_LEN .or. st > 0) then
+            call fail(STAT_BAD_INPUT, 'argument '//int_str(k)//' is longer than the limit of ' &
+                      //int_str(PATH_LEN)//' characters')
+        end if
+        allocate (character(len=n) :: a)
+        if (n > 0) call get_command_argument(k, a)
+    end function argument
+
+    !> An integer as text.
+    function int_str(k) result(s)
+        integer, intent(in) :: k   !! value
+        character(len=:), allocatable :: s
+        character(len=16) :: buf
+        write (buf, '(i0)') k
+        s = trim(buf)
+    end function int_str
+
+    !> Print the model's warnings and notes, one line each, on stderr.
+    subroutine print_warnings(notes)
+        character(len=*), intent(in) :: notes   !! lines separated by new_line
+        integer :: a, b
+        a = 1
+        do while (a <= len_trim(notes))
+            b = index(notes(a:), new_line('a'))
+            if (b == 0) then
+                b = len_trim(notes) + 1
+            else
+                b = a + b - 1
+            end if
+            if (b > a) write (0, '(a)') 'dyncontact: '//notes(a:b - 1)
+            a = b + 1
+        end do
+    end subroutine print_warnings
+
+    !> Print the one-line message and exit with the status of the code (2, 3, 4 or 130).
     subroutine fail(code, msg)
         integer, intent(in) :: code            !! STAT_* code
         character(len=*), intent(in) :: msg   !! message
         write (0, '(a)') 'dyncontact: '//trim(msg)
         select case (code)
         case (2, 3); call c_exit(int(code, c_int))
+        case (STAT_INTERRUPTED); call c_exit(130_c_int)
         case default; call c_exit(4_c_int)
         end select
     end subroutine fail

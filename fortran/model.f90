@@ -9,6 +9,7 @@ module model
     use bar_mesh, only: bar_mesh_build
     use scene, only: scene_t
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
+    use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t, block2_t, block2_from_csc, &
                       block2_matvec, block2_matvec_km
     use mass_redistribution, only: mass_region, mass_redistribute
@@ -45,6 +46,8 @@ module model
         integer :: n_probe = 0                    !! facets holding the probe (0, 1 or 2)
         integer :: probe_facet(2) = 0             !! their indices in ct
         real(dp) :: probe_xi(2) = 0.0_dp          !! probe position along each
+        character(len=4096) :: notes = ''          !! warnings and notes for the user, one per line
+        real(dp) :: gamma0_min = 0.0_dp           !! smallest gamma0 keeping K_theta PSD (element bound, theta = 1)
     end type model_t
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
@@ -92,6 +95,12 @@ contains
                        //' ('//trim(where)//')')
             return
         end if
+        if (mdl%n_dofs == 0) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &boundary clamped: no free dofs ' &
+                       //'(every node is clamped or slip-fixed: clamped = '''//trim(scn%clamped) &
+                       //''' in '//trim(where)//')')
+            return
+        end if
         call assemble(stat, msg)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': '//trim(msg))
@@ -126,6 +135,17 @@ contains
                        //trim(msg))
             return
         end if
+        if (mdl%has_contact) then
+            call check_normal()
+            call check_gamma0(stat, msg)
+            if (stat /= STAT_OK) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &contact gamma0: '//trim(msg))
+                return
+            end if
+        else
+            call note('warning: no contact boundary (&boundary contact = '''//trim(scn%contact)// &
+                      '''): the probe reports nothing (u_n, v_n, p_n are 0 in trace.csv)')
+        end if
         call add_theta_term()
         call block_copy(stat, msg)
         if (stat /= STAT_OK) then
@@ -133,10 +153,9 @@ contains
             return
         end if
         if (mdl%has_contact) then
-            call locate_probe(stat)
+            call snap_probe(stat, msg)
             if (stat /= STAT_OK) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &contact probe: ' &
-                           //'the point is not on the contact boundary')
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &contact probe: '//trim(msg))
                 return
             end if
         end if
@@ -338,13 +357,222 @@ contains
             mdl%blocked = st == STAT_OK
         end subroutine block_copy
 
-        !> Facets holding the probe point (two when it is a shared node).
-        subroutine locate_probe(st)
+        !> Snap the probe to the nearest point of Gamma_C when it lies within
+        !> PROBE_SNAP x the local facet length (a note reports the point used);
+        !> farther, an error gives the distance and the nearest point.
+        subroutine snap_probe(st, m)
             integer, intent(out) :: st
+            character(len=*), intent(inout) :: m
+            real(dp), parameter :: PROBE_SNAP = 0.5_dp   ! tolerance / facet length
+            real(dp), parameter :: EXACT = 1.0e-9_dp      ! relative distance counted as "on Gamma_C"
+            real(dp) :: p(dim), q(dim), best(dim), xa(dim), xb(dim), t, d, dbest, hbest
             integer :: f
-            real(dp) :: p(dim), xa(dim), xb(dim), t, len2, dist, tol
+            character(len=160) :: buf
             st = STAT_OK
             p = scn%probe(1:dim)
+            dbest = huge(1.0_dp); hbest = 1.0_dp; best = p
+            do f = 1, mdl%ct%n_facets
+                xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
+                if (dim == 1) then
+                    q = xa
+                    d = abs(p(1) - xa(1))
+                    t = facet_size(f)
+                else
+                    xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
+                    t = dot_product(p - xa, xb - xa) / sum((xb - xa)**2)
+                    q = xa + min(1.0_dp, max(0.0_dp, t)) * (xb - xa)
+                    d = norm2(p - q)
+                    t = norm2(xb - xa)
+                end if
+                if (d < dbest) then
+                    dbest = d; best = q; hbest = t
+                end if
+            end do
+            if (dbest > PROBE_SNAP * hbest) then
+                st = STAT_BAD_INPUT
+                write (buf, '(a, es10.3e3, a, 2(es12.5e3, 1x))') 'the point is not on the contact boundary: ' &
+                    //'distance ', dbest, ' to its nearest point ', best
+                m = trim(buf)//' (snapped only within '//trim(real_str(PROBE_SNAP))//' x the facet length)'
+                return
+            end if
+            call locate_probe(best, st)
+            if (st /= STAT_OK) then
+                m = 'the point is not on the contact boundary'
+                return
+            end if
+            if (dbest > EXACT * hbest) then
+                write (buf, '(a, 2(es12.5e3, 1x), a, es10.3e3, a)') 'note: &contact probe snapped to ', &
+                    best(1:dim), '(distance ', dbest, ')'
+                call note(trim(buf))
+            end if
+        end subroutine snap_probe
+
+        !> Length of the owner cell of contact facet f along x (1D facet size).
+        function facet_size(f) result(hf)
+            integer, intent(in) :: f
+            real(dp) :: hf
+            hf = maxval(mdl%msh%x(1, mdl%msh%cells(:, mdl%ct%cell(f)))) &
+                 - minval(mdl%msh%x(1, mdl%msh%cells(:, mdl%ct%cell(f))))
+        end function facet_size
+
+        !> Append one line to the model's notes.
+        subroutine note(line)
+            character(len=*), intent(in) :: line
+            mdl%notes = trim(mdl%notes)//trim(line)//new_line('a')
+        end subroutine note
+
+        !> Warn when obstacle_normal points into the body: the outward normals of the
+        !> contact facets (away from their owner cells), weighted by facet size, should
+        !> point the same way.
+        subroutine check_normal()
+            integer :: f
+            real(dp) :: xa(dim), xb(dim), xc(dim), nf(dim), s_dot, s_len
+            character(len=200) :: buf
+            s_dot = 0.0_dp; s_len = 0.0_dp
+            do f = 1, mdl%ct%n_facets
+                xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
+                xc = sum(mdl%msh%x(:, mdl%msh%cells(:, mdl%ct%cell(f))), dim=2) / (dim + 1)
+                if (dim == 1) then
+                    nf = sign(1.0_dp, xa - xc)
+                else
+                    xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
+                    nf = [xb(2) - xa(2), xa(1) - xb(1)]
+                    if (dot_product(nf, 0.5_dp * (xa + xb) - xc) < 0.0_dp) nf = -nf
+                end if
+                s_dot = s_dot + dot_product(nf, mdl%normal(1:dim))
+                s_len = s_len + norm2(nf)
+            end do
+            if (s_dot < 0.0_dp) then
+                write (buf, '(a, f6.3, a)') 'warning: &contact obstacle_normal points into the body ' &
+                    //'(mean cosine with the outward normal of the contact facets: ', s_dot / s_len, &
+                    '); it should point from the body into the obstacle'
+                call note(trim(buf))
+            end if
+        end subroutine check_normal
+
+        !> gamma0 against the material: with theta = 1, K_theta = K - sum theta |F| /
+        !> gamma_N s s^T stays positive semi-definite if on every cell touching Gamma_C
+        !> sum_f (|F| / gamma_N) s^T K_e^+ s <= 1 (Cauchy-Schwarz in the K_e norm; s is
+        !> orthogonal to the rigid modes). This gives gamma0_min; below it theta = 1 is an
+        !> error, theta = 0 / -1 a warning (weakly enforced contact).
+        subroutine check_gamma0(st, m)
+            integer, intent(out) :: st
+            character(len=*), intent(inout) :: m
+            real(dp), parameter :: SUGGEST = 2.0_dp   ! margin of the suggested value over gamma0_min
+            real(dp) :: ratio_max, g_min, g_sug, stiff
+            real(dp), allocatable :: ratio(:)
+            integer :: f
+            character(len=400) :: buf
+            st = STAT_OK
+            allocate (ratio(mdl%msh%n_cells))
+            ratio = 0.0_dp
+            do f = 1, mdl%ct%n_facets
+                ratio(mdl%ct%cell(f)) = ratio(mdl%ct%cell(f)) + &
+                    mdl%ct%measure(f) * facet_compliance(f) / mdl%ct%gamma(f)
+            end do
+            ratio_max = maxval(ratio)
+            g_min = scn%gamma0 * ratio_max
+            mdl%gamma0_min = g_min
+            if (scn%gamma0 >= g_min) return
+            stiff = scn%young
+            if (dim == 2) stiff = lambda + 2.0_dp * mu
+            g_sug = round_up(SUGGEST * g_min)
+            if (scn%nitsche_theta == 1) then
+                st = STAT_BAD_INPUT
+                write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a, es10.3e3, a)') '', scn%gamma0, &
+                    ' is too small for the material: with theta = 1, K_theta is indefinite below ' &
+                    //'gamma0 = ', g_min, ' (element bound); use gamma0 = ', g_sug, &
+                    ' (the stiffness E or lambda + 2 mu is ', stiff, '; docs/scenes.md)'
+                m = trim(adjustl(buf))
+            else
+                write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
+                    'warning: &contact gamma0 = ', scn%gamma0, &
+                    ' is small for the material (contact weakly enforced, large penetration; ' &
+                    //'theta = 1 would need gamma0 >= ', g_min, '): consider gamma0 = ', g_sug, &
+                    ' (docs/scenes.md)'
+                call note(trim(buf))
+            end if
+        end subroutine check_gamma0
+
+        !> s^T K_e^+ s for contact facet f (owner cell stiffness, rigid modes removed).
+        function facet_compliance(f) result(c)
+            integer, intent(in) :: f
+            real(dp) :: c
+            real(dp) :: xe(2, 3), ke(6, 6), r(6, 3), x(6), scale
+            integer :: ne, nr, a, b, piv(6), info, cell
+            cell = mdl%ct%cell(f)
+            ne = mdl%ndof_e
+            xe = 0.0_dp
+            xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, cell))
+            call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, scn%young, ke(1:ne, 1:ne))
+            ! Rigid modes (translations, rotation about the centroid), orthonormalized.
+            r = 0.0_dp
+            if (dim == 1) then
+                nr = 1
+                r(1:2, 1) = 1.0_dp
+            else
+                nr = 3
+                do a = 1, 3
+                    r(2 * a - 1, 1) = 1.0_dp
+                    r(2 * a, 2) = 1.0_dp
+                    r(2 * a - 1, 3) = -(xe(2, a) - sum(xe(2, 1:3)) / 3.0_dp)
+                    r(2 * a, 3) = xe(1, a) - sum(xe(1, 1:3)) / 3.0_dp
+                end do
+            end if
+            do a = 1, nr
+                do b = 1, a - 1
+                    r(1:ne, a) = r(1:ne, a) - dot_product(r(1:ne, a), r(1:ne, b)) * r(1:ne, b)
+                end do
+                r(1:ne, a) = r(1:ne, a) / norm2(r(1:ne, a))
+            end do
+            scale = 0.0_dp
+            do a = 1, ne
+                scale = scale + ke(a, a)
+            end do
+            scale = scale / ne
+            do b = 1, ne
+                do a = 1, ne
+                    ke(a, b) = ke(a, b) + scale * dot_product(r(a, 1:nr), r(b, 1:nr))
+                end do
+            end do
+            call dense_lu_factor(ne, ke(1:ne, 1:ne), piv(1:ne), info)
+            c = huge(1.0_dp)
+            if (info /= 0) return
+            x(1:ne) = mdl%ct%s(1:ne, f)
+            call dense_lu_solve(ne, ke(1:ne, 1:ne), piv(1:ne), x(1:ne))
+            c = dot_product(mdl%ct%s(1:ne, f), x(1:ne))
+        end function facet_compliance
+
+        !> The smallest of 1, 2, 5 x 10^k that is >= v (v > 0).
+        function round_up(v) result(r)
+            real(dp), intent(in) :: v
+            real(dp) :: r
+            real(dp), parameter :: STEPS(4) = [1.0_dp, 2.0_dp, 5.0_dp, 10.0_dp]
+            real(dp) :: p
+            integer :: k
+            p = 10.0_dp**floor(log10(v))
+            do k = 1, 4
+                r = p * STEPS(k)
+                if (r >= v * (1.0_dp - 1.0e-12_dp)) return
+            end do
+        end function round_up
+
+        !> A real as short text.
+        function real_str(x) result(t)
+            real(dp), intent(in) :: x
+            character(len=:), allocatable :: t
+            character(len=32) :: b
+            write (b, '(g0.3)') x
+            t = trim(adjustl(b))
+        end function real_str
+
+        !> Facets holding the probe point p (two when it is a shared node).
+        subroutine locate_probe(p, st)
+            real(dp), intent(in) :: p(:)
+            integer, intent(out) :: st
+            integer :: f
+            real(dp) :: xa(dim), xb(dim), t, len2, dist, tol
+            st = STAT_OK
             mdl%n_probe = 0
             do f = 1, mdl%ct%n_facets
                 if (mdl%n_probe == 2) exit

@@ -4,7 +4,7 @@
 module simulation
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp, i8
-    use errors, only: STAT_OK, STAT_NUMERIC, STAT_INTERNAL, raise
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
     use scene, only: scene_t, scene_read, scene_to_json
     use model, only: model_t, model_build, model_eval_b, model_apply_jacobian, model_initial, &
                      model_probe, model_mass_apply, model_stiff_apply, model_full_field
@@ -14,31 +14,45 @@ module simulation
     use central_difference, only: central_scheme_t
     use mass_solver, only: mass_solver_apply
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
-    use trace_output, only: make_dirs, trace_open, trace_row, json_real, json_string
+    use trace_output, only: make_dirs, trace_t, trace_open, trace_row, trace_flush, trace_close, &
+                            json_real, json_string, TRACE_ROW_BYTES
+    use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
+                        write_text_atomic, signal_caught
+    use sparse, only: csc_t
     use vtk_output, only: vtk_write_vtu, vtk_write_pvd
     use version_info, only: DYNCONTACT_VERSION
     implicit none
     private
+
+    !> Expected trace size (bytes) above which the size is announced before the run.
+    integer(i8), parameter, public :: BIG_TRACE_BYTES = 100000000_i8
+    real(dp), parameter :: FLUSH_S = 1.0_dp      !! trace rows written at least this often (s)
+    real(dp), parameter :: SUMMARY_S = 5.0_dp    !! summary.json rewritten this often (s)
 
     !> One simulation (owned by the caller; no module state).
     type, public :: simulation_t
         integer :: n_dofs = 0                      !! free dofs
         integer :: n_cells = 0                     !! elements
         integer :: n_contact = 0                   !! contact facets
-        integer :: n_steps = 0                     !! steps to reach t_end
-        integer :: step = 0                        !! steps done
+        integer(i8) :: n_steps = 0                 !! steps to reach t_end
+        integer(i8) :: step = 0                    !! steps done
         logical :: finished = .false.              !! t_end reached or stopped
-        character(len=32) :: status = 'ok'         !! ok | unstable | newton_failed | interrupted
+        character(len=32) :: status = 'ok'         !! ok | running | unstable | newton_failed | interrupted | write_failed
         character(len=512) :: message = ''         !! why the run stopped early
         type(scene_t) :: scn                       !! the scene
         type(model_t) :: mdl                       !! the model
         class(time_scheme_t), allocatable :: scheme !! the time scheme
         type(state_t) :: st                        !! current state
         logical :: outputs = .false.               !! outputs open
-        integer :: trace_unit = -1                 !! trace.csv unit
+        logical :: locked = .false.                !! we hold the output folder's lock
+        type(trace_t) :: trace                     !! trace.csv
         real(dp) :: e0 = 0.0_dp                    !! e_total(0)
+        logical :: has_load = .false.              !! L /= 0 (the test energy includes -u.L)
+        real(dp) :: e_limit = 0.0_dp               !! blow-up threshold of the test energy
         integer(i8) :: clock0 = 0                  !! wall clock at open
         integer(i8) :: clock_rate = 1              !! ticks per second
+        integer(i8) :: clock_flush = 0             !! clock of the last trace write
+        integer(i8) :: clock_summary = 0           !! clock of the last summary.json
         real(dp), allocatable :: work(:)           !! scratch (n_dofs)
         integer :: n_snap = 0                      !! field snapshots written
         real(dp), allocatable :: snap_t(:)         !! their times
@@ -47,7 +61,7 @@ module simulation
 
     public :: sim_bench_floor
     public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_eval_b, sim_apply_jacobian, sim_static, &
-              sim_dof_map
+              sim_dof_map, sim_trace_bytes
 
 contains
 
@@ -61,6 +75,11 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! message
         type(scene_t) :: scn
+        if (len_trim(out_dir) > len(scn%out_dir)) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'output folder: the path is longer than ' &
+                       //int_text(int(len(scn%out_dir), i8))//' characters')
+            return
+        end if
         call scene_read(scene_path, scn, stat, errmsg)
         if (stat /= STAT_OK) return
         if (len_trim(out_dir) > 0) scn%out_dir = out_dir
@@ -75,6 +94,8 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: n
+        real(dp) :: ratio
+        character(len=256) :: msg
         call system_clock(sim%clock0, sim%clock_rate)
         sim%scn = scn
         call model_build(sim%scn, sim%mdl, stat, errmsg)
@@ -83,7 +104,17 @@ contains
         sim%n_dofs = n
         sim%n_cells = sim%mdl%msh%n_cells
         sim%n_contact = sim%mdl%ct%n_facets
-        sim%n_steps = max(0, ceiling(sim%scn%t_end / sim%scn%dt - 1.0e-9_dp))
+        if (len_trim(sim%scn%mesh_file) > 0 .and. sim%n_cells > sim%scn%max_elements) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh file: '// &
+                       int_text(int(sim%n_cells, i8))//' elements exceed the limit of '// &
+                       int_text(int(sim%scn%max_elements, i8))//' (&mesh max_elements)')
+            return
+        end if
+        ! dt = 0 (central): the step count is known once the scheme has chosen dt
+        if (sim%scn%dt > 0.0_dp) then
+            call count_steps(stat, errmsg)
+            if (stat /= STAT_OK) return
+        end if
         allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
                   sim%st%mv(n), sim%work(n))
         call model_initial(sim%mdl, sim%scn, sim%st%u, sim%st%v)
@@ -101,44 +132,156 @@ contains
         end select
         call sim%scheme%init(sim%mdl, sim%scn, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
-        ! a scheme may choose its step (central with dt = 0): the run uses the scheme's
-        if (sim%scheme%dt /= sim%scn%dt) then
+        if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
-            sim%n_steps = max(0, ceiling(sim%scn%t_end / sim%scn%dt - 1.0e-9_dp))
+            call count_steps(stat, errmsg)
+            if (stat /= STAT_OK) return
         end if
 
-        call make_dirs(sim%scn%out_dir, stat, errmsg)
-        if (stat /= STAT_OK) return
-        call trace_open(trim(sim%scn%out_dir)//'/trace.csv', sim%trace_unit, stat, errmsg)
-        if (stat /= STAT_OK) return
-        sim%outputs = .true.
-        sim%status = 'running'
-        call write_summary(sim, stat, errmsg)
-        if (stat /= STAT_OK) return
-        sim%status = 'ok'
-        if (sim%scn%fields_every > 0) then
-            call make_dirs(trim(sim%scn%out_dir)//'/fields', stat, errmsg)
-            if (stat /= STAT_OK) return
-            allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
-                      sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
-            call snapshot(sim, stat, errmsg)
-            if (stat /= STAT_OK) return
+        call open_outputs(stat, errmsg)
+        if (stat /= STAT_OK) then
+            if (sim%trace%fd >= 0) then    ! ours: remove it (never another run's)
+                call trace_close(sim%trace, n)
+                call file_remove(trim(sim%scn%out_dir)//'/trace.csv.tmp')
+            end if
+            if (sim%locked) call lock_release(sim%scn%out_dir)
+            sim%locked = .false.
+            sim%outputs = .false.
+            return
         end if
-        call record(sim, sim%e0)
         sim%finished = sim%n_steps == 0
+
+    contains
+
+        !> Output folder, lock, checks that every target can be written, then the new
+        !> trace under a temporary name; it replaces trace.csv only once its t = 0 row
+        !> and the first summary.json are written (previous results are kept until then).
+        subroutine open_outputs(st, msg)
+            integer, intent(out) :: st
+            character(len=*), intent(inout), optional :: msg
+            character(len=:), allocatable :: dir
+            dir = trim(sim%scn%out_dir)
+            call make_dirs(dir, st, msg)
+            if (st /= STAT_OK) return
+            call lock_take(dir, st, msg)
+            if (st /= STAT_OK) return
+            sim%locked = .true.
+            call check_writable(dir//'/trace.csv', st, msg)
+            if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
+            if (st == STAT_OK .and. sim%scn%fields_every > 0) &
+                call check_writable(dir//'/fields.pvd', st, msg)
+            if (st /= STAT_OK) return
+            call energy_limit()
+            call trace_open(dir//'/trace.csv.tmp', sim%trace, st, msg)
+            if (st /= STAT_OK) return
+            sim%outputs = .true.
+            call record(sim, sim%e0, stat=st, errmsg=msg)
+            if (st == STAT_OK) call trace_flush(sim%trace, st, msg)
+            if (st /= STAT_OK) return
+            sim%status = 'running'
+            call write_summary(sim, st, msg)
+            if (st /= STAT_OK) return
+            call file_rename(dir//'/trace.csv.tmp', dir//'/trace.csv', st, msg)
+            if (st /= STAT_OK) return
+            sim%trace%path = dir//'/trace.csv'
+            call system_clock(sim%clock_flush)
+            sim%clock_summary = sim%clock_flush
+            if (sim%scn%fields_every > 0) then
+                call make_dirs(dir//'/fields', st, msg)
+                if (st /= STAT_OK) return
+                allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
+                          sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
+                call snapshot(sim, st, msg)
+            end if
+        end subroutine open_outputs
+
+        !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
+        !> blowup x e_total(0) as always (the stored penalty energy when e_total(0) = 0,
+        !> e.g. a body at rest starting in the obstacle). With a load L the test energy
+        !> is e_total - u.L and the scale |e_total(0) - u0.L| + the stored penalty energy
+        !> + the load's energy 1/2 L.(K + M/t_end^2)^{-1} L (the static energy
+        !> 1/2 L.K^{-1} L when K dominates; the work of L on the free body over t_end
+        !> when K has rigid modes). Never a running maximum (growth must be seen).
+        subroutine energy_limit()
+            real(dp) :: e_tot, e_scale
+            sim%has_load = any(sim%mdl%load /= 0.0_dp)
+            e_tot = 0.5_dp * dot_product(sim%st%v, sim%st%mv) &
+                    + 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
+            e_scale = e_tot
+            if (sim%has_load) then
+                e_scale = abs(e_tot - dot_product(sim%st%u, sim%mdl%load)) &
+                          + max(sim%st%e_pen, 0.0_dp) + load_energy()
+            else if (.not. e_scale > 0.0_dp) then
+                e_scale = max(sim%st%e_pen, 0.0_dp)
+            end if
+            sim%e_limit = sim%scn%blowup * max(e_scale, tiny(1.0_dp))
+        end subroutine energy_limit
+
+        !> Step count in 64 bits, refused above &scheme max_steps (t_end / dt may not even
+        !> fit); a note on the trace size when it is large.
+        subroutine count_steps(st, em)
+            integer, intent(out) :: st
+            character(len=*), intent(inout), optional :: em
+            st = STAT_OK
+            ratio = sim%scn%t_end / sim%scn%dt
+            if (.not. ratio - 1.0e-9_dp <= real(sim%scn%max_steps, dp)) then
+                call raise(st, em, STAT_BAD_INPUT, trim(sim%scn%path)//': &scheme dt: t_end / dt = ' &
+                           //real_text(ratio)//' steps exceed the limit of '// &
+                           int_text(int(sim%scn%max_steps, i8))//' (&scheme max_steps)')
+                return
+            end if
+            sim%n_steps = max(0_i8, ceiling(ratio - 1.0e-9_dp, i8))
+            if (write_output .and. sim_trace_bytes(sim) > BIG_TRACE_BYTES) then
+                write (msg, '(a, f0.1, a, i0, a)') 'note: the trace will take about ', &
+                    real(sim_trace_bytes(sim), dp) / 1.0e9_dp, ' GB (', &
+                    sim%n_steps / sim%scn%every + 1_i8, ' rows; &output every thins it)'
+                sim%mdl%notes = trim(sim%mdl%notes)//trim(msg)//new_line('a')
+            end if
+        end subroutine count_steps
+
+        !> 1/2 L.(K + M/t_end^2)^{-1} L (0 if the factorization fails).
+        function load_energy() result(e)
+            real(dp) :: e
+            type(csc_t) :: a
+            type(factor_t) :: lu
+            real(dp), allocatable :: x(:)
+            real(dp) :: c
+            integer :: st
+            e = 0.0_dp
+            c = 1.0_dp / max(sim%scn%t_end, sim%scn%dt)**2
+            a = sim%mdl%stiff
+            a%val = sim%mdl%stiff%val + c * sim%mdl%mass%val
+            allocate (x(sim%n_dofs))
+            call ls_factor(lu, a, st)
+            if (st == STAT_OK) call ls_solve(lu, a, sim%mdl%load, x, st)
+            if (st == STAT_OK) e = 0.5_dp * dot_product(sim%mdl%load, x)
+            call ls_free(lu)
+        end function load_energy
     end subroutine sim_open_scene
 
+    !> Expected size of trace.csv in bytes (rows of typical width).
+    function sim_trace_bytes(sim) result(bytes)
+        type(simulation_t), intent(in) :: sim   !! an opened run
+        integer(i8) :: bytes
+        bytes = (sim%n_steps / max(1, sim%scn%every) + 2) * int(TRACE_ROW_BYTES, i8)
+    end function sim_trace_bytes
+
     !> Advance at most max_steps steps. A blow-up or Newton failure stops the run
-    !> (finished = .true.) with STAT_NUMERIC; the trace so far is kept.
+    !> (finished = .true.) with STAT_NUMERIC; the trace so far is kept. A failed write
+    !> stops it with STAT_INTERNAL (status write_failed), a caught SIGINT/SIGTERM at
+    !> the end of a step with STAT_INTERRUPTED (status interrupted).
     subroutine sim_advance(sim, max_steps, steps_done, stat, errmsg)
         type(simulation_t), intent(inout) :: sim            !! the run
         integer, intent(in) :: max_steps                    !! step budget of this call
         integer, intent(out) :: steps_done                  !! steps done in this call
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: e_total
+        real(dp) :: e_total, e_test
         logical :: row
+        integer(i8) :: clock
+        integer :: sig
         character(len=256) :: msg
+        character(len=512) :: wmsg
         stat = STAT_OK
         steps_done = 0
         if (.not. sim%outputs) then
@@ -146,56 +289,125 @@ contains
             return
         end if
         do while (.not. sim%finished .and. steps_done < max_steps)
+            sig = signal_caught()
+            if (sig /= 0) then
+                sim%status = 'interrupted'
+                sim%message = 'interrupted by signal '//int_text(int(sig, i8))//' at t = ' &
+                              //real_text(sim%st%t)//' (trace kept)'
+                sim%finished = .true.
+                call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
+                return
+            end if
             call sim%scheme%step(sim%mdl, sim%st, stat, msg)
             if (stat /= STAT_OK) then
                 sim%status = 'newton_failed'
-                sim%message = msg
+                sim%message = trim(msg)//' at t = '//real_text(sim%st%t + sim%scn%dt)// &
+                              '; check &scheme dt (smaller), &contact gamma0 (of the order of'// &
+                              ' the material stiffness, docs/scenes.md), &scheme newton_tol'
                 sim%finished = .true.
-                call raise(stat, errmsg, STAT_NUMERIC, trim(msg))
+                call raise(stat, errmsg, STAT_NUMERIC, trim(sim%message))
                 return
             end if
             sim%step = sim%step + 1
             steps_done = steps_done + 1
-            sim%st%t = sim%step * sim%scn%dt
-            row = mod(sim%step, sim%scn%every) == 0 .or. sim%step == sim%n_steps
-            call record(sim, e_total, row)
-            if (.not. ieee_is_finite(e_total) .or. &
-                e_total > sim%scn%blowup * max(sim%e0, tiny(1.0_dp))) then
-                if (.not. row) call record(sim, e_total)
+            sim%st%t = real(sim%step, dp) * sim%scn%dt
+            row = mod(sim%step, int(sim%scn%every, i8)) == 0 .or. sim%step == sim%n_steps
+            call record(sim, e_total, row, stat, wmsg)
+            if (stat /= STAT_OK) then
+                call write_failed(wmsg)
+                return
+            end if
+            e_test = e_total
+            if (sim%has_load) e_test = e_total - dot_product(sim%st%u, sim%mdl%load)
+            if (.not. ieee_is_finite(e_test) .or. e_test > sim%e_limit) then
+                if (.not. row) call record(sim, e_total, stat=stat, errmsg=wmsg)
+                if (stat /= STAT_OK) then
+                    call write_failed(wmsg)
+                    return
+                end if
                 sim%status = 'unstable'
-                write (msg, '(a, es12.5, a, es10.3, a, es10.3, a)') 'unstable at t = ', sim%st%t, &
-                    ': e_total = ', e_total, ' exceeds blowup x e_total(0) = ', &
-                    sim%scn%blowup * max(sim%e0, tiny(1.0_dp)), ' (run stopped, trace kept)'
+                if (sim%has_load) then
+                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                        sim%st%t, ': e_total + e_load = ', e_test, ' exceeds blowup x energy scale = ', &
+                        sim%e_limit, ' (run stopped, trace kept)'
+                else if (sim%e0 > 0.0_dp) then
+                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                        sim%st%t, ': e_total = ', e_total, ' exceeds blowup x e_total(0) = ', &
+                        sim%e_limit, ' (run stopped, trace kept)'
+                else
+                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                        sim%st%t, ': e_total = ', e_total, ' exceeds blowup x energy scale = ', &
+                        sim%e_limit, ' (run stopped, trace kept)'
+                end if
                 sim%message = msg
                 sim%finished = .true.
                 call raise(stat, errmsg, STAT_NUMERIC, trim(msg))
                 return
             end if
             if (sim%scn%fields_every > 0) then
-                if (mod(sim%step, sim%scn%fields_every) == 0) then
-                    call snapshot(sim, stat, errmsg)
-                    if (stat /= STAT_OK) return
+                if (mod(sim%step, int(sim%scn%fields_every, i8)) == 0) then
+                    call snapshot(sim, stat, wmsg)
+                    if (stat /= STAT_OK) then
+                        call write_failed(wmsg)
+                        return
+                    end if
                 end if
             end if
             if (sim%step >= sim%n_steps) sim%finished = .true.
+            call system_clock(clock)
+            if (real(clock - sim%clock_flush, dp) > FLUSH_S * sim%clock_rate) then
+                sim%clock_flush = clock
+                call trace_flush(sim%trace, stat, wmsg)
+                if (stat == STAT_OK .and. real(clock - sim%clock_summary, dp) > SUMMARY_S * sim%clock_rate) then
+                    sim%clock_summary = clock
+                    call write_summary(sim, stat, wmsg)
+                end if
+                if (stat /= STAT_OK) then
+                    call write_failed(wmsg)
+                    return
+                end if
+            end if
         end do
+
+    contains
+
+        !> Stop the run after a failed write (sim_close still tries summary.json).
+        subroutine write_failed(m)
+            character(len=*), intent(in) :: m
+            sim%status = 'write_failed'
+            sim%message = m
+            sim%finished = .true.
+            call raise(stat, errmsg, STAT_INTERNAL, trim(m))
+        end subroutine write_failed
     end subroutine sim_advance
 
-    !> Write summary.json (when outputs are open) and release everything.
+    !> Write the last rows and summary.json (when outputs are open), release the
+    !> output folder's lock and everything else. A write error is returned (the
+    !> summary is still attempted after a failed trace write).
     subroutine sim_close(sim, stat, errmsg)
         type(simulation_t), intent(inout) :: sim            !! the run
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: st2
+        character(len=512) :: msg2
         stat = STAT_OK
         if (sim%outputs) then
             if (.not. sim%finished) sim%status = 'interrupted'
-            close (sim%trace_unit)
-            call write_summary(sim, stat, errmsg)
+            if (sim%status == 'running') sim%status = 'ok'
+            call trace_close(sim%trace, stat, errmsg)
+            if (stat /= STAT_OK .and. sim%status /= 'write_failed') then
+                sim%status = 'write_failed'
+                if (present(errmsg)) sim%message = errmsg
+            end if
+            call write_summary(sim, st2, msg2, last=.true.)
+            if (stat == STAT_OK .and. st2 /= STAT_OK) call raise(stat, errmsg, st2, msg2)
             if (stat == STAT_OK .and. sim%n_snap > 0) &
                 call vtk_write_pvd(trim(sim%scn%out_dir)//'/fields.pvd', sim%snap_t(1:sim%n_snap), &
                                    sim%snap_file(1:sim%n_snap), stat, errmsg)
             sim%outputs = .false.
         end if
+        if (sim%locked) call lock_release(sim%scn%out_dir)
+        sim%locked = .false.
         if (allocated(sim%scheme)) then
             select type (s => sim%scheme)
             type is (implicit_scheme_t)
@@ -210,11 +422,14 @@ contains
 
     !> Energies and probe values of the current state; a trace row when `row`
     !> is absent or true. e_total = e_kin + e_el is returned.
-    subroutine record(sim, e_total, row)
+    subroutine record(sim, e_total, row, stat, errmsg)
         type(simulation_t), intent(inout) :: sim   !! the run
         real(dp), intent(out) :: e_total           !! e_kin + e_el
         logical, intent(in), optional :: row       !! write the row (default yes)
-        real(dp) :: e_kin, e_el, e_contact, un, vn, pn
+        integer, intent(out) :: stat               !! status (a failed write)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: e_kin, e_el, e_contact, un, vn, pn, e_load
+        stat = STAT_OK
         e_kin = 0.5_dp * dot_product(sim%st%v, sim%st%mv)
         e_el = 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
         e_contact = sim%st%e_pen - sim%st%e_theta
@@ -222,9 +437,10 @@ contains
         if (present(row)) then
             if (.not. row) return
         end if
+        e_load = 0.0_dp - dot_product(sim%st%u, sim%mdl%load)   ! +0 without load
         call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn)
-        call trace_row(sim%trace_unit, sim%st%t, un, vn, pn, e_kin, e_el, e_contact, e_total, &
-                       sim%st%newton_its, sim%st%active)
+        call trace_row(sim%trace, sim%st%t, un, vn, pn, e_kin, e_el, e_contact, e_total, &
+                       sim%st%newton_its, sim%st%active, e_load, stat, errmsg)
     end subroutine record
 
     !> Write a VTU snapshot of the current displacement and velocity.
@@ -246,61 +462,49 @@ contains
         sim%snap_file(sim%n_snap) = name
     end subroutine snapshot
 
-    !> summary.json (SPEC section 4).
-    subroutine write_summary(sim, stat, errmsg)
+    !> summary.json (SPEC section 4), written atomically (temporary file + rename).
+    subroutine write_summary(sim, stat, errmsg, last)
         type(simulation_t), intent(in) :: sim               !! the run
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: unit, ios, its, facts
+        logical, intent(in), optional :: last               !! the final one: rewrite in place if need be
+        integer :: its, facts
         integer(i8) :: clock
-        character(len=:), allocatable :: path
-        character(len=32) :: buf
-        stat = STAT_OK
-        path = trim(sim%scn%out_dir)//'/summary.json'
-        open (newunit=unit, file=path, status='replace', action='write', iostat=ios)
-        if (ios /= 0) then
-            call raise(stat, errmsg, STAT_INTERNAL, path//': cannot write')
-            return
-        end if
+        character(len=:), allocatable :: text, dt_crit_line
+        character(len=1), parameter :: nl = new_line('a')
         call system_clock(clock)
         its = 0; facts = 0
+        dt_crit_line = ''
         if (allocated(sim%scheme)) then
             its = sim%scheme%newton_total
             facts = sim%scheme%factorizations
-        end if
-        write (unit, '(a)') '{'
-        write (unit, '(a)') '  "status": '//json_string(sim%status)//','
-        write (unit, '(a)') '  "message": '//json_string(sim%message)//','
-        write (buf, '(i0)') sim%step
-        write (unit, '(a)') '  "steps": '//trim(buf)//','
-        write (unit, '(a)') '  "t_end_reached": '//json_real(sim%st%t)//','
-        write (unit, '(a)') '  "wall_s": '//json_real(real(clock - sim%clock0, dp) / sim%clock_rate)//','
-        write (buf, '(i0)') its
-        write (unit, '(a)') '  "newton_its_total": '//trim(buf)//','
-        write (buf, '(i0)') facts
-        write (unit, '(a)') '  "factorizations": '//trim(buf)//','
-        write (buf, '(i0)') sim%n_dofs
-        write (unit, '(a)') '  "dofs": '//trim(buf)//','
-        write (buf, '(i0)') sim%n_cells
-        write (unit, '(a)') '  "elements": '//trim(buf)//','
-        write (buf, '(i0)') sim%n_contact
-        write (unit, '(a)') '  "contact_facets": '//trim(buf)//','
-        write (unit, '(a)') '  "scheme": '//json_string(sim%scn%scheme_name)//','
-        if (allocated(sim%scheme)) then
             select type (s => sim%scheme)
             type is (central_scheme_t)
-                write (unit, '(a)') '  "dt_crit_estimate": '//json_real(s%dt_crit)//','
+                dt_crit_line = '  "dt_crit_estimate": '//json_real(s%dt_crit)//','//nl
             end select
         end if
-        write (unit, '(a)') '  "solver": '//json_string(sim_solver(sim))//','
-        write (unit, '(a)') '  "scene": '//scene_to_json(sim%scn)//','
-        write (unit, '(a)') '  "version": '//json_string(DYNCONTACT_VERSION)
-        write (unit, '(a)') '}'
-        close (unit)
+        text = '{'//nl// &
+               '  "status": '//json_string(sim%status)//','//nl// &
+               '  "message": '//json_string(sim%message)//','//nl// &
+               '  "steps": '//int_text(sim%step)//','//nl// &
+               '  "t_end_reached": '//json_real(sim%st%t)//','//nl// &
+               '  "wall_s": '//json_real(real(clock - sim%clock0, dp) / sim%clock_rate)//','//nl// &
+               '  "newton_its_total": '//int_text(int(its, i8))//','//nl// &
+               '  "factorizations": '//int_text(int(facts, i8))//','//nl// &
+               '  "dofs": '//int_text(int(sim%n_dofs, i8))//','//nl// &
+               '  "elements": '//int_text(int(sim%n_cells, i8))//','//nl// &
+               '  "contact_facets": '//int_text(int(sim%n_contact, i8))//','//nl// &
+               '  "scheme": '//json_string(sim%scn%scheme_name)//','//nl// &
+               dt_crit_line// &
+               '  "solver": '//json_string(sim_solver(sim))//','//nl// &
+               '  "scene": '//scene_to_json(sim%scn)//','//nl// &
+               '  "version": '//json_string(DYNCONTACT_VERSION)//nl//'}'//nl
+        call write_text_atomic(trim(sim%scn%out_dir)//'/summary.json', text, stat, errmsg, &
+                               in_place=present(last))
     end subroutine write_summary
 
     !> The solver of the run's linear systems: the backend of the J0 factors (implicit
-    !> schemes) or of the M factors (pc schemes; 'diagonal' for lumped mass); '' before
+    !> schemes) or of the M factors (pc and central; 'diagonal' for lumped mass); '' before
     !> the scheme is set up.
     function sim_solver(sim) result(name)
         type(simulation_t), intent(in) :: sim   !! the run
@@ -319,10 +523,28 @@ contains
         end select
     end function sim_solver
 
+    !> An integer as text.
+    pure function int_text(i) result(s)
+        integer(i8), intent(in) :: i   !! value
+        character(len=:), allocatable :: s
+        character(len=24) :: buf
+        write (buf, '(i0)') i
+        s = trim(buf)
+    end function int_text
+
+    !> A real as short text with a full exponent (es...e3).
+    pure function real_text(x) result(s)
+        real(dp), intent(in) :: x   !! value
+        character(len=:), allocatable :: s
+        character(len=32) :: buf
+        write (buf, '(es12.5e3)') x
+        s = trim(adjustl(buf))
+    end function real_text
+
     !> Cost floors of a run's step, in microseconds (mean over n_rep repetitions):
-    !> one solve with the cached factors of the iteration matrix by the backend the run
-    !> uses (CHOLMOD LDL^T or UMFPACK LU, see sim_solver; implicit schemes; 0 otherwise),
-    !> one SpMV with K_theta, one M^{-1} application (pc schemes; 0 otherwise).
+    !> one triangular solve with the cached factors of the iteration matrix (implicit
+    !> schemes; 0 otherwise), one SpMV with K_theta, one M^{-1} application (pc
+    !> schemes; 0 otherwise).
     subroutine sim_bench_floor(sim, n_rep, t_solve, t_spmv, t_mass)
         type(simulation_t), intent(inout) :: sim   !! an open run
         integer, intent(in) :: n_rep               !! repetitions (> 0)

@@ -1,13 +1,25 @@
-!> Run outputs: trace.csv (flushed row by row), summary.json, output folders.
+!> Run outputs: trace.csv (buffered, written in whole rows), JSON helpers, output folders.
 module trace_output
-    use iso_c_binding, only: c_int, c_char, c_null_char
+    use iso_c_binding, only: c_int, c_char, c_null_char, c_double
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_INTERNAL, raise
+    use os_files, only: fd_open, fd_write, fd_close
     implicit none
     private
 
     character(len=*), parameter, public :: TRACE_HEADER = &
-        't,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active'  !! trace.csv header
+        't,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active,e_load'  !! trace.csv header
+    integer, parameter :: TRACE_BUFFER = 65536   !! bytes of rows kept before a write
+    integer, parameter, public :: TRACE_ROW_BYTES = 232 !! typical row length (9 reals, 2 small integers)
+    integer, parameter :: ROW_MAX = 320          !! longest row (9 x 24 + separators + 2 integers)
+
+    !> A trace file being written: rows are buffered and written whole.
+    type, public :: trace_t
+        integer :: fd = -1                         !! descriptor, -1 = closed
+        character(len=:), allocatable :: path      !! file name (for messages)
+        character(len=:), allocatable :: buf       !! rows not yet written
+        integer :: n = 0                           !! bytes used in buf
+    end type trace_t
 
     interface
         !> int mkdir(const char *path, mode_t mode) from the C library.
@@ -17,9 +29,16 @@ module trace_output
             integer(c_int), value :: mode
             integer(c_int) :: r
         end function c_mkdir
+        !> es24.16e3 formatting in C (run_guard.c); 0 when the value is left to Fortran.
+        function c_format_es(x, out) bind(C, name='dc_format_es') result(r)
+            import :: c_int, c_char, c_double
+            real(c_double), value :: x
+            character(kind=c_char), intent(out) :: out(24)
+            integer(c_int) :: r
+        end function c_format_es
     end interface
 
-    public :: make_dirs, trace_open, trace_row, json_real, json_string
+    public :: make_dirs, trace_open, trace_row, trace_flush, trace_close, json_real, json_string
 
 contains
 
@@ -43,26 +62,25 @@ contains
         if (r < 0) continue
     end subroutine make_dirs
 
-    !> Open (replace) a trace file and write its header.
-    subroutine trace_open(path, unit, stat, errmsg)
-        character(len=*), intent(in) :: path                !! trace.csv path
-        integer, intent(out) :: unit                        !! open unit
+    !> Open (create or truncate) a trace file and buffer its header; rows are kept in
+    !> memory and written whole (trace_flush), so the file only ever holds complete rows.
+    subroutine trace_open(path, tr, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file to write
+        type(trace_t), intent(out) :: tr                    !! the trace
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: ios
-        stat = STAT_OK
-        open (newunit=unit, file=path, status='replace', action='write', iostat=ios)
-        if (ios /= 0) then
-            call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot write')
-            return
-        end if
-        write (unit, '(a)') TRACE_HEADER
-        flush (unit)
+        call fd_open(path, tr%fd, stat, errmsg)
+        if (stat /= STAT_OK) return
+        tr%path = trim(path)
+        allocate (character(len=TRACE_BUFFER) :: tr%buf)
+        tr%buf(1:len(TRACE_HEADER) + 1) = TRACE_HEADER//new_line('a')
+        tr%n = len(TRACE_HEADER) + 1
     end subroutine trace_open
 
-    !> Write and flush one trace row.
-    subroutine trace_row(unit, t, un, vn, pn, e_kin, e_el, e_contact, e_total, newton_its, active)
-        integer, intent(in) :: unit          !! trace unit
+    !> Append one row (written when the buffer is full or at trace_flush).
+    subroutine trace_row(tr, t, un, vn, pn, e_kin, e_el, e_contact, e_total, newton_its, &
+                         active, e_load, stat, errmsg)
+        type(trace_t), intent(inout) :: tr   !! the trace
         real(dp), intent(in) :: t            !! time
         real(dp), intent(in) :: un           !! normal displacement at the probe
         real(dp), intent(in) :: vn           !! normal velocity at the probe
@@ -73,10 +91,89 @@ contains
         real(dp), intent(in) :: e_total      !! e_kin + e_el
         integer, intent(in) :: newton_its    !! Newton iterations of the step
         integer, intent(in) :: active        !! active contact quadrature points
-        write (unit, '(8(es24.16e3, ","), i0, ",", i0)') t, un, vn, pn, e_kin, e_el, &
-            e_contact, e_total, newton_its, active
-        flush (unit)
+        real(dp), intent(in) :: e_load       !! potential of the load, -u . L
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=ROW_MAX) :: row
+        integer :: n
+        stat = STAT_OK
+        ! Same text as write (row, '(8(es24.16e3, ","), i0, ",", i0, ",", es24.16e3)'),
+        ! without libgfortran's formatted I/O (most of the cost of a row).
+        n = 0
+        call put_real(t); call put_real(un); call put_real(vn); call put_real(pn)
+        call put_real(e_kin); call put_real(e_el); call put_real(e_contact); call put_real(e_total)
+        call put_int(newton_its); call put_int(active)
+        call put_real(e_load)
+        row(n:n) = ' '
+        n = n - 1    ! without the last comma
+        if (tr%n + n + 1 > len(tr%buf)) then
+            call trace_flush(tr, stat, errmsg)
+            if (stat /= STAT_OK) return
+        end if
+        tr%buf(tr%n + 1:tr%n + n) = row(1:n)
+        tr%buf(tr%n + n + 1:tr%n + n + 1) = new_line('a')
+        tr%n = tr%n + n + 1
+
+    contains
+
+        !> Append x as es24.16e3 and a comma.
+        subroutine put_real(x)
+            real(dp), intent(in) :: x
+            if (c_format_es(x, row(n + 1:n + 24)) == 0) write (row(n + 1:n + 24), '(es24.16e3)') x
+            row(n + 25:n + 25) = ','
+            n = n + 25
+        end subroutine put_real
+
+        !> Append k as i0 and a comma.
+        subroutine put_int(k)
+            integer, intent(in) :: k
+            character(len=12) :: d
+            integer :: m, j
+            m = abs(k)
+            j = len(d)
+            do
+                d(j:j) = achar(iachar('0') + mod(m, 10))
+                m = m / 10
+                if (m == 0) exit
+                j = j - 1
+            end do
+            if (k < 0) then
+                j = j - 1
+                d(j:j) = '-'
+            end if
+            row(n + 1:n + len(d) - j + 1) = d(j:)
+            n = n + len(d) - j + 2
+            row(n:n) = ','
+        end subroutine put_int
     end subroutine trace_row
+
+    !> Write the buffered rows (whole rows, one system call).
+    subroutine trace_flush(tr, stat, errmsg)
+        type(trace_t), intent(inout) :: tr                  !! the trace
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        stat = STAT_OK
+        if (tr%fd < 0 .or. tr%n == 0) return
+        call fd_write(tr%fd, tr%buf(1:tr%n), tr%path, stat, errmsg)
+        tr%n = 0
+    end subroutine trace_flush
+
+    !> Flush and close the trace (every error reported).
+    subroutine trace_close(tr, stat, errmsg)
+        type(trace_t), intent(inout) :: tr                  !! the trace
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: st2
+        stat = STAT_OK
+        if (tr%fd < 0) return
+        call trace_flush(tr, stat, errmsg)
+        if (stat == STAT_OK) then
+            call fd_close(tr%fd, tr%path, stat, errmsg)
+        else
+            call fd_close(tr%fd, tr%path, st2)
+        end if
+        tr%fd = -1
+    end subroutine trace_close
 
     !> A real as a JSON number (non-finite values as null).
     function json_real(x) result(s)

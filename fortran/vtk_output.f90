@@ -2,7 +2,7 @@
 !> mesh with displacement and velocity point data, and the .pvd collection index
 !> that lists them with their times.
 module vtk_output
-    use kinds, only: dp
+    use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
     implicit none
     private
@@ -36,6 +36,7 @@ contains
         character(len=*), intent(in), optional :: scalar_name !! its name (default 'scalar')
         real(dp), intent(in), optional :: time              !! optional TimeValue field data
         integer :: n, nc, nv, unit, ios, k, ctype
+        integer(i8) :: expected
         character(len=256) :: iomsg
         character(len=:), allocatable :: sname
 
@@ -74,7 +75,7 @@ contains
         if (present(scalar_name)) sname = xml_escape(trim(scalar_name))
 
         open (newunit=unit, file=path, status='replace', action='write', form='formatted', &
-              iostat=ios, iomsg=iomsg)
+              access='stream', iostat=ios, iomsg=iomsg)
         if (ios /= 0) then
             call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_vtu: cannot open '//trim(path) &
                        //': '//trim(iomsg))
@@ -142,6 +143,9 @@ contains
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '    </Piece>'
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </UnstructuredGrid>'
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
+        ! libgfortran does not report a failed write of its buffer (a full disk) at
+        ! FLUSH or CLOSE: compare the bytes written with the file's size after closing.
+        if (ios == 0) inquire (unit=unit, pos=expected)
 
         if (ios /= 0) then
             close (unit, iostat=k)
@@ -155,6 +159,8 @@ contains
                        //': '//trim(iomsg))
             return
         end if
+        call check_size(path, expected - 1, 'vtk_write_vtu', stat, errmsg)
+        if (stat /= STAT_OK) return
         stat = STAT_OK
     end subroutine vtk_write_vtu
 
@@ -168,6 +174,7 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK, _BAD_INPUT, _INTERNAL
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: unit, ios, k
+        integer(i8) :: expected
         character(len=256) :: iomsg
         character(len=32) :: tbuf
 
@@ -177,7 +184,7 @@ contains
             return
         end if
         open (newunit=unit, file=path, status='replace', action='write', form='formatted', &
-              iostat=ios, iomsg=iomsg)
+              access='stream', iostat=ios, iomsg=iomsg)
         if (ios /= 0) then
             call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_pvd: cannot open '//trim(path) &
                        //': '//trim(iomsg))
@@ -196,6 +203,9 @@ contains
         end do
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </Collection>'
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
+        ! libgfortran does not report a failed write of its buffer (a full disk) at
+        ! FLUSH or CLOSE: compare the bytes written with the file's size after closing.
+        if (ios == 0) inquire (unit=unit, pos=expected)
         if (ios /= 0) then
             close (unit, iostat=k)
             call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_pvd: cannot write '//trim(path) &
@@ -208,8 +218,29 @@ contains
                        //': '//trim(iomsg))
             return
         end if
+        call check_size(path, expected - 1, 'vtk_write_pvd', stat, errmsg)
+        if (stat /= STAT_OK) return
         stat = STAT_OK
     end subroutine vtk_write_pvd
+
+    !> STAT_INTERNAL unless the closed file holds `bytes` bytes (a write lost on a full
+    !> disk shows up here).
+    subroutine check_size(path, bytes, who, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file written
+        integer(i8), intent(in) :: bytes                    !! bytes written to it
+        character(len=*), intent(in) :: who                 !! procedure name (message)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(i8) :: size_now
+        character(len=48) :: b1, b2
+        stat = STAT_OK
+        inquire (file=path, size=size_now)
+        if (size_now == bytes) return
+        write (b1, '(i0)') max(size_now, 0_i8)
+        write (b2, '(i0)') bytes
+        call raise(stat, errmsg, STAT_INTERNAL, who//': cannot write '//trim(path)//': '// &
+                   trim(b1)//' of '//trim(b2)//' bytes written (disk full?)')
+    end subroutine check_size
 
     !> One 3-component Float64 DataArray (rows of a (dim, n) array padded with zeros);
     !> name '' writes an unnamed array (the Points).

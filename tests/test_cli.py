@@ -9,7 +9,9 @@ import pytest
 
 from conftest import ROOT
 
-HEADER = "t,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active"
+HEADER = "t,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active,e_load"
+#: The header before e_load was appended (traces written by version 0.1.0).
+OLD_HEADER = "t,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active"
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
@@ -24,7 +26,7 @@ def _write_run(folder, n=200, t_end=3.0, status="ok", alpha=-0.1, dt=0.0025, h=0
     e_el = 0.125 - e_kin
     e_contact = np.where(p < 0, 1e-3, 0.0)
     rows = np.column_stack([t, u, v, p, e_kin, e_el, e_contact, e_kin + e_el,
-                            np.ones_like(t), (p < 0) * 3.0])
+                            np.ones_like(t), (p < 0) * 3.0, np.zeros_like(t)])
     np.savetxt(folder / "trace.csv", rows, delimiter=",", header=HEADER, comments="",
                fmt="%.10e")
     summary = {
@@ -197,13 +199,17 @@ def test_read_trace_drops_a_partial_last_line(tmp_path):
     from dyncontact.core import TRACE_COLUMNS, read_trace
 
     assert ",".join(TRACE_COLUMNS) == HEADER
-    (tmp_path / "trace.csv").write_text(HEADER + "\n" + ",".join(["1.0"] * 10) + "\n"
+    (tmp_path / "trace.csv").write_text(HEADER + "\n" + ",".join(["1.0"] * 11) + "\n"
                                         + "2.0,3.0,4")
     tr = read_trace(tmp_path)
     assert list(tr) == list(TRACE_COLUMNS)
     assert all(v.shape == (1,) and v.dtype == np.float64 for v in tr.values())
     (tmp_path / "trace.csv").write_text(HEADER + "\n")
     assert read_trace(tmp_path)["t"].shape == (0,)
+    # A trace without the e_load column (older runs) still reads, column by header.
+    (tmp_path / "trace.csv").write_text(OLD_HEADER + "\n" + ",".join(["1.0"] * 10) + "\n")
+    tr = read_trace(tmp_path)
+    assert "e_load" not in tr and tr["active"].shape == (1,)
 
 
 def test_readme_and_docs_exist():

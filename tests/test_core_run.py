@@ -39,23 +39,28 @@ class FakeCore:
         from dyncontact import _core   # the real reader, with another output folder
 
         stat, errmsg = _core.dc_scene_dump(path, json_path)
-        with open(json_path) as f:
+        with open(os.fsdecode(json_path)) as f:
             scene = json.load(f)
         scene["output"]["dir"] = "fake_out"
-        with open(json_path, "w") as f:
+        with open(os.fsdecode(json_path), "w") as f:
             json.dump(scene, f)
         return stat, errmsg
 
     def dc_sim_open(self, path, out_dir, build_only):
-        self.calls.append(("open", path, out_dir, build_only))
+        self.calls.append(("open", os.fsdecode(path), os.fsdecode(out_dir), build_only))
         if self.open_stat:
             return 0, 0, 0, 0, 0, self.open_stat, b"scene.nml: &scheme dt: must be > 0   "
-        self.out_dir, self.step = out_dir, 0
+        self.out_dir, self.step = os.fsdecode(out_dir), 0
+        out_dir = self.out_dir
         os.makedirs(out_dir, exist_ok=True)
         with open(os.path.join(out_dir, "trace.csv"), "w") as f:
-            f.write(HEADER + "\n" + ",".join(["0"] * 10) + "\n")
+            f.write(HEADER + "\n" + ",".join(["0"] * len(core.TRACE_COLUMNS)) + "\n")
         self.open_handles.add(42)
         return 42, self.n_steps, 10, 4, 2, 0, b""
+
+    def dc_sim_info(self, handle):
+        assert handle in self.open_handles
+        return self.n_steps, 232 * self.n_steps, b" " * 4096
 
     def dc_sim_advance(self, handle, max_steps):
         assert handle in self.open_handles
@@ -69,7 +74,7 @@ class FakeCore:
             msg = b"unstable: e_total = 1.2e+03 > blowup * e_total(0) at t = 1.5"
         with open(os.path.join(self.out_dir, "trace.csv"), "a") as f:
             for k in range(self.step + 1, self.step + todo + 1):
-                f.write(",".join([f"{k * 0.01:.6e}"] + ["0"] * 9) + "\n")
+                f.write(",".join([f"{k * 0.01:.6e}"] + ["0"] * (len(core.TRACE_COLUMNS) - 1)) + "\n")
         self.step += todo
         finished = int(self.step >= self.n_steps or stat != 0)
         return todo, self.step, finished, stat, msg

@@ -10,11 +10,11 @@ import pytest
 BUILD = Path(__file__).resolve().parents[1] / "build" / "tests"
 
 
-@pytest.mark.parametrize("name", ["sparse", "umfpack", "cholmod", "vtk_output"])
+@pytest.mark.parametrize("name", ["sparse", "umfpack", "cholmod", "vtk_output", "trace_output"])
 def test_fortran_unit_program(name, tmp_path):
     exe = BUILD / f"test_{name}"
     if not exe.exists():
         pytest.skip(f"{exe} not built (scripts/setup builds it)")
     args = [str(exe)] + ([str(tmp_path)] if name == "vtk_output" else [])
-    proc = subprocess.run(args, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert proc.returncode == 0, proc.stdout + proc.stderr

@@ -309,9 +309,10 @@ def _short_run(tmp_path, scene_file, **keys):
     ("bar2d_theta.nml", {}, "cholmod_ldlt"),
     ("bar2d_pc.nml", {}, "cholmod_ldlt"),                        # consistent M
     ("bar2d_pc.nml", {"scheme__mass": "lumped"}, "diagonal"),
-    # Nitsche θ = 1 with a small γ0: K_θ, and with it J0, is indefinite
-    ("bar2d_hht.nml", {"contact__gamma0": 0.01}, "umfpack_lu"),
-    # θ = 0: K_θ = K, SPD again
+    # (Nitsche θ = 1 with a small γ0, where K_θ and J0 turn indefinite, is refused when
+    # the model is built (test below), so a run never reaches the UMFPACK fallback through
+    # a scene; the fallback is tested on matrices: test_ls_solve_indefinite_... above)
+    # θ = 0: K_θ = K, SPD
     ("bar2d_hht.nml", {"contact__gamma0": 0.01, "contact__theta": 0}, "cholmod_ldlt"),
     # θ = -1: K_θ stays symmetric (θ only scales the s sᵀ term), the non-symmetric
     # part of the tangent is in the Woodbury correction
@@ -321,3 +322,8 @@ def test_summary_reports_solver(tmp_path, scene_file, keys, solver):
     s = _short_run(tmp_path, scene_file, scheme__t_end=0.01, **keys)
     assert s["solver"] == solver
     assert s["steps"] >= 1
+
+
+def test_indefinite_k_theta_is_refused_before_any_solve(tmp_path):
+    with pytest.raises(core.BadInputError, match="&contact gamma0"):
+        _short_run(tmp_path, "bar2d_hht.nml", scheme__t_end=0.01, contact__gamma0=0.01)

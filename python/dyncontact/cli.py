@@ -2,19 +2,27 @@
 
 Exit status: 0 ok, 2 bad input (one line ``dyncontact: MESSAGE`` on stderr, no
 traceback), 3 numerical failure (unstable / newton_failed; the trace is kept),
-4 internal error, 130 interrupted (Ctrl-C).
+4 write failure or internal error, 130 interrupted (Ctrl-C or SIGTERM).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
+import time
+import warnings
 from typing import Sequence
 
 from . import core
 
 PROG = "dyncontact"
+#: Part of the core's message when another live run holds the output folder's lock.
+LOCK_HELD = "is writing into this output folder"
+#: Seconds between two attempts of `run --wait`.
+WAIT_POLL_S = 0.5
 EXIT_OK, EXIT_BAD_INPUT, EXIT_NUMERIC, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 
 
@@ -59,6 +67,12 @@ def parse_set(item: str) -> tuple[str, str, str]:
 
 # --------------------------------------------------------------------------- commands
 
+def _sigterm_as_interrupt(signum, frame):  # noqa: ARG001 - signal handler signature
+    """SIGTERM stops a run like Ctrl-C: at the end of the current chunk of steps, with
+    summary.json saying 'interrupted' (exit 130), as the executable does."""
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
 def cmd_run(args) -> int:
     sets = [parse_set(s) for s in (args.set or [])]
     scene_path = args.scene
@@ -73,7 +87,32 @@ def cmd_run(args) -> int:
     else:
         scene = scene_path
     progress = False if args.quiet else None
-    result = core.run(scene, out=args.out, progress=progress)
+    waited = False
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", core.DyncontactWarning)
+        previous = warnings.showwarning
+
+        def show(message, category, *rest, **kw):
+            if issubclass(category, core.DyncontactWarning):
+                print(f"{PROG}: {' '.join(str(message).split())}", file=sys.stderr, flush=True)
+            else:  # pragma: no cover - other libraries' warnings
+                previous(message, category, *rest, **kw)
+
+        warnings.showwarning = show
+        while True:
+            try:
+                result = core.run(scene, out=args.out, progress=progress)
+                break
+            except core.BadInputError as exc:
+                if not (args.wait and LOCK_HELD in str(exc)):
+                    raise
+                if not waited:
+                    print(f"{PROG}: {' '.join(str(exc).split())}; waiting (--wait)",
+                          file=sys.stderr, flush=True)
+                waited = True
+                time.sleep(WAIT_POLL_S)
     s = result.summary
     if result.status != "ok":
         t_stop = result.trace["t"][-1] if result.trace.get("t") is not None and \
@@ -101,10 +140,21 @@ def cmd_plot(args) -> int:
     labels = args.labels.split(",") if args.labels else None
     if labels is not None and len(labels) != len(args.dirs):
         raise UsageError(f"--labels: {len(labels)} labels for {len(args.dirs)} folders")
-    plot_traces(args.dirs, args.out, labels=labels, title=args.title)
+    out = _png_path(args.out)
+    plot_traces(args.dirs, out, labels=labels, title=args.title)
     if not args.quiet:
-        print(f"{PROG}: wrote {args.out}")
+        print(f"{PROG}: wrote {out}")
     return EXIT_OK
+
+
+def _png_path(out: str) -> str:
+    """The file `plot --out OUT` really writes: OUT/traces.png for an existing folder,
+    OUT.png when OUT has no extension (as matplotlib would), else OUT."""
+    if os.path.isdir(out):
+        return os.path.join(out, "traces.png")
+    if not os.path.splitext(out)[1]:
+        return out + ".png"
+    return out
 
 
 def cmd_mesh(argv: Sequence[str]) -> int:
@@ -130,13 +180,17 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", metavar="DIR", help="output folder (default: the scene's "
                    "&output dir)")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
+    r.add_argument("--wait", action="store_true", help="when another run holds the output "
+                   "folder's lock, wait for it to end instead of stopping (exit 2)")
     r.set_defaults(func=cmd_run)
 
     pl = sub.add_parser("plot", help="overlay the traces of runs in one PNG",
                         description="Draw u_n, v_n, p_n and the energy of one or more "
                         "runs (folders holding trace.csv and summary.json).")
     pl.add_argument("dirs", nargs="+", metavar="DIR")
-    pl.add_argument("--out", required=True, metavar="FILE.png")
+    pl.add_argument("--out", required=True, metavar="FILE.png",
+                    help="PNG to write (an existing folder: FOLDER/traces.png; no extension: "
+                    ".png added)")
     pl.add_argument("--title", metavar="T")
     pl.add_argument("--labels", metavar="L1,L2,...", help="legend labels (default: scheme "
                     "and parameters from summary.json)")

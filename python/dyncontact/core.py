@@ -30,6 +30,7 @@ import os
 import shutil
 import sys
 import tempfile
+import warnings
 from typing import Any, Callable, Mapping
 
 import numpy as np
@@ -42,9 +43,12 @@ __all__ = [
 
 #: Header of trace.csv (SPEC section 4).
 TRACE_COLUMNS = ("t", "u_n", "v_n", "p_n", "e_kin", "e_el", "e_contact", "e_total",
-                 "newton_its", "active")
+                 "newton_its", "active", "e_load")
 
-STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL = 0, 2, 3, 4
+STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED = 0, 2, 3, 4, 5
+
+#: Longest path the Fortran core accepts, in bytes of the file-system encoding.
+PATH_MAX_BYTES = 1024
 
 
 class DyncontactError(RuntimeError):
@@ -53,6 +57,11 @@ class DyncontactError(RuntimeError):
 
 class BadInputError(DyncontactError, ValueError):
     """Bad scene, mesh or argument (Fortran stat 2; exit status 2)."""
+
+
+class DyncontactWarning(UserWarning):
+    """A warning or note of the core about a scene that runs (the CLI prints it as
+    ``dyncontact: warning: ...``)."""
 
 
 class NumericalError(DyncontactError):
@@ -87,7 +96,24 @@ def _check(stat: int, errmsg: bytes | str, what: str) -> None:
         raise BadInputError(msg)
     if stat == STAT_NUMERIC:
         raise NumericalError(msg)
+    if stat == STAT_INTERRUPTED:
+        raise KeyboardInterrupt(msg)
     raise DyncontactError(msg)
+
+
+def _fpath(path, what: str) -> bytes:
+    """A path as the bytes the Fortran core gets (file-system encoding, so that
+    non-ASCII names work), refused when longer than the core's limit."""
+    b = os.fsencode(path)
+    if len(b) > PATH_MAX_BYTES:
+        raise BadInputError(f"{what}: the path is {len(b)} bytes long, over the limit of "
+                            f"{PATH_MAX_BYTES} ({os.fsdecode(b)[:60]}...)")
+    return b
+
+
+def _notes(text) -> list[str]:
+    """The core's notes (one per line) as a list."""
+    return [line.strip() for line in _str(text).splitlines() if line.strip()]
 
 
 def _f64(a, shape=None) -> np.ndarray:
@@ -177,7 +203,8 @@ def scene_dump(path: str | os.PathLike) -> dict[str, Any]:
     """
     with tempfile.TemporaryDirectory(prefix="dyncontact-") as tmp:
         json_path = os.path.join(tmp, "scene.json")
-        stat, errmsg = _core().dc_scene_dump(os.fsencode(path), os.fsencode(json_path))
+        stat, errmsg = _core().dc_scene_dump(_fpath(path, "scene file"),
+                                             _fpath(json_path, "temporary file"))
         _check(stat, errmsg, "reading the scene")
         with open(json_path, encoding="utf-8", errors="surrogateescape") as f:
             return json.load(f)
@@ -278,10 +305,13 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         out_dir = os.path.abspath(os.fspath(out))
 
         handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
-            path, out_dir, 0)
+            _fpath(path, "scene file"), _fpath(out_dir, "output folder"), 0)
         _check(stat, errmsg, "opening the run")
         message = ""
         try:
+            n_steps, _bytes, notes = core.dc_sim_info(handle)
+            for note in _notes(notes):
+                warnings.warn(note, DyncontactWarning, stacklevel=2)
             chunk = max(100, int(n_steps) // 200)
             with _progress_bar(progress, int(n_steps), os.path.basename(out_dir)) as bar:
                 finished = 0
@@ -330,7 +360,7 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
     (n_facets), ``group_dim`` and ``group_names`` (lists).
     """
     core = _core()
-    p = os.fspath(path)
+    p = _fpath(path, "mesh file")
     dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(p, int(dim), float(length),
                                                             float(width), float(h))
     _check(stat, errmsg, "reading the mesh")
@@ -417,7 +447,7 @@ class Model:
             else:
                 path = _write_scene(scene, self._tmp)
             (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
-             errmsg) = _core().dc_sim_open(path, "", 1)
+             errmsg) = _core().dc_sim_open(_fpath(path, "scene file"), b"", 1)
             _check(stat, errmsg, "building the model")
             self.handle = handle
         except BaseException:
@@ -495,7 +525,9 @@ class Stepper:
             else:
                 path = _write_scene(scene, self._tmp)
             (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
-             errmsg) = _core().dc_sim_open(path, os.path.abspath(os.fspath(out)), 0)
+             errmsg) = _core().dc_sim_open(_fpath(path, "scene file"),
+                                           _fpath(os.path.abspath(os.fspath(out)),
+                                                  "output folder"), 0)
             _check(stat, errmsg, "opening the run")
             self.handle = handle
             self.finished = False

@@ -1,0 +1,238 @@
+!> Checked file operations, the output-folder lock and the signal flag, through the
+!> small C layer run_guard.c (POSIX calls with their errno). Every failure comes back
+!> as a status and a one-line message naming the path and the system's reason.
+module os_files
+    use iso_c_binding, only: c_int, c_long, c_char, c_null_char
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
+    implicit none
+    private
+
+    character(len=*), parameter, public :: LOCK_NAME = '.dyncontact.lock' !! lock file of an output folder
+
+    interface
+        function c_signals_install() bind(C, name='dc_signals_install') result(r)
+            import :: c_int
+            integer(c_int) :: r
+        end function c_signals_install
+        function c_signal_caught() bind(C, name='dc_signal_caught') result(r)
+            import :: c_int
+            integer(c_int) :: r
+        end function c_signal_caught
+        function c_fd_open(path) bind(C, name='dc_fd_open') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int) :: r
+        end function c_fd_open
+        function c_fd_write(fd, buf, n) bind(C, name='dc_fd_write') result(r)
+            import :: c_int, c_char, c_long
+            integer(c_int), value :: fd
+            character(kind=c_char), intent(in) :: buf(*)
+            integer(c_long), value :: n
+            integer(c_int) :: r
+        end function c_fd_write
+        function c_fd_close(fd) bind(C, name='dc_fd_close') result(r)
+            import :: c_int
+            integer(c_int), value :: fd
+            integer(c_int) :: r
+        end function c_fd_close
+        function c_rename(from, to) bind(C, name='dc_rename') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: from(*), to(*)
+            integer(c_int) :: r
+        end function c_rename
+        function c_unlink(path) bind(C, name='dc_unlink') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int) :: r
+        end function c_unlink
+        function c_check_writable(path) bind(C, name='dc_check_writable') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int) :: r
+        end function c_check_writable
+        subroutine c_strerror(err, msg, n) bind(C, name='dc_strerror')
+            import :: c_int, c_char
+            integer(c_int), value :: err
+            character(kind=c_char), intent(out) :: msg(*)
+            integer(c_int), value :: n
+        end subroutine c_strerror
+        function c_lock_take(path) bind(C, name='dc_lock_take') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int) :: r
+        end function c_lock_take
+        function c_lock_release(path) bind(C, name='dc_lock_release') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int) :: r
+        end function c_lock_release
+    end interface
+
+    public :: signals_install, signal_caught, fd_open, fd_write, fd_close, file_rename, &
+              file_remove, check_writable, lock_take, lock_release, write_text_atomic, sys_error
+
+contains
+
+    !> The system's text for an errno value.
+    function sys_error(err) result(s)
+        integer, intent(in) :: err    !! errno
+        character(len=:), allocatable :: s
+        character(len=128) :: buf
+        call c_strerror(int(err, c_int), buf, int(len(buf), c_int))
+        s = trim(buf)
+    end function sys_error
+
+    !> Install the SIGINT / SIGTERM handlers (they only set a flag; see signal_caught).
+    subroutine signals_install(stat, errmsg)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        stat = STAT_OK
+        r = c_signals_install()
+        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, 'cannot install signal handlers: ' &
+                               //sys_error(r))
+    end subroutine signals_install
+
+    !> The signal number caught since signals_install (0 = none, always 0 without it).
+    function signal_caught() result(sig)
+        integer :: sig
+        sig = c_signal_caught()
+    end function signal_caught
+
+    !> Open (create or truncate) a file for writing; fd >= 0 on success.
+    subroutine fd_open(path, fd, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file
+        integer, intent(out) :: fd                          !! descriptor
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        stat = STAT_OK
+        r = c_fd_open(trim(path)//c_null_char)
+        fd = r
+        if (r < 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot write: ' &
+                              //sys_error(-r))
+    end subroutine fd_open
+
+    !> Write all of buf to fd (a short write, e.g. a full disk, is an error).
+    subroutine fd_write(fd, buf, path, stat, errmsg)
+        integer, intent(in) :: fd                           !! descriptor
+        character(len=*), intent(in) :: buf                 !! bytes to write
+        character(len=*), intent(in) :: path                !! file name (for the message)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        stat = STAT_OK
+        if (len(buf) == 0) return
+        r = c_fd_write(int(fd, c_int), buf, int(len(buf), c_long))
+        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': write failed: ' &
+                               //sys_error(r))
+    end subroutine fd_write
+
+    !> Close fd, reporting a delayed write error.
+    subroutine fd_close(fd, path, stat, errmsg)
+        integer, intent(in) :: fd                           !! descriptor
+        character(len=*), intent(in) :: path                !! file name (for the message)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        stat = STAT_OK
+        r = c_fd_close(int(fd, c_int))
+        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': close failed: ' &
+                               //sys_error(r))
+    end subroutine fd_close
+
+    !> Rename a file (atomic within one file system, replaces `to`).
+    subroutine file_rename(from, to, stat, errmsg)
+        character(len=*), intent(in) :: from                !! existing file
+        character(len=*), intent(in) :: to                  !! new name
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        stat = STAT_OK
+        r = c_rename(trim(from)//c_null_char, trim(to)//c_null_char)
+        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(to)//': cannot replace: ' &
+                               //sys_error(r))
+    end subroutine file_rename
+
+    !> Remove a file if it exists (errors ignored: used for clean-up only).
+    subroutine file_remove(path)
+        character(len=*), intent(in) :: path   !! file
+        integer :: r
+        r = c_unlink(trim(path)//c_null_char)
+    end subroutine file_remove
+
+    !> STAT_INTERNAL if `path` exists and cannot be written by us.
+    subroutine check_writable(path, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        stat = STAT_OK
+        r = c_check_writable(trim(path)//c_null_char)
+        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot write: ' &
+                               //sys_error(r)//' (previous results left untouched)')
+    end subroutine check_writable
+
+    !> Take the lock of an output folder (LOCK_NAME holding our pid). A folder locked
+    !> by a live process is STAT_BAD_INPUT; a stale lock (dead pid) is taken over.
+    subroutine lock_take(dir, stat, errmsg)
+        character(len=*), intent(in) :: dir                 !! output folder
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        character(len=24) :: buf
+        stat = STAT_OK
+        r = c_lock_take(trim(dir)//'/'//LOCK_NAME//c_null_char)
+        if (r < 0) then
+            write (buf, '(i0)') -r
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(dir)//': another run (pid '//trim(buf) &
+                       //') is writing into this output folder (lock '//LOCK_NAME//')')
+        else if (r > 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, trim(dir)//'/'//LOCK_NAME//': cannot create: ' &
+                       //sys_error(r))
+        end if
+    end subroutine lock_take
+
+    !> Release the lock of an output folder (only if it is ours).
+    subroutine lock_release(dir)
+        character(len=*), intent(in) :: dir   !! output folder
+        integer :: r
+        r = c_lock_release(trim(dir)//'/'//LOCK_NAME//c_null_char)
+    end subroutine lock_release
+
+    !> Write a whole text file atomically: path.tmp, then rename over path. On any
+    !> failure the previous file is left as it was and the temporary one removed;
+    !> with `in_place`, a failure is followed by one attempt to rewrite path itself
+    !> (a last summary on a full disk, where a second file does not fit).
+    recursive subroutine write_text_atomic(path, text, stat, errmsg, in_place)
+        character(len=*), intent(in) :: path                !! file
+        character(len=*), intent(in) :: text                !! contents
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(in), optional :: in_place           !! fall back to rewriting path
+        integer :: fd, st2, r
+        character(len=:), allocatable :: tmp
+        tmp = trim(path)//'.tmp'
+        call fd_open(tmp, fd, stat, errmsg)
+        if (stat /= STAT_OK) return
+        call fd_write(fd, text, path, stat, errmsg)
+        if (stat /= STAT_OK) then
+            call fd_close(fd, tmp, st2)
+        else
+            call fd_close(fd, path, stat, errmsg)
+        end if
+        if (stat == STAT_OK) call file_rename(tmp, path, stat, errmsg)
+        if (stat /= STAT_OK) call file_remove(tmp)
+        if (stat == STAT_OK .or. .not. present(in_place)) return
+        if (.not. in_place) return
+        call fd_open(path, fd, st2)
+        if (st2 /= STAT_OK) return
+        call fd_write(fd, text, path, st2)
+        if (st2 == STAT_OK) then
+            call fd_close(fd, path, st2)
+        else
+            call fd_close(fd, path, r)
+        end if
+        if (st2 == STAT_OK) stat = STAT_OK
+    end subroutine write_text_atomic
+end module os_files

@@ -1,0 +1,232 @@
+/* run_guard.c: the few POSIX calls the Fortran core needs and Fortran cannot make
+ * itself (bound through bind(C) in run_files.f90 and main.f90):
+ *   - SIGINT / SIGTERM handlers that only set a flag, polled at the end of each step;
+ *   - an output-folder lock file created with O_EXCL that holds the owner's pid;
+ *   - whole-buffer writes to a file descriptor (every error reported, EINTR retried),
+ *     close, rename and unlink with their errno, so that a full disk is never silent.
+ * Every function returns 0 on success and errno (> 0) on failure unless said otherwise. */
+#include <errno.h>
+#include <math.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <unistd.h>
+
+static volatile sig_atomic_t dc_signal_flag = 0;
+
+static void dc_on_signal(int sig) { dc_signal_flag = sig; }
+
+/* Install the SIGINT and SIGTERM handlers (executable only). */
+int dc_signals_install(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = dc_on_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    if (sigaction(SIGINT, &sa, NULL) != 0) return errno;
+    if (sigaction(SIGTERM, &sa, NULL) != 0) return errno;
+    return 0;
+}
+
+/* The signal caught since the handlers were installed (0 = none). */
+int dc_signal_caught(void) { return (int)dc_signal_flag; }
+
+/* Open path for writing (created or truncated, mode 0644). Returns fd >= 0 or -errno. */
+int dc_fd_open(const char *path)
+{
+    int fd;
+    do {
+        fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    } while (fd < 0 && errno == EINTR);
+    return fd >= 0 ? fd : -errno;
+}
+
+/* Write all n bytes of buf (one write(2) per call unless the kernel takes less). On
+ * failure (e.g. ENOSPC after a short write) the file is cut back to the last newline
+ * written, so that it never ends with part of a line (a trace keeps whole rows). */
+int dc_fd_write(int fd, const char *buf, long n)
+{
+    long done = 0;
+    off_t start = lseek(fd, 0, SEEK_CUR);
+    while (done < n) {
+        ssize_t w = write(fd, buf + done, (size_t)(n - done));
+        int err = 0;
+        if (w < 0) {
+            if (errno == EINTR) continue;
+            err = errno;
+        } else if (w == 0) {
+            err = ENOSPC;
+        }
+        if (err != 0) {
+            if (start >= 0 && done > 0) {
+                long keep = done;
+                while (keep > 0 && buf[keep - 1] != '\n') keep--;
+                if (ftruncate(fd, start + keep) == 0) lseek(fd, start + keep, SEEK_SET);
+            }
+            return err;
+        }
+        done += w;
+    }
+    return 0;
+}
+
+/* Close a descriptor (its error, e.g. a delayed ENOSPC on a network disk, is returned). */
+int dc_fd_close(int fd) { return close(fd) == 0 ? 0 : errno; }
+
+int dc_rename(const char *from, const char *to) { return rename(from, to) == 0 ? 0 : errno; }
+
+int dc_unlink(const char *path) { return unlink(path) == 0 || errno == ENOENT ? 0 : errno; }
+
+/* 0 if path does not exist or is writable by us, else errno of access(W_OK). */
+int dc_check_writable(const char *path)
+{
+    if (access(path, F_OK) != 0) return 0;
+    return access(path, W_OK) == 0 ? 0 : errno;
+}
+
+/* Short text of an errno value, copied into msg (len bytes, blank-padded for Fortran). */
+void dc_strerror(int err, char *msg, int len)
+{
+    const char *s = strerror(err);
+    int i, n = (int)strlen(s);
+    for (i = 0; i < len; i++) msg[i] = i < n ? s[i] : ' ';
+}
+
+/* Take the lock file path: created with O_EXCL, holding our pid. A lock whose pid is
+ * not a live process (stale, e.g. after kill -9) is taken over.
+ * Returns 0 (taken), -pid (held by the live process pid) or errno (> 0). */
+int dc_lock_take(const char *path)
+{
+    char buf[32];
+    int attempt;
+    for (attempt = 0; attempt < 3; attempt++) {
+        int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+        if (fd >= 0) {
+            int n = snprintf(buf, sizeof buf, "%ld\n", (long)getpid());
+            int err = dc_fd_write(fd, buf, n);
+            int err2 = dc_fd_close(fd);
+            if (err == 0) err = err2;
+            if (err != 0) unlink(path);
+            return err;
+        }
+        if (errno != EEXIST) return errno;
+        /* Held: by whom? */
+        fd = open(path, O_RDONLY | O_CLOEXEC);
+        if (fd < 0) {
+            if (errno == ENOENT) continue;   /* released meanwhile: try again */
+            return errno;
+        }
+        ssize_t r = read(fd, buf, sizeof buf - 1);
+        close(fd);
+        long pid = 0;
+        if (r > 0) {
+            buf[r] = '\0';
+            pid = strtol(buf, NULL, 10);
+        }
+        if (pid <= 0) {
+            /* Being written by its owner right now (O_EXCL then write): treat as held
+             * unless it stays empty; an empty file left by a crash is taken over on the
+             * next attempt only if it is older than a second. */
+            struct stat st;
+            if (stat(path, &st) == 0 && st.st_size == 0) {
+                usleep(100000);
+                if (stat(path, &st) == 0 && st.st_size == 0) {
+                    unlink(path);
+                    continue;
+                }
+            }
+            continue;
+        }
+        if (kill((pid_t)pid, 0) == 0 || errno == EPERM) return (int)-pid;
+        /* Stale: the process is gone. Remove and try again. */
+        unlink(path);
+    }
+    return EEXIST;
+}
+
+/* Remove the lock file if it holds our pid. */
+int dc_lock_release(const char *path)
+{
+    char buf[32];
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return 0;
+    ssize_t r = read(fd, buf, sizeof buf - 1);
+    close(fd);
+    if (r <= 0) return 0;
+    buf[r] = '\0';
+    if (strtol(buf, NULL, 10) != (long)getpid()) return 0;
+    return dc_unlink(path);
+}
+
+/* Format x exactly as Fortran's es24.16e3 edit descriptor does (24 characters: sign or
+ * blank, d.dddddddddddddddd, E, exponent sign, 3 digits; correctly rounded to 17
+ * significant digits), into out[0..23]. Returns 1, or 0 when x is not handled here
+ * (not finite, a decimal exponent whose power of ten is not exact in a double, or a
+ * value within 1e-6 of a rounding tie): the caller then uses the Fortran edit
+ * descriptor itself. Why: a trace row holds 9 reals, and libgfortran's formatted
+ * output costs ~0.8 us per real, more than this exact path.
+ * How: with p = 10^k exact (|k| <= 22), a*p = hi + lo exactly (fma), or a/p = q + r/p
+ * with r = fma(-q, p, a) exact; the integer part and the rounding come from hi and lo. */
+static const double dc_pow10[23] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10,
+    1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+
+int dc_format_es(double x, char *out)
+{
+    double a = fabs(x), hi, lo, h, rem;
+    long long n;
+    int e10, k, i, tries;
+    if (!isfinite(x)) return 0;
+    if (a == 0.0) {
+        memcpy(out, " 0.0000000000000000E+000", 24);
+        if (signbit(x)) out[0] = '-';
+        return 1;
+    }
+    e10 = (int)floor(log10(a));
+    for (tries = 0; tries < 3; tries++) {
+        k = 16 - e10;
+        if (k >= 0 && k <= 22) {
+            hi = a * dc_pow10[k];
+            lo = fma(a, dc_pow10[k], -hi);
+        } else if (k < 0 && k >= -22) {
+            hi = a / dc_pow10[-k];
+            lo = fma(-hi, dc_pow10[-k], a) / dc_pow10[-k];
+        } else {
+            return 0;
+        }
+        if (hi >= 9.0e18) { e10++; continue; }
+        h = floor(hi);                 /* integer arithmetic from here: h may be >= 2^53 */
+        rem = (hi - h) + lo;
+        n = (long long)h + (long long)floor(rem);
+        rem -= floor(rem);
+        if (fabs(rem - 0.5) < 1e-6) return 0;
+        n += rem > 0.5 ? 1 : 0;
+        if (n < 10000000000000000LL) { e10--; continue; }
+        if (n >= 100000000000000000LL) {
+            if (n == 100000000000000000LL && rem > 0.5) {
+                n = 10000000000000000LL;   /* rounded up to the next decade */
+                e10++;
+                break;
+            }
+            e10++;
+            continue;
+        }
+        break;
+    }
+    if (tries == 3 || e10 > 999 || e10 < -999) return 0;
+    out[0] = signbit(x) ? '-' : ' ';
+    for (i = 18; i >= 3; i--) { out[i] = (char)('0' + n % 10); n /= 10; }
+    out[1] = (char)('0' + n);
+    out[2] = '.';
+    out[19] = 'E';
+    out[20] = e10 < 0 ? '-' : '+';
+    k = e10 < 0 ? -e10 : e10;
+    out[21] = (char)('0' + k / 100);
+    out[22] = (char)('0' + (k / 10) % 10);
+    out[23] = (char)('0' + k % 10);
+    return 1;
+}
