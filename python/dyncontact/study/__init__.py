@@ -16,6 +16,5 @@ resume where it stopped.
 >>> report["orders"][0]                                         # doctest: +SKIP
 """
 
-from .sweep import Task, make_task, sweep  # noqa: F401
-
-__all__ = ["Task", "make_task", "sweep"]
+__all__: list[str] = []   # the modules: sweep, analyses, convergence, workprecision,
+                          # stability, claims, cli

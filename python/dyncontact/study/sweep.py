@@ -334,14 +334,21 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
     records: list[dict[str, Any] | None] = [None] * len(tasks)
     keys: list[str | None] = [None] * len(tasks)
     todo: list[int] = []
-    n_failed = 0
+    say = log or (lambda s: print(s, file=sys.stderr, flush=True))
     with _bar(len(tasks), desc, progress) as bar:
+
+        def done(i: int, rec: dict[str, Any]) -> None:
+            records[i] = rec
+            if rec["status"] == ERROR:
+                msg = rec["message"].splitlines()[0] if rec["message"] else ""
+                say(f"{desc}: run failed ({_describe(tasks[i])}): {msg}")
+            bar.update(1)
+
         for i, task in enumerate(tasks):
             try:
                 keys[i] = task_key(task)
             except Exception as exc:  # noqa: BLE001 - e.g. a bad key: an error record
-                records[i] = _error_record(task, None, f"{type(exc).__name__}: {exc}")
-                bar.update(1)
+                done(i, _error_record(task, None, f"{type(exc).__name__}: {exc}"))
                 continue
             hit = lookup(cache, keys[i])
             if hit is not None:
@@ -353,16 +360,6 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
         if log:
             log(f"{desc}: {len(tasks)} runs, {len(tasks) - len(todo)} from the cache, "
                 f"{len(todo)} to do")
-
-        def done(i: int, rec: dict[str, Any]) -> None:
-            nonlocal n_failed
-            records[i] = rec
-            if rec["status"] == ERROR:
-                n_failed += 1
-                msg = rec["message"].splitlines()[0] if rec["message"] else ""
-                (log or (lambda s: print(s, file=sys.stderr)))(
-                    f"{desc}: run failed ({_describe(tasks[i])}): {msg}")
-            bar.update(1)
 
         if todo and scheduler is not None:
             _sweep_dask(tasks, keys, todo, cache, scheduler, done)
