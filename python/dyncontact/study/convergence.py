@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
-from .common import (SCHEMES, fmt, md_table, new_figure, save_figure, scheme_list, slope,
+from .common import (fmt, md_table, new_figure, save_figure, scheme_list, slope,
                      write_base_scenes, write_csv)
 from .analyses import FIELD_NORMS
 from .sweep import make_task, sweep
