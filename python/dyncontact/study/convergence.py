@@ -137,6 +137,10 @@ def _plot(rows, schemes, path):
         ax.set_title(NORM_LABELS[norm], fontsize=9)
         ax.set_xlabel("h")
         ax.grid(True, which="both", alpha=0.3)
+    from matplotlib.ticker import NullFormatter
+
+    for ax in axes.flat[:7]:
+        ax.xaxis.set_minor_formatter(NullFormatter())
     ax = axes.flat[7]
     handles, labels = axes.flat[0].get_legend_handles_labels()
     ax.legend(handles, labels, loc="center", fontsize=8)

@@ -41,7 +41,7 @@ GRIDS = {
              "h": (0.1, 0.05), "gamma0": (0.01, 1.0, 10.0, 100.0),
              "theta": (-1, 0, 1),
              "dt_over_h": {"implicit": (1 / 80, 1 / 20, 1 / 5, 1.0),
-                           "explicit": (1 / 100, 1 / 20, 1 / 10, 1 / 5, 1 / 2)},
+                           "explicit": (1 / 100, 1 / 20, 1 / 10, 1 / 5, 1 / 2, 1.0)},
              "t_end": 30.0, "rounds": 4},
     "quick": {"schemes": ("hht-0.1", "pc", "pc_lumped"),
               "h": (0.1,), "gamma0": (10.0,), "theta": (-1, 1),
@@ -317,7 +317,9 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
         path = os.path.join(out, f"stability_h{h:g}.png")
         pngs.append(save_figure(fig, path))
     # critical dt / h
-    fig, axes = new_figure(1, len(g["h"]), 0.9 * len(schemes) + 2.5, 0.35 * len(combos) + 2)
+    fig, axes = new_figure(len(g["h"]), 1, 0.9 * len(schemes) + 3, 0.3 * len(combos) + 2.2)
+    finite = [c["dt_crit_over_h"] for c in crit_rows if c.get("dt_crit_over_h")]
+    lims = (math.log10(min(finite)), math.log10(max(finite))) if finite else (None, None)
     for ax, h in zip(axes.flat, g["h"]):
         z = np.full((len(combos), len(schemes)), np.nan)
         for i, (g0, th) in enumerate(combos):
@@ -334,12 +336,14 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
                 else:
                     txt = f"<{c['dt_crit_hi'] / h:.3g}"
                 ax.text(j, i, txt, ha="center", va="center", fontsize=6)
-        im = ax.imshow(np.log10(z), aspect="auto", cmap="viridis")
+        im = ax.imshow(np.log10(z), aspect="auto", cmap="YlGnBu", vmin=lims[0],
+                       vmax=lims[1])
         ax.set_xticks(range(len(schemes)))
         ax.set_xticklabels([s.key for s in schemes], rotation=45, ha="right", fontsize=7)
         ax.set_yticks(range(len(combos)))
         ax.set_yticklabels([f"γ0={g0:g} θ={th:+d}" for g0, th in combos], fontsize=6)
-        ax.set_title(f"critical Δt/h (bisection), h = {h:g}", fontsize=9)
+        ax.set_title(f"critical Δt/h, h = {h:g} (bisection; > / <: stable / unstable on "
+                     f"the whole grid)", fontsize=9)
         fig.colorbar(im, ax=ax, label="log10(Δt_crit/h)")
     pngs.append(save_figure(fig, os.path.join(out, "critical_dt.png")))
     return pngs

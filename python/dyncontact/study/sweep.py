@@ -57,6 +57,8 @@ __all__ = ["Task", "sweep", "task_key", "code_version", "lookup", "execute",
 ERROR = "error"
 #: Bump when the layout of a cache entry changes.
 CACHE_LAYOUT = 1
+#: A temporary entry folder older than this (s) is left over from an interrupted sweep.
+STALE_S = 6 * 3600
 
 _ANALYSES: dict[str, Callable[..., dict[str, Any]]] = {}
 
@@ -293,7 +295,7 @@ def _clean_stale(cache: str) -> None:
             continue
         for name in os.listdir(d):
             p = os.path.join(d, name)
-            if ".tmp-" in name and now - os.path.getmtime(p) > 60:
+            if ".tmp-" in name and now - os.path.getmtime(p) > STALE_S:
                 shutil.rmtree(p, ignore_errors=True)
 
 

@@ -28,8 +28,7 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .analyses import rms_in_time
-from .common import (SCHEMES, fmt, md_table, new_figure, write_base_scenes,
-                     write_csv)
+from .common import SCHEMES, fmt, md_table, new_figure, write_base_scenes, write_csv
 from .sweep import make_task, sweep
 
 __all__ = ["run_work_precision", "QUANTITIES", "DEFAULT_SERIES"]
@@ -249,18 +248,20 @@ def _plot(rows, series, ref_info, path):
             ax.set_xlabel("CPU s")
             ax.set_ylabel("RMS error" + (" / e(0)" if q == "e_total" else ""))
             ax.grid(True, which="both", alpha=0.3)
+    from matplotlib.ticker import NullFormatter
+
+    for ax in axes.flat:
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.yaxis.set_minor_formatter(NullFormatter())
     h, lab = axes[0, 0].get_legend_handles_labels()
     h2, lab2 = axes[1, 0].get_legend_handles_labels()
     seen = dict(zip(lab, h))
     seen.update({a: b for a, b in zip(lab2, h2) if a not in seen})
-    fig.legend(list(seen.values()), list(seen.keys()), loc="lower center", ncol=4,
-               fontsize=7, bbox_to_anchor=(0.5, -0.02))
-    fig.subplots_adjust(bottom=0.2)
-    import matplotlib.pyplot as plt2
-
-    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    fig.legend(list(seen.values()), list(seen.keys()), loc="center right", fontsize=7,
+               title="open circle: not resolved by the reference", title_fontsize=7)
+    fig.tight_layout(rect=(0, 0, 0.82, 1))
     fig.savefig(path, dpi=110)
-    plt2.close(fig)
+    plt.close(fig)
     return path
 
 
