@@ -317,3 +317,67 @@ def test_dask_local_cluster_gives_the_same_csv_as_the_pool(tmp_path):
         a = open(tmp_path / "pool" / name, encoding="utf-8").read()
         b = open(tmp_path / "dask" / name, encoding="utf-8").read()
         assert a == b, name
+
+
+# --------------------------------------------------------------------------- work-precision
+
+@pytest.fixture(scope="module")
+def work_precision(tmp_path_factory):
+    from dyncontact.study.workprecision import run_work_precision
+
+    out = tmp_path_factory.mktemp("work_precision")
+    return run_work_precision(str(out), quick=True, workers=2, progress=False, log=None)
+
+
+def test_work_precision_quick_keeps_every_run_and_names_the_cheapest(work_precision):
+    import csv
+
+    with open(work_precision["csv"], encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    # every run of both ladders is in the CSV (the two 2D references are not)
+    assert len(rows) == work_precision["n_runs"] - 2
+    assert {r["case"] for r in rows} == {"1d", "2d"}
+    assert all(r["status"] in ("ok", "unstable", "newton_failed") for r in rows)
+    assert all(float(r["cpu_s"]) > 0 for r in rows)
+    ok_1d = [r for r in rows if r["case"] == "1d" and r["status"] == "ok"]
+    # the 1D errors are against the closed form: u_n converges for every scheme
+    for key in {r["series"] for r in ok_1d}:
+        mine = sorted((r for r in ok_1d if r["series"] == key), key=lambda r: -float(r["h"]))
+        errs = [float(r["err_u_n"]) for r in mine]
+        assert all(b < a for a, b in zip(errs, errs[1:])), (key, errs)
+    assert work_precision["ref"]["ok"]
+    cheapest = work_precision["cheapest"]
+    assert cheapest and all(c["case"] in ("1d", "2d") for c in cheapest)
+    for c in cheapest:   # the named run reaches the level and nothing cheaper does
+        same = [r for r in rows if r["case"] == c["case"] and r["status"] == "ok"
+                and r[f"err_{c['quantity']}"] and r.get("resolved", "True") != "False"
+                and float(r[f"err_{c['quantity']}"]) <= c["level"]]
+        assert min(float(r["cpu_s"]) for r in same) == pytest.approx(c["cpu_s"])
+    text = open(work_precision["summary"], encoding="utf-8").read()
+    assert "converged enough" in text and "Cheapest scheme" in text
+
+
+def test_work_precision_marks_unstable_runs_without_dropping_them(tmp_path):
+    from dyncontact.study import workprecision as wp
+
+    rows = [{"case": "1d", "series": "a", "label": "a", "scheme": "a", "h": 0.1, "dt": 0.01,
+             "c": 10, "status": "ok", "cpu_s": 1.0, **{f"err_{q}": 0.1 for q in wp.QUANTITIES}},
+            {"case": "1d", "series": "b", "label": "b", "scheme": "b", "h": 0.1, "dt": 0.1,
+             "c": 1, "status": "unstable", "cpu_s": 0.01, "t_end_reached": 0.5,
+             **{f"err_{q}": 1e-9 for q in wp.QUANTITIES}}]
+    cheapest = wp._cheapest(rows)
+    assert cheapest and all(c["label"] == "a" for c in cheapest)   # never an unstable run
+    series = [(None, 10, "a", "a"), (None, 1, "b", "b")]
+    png = wp._plot(rows, series, {}, str(tmp_path / "wp.png"))
+    assert os.path.getsize(png) > 10_000
+
+
+def test_study_cli_runs_one_study(run_cli, tmp_path):
+    r = run_cli("study", "convergence", "--quick", "--schemes", "newmark", "--t-end", "1.5",
+                "--out", str(tmp_path / "c"), "--workers", "1", "--no-progress")
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "c" / "convergence.csv").is_file()
+    assert "3 runs" in r.stdout
+    r = run_cli("study", "convergence", "--quick", "--schemes", "nonsense", "--out",
+                str(tmp_path / "d"))
+    assert r.returncode == 2 and "nonsense" in r.stderr

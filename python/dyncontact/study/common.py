@@ -127,6 +127,8 @@ def write_csv(path: str, rows: Sequence[Mapping[str, Any]], columns: Sequence[st
             out = []
             for c in columns:
                 v = r.get(c)
+                if hasattr(v, "item") and not isinstance(v, (str, bytes)):
+                    v = v.item()    # numpy scalar -> Python scalar
                 if v is None or (isinstance(v, float) and math.isnan(v)):
                     out.append("")
                 elif isinstance(v, float):

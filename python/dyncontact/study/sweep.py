@@ -129,9 +129,25 @@ def code_version() -> dict[str, str]:
             "extension_sha256": _sha256_file(ext)}
 
 
+#: Modules that register the analyses the studies use (imported on first need, so that
+#: a worker process that only imported this module finds them).
+_ANALYSIS_MODULES = ("dyncontact.study.analyses", "dyncontact.study.stability")
+
+
+def _analysis(name: str) -> Callable[..., dict[str, Any]]:
+    if name not in _ANALYSES:
+        import importlib
+
+        for mod in _ANALYSIS_MODULES:
+            importlib.import_module(mod)
+    if name not in _ANALYSES:
+        raise ValueError(f"unknown analysis {name!r} (known: {', '.join(sorted(_ANALYSES))})")
+    return _ANALYSES[name]
+
+
 @functools.lru_cache(maxsize=None)
 def _analysis_version(name: str) -> str:
-    fn = _ANALYSES[name]
+    fn = _analysis(name)
     mod = sys.modules[fn.__module__]
     return _sha256_file(mod.__file__)
 
@@ -151,7 +167,11 @@ def _parsed(task: Task, folder: str) -> dict[str, Any]:
 
     path = os.path.join(folder, "scene.nml")
     _scene(task).write(path)
-    dump = core.scene_dump(path)
+    dump_fn = getattr(core, "scene_dump", None)
+    if dump_fn is None:   # no parsed dump: the canonical text Scene.write produced
+        with open(path, encoding="utf-8") as f:
+            return {"scene_nml": f.read()}
+    dump = dump_fn(path)
     out = dump.get("output")
     if isinstance(out, dict):
         out.pop("dir", None)
@@ -237,7 +257,7 @@ def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
             cpu0 = time.process_time()
             res = core.run(scene, out=run_dir, progress=False)
             cpu_s = time.process_time() - cpu0
-            out = _ANALYSES[task.analysis](run_dir, res, **dict(task.params)) or {}
+            out = _analysis(task.analysis)(run_dir, res, **dict(task.params)) or {}
             s = res.summary
             rec = {"key": key, "status": res.status, "message": res.message,
                    "t_end_reached": s.get("t_end_reached"), "steps": s.get("steps"),
