@@ -78,33 +78,45 @@ def _claim_pc(recs, grid) -> dict:
             and math.isclose(r["task"].tag("dt_over_h"), SEED_RATIO, rel_tol=1e-9)]
     if not runs:
         return _not_tested(claim, "no pc run at Δt = h/20 in the sweep")
-    holds, other = [], []
+    cats: dict[str, list[str]] = {"holds": [], "stable to T": [], "unstable before 3 impacts":
+                                  [], "unstable after more than 6 impacts": [], "other": []}
+    diffs = []
     for r in runs:
         tg = dict(r["task"].tags)
         n = _n_impacts(r)
-        label = f"{tg['mass']} {_setting(tg)}"
+        label = f"{tg['mass'][0]}/h{tg['h']:g}/γ0 {tg['gamma0']:g}/θ{tg['theta']:+d}"
         # short-time agreement with hht α=-0.1 at the same setting (first period)
         ref = _sel(recs, scheme="hht-0.1", h=tg["h"], gamma0=tg["gamma0"], theta=tg["theta"],
                    dt_over_h=SEED_RATIO)
-        d = ""
-        if ref and r.get("arrays") and ref[0].get("arrays"):
+        if ref and r.get("arrays") and ref[0].get("arrays") and ref[0]["status"] == "ok":
             a, b = r["arrays"], ref[0]["arrays"]
             w = a["t"] <= 3.0
             if w.any():
-                diff = np.max(np.abs(a["u_n"][w] - np.interp(a["t"][w], b["t"], b["u_n"])))
-                d = f", max|Δu_n| vs hht over t≤3: {diff:.2g}"
-        text = f"{label}: {_outcome(r)}{d}"
-        if r["status"] == "unstable" and 3 <= n <= 6:
-            holds.append(text)
+                diffs.append(float(np.max(np.abs(a["u_n"][w] - np.interp(a["t"][w], b["t"],
+                                                                         b["u_n"])))))
+        if r["status"] == "ok":
+            cats["stable to T"].append(label)
+        elif r["status"] == "unstable" and 3 <= n <= 6:
+            cats["holds"].append(f"{label} (t={fmt(r.get('t_end_reached'), '.3g')}, {n})")
+        elif r["status"] == "unstable" and n < 3:
+            cats["unstable before 3 impacts"].append(
+                f"{label} (t={fmt(r.get('t_end_reached'), '.3g')})")
+        elif r["status"] == "unstable":
+            cats["unstable after more than 6 impacts"].append(
+                f"{label} (t={fmt(r.get('t_end_reached'), '.3g')}, {n})")
         else:
-            other.append(text)
-    verdict = ("holds" if holds and not other else "does not hold" if not holds
-               else f"holds in {len(holds)} of {len(runs)} settings")
-    ev = ("Holds for: " + "; ".join(holds) if holds else "") + \
-        (" Not for: " + "; ".join(other) if other else "")
+            cats["other"].append(f"{label} ({r['status']})")
+    n_hold = len(cats["holds"])
+    verdict = ("holds" if n_hold == len(runs) else "does not hold" if not n_hold
+               else f"holds in {n_hold} of {len(runs)} settings")
+    parts = [f"{k}: {len(v)} ({', '.join(v)})" for k, v in cats.items() if v]
+    ev = "Settings as mass/h/γ0/θ (stop time, impacts before it). " + "; ".join(parts) + "."
+    if diffs:
+        ev += (f" Over the first period (t ≤ 3) max |u_n − u_n(hht α=-0.1)| is "
+               f"{min(diffs):.2g} to {max(diffs):.2g}.")
     return {"claim": claim, "setting": f"pc β=¼ γ=½, Δt = h/20, consistent and lumped mass, "
             f"T = {grid['t_end']:g}, every h, γ0, θ of the sweep; 'about 4–5' = 3 to 6 "
-            f"impacts before the stop", "verdict": verdict, "evidence": ev.strip()}
+            f"impacts before the stop", "verdict": verdict, "evidence": ev}
 
 
 def _claim_cn(recs, grid) -> dict:
