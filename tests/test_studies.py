@@ -235,7 +235,7 @@ def test_stability_writes_critical_dt_heatmaps_and_claims(stability):
     claims = {c["claim"][:20]: c for c in stability["claims"]}
     assert len(stability["claims"]) >= 6
     pc_claim = next(c for c in stability["claims"] if c["claim"].startswith("pc at"))
-    assert pc_claim["verdict"] != "not tested" and "h=0.1" in pc_claim["evidence"]
+    assert pc_claim["verdict"] != "not tested" and "c/h0.1/γ0 10/θ+1" in pc_claim["evidence"]
     assert claims
 
 
