@@ -349,9 +349,10 @@ def test_work_precision_quick_keeps_every_run_and_names_the_cheapest(work_precis
     cheapest = work_precision["cheapest"]
     assert cheapest and all(c["case"] in ("1d", "2d") for c in cheapest)
     for c in cheapest:   # the named run reaches the level and nothing cheaper does
+        q = c["quantity"]
         same = [r for r in rows if r["case"] == c["case"] and r["status"] == "ok"
-                and r[f"err_{c['quantity']}"] and r.get("resolved", "True") != "False"
-                and float(r[f"err_{c['quantity']}"]) <= c["level"]]
+                and r[f"err_{q}"] and r.get(f"resolved_{q}", "True") != "False"
+                and float(r[f"err_{q}"]) <= c["level"]]
         assert min(float(r["cpu_s"]) for r in same) == pytest.approx(c["cpu_s"])
     text = open(work_precision["summary"], encoding="utf-8").read()
     assert "converged enough" in text and "Cheapest scheme" in text

@@ -403,8 +403,29 @@ def _describe(task: Task) -> str:
     return tags or ", ".join(f"{k}={v}" for k, v in task.settings)
 
 
+def _warm_worker() -> None:
+    """Pool initializer: import what a run needs and run a tiny scene once, so that the
+    first run of each worker is not charged for lazy imports and first calls (the CPU
+    time of a run is a result of the work-precision study)."""
+    try:
+        from .. import core
+        from ..scene import Scene
+        from . import analyses, stability  # noqa: F401
+
+        with tempfile.TemporaryDirectory(prefix="dyncontact-warm-") as tmp:
+            path = os.path.join(tmp, "warm.nml")
+            with open(path, "w", encoding="utf-8") as f:
+                f.write("&mesh dim = 1, h = 0.5 /\n&material young = 1.0, poisson = 0.0 /\n"
+                        "&contact obstacle_point = 0.0, obstacle_normal = -1.0, "
+                        "probe = 0.0 /\n&scheme dt = 0.1, t_end = 0.2 /\n")
+            scn = Scene.read(path)
+            core.run(scn, out=os.path.join(tmp, "out"), progress=False)
+    except Exception:  # noqa: BLE001 - only a warm-up
+        pass
+
+
 def _sweep_pool(tasks, keys, todo, cache, workers, done) -> None:
-    with cf.ProcessPoolExecutor(max_workers=workers) as pool:
+    with cf.ProcessPoolExecutor(max_workers=workers, initializer=_warm_worker) as pool:
         futs = {pool.submit(execute, tasks[i], cache, keys[i]): i for i in todo}
         try:
             for fut in cf.as_completed(futs):
