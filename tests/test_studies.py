@@ -382,3 +382,16 @@ def test_study_cli_runs_one_study(run_cli, tmp_path):
     r = run_cli("study", "convergence", "--quick", "--schemes", "nonsense", "--out",
                 str(tmp_path / "d"))
     assert r.returncode == 2 and "nonsense" in r.stderr
+
+
+def test_impacts_count_contact_phases_not_chattering():
+    from dyncontact.study.analyses import IMPACT_GAP, impacts
+
+    t = np.arange(0.0, 10.0, 0.01)
+    active = np.zeros_like(t)
+    for start in (1.0, 4.0, 7.0):              # three contact phases of one time unit
+        on = (t >= start) & (t < start + 1.0)
+        active[on] = 2
+        # chattering inside the phase: contact lost for less than IMPACT_GAP
+        active[on & (t >= start + 0.3) & (t < start + 0.3 + IMPACT_GAP / 2)] = 0
+    np.testing.assert_allclose(impacts(t, active), [1.0, 4.0, 7.0])

@@ -1,6 +1,8 @@
 """What a sweep keeps of each run (registered analyses of :mod:`.sweep`).
 
 - ``trace``: energy ratios and, optionally, trace columns (every ``stride``-th row).
+- ``stability``: energy ratios, impact times, the energy before each impact and,
+  optionally, t, u_n, e_total (the stability study and the claims).
 - ``exact1d``: errors of a run of the 1D exact case (SPEC section 2) against the closed
   form :mod:`dyncontact.exact1d`: the field norms from the VTU snapshots and the probe
   errors from the trace.
@@ -28,11 +30,14 @@ from .. import exact1d as ex
 from .sweep import register_analysis
 
 __all__ = ["read_pvd", "read_vtu_1d", "field_errors_1d", "probe_errors_1d", "rms_in_time",
-           "FIELD_NORMS"]
+           "impacts", "FIELD_NORMS", "IMPACT_GAP"]
 
 #: Columns of the field/stress norms, in the order of the issue.
 FIELD_NORMS = ("u_Linf_L2", "u_Linf_H1", "v_Linf_L2", "u_L2_L2", "u_L2_H1", "v_L2_L2",
                "p_L2")
+
+#: A new impact is a contact that starts after at least this long without contact.
+IMPACT_GAP = 0.5
 
 _GAUSS3_X, _GAUSS3_W = np.polynomial.legendre.leggauss(3)
 
@@ -163,3 +168,46 @@ def analyse_trace(run_dir: str, result, columns: str = "", stride: int = 1) -> d
             idx = np.append(idx, len(trace["t"]) - 1)
         arrays = {c: np.asarray(trace[c])[idx] for c in columns.split(",")}
     return {"metrics": _energy_metrics(trace), "arrays": arrays}
+
+
+def impacts(t: np.ndarray, active: np.ndarray, gap: float = IMPACT_GAP) -> np.ndarray:
+    """Start times of the impacts: rows where contact starts after at least ``gap`` time
+    units without any active contact point (chattering within a contact phase is one
+    impact)."""
+    starts = []
+    last_contact = -np.inf
+    was = False
+    for ti, a in zip(t, active):
+        on = a > 0
+        if on and not was and ti - last_contact >= gap:
+            starts.append(ti)
+        if on:
+            last_contact = ti
+        was = on
+    return np.array(starts)
+
+
+@register_analysis("stability")
+def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any]:
+    """Energy ratios, impact times, the energy just before each impact (the flight
+    energy left by the previous contact), and optionally t, u_n, e_total."""
+    tr = result.trace
+    t, e = tr["t"], tr["e_total"]
+    m: dict[str, Any] = {}
+    if len(t):
+        e0 = float(e[0])
+        fin = np.isfinite(e)
+        starts = impacts(t, tr["active"])
+        idx = np.searchsorted(t, starts) - 1
+        before = [float(e[i] / e0) for i in idx if i >= 0]
+        m = {"e0": e0, "e_end_ratio": float(e[-1] / e0),
+             "e_max_ratio": float(np.max(e[fin]) / e0) if fin.any() else float("nan"),
+             "ec_end_ratio": float((e[-1] + tr["e_contact"][-1]) / e0),
+             "impact_times": [float(x) for x in starts],
+             "e_before_impacts": before, "t_last": float(t[-1])}
+    arrays = {}
+    if keep_rows and len(t):
+        stride = max(1, len(t) // int(keep_rows))
+        idx = np.arange(0, len(t), stride)
+        arrays = {"t": t[idx], "u_n": tr["u_n"][idx], "e_total": e[idx]}
+    return {"metrics": m, "arrays": arrays}

@@ -4,7 +4,7 @@ Nothing here is hard-coded but the thresholds that turn numbers into words, stat
 each claim's row:
 
 - an impact is a contact that starts after >= 0.5 time units without contact
-  (:func:`.stability.impacts`); "after about 4-5 impacts" accepts 3 to 6;
+  (:func:`.analyses.impacts`); "after about 4-5 impacts" accepts 3 to 6;
 - the energy change per impact is the geometric mean over the flight phases,
   (E_n / E_1)^(1/(n-1)) - 1 with E_k = e_total just before impact k (in flight the
   scheme's energy is constant up to the small theta = 1 effect noted in numerics.md);
@@ -145,6 +145,13 @@ def _claim_cn(recs, grid) -> dict:
     if finite and seed:
         ev += (f". Over all {len(parts)} (h, γ0, θ) settings: from {100 * min(finite):+.2f} "
                f"to {100 * max(finite):+.2f} %/impact")
+        big = [(tg, g) for tg, g, _ in parts if math.isfinite(g) and g > SIGNIFICANT_GAIN]
+        if big:
+            ev += "; more than +1 %/impact at " + ", ".join(
+                f"{_setting(tg)} ({100 * g:+.1f} %)" for tg, g in big)
+        n_unstable = sum(1 for _, _, r in parts if r["status"] != "ok")
+        if n_unstable:
+            ev += f"; {n_unstable} of {len(parts)} settings stopped before T"
     return {"claim": claim, "setting": f"newmark ¼ ½, Δt = h/20, γ0 = 10, θ = 1, "
             f"T = {grid['t_end']:g}; energy just before each impact; significant = "
             f"> {100 * SIGNIFICANT_GAIN:g} %/impact", "verdict": verdict, "evidence": ev}
@@ -181,8 +188,8 @@ def _claim_alpha(recs, grid) -> dict:
                   f"{100 * g['newmark_diss']:+.2f} % "
                   f"(e(T)/e(0) = {fmt(got['hht-0.1']['metrics'].get('e_end_ratio'), '.3g')}, "
                   f"{fmt(got['theta1']['metrics'].get('e_end_ratio'), '.3g')}, "
-                  f"{fmt(got['newmark_diss']['metrics'].get('e_end_ratio'), '.3g')}; "
-                  + ", ".join(f"{k}: {_outcome(r)}" for k, r in got.items() if not ok[k])
+                  f"{fmt(got['newmark_diss']['metrics'].get('e_end_ratio'), '.3g')}"
+                  + "".join(f"; {k}: {_outcome(r)}" for k, r in got.items() if not ok[k])
                   + ")")
     verdict = ("holds" if better == len(rows) else "does not hold" if better == 0
                else f"holds for {better} of {len(rows)} meshes")

@@ -173,10 +173,11 @@ def new_figure(nrows: int, ncols: int, width: float = 4.0, height: float = 3.2):
     return fig, axes
 
 
-def save_figure(fig, path: str) -> str:
+def save_figure(fig, path: str, top: float = 1.0) -> str:
+    """Save and close; ``top`` < 1 leaves room for a suptitle."""
     import matplotlib.pyplot as plt
 
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, top))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

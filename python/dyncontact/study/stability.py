@@ -30,7 +30,8 @@ import numpy as np
 from . import analyses  # noqa: F401 - registers the analyses
 from .common import (STATUS_COLORS, fmt, md_table, new_figure, save_figure,
                      scheme_list, write_base_scenes, write_csv)
-from .sweep import Task, make_task, register_analysis, sweep
+from .analyses import impacts  # noqa: F401 - part of this module's API
+from .sweep import Task, make_task, sweep
 
 __all__ = ["run_stability", "bisect_critical", "classify", "GRIDS", "impacts"]
 
@@ -55,55 +56,10 @@ KEEP_ROWS = 1500
 #: time is summary.json's), impacts are found to within OUTPUT_DT, and writing a row per
 #: step would cost more than the step itself on these small meshes.
 OUTPUT_DT = 0.01
-#: A new impact is a contact that starts after at least this long without contact.
-IMPACT_GAP = 0.5
 
 
 def classify(status: str) -> str:
     return {"ok": "stable"}.get(status, status)
-
-
-def impacts(t: np.ndarray, active: np.ndarray, gap: float = IMPACT_GAP) -> np.ndarray:
-    """Start times of the impacts: rows where contact starts after at least ``gap`` time
-    units without any active contact point (chattering within a contact phase is one
-    impact)."""
-    starts = []
-    last_contact = -np.inf
-    was = False
-    for ti, a in zip(t, active):
-        on = a > 0
-        if on and not was and ti - last_contact >= gap:
-            starts.append(ti)
-        if on:
-            last_contact = ti
-        was = on
-    return np.array(starts)
-
-
-@register_analysis("stability")
-def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any]:
-    """Energy ratios, impact times, the energy just before each impact (the flight
-    energy left by the previous contact), and optionally t, u_n, e_total."""
-    tr = result.trace
-    t, e = tr["t"], tr["e_total"]
-    m: dict[str, Any] = {}
-    if len(t):
-        e0 = float(e[0])
-        fin = np.isfinite(e)
-        starts = impacts(t, tr["active"])
-        idx = np.searchsorted(t, starts) - 1
-        before = [float(e[i] / e0) for i in idx if i >= 0]
-        m = {"e0": e0, "e_end_ratio": float(e[-1] / e0),
-             "e_max_ratio": float(np.max(e[fin]) / e0) if fin.any() else float("nan"),
-             "ec_end_ratio": float((e[-1] + tr["e_contact"][-1]) / e0),
-             "impact_times": [float(x) for x in starts],
-             "e_before_impacts": before, "t_last": float(t[-1])}
-    arrays = {}
-    if keep_rows and len(t):
-        stride = max(1, len(t) // int(keep_rows))
-        idx = np.arange(0, len(t), stride)
-        arrays = {"t": t[idx], "u_n": tr["u_n"][idx], "e_total": e[idx]}
-    return {"metrics": m, "arrays": arrays}
 
 
 # --------------------------------------------------------------------------- bisection
@@ -315,7 +271,7 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
         fig.suptitle(f"h = {h:g}, T = {g['t_end']:g}: green stable, red unstable (stop time "
                      f"written), orange Newton failed, grey error", fontsize=9)
         path = os.path.join(out, f"stability_h{h:g}.png")
-        pngs.append(save_figure(fig, path))
+        pngs.append(save_figure(fig, path, top=1 - 0.35 / fig.get_figheight()))
     # critical dt / h
     fig, axes = new_figure(len(g["h"]), 1, 0.9 * len(schemes) + 3, 0.3 * len(combos) + 2.2)
     finite = [c["dt_crit_over_h"] for c in crit_rows if c.get("dt_crit_over_h")]

@@ -13,7 +13,9 @@ Each run is stored under ``CACHE/<k[:2]>/<k>/`` where ``k`` is the SHA-256 of
   what it is), plus the content hash of the mesh file when there is one;
 - the code version: ``dyncontact.__version__``, the Fortran core's version string and
   the SHA-256 of the compiled extension (any rebuild that changes the code changes it);
-- the analysis name, its parameters and the SHA-256 of the module that implements it.
+- the analysis name, its parameters and the SHA-256 of the module that implements it
+  (:mod:`.analyses`, which holds nothing else: editing a report or a plot does not
+  invalidate the runs).
 
 An entry is written in a temporary folder next to it and renamed into place when
 complete (``record.json`` last, holding the SHA-256 of every file it lists), so an
@@ -131,7 +133,7 @@ def code_version() -> dict[str, str]:
 
 #: Modules that register the analyses the studies use (imported on first need, so that
 #: a worker process that only imported this module finds them).
-_ANALYSIS_MODULES = ("dyncontact.study.analyses", "dyncontact.study.stability")
+_ANALYSIS_MODULES = ("dyncontact.study.analyses",)
 
 
 def _analysis(name: str) -> Callable[..., dict[str, Any]]:
@@ -410,7 +412,7 @@ def _warm_worker() -> None:
     try:
         from .. import core
         from ..scene import Scene
-        from . import analyses, stability  # noqa: F401
+        from . import analyses  # noqa: F401
 
         with tempfile.TemporaryDirectory(prefix="dyncontact-warm-") as tmp:
             path = os.path.join(tmp, "warm.nml")

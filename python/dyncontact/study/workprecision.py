@@ -156,8 +156,9 @@ def run_work_precision(out: str, *, quick: bool = False, c_implicit: float = 20.
         for x in rows:
             if x["case"] == "2d":
                 for q in QUANTITIES:
-                    x[f"resolved_{q}"] = (x.get(f"err_{q}") is None
-                                          or x[f"err_{q}"] >= RESOLVED_MARGIN * ref_info[f"est_{q}"])
+                    x[f"resolved_{q}"] = bool(
+                        x.get(f"err_{q}") is None
+                        or x[f"err_{q}"] >= RESOLVED_MARGIN * ref_info[f"est_{q}"])
     cols = ["case", "series", "scheme", "h", "dt", "c", "status", "t_end_reached", "steps",
             "cpu_s", "wall_s", "newton_its_total", *(f"err_{q}" for q in QUANTITIES),
             *(f"resolved_{q}" for q in QUANTITIES), "message"]
@@ -186,14 +187,15 @@ def _observed_order(rows, q) -> float:
 
 
 def _levels(values) -> list[float]:
+    """Error levels 1 and 3 x 10^k from the smallest one reached up to the first one that
+    every run reaches."""
     v = [x for x in values if x and math.isfinite(x) and x > 0]
     if not v:
         return []
     lo, hi = math.floor(math.log10(min(v))), math.ceil(math.log10(max(v)))
-    out = []
-    for k in range(lo, hi + 1):
-        out += [10.0 ** k, 3.0 * 10.0 ** k]
-    return [x for x in out if min(v) <= x <= max(v) * 1.0001]
+    cand = sorted(m * 10.0 ** k for k in range(lo, hi + 1) for m in (1.0, 3.0))
+    top = next(c for c in cand if c >= max(v))
+    return [c for c in cand if min(v) <= c <= top]
 
 
 def _cheapest(rows) -> list[dict[str, Any]]:
