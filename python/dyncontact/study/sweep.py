@@ -123,12 +123,14 @@ def _sha256_file(path: str) -> str:
 def code_version() -> dict[str, str]:
     """The code's identity for the cache: package version, Fortran version string and
     the hash of the compiled extension."""
+    import importlib.util
+
     from .. import __version__
     from .. import core
 
-    ext = core._core().__file__   # the module file of the extension
-    return {"package": __version__, "fortran": core.fortran_version(),
-            "extension_sha256": _sha256_file(ext)}
+    fortran = core.fortran_version()       # loads the extension (or raises, clearly)
+    ext = importlib.util.find_spec("dyncontact._core").origin   # its shared library
+    return {"package": __version__, "fortran": fortran, "extension_sha256": _sha256_file(ext)}
 
 
 #: Modules that register the analyses the studies use (imported on first need, so that
@@ -354,7 +356,7 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
     _clean_stale(cache)
     from .. import core
 
-    core._core()   # load the extension before forking
+    core.fortran_version()   # load the extension before forking
     records: list[dict[str, Any] | None] = [None] * len(tasks)
     keys: list[str | None] = [None] * len(tasks)
     todo: list[int] = []
