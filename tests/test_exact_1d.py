@@ -1,4 +1,4 @@
-"""The 1D impact of SPEC section 2 against its closed-form solution (tests/exact1d.py).
+"""The 1D impact of SPEC section 2 against its closed-form solution (dyncontact/exact1d.py).
 
 First the closed form itself is checked (wave equation, boundary and initial data,
 Signorini conditions, energy), then dyncontact's trace and field snapshots are compared
@@ -22,7 +22,7 @@ import pytest
 import dyncontact
 from dyncontact import Scene
 
-import exact1d as ex
+from dyncontact import exact1d as ex
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE_1D = ROOT / "scripts" / "scenes" / "bar1d.nml"

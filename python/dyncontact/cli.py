@@ -1,4 +1,4 @@
-"""Command line: ``python -m dyncontact {run,plot,mesh} ...``.
+"""Command line: ``python -m dyncontact {run,plot,mesh,study} ...``.
 
 Exit status: 0 ok, 2 bad input (one line ``dyncontact: MESSAGE`` on stderr, no
 traceback), 3 numerical failure (unstable / newton_failed; the trace is kept),
@@ -157,6 +157,12 @@ def _png_path(out: str) -> str:
     return out
 
 
+def cmd_study(argv: Sequence[str]) -> int:
+    from .study import cli as study_cli
+
+    return int(study_cli.main(list(argv)) or 0)
+
+
 def cmd_mesh(argv: Sequence[str]) -> int:
     from . import mesh_io
 
@@ -198,6 +204,8 @@ def build_parser() -> argparse.ArgumentParser:
     pl.set_defaults(func=cmd_plot)
 
     sub.add_parser("mesh", help="mesh tools (see `dyncontact mesh --help`)", add_help=False)
+    sub.add_parser("study", help="convergence, work-precision and stability studies (see "
+                   "`dyncontact study --help`)", add_help=False)
     return p
 
 
@@ -213,6 +221,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if argv and argv[0] == "mesh":
             return cmd_mesh(argv[1:])
+        if argv and argv[0] == "study":
+            return cmd_study(argv[1:])
         parser = build_parser()
         args = parser.parse_args(argv)
         if not getattr(args, "func", None):

@@ -38,7 +38,8 @@ import numpy as np
 __all__ = [
     "DyncontactError", "BadInputError", "NumericalError", "RunResult", "run",
     "TRACE_COLUMNS", "read_trace", "read_summary", "fortran_version", "scene_dump", "scene_parse",
-    "load_mesh", "p1_element", "umf_solve", "linear_solve", "Model",
+    "load_mesh", "p1_element", "umf_solve", "linear_solve", "Model", "bench_floors_available",
+    "bench_floors",
 ]
 
 #: Header of trace.csv (SPEC section 4).
@@ -582,3 +583,53 @@ class Stepper:
 
 
 __all__ += ["Stepper"]
+
+
+# --------------------------------------------------------------------------- timing
+
+#: The core's timing helper of the benchmark floors (optional in the extension).
+_FLOOR_API = "dc_bench_floor"
+
+
+def bench_floors_available() -> bool:
+    """Whether the extension has the timing helper of :func:`bench_floors`."""
+    try:
+        return hasattr(_core(), _FLOOR_API)
+    except DyncontactError:
+        return False
+
+
+def bench_floors(scene, n_rep: int = 1000) -> dict[str, float | None] | None:
+    """Cost floors of one step of a scene's scheme, in µs (mean over n_rep): one
+    triangular solve with the cached iteration-matrix factors (``solve_us``, implicit
+    schemes), one SpMV with K_θ (``spmv_us``) and one M^{-1} application
+    (``mass_solve_us``, explicit schemes); None for a floor that does not apply.
+    Returns None when the extension has no timing helper.
+    """
+    if not bench_floors_available():
+        return None
+    core = _core()
+    tmp = tempfile.mkdtemp(prefix="dyncontact-bench-")
+    try:
+        if isinstance(scene, (str, bytes, os.PathLike)):
+            path = os.fsdecode(scene)
+        else:
+            path = _write_scene(scene, tmp)
+        handle, *_, stat, errmsg = core.dc_sim_open(_fpath(path, "scene file"),
+                                                    _fpath(os.path.join(tmp, "out"),
+                                                           "output folder"), 0)
+        _check(stat, errmsg, "opening the run")
+        try:
+            got = getattr(core, _FLOOR_API)(handle, int(n_rep))
+            if len(got) == 5:   # a signature with (stat, errmsg)
+                _check(got[3], got[4], _FLOOR_API)
+            t_solve, t_spmv, t_mass = (float(x) for x in got[:3])
+        finally:
+            core.dc_sim_close(handle)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+    def pos(x: float) -> float | None:
+        return x if x > 0 and np.isfinite(x) else None
+
+    return {"solve_us": pos(t_solve), "spmv_us": pos(t_spmv), "mass_solve_us": pos(t_mass)}

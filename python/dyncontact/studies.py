@@ -27,7 +27,6 @@ import os
 import platform
 import shutil
 import sys
-import tempfile
 import time
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
@@ -145,10 +144,10 @@ def seed_spec(scheme: str, h: float, dt: float, t_end: float, *, mass: str = "co
 # --------------------------------------------------------------------------- running
 
 def _load_core() -> None:
-    """Import the extension once in this process (before forking workers)."""
-    from . import core
+    """Load the extension once in this process (before forking workers)."""
+    from .core import fortran_version
 
-    core._core()
+    fortran_version()
 
 
 def run_spec(spec: RunSpec, out_dir: str, clean: bool = True) -> dict[str, Any]:
@@ -548,17 +547,16 @@ def figures_main(argv: Sequence[str] | None = None, root: str | None = None) -> 
 
 # --------------------------------------------------------------------------- bench
 
-#: The core's timing helper of the floors (bench prints 'n/a' when it is missing).
+#: The core's timing helper of the floors (bench prints 'n/a' when it is missing; it is
+#: reached through :func:`dyncontact.core.bench_floors`).
 FLOOR_API = "dc_bench_floor"
 
 
 def floor_api_available() -> bool:
     """Whether the core has the timing helper of the floors."""
-    try:
-        from . import _core
-    except ImportError:
-        return False
-    return hasattr(_core, FLOOR_API)
+    from .core import bench_floors_available
+
+    return bench_floors_available()
 
 
 def bench_specs(quick: bool = False, only: Iterable[str] | None = None) -> list[RunSpec]:
@@ -592,34 +590,17 @@ def _floors(spec: RunSpec, out_dir: str, n_rep: int = 1000) -> dict[str, float |
     ``dc_bench_floor(handle, n_rep) -> (t_solve_us, t_spmv_us, t_mass_us)`` (mean over
     n_rep; 0 = does not apply to the scheme). None when the core lacks it or it fails."""
     none = {"floor_solve_us": None, "floor_mass_solve_us": None, "floor_spmv_us": None}
-    if not floor_api_available():
-        return none
-    from . import _core
-    from .core import _check, _write_scene
+    from .core import bench_floors
 
-    tmp = tempfile.mkdtemp(prefix="dyncontact-bench-")
     try:
-        path = _write_scene(spec.scene(), tmp)
-        handle, *_, stat, errmsg = _core.dc_sim_open(path, os.path.join(tmp, "out"), 0)
-        _check(stat, errmsg, "opening the run")
-        try:
-            got = getattr(_core, FLOOR_API)(handle, n_rep)
-            if len(got) == 5:   # a later signature with (stat, errmsg)
-                _check(got[3], got[4], FLOOR_API)
-            t_solve, t_spmv, t_mass = (float(x) for x in got[:3])
-        finally:
-            _core.dc_sim_close(handle)
+        got = bench_floors(spec.scene(), n_rep)
     except Exception as exc:  # noqa: BLE001 - a benchmark reports, it does not fail
         print(f"bench: {spec.name}: floors not measured ({exc})", file=sys.stderr)
         return none
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-
-    def pos(x: float) -> float | None:
-        return x if x > 0 and math.isfinite(x) else None
-
-    return {"floor_solve_us": pos(t_solve), "floor_mass_solve_us": pos(t_mass),
-            "floor_spmv_us": pos(t_spmv)}
+    if got is None:
+        return none
+    return {"floor_solve_us": got["solve_us"], "floor_mass_solve_us": got["mass_solve_us"],
+            "floor_spmv_us": got["spmv_us"]}
 
 
 def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100) -> dict[str, Any]:

@@ -1,0 +1,213 @@
+"""What a sweep keeps of each run (registered analyses of :mod:`.sweep`).
+
+- ``trace``: energy ratios and, optionally, trace columns (every ``stride``-th row).
+- ``stability``: energy ratios, impact times, the energy before each impact and,
+  optionally, t, u_n, e_total (the stability study and the claims).
+- ``exact1d``: errors of a run of the 1D exact case (SPEC section 2) against the closed
+  form :mod:`dyncontact.exact1d`: the field norms from the VTU snapshots and the probe
+  errors from the trace.
+
+Field norms (1D)
+----------------
+At each snapshot time t_k the space norms of e = u_h - u are integrated exactly: the
+interval [0, 1] is cut at the mesh nodes *and* at the kinks of the exact solution
+(x = tau, tau - 1, 2 - tau, 3 - tau with tau = t mod 3, where u is not smooth), so that
+on every piece both u_h and u are linear and a 3-point Gauss rule is exact for e^2 and
+(e')^2. ``H1`` is the full norm (L2 of e plus L2 of e'). Time norms over the snapshot
+times t_0 = 0 < ... < t_K = T: L-infinity = max over k, L2 = trapezoidal rule.
+The contact stress error is integrated in time over every trace row (``every`` = 1).
+"""
+
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from typing import Any
+
+import numpy as np
+
+from .. import exact1d as ex
+from .sweep import register_analysis
+
+__all__ = ["read_pvd", "read_vtu_1d", "field_errors_1d", "probe_errors_1d", "rms_in_time",
+           "impacts", "FIELD_NORMS", "IMPACT_GAP"]
+
+#: Columns of the field/stress norms, in the order of the issue.
+FIELD_NORMS = ("u_Linf_L2", "u_Linf_H1", "v_Linf_L2", "u_L2_L2", "u_L2_H1", "v_L2_L2",
+               "p_L2")
+
+#: A new impact is a contact that starts after at least this long without contact.
+IMPACT_GAP = 0.5
+
+_GAUSS3_X, _GAUSS3_W = np.polynomial.legendre.leggauss(3)
+
+
+def read_pvd(path: str) -> list[tuple[float, str]]:
+    """(time, absolute .vtu path) of the data sets of a .pvd index."""
+    root = ET.parse(path).getroot()
+    folder = os.path.dirname(os.path.abspath(path))
+    return [(float(d.get("timestep")), os.path.join(folder, d.get("file")))
+            for d in root.iter("DataSet")]
+
+
+def read_vtu_1d(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x, u, v) of an ASCII .vtu of a 1D mesh, sorted by x (first components)."""
+    root = ET.parse(path).getroot()
+    arrays = {}
+    for da in root.iter("DataArray"):
+        arrays.setdefault(da.get("Name") or "points", da.text)
+    pts = np.array(arrays["points"].split(), dtype=float).reshape(-1, 3)[:, 0]
+    u = np.array(arrays["displacement"].split(), dtype=float).reshape(-1, 3)[:, 0]
+    v = np.array(arrays["velocity"].split(), dtype=float).reshape(-1, 3)[:, 0]
+    order = np.argsort(pts)
+    return pts[order], u[order], v[order]
+
+
+def _pieces(x: np.ndarray, t: float) -> np.ndarray:
+    """Break points in [0, 1]: the mesh nodes and the exact solution's kinks at t."""
+    tau = float(np.mod(t, ex.PERIOD))
+    kinks = np.array([tau, tau - 1.0, 2.0 - tau, 3.0 - tau])
+    kinks = kinks[(kinks > x[0]) & (kinks < x[-1])]
+    return np.unique(np.concatenate([x, kinks]))
+
+
+def field_errors_1d(x, u_h, v_h, t) -> dict[str, float]:
+    """||u_h - u||_L2, ||u_h - u||_H1 and ||v_h - u_t||_L2 over the bar at time t."""
+    b = _pieces(np.asarray(x), t)
+    a, c = b[:-1], b[1:]
+    mid, half = 0.5 * (a + c), 0.5 * (c - a)
+    keep = half > 1e-14
+    mid, half = mid[keep], half[keep]
+    xq = (mid[:, None] + half[:, None] * _GAUSS3_X[None, :]).ravel()
+    wq = (half[:, None] * _GAUSS3_W[None, :]).ravel()
+    # P1 fields: values by interpolation, slope of the element that holds the point
+    uq = np.interp(xq, x, u_h)
+    vq = np.interp(xq, x, v_h)
+    k = np.clip(np.searchsorted(x, xq) - 1, 0, len(x) - 2)
+    duq = (u_h[k + 1] - u_h[k]) / (x[k + 1] - x[k])
+    eu = uq - ex.u(xq, t)
+    ed = duq - ex.u_x(xq, t)
+    ev = vq - ex.u_t(xq, t)
+    l2 = float(np.sqrt(np.sum(wq * eu ** 2)))
+    semi = float(np.sqrt(np.sum(wq * ed ** 2)))
+    return {"u_L2": l2, "u_H1": float(np.hypot(l2, semi)),
+            "v_L2": float(np.sqrt(np.sum(wq * ev ** 2)))}
+
+
+def _time_l2(t: np.ndarray, e: np.ndarray) -> float:
+    """(int_0^T e(t)^2 dt)^(1/2) by the trapezoidal rule."""
+    if len(t) < 2:
+        return float("nan")
+    return float(np.sqrt(np.trapezoid(np.asarray(e) ** 2, t)))
+
+
+def rms_in_time(t: np.ndarray, e: np.ndarray) -> float:
+    """(1/T int_0^T e^2 dt)^(1/2), T = t[-1] - t[0] (trapezoidal rule)."""
+    span = float(t[-1] - t[0]) if len(t) > 1 else 0.0
+    return _time_l2(t, e) / np.sqrt(span) if span > 0 else float("nan")
+
+
+def probe_errors_1d(trace: dict[str, np.ndarray]) -> dict[str, float]:
+    """RMS-in-time errors of u_n, v_n, p_n and e_total (relative to 1/8) at x = 0."""
+    t = trace["t"]
+    return {"err_u_n": rms_in_time(t, trace["u_n"] - ex.u_n(t)),
+            "err_v_n": rms_in_time(t, trace["v_n"] - ex.v_n(t)),
+            "err_p_n": rms_in_time(t, trace["p_n"] - ex.sigma_n(t)),
+            "err_e_total": rms_in_time(t, (trace["e_total"] - ex.ENERGY) / ex.ENERGY)}
+
+
+def _energy_metrics(trace: dict[str, np.ndarray]) -> dict[str, float]:
+    e = trace["e_total"]
+    ec = e + trace["e_contact"]
+    if len(e) == 0:
+        return {}
+    e0 = float(e[0]) if e[0] != 0 else float("nan")
+    fin = np.isfinite(e)
+    return {"e0": e0, "e_end_ratio": float(e[-1] / e0),
+            "e_max_ratio": float(np.max(e[fin]) / e0) if fin.any() else float("nan"),
+            "ec_end_ratio": float(ec[-1] / e0),
+            "t_last": float(trace["t"][-1])}
+
+
+@register_analysis("exact1d")
+def analyse_exact1d(run_dir: str, result, fields: bool = True) -> dict[str, Any]:
+    """Field norms (when the run wrote snapshots) and probe errors of a 1D exact-case run."""
+    trace = result.trace
+    metrics: dict[str, Any] = dict(_energy_metrics(trace))
+    metrics.update(probe_errors_1d(trace))
+    t = trace["t"]
+    metrics["p_L2"] = _time_l2(t, trace["p_n"] - ex.sigma_n(t))
+    pvd = os.path.join(run_dir, "fields.pvd")
+    if fields and os.path.isfile(pvd):
+        ts, eu, eh, ev = [], [], [], []
+        for tk, vtu in read_pvd(pvd):
+            x, u_h, v_h = read_vtu_1d(vtu)
+            e = field_errors_1d(x, u_h, v_h, tk)
+            ts.append(tk)
+            eu.append(e["u_L2"])
+            eh.append(e["u_H1"])
+            ev.append(e["v_L2"])
+        ts = np.array(ts)
+        metrics.update(
+            u_Linf_L2=float(np.max(eu)), u_Linf_H1=float(np.max(eh)),
+            v_Linf_L2=float(np.max(ev)), u_L2_L2=_time_l2(ts, np.array(eu)),
+            u_L2_H1=_time_l2(ts, np.array(eh)), v_L2_L2=_time_l2(ts, np.array(ev)),
+            snapshots=len(ts))
+    return {"metrics": metrics}
+
+
+@register_analysis("trace")
+def analyse_trace(run_dir: str, result, columns: str = "", stride: int = 1) -> dict[str, Any]:
+    """Energy ratios; with ``columns`` ('t,u_n,...') those trace columns, every
+    ``stride``-th row (the last row always kept)."""
+    trace = result.trace
+    arrays = {}
+    if columns and len(trace["t"]):
+        idx = np.arange(0, len(trace["t"]), max(1, int(stride)))
+        if idx[-1] != len(trace["t"]) - 1:
+            idx = np.append(idx, len(trace["t"]) - 1)
+        arrays = {c: np.asarray(trace[c])[idx] for c in columns.split(",")}
+    return {"metrics": _energy_metrics(trace), "arrays": arrays}
+
+
+def impacts(t: np.ndarray, active: np.ndarray, gap: float = IMPACT_GAP) -> np.ndarray:
+    """Start times of the impacts: rows where contact starts after at least ``gap`` time
+    units without any active contact point (chattering within a contact phase is one
+    impact)."""
+    starts = []
+    last_contact = -np.inf
+    was = False
+    for ti, a in zip(t, active):
+        on = a > 0
+        if on and not was and ti - last_contact >= gap:
+            starts.append(ti)
+        if on:
+            last_contact = ti
+        was = on
+    return np.array(starts)
+
+
+@register_analysis("stability")
+def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any]:
+    """Energy ratios, impact times, the energy just before each impact (the flight
+    energy left by the previous contact), and optionally t, u_n, e_total."""
+    tr = result.trace
+    t, e = tr["t"], tr["e_total"]
+    m: dict[str, Any] = {}
+    if len(t):
+        e0 = float(e[0])
+        fin = np.isfinite(e)
+        starts = impacts(t, tr["active"])
+        idx = np.searchsorted(t, starts) - 1
+        before = [float(e[i] / e0) for i in idx if i >= 0]
+        m = {"e0": e0, "e_end_ratio": float(e[-1] / e0),
+             "e_max_ratio": float(np.max(e[fin]) / e0) if fin.any() else float("nan"),
+             "ec_end_ratio": float((e[-1] + tr["e_contact"][-1]) / e0),
+             "impact_times": [float(x) for x in starts],
+             "e_before_impacts": before, "t_last": float(t[-1])}
+    arrays = {}
+    if keep_rows and len(t):
+        stride = max(1, len(t) // int(keep_rows))
+        idx = np.arange(0, len(t), stride)
+        arrays = {"t": t[idx], "u_n": tr["u_n"][idx], "e_total": e[idx]}
+    return {"metrics": m, "arrays": arrays}

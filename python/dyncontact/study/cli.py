@@ -1,0 +1,148 @@
+"""``python -m dyncontact study {convergence,work-precision,stability,all} ...``.
+
+Exit status: 0 when every run could be done (unstable runs are results, not failures),
+1 when some runs failed to run (each is reported, the study still completes), 2 bad
+command line, 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import sys
+import time
+from typing import Any, Sequence
+
+__all__ = ["main", "write_index"]
+
+STUDIES = ("convergence", "work-precision", "stability")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="dyncontact study",
+        description="Convergence, work-precision and stability studies; each writes CSV, "
+        "PNG and summary.md into --out.")
+    sub = p.add_subparsers(dest="study", metavar="STUDY", required=True)
+    helps = {"convergence": "errors against the 1D closed form, observed orders",
+             "work-precision": "error against CPU time per scheme (1D exact, 2D seed bar)",
+             "stability": "stability maps and critical dt on the 2D seed bar, with the "
+                          "seed's claims",
+             "all": "the three studies into OUT/<study>/ and OUT/index.md"}
+    for name in (*STUDIES, "all"):
+        s = sub.add_parser(name, help=helps[name], description=helps[name])
+        s.add_argument("--quick", action="store_true", help="small sizes (seconds)")
+        s.add_argument("--out", required=True, metavar="DIR", help="output folder")
+        s.add_argument("--workers", type=int, default=None, metavar="N",
+                       help="processes of the local pool (default: all cores)")
+        s.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                       help="run on this dask.distributed scheduler instead of the pool")
+        s.add_argument("--cache", metavar="DIR", default=None,
+                       help="per-run cache (default: OUT/cache)")
+        s.add_argument("--no-progress", action="store_true", help="no progress bar")
+        if name in ("convergence", "work-precision", "all"):
+            s.add_argument("--c-implicit", type=float, default=20.0,
+                           help="dt = h/c for implicit schemes (default 20)")
+            s.add_argument("--c-explicit", type=float, default=100.0,
+                           help="dt = h/c for predictor-corrector schemes (default 100)")
+        if name == "convergence":
+            s.add_argument("--schemes", default=None,
+                           help="comma-separated scheme keys (default: all of the issue)")
+            s.add_argument("--t-end", type=float, default=3.0, help="T (default 3)")
+    return p
+
+
+def _common(args) -> dict[str, Any]:
+    return {"workers": args.workers, "scheduler": args.scheduler, "cache": args.cache,
+            "progress": False if args.no_progress else None,
+            "log": lambda s: print(s, file=sys.stderr, flush=True)}
+
+
+def run_one(name: str, out: str, args) -> dict[str, Any]:
+    kw = _common(args)
+    if name == "convergence":
+        from .convergence import run_convergence
+
+        return run_convergence(out, quick=args.quick, c_implicit=args.c_implicit,
+                               c_explicit=args.c_explicit,
+                               schemes=getattr(args, "schemes", None),
+                               t_end=getattr(args, "t_end", 3.0), **kw)
+    if name == "work-precision":
+        from .workprecision import run_work_precision
+
+        return run_work_precision(out, quick=args.quick, c_implicit=args.c_implicit,
+                                  c_explicit=args.c_explicit, **kw)
+    from .stability import run_stability
+
+    return run_stability(out, quick=args.quick, **kw)
+
+
+def write_index(out: str, reports: dict[str, dict[str, Any]], wall_s: float,
+                quick: bool) -> str:
+    """OUT/index.md: the three studies' charts and findings, with wall time and runs."""
+    from .. import __version__
+
+    n_runs = sum(r["n_runs"] for r in reports.values())
+    n_cached = sum(r["n_cached"] for r in reports.values())
+    lines = [f"# dyncontact studies{' (quick)' if quick else ''}", "",
+             f"Generated {datetime.datetime.now().astimezone().isoformat(timespec='seconds')}"
+             f" by dyncontact {__version__}, {os.cpu_count()} cores. "
+             f"**Wall time {wall_s:.1f} s, {n_runs} runs** ({n_cached} from the cache).", ""]
+    for name, rep in reports.items():
+        folder = name
+        lines += [f"## {name}", "",
+                  f"{rep['n_runs']} runs, {rep['n_errors']} failed to run, "
+                  f"{rep['wall_s']:.1f} s. Details: [{folder}/summary.md]({folder}/summary.md)",
+                  ""]
+        with open(rep["summary"], encoding="utf-8") as f:
+            body = f.read().splitlines()
+        # the study's own summary without its title, images re-rooted
+        for line in body[1:]:
+            if line.startswith("!["):
+                a, b = line.split("](", 1)
+                line = f"{a}]({folder}/{b}"
+            if line.startswith("#"):
+                line = "#" + line
+            lines.append(line)
+        lines.append("")
+    path = os.path.join(out, "index.md")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + "\n")
+    return path
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if args.workers is not None and args.workers < 1:
+        print("dyncontact study: --workers must be >= 1", file=sys.stderr)
+        return 2
+    t0 = time.perf_counter()
+    out = os.path.abspath(args.out)
+    try:
+        if args.study == "all":
+            if args.cache is None:
+                args.cache = os.path.join(out, "cache")
+            reports = {name: run_one(name, os.path.join(out, name), args) for name in STUDIES}
+            wall = time.perf_counter() - t0
+            index = write_index(out, reports, wall, args.quick)
+            n = sum(r["n_runs"] for r in reports.values())
+            print(f"dyncontact study: {n} runs in {wall:.1f} s -> {index}")
+        else:
+            reports = {args.study: run_one(args.study, out, args)}
+            rep = reports[args.study]
+            print(f"dyncontact study {args.study}: {rep['n_runs']} runs in "
+                  f"{time.perf_counter() - t0:.1f} s -> {rep['summary']}")
+    except KeyboardInterrupt:
+        print("dyncontact study: interrupted (finished runs are cached; run the same "
+              "command again to resume)", file=sys.stderr)
+        return 130
+    except ValueError as exc:
+        print(f"dyncontact study: {exc}", file=sys.stderr)
+        return 2
+    errors = sum(r["n_errors"] for r in reports.values())
+    if errors:
+        print(f"dyncontact study: {errors} run(s) failed to run (see the summaries)",
+              file=sys.stderr)
+        return 1
+    return 0

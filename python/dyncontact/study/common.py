@@ -1,0 +1,183 @@
+"""Shared pieces of the studies: base scenes, the scheme catalogue, CSV/markdown/plots."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import os
+from typing import Any, Iterable, Mapping, Sequence
+
+__all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "write_base_scenes", "write_csv",
+           "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS"]
+
+#: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016).
+EXACT_1D = """\
+! 1D impact with a closed-form solution (SPEC section 2), written by dyncontact.study.
+&mesh     file = '', dim = 1, length = 1.0, h = 0.04 /
+&boundary clamped = 'top', contact = 'bottom' /
+&material young = 1.0, poisson = 0.0, density = 1.0 /
+&contact  method = 'nitsche', theta = 1, gamma0 = 10.0,
+          obstacle_point = 0.0, obstacle_normal = -1.0, probe = 0.0 /
+&initial  kind = 'compressed_bar', amplitude = 0.5 /
+&scheme   name = 'newmark', beta = 0.25, gamma = 0.5, dt = 0.002, t_end = 3.0,
+          mass = 'consistent' /
+&output   dir = 'out', every = 1, fields_every = 0 /
+"""
+
+#: The seed's 2D bar (SPEC section 2): built-in mesh, theta = 1, gamma0 = 10.
+SEED_2D = """\
+! The seed's 2D bar (SPEC section 2), written by dyncontact.study.
+&mesh     file = '', dim = 2, length = 1.0, width = 0.1, h = 0.05 /
+&boundary clamped = 'top', contact = 'bottom' /
+&material young = 0.6666666666666666, poisson = 0.3333333333333333, density = 1.0 /
+&contact  method = 'nitsche', theta = 1, gamma0 = 10.0,
+          obstacle_point = 0.0, 0.0, obstacle_normal = 0.0, -1.0, probe = 0.05, 0.0 /
+&initial  kind = 'compressed_bar', amplitude = 0.5 /
+&scheme   name = 'hht', alpha = 0.0, dt = 0.0025, t_end = 15.0, mass = 'consistent' /
+&output   dir = 'out', every = 1, fields_every = 0 /
+"""
+
+
+def write_base_scenes(folder: str) -> dict[str, str]:
+    """Write the base scenes into folder; returns {'exact1d': path, 'seed2d': path}."""
+    os.makedirs(folder, exist_ok=True)
+    paths = {}
+    for name, text in (("exact1d", EXACT_1D), ("seed2d", SEED_2D)):
+        p = os.path.abspath(os.path.join(folder, f"base_{name}.nml"))
+        if not os.path.isfile(p) or open(p, encoding="utf-8").read() != text:
+            with open(p, "w", encoding="utf-8") as f:
+                f.write(text)
+        paths[name] = p
+    return paths
+
+
+@dataclasses.dataclass(frozen=True)
+class SchemeSpec:
+    """A scheme with its parameters: ``key`` (command line), ``label`` (plots, tables),
+    ``settings`` (scene keys), ``explicit`` (predictor-corrector family)."""
+
+    key: str
+    label: str
+    settings: tuple[tuple[str, Any], ...]
+    explicit: bool = False
+
+    @property
+    def mass(self) -> str:
+        return dict(self.settings).get("scheme.mass", "consistent")
+
+
+def _s(key, label, explicit=False, **kw) -> SchemeSpec:
+    settings = {"scheme.name": kw.pop("name")}
+    settings.update({f"scheme.{k}": v for k, v in kw.items()})
+    settings.setdefault("scheme.mass", "consistent")
+    return SchemeSpec(key, label, tuple(settings.items()), explicit)
+
+
+#: Every scheme the studies know, by command-line key.
+SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
+    _s("newmark", "newmark β=¼ γ=½", name="newmark", beta=0.25, gamma=0.5),
+    _s("newmark_diss", "newmark β=0.3025 γ=0.6", name="newmark", beta=0.3025, gamma=0.6),
+    _s("hht-0.05", "hht α=-0.05", name="hht", alpha=-0.05),
+    _s("hht-0.1", "hht α=-0.1", name="hht", alpha=-0.1),
+    _s("hht_seed-0.1", "hht_seed α=-0.1", name="hht_seed", alpha=-0.1),
+    _s("theta0.5", "theta θ=½", name="theta", theta=0.5),
+    _s("theta1", "theta θ=1", name="theta", theta=1.0),
+    _s("pc", "pc β=¼ γ=½", True, name="pc", beta=0.25, gamma=0.5),
+    _s("pc_lumped", "pc β=¼ γ=½ lumped", True, name="pc", beta=0.25, gamma=0.5,
+       mass="lumped"),
+    _s("pc_hht-0.1", "pc_hht α=-0.1", True, name="pc_hht", alpha=-0.1),
+    _s("pc_hht_seed-0.1", "pc_hht_seed α=-0.1", True, name="pc_hht_seed", alpha=-0.1),
+)}
+
+
+def scheme_list(keys: str | Sequence[str]) -> list[SchemeSpec]:
+    """Schemes from a comma-separated list of keys (ValueError names a bad key)."""
+    if isinstance(keys, str):
+        keys = [k.strip() for k in keys.split(",") if k.strip()]
+    bad = [k for k in keys if k not in SCHEMES]
+    if bad:
+        raise ValueError(f"unknown scheme key(s) {', '.join(bad)}; known: "
+                         f"{', '.join(SCHEMES)}")
+    return [SCHEMES[k] for k in keys]
+
+
+# --------------------------------------------------------------------------- output
+
+def fmt(x: Any, spec: str = ".3g") -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, str):
+        return x
+    try:
+        xf = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    if math.isnan(xf):
+        return "-"
+    return format(xf, spec)
+
+
+def write_csv(path: str, rows: Sequence[Mapping[str, Any]], columns: Sequence[str]) -> str:
+    """rows as CSV with exactly these columns (floats with repr precision)."""
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(columns)
+        for r in rows:
+            out = []
+            for c in columns:
+                v = r.get(c)
+                if hasattr(v, "item") and not isinstance(v, (str, bytes)):
+                    v = v.item()    # numpy scalar -> Python scalar
+                if v is None or (isinstance(v, float) and math.isnan(v)):
+                    out.append("")
+                elif isinstance(v, float):
+                    out.append(repr(v))
+                else:
+                    out.append(str(v))
+            w.writerow(out)
+    return path
+
+
+def md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for r in rows:
+        lines.append("| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |")
+    return lines
+
+
+def slope(xs: Sequence[float], ys: Sequence[float]) -> float:
+    """Least-squares slope of log y against log x (NaN with fewer than two points)."""
+    import numpy as np
+
+    x = np.asarray(xs, dtype=float)
+    y = np.asarray(ys, dtype=float)
+    ok = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    if ok.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
+
+
+STATUS_COLORS = {"stable": "#2ca02c", "unstable": "#d62728", "newton_failed": "#ff7f0e",
+                 "error": "#7f7f7f"}
+
+
+def new_figure(nrows: int, ncols: int, width: float = 4.0, height: float = 3.2):
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(nrows, ncols, figsize=(width * ncols, height * nrows),
+                             squeeze=False)
+    return fig, axes
+
+
+def save_figure(fig, path: str, top: float = 1.0) -> str:
+    """Save and close; ``top`` < 1 leaves room for a suptitle."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout(rect=(0, 0, 1, top))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,187 @@
+"""``study convergence``: errors of every scheme against the 1D closed form.
+
+Case: the 1D exact case (SPEC section 2), h in {1/25, ..., 1/400}, dt = h/c with c = 20
+(implicit) and 100 (predictor-corrector) by default, T = 3 (one period: flight, impact,
+contact, release). Norms (see :mod:`.analyses`): L-infinity(0,T; L2) and
+L-infinity(0,T; H1) of u, L-infinity(0,T; L2) of u_t, their L2(0,T) counterparts, and
+L2(0,T) of the contact stress at x = 0.
+
+The field norms come from VTU snapshots every k steps with k = round(SNAP_DT / dt): the
+same time grid (spacing SNAP_DT = 1/50, 151 snapshots over T = 3) for every h, so the
+time norms of all runs are computed on the same points. The stress norm uses every step.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+from . import analyses  # noqa: F401 - registers the analyses
+from .common import (fmt, md_table, new_figure, save_figure, scheme_list, slope,
+                     write_base_scenes, write_csv)
+from .analyses import FIELD_NORMS
+from .sweep import make_task, sweep
+
+__all__ = ["run_convergence", "DEFAULT_SCHEMES", "FULL_NS", "QUICK_NS"]
+
+DEFAULT_SCHEMES = ("newmark", "hht-0.05", "hht-0.1", "theta0.5", "theta1", "pc",
+                   "pc_hht-0.1")
+FULL_NS = (25, 50, 100, 200, 400)
+QUICK_NS = (25, 50, 100)
+SNAP_DT = 1.0 / 50.0
+NORM_LABELS = {
+    "u_Linf_L2": "L∞(0,T; L²) of u", "u_Linf_H1": "L∞(0,T; H¹) of u",
+    "v_Linf_L2": "L∞(0,T; L²) of u̇", "u_L2_L2": "L²(0,T; L²) of u",
+    "u_L2_H1": "L²(0,T; H¹) of u", "v_L2_L2": "L²(0,T; L²) of u̇",
+    "p_L2": "L²(0,T) of the contact stress at x=0",
+}
+
+
+def convergence_tasks(base: str, schemes, ns, c_implicit: float, c_explicit: float,
+                      t_end: float, snap_dt: float = SNAP_DT):
+    tasks = []
+    for s in schemes:
+        c = c_explicit if s.explicit else c_implicit
+        for n in ns:
+            h = 1.0 / n
+            dt = h / c
+            k = max(1, int(round(snap_dt / dt)))
+            settings = dict(s.settings)
+            settings.update({"mesh.h": h, "scheme.dt": dt, "scheme.t_end": t_end,
+                             "output.every": 1, "output.fields_every": k})
+            tasks.append(make_task(base, settings, "exact1d",
+                                   tags={"scheme": s.key, "label": s.label, "n": n, "h": h,
+                                         "dt": dt, "c": c, "k": k}))
+    return tasks
+
+
+def run_convergence(out: str, *, quick: bool = False, schemes: str | None = None,
+                    c_implicit: float = 20.0, c_explicit: float = 100.0,
+                    t_end: float = 3.0, ns=None, cache: str | None = None,
+                    workers: int | None = None, scheduler: Any = None,
+                    progress: bool | None = None, log=print) -> dict[str, Any]:
+    """Run the study, write convergence.csv, orders.csv, convergence.png and summary.md
+    into ``out``; returns the report (rows, orders, paths, n_runs, wall_s)."""
+    t0 = time.perf_counter()
+    out = os.path.abspath(out)
+    os.makedirs(out, exist_ok=True)
+    cache = cache or os.path.join(out, "cache")
+    base = write_base_scenes(os.path.join(out, "scenes"))["exact1d"]
+    sch = scheme_list(schemes or DEFAULT_SCHEMES)
+    ns = tuple(ns or (QUICK_NS if quick else FULL_NS))
+    tasks = convergence_tasks(base, sch, ns, c_implicit, c_explicit, t_end)
+    recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,
+                 desc="convergence", log=log)
+    rows = []
+    for r in recs:
+        tg = dict(r["task"].tags)
+        row = {k: tg[k] for k in ("scheme", "n", "h", "dt", "c", "k")}
+        m = r.get("metrics", {})
+        row.update(status=r["status"], t_end_reached=r.get("t_end_reached"),
+                   steps=r.get("steps"), snapshots=m.get("snapshots"))
+        for norm in FIELD_NORMS:
+            row[norm] = m.get(norm)
+        row.update(err_u_n=m.get("err_u_n"), err_v_n=m.get("err_v_n"),
+                   e_end_ratio=m.get("e_end_ratio"), message=_first(r.get("message")))
+        rows.append(row)
+    cols = ["scheme", "n", "h", "dt", "c", "k", "status", "t_end_reached", "steps",
+            "snapshots", *FIELD_NORMS, "err_u_n", "err_v_n", "e_end_ratio", "message"]
+    csv_path = write_csv(os.path.join(out, "convergence.csv"), rows, cols)
+    orders = []
+    for s in sch:
+        mine = [r for r in rows if r["scheme"] == s.key and r["status"] == "ok"]
+        hs = [r["h"] for r in mine]
+        for norm in FIELD_NORMS:
+            ys = [r[norm] if r[norm] is not None else float("nan") for r in mine]
+            last = slope(hs[-2:], ys[-2:]) if len(hs) >= 2 else float("nan")
+            orders.append({"scheme": s.key, "norm": norm, "order_fit": slope(hs, ys),
+                           "order_last": last, "runs_ok": len(mine),
+                           "runs": sum(1 for r in rows if r["scheme"] == s.key)})
+    ord_path = write_csv(os.path.join(out, "orders.csv"), orders,
+                         ["scheme", "norm", "order_fit", "order_last", "runs_ok", "runs"])
+    png = _plot(rows, sch, os.path.join(out, "convergence.png"))
+    report = {"rows": rows, "orders": orders, "csv": csv_path, "orders_csv": ord_path,
+              "png": png, "n_runs": len(tasks), "n_cached": sum(r["cached"] for r in recs),
+              "n_errors": sum(r["status"] == "error" for r in recs),
+              "wall_s": time.perf_counter() - t0, "ns": ns, "t_end": t_end,
+              "c_implicit": c_implicit, "c_explicit": c_explicit, "quick": quick}
+    report["summary"] = _summary(report, sch, os.path.join(out, "summary.md"))
+    return report
+
+
+def _first(msg):
+    return msg.splitlines()[0] if msg else ""
+
+
+def _plot(rows, schemes, path):
+    fig, axes = new_figure(2, 4, 3.8, 3.2)
+    for j, norm in enumerate(FIELD_NORMS):
+        ax = axes.flat[j]
+        for s in schemes:
+            mine = [r for r in rows if r["scheme"] == s.key and r["status"] == "ok"
+                    and r[norm]]
+            if mine:
+                ax.loglog([r["h"] for r in mine], [r[norm] for r in mine], "o-",
+                          ms=3, label=s.label)
+        hs = np.array(sorted({r["h"] for r in rows}))
+        if len(hs):
+            ys = [r[norm] for r in rows if r[norm]]
+            if ys:
+                y0 = float(np.median(ys))
+                for p, ls in ((0.5, ":"), (1.0, "--")):
+                    ax.loglog(hs, y0 * (hs / hs[len(hs) // 2]) ** p, "k" + ls, lw=0.8,
+                              label=f"h^{p:g}" if j == 0 else None)
+        ax.set_title(NORM_LABELS[norm], fontsize=9)
+        ax.set_xlabel("h")
+        ax.grid(True, which="both", alpha=0.3)
+    from matplotlib.ticker import NullFormatter
+
+    for ax in axes.flat[:7]:
+        ax.xaxis.set_minor_formatter(NullFormatter())
+    ax = axes.flat[7]
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    ax.legend(handles, labels, loc="center", fontsize=8)
+    ax.axis("off")
+    return save_figure(fig, path)
+
+
+def _summary(report, schemes, path) -> str:
+    rows, orders = report["rows"], report["orders"]
+    ns = report["ns"]
+    lines = [
+        "# Convergence against the 1D closed form", "",
+        f"1D exact case (SPEC §2), θ = 1, γ0 = 10, T = {report['t_end']:g}; "
+        f"h = {', '.join('1/' + str(n) for n in ns)}; Δt = h/c with c = "
+        f"{report['c_implicit']:g} (implicit) and {report['c_explicit']:g} "
+        f"(predictor-corrector). Field norms from VTU snapshots on one time grid "
+        f"(spacing {SNAP_DT:g}) for every h; the stress norm from every step.", "",
+        f"{report['n_runs']} runs ({report['n_cached']} from the cache, "
+        f"{report['n_errors']} failed to run), {report['wall_s']:.1f} s.", "",
+        "![convergence](convergence.png)", "",
+        "## Observed orders (least-squares slope over all h; last pair in brackets)", ""]
+    header = ["scheme"] + [n for n in FIELD_NORMS]
+    table = []
+    for s in schemes:
+        cells = [s.label]
+        for norm in FIELD_NORMS:
+            o = next(o for o in orders if o["scheme"] == s.key and o["norm"] == norm)
+            cells.append(f"{fmt(o['order_fit'], '.2f')} ({fmt(o['order_last'], '.2f')})")
+        bad = [r for r in rows if r["scheme"] == s.key and r["status"] != "ok"]
+        if bad:
+            cells[0] += " (" + ", ".join(f"1/{r['n']}: {r['status']}" for r in bad) + ")"
+        table.append(cells)
+    lines += md_table(header, table)
+    lines += ["", f"## Errors at the finest mesh (h = 1/{ns[-1]})", ""]
+    table = []
+    for s in schemes:
+        r = next((r for r in rows if r["scheme"] == s.key and r["n"] == ns[-1]), None)
+        if r is not None:
+            table.append([s.label, r["status"]] + [fmt(r[n]) for n in FIELD_NORMS])
+    lines += md_table(["scheme", "status", *FIELD_NORMS], table)
+    text = "\n".join(lines) + "\n"
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text)
+    return path

@@ -1,0 +1,349 @@
+"""``study stability``: where each scheme fails on the seed's 2D bar, and the seed's
+claims settled in numbers.
+
+Sweep: scheme (x mass for pc) x h x gamma0 x Nitsche theta in {-1, 0, 1} x dt/h, to
+T = 30 (about 10 impacts). The dt/h grid is per family (implicit schemes at and above
+the seed's h/20, predictor-corrector schemes from h/100 up), since an implicit scheme at
+h/100 says nothing a run at h/20 does not.
+
+Classification (from summary.json, i.e. the core's own verdict, SPEC section 4):
+``stable`` (ran to T), ``unstable`` (energy of the written state over ``blowup`` x
+e_total(0), or not finite: stop time and the core's message), ``newton_failed``,
+``error`` (the run could not be done).
+
+Critical dt per (scheme, mass, h, gamma0, theta): the grid gives a bracket (the largest
+stable dt below the smallest one that is not stable); it is narrowed by bisection in
+log(dt) (``rounds`` halvings of the log-width, all groups at once per round). Reported
+as [lo, hi] and their geometric mean. When a stable dt lies above an unstable one the
+group is flagged ``non_monotone`` (the bisection brackets the first loss of stability).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from typing import Any, Callable, Hashable, Mapping
+
+import numpy as np
+
+from . import analyses  # noqa: F401 - registers the analyses
+from .common import (STATUS_COLORS, fmt, md_table, new_figure, save_figure,
+                     scheme_list, write_base_scenes, write_csv)
+from .analyses import impacts  # noqa: F401 - part of this module's API
+from .sweep import Task, make_task, sweep
+
+__all__ = ["run_stability", "bisect_critical", "classify", "GRIDS", "impacts"]
+
+#: Sweep sizes. 'dt_over_h': {'implicit': (...), 'explicit': (...)}.
+GRIDS = {
+    "full": {"schemes": ("newmark", "newmark_diss", "hht-0.1", "hht_seed-0.1", "theta1",
+                         "pc", "pc_lumped", "pc_hht-0.1", "pc_hht_seed-0.1"),
+             "h": (0.1, 0.05), "gamma0": (0.01, 1.0, 10.0, 100.0),
+             "theta": (-1, 0, 1),
+             "dt_over_h": {"implicit": (1 / 80, 1 / 20, 1 / 5, 1.0),
+                           "explicit": (1 / 100, 1 / 20, 1 / 10, 1 / 5, 1 / 2, 1.0)},
+             "t_end": 30.0, "rounds": 4},
+    "quick": {"schemes": ("hht-0.1", "pc", "pc_lumped"),
+              "h": (0.1,), "gamma0": (10.0,), "theta": (-1, 1),
+              "dt_over_h": {"implicit": (1 / 20, 1 / 2), "explicit": (1 / 20, 1 / 10, 1 / 2)},
+              "t_end": 30.0, "rounds": 3},
+}
+#: Trace rows kept per grid run for the claims (u_n over the first period, energies).
+KEEP_ROWS = 1500
+#: Trace rows about this far apart in time (output.every = round(OUTPUT_DT / dt)): the
+#: verdict does not depend on it (the core checks the energy of every step, and the stop
+#: time is summary.json's), impacts are found to within OUTPUT_DT, and writing a row per
+#: step would cost more than the step itself on these small meshes.
+OUTPUT_DT = 0.01
+
+
+def classify(status: str) -> str:
+    return {"ok": "stable"}.get(status, status)
+
+
+# --------------------------------------------------------------------------- bisection
+
+def bisect_critical(groups: Mapping[Hashable, tuple[float, float]],
+                    task_for: Callable[[Hashable, float], Task], rounds: int, cache: str,
+                    *, workers=None, scheduler=None, progress=None, log=None,
+                    desc: str = "bisection") -> dict[Hashable, dict[str, Any]]:
+    """Narrow each group's bracket [lo, hi] (lo stable, hi not) by ``rounds`` bisections
+    in log(dt); the midpoints of all groups run together in each round.
+
+    Returns {group: {'lo', 'hi', 'runs': [records]}}.
+    """
+    state = {g: {"lo": float(lo), "hi": float(hi), "runs": []} for g, (lo, hi) in
+             groups.items()}
+    for k in range(rounds):
+        order = list(state)
+        if not order:
+            break
+        mids = {g: math.sqrt(state[g]["lo"] * state[g]["hi"]) for g in order}
+        recs = sweep([task_for(g, mids[g]) for g in order], cache, workers=workers,
+                     scheduler=scheduler, progress=progress,
+                     desc=f"{desc} {k + 1}/{rounds}", log=log)
+        for g, r in zip(order, recs):
+            st = state[g]
+            st["runs"].append(r)
+            if r["status"] == "ok":
+                st["lo"] = mids[g]
+            elif r["status"] != "error":
+                st["hi"] = mids[g]
+            # an 'error' run leaves the bracket as it is
+    return state
+
+
+# --------------------------------------------------------------------------- study
+
+def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0):
+    settings = dict(s.settings)
+    settings.update({"mesh.h": h, "contact.gamma0": g0, "contact.theta": int(th),
+                     "scheme.dt": dt, "scheme.t_end": t_end,
+                     "output.every": max(1, int(round(OUTPUT_DT / dt))),
+                     "output.fields_every": 0})
+    return make_task(base, settings, "stability", {"keep_rows": keep_rows},
+                     tags={"scheme": s.key, "label": s.label, "mass": s.mass, "h": h,
+                           "gamma0": g0, "theta": int(th), "dt": dt, "dt_over_h": dt / h,
+                           "phase": phase})
+
+
+def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | None = None,
+                  cache: str | None = None, workers: int | None = None,
+                  scheduler: Any = None, progress: bool | None = None,
+                  log=print) -> dict[str, Any]:
+    """Run the sweep and the bisections; writes runs.csv, stability.csv, heat maps
+    (stability_h*.png, critical_dt.png) and summary.md (with the claims table)."""
+    t0 = time.perf_counter()
+    g = dict(GRIDS["quick" if quick else "full"])
+    g.update(grid or {})
+    out = os.path.abspath(out)
+    os.makedirs(out, exist_ok=True)
+    cache = cache or os.path.join(out, "cache")
+    base = write_base_scenes(os.path.join(out, "scenes"))["seed2d"]
+    schemes = scheme_list(g["schemes"])
+    t_end = float(g["t_end"])
+    tasks = []
+    for s in schemes:
+        ratios = g["dt_over_h"]["explicit" if s.explicit else "implicit"]
+        for h in g["h"]:
+            for g0 in g["gamma0"]:
+                for th in g["theta"]:
+                    for r in ratios:
+                        tasks.append(_task(base, s, h, g0, th, h * r, t_end, "grid",
+                                           KEEP_ROWS))
+    recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,
+                 desc="stability grid", log=log)
+    groups: dict[tuple, list[dict]] = {}
+    for r in recs:
+        tg = r["task"].tag
+        groups.setdefault((tg("scheme"), tg("h"), tg("gamma0"), tg("theta")), []).append(r)
+    brackets, crit = {}, {}
+    for key, rs in groups.items():
+        rs.sort(key=lambda r: r["task"].tag("dt"))
+        dts = [r["task"].tag("dt") for r in rs]
+        ok = [r["status"] == "ok" for r in rs]
+        first_bad = next((i for i, o in enumerate(ok) if not o
+                          and rs[i]["status"] != "error"), None)
+        info = {"grid_stable": f"{sum(ok)}/{len(ok)}", "non_monotone": False,
+                "lo": None, "hi": None, "bracket": ""}
+        if first_bad is None:
+            info.update(bracket="above grid", lo=dts[-1])
+        elif first_bad == 0:
+            info.update(bracket="below grid", hi=dts[0])
+        else:
+            info.update(bracket="bisection", lo=dts[first_bad - 1], hi=dts[first_bad])
+            brackets[key] = (dts[first_bad - 1], dts[first_bad])
+            info["non_monotone"] = any(ok[first_bad + 1:])
+        if first_bad is not None:
+            info["first_unstable_status"] = rs[first_bad]["status"]
+            info["first_unstable_stop"] = rs[first_bad].get("t_end_reached")
+            info["first_unstable_reason"] = _first(rs[first_bad].get("message"))
+        crit[key] = info
+    by_key = {s.key: s for s in schemes}
+
+    def task_for(key, dt):
+        s, h, g0, th = by_key[key[0]], key[1], key[2], key[3]
+        return _task(base, s, h, g0, th, dt, t_end, "bisect")
+
+    bis = bisect_critical(brackets, task_for, int(g["rounds"]), cache, workers=workers,
+                          scheduler=scheduler, progress=progress, log=log,
+                          desc="stability bisection")
+    for key, st in bis.items():
+        crit[key].update(lo=st["lo"], hi=st["hi"])
+    all_recs = list(recs) + [r for st in bis.values() for r in st["runs"]]
+    run_rows = [_run_row(r) for r in all_recs]
+    run_cols = ["scheme", "mass", "h", "gamma0", "theta", "dt", "dt_over_h", "phase",
+                "status", "classification", "stop_time", "reason", "impacts",
+                "e_max_ratio", "e_end_ratio", "ec_end_ratio", "steps"]
+    runs_csv = write_csv(os.path.join(out, "runs.csv"), run_rows, run_cols)
+    crit_rows = []
+    for key in sorted(crit, key=lambda k: ([s.key for s in schemes].index(k[0]),) + k[1:]):
+        c = crit[key]
+        lo, hi = c["lo"], c["hi"]
+        mid = math.sqrt(lo * hi) if lo and hi else None
+        crit_rows.append({"scheme": key[0], "mass": by_key[key[0]].mass, "h": key[1],
+                          "gamma0": key[2], "theta": key[3], "dt_crit_lo": lo,
+                          "dt_crit_hi": hi, "dt_crit": mid,
+                          "dt_crit_over_h": mid / key[1] if mid else None,
+                          "bracket": c["bracket"], "grid_stable": c["grid_stable"],
+                          "non_monotone": c["non_monotone"],
+                          "first_unstable_status": c.get("first_unstable_status", ""),
+                          "first_unstable_stop": c.get("first_unstable_stop"),
+                          "first_unstable_reason": c.get("first_unstable_reason", "")})
+    crit_cols = ["scheme", "mass", "h", "gamma0", "theta", "dt_crit_lo", "dt_crit_hi",
+                 "dt_crit", "dt_crit_over_h", "bracket", "grid_stable", "non_monotone",
+                 "first_unstable_status", "first_unstable_stop", "first_unstable_reason"]
+    crit_csv = write_csv(os.path.join(out, "stability.csv"), crit_rows, crit_cols)
+    pngs = _heatmaps(run_rows, crit_rows, schemes, g, out)
+    from .claims import claims_table
+
+    claims = claims_table(recs, g)
+    report = {"runs": run_rows, "critical": crit_rows, "claims": claims,
+              "csv": crit_csv, "runs_csv": runs_csv, "pngs": pngs, "grid": g,
+              "n_runs": len(all_recs), "n_cached": sum(r["cached"] for r in all_recs),
+              "n_errors": sum(r["status"] == "error" for r in all_recs),
+              "wall_s": time.perf_counter() - t0, "quick": quick}
+    report["summary"] = _summary(report, schemes, os.path.join(out, "summary.md"))
+    return report
+
+
+def _first(msg) -> str:
+    return msg.splitlines()[0] if msg else ""
+
+
+def _run_row(r) -> dict[str, Any]:
+    tg = dict(r["task"].tags)
+    m = r.get("metrics", {})
+    stop = r.get("t_end_reached") if r["status"] != "ok" else None
+    n_imp = None
+    if m.get("impact_times") is not None:
+        n_imp = len(m["impact_times"])
+    return {"scheme": tg["scheme"], "mass": tg["mass"], "h": tg["h"], "gamma0": tg["gamma0"],
+            "theta": tg["theta"], "dt": tg["dt"], "dt_over_h": tg["dt_over_h"],
+            "phase": tg["phase"], "status": r["status"],
+            "classification": classify(r["status"]), "stop_time": stop,
+            "reason": _first(r.get("message")) if r["status"] != "ok" else "",
+            "impacts": n_imp, "e_max_ratio": m.get("e_max_ratio"),
+            "e_end_ratio": m.get("e_end_ratio"), "ec_end_ratio": m.get("ec_end_ratio"),
+            "steps": r.get("steps")}
+
+
+def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
+    """One PNG per h: a panel per scheme, rows (gamma0, theta), columns dt/h, colour =
+    classification, text = stop time; and critical_dt.png (dt_crit/h per scheme)."""
+    from matplotlib.colors import ListedColormap
+
+    names = ["stable", "unstable", "newton_failed", "error"]
+    cmap = ListedColormap([STATUS_COLORS[n] for n in names])
+    pngs = []
+    combos = [(g0, th) for g0 in g["gamma0"] for th in g["theta"]]
+    for h in g["h"]:
+        ncols = min(3, len(schemes))
+        nrows = math.ceil(len(schemes) / ncols)
+        fig, axes = new_figure(nrows, ncols, 4.6, 0.45 * len(combos) + 1.6)
+        for ax, s in zip(axes.flat, schemes):
+            ratios = g["dt_over_h"]["explicit" if s.explicit else "implicit"]
+            z = np.full((len(combos), len(ratios)), np.nan)
+            for i, (g0, th) in enumerate(combos):
+                for j, rr in enumerate(ratios):
+                    row = next((x for x in run_rows if x["phase"] == "grid"
+                                and x["scheme"] == s.key and x["h"] == h
+                                and x["gamma0"] == g0 and x["theta"] == th
+                                and math.isclose(x["dt_over_h"], rr, rel_tol=1e-9)), None)
+                    if row is None:
+                        continue
+                    z[i, j] = names.index(row["classification"]) \
+                        if row["classification"] in names else 3
+                    if row["stop_time"] is not None:
+                        ax.text(j, i, f"{row['stop_time']:.3g}", ha="center", va="center",
+                                fontsize=6, color="w")
+            ax.imshow(z, cmap=cmap, vmin=-0.5, vmax=3.5, aspect="auto")
+            ax.set_xticks(range(len(ratios)))
+            ax.set_xticklabels([f"1/{1 / r:.3g}" if r < 1 else f"{r:g}" for r in ratios],
+                               fontsize=7)
+            ax.set_yticks(range(len(combos)))
+            ax.set_yticklabels([f"γ0={g0:g} θ={th:+d}" for g0, th in combos], fontsize=6)
+            ax.set_xlabel("Δt/h", fontsize=8)
+            ax.set_title(s.label, fontsize=9)
+        for ax in list(axes.flat)[len(schemes):]:
+            ax.axis("off")
+        fig.suptitle(f"h = {h:g}, T = {g['t_end']:g}: green stable, red unstable (stop time "
+                     f"written), orange Newton failed, grey error", fontsize=9)
+        path = os.path.join(out, f"stability_h{h:g}.png")
+        pngs.append(save_figure(fig, path, top=1 - 0.35 / fig.get_figheight()))
+    # critical dt / h
+    fig, axes = new_figure(len(g["h"]), 1, 0.9 * len(schemes) + 3, 0.3 * len(combos) + 2.2)
+    finite = [c["dt_crit_over_h"] for c in crit_rows if c.get("dt_crit_over_h")]
+    lims = (math.log10(min(finite)), math.log10(max(finite))) if finite else (None, None)
+    for ax, h in zip(axes.flat, g["h"]):
+        z = np.full((len(combos), len(schemes)), np.nan)
+        for i, (g0, th) in enumerate(combos):
+            for j, s in enumerate(schemes):
+                c = next((c for c in crit_rows if c["scheme"] == s.key and c["h"] == h
+                          and c["gamma0"] == g0 and c["theta"] == th), None)
+                if c is None:
+                    continue
+                if c["bracket"] == "bisection":
+                    z[i, j] = c["dt_crit_over_h"]
+                    txt = f"{c['dt_crit_over_h']:.3g}"
+                elif c["bracket"] == "above grid":
+                    txt = f">{c['dt_crit_lo'] / h:.3g}"
+                else:
+                    txt = f"<{c['dt_crit_hi'] / h:.3g}"
+                ax.text(j, i, txt, ha="center", va="center", fontsize=6)
+        im = ax.imshow(np.log10(z), aspect="auto", cmap="YlGnBu", vmin=lims[0],
+                       vmax=lims[1])
+        ax.set_xticks(range(len(schemes)))
+        ax.set_xticklabels([s.key for s in schemes], rotation=45, ha="right", fontsize=7)
+        ax.set_yticks(range(len(combos)))
+        ax.set_yticklabels([f"γ0={g0:g} θ={th:+d}" for g0, th in combos], fontsize=6)
+        ax.set_title(f"critical Δt/h, h = {h:g} (bisection; > / <: stable / unstable on "
+                     f"the whole grid)", fontsize=9)
+        fig.colorbar(im, ax=ax, label="log10(Δt_crit/h)")
+    pngs.append(save_figure(fig, os.path.join(out, "critical_dt.png")))
+    return pngs
+
+
+def _summary(report, schemes, path) -> str:
+    g = report["grid"]
+    lines = [
+        "# Stability on the seed's 2D bar", "",
+        f"T = {g['t_end']:g}; h ∈ {{{', '.join(f'{h:g}' for h in g['h'])}}}; "
+        f"γ0 ∈ {{{', '.join(f'{x:g}' for x in g['gamma0'])}}}; Nitsche θ ∈ "
+        f"{{{', '.join(str(x) for x in g['theta'])}}}; Δt/h ∈ "
+        f"{{{', '.join(f'{x:.4g}' for x in g['dt_over_h']['implicit'])}}} (implicit), "
+        f"{{{', '.join(f'{x:.4g}' for x in g['dt_over_h']['explicit'])}}} "
+        f"(predictor-corrector); then {g['rounds']} rounds of bisection in log Δt on each "
+        f"bracket.", "",
+        f"{report['n_runs']} runs ({report['n_cached']} from the cache, "
+        f"{report['n_errors']} failed to run), {report['wall_s']:.1f} s.", "",
+        "Verdicts are the core's (summary.json status): `unstable` = the energy of the "
+        "written state exceeded blowup × e_total(0) (or was not finite).", ""]
+    lines += ["## The seed's claims", ""]
+    lines += md_table(["claim", "setting tested", "verdict", "evidence"],
+                      [[c["claim"], c["setting"], c["verdict"], c["evidence"]]
+                       for c in report["claims"]])
+    lines += ["", "## Critical Δt (stability.csv)", ""]
+    for p in report["pngs"]:
+        lines += [f"![{os.path.basename(p)}]({os.path.basename(p)})", ""]
+    table = []
+    for c in report["critical"]:
+        if c["bracket"] == "bisection":
+            val = f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')} " \
+                  f"(h/{1 / c['dt_crit_over_h']:.3g})"
+        elif c["bracket"] == "above grid":
+            val = f"> {fmt(c['dt_crit_lo'], '.4g')} (stable on the whole grid)"
+        else:
+            val = f"< {fmt(c['dt_crit_hi'], '.4g')} (unstable on the whole grid)"
+        stop = f"{c['first_unstable_status']} at t={fmt(c['first_unstable_stop'], '.4g')}" \
+            if c["first_unstable_status"] else ""
+        table.append([c["scheme"], c["mass"], fmt(c["h"], "g"), fmt(c["gamma0"], "g"),
+                      c["theta"], val, c["grid_stable"],
+                      "yes" if c["non_monotone"] else "", stop])
+    lines += md_table(["scheme", "mass", "h", "γ0", "θ", "critical Δt", "grid stable",
+                       "non-monotone", "first unstable grid run"], table)
+    text = "\n".join(lines) + "\n"
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(text)
+    return path

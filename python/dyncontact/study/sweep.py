@@ -1,0 +1,480 @@
+"""Sweeps of independent runs: a per-run cache, a local process pool or a Dask cluster.
+
+A :class:`Task` is one run: a base scene file, the keys it changes (``Scene.set``) and
+the *analysis* that turns the run's outputs into a record (numbers, optionally small
+arrays). :func:`sweep` executes a list of tasks and returns their records in order.
+
+Cache
+-----
+Each run is stored under ``CACHE/<k[:2]>/<k>/`` where ``k`` is the SHA-256 of
+
+- the full parsed scene as the Fortran core reads it (:func:`dyncontact.core.scene_dump`:
+  every key, defaults filled in), without ``output.dir`` (where the run goes is not
+  what it is), plus the content hash of the mesh file when there is one;
+- the code version: ``dyncontact.__version__``, the Fortran core's version string and
+  the SHA-256 of the compiled extension (any rebuild that changes the code changes it);
+- the analysis name, its parameters and the SHA-256 of the module that implements it
+  (:mod:`.analyses`, which holds nothing else: editing a report or a plot does not
+  invalidate the runs).
+
+An entry is written in a temporary folder next to it and renamed into place when
+complete (``record.json`` last, holding the SHA-256 of every file it lists), so an
+interrupted sweep leaves no entry that looks finished. On a lookup the record is parsed
+and each listed file's hash checked; anything missing, unreadable or different is a
+*corrupt* entry: it is removed and the run is done again. A re-run of a sweep therefore
+resumes where it stopped.
+
+Executors
+---------
+``workers`` processes of a local :class:`concurrent.futures.ProcessPoolExecutor` by
+default; with ``scheduler`` (an address such as ``tcp://host:8786``, or a
+``distributed.Client``) the tasks go to a ``dask.distributed`` cluster (the workers must
+see the cache folder: a shared file system, or the same machine). A run that fails
+(bad input, an exception in the analysis, a worker that died) becomes a record with
+``status = 'error'`` and its message; the sweep goes on.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses
+import functools
+import hashlib
+import json
+import os
+import shutil
+import sys
+import tempfile
+import time
+import traceback
+import uuid
+from typing import Any, Callable, Iterable, Mapping, Sequence
+
+import numpy as np
+
+__all__ = ["Task", "sweep", "task_key", "code_version", "lookup", "execute",
+           "register_analysis", "ERROR"]
+
+#: Status of a record whose run could not be done (not a numerical verdict).
+ERROR = "error"
+#: Bump when the layout of a cache entry changes.
+CACHE_LAYOUT = 1
+#: A temporary entry folder older than this (s) is left over from an interrupted sweep.
+STALE_S = 6 * 3600
+
+_ANALYSES: dict[str, Callable[..., dict[str, Any]]] = {}
+
+
+def register_analysis(name: str):
+    """Decorator: ``fn(run_dir, result, **params) -> {'metrics': {...}, 'arrays': {...}}``
+    names an analysis that tasks can ask for. ``result`` is the :class:`RunResult`."""
+
+    def deco(fn):
+        _ANALYSES[name] = fn
+        return fn
+
+    return deco
+
+
+@dataclasses.dataclass(frozen=True)
+class Task:
+    """One run of a sweep.
+
+    ``base``: scene file; ``settings``: ((group.key, value), ...) applied with
+    ``Scene.set``; ``analysis``: a registered analysis name with ``params``
+    (((name, value), ...)); ``tags``: labels carried into the record (scheme label,
+    grid coordinates), not part of the cache key. The analysis may name more files of
+    the run folder to keep in the cache (``keep``) besides trace.csv and summary.json.
+    """
+
+    base: str
+    settings: tuple[tuple[str, Any], ...]
+    analysis: str = "trace"
+    params: tuple[tuple[str, Any], ...] = ()
+    tags: tuple[tuple[str, Any], ...] = ()
+
+    def setting(self, key: str, default: Any = None) -> Any:
+        return dict(self.settings).get(key, default)
+
+    def tag(self, key: str, default: Any = None) -> Any:
+        return dict(self.tags).get(key, default)
+
+
+def make_task(base: str, settings: Mapping[str, Any], analysis: str = "trace",
+              params: Mapping[str, Any] | None = None,
+              tags: Mapping[str, Any] | None = None) -> Task:
+    """A :class:`Task` from plain dicts (values must be plain numbers / strings)."""
+    return Task(base=os.path.abspath(base), settings=tuple(settings.items()),
+                analysis=analysis, params=tuple(sorted((params or {}).items())),
+                tags=tuple((tags or {}).items()))
+
+
+# --------------------------------------------------------------------------- keys
+
+def _sha256_file(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def code_version() -> dict[str, str]:
+    """The code's identity for the cache: package version, Fortran version string and
+    the hash of the compiled extension."""
+    import importlib.util
+
+    from .. import __version__
+    from .. import core
+
+    fortran = core.fortran_version()       # loads the extension (or raises, clearly)
+    ext = importlib.util.find_spec("dyncontact._core").origin   # its shared library
+    return {"package": __version__, "fortran": fortran, "extension_sha256": _sha256_file(ext)}
+
+
+#: Modules that register the analyses the studies use (imported on first need, so that
+#: a worker process that only imported this module finds them).
+_ANALYSIS_MODULES = ("dyncontact.study.analyses",)
+
+
+def _analysis(name: str) -> Callable[..., dict[str, Any]]:
+    if name not in _ANALYSES:
+        import importlib
+
+        for mod in _ANALYSIS_MODULES:
+            importlib.import_module(mod)
+    if name not in _ANALYSES:
+        raise ValueError(f"unknown analysis {name!r} (known: {', '.join(sorted(_ANALYSES))})")
+    return _ANALYSES[name]
+
+
+@functools.lru_cache(maxsize=None)
+def _analysis_version(name: str) -> str:
+    fn = _analysis(name)
+    mod = sys.modules[fn.__module__]
+    return _sha256_file(mod.__file__)
+
+
+def _scene(task: Task):
+    from ..scene import Scene
+
+    scn = Scene.read(task.base)
+    for key, value in task.settings:
+        scn.set(key, value)
+    return scn
+
+
+def _parsed(task: Task, folder: str) -> dict[str, Any]:
+    """The scene as the core parses it (output.dir removed, mesh content hashed)."""
+    from .. import core
+
+    path = os.path.join(folder, "scene.nml")
+    _scene(task).write(path)
+    dump_fn = getattr(core, "scene_dump", None)
+    if dump_fn is None:   # no parsed dump: the canonical text Scene.write produced
+        with open(path, encoding="utf-8") as f:
+            return {"scene_nml": f.read()}
+    dump = dump_fn(path)
+    out = dump.get("output")
+    if isinstance(out, dict):
+        out.pop("dir", None)
+    mesh = dump.get("mesh")
+    if isinstance(mesh, dict) and mesh.get("file"):
+        mesh["file_sha256"] = _sha256_file(str(mesh["file"]))
+        mesh.pop("file")
+    return dump
+
+
+def task_key(task: Task) -> str:
+    """The cache key of a task (see the module docstring)."""
+    with tempfile.TemporaryDirectory(prefix="dyncontact-key-") as tmp:
+        dump = _parsed(task, tmp)
+    doc = {"layout": CACHE_LAYOUT, "scene": dump, "code": code_version(),
+           "analysis": task.analysis, "params": [list(p) for p in task.params],
+           "analysis_sha256": _analysis_version(task.analysis)}
+    text = json.dumps(doc, sort_keys=True, default=str, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _entry(cache: str, key: str) -> str:
+    return os.path.join(cache, key[:2], key)
+
+
+# --------------------------------------------------------------------------- entries
+
+def lookup(cache: str, key: str) -> dict[str, Any] | None:
+    """The record of a finished cache entry, or None (missing). A corrupt entry (record
+    unreadable, a listed file missing or changed) is removed and None returned."""
+    folder = _entry(cache, key)
+    if not os.path.isdir(folder):
+        return None
+    try:
+        with open(os.path.join(folder, "record.json"), encoding="utf-8") as f:
+            rec = json.load(f)
+        if rec.get("key") != key:
+            raise ValueError("key mismatch")
+        for name, digest in rec["files"].items():
+            if _sha256_file(os.path.join(folder, name)) != digest:
+                raise ValueError(f"{name} changed")
+        arrays = {}
+        if "arrays.npz" in rec["files"]:
+            with np.load(os.path.join(folder, "arrays.npz")) as z:
+                arrays = {k: z[k] for k in z.files}
+    except Exception:  # noqa: BLE001 - any defect means: redo the run
+        shutil.rmtree(folder, ignore_errors=True)
+        return None
+    rec["arrays"] = arrays
+    rec["cached"] = True
+    rec["run_dir"] = folder
+    return rec
+
+
+def _error_record(task: Task, key: str | None, message: str) -> dict[str, Any]:
+    return {"key": key, "status": ERROR, "message": message, "t_end_reached": None,
+            "steps": None, "wall_s": None, "cpu_s": None, "newton_its_total": None,
+            "metrics": {}, "arrays": {}, "cached": False, "run_dir": None}
+
+
+def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
+    """Run one task (or take it from the cache) and return its record; never raises.
+
+    The record: key, status ('ok' | 'unstable' | 'newton_failed' | 'error'), message,
+    t_end_reached, steps, wall_s (the core's time loop), cpu_s (process CPU time around
+    :func:`dyncontact.run`, set-up and trace reading included), newton_its_total, metrics
+    (numbers from the analysis), arrays (numpy arrays from the analysis), cached, run_dir.
+    """
+    from .. import core
+
+    try:
+        key = key or task_key(task)
+        hit = lookup(cache, key)
+        if hit is not None:
+            return hit
+        final = _entry(cache, key)
+        os.makedirs(os.path.dirname(final), exist_ok=True)
+        tmp = f"{final}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        os.makedirs(tmp)
+        try:
+            scene = _scene(task)
+            run_dir = os.path.join(tmp, "run")
+            cpu0 = time.process_time()
+            res = core.run(scene, out=run_dir, progress=False)
+            cpu_s = time.process_time() - cpu0
+            out = _analysis(task.analysis)(run_dir, res, **dict(task.params)) or {}
+            s = res.summary
+            rec = {"key": key, "status": res.status, "message": res.message,
+                   "t_end_reached": s.get("t_end_reached"), "steps": s.get("steps"),
+                   "wall_s": s.get("wall_s"), "cpu_s": cpu_s,
+                   "newton_its_total": s.get("newton_its_total"),
+                   "metrics": out.get("metrics", {}), "code": code_version()}
+            keep = set(out.get("keep", ())) | {"trace.csv", "summary.json"}
+            for name in os.listdir(run_dir):
+                src = os.path.join(run_dir, name)
+                if name in keep and os.path.isfile(src):
+                    os.replace(src, os.path.join(tmp, name))
+            shutil.rmtree(run_dir, ignore_errors=True)
+            arrays = out.get("arrays", {})
+            if arrays:
+                np.savez(os.path.join(tmp, "arrays.npz"),
+                         **{k: np.asarray(v) for k, v in arrays.items()})
+            rec["files"] = {name: _sha256_file(os.path.join(tmp, name))
+                            for name in sorted(os.listdir(tmp))}
+            with open(os.path.join(tmp, "record.json"), "w", encoding="utf-8") as f:
+                json.dump(rec, f, indent=1, default=_json_default)
+            try:
+                os.rename(tmp, final)
+            except OSError:   # another worker finished the same run first
+                shutil.rmtree(tmp, ignore_errors=True)
+            rec["arrays"] = {k: np.asarray(v) for k, v in arrays.items()}
+            rec["cached"] = False
+            rec["run_dir"] = final
+            return rec
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+    except Exception as exc:  # noqa: BLE001 - one failing run never kills a sweep
+        msg = f"{type(exc).__name__}: {exc}"
+        if os.environ.get("DYNCONTACT_STUDY_DEBUG"):
+            msg += "\n" + traceback.format_exc()
+        return _error_record(task, key, msg)
+
+
+def _json_default(x):
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return str(x)
+
+
+def _clean_stale(cache: str) -> None:
+    """Remove the temporary folders that an interrupted sweep left behind."""
+    if not os.path.isdir(cache):
+        return
+    now = time.time()
+    for sub in os.listdir(cache):
+        d = os.path.join(cache, sub)
+        if not os.path.isdir(d):
+            continue
+        for name in os.listdir(d):
+            p = os.path.join(d, name)
+            if ".tmp-" in name and now - os.path.getmtime(p) > STALE_S:
+                shutil.rmtree(p, ignore_errors=True)
+
+
+# --------------------------------------------------------------------------- sweeps
+
+def _bar(total: int, desc: str, progress: bool | None):
+    if progress is None:
+        progress = hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit="run", file=sys.stderr, disable=not progress,
+                dynamic_ncols=True, mininterval=0.5)
+
+
+def _cost(task: Task) -> float:
+    """Relative cost used to start the longest runs first: steps x (1/h)^dim."""
+    dt = float(task.setting("scheme.dt", 0.0025))
+    t_end = float(task.setting("scheme.t_end", 15.0))
+    h = float(task.setting("mesh.h", 0.05))
+    return (t_end / dt) / h
+
+
+def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
+          scheduler: Any = None, progress: bool | None = None, desc: str = "runs",
+          log: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
+    """Execute tasks (cached ones are taken from ``cache``) and return their records in
+    the order of ``tasks``. Each record gets ``task`` (the Task) added.
+
+    ``workers``: processes of the local pool (default: all cores); ``scheduler``: a
+    dask.distributed scheduler address or Client (then ``workers`` is ignored).
+    """
+    cache = os.path.abspath(cache)
+    os.makedirs(cache, exist_ok=True)
+    _clean_stale(cache)
+    from .. import core
+
+    core.fortran_version()   # load the extension before forking
+    records: list[dict[str, Any] | None] = [None] * len(tasks)
+    keys: list[str | None] = [None] * len(tasks)
+    todo: list[int] = []
+    say = log or (lambda s: print(s, file=sys.stderr, flush=True))
+    with _bar(len(tasks), desc, progress) as bar:
+
+        def done(i: int, rec: dict[str, Any]) -> None:
+            records[i] = rec
+            if rec["status"] == ERROR:
+                msg = rec["message"].splitlines()[0] if rec["message"] else ""
+                say(f"{desc}: run failed ({_describe(tasks[i])}): {msg}")
+            bar.update(1)
+
+        for i, task in enumerate(tasks):
+            try:
+                keys[i] = task_key(task)
+            except Exception as exc:  # noqa: BLE001 - e.g. a bad key: an error record
+                done(i, _error_record(task, None, f"{type(exc).__name__}: {exc}"))
+                continue
+            hit = lookup(cache, keys[i])
+            if hit is not None:
+                records[i] = hit
+                bar.update(1)
+            else:
+                todo.append(i)
+        todo.sort(key=lambda i: -_cost(tasks[i]))
+        if log:
+            log(f"{desc}: {len(tasks)} runs, {len(tasks) - len(todo)} from the cache, "
+                f"{len(todo)} to do")
+
+        if todo and scheduler is not None:
+            _sweep_dask(tasks, keys, todo, cache, scheduler, done)
+        elif todo and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1:
+            _sweep_pool(tasks, keys, todo, cache, workers or os.cpu_count() or 1, done)
+        else:
+            for i in todo:
+                done(i, execute(tasks[i], cache, keys[i]))
+    out = []
+    for task, rec in zip(tasks, records):
+        rec = dict(rec or _error_record(task, None, "not run"))
+        rec["task"] = task
+        out.append(rec)
+    return out
+
+
+def _describe(task: Task) -> str:
+    tags = ", ".join(f"{k}={v}" for k, v in task.tags)
+    return tags or ", ".join(f"{k}={v}" for k, v in task.settings)
+
+
+def _warm_worker() -> None:
+    """Pool initializer: import what a run needs and run a tiny scene once, so that the
+    first run of each worker is not charged for lazy imports and first calls (the CPU
+    time of a run is a result of the work-precision study)."""
+    try:
+        from .. import core
+        from ..scene import Scene
+        from . import analyses  # noqa: F401
+
+        with tempfile.TemporaryDirectory(prefix="dyncontact-warm-") as tmp:
+            path = os.path.join(tmp, "warm.nml")
+            with open(path, "w", encoding="utf-8") as f:
+                f.write("&mesh dim = 1, h = 0.5 /\n&material young = 1.0, poisson = 0.0 /\n"
+                        "&contact obstacle_point = 0.0, obstacle_normal = -1.0, "
+                        "probe = 0.0 /\n&scheme dt = 0.1, t_end = 0.2 /\n")
+            scn = Scene.read(path)
+            core.run(scn, out=os.path.join(tmp, "out"), progress=False)
+    except Exception:  # noqa: BLE001 - only a warm-up
+        pass
+
+
+def _sweep_pool(tasks, keys, todo, cache, workers, done) -> None:
+    with cf.ProcessPoolExecutor(max_workers=workers, initializer=_warm_worker) as pool:
+        futs = {pool.submit(execute, tasks[i], cache, keys[i]): i for i in todo}
+        try:
+            for fut in cf.as_completed(futs):
+                i = futs[fut]
+                try:
+                    rec = fut.result()
+                except Exception as exc:  # noqa: BLE001 - e.g. a worker that died
+                    rec = _error_record(tasks[i], keys[i], f"{type(exc).__name__}: {exc}")
+                done(i, rec)
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+
+
+def _sweep_dask(tasks, keys, todo, cache, scheduler, done) -> None:
+    from distributed import Client, as_completed
+
+    own = not isinstance(scheduler, Client)
+    client = Client(scheduler) if own else scheduler
+    try:
+        futs = [client.submit(execute, tasks[i], cache, keys[i], pure=False,
+                              key=f"dyncontact-{keys[i]}-{uuid.uuid4().hex[:6]}")
+                for i in todo]
+        index = {f.key: i for f, i in zip(futs, todo)}
+        for fut in as_completed(futs):
+            i = index[fut.key]
+            try:
+                rec = fut.result()
+            except Exception as exc:  # noqa: BLE001 - a lost worker, ...
+                rec = _error_record(tasks[i], keys[i], f"{type(exc).__name__}: {exc}")
+            done(i, rec)
+            fut.release()
+    finally:
+        if own:
+            client.close()
+
+
+def by_tags(records: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Flat rows: each record's tags, then its status fields and metrics."""
+    rows = []
+    for r in records:
+        row = dict(r["task"].tags)
+        row.update(status=r["status"], message=(r.get("message") or "").splitlines()[0]
+                   if r.get("message") else "", t_end_reached=r.get("t_end_reached"),
+                   steps=r.get("steps"), wall_s=r.get("wall_s"))
+        row.update(r.get("metrics", {}))
+        rows.append(row)
+    return rows
