@@ -1,6 +1,6 @@
-"""Meshes in Python: gmsh .msh files read through the gmsh API, the bar generated
-from ``meshes/bar2d.geo``, and the Fortran reader / built-in bar as the same
-:class:`MeshData`.
+"""Meshes in Python: the Fortran .msh 4.1 reader and the built-in bar as
+:class:`MeshData`, and the bar of ``meshes/bar2d.geo`` meshed and written through
+the gmsh API (``python -m dyncontact mesh``).
 
 Conventions (the same as the Fortran reader ``fortran/gmsh_reader.f90``, with
 0-based indices here):
@@ -17,7 +17,7 @@ Conventions (the same as the Fortran reader ``fortran/gmsh_reader.f90``, with
 - ``x`` holds the first ``dim`` coordinates (the others must be constant).
 
 >>> from dyncontact import mesh_io
->>> m = mesh_io.read_msh("meshes/bar2d_h0.02.msh")        # doctest: +SKIP
+>>> m = mesh_io.read_msh_fortran("meshes/bar2d_h0.02.msh")  # doctest: +SKIP
 >>> m.dim, m.x.shape, m.group_names                        # doctest: +SKIP
 (2, (306, 2), ['bottom', 'top', 'left', 'right', 'body'])
 """
@@ -36,14 +36,8 @@ import numpy as np
 
 from .core import BadInputError
 
-__all__ = ["MeshData", "read_msh", "read_msh_fortran", "builtin_bar", "generate_bar",
+__all__ = ["MeshData", "read_msh_fortran", "builtin_bar", "generate_bar",
            "find_geo", "main"]
-
-#: gmsh element types read: type -> (dimension, number of nodes).
-ELEMENT_TYPES = {15: (0, 1), 1: (1, 2), 2: (2, 3)}
-
-#: Relative tolerance of the test that the dropped coordinates are constant.
-PLANE_TOL = 1e-10
 
 #: Parameters of meshes/bar2d.geo set by :func:`generate_bar`.
 GEO_PARAMETERS = ("h", "length", "width")
@@ -136,189 +130,7 @@ def _gmsh_session(model: str = "dyncontact") -> Iterator:
                 gmsh.model.setCurrent(previous_model)
 
 
-def _check_file(path: str) -> None:
-    """BadInputError naming `path` if it is not a readable file."""
-    if not os.path.exists(path):
-        raise BadInputError(f"{path}: no such file")
-    if not os.path.isfile(path):
-        raise BadInputError(f"{path}: not a file")
-    if os.path.getsize(path) == 0:
-        raise BadInputError(f"{path}: file is empty")
-
-
 # --------------------------------------------------------------------------- reading
-
-def _physical_names_order(path: str) -> list[tuple[int, int]]:
-    """(dim, tag) of the groups of the file's ``$PhysicalNames``, in file order.
-
-    That section is ASCII even in binary .msh files; [] if there is none.
-    """
-    with open(path, "rb") as f:
-        data = f.read()
-    start = data.find(b"$PhysicalNames")
-    end = data.find(b"$EndPhysicalNames", start)
-    if start < 0 or end < 0:
-        return []
-    lines = data[start:end].decode("latin-1").splitlines()[2:]
-    order = []
-    for line in lines:
-        words = line.split(maxsplit=2)
-        if len(words) >= 2:
-            with contextlib.suppress(ValueError):
-                order.append((int(words[0]), int(words[1])))
-    return order
-
-
-def _groups(gmsh, path: str) -> tuple[list[tuple[int, int]], dict]:
-    """Physical groups as (dim, tag) in the reader's order, and the group
-    indices of every entity (dim, tag) -> list."""
-    order = _physical_names_order(path)
-    known = set(gmsh.model.getPhysicalGroups())
-    groups = [g for g in order if g in known]
-    index = {g: i for i, g in enumerate(groups)}
-    # named groups no entity uses are still groups (as in the Fortran reader)
-    unused = [g for g in order if g not in known]
-    for g in unused:
-        index[g] = len(groups)
-        groups.append(g)
-    entity_groups = {}
-    for dim, tag in gmsh.model.getEntities():
-        ids = []
-        for ptag in gmsh.model.getPhysicalGroupsForEntity(dim, tag):
-            key = (dim, int(ptag))
-            if key not in index:
-                index[key] = len(groups)
-                groups.append(key)
-            if index[key] not in ids:
-                ids.append(index[key])
-        entity_groups[(dim, tag)] = ids
-    return groups, entity_groups
-
-
-def _elements(gmsh, path: str) -> list[tuple[int, int, np.ndarray, np.ndarray]]:
-    """(dim, entity tag, element tags, node tags (n, nv)) of every element block."""
-    blocks = []
-    for dim, tag in gmsh.model.getEntities():
-        types, etags, ntags = gmsh.model.mesh.getElements(dim, tag)
-        for etype, et, nt in zip(types, etags, ntags):
-            etype = int(etype)
-            if etype == 4:
-                raise BadInputError(f"{path}: tetrahedra (element type 4): 3D meshes are "
-                                    "not supported yet")
-            if etype not in ELEMENT_TYPES:
-                raise BadInputError(f"{path}: element type {etype} is not supported (only 15 "
-                                    "point, 1 line, 2 triangle: first-order simplices)")
-            edim, nv = ELEMENT_TYPES[etype]
-            blocks.append((edim, tag, np.asarray(et, dtype=np.int64),
-                           np.asarray(nt, dtype=np.int64).reshape(-1, nv)))
-    return blocks
-
-
-def _node_index(sorted_tags: np.ndarray, tags: np.ndarray, path: str) -> np.ndarray:
-    """0-based node numbers of gmsh node tags."""
-    idx = np.searchsorted(sorted_tags, tags)
-    idx_c = np.minimum(idx, len(sorted_tags) - 1)
-    bad = sorted_tags[idx_c] != tags
-    if bad.any():
-        raise BadInputError(f"{path}: an element refers to unknown node {tags[bad][0]}")
-    return idx
-
-
-def _coordinates(xyz: np.ndarray, dim: int, path: str) -> np.ndarray:
-    """The first `dim` coordinates; the others must be constant."""
-    if len(xyz):
-        scale = float(np.max(xyz.max(axis=0) - xyz.min(axis=0)))
-        for j in range(dim, 3):
-            if np.ptp(xyz[:, j]) > PLANE_TOL * scale:
-                raise BadInputError(f"{path}: the mesh is {dim}D but its {'xyz'[j]} "
-                                    "coordinates are not constant")
-    return np.ascontiguousarray(xyz[:, :dim], dtype=np.float64)
-
-
-def read_msh(path: str | os.PathLike) -> MeshData:
-    """Read a gmsh mesh file through the gmsh Python API.
-
-    Any format gmsh reads is accepted (the Fortran reader wants .msh 4.1 ASCII).
-
-    Parameters
-    ----------
-    path : str or path-like
-        The mesh file.
-
-    Returns
-    -------
-    MeshData
-
-    Raises
-    ------
-    BadInputError
-        Missing or unreadable file, unsupported elements, no segments/triangles.
-    """
-    path = os.fspath(path)
-    _check_file(path)
-    with _gmsh_session() as gmsh:
-        try:
-            gmsh.merge(path)
-        except Exception as exc:
-            raise BadInputError(f"{path}: gmsh cannot read it: {exc}") from None
-        return _extract(gmsh, path)
-
-
-def _extract(gmsh, path: str) -> MeshData:
-    """The current gmsh model as MeshData."""
-    groups, entity_groups = _groups(gmsh, path)
-    blocks = _elements(gmsh, path)
-    ntags, coord, _ = gmsh.model.mesh.getNodes()
-    ntags = np.asarray(ntags, dtype=np.int64)
-    order = np.argsort(ntags, kind="stable")
-    sorted_tags = ntags[order]
-    if np.any(np.diff(sorted_tags) == 0):
-        raise BadInputError(f"{path}: a node tag appears twice")
-    xyz = np.asarray(coord, dtype=np.float64).reshape(-1, 3)[order]
-
-    dim = max((b[0] for b in blocks if len(b[2])), default=0)
-    if dim < 1:
-        raise BadInputError(f"{path}: no segments or triangles")
-
-    cell_tags, cells, cell_group = [], [], []
-    facet_keys, facets, facet_group = [], [], []
-    for edim, etag, et, nt in blocks:
-        ids = entity_groups.get((edim, etag), [])
-        if edim == dim:
-            cell_tags.append(et)
-            cells.append(nt)
-            cell_group.append(np.full(len(et), ids[0] if ids else -1))
-        elif edim == dim - 1:
-            for k, g in enumerate(ids):
-                facet_keys.append(np.stack([et, np.full(len(et), k)], axis=1))
-                facets.append(nt)
-                facet_group.append(np.full(len(et), g))
-
-    cell_tags = np.concatenate(cell_tags)
-    corder = np.argsort(cell_tags, kind="stable")
-    cells = _node_index(sorted_tags, np.concatenate(cells)[corder], path)
-    cell_group = np.concatenate(cell_group)[corder]
-    if facets:
-        keys = np.concatenate(facet_keys)
-        forder = np.lexsort((keys[:, 1], keys[:, 0]))
-        facets = _node_index(sorted_tags, np.concatenate(facets)[forder], path)
-        facet_group = np.concatenate(facet_group)[forder]
-    else:
-        facets = np.zeros((0, dim), dtype=np.int64)
-        facet_group = np.zeros(0, dtype=np.int64)
-
-    names = [gmsh.model.getPhysicalName(d, t) or str(t) for d, t in groups]
-    return MeshData(
-        dim=int(dim),
-        x=_coordinates(xyz, dim, path),
-        cells=cells.astype(np.int64),
-        cell_group=cell_group.astype(np.int64),
-        facets=facets.astype(np.int64),
-        facet_group=facet_group.astype(np.int64),
-        group_names=names,
-        group_dim=np.array([d for d, _ in groups], dtype=np.int64),
-    )
-
 
 def _from_core(d: dict) -> MeshData:
     """MeshData from the dict of :func:`dyncontact.core.load_mesh`."""
@@ -459,7 +271,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         out = generate_bar(args.h, args.out, length=args.length, width=args.width,
                            geo_path=args.geo)
-        mesh = read_msh(out)
+        mesh = read_msh_fortran(out)
     except (BadInputError, FileNotFoundError) as exc:
         print(f"dyncontact mesh: {exc}", file=sys.stderr)
         return 2
