@@ -226,17 +226,22 @@ def test_cli_wait_waits_for_the_lock(tmp_path):
 
 
 def test_two_runs_into_one_folder(tmp_path):
-    """Started together: exactly one runs, the other is refused with exit 2."""
-    scene = write_scene(tmp_path / "s.nml", scheme__t_end="3.0")
-    out = tmp_path / "o"
-    procs = [subprocess.Popen(entry(k) + [str(scene), "--out", str(out)], cwd=tmp_path,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-             for k in ("exe", "exe")]
-    codes = sorted(p.wait(timeout=120) for p in procs)
-    assert codes == [EXIT_OK, EXIT_BAD_INPUT]
-    rows = trace_rows(out)
-    assert len(rows) == 1201
-    assert "\x00" not in (out / "trace.csv").read_text()
+    """A second run into the folder of a running one is refused with exit 2 and leaves the
+    first run's trace intact (the first is started, seen running, then stopped)."""
+    first = _start_long("exe", tmp_path)
+    try:
+        _wait_for_rows(tmp_path / "o", 10)
+        scene = write_scene(tmp_path / "s.nml", scheme__t_end="3.0")
+        second = subprocess.run(entry("exe") + [str(scene), "--out", str(tmp_path / "o")],
+                                cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        assert second.returncode == EXIT_BAD_INPUT, second.stderr
+        assert "lock" in second.stderr
+    finally:
+        first.send_signal(signal.SIGTERM)
+        assert first.wait(timeout=120) == EXIT_SIGNAL
+    rows = trace_rows(tmp_path / "o")
+    assert len(rows) > 10
+    assert "\x00" not in (tmp_path / "o" / "trace.csv").read_text()
 
 
 # ------------------------------------------------------------------ 3. step count
