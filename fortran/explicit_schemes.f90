@@ -10,7 +10,7 @@
 module explicit_schemes
     use kinds, only: dp
     use errors, only: STAT_OK
-    use model, only: model_t, model_eval_b, model_step_products
+    use model, only: model_t, model_eval_b, model_stiff_mass_apply
     use nitsche_contact, only: contact_eval
     use scene, only: scene_t
     use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply
@@ -24,7 +24,7 @@ module explicit_schemes
         real(dp) :: beta = 0.25_dp                !! corrector beta
         real(dp) :: gamma = 0.5_dp                !! corrector gamma
         type(mass_solver_t) :: ms                 !! M^{-1}
-        real(dp), allocatable :: vp(:), up(:), ap(:), bp(:), ktp(:), rhs(:), bold(:), scratch(:)
+        real(dp), allocatable :: vp(:), up(:), ap(:), bp(:), ktp(:), rhs(:), bold(:)
     contains
         procedure :: init => pc_init
         procedure :: step => pc_step
@@ -54,7 +54,7 @@ contains
             this%beta = (1.0_dp + scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + scn%alpha
         end select
         allocate (this%vp(n), this%up(n), this%ap(n), this%bp(n), this%ktp(n), this%rhs(n), &
-                  this%bold(n), this%scratch(n))
+                  this%bold(n))
         call mass_solver_init(this%ms, mdl, stat, errmsg)
         if (stat /= STAT_OK) return
         if (.not. mdl%lumped) this%factorizations = this%factorizations + 1
@@ -83,7 +83,7 @@ contains
         st%v = st%v + dt * ((1.0_dp - this%gamma) * st%a + this%gamma * this%ap)
         this%bold = st%bu
         ! B(u') = K_theta u' + C(u'), with M v' formed in the same pass
-        call model_step_products(mdl, st%u, st%v, st%v, st%ktu, st%mv, this%scratch)
+        call model_stiff_mass_apply(mdl, st%u, st%v, st%ktu, st%mv)
         st%bu = st%ktu
         st%active = 0; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
         if (mdl%has_contact) call contact_eval(mdl%ct, st%u, st%bu, st%active, st%e_pen, &

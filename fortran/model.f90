@@ -11,7 +11,8 @@ module model
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t, block2_t, block2_from_csc, &
-                      block2_matvec, block2_matvec_km
+                      block2_matvec, block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, &
+                      block2_matvec_ks3
     use mass_redistribution, only: mass_region, mass_redistribute
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
@@ -35,6 +36,8 @@ module model
         logical :: blocked = .false.              !! K_theta also in 2x2 node blocks (2D)
         type(block2_t) :: stiff_theta_b           !! its node-block copy (fast products)
         type(block2_t) :: mass_b                  !! node-block copy of M (same blocks)
+        logical :: mass_scalar = .false.          !! every block of M is m I (no single-dof node)
+        real(dp), allocatable :: mass_s(:)        !! then the m of each block
         logical :: lumped = .false.               !! M is diagonal
         real(dp), allocatable :: mass_diag(:)     !! (n_dofs) diagonal of M when lumped
         logical, allocatable :: massless(:)       !! (n_dofs) no inertia (redistributed mass)
@@ -52,7 +55,7 @@ module model
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
               model_probe, model_mass_apply, model_stiff_apply, model_full_field, &
-              model_step_products
+              model_step_products, model_stiff_mass_apply
 
 contains
 
@@ -355,6 +358,7 @@ contains
             call block2_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b, st, m)
             if (st == STAT_OK) call block2_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b, st, m)
             mdl%blocked = st == STAT_OK
+            if (mdl%blocked) call block2_scalar_blocks(mdl%mass_b, mdl%mass_s, mdl%mass_scalar)
         end subroutine block_copy
 
         !> Snap the probe to the nearest point of Gamma_C when it lies within
@@ -752,6 +756,8 @@ contains
             call model_stiff_apply(mdl, x, kx)
             mv = mdl%mass_diag * v
             md = mdl%mass_diag * d
+        else if (mdl%mass_scalar) then
+            call block2_matvec_ks3(mdl%stiff_theta_b, mdl%mass_s, x, v, d, kx, mv, md)
         else if (mdl%blocked) then
             call block2_matvec_km(mdl%stiff_theta_b, mdl%mass_b, x, v, d, kx, mv, md)
         else
@@ -760,6 +766,22 @@ contains
             call csc_matvec_t(mdl%mass, d, md)
         end if
     end subroutine model_step_products
+
+    !> kx = K_theta x and mv = M v, in one pass over the node blocks when M's blocks are
+    !> scalar (the predictor-correctors end their step with these two).
+    subroutine model_stiff_mass_apply(mdl, x, v, kx, mv)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(in) :: x(:)          !! displacement
+        real(dp), intent(in) :: v(:)          !! velocity
+        real(dp), intent(out) :: kx(:)        !! K_theta x
+        real(dp), intent(out) :: mv(:)        !! M v
+        if (mdl%mass_scalar .and. .not. mdl%lumped) then
+            call block2_matvec_ks2(mdl%stiff_theta_b, mdl%mass_s, x, v, kx, mv)
+        else
+            call model_stiff_apply(mdl, x, kx)
+            call model_mass_apply(mdl, v, mv)
+        end if
+    end subroutine model_stiff_mass_apply
 
     !> Expand a free-dof vector to (dim, n_nodes) with zeros on constrained dofs.
     pure subroutine model_full_field(mdl, w, full)

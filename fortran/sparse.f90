@@ -22,7 +22,8 @@ module sparse
     end type csc_t
 
     public :: csc_from_coo, csc_find, csc_matvec, csc_matvec_t, csc_drop_zeros
-    public :: block2_from_csc, block2_matvec, block2_matvec_km
+    public :: block2_from_csc, block2_matvec, block2_matvec_km, block2_scalar_blocks, &
+              block2_matvec_ks2, block2_matvec_ks3
 
     !> A symmetric matrix stored by rows of 2x2 blocks: dofs grouped in runs of one or
     !> two consecutive dofs (the free dofs of a node). Each block holds the rows of a
@@ -342,6 +343,92 @@ contains
             end if
         end do
     end subroutine block2_matvec_km
+
+    !> When every block of b is s I (a21 = a12 = 0, a11 = a22, every group a pair of
+    !> dofs), as the P1 mass of 2D elasticity is, the scalars s of its blocks.
+    subroutine block2_scalar_blocks(b, s, ok)
+        type(block2_t), intent(in) :: b                  !! matrix
+        real(dp), allocatable, intent(out) :: s(:)       !! (n_blocks) the scalars
+        logical, intent(out) :: ok                       !! b has that form
+        ok = b%n_groups > 0
+        if (ok) ok = all(b%first(2:) - b%first(:b%n_groups) == 2)
+        if (ok) ok = all(b%val(2, :) == 0.0_dp) .and. all(b%val(3, :) == 0.0_dp) .and. &
+                     all(b%val(1, :) == b%val(4, :))
+        if (ok) then
+            s = b%val(1, :)
+        else
+            allocate (s(0))
+        end if
+    end subroutine block2_scalar_blocks
+
+    !> kx = K x and mv = M v in one pass, M = blocks ms(k) I on the block pattern of kb
+    !> (see block2_scalar_blocks). kx is bitwise equal to block2_matvec's.
+    pure subroutine block2_matvec_ks2(kb, ms, x, v, kx, mv)
+        type(block2_t), intent(in) :: kb   !! K (every group a pair)
+        real(dp), intent(in) :: ms(:)      !! (n_blocks) scalar blocks of M
+        real(dp), intent(in) :: x(:)       !! (n) vector multiplied by K
+        real(dp), intent(in) :: v(:)       !! (n) vector multiplied by M
+        real(dp), intent(out) :: kx(:)     !! (n) K x
+        real(dp), intent(out) :: mv(:)     !! (n) M v
+        integer :: g, k, c1, c2
+        real(dp) :: y1, y2, p1, p2, x1, x2
+        do g = 1, kb%n_groups
+            y1 = 0.0_dp; y2 = 0.0_dp
+            p1 = 0.0_dp; p2 = 0.0_dp
+            do k = kb%row_ptr(g), kb%row_ptr(g + 1) - 1
+                c1 = kb%col1(k)
+                c2 = kb%col2(k)
+                x1 = x(c1)
+                x2 = x(c2)
+                y1 = y1 + kb%val(1, k) * x1 + kb%val(3, k) * x2
+                y2 = y2 + kb%val(2, k) * x1 + kb%val(4, k) * x2
+                p1 = p1 + ms(k) * v(c1)
+                p2 = p2 + ms(k) * v(c2)
+            end do
+            kx(kb%first(g)) = y1
+            kx(kb%first(g) + 1) = y2
+            mv(kb%first(g)) = p1
+            mv(kb%first(g) + 1) = p2
+        end do
+    end subroutine block2_matvec_ks2
+
+    !> kx = K x, mv = M v and md = M d in one pass, M = blocks ms(k) I on the block
+    !> pattern of kb (see block2_scalar_blocks). kx is bitwise equal to block2_matvec's.
+    pure subroutine block2_matvec_ks3(kb, ms, x, v, d, kx, mv, md)
+        type(block2_t), intent(in) :: kb   !! K (every group a pair)
+        real(dp), intent(in) :: ms(:)      !! (n_blocks) scalar blocks of M
+        real(dp), intent(in) :: x(:)       !! (n) vector multiplied by K
+        real(dp), intent(in) :: v(:)       !! (n) first vector multiplied by M
+        real(dp), intent(in) :: d(:)       !! (n) second vector multiplied by M
+        real(dp), intent(out) :: kx(:)     !! (n) K x
+        real(dp), intent(out) :: mv(:)     !! (n) M v
+        real(dp), intent(out) :: md(:)     !! (n) M d
+        integer :: g, k, c1, c2
+        real(dp) :: y1, y2, p1, p2, q1, q2, x1, x2
+        do g = 1, kb%n_groups
+            y1 = 0.0_dp; y2 = 0.0_dp
+            p1 = 0.0_dp; p2 = 0.0_dp
+            q1 = 0.0_dp; q2 = 0.0_dp
+            do k = kb%row_ptr(g), kb%row_ptr(g + 1) - 1
+                c1 = kb%col1(k)
+                c2 = kb%col2(k)
+                x1 = x(c1)
+                x2 = x(c2)
+                y1 = y1 + kb%val(1, k) * x1 + kb%val(3, k) * x2
+                y2 = y2 + kb%val(2, k) * x1 + kb%val(4, k) * x2
+                p1 = p1 + ms(k) * v(c1)
+                p2 = p2 + ms(k) * v(c2)
+                q1 = q1 + ms(k) * d(c1)
+                q2 = q2 + ms(k) * d(c2)
+            end do
+            kx(kb%first(g)) = y1
+            kx(kb%first(g) + 1) = y2
+            mv(kb%first(g)) = p1
+            mv(kb%first(g) + 1) = p2
+            md(kb%first(g)) = q1
+            md(kb%first(g) + 1) = q2
+        end do
+    end subroutine block2_matvec_ks3
 
     !> b = a without its stored zeros (|a_ij| == 0). Optional stat reports an
     !> allocation failure (STAT_INTERNAL); b is then empty.

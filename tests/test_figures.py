@@ -183,11 +183,13 @@ def test_bench_rows_and_table():
     from dyncontact.studies import bench_specs, bench_table
 
     names = [s.name for s in bench_specs()]
-    assert names == ["seed_h0.05", "seed_h0.02", "seed_h0.01",
+    assert names == ["seed_h0.05", "seed_h0.02", "seed_h0.01", "seed_free_h0.01",
                      "pc_h0.05_consistent", "pc_h0.05_lumped", "pc_h0.02_consistent",
                      "pc_h0.02_lumped", "pc_h0.01_consistent", "pc_h0.01_lumped"]
     assert [s.name for s in bench_specs(quick=True)] == [
-        "seed_h0.05", "pc_h0.05_consistent", "pc_h0.05_lumped"]
+        "seed_h0.05", "seed_free_h0.05", "pc_h0.05_consistent", "pc_h0.05_lumped"]
+    free = bench_specs(only=["seed_free_h0.01"])[0].settings
+    assert free["boundary.contact"] == "" and free["scheme.dt"] == pytest.approx(0.0005)
     assert [s.name for s in bench_specs(only=["pc_h0.02*"])] == [
         "pc_h0.02_consistent", "pc_h0.02_lumped"]
     seed = bench_specs(only=["seed_h0.01"])[0].settings
@@ -203,5 +205,13 @@ def test_bench_rows_and_table():
     assert table[0].split()[:3] == ["scene", "dofs", "steps"]
     seed_cells, pc_cells = table[2].split(), table[3].split()
     # floors: n/a when not measured, '-' where they do not apply to the scheme
-    assert seed_cells[-4:] == ["n/a", "-", "2.00", "ok"]
-    assert pc_cells[-4:] == ["-", "n/a", "n/a", "ok"]
+    assert seed_cells[-6:] == ["n/a", "-", "2.00", "n/a", "n/a", "ok"]
+    assert pc_cells[-6:] == ["-", "n/a", "n/a", "n/a", "n/a", "ok"]
+    # the floor of a step and the ratio to it (issue 10)
+    from dyncontact.studies import _step_floor
+    assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,
+                        "floor_spmv_us": 10.0}) == 60.0
+    assert _step_floor({"scene": "pc_h0.01_consistent", "floor_mass_solve_us": 30.0,
+                        "floor_spmv_us": 10.0}) == 80.0
+    assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": None,
+                        "floor_spmv_us": 10.0}) is None

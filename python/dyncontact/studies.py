@@ -572,6 +572,11 @@ def bench_specs(quick: bool = False, only: Iterable[str] | None = None) -> list[
         s = seed_spec("hht", h, h / 20, 15.0, max_rows=None, alpha=0.0)
         s.name = f"seed_h{_g(h)}"
         specs.append(s)
+    # the same bar with no contact boundary: every step contact-free (one solve each)
+    s = seed_spec("hht", meshes[-1], meshes[-1] / 20, 15.0, max_rows=None, alpha=0.0)
+    s.settings["boundary.contact"] = ""
+    s.name = f"seed_free_h{_g(meshes[-1])}"
+    specs.append(s)
     for h in meshes:
         for mass in ("consistent", "lumped"):
             s = seed_spec("pc", h, h / 100, 15.0, max_rows=None, mass=mass, beta=0.25,
@@ -635,7 +640,21 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100) -> dict[str
         "loadavg": _loadavg(),
     }
     row.update(_floors(spec, out_root))
+    row["floor_us"] = _step_floor(row)
+    row["floor_ratio"] = (row["us_per_step"] / row["floor_us"]
+                          if row.get("us_per_step") and row["floor_us"] else None)
     return row
+
+
+def _step_floor(row: Mapping[str, Any]) -> float | None:
+    """The floor of one step (issue 10): one solve + one SpMV with K_θ for the implicit
+    scheme, two M⁻¹ applications + two SpMVs for the predictor-corrector."""
+    spmv = row.get("floor_spmv_us")
+    if str(row.get("scene", "")).startswith("seed"):
+        solve = row.get("floor_solve_us")
+        return solve + spmv if solve is not None and spmv is not None else None
+    mass = row.get("floor_mass_solve_us")
+    return 2 * (mass + spmv) if mass is not None and spmv is not None else None
 
 
 _BENCH_COLUMNS = (  # (header, key, format)
@@ -653,6 +672,8 @@ _BENCH_COLUMNS = (  # (header, key, format)
     ("solve µs", "floor_solve_us", ".2f"),
     ("M solve µs", "floor_mass_solve_us", ".2f"),
     ("SpMV µs", "floor_spmv_us", ".2f"),
+    ("floor µs", "floor_us", ".1f"),
+    ("µs/floor", "floor_ratio", ".2f"),
     ("status", "status", "s"),
 )
 
