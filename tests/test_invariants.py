@@ -92,7 +92,7 @@ def test_state_invariants(label, mass, tmp_path):
                 s0 = run.state()
                 run.advance(1)
                 s1 = run.state()
-                states[step] = (s0, s1, run.eval_b(s0["u"]), run.eval_b(s1["u"]))
+                states[step] = (s0, s1, run.eval_b(s0["u"])[0], run.eval_b(s1["u"])[0])
                 step += 1
             else:
                 step += run.advance(min(n_steps - step, min(s for s in samples | {n_steps}

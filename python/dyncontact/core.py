@@ -439,7 +439,8 @@ class Model:
             b, active = m.eval_b(np.zeros(m.dofs))
     """
 
-    def __init__(self, scene):
+    def __init__(self, scene, _out: str | os.PathLike | None = None):
+        # _out: the output folder of a run (Stepper); None builds the model only
         self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
         self.handle = 0
         try:
@@ -447,9 +448,12 @@ class Model:
                 path = os.fsdecode(scene)
             else:
                 path = _write_scene(scene, self._tmp)
+            out = b"" if _out is None else _fpath(os.path.abspath(os.fspath(_out)),
+                                                    "output folder")
             (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
-             errmsg) = _core().dc_sim_open(_fpath(path, "scene file"), b"", 1)
-            _check(stat, errmsg, "building the model")
+             errmsg) = _core().dc_sim_open(_fpath(path, "scene file"), out,
+                                           1 if _out is None else 0)
+            _check(stat, errmsg, "building the model" if _out is None else "opening the run")
             self.handle = handle
         except BaseException:
             shutil.rmtree(self._tmp, ignore_errors=True)
@@ -504,7 +508,7 @@ class Model:
             pass
 
 
-class Stepper:
+class Stepper(Model):
     """A run advanced step by step, whose state can be read between steps (tests,
     invariant checks, scripts that need the fields). Outputs go to ``out`` as for
     :func:`run`; use it as a context manager so that summary.json is written::
@@ -512,29 +516,14 @@ class Stepper:
         with Stepper(scene, out) as s:
             s.advance(10)
             st = s.state()          # t, u, v, a, mv, load on the free dofs
-            M = s.matrix("M")       # scipy-free: (colptr, rowind, val) -> dense
+            M = s.matrix("M")       # the assembled matrix, dense
     """
 
     _WHICH = {"M": 1, "K": 2, "K_theta": 3}
 
     def __init__(self, scene, out: str | os.PathLike):
-        self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
-        self.handle = 0
-        try:
-            if isinstance(scene, (str, bytes, os.PathLike)):
-                path = os.fsdecode(scene)
-            else:
-                path = _write_scene(scene, self._tmp)
-            (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
-             errmsg) = _core().dc_sim_open(_fpath(path, "scene file"),
-                                           _fpath(os.path.abspath(os.fspath(out)),
-                                                  "output folder"), 0)
-            _check(stat, errmsg, "opening the run")
-            self.handle = handle
-            self.finished = False
-        except BaseException:
-            shutil.rmtree(self._tmp, ignore_errors=True)
-            raise
+        super().__init__(scene, _out=out)
+        self.finished = False
 
     def advance(self, steps: int = 1) -> int:
         """Advance by at most ``steps`` steps; returns the steps done. A numerical
@@ -562,24 +551,6 @@ class Stepper:
             rows = rowind[colptr[j]:colptr[j + 1]]
             dense[rows, j] += val[colptr[j]:colptr[j + 1]]
         return dense
-
-    def eval_b(self, u) -> np.ndarray:
-        """B(u) on the free dofs."""
-        b, _active = _core().dc_sim_eval_b(self.handle, _f64(u, (self.dofs,)), self.dofs)
-        return b
-
-    def close(self) -> None:
-        if self.handle:
-            handle, self.handle = self.handle, 0
-            stat, errmsg = _core().dc_sim_close(handle)
-            shutil.rmtree(self._tmp, ignore_errors=True)
-            _check(stat, errmsg, "closing the run")
-
-    def __enter__(self) -> "Stepper":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
 
 
 __all__ += ["Stepper"]
