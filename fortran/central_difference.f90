@@ -19,7 +19,8 @@ module central_difference
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use model, only: model_t, model_apply_jacobian, model_stiff_apply, model_mass_apply
     use nitsche_contact, only: contact_eval
-    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
+    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free, &
+                           mass_solver_name
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t
     implicit none
     private
@@ -36,6 +37,7 @@ module central_difference
         procedure :: init => central_init
         procedure :: step => central_step
         procedure :: free => central_free
+        procedure :: solver => central_solver
     end type central_scheme_t
 
     public :: central_critical_dt
@@ -71,6 +73,13 @@ contains
         class(central_scheme_t), intent(inout) :: this      !! scheme
         call mass_solver_free(this%ms)
     end subroutine central_free
+
+    !> The backend of the M^{-1} applications.
+    function central_solver(this) result(name)
+        class(central_scheme_t), intent(in) :: this      !! scheme
+        character(len=:), allocatable :: name
+        name = mass_solver_name(this%ms)
+    end function central_solver
 
     !> One step: u' from (u, v, a), B(u') and M v' products, a' = M^{-1}(L - B(u')).
     subroutine central_step(this, mdl, st, stat, errmsg)

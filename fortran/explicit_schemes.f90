@@ -12,7 +12,8 @@ module explicit_schemes
     use errors, only: STAT_OK
     use model, only: model_t, model_eval_b, model_step_products
     use nitsche_contact, only: contact_eval
-    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
+    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free, &
+                           mass_solver_name
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_PC, SCHEME_PC_HHT
     implicit none
     private
@@ -28,6 +29,7 @@ module explicit_schemes
         procedure :: init => pc_init
         procedure :: step => pc_step
         procedure :: free => pc_free
+        procedure :: solver => pc_solver
     end type pc_scheme_t
 
 contains
@@ -67,6 +69,13 @@ contains
         class(pc_scheme_t), intent(inout) :: this           !! scheme
         call mass_solver_free(this%ms)
     end subroutine pc_free
+
+    !> The backend of the M^{-1} applications.
+    function pc_solver(this) result(name)
+        class(pc_scheme_t), intent(in) :: this           !! scheme
+        character(len=:), allocatable :: name
+        name = mass_solver_name(this%ms)
+    end function pc_solver
 
     !> One predictor-corrector step: two B evaluations, two M^{-1} applications.
     subroutine pc_step(this, mdl, st, stat, errmsg)

@@ -76,6 +76,7 @@ module implicit_schemes
         procedure :: init => implicit_init
         procedure :: step => implicit_step
         procedure :: free => implicit_free
+        procedure :: solver => implicit_solver
     end type implicit_scheme_t
 
 contains
@@ -169,6 +170,13 @@ contains
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         call ls_free(this%lu0)
     end subroutine implicit_free
+
+    !> The backend of the J0 factors.
+    function implicit_solver(this) result(name)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        character(len=:), allocatable :: name
+        name = trim(this%lu0%backend)
+    end function implicit_solver
 
     !> One step: semi-smooth Newton from x = u^n. u~ and M (u^n - u~) were formed at
     !> the end of the previous step (or in init); after each solve J dx = -R the

@@ -565,17 +565,7 @@ contains
         type(simulation_t), intent(in) :: sim   !! the run
         character(len=:), allocatable :: name
         name = ''
-        if (.not. allocated(sim%scheme)) return
-        select type (s => sim%scheme)
-        type is (implicit_scheme_t)
-            name = trim(s%lu0%backend)
-        type is (pc_scheme_t)
-            name = trim(s%ms%lu%backend)
-            if (s%ms%lumped) name = 'diagonal'
-        type is (central_scheme_t)
-            name = trim(s%ms%lu%backend)
-            if (s%ms%lumped) name = 'diagonal'
-        end select
+        if (allocated(sim%scheme)) name = sim%scheme%solver()
     end function sim_solver
 
     !> An integer as text.

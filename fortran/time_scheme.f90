@@ -43,7 +43,7 @@ module time_scheme
     end type state_t
 
     !> A time-integration scheme: init (coefficients, factorizations, initial
-    !> acceleration), step (t -> t + dt), free (its factors).
+    !> acceleration), step (t -> t + dt), free (its factors), solver (their backend).
     type, abstract, public :: time_scheme_t
         real(dp) :: dt = 0.0_dp                 !! time step
         integer :: factorizations = 0           !! sparse numeric factorizations done
@@ -52,6 +52,7 @@ module time_scheme
         procedure(scheme_init), deferred :: init
         procedure(scheme_step), deferred :: step
         procedure(scheme_free), deferred :: free
+        procedure(scheme_solver), deferred :: solver
     end type time_scheme_t
 
     abstract interface
@@ -82,6 +83,13 @@ module time_scheme
             import :: time_scheme_t
             class(time_scheme_t), intent(inout) :: this         !! scheme
         end subroutine scheme_free
+
+        !> The backend of the scheme's linear systems ('' before init).
+        function scheme_solver(this) result(name)
+            import :: time_scheme_t
+            class(time_scheme_t), intent(in) :: this            !! scheme
+            character(len=:), allocatable :: name
+        end function scheme_solver
     end interface
 
     public :: state_eval, scheme_kind
