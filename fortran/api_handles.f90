@@ -78,12 +78,14 @@ contains
 
     !> b = B(u) on the free dofs; active = active contact quadrature points.
     subroutine sim_eval_b(sim, u, b, active)
-        type(simulation_t), intent(inout) :: sim   !! the run (model used)
+        type(simulation_t), intent(in) :: sim      !! the run (model used)
         real(dp), intent(in) :: u(:)               !! displacement (free dofs)
         real(dp), intent(out) :: b(:)              !! B(u)
         integer, intent(out) :: active             !! active quadrature points
         real(dp) :: e1, e2
-        call model_eval_b(sim%mdl, u, b, sim%work, active, e1, e2)
+        real(dp), allocatable :: ktu(:)
+        allocate (ktu(size(u)))
+        call model_eval_b(sim%mdl, u, b, ktu, active, e1, e2)
     end subroutine sim_eval_b
 
     !> jdu = B'(u) du, the generalized (semi-smooth Newton) derivative.

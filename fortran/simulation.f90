@@ -57,7 +57,6 @@ module simulation
         integer(i8) :: clock_rate = 1              !! ticks per second
         integer(i8) :: clock_flush = 0             !! clock of the last trace write
         integer(i8) :: clock_summary = 0           !! clock of the last summary.json
-        real(dp), allocatable :: work(:)           !! scratch (n_dofs)
         integer :: n_snap = 0                      !! field snapshots written
         real(dp), allocatable :: snap_t(:)         !! their times
         character(len=64), allocatable :: snap_file(:) !! their file names
@@ -131,7 +130,7 @@ contains
             if (stat /= STAT_OK) return
         end if
         allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
-                  sim%st%mv(n), sim%work(n))
+                  sim%st%mv(n))
         call model_initial(sim%mdl, mprm, sim%st%u, sim%st%v)
         call state_eval(sim%mdl, sim%st)
         call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
