@@ -149,8 +149,8 @@ end subroutine dc_sim_close
 !> B(u) on the free dofs of an open run.
 subroutine dc_sim_eval_b(handle, n, u, b, active)
     use iso_c_binding, only: c_int, c_int64_t, c_double
-    use simulation, only: simulation_t, sim_eval_b
-    use api_handles, only: sim_from_handle
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle, sim_eval_b
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! run handle
     integer(c_int), intent(in) :: n              !! free dofs
@@ -167,8 +167,8 @@ end subroutine dc_sim_eval_b
 !> B'(u) du (generalized derivative) on the free dofs of an open run.
 subroutine dc_sim_jacobian_apply(handle, n, u, du, jdu)
     use iso_c_binding, only: c_int, c_int64_t, c_double
-    use simulation, only: simulation_t, sim_apply_jacobian
-    use api_handles, only: sim_from_handle
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle, sim_apply_jacobian
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! run handle
     integer(c_int), intent(in) :: n              !! free dofs
@@ -183,8 +183,8 @@ end subroutine dc_sim_jacobian_apply
 !> Static solution K u = L of an open run (contact ignored).
 subroutine dc_sim_static(handle, n, u, stat, errmsg)
     use iso_c_binding, only: c_int, c_int64_t, c_double
-    use simulation, only: simulation_t, sim_static
-    use api_handles, only: sim_from_handle
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle, sim_static
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! run handle
     integer(c_int), intent(in) :: n              !! free dofs
@@ -202,8 +202,8 @@ end subroutine dc_sim_static
 !> Node (1-based) and component (1..dim) of each free dof of an open run.
 subroutine dc_sim_dof_map(handle, n, node, comp)
     use iso_c_binding, only: c_int, c_int64_t
-    use simulation, only: simulation_t, sim_dof_map
-    use api_handles, only: sim_from_handle
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle, sim_dof_map
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! run handle
     integer(c_int), intent(in) :: n              !! free dofs
@@ -307,7 +307,7 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, dim, n_nodes, n_cells,
                          n_groups, stat, errmsg)
     use iso_c_binding, only: c_int, c_double
     use mesh, only: mesh_t
-    use api_handles, only: load_mesh
+    use mesh_source, only: mesh_load
     implicit none
     character(len=*), intent(in) :: path         !! .msh file, '' = built-in bar
     integer(c_int), intent(in) :: bar_dim        !! built-in bar dimension
@@ -324,7 +324,7 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, dim, n_nodes, n_cells,
     type(mesh_t) :: msh
     integer :: st
     errmsg = ''
-    call load_mesh(path, bar_dim, length, width, h, msh, st, errmsg)
+    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg)
     stat = st
     dim = msh%dim; n_nodes = msh%n_nodes; n_cells = msh%n_cells
     n_facets = msh%n_facets; n_groups = msh%n_groups
@@ -336,7 +336,7 @@ subroutine dc_mesh_arrays(path, bar_dim, length, width, h, dim, n_nodes, n_cells
                           group_names, stat, errmsg)
     use iso_c_binding, only: c_int, c_double
     use mesh, only: mesh_t
-    use api_handles, only: load_mesh
+    use mesh_source, only: mesh_load
     implicit none
     character(len=*), intent(in) :: path         !! .msh file, '' = built-in bar
     integer(c_int), intent(in) :: bar_dim        !! built-in bar dimension
@@ -362,7 +362,7 @@ subroutine dc_mesh_arrays(path, bar_dim, length, width, h, dim, n_nodes, n_cells
     errmsg = ''
     group_names = ''
     x = 0; cells = 0; cell_group = 0; facets = 0; facet_group = 0; group_dim = 0
-    call load_mesh(path, bar_dim, length, width, h, msh, st, errmsg)
+    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg)
     stat = st
     if (st /= 0) return
     if (msh%dim /= dim .or. msh%n_nodes /= n_nodes .or. msh%n_cells /= n_cells .or. &
@@ -383,8 +383,8 @@ end subroutine dc_mesh_arrays
 !> of the iteration matrix (implicit), SpMV with K_theta, M^{-1} application (pc).
 subroutine dc_bench_floor(handle, n_rep, t_solve_us, t_spmv_us, t_mass_us)
     use iso_c_binding, only: c_int, c_int64_t, c_double
-    use simulation, only: simulation_t, sim_bench_floor
-    use api_handles, only: sim_from_handle
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle, sim_bench_floor
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! run handle (opened with outputs)
     integer(c_int), intent(in) :: n_rep          !! repetitions

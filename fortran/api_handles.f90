@@ -1,14 +1,21 @@
-!> Helpers of the flat API: handle <-> simulation pointer, mesh loading.
+!> Helpers of the flat API (api.f90): handle <-> simulation pointer, and the hooks the
+!> tests and the benchmark use on an open run (B(u), B'(u) du, the static solution,
+!> the dof map, the cost floors of a step). The run itself is in module simulation.
 module api_handles
     use iso_c_binding, only: c_int64_t, c_ptr, c_f_pointer
-    use kinds, only: dp
-    use mesh, only: mesh_t
-    use gmsh_reader, only: read_gmsh
-    use bar_mesh, only: bar_mesh_build
+    use kinds, only: dp, i8
+    use errors, only: STAT_OK
+    use model, only: model_eval_b, model_apply_jacobian, model_stiff_apply
+    use implicit_schemes, only: implicit_scheme_t
+    use explicit_schemes, only: pc_scheme_t
+    use central_difference, only: central_scheme_t
+    use mass_solver, only: mass_solver_apply
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
     use simulation, only: simulation_t
     implicit none
     private
-    public :: sim_from_handle, load_mesh
+    public :: sim_from_handle, sim_bench_floor, sim_eval_b, sim_apply_jacobian, sim_static, &
+              sim_dof_map
 
 contains
 
@@ -21,20 +28,93 @@ contains
         call c_f_pointer(p, sim)
     end subroutine sim_from_handle
 
-    !> A .msh file (path /= '') or the built-in bar.
-    subroutine load_mesh(path, bar_dim, length, width, h, msh, stat, errmsg)
-        character(len=*), intent(in) :: path                !! .msh file or ''
-        integer, intent(in) :: bar_dim                      !! bar dimension
-        real(dp), intent(in) :: length                      !! bar length
-        real(dp), intent(in) :: width                       !! bar width
-        real(dp), intent(in) :: h                           !! bar mesh size
-        type(mesh_t), intent(out) :: msh                    !! mesh
+    !> Cost floors of a run's step, in microseconds (mean over n_rep repetitions):
+    !> one triangular solve with the cached factors of the iteration matrix (implicit
+    !> schemes; 0 otherwise), one SpMV with K_theta, one M^{-1} application (pc
+    !> schemes; 0 otherwise).
+    subroutine sim_bench_floor(sim, n_rep, t_solve, t_spmv, t_mass)
+        type(simulation_t), intent(inout) :: sim   !! an open run
+        integer, intent(in) :: n_rep               !! repetitions (> 0)
+        real(dp), intent(out) :: t_solve           !! us per triangular solve
+        real(dp), intent(out) :: t_spmv            !! us per SpMV with K_theta
+        real(dp), intent(out) :: t_mass            !! us per M^{-1} application
+        real(dp), allocatable :: b(:), x(:)
+        integer(i8) :: c0, c1
+        integer :: i, st
+        allocate (b(sim%n_dofs), x(sim%n_dofs))
+        call random_number(b)
+        t_solve = 0.0_dp; t_mass = 0.0_dp
+        call system_clock(c0)
+        do i = 1, n_rep
+            call model_stiff_apply(sim%mdl, b, x)
+        end do
+        call system_clock(c1)
+        t_spmv = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        if (.not. allocated(sim%scheme)) return
+        select type (s => sim%scheme)
+        type is (implicit_scheme_t)
+            call system_clock(c0)
+            do i = 1, n_rep
+                call ls_solve(s%lu0, s%jac0, b, x, st)
+            end do
+            call system_clock(c1)
+            t_solve = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        type is (pc_scheme_t)
+            call system_clock(c0)
+            do i = 1, n_rep
+                call mass_solver_apply(s%ms, b, x, st)
+            end do
+            call system_clock(c1)
+            t_mass = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        type is (central_scheme_t)
+            call system_clock(c0)
+            do i = 1, n_rep
+                call mass_solver_apply(s%ms, b, x, st)
+            end do
+            call system_clock(c1)
+            t_mass = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        end select
+    end subroutine sim_bench_floor
+
+    !> b = B(u) on the free dofs; active = active contact quadrature points.
+    subroutine sim_eval_b(sim, u, b, active)
+        type(simulation_t), intent(in) :: sim      !! the run (model used)
+        real(dp), intent(in) :: u(:)               !! displacement (free dofs)
+        real(dp), intent(out) :: b(:)              !! B(u)
+        integer, intent(out) :: active             !! active quadrature points
+        real(dp) :: e1, e2
+        real(dp), allocatable :: ktu(:)
+        allocate (ktu(size(u)))
+        call model_eval_b(sim%mdl, u, b, ktu, active, e1, e2)
+    end subroutine sim_eval_b
+
+    !> jdu = B'(u) du, the generalized (semi-smooth Newton) derivative.
+    subroutine sim_apply_jacobian(sim, u, du, jdu)
+        type(simulation_t), intent(inout) :: sim   !! the run
+        real(dp), intent(in) :: u(:)               !! point of linearization
+        real(dp), intent(in) :: du(:)              !! direction
+        real(dp), intent(out) :: jdu(:)            !! B'(u) du
+        call model_apply_jacobian(sim%mdl, u, du, jdu)
+    end subroutine sim_apply_jacobian
+
+    !> Static solve K u = L (no contact, no inertia) on the free dofs.
+    subroutine sim_static(sim, u, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        real(dp), intent(out) :: u(:)                       !! displacement (free dofs)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        if (len_trim(path) > 0) then
-            call read_gmsh(path, msh, stat, errmsg)
-        else
-            call bar_mesh_build(bar_dim, length, width, h, msh, stat, errmsg)
-        end if
-    end subroutine load_mesh
+        type(factor_t) :: lu
+        call ls_factor(lu, sim%mdl%stiff, stat, errmsg)
+        if (stat == STAT_OK) call ls_solve(lu, sim%mdl%stiff, sim%mdl%load, u, stat, errmsg)
+        call ls_free(lu)
+    end subroutine sim_static
+
+    !> Node (1-based) and component (1..dim) of each free dof.
+    subroutine sim_dof_map(sim, node, comp)
+        type(simulation_t), intent(in) :: sim   !! the run
+        integer, intent(out) :: node(:)         !! (n_dofs) node of each free dof
+        integer, intent(out) :: comp(:)         !! (n_dofs) component of each free dof
+        node = sim%mdl%dof_node
+        comp = sim%mdl%dof_comp
+    end subroutine sim_dof_map
 end module api_handles

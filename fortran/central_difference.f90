@@ -19,9 +19,9 @@ module central_difference
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use model, only: model_t, model_apply_jacobian, model_stiff_apply, model_mass_apply
     use nitsche_contact, only: contact_eval
-    use scene, only: scene_t
-    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply
-    use time_scheme, only: time_scheme_t, state_t
+    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free, &
+                           mass_solver_name
+    use time_scheme, only: time_scheme_t, state_t, scheme_params_t
     implicit none
     private
 
@@ -36,6 +36,8 @@ module central_difference
     contains
         procedure :: init => central_init
         procedure :: step => central_step
+        procedure :: free => central_free
+        procedure :: solver => central_solver
     end type central_scheme_t
 
     public :: central_critical_dt
@@ -43,11 +45,11 @@ module central_difference
 contains
 
     !> M factorization (consistent mass), a0 = M^{-1}(L - B(u0)), the critical step
-    !> estimate, and dt (SAFETY dt_crit when the scene's dt is 0).
-    subroutine central_init(this, mdl, scn, st, stat, errmsg)
+    !> estimate, and dt (SAFETY dt_crit when prm%dt is 0).
+    subroutine central_init(this, mdl, prm, st, stat, errmsg)
         class(central_scheme_t), intent(inout) :: this      !! scheme
         type(model_t), intent(in) :: mdl                    !! model
-        type(scene_t), intent(in) :: scn                    !! scene
+        type(scheme_params_t), intent(in) :: prm            !! parameters (dt)
         type(state_t), intent(inout) :: st                  !! initial state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
@@ -62,9 +64,22 @@ contains
         if (stat /= STAT_OK) return
         call central_critical_dt(mdl, this%ms, this%dt_crit, stat, errmsg)
         if (stat /= STAT_OK) return
-        this%dt = scn%dt
-        if (scn%dt == 0.0_dp) this%dt = CENTRAL_SAFETY * this%dt_crit
+        this%dt = prm%dt
+        if (prm%dt == 0.0_dp) this%dt = CENTRAL_SAFETY * this%dt_crit
     end subroutine central_init
+
+    !> Release the factors of M.
+    subroutine central_free(this)
+        class(central_scheme_t), intent(inout) :: this      !! scheme
+        call mass_solver_free(this%ms)
+    end subroutine central_free
+
+    !> The backend of the M^{-1} applications.
+    function central_solver(this) result(name)
+        class(central_scheme_t), intent(in) :: this      !! scheme
+        character(len=:), allocatable :: name
+        name = mass_solver_name(this%ms)
+    end function central_solver
 
     !> One step: u' from (u, v, a), B(u') and M v' products, a' = M^{-1}(L - B(u')).
     subroutine central_step(this, mdl, st, stat, errmsg)

@@ -12,9 +12,9 @@ module explicit_schemes
     use errors, only: STAT_OK
     use model, only: model_t, model_eval_b, model_stiff_mass_apply
     use nitsche_contact, only: contact_eval
-    use scene, only: scene_t
-    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply
-    use time_scheme, only: time_scheme_t, state_t
+    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free, &
+                           mass_solver_name
+    use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_PC, SCHEME_PC_HHT
     implicit none
     private
 
@@ -28,30 +28,32 @@ module explicit_schemes
     contains
         procedure :: init => pc_init
         procedure :: step => pc_step
+        procedure :: free => pc_free
+        procedure :: solver => pc_solver
     end type pc_scheme_t
 
 contains
 
     !> Coefficients, M factorization and a0 = M^{-1}(L - B(u0)).
-    subroutine pc_init(this, mdl, scn, st, stat, errmsg)
+    subroutine pc_init(this, mdl, prm, st, stat, errmsg)
         class(pc_scheme_t), intent(inout) :: this           !! scheme
         type(model_t), intent(in) :: mdl                    !! model
-        type(scene_t), intent(in) :: scn                    !! scene
+        type(scheme_params_t), intent(in) :: prm            !! parameters (kind: a pc one)
         type(state_t), intent(inout) :: st                  !! initial state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: n
         n = mdl%n_dofs
-        this%dt = scn%dt
-        select case (trim(scn%scheme_name))
-        case ('pc')
-            this%alpha = 0.0_dp; this%beta = scn%beta; this%gamma = scn%gamma
-        case ('pc_hht')
-            this%alpha = scn%alpha
-            this%beta = (1.0_dp - scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp - scn%alpha
-        case default ! pc_hht_seed
-            this%alpha = scn%alpha
-            this%beta = (1.0_dp + scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + scn%alpha
+        this%dt = prm%dt
+        select case (prm%kind)
+        case (SCHEME_PC)
+            this%alpha = 0.0_dp; this%beta = prm%beta; this%gamma = prm%gamma
+        case (SCHEME_PC_HHT)
+            this%alpha = prm%alpha
+            this%beta = (1.0_dp - prm%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp - prm%alpha
+        case default ! SCHEME_PC_HHT_SEED
+            this%alpha = prm%alpha
+            this%beta = (1.0_dp + prm%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + prm%alpha
         end select
         allocate (this%vp(n), this%up(n), this%ap(n), this%bp(n), this%ktp(n), this%rhs(n), &
                   this%bold(n))
@@ -61,6 +63,19 @@ contains
         this%rhs = mdl%load - st%bu
         call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
     end subroutine pc_init
+
+    !> Release the factors of M.
+    subroutine pc_free(this)
+        class(pc_scheme_t), intent(inout) :: this           !! scheme
+        call mass_solver_free(this%ms)
+    end subroutine pc_free
+
+    !> The backend of the M^{-1} applications.
+    function pc_solver(this) result(name)
+        class(pc_scheme_t), intent(in) :: this           !! scheme
+        character(len=:), allocatable :: name
+        name = mass_solver_name(this%ms)
+    end function pc_solver
 
     !> One predictor-corrector step: two B evaluations, two M^{-1} applications.
     subroutine pc_step(this, mdl, st, stat, errmsg)

@@ -29,13 +29,13 @@ module implicit_schemes
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
-    use scene, only: scene_t
     use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
-    use time_scheme, only: time_scheme_t, state_t
+    use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
+                           SCHEME_HHT_SEED, SCHEME_GALPHA
     implicit none
     private
 
@@ -75,16 +75,18 @@ module implicit_schemes
     contains
         procedure :: init => implicit_init
         procedure :: step => implicit_step
+        procedure :: free => implicit_free
+        procedure :: solver => implicit_solver
     end type implicit_scheme_t
 
 contains
 
-    !> Coefficients from the scene, J0 factorization, Woodbury blocks, and the
+    !> Coefficients from the parameters, J0 factorization, Woodbury blocks, and the
     !> initial acceleration M a0 = L - B(u0) for the Newmark family.
-    subroutine implicit_init(this, mdl, scn, st, stat, errmsg)
+    subroutine implicit_init(this, mdl, prm, st, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
-        type(scene_t), intent(in) :: scn                    !! scene
+        type(scheme_params_t), intent(in) :: prm            !! parameters (kind: an implicit one)
         type(state_t), intent(inout) :: st                  !! initial state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
@@ -92,27 +94,27 @@ contains
         integer :: n, j, rmax
         real(dp), allocatable :: e(:, :)
         n = mdl%n_dofs
-        this%dt = scn%dt
-        this%tol = scn%newton_tol
-        this%maxit = scn%newton_maxit
-        select case (trim(scn%scheme_name))
-        case ('newmark')
+        this%dt = prm%dt
+        this%tol = prm%newton_tol
+        this%maxit = prm%newton_maxit
+        select case (prm%kind)
+        case (SCHEME_NEWMARK)
             this%kind = KIND_NEWMARK
-            this%beta = scn%beta; this%gamma = scn%gamma
-        case ('hht')
-            this%kind = KIND_NEWMARK; this%alpha_f = -scn%alpha
-            this%beta = (1.0_dp - scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp - scn%alpha
-        case ('hht_seed')
-            this%kind = KIND_NEWMARK; this%alpha_f = -scn%alpha
-            this%beta = (1.0_dp + scn%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + scn%alpha
-        case ('galpha')
+            this%beta = prm%beta; this%gamma = prm%gamma
+        case (SCHEME_HHT)
+            this%kind = KIND_NEWMARK; this%alpha_f = -prm%alpha
+            this%beta = (1.0_dp - prm%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp - prm%alpha
+        case (SCHEME_HHT_SEED)
+            this%kind = KIND_NEWMARK; this%alpha_f = -prm%alpha
+            this%beta = (1.0_dp + prm%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + prm%alpha
+        case (SCHEME_GALPHA)
             this%kind = KIND_NEWMARK
-            this%alpha_m = (2.0_dp * scn%rho_inf - 1.0_dp) / (scn%rho_inf + 1.0_dp)
-            this%alpha_f = scn%rho_inf / (scn%rho_inf + 1.0_dp)
+            this%alpha_m = (2.0_dp * prm%rho_inf - 1.0_dp) / (prm%rho_inf + 1.0_dp)
+            this%alpha_f = prm%rho_inf / (prm%rho_inf + 1.0_dp)
             this%beta = (1.0_dp - this%alpha_m + this%alpha_f)**2 / 4.0_dp
             this%gamma = 0.5_dp - this%alpha_m + this%alpha_f
-        case default
-            this%kind = KIND_THETA; this%theta = scn%time_theta
+        case default    ! SCHEME_THETA
+            this%kind = KIND_THETA; this%theta = prm%theta
         end select
         if (this%kind == KIND_NEWMARK) then
             this%c = this%beta * this%dt**2 * (1.0_dp - this%alpha_f) / (1.0_dp - this%alpha_m)
@@ -162,6 +164,19 @@ contains
         if (stat /= STAT_OK) return
         if (this%m > 0) this%w = this%z(mdl%ct%cdofs, :)
     end subroutine implicit_init
+
+    !> Release the factors of J0.
+    subroutine implicit_free(this)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        call ls_free(this%lu0)
+    end subroutine implicit_free
+
+    !> The backend of the J0 factors.
+    function implicit_solver(this) result(name)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        character(len=:), allocatable :: name
+        name = trim(this%lu0%backend)
+    end function implicit_solver
 
     !> One step: semi-smooth Newton from x = u^n. u~ and M (u^n - u~) were formed at
     !> the end of the previous step (or in init); after each solve J dx = -R the

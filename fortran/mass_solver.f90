@@ -18,7 +18,7 @@ module mass_solver
         integer, allocatable :: massless(:)      !! dofs with no inertia: x = 0 there
     end type mass_solver_t
 
-    public :: mass_solver_init, mass_solver_apply, mass_solver_free
+    public :: mass_solver_init, mass_solver_apply, mass_solver_free, mass_solver_name
 
 contains
 
@@ -79,4 +79,15 @@ contains
         call ls_free(ms%lu)
         if (allocated(ms%inv_diag)) deallocate (ms%inv_diag)
     end subroutine mass_solver_free
+
+    !> The backend that applies M^{-1}: 'diagonal' (lumped mass) or the factors'.
+    function mass_solver_name(ms) result(name)
+        type(mass_solver_t), intent(in) :: ms   !! solver
+        character(len=:), allocatable :: name
+        if (ms%lumped) then
+            name = 'diagonal'
+        else
+            name = trim(ms%lu%backend)
+        end if
+    end function mass_solver_name
 end module mass_solver

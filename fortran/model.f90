@@ -1,13 +1,10 @@
-!> The semi-discrete model M u'' + B(u) = L of one scene: mesh, free dofs
+!> The semi-discrete model M u'' + B(u) = L, built on a mesh from plain parameters: free dofs
 !> (Dirichlet conditions eliminated), assembled M, K, K_theta and L (one shared
 !> CSC pattern), contact facets and the probe.
 module model
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets
-    use gmsh_reader, only: read_gmsh
-    use bar_mesh, only: bar_mesh_build
-    use scene, only: scene_t
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t, block2_t, block2_from_csc, &
@@ -19,6 +16,40 @@ module model
                                facet_shape, QUAD_EXACT, QUAD_GAUSS
     implicit none
     private
+
+    integer, parameter, public :: MASS_CONSISTENT = 1      !! mass kinds
+    integer, parameter, public :: MASS_LUMPED = 2
+    integer, parameter, public :: MASS_REDISTRIBUTED = 3
+    integer, parameter, public :: INITIAL_REST = 1         !! initial conditions
+    integer, parameter, public :: INITIAL_VELOCITY = 2
+    integer, parameter, public :: INITIAL_COMPRESSED_BAR = 3
+
+    !> The plain parameters a model is built from (docs/scenes.md names the keys).
+    type, public :: model_params_t
+        character(len=1024) :: name = ''          !! what messages start with (the scene file)
+        character(len=1100) :: mesh_name = ''     !! how messages name the mesh
+        character(len=256) :: clamped = ''        !! groups with u = 0
+        character(len=256) :: slip_x = ''         !! groups with u_x = 0
+        character(len=256) :: slip_y = ''         !! groups with u_y = 0
+        character(len=256) :: contact = ''        !! contact boundary groups ('' = none)
+        real(dp) :: young = 1.0_dp                !! Young's modulus E
+        real(dp) :: poisson = 0.0_dp              !! Poisson ratio
+        real(dp) :: density = 1.0_dp              !! rho
+        real(dp) :: gravity(2) = 0.0_dp           !! body acceleration g (f = rho g)
+        integer :: mass = MASS_CONSISTENT         !! MASS_CONSISTENT | MASS_LUMPED | MASS_REDISTRIBUTED
+        logical :: penalty = .false.              !! penalty contact instead of Nitsche
+        integer :: nitsche_theta = 1              !! -1, 0 or 1
+        real(dp) :: gamma0 = 10.0_dp              !! gamma_N = gamma0 / h_T
+        real(dp) :: obstacle_point(2) = 0.0_dp    !! a point of the obstacle plane
+        real(dp) :: obstacle_normal(2) = [0.0_dp, -1.0_dp] !! normal into the obstacle
+        real(dp) :: probe(2) = 0.0_dp             !! probe point on Gamma_C
+        integer :: quadrature = QUAD_EXACT        !! QUAD_EXACT | QUAD_GAUSS
+        integer :: quad_points = 3                !! Gauss points per facet (QUAD_GAUSS)
+        integer :: initial = INITIAL_REST         !! INITIAL_REST | INITIAL_VELOCITY | INITIAL_COMPRESSED_BAR
+        real(dp) :: amplitude = 0.0_dp            !! compressed_bar lift
+        real(dp) :: velocity(2) = 0.0_dp          !! INITIAL_VELOCITY velocity
+        real(dp) :: length = 1.0_dp               !! compressed_bar: the lift falls to 0 over it
+    end type model_params_t
 
     !> Everything constant in time.
     type, public :: model_t
@@ -59,82 +90,76 @@ module model
 
 contains
 
-    !> Build the model of a validated scene. Errors (STAT_BAD_INPUT) name the scene
-    !> file and the key: unreadable mesh, a group the mesh lacks, a probe off Gamma_C.
-    subroutine model_build(scn, mdl, stat, errmsg)
-        type(scene_t), intent(in) :: scn                    !! scene
+    !> Build the model on a mesh from plain parameters. Errors (STAT_BAD_INPUT) start
+    !> with prm%name and name the key: an unusable mesh, a group the mesh lacks, a probe
+    !> off Gamma_C.
+    subroutine model_build(msh, prm, mdl, stat, errmsg)
+        type(mesh_t), intent(in) :: msh                     !! mesh (copied into the model)
+        type(model_params_t), intent(in) :: prm             !! parameters
         type(model_t), intent(out) :: mdl                   !! model
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        character(len=1024) :: msg, where
+        character(len=1024) :: msg
         real(dp) :: lambda, mu
         integer, allocatable :: facets(:)
         integer :: dim, j
         stat = STAT_OK
         msg = ''
-        if (len_trim(scn%mesh_file) > 0) then
-            call read_gmsh(scn%mesh_file, mdl%msh, stat, msg)
-            where = "mesh '"//trim(scn%mesh_file)//"'"
-        else
-            call bar_mesh_build(scn%mesh_dim, scn%mesh_length, scn%mesh_width, scn%mesh_h, &
-                                mdl%msh, stat, msg)
-            where = 'the built-in bar'
-        end if
-        if (stat == STAT_OK) call mesh_check(mdl%msh, stat, msg)
+        mdl%msh = msh
+        call mesh_check(mdl%msh, stat, msg)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &mesh: '//trim(msg))
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &mesh: '//trim(msg))
             return
         end if
         dim = mdl%msh%dim
         mdl%dim = dim
         mdl%ndof_e = dim * (dim + 1)
         mdl%normal = 0.0_dp
-        mdl%normal(1:dim) = scn%obstacle_normal(1:dim) / norm2(scn%obstacle_normal(1:dim))
-        call p1_lame(scn%young, scn%poisson, lambda, mu)
+        mdl%normal(1:dim) = prm%obstacle_normal(1:dim) / norm2(prm%obstacle_normal(1:dim))
+        call p1_lame(prm%young, prm%poisson, lambda, mu)
 
         call number_dofs(stat, msg)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &boundary '//trim(msg) &
-                       //' ('//trim(where)//')')
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &boundary '//trim(msg) &
+                       //' ('//trim(prm%mesh_name)//')')
             return
         end if
         if (mdl%n_dofs == 0) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &boundary clamped: no free dofs ' &
-                       //'(every node is clamped or slip-fixed: clamped = '''//trim(scn%clamped) &
-                       //''' in '//trim(where)//')')
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &boundary clamped: no free dofs ' &
+                       //'(every node is clamped or slip-fixed: clamped = '''//trim(prm%clamped) &
+                       //''' in '//trim(prm%mesh_name)//')')
             return
         end if
         call assemble(stat, msg)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': '//trim(msg))
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//trim(msg))
             return
         end if
 
-        call mesh_group_facets(mdl%msh, scn%contact, facets, stat, msg)
+        call mesh_group_facets(mdl%msh, prm%contact, facets, stat, msg)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &boundary contact: ' &
-                       //trim(msg)//' ('//trim(where)//')')
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &boundary contact: ' &
+                       //trim(msg)//' ('//trim(prm%mesh_name)//')')
             return
         end if
         mdl%has_contact = size(facets) > 0
         allocate (mdl%massless(mdl%n_dofs))
         mdl%massless = .false.
-        if (scn%mass == 'redistributed') then
+        if (prm%mass == MASS_REDISTRIBUTED) then
             call redistribute(stat, msg)
             if (stat /= STAT_OK) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &scheme mass: ' &
-                           //trim(msg)//' ('//trim(where)//')')
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &scheme mass: ' &
+                           //trim(msg)//' ('//trim(prm%mesh_name)//')')
                 return
             end if
         end if
         mdl%massless_dofs = pack([(j, j=1, mdl%n_dofs)], mdl%massless)
-        call contact_init(mdl%ct, mdl%msh, facets, mdl%dof, scn%young, lambda, mu, &
-                          mdl%normal(1:dim), scn%obstacle_point(1:dim), scn%gamma0, &
-                          scn%nitsche_theta, merge(QUAD_GAUSS, QUAD_EXACT, &
-                                                   scn%quadrature == 'gauss'), &
-                          scn%quad_points, stat, msg, penalty=scn%contact_method == 'penalty')
+        call contact_init(mdl%ct, mdl%msh, facets, mdl%dof, prm%young, lambda, mu, &
+                          mdl%normal(1:dim), prm%obstacle_point(1:dim), prm%gamma0, &
+                          prm%nitsche_theta, prm%quadrature, &
+                          prm%quad_points, stat, msg, penalty=prm%penalty)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &boundary contact: ' &
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &boundary contact: ' &
                        //trim(msg))
             return
         end if
@@ -142,23 +167,23 @@ contains
             call check_normal()
             call check_gamma0(stat, msg)
             if (stat /= STAT_OK) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &contact gamma0: '//trim(msg))
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &contact gamma0: '//trim(msg))
                 return
             end if
         else
-            call note('warning: no contact boundary (&boundary contact = '''//trim(scn%contact)// &
+            call note('warning: no contact boundary (&boundary contact = '''//trim(prm%contact)// &
                       '''): the probe reports nothing (u_n, v_n, p_n are 0 in trace.csv)')
         end if
         call add_theta_term()
         call block_copy(stat, msg)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': '//trim(msg))
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//trim(msg))
             return
         end if
         if (mdl%has_contact) then
             call snap_probe(stat, msg)
             if (stat /= STAT_OK) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &contact probe: '//trim(msg))
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &contact probe: '//trim(msg))
                 return
             end if
         end if
@@ -174,7 +199,7 @@ contains
             allocate (fixed(dim, mdl%msh%n_nodes), mask(mdl%msh%n_nodes))
             fixed = .false.
             mask = .false.
-            call mesh_group_nodes(mdl%msh, scn%clamped, mask, st, m)
+            call mesh_group_nodes(mdl%msh, prm%clamped, mask, st, m)
             if (st /= STAT_OK) then
                 m = 'clamped: '//trim(m)
                 return
@@ -183,14 +208,14 @@ contains
                 fixed(k, :) = mask
             end do
             mask = .false.
-            call mesh_group_nodes(mdl%msh, scn%slip_x, mask, st, m)
+            call mesh_group_nodes(mdl%msh, prm%slip_x, mask, st, m)
             if (st /= STAT_OK) then
                 m = 'slip_x: '//trim(m)
                 return
             end if
             fixed(1, :) = fixed(1, :) .or. mask
             mask = .false.
-            call mesh_group_nodes(mdl%msh, scn%slip_y, mask, st, m)
+            call mesh_group_nodes(mdl%msh, prm%slip_y, mask, st, m)
             if (st /= STAT_OK) then
                 m = 'slip_y: '//trim(m)
                 return
@@ -256,7 +281,7 @@ contains
             mdl%mass = mdl%stiff
             allocate (mdl%cell_pos(ne, ne, mdl%msh%n_cells), mdl%load(mdl%n_dofs))
             mdl%load = 0.0_dp
-            mdl%lumped = scn%mass == 'lumped'
+            mdl%lumped = prm%mass == MASS_LUMPED
             do c = 1, mdl%msh%n_cells
                 call cell_dofs(c, cd(1:ne))
                 do b = 1, ne
@@ -266,8 +291,8 @@ contains
                     end do
                 end do
                 xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, c))
-                call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, scn%young, ke(1:ne, 1:ne))
-                call p1_mass(dim, xe(1:dim, 1:dim + 1), scn%density, mdl%lumped, me(1:ne, 1:ne))
+                call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, prm%young, ke(1:ne, 1:ne))
+                call p1_mass(dim, xe(1:dim, 1:dim + 1), prm%density, mdl%lumped, me(1:ne, 1:ne))
                 do b = 1, ne
                     do a = 1, ne
                         i = mdl%cell_pos(a, b, c)
@@ -280,7 +305,7 @@ contains
                 do a = 1, dim + 1
                     do j = 1, dim
                         i = cd(dim * (a - 1) + j)
-                        if (i > 0) mdl%load(i) = mdl%load(i) + scn%density * scn%gravity(j) * vol / (dim + 1)
+                        if (i > 0) mdl%load(i) = mdl%load(i) + prm%density * prm%gravity(j) * vol / (dim + 1)
                     end do
                 end do
             end do
@@ -373,7 +398,7 @@ contains
             integer :: f
             character(len=160) :: buf
             st = STAT_OK
-            p = scn%probe(1:dim)
+            p = prm%probe(1:dim)
             dbest = huge(1.0_dp); hbest = 1.0_dp; best = p
             do f = 1, mdl%ct%n_facets
                 xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
@@ -475,22 +500,22 @@ contains
                     mdl%ct%measure(f) * facet_compliance(f) / mdl%ct%gamma(f)
             end do
             ratio_max = maxval(ratio)
-            g_min = scn%gamma0 * ratio_max
+            g_min = prm%gamma0 * ratio_max
             mdl%gamma0_min = g_min
-            if (scn%gamma0 >= g_min) return
-            stiff = scn%young
+            if (prm%gamma0 >= g_min) return
+            stiff = prm%young
             if (dim == 2) stiff = lambda + 2.0_dp * mu
             g_sug = round_up(SUGGEST * g_min)
-            if (scn%nitsche_theta == 1) then
+            if (prm%nitsche_theta == 1) then
                 st = STAT_BAD_INPUT
-                write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a, es10.3e3, a)') '', scn%gamma0, &
+                write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a, es10.3e3, a)') '', prm%gamma0, &
                     ' is too small for the material: with theta = 1, K_theta is indefinite below ' &
                     //'gamma0 = ', g_min, ' (element bound); use gamma0 = ', g_sug, &
                     ' (the stiffness E or lambda + 2 mu is ', stiff, '; docs/scenes.md)'
                 m = trim(adjustl(buf))
             else
                 write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
-                    'warning: &contact gamma0 = ', scn%gamma0, &
+                    'warning: &contact gamma0 = ', prm%gamma0, &
                     ' is small for the material (contact weakly enforced, large penetration; ' &
                     //'theta = 1 would need gamma0 >= ', g_min, '): consider gamma0 = ', g_sug, &
                     ' (docs/scenes.md)'
@@ -508,7 +533,7 @@ contains
             ne = mdl%ndof_e
             xe = 0.0_dp
             xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, cell))
-            call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, scn%young, ke(1:ne, 1:ne))
+            call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, prm%young, ke(1:ne, 1:ne))
             ! Rigid modes (translations, rotation about the centroid), orthonormalized.
             r = 0.0_dp
             if (dim == 1) then
@@ -652,9 +677,9 @@ contains
     end subroutine model_apply_jacobian
 
     !> Initial displacement and velocity (SPEC section 3, &initial).
-    subroutine model_initial(mdl, scn, u0, v0)
-        type(model_t), intent(in) :: mdl      !! model
-        type(scene_t), intent(in) :: scn      !! scene
+    subroutine model_initial(mdl, prm, u0, v0)
+        type(model_t), intent(in) :: mdl            !! model
+        type(model_params_t), intent(in) :: prm     !! its parameters (initial condition)
         real(dp), intent(out) :: u0(:)        !! (n_dofs)
         real(dp), intent(out) :: v0(:)        !! (n_dofs)
         integer :: i, node, k, dim
@@ -665,12 +690,12 @@ contains
         do i = 1, mdl%n_dofs
             node = mdl%dof_node(i)
             k = mdl%dof_comp(i)
-            select case (trim(scn%initial_kind))
-            case ('velocity')
-                v0(i) = scn%velocity(k)
-            case ('compressed_bar')
-                d = dot_product(scn%obstacle_point(1:dim) - mdl%msh%x(:, node), mdl%normal(1:dim))
-                u0(i) = -scn%amplitude * (1.0_dp - d / scn%mesh_length) * mdl%normal(k)
+            select case (prm%initial)
+            case (INITIAL_VELOCITY)
+                v0(i) = prm%velocity(k)
+            case (INITIAL_COMPRESSED_BAR)
+                d = dot_product(prm%obstacle_point(1:dim) - mdl%msh%x(:, node), mdl%normal(1:dim))
+                u0(i) = -prm%amplitude * (1.0_dp - d / prm%length) * mdl%normal(k)
             end select
         end do
     end subroutine model_initial

@@ -6,13 +6,17 @@ module simulation
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
     use scene, only: scene_t, scene_read, scene_to_json
-    use model, only: model_t, model_build, model_eval_b, model_apply_jacobian, model_initial, &
-                     model_probe, model_mass_apply, model_stiff_apply, model_full_field
-    use time_scheme, only: time_scheme_t, state_t, state_eval
+    use mesh, only: mesh_t
+    use mesh_source, only: mesh_load, mesh_label
+    use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
+    use model, only: model_t, model_params_t, model_build, model_initial, model_probe, &
+                     model_mass_apply, model_full_field, MASS_CONSISTENT, MASS_LUMPED, &
+                     MASS_REDISTRIBUTED, INITIAL_REST, INITIAL_VELOCITY, INITIAL_COMPRESSED_BAR
+    use time_scheme, only: time_scheme_t, state_t, state_eval, scheme_params_t, scheme_kind, &
+                           SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED, SCHEME_CENTRAL
     use implicit_schemes, only: implicit_scheme_t
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
-    use mass_solver, only: mass_solver_apply
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
     use trace_output, only: make_dirs, trace_t, trace_open, trace_row, trace_flush, trace_close, &
                             json_real, json_string, TRACE_ROW_BYTES
@@ -53,15 +57,12 @@ module simulation
         integer(i8) :: clock_rate = 1              !! ticks per second
         integer(i8) :: clock_flush = 0             !! clock of the last trace write
         integer(i8) :: clock_summary = 0           !! clock of the last summary.json
-        real(dp), allocatable :: work(:)           !! scratch (n_dofs)
         integer :: n_snap = 0                      !! field snapshots written
         real(dp), allocatable :: snap_t(:)         !! their times
         character(len=64), allocatable :: snap_file(:) !! their file names
     end type simulation_t
 
-    public :: sim_bench_floor
-    public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_eval_b, sim_apply_jacobian, sim_static, &
-              sim_dof_map, sim_trace_bytes
+    public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes
 
 contains
 
@@ -96,9 +97,22 @@ contains
         integer :: n
         real(dp) :: ratio
         character(len=256) :: msg
+        character(len=1024) :: mmsg
+        type(mesh_t) :: msh
+        type(model_params_t) :: mprm
+        type(scheme_params_t) :: sprm
         call system_clock(sim%clock0, sim%clock_rate)
         sim%scn = scn
-        call model_build(sim%scn, sim%mdl, stat, errmsg)
+        mprm = model_params(scn)
+        sprm = scheme_params(scn)
+        mmsg = ''
+        call mesh_load(scn%mesh_file, scn%mesh_dim, scn%mesh_length, scn%mesh_width, scn%mesh_h, &
+                       msh, stat, mmsg)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &mesh: '//trim(mmsg))
+            return
+        end if
+        call model_build(msh, mprm, sim%mdl, stat, errmsg)
         if (stat /= STAT_OK) return
         n = sim%mdl%n_dofs
         sim%n_dofs = n
@@ -116,21 +130,21 @@ contains
             if (stat /= STAT_OK) return
         end if
         allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
-                  sim%st%mv(n), sim%work(n))
-        call model_initial(sim%mdl, sim%scn, sim%st%u, sim%st%v)
+                  sim%st%mv(n))
+        call model_initial(sim%mdl, mprm, sim%st%u, sim%st%v)
         call state_eval(sim%mdl, sim%st)
         call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
         sim%st%a = 0.0_dp
         if (.not. write_output) return
-        select case (trim(sim%scn%scheme_name))
-        case ('pc', 'pc_hht', 'pc_hht_seed')
+        select case (sprm%kind)
+        case (SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED)
             allocate (pc_scheme_t :: sim%scheme)
-        case ('central')
+        case (SCHEME_CENTRAL)
             allocate (central_scheme_t :: sim%scheme)
         case default
             allocate (implicit_scheme_t :: sim%scheme)
         end select
-        call sim%scheme%init(sim%mdl, sim%scn, sim%st, stat, errmsg)
+        call sim%scheme%init(sim%mdl, sprm, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
@@ -408,17 +422,57 @@ contains
         end if
         if (sim%locked) call lock_release(sim%scn%out_dir)
         sim%locked = .false.
-        if (allocated(sim%scheme)) then
-            select type (s => sim%scheme)
-            type is (implicit_scheme_t)
-                call ls_free(s%lu0)
-            type is (pc_scheme_t)
-                call ls_free(s%ms%lu)
-            type is (central_scheme_t)
-                call ls_free(s%ms%lu)
-            end select
-        end if
+        if (allocated(sim%scheme)) call sim%scheme%free()
     end subroutine sim_close
+
+    !> The model's parameters from a validated scene (the one place they are read).
+    function model_params(scn) result(p)
+        type(scene_t), intent(in) :: scn   !! validated scene
+        type(model_params_t) :: p
+        p%name = scn%path
+        p%mesh_name = mesh_label(scn%mesh_file)
+        p%clamped = scn%clamped; p%slip_x = scn%slip_x; p%slip_y = scn%slip_y
+        p%contact = scn%contact
+        p%young = scn%young; p%poisson = scn%poisson; p%density = scn%density
+        p%gravity = scn%gravity
+        select case (trim(scn%mass))
+        case ('lumped')
+            p%mass = MASS_LUMPED
+        case ('redistributed')
+            p%mass = MASS_REDISTRIBUTED
+        case default
+            p%mass = MASS_CONSISTENT
+        end select
+        p%penalty = scn%contact_method == 'penalty'
+        p%nitsche_theta = scn%nitsche_theta
+        p%gamma0 = scn%gamma0
+        p%obstacle_point = scn%obstacle_point; p%obstacle_normal = scn%obstacle_normal
+        p%probe = scn%probe
+        p%quadrature = merge(QUAD_GAUSS, QUAD_EXACT, scn%quadrature == 'gauss')
+        p%quad_points = scn%quad_points
+        select case (trim(scn%initial_kind))
+        case ('velocity')
+            p%initial = INITIAL_VELOCITY
+        case ('compressed_bar')
+            p%initial = INITIAL_COMPRESSED_BAR
+        case default
+            p%initial = INITIAL_REST
+        end select
+        p%amplitude = scn%amplitude
+        p%velocity = scn%velocity
+        p%length = scn%mesh_length
+    end function model_params
+
+    !> The scheme's parameters from a validated scene (the scheme chosen once, by kind).
+    function scheme_params(scn) result(p)
+        type(scene_t), intent(in) :: scn   !! validated scene
+        type(scheme_params_t) :: p
+        p%kind = scheme_kind(scn%scheme_name)
+        p%dt = scn%dt
+        p%alpha = scn%alpha; p%beta = scn%beta; p%gamma = scn%gamma
+        p%theta = scn%time_theta; p%rho_inf = scn%rho_inf
+        p%newton_tol = scn%newton_tol; p%newton_maxit = scn%newton_maxit
+    end function scheme_params
 
     !> Energies and probe values of the current state; a trace row when `row`
     !> is absent or true. e_total = e_kin + e_el is returned.
@@ -510,17 +564,7 @@ contains
         type(simulation_t), intent(in) :: sim   !! the run
         character(len=:), allocatable :: name
         name = ''
-        if (.not. allocated(sim%scheme)) return
-        select type (s => sim%scheme)
-        type is (implicit_scheme_t)
-            name = trim(s%lu0%backend)
-        type is (pc_scheme_t)
-            name = trim(s%ms%lu%backend)
-            if (s%ms%lumped) name = 'diagonal'
-        type is (central_scheme_t)
-            name = trim(s%ms%lu%backend)
-            if (s%ms%lumped) name = 'diagonal'
-        end select
+        if (allocated(sim%scheme)) name = sim%scheme%solver()
     end function sim_solver
 
     !> An integer as text.
@@ -540,92 +584,4 @@ contains
         write (buf, '(es12.5e3)') x
         s = trim(adjustl(buf))
     end function real_text
-
-    !> Cost floors of a run's step, in microseconds (mean over n_rep repetitions):
-    !> one triangular solve with the cached factors of the iteration matrix (implicit
-    !> schemes; 0 otherwise), one SpMV with K_theta, one M^{-1} application (pc
-    !> schemes; 0 otherwise).
-    subroutine sim_bench_floor(sim, n_rep, t_solve, t_spmv, t_mass)
-        type(simulation_t), intent(inout) :: sim   !! an open run
-        integer, intent(in) :: n_rep               !! repetitions (> 0)
-        real(dp), intent(out) :: t_solve           !! us per triangular solve
-        real(dp), intent(out) :: t_spmv            !! us per SpMV with K_theta
-        real(dp), intent(out) :: t_mass            !! us per M^{-1} application
-        real(dp), allocatable :: b(:), x(:)
-        integer(i8) :: c0, c1
-        integer :: i, st
-        allocate (b(sim%n_dofs), x(sim%n_dofs))
-        call random_number(b)
-        t_solve = 0.0_dp; t_mass = 0.0_dp
-        call system_clock(c0)
-        do i = 1, n_rep
-            call model_stiff_apply(sim%mdl, b, x)
-        end do
-        call system_clock(c1)
-        t_spmv = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
-        if (.not. allocated(sim%scheme)) return
-        select type (s => sim%scheme)
-        type is (implicit_scheme_t)
-            call system_clock(c0)
-            do i = 1, n_rep
-                call ls_solve(s%lu0, s%jac0, b, x, st)
-            end do
-            call system_clock(c1)
-            t_solve = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
-        type is (pc_scheme_t)
-            call system_clock(c0)
-            do i = 1, n_rep
-                call mass_solver_apply(s%ms, b, x, st)
-            end do
-            call system_clock(c1)
-            t_mass = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
-        type is (central_scheme_t)
-            call system_clock(c0)
-            do i = 1, n_rep
-                call mass_solver_apply(s%ms, b, x, st)
-            end do
-            call system_clock(c1)
-            t_mass = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
-        end select
-    end subroutine sim_bench_floor
-
-    !> b = B(u) on the free dofs; active = active contact quadrature points.
-    subroutine sim_eval_b(sim, u, b, active)
-        type(simulation_t), intent(inout) :: sim   !! the run (model used)
-        real(dp), intent(in) :: u(:)               !! displacement (free dofs)
-        real(dp), intent(out) :: b(:)              !! B(u)
-        integer, intent(out) :: active             !! active quadrature points
-        real(dp) :: e1, e2
-        call model_eval_b(sim%mdl, u, b, sim%work, active, e1, e2)
-    end subroutine sim_eval_b
-
-    !> jdu = B'(u) du, the generalized (semi-smooth Newton) derivative.
-    subroutine sim_apply_jacobian(sim, u, du, jdu)
-        type(simulation_t), intent(inout) :: sim   !! the run
-        real(dp), intent(in) :: u(:)               !! point of linearization
-        real(dp), intent(in) :: du(:)              !! direction
-        real(dp), intent(out) :: jdu(:)            !! B'(u) du
-        call model_apply_jacobian(sim%mdl, u, du, jdu)
-    end subroutine sim_apply_jacobian
-
-    !> Static solve K u = L (no contact, no inertia) on the free dofs.
-    subroutine sim_static(sim, u, stat, errmsg)
-        type(simulation_t), intent(inout) :: sim            !! the run
-        real(dp), intent(out) :: u(:)                       !! displacement (free dofs)
-        integer, intent(out) :: stat                        !! status
-        character(len=*), intent(inout), optional :: errmsg !! message
-        type(factor_t) :: lu
-        call ls_factor(lu, sim%mdl%stiff, stat, errmsg)
-        if (stat == STAT_OK) call ls_solve(lu, sim%mdl%stiff, sim%mdl%load, u, stat, errmsg)
-        call ls_free(lu)
-    end subroutine sim_static
-
-    !> Node (1-based) and component (1..dim) of each free dof.
-    subroutine sim_dof_map(sim, node, comp)
-        type(simulation_t), intent(in) :: sim   !! the run
-        integer, intent(out) :: node(:)         !! (n_dofs) node of each free dof
-        integer, intent(out) :: comp(:)         !! (n_dofs) component of each free dof
-        node = sim%mdl%dof_node
-        comp = sim%mdl%dof_comp
-    end subroutine sim_dof_map
 end module simulation

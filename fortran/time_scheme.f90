@@ -2,9 +2,29 @@
 module time_scheme
     use kinds, only: dp
     use model, only: model_t, model_eval_b
-    use scene, only: scene_t
     implicit none
     private
+
+    !> Scheme kinds: a scheme is chosen once, by scheme_kind(name), and known by number.
+    integer, parameter, public :: SCHEME_NEWMARK = 1, SCHEME_HHT = 2, SCHEME_HHT_SEED = 3, &
+                                  SCHEME_THETA = 4, SCHEME_GALPHA = 5, SCHEME_PC = 6, &
+                                  SCHEME_PC_HHT = 7, SCHEME_PC_HHT_SEED = 8, SCHEME_CENTRAL = 9
+    !> Their names (&scheme name), in the order of the kinds.
+    character(len=*), parameter :: SCHEME_NAMES(9) = [character(len=11) :: 'newmark', 'hht', &
+        'hht_seed', 'theta', 'galpha', 'pc', 'pc_hht', 'pc_hht_seed', 'central']
+
+    !> The plain parameters of a scheme (&scheme keys; each scheme reads the ones it needs).
+    type, public :: scheme_params_t
+        integer :: kind = SCHEME_HHT              !! SCHEME_*
+        real(dp) :: dt = 0.0_dp                   !! time step (central: 0 = chosen by the scheme)
+        real(dp) :: alpha = 0.0_dp                !! HHT alpha
+        real(dp) :: beta = 0.25_dp                !! Newmark / pc beta
+        real(dp) :: gamma = 0.5_dp                !! Newmark / pc gamma
+        real(dp) :: theta = 0.5_dp                !! theta-scheme theta
+        real(dp) :: rho_inf = 1.0_dp              !! galpha spectral radius at infinity
+        real(dp) :: newton_tol = 1.0e-10_dp       !! relative residual tolerance
+        integer :: newton_maxit = 50              !! Newton iteration limit
+    end type scheme_params_t
 
     !> State at time t, with B(u) and its parts cached (every scheme needs them).
     type, public :: state_t
@@ -23,7 +43,7 @@ module time_scheme
     end type state_t
 
     !> A time-integration scheme: init (coefficients, factorizations, initial
-    !> acceleration) then step (t -> t + dt).
+    !> acceleration), step (t -> t + dt), free (its factors), solver (their backend).
     type, abstract, public :: time_scheme_t
         real(dp) :: dt = 0.0_dp                 !! time step
         integer :: factorizations = 0           !! sparse numeric factorizations done
@@ -31,16 +51,18 @@ module time_scheme
     contains
         procedure(scheme_init), deferred :: init
         procedure(scheme_step), deferred :: step
+        procedure(scheme_free), deferred :: free
+        procedure(scheme_solver), deferred :: solver
     end type time_scheme_t
 
     abstract interface
-        !> Prepare the scheme for the model and scene; complete the initial state
+        !> Prepare the scheme for the model; complete the initial state
         !> (st%u, st%v, st%bu, st%ktu given; st%a computed if the scheme needs it).
-        subroutine scheme_init(this, mdl, scn, st, stat, errmsg)
-            import :: time_scheme_t, model_t, scene_t, state_t
+        subroutine scheme_init(this, mdl, prm, st, stat, errmsg)
+            import :: time_scheme_t, model_t, scheme_params_t, state_t
             class(time_scheme_t), intent(inout) :: this         !! scheme
             type(model_t), intent(in) :: mdl                    !! model
-            type(scene_t), intent(in) :: scn                    !! scene
+            type(scheme_params_t), intent(in) :: prm            !! parameters
             type(state_t), intent(inout) :: st                  !! initial state
             integer, intent(out) :: stat                        !! status
             character(len=*), intent(inout), optional :: errmsg !! message
@@ -55,11 +77,34 @@ module time_scheme
             integer, intent(out) :: stat                        !! status (STAT_NUMERIC: Newton failure)
             character(len=*), intent(inout), optional :: errmsg !! message
         end subroutine scheme_step
+
+        !> Release the scheme's factors.
+        subroutine scheme_free(this)
+            import :: time_scheme_t
+            class(time_scheme_t), intent(inout) :: this         !! scheme
+        end subroutine scheme_free
+
+        !> The backend of the scheme's linear systems ('' before init).
+        function scheme_solver(this) result(name)
+            import :: time_scheme_t
+            class(time_scheme_t), intent(in) :: this            !! scheme
+            character(len=:), allocatable :: name
+        end function scheme_solver
     end interface
 
-    public :: state_eval
+    public :: state_eval, scheme_kind
 
 contains
+
+    !> The kind of the scheme called `name` (&scheme name); 0 if there is none.
+    pure function scheme_kind(name) result(kind)
+        character(len=*), intent(in) :: name   !! scheme name
+        integer :: kind
+        do kind = 1, size(SCHEME_NAMES)
+            if (trim(name) == trim(SCHEME_NAMES(kind))) return
+        end do
+        kind = 0
+    end function scheme_kind
 
     !> Recompute the cached B(u) parts of a state from st%u.
     subroutine state_eval(mdl, st)

@@ -1,0 +1,41 @@
+!> The one place a mesh is loaded: a gmsh file or the built-in bar (used by the run
+!> and by the flat API).
+module mesh_source
+    use kinds, only: dp
+    use mesh, only: mesh_t
+    use gmsh_reader, only: read_gmsh
+    use bar_mesh, only: bar_mesh_build
+    implicit none
+    private
+    public :: mesh_load, mesh_label
+
+contains
+
+    !> A .msh file (path /= '') or the built-in bar (bar_dim, length, width, h).
+    subroutine mesh_load(path, bar_dim, length, width, h, msh, stat, errmsg)
+        character(len=*), intent(in) :: path                !! .msh file or '' (built-in bar)
+        integer, intent(in) :: bar_dim                      !! bar dimension
+        real(dp), intent(in) :: length                      !! bar length
+        real(dp), intent(in) :: width                       !! bar width
+        real(dp), intent(in) :: h                           !! bar mesh size
+        type(mesh_t), intent(out) :: msh                    !! mesh
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        if (len_trim(path) > 0) then
+            call read_gmsh(path, msh, stat, errmsg)
+        else
+            call bar_mesh_build(bar_dim, length, width, h, msh, stat, errmsg)
+        end if
+    end subroutine mesh_load
+
+    !> How messages name the mesh mesh_load(path, ...) gives.
+    function mesh_label(path) result(label)
+        character(len=*), intent(in) :: path   !! .msh file or ''
+        character(len=:), allocatable :: label
+        if (len_trim(path) > 0) then
+            label = "mesh '"//trim(path)//"'"
+        else
+            label = 'the built-in bar'
+        end if
+    end function mesh_label
+end module mesh_source
