@@ -19,7 +19,7 @@ module central_difference
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use model, only: model_t, model_apply_jacobian, model_stiff_apply, model_mass_apply
     use nitsche_contact, only: contact_eval
-    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free, &
+    use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
                            mass_solver_name
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t
     implicit none
@@ -56,11 +56,7 @@ contains
         integer :: n
         n = mdl%n_dofs
         allocate (this%rhs(n))
-        call mass_solver_init(this%ms, mdl, stat, errmsg)
-        if (stat /= STAT_OK) return
-        if (.not. mdl%lumped) this%factorizations = this%factorizations + 1
-        this%rhs = mdl%load - st%bu
-        call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
+        call mass_solver_start(this%ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg)
         if (stat /= STAT_OK) return
         call central_critical_dt(mdl, this%ms, this%dt_crit, stat, errmsg)
         if (stat /= STAT_OK) return

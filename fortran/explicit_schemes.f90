@@ -12,7 +12,7 @@ module explicit_schemes
     use errors, only: STAT_OK
     use model, only: model_t, model_eval_b, model_stiff_mass_apply
     use nitsche_contact, only: contact_eval
-    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free, &
+    use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
                            mass_solver_name
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_PC, SCHEME_PC_HHT
     implicit none
@@ -57,11 +57,7 @@ contains
         end select
         allocate (this%vp(n), this%up(n), this%ap(n), this%bp(n), this%ktp(n), this%rhs(n), &
                   this%bold(n))
-        call mass_solver_init(this%ms, mdl, stat, errmsg)
-        if (stat /= STAT_OK) return
-        if (.not. mdl%lumped) this%factorizations = this%factorizations + 1
-        this%rhs = mdl%load - st%bu
-        call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
+        call mass_solver_start(this%ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg)
     end subroutine pc_init
 
     !> Release the factors of M.

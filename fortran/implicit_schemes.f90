@@ -33,7 +33,7 @@ module implicit_schemes
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
-    use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
+    use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
                            SCHEME_HHT_SEED, SCHEME_GALPHA
     implicit none
@@ -126,11 +126,7 @@ contains
 
         ! initial acceleration (Newmark family only)
         if (this%kind == KIND_NEWMARK) then
-            call mass_solver_init(ms, mdl, stat, errmsg)
-            if (stat /= STAT_OK) return
-            if (.not. ms%lumped) this%factorizations = this%factorizations + 1
-            this%b = mdl%load - st%bu
-            call mass_solver_apply(ms, this%b, st%a, stat, errmsg)
+            call mass_solver_start(ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg)
             call mass_solver_free(ms)
             if (stat /= STAT_OK) return
         else

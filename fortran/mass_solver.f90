@@ -18,7 +18,8 @@ module mass_solver
         integer, allocatable :: massless(:)      !! dofs with no inertia: x = 0 there
     end type mass_solver_t
 
-    public :: mass_solver_init, mass_solver_apply, mass_solver_free, mass_solver_name
+    public :: mass_solver_init, mass_solver_apply, mass_solver_free, mass_solver_name, &
+              mass_solver_start
 
 contains
 
@@ -56,6 +57,23 @@ contains
             call ls_factor(ms%lu, ms%mass, stat, errmsg)
         end if
     end subroutine mass_solver_init
+
+    !> The start of a scheme that needs M^{-1}: prepare ms (one factorization, counted in
+    !> factorizations, unless M is lumped) and solve the initial acceleration
+    !> M a0 = L - B(u0) (SPEC section 1).
+    subroutine mass_solver_start(ms, mdl, bu, a, factorizations, stat, errmsg)
+        type(mass_solver_t), intent(inout) :: ms            !! solver
+        type(model_t), intent(in) :: mdl                    !! model (M, L)
+        real(dp), intent(in) :: bu(:)                       !! B(u0)
+        real(dp), intent(out) :: a(:)                       !! a0
+        integer, intent(inout) :: factorizations            !! the scheme's count
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        call mass_solver_init(ms, mdl, stat, errmsg)
+        if (stat /= STAT_OK) return
+        if (.not. ms%lumped) factorizations = factorizations + 1
+        call mass_solver_apply(ms, mdl%load - bu, a, stat, errmsg)
+    end subroutine mass_solver_start
 
     !> x = M^{-1} b.
     subroutine mass_solver_apply(ms, b, x, stat, errmsg)
