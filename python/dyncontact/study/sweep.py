@@ -53,7 +53,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 __all__ = ["Task", "sweep", "task_key", "code_version", "lookup", "execute",
-           "register_analysis", "ERROR"]
+           "register_analysis", "ERROR", "REFUSED"]
 
 #: Status of a record whose run could not be done (not a numerical verdict).
 ERROR = "error"
@@ -197,6 +197,12 @@ def task_key(task: Task) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+#: Status of a record whose scene the core refused as bad input at run time (for example
+#: Nitsche θ = 1 with γ0 below the element bound): a point outside the method's domain,
+#: not a failure of the sweep (not cached; counted, not reported one by one).
+REFUSED = "refused"
+
+
 def _entry(cache: str, key: str) -> str:
     return os.path.join(cache, key[:2], key)
 
@@ -293,6 +299,10 @@ def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
+    except core.BadInputError as exc:   # refused by the core: outside the method's domain
+        rec = _error_record(task, key, f"{type(exc).__name__}: {exc}")
+        rec["status"] = REFUSED
+        return rec
     except Exception as exc:  # noqa: BLE001 - one failing run never kills a sweep
         msg = f"{type(exc).__name__}: {exc}"
         if os.environ.get("DYNCONTACT_STUDY_DEBUG"):
@@ -363,8 +373,12 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
     say = log or (lambda s: print(s, file=sys.stderr, flush=True))
     with _bar(len(tasks), desc, progress) as bar:
 
+        refused: list[str] = []
+
         def done(i: int, rec: dict[str, Any]) -> None:
             records[i] = rec
+            if rec["status"] == REFUSED:
+                refused.append(rec["message"].splitlines()[0] if rec["message"] else "")
             if rec["status"] == ERROR:
                 msg = rec["message"].splitlines()[0] if rec["message"] else ""
                 say(f"{desc}: run failed ({_describe(tasks[i])}): {msg}")
@@ -394,6 +408,9 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
         else:
             for i in todo:
                 done(i, execute(tasks[i], cache, keys[i]))
+        if refused:
+            say(f"{desc}: {len(refused)} run(s) refused by the core as bad input "
+                f"(first: {refused[0]})")
     out = []
     for task, rec in zip(tasks, records):
         rec = dict(rec or _error_record(task, None, "not run"))
