@@ -493,7 +493,7 @@ def test_which_scheme_table_is_built_from_runs(which, work_precision):
             or "tie" in rp
     # cheapest in 1D: the named run reaches the level and nothing cheaper does
     for q in ("u_n", "p_n", "e_total"):
-        p = picks[("1d", f"cheapest for an error in {q}")]
+        p = picks[("1d", f"cheapest for a given error in {q}")]
         rows = [r for r in work_precision["rows"] if r["case"] == "1d" and r["status"] == "ok"]
         chosen = min((r for r in rows if r[f"err_{q}"] is not None
                       and r[f"err_{q}"] <= float(p["evidence"].split("≤ ")[1].split(" ")[0])),

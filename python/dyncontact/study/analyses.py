@@ -126,9 +126,11 @@ def _energy_metrics(trace: dict[str, np.ndarray]) -> dict[str, float]:
         return {}
     e0 = float(e[0]) if e[0] != 0 else float("nan")
     fin = np.isfinite(e)
+    # E = e_total + e_contact against its own initial value (Nitsche's e_contact is not
+    # zero out of contact: -theta/(2 gamma) |sigma_n|^2 terms)
     return {"e0": e0, "e_end_ratio": float(e[-1] / e0),
             "e_max_ratio": float(np.max(e[fin]) / e0) if fin.any() else float("nan"),
-            "ec_end_ratio": float(ec[-1] / e0),
+            "ec_end_ratio": float(ec[-1] / ec[0]) if ec[0] else float("nan"),
             "t_last": float(trace["t"][-1])}
 
 
@@ -236,7 +238,7 @@ def pn_oscillation(trace: dict[str, np.ndarray], trim: float = PHASE_TRIM) -> di
     if len(t) < 2:
         return out
     e = trace["e_total"] + trace["e_contact"]
-    e0 = float(trace["e_total"][0])
+    e0 = float(e[0])
     if e0:
         out["e_first_row"] = float((e[1] - e[0]) / e0)
     phases = contact_phases(t, act)
@@ -289,7 +291,8 @@ def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any
         before = [float(e[i] / e0) for i in idx if i >= 0]
         m = {"e0": e0, "e_end_ratio": float(e[-1] / e0),
              "e_max_ratio": float(np.max(e[fin]) / e0) if fin.any() else float("nan"),
-             "ec_end_ratio": float((e[-1] + tr["e_contact"][-1]) / e0),
+             "ec_end_ratio": float((e[-1] + tr["e_contact"][-1])
+                                   / (e[0] + tr["e_contact"][0])),
              "impact_times": [float(x) for x in starts],
              "e_before_impacts": before, "t_last": float(t[-1])}
     # central differences estimate their own critical step (summary.json)

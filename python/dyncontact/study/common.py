@@ -124,6 +124,11 @@ SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
        beta=0.25, gamma=0.5, contact={"method": "penalty", "gamma0": PENALTY_GAMMA0}),
     _s("hht-0.1_penalty", f"hht α=-0.1 penalty γ0={PENALTY_GAMMA0:g}", name="hht",
        alpha=-0.1, contact={"method": "penalty", "gamma0": PENALTY_GAMMA0}),
+    # stiffer penalties (the oscillation sweep: chattering with the trapezoidal rule)
+    _s("newmark_penalty100", "newmark β=¼ γ=½ penalty γ0=100", name="newmark", beta=0.25,
+       gamma=0.5, contact={"method": "penalty", "gamma0": 100.0}),
+    _s("newmark_penalty1000", "newmark β=¼ γ=½ penalty γ0=1000", name="newmark", beta=0.25,
+       gamma=0.5, contact={"method": "penalty", "gamma0": 1000.0}),
 )}
 
 

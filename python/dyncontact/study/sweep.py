@@ -31,7 +31,11 @@ default; with ``scheduler`` (an address such as ``tcp://host:8786``, or a
 ``distributed.Client``) the tasks go to a ``dask.distributed`` cluster (the workers must
 see the cache folder: a shared file system, or the same machine). A run that fails
 (bad input, an exception in the analysis, a worker that died) becomes a record with
-``status = 'error'`` and its message; the sweep goes on.
+``status = 'error'`` and its message; the sweep goes on. A scene the core refuses as bad
+input *at run time* (for example Nitsche θ = 1 with γ0 below the element bound, which
+only the assembled mesh can tell) is a grid point outside the method's domain: status
+``'refused'``, not cached, counted once per sweep on the log. The core's warnings are
+kept in the record (``warnings``), not printed by the workers.
 """
 
 from __future__ import annotations
@@ -48,6 +52,7 @@ import tempfile
 import time
 import traceback
 import uuid
+import warnings
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
@@ -265,7 +270,9 @@ def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
             scene = _scene(task)
             run_dir = os.path.join(tmp, "run")
             cpu0 = time.process_time()
-            res = core.run(scene, out=run_dir, progress=False)
+            with warnings.catch_warnings(record=True) as caught:   # kept in the record,
+                warnings.simplefilter("always")                    # not printed by workers
+                res = core.run(scene, out=run_dir, progress=False)
             cpu_s = time.process_time() - cpu0
             out = _analysis(task.analysis)(run_dir, res, **dict(task.params)) or {}
             s = res.summary
@@ -273,7 +280,8 @@ def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
                    "t_end_reached": s.get("t_end_reached"), "steps": s.get("steps"),
                    "wall_s": s.get("wall_s"), "cpu_s": cpu_s,
                    "newton_its_total": s.get("newton_its_total"),
-                   "metrics": out.get("metrics", {}), "code": code_version()}
+                   "metrics": out.get("metrics", {}), "code": code_version(),
+                   "warnings": sorted({str(w.message) for w in caught})}
             keep = set(out.get("keep", ())) | {"trace.csv", "summary.json"}
             for name in os.listdir(run_dir):
                 src = os.path.join(run_dir, name)
