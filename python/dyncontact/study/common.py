@@ -98,6 +98,8 @@ CENTRAL_C = 4.0
 SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
     _s("newmark", "newmark β=¼ γ=½", name="newmark", beta=0.25, gamma=0.5),
     _s("newmark_diss", "newmark β=0.3025 γ=0.6", name="newmark", beta=0.3025, gamma=0.6),
+    # β < γ/2: the setting issue 7's fix concerns (stopped early by round-off before it)
+    _s("newmark_g0.6", "newmark β=¼ γ=0.6", name="newmark", beta=0.25, gamma=0.6),
     _s("hht-0.05", "hht α=-0.05", name="hht", alpha=-0.05),
     _s("hht-0.1", "hht α=-0.1", name="hht", alpha=-0.1),
     _s("hht_seed-0.1", "hht_seed α=-0.1", name="hht_seed", alpha=-0.1),

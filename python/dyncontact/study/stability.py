@@ -43,7 +43,8 @@ __all__ = ["run_stability", "bisect_critical", "classify", "GRIDS", "impacts"]
 
 #: Sweep sizes. 'dt_over_h': {'implicit': (...), 'explicit': (...)}.
 GRIDS = {
-    "full": {"schemes": ("newmark", "newmark_diss", "hht-0.1", "hht_seed-0.1", "theta1",
+    "full": {"schemes": ("newmark", "newmark_diss", "newmark_g0.6", "hht-0.1", "hht_seed-0.1",
+                         "theta1",
                          "pc", "pc_lumped", "pc_hht-0.1", "pc_hht_seed-0.1",
                          # issue 12
                          "galpha1", "galpha0.5", "central_lumped", "central",
