@@ -56,7 +56,8 @@ def test_convergence_errors_decrease_with_h_for_every_scheme(convergence):
     assert all(r["status"] == "ok" for r in rows), [(r["scheme"], r["n"], r["status"])
                                                     for r in rows if r["status"] != "ok"]
     schemes = sorted({r["scheme"] for r in rows})
-    assert len(schemes) == 7
+    # the seed's 7 and issue 12's: galpha x 3, central (lumped), penalty, redistributed x 2
+    assert len(schemes) == 14
     for s in schemes:
         mine = sorted((r for r in rows if r["scheme"] == s), key=lambda r: -r["h"])
         assert [r["n"] for r in mine] == [25, 50, 100]
@@ -83,7 +84,7 @@ def test_convergence_writes_csv_png_and_summary(convergence):
 
     with open(convergence["csv"], encoding="utf-8") as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == convergence["n_runs"] == 21
+    assert len(rows) == convergence["n_runs"] == 42
     assert {"u_Linf_L2", "u_Linf_H1", "v_Linf_L2", "u_L2_L2", "u_L2_H1", "v_L2_L2",
             "p_L2"} <= set(rows[0])
     assert os.path.getsize(convergence["png"]) > 10_000
@@ -306,11 +307,12 @@ def test_dask_local_cluster_gives_the_same_csv_as_the_pool(tmp_path):
     distributed = pytest.importorskip("distributed")
     from dyncontact.study.stability import run_stability
 
-    pool = run_stability(str(tmp_path / "pool"), quick=True, workers=2, progress=False,
-                         log=None)
+    grid = {"schemes": ("hht-0.1", "pc_lumped")}   # the path matters here, not the size
+    pool = run_stability(str(tmp_path / "pool"), quick=True, grid=grid, workers=2,
+                         progress=False, log=None)
     with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=1,
                                   dashboard_address=None) as cluster:
-        dask = run_stability(str(tmp_path / "dask"), quick=True,
+        dask = run_stability(str(tmp_path / "dask"), quick=True, grid=grid,
                              scheduler=cluster.scheduler_address, progress=False, log=None)
     assert dask["n_cached"] == 0 and pool["n_cached"] == 0
     for name in ("stability.csv", "runs.csv"):
@@ -395,3 +397,107 @@ def test_impacts_count_contact_phases_not_chattering():
         # chattering inside the phase: contact lost for less than IMPACT_GAP
         active[on & (t >= start + 0.3) & (t < start + 0.3 + IMPACT_GAP / 2)] = 0
     np.testing.assert_allclose(impacts(t, active), [1.0, 4.0, 7.0])
+
+
+# --------------------------------------------------------------------------- issue 12 rows
+
+def test_stability_quick_has_issue12_rows_and_compares_central_estimate(stability):
+    crit = stability["critical"]
+    # penalty has no Nitsche theta: one group per (h, gamma0), listed as theta = +1
+    pen = [c for c in crit if c["scheme"] == "newmark_penalty"]
+    assert pen and all(c["theta"] == 1 and c["method"] == "penalty" for c in pen)
+    assert [c for c in crit if c["mass"] == "redistributed"]
+    # central records the run's own critical-step estimate next to the measured one
+    cen = [c for c in crit if c["scheme"] == "central_lumped"]
+    assert cen and all(c["dt_crit_estimate"] and c["dt_crit_estimate"] > 0 for c in cen)
+    for c in cen:
+        if c["bracket"] == "bisection":
+            assert c["estimate_over_measured"] == pytest.approx(
+                c["dt_crit_estimate"] / math.sqrt(c["dt_crit_lo"] * c["dt_crit_hi"]))
+    text = open(stability["summary"], encoding="utf-8").read()
+    assert "critical-step estimate against the measured one" in text
+
+
+def test_a_scene_the_core_refuses_is_recorded_as_refused_not_failed(tmp_path, capsys):
+    """theta = 1 with gamma0 = 0.01 is below the element bound on the 1D bar (E = 1):
+    the core refuses it at run time (exit 2 in the CLI); a sweep records 'refused'."""
+    from dyncontact.study.sweep import REFUSED
+
+    base = write_base_scenes(str(tmp_path / "scenes"))["exact1d"]
+    t = make_task(base, {"mesh.h": 0.1, "scheme.dt": 0.005, "scheme.t_end": 0.1,
+                         "contact.gamma0": 0.01}, "trace")
+    rec = sweep([t], str(tmp_path / "cache"), workers=1, progress=False,
+                log=lambda s: print(s))[0]
+    assert rec["status"] == REFUSED and "gamma0" in rec["message"]
+    assert "refused by the core" in capsys.readouterr().out
+
+
+def test_pn_oscillation_measure_against_a_synthetic_trace():
+    """One contact phase on [1, 2] with p_n = -1/2 + a sin(2 pi 40 t): over its interior
+    [1.2, 1.8] (24 whole periods) std = a/sqrt(2), so rel. std = sqrt(2) a; the total
+    variation over the phase is 4 a per period, 40 periods per unit time."""
+    from dyncontact.study.analyses import pn_oscillation
+
+    a = 0.1
+    t = np.linspace(0.0, 3.0, 300_001)
+    on = (t >= 1.0) & (t <= 2.0)
+    p = np.where(on, -0.5 + a * np.sin(2 * np.pi * 40 * t), 0.0)
+    e = np.full_like(t, 1.0)
+    e[1:] = 0.99       # a loss in the first step
+    tr = {"t": t, "p_n": p, "active": on.astype(float), "e_total": e,
+          "e_contact": np.zeros_like(t)}
+    m = pn_oscillation(tr)
+    assert m["contact_phases"] == 1
+    assert m["pn_rel_std"] == pytest.approx(math.sqrt(2) * a, rel=1e-3)
+    assert m["pn_tv_rate"] == pytest.approx(4 * a * 40, rel=1e-3)
+    assert m["e_first_row"] == pytest.approx(-0.01)
+    assert m["e_first_contact"] == pytest.approx(0.0, abs=1e-15)
+
+
+@pytest.fixture(scope="module")
+def which(tmp_path_factory, work_precision, stability):
+    from dyncontact.study.which import run_which
+
+    out = tmp_path_factory.mktemp("which")
+    return run_which(str(out), work_precision, stability, quick=True, workers=2,
+                     progress=False, log=None)
+
+
+def test_which_scheme_table_is_built_from_runs(which, work_precision):
+    from dyncontact.study.claims import SIGNIFICANT_GAIN
+    from dyncontact.study.common import SCHEMES
+    from dyncontact.study.which import OSC_RANK_H
+
+    picks = {(p["case"], p["question"]): p for p in which["picks"]}
+    for case in ("1d", "2d"):
+        # least p_n oscillation: the measured minimum of the oscillation runs
+        osc = [x for x in which["oscillation"] if x["case"] == case and x["status"] == "ok"
+               and x["h"] == OSC_RANK_H["quick"][case]]
+        best = min(osc, key=lambda x: x["pn_rel_std"])
+        assert picks[(case, "least p_n oscillation")]["pick"] == best["label"]
+        # among the schemes that keep the energy at impact: the redistributed mass
+        cons = [x for x in osc if abs(x["e_first_contact"]) <= SIGNIFICANT_GAIN]
+        q = next(k for k in picks if k[0] == case and "without losing" in k[1])
+        pick = picks[q]["pick"]
+        assert "redistributed" in pick
+        assert pick == min(cons, key=lambda x: x["pn_rel_std"])["label"]
+        # it cuts the oscillation of the consistent-mass trapezoidal rule several fold
+        redist = min(x["pn_rel_std"] for x in cons if "redist" in x["scheme"])
+        plain = next(x["pn_rel_std"] for x in osc if x["scheme"] == "newmark")
+        assert redist < plain / 3
+        # robustness: the pick is among the best scores of the robustness rows
+        rob = [x for x in which["robustness"] if x["case"] == case]
+        top = max(x["score"] for x in rob)
+        rp = picks[(case, "most robust in γ0 and Δt")]["pick"]
+        assert any(SCHEMES[x["scheme"]].label in rp for x in rob if x["score"] == top) \
+            or "tie" in rp
+    # cheapest in 1D: the named run reaches the level and nothing cheaper does
+    for q in ("u_n", "p_n", "e_total"):
+        p = picks[("1d", f"cheapest for a given error in {q}")]
+        rows = [r for r in work_precision["rows"] if r["case"] == "1d" and r["status"] == "ok"]
+        chosen = min((r for r in rows if r[f"err_{q}"] is not None
+                      and r[f"err_{q}"] <= float(p["evidence"].split("≤ ")[1].split(" ")[0])),
+                     key=lambda r: r["cpu_s"])
+        assert p["pick"] == chosen["label"]
+    text = open(which["summary"], encoding="utf-8").read()
+    assert "Which scheme should I use" in text and "oscillation.csv" in text

@@ -3,6 +3,8 @@
 - ``trace``: energy ratios and, optionally, trace columns (every ``stride``-th row).
 - ``stability``: energy ratios, impact times, the energy before each impact and,
   optionally, t, u_n, e_total (the stability study and the claims).
+- ``contact``: energy ratios and the p_n oscillation during contact
+  (:func:`pn_oscillation`), for the "which scheme" table.
 - ``exact1d``: errors of a run of the 1D exact case (SPEC section 2) against the closed
   form :mod:`dyncontact.exact1d`: the field norms from the VTU snapshots and the probe
   errors from the trace.
@@ -30,7 +32,8 @@ from .. import exact1d as ex
 from .sweep import register_analysis
 
 __all__ = ["read_pvd", "read_vtu_1d", "field_errors_1d", "probe_errors_1d", "rms_in_time",
-           "impacts", "FIELD_NORMS", "IMPACT_GAP"]
+           "impacts", "contact_phases", "pn_oscillation", "FIELD_NORMS", "IMPACT_GAP",
+           "PHASE_TRIM"]
 
 #: Columns of the field/stress norms, in the order of the issue.
 FIELD_NORMS = ("u_Linf_L2", "u_Linf_H1", "v_Linf_L2", "u_L2_L2", "u_L2_H1", "v_L2_L2",
@@ -123,9 +126,11 @@ def _energy_metrics(trace: dict[str, np.ndarray]) -> dict[str, float]:
         return {}
     e0 = float(e[0]) if e[0] != 0 else float("nan")
     fin = np.isfinite(e)
+    # E = e_total + e_contact against its own initial value (Nitsche's e_contact is not
+    # zero out of contact: -theta/(2 gamma) |sigma_n|^2 terms)
     return {"e0": e0, "e_end_ratio": float(e[-1] / e0),
             "e_max_ratio": float(np.max(e[fin]) / e0) if fin.any() else float("nan"),
-            "ec_end_ratio": float(ec[-1] / e0),
+            "ec_end_ratio": float(ec[-1] / ec[0]) if ec[0] else float("nan"),
             "t_last": float(trace["t"][-1])}
 
 
@@ -187,6 +192,90 @@ def impacts(t: np.ndarray, active: np.ndarray, gap: float = IMPACT_GAP) -> np.nd
     return np.array(starts)
 
 
+#: Fraction of each contact phase left out at either end when measuring the p_n
+#: oscillation (the impact and release transients are not oscillations).
+PHASE_TRIM = 0.2
+#: Contact phases shorter than this many trace rows are skipped by the oscillation measure.
+MIN_PHASE_ROWS = 10
+
+
+def contact_phases(t: np.ndarray, active: np.ndarray,
+                   gap: float = IMPACT_GAP) -> list[tuple[float, float]]:
+    """(start, end) of each contact phase: from an impact (as :func:`impacts`) to the last
+    row in contact before the next gap of at least ``gap`` without contact (or the last
+    row). Chattering inside a phase does not end it."""
+    phases: list[list[float]] = []
+    last_on = -np.inf
+    for ti, a in zip(t, active):
+        if a > 0:
+            if not phases or ti - last_on >= gap:
+                phases.append([float(ti), float(ti)])
+            phases[-1][1] = float(ti)
+            last_on = ti
+    return [(a, b) for a, b in phases]
+
+
+def pn_oscillation(trace: dict[str, np.ndarray], trim: float = PHASE_TRIM) -> dict[str, Any]:
+    """How much p_n oscillates during contact, and the energy across the first contact.
+
+    - ``pn_rel_std``: the standard deviation of p_n over the interior of the contact phases
+      (each phase without its first and last ``trim`` fraction), over |mean of p_n| there;
+      rows pooled over the phases (the trace must be written at a fixed step).
+    - ``pn_tv_rate``: total variation of p_n over the whole contact phases per unit contact
+      time (depends on the output spacing: compare runs written every step).
+    - ``e_first_contact``: (E_after − E_before)/E(0) with E = e_total + e_contact, from the
+      row before the first impact to the first row after the first phase ends (NaN if the
+      run ends in contact).
+    - ``e_first_row``: (E(t_1) − E(0))/E(0) over the first trace row (the first step when
+      the trace is written every step): where an initial state that the scheme cannot
+      hold (a massless contact node out of equilibrium) loses its energy.
+    """
+    t, p, act = trace["t"], trace["p_n"], trace["active"]
+    out: dict[str, Any] = {"contact_phases": 0, "contact_time": 0.0,
+                           "pn_rel_std": float("nan"), "pn_tv_rate": float("nan"),
+                           "pn_mean": float("nan"), "e_first_contact": float("nan"),
+                           "e_first_row": float("nan")}
+    if len(t) < 2:
+        return out
+    e = trace["e_total"] + trace["e_contact"]
+    e0 = float(e[0])
+    if e0:
+        out["e_first_row"] = float((e[1] - e[0]) / e0)
+    phases = contact_phases(t, act)
+    inner, tv, ct = [], 0.0, 0.0
+    for a, b in phases:
+        w = (t >= a) & (t <= b)
+        if w.sum() < MIN_PHASE_ROWS:
+            continue
+        tv += float(np.sum(np.abs(np.diff(p[w]))))
+        ct += b - a
+        lo, hi = a + trim * (b - a), b - trim * (b - a)
+        inner.append(p[(t >= lo) & (t <= hi)])
+    out["contact_phases"] = len(phases)
+    out["contact_time"] = ct
+    if inner and sum(len(x) for x in inner) > 1:
+        allp = np.concatenate(inner)
+        mean = float(np.mean(allp))
+        out["pn_mean"] = mean
+        out["pn_rel_std"] = float(np.std(allp) / abs(mean)) if mean else float("nan")
+    if ct > 0:
+        out["pn_tv_rate"] = tv / ct
+    if phases:
+        i0 = int(np.searchsorted(t, phases[0][0])) - 1
+        i1 = int(np.searchsorted(t, phases[0][1], side="right"))
+        if i0 >= 0 and i1 < len(t) and e0:
+            out["e_first_contact"] = float((e[i1] - e[i0]) / e0)
+    return out
+
+
+@register_analysis("contact")
+def analyse_contact(run_dir: str, result) -> dict[str, Any]:
+    """Energy ratios and the p_n oscillation measures of :func:`pn_oscillation`."""
+    m = dict(_energy_metrics(result.trace))
+    m.update(pn_oscillation(result.trace))
+    return {"metrics": m}
+
+
 @register_analysis("stability")
 def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any]:
     """Energy ratios, impact times, the energy just before each impact (the flight
@@ -202,9 +291,12 @@ def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any
         before = [float(e[i] / e0) for i in idx if i >= 0]
         m = {"e0": e0, "e_end_ratio": float(e[-1] / e0),
              "e_max_ratio": float(np.max(e[fin]) / e0) if fin.any() else float("nan"),
-             "ec_end_ratio": float((e[-1] + tr["e_contact"][-1]) / e0),
+             "ec_end_ratio": float((e[-1] + tr["e_contact"][-1])
+                                   / (e[0] + tr["e_contact"][0])),
              "impact_times": [float(x) for x in starts],
              "e_before_impacts": before, "t_last": float(t[-1])}
+    # central differences estimate their own critical step (summary.json)
+    m["dt_crit_estimate"] = result.summary.get("dt_crit_estimate")
     arrays = {}
     if keep_rows and len(t):
         stride = max(1, len(t) // int(keep_rows))

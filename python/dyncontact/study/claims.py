@@ -205,7 +205,9 @@ def _claim_skew(recs, grid) -> dict:
     if -1 not in grid["theta"] or len(grid["theta"]) < 2:
         return _not_tested(claim, "θ = −1 and another θ are needed")
     ev, robust, better = [], 0, 0
-    schemes = sorted({r["task"].tag("scheme") for r in recs},
+    # Nitsche schemes only (penalty rows have no θ)
+    schemes = sorted({r["task"].tag("scheme") for r in recs
+                      if r["task"].tag("theta") == -1},
                      key=lambda k: list(SCHEMES).index(k))
     for k in schemes:
         counts = {}

@@ -29,7 +29,9 @@ def _parser() -> argparse.ArgumentParser:
              "work-precision": "error against CPU time per scheme (1D exact, 2D seed bar)",
              "stability": "stability maps and critical dt on the 2D seed bar, with the "
                           "seed's claims",
-             "all": "the three studies into OUT/<study>/ and OUT/index.md"}
+             "all": "the three studies into OUT/<study>/, the 'which scheme should I use' "
+                    "table into OUT/which/ (from their runs and two sweeps of its own) and "
+                    "OUT/index.md"}
     for name in (*STUDIES, "all"):
         s = sub.add_parser(name, help=helps[name], description=helps[name])
         s.add_argument("--quick", action="store_true", help="small sizes (seconds)")
@@ -89,6 +91,9 @@ def write_index(out: str, reports: dict[str, dict[str, Any]], wall_s: float,
              f"Generated {datetime.datetime.now().astimezone().isoformat(timespec='seconds')}"
              f" by dyncontact {__version__}, {os.cpu_count()} cores. "
              f"**Wall time {wall_s:.1f} s, {n_runs} runs** ({n_cached} from the cache).", ""]
+    which = reports.get("which")
+    if which is not None:   # the answer first, the studies behind it after
+        reports = {"which": which, **{k: v for k, v in reports.items() if k != "which"}}
     for name, rep in reports.items():
         folder = name
         lines += [f"## {name}", "",
@@ -124,6 +129,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             if args.cache is None:
                 args.cache = os.path.join(out, "cache")
             reports = {name: run_one(name, os.path.join(out, name), args) for name in STUDIES}
+            from .which import run_which
+
+            reports["which"] = run_which(os.path.join(out, "which"), reports["work-precision"],
+                                         reports["stability"], quick=args.quick,
+                                         c_implicit=args.c_implicit,
+                                         c_explicit=args.c_explicit, **_common(args))
             wall = time.perf_counter() - t0
             index = write_index(out, reports, wall, args.quick)
             n = sum(r["n_runs"] for r in reports.values())

@@ -8,7 +8,8 @@ import math
 import os
 from typing import Any, Iterable, Mapping, Sequence
 
-__all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "write_base_scenes", "write_csv",
+__all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0",
+           "CENTRAL_C", "write_base_scenes", "write_csv",
            "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS"]
 
 #: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016).
@@ -55,29 +56,50 @@ def write_base_scenes(folder: str) -> dict[str, str]:
 @dataclasses.dataclass(frozen=True)
 class SchemeSpec:
     """A scheme with its parameters: ``key`` (command line), ``label`` (plots, tables),
-    ``settings`` (scene keys), ``explicit`` (predictor-corrector family)."""
+    ``settings`` (scene keys), ``explicit`` (no Newton solve: the predictor-corrector
+    family and central differences), ``c``: its own step Δt = h/c in the convergence and
+    work-precision studies (None: the family's default, 20 implicit / 100 explicit)."""
 
     key: str
     label: str
     settings: tuple[tuple[str, Any], ...]
     explicit: bool = False
+    c: float | None = None
 
     @property
     def mass(self) -> str:
         return dict(self.settings).get("scheme.mass", "consistent")
 
+    @property
+    def method(self) -> str:
+        """The contact method: 'nitsche' (the scenes' default) or 'penalty'."""
+        return dict(self.settings).get("contact.method", "nitsche")
 
-def _s(key, label, explicit=False, **kw) -> SchemeSpec:
+
+def _s(key, label, explicit=False, c=None, contact=None, **kw) -> SchemeSpec:
     settings = {"scheme.name": kw.pop("name")}
     settings.update({f"scheme.{k}": v for k, v in kw.items()})
     settings.setdefault("scheme.mass", "consistent")
-    return SchemeSpec(key, label, tuple(settings.items()), explicit)
+    settings.update({f"contact.{k}": v for k, v in (contact or {}).items()})
+    return SchemeSpec(key, label, tuple(settings.items()), explicit, c)
+
+
+#: The penalty parameter of the penalty rows, ε_N = PENALTY_GAMMA0/h_T: the seed's Nitsche
+#: γ0 = 10, so that both methods have the same contact stiffness scale (the stability
+#: study sweeps it like Nitsche's γ0).
+PENALTY_GAMMA0 = 10.0
+#: central differences run at Δt = h/CENTRAL_C in the convergence and work-precision
+#: studies: about half the critical step the run estimates on both cases at γ0 = 10
+#: (0.47 h in 1D, 0.55 h on the seed's 2D bar with lumped mass).
+CENTRAL_C = 4.0
 
 
 #: Every scheme the studies know, by command-line key.
 SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
     _s("newmark", "newmark β=¼ γ=½", name="newmark", beta=0.25, gamma=0.5),
     _s("newmark_diss", "newmark β=0.3025 γ=0.6", name="newmark", beta=0.3025, gamma=0.6),
+    # β < γ/2: the setting issue 7's fix concerns (stopped early by round-off before it)
+    _s("newmark_g0.6", "newmark β=¼ γ=0.6", name="newmark", beta=0.25, gamma=0.6),
     _s("hht-0.05", "hht α=-0.05", name="hht", alpha=-0.05),
     _s("hht-0.1", "hht α=-0.1", name="hht", alpha=-0.1),
     _s("hht_seed-0.1", "hht_seed α=-0.1", name="hht_seed", alpha=-0.1),
@@ -88,7 +110,35 @@ SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
        mass="lumped"),
     _s("pc_hht-0.1", "pc_hht α=-0.1", True, name="pc_hht", alpha=-0.1),
     _s("pc_hht_seed-0.1", "pc_hht_seed α=-0.1", True, name="pc_hht_seed", alpha=-0.1),
+    # issue 12's options
+    _s("galpha1", "galpha ρ∞=1", name="galpha", rho_inf=1.0),
+    _s("galpha0.8", "galpha ρ∞=0.8", name="galpha", rho_inf=0.8),
+    _s("galpha0.5", "galpha ρ∞=0.5", name="galpha", rho_inf=0.5),
+    _s("central_lumped", "central lumped", True, CENTRAL_C, name="central", mass="lumped"),
+    _s("central", "central consistent", True, CENTRAL_C, name="central"),
+    _s("newmark_lumped", "newmark β=¼ γ=½ lumped", name="newmark", beta=0.25, gamma=0.5,
+       mass="lumped"),
+    _s("newmark_redist", "newmark β=¼ γ=½ redistributed", name="newmark", beta=0.25,
+       gamma=0.5, mass="redistributed"),
+    _s("hht-0.1_redist", "hht α=-0.1 redistributed", name="hht", alpha=-0.1,
+       mass="redistributed"),
+    _s("newmark_penalty", f"newmark β=¼ γ=½ penalty γ0={PENALTY_GAMMA0:g}", name="newmark",
+       beta=0.25, gamma=0.5, contact={"method": "penalty", "gamma0": PENALTY_GAMMA0}),
+    _s("hht-0.1_penalty", f"hht α=-0.1 penalty γ0={PENALTY_GAMMA0:g}", name="hht",
+       alpha=-0.1, contact={"method": "penalty", "gamma0": PENALTY_GAMMA0}),
+    # stiffer penalties (the oscillation sweep: chattering with the trapezoidal rule)
+    _s("newmark_penalty100", "newmark β=¼ γ=½ penalty γ0=100", name="newmark", beta=0.25,
+       gamma=0.5, contact={"method": "penalty", "gamma0": 100.0}),
+    _s("newmark_penalty1000", "newmark β=¼ γ=½ penalty γ0=1000", name="newmark", beta=0.25,
+       gamma=0.5, contact={"method": "penalty", "gamma0": 1000.0}),
 )}
+
+
+def step_ratio(s: SchemeSpec, c_implicit: float, c_explicit: float) -> float:
+    """c in Δt = h/c for scheme s: its own, else the family's."""
+    if s.c is not None:
+        return float(s.c)
+    return c_explicit if s.explicit else c_implicit
 
 
 def scheme_list(keys: str | Sequence[str]) -> list[SchemeSpec]:
@@ -159,7 +209,7 @@ def slope(xs: Sequence[float], ys: Sequence[float]) -> float:
 
 
 STATUS_COLORS = {"stable": "#2ca02c", "unstable": "#d62728", "newton_failed": "#ff7f0e",
-                 "error": "#7f7f7f"}
+                 "error": "#7f7f7f", "refused": "#d9d9d9"}
 
 
 def new_figure(nrows: int, ncols: int, width: float = 4.0, height: float = 3.2):

@@ -1,7 +1,8 @@
 """``study convergence``: errors of every scheme against the 1D closed form.
 
 Case: the 1D exact case (SPEC section 2), h in {1/25, ..., 1/400}, dt = h/c with c = 20
-(implicit) and 100 (predictor-corrector) by default, T = 3 (one period: flight, impact,
+(implicit) and 100 (predictor-corrector) by default, and central differences at its own
+c = 4 (about half its critical step), T = 3 (one period: flight, impact,
 contact, release). Norms (see :mod:`.analyses`): L-infinity(0,T; L2) and
 L-infinity(0,T; H1) of u, L-infinity(0,T; L2) of u_t, their L2(0,T) counterparts, and
 L2(0,T) of the contact stress at x = 0.
@@ -21,14 +22,18 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .common import (fmt, md_table, new_figure, save_figure, scheme_list, slope,
-                     write_base_scenes, write_csv)
+                     step_ratio, write_base_scenes, write_csv, PENALTY_GAMMA0)
 from .analyses import FIELD_NORMS
 from .sweep import make_task, sweep
 
 __all__ = ["run_convergence", "DEFAULT_SCHEMES", "FULL_NS", "QUICK_NS"]
 
 DEFAULT_SCHEMES = ("newmark", "hht-0.05", "hht-0.1", "theta0.5", "theta1", "pc",
-                   "pc_hht-0.1")
+                   "pc_hht-0.1",
+                   # issue 12: generalized-alpha, central differences (lumped, dt = h/4),
+                   # penalty (gamma0 = 10), the redistributed mass
+                   "galpha1", "galpha0.8", "galpha0.5", "central_lumped", "newmark_penalty",
+                   "newmark_redist", "hht-0.1_redist")
 FULL_NS = (25, 50, 100, 200, 400)
 QUICK_NS = (25, 50, 100)
 SNAP_DT = 1.0 / 50.0
@@ -44,7 +49,7 @@ def convergence_tasks(base: str, schemes, ns, c_implicit: float, c_explicit: flo
                       t_end: float, snap_dt: float = SNAP_DT):
     tasks = []
     for s in schemes:
-        c = c_explicit if s.explicit else c_implicit
+        c = step_ratio(s, c_implicit, c_explicit)
         for n in ns:
             h = 1.0 / n
             dt = h / c
@@ -143,7 +148,7 @@ def _plot(rows, schemes, path):
         ax.xaxis.set_minor_formatter(NullFormatter())
     ax = axes.flat[7]
     handles, labels = axes.flat[0].get_legend_handles_labels()
-    ax.legend(handles, labels, loc="center", fontsize=8)
+    ax.legend(handles, labels, loc="center", fontsize=6)
     ax.axis("off")
     return save_figure(fig, path)
 
@@ -156,7 +161,9 @@ def _summary(report, schemes, path) -> str:
         f"1D exact case (SPEC §2), θ = 1, γ0 = 10, T = {report['t_end']:g}; "
         f"h = {', '.join('1/' + str(n) for n in ns)}; Δt = h/c with c = "
         f"{report['c_implicit']:g} (implicit) and {report['c_explicit']:g} "
-        f"(predictor-corrector). Field norms from VTU snapshots on one time grid "
+        f"(predictor-corrector)"
+        + "".join(f", {s.c:g} for {s.label}" for s in schemes if s.c is not None)
+        + f". Penalty rows: ε_N = γ0/h with γ0 = {PENALTY_GAMMA0:g}. Field norms from VTU snapshots on one time grid "
         f"(spacing {SNAP_DT:g}) for every h; the stress norm from every step.", "",
         f"{report['n_runs']} runs ({report['n_cached']} from the cache, "
         f"{report['n_errors']} failed to run), {report['wall_s']:.1f} s.", "",

@@ -6,10 +6,16 @@ T = 30 (about 10 impacts). The dt/h grid is per family (implicit schemes at and 
 the seed's h/20, predictor-corrector schemes from h/100 up), since an implicit scheme at
 h/100 says nothing a run at h/20 does not.
 
+Issue 12's options are rows: galpha, central differences (lumped and consistent mass,
+on the explicit dt/h grid; their own critical-step estimate is compared with the
+bisection), the redistributed mass and penalty contact (no Nitsche theta: one run per
+(h, gamma0, dt), listed as theta = +1).
+
 Classification (from summary.json, i.e. the core's own verdict, SPEC section 4):
 ``stable`` (ran to T), ``unstable`` (energy of the written state over ``blowup`` x
 e_total(0), or not finite: stop time and the core's message), ``newton_failed``,
-``error`` (the run could not be done).
+``refused`` (the core refused the scene as bad input at run time: theta = 1 below the
+gamma0 bound), ``error`` (the run could not be done).
 
 Critical dt per (scheme, mass, h, gamma0, theta): the grid gives a bracket (the largest
 stable dt below the smallest one that is not stable); it is narrowed by bisection in
@@ -31,20 +37,26 @@ from . import analyses  # noqa: F401 - registers the analyses
 from .common import (STATUS_COLORS, fmt, md_table, new_figure, save_figure,
                      scheme_list, write_base_scenes, write_csv)
 from .analyses import impacts  # noqa: F401 - part of this module's API
-from .sweep import Task, make_task, sweep
+from .sweep import ERROR, REFUSED, Task, make_task, sweep
 
 __all__ = ["run_stability", "bisect_critical", "classify", "GRIDS", "impacts"]
 
 #: Sweep sizes. 'dt_over_h': {'implicit': (...), 'explicit': (...)}.
 GRIDS = {
-    "full": {"schemes": ("newmark", "newmark_diss", "hht-0.1", "hht_seed-0.1", "theta1",
-                         "pc", "pc_lumped", "pc_hht-0.1", "pc_hht_seed-0.1"),
+    "full": {"schemes": ("newmark", "newmark_diss", "newmark_g0.6", "hht-0.1", "hht_seed-0.1",
+                         "theta1",
+                         "pc", "pc_lumped", "pc_hht-0.1", "pc_hht_seed-0.1",
+                         # issue 12
+                         "galpha1", "galpha0.5", "central_lumped", "central",
+                         "newmark_redist", "hht-0.1_redist", "newmark_penalty",
+                         "hht-0.1_penalty"),
              "h": (0.1, 0.05), "gamma0": (0.01, 1.0, 10.0, 100.0),
              "theta": (-1, 0, 1),
              "dt_over_h": {"implicit": (1 / 80, 1 / 20, 1 / 5, 1.0),
                            "explicit": (1 / 100, 1 / 20, 1 / 10, 1 / 5, 1 / 2, 1.0)},
              "t_end": 30.0, "rounds": 4},
-    "quick": {"schemes": ("hht-0.1", "pc", "pc_lumped"),
+    "quick": {"schemes": ("hht-0.1", "pc", "pc_lumped", "central_lumped", "hht-0.1_redist",
+                          "newmark_penalty"),
               "h": (0.1,), "gamma0": (10.0,), "theta": (-1, 1),
               "dt_over_h": {"implicit": (1 / 20, 1 / 2), "explicit": (1 / 20, 1 / 10, 1 / 2)},
               "t_end": 30.0, "rounds": 3},
@@ -56,6 +68,14 @@ KEEP_ROWS = 1500
 #: time is summary.json's), impacts are found to within OUTPUT_DT, and writing a row per
 #: step would cost more than the step itself on these small meshes.
 OUTPUT_DT = 0.01
+#: central differences with dt = 0 run at this fraction of their own estimate (scenes.md)
+AUTO_FACTOR = 0.9
+
+
+def thetas(s, g) -> tuple[int, ...]:
+    """The Nitsche θ of the sweep for scheme s: penalty contact has no θ (one run, θ = 1
+    in the tables)."""
+    return (1,) if s.method == "penalty" else tuple(g["theta"])
 
 
 def classify(status: str) -> str:
@@ -88,9 +108,9 @@ def bisect_critical(groups: Mapping[Hashable, tuple[float, float]],
             st["runs"].append(r)
             if r["status"] == "ok":
                 st["lo"] = mids[g]
-            elif r["status"] != "error":
+            elif r["status"] not in (ERROR, REFUSED):
                 st["hi"] = mids[g]
-            # an 'error' run leaves the bracket as it is
+            # an 'error' or 'refused' run leaves the bracket as it is
     return state
 
 
@@ -104,7 +124,8 @@ def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0):
                      "output.fields_every": 0})
     return make_task(base, settings, "stability", {"keep_rows": keep_rows},
                      tags={"scheme": s.key, "label": s.label, "mass": s.mass, "h": h,
-                           "gamma0": g0, "theta": int(th), "dt": dt, "dt_over_h": dt / h,
+                           "method": s.method, "gamma0": g0, "theta": int(th), "dt": dt,
+                           "dt_over_h": dt / h,
                            "phase": phase})
 
 
@@ -128,7 +149,7 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
         ratios = g["dt_over_h"]["explicit" if s.explicit else "implicit"]
         for h in g["h"]:
             for g0 in g["gamma0"]:
-                for th in g["theta"]:
+                for th in thetas(s, g):
                     for r in ratios:
                         tasks.append(_task(base, s, h, g0, th, h * r, t_end, "grid",
                                            KEEP_ROWS))
@@ -144,10 +165,15 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
         dts = [r["task"].tag("dt") for r in rs]
         ok = [r["status"] == "ok" for r in rs]
         first_bad = next((i for i, o in enumerate(ok) if not o
-                          and rs[i]["status"] != "error"), None)
+                          and rs[i]["status"] not in (ERROR, REFUSED)), None)
+        est = [r.get("metrics", {}).get("dt_crit_estimate") for r in rs]
+        est = [x for x in est if x]
         info = {"grid_stable": f"{sum(ok)}/{len(ok)}", "non_monotone": False,
-                "lo": None, "hi": None, "bracket": ""}
-        if first_bad is None:
+                "lo": None, "hi": None, "bracket": "",
+                "dt_crit_estimate": est[0] if est else None}
+        if all(r["status"] == REFUSED for r in rs):
+            info.update(bracket="refused")
+        elif first_bad is None:
             info.update(bracket="above grid", lo=dts[-1])
         elif first_bad == 0:
             info.update(bracket="below grid", hi=dts[0])
@@ -173,7 +199,7 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
         crit[key].update(lo=st["lo"], hi=st["hi"])
     all_recs = list(recs) + [r for st in bis.values() for r in st["runs"]]
     run_rows = [_run_row(r) for r in all_recs]
-    run_cols = ["scheme", "mass", "h", "gamma0", "theta", "dt", "dt_over_h", "phase",
+    run_cols = ["scheme", "mass", "method", "h", "gamma0", "theta", "dt", "dt_over_h", "phase",
                 "status", "classification", "stop_time", "reason", "impacts",
                 "e_max_ratio", "e_end_ratio", "ec_end_ratio", "steps"]
     runs_csv = write_csv(os.path.join(out, "runs.csv"), run_rows, run_cols)
@@ -182,7 +208,9 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
         c = crit[key]
         lo, hi = c["lo"], c["hi"]
         mid = math.sqrt(lo * hi) if lo and hi else None
-        crit_rows.append({"scheme": key[0], "mass": by_key[key[0]].mass, "h": key[1],
+        est = c["dt_crit_estimate"]
+        crit_rows.append({"scheme": key[0], "mass": by_key[key[0]].mass,
+                          "method": by_key[key[0]].method, "h": key[1],
                           "gamma0": key[2], "theta": key[3], "dt_crit_lo": lo,
                           "dt_crit_hi": hi, "dt_crit": mid,
                           "dt_crit_over_h": mid / key[1] if mid else None,
@@ -190,9 +218,12 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
                           "non_monotone": c["non_monotone"],
                           "first_unstable_status": c.get("first_unstable_status", ""),
                           "first_unstable_stop": c.get("first_unstable_stop"),
-                          "first_unstable_reason": c.get("first_unstable_reason", "")})
-    crit_cols = ["scheme", "mass", "h", "gamma0", "theta", "dt_crit_lo", "dt_crit_hi",
-                 "dt_crit", "dt_crit_over_h", "bracket", "grid_stable", "non_monotone",
+                          "first_unstable_reason": c.get("first_unstable_reason", ""),
+                          "dt_crit_estimate": est,
+                          "estimate_over_measured": est / mid if est and mid else None})
+    crit_cols = ["scheme", "mass", "method", "h", "gamma0", "theta", "dt_crit_lo",
+                 "dt_crit_hi", "dt_crit", "dt_crit_over_h", "dt_crit_estimate",
+                 "estimate_over_measured", "bracket", "grid_stable", "non_monotone",
                  "first_unstable_status", "first_unstable_stop", "first_unstable_reason"]
     crit_csv = write_csv(os.path.join(out, "stability.csv"), crit_rows, crit_cols)
     pngs = _heatmaps(run_rows, crit_rows, schemes, g, out)
@@ -202,7 +233,8 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
     report = {"runs": run_rows, "critical": crit_rows, "claims": claims,
               "csv": crit_csv, "runs_csv": runs_csv, "pngs": pngs, "grid": g,
               "n_runs": len(all_recs), "n_cached": sum(r["cached"] for r in all_recs),
-              "n_errors": sum(r["status"] == "error" for r in all_recs),
+              "n_errors": sum(r["status"] == ERROR for r in all_recs),
+              "n_refused": sum(r["status"] == REFUSED for r in all_recs),
               "wall_s": time.perf_counter() - t0, "quick": quick}
     report["summary"] = _summary(report, schemes, os.path.join(out, "summary.md"))
     return report
@@ -219,7 +251,8 @@ def _run_row(r) -> dict[str, Any]:
     n_imp = None
     if m.get("impact_times") is not None:
         n_imp = len(m["impact_times"])
-    return {"scheme": tg["scheme"], "mass": tg["mass"], "h": tg["h"], "gamma0": tg["gamma0"],
+    return {"scheme": tg["scheme"], "mass": tg["mass"], "method": tg.get("method", "nitsche"),
+            "h": tg["h"], "gamma0": tg["gamma0"],
             "theta": tg["theta"], "dt": tg["dt"], "dt_over_h": tg["dt_over_h"],
             "phase": tg["phase"], "status": r["status"],
             "classification": classify(r["status"]), "stop_time": stop,
@@ -234,7 +267,7 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
     classification, text = stop time; and critical_dt.png (dt_crit/h per scheme)."""
     from matplotlib.colors import ListedColormap
 
-    names = ["stable", "unstable", "newton_failed", "error"]
+    names = ["stable", "unstable", "newton_failed", "error", "refused"]
     cmap = ListedColormap([STATUS_COLORS[n] for n in names])
     pngs = []
     combos = [(g0, th) for g0 in g["gamma0"] for th in g["theta"]]
@@ -258,7 +291,7 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
                     if row["stop_time"] is not None:
                         ax.text(j, i, f"{row['stop_time']:.3g}", ha="center", va="center",
                                 fontsize=6, color="w")
-            ax.imshow(z, cmap=cmap, vmin=-0.5, vmax=3.5, aspect="auto")
+            ax.imshow(z, cmap=cmap, vmin=-0.5, vmax=4.5, aspect="auto")
             ax.set_xticks(range(len(ratios)))
             ax.set_xticklabels([f"1/{1 / r:.3g}" if r < 1 else f"{r:g}" for r in ratios],
                                fontsize=7)
@@ -269,7 +302,8 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
         for ax in list(axes.flat)[len(schemes):]:
             ax.axis("off")
         fig.suptitle(f"h = {h:g}, T = {g['t_end']:g}: green stable, red unstable (stop time "
-                     f"written), orange Newton failed, grey error", fontsize=9)
+                     f"written), orange Newton failed, grey error, light grey refused by the "
+                     f"core", fontsize=9)
         path = os.path.join(out, f"stability_h{h:g}.png")
         pngs.append(save_figure(fig, path, top=1 - 0.35 / fig.get_figheight()))
     # critical dt / h
@@ -289,6 +323,8 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
                     txt = f"{c['dt_crit_over_h']:.3g}"
                 elif c["bracket"] == "above grid":
                     txt = f">{c['dt_crit_lo'] / h:.3g}"
+                elif c["bracket"] == "refused":
+                    txt = "refused"
                 else:
                     txt = f"<{c['dt_crit_hi'] / h:.3g}"
                 ax.text(j, i, txt, ha="center", va="center", fontsize=6)
@@ -317,9 +353,12 @@ def _summary(report, schemes, path) -> str:
         f"(predictor-corrector); then {g['rounds']} rounds of bisection in log Δt on each "
         f"bracket.", "",
         f"{report['n_runs']} runs ({report['n_cached']} from the cache, "
-        f"{report['n_errors']} failed to run), {report['wall_s']:.1f} s.", "",
+        f"{report['n_errors']} failed to run, {report['n_refused']} refused by the core as "
+        f"bad input), {report['wall_s']:.1f} s.", "",
         "Verdicts are the core's (summary.json status): `unstable` = the energy of the "
-        "written state exceeded blowup × e_total(0) (or was not finite).", ""]
+        "written state exceeded blowup × e_total(0) (or was not finite). Penalty rows "
+        "(ε_N = γ0/h) have no Nitsche θ: one run per (γ0, Δt), listed as θ = +1. "
+        "θ = 1 with γ0 below the element bound is refused by the core (`refused`).", ""]
     lines += ["## The seed's claims", ""]
     lines += md_table(["claim", "setting tested", "verdict", "evidence"],
                       [[c["claim"], c["setting"], c["verdict"], c["evidence"]]
@@ -334,6 +373,8 @@ def _summary(report, schemes, path) -> str:
                   f"(h/{1 / c['dt_crit_over_h']:.3g})"
         elif c["bracket"] == "above grid":
             val = f"> {fmt(c['dt_crit_lo'], '.4g')} (stable on the whole grid)"
+        elif c["bracket"] == "refused":
+            val = "refused by the core (γ0 below the bound for θ = 1)"
         else:
             val = f"< {fmt(c['dt_crit_hi'], '.4g')} (unstable on the whole grid)"
         stop = f"{c['first_unstable_status']} at t={fmt(c['first_unstable_stop'], '.4g')}" \
@@ -343,6 +384,38 @@ def _summary(report, schemes, path) -> str:
                       "yes" if c["non_monotone"] else "", stop])
     lines += md_table(["scheme", "mass", "h", "γ0", "θ", "critical Δt", "grid stable",
                        "non-monotone", "first unstable grid run"], table)
+    lines += ["", "## Central differences: the run's own critical-step estimate against the "
+              "measured one", "",
+              "`dt_crit_estimate` (summary.json): 2/√λ_max of M⁻¹(K_θ + contact tangent with "
+              "every contact point active), by power iterations; the measured critical Δt "
+              "is the bisection's bracket above. A ratio below 1 means the estimate is on "
+              "the safe side (dt = 0 runs at 0.9 × the estimate).", ""]
+    table = [[c["scheme"], c["mass"], fmt(c["h"], "g"), fmt(c["gamma0"], "g"), c["theta"],
+              fmt(c["dt_crit_estimate"], ".4g"),
+              (f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')}"
+               if c["bracket"] == "bisection" else c["bracket"]),
+              fmt(c["estimate_over_measured"], ".3f")]
+             for c in report["critical"] if c.get("dt_crit_estimate")]
+    if table:
+        lines += md_table(["scheme", "mass", "h", "γ0", "θ", "estimate", "measured",
+                           "estimate / measured"], table)
+        ratios = [c["estimate_over_measured"] for c in report["critical"]
+                  if c.get("estimate_over_measured")]
+        if ratios:
+            lines += ["", f"Estimate / measured over {len(ratios)} settings: "
+                      f"{min(ratios):.3f} to {max(ratios):.3f} "
+                      f"(median {float(np.median(ratios)):.3f})."]
+        unsafe = [c for c in report["critical"] if c.get("dt_crit_estimate")
+                  and c["bracket"] in ("bisection", "below grid")
+                  and AUTO_FACTOR * c["dt_crit_estimate"] >= c["dt_crit_hi"]]
+        lines += ["", f"Δt = 0 (auto: {AUTO_FACTOR:g} × the estimate) is at or above the "
+                  f"measured unstable bound in {len(unsafe)} of "
+                  f"{sum(1 for c in report['critical'] if c.get('dt_crit_estimate'))} "
+                  f"settings" + (": " + ", ".join(
+                      f"{c['scheme']} h={c['h']:g} γ0={c['gamma0']:g} θ={c['theta']:+d}"
+                      for c in unsafe) if unsafe else "") + "."]
+    else:
+        lines.append("No central-difference run in the sweep.")
     text = "\n".join(lines) + "\n"
     with open(path, "w", encoding="utf-8") as f:
         f.write(text)

@@ -31,7 +31,11 @@ default; with ``scheduler`` (an address such as ``tcp://host:8786``, or a
 ``distributed.Client``) the tasks go to a ``dask.distributed`` cluster (the workers must
 see the cache folder: a shared file system, or the same machine). A run that fails
 (bad input, an exception in the analysis, a worker that died) becomes a record with
-``status = 'error'`` and its message; the sweep goes on.
+``status = 'error'`` and its message; the sweep goes on. A scene the core refuses as bad
+input *at run time* (for example Nitsche θ = 1 with γ0 below the element bound, which
+only the assembled mesh can tell) is a grid point outside the method's domain: status
+``'refused'``, not cached, counted once per sweep on the log. The core's warnings are
+kept in the record (``warnings``), not printed by the workers.
 """
 
 from __future__ import annotations
@@ -48,12 +52,13 @@ import tempfile
 import time
 import traceback
 import uuid
+import warnings
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
 __all__ = ["Task", "sweep", "task_key", "code_version", "lookup", "execute",
-           "register_analysis", "ERROR"]
+           "register_analysis", "ERROR", "REFUSED"]
 
 #: Status of a record whose run could not be done (not a numerical verdict).
 ERROR = "error"
@@ -197,6 +202,12 @@ def task_key(task: Task) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
+#: Status of a record whose scene the core refused as bad input at run time (for example
+#: Nitsche θ = 1 with γ0 below the element bound): a point outside the method's domain,
+#: not a failure of the sweep (not cached; counted, not reported one by one).
+REFUSED = "refused"
+
+
 def _entry(cache: str, key: str) -> str:
     return os.path.join(cache, key[:2], key)
 
@@ -259,7 +270,9 @@ def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
             scene = _scene(task)
             run_dir = os.path.join(tmp, "run")
             cpu0 = time.process_time()
-            res = core.run(scene, out=run_dir, progress=False)
+            with warnings.catch_warnings(record=True) as caught:   # kept in the record,
+                warnings.simplefilter("always")                    # not printed by workers
+                res = core.run(scene, out=run_dir, progress=False)
             cpu_s = time.process_time() - cpu0
             out = _analysis(task.analysis)(run_dir, res, **dict(task.params)) or {}
             s = res.summary
@@ -267,7 +280,8 @@ def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
                    "t_end_reached": s.get("t_end_reached"), "steps": s.get("steps"),
                    "wall_s": s.get("wall_s"), "cpu_s": cpu_s,
                    "newton_its_total": s.get("newton_its_total"),
-                   "metrics": out.get("metrics", {}), "code": code_version()}
+                   "metrics": out.get("metrics", {}), "code": code_version(),
+                   "warnings": sorted({str(w.message) for w in caught})}
             keep = set(out.get("keep", ())) | {"trace.csv", "summary.json"}
             for name in os.listdir(run_dir):
                 src = os.path.join(run_dir, name)
@@ -293,6 +307,10 @@ def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
+    except core.BadInputError as exc:   # refused by the core: outside the method's domain
+        rec = _error_record(task, key, f"{type(exc).__name__}: {exc}")
+        rec["status"] = REFUSED
+        return rec
     except Exception as exc:  # noqa: BLE001 - one failing run never kills a sweep
         msg = f"{type(exc).__name__}: {exc}"
         if os.environ.get("DYNCONTACT_STUDY_DEBUG"):
@@ -363,8 +381,12 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
     say = log or (lambda s: print(s, file=sys.stderr, flush=True))
     with _bar(len(tasks), desc, progress) as bar:
 
+        refused: list[str] = []
+
         def done(i: int, rec: dict[str, Any]) -> None:
             records[i] = rec
+            if rec["status"] == REFUSED:
+                refused.append(rec["message"].splitlines()[0] if rec["message"] else "")
             if rec["status"] == ERROR:
                 msg = rec["message"].splitlines()[0] if rec["message"] else ""
                 say(f"{desc}: run failed ({_describe(tasks[i])}): {msg}")
@@ -394,6 +416,9 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
         else:
             for i in todo:
                 done(i, execute(tasks[i], cache, keys[i]))
+        if refused:
+            say(f"{desc}: {len(refused)} run(s) refused by the core as bad input "
+                f"(first: {refused[0]})")
     out = []
     for task, rec in zip(tasks, records):
         rec = dict(rec or _error_record(task, None, "not run"))

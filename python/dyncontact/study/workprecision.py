@@ -29,7 +29,8 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .analyses import rms_in_time
-from .common import SCHEMES, fmt, md_table, new_figure, write_base_scenes, write_csv
+from .common import (SCHEMES, fmt, md_table, new_figure, step_ratio, write_base_scenes,
+                     write_csv)
 from .sweep import make_task, sweep
 
 __all__ = ["run_work_precision", "QUANTITIES", "DEFAULT_SERIES"]
@@ -38,7 +39,12 @@ QUANTITIES = ("u_n", "v_n", "p_n", "e_total")
 #: (scheme key, dt = h/c; None = the family's default c).
 DEFAULT_SERIES = (("newmark", None), ("hht-0.05", None), ("hht-0.1", None),
                   ("theta0.5", None), ("theta1", None), ("pc", None), ("pc_hht-0.1", None),
-                  ("pc", 20.0))
+                  ("pc", 20.0),
+                  # issue 12: generalized-alpha, central differences (lumped, its own
+                  # dt = h/4), penalty (gamma0 = 10), the redistributed mass
+                  ("galpha1", None), ("galpha0.8", None), ("galpha0.5", None),
+                  ("central_lumped", None), ("newmark_penalty", None),
+                  ("newmark_redist", None), ("hht-0.1_redist", None))
 LADDER_1D = {"full": (25, 50, 100, 200, 400), "quick": (25, 50)}
 LADDER_2D = {"full": (0.1, 0.05, 0.025), "quick": (0.1, 0.05)}
 REF_FACTOR = {"full": 8, "quick": 2}
@@ -62,9 +68,10 @@ def _series(c_implicit, c_explicit, series=DEFAULT_SERIES):
     out = []
     for key, c in series:
         s = SCHEMES[key]
-        cc = c if c is not None else (c_explicit if s.explicit else c_implicit)
-        default = c_explicit if s.explicit else c_implicit
-        label = s.label + ("" if cc == default else f", Δt=h/{cc:g}")
+        default = step_ratio(s, c_implicit, c_explicit)
+        cc = c if c is not None else default
+        family = c_explicit if s.explicit else c_implicit
+        label = s.label + ("" if cc == family else f", Δt=h/{cc:g}")
         out.append((s, cc, label, f"{key}@{cc:g}"))
     return out
 
@@ -223,7 +230,7 @@ def _plot(rows, series, ref_info, path):
     import matplotlib.pyplot as plt
 
     fig, axes = new_figure(2, 4, 3.9, 3.3)
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colors = plt.get_cmap("tab20").colors
     for i, case in enumerate(("1d", "2d")):
         for j, q in enumerate(QUANTITIES):
             ax = axes[i, j]
