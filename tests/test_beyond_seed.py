@@ -281,3 +281,22 @@ def test_redistributed_mass_keeps_mass_and_first_moments(scene_path, mesh_args, 
     assert np.allclose(R, R.T, rtol=0, atol=THR * np.abs(M).max())
     inner = ~contact
     assert np.min(np.linalg.eigvalsh(R[np.ix_(inner, inner)])) > 0.0
+
+
+def test_redistributed_mass_needs_gamma0_above_the_bound(tmp_path):
+    """1D bar, Nitsche theta = 1, gamma0 = E: the element bound exactly, where K_theta is
+    singular on the contact cell. The consistent mass still gives a definite J0 = M + c
+    K_theta (the run goes on); the redistributed mass has no inertia there, so the scene is
+    refused naming &contact gamma0 instead of failing later with a singular matrix."""
+    s = Scene.read(SCENE_1D)
+    s.set("mesh.h", 0.05)
+    s.set("scheme.dt", 0.0025)
+    s.set("scheme.t_end", 0.1)
+    s.set("contact.gamma0", 1.0)
+    res = dyncontact.run(s, out=tmp_path / "c", progress=False)
+    assert res.summary["steps"] > 0
+    s.set("scheme.mass", "redistributed")
+    with pytest.raises(dyncontact.BadInputError, match="&contact gamma0.*redistributed mass"):
+        dyncontact.run(s, out=tmp_path / "r", progress=False)
+    s.set("contact.gamma0", 1.5)
+    assert dyncontact.run(s, out=tmp_path / "r2", progress=False).status == "ok"
