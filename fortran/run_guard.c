@@ -1,5 +1,5 @@
 /* run_guard.c: the few POSIX calls the Fortran core needs and Fortran cannot make
- * itself (bound through bind(C) in run_files.f90 and main.f90):
+ * itself (bound through bind(C) in os_files.f90 and main.f90):
  *   - SIGINT / SIGTERM handlers that only set a flag, polled at the end of each step;
  *   - an output-folder lock file created with O_EXCL that holds the owner's pid;
  *   - whole-buffer writes to a file descriptor (every error reported, EINTR retried),
