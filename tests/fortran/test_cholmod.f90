@@ -10,10 +10,11 @@ program test_cholmod
     use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, &
                              csc_is_symmetric, BACKEND_CHOLMOD, BACKEND_UMFPACK, SYM_RTOL
+    use unit_checks, only: checks_t
     implicit none
 
     real(dp), parameter :: thr = 1.0e-12_dp   ! solves of well-conditioned systems (relative)
-    integer :: nfail = 0
+    type(checks_t) :: checks
 
     call test_known_solution()
     call test_upper_triangle_only()
@@ -27,22 +28,10 @@ program test_cholmod
     call test_symmetry_test()
     call test_bad_use()
 
-    if (nfail > 0) then
-        write (*, '(i0,a)') nfail, ' check(s) failed'
-        error stop 1
-    end if
-    write (*, '(a)') 'test_cholmod: all checks passed'
+    call checks%finish('test_cholmod')
 
 contains
 
-    subroutine check(cond, what)
-        logical, intent(in) :: cond            !! condition that must hold
-        character(len=*), intent(in) :: what   !! description
-        if (.not. cond) then
-            nfail = nfail + 1
-            write (*, '(a)') 'FAIL: '//what
-        end if
-    end subroutine check
 
     !> Symmetric n x n matrix S + S^T + D with about 6 entries per column (unsorted COO
     !> with duplicates), off-diagonals in s (-1/2, 1/2); D_kk = shift + the Gershgorin
@@ -88,7 +77,7 @@ contains
             end do
         end if
         call csc_from_coo(n, r, c, v, a, stat)
-        call check(stat == STAT_OK, 'sym_matrix: built')
+        call checks%check(stat == STAT_OK, 'sym_matrix: built')
     end subroutine sym_matrix
 
     !> b = A xe for the full symmetric matrix whose upper triangle a holds.
@@ -124,11 +113,11 @@ contains
             call csc_matvec(a, xe, b)
             msg = ''
             call chol_factor(ch, a, stat, msg)
-            call check(stat == STAT_OK, 'known: factor '//trim(msg))
-            call check(ch%lnz >= 0 .and. ch%lnz <= n * (n - 1) / 2, 'known: lnz in range')
+            call checks%check(stat == STAT_OK, 'known: factor '//trim(msg))
+            call checks%check(ch%lnz >= 0 .and. ch%lnz <= n * (n - 1) / 2, 'known: lnz in range')
             call chol_solve(ch, b, x, stat, msg)
-            call check(stat == STAT_OK, 'known: solve '//trim(msg))
-            call check(maxval(abs(x - xe)) <= thr * maxval(abs(xe)), 'known: x = xe')
+            call checks%check(stat == STAT_OK, 'known: solve '//trim(msg))
+            call checks%check(maxval(abs(x - xe)) <= thr * maxval(abs(xe)), 'known: x = xe')
             call chol_free(ch)
             deallocate (xe, b, x)
         end do
@@ -147,7 +136,7 @@ contains
         call sym_matvec_upper(a, xe, b)
         call chol_factor(ch, a, stat)
         call chol_solve(ch, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
                    'upper: x = xe')
         call chol_free(ch)
     end subroutine test_upper_triangle_only
@@ -165,24 +154,24 @@ contains
         a2 = a
         a2%val = 2.0_dp * a%val
         call chol_factor(ch, a, stat)
-        call check(stat == STAT_OK .and. ch%analyses == 1 .and. ch%factorizations == 1, &
+        call checks%check(stat == STAT_OK .and. ch%analyses == 1 .and. ch%factorizations == 1, &
                    'refactor: first')
         call chol_factor(ch, a2, stat)
-        call check(stat == STAT_OK .and. ch%analyses == 1 .and. ch%factorizations == 2, &
+        call checks%check(stat == STAT_OK .and. ch%analyses == 1 .and. ch%factorizations == 2, &
                    'refactor: analysis reused')
         call random_number(xe)
         call csc_matvec(a2, xe, b)
         call chol_solve(ch, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve a2')
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve a2')
         call chol_factor(ch, b3, stat)
-        call check(stat == STAT_OK .and. ch%analyses == 2 .and. ch%factorizations == 3, &
+        call checks%check(stat == STAT_OK .and. ch%analyses == 2 .and. ch%factorizations == 3, &
                    'refactor: new pattern analysed')
         call csc_matvec(b3, xe, b)
         call chol_solve(ch, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve b3')
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve b3')
         call chol_free(ch)
         call chol_free(ch)                       ! twice is safe
-        call check(ch%n == 0 .and. ch%factorizations == 3, 'refactor: free keeps counters')
+        call checks%check(ch%n == 0 .and. ch%factorizations == 3, 'refactor: free keeps counters')
     end subroutine test_refactor
 
     subroutine test_many_rhs()
@@ -200,15 +189,15 @@ contains
         end do
         call chol_factor(ch, a, stat)
         call chol_solve_many(ch, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: chol_solve_many')
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: chol_solve_many')
         call chol_solve_many(ch, b(:, 1:2), x(:, 1:2), stat)   ! fewer columns: workspace resized
-        call check(stat == STAT_OK .and. maxval(abs(x(:, 1:2) - xe(:, 1:2))) <= thr, &
+        call checks%check(stat == STAT_OK .and. maxval(abs(x(:, 1:2) - xe(:, 1:2))) <= thr, &
                    'many: two columns')
         call chol_free(ch)
         call ls_factor(f, a, stat)
         x = 0.0_dp
         call ls_solve_many(f, a, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: ls_solve_many')
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: ls_solve_many')
         call ls_free(f)
     end subroutine test_many_rhs
 
@@ -223,14 +212,14 @@ contains
         call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [1.0_dp, 2.0_dp, 2.0_dp, 1.0_dp], a, stat)
         msg = ''
         call chol_factor(ch, a, stat, msg)
-        call check(stat == STAT_NUMERIC, 'pivot: indefinite gives STAT_NUMERIC')
-        call check(index(msg, 'not positive definite') > 0, 'pivot: message '//trim(msg))
+        call checks%check(stat == STAT_NUMERIC, 'pivot: indefinite gives STAT_NUMERIC')
+        call checks%check(index(msg, 'not positive definite') > 0, 'pivot: message '//trim(msg))
         call chol_solve(ch, [1.0_dp, 1.0_dp], x, stat)
-        call check(stat == STAT_BAD_INPUT, 'pivot: no solve without factors')
+        call checks%check(stat == STAT_BAD_INPUT, 'pivot: no solve without factors')
         ! [[1, 1], [1, 1]]: zero pivot
         call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp], a, stat)
         call chol_factor(ch, a, stat, msg)
-        call check(stat == STAT_NUMERIC, 'pivot: zero pivot gives STAT_NUMERIC')
+        call checks%check(stat == STAT_NUMERIC, 'pivot: zero pivot gives STAT_NUMERIC')
         call chol_free(ch)
     end subroutine test_bad_pivot
 
@@ -245,10 +234,10 @@ contains
         call random_number(xe)
         call csc_matvec(a, xe, b)
         call ls_factor(f, a, stat)
-        call check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD .and. f%symmetric &
+        call checks%check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD .and. f%symmetric &
                    .and. .not. f%fell_back, 'spd: CHOLMOD LDL^T')
         call ls_solve(f, a, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
                    'spd: x = xe')
         call ls_free(f)
     end subroutine test_choice_spd
@@ -266,18 +255,18 @@ contains
         call random_number(xe)
         call csc_matvec(a, xe, b)
         call ls_factor(f, a, stat)
-        call check(stat == STAT_OK .and. f%backend == BACKEND_UMFPACK .and. f%symmetric &
+        call checks%check(stat == STAT_OK .and. f%backend == BACKEND_UMFPACK .and. f%symmetric &
                    .and. f%fell_back, 'indefinite: fell back to UMFPACK')
         call ls_solve(f, a, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
                    'indefinite: x = xe')
         call sym_matrix(n, 1.0_dp, 1.0_dp, spd)
         call ls_factor(f, spd, stat)
-        call check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD, 'indefinite: back to CHOLMOD')
+        call checks%check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD, 'indefinite: back to CHOLMOD')
         call csc_matvec(spd, xe, b)
         call ls_solve(f, spd, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'indefinite: then SPD solve')
-        call check(f%factorizations == 2, 'indefinite: two factorizations counted')
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'indefinite: then SPD solve')
+        call checks%check(f%factorizations == 2, 'indefinite: two factorizations counted')
         call ls_free(f)
     end subroutine test_choice_indefinite
 
@@ -290,14 +279,14 @@ contains
         call seed(7)
         call sym_matrix(n, 1.0_dp, 1.0_dp, a)
         call perturb_off_diagonal(a)
-        call check(.not. csc_is_symmetric(a), 'nonsymmetric: detected')
+        call checks%check(.not. csc_is_symmetric(a), 'nonsymmetric: detected')
         call random_number(xe)
         call csc_matvec(a, xe, b)
         call ls_factor(f, a, stat)
-        call check(stat == STAT_OK .and. f%backend == BACKEND_UMFPACK .and. .not. f%symmetric, &
+        call checks%check(stat == STAT_OK .and. f%backend == BACKEND_UMFPACK .and. .not. f%symmetric, &
                    'nonsymmetric: UMFPACK')
         call ls_solve(f, a, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
                    'nonsymmetric: x = xe')
         call ls_free(f)
     end subroutine test_choice_nonsymmetric
@@ -326,14 +315,14 @@ contains
         call csc_from_coo(3, [1, 2, 3, 1, 2, 3, 1, 2, 3], [1, 1, 1, 2, 2, 2, 3, 3, 3], &
                           [2.0_dp, 1.0_dp, 3.0_dp, 1.0_dp, 2.0_dp, 3.0_dp, 3.0_dp, 3.0_dp, &
                            6.0_dp], a, stat)
-        call check(csc_is_symmetric(a), 'singular: symmetric')
+        call checks%check(csc_is_symmetric(a), 'singular: symmetric')
         msg = ''
         call ls_factor(f, a, stat, msg)
-        call check(stat == STAT_NUMERIC, 'singular: STAT_NUMERIC')
-        call check(index(msg, 'singular') > 0, 'singular: message '//trim(msg))
-        call check(f%backend == '', 'singular: no backend')
+        call checks%check(stat == STAT_NUMERIC, 'singular: STAT_NUMERIC')
+        call checks%check(index(msg, 'singular') > 0, 'singular: message '//trim(msg))
+        call checks%check(f%backend == '', 'singular: no backend')
         call ls_solve(f, a, [1.0_dp, 1.0_dp, 1.0_dp], x, stat)
-        call check(stat == STAT_BAD_INPUT, 'singular: no solve without factors')
+        call checks%check(stat == STAT_BAD_INPUT, 'singular: no solve without factors')
         call ls_free(f)
     end subroutine test_singular
 
@@ -345,19 +334,19 @@ contains
         e = 0.1_dp * SYM_RTOL
         call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [4.0_dp, 1.0_dp, 1.0_dp + e, 4.0_dp], &
                           a, stat)
-        call check(csc_is_symmetric(a), 'symmetry: round-off accepted')
+        call checks%check(csc_is_symmetric(a), 'symmetry: round-off accepted')
         e = 10.0_dp * SYM_RTOL * 4.0_dp
         call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [4.0_dp, 1.0_dp, 1.0_dp + e, 4.0_dp], &
                           a, stat)
-        call check(.not. csc_is_symmetric(a), 'symmetry: 10 SYM_RTOL rejected')
+        call checks%check(.not. csc_is_symmetric(a), 'symmetry: 10 SYM_RTOL rejected')
         ! near-cancelled pair: judged against the diagonal scale
         call csc_from_coo(2, [1, 2, 1, 2], [1, 1, 2, 2], [4.0_dp, 1.0e-30_dp, 2.0e-30_dp, 4.0_dp], &
                           a, stat)
-        call check(csc_is_symmetric(a), 'symmetry: tiny pair against the diagonal')
+        call checks%check(csc_is_symmetric(a), 'symmetry: tiny pair against the diagonal')
         call csc_from_coo(2, [1, 2, 2], [1, 1, 2], [4.0_dp, 1.0_dp, 4.0_dp], a, stat)
-        call check(.not. csc_is_symmetric(a), 'symmetry: missing partner')
+        call checks%check(.not. csc_is_symmetric(a), 'symmetry: missing partner')
         call csc_from_coo(2, [1, 2, 2, 1], [1, 1, 2, 2], [4.0_dp, 1.0_dp, 4.0_dp, 0.0_dp], a, stat)
-        call check(.not. csc_is_symmetric(a), 'symmetry: stored zero partner of a nonzero')
+        call checks%check(.not. csc_is_symmetric(a), 'symmetry: stored zero partner of a nonzero')
     end subroutine test_symmetry_test
 
     subroutine test_bad_use()
@@ -369,16 +358,16 @@ contains
         character(len=MSG_LEN) :: msg
         msg = ''
         call chol_factor(ch, empty, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: empty matrix (cholmod)')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: empty matrix (cholmod)')
         call ls_factor(f, empty, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: empty matrix (linear_solver)')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: empty matrix (linear_solver)')
         call csc_from_coo(3, [1, 2, 3], [1, 2, 3], [1.0_dp, 1.0_dp, 1.0_dp], a, stat)
         call ls_solve(f, a, [1.0_dp, 1.0_dp, 1.0_dp], y, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: solve before factor')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: solve before factor')
         call ls_factor(f, a, stat, msg)
-        call check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD, 'bad: identity by CHOLMOD')
+        call checks%check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD, 'bad: identity by CHOLMOD')
         call ls_solve(f, a, [1.0_dp, 1.0_dp], x, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: wrong b size')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: wrong b size')
         call ls_free(f)
         call ls_free(f)
         call chol_free(ch)

@@ -6,10 +6,11 @@ program test_sparse
     use errors, only: STAT_OK, STAT_BAD_INPUT, MSG_LEN
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec, csc_matvec_t, &
                       csc_drop_zeros, block2_t, block2_from_csc, block2_matvec
+    use unit_checks, only: checks_t
     implicit none
 
     real(dp), parameter :: thr = 100 * epsilon(1.0_dp)   ! algebraic identities (relative)
-    integer :: nfail = 0
+    type(checks_t) :: checks
 
     call test_small_exact()
     call test_bad_input()
@@ -18,22 +19,10 @@ program test_sparse
     call test_drop_zeros()
     call test_block2()
 
-    if (nfail > 0) then
-        write (*, '(i0,a)') nfail, ' check(s) failed'
-        error stop 1
-    end if
-    write (*, '(a)') 'test_sparse: all checks passed'
+    call checks%finish('test_sparse')
 
 contains
 
-    subroutine check(cond, what)
-        logical, intent(in) :: cond            !! condition that must hold
-        character(len=*), intent(in) :: what   !! description
-        if (.not. cond) then
-            nfail = nfail + 1
-            write (*, '(a)') 'FAIL: '//what
-        end if
-    end subroutine check
 
     !> 3 x 3, unsorted, duplicates, an explicit zero, an empty column.
     subroutine test_small_exact()
@@ -46,16 +35,16 @@ contains
         real(dp), parameter :: v(7) = [1.0_dp, 2.0_dp, 4.0_dp, 0.0_dp, 5.0_dp, -1.0_dp, 0.5_dp]
         msg = ''
         call csc_from_coo(3, r, c, v, a, stat, msg)
-        call check(stat == STAT_OK, 'small: stat ok')
-        call check(a%n == 3 .and. a%nnz == 5, 'small: n, nnz')
-        call check(all(a%colptr == [0, 2, 2, 5]), 'small: colptr')
-        call check(all(a%rowind == [0, 2, 0, 1, 2]), 'small: rowind sorted')
-        call check(all(abs(a%val - [2.5_dp, 5.0_dp, 5.0_dp, 0.0_dp, -1.0_dp]) <= thr), &
+        call checks%check(stat == STAT_OK, 'small: stat ok')
+        call checks%check(a%n == 3 .and. a%nnz == 5, 'small: n, nnz')
+        call checks%check(all(a%colptr == [0, 2, 2, 5]), 'small: colptr')
+        call checks%check(all(a%rowind == [0, 2, 0, 1, 2]), 'small: rowind sorted')
+        call checks%check(all(abs(a%val - [2.5_dp, 5.0_dp, 5.0_dp, 0.0_dp, -1.0_dp]) <= thr), &
                    'small: values summed, zero kept')
-        call check(csc_find(a, 1, 1) == 1 .and. csc_find(a, 3, 1) == 2, 'small: find col 1')
-        call check(csc_find(a, 2, 3) == 4 .and. csc_find(a, 3, 3) == 5, 'small: find col 3')
-        call check(csc_find(a, 2, 1) == 0 .and. csc_find(a, 1, 2) == 0, 'small: find misses')
-        call check(csc_find(a, 0, 1) == 0 .and. csc_find(a, 1, 4) == 0, 'small: find out of range')
+        call checks%check(csc_find(a, 1, 1) == 1 .and. csc_find(a, 3, 1) == 2, 'small: find col 1')
+        call checks%check(csc_find(a, 2, 3) == 4 .and. csc_find(a, 3, 3) == 5, 'small: find col 3')
+        call checks%check(csc_find(a, 2, 1) == 0 .and. csc_find(a, 1, 2) == 0, 'small: find misses')
+        call checks%check(csc_find(a, 0, 1) == 0 .and. csc_find(a, 1, 4) == 0, 'small: find out of range')
     end subroutine test_small_exact
 
     subroutine test_bad_input()
@@ -64,14 +53,14 @@ contains
         character(len=MSG_LEN) :: msg
         msg = ''
         call csc_from_coo(2, [1, 3], [1, 1], [1.0_dp, 1.0_dp], a, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: row 3 > n')
-        call check(index(msg, 'out of range') > 0, 'bad: message names range: '//trim(msg))
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: row 3 > n')
+        call checks%check(index(msg, 'out of range') > 0, 'bad: message names range: '//trim(msg))
         call csc_from_coo(2, [1, 1], [0, 1], [1.0_dp, 1.0_dp], a, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: column 0')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: column 0')
         call csc_from_coo(2, [1, 1], [1, 1], [1.0_dp], a, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: length mismatch')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: length mismatch')
         call csc_from_coo(-1, [integer ::], [integer ::], [real(dp) ::], a, stat)
-        call check(stat == STAT_BAD_INPUT, 'bad: negative n')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: negative n')
     end subroutine test_bad_input
 
     subroutine test_empty()
@@ -79,15 +68,15 @@ contains
         integer :: stat
         real(dp) :: x(3), y(3)
         call csc_from_coo(0, [integer ::], [integer ::], [real(dp) ::], a, stat)
-        call check(stat == STAT_OK .and. a%n == 0 .and. a%nnz == 0, 'empty: n = 0')
-        call check(size(a%colptr) == 1, 'empty: colptr(1)')
+        call checks%check(stat == STAT_OK .and. a%n == 0 .and. a%nnz == 0, 'empty: n = 0')
+        call checks%check(size(a%colptr) == 1, 'empty: colptr(1)')
         call csc_from_coo(3, [integer ::], [integer ::], [real(dp) ::], a, stat)
-        call check(stat == STAT_OK .and. all(a%colptr == 0), 'empty: zero matrix 3x3')
+        call checks%check(stat == STAT_OK .and. all(a%colptr == 0), 'empty: zero matrix 3x3')
         x = 1.0_dp
         call csc_matvec(a, x, y)
-        call check(all(abs(y) <= 0.0_dp), 'empty: matvec zero')
+        call checks%check(all(abs(y) <= 0.0_dp), 'empty: matvec zero')
         call csc_drop_zeros(a, b, stat)
-        call check(stat == STAT_OK .and. b%n == 3 .and. b%nnz == 0, 'empty: drop_zeros')
+        call checks%check(stat == STAT_OK .and. b%n == 3 .and. b%nnz == 0, 'empty: drop_zeros')
     end subroutine test_empty
 
     !> Random unsorted COO with many duplicates: CSC kernels equal dense algebra.
@@ -117,23 +106,23 @@ contains
                 dense(r(k), c(k)) = dense(r(k), c(k)) + v(k)
             end do
             call csc_from_coo(n, r, c, v, a, stat)
-            call check(stat == STAT_OK, 'random: stat')
+            call checks%check(stat == STAT_OK, 'random: stat')
             sorted = .true.
             do j = 1, n
                 do p = a%colptr(j) + 2, a%colptr(j + 1)
                     if (a%rowind(p) <= a%rowind(p - 1)) sorted = .false.
                 end do
             end do
-            call check(sorted, 'random: rows strictly increasing in each column')
-            call check(a%nnz == count_distinct(n, r, c), 'random: nnz = distinct positions')
+            call checks%check(sorted, 'random: rows strictly increasing in each column')
+            call checks%check(a%nnz == count_distinct(n, r, c), 'random: nnz = distinct positions')
             do k = 1, m
                 p = csc_find(a, r(k), c(k))
                 if (p == 0) then
-                    call check(.false., 'random: stored entry found')
+                    call checks%check(.false., 'random: stored entry found')
                     exit
                 end if
                 if (abs(a%val(p) - dense(r(k), c(k))) > thr) then
-                    call check(.false., 'random: summed value')
+                    call checks%check(.false., 'random: summed value')
                     exit
                 end if
             end do
@@ -142,10 +131,10 @@ contains
             yd = matmul(dense, x)
             scale = max(1.0_dp, maxval(abs(yd)))
             call csc_matvec(a, x, y)
-            call check(maxval(abs(y - yd)) <= thr * scale, 'random: matvec')
+            call checks%check(maxval(abs(y - yd)) <= thr * scale, 'random: matvec')
             yd = matmul(transpose(dense), x)
             call csc_matvec_t(a, x, y)
-            call check(maxval(abs(y - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), &
+            call checks%check(maxval(abs(y - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), &
                        'random: transposed matvec')
             deallocate (r, c, v, u, dense, x, y, yd)
         end do
@@ -157,18 +146,18 @@ contains
         real(dp) :: x(3), ya(3), yb(3)
         call csc_from_coo(3, [1, 2, 3, 1, 3], [1, 1, 2, 3, 3], &
                           [1.0_dp, 0.0_dp, 2.0_dp, -0.0_dp, 3.0_dp], a, stat)
-        call check(stat == STAT_OK .and. a%nnz == 5, 'drop: built with zeros')
+        call checks%check(stat == STAT_OK .and. a%nnz == 5, 'drop: built with zeros')
         call csc_drop_zeros(a, b, stat)
-        call check(stat == STAT_OK, 'drop: stat')
-        call check(b%n == 3 .and. b%nnz == 3, 'drop: nnz')
-        call check(all(b%colptr == [0, 1, 2, 3]), 'drop: colptr')
-        call check(all(b%rowind == [0, 2, 2]), 'drop: rowind')
+        call checks%check(stat == STAT_OK, 'drop: stat')
+        call checks%check(b%n == 3 .and. b%nnz == 3, 'drop: nnz')
+        call checks%check(all(b%colptr == [0, 1, 2, 3]), 'drop: colptr')
+        call checks%check(all(b%rowind == [0, 2, 2]), 'drop: rowind')
         x = [1.0_dp, 2.0_dp, 3.0_dp]
         call csc_matvec(a, x, ya)
         call csc_matvec(b, x, yb)
-        call check(all(abs(ya - yb) <= 0.0_dp), 'drop: same product')
+        call checks%check(all(abs(ya - yb) <= 0.0_dp), 'drop: same product')
         call csc_drop_zeros(a, b)      ! stat is optional
-        call check(b%nnz == 3, 'drop: without stat')
+        call checks%check(b%nnz == 3, 'drop: without stat')
     end subroutine test_drop_zeros
 
     !> Node-block products of random symmetric matrices against dense ones, with
@@ -205,15 +194,15 @@ contains
             dense(r(k), c(k)) = dense(r(k), c(k)) + v(k)
         end do
         call csc_from_coo(n, r, c, v, a, stat)
-        call check(stat == STAT_OK, 'block2: coo')
+        call checks%check(stat == STAT_OK, 'block2: coo')
         call block2_from_csc(a, first, b, stat)
-        call check(stat == STAT_OK, 'block2: build')
+        call checks%check(stat == STAT_OK, 'block2: build')
         call random_number(x)
         yd = matmul(dense, x)
         call block2_matvec(b, x, y)
-        call check(maxval(abs(y - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), 'block2: matvec')
+        call checks%check(maxval(abs(y - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), 'block2: matvec')
         call block2_from_csc(a, [1, 4, n + 1], b, stat)
-        call check(stat == STAT_BAD_INPUT, 'block2: a group of 3 dofs is refused')
+        call checks%check(stat == STAT_BAD_INPUT, 'block2: a group of 3 dofs is refused')
     end subroutine test_block2
 
     !> Number of distinct (r, c) positions.

@@ -7,10 +7,11 @@ program test_umfpack
     use sparse, only: csc_t, csc_from_coo, csc_matvec
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free, lu_rcond, &
                        umfpack_status_text
+    use unit_checks, only: checks_t
     implicit none
 
     real(dp), parameter :: thr = 1.0e-12_dp   ! solves of well-conditioned systems (relative)
-    integer :: nfail = 0
+    type(checks_t) :: checks
 
     call test_known_solution()
     call test_refactor_same_pattern()
@@ -19,22 +20,10 @@ program test_umfpack
     call test_bad_use()
     call test_status_text()
 
-    if (nfail > 0) then
-        write (*, '(i0,a)') nfail, ' check(s) failed'
-        error stop 1
-    end if
-    write (*, '(a)') 'test_umfpack: all checks passed'
+    call checks%finish('test_umfpack')
 
 contains
 
-    subroutine check(cond, what)
-        logical, intent(in) :: cond            !! condition that must hold
-        character(len=*), intent(in) :: what   !! description
-        if (.not. cond) then
-            nfail = nfail + 1
-            write (*, '(a)') 'FAIL: '//what
-        end if
-    end subroutine check
 
     !> Non-symmetric, diagonally dominant n x n matrix with about 6 entries per column
     !> (unsorted COO with duplicates), values scaled by s.
@@ -59,7 +48,7 @@ contains
             v(m + k) = s * 4.0_dp
         end do
         call csc_from_coo(n, r, c, v, a, stat)
-        call check(stat == STAT_OK, 'random_matrix: built')
+        call checks%check(stat == STAT_OK, 'random_matrix: built')
     end subroutine random_matrix
 
     subroutine test_known_solution()
@@ -78,11 +67,11 @@ contains
             call csc_matvec(a, xe, b)
             msg = ''
             call lu_factor(lu, a, stat, msg)
-            call check(stat == STAT_OK, 'known: factor '//trim(msg))
+            call checks%check(stat == STAT_OK, 'known: factor '//trim(msg))
             call lu_solve(lu, a, b, x, stat, msg)
-            call check(stat == STAT_OK, 'known: solve '//trim(msg))
-            call check(maxval(abs(x - xe)) <= thr * maxval(abs(xe)), 'known: x = xe')
-            call check(lu_rcond(lu) > 0.0_dp, 'known: rcond > 0')
+            call checks%check(stat == STAT_OK, 'known: solve '//trim(msg))
+            call checks%check(maxval(abs(x - xe)) <= thr * maxval(abs(xe)), 'known: x = xe')
+            call checks%check(lu_rcond(lu) > 0.0_dp, 'known: rcond > 0')
             call lu_free(lu)
             deallocate (xe, b, x)
         end do
@@ -104,24 +93,24 @@ contains
         where (mod([(stat, stat = 1, a2%nnz)], 7) == 0) a2%val = 0.0_dp
         call add_diagonal(a2, 5.0_dp)
         call lu_factor(lu, a, stat)
-        call check(stat == STAT_OK .and. lu%analyses == 1 .and. lu%factorizations == 1, &
+        call checks%check(stat == STAT_OK .and. lu%analyses == 1 .and. lu%factorizations == 1, &
                    'refactor: first')
         call lu_factor(lu, a2, stat)
-        call check(stat == STAT_OK .and. lu%analyses == 1 .and. lu%factorizations == 2, &
+        call checks%check(stat == STAT_OK .and. lu%analyses == 1 .and. lu%factorizations == 2, &
                    'refactor: symbolic reused')
         call random_number(xe)
         call csc_matvec(a2, xe, b)
         call lu_solve(lu, a2, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve a2')
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve a2')
         call lu_factor(lu, b3, stat)
-        call check(stat == STAT_OK .and. lu%analyses == 2 .and. lu%factorizations == 3, &
+        call checks%check(stat == STAT_OK .and. lu%analyses == 2 .and. lu%factorizations == 3, &
                    'refactor: new pattern analysed')
         call csc_matvec(b3, xe, b)
         call lu_solve(lu, b3, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve b3')
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'refactor: solve b3')
         call lu_free(lu)
         call lu_free(lu)                         ! twice is safe
-        call check(lu%n == 0 .and. lu%factorizations == 3, 'refactor: free keeps counters')
+        call checks%check(lu%n == 0 .and. lu%factorizations == 3, 'refactor: free keeps counters')
     end subroutine test_refactor_same_pattern
 
     subroutine test_many_rhs()
@@ -138,12 +127,12 @@ contains
         end do
         call lu_factor(lu, a, stat)
         call lu_solve_many(lu, a, b, x, stat)
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: lu_solve_many')
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: lu_solve_many')
         x = 0.0_dp
         do k = 1, m                              ! several single solves in a row
             call lu_solve(lu, a, b(:, k), x(:, k), stat)
         end do
-        call check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: repeated lu_solve')
+        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'many: repeated lu_solve')
         call lu_free(lu)
     end subroutine test_many_rhs
 
@@ -158,14 +147,14 @@ contains
                           [1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 1.0_dp, 2.0_dp, 1.0_dp], a, stat)
         msg = ''
         call lu_factor(lu, a, stat, msg)
-        call check(stat == STAT_NUMERIC, 'singular: STAT_NUMERIC')
-        call check(index(msg, 'singular') > 0, 'singular: message '//trim(msg))
+        call checks%check(stat == STAT_NUMERIC, 'singular: STAT_NUMERIC')
+        call checks%check(index(msg, 'singular') > 0, 'singular: message '//trim(msg))
         call lu_solve(lu, a, [1.0_dp, 1.0_dp, 1.0_dp], x, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'singular: no solve without factors')
+        call checks%check(stat == STAT_BAD_INPUT, 'singular: no solve without factors')
         ! structurally singular: an empty column
         call csc_from_coo(3, [1, 2], [1, 2], [1.0_dp, 1.0_dp], a, stat)
         call lu_factor(lu, a, stat, msg)
-        call check(stat == STAT_NUMERIC, 'singular: empty column')
+        call checks%check(stat == STAT_NUMERIC, 'singular: empty column')
         call lu_free(lu)
     end subroutine test_singular
 
@@ -177,20 +166,20 @@ contains
         character(len=MSG_LEN) :: msg
         msg = ''
         call lu_factor(lu, empty, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: empty matrix')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: empty matrix')
         call csc_from_coo(3, [1, 2, 3], [1, 2, 3], [1.0_dp, 1.0_dp, 1.0_dp], a, stat)
         call lu_solve(lu, a, [1.0_dp, 1.0_dp, 1.0_dp], y, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: solve before factor')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: solve before factor')
         call lu_factor(lu, a, stat, msg)
         call lu_solve(lu, a, [1.0_dp, 1.0_dp], x, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: wrong b size')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: wrong b size')
         call lu_free(lu)
         call lu_free(lu)
     end subroutine test_bad_use
 
     subroutine test_status_text()
-        call check(umfpack_status_text(-8) == 'UMFPACK status -8 (invalid matrix)', 'text: -8')
-        call check(umfpack_status_text(-1) == 'UMFPACK status -1 (out of memory)', 'text: -1')
+        call checks%check(umfpack_status_text(-8) == 'UMFPACK status -8 (invalid matrix)', 'text: -8')
+        call checks%check(umfpack_status_text(-1) == 'UMFPACK status -1 (out of memory)', 'text: -1')
     end subroutine test_status_text
 
     subroutine add_diagonal(a, d)

@@ -6,9 +6,10 @@ program test_vtk_output
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, MSG_LEN
     use vtk_output, only: vtk_write_vtu, vtk_write_pvd
+    use unit_checks, only: checks_t
     implicit none
 
-    integer :: nfail = 0
+    type(checks_t) :: checks
     character(len=512) :: dir
 
     dir = '.'
@@ -19,22 +20,10 @@ program test_vtk_output
     call test_pvd()
     call test_bad_input()
 
-    if (nfail > 0) then
-        write (*, '(i0,a)') nfail, ' check(s) failed'
-        error stop 1
-    end if
-    write (*, '(a)') 'test_vtk_output: all checks passed'
+    call checks%finish('test_vtk_output')
 
 contains
 
-    subroutine check(cond, what)
-        logical, intent(in) :: cond            !! condition that must hold
-        character(len=*), intent(in) :: what   !! description
-        if (.not. cond) then
-            nfail = nfail + 1
-            write (*, '(a)') 'FAIL: '//what
-        end if
-    end subroutine check
 
     !> Unit square split into two triangles.
     subroutine test_triangles()
@@ -51,16 +40,16 @@ contains
         msg = ''
         call vtk_write_vtu(path, 2, x, cells, u, v, stat, msg, scalar=s, &
                            scalar_name='p_n', time=0.5_dp)
-        call check(stat == STAT_OK, 'tri: stat '//trim(msg))
+        call checks%check(stat == STAT_OK, 'tri: stat '//trim(msg))
         text = read_text(path)
-        call check(index(text, 'NumberOfPoints="4" NumberOfCells="2"') > 0, 'tri: counts')
-        call check(index(text, 'Name="displacement" NumberOfComponents="3"') > 0, 'tri: u')
-        call check(index(text, 'Name="velocity" NumberOfComponents="3"') > 0, 'tri: v')
-        call check(index(text, 'Name="p_n"') > 0, 'tri: scalar')
-        call check(index(text, 'Name="TimeValue"') > 0, 'tri: time')
-        call check(index(text, ' 0 1 2'//new_line('a')//' 0 2 3') > 0, 'tri: 0-based cells')
-        call check(index(text, ' 3'//new_line('a')//' 6') > 0, 'tri: offsets')
-        call check(index(text, '</VTKFile>') > 0, 'tri: closed')
+        call checks%check(index(text, 'NumberOfPoints="4" NumberOfCells="2"') > 0, 'tri: counts')
+        call checks%check(index(text, 'Name="displacement" NumberOfComponents="3"') > 0, 'tri: u')
+        call checks%check(index(text, 'Name="velocity" NumberOfComponents="3"') > 0, 'tri: v')
+        call checks%check(index(text, 'Name="p_n"') > 0, 'tri: scalar')
+        call checks%check(index(text, 'Name="TimeValue"') > 0, 'tri: time')
+        call checks%check(index(text, ' 0 1 2'//new_line('a')//' 0 2 3') > 0, 'tri: 0-based cells')
+        call checks%check(index(text, ' 3'//new_line('a')//' 6') > 0, 'tri: offsets')
+        call checks%check(index(text, '</VTKFile>') > 0, 'tri: closed')
     end subroutine test_triangles
 
     !> Three segments on [0, 1].
@@ -74,11 +63,11 @@ contains
         v = 0.0_dp
         path = trim(dir)//'/test_vtk_line.vtu'
         call vtk_write_vtu(path, 1, x, cells, u, v, stat)
-        call check(stat == STAT_OK, 'line: stat')
+        call checks%check(stat == STAT_OK, 'line: stat')
         text = read_text(path)
-        call check(index(text, 'NumberOfPoints="4" NumberOfCells="3"') > 0, 'line: counts')
-        call check(index(text, ' 2 3'//new_line('a')//'        </DataArray>') > 0, 'line: cells')
-        call check(index(text, ' 3'//new_line('a')//' 3'//new_line('a')//' 3') > 0, &
+        call checks%check(index(text, 'NumberOfPoints="4" NumberOfCells="3"') > 0, 'line: counts')
+        call checks%check(index(text, ' 2 3'//new_line('a')//'        </DataArray>') > 0, 'line: cells')
+        call checks%check(index(text, ' 3'//new_line('a')//' 3'//new_line('a')//' 3') > 0, &
                    'line: VTK_LINE types')
     end subroutine test_segments
 
@@ -89,12 +78,12 @@ contains
         files = [character(len=20) :: 'test_vtk_tri.vtu', 'a&b.vtu']
         path = trim(dir)//'/test_vtk.pvd'
         call vtk_write_pvd(path, [0.0_dp, 0.25_dp], files, stat)
-        call check(stat == STAT_OK, 'pvd: stat')
+        call checks%check(stat == STAT_OK, 'pvd: stat')
         text = read_text(path)
-        call check(index(text, 'type="Collection"') > 0, 'pvd: collection')
-        call check(index(text, 'file="test_vtk_tri.vtu"/>') > 0, 'pvd: first file')
-        call check(index(text, 'timestep="2.5') > 0, 'pvd: second time')
-        call check(index(text, 'file="a&amp;b.vtu"') > 0, 'pvd: escaped name')
+        call checks%check(index(text, 'type="Collection"') > 0, 'pvd: collection')
+        call checks%check(index(text, 'file="test_vtk_tri.vtu"/>') > 0, 'pvd: first file')
+        call checks%check(index(text, 'timestep="2.5') > 0, 'pvd: second time')
+        call checks%check(index(text, 'file="a&amp;b.vtu"') > 0, 'pvd: escaped name')
     end subroutine test_pvd
 
     subroutine test_bad_input()
@@ -106,18 +95,18 @@ contains
         u = 0.0_dp
         msg = ''
         call vtk_write_vtu(trim(dir)//'/bad.vtu', 2, x, reshape([1, 2, 4], [3, 1]), u, u, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: node 4 of 3')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: node 4 of 3')
         call vtk_write_vtu(trim(dir)//'/bad.vtu', 2, x, reshape([1, 2], [2, 1]), u, u, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: cells (2, nc) in 2D')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: cells (2, nc) in 2D')
         call vtk_write_vtu(trim(dir)//'/bad.vtu', 4, x, reshape([1, 2], [2, 1]), u, u, stat, msg)
-        call check(stat == STAT_BAD_INPUT, 'bad: dim 4')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: dim 4')
         call vtk_write_vtu(trim(dir)//'/no/such/dir/x.vtu', 2, x, reshape([1, 2, 3], [3, 1]), &
                            u, u, stat, msg)
-        call check(stat == STAT_INTERNAL, 'bad: unwritable path')
-        call check(index(msg, 'no/such/dir') > 0, 'bad: message names the path')
+        call checks%check(stat == STAT_INTERNAL, 'bad: unwritable path')
+        call checks%check(index(msg, 'no/such/dir') > 0, 'bad: message names the path')
         files = 'a'
         call vtk_write_pvd(trim(dir)//'/bad.pvd', [0.0_dp, 1.0_dp], files, stat)
-        call check(stat == STAT_BAD_INPUT, 'bad: pvd lengths')
+        call checks%check(stat == STAT_BAD_INPUT, 'bad: pvd lengths')
     end subroutine test_bad_input
 
     !> Whole file as one string, lines joined by new_line('a').
