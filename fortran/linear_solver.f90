@@ -11,7 +11,7 @@ module linear_solver
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
     use sparse, only: csc_t, csc_find
-    use umfpack, only: lu_t, lu_factor, lu_solve, lu_free
+    use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
     use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free
     implicit none
     private
@@ -102,21 +102,20 @@ contains
         real(dp), intent(out) :: x(:, :)                    !! solutions (n, m)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: k
         if (size(b, 2) /= size(x, 2)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, &
                        'ls_solve_many: b and x have different numbers of columns')
             return
         end if
-        if (f%backend == BACKEND_CHOLMOD .and. f%n == a%n) then
-            call chol_solve_many(f%ch, b, x, stat, errmsg)
+        if (f%n /= a%n .or. f%n < 1) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'ls_solve_many: no factors of this matrix')
             return
         end if
-        stat = STAT_OK
-        do k = 1, size(b, 2)
-            call ls_solve(f, a, b(:, k), x(:, k), stat, errmsg)
-            if (stat /= STAT_OK) return
-        end do
+        if (f%backend == BACKEND_CHOLMOD) then
+            call chol_solve_many(f%ch, b, x, stat, errmsg)
+        else
+            call lu_solve_many(f%lu, a, b, x, stat, errmsg)
+        end if
     end subroutine ls_solve_many
 
     !> Release both backends' factors (safe to call twice). The counter is kept.
