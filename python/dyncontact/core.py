@@ -399,14 +399,20 @@ def p1_element(dim: int, x, young: float, poisson: float, density: float):
     return ke[:n, :n].copy(), me[:n, :n].copy(), ml[:n, :n].copy()
 
 
-def umf_solve(rows, cols, vals, b) -> np.ndarray:
-    """Solve A x = b with UMFPACK; A as 0-based COO triplets (duplicates summed)."""
+def _coo(rows, cols, vals, b):
+    """0-based COO triplets and a right-hand side as the core takes them (1-based)."""
     rows = _i32(np.asarray(rows) + 1)
     cols = _i32(np.asarray(cols) + 1)
     vals = _f64(vals)
     b = _f64(b)
     if not (rows.shape == cols.shape == vals.shape) or rows.ndim != 1:
         raise ValueError("rows, cols and vals must be 1-D arrays of the same length")
+    return rows, cols, vals, b
+
+
+def umf_solve(rows, cols, vals, b) -> np.ndarray:
+    """Solve A x = b with UMFPACK; A as 0-based COO triplets (duplicates summed)."""
+    rows, cols, vals, b = _coo(rows, cols, vals, b)
     x, stat, errmsg = _core().dc_umf_solve(rows, cols, vals, b, b.shape[0], rows.shape[0])
     _check(stat, errmsg, "umfpack solve")
     return x
@@ -416,12 +422,7 @@ def linear_solve(rows, cols, vals, b) -> tuple[np.ndarray, str]:
     """Solve A x = b with the core's solver choice (CHOLMOD LDLᵀ when A is symmetric
     positive definite, UMFPACK LU otherwise); A as 0-based COO triplets (duplicates
     summed). Returns (x, backend) with backend 'cholmod_ldlt' or 'umfpack_lu'."""
-    rows = _i32(np.asarray(rows) + 1)
-    cols = _i32(np.asarray(cols) + 1)
-    vals = _f64(vals)
-    b = _f64(b)
-    if not (rows.shape == cols.shape == vals.shape) or rows.ndim != 1:
-        raise ValueError("rows, cols and vals must be 1-D arrays of the same length")
+    rows, cols, vals, b = _coo(rows, cols, vals, b)
     x, backend, stat, errmsg = _core().dc_ls_solve(rows, cols, vals, b, b.shape[0],
                                                    rows.shape[0])
     _check(stat, errmsg, "linear solve")
