@@ -189,6 +189,13 @@ def write_csv(path: str, rows: Sequence[Mapping[str, Any]], columns: Sequence[st
     return path
 
 
+def write_markdown(path: str, lines: Sequence[str]) -> str:
+    """Write markdown lines (one per list item) to ``path``; returns the path."""
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + "\n")
+    return path
+
+
 def md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> list[str]:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for r in rows:

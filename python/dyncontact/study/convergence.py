@@ -22,7 +22,8 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .common import (fmt, md_table, new_figure, save_figure, scheme_list, slope,
-                     step_ratio, write_base_scenes, write_csv, PENALTY_GAMMA0)
+                     step_ratio, write_base_scenes, write_csv, write_markdown,
+                     PENALTY_GAMMA0)
 from .analyses import FIELD_NORMS
 from .sweep import make_task, sweep
 
@@ -188,7 +189,4 @@ def _summary(report, schemes, path) -> str:
         if r is not None:
             table.append([s.label, r["status"]] + [fmt(r[n]) for n in FIELD_NORMS])
     lines += md_table(["scheme", "status", *FIELD_NORMS], table)
-    text = "\n".join(lines) + "\n"
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text)
-    return path
+    return write_markdown(path, lines)

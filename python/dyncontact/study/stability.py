@@ -35,7 +35,7 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .common import (STATUS_COLORS, fmt, md_table, new_figure, save_figure,
-                     scheme_list, write_base_scenes, write_csv)
+                     scheme_list, write_base_scenes, write_csv, write_markdown)
 from .analyses import impacts  # noqa: F401 - part of this module's API
 from .sweep import ERROR, REFUSED, Task, make_task, sweep
 
@@ -416,7 +416,4 @@ def _summary(report, schemes, path) -> str:
                       for c in unsafe) if unsafe else "") + "."]
     else:
         lines.append("No central-difference run in the sweep.")
-    text = "\n".join(lines) + "\n"
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text)
-    return path
+    return write_markdown(path, lines)

@@ -37,7 +37,7 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .common import (SCHEMES, fmt, md_table, scheme_list, step_ratio, write_base_scenes,
-                     write_csv)
+                     write_csv, write_markdown)
 from .stability import thetas
 from .claims import SIGNIFICANT_GAIN
 from .sweep import make_task, sweep
@@ -359,10 +359,7 @@ def _summary(report, path) -> str:
              for x in sorted(report["robustness"], key=lambda x: (x["case"], -x["score"]))]
     lines += md_table(["case", "option", "stable runs", "smallest stable Δt/h over γ0"],
                       table)
-    text = "\n".join(lines) + "\n"
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text)
-    return path
+    return write_markdown(path, lines)
 
 
 def _pct(x):

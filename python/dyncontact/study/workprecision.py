@@ -30,7 +30,7 @@ import numpy as np
 from . import analyses  # noqa: F401 - registers the analyses
 from .analyses import rms_in_time
 from .common import (SCHEMES, fmt, md_table, new_figure, step_ratio, write_base_scenes,
-                     write_csv)
+                     write_csv, write_markdown)
 from .sweep import make_task, sweep
 
 __all__ = ["run_work_precision", "QUANTITIES", "DEFAULT_SERIES"]
@@ -335,7 +335,4 @@ def _summary(report, path) -> str:
                            for r in bad])
     else:
         lines.append("None.")
-    text = "\n".join(lines) + "\n"
-    with open(path, "w", encoding="utf-8") as f:
-        f.write(text)
-    return path
+    return write_markdown(path, lines)
