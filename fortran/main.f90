@@ -6,6 +6,7 @@ program main
     use scene, only: PATH_LEN
     use os_files, only: signals_install
     use version_info, only: DYNCONTACT_VERSION
+    use text, only: int_text
     implicit none
     interface
         !> C exit(): ends the program with a status and no extra output.
@@ -92,21 +93,12 @@ contains
         integer :: n, st
         call get_command_argument(k, length=n, status=st)
         if (n > PATH_LEN .or. st > 0) then
-            call fail(STAT_BAD_INPUT, 'argument '//int_str(k)//' is longer than the limit of ' &
-                      //int_str(PATH_LEN)//' characters')
+            call fail(STAT_BAD_INPUT, 'argument '//int_text(k)//' is longer than the limit of ' &
+                      //int_text(PATH_LEN)//' characters')
         end if
         allocate (character(len=n) :: a)
         if (n > 0) call get_command_argument(k, a)
     end function argument
-
-    !> An integer as text.
-    function int_str(k) result(s)
-        integer, intent(in) :: k   !! value
-        character(len=:), allocatable :: s
-        character(len=16) :: buf
-        write (buf, '(i0)') k
-        s = trim(buf)
-    end function int_str
 
     !> Print the model's warnings and notes, one line each, on stderr.
     subroutine print_warnings(notes)

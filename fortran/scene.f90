@@ -16,6 +16,7 @@
 !> converted by one list-directed internal read.
 module scene
     use kinds, only: dp, i8
+    use text, only: int_text, real_text
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
     implicit none
     private
@@ -772,37 +773,6 @@ contains
         read (s(1:p - 1), *) number
         number = number / den
     end function number
-
-    !> Integer as text.
-    function int_text(i) result(s)
-        integer, intent(in) :: i   !! value
-        character(len=:), allocatable :: s
-        character(len=12) :: buf
-        write (buf, '(i0)') i
-        s = trim(buf)
-    end function int_text
-
-    !> A real in ES format with a 3-digit exponent: `digits` significant digits, or (by
-    !> default) the fewest that read back to x.
-    function real_text(x, digits) result(s)
-        real(dp), intent(in) :: x                !! value
-        integer, intent(in), optional :: digits  !! significant digits
-        character(len=:), allocatable :: s
-        character(len=32) :: buf, fmt
-        real(dp) :: y
-        integer :: p
-        do p = 1, 16
-            write (fmt, '(a, i0, a)') '(es32.', p, 'e3)'
-            write (buf, fmt) x
-            read (buf, *) y
-            if (present(digits)) then
-                if (p + 1 >= digits) exit
-            else if (y == x) then
-                exit
-            end if
-        end do
-        s = trim(adjustl(buf))
-    end function real_text
 
     !> JSON string literal (", \ and control characters escaped; other bytes as they are).
     function json_string(s) result(js)

@@ -4,6 +4,7 @@
 module simulation
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp, i8
+    use text, only: int_text, real_text
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
     use scene, only: scene_t, scene_read, scene_to_json
     use mesh, only: mesh_t
@@ -240,7 +241,7 @@ contains
             ratio = sim%scn%t_end / sim%scn%dt
             if (.not. ratio - 1.0e-9_dp <= real(sim%scn%max_steps, dp)) then
                 call raise(st, em, STAT_BAD_INPUT, trim(sim%scn%path)//': &scheme dt: t_end / dt = ' &
-                           //real_text(ratio)//' steps exceed the limit of '// &
+                           //real_text(ratio, 6)//' steps exceed the limit of '// &
                            int_text(int(sim%scn%max_steps, i8))//' (&scheme max_steps)')
                 return
             end if
@@ -307,7 +308,7 @@ contains
             if (sig /= 0) then
                 sim%status = 'interrupted'
                 sim%message = 'interrupted by signal '//int_text(int(sig, i8))//' at t = ' &
-                              //real_text(sim%st%t)//' (trace kept)'
+                              //real_text(sim%st%t, 6)//' (trace kept)'
                 sim%finished = .true.
                 call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
                 return
@@ -315,7 +316,7 @@ contains
             call sim%scheme%step(sim%mdl, sim%st, stat, msg)
             if (stat /= STAT_OK) then
                 sim%status = 'newton_failed'
-                sim%message = trim(msg)//' at t = '//real_text(sim%st%t + sim%scn%dt)// &
+                sim%message = trim(msg)//' at t = '//real_text(sim%st%t + sim%scn%dt, 6)// &
                               '; check &scheme dt (smaller), &contact gamma0 (of the order of'// &
                               ' the material stiffness, docs/scenes.md), &scheme newton_tol'
                 sim%finished = .true.
@@ -566,22 +567,4 @@ contains
         name = ''
         if (allocated(sim%scheme)) name = sim%scheme%solver()
     end function sim_solver
-
-    !> An integer as text.
-    pure function int_text(i) result(s)
-        integer(i8), intent(in) :: i   !! value
-        character(len=:), allocatable :: s
-        character(len=24) :: buf
-        write (buf, '(i0)') i
-        s = trim(buf)
-    end function int_text
-
-    !> A real as short text with a full exponent (es...e3).
-    pure function real_text(x) result(s)
-        real(dp), intent(in) :: x   !! value
-        character(len=:), allocatable :: s
-        character(len=32) :: buf
-        write (buf, '(es12.5e3)') x
-        s = trim(adjustl(buf))
-    end function real_text
 end module simulation
