@@ -27,6 +27,7 @@
 !> factorization, and the correction costs O(n m + m r + r^3).
 module implicit_schemes
     use kinds, only: dp
+    use text, only: int_text, real_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free
@@ -188,7 +189,6 @@ contains
         real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc
         real(dp) :: s_mx, s_bu, s_b, s_r, cb, ai, inv, g1, g2
         integer :: it, active, i, q
-        character(len=160) :: msg
         stat = STAT_OK
         dt = this%dt
         ! right-hand side b and R(u^n) = M (u^n - u~) + c B(u^n) - b in one pass, with the
@@ -220,10 +220,10 @@ contains
         do
             if (rnorm <= this%tol * scale) exit
             if (.not. (rnorm == rnorm) .or. it >= this%maxit) then
-                write (msg, '(a, es12.5, a, i0, a, es10.3, a)') 'Newton did not converge at t = ', &
-                    st%t + dt, ' after ', it, ' iterations (relative residual ', &
-                    rnorm / max(scale, tiny(1.0_dp)), ')'
-                call raise(stat, errmsg, STAT_NUMERIC, trim(msg))
+                call raise(stat, errmsg, STAT_NUMERIC, 'Newton did not converge at t = ' &
+                           //real_text(st%t + dt, 6)//' after '//int_text(it) &
+                           //' iterations (relative residual ' &
+                           //real_text(rnorm / max(scale, tiny(1.0_dp)), 4)//')')
                 st%newton_its = it
                 this%newton_total = this%newton_total + it
                 return
@@ -232,7 +232,7 @@ contains
             call solve_jacobian(this%r, this%dx, stat)
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
-                           //real_str(st%t + dt))
+                           //real_text(st%t + dt, 6))
                 return
             end if
             this%x = this%x - this%dx
@@ -407,13 +407,4 @@ contains
             end do
         end if
     end subroutine form_predictor
-
-    !> A real as text (messages).
-    function real_str(x) result(s)
-        real(dp), intent(in) :: x    !! value
-        character(len=:), allocatable :: s
-        character(len=24) :: buf
-        write (buf, '(es12.5)') x
-        s = trim(adjustl(buf))
-    end function real_str
 end module implicit_schemes

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -286,6 +287,9 @@ def test_newton_failure_stops_cleanly_with_trace(tmp_path):
     assert 1.0 < t_stop < 3.0          # contact starts at t ~ 1.15
     assert res.trace["t"][-1] <= t_stop
     assert "Newton" in res.message
+    # numbers with a full 3-digit exponent (issue 8: never the E-less '2.225-307')
+    assert re.search(r"Newton did not converge at t = \d\.\d{5}E[+-]\d{3} after 1 iterations "
+                     r"\(relative residual \d\.\d{3}E[+-]\d{3}\)", res.message), res.message
 
 
 def test_factorizations_do_not_depend_on_contact(tmp_path):
