@@ -5,6 +5,7 @@ module simulation
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp, i8
     use text, only: int_text, real_text
+    use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
     use scene, only: scene_t, scene_read, scene_to_json
     use mesh, only: mesh_t
@@ -485,14 +486,14 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: e_kin, e_el, e_contact, un, vn, pn, e_load
         stat = STAT_OK
-        e_kin = 0.5_dp * dot_product(sim%st%v, sim%st%mv)
-        e_el = 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
+        e_kin = 0.5_dp * dot(sim%st%v, sim%st%mv)
+        e_el = 0.5_dp * dot(sim%st%u, sim%st%ktu) + sim%st%e_theta
         e_contact = sim%st%e_pen - sim%st%e_theta
         e_total = e_kin + e_el
         if (present(row)) then
             if (.not. row) return
         end if
-        e_load = 0.0_dp - dot_product(sim%st%u, sim%mdl%load)   ! +0 without load
+        e_load = 0.0_dp - dot(sim%st%u, sim%mdl%load)   ! +0 without load
         call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn)
         call trace_row(sim%trace, sim%st%t, un, vn, pn, e_kin, e_el, e_contact, e_total, &
                        sim%st%newton_its, sim%st%active, e_load, stat, errmsg)
