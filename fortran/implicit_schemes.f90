@@ -23,10 +23,17 @@
 !> J = J0 + c P^T U V^T P where J0 = M + c K_theta is factorized once and
 !> D = U V^T (one rank-one term per active contact quadrature point, on the dofs of
 !> the contact cells) is the contact tangent: J^{-1} is applied with the Woodbury
-!> identity (Z = J0^{-1} P^T precomputed), so the active set changing never costs a
-!> factorization, and the correction costs O(n m + m r + r^3).
+!> identity, so the active set changing never costs a factorization. Only the first
+!> Newton iteration solves with J0 (y0 = J0^{-1} R(u^n)); every correction after it
+!> lies in the range of Z = J0^{-1} P^T (precomputed), so the iterations run on the
+!> m contact-cell dofs alone with W = P Z, accumulating the coefficients T of
+!> x = u^n - y0 - Z T, and Z T is applied once at the end of the step: a contact step
+!> costs one sparse solve, like a contact-free one. Z is kept on the rows where some
+!> entry exceeds ZDROP max|Z| (J0^{-1} decays geometrically away from Gamma_C); the
+!> dropped part of Z T is below 1e-20 of the correction, far under round-off.
 module implicit_schemes
     use kinds, only: dp
+    use vector_ops, only: LANES, lane_sum
     use text, only: int_text, real_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
@@ -42,6 +49,8 @@ module implicit_schemes
 
     integer, parameter :: KIND_NEWMARK = 1   ! newmark, hht, hht_seed
     integer, parameter :: KIND_THETA = 2     ! theta
+    !> Rows of Z = J0^{-1} P^T whose largest entry is at most ZDROP max|Z| are dropped.
+    real(dp), parameter :: ZDROP = 1.0e-20_dp
 
     !> Newmark-family and theta schemes.
     type, extends(time_scheme_t), public :: implicit_scheme_t
@@ -57,7 +66,8 @@ module implicit_schemes
         type(csc_t) :: jac0                       !! J0 = M + c K_theta
         type(factor_t) :: lu0                     !! its factors
         integer :: m = 0                          !! contact-cell dofs
-        real(dp), allocatable :: z(:, :)          !! (n, m) J0^{-1} P^T
+        integer, allocatable :: zrows(:)          !! (nz) the rows of Z kept (see ZDROP)
+        real(dp), allocatable :: z(:, :)          !! (nz, m) J0^{-1} P^T on those rows
         real(dp), allocatable :: w(:, :)          !! (m, m) P J0^{-1} P^T
         integer :: rank = 0                       !! rank of the contact tangent D = U V^T
         real(dp), allocatable :: ua(:, :)         !! (ndof_e, rmax) columns of U (on qloc)
@@ -67,12 +77,22 @@ module implicit_schemes
         real(dp), allocatable :: small(:, :)      !! (rmax, rmax) Woodbury system I + c V^T W U
         real(dp), allocatable :: zs(:)            !! (rmax) its right-hand side / solution
         integer, allocatable :: piv(:)            !! (rmax) pivots
-        real(dp), allocatable :: tvec(:)          !! (m) U z, the correction's coefficients
+        real(dp), allocatable :: tvec(:)          !! (m) D P dx, the tangent's part of R'
         real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
-        real(dp), allocatable :: ut(:)            !! (n) predictor u~ of the next step
-        real(dp), allocatable :: md(:)            !! (n) M (u - u~), formed with ut
+        real(dp), allocatable :: rho(:)           !! (m) R on the contact-cell dofs (zero elsewhere)
+        real(dp), allocatable :: xbase(:)         !! (m) P (u^n - y0)
+        real(dp), allocatable :: xc(:), dxc(:)    !! (m) P x, P dx
+        real(dp), allocatable :: yc(:), tk(:)     !! (m) P J0^{-1} R and one iteration's coefficients
+        real(dp), allocatable :: tsum(:)          !! (m) T, the coefficients of Z in x
+        real(dp), allocatable :: xz(:)            !! (nz) dx on the kept rows of Z
+        real(dp), allocatable :: y0c(:)           !! (m) P y0
+        logical :: cached = .false.               !! cx, the tangent and st%active/e_pen/e_theta
+                                                  !! are C at xc (kept from the last step)
+        real(dp) :: kga = 0.0_dp                  !! beta dt^2 am/(1-am) (generalized-alpha)
+        real(dp), allocatable :: vq(:)            !! (massless dofs) their v' = (u' - u)/dt
+        real(dp), allocatable :: md(:)            !! (n) M (u - u~) of the next step
         real(dp), allocatable :: dvec(:)          !! (n) u - u~ (the vector multiplied by M)
-        real(dp), allocatable :: b(:), r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
+        real(dp), allocatable :: r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
     contains
         procedure :: init => implicit_init
         procedure :: step => implicit_step
@@ -93,7 +113,8 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         type(mass_solver_t) :: ms
         integer :: n, j, rmax
-        real(dp), allocatable :: e(:, :)
+        real(dp) :: zmax
+        real(dp), allocatable :: e(:, :), zfull(:, :)
         n = mdl%n_dofs
         this%dt = prm%dt
         this%tol = prm%newton_tol
@@ -119,10 +140,11 @@ contains
         end select
         if (this%kind == KIND_NEWMARK) then
             this%c = this%beta * this%dt**2 * (1.0_dp - this%alpha_f) / (1.0_dp - this%alpha_m)
+            this%kga = this%beta * this%dt**2 * this%alpha_m / (1.0_dp - this%alpha_m)
         else
             this%c = (this%theta * this%dt)**2
         end if
-        allocate (this%ut(n), this%md(n), this%dvec(n), this%b(n), this%r(n), this%dx(n), &
+        allocate (this%md(n), this%dvec(n), this%r(n), this%dx(n), &
                   this%x(n), this%scratch(n))
 
         ! initial acceleration (Newmark family only)
@@ -147,19 +169,30 @@ contains
         if (mdl%has_contact) this%m = mdl%ct%m
         rmax = 0
         if (mdl%has_contact) rmax = contact_max_rank(mdl%ct)
-        allocate (this%z(n, this%m), this%w(this%m, this%m), this%ua(mdl%ndof_e, rmax), &
+        allocate (this%w(this%m, this%m), this%ua(mdl%ndof_e, rmax), &
                   this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), this%wu(this%m, rmax), &
                   this%small(rmax, rmax), this%zs(rmax), this%piv(rmax), this%tvec(this%m), &
-                  this%cx(this%m), this%cold(this%m), e(n, this%m))
+                  this%cx(this%m), this%cold(this%m), this%rho(this%m), this%xbase(this%m), &
+                  this%xc(this%m), this%dxc(this%m), this%yc(this%m), this%tk(this%m), &
+                  this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)), &
+                  e(n, this%m), zfull(n, this%m))
         this%scratch = 0.0_dp
         ! Z = J0^{-1} P^T: one solve per contact-cell dof
         e = 0.0_dp
         do j = 1, this%m
             e(mdl%ct%cdofs(j), j) = 1.0_dp
         end do
-        call ls_solve_many(this%lu0, this%jac0, e, this%z, stat, errmsg)
+        call ls_solve_many(this%lu0, this%jac0, e, zfull, stat, errmsg)
         if (stat /= STAT_OK) return
-        if (this%m > 0) this%w = this%z(mdl%ct%cdofs, :)
+        if (this%m > 0) then
+            this%w = zfull(mdl%ct%cdofs, :)
+            zmax = maxval(abs(zfull))
+            this%zrows = pack([(j, j = 1, n)], maxval(abs(zfull), dim=2) > ZDROP * zmax)
+        else
+            allocate (this%zrows(0))
+        end if
+        this%z = zfull(this%zrows, :)
+        allocate (this%xz(size(this%zrows)))
     end subroutine implicit_init
 
     !> Release the factors of J0.
@@ -176,46 +209,49 @@ contains
     end function implicit_solver
 
     !> One step: semi-smooth Newton from x = u^n. u~ and M (u^n - u~) were formed at
-    !> the end of the previous step (or in init); after each solve J dx = -R the
-    !> residual is updated exactly from the solve identity, R' = c (C(x') - C(x) - D dx)
-    !> (C = contact part of B, D its tangent), so a contact-free step costs one solve
-    !> and one pass over the matrix blocks (K_theta u', M v', M (u' - u~')).
+    !> the end of the previous step (or in init). The first iteration solves with J0
+    !> (y0 = J0^{-1} R(u^n)); after it R is zero but on the contact-cell dofs, and is
+    !> updated exactly from the solve identity, R' = c (C(x') - C(x) - D dx) (C = contact
+    !> part of B, D its tangent); the later iterations run on the contact-cell dofs (see
+    !> the module header). The step x = u^n - dx, dx = y0 + Z T, is applied in one pass
+    !> that also forms v', a' and the next predictor, then one pass over the matrix blocks
+    !> forms K_theta u', M v', M (u' - u~'): a contact-free step is one solve and two
+    !> passes over the vectors besides the right-hand side's.
     subroutine implicit_step(this, mdl, st, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(state_t), intent(inout) :: st                  !! state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc
-        real(dp) :: s_mx, s_bu, s_b, s_r, cb, ai, inv, g1, g2
-        integer :: it, active, i, q
+        real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc, sums(4), kb
+        integer :: it, active, i, q, n
         stat = STAT_OK
         dt = this%dt
+        n = size(st%u)
         ! right-hand side b and R(u^n) = M (u^n - u~) + c B(u^n) - b in one pass, with the
         ! sums of squares of the convergence test
-        s_mx = 0.0_dp; s_bu = 0.0_dp; s_b = 0.0_dp; s_r = 0.0_dp
         if (this%kind == KIND_NEWMARK) then
-            cb = this%beta * dt**2 / (1.0_dp - this%alpha_m)
-            do i = 1, size(st%u)
-                this%b(i) = cb * (mdl%load(i) - this%alpha_f * st%bu(i))
-                this%r(i) = this%md(i) + this%c * st%bu(i) - this%b(i)
-                s_mx = s_mx + this%md(i)**2; s_bu = s_bu + st%bu(i)**2
-                s_b = s_b + this%b(i)**2; s_r = s_r + this%r(i)**2
-            end do
+            kb = this%alpha_f
+            acc = this%beta * dt**2 / (1.0_dp - this%alpha_m)
         else
-            cb = this%theta * dt**2
-            do i = 1, size(st%u)
-                this%b(i) = cb * (mdl%load(i) - (1.0_dp - this%theta) * st%bu(i))
-                this%r(i) = this%md(i) + this%c * st%bu(i) - this%b(i)
-                s_mx = s_mx + this%md(i)**2; s_bu = s_bu + st%bu(i)**2
-                s_b = s_b + this%b(i)**2; s_r = s_r + this%r(i)**2
-            end do
+            kb = 1.0_dp - this%theta
+            acc = this%theta * dt**2
         end if
-        scale = sqrt(s_mx) + this%c * sqrt(s_bu) + sqrt(s_b)
-        rnorm = sqrt(s_r)
-        this%x = st%u
+        call newton_rhs(n, acc, kb, this%c, mdl%load, st%bu, this%md, this%r, sums)
+        scale = sqrt(sums(1)) + this%c * sqrt(sums(2)) + sqrt(sums(3))
+        rnorm = sqrt(sums(4))
+        ! contact part at u^n: kept from the end of the previous step when u^n on the
+        ! contact-cell dofs is the vector it was evaluated at
         active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
-        if (this%m > 0) call contact_part(this%x, this%cx, active, e_pen, e_theta)
+        if (this%m > 0) then
+            if (.not. this%cached) then
+                call contact_part(st%u, this%cx, active, e_pen, e_theta)
+            else if (any(st%u(mdl%ct%cdofs) /= this%xc)) then
+                call contact_part(st%u, this%cx, active, e_pen, e_theta)
+            end if
+            this%tsum = 0.0_dp
+            this%xc = st%u(mdl%ct%cdofs)
+        end if
         it = 0
         do
             if (rnorm <= this%tol * scale) exit
@@ -224,31 +260,59 @@ contains
                            //real_text(st%t + dt, 6)//' after '//int_text(it) &
                            //' iterations (relative residual ' &
                            //real_text(rnorm / max(scale, tiny(1.0_dp)), 4)//')')
-                st%newton_its = it
-                this%newton_total = this%newton_total + it
+                call end_newton()
                 return
             end if
-            ! dx = J^{-1} R, the Newton step is x <- x - dx
-            call solve_jacobian(this%r, this%dx, stat)
-            if (stat /= STAT_OK) then
-                call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
-                           //real_text(st%t + dt, 6))
-                return
+            ! the Newton step x <- x - J^{-1} R: J^{-1} R = y + Z tk with y = J0^{-1} R on
+            ! the first iteration (R is full) and y = 0 after it (R = P^T rho, so
+            ! J0^{-1} R = Z rho): yc = P y, tk = 0 or rho, then Woodbury's - U s
+            if (it == 0) then
+                call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat)
+                if (stat /= STAT_OK) then
+                    call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
+                               //real_text(st%t + dt, 6))
+                    call end_newton()
+                    return
+                end if
+                it = 1
+                if (this%m == 0) exit
+                do i = 1, this%m
+                    this%yc(i) = this%dx(mdl%ct%cdofs(i))
+                end do
+                this%y0c = this%yc
+                this%tk = 0.0_dp
+            else
+                call matvec_small(this%w, this%rho, this%yc)
+                this%tk = this%rho
+                it = it + 1
             end if
-            this%x = this%x - this%dx
-            it = it + 1
-            ! after a solve R is zero but on the contact-cell dofs
-            if (it == 1) this%r = 0.0_dp
-            rnorm = 0.0_dp
-            if (this%m == 0) exit
-            ! R' = c (C(x') - C(x) - D (x' - x)) = c (C(x') - C(x) + D dx) on the
-            ! contact-cell dofs; tvec = D dx, D = U V^T at the previous iterate
+            if (this%rank > 0) then
+                call woodbury(stat)
+                if (stat /= STAT_OK) then
+                    call raise(stat, errmsg, STAT_NUMERIC, 'singular contact correction in ' &
+                               //'Newton at t = '//real_text(st%t + dt, 6))
+                    call end_newton()
+                    return
+                end if
+            end if
+            this%tsum = this%tsum + this%tk
+            ! P dx = y0c + W T (the same sums, in the same order, as the full dx at the
+            ! end), P x' = P u^n - P dx; dxc = P x - P x' for the tangent's part of R'
+            this%dxc = this%y0c
+            call add_columns(this%w, this%tsum, this%dxc)
+            do i = 1, this%m
+                acc = st%u(mdl%ct%cdofs(i)) - this%dxc(i)
+                this%dxc(i) = this%xc(i) - acc
+                this%xc(i) = acc
+                this%x(mdl%ct%cdofs(i)) = acc
+            end do
+            ! R' = c (C(x') - C(x) + D dx) on the contact-cell dofs (zero elsewhere: the
+            ! step solved the linearization exactly); tvec = D P dx, D = U V^T at x
             this%tvec = 0.0_dp
             do q = 1, this%rank
                 acc = 0.0_dp
                 do i = 1, mdl%ndof_e
-                    if (this%qloc(i, q) > 0) acc = acc + this%vb(i, q) &
-                                                   * this%dx(mdl%ct%cdofs(this%qloc(i, q)))
+                    if (this%qloc(i, q) > 0) acc = acc + this%vb(i, q) * this%dxc(this%qloc(i, q))
                 end do
                 do i = 1, mdl%ndof_e
                     if (this%qloc(i, q) > 0) this%tvec(this%qloc(i, q)) = &
@@ -257,56 +321,68 @@ contains
             end do
             this%cold = this%cx
             call contact_part(this%x, this%cx, active, e_pen, e_theta)
-            s_r = 0.0_dp
-            do i = 1, this%m
-                this%r(mdl%ct%cdofs(i)) = this%c * (this%cx(i) - this%cold(i) + this%tvec(i))
-                s_r = s_r + this%r(mdl%ct%cdofs(i))**2
-            end do
-            rnorm = sqrt(s_r)
+            this%rho = this%c * (this%cx - this%cold + this%tvec)
+            rnorm = sqrt(sum(this%rho**2))
         end do
-        st%newton_its = it
-        this%newton_total = this%newton_total + it
-        ! the scheme's update of u, v, a from vectors, then the next predictor u~', and
-        ! K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u').
+        call end_newton()
+        ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction)
+        if (it == 0) this%dx = 0.0_dp
+        if (this%m > 0) then
+            if (any(this%tsum /= 0.0_dp)) then
+                do i = 1, size(this%zrows)
+                    this%xz(i) = this%dx(this%zrows(i))
+                end do
+                call add_columns(this%z, this%tsum, this%xz)
+                do i = 1, size(this%zrows)
+                    this%dx(this%zrows(i)) = this%xz(i)
+                end do
+            end if
+        end if
+        ! the scheme's update of u, v, a from x = u - dx and the next predictor u~' in one
+        ! pass; then K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u').
         ! Dofs without inertia (redistributed mass) are quasi-static: their v, a do not
         ! enter the dynamics (zero rows of M), and are reported as v = (u' - u)/dt, a = 0.
         do q = 1, size(mdl%massless_dofs)
             i = mdl%massless_dofs(q)
-            this%dvec(i) = (this%x(i) - st%u(i)) / dt
+            this%vq(q) = ((st%u(i) - this%dx(i)) - st%u(i)) / dt
         end do
         if (this%kind == KIND_NEWMARK) then
-            ! a' = (x - u~) / (beta dt^2); v' = v + dt ((1-gamma) a + gamma a')
-            inv = 1.0_dp / (this%beta * dt**2)
-            g1 = dt * (1.0_dp - this%gamma)
-            g2 = dt * this%gamma
-            do i = 1, size(st%u)
-                ai = (this%x(i) - this%ut(i)) * inv
-                st%v(i) = st%v(i) + g1 * st%a(i) + g2 * ai
-                st%a(i) = ai
-                st%u(i) = this%x(i)
-            end do
+            call newmark_update(n, this%dx, 1.0_dp / (this%beta * dt**2), &
+                                dt * (1.0_dp - this%gamma), dt * this%gamma, dt, &
+                                dt**2 * (0.5_dp - this%beta), this%kga, &
+                                st%u, st%v, st%a, this%dvec)
         else
-            ! v' = (x - u - dt (1-theta) v) / (theta dt)
-            inv = 1.0_dp / (this%theta * dt)
-            g1 = dt * (1.0_dp - this%theta)
-            do i = 1, size(st%u)
-                st%v(i) = (this%x(i) - st%u(i) - g1 * st%v(i)) * inv
-                st%u(i) = this%x(i)
-            end do
+            call theta_update(n, this%dx, 1.0_dp / (this%theta * dt), dt * (1.0_dp - this%theta), &
+                              dt, st%u, st%v, this%dvec)
         end if
         do q = 1, size(mdl%massless_dofs)
             i = mdl%massless_dofs(q)
-            st%v(i) = this%dvec(i)
+            st%v(i) = this%vq(q)
             if (this%kind == KIND_NEWMARK) st%a(i) = 0.0_dp
         end do
-        call form_predictor(this, st%u, st%v, st%a)
+        if (size(mdl%massless_dofs) > 0) call form_predictor(this, st%u, st%v, st%a, &
+                                                             mdl%massless_dofs)
         call model_step_products(mdl, st%u, st%v, this%dvec, st%ktu, st%mv, this%md)
         st%bu = st%ktu
-        if (this%m > 0) st%bu(mdl%ct%cdofs) = st%bu(mdl%ct%cdofs) + this%cx
+        if (this%m > 0) then
+            do i = 1, this%m
+                st%bu(mdl%ct%cdofs(i)) = st%bu(mdl%ct%cdofs(i)) + this%cx(i)
+            end do
+            ! the contact part is kept for the next step, with the vector it was
+            ! evaluated at (u' on the contact-cell dofs)
+            this%xc = st%u(mdl%ct%cdofs)
+            this%cached = .true.
+        end if
         st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
         st%t = st%t + dt
 
     contains
+
+        !> Record the step's Newton iterations.
+        subroutine end_newton()
+            st%newton_its = it
+            this%newton_total = this%newton_total + it
+        end subroutine end_newton
 
         !> Contact part C(xx) of B on the contact-cell dofs, its tangent in low-rank
         !> form (rank, ua, vb, qloc) and the contact energy parts.
@@ -315,23 +391,26 @@ contains
             real(dp), intent(out) :: cvec(:)
             integer, intent(out) :: act
             real(dp), intent(out) :: ep, et
-            this%scratch(mdl%ct%cdofs) = 0.0_dp
+            integer :: j
+            do j = 1, this%m
+                this%scratch(mdl%ct%cdofs(j)) = 0.0_dp
+            end do
             call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%rank, this%ua, this%vb, &
                               this%qloc)
-            cvec = this%scratch(mdl%ct%cdofs)
+            do j = 1, this%m
+                cvec(j) = this%scratch(mdl%ct%cdofs(j))
+            end do
         end subroutine contact_part
 
-        !> y = J^{-1} rhs with J = J0 + c P^T U V^T P (Woodbury, rank r):
-        !> y = y0 - Z U (I + c V^T W U)^{-1} c V^T P y0, y0 = J0^{-1} rhs.
-        subroutine solve_jacobian(rhs, y, st2)
-            real(dp), intent(in) :: rhs(:)
-            real(dp), intent(out) :: y(:)
+        !> Woodbury for one Newton step, on the contact-cell dofs: with yc = P J0^{-1} R,
+        !> J^{-1} R = J0^{-1} R - Z U (I + c V^T W U)^{-1} c V^T yc, so tk <- tk - U s,
+        !> s = (I + c V^T W U)^{-1} c V^T yc.
+        subroutine woodbury(st2)
             integer, intent(out) :: st2
             integer :: r, i, j, k, info, l
             real(dp) :: acc2
-            call ls_solve(this%lu0, this%jac0, rhs, y, st2)
+            st2 = STAT_OK
             r = this%rank
-            if (st2 /= STAT_OK .or. this%m == 0 .or. r == 0) return
             ! W U: each column of U lives on <= ndof_e contact-cell dofs
             do j = 1, r
                 this%wu(:, j) = 0.0_dp
@@ -340,7 +419,7 @@ contains
                     if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) * this%w(:, l)
                 end do
             end do
-            ! small = I + c V^T W U; zs = c V^T y_c
+            ! small = I + c V^T W U; zs = c V^T yc
             do i = 1, r
                 do j = 1, r
                     acc2 = 0.0_dp
@@ -354,7 +433,7 @@ contains
                 acc2 = 0.0_dp
                 do k = 1, mdl%ndof_e
                     l = this%qloc(k, i)
-                    if (l > 0) acc2 = acc2 + this%vb(k, i) * y(mdl%ct%cdofs(l))
+                    if (l > 0) acc2 = acc2 + this%vb(k, i) * this%yc(l)
                 end do
                 this%zs(i) = this%c * acc2
             end do
@@ -364,47 +443,154 @@ contains
                 return
             end if
             call dense_lu_solve(r, this%small, this%piv, this%zs)
-            ! y = y - Z (U z)
-            this%tvec = 0.0_dp
+            ! tk = tk - U s
             do j = 1, r
                 do k = 1, mdl%ndof_e
                     l = this%qloc(k, j)
-                    if (l > 0) this%tvec(l) = this%tvec(l) + this%ua(k, j) * this%zs(j)
+                    if (l > 0) this%tk(l) = this%tk(l) - this%ua(k, j) * this%zs(j)
                 end do
             end do
-            do l = 1, this%m
-                if (this%tvec(l) /= 0.0_dp) y = y - this%tvec(l) * this%z(:, l)
-            end do
-        end subroutine solve_jacobian
+        end subroutine woodbury
     end subroutine implicit_step
 
+    !> y <- y + sum_l t(l) a(:, l) over the l with t(l) /= 0, column after column (the
+    !> same order for W and the rows of Z, so both give the same numbers on shared rows).
+    pure subroutine add_columns(a, t, y)
+        real(dp), intent(in) :: a(:, :)                     !! (k, m) columns
+        real(dp), intent(in) :: t(:)                        !! (m) coefficients
+        real(dp), intent(inout) :: y(:)                     !! (k) updated
+        integer :: l
+        do l = 1, size(t)
+            if (t(l) /= 0.0_dp) y = y + t(l) * a(:, l)
+        end do
+    end subroutine add_columns
 
-    !> The predictor of the step that starts from (u, v, a): u~ = u + dt v + dt^2 (1/2 -
-    !> beta) a (Newmark family) or u + dt v (theta), formed as a vector, and dvec = u - u~
-    !> (+ k a for generalized-alpha, k = beta dt^2 am/(1-am)), the vector whose product
-    !> with M enters the Newton residual.
-    pure subroutine form_predictor(this, u, v, a)
-        class(implicit_scheme_t), intent(inout) :: this     !! scheme (ut, dvec set)
+    !> y = a x for a small dense matrix (no temporary).
+    pure subroutine matvec_small(a, x, y)
+        real(dp), intent(in) :: a(:, :)                     !! (k, m) matrix
+        real(dp), intent(in) :: x(:)                        !! (m) vector
+        real(dp), intent(out) :: y(:)                       !! (k) product
+        integer :: l
+        y = 0.0_dp
+        do l = 1, size(x)
+            y = y + x(l) * a(:, l)
+        end do
+    end subroutine matvec_small
+
+    !> The Newton initial residual in one pass: r = md + c bu - b with b = cb (load - kb
+    !> bu), and the sums of squares of md, bu, b, r (LANES partial sums each, so the pass
+    !> is not bound by one add chain).
+    pure subroutine newton_rhs(n, cb, kb, c, load, bu, md, r, sums)
+        integer, intent(in) :: n                            !! size
+        real(dp), intent(in) :: cb, kb, c                   !! coefficients
+        real(dp), intent(in) :: load(n), bu(n), md(n)       !! L, B(u^n), M (u^n - u~)
+        real(dp), intent(out) :: r(n)                       !! R(u^n)
+        real(dp), intent(out) :: sums(4)                    !! |md|^2, |bu|^2, |b|^2, |r|^2
+        real(dp) :: s1(LANES), s2(LANES), s3(LANES), s4(LANES), bi
+        integer :: i, j, k, nb
+        s1 = 0.0_dp; s2 = 0.0_dp; s3 = 0.0_dp; s4 = 0.0_dp
+        nb = n - mod(n, LANES)
+        do i = 1, nb, LANES
+            do j = 1, LANES
+                k = i + j - 1
+                bi = cb * (load(k) - kb * bu(k))
+                r(k) = md(k) + c * bu(k) - bi
+                s1(j) = s1(j) + md(k)**2
+                s2(j) = s2(j) + bu(k)**2
+                s3(j) = s3(j) + bi**2
+                s4(j) = s4(j) + r(k)**2
+            end do
+        end do
+        do k = nb + 1, n
+            bi = cb * (load(k) - kb * bu(k))
+            r(k) = md(k) + c * bu(k) - bi
+            s1(1) = s1(1) + md(k)**2
+            s2(1) = s2(1) + bu(k)**2
+            s3(1) = s3(1) + bi**2
+            s4(1) = s4(1) + r(k)**2
+        end do
+        sums = [lane_sum(s1), lane_sum(s2), lane_sum(s3), lane_sum(s4)]
+    end subroutine newton_rhs
+
+    !> The Newmark-family update from x = u - dx, in one pass: the step's predictor
+    !> u~ = u + dt v + c1 a (from the old state), a' = (x - u~) inv, v' = v + g1 a + g2 a',
+    !> u' = x, and dvec' = newmark_dvec(u', v', a') for the next step.
+    pure subroutine newmark_update(n, dx, inv, g1, g2, dt, c1, k, u, v, a, dvec)
+        integer, intent(in) :: n                            !! size
+        real(dp), intent(in) :: dx(n)                       !! the step's dx
+        real(dp), intent(in) :: inv, g1, g2, dt, c1, k      !! coefficients
+        real(dp), intent(inout) :: u(n), v(n), a(n)         !! state
+        real(dp), intent(out) :: dvec(n)                    !! u' - u~' + k a'
+        real(dp) :: x, ai, vi, uti
+        integer :: i
+        do i = 1, n
+            uti = u(i) + dt * v(i) + c1 * a(i)
+            x = u(i) - dx(i)
+            ai = (x - uti) * inv
+            vi = v(i) + g1 * a(i) + g2 * ai
+            u(i) = x
+            v(i) = vi
+            a(i) = ai
+            dvec(i) = newmark_dvec(x, vi, ai, dt, c1, k)
+        end do
+    end subroutine newmark_update
+
+    !> The theta-scheme update from x = u - dx, in one pass: v' = (x - u - g1 v) inv,
+    !> u' = x, and dvec' = theta_dvec(u', v') for the next step.
+    pure subroutine theta_update(n, dx, inv, g1, dt, u, v, dvec)
+        integer, intent(in) :: n                            !! size
+        real(dp), intent(in) :: dx(n)                       !! the step's dx
+        real(dp), intent(in) :: inv, g1, dt                 !! coefficients
+        real(dp), intent(inout) :: u(n), v(n)               !! state
+        real(dp), intent(out) :: dvec(n)                    !! u' - u~'
+        real(dp) :: x, vi
+        integer :: i
+        do i = 1, n
+            x = u(i) - dx(i)
+            vi = (x - u(i) - g1 * v(i)) * inv
+            u(i) = x
+            v(i) = vi
+            dvec(i) = theta_dvec(x, vi, dt)
+        end do
+    end subroutine theta_update
+
+    !> Newmark family: u - u~ + k a with the predictor u~ = u + dt v + c1 a of the step
+    !> that starts from (u, v, a), c1 = dt^2 (1/2 - beta), k = beta dt^2 am/(1-am).
+    elemental real(dp) function newmark_dvec(u, v, a, dt, c1, k) result(d)
+        real(dp), intent(in) :: u, v, a                     !! state at one dof
+        real(dp), intent(in) :: dt, c1, k                   !! coefficients
+        d = u - (u + dt * v + c1 * a) + k * a
+    end function newmark_dvec
+
+    !> theta: u - u~ with the predictor u~ = u + dt v.
+    elemental real(dp) function theta_dvec(u, v, dt) result(d)
+        real(dp), intent(in) :: u, v                        !! state at one dof
+        real(dp), intent(in) :: dt                          !! time step
+        d = u - (u + dt * v)
+    end function theta_dvec
+
+    !> dvec = u - u~ (+ k a), the vector whose product with M enters the next step's
+    !> Newton residual, for the state (u, v, a) at the dofs idx (all dofs if absent).
+    pure subroutine form_predictor(this, u, v, a, idx)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (dvec set)
         real(dp), intent(in) :: u(:)                        !! displacement
         real(dp), intent(in) :: v(:)                        !! velocity
         real(dp), intent(in) :: a(:)                        !! acceleration (Newmark family)
-        real(dp) :: c1, k
-        integer :: i
-        if (this%kind == KIND_NEWMARK) then
-            c1 = this%dt**2 * (0.5_dp - this%beta)
-            do i = 1, size(u)
-                this%ut(i) = u(i) + this%dt * v(i) + c1 * a(i)
-                this%dvec(i) = u(i) - this%ut(i)
-            end do
-            if (this%alpha_m /= 0.0_dp) then
-                k = this%beta * this%dt**2 * this%alpha_m / (1.0_dp - this%alpha_m)
-                this%dvec = this%dvec + k * a
+        integer, intent(in), optional :: idx(:)             !! dofs
+        real(dp) :: c1
+        c1 = this%dt**2 * (0.5_dp - this%beta)
+        if (present(idx)) then
+            if (this%kind == KIND_NEWMARK) then
+                this%dvec(idx) = newmark_dvec(u(idx), v(idx), a(idx), this%dt, c1, this%kga)
+            else
+                this%dvec(idx) = theta_dvec(u(idx), v(idx), this%dt)
             end if
         else
-            do i = 1, size(u)
-                this%ut(i) = u(i) + this%dt * v(i)
-                this%dvec(i) = u(i) - this%ut(i)
-            end do
+            if (this%kind == KIND_NEWMARK) then
+                this%dvec = newmark_dvec(u, v, a, this%dt, c1, this%kga)
+            else
+                this%dvec = theta_dvec(u, v, this%dt)
+            end if
         end if
     end subroutine form_predictor
 end module implicit_schemes
