@@ -401,7 +401,7 @@ end subroutine dc_bench_floor
 !> The state of an open run (after dc_sim_open with outputs, and each dc_sim_advance):
 !> time, displacement, velocity, acceleration (0 for the theta scheme, which has none),
 !> the product M v the run's energies use, and the load L, on the free dofs.
-subroutine dc_sim_state(handle, n, t, u, v, a, mv, load)
+subroutine dc_sim_state(handle, n, t, u, v, a, mv, load, bu)
     use iso_c_binding, only: c_int, c_int64_t, c_double
     use simulation, only: simulation_t
     use api_handles, only: sim_from_handle
@@ -414,6 +414,7 @@ subroutine dc_sim_state(handle, n, t, u, v, a, mv, load)
     real(c_double), intent(out) :: a(n)          !! acceleration
     real(c_double), intent(out) :: mv(n)         !! M v as used for e_kin
     real(c_double), intent(out) :: load(n)       !! L
+    real(c_double), intent(out) :: bu(n)         !! B(u) as the scheme carries it
     type(simulation_t), pointer :: sim
     call sim_from_handle(handle, sim)
     t = sim%st%t
@@ -422,6 +423,7 @@ subroutine dc_sim_state(handle, n, t, u, v, a, mv, load)
     a = sim%st%a
     mv = sim%st%mv
     load = sim%mdl%load
+    bu = sim%st%bu
 end subroutine dc_sim_state
 
 !> Stored entries of the assembled matrices of an open run (M, K, K_theta share a pattern).

@@ -3,6 +3,9 @@ at sampled steps through an impact, recompute from the state (u, v, a through
 dyncontact.core.Stepper) and the assembled matrices:
 
 - the product M v that e_kin uses equals M v formed from v (no carried copy drifts);
+- B(u) as the scheme carries it into the next step (K_theta u formed by a product, and
+  the contact part, which the implicit schemes keep from the step's last Newton
+  iterate) equals B(u) evaluated afresh from u;
 - the trace's e_kin = 1/2 v.M v and e_el = 1/2 u.K u;
 - the scheme's update relations and its balance equation, to round-off (the Newton
   tolerance is set below round-off of the residual, so a converged step is exact);
@@ -34,7 +37,9 @@ THR = 1e-12
 #: relative to |M u'| / (theta dt)).
 NEWTON_TOL = 1e-14
 T_END = 1.4      # past the start of the first impact
-N_SAMPLES = 12   # sampled steps per run (each: the state before and after one step)
+T_CONTACT = 1.15  # about where it starts
+N_SAMPLES = 12   # sampled steps per run (each: the state before and after one step),
+                 # as many again in contact
 
 # (scheme keys, dt): implicit at the seed's h/20, predictor-correctors at h/100.
 SCHEMES = {
@@ -97,6 +102,7 @@ def test_state_invariants(label, mass, tmp_path):
     out = tmp_path / "run"
     n_steps = int(round(T_END / dt))
     samples = set(np.linspace(0, n_steps - 1, N_SAMPLES).astype(int).tolist())
+    samples |= set(np.linspace(int(T_CONTACT / dt), n_steps - 1, N_SAMPLES).astype(int).tolist())
     states = {}
     with Stepper(scene, out) as run:
         M, K = run.matrix("M"), run.matrix("K")
@@ -115,6 +121,8 @@ def test_state_invariants(label, mass, tmp_path):
     assert len(trace["t"]) == n_steps + 1
     assert np.all(trace["e_kin"] >= 0.0), "e_kin < 0 in the trace"
     assert np.any(trace["active"] > 0), "the run never reached contact"
+    in_contact = sum(1 for step in states if trace["active"][step + 1] > 0)
+    assert in_contact >= 3, f"only {in_contact} sampled steps in contact"
 
     for step, (s0, s1, b0, b1) in states.items():
         u0, v0, a0, u1, v1, a1 = s0["u"], s0["v"], s0["a"], s1["u"], s1["v"], s1["a"]
@@ -123,6 +131,9 @@ def test_state_invariants(label, mass, tmp_path):
         # the product the energies use is M v, formed from v
         mv = M @ v1
         assert rel(s1["mv"] - mv, np.max(np.abs(mv)) + 1e-300) <= THR, where
+        # the carried B(u) is B(u) (the scheme's next residual starts from it)
+        for s, b in ((s0, b0), (s1, b1)):
+            assert rel(s["bu"] - b, np.max(np.abs(b)) + 1e-300) <= THR, (where, "B(u)")
         # the trace row of that step holds the energies of this state
         row = step + 1
         e_kin = 0.5 * v1 @ mv

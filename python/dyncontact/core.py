@@ -537,9 +537,10 @@ class Stepper(Model):
         return int(done)
 
     def state(self) -> dict[str, Any]:
-        """t, u, v, a, mv (the product M v the energies use) and load, free dofs."""
-        t, u, v, a, mv, load = _core().dc_sim_state(self.handle, self.dofs)
-        return {"t": float(t), "u": u, "v": v, "a": a, "mv": mv, "load": load}
+        """t, u, v, a, mv (the product M v the energies use), load and bu (B(u) as the
+        scheme carries it into the next step), free dofs."""
+        t, u, v, a, mv, load, bu = _core().dc_sim_state(self.handle, self.dofs)
+        return {"t": float(t), "u": u, "v": v, "a": a, "mv": mv, "load": load, "bu": bu}
 
     def matrix(self, which: str) -> np.ndarray:
         """The assembled 'M', 'K' or 'K_theta' on the free dofs, as a dense array."""
