@@ -10,7 +10,7 @@
 module explicit_schemes
     use kinds, only: dp
     use errors, only: STAT_OK
-    use model, only: model_t, model_eval_b, model_stiff_mass_apply
+    use model, only: model_t, model_stiff_apply, model_stiff_mass_apply
     use nitsche_contact, only: contact_eval
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
                            mass_solver_name
@@ -24,7 +24,7 @@ module explicit_schemes
         real(dp) :: beta = 0.25_dp                !! corrector beta
         real(dp) :: gamma = 0.5_dp                !! corrector gamma
         type(mass_solver_t) :: ms                 !! M^{-1}
-        real(dp), allocatable :: vp(:), up(:), ap(:), bp(:), ktp(:), rhs(:), bold(:)
+        real(dp), allocatable :: up(:), ap(:), bp(:), rhs(:), base(:)  !! (n) work vectors
     contains
         procedure :: init => pc_init
         procedure :: step => pc_step
@@ -55,8 +55,7 @@ contains
             this%alpha = prm%alpha
             this%beta = (1.0_dp + prm%alpha)**2 / 4.0_dp; this%gamma = 0.5_dp + prm%alpha
         end select
-        allocate (this%vp(n), this%up(n), this%ap(n), this%bp(n), this%ktp(n), this%rhs(n), &
-                  this%bold(n))
+        allocate (this%up(n), this%ap(n), this%bp(n), this%rhs(n), this%base(n))
         call mass_solver_start(this%ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg)
     end subroutine pc_init
 
@@ -73,33 +72,53 @@ contains
         name = mass_solver_name(this%ms)
     end function pc_solver
 
-    !> One predictor-corrector step: two B evaluations, two M^{-1} applications.
+    !> One predictor-corrector step: two B evaluations, two M^{-1} applications, and
+    !> three passes over the vectors besides them (the predictor; the first right-hand
+    !> side with the part of the second that is known then, L + alpha B(u); the update).
     subroutine pc_step(this, mdl, st, stat, errmsg)
         class(pc_scheme_t), intent(inout) :: this           !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(state_t), intent(inout) :: st                  !! state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: dt, e1, e2
-        integer :: act
+        real(dp) :: dt, e1, e2, c1, c2, g1, g2, al
+        integer :: act, i
         dt = this%dt
-        this%vp = st%v + dt * st%a
-        this%up = st%u + dt * this%vp
-        call model_eval_b(mdl, this%up, this%bp, this%ktp, act, e1, e2)
-        this%rhs = mdl%load + this%alpha * st%bu - (1.0_dp + this%alpha) * this%bp
+        al = this%alpha
+        ! predictor u^p = u + dt (v + dt a), and B(u^p)
+        do i = 1, size(st%u)
+            this%up(i) = st%u(i) + dt * (st%v(i) + dt * st%a(i))
+        end do
+        call model_stiff_apply(mdl, this%up, this%bp)
+        act = 0
+        if (mdl%has_contact) call contact_eval(mdl%ct, this%up, this%bp, act, e1, e2)
+        ! M a^p = L + alpha B(u) - (1 + alpha) B(u^p); base = L + alpha B(u) for the corrector
+        do i = 1, size(st%u)
+            this%base(i) = mdl%load(i) + al * st%bu(i)
+            this%rhs(i) = this%base(i) - (1.0_dp + al) * this%bp(i)
+        end do
         call mass_solver_apply(this%ms, this%rhs, this%ap, stat, errmsg)
         if (stat /= STAT_OK) return
-        st%u = st%u + dt * st%v + 0.5_dp * dt**2 * ((1.0_dp - 2.0_dp * this%beta) * st%a &
-                                                   + 2.0_dp * this%beta * this%ap)
-        st%v = st%v + dt * ((1.0_dp - this%gamma) * st%a + this%gamma * this%ap)
-        this%bold = st%bu
+        ! u' = u + dt v + dt^2/2 ((1 - 2 beta) a + 2 beta a^p), v' = v + dt ((1 - gamma) a
+        ! + gamma a^p)
+        c1 = 1.0_dp - 2.0_dp * this%beta
+        c2 = 2.0_dp * this%beta
+        g1 = 1.0_dp - this%gamma
+        g2 = this%gamma
+        do i = 1, size(st%u)
+            st%u(i) = st%u(i) + dt * st%v(i) + 0.5_dp * dt**2 * (c1 * st%a(i) + c2 * this%ap(i))
+            st%v(i) = st%v(i) + dt * (g1 * st%a(i) + g2 * this%ap(i))
+        end do
         ! B(u') = K_theta u' + C(u'), with M v' formed in the same pass
         call model_stiff_mass_apply(mdl, st%u, st%v, st%ktu, st%mv)
         st%bu = st%ktu
         st%active = 0; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
         if (mdl%has_contact) call contact_eval(mdl%ct, st%u, st%bu, st%active, st%e_pen, &
                                                st%e_theta)
-        this%rhs = mdl%load + this%alpha * this%bold - (1.0_dp + this%alpha) * st%bu
+        ! M a' = L + alpha B(u) - (1 + alpha) B(u')
+        do i = 1, size(st%u)
+            this%rhs(i) = this%base(i) - (1.0_dp + al) * st%bu(i)
+        end do
         call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
         st%newton_its = 0
         st%t = st%t + dt
