@@ -30,7 +30,14 @@ module sparse
     !> row group and the columns of a column group, padded with zeros to 2x2; a group
     !> of one dof reads its single x entry twice (col2 = col1) against a zero column.
     !> Four products per pair of index loads: about twice as fast as csc_matvec_t
-    !> on 2D elasticity matrices.
+    !> on 2D elasticity matrices. The products sum the two rows of a block as one
+    !> 2-vector, [y1, y2] = [y1, y2] + [a11, a21] x1 + [a12, a22] x2: gfortran packs
+    !> each step into one SSE2 multiply and add (x86-64 baseline, no -march), and each
+    !> row keeps its summation order (bitwise equal to the scalar loop). This needs the
+    !> vector dummies `contiguous`: gfortran 12 vectorizes the loop only from the store
+    !> of a group's two results to adjacent addresses (a strided actual argument is
+    !> copied in). When every group is a pair, the kernels read x, v, d as pairs
+    !> x(c:c+1) and skip col2.
     type, public :: block2_t
         integer :: n = 0                          !! matrix size
         integer :: n_groups = 0                   !! row/column groups
@@ -281,10 +288,7 @@ contains
         end do
     end subroutine block2_from_csc
 
-    !> y = B x for a block2_t matrix.
-    !> The two rows of a block are summed as one 2-vector ([y1, y2] += [a11, a21] x1 +
-    !> [a12, a22] x2), which packs each step into one SSE2 operation while keeping each
-    !> row's summation order.
+    !> y = B x for a block2_t matrix (rows of a block summed as a 2-vector, see block2_t).
     pure subroutine block2_matvec(b, x, y)
         type(block2_t), intent(in) :: b                    !! matrix
         real(dp), intent(in), contiguous :: x(:)           !! (n)
