@@ -33,11 +33,13 @@ module sparse
     !> on 2D elasticity matrices. The products sum the two rows of a block as one
     !> 2-vector, [y1, y2] = [y1, y2] + [a11, a21] x1 + [a12, a22] x2: gfortran packs
     !> each step into one SSE2 multiply and add (x86-64 baseline, no -march), and each
-    !> row keeps its summation order (bitwise equal to the scalar loop). This needs the
-    !> vector dummies `contiguous`: gfortran 12 vectorizes the loop only from the store
-    !> of a group's two results to adjacent addresses (a strided actual argument is
-    !> copied in). When every group is a pair, the kernels read x, v, d as pairs
-    !> x(c:c+1) and skip col2.
+    !> row keeps its summation order (bitwise equal to the scalar loop). This needs
+    !> vector dummies of unit stride: gfortran 12 vectorizes the loop only from the
+    !> store of a group's two results to adjacent addresses. They are explicit-shape
+    !> (a contiguous actual is passed as is after a runtime stride check, where a
+    !> `contiguous` assumed-shape dummy would have gfortran 12 copy every actual in and
+    !> out). When every group is a pair, the kernels read x, v, d as pairs x(c:c+1)
+    !> and skip col2.
     type, public :: block2_t
         integer :: n = 0                          !! matrix size
         integer :: n_groups = 0                   !! row/column groups
@@ -291,8 +293,8 @@ contains
     !> y = B x for a block2_t matrix (rows of a block summed as a 2-vector, see block2_t).
     pure subroutine block2_matvec(b, x, y)
         type(block2_t), intent(in) :: b                    !! matrix
-        real(dp), intent(in), contiguous :: x(:)           !! (n)
-        real(dp), intent(out), contiguous :: y(:)          !! (n)
+        real(dp), intent(in) :: x(b%n)                     !! (n)
+        real(dp), intent(out) :: y(b%n)                    !! (n)
         integer :: g, k, i
         real(dp) :: s(2)
         do g = 1, b%n_groups
@@ -316,12 +318,12 @@ contains
     pure subroutine block2_matvec_km(kb, mb, x, v, d, kx, mv, md)
         type(block2_t), intent(in) :: kb                   !! K
         type(block2_t), intent(in) :: mb                   !! M, same block pattern as kb
-        real(dp), intent(in), contiguous :: x(:)           !! (n) vector multiplied by K
-        real(dp), intent(in), contiguous :: v(:)           !! (n) first vector multiplied by M
-        real(dp), intent(in), contiguous :: d(:)           !! (n) second vector multiplied by M
-        real(dp), intent(out), contiguous :: kx(:)         !! (n) K x
-        real(dp), intent(out), contiguous :: mv(:)         !! (n) M v
-        real(dp), intent(out), contiguous :: md(:)         !! (n) M d
+        real(dp), intent(in) :: x(kb%n)                    !! (n) vector multiplied by K
+        real(dp), intent(in) :: v(kb%n)                    !! (n) first vector multiplied by M
+        real(dp), intent(in) :: d(kb%n)                    !! (n) second vector multiplied by M
+        real(dp), intent(out) :: kx(kb%n)                  !! (n) K x
+        real(dp), intent(out) :: mv(kb%n)                  !! (n) M v
+        real(dp), intent(out) :: md(kb%n)                  !! (n) M d
         integer :: g, k, c1, c2, i
         real(dp) :: y(2), p(2), q(2)
         do g = 1, kb%n_groups
@@ -369,11 +371,11 @@ contains
     !> (see block2_scalar_blocks). kx is bitwise equal to block2_matvec's.
     pure subroutine block2_matvec_ks2(kb, ms, x, v, kx, mv)
         type(block2_t), intent(in) :: kb                   !! K (every group a pair)
-        real(dp), intent(in), contiguous :: ms(:)          !! (n_blocks) scalar blocks of M
-        real(dp), intent(in), contiguous :: x(:)           !! (n) vector multiplied by K
-        real(dp), intent(in), contiguous :: v(:)           !! (n) vector multiplied by M
-        real(dp), intent(out), contiguous :: kx(:)         !! (n) K x
-        real(dp), intent(out), contiguous :: mv(:)         !! (n) M v
+        real(dp), intent(in) :: ms(size(kb%col1))          !! (n_blocks) scalar blocks of M
+        real(dp), intent(in) :: x(kb%n)                    !! (n) vector multiplied by K
+        real(dp), intent(in) :: v(kb%n)                    !! (n) vector multiplied by M
+        real(dp), intent(out) :: kx(kb%n)                  !! (n) K x
+        real(dp), intent(out) :: mv(kb%n)                  !! (n) M v
         integer :: g, k, c, i
         real(dp) :: y(2), p(2)
         do g = 1, kb%n_groups
@@ -394,13 +396,13 @@ contains
     !> pattern of kb (see block2_scalar_blocks). kx is bitwise equal to block2_matvec's.
     pure subroutine block2_matvec_ks3(kb, ms, x, v, d, kx, mv, md)
         type(block2_t), intent(in) :: kb                   !! K (every group a pair)
-        real(dp), intent(in), contiguous :: ms(:)          !! (n_blocks) scalar blocks of M
-        real(dp), intent(in), contiguous :: x(:)           !! (n) vector multiplied by K
-        real(dp), intent(in), contiguous :: v(:)           !! (n) first vector multiplied by M
-        real(dp), intent(in), contiguous :: d(:)           !! (n) second vector multiplied by M
-        real(dp), intent(out), contiguous :: kx(:)         !! (n) K x
-        real(dp), intent(out), contiguous :: mv(:)         !! (n) M v
-        real(dp), intent(out), contiguous :: md(:)         !! (n) M d
+        real(dp), intent(in) :: ms(size(kb%col1))          !! (n_blocks) scalar blocks of M
+        real(dp), intent(in) :: x(kb%n)                    !! (n) vector multiplied by K
+        real(dp), intent(in) :: v(kb%n)                    !! (n) first vector multiplied by M
+        real(dp), intent(in) :: d(kb%n)                    !! (n) second vector multiplied by M
+        real(dp), intent(out) :: kx(kb%n)                  !! (n) K x
+        real(dp), intent(out) :: mv(kb%n)                  !! (n) M v
+        real(dp), intent(out) :: md(kb%n)                  !! (n) M d
         integer :: g, k, c, i
         real(dp) :: y(2), p(2), q(2)
         do g = 1, kb%n_groups
