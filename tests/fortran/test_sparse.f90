@@ -1,11 +1,12 @@
 !> Unit tests of module sparse: COO -> CSC (sorting, duplicates, explicit zeros,
 !> bad indices), csc_find, matvec kernels against a dense product, drop_zeros,
-!> same-pattern value updates. Exit status 1 (error stop) on any failure.
+!> same-pattern value updates, the fused node-block products. Exit status 1 (error stop) on any failure.
 program test_sparse
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, MSG_LEN
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec, csc_matvec_t, &
-                      csc_drop_zeros, block2_t, block2_from_csc, block2_matvec
+                      csc_drop_zeros, block2_t, block2_from_csc, block2_matvec, &
+                      block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, block2_matvec_ks3
     use unit_checks, only: checks_t
     implicit none
 
@@ -18,6 +19,7 @@ program test_sparse
     call test_random_against_dense()
     call test_drop_zeros()
     call test_block2()
+    call test_block2_fused()
 
     call checks%finish('test_sparse')
 
@@ -204,6 +206,115 @@ contains
         call block2_from_csc(a, [1, 4, n + 1], b, stat)
         call checks%check(stat == STAT_BAD_INPUT, 'block2: a group of 3 dofs is refused')
     end subroutine test_block2
+
+    !> The fused node-block products (K x with one or two M products) against dense
+    !> products, on random symmetric K and M sharing one pattern; K x must be bitwise
+    !> equal to block2_matvec's (the kernels promise the same per-row order).
+    !> km runs on mixed groups of one and two dofs; ks2/ks3 on pairs with M = s I blocks.
+    subroutine test_block2_fused()
+        integer, parameter :: ng = 40, m = 3 * ng
+        integer :: sizes(ng), first(ng + 1), n, k, nt, stat, g, h, i, j, t
+        integer :: r(8 * m), c(8 * m)
+        real(dp) :: kv(8 * m), mv_(8 * m), u(2 * m), sb(ng, ng), kval, mval
+        real(dp), allocatable :: kd(:, :), md_(:, :), x(:), v(:), d(:), kx(:), mv(:), md(:), &
+                                 kx0(:), s(:)
+        type(csc_t) :: ka, ma
+        type(block2_t) :: kb, mb
+        logical :: scal, pairs
+        call seed(777)
+        do t = 1, 2
+            pairs = t == 2
+            call random_number(u(1:ng))
+            sizes = merge(1, 2, u(1:ng) < 0.3_dp .and. .not. pairs)
+            first(1) = 1
+            do g = 1, ng
+                first(g + 1) = first(g) + sizes(g)
+            end do
+            n = first(ng + 1) - 1
+            call random_number(sb)
+            sb = sb + transpose(sb)
+            ! m random block positions (g, h) and their mirrors, all entries of each block
+            call random_number(u)
+            nt = 0
+            do k = 1, m
+                g = 1 + int(u(k) * ng)
+                h = 1 + int(u(m + k) * ng)
+                do i = first(g), first(g + 1) - 1
+                    do j = first(h), first(h + 1) - 1
+                        if (pairs) then   ! M block = sb(g, h) I
+                            mval = sb(g, h) * merge(1.0_dp, 0.0_dp, i - first(g) == j - first(h))
+                        else
+                            call random_number(mval)
+                        end if
+                        call random_number(kval)
+                        r(nt + 1:nt + 2) = [i, j]
+                        c(nt + 1:nt + 2) = [j, i]
+                        kv(nt + 1:nt + 2) = kval
+                        mv_(nt + 1:nt + 2) = mval
+                        nt = nt + 2
+                    end do
+                end do
+            end do
+            allocate (kd(n, n), md_(n, n), x(n), v(n), d(n), kx(n), mv(n), md(n), kx0(n))
+            kd = 0.0_dp
+            md_ = 0.0_dp
+            do k = 1, nt
+                kd(r(k), c(k)) = kd(r(k), c(k)) + kv(k)
+                md_(r(k), c(k)) = md_(r(k), c(k)) + mv_(k)
+            end do
+            call csc_from_coo(n, r(1:nt), c(1:nt), kv(1:nt), ka, stat)
+            call checks%check(stat == STAT_OK, 'block2 fused: coo K')
+            call csc_from_coo(n, r(1:nt), c(1:nt), mv_(1:nt), ma, stat)
+            call checks%check(stat == STAT_OK, 'block2 fused: coo M')
+            call block2_from_csc(ka, first, kb, stat)
+            call checks%check(stat == STAT_OK, 'block2 fused: build K')
+            call block2_from_csc(ma, first, mb, stat)
+            call checks%check(stat == STAT_OK, 'block2 fused: build M')
+            call random_number(x)
+            call random_number(v)
+            call random_number(d)
+            x = x - 0.5_dp
+            call block2_matvec(kb, x, kx0)
+            call block2_scalar_blocks(mb, s, scal)
+            call checks%check(scal .eqv. pairs, 'block2 fused: scalar blocks found iff all pairs')
+            call block2_matvec_km(kb, mb, x, v, d, kx, mv, md)
+            call check_fused('km', kd, md_, x, v, kx0, kx, mv, d, md)
+            if (pairs .and. scal) then
+                call block2_matvec_ks3(kb, s, x, v, d, kx, mv, md)
+                call check_fused('ks3', kd, md_, x, v, kx0, kx, mv, d, md)
+                call block2_matvec_ks2(kb, s, x, v, kx, mv)
+                call check_fused('ks2', kd, md_, x, v, kx0, kx, mv)
+            end if
+            deallocate (kd, md_, x, v, d, kx, mv, md, kx0)
+        end do
+    end subroutine test_block2_fused
+
+    !> A fused product against dense ones: kx bitwise equal to block2_matvec's kx0,
+    !> kx = K x, mv = M v and (when given) md = M d to thr.
+    subroutine check_fused(what, kd, md_, x, v, kx0, kx, mv, d, md)
+        character(len=*), intent(in) :: what           !! kernel name
+        real(dp), intent(in) :: kd(:, :)               !! dense K
+        real(dp), intent(in) :: md_(:, :)              !! dense M
+        real(dp), intent(in) :: x(:)                   !! vector multiplied by K
+        real(dp), intent(in) :: v(:)                   !! vector multiplied by M
+        real(dp), intent(in) :: kx0(:)                 !! block2_matvec's K x
+        real(dp), intent(in) :: kx(:)                  !! the kernel's K x
+        real(dp), intent(in) :: mv(:)                  !! the kernel's M v
+        real(dp), intent(in), optional :: d(:)         !! second vector multiplied by M
+        real(dp), intent(in), optional :: md(:)        !! the kernel's M d
+        real(dp) :: yd(size(x))
+        call checks%check(all(kx == kx0), 'block2 fused: '//what//' K x bitwise = block2_matvec')
+        yd = matmul(kd, x)
+        call checks%check(maxval(abs(kx - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), &
+                          'block2 fused: '//what//' K x')
+        yd = matmul(md_, v)
+        call checks%check(maxval(abs(mv - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), &
+                          'block2 fused: '//what//' M v')
+        if (.not. (present(d) .and. present(md))) return
+        yd = matmul(md_, d)
+        call checks%check(maxval(abs(md - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), &
+                          'block2 fused: '//what//' M d')
+    end subroutine check_fused
 
     !> Number of distinct (r, c) positions.
     function count_distinct(n, r, c) result(cnt)
