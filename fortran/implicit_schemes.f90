@@ -490,6 +490,7 @@ contains
         integer :: i, j, k, nb
         s1 = 0.0_dp; s2 = 0.0_dp; s3 = 0.0_dp; s4 = 0.0_dp
         nb = n - mod(n, LANES)
+        !GCC$ novector
         do i = 1, nb, LANES
             do j = 1, LANES
                 k = i + j - 1
