@@ -589,16 +589,18 @@ def bench_specs(quick: bool = False, only: Iterable[str] | None = None) -> list[
     return specs
 
 
-def _floors(spec: RunSpec, out_dir: str, n_rep: int = 1000) -> dict[str, float | None]:
+def _floors(spec: RunSpec, out_dir: str, n_rep: int = 1000,
+            batches: int = 10) -> dict[str, float | None]:
     """µs of one triangular solve with the cached iteration-matrix factors (implicit
     schemes), one M^{-1} application and one SpMV with K_θ, from the core's timing helper
-    ``dc_bench_floor(handle, n_rep) -> (t_solve_us, t_spmv_us, t_mass_us)`` (mean over
-    n_rep; 0 = does not apply to the scheme). None when the core lacks it or it fails."""
+    ``dc_bench_floor(handle, n_rep) -> (t_solve_us, t_spmv_us, t_mass_us)`` (0 = does not
+    apply to the scheme): the best of ``batches`` batch means, n_rep calls in all. None
+    when the core lacks it or it fails."""
     none = {"floor_solve_us": None, "floor_mass_solve_us": None, "floor_spmv_us": None}
     from .core import bench_floors
 
     try:
-        got = bench_floors(spec.scene(), n_rep)
+        got = bench_floors(spec.scene(), n_rep, batches)
     except Exception as exc:  # noqa: BLE001 - a benchmark reports, it does not fail
         print(f"bench: {spec.name}: floors not measured ({exc})", file=sys.stderr)
         return none
@@ -610,7 +612,10 @@ def _floors(spec: RunSpec, out_dir: str, n_rep: int = 1000) -> dict[str, float |
 
 def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100) -> dict[str, Any]:
     """One benchmark row: the run with its default output (every = 1), the same run with
-    every = ``sparse_every`` (the cost of the trace), and the floors."""
+    every = ``sparse_every`` (the cost of the trace), and the floors, measured right before
+    and right after the runs and averaged (these machines' speed drifts by tens of percent
+    over a minute, which would bias a ratio taken against one measurement)."""
+    before = _floors(spec, out_root)
     full = run_spec(spec, os.path.join(out_root, spec.name))
     sparse = dataclasses.replace(spec, settings=dict(spec.settings,
                                                      **{"output.every": sparse_every}))
@@ -639,7 +644,10 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100) -> dict[str
         "factorizations": full.get("factorizations"),
         "loadavg": _loadavg(),
     }
-    row.update(_floors(spec, out_root))
+    after = _floors(spec, out_root)
+    for key in before:
+        got = [f[key] for f in (before, after) if f[key] is not None]
+        row[key] = sum(got) / len(got) if got else None
     row["floor_us"] = _step_floor(row)
     row["floor_ratio"] = (row["us_per_step"] / row["floor_us"]
                           if row.get("us_per_step") and row["floor_us"] else None)
