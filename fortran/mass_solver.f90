@@ -2,7 +2,7 @@
 !> LDL^T) of the compacted consistent mass otherwise (factorized once). When every 2x2
 !> node block of M is m I (2D P1 with both components of every node free), M = S (x) I2
 !> with S the scalar mass on the nodes, and M x = b is solved as S X = B with the two
-!> components as two right-hand sides: a factor a quarter the size of M's, each of its
+!> components as two right-hand sides: a factor half the size of M's, each of its
 !> entries used twice.
 module mass_solver
     use kinds, only: dp
