@@ -10,7 +10,7 @@ program test_cholmod
     use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, &
                              csc_is_symmetric, BACKEND_CHOLMOD, BACKEND_UMFPACK, SYM_RTOL
-    use unit_checks, only: checks_t
+    use unit_checks, only: checks_t, seed
     implicit none
 
     real(dp), parameter :: thr = 1.0e-12_dp   ! solves of well-conditioned systems (relative)
@@ -372,15 +372,4 @@ contains
         call ls_free(f)
         call chol_free(ch)
     end subroutine test_bad_use
-
-    !> Reproducible random_number stream.
-    subroutine seed(s)
-        integer, intent(in) :: s   !! seed
-        integer :: nseed, i
-        integer, allocatable :: vals(:)
-        call random_seed(size=nseed)
-        allocate (vals(nseed))
-        vals = [(s + 37 * i, i = 1, nseed)]
-        call random_seed(put=vals)
-    end subroutine seed
 end program test_cholmod

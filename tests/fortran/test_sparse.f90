@@ -7,7 +7,7 @@ program test_sparse
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec, csc_matvec_t, &
                       csc_drop_zeros, block2_t, block2_from_csc, block2_matvec, &
                       block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, block2_matvec_ks3
-    use unit_checks, only: checks_t
+    use unit_checks, only: checks_t, seed
     implicit none
 
     real(dp), parameter :: thr = 100 * epsilon(1.0_dp)   ! algebraic identities (relative)
@@ -331,15 +331,4 @@ contains
         end do
         cnt = count(seen)
     end function count_distinct
-
-    !> Reproducible random_number stream.
-    subroutine seed(s)
-        integer, intent(in) :: s   !! seed
-        integer :: nseed, i
-        integer, allocatable :: vals(:)
-        call random_seed(size=nseed)
-        allocate (vals(nseed))
-        vals = [(s + 37 * i, i = 1, nseed)]
-        call random_seed(put=vals)
-    end subroutine seed
 end program test_sparse

@@ -7,7 +7,7 @@ program test_umfpack
     use sparse, only: csc_t, csc_from_coo, csc_matvec
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free, lu_rcond, &
                        umfpack_status_text
-    use unit_checks, only: checks_t
+    use unit_checks, only: checks_t, seed
     implicit none
 
     real(dp), parameter :: thr = 1.0e-12_dp   ! solves of well-conditioned systems (relative)
@@ -192,15 +192,4 @@ contains
             end do
         end do
     end subroutine add_diagonal
-
-    !> Reproducible random_number stream.
-    subroutine seed(s)
-        integer, intent(in) :: s   !! seed
-        integer :: nseed, i
-        integer, allocatable :: vals(:)
-        call random_seed(size=nseed)
-        allocate (vals(nseed))
-        vals = [(s + 37 * i, i = 1, nseed)]
-        call random_seed(put=vals)
-    end subroutine seed
 end program test_umfpack

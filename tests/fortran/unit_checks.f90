@@ -1,6 +1,7 @@
 !> The check harness of the Fortran unit-test programs: a counter of failed checks
 !> (held by the program, no module state), one line per failure, and the closing
-!> verdict (exit status 1 through error stop when a check failed).
+!> verdict (exit status 1 through error stop when a check failed); and a reproducible
+!> random_number stream for the programs that draw test matrices.
 module unit_checks
     implicit none
     private
@@ -12,6 +13,8 @@ module unit_checks
         procedure :: check => checks_check
         procedure :: finish => checks_finish
     end type checks_t
+
+    public :: seed
 
 contains
 
@@ -36,4 +39,15 @@ contains
         end if
         write (*, '(a)') program_name//': all checks passed'
     end subroutine checks_finish
+
+    !> Reproducible random_number stream.
+    subroutine seed(s)
+        integer, intent(in) :: s   !! seed
+        integer :: nseed, i
+        integer, allocatable :: vals(:)
+        call random_seed(size=nseed)
+        allocate (vals(nseed))
+        vals = [(s + 37 * i, i = 1, nseed)]
+        call random_seed(put=vals)
+    end subroutine seed
 end module unit_checks
