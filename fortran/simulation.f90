@@ -26,7 +26,7 @@ module simulation
                         write_text_atomic, signal_caught
     use sparse, only: csc_t
     use vtk_output, only: vtk_write_vtu, vtk_write_pvd
-    use version_info, only: DYNCONTACT_VERSION
+    use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
     implicit none
     private
 
@@ -554,7 +554,8 @@ contains
                dt_crit_line// &
                '  "solver": '//json_string(sim_solver(sim))//','//nl// &
                '  "scene": '//scene_to_json(sim%scn)//','//nl// &
-               '  "version": '//json_string(DYNCONTACT_VERSION)//nl//'}'//nl
+               '  "version": '//json_string(DYNCONTACT_VERSION)//','//nl// &
+               '  "isa": '//json_string(DYNCONTACT_ISA)//nl//'}'//nl
         call write_text_atomic(trim(sim%scn%out_dir)//'/summary.json', text, stat, errmsg, &
                                in_place=present(last))
     end subroutine write_summary

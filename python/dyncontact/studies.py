@@ -182,7 +182,8 @@ def run_spec(spec: RunSpec, out_dir: str, clean: bool = True) -> dict[str, Any]:
                steps=s.get("steps"), t_end_reached=s.get("t_end_reached"),
                wall_s=s.get("wall_s"), newton_its_total=s.get("newton_its_total"),
                factorizations=s.get("factorizations"), dofs=s.get("dofs"),
-               elements=s.get("elements"), rows=int(len(res.trace.get("t", ()))))
+               elements=s.get("elements"), rows=int(len(res.trace.get("t", ()))),
+               isa=s.get("isa"))
     return rec
 
 
@@ -642,6 +643,7 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100) -> dict[str
         "newton_its_total": its,
         "newton_its_per_step": its / steps if its is not None and steps else None,
         "factorizations": full.get("factorizations"),
+        "isa": full.get("isa"),
         "loadavg": _loadavg(),
     }
     after = _floors(spec, out_root)
@@ -769,6 +771,9 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     print("wall s = summary.json wall_s (core time loop, trace every step); meas. s = "
           "around dyncontact.run (set-up and reading the trace back included); s e=100 = "
           "the same run with output.every = 100.")
+    isas = sorted({str(r.get("isa")) for r in rows if r.get("isa")})
+    if isas:
+        print(f"core built for: {', '.join(isas)} (meson option simd; see meson.options)")
     doc = {
         "generated": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "version": _version(),
@@ -776,6 +781,7 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
                     "python": platform.python_version(), "loadavg_start": load,
                     "loadavg_end": _loadavg()},
         "floor_api": FLOOR_API if floor_api_available() else None,
+        "isa": isas,
         "total_wall_s": time.perf_counter() - t0,
         "columns": {k: h for h, k, _ in _BENCH_COLUMNS},
         "rows": rows,
