@@ -33,7 +33,7 @@
 !> dropped part of Z T is below 1e-20 of the correction, far under round-off.
 module implicit_schemes
     use kinds, only: dp
-    use vector_ops, only: LANES, lane_sum
+    use vector_ops, only: dot
     use text, only: int_text, real_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
@@ -92,6 +92,7 @@ module implicit_schemes
         real(dp), allocatable :: vq(:)            !! (massless dofs) their v' = (u' - u)/dt
         real(dp), allocatable :: md(:)            !! (n) M (u - u~) of the next step
         real(dp), allocatable :: dvec(:)          !! (n) u - u~ (the vector multiplied by M)
+        real(dp), allocatable :: bvec(:)          !! (n) b of the step's residual
         real(dp), allocatable :: r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
     contains
         procedure :: init => implicit_init
@@ -144,7 +145,7 @@ contains
         else
             this%c = (this%theta * this%dt)**2
         end if
-        allocate (this%md(n), this%dvec(n), this%r(n), this%dx(n), &
+        allocate (this%md(n), this%dvec(n), this%r(n), this%bvec(n), this%dx(n), &
                   this%x(n), this%scratch(n))
 
         ! initial acceleration (Newmark family only)
@@ -237,7 +238,7 @@ contains
             kb = 1.0_dp - this%theta
             acc = this%theta * dt**2
         end if
-        call newton_rhs(n, acc, kb, this%c, mdl%load, st%bu, this%md, this%r, sums)
+        call newton_rhs(n, acc, kb, this%c, mdl%load, st%bu, this%md, this%r, this%bvec, sums)
         scale = sqrt(sums(1)) + this%c * sqrt(sums(2)) + sqrt(sums(3))
         rnorm = sqrt(sums(4))
         ! contact part at u^n: kept from the end of the previous step when u^n on the
@@ -477,40 +478,23 @@ contains
         end do
     end subroutine matvec_small
 
-    !> The Newton initial residual in one pass: r = md + c bu - b with b = cb (load - kb
-    !> bu), and the sums of squares of md, bu, b, r (LANES partial sums each, so the pass
-    !> is not bound by one add chain).
-    pure subroutine newton_rhs(n, cb, kb, c, load, bu, md, r, sums)
+    !> The Newton initial residual: r = md + c bu - b with b = cb (load - kb bu) in one
+    !> pass, then the sums of squares of md, bu, b, r, each a `dot` (LANES partial sums:
+    !> one reduction a loop is what the compiler vectorizes cleanly; several in one loop
+    !> it interleaves with shuffles).
+    pure subroutine newton_rhs(n, cb, kb, c, load, bu, md, r, b, sums)
         integer, intent(in) :: n                            !! size
         real(dp), intent(in) :: cb, kb, c                   !! coefficients
         real(dp), intent(in) :: load(n), bu(n), md(n)       !! L, B(u^n), M (u^n - u~)
         real(dp), intent(out) :: r(n)                       !! R(u^n)
+        real(dp), intent(out) :: b(n)                       !! b
         real(dp), intent(out) :: sums(4)                    !! |md|^2, |bu|^2, |b|^2, |r|^2
-        real(dp) :: s1(LANES), s2(LANES), s3(LANES), s4(LANES), bi
-        integer :: i, j, k, nb
-        s1 = 0.0_dp; s2 = 0.0_dp; s3 = 0.0_dp; s4 = 0.0_dp
-        nb = n - mod(n, LANES)
-        !GCC$ novector
-        do i = 1, nb, LANES
-            do j = 1, LANES
-                k = i + j - 1
-                bi = cb * (load(k) - kb * bu(k))
-                r(k) = md(k) + c * bu(k) - bi
-                s1(j) = s1(j) + md(k)**2
-                s2(j) = s2(j) + bu(k)**2
-                s3(j) = s3(j) + bi**2
-                s4(j) = s4(j) + r(k)**2
-            end do
+        integer :: k
+        do k = 1, n
+            b(k) = cb * (load(k) - kb * bu(k))
+            r(k) = md(k) + c * bu(k) - b(k)
         end do
-        do k = nb + 1, n
-            bi = cb * (load(k) - kb * bu(k))
-            r(k) = md(k) + c * bu(k) - bi
-            s1(1) = s1(1) + md(k)**2
-            s2(1) = s2(1) + bu(k)**2
-            s3(1) = s3(1) + bi**2
-            s4(1) = s4(1) + r(k)**2
-        end do
-        sums = [lane_sum(s1), lane_sum(s2), lane_sum(s3), lane_sum(s4)]
+        sums = [dot(md, md), dot(bu, bu), dot(b, b), dot(r, r)]
     end subroutine newton_rhs
 
     !> The Newmark-family update from x = u - dx, in one pass: the step's predictor
