@@ -13,7 +13,7 @@ module model
     use mass_redistribution, only: mass_region, mass_redistribute
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
-                               facet_shape, QUAD_EXACT, QUAD_GAUSS
+                               facet_shape, MAX_FN, QUAD_EXACT, QUAD_GAUSS
     implicit none
     private
 
@@ -720,7 +720,7 @@ contains
         real(dp), intent(out) :: vn           !! v . n at the probe
         real(dp), intent(out) :: pn           !! contact pressure (<= 0)
         integer :: q, f
-        real(dp) :: ue(mdl%ndof_e), ve(mdl%ndof_e), nsh(mdl%ct%nfn)
+        real(dp) :: ue(mdl%ndof_e), ve(mdl%ndof_e), nsh(MAX_FN)
         un = 0.0_dp; vn = 0.0_dp; pn = 0.0_dp
         if (mdl%n_probe == 0) return
         do q = 1, mdl%n_probe
@@ -732,8 +732,8 @@ contains
                                      mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), &
                                      mdl%probe_xi(q))
             if (q == 1) then
-                un = dot_product(nsh, matmul(ue, mdl%ct%nvec(:, :, f)))
-                vn = dot_product(nsh, matmul(ve, mdl%ct%nvec(:, :, f)))
+                un = dot_product(nsh(1:mdl%ct%nfn), matmul(ue, mdl%ct%nvec(:, :, f)))
+                vn = dot_product(nsh(1:mdl%ct%nfn), matmul(ve, mdl%ct%nvec(:, :, f)))
             end if
         end do
         pn = pn / mdl%n_probe

@@ -25,6 +25,11 @@ module nitsche_contact
 
     integer, parameter, public :: QUAD_EXACT = 1   !! split at the kink
     integer, parameter, public :: QUAD_GAUSS = 2   !! fixed Gauss rule
+    !> Largest owner-cell dofs (dim (dim+1), dim <= 2) and facet nodes: the facet kernels'
+    !> local arrays have these fixed sizes (run-time sizes put them on the heap, one
+    !> malloc a facet).
+    integer, parameter :: MAX_E = 6
+    integer, parameter, public :: MAX_FN = 2
 
     !> Contact facets with everything constant precomputed.
     type, public :: contact_t
@@ -58,9 +63,9 @@ contains
     pure function facet_shape(nfn, xi) result(nsh)
         integer, intent(in) :: nfn     !! nodes per facet (1 or 2)
         real(dp), intent(in) :: xi     !! position along the facet
-        real(dp) :: nsh(nfn)
+        real(dp) :: nsh(MAX_FN)        !! the first nfn entries (the rest 0)
         if (nfn == 1) then
-            nsh = 1.0_dp
+            nsh = [1.0_dp, 0.0_dp]
         else
             nsh = [1.0_dp - xi, xi]
         end if
@@ -90,11 +95,13 @@ contains
         real(dp), intent(out), optional :: qa(:, :) !! (ndof_e, >= active) tangent factors:
         real(dp), intent(out), optional :: qb(:, :) !! qa = (w/gamma) P_theta row, qb = dP/du_e
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
-        real(dp) :: sn, pnode(nfn), xs(6), ws(6), a, b, xi_star
-        real(dp) :: nsh(nfn), pv, nn(ndof_e), ptheta(ndof_e)
-        integer :: np, q
+        real(dp) :: sn, pnode(MAX_FN), xs(6), ws(6), a, b, xi_star
+        real(dp) :: nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
+        integer :: np, q, j
         sn = dot_product(s, ue)
-        pnode = sn - gamma * (matmul(ue, nvec) - gap)
+        do j = 1, nfn
+            pnode(j) = sn - gamma * (dot_product(ue, nvec(:, j)) - gap(j))
+        end do
         r = 0.0_dp
         energy = 0.0_dp
         active = 0
@@ -120,16 +127,18 @@ contains
         end if
         do q = 1, np
             nsh = facet_shape(nfn, xs(q))
-            pv = dot_product(nsh, pnode)
+            pv = dot_product(nsh(1:nfn), pnode(1:nfn))
             if (.not. (pv < 0.0_dp)) cycle
             active = active + 1
-            nn = matmul(nvec, nsh)
-            ptheta = theta * s - gamma * nn
-            r = r + (ws(q) / gamma) * pv * ptheta
+            do j = 1, ndof_e
+                nn(j) = dot_product(nvec(j, :), nsh(1:nfn))
+            end do
+            ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
+            r = r + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
             energy = energy + (0.5_dp * ws(q) / gamma) * pv**2
             if (present(qa)) then
-                qa(:, active) = (ws(q) / gamma) * ptheta
-                qb(:, active) = s - gamma * nn
+                qa(:, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
+                qb(:, active) = s - gamma * nn(1:ndof_e)
             end if
         end do
     end subroutine nitsche_facet
@@ -145,9 +154,13 @@ contains
         real(dp), intent(in) :: gamma          !! gamma_N
         real(dp), intent(in) :: xi             !! position along the facet
         real(dp) :: p
-        real(dp) :: nsh(nfn)
+        real(dp) :: nsh(MAX_FN), un(MAX_FN)
+        integer :: j
         nsh = facet_shape(nfn, xi)
-        p = dot_product(s, ue) - gamma * dot_product(nsh, matmul(ue, nvec) - gap)
+        do j = 1, nfn
+            un(j) = dot_product(ue, nvec(:, j)) - gap(j)
+        end do
+        p = dot_product(s, ue) - gamma * dot_product(nsh(1:nfn), un(1:nfn))
         p = min(p, 0.0_dp)
     end function facet_pressure
 
