@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -116,3 +118,62 @@ def test_core_library_excludes_program_and_api(name):
     sources = [s for src in core[0]["target_sources"] for s in src.get("sources", [])]
     assert not any(s.endswith("/" + name) for s in sources)
     assert any(s.endswith("/kinds.f90") for s in sources)
+
+
+def _summary(out: Path) -> dict:
+    import json
+
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_simd_build_is_bit_identical_to_portable(exe, tmp_path):
+    """meson option simd (meson.options): the default build uses x86-64-v3 (AVX2, no FMA)
+    when the build machine has it; a -Dsimd=portable build must give the same traces,
+    byte for byte (implicit with contact, predictor-corrector, theta)."""
+    import shutil
+    import subprocess
+    import sys
+
+    from test_reliability import write_scene
+
+    scenes = {
+        "hht": {"scheme__t_end": "3.0"},
+        "pc": {"scheme__name": "'pc'", "scheme__dt": "0.0005", "scheme__t_end": "1.0"},
+        "theta": {"scheme__name": "'theta'", "scheme__theta": "1.0", "scheme__t_end": "3.0"},
+    }
+
+    def run_all(binary: Path, tag: str) -> dict[str, Path]:
+        outs = {}
+        for name, over in scenes.items():
+            out = tmp_path / f"{tag}_{name}"
+            scene = write_scene(tmp_path / f"{tag}_{name}.nml", output__dir=f"'{out}'", **over)
+            res = subprocess.run([str(binary), str(scene)], capture_output=True, text=True,
+                                 timeout=120)
+            assert res.returncode == 0, res.stderr
+            outs[name] = out
+        return outs
+
+    main = run_all(exe, "main")
+    isa = _summary(main["hht"])["isa"]
+    assert isa in ("x86-64", "x86-64-v3")
+    if isa != "x86-64-v3":
+        pytest.skip("this machine's build is already the portable one")
+    bindir = Path(sys.executable).parent
+    meson = shutil.which("meson", path=str(bindir)) or shutil.which("meson")
+    ninja = shutil.which("ninja", path=str(bindir)) or shutil.which("ninja")
+    if not meson or not ninja:
+        pytest.skip("meson/ninja not found")
+    env = dict(os.environ, PATH=f"{bindir}{os.pathsep}{os.environ.get('PATH', '')}")
+    env.pop("PYTHONPATH", None)
+    build = tmp_path / "portable"
+    for cmd in ([meson, "setup", str(build), str(ROOT), "-Dsimd=portable"],
+                [ninja, "-C", str(build), "dyncontact"]):
+        res = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
+        assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    portable = run_all(build / "dyncontact", "portable")
+    assert _summary(portable["hht"])["isa"] == "x86-64"
+    for name in scenes:
+        a = (main[name] / "trace.csv").read_bytes()
+        b = (portable[name] / "trace.csv").read_bytes()
+        assert len(a.splitlines()) > 100, name
+        assert a == b, f"{name}: the x86-64-v3 and portable builds' traces differ"
