@@ -380,8 +380,9 @@ subroutine dc_mesh_arrays(path, bar_dim, length, width, h, dim, n_nodes, n_cells
 end subroutine dc_mesh_arrays
 
 !> Cost floors of an open run's step (us): triangular solve with the cached factors
-!> of the iteration matrix (implicit), SpMV with K_theta, M^{-1} application (pc).
-subroutine dc_bench_floor(handle, n_rep, t_solve_us, t_spmv_us, t_mass_us)
+!> of the iteration matrix (implicit), SpMV with K_theta, M^{-1} application (pc), and
+!> the iteration matrix's solve through cholmod_solve2 on the same factor (comparison).
+subroutine dc_bench_floor(handle, n_rep, t_solve_us, t_spmv_us, t_mass_us, t_cholmod_us)
     use iso_c_binding, only: c_int, c_int64_t, c_double
     use simulation, only: simulation_t
     use api_handles, only: sim_from_handle, sim_bench_floor
@@ -391,11 +392,12 @@ subroutine dc_bench_floor(handle, n_rep, t_solve_us, t_spmv_us, t_mass_us)
     real(c_double), intent(out) :: t_solve_us    !! us per triangular solve (0 if none)
     real(c_double), intent(out) :: t_spmv_us     !! us per SpMV
     real(c_double), intent(out) :: t_mass_us     !! us per M^{-1} application (0 if none)
+    real(c_double), intent(out) :: t_cholmod_us  !! us per cholmod_solve2 of the same system (0 if n/a)
     type(simulation_t), pointer :: sim
-    real(c_double) :: a, b, c
+    real(c_double) :: a, b, c, d
     call sim_from_handle(handle, sim)
-    call sim_bench_floor(sim, max(1, int(n_rep)), a, b, c)
-    t_solve_us = a; t_spmv_us = b; t_mass_us = c
+    call sim_bench_floor(sim, max(1, int(n_rep)), a, b, c, d)
+    t_solve_us = a; t_spmv_us = b; t_mass_us = c; t_cholmod_us = d
 end subroutine dc_bench_floor
 
 !> The state of an open run (after dc_sim_open with outputs, and each dc_sim_advance):

@@ -10,7 +10,8 @@ module api_handles
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
     use mass_solver, only: mass_solver_t, mass_solver_apply
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, BACKEND_CHOLMOD
+    use cholmod, only: chol_solve_cholmod
     use simulation, only: simulation_t
     implicit none
     private
@@ -31,19 +32,22 @@ contains
     !> Cost floors of a run's step, in microseconds (mean over n_rep repetitions):
     !> one triangular solve with the cached factors of the iteration matrix (implicit
     !> schemes; 0 otherwise), one SpMV with K_theta, one M^{-1} application (pc
-    !> schemes; 0 otherwise).
-    subroutine sim_bench_floor(sim, n_rep, t_solve, t_spmv, t_mass)
+    !> schemes; 0 otherwise), and the iteration matrix's solve through cholmod_solve2 on
+    !> the same factor (0 when its factors are not CHOLMOD's), to compare with the solve
+    !> the run uses.
+    subroutine sim_bench_floor(sim, n_rep, t_solve, t_spmv, t_mass, t_cholmod)
         type(simulation_t), intent(inout) :: sim   !! an open run
         integer, intent(in) :: n_rep               !! repetitions (> 0)
         real(dp), intent(out) :: t_solve           !! us per triangular solve
         real(dp), intent(out) :: t_spmv            !! us per SpMV with K_theta
         real(dp), intent(out) :: t_mass            !! us per M^{-1} application
+        real(dp), intent(out) :: t_cholmod         !! us per cholmod_solve2 of the same system
         real(dp), allocatable :: b(:), x(:)
         integer(i8) :: c0, c1
         integer :: i, st
         allocate (b(sim%n_dofs), x(sim%n_dofs))
         call random_number(b)
-        t_solve = 0.0_dp; t_mass = 0.0_dp
+        t_solve = 0.0_dp; t_mass = 0.0_dp; t_cholmod = 0.0_dp
         call system_clock(c0)
         do i = 1, n_rep
             call model_stiff_apply(sim%mdl, b, x)
@@ -59,6 +63,14 @@ contains
             end do
             call system_clock(c1)
             t_solve = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+            if (s%lu0%backend == BACKEND_CHOLMOD) then
+                call system_clock(c0)
+                do i = 1, n_rep
+                    call chol_solve_cholmod(s%lu0%ch, b, x, st)
+                end do
+                call system_clock(c1)
+                t_cholmod = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+            end if
         type is (pc_scheme_t)
             t_mass = mass_apply_us(s%ms)
         type is (central_scheme_t)

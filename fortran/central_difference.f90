@@ -20,7 +20,7 @@ module central_difference
     use model, only: model_t, model_apply_jacobian, model_stiff_apply, model_mass_apply
     use nitsche_contact, only: contact_eval
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
-                           mass_solver_name
+                           mass_solver_name, mass_solver_kernel
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t
     implicit none
     private
@@ -38,6 +38,7 @@ module central_difference
         procedure :: step => central_step
         procedure :: free => central_free
         procedure :: solver => central_solver
+        procedure :: kernel => central_kernel
     end type central_scheme_t
 
     public :: central_critical_dt
@@ -76,6 +77,13 @@ contains
         character(len=:), allocatable :: name
         name = mass_solver_name(this%ms)
     end function central_solver
+
+    !> The triangular solve of the M^{-1} applications.
+    function central_kernel(this) result(name)
+        class(central_scheme_t), intent(in) :: this   !! scheme
+        character(len=:), allocatable :: name
+        name = mass_solver_kernel(this%ms)
+    end function central_kernel
 
     !> One step: u' from (u, v, a), B(u') and M v' products, a' = M^{-1}(L - B(u')).
     subroutine central_step(this, mdl, st, stat, errmsg)

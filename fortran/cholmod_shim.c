@@ -9,6 +9,11 @@
  * final_ll = FALSE), fill-reducing ordering chosen by CHOLMOD (AMD, METIS if it helps).
  * Only the upper triangle of the CSC matrix is read (stype = +1): pass the full
  * symmetric matrix or its upper triangle.
+ *
+ * Node pairs: when the dofs 2k, 2k+1 (0-based) come in pairs whose 2x2 blocks are all
+ * stored (the free dofs of the nodes of a 2D mesh), the ordering is AMD's on the graph
+ * of the pairs, each pair kept together (no postordering). L is then made of full 2x2
+ * blocks, which fortran/ldl_solves.f90 copies (dc_cholmod_export) and solves with.
  */
 #include <stdlib.h>
 #include <string.h>
@@ -24,6 +29,7 @@ typedef struct {
     int *rowind;
     cholmod_dense *B, *X, *Y, *E;   /* solve2 right-hand side header and workspaces */
     int bcols;             /* columns of B */
+    int paired;            /* the analysis ordered node pairs together */
 } dc_cholmod;
 
 /* Statuses returned to Fortran. */
@@ -75,14 +81,91 @@ void dc_cholmod_free(void *handle)
     free(h);
 }
 
+/* Whether the upper triangle of the pattern is made of whole 2x2 blocks of the pairs
+ * (2k, 2k+1): columns 2J and 2J+1 hold the same rows above 2J, those rows come in
+ * pairs, and the diagonal block is stored (2J, 2J+1 in column 2J+1, 2J in column 2J). */
+static int pairs_pattern(int n, const int *colptr, const int *rowind)
+{
+    int J, p, q, pe, qe;
+    if (n < 2 || n % 2 != 0) return 0;
+    for (J = 0; 2 * J < n; J++) {
+        int c0 = 2 * J, c1 = 2 * J + 1;
+        p = colptr[c0]; pe = colptr[c0 + 1];
+        q = colptr[c1]; qe = colptr[c1 + 1];
+        while (p < pe && rowind[p] < c0) {
+            if (q + 1 >= qe || rowind[q] != rowind[p] || rowind[p] % 2 != 0) return 0;
+            if (p + 1 >= pe || rowind[p + 1] != rowind[p] + 1 || rowind[q + 1] != rowind[p] + 1)
+                return 0;
+            p += 2; q += 2;
+        }
+        if (p >= pe || rowind[p] != c0) return 0;
+        if (q + 1 >= qe || rowind[q] != c0 || rowind[q + 1] != c1) return 0;
+    }
+    return 1;
+}
+
+/* Analysis with AMD's ordering of the graph of the node pairs (each pair kept together,
+ * no postordering, so that L is made of 2x2 blocks). NULL on failure. */
+static cholmod_factor *analyze_pairs(cholmod_sparse *a, cholmod_common *c)
+{
+    int n = (int) a->nrow, nn = n / 2, J, p, cnt = 0;
+    const int *colptr = a->p, *rowind = a->i;
+    int *np = malloc(sizeof(int) * (size_t) (nn + 1));
+    int *ni = malloc(sizeof(int) * (size_t) (colptr[n] > 0 ? colptr[n] : 1));
+    int *nperm = malloc(sizeof(int) * (size_t) nn);
+    int *perm = malloc(sizeof(int) * (size_t) n);
+    cholmod_sparse g;
+    cholmod_factor *L = NULL;
+    int nmethods = c->nmethods, ordering = c->method[0].ordering, postorder = c->postorder;
+    if (np == NULL || ni == NULL || nperm == NULL || perm == NULL) goto done;
+    /* the pairs' upper pattern: column J's rows are those of column 2J+1, halved */
+    for (J = 0; J < nn; J++) {
+        np[J] = cnt;
+        for (p = colptr[2 * J + 1]; p < colptr[2 * J + 2] && rowind[p] <= 2 * J; p += 2)
+            ni[cnt++] = rowind[p] / 2;
+    }
+    np[nn] = cnt;
+    memset(&g, 0, sizeof(g));
+    g.nrow = (size_t) nn;
+    g.ncol = (size_t) nn;
+    g.nzmax = (size_t) (cnt > 0 ? cnt : 1);
+    g.p = np;
+    g.i = ni;
+    g.stype = 1;
+    g.itype = CHOLMOD_INT;
+    g.xtype = CHOLMOD_PATTERN;
+    g.dtype = CHOLMOD_DOUBLE;
+    g.sorted = 1;
+    g.packed = 1;
+    if (!cholmod_amd(&g, NULL, 0, nperm, c)) goto done;
+    for (J = 0; J < nn; J++) {
+        perm[2 * J] = 2 * nperm[J];
+        perm[2 * J + 1] = 2 * nperm[J] + 1;
+    }
+    c->nmethods = 1;
+    c->method[0].ordering = CHOLMOD_GIVEN;
+    c->postorder = 0;
+    L = cholmod_analyze_p(a, perm, NULL, 0, c);
+    c->nmethods = nmethods;
+    c->method[0].ordering = ordering;
+    c->postorder = postorder;
+done:
+    free(np);
+    free(ni);
+    free(nperm);
+    free(perm);
+    return L;
+}
+
 /* Analyse (when n or the pattern changed) and factorize P A P' = L D L' for the n x n
  * CSC matrix (0-based colptr[n+1], rowind[nnz], sorted rows, values val), reading its
- * upper triangle. Returns DC_OK; DC_NOT_POSDEF when a pivot is zero, negative or not
+ * upper triangle; node pairs are ordered together when the pattern allows (*paired = 1,
+ * see the header). Returns DC_OK; DC_NOT_POSDEF when a pivot is zero, negative or not
  * finite (minor = its column, 0-based; the factor is kept but must not be used);
  * DC_OUT_OF_MEMORY; DC_FAILED (other CHOLMOD errors). *analysed = 1 when the symbolic
  * analysis was redone, *lnz = stored entries of L (unit diagonal not counted). */
 int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
-                      const double *val, int *analysed, long *lnz, int *minor)
+                      const double *val, int *analysed, long *lnz, int *minor, int *paired)
 {
     dc_cholmod *h = handle;
     cholmod_sparse a;
@@ -93,6 +176,7 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
     *analysed = 0;
     *lnz = 0;
     *minor = -1;
+    *paired = 0;
     memset(&a, 0, sizeof(a));
     a.nrow = (size_t) n;
     a.ncol = (size_t) n;
@@ -118,7 +202,8 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
             return DC_OUT_OF_MEMORY;
         }
         h->c.status = CHOLMOD_OK;
-        h->L = cholmod_analyze(&a, &h->c);
+        h->paired = pairs_pattern(n, colptr, rowind);
+        h->L = h->paired ? analyze_pairs(&a, &h->c) : cholmod_analyze(&a, &h->c);
         if (h->L == NULL) {
             int st = h->c.status;
             free_factor(h);
@@ -153,6 +238,46 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
     k = 0;
     for (j = 0; j < n; j++) k += ((const int *) h->L->nz)[j] - 1;
     *lnz = k;
+    *paired = h->paired;
+    return DC_OK;
+}
+
+/* Stored entries of the factor's columns (diagonal included), or -1 without factors. */
+long dc_cholmod_nnz(void *handle)
+{
+    dc_cholmod *h = handle;
+    long k = 0;
+    int j;
+    if (h == NULL || h->L == NULL || h->L->is_super) return -1;
+    for (j = 0; j < h->n; j++) k += ((const int *) h->L->nz)[j];
+    return k;
+}
+
+/* Copy the factor P A P' = L D L': perm[n] (row k of P A P' is row perm[k] of A),
+ * colptr[n+1] and rowind[nnz], val[nnz] by columns, each column's first entry its
+ * diagonal (D), the others L's entries below it, rows ascending (0-based throughout;
+ * nnz = dc_cholmod_nnz). Returns DC_OK or DC_FAILED. */
+int dc_cholmod_export(void *handle, int *perm, int *colptr, int *rowind, double *val)
+{
+    dc_cholmod *h = handle;
+    const int *lp, *li, *lnz, *lperm;
+    const double *lx;
+    int j, p, k = 0;
+    if (h == NULL || h->L == NULL || h->L->is_super || h->L->is_ll
+        || h->L->xtype != CHOLMOD_REAL) return DC_FAILED;
+    lp = h->L->p; li = h->L->i; lnz = h->L->nz; lx = h->L->x; lperm = h->L->Perm;
+    for (j = 0; j < h->n; j++) {
+        perm[j] = lperm[j];
+        colptr[j] = k;
+        if (lnz[j] < 1 || li[lp[j]] != j) return DC_FAILED;
+        for (p = lp[j]; p < lp[j] + lnz[j]; p++) {
+            if (p > lp[j] && li[p] <= li[p - 1]) return DC_FAILED;
+            rowind[k] = li[p];
+            val[k] = lx[p];
+            k++;
+        }
+    }
+    colptr[h->n] = k;
     return DC_OK;
 }
 

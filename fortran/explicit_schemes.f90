@@ -13,7 +13,7 @@ module explicit_schemes
     use model, only: model_t, model_stiff_apply, model_stiff_mass_apply
     use nitsche_contact, only: contact_eval
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
-                           mass_solver_name
+                           mass_solver_name, mass_solver_kernel
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_PC, SCHEME_PC_HHT
     implicit none
     private
@@ -30,6 +30,7 @@ module explicit_schemes
         procedure :: step => pc_step
         procedure :: free => pc_free
         procedure :: solver => pc_solver
+        procedure :: kernel => pc_kernel
     end type pc_scheme_t
 
 contains
@@ -71,6 +72,13 @@ contains
         character(len=:), allocatable :: name
         name = mass_solver_name(this%ms)
     end function pc_solver
+
+    !> The triangular solve of the M^{-1} applications.
+    function pc_kernel(this) result(name)
+        class(pc_scheme_t), intent(in) :: this        !! scheme
+        character(len=:), allocatable :: name
+        name = mass_solver_kernel(this%ms)
+    end function pc_kernel
 
     !> One predictor-corrector step: two B evaluations, two M^{-1} applications, and
     !> three passes over the vectors besides them (the predictor; the first right-hand

@@ -37,7 +37,7 @@ module implicit_schemes
     use text, only: int_text, real_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
@@ -99,6 +99,7 @@ module implicit_schemes
         procedure :: step => implicit_step
         procedure :: free => implicit_free
         procedure :: solver => implicit_solver
+        procedure :: kernel => implicit_kernel
     end type implicit_scheme_t
 
 contains
@@ -208,6 +209,13 @@ contains
         character(len=:), allocatable :: name
         name = trim(this%lu0%backend)
     end function implicit_solver
+
+    !> The triangular solve used with the J0 factors.
+    function implicit_kernel(this) result(name)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        character(len=:), allocatable :: name
+        name = ls_kernel(this%lu0)
+    end function implicit_kernel
 
     !> One step: semi-smooth Newton from x = u^n. u~ and M (u^n - u~) were formed at
     !> the end of the previous step (or in init). The first iteration solves with J0

@@ -12,7 +12,7 @@ module linear_solver
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
     use sparse, only: csc_t, csc_find
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
-    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free
+    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free, chol_kernel
     implicit none
     private
 
@@ -37,7 +37,7 @@ module linear_solver
         type(lu_t) :: lu                        !! LU factors
     end type factor_t
 
-    public :: ls_factor, ls_solve, ls_solve_many, ls_free, csc_is_symmetric
+    public :: ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, csc_is_symmetric
 
 contains
 
@@ -117,6 +117,20 @@ contains
             call lu_solve_many(f%lu, a, b, x, stat, errmsg)
         end if
     end subroutine ls_solve_many
+
+    !> The triangular solve ls_solve runs: 'ldl_node_pairs' (LDL^T by 2x2 node blocks),
+    !> 'cholmod_solve2', 'umfpack' ('' without factors).
+    pure function ls_kernel(f) result(name)
+        type(factor_t), intent(in) :: f      !! factors
+        character(len=:), allocatable :: name
+        if (f%n < 1) then
+            name = ''
+        else if (f%backend == BACKEND_CHOLMOD) then
+            name = chol_kernel(f%ch)
+        else
+            name = 'umfpack'
+        end if
+    end function ls_kernel
 
     !> Release both backends' factors (safe to call twice). The counter is kept.
     subroutine ls_free(f)

@@ -8,7 +8,7 @@ module mass_solver
     use kinds, only: dp
     use errors, only: STAT_OK
     use sparse, only: csc_t, csc_drop_zeros, csc_from_coo
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel
     use model, only: model_t
     implicit none
     private
@@ -27,7 +27,7 @@ module mass_solver
     end type mass_solver_t
 
     public :: mass_solver_init, mass_solver_apply, mass_solver_free, mass_solver_name, &
-              mass_solver_start
+              mass_solver_start, mass_solver_kernel
 
 contains
 
@@ -158,4 +158,16 @@ contains
             name = trim(ms%lu%backend)
         end if
     end function mass_solver_name
+
+    !> The triangular solve of the M^{-1} applications (ls_kernel; 'diagonal' for
+    !> lumped mass).
+    function mass_solver_kernel(ms) result(name)
+        type(mass_solver_t), intent(in) :: ms   !! solver
+        character(len=:), allocatable :: name
+        if (ms%lumped) then
+            name = 'diagonal'
+        else
+            name = ls_kernel(ms%lu)
+        end if
+    end function mass_solver_kernel
 end module mass_solver

@@ -553,6 +553,7 @@ contains
                '  "scheme": '//json_string(sim%scn%scheme_name)//','//nl// &
                dt_crit_line// &
                '  "solver": '//json_string(sim_solver(sim))//','//nl// &
+               '  "solve_kernel": '//json_string(sim_kernel(sim))//','//nl// &
                '  "scene": '//scene_to_json(sim%scn)//','//nl// &
                '  "version": '//json_string(DYNCONTACT_VERSION)//','//nl// &
                '  "isa": '//json_string(DYNCONTACT_ISA)//nl//'}'//nl
@@ -569,4 +570,12 @@ contains
         name = ''
         if (allocated(sim%scheme)) name = sim%scheme%solver()
     end function sim_solver
+
+    !> The triangular solve used with those factors (see ls_kernel); '' before set-up.
+    function sim_kernel(sim) result(name)
+        type(simulation_t), intent(in) :: sim   !! the run
+        character(len=:), allocatable :: name
+        name = ''
+        if (allocated(sim%scheme)) name = sim%scheme%kernel()
+    end function sim_kernel
 end module simulation

@@ -43,7 +43,8 @@ module time_scheme
     end type state_t
 
     !> A time-integration scheme: init (coefficients, factorizations, initial
-    !> acceleration), step (t -> t + dt), free (its factors), solver (their backend).
+    !> acceleration), step (t -> t + dt), free (its factors), solver (their backend),
+    !> kernel (the triangular solve that runs with them).
     type, abstract, public :: time_scheme_t
         real(dp) :: dt = 0.0_dp                 !! time step
         integer :: factorizations = 0           !! sparse numeric factorizations done
@@ -53,6 +54,7 @@ module time_scheme
         procedure(scheme_step), deferred :: step
         procedure(scheme_free), deferred :: free
         procedure(scheme_solver), deferred :: solver
+        procedure(scheme_solver), deferred :: kernel
     end type time_scheme_t
 
     abstract interface
@@ -84,7 +86,8 @@ module time_scheme
             class(time_scheme_t), intent(inout) :: this         !! scheme
         end subroutine scheme_free
 
-        !> The backend of the scheme's linear systems ('' before init).
+        !> The backend of the scheme's linear systems, or (kernel) the triangular solve
+        !> used with its factors ('' before init).
         function scheme_solver(this) result(name)
             import :: time_scheme_t
             class(time_scheme_t), intent(in) :: this            !! scheme

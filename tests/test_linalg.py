@@ -327,3 +327,21 @@ def test_summary_reports_solver(tmp_path, scene_file, keys, solver):
 def test_indefinite_k_theta_is_refused_before_any_solve(tmp_path):
     with pytest.raises(core.BadInputError, match="&contact gamma0"):
         _short_run(tmp_path, "bar2d_hht.nml", scheme__t_end=0.01, contact__gamma0=0.01)
+
+
+# Which triangular solve ran with the factors: summary.json "solve_kernel" (docs/scenes.md).
+# The 2D bars' J0 is made of 2x2 node blocks (every free node has two dofs): solved by
+# blocks (ldl_solves); a 1D bar, or sliding sides (nodes with one free dof), are not:
+# cholmod_solve2. The numbers of both are checked against the GetFEM traces elsewhere.
+@pytest.mark.parametrize("scene_file, keys, kernel", [
+    ("bar2d_hht.nml", {}, "ldl_node_pairs"),
+    ("bar2d_theta.nml", {}, "ldl_node_pairs"),
+    ("bar2d_hht.nml", {"boundary__slip_x": "left,right"}, "cholmod_solve2"),
+    ("bar1d.nml", {}, "cholmod_solve2"),
+    ("bar2d_pc.nml", {}, "cholmod_solve2"),        # M's nodal scalar S, two right-hand sides
+    ("bar2d_pc.nml", {"scheme__mass": "lumped"}, "diagonal"),
+])
+def test_summary_reports_solve_kernel(tmp_path, scene_file, keys, kernel):
+    s = _short_run(tmp_path, scene_file, scheme__t_end=0.01, **keys)
+    assert s["solve_kernel"] == kernel
+    assert s["steps"] >= 1

@@ -575,8 +575,9 @@ def bench_floors_available() -> bool:
 def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float | None] | None:
     """Cost floors of one step of a scene's scheme, in µs: one triangular solve with the
     cached iteration-matrix factors (``solve_us``, implicit schemes), one SpMV with K_θ
-    (``spmv_us``) and one M^{-1} application (``mass_solve_us``, explicit schemes); None
-    for a floor that does not apply. Each is the best of ``batches`` batches of the mean
+    (``spmv_us``) and one M^{-1} application (``mass_solve_us``, explicit schemes), and
+    for comparison the iteration matrix's solve through cholmod_solve2 on the same factor
+    (``cholmod_solve_us``); None for a floor that does not apply. Each is the best of ``batches`` batches of the mean
     over n_rep // batches calls (the best batch: a floor). Returns None when the
     extension has no timing helper.
     """
@@ -594,13 +595,11 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
                                                            "output folder"), 0)
         _check(stat, errmsg, "opening the run")
         try:
-            best = [np.inf, np.inf, np.inf]
+            best = [np.inf, np.inf, np.inf, np.inf]
             for _ in range(max(1, int(batches))):
                 got = getattr(core, _FLOOR_API)(handle, max(1, int(n_rep) // max(1, int(batches))))
-                if len(got) == 5:   # a signature with (stat, errmsg)
-                    _check(got[3], got[4], _FLOOR_API)
-                best = [min(b, float(x)) for b, x in zip(best, got[:3])]
-            t_solve, t_spmv, t_mass = best
+                best = [min(b, float(x)) for b, x in zip(best, got[:4])]
+            t_solve, t_spmv, t_mass, t_cholmod = best
         finally:
             core.dc_sim_close(handle)
     finally:
@@ -609,4 +608,5 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
     def pos(x: float) -> float | None:
         return x if x > 0 and np.isfinite(x) else None
 
-    return {"solve_us": pos(t_solve), "spmv_us": pos(t_spmv), "mass_solve_us": pos(t_mass)}
+    return {"solve_us": pos(t_solve), "spmv_us": pos(t_spmv), "mass_solve_us": pos(t_mass),
+            "cholmod_solve_us": pos(t_cholmod)}

@@ -594,10 +594,12 @@ def _floors(spec: RunSpec, out_dir: str, n_rep: int = 1000,
             batches: int = 10) -> dict[str, float | None]:
     """µs of one triangular solve with the cached iteration-matrix factors (implicit
     schemes), one M^{-1} application and one SpMV with K_θ, from the core's timing helper
-    ``dc_bench_floor(handle, n_rep) -> (t_solve_us, t_spmv_us, t_mass_us)`` (0 = does not
-    apply to the scheme): the best of ``batches`` batch means, n_rep calls in all. None
+    ``dc_bench_floor(handle, n_rep) -> (t_solve_us, t_spmv_us, t_mass_us, t_cholmod_us)``
+    (0 = does not apply to the scheme; the last is the same solve through cholmod_solve2,
+    for comparison): the best of ``batches`` batch means, n_rep calls in all. None
     when the core lacks it or it fails."""
-    none = {"floor_solve_us": None, "floor_mass_solve_us": None, "floor_spmv_us": None}
+    none = {"floor_solve_us": None, "floor_mass_solve_us": None, "floor_spmv_us": None,
+            "floor_cholmod_solve_us": None}
     from .core import bench_floors
 
     try:
@@ -608,7 +610,8 @@ def _floors(spec: RunSpec, out_dir: str, n_rep: int = 1000,
     if got is None:
         return none
     return {"floor_solve_us": got["solve_us"], "floor_mass_solve_us": got["mass_solve_us"],
-            "floor_spmv_us": got["spmv_us"]}
+            "floor_spmv_us": got["spmv_us"],
+            "floor_cholmod_solve_us": got.get("cholmod_solve_us")}
 
 
 def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100) -> dict[str, Any]:
@@ -680,6 +683,7 @@ _BENCH_COLUMNS = (  # (header, key, format)
     ("its/step", "newton_its_per_step", ".3f"),
     ("fact.", "factorizations", "d"),
     ("solve µs", "floor_solve_us", ".2f"),
+    ("CHOLMOD µs", "floor_cholmod_solve_us", ".2f"),
     ("M solve µs", "floor_mass_solve_us", ".2f"),
     ("SpMV µs", "floor_spmv_us", ".2f"),
     ("floor µs", "floor_us", ".1f"),
@@ -692,8 +696,8 @@ def _cell(row: Mapping[str, Any], key: str, fmt: str) -> str:
     v = row.get(key)
     if key.startswith("floor_"):
         implicit = str(row.get("scene", "")).startswith("seed")
-        applies = {"floor_solve_us": implicit, "floor_mass_solve_us": not implicit}.get(
-            key, True)
+        applies = {"floor_solve_us": implicit, "floor_cholmod_solve_us": implicit,
+                   "floor_mass_solve_us": not implicit}.get(key, True)
         if not applies:
             return "-"
         if v is None:
@@ -770,7 +774,8 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     print()
     print("wall s = summary.json wall_s (core time loop, trace every step); meas. s = "
           "around dyncontact.run (set-up and reading the trace back included); s e=100 = "
-          "the same run with output.every = 100.")
+          "the same run with output.every = 100; solve µs = the triangular solve the run "
+          "uses, CHOLMOD µs = the same solve through cholmod_solve2 on the same factor.")
     isas = sorted({str(r.get("isa")) for r in rows if r.get("isa")})
     if isas:
         print(f"core built for: {', '.join(isas)} (meson option simd; see meson.options)")

@@ -2,12 +2,15 @@
 !> solutions (full symmetric matrix and upper triangle only), reuse of the analysis,
 !> blocked solves, bad pivots, the solver choice (symmetric positive definite ->
 !> CHOLMOD, indefinite or non-symmetric -> UMFPACK, exact either way), singular
-!> matrices, the symmetry test. Exit status 1 (error stop) on any failure.
+!> matrices, the symmetry test, the solve by 2x2 node blocks (ldl_solves) against
+!> cholmod_solve2 and known solutions. Exit status 1 (error stop) on any failure.
 program test_cholmod
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, MSG_LEN
     use sparse, only: csc_t, csc_from_coo, csc_matvec
-    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free
+    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free, &
+                       chol_kernel, chol_solve_cholmod, KERNEL_PAIRS, KERNEL_CHOLMOD
+    use ldl_solves, only: pair_ldl_t, pair_ldl_build
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, &
                              csc_is_symmetric, BACKEND_CHOLMOD, BACKEND_UMFPACK, SYM_RTOL
     use unit_checks, only: checks_t, seed
@@ -27,6 +30,9 @@ program test_cholmod
     call test_singular()
     call test_symmetry_test()
     call test_bad_use()
+    call test_node_pairs()
+    call test_node_pairs_refused()
+    call test_pair_layout_checked()
 
     call checks%finish('test_cholmod')
 
@@ -372,4 +378,166 @@ contains
         call ls_free(f)
         call chol_free(ch)
     end subroutine test_bad_use
+
+    !> A symmetric matrix of full 2x2 blocks on a random node pattern (nn nodes, about
+    !> 3 neighbours each, diagonally dominant: SPD); drop_one removes one entry of one
+    !> off-diagonal block pair (then it is not made of whole blocks).
+    subroutine pair_matrix(nn, a, drop_one, upper)
+        integer, intent(in) :: nn                    !! nodes (n = 2 nn)
+        type(csc_t), intent(out) :: a                !! matrix
+        logical, intent(in), optional :: drop_one    !! break one block
+        logical, intent(in), optional :: upper       !! upper triangle only
+        integer :: m, k, i, j, q, stat, cnt
+        integer, allocatable :: ni(:), nj(:), r(:), c(:)
+        real(dp), allocatable :: u(:), v(:), blk(:, :), dsum(:)
+        m = 3 * nn
+        allocate (ni(m), nj(m), u(m), blk(4, m), r(8 * m + 4 * nn), c(8 * m + 4 * nn), &
+                  v(8 * m + 4 * nn), dsum(2 * nn))
+        call random_number(u)
+        ni = 1 + int(u * nn)
+        call random_number(u)
+        nj = 1 + int(u * nn)
+        call random_number(blk)
+        blk = blk - 0.5_dp
+        cnt = 0
+        dsum = 0.0_dp
+        do k = 1, m
+            if (ni(k) == nj(k)) cycle
+            do q = 1, 4      ! block (I, J) entry q = (i, j) and its mirror (j, i)
+                i = 2 * ni(k) - 1 + mod(q - 1, 2)
+                j = 2 * nj(k) - 1 + (q - 1) / 2
+                if (present(drop_one)) then
+                    if (drop_one .and. k == 1 .and. q == 2) cycle
+                end if
+                cnt = cnt + 1; r(cnt) = i; c(cnt) = j; v(cnt) = blk(q, k)
+                cnt = cnt + 1; r(cnt) = j; c(cnt) = i; v(cnt) = blk(q, k)
+                dsum(i) = dsum(i) + abs(blk(q, k))
+                dsum(j) = dsum(j) + abs(blk(q, k))
+            end do
+        end do
+        do k = 1, nn     ! diagonal blocks [d1 e; e d2]
+            i = 2 * k - 1
+            cnt = cnt + 1; r(cnt) = i; c(cnt) = i + 1; v(cnt) = 0.25_dp
+            cnt = cnt + 1; r(cnt) = i + 1; c(cnt) = i; v(cnt) = 0.25_dp
+            cnt = cnt + 1; r(cnt) = i; c(cnt) = i; v(cnt) = 1.0_dp + dsum(i)
+            cnt = cnt + 1; r(cnt) = i + 1; c(cnt) = i + 1; v(cnt) = 1.0_dp + dsum(i + 1)
+        end do
+        if (present(upper)) then
+            if (upper) where (r(1:cnt) > c(1:cnt)) v(1:cnt) = 0.0_dp
+        end if
+        call csc_from_coo(2 * nn, r(1:cnt), c(1:cnt), v(1:cnt), a, stat)
+        call checks%check(stat == STAT_OK, 'pair_matrix: built')
+    end subroutine pair_matrix
+
+    !> A matrix of node pairs is solved by 2x2 blocks: the known solution, the same
+    !> numbers as cholmod_solve2 on the same factor to round-off, several right-hand
+    !> sides, a refactorization, the upper triangle alone.
+    subroutine test_node_pairs()
+        integer, parameter :: sizes(3) = [1, 7, 400]
+        type(csc_t) :: a, a2
+        type(cholmod_t) :: ch
+        type(factor_t) :: f
+        real(dp), allocatable :: xe(:, :), b(:, :), x(:, :), xc(:)
+        integer :: t, n, stat, k, analyses
+        call seed(11)
+        do t = 1, size(sizes)
+            n = 2 * sizes(t)
+            call pair_matrix(sizes(t), a)
+            allocate (xe(n, 3), b(n, 3), x(n, 3), xc(n))
+            call random_number(xe)
+            do k = 1, 3
+                call csc_matvec(a, xe(:, k), b(:, k))
+            end do
+            call chol_factor(ch, a, stat)
+            call checks%check(stat == STAT_OK .and. chol_kernel(ch) == KERNEL_PAIRS, &
+                              'pairs: factor, kernel')
+            call chol_solve(ch, b(:, 1), x(:, 1), stat)
+            call checks%check(stat == STAT_OK .and. maxval(abs(x(:, 1) - xe(:, 1))) <= thr, &
+                              'pairs: x = xe')
+            call chol_solve_cholmod(ch, b(:, 1), xc, stat)
+            call checks%check(stat == STAT_OK .and. maxval(abs(x(:, 1) - xc)) <= thr, &
+                              'pairs: same as cholmod_solve2')
+            x = 0.0_dp
+            call chol_solve_many(ch, b, x, stat)
+            call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'pairs: many')
+            a2 = a
+            a2%val = 3.0_dp * a%val
+            analyses = ch%analyses
+            call chol_factor(ch, a2, stat)
+            call chol_solve(ch, b(:, 2), x(:, 2), stat)
+            call checks%check(stat == STAT_OK .and. ch%analyses == analyses .and. &
+                              chol_kernel(ch) == KERNEL_PAIRS .and. &
+                              maxval(abs(3.0_dp * x(:, 2) - xe(:, 2))) <= thr, 'pairs: refactor')
+            call chol_free(ch)
+            call checks%check(chol_kernel(ch) == '', 'pairs: freed')
+            call ls_factor(f, a, stat)
+            call ls_solve(f, a, b(:, 3), x(:, 3), stat)
+            call checks%check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD .and. &
+                              maxval(abs(x(:, 3) - xe(:, 3))) <= thr, 'pairs: ls_solve')
+            call ls_free(f)
+            deallocate (xe, b, x, xc)
+        end do
+        ! the upper triangle alone is read the same way
+        call seed(12)
+        call pair_matrix(50, a)
+        call seed(12)
+        call pair_matrix(50, a2, upper=.true.)
+        allocate (xe(100, 1), b(100, 1), x(100, 1))
+        call random_number(xe)
+        call csc_matvec(a, xe(:, 1), b(:, 1))
+        call chol_factor(ch, a2, stat)
+        call chol_solve(ch, b(:, 1), x(:, 1), stat)
+        call checks%check(stat == STAT_OK .and. chol_kernel(ch) == KERNEL_PAIRS .and. &
+                          maxval(abs(x - xe)) <= thr, 'pairs: upper triangle only')
+        call chol_free(ch)
+    end subroutine test_node_pairs
+
+    !> Not made of whole 2x2 blocks (one entry of a block missing, or an odd size):
+    !> cholmod_solve2, exact all the same.
+    subroutine test_node_pairs_refused()
+        type(csc_t) :: a
+        type(cholmod_t) :: ch
+        real(dp) :: xe(60), b(60), x(60)
+        integer :: stat
+        call seed(13)
+        call pair_matrix(30, a, drop_one=.true.)
+        call random_number(xe)
+        call csc_matvec(a, xe, b)
+        call chol_factor(ch, a, stat)
+        call chol_solve(ch, b, x, stat)
+        call checks%check(stat == STAT_OK .and. chol_kernel(ch) == KERNEL_CHOLMOD .and. &
+                          maxval(abs(x - xe)) <= thr, 'refused: a block with a hole')
+        call sym_matrix(59, 1.0_dp, 1.0_dp, a)
+        call csc_matvec(a, xe(1:59), b(1:59))
+        call chol_factor(ch, a, stat)
+        call chol_solve(ch, b(1:59), x(1:59), stat)
+        call checks%check(stat == STAT_OK .and. chol_kernel(ch) == KERNEL_CHOLMOD .and. &
+                          maxval(abs(x(1:59) - xe(1:59))) <= thr, 'refused: odd size')
+        call chol_free(ch)
+    end subroutine test_node_pairs_refused
+
+    !> pair_ldl_build checks the structure it is given: a factor whose column 1 lacks
+    !> row 2, or whose block rows are not pairs, is refused.
+    subroutine test_pair_layout_checked()
+        type(pair_ldl_t) :: f
+        logical :: ok
+        ! 4 x 4, block columns (1,2), (3,4): column 1 = {1, 2, 3, 4}, 2 = {2, 3, 4}
+        call pair_ldl_build(f, 4, [0, 1, 2, 3], [0, 4, 7, 9, 10], &
+                            [0, 1, 2, 3, 1, 2, 3, 2, 3, 3], &
+                            [1.0_dp, 0.1_dp, 0.2_dp, 0.3_dp, 1.0_dp, 0.4_dp, 0.5_dp, 1.0_dp, &
+                             0.6_dp, 1.0_dp], ok)
+        call checks%check(ok .and. f%n == 4 .and. size(f%bi) == 1, 'layout: whole blocks')
+        ! column 1 without row 2
+        call pair_ldl_build(f, 4, [0, 1, 2, 3], [0, 3, 6, 8, 9], &
+                            [0, 2, 3, 1, 2, 3, 2, 3, 3], &
+                            [1.0_dp, 0.2_dp, 0.3_dp, 1.0_dp, 0.4_dp, 0.5_dp, 1.0_dp, 0.6_dp, &
+                             1.0_dp], ok)
+        call checks%check(.not. ok .and. f%n == 0, 'layout: diagonal block incomplete')
+        ! a block row that is not a pair (rows 3 and 4 of column 1, only row 4 of column 2)
+        call pair_ldl_build(f, 4, [0, 1, 2, 3], [0, 4, 6, 8, 9], &
+                            [0, 1, 2, 3, 1, 3, 2, 3, 3], &
+                            [1.0_dp, 0.1_dp, 0.2_dp, 0.3_dp, 1.0_dp, 0.5_dp, 1.0_dp, 0.6_dp, &
+                             1.0_dp], ok)
+        call checks%check(.not. ok .and. f%n == 0, 'layout: half a block')
+    end subroutine test_pair_layout_checked
 end program test_cholmod
