@@ -205,8 +205,11 @@ def test_bench_rows_and_table():
     assert table[0].split()[:3] == ["scene", "dofs", "steps"]
     seed_cells, pc_cells = table[2].split(), table[3].split()
     # floors: n/a when not measured, '-' where they do not apply to the scheme
-    assert seed_cells[-6:] == ["n/a", "-", "2.00", "n/a", "n/a", "ok"]
-    assert pc_cells[-6:] == ["-", "n/a", "n/a", "n/a", "n/a", "ok"]
+    assert seed_cells[-7:] == ["n/a", "-", "2.00", "n/a", "n/a", "-", "ok"]
+    assert pc_cells[-7:] == ["-", "n/a", "n/a", "n/a", "n/a", "-", "ok"]
+    ranged = bench_table([dict(rows[0], floor_ratio=1.2, floor_ratio_min=1.1,
+                               floor_ratio_max=1.5)]).splitlines()[2].split()
+    assert ranged[-3:] == ["1.20", "1.10-1.50", "ok"]
     # the floor of a step and the ratio to it (issue 10)
     from dyncontact.studies import _step_floor
     assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,

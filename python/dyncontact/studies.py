@@ -183,7 +183,7 @@ def run_spec(spec: RunSpec, out_dir: str, clean: bool = True) -> dict[str, Any]:
                wall_s=s.get("wall_s"), newton_its_total=s.get("newton_its_total"),
                factorizations=s.get("factorizations"), dofs=s.get("dofs"),
                elements=s.get("elements"), rows=int(len(res.trace.get("t", ()))),
-               isa=s.get("isa"))
+               isa=s.get("isa"), solve_kernel=s.get("solve_kernel"))
     return rec
 
 
@@ -614,18 +614,46 @@ def _floors(spec: RunSpec, out_dir: str, n_rep: int = 1000,
             "floor_cholmod_solve_us": got.get("cholmod_solve_us")}
 
 
-def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100) -> dict[str, Any]:
-    """One benchmark row: the run with its default output (every = 1), the same run with
-    every = ``sparse_every`` (the cost of the trace), and the floors, measured right before
-    and right after the runs and averaged (these machines' speed drifts by tens of percent
-    over a minute, which would bias a ratio taken against one measurement)."""
-    before = _floors(spec, out_root)
-    full = run_spec(spec, os.path.join(out_root, spec.name))
+def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100,
+              repeat: int = 3) -> dict[str, Any]:
+    """One benchmark row: the run with its default output (every = 1) ``repeat`` times,
+    with the floors measured before the first, between the runs and after the last; the
+    same run once with every = ``sparse_every`` (the cost of the trace). Each run's ratio
+    µs/step ÷ floor takes the mean of the floors measured right before and right after
+    it (these machines' speed drifts by tens of percent over a minute, which would bias a
+    ratio taken against one measurement); the row reports the run of the median ratio
+    (its µs/step and floors) and the range of the ratios."""
+    repeat = max(1, int(repeat))
+    floors = [_floors(spec, out_root)]
+    fulls = []
+    for _ in range(repeat):
+        fulls.append(run_spec(spec, os.path.join(out_root, spec.name)))
+        floors.append(_floors(spec, out_root))
     sparse = dataclasses.replace(spec, settings=dict(spec.settings,
                                                      **{"output.every": sparse_every}))
     light = run_spec(sparse, os.path.join(out_root, f"{spec.name}_every{sparse_every}"))
+    runs = []
+    for k, full in enumerate(fulls):
+        steps = full.get("steps") or 0
+        rec: dict[str, Any] = {
+            "us_per_step": 1e6 * full["wall_s"] / steps if steps and full.get("wall_s")
+            else None}
+        for key in floors[0]:
+            got = [f[key] for f in (floors[k], floors[k + 1]) if f[key] is not None]
+            rec[key] = sum(got) / len(got) if got else None
+        rec["scene"] = spec.name
+        rec["floor_us"] = _step_floor(rec)
+        rec["floor_ratio"] = (rec["us_per_step"] / rec["floor_us"]
+                              if rec["us_per_step"] and rec["floor_us"] else None)
+        runs.append(rec)
+    rated = sorted(range(len(runs)), key=lambda k: (runs[k]["floor_ratio"] is None,
+                                                    runs[k]["floor_ratio"] or 0.0))
+    pick = rated[(len([k for k in rated if runs[k]["floor_ratio"] is not None]) - 1) // 2] \
+        if any(r["floor_ratio"] is not None for r in runs) else 0
+    full = fulls[pick]
     steps = full.get("steps") or 0
     its = full.get("newton_its_total")
+    ratios = [r["floor_ratio"] for r in runs if r["floor_ratio"] is not None]
     row = {
         "scene": spec.name,
         "scheme": _scheme_text(spec.settings),
@@ -637,7 +665,6 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100) -> dict[str
         "steps": steps,
         "wall_s": full.get("wall_s"),
         "wall_measured_s": full.get("wall_measured_s"),
-        "us_per_step": 1e6 * full["wall_s"] / steps if steps and full.get("wall_s") else None,
         "sparse_every": sparse_every,
         "wall_s_sparse": light.get("wall_s"),
         "wall_measured_s_sparse": light.get("wall_measured_s"),
@@ -647,15 +674,14 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100) -> dict[str
         "newton_its_per_step": its / steps if its is not None and steps else None,
         "factorizations": full.get("factorizations"),
         "isa": full.get("isa"),
+        "solve_kernel": full.get("solve_kernel"),
         "loadavg": _loadavg(),
+        "repeat": repeat,
+        "runs": runs,
+        "floor_ratio_min": min(ratios) if ratios else None,
+        "floor_ratio_max": max(ratios) if ratios else None,
     }
-    after = _floors(spec, out_root)
-    for key in before:
-        got = [f[key] for f in (before, after) if f[key] is not None]
-        row[key] = sum(got) / len(got) if got else None
-    row["floor_us"] = _step_floor(row)
-    row["floor_ratio"] = (row["us_per_step"] / row["floor_us"]
-                          if row.get("us_per_step") and row["floor_us"] else None)
+    row.update({k: v for k, v in runs[pick].items() if k != "scene"})
     return row
 
 
@@ -688,11 +714,15 @@ _BENCH_COLUMNS = (  # (header, key, format)
     ("SpMV µs", "floor_spmv_us", ".2f"),
     ("floor µs", "floor_us", ".1f"),
     ("µs/floor", "floor_ratio", ".2f"),
+    ("range", "floor_ratio_range", "s"),
     ("status", "status", "s"),
 )
 
 
 def _cell(row: Mapping[str, Any], key: str, fmt: str) -> str:
+    if key == "floor_ratio_range":
+        lo, hi = row.get("floor_ratio_min"), row.get("floor_ratio_max")
+        return f"{lo:.2f}-{hi:.2f}" if lo is not None and hi is not None else "-"
     v = row.get(key)
     if key.startswith("floor_"):
         implicit = str(row.get("scene", "")).startswith("seed")
@@ -742,6 +772,9 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     p.add_argument("--out", default=None, help="JSON file (default: ROOT/out/bench.json)")
     p.add_argument("--runs", default=None,
                    help="folder of the runs' outputs (default: ROOT/out/bench)")
+    p.add_argument("--repeat", type=int, default=3, metavar="N",
+                   help="runs of each row with the trace every step, floors measured "
+                   "between them; the table shows the median ratio (default 3)")
     args = p.parse_args(argv)
     specs = bench_specs(quick=args.quick, only=args.only)
     if not specs:
@@ -762,7 +795,7 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     t0 = time.perf_counter()
     try:
         for spec in specs:
-            row = bench_row(spec, runs_root)
+            row = bench_row(spec, runs_root, repeat=args.repeat)
             rows.append(row)
             print(f"bench: {row['scene']}: {row['status']}, {row['steps']} steps, "
                   f"{_fmt(row['wall_s'], '.3f')} s ({_fmt(row['wall_s_sparse'], '.3f')} s "
@@ -775,7 +808,10 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     print("wall s = summary.json wall_s (core time loop, trace every step); meas. s = "
           "around dyncontact.run (set-up and reading the trace back included); s e=100 = "
           "the same run with output.every = 100; solve µs = the triangular solve the run "
-          "uses, CHOLMOD µs = the same solve through cholmod_solve2 on the same factor.")
+          "uses, CHOLMOD µs = the same solve through cholmod_solve2 on the same factor; "
+          f"each row ran {args.repeat} times with the floors measured between the runs: "
+          "µs/step, the floors and µs/floor are those of the run of the median ratio, "
+          "range = the ratios of all the runs.")
     isas = sorted({str(r.get("isa")) for r in rows if r.get("isa")})
     if isas:
         print(f"core built for: {', '.join(isas)} (meson option simd; see meson.options)")
