@@ -81,6 +81,25 @@ void dc_cholmod_free(void *handle)
     free(h);
 }
 
+/* A CSC header over caller-owned arrays (0-based, sorted rows, upper triangle read). */
+static void csc_header(cholmod_sparse *a, int n, const int *colptr, const int *rowind,
+                       const double *val)
+{
+    memset(a, 0, sizeof(*a));
+    a->nrow = (size_t) n;
+    a->ncol = (size_t) n;
+    a->nzmax = (size_t) (colptr[n] > 0 ? colptr[n] : 1);
+    a->p = (void *) colptr;
+    a->i = (void *) rowind;
+    a->x = (void *) val;
+    a->stype = 1;
+    a->itype = CHOLMOD_INT;
+    a->xtype = val != NULL ? CHOLMOD_REAL : CHOLMOD_PATTERN;
+    a->dtype = CHOLMOD_DOUBLE;
+    a->sorted = 1;
+    a->packed = 1;
+}
+
 /* Whether the upper triangle of the pattern is made of whole 2x2 blocks of the pairs
  * (2k, 2k+1): columns 2J and 2J+1 hold the same rows above 2J, those rows come in
  * pairs, and the diagonal block is stored (2J, 2J+1 in column 2J+1, 2J in column 2J). */
@@ -125,18 +144,7 @@ static cholmod_factor *analyze_pairs(cholmod_sparse *a, cholmod_common *c)
             ni[cnt++] = rowind[p] / 2;
     }
     np[nn] = cnt;
-    memset(&g, 0, sizeof(g));
-    g.nrow = (size_t) nn;
-    g.ncol = (size_t) nn;
-    g.nzmax = (size_t) (cnt > 0 ? cnt : 1);
-    g.p = np;
-    g.i = ni;
-    g.stype = 1;
-    g.itype = CHOLMOD_INT;
-    g.xtype = CHOLMOD_PATTERN;
-    g.dtype = CHOLMOD_DOUBLE;
-    g.sorted = 1;
-    g.packed = 1;
+    csc_header(&g, nn, np, ni, NULL);
     if (!cholmod_amd(&g, NULL, 0, nperm, c)) goto done;
     for (J = 0; J < nn; J++) {
         perm[2 * J] = 2 * nperm[J];
@@ -177,19 +185,7 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
     *lnz = 0;
     *minor = -1;
     *paired = 0;
-    memset(&a, 0, sizeof(a));
-    a.nrow = (size_t) n;
-    a.ncol = (size_t) n;
-    a.nzmax = (size_t) nnz;
-    a.p = (void *) colptr;
-    a.i = (void *) rowind;
-    a.x = (void *) val;
-    a.stype = 1;
-    a.itype = CHOLMOD_INT;
-    a.xtype = CHOLMOD_REAL;
-    a.dtype = CHOLMOD_DOUBLE;
-    a.sorted = 1;
-    a.packed = 1;
+    csc_header(&a, n, colptr, rowind, val);
 
     if (h->L == NULL || h->n != n || h->nnz != nnz
         || memcmp(h->colptr, colptr, sizeof(int) * (size_t) (n + 1)) != 0
