@@ -232,7 +232,8 @@ contains
             call raise(stat, errmsg, STAT_INTERNAL, 'chol_solve_cholmod: cholmod_solve2 failed')
     end subroutine chol_solve_cholmod
 
-    !> Solve A X = B for all columns of B in one cholmod_solve2 call.
+    !> Solve A X = B for all columns of B: column after column with the block factors,
+    !> else in one cholmod_solve2 call.
     subroutine chol_solve_many(ch, b, x, stat, errmsg)
         type(cholmod_t), intent(inout) :: ch                !! factors
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)

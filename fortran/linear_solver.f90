@@ -93,8 +93,8 @@ contains
         end if
     end subroutine ls_solve
 
-    !> Solve A X = B for the columns of B (CHOLMOD: one blocked solve; UMFPACK: one
-    !> column after the other).
+    !> Solve A X = B for the columns of B (CHOLMOD: one blocked solve, or column after
+    !> column with the factor by node blocks; UMFPACK: one column after the other).
     subroutine ls_solve_many(f, a, b, x, stat, errmsg)
         type(factor_t), intent(inout) :: f                  !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
