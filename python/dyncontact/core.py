@@ -577,9 +577,9 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
     cached iteration-matrix factors (``solve_us``, implicit schemes), one SpMV with K_θ
     (``spmv_us``) and one M^{-1} application (``mass_solve_us``, explicit schemes), and
     for comparison the iteration matrix's solve through cholmod_solve2 on the same factor
-    (``cholmod_solve_us``); None for a floor that does not apply. Each is the best of ``batches`` batches of the mean
-    over n_rep // batches calls (the best batch: a floor). Returns None when the
-    extension has no timing helper.
+    (``cholmod_solve_us``); None for a floor that does not apply. Each is the best of
+    ``batches`` batches of the mean over n_rep // batches calls (the best batch: a floor).
+    Returns None when the extension has no timing helper.
     """
     if not bench_floors_available():
         return None
