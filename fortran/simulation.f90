@@ -493,7 +493,8 @@ contains
         if (present(row)) then
             if (.not. row) return
         end if
-        e_load = 0.0_dp - dot(sim%st%u, sim%mdl%load)   ! +0 without load
+        e_load = 0.0_dp
+        if (sim%has_load) e_load = 0.0_dp - dot(sim%st%u, sim%mdl%load)   ! +0, not -0
         call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn)
         call trace_row(sim%trace, sim%st%t, un, vn, pn, e_kin, e_el, e_contact, e_total, &
                        sim%st%newton_its, sim%st%active, e_load, stat, errmsg)
