@@ -166,12 +166,14 @@ int dc_lock_release(const char *path)
 /* Format x exactly as Fortran's es24.16e3 edit descriptor does (24 characters: sign or
  * blank, d.dddddddddddddddd, E, exponent sign, 3 digits; correctly rounded to 17
  * significant digits), into out[0..23]. Returns 1, or 0 when x is not handled here
- * (not finite, a decimal exponent whose power of ten is not exact in a double, or a
- * value within 1e-6 of a rounding tie): the caller then uses the Fortran edit
- * descriptor itself. Why: a trace row holds 9 reals, and libgfortran's formatted
- * output costs ~0.8 us per real, more than this exact path.
+ * (not finite, a decimal exponent below -28 or above 38, or a value within 1e-6 of a
+ * rounding tie): the caller then uses the Fortran edit descriptor itself. Why: a trace
+ * row holds 9 reals, and libgfortran's formatted output costs ~0.8 us per real (about
+ * 10 k instructions), more than ten times this path.
  * How: with p = 10^k exact (|k| <= 22), a*p = hi + lo exactly (fma), or a/p = q + r/p
- * with r = fma(-q, p, a) exact; the integer part and the rounding come from hi and lo. */
+ * with r = fma(-q, p, a) exact; for 22 < k <= 44 (small values, such as a velocity or a
+ * contact energy near zero), a*10^22*10^(k-22) in the same way, with an error far below
+ * the tie guard; the integer part and the rounding come from hi and lo. */
 static const double dc_pow10[23] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10,
     1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
 
@@ -192,6 +194,12 @@ int dc_format_es(double x, char *out)
         if (k >= 0 && k <= 22) {
             hi = a * dc_pow10[k];
             lo = fma(a, dc_pow10[k], -hi);
+        } else if (k > 22 && k <= 44) {
+            /* two exact powers: a 10^22 = h1 + l1 exactly, then (h1 + l1) 10^(k-22) =
+             * hi + lo with only l1 10^(k-22) rounded (an error of ~1e-15 of the last digit) */
+            double h1 = a * dc_pow10[22], l1 = fma(a, dc_pow10[22], -h1);
+            hi = h1 * dc_pow10[k - 22];
+            lo = fma(h1, dc_pow10[k - 22], -hi) + l1 * dc_pow10[k - 22];
         } else if (k < 0 && k >= -22) {
             hi = a / dc_pow10[-k];
             lo = fma(-hi, dc_pow10[-k], a) / dc_pow10[-k];

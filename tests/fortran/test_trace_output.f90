@@ -1,7 +1,8 @@
 !> trace_output: a trace row is the same text as the Fortran edit descriptors
 !> '(8(es24.16e3, ","), i0, ",", i0, ",", es24.16e3)' (the C fast path of run_guard.c
 !> against libgfortran's formatted output), for random values over the whole range of
-!> exponents, rounding boundaries, signed zeros and non-finite values.
+!> exponents, more of them between 1e-30 and 1e-5 (the fast path's two-step scaling),
+!> rounding boundaries, signed zeros and non-finite values.
 program test_trace_output
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_positive_inf, &
                                              ieee_negative_inf
@@ -9,6 +10,8 @@ program test_trace_output
     use trace_output, only: trace_t, trace_open, trace_row, trace_close
     implicit none
     integer, parameter :: N_RANDOM = 200000   ! random rows
+    integer, parameter :: N_SMALL = 50000     ! random rows with exponents in [-30, -5]
+    integer, parameter :: N_FIXED = 13        ! rows of special values
     integer :: fails, i, st, unit, ios, k
     real(dp) :: v(9), r(2)
     character(len=400) :: line, expect
@@ -17,7 +20,7 @@ program test_trace_output
     integer, allocatable :: ints(:, :)
     character(len=*), parameter :: path = 'test_trace_output.csv'
 
-    allocate (vals(9, N_RANDOM + 8), ints(2, N_RANDOM + 8))
+    allocate (vals(9, N_RANDOM + N_FIXED + N_SMALL), ints(2, N_RANDOM + N_FIXED + N_SMALL))
     do i = 1, N_RANDOM
         do k = 1, 9
             call random_number(r)
@@ -41,6 +44,21 @@ program test_trace_output
             vals(k, i) = (real(k + 10 * i, dp) + 0.5_dp) * 10.0_dp**(k - 5)
         end do
         ints(:, i) = [0, -1]
+    end do
+    do i = N_RANDOM + 9, N_RANDOM + 13
+        do k = 1, 9
+            ! the same near small powers of ten (exponents -28 to -8)
+            vals(k, i) = (real(k + 10 * i, dp) + 0.5_dp) * 10.0_dp**(k - 5 - 3 * (i - N_RANDOM - 5))
+        end do
+        ints(:, i) = [1, -2]
+    end do
+    do i = N_RANDOM + N_FIXED + 1, size(vals, 2)
+        do k = 1, 9
+            call random_number(r)
+            vals(k, i) = sign(1.0_dp, r(1) - 0.5_dp) * (1.0_dp + 9.0_dp * r(2)) * &
+                         10.0_dp**(int(26.0_dp * r(1)) - 30)
+        end do
+        ints(:, i) = [i, -i]
     end do
     ints(:, N_RANDOM + 1:N_RANDOM + 3) = reshape([0, 0, 123, 4567, -2147483647, 2147483647], [2, 3])
 
