@@ -13,7 +13,7 @@ module model
     use mass_redistribution, only: mass_region, mass_redistribute
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
-                               facet_shape, MAX_FN, QUAD_EXACT, QUAD_GAUSS
+                               facet_shape, MAX_E, MAX_FN, QUAD_EXACT, QUAD_GAUSS
     implicit none
     private
 
@@ -719,21 +719,29 @@ contains
         real(dp), intent(out) :: un           !! u . n at the probe
         real(dp), intent(out) :: vn           !! v . n at the probe
         real(dp), intent(out) :: pn           !! contact pressure (<= 0)
-        integer :: q, f
-        real(dp) :: ue(mdl%ndof_e), ve(mdl%ndof_e), nsh(MAX_FN)
+        integer :: q, f, ne, nf, j
+        real(dp) :: ue(MAX_E), ve(MAX_E), nsh(MAX_FN), nu(MAX_FN), nv(MAX_FN)
         un = 0.0_dp; vn = 0.0_dp; pn = 0.0_dp
         if (mdl%n_probe == 0) return
+        ne = mdl%ndof_e
+        nf = mdl%ct%nfn
         do q = 1, mdl%n_probe
             f = mdl%probe_facet(q)
-            call gather(f, u, ue)
-            call gather(f, v, ve)
-            nsh = facet_shape(mdl%ct%nfn, mdl%probe_xi(q))
-            pn = pn + facet_pressure(mdl%ndof_e, mdl%ct%nfn, ue, mdl%ct%s(:, f), &
+            call gather(f, u, ue(1:ne))
+            call gather(f, v, ve(1:ne))
+            nsh = facet_shape(nf, mdl%probe_xi(q))
+            pn = pn + facet_pressure(ne, nf, ue(1:ne), mdl%ct%s(:, f), &
                                      mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), &
                                      mdl%probe_xi(q))
             if (q == 1) then
-                un = dot_product(nsh(1:mdl%ct%nfn), matmul(ue, mdl%ct%nvec(:, :, f)))
-                vn = dot_product(nsh(1:mdl%ct%nfn), matmul(ve, mdl%ct%nvec(:, :, f)))
+                ! the normal components at the facet's nodes, then their interpolation
+                ! (fixed-size locals: no heap in a trace row)
+                do j = 1, nf
+                    nu(j) = dot_product(ue(1:ne), mdl%ct%nvec(1:ne, j, f))
+                    nv(j) = dot_product(ve(1:ne), mdl%ct%nvec(1:ne, j, f))
+                end do
+                un = dot_product(nsh(1:nf), nu(1:nf))
+                vn = dot_product(nsh(1:nf), nv(1:nf))
             end if
         end do
         pn = pn / mdl%n_probe

@@ -28,7 +28,7 @@ module nitsche_contact
     !> Largest owner-cell dofs (dim (dim+1), dim <= 2) and facet nodes: the facet kernels'
     !> local arrays have these fixed sizes (run-time sizes put them on the heap, one
     !> malloc a facet).
-    integer, parameter :: MAX_E = 6
+    integer, parameter, public :: MAX_E = 6
     integer, parameter, public :: MAX_FN = 2
 
     !> Contact facets with everything constant precomputed.
