@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <stdint.h>
 #include <sys/stat.h>
 #include <sys/types.h>
 #include <unistd.h>
@@ -188,7 +189,12 @@ int dc_format_es(double x, char *out)
         if (signbit(x)) out[0] = '-';
         return 1;
     }
-    e10 = (int)floor(log10(a));
+    {   /* floor(log10(a)) or one less, from the binary exponent (the loop below
+         * corrects it); subnormals give e10 = -308, which is left to the caller */
+        uint64_t bits;
+        memcpy(&bits, &a, sizeof bits);
+        e10 = (int)floor((double)((int)((bits >> 52) & 0x7ff) - 1023) * 0.30102999566398120);
+    }
     for (tries = 0; tries < 3; tries++) {
         k = 16 - e10;
         if (k >= 0 && k <= 22) {
