@@ -206,6 +206,18 @@ def test_read_trace_drops_a_partial_last_line(tmp_path):
     assert all(v.shape == (1,) and v.dtype == np.float64 for v in tr.values())
     (tmp_path / "trace.csv").write_text(HEADER + "\n")
     assert read_trace(tmp_path)["t"].shape == (0,)
+    # A malformed line in the middle: the rows before it (read line by line).
+    (tmp_path / "trace.csv").write_text(HEADER + "\n" + ",".join(["1.0"] * 11) + "\n"
+                                        + ",".join(["x"] * 11) + "\n"
+                                        + ",".join(["2.0"] * 11) + "\n")
+    assert read_trace(tmp_path)["t"].tolist() == [1.0]
+    # Fortran's non-finite values and signed exponents read as such.
+    (tmp_path / "trace.csv").write_text(
+        HEADER + "\n" + ",".join(["                     NaN"] * 10 + ["-Infinity"]) + "\n"
+        + ",".join(["-0.1234567890123457E-300"] * 11) + "\n")
+    tr = read_trace(tmp_path)
+    assert np.isnan(tr["t"][0]) and tr["e_load"][0] == -np.inf
+    assert tr["t"][1] == -0.1234567890123457e-300
     # A trace without the e_load column (older runs) still reads, column by header.
     (tmp_path / "trace.csv").write_text(OLD_HEADER + "\n" + ",".join(["1.0"] * 10) + "\n")
     tr = read_trace(tmp_path)

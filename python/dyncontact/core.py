@@ -133,24 +133,41 @@ def _i32(a) -> np.ndarray:
 def read_trace(out_dir: str | os.PathLike) -> dict[str, np.ndarray]:
     """trace.csv of a run folder as {column: float64 array} (empty arrays if no rows).
 
-    A run killed halfway may leave a partial last line: it is dropped.
+    A run killed halfway may leave a partial last line: it is dropped. The rows are
+    parsed by numpy's C reader in one call (about twice as fast as a Python loop, which
+    matters for the 150 000-row runs of a study); a file it does not read whole (a
+    malformed line) is read line by line, up to the first bad line.
     """
     path = os.path.join(os.fspath(out_dir), "trace.csv")
     with open(path, encoding="utf-8") as f:
-        lines = f.read().splitlines()
-    if not lines:
+        text = f.read()
+    if not text:
         raise DyncontactError(f"{path}: empty file")
-    names = [c.strip() for c in lines[0].split(",")]
-    rows = []
-    for line in lines[1:]:
-        parts = line.split(",")
-        if len(parts) != len(names):
-            break  # partial line at the end of a killed run
+    head, _, body = text.partition("\n")
+    names = [c.strip() for c in head.split(",")]
+    body = body[:body.rfind("\n") + 1]      # complete lines only
+    n_rows = body.count("\n")
+    data = None
+    if n_rows:
         try:
-            rows.append([float(p) for p in parts])
-        except ValueError:
-            break
-    data = np.array(rows, dtype=np.float64).reshape(len(rows), len(names))
+            with warnings.catch_warnings():   # numpy < 2 warned where 2 raises
+                warnings.simplefilter("error", DeprecationWarning)
+                flat = np.fromstring(body[:-1].replace("\n", ","), dtype=np.float64, sep=",")
+        except (ValueError, DeprecationWarning):
+            flat = np.empty(0)
+        if flat.size == n_rows * len(names):
+            data = flat.reshape(n_rows, len(names))
+    if data is None:
+        rows = []
+        for line in body.splitlines():
+            parts = line.split(",")
+            if len(parts) != len(names):
+                break  # partial line at the end of a killed run
+            try:
+                rows.append([float(p) for p in parts])
+            except ValueError:
+                break
+        data = np.array(rows, dtype=np.float64).reshape(len(rows), len(names))
     return {name: np.ascontiguousarray(data[:, j]) for j, name in enumerate(names)}
 
 
