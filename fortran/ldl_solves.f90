@@ -102,9 +102,10 @@ contains
     end subroutine pair_ldl_solve
 
     !> The two sweeps: y = P b; L y' = y by block columns (each block's two rows updated
-    !> as one 2-vector); y' = D^{-1} y'; L^T z = y' by block columns (the four products
-    !> of each block summed in four partial sums); x = P^T z. Explicit-shape dummies:
-    !> gfortran vectorizes the block operations only on arrays of unit stride.
+    !> as one 2-vector), each pair scaled by D^{-1} once final; L^T z = y' by block
+    !> columns (the four products of each block summed in four partial sums), each pair
+    !> stored into x = P^T z once final. Explicit-shape dummies: gfortran vectorizes the
+    !> block operations only on arrays of unit stride.
     pure subroutine pair_sweeps(n, nn, nb, perm, bp, bi, bx, l21, d, b, x, y)
         integer, intent(in) :: n, nn, nb                    !! size, pairs, blocks
         integer, intent(in) :: perm(n), bp(nn + 1), bi(nb)  !! permutation, block structure
@@ -120,14 +121,13 @@ contains
         do jb = 1, nn
             y0 = y(2 * jb - 1)
             y1 = y(2 * jb) - l21(jb) * y0
-            y(2 * jb) = y1
             do q = bp(jb), bp(jb + 1) - 1
                 i = bi(q)
                 y(i:i + 1) = y(i:i + 1) - (bx(1:2, q) * y0 + bx(3:4, q) * y1)
             end do
-        end do
-        do i = 1, n
-            y(i) = y(i) / d(i)
+            ! the pair is final: D^{-1} now (no pass of its own)
+            y(2 * jb - 1) = y0 / d(2 * jb - 1)
+            y(2 * jb) = y1 / d(2 * jb)
         end do
         do jb = nn, 1, -1
             s = 0.0_dp
@@ -137,11 +137,12 @@ contains
                 s(3:4) = s(3:4) + bx(3:4, q) * y(i:i + 1)
             end do
             y1 = y(2 * jb) - (s(3) + s(4))
+            y0 = y(2 * jb - 1) - (s(1) + s(2)) - l21(jb) * y1
             y(2 * jb) = y1
-            y(2 * jb - 1) = y(2 * jb - 1) - (s(1) + s(2)) - l21(jb) * y1
-        end do
-        do i = 1, n
-            x(perm(i)) = y(i)
+            y(2 * jb - 1) = y0
+            ! the pair is final: P^T now (no pass of its own)
+            x(perm(2 * jb)) = y1
+            x(perm(2 * jb - 1)) = y0
         end do
     end subroutine pair_sweeps
 
