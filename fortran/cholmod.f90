@@ -190,29 +190,17 @@ contains
         end if
     end function chol_kernel
 
-    !> Solve A x = b with cholmod_solve2 (workspaces reused, no allocation after the
-    !> first call). b and x must have n entries (STAT_BAD_INPUT otherwise, or without
-    !> factors); STAT_INTERNAL if CHOLMOD fails.
+    !> Solve A x = b: by 2x2 blocks when the factor was copied so (ldl_solves), else with
+    !> cholmod_solve2 (workspaces reused, no allocation after the first call). b and x
+    !> must have n entries (STAT_BAD_INPUT otherwise, or without factors); STAT_INTERNAL
+    !> if CHOLMOD fails.
     subroutine chol_solve(ch, b, x, stat, errmsg)
         type(cholmod_t), intent(inout) :: ch                !! factors
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
         real(dp), intent(out) :: x(:)                       !! solution (n)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        if (ch%n < 1) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_solve: no factors')
-            return
-        end if
-        if (size(b) /= ch%n .or. size(x) /= ch%n) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_solve: b or x does not have n entries')
-            return
-        end if
-        stat = STAT_OK
-        if (ch%pairs%n > 0) then
-            call pair_ldl_solve(ch%pairs, b, x)
-        else if (dc_cholmod_solve(ch%handle, 1_c_int, b, x) /= DC_OK) then
-            call raise(stat, errmsg, STAT_INTERNAL, 'chol_solve: cholmod_solve2 failed')
-        end if
+        call solve_one(ch, b, x, .true., 'chol_solve', stat, errmsg)
     end subroutine chol_solve
 
     !> Solve A x = b with cholmod_solve2 whatever chol_solve uses (to compare the two:
@@ -223,14 +211,34 @@ contains
         real(dp), intent(out) :: x(:)                       !! solution (n)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        if (ch%n < 1 .or. size(b) /= ch%n .or. size(x) /= ch%n) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_solve_cholmod: no factors or bad sizes')
+        call solve_one(ch, b, x, .false., 'chol_solve_cholmod', stat, errmsg)
+    end subroutine chol_solve_cholmod
+
+    !> The checks and the solve of chol_solve (pairs = .true.: the block factor when there
+    !> is one) and chol_solve_cholmod (.false.); who names the caller in the messages.
+    subroutine solve_one(ch, b, x, pairs, who, stat, errmsg)
+        type(cholmod_t), intent(inout) :: ch                !! factors
+        real(dp), intent(in) :: b(:)                        !! right-hand side (n)
+        real(dp), intent(out) :: x(:)                       !! solution (n)
+        logical, intent(in) :: pairs                        !! may use the block factor
+        character(len=*), intent(in) :: who                 !! caller, for the messages
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        if (ch%n < 1) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, who//': no factors')
+            return
+        end if
+        if (size(b) /= ch%n .or. size(x) /= ch%n) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, who//': b or x does not have n entries')
             return
         end if
         stat = STAT_OK
-        if (dc_cholmod_solve(ch%handle, 1_c_int, b, x) /= DC_OK) &
-            call raise(stat, errmsg, STAT_INTERNAL, 'chol_solve_cholmod: cholmod_solve2 failed')
-    end subroutine chol_solve_cholmod
+        if (pairs .and. ch%pairs%n > 0) then
+            call pair_ldl_solve(ch%pairs, b, x)
+        else if (dc_cholmod_solve(ch%handle, 1_c_int, b, x) /= DC_OK) then
+            call raise(stat, errmsg, STAT_INTERNAL, who//': cholmod_solve2 failed')
+        end if
+    end subroutine solve_one
 
     !> Solve A X = B for all columns of B: column after column with the block factors,
     !> else in one cholmod_solve2 call.
