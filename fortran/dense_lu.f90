@@ -12,11 +12,11 @@ contains
     !> info = 0 on success, k > 0 if the pivot of column k is zero.
     pure subroutine dense_lu_factor(n, a, piv, info)
         integer, intent(in) :: n              !! order
-        real(dp), intent(inout) :: a(:, :)    !! matrix in, L\U out (leading n x n)
+        real(dp), intent(inout), contiguous :: a(:, :)  !! matrix in, L\U out (leading n x n)
         integer, intent(out) :: piv(:)        !! (n) row interchanges
         integer, intent(out) :: info          !! 0 or the first zero pivot
         integer :: j, k, p
-        real(dp) :: tmp(n)
+        real(dp) :: tmp
         info = 0
         do k = 1, n
             p = k - 1 + maxloc(abs(a(k:n, k)), dim=1)
@@ -25,10 +25,12 @@ contains
                 info = k
                 return
             end if
-            if (p /= k) then
-                tmp = a(k, 1:n)
-                a(k, 1:n) = a(p, 1:n)
-                a(p, 1:n) = tmp
+            if (p /= k) then   ! (element by element: no temporary row on the heap)
+                do j = 1, n
+                    tmp = a(k, j)
+                    a(k, j) = a(p, j)
+                    a(p, j) = tmp
+                end do
             end if
             a(k + 1:n, k) = a(k + 1:n, k) / a(k, k)
             do j = k + 1, n
@@ -40,7 +42,7 @@ contains
     !> Solve A x = b with the factors of dense_lu_factor; b is overwritten by x.
     pure subroutine dense_lu_solve(n, a, piv, b)
         integer, intent(in) :: n              !! order
-        real(dp), intent(in) :: a(:, :)       !! L\U factors
+        real(dp), intent(in), contiguous :: a(:, :)  !! L\U factors
         integer, intent(in) :: piv(:)         !! row interchanges
         real(dp), intent(inout) :: b(:)       !! right-hand side in, solution out
         integer :: k
