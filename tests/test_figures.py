@@ -218,3 +218,44 @@ def test_bench_rows_and_table():
                         "floor_spmv_us": 10.0}) == 80.0
     assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": None,
                         "floor_spmv_us": 10.0}) is None
+
+
+def test_floors_between_steps_leave_the_run_unchanged(tmp_path):
+    """Stepper.floors (the bench's floors, measured between stretches of a run's steps)
+    solves and multiplies vectors of its own: the trace is the plain run's, byte for
+    byte, for an implicit contact run and a predictor-corrector."""
+    import dyncontact
+    from dyncontact import Scene
+    from dyncontact.core import Stepper
+
+    for name in ("bar2d_hht", "bar2d_pc"):
+        scn = Scene.read(ROOT / "scripts" / "scenes" / f"{name}.nml")
+        scn.set("scheme.t_end", 1.0)
+        dyncontact.run(scn, out=tmp_path / f"{name}_plain", progress=False)
+        with Stepper(scn, tmp_path / f"{name}_floors") as run:
+            measured = [run.floors(20, 2)]
+            while not run.finished:
+                run.advance(37)
+                measured.append(run.floors(20, 2))
+        plain = (tmp_path / f"{name}_plain" / "trace.csv").read_bytes()
+        assert (tmp_path / f"{name}_floors" / "trace.csv").read_bytes() == plain, name
+        key = "solve_us" if name == "bar2d_hht" else "mass_solve_us"
+        assert all(f[key] > 0 and f["spmv_us"] > 0 for f in measured), name
+
+
+def test_interleaved_run_ratio_is_time_over_floors(tmp_path):
+    """interleaved_run: every step is timed in some stretch, each stretch's ratio uses
+    the floors next to it, and the run's ratio is Σ time / Σ steps × floor (so it
+    equals µs/step ÷ the step-weighted floor, and lies within the stretches' ratios)."""
+    from dyncontact.studies import _step_floor, bench_specs, interleaved_run
+
+    spec = bench_specs(quick=True, only=["seed_h0.05"])[0]
+    spec.settings["scheme.t_end"] = 1.0
+    rec = interleaved_run(spec, str(tmp_path / "run"), chunks=5, n_rep=20, batches=2)
+    assert rec["status"] == "ok" and rec["steps"] == 400
+    assert len(rec["chunk_ratios"]) == 5
+    assert rec["floor_us"] == pytest.approx(_step_floor(rec), rel=1e-12)
+    assert rec["floor_ratio"] == pytest.approx(rec["us_per_step"] / rec["floor_us"],
+                                               rel=1e-12)
+    assert min(rec["chunk_ratios"]) <= rec["floor_ratio"] <= max(rec["chunk_ratios"])
+    assert (tmp_path / "run" / "summary.json").is_file()

@@ -553,6 +553,16 @@ class Stepper(Model):
         _check(stat, errmsg, "advancing the run")
         return int(done)
 
+    def floors(self, n_rep: int = 1000, batches: int = 10) -> dict[str, float | None] | None:
+        """The cost floors of :func:`bench_floors`, measured now on this run's matrices and
+        factors (between steps: a benchmark compares each stretch of steps with floors
+        measured next to it). The run's state is not touched. None when the extension
+        has no timing helper."""
+        self._need()
+        if not bench_floors_available():
+            return None
+        return _handle_floors(self.handle, n_rep, batches)
+
     def state(self) -> dict[str, Any]:
         """t, u, v, a, mv (the product M v the energies use), load and bu (B(u) as the
         scheme carries it into the next step), free dofs."""
@@ -596,7 +606,8 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
     for comparison the iteration matrix's solve through cholmod_solve2 on the same factor
     (``cholmod_solve_us``); None for a floor that does not apply. Each is the best of
     ``batches`` batches of the mean over n_rep // batches calls (the best batch: a floor).
-    Returns None when the extension has no timing helper.
+    Returns None when the extension has no timing helper. (Between the steps of a run:
+    :meth:`Stepper.floors`.)
     """
     if not bench_floors_available():
         return None
@@ -612,15 +623,22 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
                                                            "output folder"), 0)
         _check(stat, errmsg, "opening the run")
         try:
-            best = [np.inf, np.inf, np.inf, np.inf]
-            for _ in range(max(1, int(batches))):
-                got = getattr(core, _FLOOR_API)(handle, max(1, int(n_rep) // max(1, int(batches))))
-                best = [min(b, float(x)) for b, x in zip(best, got[:4])]
-            t_solve, t_spmv, t_mass, t_cholmod = best
+            return _handle_floors(handle, n_rep, batches)
         finally:
             core.dc_sim_close(handle)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _handle_floors(handle, n_rep: int, batches: int) -> dict[str, float | None]:
+    """The floors of :func:`bench_floors` on an open run (its state is not touched: the
+    helper solves and multiplies vectors of its own)."""
+    core = _core()
+    best = [np.inf, np.inf, np.inf, np.inf]
+    for _ in range(max(1, int(batches))):
+        got = getattr(core, _FLOOR_API)(handle, max(1, int(n_rep) // max(1, int(batches))))
+        best = [min(b, float(x)) for b, x in zip(best, got[:4])]
+    t_solve, t_spmv, t_mass, t_cholmod = best
 
     def pos(x: float) -> float | None:
         return x if x > 0 and np.isfinite(x) else None

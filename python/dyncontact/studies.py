@@ -33,7 +33,8 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 __all__ = [
     "RunSpec", "seed_spec", "every_for", "run_spec", "run_many",
     "FigureSpec", "figure_plan", "make_figures", "write_index", "figures_main",
-    "bench_specs", "bench_row", "bench_table", "bench_main", "floor_api_available",
+    "bench_specs", "bench_row", "interleaved_run", "bench_table", "bench_main",
+    "floor_api_available",
     "MAX_ROWS",
 ]
 
@@ -614,43 +615,94 @@ def _floors(spec: RunSpec, out_dir: str, n_rep: int = 1000,
             "floor_cholmod_solve_us": got.get("cholmod_solve_us")}
 
 
+def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 400,
+                    batches: int = 4) -> dict[str, Any]:
+    """One run of ``spec`` in ``chunks`` stretches of steps, with the floors measured on
+    its own matrices before the first stretch and after each one
+    (:meth:`dyncontact.core.Stepper.floors`, ``n_rep`` calls in ``batches``: the best
+    batch). Each stretch is timed around its steps and compared with the mean of the
+    floors measured right before and right after it, so that a ratio compares times
+    taken seconds apart (these machines' speed drifts by tens of percent within a
+    minute). Returns us_per_step (all stretches), the floors (step-weighted means of
+    the stretches' floors), floor_us, floor_ratio = Σ time / Σ steps × floor (=
+    us_per_step / floor_us), chunk_ratios, steps and status. Never raises."""
+    from .core import NumericalError, Stepper
+
+    rec: dict[str, Any] = {"scene": spec.name, "status": "error", "message": "",
+                           "steps": 0, "us_per_step": None, "floor_us": None,
+                           "floor_ratio": None, "chunk_ratios": []}
+    keys = ("floor_solve_us", "floor_spmv_us", "floor_mass_solve_us",
+            "floor_cholmod_solve_us")
+    names = ("solve_us", "spmv_us", "mass_solve_us", "cholmod_solve_us")
+    try:
+        if os.path.isdir(out_dir):
+            shutil.rmtree(out_dir)
+        with Stepper(spec.scene(), out_dir) as run:
+            size = max(1, -(-int(run.n_steps) // max(1, int(chunks))))
+            floors = [run.floors(n_rep, batches)]
+            stretches = []   # (steps, seconds)
+            rec["status"] = "ok"
+            while not run.finished:
+                t0 = time.perf_counter()
+                try:
+                    done = run.advance(size)
+                except NumericalError as exc:
+                    rec.update(status="unstable", message=str(exc))
+                    break
+                seconds = time.perf_counter() - t0
+                if done == 0:
+                    break
+                stretches.append((done, seconds))
+                floors.append(run.floors(n_rep, batches))
+    except Exception as exc:  # noqa: BLE001 - a benchmark reports, it does not fail
+        rec.update(status="error", message=f"{type(exc).__name__}: {exc}")
+        return rec
+    steps = sum(d for d, _ in stretches)
+    rec["steps"] = steps
+    if not steps:
+        return rec
+    seconds = sum(t for _, t in stretches)
+    rec["us_per_step"] = 1e6 * seconds / steps
+    if any(f is None for f in floors):
+        return rec
+    per = []   # each stretch's floors: the mean of those before and after it
+    for k in range(len(stretches)):
+        per.append({key: (None if floors[k][n] is None or floors[k + 1][n] is None
+                          else 0.5 * (floors[k][n] + floors[k + 1][n]))
+                    for key, n in zip(keys, names)})
+    for key in keys:
+        vals = [p[key] for p in per]
+        rec[key] = (None if any(v is None for v in vals)
+                    else sum(d * v for (d, _), v in zip(stretches, vals)) / steps)
+    step_floors = [_step_floor(dict(p, scene=spec.name)) for p in per]
+    if any(f is None for f in step_floors):
+        return rec
+    spent = sum(d * f for (d, _), f in zip(stretches, step_floors))   # µs
+    rec["floor_us"] = spent / steps
+    rec["floor_ratio"] = 1e6 * seconds / spent
+    rec["chunk_ratios"] = [1e6 * t / (d * f) for (d, t), f in zip(stretches, step_floors)]
+    return rec
+
+
 def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100,
               repeat: int = 3) -> dict[str, Any]:
-    """One benchmark row: the run with its default output (every = 1) ``repeat`` times,
-    with the floors measured before the first, between the runs and after the last; the
-    same run once with every = ``sparse_every`` (the cost of the trace). Each run's ratio
-    µs/step ÷ floor takes the mean of the floors measured right before and right after
-    it (these machines' speed drifts by tens of percent over a minute, which would bias a
-    ratio taken against one measurement); the row reports the run of the median ratio
-    (its µs/step and floors) and the range of the ratios."""
+    """One benchmark row: the run as a user runs it (trace every step; wall s, status,
+    Newton iterations), the same run with every = ``sparse_every`` (the cost of the
+    trace), and ``repeat`` interleaved runs (:func:`interleaved_run`: floors measured
+    between stretches of steps) for the ratio µs/step ÷ floor; the row reports the
+    interleaved run of the median ratio (its µs/step, floors and ratio) and the range of
+    the ratios."""
     repeat = max(1, int(repeat))
-    floors = [_floors(spec, out_root)]
-    fulls = []
-    for _ in range(repeat):
-        fulls.append(run_spec(spec, os.path.join(out_root, spec.name)))
-        floors.append(_floors(spec, out_root))
+    full = run_spec(spec, os.path.join(out_root, spec.name))
     sparse = dataclasses.replace(spec, settings=dict(spec.settings,
                                                      **{"output.every": sparse_every}))
     light = run_spec(sparse, os.path.join(out_root, f"{spec.name}_every{sparse_every}"))
-    runs = []
-    for k, full in enumerate(fulls):
-        steps = full.get("steps") or 0
-        rec: dict[str, Any] = {
-            "us_per_step": 1e6 * full["wall_s"] / steps if steps and full.get("wall_s")
-            else None}
-        for key in floors[0]:
-            got = [f[key] for f in (floors[k], floors[k + 1]) if f[key] is not None]
-            rec[key] = sum(got) / len(got) if got else None
-        rec["scene"] = spec.name
-        rec["floor_us"] = _step_floor(rec)
-        rec["floor_ratio"] = (rec["us_per_step"] / rec["floor_us"]
-                              if rec["us_per_step"] and rec["floor_us"] else None)
-        runs.append(rec)
+    runs = [interleaved_run(spec, os.path.join(out_root, f"{spec.name}_interleaved"))
+            for _ in range(repeat)]
     rated = sorted(range(len(runs)), key=lambda k: (runs[k]["floor_ratio"] is None,
                                                     runs[k]["floor_ratio"] or 0.0))
     pick = rated[(len([k for k in rated if runs[k]["floor_ratio"] is not None]) - 1) // 2] \
         if any(r["floor_ratio"] is not None for r in runs) else 0
-    full = fulls[pick]
     steps = full.get("steps") or 0
     its = full.get("newton_its_total")
     ratios = [r["floor_ratio"] for r in runs if r["floor_ratio"] is not None]
@@ -665,6 +717,8 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100,
         "steps": steps,
         "wall_s": full.get("wall_s"),
         "wall_measured_s": full.get("wall_measured_s"),
+        "us_per_step_run": 1e6 * full["wall_s"] / steps if steps and full.get("wall_s")
+        else None,
         "sparse_every": sparse_every,
         "wall_s_sparse": light.get("wall_s"),
         "wall_measured_s_sparse": light.get("wall_measured_s"),
@@ -681,7 +735,9 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100,
         "floor_ratio_min": min(ratios) if ratios else None,
         "floor_ratio_max": max(ratios) if ratios else None,
     }
-    row.update({k: v for k, v in runs[pick].items() if k != "scene"})
+    row.update({k: v for k, v in runs[pick].items()
+                if k not in ("scene", "status", "message", "steps", "chunk_ratios")})
+    row["chunk_ratios"] = runs[pick]["chunk_ratios"]
     return row
 
 
@@ -773,8 +829,8 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     p.add_argument("--runs", default=None,
                    help="folder of the runs' outputs (default: ROOT/out/bench)")
     p.add_argument("--repeat", type=int, default=3, metavar="N",
-                   help="runs of each row with the trace every step, floors measured "
-                   "between them; the table shows the median ratio (default 3)")
+                   help="interleaved runs of each row (floors measured between "
+                   "stretches of its steps); the table shows the median ratio (default 3)")
     args = p.parse_args(argv)
     specs = bench_specs(quick=args.quick, only=args.only)
     if not specs:
@@ -809,9 +865,11 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
           "around dyncontact.run (set-up and reading the trace back included); s e=100 = "
           "the same run with output.every = 100; solve µs = the triangular solve the run "
           "uses, CHOLMOD µs = the same solve through cholmod_solve2 on the same factor; "
-          f"each row ran {args.repeat} times with the floors measured between the runs: "
-          "µs/step, the floors and µs/floor are those of the run of the median ratio, "
-          "range = the ratios of all the runs.")
+          f"µs/step, the floors and µs/floor: each row ran {args.repeat} more times in 16 "
+          "stretches of steps with the floors measured between them, each stretch "
+          "compared with the floors measured next to it (µs/floor = time of the steps ÷ "
+          "Σ steps × floor); the table shows the run of the median ratio, range = the "
+          "ratios of all those runs.")
     isas = sorted({str(r.get("isa")) for r in rows if r.get("isa")})
     if isas:
         print(f"core built for: {', '.join(isas)} (meson option simd; see meson.options)")
