@@ -226,7 +226,7 @@ def test_floors_between_steps_leave_the_run_unchanged(tmp_path):
     byte, for an implicit contact run and a predictor-corrector."""
     import dyncontact
     from dyncontact import Scene
-    from dyncontact.core import Stepper
+    from dyncontact.core import Stepper, bench_floors
 
     for name in ("bar2d_hht", "bar2d_pc"):
         scn = Scene.read(ROOT / "scripts" / "scenes" / f"{name}.nml")
@@ -241,6 +241,8 @@ def test_floors_between_steps_leave_the_run_unchanged(tmp_path):
         assert (tmp_path / f"{name}_floors" / "trace.csv").read_bytes() == plain, name
         key = "solve_us" if name == "bar2d_hht" else "mass_solve_us"
         assert all(f[key] > 0 and f["spmv_us"] > 0 for f in measured), name
+        alone = bench_floors(scn, 20, 2)   # the same helper on a run of its own
+        assert alone[key] > 0 and alone["spmv_us"] > 0, name
 
 
 def test_interleaved_run_ratio_is_time_over_floors(tmp_path):

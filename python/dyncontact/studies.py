@@ -591,30 +591,6 @@ def bench_specs(quick: bool = False, only: Iterable[str] | None = None) -> list[
     return specs
 
 
-def _floors(spec: RunSpec, out_dir: str, n_rep: int = 1000,
-            batches: int = 10) -> dict[str, float | None]:
-    """µs of one triangular solve with the cached iteration-matrix factors (implicit
-    schemes), one M^{-1} application and one SpMV with K_θ, from the core's timing helper
-    ``dc_bench_floor(handle, n_rep) -> (t_solve_us, t_spmv_us, t_mass_us, t_cholmod_us)``
-    (0 = does not apply to the scheme; the last is the same solve through cholmod_solve2,
-    for comparison): the best of ``batches`` batch means, n_rep calls in all. None
-    when the core lacks it or it fails."""
-    none = {"floor_solve_us": None, "floor_mass_solve_us": None, "floor_spmv_us": None,
-            "floor_cholmod_solve_us": None}
-    from .core import bench_floors
-
-    try:
-        got = bench_floors(spec.scene(), n_rep, batches)
-    except Exception as exc:  # noqa: BLE001 - a benchmark reports, it does not fail
-        print(f"bench: {spec.name}: floors not measured ({exc})", file=sys.stderr)
-        return none
-    if got is None:
-        return none
-    return {"floor_solve_us": got["solve_us"], "floor_mass_solve_us": got["mass_solve_us"],
-            "floor_spmv_us": got["spmv_us"],
-            "floor_cholmod_solve_us": got.get("cholmod_solve_us")}
-
-
 def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 400,
                     batches: int = 4) -> dict[str, Any]:
     """One run of ``spec`` in ``chunks`` stretches of steps, with the floors measured on
