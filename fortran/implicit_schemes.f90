@@ -258,11 +258,13 @@ contains
         if (this%m > 0) then
             if (.not. this%cached) then
                 call contact_part(st%u, this%cx, active, e_pen, e_theta)
-            else if (any(st%u(mdl%ct%cdofs) /= this%xc)) then
+            else if (moved(st%u, mdl%ct%cdofs, this%xc)) then
                 call contact_part(st%u, this%cx, active, e_pen, e_theta)
             end if
             this%tsum = 0.0_dp
-            this%xc = st%u(mdl%ct%cdofs)
+            do i = 1, this%m
+                this%xc(i) = st%u(mdl%ct%cdofs(i))
+            end do
         end if
         it = 0
         do
@@ -382,7 +384,9 @@ contains
             end do
             ! the contact part is kept for the next step, with the vector it was
             ! evaluated at (u' on the contact-cell dofs)
-            this%xc = st%u(mdl%ct%cdofs)
+            do i = 1, this%m
+                this%xc(i) = st%u(mdl%ct%cdofs(i))
+            end do
             this%cached = .true.
         end if
         st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
@@ -434,7 +438,11 @@ contains
             ! small = I + c V^T W U; zs = c V^T yc. Row i of V^T W U sums the rows
             ! qloc(:, i) of W U, read as columns of its transpose (contiguous, vector
             ! operations over the r columns; each entry's sum in the order of k as before)
-            this%wut(1:r, :) = transpose(this%wu(:, 1:r))
+            do l = 1, size(this%wu, 1)
+                do j = 1, r
+                    this%wut(j, l) = this%wu(l, j)
+                end do
+            end do
             do i = 1, r
                 this%srow(1:r) = 0.0_dp
                 acc2 = 0.0_dp
@@ -497,6 +505,21 @@ contains
             end do
         end do
     end subroutine add_columns
+
+    !> Whether u on the dofs idx differs from xc (no temporary array).
+    pure logical function moved(u, idx, xc)
+        real(dp), intent(in) :: u(:)                        !! vector
+        integer, intent(in) :: idx(:)                       !! dofs
+        real(dp), intent(in) :: xc(:)                       !! (size(idx)) values to compare
+        integer :: i
+        moved = .false.
+        do i = 1, size(idx)
+            if (u(idx(i)) /= xc(i)) then
+                moved = .true.
+                return
+            end if
+        end do
+    end function moved
 
     !> y = a x for a small dense matrix (no temporary).
     pure subroutine matvec_small(a, x, y)

@@ -312,7 +312,7 @@ contains
         real(dp), intent(inout), optional :: ua(:, :)       !! (ndof_e, >= rank) left factors
         real(dp), intent(inout), optional :: vb(:, :)       !! (ndof_e, >= rank) right factors
         integer, intent(inout), optional :: qloc(:, :)      !! (ndof_e, >= rank) their cdofs
-        real(dp) :: ue(ct%ndof_e), rf(ct%ndof_e), ef, sn
+        real(dp) :: ue(MAX_E), rf(MAX_E), ef, sn   ! fixed sizes: no heap array a call
         integer :: f, i, af, nr
         active = 0
         e_pen = 0.0_dp
@@ -323,7 +323,7 @@ contains
                 ue(i) = 0.0_dp
                 if (ct%dofs(i, f) > 0) ue(i) = u(ct%dofs(i, f))
             end do
-            sn = dot_product(ct%s(:, f), ue)
+            sn = dot_product(ct%s(:, f), ue(1:ct%ndof_e))
             e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
             if (present(ua)) then
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
