@@ -205,11 +205,11 @@ def test_bench_rows_and_table():
     assert table[0].split()[:3] == ["scene", "dofs", "steps"]
     seed_cells, pc_cells = table[2].split(), table[3].split()
     # floors: n/a when not measured, '-' where they do not apply to the scheme
-    assert seed_cells[-7:] == ["n/a", "-", "2.00", "n/a", "n/a", "-", "ok"]
-    assert pc_cells[-7:] == ["-", "n/a", "n/a", "n/a", "n/a", "-", "ok"]
+    assert seed_cells[-8:] == ["n/a", "-", "2.00", "n/a", "n/a", "-", "n/a", "ok"]
+    assert pc_cells[-8:] == ["-", "n/a", "n/a", "n/a", "n/a", "-", "-", "ok"]
     ranged = bench_table([dict(rows[0], floor_ratio=1.2, floor_ratio_min=1.1,
                                floor_ratio_max=1.5)]).splitlines()[2].split()
-    assert ranged[-3:] == ["1.20", "1.10-1.50", "ok"]
+    assert ranged[-4:] == ["1.20", "1.10-1.50", "n/a", "ok"]
     # the floor of a step and the ratio to it (issue 10)
     from dyncontact.studies import _step_floor
     assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,
@@ -218,6 +218,12 @@ def test_bench_rows_and_table():
                         "floor_spmv_us": 10.0}) == 80.0
     assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": None,
                         "floor_spmv_us": 10.0}) is None
+    # the same floor with CHOLMOD's solve in place of the run's (implicit rows only)
+    assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,
+                        "floor_cholmod_solve_us": 70.0, "floor_spmv_us": 10.0},
+                       cholmod=True) == 80.0
+    assert _step_floor({"scene": "pc_h0.01_consistent", "floor_mass_solve_us": 30.0,
+                        "floor_spmv_us": 10.0}, cholmod=True) is None
 
 
 def test_floors_between_steps_leave_the_run_unchanged(tmp_path):
@@ -260,4 +266,6 @@ def test_interleaved_run_ratio_is_time_over_floors(tmp_path):
     assert rec["floor_ratio"] == pytest.approx(rec["us_per_step"] / rec["floor_us"],
                                                rel=1e-12)
     assert min(rec["chunk_ratios"]) <= rec["floor_ratio"] <= max(rec["chunk_ratios"])
+    assert rec["floor_cholmod_ratio"] == pytest.approx(
+        rec["us_per_step"] / _step_floor(rec, cholmod=True), rel=1e-12)
     assert (tmp_path / "run" / "summary.json").is_file()

@@ -606,7 +606,8 @@ def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 
 
     rec: dict[str, Any] = {"scene": spec.name, "status": "error", "message": "",
                            "steps": 0, "us_per_step": None, "floor_us": None,
-                           "floor_ratio": None, "chunk_ratios": []}
+                           "floor_ratio": None, "floor_cholmod_ratio": None,
+                           "chunk_ratios": []}
     keys = ("floor_solve_us", "floor_spmv_us", "floor_mass_solve_us",
             "floor_cholmod_solve_us")
     names = ("solve_us", "spmv_us", "mass_solve_us", "cholmod_solve_us")
@@ -650,6 +651,10 @@ def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 
         vals = [p[key] for p in per]
         rec[key] = (None if any(v is None for v in vals)
                     else sum(d * v for (d, _), v in zip(stretches, vals)) / steps)
+    chol_floors = [_step_floor(dict(p, scene=spec.name), cholmod=True) for p in per]
+    if all(f is not None for f in chol_floors):
+        rec["floor_cholmod_ratio"] = 1e6 * seconds / sum(
+            d * f for (d, _), f in zip(stretches, chol_floors))
     step_floors = [_step_floor(dict(p, scene=spec.name)) for p in per]
     if any(f is None for f in step_floors):
         return rec
@@ -717,13 +722,17 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100,
     return row
 
 
-def _step_floor(row: Mapping[str, Any]) -> float | None:
+def _step_floor(row: Mapping[str, Any], cholmod: bool = False) -> float | None:
     """The floor of one step (issue 10): one solve + one SpMV with K_θ for the implicit
-    scheme, two M⁻¹ applications + two SpMVs for the predictor-corrector."""
+    scheme, two M⁻¹ applications + two SpMVs for the predictor-corrector. ``cholmod``:
+    the implicit scheme's floor with cholmod_solve2 on the same factor as its solve (the
+    floor the issue's budget was first measured with); None for the predictor-corrector."""
     spmv = row.get("floor_spmv_us")
     if str(row.get("scene", "")).startswith("seed"):
-        solve = row.get("floor_solve_us")
+        solve = row.get("floor_cholmod_solve_us" if cholmod else "floor_solve_us")
         return solve + spmv if solve is not None and spmv is not None else None
+    if cholmod:
+        return None
     mass = row.get("floor_mass_solve_us")
     return 2 * (mass + spmv) if mass is not None and spmv is not None else None
 
@@ -747,6 +756,7 @@ _BENCH_COLUMNS = (  # (header, key, format)
     ("floor µs", "floor_us", ".1f"),
     ("µs/floor", "floor_ratio", ".2f"),
     ("range", "floor_ratio_range", "s"),
+    ("µs/CHOLMOD floor", "floor_cholmod_ratio", ".2f"),
     ("status", "status", "s"),
 )
 
@@ -759,6 +769,7 @@ def _cell(row: Mapping[str, Any], key: str, fmt: str) -> str:
     if key.startswith("floor_"):
         implicit = str(row.get("scene", "")).startswith("seed")
         applies = {"floor_solve_us": implicit, "floor_cholmod_solve_us": implicit,
+                   "floor_cholmod_ratio": implicit,
                    "floor_mass_solve_us": not implicit}.get(key, True)
         if not applies:
             return "-"
@@ -845,7 +856,8 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
           "stretches of steps with the floors measured between them, each stretch "
           "compared with the floors measured next to it (µs/floor = time of the steps ÷ "
           "Σ steps × floor); the table shows the run of the median ratio, range = the "
-          "ratios of all those runs.")
+          "ratios of all those runs; µs/CHOLMOD floor = the same run's ratio with "
+          "CHOLMOD µs in place of solve µs in the floor.")
     isas = sorted({str(r.get("isa")) for r in rows if r.get("isa")})
     if isas:
         print(f"core built for: {', '.join(isas)} (meson option simd; see meson.options)")
