@@ -321,6 +321,21 @@ def test_scene_without_contact_boundary(tmp_path):
     assert np.ptp(tr["e_total"]) / tr["e_total"][0] < CONSERVATION_TOL
 
 
+@pytest.mark.parametrize("name", ["newmark", "hht", "hht_seed", "theta", "galpha"])
+def test_body_at_rest_takes_one_newton_iteration_a_step(tmp_path, name):
+    """The first Newton iteration always solves (numerics.md, Semi-smooth Newton): a bar
+    at rest with no load, off the obstacle, has R(u^n) = 0, its solve gives dx = 0 exactly,
+    and R after it is zero (no contact point active), so every step takes exactly one
+    iteration and the bar stays at rest, bit for bit."""
+    res = run(scene(initial__kind="rest", scheme__name=name, scheme__t_end=0.05),
+              tmp_path, name)
+    assert res.status == "ok" and res.summary["steps"] == 20
+    tr = res.trace
+    assert np.all(tr["newton_its"][1:] == 1) and res.summary["newton_its_total"] == 20
+    for col in ("u_n", "v_n", "p_n", "e_kin", "e_el", "e_total"):
+        assert np.all(tr[col] == 0.0), col
+
+
 def test_summary_fields(tmp_path):
     res = run(scene(scheme__t_end=0.1), tmp_path, "s")
     s = res.summary
