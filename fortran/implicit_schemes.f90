@@ -235,7 +235,7 @@ contains
         type(state_t), intent(inout) :: st                  !! state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc, kb
+        real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc, cb, kb
         integer :: it, active, i, q, n
         stat = STAT_OK
         dt = this%dt
@@ -245,12 +245,12 @@ contains
         ! a test needs it (see newton_scale)
         if (this%kind == KIND_NEWMARK) then
             kb = this%alpha_f
-            acc = this%beta * dt**2 / (1.0_dp - this%alpha_m)
+            cb = this%beta * dt**2 / (1.0_dp - this%alpha_m)
         else
             kb = 1.0_dp - this%theta
-            acc = this%theta * dt**2
+            cb = this%theta * dt**2
         end if
-        call newton_rhs(n, acc, kb, this%c, mdl%load, st%bu, this%md, this%r, this%bvec)
+        call newton_rhs(n, cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
         scale = -1.0_dp
         rnorm = 0.0_dp
         ! contact part at u^n: kept from the end of the previous step when u^n on the
@@ -276,7 +276,10 @@ contains
         do
             if (it > 0) then
                 if (rnorm == 0.0_dp) exit
-                if (scale < 0.0_dp) scale = newton_scale(this%c, this%md, st%bu, this%bvec)
+                if (scale < 0.0_dp) then
+                    this%bvec = newton_b(cb, kb, mdl%load, st%bu)
+                    scale = newton_scale(this%c, this%md, st%bu, this%bvec)
+                end if
                 if (rnorm <= this%tol * scale) exit
             end if
             if (.not. (rnorm == rnorm) .or. it >= this%maxit) then
@@ -543,20 +546,25 @@ contains
         end do
     end subroutine matvec_small
 
-    !> The Newton initial residual: r = md + c bu - b with b = cb (load - kb bu), in one
-    !> pass.
-    pure subroutine newton_rhs(n, cb, kb, c, load, bu, md, r, b)
+    !> The Newton initial residual: r = md + c bu - b with b = newton_b(cb, kb, load, bu),
+    !> in one pass (b itself is formed only for the test's scale).
+    pure subroutine newton_rhs(n, cb, kb, c, load, bu, md, r)
         integer, intent(in) :: n                            !! size
         real(dp), intent(in) :: cb, kb, c                   !! coefficients
         real(dp), intent(in) :: load(n), bu(n), md(n)       !! L, B(u^n), M (u^n - u~)
         real(dp), intent(out) :: r(n)                       !! R(u^n)
-        real(dp), intent(out) :: b(n)                       !! b
         integer :: k
         do k = 1, n
-            b(k) = cb * (load(k) - kb * bu(k))
-            r(k) = md(k) + c * bu(k) - b(k)
+            r(k) = md(k) + c * bu(k) - newton_b(cb, kb, load(k), bu(k))
         end do
     end subroutine newton_rhs
+
+    !> b = cb (L - kb B(u^n)), the load part of the step's residual.
+    elemental real(dp) function newton_b(cb, kb, load, bu) result(b)
+        real(dp), intent(in) :: cb, kb                      !! coefficients
+        real(dp), intent(in) :: load, bu                    !! L and B(u^n) at one dof
+        b = cb * (load - kb * bu)
+    end function newton_b
 
     !> The scale of the Newton test, |md| + c |bu| + |b| (the norms of the three terms of
     !> R(u^n) = md + c bu - b), each sum of squares a `dot` (LANES partial sums: one
