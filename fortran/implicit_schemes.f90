@@ -389,8 +389,7 @@ contains
         end do
         if (size(mdl%massless_dofs) > 0) call form_predictor(this, st%u, st%v, st%a, &
                                                              mdl%massless_dofs)
-        call model_step_products(mdl, st%u, st%v, this%dvec, st%ktu, st%mv, this%md)
-        st%bu = st%ktu
+        call model_step_products(mdl, st%u, st%v, this%dvec, st%ktu, st%mv, this%md, st%bu)
         if (this%m > 0) then
             do i = 1, this%m
                 st%bu(mdl%ct%cdofs(i)) = st%bu(mdl%ct%cdofs(i)) + this%cx(i)

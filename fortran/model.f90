@@ -786,8 +786,10 @@ contains
     end subroutine model_mass_apply
 
     !> The products a step ends with, formed from the vectors (never carried):
-    !> kx = K_theta x, mv = M v, md = M d; one pass over the shared node blocks in 2D.
-    subroutine model_step_products(mdl, x, v, d, kx, mv, md)
+    !> kx = K_theta x, mv = M v, md = M d; one pass over the shared node blocks in 2D,
+    !> which also stores K_theta x in bx (the caller's B(x) before its contact part: a
+    !> second store a row instead of a copy pass).
+    subroutine model_step_products(mdl, x, v, d, kx, mv, md, bx)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: x(:)          !! displacement
         real(dp), intent(in) :: v(:)          !! velocity
@@ -795,12 +797,14 @@ contains
         real(dp), intent(out) :: kx(:)        !! K_theta x
         real(dp), intent(out) :: mv(:)        !! M v
         real(dp), intent(out) :: md(:)        !! M d
+        real(dp), intent(out) :: bx(:)        !! K_theta x again (the caller adds C(x): B(x))
         if (mdl%lumped) then
             call model_stiff_apply(mdl, x, kx)
             mv = mdl%mass_diag * v
             md = mdl%mass_diag * d
         else if (mdl%mass_scalar) then
-            call block2_matvec_ks3(mdl%stiff_theta_b, mdl%mass_s, x, v, d, kx, mv, md)
+            call block2_matvec_ks3(mdl%stiff_theta_b, mdl%mass_s, x, v, d, kx, mv, md, bx)
+            return
         else if (mdl%blocked) then
             call block2_matvec_km(mdl%stiff_theta_b, mdl%mass_b, x, v, d, kx, mv, md)
         else
@@ -808,6 +812,7 @@ contains
             call csc_matvec_t(mdl%mass, v, mv)
             call csc_matvec_t(mdl%mass, d, md)
         end if
+        bx = kx
     end subroutine model_step_products
 
     !> kx = K_theta x and mv = M v, in one pass over the node blocks when M's blocks are

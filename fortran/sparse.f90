@@ -438,7 +438,7 @@ contains
 
     !> kx = K x, mv = M v and md = M d in one pass, M = blocks ms(k) I on the block
     !> pattern of kb (see block2_scalar_blocks). kx is bitwise equal to block2_matvec's.
-    pure subroutine block2_matvec_ks3(kb, ms, x, v, d, kx, mv, md)
+    pure subroutine block2_matvec_ks3(kb, ms, x, v, d, kx, mv, md, bx)
         type(block2_t), intent(in) :: kb                   !! K (every group a pair)
         real(dp), intent(in) :: ms(size(kb%col1))          !! (n_blocks) scalar blocks of M
         real(dp), intent(in) :: x(kb%n)                    !! (n) vector multiplied by K
@@ -447,12 +447,13 @@ contains
         real(dp), intent(out) :: kx(kb%n)                  !! (n) K x
         real(dp), intent(out) :: mv(kb%n)                  !! (n) M v
         real(dp), intent(out) :: md(kb%n)                  !! (n) M d
+        real(dp), intent(out) :: bx(kb%n)                  !! (n) K x again
         call ks3_rows(kb%n, kb%n_groups, size(kb%col1), kb%row_ptr, kb%col1, kb%first, kb%val, &
-                      ms, x, v, d, kx, mv, md)
+                      ms, x, v, d, kx, mv, md, bx)
     end subroutine block2_matvec_ks3
 
     !> block2_matvec_ks3 on the arrays of K (explicit shapes, see pairs_rows).
-    pure subroutine ks3_rows(n, ng, nb, row_ptr, col1, first, val, ms, x, v, d, kx, mv, md)
+    pure subroutine ks3_rows(n, ng, nb, row_ptr, col1, first, val, ms, x, v, d, kx, mv, md, bx)
         integer, intent(in) :: n, ng, nb                   !! size, groups, blocks
         integer, intent(in) :: row_ptr(ng + 1)             !! block range of each row group
         integer, intent(in) :: col1(nb)                    !! first dof of each block's column group
@@ -461,6 +462,7 @@ contains
         real(dp), intent(in) :: ms(nb)                     !! scalar blocks of M
         real(dp), intent(in) :: x(n), v(n), d(n)           !! vectors
         real(dp), intent(out) :: kx(n), mv(n), md(n)       !! K x, M v, M d
+        real(dp), intent(out) :: bx(n)                     !! K x again
         integer :: g, k, c, i
         real(dp) :: y(2), p(2), q(2)
         do g = 1, ng
@@ -475,6 +477,7 @@ contains
             end do
             i = first(g)
             kx(i:i + 1) = y
+            bx(i:i + 1) = y
             mv(i:i + 1) = p
             md(i:i + 1) = q
         end do

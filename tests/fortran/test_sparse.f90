@@ -217,7 +217,7 @@ contains
         integer :: r(8 * m), c(8 * m)
         real(dp) :: kv(8 * m), mv_(8 * m), u(2 * m), sb(ng, ng), kval, mval
         real(dp), allocatable :: kd(:, :), md_(:, :), x(:), v(:), d(:), kx(:), mv(:), md(:), &
-                                 kx0(:), s(:)
+                                 kx0(:), s(:), bx(:)
         type(csc_t) :: ka, ma
         type(block2_t) :: kb, mb
         logical :: scal, pairs
@@ -255,7 +255,7 @@ contains
                     end do
                 end do
             end do
-            allocate (kd(n, n), md_(n, n), x(n), v(n), d(n), kx(n), mv(n), md(n), kx0(n))
+            allocate (kd(n, n), md_(n, n), x(n), v(n), d(n), kx(n), mv(n), md(n), kx0(n), bx(n))
             kd = 0.0_dp
             md_ = 0.0_dp
             do k = 1, nt
@@ -280,12 +280,13 @@ contains
             call block2_matvec_km(kb, mb, x, v, d, kx, mv, md)
             call check_fused('km', kd, md_, x, v, kx0, kx, mv, d, md)
             if (pairs .and. scal) then
-                call block2_matvec_ks3(kb, s, x, v, d, kx, mv, md)
+                call block2_matvec_ks3(kb, s, x, v, d, kx, mv, md, bx)
                 call check_fused('ks3', kd, md_, x, v, kx0, kx, mv, d, md)
+                call checks%check(all(bx == kx), 'block2 fused: ks3 K x written twice, equal')
                 call block2_matvec_ks2(kb, s, x, v, kx, mv)
                 call check_fused('ks2', kd, md_, x, v, kx0, kx, mv)
             end if
-            deallocate (kd, md_, x, v, d, kx, mv, md, kx0)
+            deallocate (kd, md_, x, v, d, kx, mv, md, kx0, bx)
         end do
     end subroutine test_block2_fused
 
