@@ -15,7 +15,7 @@
 !>     1/2 v.M v + 1/2 u.K_theta u - dt^2/8 a.M a
 !> exactly (the quadratic invariant of its amplification matrix).
 module central_difference
-    use kinds, only: dp
+    use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use model, only: model_t, model_apply_jacobian, model_stiff_apply, model_mass_apply
     use nitsche_contact, only: contact_eval
@@ -46,7 +46,8 @@ module central_difference
 contains
 
     !> M factorization (consistent mass), a0 = M^{-1}(L - B(u0)), the critical step
-    !> estimate, and dt (SAFETY dt_crit when prm%dt is 0).
+    !> estimate, and dt: when prm%dt is 0, the largest step <= SAFETY dt_crit that
+    !> divides prm%t_end (the run ends at t_end, not a fraction of a step after it).
     subroutine central_init(this, mdl, prm, st, stat, errmsg)
         class(central_scheme_t), intent(inout) :: this      !! scheme
         type(model_t), intent(in) :: mdl                    !! model
@@ -55,6 +56,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: n
+        real(dp) :: steps
         n = mdl%n_dofs
         allocate (this%rhs(n))
         call mass_solver_start(this%ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg)
@@ -62,7 +64,13 @@ contains
         call central_critical_dt(mdl, this%ms, this%dt_crit, stat, errmsg)
         if (stat /= STAT_OK) return
         this%dt = prm%dt
-        if (prm%dt == 0.0_dp) this%dt = CENTRAL_SAFETY * this%dt_crit
+        if (prm%dt == 0.0_dp) then
+            this%dt = CENTRAL_SAFETY * this%dt_crit
+            if (this%dt > 0.0_dp .and. prm%t_end > 0.0_dp) then
+                steps = prm%t_end / this%dt
+                if (steps < 1.0e15_dp) this%dt = prm%t_end / real(ceiling(steps, i8), dp)
+            end if
+        end if
     end subroutine central_init
 
     !> Release the factors of M.

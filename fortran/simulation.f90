@@ -471,6 +471,7 @@ contains
         type(scheme_params_t) :: p
         p%kind = scheme_kind(scn%scheme_name)
         p%dt = scn%dt
+        p%t_end = scn%t_end
         p%alpha = scn%alpha; p%beta = scn%beta; p%gamma = scn%gamma
         p%theta = scn%time_theta; p%rho_inf = scn%rho_inf
         p%newton_tol = scn%newton_tol; p%newton_maxit = scn%newton_maxit

@@ -17,6 +17,7 @@ module time_scheme
     type, public :: scheme_params_t
         integer :: kind = SCHEME_HHT              !! SCHEME_*
         real(dp) :: dt = 0.0_dp                   !! time step (central: 0 = chosen by the scheme)
+        real(dp) :: t_end = 0.0_dp                !! the run's end (a step chosen by the scheme divides it)
         real(dp) :: alpha = 0.0_dp                !! HHT alpha
         real(dp) :: beta = 0.25_dp                !! Newmark / pc beta
         real(dp) :: gamma = 0.5_dp                !! Newmark / pc gamma

@@ -8,6 +8,8 @@ the conservation laws the redistributed mass must keep.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -180,12 +182,21 @@ def test_central_stability_limit_is_two_over_omega_max(tmp_path):
     assert abs(below.summary["dt_crit_estimate"] - dtc) <= 0.01 * dtc
 
 
-def test_central_auto_step_uses_the_estimate(tmp_path):
+@pytest.mark.parametrize("t_end", [1.0, 30.0])
+def test_central_auto_step_uses_the_estimate(tmp_path, t_end):
+    """dt = 0: the largest step <= 0.9 x the estimate that divides t_end, so the run ends
+    at t_end (it ended a fraction of a step after it: 30.018 for T = 30)."""
     n = 20
-    res = dyncontact.run(central_free_bar(n, 0.0, 1.0), out=tmp_path / "auto", progress=False)
+    res = dyncontact.run(central_free_bar(n, 0.0, t_end), out=tmp_path / "auto",
+                         progress=False)
     assert res.status == "ok"
     dt = res.summary["scene"]["scheme"]["dt"]
-    assert abs(dt - 0.9 * res.summary["dt_crit_estimate"]) <= 1e-12
+    cap = 0.9 * res.summary["dt_crit_estimate"]
+    steps = math.ceil(t_end / cap)
+    assert dt <= cap and dt == t_end / steps
+    assert res.summary["steps"] == steps
+    assert abs(res.summary["t_end_reached"] - t_end) <= 1e-12 * t_end
+    assert abs(res.trace["t"][-1] - t_end) <= 1e-12 * t_end
     assert abs(res.summary["dt_crit_estimate"] - chain_dt_crit(n)) <= 0.01 * chain_dt_crit(n)
 
 
