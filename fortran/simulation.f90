@@ -150,6 +150,14 @@ contains
         if (stat /= STAT_OK) return
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
+            ! the estimate is the linear limit at full contact: measured, it is not a safe
+            ! bound with Nitsche theta = -1 or 0 (docs/numerics.md, "Central differences")
+            if (sim%mdl%has_contact .and. trim(sim%scn%contact_method) == 'nitsche' .and. &
+                sim%scn%nitsche_theta /= 1) sim%mdl%notes = trim(sim%mdl%notes)// &
+                'warning: &scheme dt = 0 picks 0.9 x the estimated critical step, which is not'// &
+                ' a safe bound with &contact theta = '//int_text(sim%scn%nitsche_theta)// &
+                ' (measured up to 1.3x above the limit at gamma0 = 10, far more at small gamma0:'// &
+                ' docs/numerics.md); give dt or use theta = 1'//new_line('a')
             call count_steps(stat, errmsg)
             if (stat /= STAT_OK) return
         end if

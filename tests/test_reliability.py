@@ -590,6 +590,23 @@ def test_obstacle_normal_into_the_body_warns(kind, tmp_path):
     assert "obstacle_normal" not in res.stderr
 
 
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_central_auto_step_warns_where_the_estimate_is_not_a_bound(kind, tmp_path):
+    """dt = 0 with Nitsche theta = -1 or 0: the estimate of the critical step is not a safe
+    bound there (numerics.md, "Central differences"): the run says so; theta = 1 does not."""
+    base = dict(scheme__name="'central'", scheme__mass="'lumped'", scheme__dt="0.0",
+                scheme__t_end="0.05")
+    for theta, warned in [("-1", True), ("0", True), ("1", False)]:
+        scene = write_scene(tmp_path / f"s{theta}.nml", contact__theta=theta, **base)
+        res = run(kind, scene, "--out", tmp_path / f"o{theta}", cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        assert ("not a safe bound with &contact theta = " + theta in res.stderr) == warned
+    scene = write_scene(tmp_path / "given.nml", contact__theta="-1",
+                        **{**base, "scheme__dt": "0.001"})
+    res = run(kind, scene, "--out", tmp_path / "given", cwd=tmp_path)
+    assert res.returncode == EXIT_OK and "not a safe bound" not in res.stderr
+
+
 def test_plot_out_says_what_it_wrote(tmp_path):
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.05")
     assert run("exe", scene, "--out", tmp_path / "o", cwd=tmp_path).returncode == 0
