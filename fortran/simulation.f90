@@ -154,7 +154,7 @@ contains
             ! bound with Nitsche theta = -1 or 0 (docs/numerics.md, "Central differences")
             if (sim%mdl%has_contact .and. trim(sim%scn%contact_method) == 'nitsche' .and. &
                 sim%scn%nitsche_theta /= 1) sim%mdl%notes = trim(sim%mdl%notes)// &
-                'warning: &scheme dt = 0 picks 0.9 x the estimated critical step, which is not'// &
+                'warning: &scheme dt = 0 picks at most 0.9 x the estimated critical step, not'// &
                 ' a safe bound with &contact theta = '//int_text(sim%scn%nitsche_theta)// &
                 ' (measured up to 1.3x above the limit at gamma0 = 10, far more at small gamma0:'// &
                 ' docs/numerics.md); give dt or use theta = 1'//new_line('a')
