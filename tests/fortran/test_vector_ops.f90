@@ -1,9 +1,9 @@
 !> Unit tests of module vector_ops: `dot` against exact and bounded references at lengths
-!> around multiples of LANES (its vector part, its tail, both), the sum of a vector's
-!> first size(a) entries when b is longer, and the same number whatever the run.
+!> around multiples of LANES (its vector part, its tail, both); it reads size(a) entries
+!> of a longer b, and dot(a, b) = dot(b, a) bit for bit.
 !> Exit status 1 (error stop) on any failure.
 program test_vector_ops
-    use kinds, only: dp
+    use kinds, only: dp, i8
     use vector_ops, only: dot, LANES
     use unit_checks, only: checks_t, seed
     implicit none
@@ -11,7 +11,7 @@ program test_vector_ops
     type(checks_t) :: checks
     integer :: t, n, i
     integer :: lengths(12)
-    integer(8) :: exact
+    integer(i8) :: exact
     real(dp), allocatable :: a(:), b(:)
     real(qp) :: ref, bound
     character(len=16) :: tag
@@ -28,7 +28,7 @@ program test_vector_ops
         do i = 1, n
             a(i) = real(mod(7 * i, 13) - 6, dp)
             b(i) = real(mod(5 * i, 11) - 5, dp)
-            exact = exact + int(a(i), 8) * int(b(i), 8)
+            exact = exact + int(a(i), i8) * int(b(i), i8)
         end do
         b(n + 1:) = 1.0e300_dp   ! beyond size(a): never read
         call checks%check(dot(a, b) == real(exact, dp), 'dot exact on integers,'//trim(tag))
