@@ -34,7 +34,7 @@ def test_version_is_the_same_everywhere(core_ext):
     # pyproject.toml takes the version from meson.build (no second copy to drift).
     assert "version" in project.get("dynamic", []) and "version" not in project
     assert dyncontact.__version__ == meson, "python/dyncontact/_version.py (generated)"
-    # fortran/version_info.f90 is generated from meson.build (configure_file)
+    # fortran/base/version_info.f90 is generated from meson.build (configure_file)
     assert fortran_version() == meson, "dc_version() of the compiled core"
 
 

@@ -16,7 +16,7 @@ HEADER = ",".join(core.TRACE_COLUMNS)
 
 
 class FakeCore:
-    """Mimics the flat API of fortran/api.f90 as f2py exposes it."""
+    """Mimics the flat API of fortran/app/api.f90 as f2py exposes it."""
 
     def __init__(self, n_steps=1000, fail_at=None, fail_stat=3, open_stat=0, stall=False):
         self.n_steps, self.fail_at, self.fail_stat = n_steps, fail_at, fail_stat

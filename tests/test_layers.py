@@ -20,7 +20,7 @@ PYTHON = ROOT / "python" / "dyncontact"
 #: Modules of the compiler, not of the project.
 INTRINSIC = {"iso_c_binding", "iso_fortran_env", "ieee_arithmetic", "ieee_exceptions",
              "ieee_features", "omp_lib"}
-#: The Python unit that is the Fortran extension (built from fortran/api.f90).
+#: The Python unit that is the Fortran extension (built from fortran/app/api.f90).
 EXTENSION = "_core"
 #: The only Python unit that may import the extension.
 BOUNDARY = "core"
@@ -28,30 +28,63 @@ BOUNDARY = "core"
 
 def read_layers(which: str) -> dict[str, int]:
     """Module -> layer number, from the diagram after `<!-- layers: WHICH -->`."""
+    return read_layer_table(which)[0]
+
+
+def read_layer_table(which: str) -> tuple[dict[str, int], dict[str, str]]:
+    """Module -> layer number and module -> layer name, from the diagram after
+    `<!-- layers: WHICH -->`."""
     text = DOC.read_text()
     m = re.search(r"<!-- layers: " + which + r" -->\s*```\w*\n(.*?)```", text, re.S)
     assert m, f"{DOC}: no diagram marked <!-- layers: {which} -->"
     layers: dict[str, int] = {}
+    names: dict[str, str] = {}
     numbers = []
     for line in m.group(1).splitlines():
         if not line.strip():
             continue
-        lm = re.fullmatch(r"\s*(\d+)\s+\w+\s+(.+)", line)
+        lm = re.fullmatch(r"\s*(\d+)\s+(\w+)\s+(.+)", line)
         assert lm, f"{DOC}: bad diagram line {line!r} (NUMBER NAME MODULE ...)"
         number = int(lm.group(1))
         numbers.append(number)
-        for name in lm.group(2).split():
+        for name in lm.group(3).split():
             assert name not in layers, f"{DOC}: {name} is in two layers"
             layers[name] = number
+            names[name] = lm.group(2)
     assert numbers == sorted(numbers, reverse=True), f"{DOC}: layers not listed top down"
-    return layers
+    return layers, names
+
+
+def fortran_files() -> list[Path]:
+    """The Fortran sources of the core, in their layer folders."""
+    return sorted(FORTRAN.rglob("*.f90")) + sorted(FORTRAN.rglob("*.f90.in"))
+
+
+def fortran_folders() -> dict[str, str]:
+    """Fortran unit -> the folder (below fortran/) of its file."""
+    out: dict[str, str] = {}
+    for path in fortran_files():
+        for unit in _units_of_file(path):
+            out[unit] = path.parent.relative_to(FORTRAN).as_posix()
+    return out
+
+
+def _units_of_file(path: Path) -> list[str]:
+    """The modules and programs a file defines (its stem if none)."""
+    found = []
+    for line in path.read_text().splitlines():
+        code = line.split("!", 1)[0].lower()
+        m = re.match(r"\s*(module|program)\s+(\w+)\s*$", code)
+        if m and m.group(2) != "procedure":
+            found.append(m.group(2))
+    return found or [path.name.split(".")[0]]
 
 
 def fortran_units() -> dict[str, set[str]]:
     """Fortran unit (module, program, or the file stem of a file of external procedures)
     -> the project modules it uses."""
     units: dict[str, set[str]] = {}
-    for path in sorted(FORTRAN.glob("*.f90")) + sorted(FORTRAN.glob("*.f90.in")):
+    for path in fortran_files():
         name = path.name.split(".")[0]
         used: set[str] = set()
         for line in path.read_text().splitlines():
@@ -146,6 +179,23 @@ def test_fortran_uses_follow_the_layers():
     assert violations(read_layers("fortran"), fortran_units()) == []
 
 
+def test_each_fortran_module_is_in_its_layers_folder():
+    """The folders of fortran/ are the layers of the diagram: fortran/<layer name>/."""
+    _, names = read_layer_table("fortran")
+    folders = fortran_folders()
+    wrong = {u: (folders[u], names[u]) for u in folders
+             if u in names and folders[u] != names[u]}
+    assert wrong == {}, "module: (its folder, its layer's folder)"
+    assert not list(FORTRAN.glob("*.f90")), "a Fortran file outside the layer folders"
+
+
+def test_a_misplaced_module_is_found():
+    """The folder check can fail: a module of layer 'fem' filed under 'io'."""
+    _, names = read_layer_table("fortran")
+    folders = dict(fortran_folders(), model="io")
+    assert [u for u in folders if u in names and folders[u] != names[u]] == ["model"]
+
+
 def test_python_imports_follow_the_layers():
     units, _private = python_units()
     assert violations(read_layers("python"), units) == []
@@ -162,7 +212,7 @@ def test_the_numerical_core_sees_no_scene_and_no_file_reader():
     layers = read_layers("fortran")
     for low in ("model", "time_scheme", "implicit_schemes", "explicit_schemes",
                 "central_difference", "mass_solver"):
-        for reader in ("scene", "gmsh_reader", "bar_mesh", "mesh_source", "os_files"):
+        for reader in ("scene", "gmsh_reader", "mesh_source", "os_files"):
             assert layers[low] < layers[reader], (low, reader)
 
 

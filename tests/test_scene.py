@@ -1,4 +1,4 @@
-"""Scene files, read by the one reader (fortran/scene.f90) through both entry points:
+"""Scene files, read by the one reader (fortran/io/scene.f90) through both entry points:
 dyncontact._core directly and dyncontact.Scene (which only edits and writes). Every good
 file must read to the values written in it, every bad file must be refused with one line
 naming the file, group and key."""

@@ -2,7 +2,7 @@
 :class:`MeshData`, and the bar of ``meshes/bar2d.geo`` meshed and written through
 the gmsh API (``python -m dyncontact mesh``).
 
-Conventions (the same as the Fortran reader ``fortran/gmsh_reader.f90``, with
+Conventions (the same as the Fortran reader ``fortran/io/gmsh_reader.f90``, with
 0-based indices here):
 
 - nodes are numbered in increasing order of their gmsh tags;

@@ -1,6 +1,6 @@
 """Scene files (SPEC section 3, docs/scenes.md): edit and write them.
 
-The Fortran core (``fortran/scene.f90``) is the only reader: :meth:`Scene.read`,
+The Fortran core (``fortran/io/scene.f90``) is the only reader: :meth:`Scene.read`,
 :meth:`Scene.set` and :meth:`Scene.validate` send the scene through it (``core.scene_dump``,
 ``core.scene_parse``), so the defaults, the checks and the one-line messages
 ``PATH: &group key: what is wrong (got 'VALUE')`` are the executable's. A bad scene raises

@@ -1,4 +1,4 @@
-/* Flat C interface to CHOLMOD (SuiteSparse 5.12, CHOLMOD 3.0) for fortran/cholmod.f90.
+/* Flat C interface to CHOLMOD (SuiteSparse 5.12, CHOLMOD 3.0) for fortran/linalg/cholmod.f90.
  *
  * cholmod_common is a large C struct whose layout depends on the build, so Fortran never
  * sees it: one dc_cholmod handle owns the common block, the factor, a copy of the
@@ -13,7 +13,7 @@
  * Node pairs: when the dofs 2k, 2k+1 (0-based) come in pairs whose 2x2 blocks are all
  * stored (the free dofs of the nodes of a 2D mesh), the ordering is AMD's on the graph
  * of the pairs, each pair kept together (no postordering). L is then made of full 2x2
- * blocks, which fortran/ldl_solves.f90 copies (dc_cholmod_export) and solves with.
+ * blocks, which fortran/linalg/ldl_solves.f90 copies (dc_cholmod_export) and solves with.
  */
 #include <stdlib.h>
 #include <string.h>
