@@ -12,7 +12,7 @@
 !> sweeps (about 1.4x faster than cholmod_solve2 on the same factor); otherwise through
 !> cholmod_solve2 with workspaces kept in the shim (no allocation per solve): own
 !> scalar loops on the copied factors are slower than CHOLMOD's, which treats chains
-!> of up to 3 columns with the same pattern at once (docs/numerics.md, "Linear solvers").
+!> of up to 3 columns with the same pattern at once (docs/performance.md, "The solves").
 !> A cholmod_t owns a C handle: never copy one by assignment (double free).
 module cholmod
     use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated

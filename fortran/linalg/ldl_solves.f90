@@ -7,8 +7,8 @@
 !> full 2x2 blocks below it. Stored by blocks (one row index for four entries, the
 !> entries of a block adjacent), the forward and backward sweeps treat a block's two
 !> rows as one 2-vector, which the compiler packs into SIMD multiplies and adds: about
-!> 1.4x faster than cholmod_solve2 on the same factor (docs/numerics.md, "Linear
-!> solvers"), which chases one row index per entry. The results differ from
+!> 1.4x faster than cholmod_solve2 on the same factor (docs/performance.md, "The
+!> solves"), which chases one row index per entry. The results differ from
 !> cholmod_solve2's by round-off (another order of the same products).
 module ldl_solves
     use kinds, only: dp

@@ -60,7 +60,7 @@ module umfpack
         integer(c_int), allocatable :: rowind(:)    !! pattern of the analysed matrix (reuse test)
         ! Factors copied out of the Numeric object (P R A Q = L U), solved by our own
         ! row-oriented triangular loops: 2.3x faster than umfpack_di_wsolve on the
-        ! h = 0.01 iteration matrix (56 against 127 us, docs/numerics.md).
+        ! h = 0.01 iteration matrix (56 against 127 us, docs/performance.md).
         integer(c_int), allocatable :: perm_p(:)    !! (n) 0-based: row perm_p(k) of A is pivot row k
         integer(c_int), allocatable :: perm_q(:)    !! (n) 0-based: column perm_q(k) of A is pivot column k
         real(dp), allocatable :: rscale(:)          !! (n) 1/Rs (or Rs when UMFPACK says do_recip)
