@@ -1,4 +1,4 @@
-"""Issue 12, the remedies beyond the seed: generalized-alpha (`galpha`), explicit central
+"""The remedies beyond the seed: generalized-alpha (`galpha`), explicit central
 differences (`central`), penalty contact and the redistributed mass. Each is checked
 against something independent: the amplification matrix of a single-dof oscillator
 written from the defining equations, the closed-form critical step of a lumped chain,

@@ -32,7 +32,7 @@ HS = (1 / 25, 1 / 50, 1 / 100)
 #: Field snapshots every 0.25 time units.
 SNAPSHOT_DT = 0.25
 
-#: Issue 2's bounds at h = 1/100: max |u_n - exact| over t <= 6 (observed 0.017),
+#: The acceptance bounds of the 1D exact case at h = 1/100: max |u_n - exact| over t <= 6 (observed 0.017),
 U_N_TOL = 0.03
 #: |mean p_n - (-1/2)| over t in [1.2, 1.8] (observed 6e-4; [4.2, 4.8]: see below),
 P_N_TOL = 0.05

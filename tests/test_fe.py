@@ -1,4 +1,4 @@
-"""P1 element and assembly checks (issue 2): element matrices against an independent
+"""P1 element and assembly checks: element matrices against an independent
 numpy formula, rigid-body modes, mass sums, the patch test on the assembled operator and
 static problems with closed-form solutions.
 

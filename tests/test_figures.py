@@ -210,7 +210,7 @@ def test_bench_rows_and_table():
     ranged = bench_table([dict(rows[0], floor_ratio=1.2, floor_ratio_min=1.1,
                                floor_ratio_max=1.5)]).splitlines()[2].split()
     assert ranged[-4:] == ["1.20", "1.10-1.50", "n/a", "ok"]
-    # the floor of a step and the ratio to it (issue 10)
+    # the floor of a step (one solve + one SpMV for the implicit rows) and the ratio to it
     from dyncontact.studies import _step_floor
     assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,
                         "floor_spmv_us": 10.0}) == 60.0

@@ -1,4 +1,4 @@
-"""An independent implementation of the 1D problem (issue 3's cross-check).
+"""An independent implementation of the 1D problem, to cross-check the core.
 
 `Bar1D` and the two time loops below were written from SPEC section 1 alone (not from
 fortran/): the P1 bar of SPEC section 2 with dense numpy matrices, Nitsche's contact at
@@ -201,7 +201,7 @@ def test_reference_is_not_trivially_equal(tmp_path):
     assert differences(res.trace, ref)["p_n"] > 1e3 * TOL_VP
 
 
-# ------------------------------------------- issue 7: every Newmark-family variant
+# ------------------------ every Newmark-family variant, stable or not, and theta
 
 def run_theta(bar, dt, t_end, theta):
     """The theta scheme on (u, v) (SPEC section 1): u' = u + dt (theta v' + (1-theta) v),
@@ -263,7 +263,8 @@ VARIANTS = {
 def test_scheme_variants_match_independent_reference(label, tmp_path):
     """u_n, v_n and e_total agree with the independent loop while both are stable; a
     scheme whose reference stays below blowup x e_total(0) runs to T = 15; one whose
-    reference energy crosses it is stopped on exactly that row (issue 7)."""
+    reference energy crosses it is stopped on exactly that row (no round-off growth:
+    v and a are formed from vectors, docs/numerics.md)."""
     keys, reference = VARIANTS[label]
     res = core_run(tmp_path, label, scheme__t_end=T_LONG, **keys)
     ref = reference(Bar1D(H), H / 20)

@@ -1,4 +1,4 @@
-"""Invariants of the state a run writes out (issue 7): for every scheme and both masses,
+"""Invariants of the state a run writes out: for every scheme and both masses,
 at sampled steps through an impact, recompute from the state (u, v, a through
 dyncontact.core.Stepper) and the assembled matrices:
 

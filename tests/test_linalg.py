@@ -165,7 +165,7 @@ def test_python_wrapper_0based_and_exceptions():
 
 
 # ---------------------------------------------------------------------------------------
-# linear_solver (issue 10): CHOLMOD LDLᵀ for symmetric positive definite matrices,
+# linear_solver: CHOLMOD LDLᵀ for symmetric positive definite matrices,
 # UMFPACK LU for the rest, through dyncontact._core.dc_ls_solve.
 
 def ls_solve_1based(rows, cols, vals, b):

@@ -1,4 +1,4 @@
-"""Predictor-corrector schemes pc, pc_hht, pc_hht_seed (issue 4): GetFEM reference,
+"""Predictor-corrector schemes pc, pc_hht, pc_hht_seed: GetFEM reference,
 lumped mass, instability reported (not hidden), cost structure."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Runs that cannot lie (issue 8): checked writes on a full disk, one run per output
+"""Runs that cannot lie: checked writes on a full disk, one run per output
 folder, bounded step counts, signals, previous results kept, argument checks, the
 blow-up test under a load, gamma0 against the material, the probe on a real mesh,
 non-ASCII paths. Both entry points (build/dyncontact and `python -m dyncontact run`)
@@ -159,7 +159,7 @@ def test_disk_already_full_exits_4(kind, small_disk, tmp_path):
 
 @pytest.mark.parametrize("kind", ENTRIES)
 def test_failed_new_run_keeps_previous_results(kind, small_disk, tmp_path):
-    """Item 5: a run that cannot write leaves the previous run's files as they were."""
+    """A run that cannot write leaves the previous run's files as they were."""
     out = small_disk / "o"
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="1.0", output__every="40")
     assert run(kind, scene, "--out", out, cwd=tmp_path).returncode == EXIT_OK

@@ -1,4 +1,4 @@
-"""Implicit schemes and Nitsche contact (issue 3): tangent by finite differences,
+"""Implicit schemes and Nitsche contact: tangent by finite differences,
 GetFEM reference traces, energy behaviour of each scheme, Newton failure, the
 executable and Python giving the same trace.
 
@@ -25,12 +25,12 @@ from dyncontact.core import Model
 REF = Path(__file__).parent / "data" / "reference"
 ROOT = Path(__file__).resolve().parents[1]
 
-#: Agreement demanded by issue 3 with the GetFEM traces (same mesh, scheme, dt and
+#: Agreement required with the GetFEM traces (same mesh, scheme, dt and
 #: contact quadrature): max |du_n| and max |de_total| / e_total(0).
 REF_TOL_U = 1e-3
 REF_TOL_E = 1e-3
 #: Both codes solve the same discrete equations with Newton to 1e-10: they should
-#: agree far below the issue's bound. Observed: ~1e-11 (u_n), ~1e-12 (energy).
+#: agree far below that bound. Observed: ~1e-11 (u_n), ~1e-12 (energy).
 SAME_EQUATIONS_TOL = 1e-8
 #: Energy conservation of energy-conserving schemes in flight (solver tolerance 1e-10
 #: over a few hundred steps). Observed: ~1e-13.
@@ -212,7 +212,8 @@ def test_hht_seed_with_negative_alpha_gains_energy(tmp_path):
     """The seed's printed coefficients with alpha < 0 give gamma < 1/2: energy grows
     in flight (anti-dissipative), where hht dissipates. The growth is physical, not
     round-off: +38 % over the first flight (t < 1) with the state formed from vectors
-    (issue 7), against -0.03 % for hht; 10 % is asserted."""
+    (docs/numerics.md, "The state and the products"), against -0.03 % for hht; 10 % is
+    asserted."""
     seed = run(scene(scheme__name="hht_seed", scheme__alpha=-0.1, scheme__t_end=1.0),
                tmp_path, "seed").trace
     w = _flight_windows(seed)[0]
@@ -245,8 +246,8 @@ def test_theta_half_matches_newmark_trapezoidal_in_flight(tmp_path):
 # ----------------------------------------------------------------- small gamma0
 
 def test_small_gamma0_theta1_is_refused_before_the_run(tmp_path):
-    """theta = 1 needs gamma0 large enough: with gamma0 = 0.01 K_theta is indefinite (it
-    used to blow up within the first steps); the scene is now refused before the run,
+    """theta = 1 needs gamma0 large enough: with gamma0 = 0.01 K_theta is indefinite and
+    a run would blow up within its first steps, so the scene is refused before the run,
     naming &contact gamma0 (element bound, docs/scenes.md)."""
     with pytest.raises(dyncontact.BadInputError, match="&contact gamma0"):
         run(scene(contact__gamma0=0.01, contact__theta=1), tmp_path, "t1")
@@ -287,7 +288,7 @@ def test_newton_failure_stops_cleanly_with_trace(tmp_path):
     assert 1.0 < t_stop < 3.0          # contact starts at t ~ 1.15
     assert res.trace["t"][-1] <= t_stop
     assert "Newton" in res.message
-    # numbers with a full 3-digit exponent (issue 8: never the E-less '2.225-307')
+    # numbers with a full 3-digit exponent (never Fortran's E-less '2.225-307')
     assert re.search(r"Newton did not converge at t = \d\.\d{5}E[+-]\d{3} after 1 iterations "
                      r"\(relative residual \d\.\d{3}E[+-]\d{3}\)", res.message), res.message
 

@@ -1,4 +1,4 @@
-"""The studies of issue 11 (dyncontact.study): quick variants, each in seconds.
+"""The studies (dyncontact.study): quick variants, each in seconds.
 
 What is checked against what:
 - convergence: errors against the 1D closed form decrease with h for every scheme, with
@@ -56,7 +56,7 @@ def test_convergence_errors_decrease_with_h_for_every_scheme(convergence):
     assert all(r["status"] == "ok" for r in rows), [(r["scheme"], r["n"], r["status"])
                                                     for r in rows if r["status"] != "ok"]
     schemes = sorted({r["scheme"] for r in rows})
-    # the seed's 7 and issue 12's: galpha x 3, central (lumped), penalty, redistributed x 2
+    # the seed's 7 and 7 beyond it: galpha x 3, central (lumped), penalty, redistributed x 2
     assert len(schemes) == 14
     for s in schemes:
         mine = sorted((r for r in rows if r["scheme"] == s), key=lambda r: -r["h"])
@@ -399,9 +399,9 @@ def test_impacts_count_contact_phases_not_chattering():
     np.testing.assert_allclose(impacts(t, active), [1.0, 4.0, 7.0])
 
 
-# --------------------------------------------------------------------------- issue 12 rows
+# ------------------------------------------------------------- the rows beyond the seed
 
-def test_stability_quick_has_issue12_rows_and_compares_central_estimate(stability):
+def test_stability_quick_has_the_rows_beyond_the_seed_and_compares_central_estimate(stability):
     crit = stability["critical"]
     # penalty has no Nitsche theta: one group per (h, gamma0), listed as theta = +1
     pen = [c for c in crit if c["scheme"] == "newmark_penalty"]

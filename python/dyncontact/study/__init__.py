@@ -1,5 +1,5 @@
 """Studies that check the schemes in numbers: convergence against the 1D closed form,
-work-precision charts and stability maps (issue 11). One command each::
+work-precision charts and stability maps. One command each::
 
     python -m dyncontact study convergence [--quick] --out DIR
     python -m dyncontact study work-precision [--quick] --out DIR

@@ -35,7 +35,8 @@ __all__ = ["read_pvd", "read_vtu_1d", "field_errors_1d", "probe_errors_1d", "rms
            "impacts", "contact_phases", "pn_oscillation", "FIELD_NORMS", "IMPACT_GAP",
            "PHASE_TRIM"]
 
-#: Columns of the field/stress norms, in the order of the issue.
+#: Columns of the field/stress norms: L∞(0,T) then L²(0,T) of ‖u‖_L², ‖u‖_H¹ and ‖u̇‖_L²,
+#: then ‖p_n − σ_n‖ in L²(0,T).
 FIELD_NORMS = ("u_Linf_L2", "u_Linf_H1", "v_Linf_L2", "u_L2_L2", "u_L2_H1", "v_L2_L2",
                "p_L2")
 

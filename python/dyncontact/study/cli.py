@@ -50,7 +50,7 @@ def _parser() -> argparse.ArgumentParser:
                            help="dt = h/c for predictor-corrector schemes (default 100)")
         if name == "convergence":
             s.add_argument("--schemes", default=None,
-                           help="comma-separated scheme keys (default: all of the issue)")
+                           help="comma-separated scheme keys (default: the study's list)")
             s.add_argument("--t-end", type=float, default=3.0, help="T (default 3)")
     return p
 

@@ -98,7 +98,8 @@ CENTRAL_C = 4.0
 SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
     _s("newmark", "newmark β=¼ γ=½", name="newmark", beta=0.25, gamma=0.5),
     _s("newmark_diss", "newmark β=0.3025 γ=0.6", name="newmark", beta=0.3025, gamma=0.6),
-    # β < γ/2: the setting issue 7's fix concerns (stopped early by round-off before it)
+    # β < γ/2: conditionally stable; a product carried instead of formed from its vector
+    # would grow by round-off here (docs/numerics.md, "The state and the products")
     _s("newmark_g0.6", "newmark β=¼ γ=0.6", name="newmark", beta=0.25, gamma=0.6),
     _s("hht-0.05", "hht α=-0.05", name="hht", alpha=-0.05),
     _s("hht-0.1", "hht α=-0.1", name="hht", alpha=-0.1),
@@ -110,7 +111,7 @@ SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
        mass="lumped"),
     _s("pc_hht-0.1", "pc_hht α=-0.1", True, name="pc_hht", alpha=-0.1),
     _s("pc_hht_seed-0.1", "pc_hht_seed α=-0.1", True, name="pc_hht_seed", alpha=-0.1),
-    # issue 12's options
+    # beyond the seed: generalized-α, central differences, lumped/redistributed mass, penalty
     _s("galpha1", "galpha ρ∞=1", name="galpha", rho_inf=1.0),
     _s("galpha0.8", "galpha ρ∞=0.8", name="galpha", rho_inf=0.8),
     _s("galpha0.5", "galpha ρ∞=0.5", name="galpha", rho_inf=0.5),

@@ -31,7 +31,7 @@ __all__ = ["run_convergence", "DEFAULT_SCHEMES", "FULL_NS", "QUICK_NS"]
 
 DEFAULT_SCHEMES = ("newmark", "hht-0.05", "hht-0.1", "theta0.5", "theta1", "pc",
                    "pc_hht-0.1",
-                   # issue 12: generalized-alpha, central differences (lumped, dt = h/4),
+                   # beyond the seed: generalized-alpha, central differences (lumped, dt = h/4),
                    # penalty (gamma0 = 10), the redistributed mass
                    "galpha1", "galpha0.8", "galpha0.5", "central_lumped", "newmark_penalty",
                    "newmark_redist", "hht-0.1_redist")

@@ -6,7 +6,7 @@ T = 30 (about 10 impacts). The dt/h grid is per family (implicit schemes at and 
 the seed's h/20, predictor-corrector schemes from h/100 up), since an implicit scheme at
 h/100 says nothing a run at h/20 does not.
 
-Issue 12's options are rows: galpha, central differences (lumped and consistent mass,
+The options beyond the seed are rows: galpha, central differences (lumped and consistent mass,
 on the explicit dt/h grid; their own critical-step estimate is compared with the
 bisection), the redistributed mass and penalty contact (no Nitsche theta: one run per
 (h, gamma0, dt), listed as theta = +1).
@@ -46,7 +46,7 @@ GRIDS = {
     "full": {"schemes": ("newmark", "newmark_diss", "newmark_g0.6", "hht-0.1", "hht_seed-0.1",
                          "theta1",
                          "pc", "pc_lumped", "pc_hht-0.1", "pc_hht_seed-0.1",
-                         # issue 12
+                         # beyond the seed
                          "galpha1", "galpha0.5", "central_lumped", "central",
                          "newmark_redist", "hht-0.1_redist", "newmark_penalty",
                          "hht-0.1_penalty"),

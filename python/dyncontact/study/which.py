@@ -1,4 +1,4 @@
-"""The "which scheme should I use" table (issue 12, item 5): picks computed from runs,
+"""The "which scheme should I use" table: picks computed from runs,
 never written by hand, for the 1D exact case and the seed's 2D bar.
 
 - **Cheapest for a given error** in u_n, p_n and e_total: from the work-precision runs

@@ -40,7 +40,7 @@ QUANTITIES = ("u_n", "v_n", "p_n", "e_total")
 DEFAULT_SERIES = (("newmark", None), ("hht-0.05", None), ("hht-0.1", None),
                   ("theta0.5", None), ("theta1", None), ("pc", None), ("pc_hht-0.1", None),
                   ("pc", 20.0),
-                  # issue 12: generalized-alpha, central differences (lumped, its own
+                  # beyond the seed: generalized-alpha, central differences (lumped, its own
                   # dt = h/4), penalty (gamma0 = 10), the redistributed mass
                   ("galpha1", None), ("galpha0.8", None), ("galpha0.5", None),
                   ("central_lumped", None), ("newmark_penalty", None),
