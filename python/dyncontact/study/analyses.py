@@ -5,6 +5,9 @@
   optionally, t, u_n, e_total (the stability study and the claims).
 - ``contact``: energy ratios and the p_n oscillation during contact
   (:func:`pn_oscillation`), for the "which scheme" table.
+- ``outputs``: every output of the run kept as it is (trace, summary, field snapshots)
+  and the summary's sizes and counters, for runs whose outputs are the result (the
+  seed's figures) or whose timings are (the benchmark).
 - ``exact1d``: errors of a run of the 1D exact case (SPEC section 2) against the closed
   form :mod:`dyncontact.exact1d`: the field norms from the VTU snapshots and the probe
   errors from the trace.
@@ -160,6 +163,20 @@ def analyse_exact1d(run_dir: str, result, fields: bool = True) -> dict[str, Any]
             u_L2_H1=_time_l2(ts, np.array(eh)), v_L2_L2=_time_l2(ts, np.array(ev)),
             snapshots=len(ts))
     return {"metrics": metrics}
+
+
+#: The summary.json fields that the ``outputs`` analysis copies into its metrics.
+OUTPUT_COUNTERS = ("factorizations", "dofs", "elements", "isa", "solve_kernel")
+
+
+@register_analysis("outputs")
+def analyse_outputs(run_dir: str, result) -> dict[str, Any]:
+    """Keep every output of the run; metrics: the summary's :data:`OUTPUT_COUNTERS` and
+    rows (the trace's rows)."""
+    s = result.summary
+    metrics = {k: s.get(k) for k in OUTPUT_COUNTERS}
+    metrics["rows"] = int(len(result.trace.get("t", ())))
+    return {"metrics": metrics, "keep": sorted(os.listdir(run_dir))}
 
 
 @register_analysis("trace")
