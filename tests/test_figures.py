@@ -130,13 +130,23 @@ def test_figures_run_on_the_pool_on_dask_and_from_the_cache(tmp_path, monkeypatc
     assert rec["status"] == "ok" and rec["steps"] == 100 and rec["rows"] == 101
 
 
-def test_figures_take_the_studies_options(tmp_path, capsys):
-    from dyncontact.study.figures import figures_main
+def test_figures_take_the_studies_options(tmp_path, monkeypatch, capsys):
+    """scripts/figures passes the runner's options (as `dyncontact study` takes them, and
+    --jobs as before) to make_figures, and refuses a pool of no process."""
+    from dyncontact.study import figures
 
+    seen = []
+    monkeypatch.setattr(figures, "make_figures", lambda out, **kw: seen.append((out, kw))
+                        or {"figures": [], "runs": []})
+    assert figures.figures_main(["--workers", "3", "--cache", "C", "--out", "O"]) == 0
+    assert figures.figures_main(["-j", "2", "--scheduler", "tcp://h:8786"],
+                                root=str(tmp_path)) == 0
+    assert [(kw["workers"], kw["scheduler"], kw["cache"]) for _, kw in seen] == [
+        (3, None, "C"), (2, "tcp://h:8786", None)]
+    assert seen[0][0] == "O" and seen[1][0] == str(tmp_path / "out" / "figures")
     with pytest.raises(SystemExit) as exc:
-        figures_main(["--workers", "2", "--scheduler", "tcp://localhost:1"], root=str(tmp_path))
-    assert exc.value.code == 2
-    assert "not allowed with argument" in capsys.readouterr().err
+        figures.figures_main(["--workers", "0"])
+    assert exc.value.code == 2 and "--workers must be >= 1" in capsys.readouterr().err
 
 
 # --------------------------------------------------------------------------- plan, runs, index

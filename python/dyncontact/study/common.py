@@ -13,7 +13,7 @@ __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0
            "CENTRAL_C", "write_base_scenes", "write_csv",
            "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS",
            "RunSpec", "seed_spec", "every_for", "scheme_text", "num", "loadavg",
-           "package_version", "MAX_ROWS"]
+           "package_version", "add_runner_options", "MAX_ROWS"]
 
 #: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016).
 EXACT_1D = """\
@@ -168,6 +168,19 @@ def package_version() -> str:
     from .. import __version__
 
     return __version__
+
+
+def add_runner_options(parser, *worker_aliases: str) -> None:
+    """The sweep runner's options, the same for every command that runs a sweep:
+    --workers N (and ``worker_aliases``), --scheduler ADDRESS (then --workers is
+    ignored) and --cache DIR."""
+    parser.add_argument("--workers", *worker_aliases, dest="workers", type=int,
+                        default=None, metavar="N",
+                        help="processes of the local pool (default: all cores)")
+    parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                        help="run on this dask.distributed scheduler instead of the pool")
+    parser.add_argument("--cache", metavar="DIR", default=None,
+                        help="per-run cache (default: OUT/cache)")
 
 
 # --------------------------------------------------------------------------- schemes

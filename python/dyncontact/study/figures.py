@@ -30,8 +30,8 @@ import sys
 import time
 from typing import Any, Callable, Mapping, Sequence
 
-from .common import (MAX_ROWS, RunSpec, fmt, loadavg, num, package_version, scheme_text,
-                     seed_spec)
+from .common import (MAX_ROWS, RunSpec, add_runner_options, fmt, loadavg, num,
+                     package_version, scheme_text, seed_spec)
 from .sweep import ERROR, REFUSED, sweep
 
 __all__ = ["FigureSpec", "figure_plan", "make_figures", "plot_figure", "write_index",
@@ -354,21 +354,14 @@ def _where(report: Mapping[str, Any]) -> str:
 
 
 def figures_main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
-    """``scripts/figures [--quick] [--workers N | --scheduler ADDRESS] [--cache DIR]
-    [--out DIR]``: 0 when every figure was drawn (unstable runs are results, not
+    """``scripts/figures [--quick] [--workers N] [--scheduler ADDRESS] [--cache DIR]
+    [--out DIR]`` (the runner's options as ``dyncontact study`` takes them): 0 when every figure was drawn (unstable runs are results, not
     failures), 1 otherwise, 2 on a bad command line, 130 on Ctrl-C."""
     root = root or os.getcwd()
     p = argparse.ArgumentParser(prog="scripts/figures", description="Regenerate the "
                                 "seed's Figures 1-7 (runs in parallel) and index.md.")
     p.add_argument("--quick", action="store_true", help="h = 0.1 and 0.05, T = 3 (tests)")
-    where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", "--jobs", "-j", dest="workers", type=int, default=None,
-                       metavar="N", help="processes of the local pool (default: all "
-                       f"cores, {os.cpu_count() or 1})")
-    where.add_argument("--scheduler", metavar="ADDRESS", default=None,
-                       help="run on this dask.distributed scheduler instead of the pool")
-    p.add_argument("--cache", metavar="DIR", default=None,
-                   help="per-run cache (default: OUT/cache)")
+    add_runner_options(p, "--jobs", "-j")
     p.add_argument("--out", default=None, help="output folder (default: ROOT/out/figures)")
     args = p.parse_args(argv)
     if args.workers is not None and args.workers < 1:
