@@ -23,6 +23,8 @@ module model
     integer, parameter, public :: INITIAL_REST = 1         !! initial conditions
     integer, parameter, public :: INITIAL_VELOCITY = 2
     integer, parameter, public :: INITIAL_COMPRESSED_BAR = 3
+    !> Most contact facets that can hold the probe (a node of Gamma_C and its facets).
+    integer, parameter, public :: MAX_PROBE = 32
 
     !> The plain parameters a model is built from (docs/scenes.md names the keys).
     type, public :: model_params_t
@@ -31,29 +33,30 @@ module model
         character(len=256) :: clamped = ''        !! groups with u = 0
         character(len=256) :: slip_x = ''         !! groups with u_x = 0
         character(len=256) :: slip_y = ''         !! groups with u_y = 0
+        character(len=256) :: slip_z = ''         !! groups with u_z = 0 (3D)
         character(len=256) :: contact = ''        !! contact boundary groups ('' = none)
         real(dp) :: young = 1.0_dp                !! Young's modulus E
         real(dp) :: poisson = 0.0_dp              !! Poisson ratio
         real(dp) :: density = 1.0_dp              !! rho
-        real(dp) :: gravity(2) = 0.0_dp           !! body acceleration g (f = rho g)
+        real(dp) :: gravity(3) = 0.0_dp           !! body acceleration g (f = rho g), first dim used
         integer :: mass = MASS_CONSISTENT         !! MASS_CONSISTENT | MASS_LUMPED | MASS_REDISTRIBUTED
         logical :: penalty = .false.              !! penalty contact instead of Nitsche
         integer :: nitsche_theta = 1              !! -1, 0 or 1
         real(dp) :: gamma0 = 10.0_dp              !! gamma_N = gamma0 / h_T
-        real(dp) :: obstacle_point(2) = 0.0_dp    !! a point of the obstacle plane
-        real(dp) :: obstacle_normal(2) = [0.0_dp, -1.0_dp] !! normal into the obstacle
-        real(dp) :: probe(2) = 0.0_dp             !! probe point on Gamma_C
+        real(dp) :: obstacle_point(3) = 0.0_dp    !! a point of the obstacle plane
+        real(dp) :: obstacle_normal(3) = [0.0_dp, -1.0_dp, 0.0_dp] !! normal into the obstacle
+        real(dp) :: probe(3) = 0.0_dp             !! probe point on Gamma_C
         integer :: quadrature = QUAD_EXACT        !! QUAD_EXACT | QUAD_GAUSS
         integer :: quad_points = 3                !! Gauss points per facet (QUAD_GAUSS)
         integer :: initial = INITIAL_REST         !! INITIAL_REST | INITIAL_VELOCITY | INITIAL_COMPRESSED_BAR
         real(dp) :: amplitude = 0.0_dp            !! compressed_bar lift
-        real(dp) :: velocity(2) = 0.0_dp          !! INITIAL_VELOCITY velocity
+        real(dp) :: velocity(3) = 0.0_dp          !! INITIAL_VELOCITY velocity
         real(dp) :: length = 1.0_dp               !! compressed_bar: the lift falls to 0 over it
     end type model_params_t
 
     !> Everything constant in time.
     type, public :: model_t
-        integer :: dim = 0                        !! 1 or 2
+        integer :: dim = 0                        !! 1, 2 or 3
         integer :: n_dofs = 0                     !! free dofs
         integer :: ndof_e = 0                     !! dofs per cell
         type(mesh_t) :: msh                       !! the mesh
@@ -76,10 +79,10 @@ module model
         real(dp), allocatable :: load(:)          !! (n_dofs) L = int rho g . v
         logical :: has_contact = .false.          !! a contact boundary exists
         type(contact_t) :: ct                     !! contact facets
-        real(dp) :: normal(2) = 0.0_dp            !! unit normal (into the obstacle)
-        integer :: n_probe = 0                    !! facets holding the probe (0, 1 or 2)
-        integer :: probe_facet(2) = 0             !! their indices in ct
-        real(dp) :: probe_xi(2) = 0.0_dp          !! probe position along each
+        real(dp) :: normal(3) = 0.0_dp            !! unit normal (into the obstacle)
+        integer :: n_probe = 0                    !! facets holding the probe (0, 1, or those sharing its edge or node)
+        integer :: probe_facet(MAX_PROBE) = 0     !! their indices in ct
+        real(dp) :: probe_shape(MAX_FN, MAX_PROBE) = 0.0_dp !! facet shape values at the probe on each
         character(len=4096) :: notes = ''          !! warnings and notes for the user, one per line
         real(dp) :: gamma0_min = 0.0_dp           !! smallest gamma0 keeping K_theta PSD (element bound, theta = 1)
     end type model_t
@@ -228,7 +231,19 @@ contains
             m = 'slip_y: a 1D model has no y component'
             return
         end if
-        if (dim == 2) fixed(2, :) = fixed(2, :) .or. mask
+        if (dim >= 2) fixed(2, :) = fixed(2, :) .or. mask
+        mask = .false.
+        call mesh_group_nodes(mdl%msh, prm%slip_z, mask, st, m)
+        if (st /= STAT_OK) then
+            m = 'slip_z: '//trim(m)
+            return
+        end if
+        if (dim < 3 .and. any(mask)) then
+            st = STAT_BAD_INPUT
+            m = 'slip_z: a '//merge('1D', '2D', dim == 1)//' model has no z component'
+            return
+        end if
+        if (dim == 3) fixed(3, :) = fixed(3, :) .or. mask
         allocate (mdl%dof(dim, mdl%msh%n_nodes))
         n = 0
         do i = 1, mdl%msh%n_nodes
@@ -409,8 +424,10 @@ contains
         real(dp), parameter :: PROBE_SNAP = 0.5_dp   ! tolerance / facet length
         real(dp), parameter :: EXACT = 1.0e-9_dp      ! relative distance counted as "on Gamma_C"
         real(dp) :: p(mdl%dim), q(mdl%dim), best(mdl%dim), xa(mdl%dim), xb(mdl%dim), t, d, dbest, hbest
+        real(dp) :: ta(3), tb(3), tc(3), w(3)
         integer :: f, dim
         character(len=160) :: buf
+        character(len=40) :: vfmt
         st = STAT_OK
         dim = mdl%dim
         p = prm%probe(1:dim)
@@ -421,6 +438,12 @@ contains
                 q = xa
                 d = abs(p(1) - xa(1))
                 t = facet_size(mdl, f)
+            else if (dim == 3) then
+                call facet_triangle(mdl, f, ta, tb, tc)
+                w = triangle_nearest(p, ta, tb, tc)
+                q = w(1) * ta + w(2) * tb + w(3) * tc
+                d = norm2(p - q)
+                t = max(norm2(tb - ta), norm2(tc - tb), norm2(ta - tc))
             else
                 xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
                 t = dot_product(p - xa, xb - xa) / sum((xb - xa)**2)
@@ -434,7 +457,8 @@ contains
         end do
         if (dbest > PROBE_SNAP * hbest) then
             st = STAT_BAD_INPUT
-            write (buf, '(a, es10.3e3, a, 2(es12.5e3, 1x))') 'the point is not on the contact boundary: ' &
+            write (vfmt, '(a, i0, a)') '(a, es10.3e3, a, ', max(2, dim), '(es12.5e3, 1x))'
+            write (buf, vfmt) 'the point is not on the contact boundary: ' &
                 //'distance ', dbest, ' to its nearest point ', best
             m = trim(buf)//' (snapped only within '//trim(real_str(PROBE_SNAP))//' x the facet length)'
             return
@@ -445,7 +469,8 @@ contains
             return
         end if
         if (dbest > EXACT * hbest) then
-            write (buf, '(a, 2(es12.5e3, 1x), a, es10.3e3, a)') 'note: &contact probe snapped to ', &
+            write (vfmt, '(a, i0, a)') '(a, ', dim, '(es12.5e3, 1x), a, es10.3e3, a)'
+            write (buf, vfmt) 'note: &contact probe snapped to ', &
                 best(1:dim), '(distance ', dbest, ')'
             call note(mdl, trim(buf))
         end if
@@ -474,6 +499,7 @@ contains
         type(model_t), intent(inout) :: mdl          !! model being built
         integer :: f, dim
         real(dp) :: xa(mdl%dim), xb(mdl%dim), xc(mdl%dim), nf(mdl%dim), s_dot, s_len
+        real(dp) :: ta(3), tb(3), tc(3)
         character(len=200) :: buf
         dim = mdl%dim
         s_dot = 0.0_dp; s_len = 0.0_dp
@@ -482,6 +508,12 @@ contains
             xc = sum(mdl%msh%x(:, mdl%msh%cells(:, mdl%ct%cell(f))), dim=2) / (dim + 1)
             if (dim == 1) then
                 nf = sign(1.0_dp, xa - xc)
+            else if (dim == 3) then
+                call facet_triangle(mdl, f, ta, tb, tc)
+                tb = tb - ta; tc = tc - ta
+                nf = [tb(2) * tc(3) - tb(3) * tc(2), tb(3) * tc(1) - tb(1) * tc(3), &
+                      tb(1) * tc(2) - tb(2) * tc(1)]
+                if (dot_product(nf, ta - xc) < 0.0_dp) nf = -nf
             else
                 xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
                 nf = [xb(2) - xa(2), xa(1) - xb(1)]
@@ -575,6 +607,18 @@ contains
         if (dim == 1) then
             nr = 1
             r(1:2, 1) = 1.0_dp
+        else if (dim == 3) then
+            nr = 6
+            do a = 1, 4
+                x(1:3) = xe(:, a) - sum(xe(:, 1:4), dim=2) / 4.0_dp
+                do b = 1, 3
+                    r(3 * (a - 1) + b, b) = 1.0_dp
+                end do
+                ! rotations about the axes through the centroid: e_k x (x - x_c)
+                r(3 * a - 1, 4) = -x(3); r(3 * a, 4) = x(2)
+                r(3 * a - 2, 5) = x(3); r(3 * a, 5) = -x(1)
+                r(3 * a - 2, 6) = -x(2); r(3 * a - 1, 6) = x(1)
+            end do
         else
             nr = 3
             do a = 1, 3
@@ -637,16 +681,26 @@ contains
         real(dp), intent(in) :: p(:)                 !! the point (on Gamma_C)
         integer, intent(out) :: st                   !! status
         integer :: f, dim
-        real(dp) :: xa(mdl%dim), xb(mdl%dim), t, len2, dist, tol
+        real(dp) :: xa(mdl%dim), xb(mdl%dim), t, len2, dist, tol, ta(3), tb(3), tc(3), w(3), nsh(MAX_FN)
         dim = mdl%dim
         st = STAT_OK
         mdl%n_probe = 0
         do f = 1, mdl%ct%n_facets
-            if (mdl%n_probe == 2) exit
+            if (mdl%n_probe == 2 .and. dim < 3) exit
             xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
             if (dim == 1) then
                 tol = 1.0e-9_dp * max(1.0_dp, abs(xa(1)))
-                if (abs(p(1) - xa(1)) <= tol) call add_probe_facet(mdl, f, 0.0_dp)
+                if (abs(p(1) - xa(1)) <= tol) call add_probe_facet(mdl, f, facet_shape(1, 0.0_dp))
+                cycle
+            else if (dim == 3) then
+                call facet_triangle(mdl, f, ta, tb, tc)
+                w = triangle_nearest(p, ta, tb, tc)
+                dist = norm2(p - w(1) * ta - w(2) * tb - w(3) * tc)
+                tol = 1.0e-9_dp * max(norm2(tb - ta), norm2(tc - tb), norm2(ta - tc))
+                if (dist > tol) cycle
+                where (w < 1.0e-9_dp) w = 0.0_dp   ! on an edge or node: exactly there
+                nsh = w / sum(w)
+                call add_probe_facet(mdl, f, nsh)
                 cycle
             end if
             xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
@@ -655,20 +709,72 @@ contains
             dist = norm2(p - xa - t * (xb - xa))
             tol = 1.0e-9_dp * sqrt(len2)
             if (dist > tol .or. t < -1.0e-9_dp .or. t > 1.0_dp + 1.0e-9_dp) cycle
-            call add_probe_facet(mdl, f, min(1.0_dp, max(0.0_dp, t)))
+            call add_probe_facet(mdl, f, facet_shape(2, min(1.0_dp, max(0.0_dp, t))))
         end do
         if (mdl%n_probe == 0) st = STAT_BAD_INPUT
     end subroutine locate_probe
 
-    !> Record facet f (position xi along it) as holding the probe.
-    subroutine add_probe_facet(mdl, f, xi)
+    !> Record facet f (its shape values nsh at the probe) as holding the probe.
+    subroutine add_probe_facet(mdl, f, nsh)
         type(model_t), intent(inout) :: mdl          !! model being built
         integer, intent(in) :: f                     !! contact facet
-        real(dp), intent(in) :: xi                   !! position along it
+        real(dp), intent(in) :: nsh(:)               !! (MAX_FN) its shape values at the probe
+        if (mdl%n_probe == MAX_PROBE) return
         mdl%n_probe = mdl%n_probe + 1
         mdl%probe_facet(mdl%n_probe) = f
-        mdl%probe_xi(mdl%n_probe) = xi
+        mdl%probe_shape(:, mdl%n_probe) = nsh
     end subroutine add_probe_facet
+
+    !> The point of triangle (a, b, c) nearest to p, as barycentric coordinates
+    !> (Ericson, Real-Time Collision Detection, 5.1.5: the Voronoi regions of the
+    !> vertices, then of the edges, else the inside).
+    pure function triangle_nearest(p, a, b, c) result(w)
+        real(dp), intent(in) :: p(3), a(3), b(3), c(3)   !! point, triangle
+        real(dp) :: w(3)
+        real(dp) :: ab(3), ac(3), ap(3), bp(3), cp(3), d1, d2, d3, d4, d5, d6, va, vb, vc, t, den
+        ab = b - a; ac = c - a; ap = p - a
+        d1 = dot_product(ab, ap); d2 = dot_product(ac, ap)
+        if (d1 <= 0.0_dp .and. d2 <= 0.0_dp) then
+            w = [1.0_dp, 0.0_dp, 0.0_dp]; return
+        end if
+        bp = p - b
+        d3 = dot_product(ab, bp); d4 = dot_product(ac, bp)
+        if (d3 >= 0.0_dp .and. d4 <= d3) then
+            w = [0.0_dp, 1.0_dp, 0.0_dp]; return
+        end if
+        vc = d1 * d4 - d3 * d2
+        if (vc <= 0.0_dp .and. d1 >= 0.0_dp .and. d3 <= 0.0_dp) then
+            t = d1 / (d1 - d3)
+            w = [1.0_dp - t, t, 0.0_dp]; return
+        end if
+        cp = p - c
+        d5 = dot_product(ab, cp); d6 = dot_product(ac, cp)
+        if (d6 >= 0.0_dp .and. d5 <= d6) then
+            w = [0.0_dp, 0.0_dp, 1.0_dp]; return
+        end if
+        vb = d5 * d2 - d1 * d6
+        if (vb <= 0.0_dp .and. d2 >= 0.0_dp .and. d6 <= 0.0_dp) then
+            t = d2 / (d2 - d6)
+            w = [1.0_dp - t, 0.0_dp, t]; return
+        end if
+        va = d3 * d6 - d5 * d4
+        if (va <= 0.0_dp .and. d4 - d3 >= 0.0_dp .and. d5 - d6 >= 0.0_dp) then
+            t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+            w = [0.0_dp, 1.0_dp - t, t]; return
+        end if
+        den = 1.0_dp / (va + vb + vc)
+        w = [va * den, vb * den, vc * den]
+    end function triangle_nearest
+
+    !> Contact facet f of a 3D model: its node coordinates.
+    pure subroutine facet_triangle(mdl, f, xa, xb, xc)
+        type(model_t), intent(in) :: mdl             !! model
+        integer, intent(in) :: f                     !! contact facet
+        real(dp), intent(out) :: xa(3), xb(3), xc(3) !! its nodes
+        xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
+        xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
+        xc = mdl%msh%x(:, mdl%ct%nodes(3, f))
+    end subroutine facet_triangle
 
     !> b = B(u) = K_theta u + contact part; ktu = K_theta u; active points and the
     !> contact energy parts (see contact_eval).
@@ -739,7 +845,7 @@ contains
     end subroutine model_initial
 
     !> Probe values: u_n, v_n interpolated; p_n = Nitsche pressure (mean over the
-    !> facets when the probe is a shared node). Zero without contact boundary.
+    !> facets when the probe is on a shared node or edge). Zero without contact boundary.
     subroutine model_probe(mdl, u, v, un, vn, pn)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: u(:)          !! displacement
@@ -757,10 +863,9 @@ contains
             f = mdl%probe_facet(q)
             call gather(f, u, ue(1:ne))
             call gather(f, v, ve(1:ne))
-            nsh = facet_shape(nf, mdl%probe_xi(q))
+            nsh = mdl%probe_shape(:, q)
             pn = pn + facet_pressure(ne, nf, ue(1:ne), mdl%ct%s(:, f), &
-                                     mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), &
-                                     mdl%probe_xi(q))
+                                     mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), nsh)
             if (q == 1) then
                 ! the normal components at the facet's nodes, then their interpolation
                 ! (fixed-size locals: no heap in a trace row)
