@@ -194,3 +194,49 @@ def test_slip_z_holds_the_z_component(tmp_path):
         res = run(box(boundary__slip_z="bottom", boundary__contact="", scheme__t_end=0.05,
                       initial__kind="rest"), tmp_path, "slipz")
     assert res.status == "ok" and res.summary["dofs"] == 531
+
+
+@pytest.mark.parametrize("quadrature", ["exact", "gauss"])
+@pytest.mark.parametrize("theta", [-1, 0, 1])
+@pytest.mark.parametrize("depth", [-0.05, 0.002, 0.05], ids=["free", "partial", "deep"])
+def test_3d_generalized_derivative_matches_finite_differences(theta, quadrature, depth):
+    """B'(u) du of the 3D model (triangle facets, both quadratures) against central
+    differences of B, as in 2D (test_schemes.py): relative error below 1e-6."""
+    from dyncontact.core import Model
+
+    rng = np.random.default_rng(11)
+    s = box(contact__theta=theta, contact__quadrature=quadrature, contact__quad_points=7)
+    with Model(s) as m:
+        node, comp = m.dof_map()
+        u = np.where(comp == 2, -depth, 0.0) + 1e-3 * rng.standard_normal(comp.shape)
+        b, active = m.eval_b(u)
+        assert (active == 0) if depth < 0 else (active > 0)
+        checked = 0
+        for _ in range(4):
+            du = rng.standard_normal(u.shape)
+            eps = 1e-7 * np.linalg.norm(u) / np.linalg.norm(du)
+            bp, act_p = m.eval_b(u + eps * du)
+            bm, act_m = m.eval_b(u - eps * du)
+            if act_p != active or act_m != active:
+                continue  # a quadrature point switched: not a point of differentiability
+            fd = (bp - bm) / (2 * eps)
+            jdu = m.jacobian_apply(u, du)
+            err = np.linalg.norm(fd - jdu) / np.linalg.norm(jdu)
+            assert err < 1e-6, f"theta={theta} {quadrature}: relative FD error {err:.2e}"
+            checked += 1
+        assert checked > 0
+
+
+def test_3d_probe_snapped_to_the_bottom_face(tmp_path):
+    """A probe just below the bottom face is moved onto it, with a note giving the point.
+    Probes inside a triangle's edge (the diagonal of a bottom square), at a node of six
+    triangles and on the face's border edge are all located: u_n at t = 0 is the compressed
+    bar's -1/2 (the same on the whole bottom face) and p_n shows the impact."""
+    with pytest.warns(DyncontactWarning, match=r"probe snapped to 5\.00000E-002 5\.00000E-002 "
+                                               r"0\.00000E\+000 \(distance 1\.000E-003\)"):
+        res = run(box(contact__probe="0.05, 0.05, -0.001", scheme__t_end=0.01), tmp_path, "s")
+    assert res.status == "ok"
+    for probe in ("0.025, 0.025, 0.0", "0.05, 0.05, 0.0", "0.1, 0.03, 0.0"):
+        tr = run(box(contact__probe=probe, scheme__t_end=1.5), tmp_path, "p").trace
+        assert tr["u_n"][0] == pytest.approx(-0.5, abs=1e-15)
+        assert tr["p_n"].min() < -0.1
