@@ -21,8 +21,8 @@ from dyncontact.core import DyncontactWarning
 
 REF = Path(__file__).resolve().parent / "data" / "reference"
 
-#: GetFEM's 3D run and ours solve the same discrete equations (same mesh, same 15-point
-#: volume and 7-point face rules up to round-off) with Newton to 1e-10; the reference
+#: GetFEM's 3D run and ours solve the same discrete equations (the same mesh; element
+#: integrals exact on both sides; the same 7-point face rule) with Newton to 1e-10; the reference
 #: file has 11 significant digits (e_total to 4e-11 of e0). Observed: 5.1e-12 in u_n,
 #: 4.0e-11 in e_total relative to e0 (5e-14 absolute: the file's rounding).
 GETFEM_TOL = 1e-10
