@@ -92,7 +92,7 @@ BAD_CASES = [
     BadCase("unquoted_string", "&scheme mass = lumped /\n", "&scheme mass",
             "expected a quoted string"),
     BadCase("too_many_values", "&contact probe = 0.05, 0.0, 0.0 /\n", "&contact probe",
-            "expected 1 or 2 values"),
+            "expected 1 or 2 values in 2D"),
     BadCase("many_values", "&scheme dt = " + "1, " * 300_000 + "1 /\n", "&scheme dt",
             "expected 1 value (got '1, 1, 1')"),
     BadCase("two_values_for_scalar", "&scheme dt = 1e-3, 2e-3 /\n", "&scheme dt",
@@ -103,7 +103,21 @@ BAD_CASES = [
     BadCase("mesh_file_is_directory", "&mesh file = '.' /\n", "&mesh file",
             "cannot read mesh file"),
     # ranges and choices
-    BadCase("dim_3", "&mesh dim = 3 /\n", "&mesh dim", "must be 1 or 2"),
+    BadCase("dim_4", "&mesh dim = 4 /\n", "&mesh dim", "must be 1, 2 or 3"),
+    # vectors against the dimension
+    BadCase("vector_2_in_3d", "&mesh dim = 3 /\n&contact probe = 0.05, 0.0 /\n",
+            "&contact probe", "expected 3 values in 3D (got '0.05, 0.0')"),
+    BadCase("gravity_1_in_3d", "&mesh dim = 3 /\n&material gravity = -9.81 /\n",
+            "&material gravity", "expected 3 values in 3D"),
+    BadCase("vector_3_in_2d", "&initial velocity = 0.0, 0.0, 1.0 /\n", "&initial velocity",
+            "expected 1 or 2 values in 2D"),
+    BadCase("vector_4_values", "&mesh dim = 3 /\n&initial velocity = 0, 0, 1, 2 /\n",
+            "&initial velocity", "expected 1, 2 or 3 values"),
+    BadCase("quad_points_7_in_2d", "&contact quadrature = 'gauss', quad_points = 7 /\n",
+            "&contact quad_points", "must be in 1..6 in 2D"),
+    BadCase("quad_points_4_in_3d",
+            "&mesh dim = 3 /\n&contact quadrature = 'gauss', quad_points = 4 /\n",
+            "&contact quad_points", "must be 1, 3, 6 or 7 in 3D"),
     BadCase("h_zero", "&mesh h = 0.0 /\n", "&mesh h", "must be > 0"),
     BadCase("h_negative", "&mesh h = -0.05 /\n", "&mesh h", "must be > 0"),
     BadCase("length_zero", "&mesh length = 0 /\n", "&mesh length", "must be > 0"),
@@ -126,8 +140,8 @@ BAD_CASES = [
             "&contact obstacle_normal", "nonzero in 1D"),
     BadCase("quadrature_unknown", "&contact quadrature = 'simpson' /\n",
             "&contact quadrature", "must be 'exact' or 'gauss'"),
-    BadCase("quad_points_7", "&contact quad_points = 7 /\n", "&contact quad_points",
-            "must be in 1..6"),
+    BadCase("quad_points_8", "&contact quad_points = 8 /\n", "&contact quad_points",
+            "must be in 1..7"),
     BadCase("initial_kind_unknown", "&initial kind = 'moving' /\n", "&initial kind",
             "must be one of"),
     BadCase("scheme_unknown", "&scheme name = 'rk4' /\n", "&scheme name", "must be one of"),
@@ -311,7 +325,7 @@ def test_syntax_variants(tmp_path):
     assert d["mesh"]["h"] == 0.01 and d["mesh"]["length"] == 2.0
     assert d["mesh"]["dim"] == 1          # kept, but ignored with a mesh file
     assert d["boundary"] == {"clamped": "top, left", "slip_x": "it's",
-                             "slip_y": 'a"b', "contact": "a!b/c&d"}
+                             "slip_y": 'a"b', "slip_z": "", "contact": "a!b/c&d"}
     assert d["material"]["gravity"] == [-9.81, -9.81]
     assert d["material"]["young"] == 5.0
     assert d["contact"]["obstacle_normal"] == [1.0, 0.0]   # 2D rule: normalized

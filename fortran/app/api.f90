@@ -279,19 +279,19 @@ subroutine dc_ls_solve(n, nnz, rows, cols, vals, b, x, backend, stat, errmsg)
 end subroutine dc_ls_solve
 
 !> P1 element matrices of one cell: stiffness, consistent and lumped mass.
-!> dim = 1 uses the leading 2x2 blocks and x(1, 1:2).
+!> The leading n x n blocks (n = dim (dim + 1)) and x(1:dim, 1:dim + 1) are used.
 subroutine dc_p1_element(dim, x, young, poisson, density, ke, me, ml)
     use iso_c_binding, only: c_int, c_double
     use fe_p1, only: p1_stiffness, p1_mass, p1_lame
     implicit none
-    integer(c_int), intent(in) :: dim            !! 1 or 2
-    real(c_double), intent(in) :: x(2, 3)        !! node coordinates
+    integer(c_int), intent(in) :: dim            !! 1, 2 or 3
+    real(c_double), intent(in) :: x(3, 4)        !! node coordinates
     real(c_double), intent(in) :: young          !! E
     real(c_double), intent(in) :: poisson        !! nu
     real(c_double), intent(in) :: density        !! rho
-    real(c_double), intent(out) :: ke(6, 6)      !! stiffness
-    real(c_double), intent(out) :: me(6, 6)      !! consistent mass
-    real(c_double), intent(out) :: ml(6, 6)      !! lumped mass
+    real(c_double), intent(out) :: ke(12, 12)    !! stiffness
+    real(c_double), intent(out) :: me(12, 12)    !! consistent mass
+    real(c_double), intent(out) :: ml(12, 12)    !! lumped mass
     real(c_double) :: lambda, mu
     integer :: n
     ke = 0; me = 0; ml = 0

@@ -7,7 +7,7 @@ module simulation
     use text, only: int_text, real_text
     use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
-    use scene, only: scene_t, scene_read, scene_to_json
+    use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
@@ -105,8 +105,6 @@ contains
         type(scheme_params_t) :: sprm
         call system_clock(sim%clock0, sim%clock_rate)
         sim%scn = scn
-        mprm = model_params(scn)
-        sprm = scheme_params(scn)
         mmsg = ''
         call mesh_load(scn%mesh_file, scn%mesh_dim, scn%mesh_length, scn%mesh_width, scn%mesh_h, &
                        msh, stat, mmsg)
@@ -114,6 +112,10 @@ contains
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &mesh: '//trim(mmsg))
             return
         end if
+        call scene_check_dim(sim%scn, msh%dim, stat, errmsg)   ! the vector keys
+        if (stat /= STAT_OK) return
+        mprm = model_params(sim%scn)
+        sprm = scheme_params(sim%scn)
         call model_build(msh, mprm, sim%mdl, stat, errmsg)
         if (stat /= STAT_OK) return
         n = sim%mdl%n_dofs
@@ -441,7 +443,7 @@ contains
         type(model_params_t) :: p
         p%name = scn%path
         p%mesh_name = mesh_label(scn%mesh_file)
-        p%clamped = scn%clamped; p%slip_x = scn%slip_x; p%slip_y = scn%slip_y
+        p%clamped = scn%clamped; p%slip_x = scn%slip_x; p%slip_y = scn%slip_y; p%slip_z = scn%slip_z
         p%contact = scn%contact
         p%young = scn%young; p%poisson = scn%poisson; p%density = scn%density
         p%gravity = scn%gravity

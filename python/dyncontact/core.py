@@ -408,7 +408,7 @@ def p1_element(dim: int, x, young: float, poisson: float, density: float):
     x = np.asarray(x, dtype=np.float64)
     if x.shape != (dim, dim + 1):
         raise ValueError(f"x must have shape ({dim}, {dim + 1}), got {x.shape}")
-    xf = np.zeros((2, 3), dtype=np.float64, order="F")
+    xf = np.zeros((3, 4), dtype=np.float64, order="F")
     xf[:dim, :dim + 1] = x
     ke, me, ml = _core().dc_p1_element(int(dim), xf, float(young), float(poisson),
                                        float(density))
