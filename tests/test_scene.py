@@ -67,6 +67,7 @@ BAD_CASES = [
     BadCase("text_after_group", "&scheme dt = 1e-3 / trailing words\n", "",
             "text outside a group"),
     # file level
+    BadCase("empty_file", b"", "", "empty scene file"),
     BadCase("binary_file", bytes(range(256)) * 8, "", "not a text file"),
     BadCase("nul_in_text", b"&scheme dt = 1e-3 /\n\x00\n", "", "not a text file"),
     BadCase("garbage", "this is not a scene file\n", "", "text outside a group"),
@@ -273,15 +274,47 @@ def test_defaults_values():
     assert d["contact"]["obstacle_normal"] == [0.0, -1.0]
 
 
-@pytest.mark.parametrize("content", ["", "! nothing but a comment\n\n", "\n  \t\n",
-                                     "! all defaults\n&output /\n"])
+@pytest.mark.parametrize("content", ["! nothing but a comment\n\n", "\n  \t\n", "\n",
+                                     "! all defaults\n&output /\n", "&mesh /\n&scheme /\n"])
 def test_empty_scene_is_the_default(core_ext, content, tmp_path):
-    """An empty file, or one with only comments, is the default scene (docs/scenes.md)."""
+    """A file with only blanks, comments or empty groups is the default scene
+    (docs/scenes.md); a 0-byte file is refused (BAD_CASES 'empty_file')."""
     path = scene_text(tmp_path, content)
     stat, errmsg, f_dict = fortran_read(core_ext, path, tmp_path)
     assert stat == 0, errmsg
     assert f_dict == Scene().to_dict()
     assert Scene.read(path) == Scene()
+
+
+def test_byte_order_mark_is_skipped(core_ext, tmp_path):
+    """A UTF-8 byte-order mark before the text reads like the same file without it,
+    with LF or CRLF line ends; a mark anywhere else is still text outside a group."""
+    text = "! saved by an editor\n&scheme name = 'newmark', dt = 1e-3 /\n&mesh h = 0.1 /\n"
+    plain = scene_text(tmp_path, text, "plain.nml")
+    ref = fortran_read(core_ext, plain, tmp_path)
+    assert ref[0] == 0 and ref[2]["scheme"]["dt"] == 1e-3, ref
+    for name, data in [("bom.nml", text.encode()),
+                       ("bom_crlf.nml", text.replace("\n", "\r\n").encode())]:
+        path = tmp_path / name
+        path.write_bytes(b"\xef\xbb\xbf" + data)
+        assert fortran_read(core_ext, path, tmp_path)[2] == ref[2], name
+        assert Scene.read(path) == Scene.read(plain)
+    only_bom = tmp_path / "only_bom.nml"
+    only_bom.write_bytes(b"\xef\xbb\xbf")
+    assert fortran_read(core_ext, only_bom, tmp_path)[2] == Scene().to_dict()
+    twice = tmp_path / "twice.nml"
+    twice.write_bytes(b"\xef\xbb\xbf\xef\xbb\xbf" + text.encode())
+    stat, msg, _ = fortran_read(core_ext, twice, tmp_path)
+    assert stat == STAT_BAD_INPUT and msg.startswith(f"{twice}: line 1: text outside a group"), msg
+
+
+def test_run_refuses_empty_file(tmp_path):
+    """dyncontact.run on a 0-byte scene raises BadInputError naming the file."""
+    path = tmp_path / "copy_failed.nml"
+    path.write_bytes(b"")
+    with pytest.raises(BadInputError, match=f"^{path}: empty scene file"):
+        dyncontact.run(path, out=tmp_path / "out")
+    assert not (tmp_path / "out" / "trace.csv").exists()
 
 
 def test_bar1d_scene():

@@ -8,7 +8,8 @@
 !> that involve several keys are in `validate_cross`, naming their keys.
 !>
 !> Grammar: text (no control byte other than tab, CR, LF), at most MAX_FILE_BYTES; outside
-!> groups only blanks and `!` comments (an empty file is the default scene); a group is
+!> groups only blanks and `!` comments (text with no group is the default scene; a 0-byte
+!> file is refused as a failed copy; a leading UTF-8 byte-order mark is skipped); a group is
 !> `&name ... /`, known names only, each at most once; inside it, `key = value[, value]`
 !> pairs (keys case-insensitive, values separated by commas and/or blanks, line breaks and
 !> comments between tokens). Strings are quoted with ' or " (a doubled quote stands for
@@ -201,10 +202,16 @@ contains
         end if
         if (ios /= 0) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': cannot read scene file')
+        else if (n == 0) then    ! a failed copy, not a scene: comments alone give the defaults
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': empty scene file (0 bytes)')
         else if (n > MAX_FILE_BYTES) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
                        '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
         else
+            ! a UTF-8 byte-order mark (some editors write one) is not part of the text
+            if (n >= 3) then
+                if (text(1:3) == achar(239)//achar(187)//achar(191)) text = text(4:)
+            end if
             call scene_parse(text, trim(path), path(1:index(path, '/', back=.true.)), .true., &
                              scn, stat, errmsg)
         end if
