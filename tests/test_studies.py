@@ -501,3 +501,44 @@ def test_which_scheme_table_is_built_from_runs(which, work_precision):
         assert p["pick"] == chosen["label"]
     text = open(which["summary"], encoding="utf-8").read()
     assert "Which scheme should I use" in text and "oscillation.csv" in text
+    # refused settings are reported apart and the table says how it ranks
+    assert "| refused |" in text and "among the settings each one accepts" in text
+    for x in which["robustness"]:
+        assert x["stable"] + x["unstable"] + x["refused"] == x["total"]
+        assert x["accepted"] == 0 or x["score"] == x["stable"] / x["accepted"]
+
+
+def test_robustness_counts_refused_settings_apart():
+    """A setting the core refuses (θ = 1, γ0 below its bound) is neither stable nor
+    unstable: the score is stable / accepted, hand-counted on a 2 x 3 grid."""
+    from dyncontact.study.which import robustness
+
+    gammas, ratios = [0.01, 10.0], [0.05, 0.2, 1.0]
+    rows = []
+    # θ = 1: refused at γ0 = 0.01 (every Δt), stable at γ0 = 10 up to Δt/h = 0.2
+    for r, st in zip(ratios, ("refused", "refused", "refused")):
+        rows.append({"scheme": "newmark", "theta": 1, "gamma0": 0.01, "dt_over_h": r,
+                     "status": st})
+    for r, st in zip(ratios, ("ok", "ok", "unstable")):
+        rows.append({"scheme": "newmark", "theta": 1, "gamma0": 10.0, "dt_over_h": r,
+                     "status": st})
+    # θ = -1: every setting accepted; 4 stable, one unstable, one Newton failure
+    for g0, sts in ((0.01, ("ok", "unstable", "ok")), (10.0, ("ok", "ok", "newton_failed"))):
+        for r, st in zip(ratios, sts):
+            rows.append({"scheme": "newmark", "theta": -1, "gamma0": g0, "dt_over_h": r,
+                         "status": st})
+    # θ = 0: no run recorded at all (a missing run is not stable, not refused)
+    got = {x["theta"]: x for x in robustness(rows, [("newmark", 1), ("newmark", -1),
+                                                    ("newmark", 0)], gammas, ratios)}
+    one, m1, zero = got[1], got[-1], got[0]
+    assert (one["stable"], one["unstable"], one["refused"]) == (2, 1, 3)
+    assert (one["accepted"], one["total"], one["score"]) == (3, 6, 2 / 3)
+    assert one["min_stable_dt_over_h"] == 0.2          # γ0 = 0.01 has no accepted setting
+    assert (m1["stable"], m1["unstable"], m1["refused"]) == (4, 2, 0)
+    assert (m1["accepted"], m1["score"]) == (6, 4 / 6)
+    assert m1["min_stable_dt_over_h"] == 0.05           # γ0 = 0.01: unstable at 0.2
+    assert (zero["stable"], zero["unstable"], zero["refused"], zero["score"]) == (0, 6, 0, 0)
+    # every setting refused: no score, and no stable Δt/h to report
+    only_refused = [dict(x, theta=1) for x in rows if x["theta"] == 1 and x["gamma0"] == 0.01]
+    x = robustness(only_refused, [("newmark", 1)], [0.01], ratios)[0]
+    assert x["accepted"] == 0 and math.isnan(x["score"]) and x["refused"] == 3
