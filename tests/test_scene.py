@@ -89,6 +89,30 @@ BAD_CASES = [
     BadCase("string_for_real", "&scheme dt = '1e-3' /\n", "&scheme dt",
             "expected a real number"),
     BadCase("real_overflow", "&scheme t_end = 1d400 /\n", "&scheme t_end", "out of range"),
+    # forms the list-directed read would take, each hiding a slip: an exponent without
+    # its letter (2.5+1 reads as 25), text after ';' (dropped), a repeat too many for a
+    # vector, a quad-precision letter, Fortran kind suffixes
+    BadCase("nan_real", "&material young = NaN /\n", "&material young",
+            "expected a real number"),
+    BadCase("real_sum", "&scheme dt = 2.5+1 /\n", "&scheme dt", "expected a real number"),
+    BadCase("real_no_exponent_letter", "&scheme dt = 1-3 /\n", "&scheme dt",
+            "expected a real number"),
+    BadCase("semicolon_in_value", "&scheme dt = 1e-3;5 /\n", "&scheme dt",
+            "expected a real number"),
+    BadCase("semicolon_between_keys", "&scheme dt = 1e-3; t_end = 1.0 /\n", "&scheme dt",
+            "expected a real number"),
+    BadCase("semicolon_in_vector", "&material gravity = 0.0;-9.81 /\n", "&material gravity",
+            "expected a real number"),
+    BadCase("repeat_too_many", "&material gravity = 3*0.0 /\n", "&material gravity",
+            "expected 1 or 2 values"),
+    BadCase("repeat_null", "&material gravity = 2* /\n", "&material gravity", "empty value"),
+    BadCase("quad_letter", "&scheme dt = 1.0q-3 /\n", "&scheme dt", "expected a real number"),
+    BadCase("kind_suffix", "&scheme dt = 1.0e-3_dp /\n", "&scheme dt",
+            "expected a real number"),
+    BadCase("array_element", "&material gravity(2) = -9.81 /\n", "&material gravity",
+            "expected '='"),
+    BadCase("old_end_marker", "&scheme dt = 1e-3 &end\n", "&scheme", "unterminated group"),
+    BadCase("dollar_groups", "$scheme dt = 1e-3 $end\n", "", "text outside a group"),
     BadCase("unquoted_string", "&scheme mass = lumped /\n", "&scheme mass",
             "expected a quoted string"),
     BadCase("too_many_values", "&contact probe = 0.05, 0.0, 0.0 /\n", "&contact probe",
@@ -349,6 +373,49 @@ def test_syntax_variants(tmp_path):
     assert d["contact"]["obstacle_normal"] == [1.0, 0.0]   # 2D rule: normalized
     assert d["contact"]["theta"] == -1 and d["contact"]["quad_points"] == 2
     assert d["scheme"]["theta"] == 1.0 and d["scheme"]["dt"] == 5e-4
+
+
+def test_tabs_repeats_and_other_namelist_forms(core_ext, tmp_path):
+    """Tabs wherever blanks go, repeat counts, a comma before '/', no blanks at all,
+    '1*x', signs and exponents in e/E/d/D: each file reads like the plain one."""
+    plain = scene_text(tmp_path, "&material gravity = -1.0, -1.0, young = 2.0 /\n"
+                       "&scheme name = 'theta', dt = 0.001, t_end = 0.5 /\n", "plain.nml")
+    ref = fortran_read(core_ext, plain, tmp_path)
+    assert ref[0] == 0, ref
+    forms = {
+        "tabs": "&material\tgravity\t=\t-1.0,\t-1.0\tyoung\t=\t2.0\t/\n"
+                "\t&scheme\tname='theta'\tdt=0.001\tt_end=0.5/\n",
+        "repeat": "&material gravity = 2*-1.0, young = 1*2.0 /\n"
+                  "&scheme name = 'theta', dt = 1*1d-3, t_end = 5E-1 /\n",
+        "trailing_comma": "&material gravity = -1.0, -1.0, young = 2.0, /\n"
+                          "&scheme name = 'theta', dt = 0.001, t_end = 0.5, /\n",
+        "no_blanks": "&material gravity=-1.,-1.,young=+2./\n"
+                     "&scheme name='theta',dt=.1e-2,t_end=0.5D0/\n",
+        "one_per_line": "&material\n gravity =\n -1.0\n -1.0\n young\n =\n 2.0\n/\n"
+                        "&scheme\n name = 'theta' ! the scheme\n dt = 1.0e-03\n t_end = .5\n/\n",
+    }
+    for name, text in forms.items():
+        got = fortran_read(core_ext, scene_text(tmp_path, text, f"{name}.nml"), tmp_path)
+        assert got[0] == 0 and got[2] == ref[2], (name, got[1])
+
+
+#: Every numeric key, and values that are not finite reals or that overflow.
+NUMERIC_KEYS = [(g, k) for g, kv in Scene().to_dict().items() for k, v in kv.items()
+                if not isinstance(v, str)]
+NOT_FINITE = ["nan", "NaN", "-nan", "inf", "+Inf", "-Infinity", "INFINITY", "nan(0x1)",
+              "1e400", "-1d999", "2*nan", "0.0, nan", "inf, 0.0", "0.0 -inf"]
+
+
+@pytest.mark.parametrize("group, key", NUMERIC_KEYS, ids=lambda x: str(x))
+def test_nan_and_inf_are_refused_in_every_key(core_ext, group, key, tmp_path):
+    """NaN or Inf, in any spelling the list-directed read knows, or a value that
+    overflows, in any real, vector or integer key: one line naming the key."""
+    for k, value in enumerate(NOT_FINITE):
+        path = scene_text(tmp_path, f"&{group} {key} = {value} /\n", f"v{k}.nml")
+        stat, msg, _ = fortran_read(core_ext, path, tmp_path)
+        assert stat == STAT_BAD_INPUT, (value, msg)
+        assert msg.startswith(f"{path}: &{group} {key}: "), (value, msg)
+        assert "\n" not in msg
 
 
 def test_normal_is_normalized(tmp_path):

@@ -471,7 +471,7 @@ contains
             read (key%text, *, iostat=ios) x(1:key%nval)
             if (key%quoted) then
                 what = 'expected a real number, not a string'
-            else if (ios /= 0 .or. scan(key%text, 'nNiI') > 0) then    ! no nan, inf
+            else if (ios /= 0 .or. .not. real_syntax(key%text)) then    ! no nan, inf, 1-3
                 what = 'expected a real number'
             else if (.not. all(abs(x) <= huge(x))) then
                 what = 'real number out of range'
@@ -483,6 +483,60 @@ contains
         end if
         if (len(what) > 0) msg = ctx//': '//what//' (got '''//shown(key%text, VALUE_LEN)//''')'
     end subroutine convert
+
+    !> Whether every value in `text` (values joined by ', ', each maybe `r*`-prefixed) is a
+    !> real written [sign] digits [. digits] [e|d [sign] digits]. The list-directed read
+    !> also takes forms that hide a typing slip, refused here: nan and inf, an exponent
+    !> without its letter (`2.5+1` reads as 25), text after a ';' (`1e-3;5` reads as 1e-3).
+    pure logical function real_syntax(text) result(ok)
+        character(len=*), intent(in) :: text   !! key%text
+        integer :: i, j, n, digits
+        ok = .false.
+        n = len(text)
+        i = 1
+        do while (i <= n)
+            j = index(text(i:), '*')    ! repeat count (checked by read_values)
+            if (j > 1 .and. j <= scan(text(i:)//',', ',')) then
+                if (verify(text(i:i + j - 2), '0123456789') == 0) i = i + j
+            end if
+            if (i <= n) then
+                if (scan(text(i:i), '+-') == 1) i = i + 1
+            end if
+            digits = 0
+            do while (i <= n)
+                if (scan(text(i:i), '0123456789') /= 1) exit
+                i = i + 1; digits = digits + 1
+            end do
+            if (i <= n) then
+                if (text(i:i) == '.') then
+                    i = i + 1
+                    do while (i <= n)
+                        if (scan(text(i:i), '0123456789') /= 1) exit
+                        i = i + 1; digits = digits + 1
+                    end do
+                end if
+            end if
+            if (digits == 0) return
+            if (i <= n) then
+                if (scan(text(i:i), 'eEdD') == 1) then
+                    i = i + 1
+                    if (i <= n) then
+                        if (scan(text(i:i), '+-') == 1) i = i + 1
+                    end if
+                    digits = 0
+                    do while (i <= n)
+                        if (scan(text(i:i), '0123456789') /= 1) exit
+                        i = i + 1; digits = digits + 1
+                    end do
+                    if (digits == 0) return
+                end if
+            end if
+            if (i > n) exit
+            if (text(i:min(i + 1, n)) /= ', ') return
+            i = i + 2
+        end do
+        ok = .true.
+    end function real_syntax
 
     ! ---------------------------------------------------------------- checks
 
