@@ -102,3 +102,120 @@ def test_open_contact_boundary_facing_away_still_warns(kind, tmp_path):
     warn = [ln for ln in res.stderr.splitlines() if "obstacle_normal" in ln]
     assert len(warn) == 1 and "no contact facet faces the obstacle" in warn[0], res.stderr
     assert "-1.000" in warn[0]    # every bottom facet's outward normal is -y
+
+
+# ------------------------------------------------------------------ inverted cells
+
+def test_gmsh_mesh_with_inverted_cells_runs_like_the_oriented_one(tmp_path):
+    """A third of the disk's triangles written clockwise (negative Jacobian): the mesh
+    is the same set of cells, so the run gives the same trace (to round-off: the
+    element matrices are summed in another order) and the same energy."""
+    import dyncontact
+    from dyncontact.core import load_mesh
+
+    plain = disk_mesh(tmp_path / "plain.msh")
+    inv = disk_mesh(tmp_path / "inv.msh", invert_every=3)
+    m = load_mesh(inv)
+    tri = m["cells"]
+    x = m["x"]
+    e1, e2 = x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]]
+    d = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]    # twice the signed area
+    assert (d < 0).sum() == len(tri[::3]) and (d > 0).sum() == len(tri) - len(tri[::3])
+    res = {}
+    for name, mesh in (("plain", plain), ("inv", inv)):
+        scene = disk_scene(tmp_path / f"{name}.nml", mesh, scheme__t_end="0.2")
+        res[name] = dyncontact.run(scene, out=tmp_path / f"o_{name}", progress=False)
+        assert res[name].ok
+    a, b = res["plain"].trace, res["inv"].trace
+    assert min(a["p_n"]) < 0          # the disk has hit the plane (p_n < 0 in contact)
+    for col in ("u_n", "v_n", "p_n", "e_total"):
+        np.testing.assert_allclose(b[col], a[col], rtol=1e-9, atol=1e-12 * max(abs(a[col])))
+
+
+
+# ------------------------------------------------------------------ fields_every = 1
+
+@pytest.fixture
+def tmpfs(tmp_path):
+    """mount(options) -> a folder on a fresh tmpfs with those options (root only; else
+    skip); unmounted at the end."""
+    import subprocess
+
+    mounted = []
+
+    def mount(options: str) -> Path:
+        mnt = tmp_path / f"disk{len(mounted)}"
+        mnt.mkdir()
+        res = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(mnt)],
+                             capture_output=True, text=True)
+        if res.returncode != 0:
+            pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
+        mounted.append(mnt)
+        return mnt
+
+    yield mount
+    for mnt in mounted:
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_fields_every_1_that_cannot_fit_is_refused_before_writing(kind, tmpfs, tmp_path):
+    """The seed run with a snapshot every step: 6001 snapshots of 16.6 kB (101.9 MB with
+    the trace) on a 1 MB disk. Refused before anything is written, naming the key and
+    saying how much; a previous run's results stay as they were."""
+    disk = tmpfs("size=1m")
+    out = disk / "o"
+    small = write_scene(tmp_path / "small.nml", scheme__t_end="0.05", output__fields_every="5")
+    assert run(kind, small, "--out", out, cwd=tmp_path).returncode == EXIT_OK
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert len([p for p in before if p.suffix == ".vtu"]) == 5
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0", output__fields_every="1")
+    line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), EXIT_BAD_INPUT)
+    assert f"{scene}: &output fields_every: the run would write about 101.9 MB" in line
+    assert "6001 snapshots of 16.6 kB each" in line and f"but {out} has" in line
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before
+
+
+def test_fields_every_1_refused_in_python(tmpfs, tmp_path):
+    import dyncontact
+
+    disk = tmpfs("size=1m")
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0", output__fields_every="1")
+    with pytest.raises(dyncontact.BadInputError, match="&output fields_every: the run would"):
+        dyncontact.run(scene, out=disk / "o", progress=False)
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_more_snapshot_files_than_the_disk_holds_is_refused(kind, tmpfs, tmp_path):
+    """Room for the bytes, not for the files: a file system with 64 inodes and a run of
+    201 snapshots."""
+    disk = tmpfs("size=64m,nr_inodes=64")
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.5", output__fields_every="1")
+    line = one_line(run(kind, scene, "--out", disk / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert "&output fields_every: the run would write 201 snapshot files" in line
+    assert "more files" in line
+
+
+def test_large_field_output_that_fits_is_announced(tmpfs, tmp_path):
+    """Above 100 MB of snapshots the run says how much before it starts (as for a large
+    trace); it is not refused when the disk has room. Stopped right after the note."""
+    import subprocess
+    import signal
+    import sys
+
+    disk = tmpfs("size=512m")
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="16.0", output__fields_every="1")
+    proc = subprocess.Popen([sys.executable, "-m", "dyncontact", "run", str(scene), "--out",
+                             str(disk / "o")], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stderr.readline()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=120)
+    # each snapshot is the size of the first one (same mesh), plus its line in fields.pvd
+    first = (disk / "o" / "fields" / "step_0000000.vtu").stat().st_size
+    total = 6401 * (first + 100)
+    assert f"note: the field snapshots will take about {total / 1e6:.1f} MB (6401 files" \
+        in line, line

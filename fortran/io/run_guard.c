@@ -3,7 +3,9 @@
  *   - SIGINT / SIGTERM handlers that only set a flag, polled at the end of each step;
  *   - an output-folder lock file created with O_EXCL that holds the owner's pid;
  *   - whole-buffer writes to a file descriptor (every error reported, EINTR retried),
- *     close, rename and unlink with their errno, so that a full disk is never silent.
+ *     close, rename and unlink with their errno, so that a full disk is never silent;
+ *   - the free bytes and file slots of a folder's file system (statvfs), to refuse a run
+ *     whose outputs cannot fit before it starts.
  * Every function returns 0 on success and errno (> 0) on failure unless said otherwise. */
 #include <errno.h>
 #include <math.h>
@@ -14,6 +16,7 @@
 #include <string.h>
 #include <stdint.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <sys/types.h>
 #include <unistd.h>
 
@@ -80,6 +83,18 @@ int dc_fd_write(int fd, const char *buf, long n)
 int dc_fd_close(int fd) { return close(fd) == 0 ? 0 : errno; }
 
 int dc_rename(const char *from, const char *to) { return rename(from, to) == 0 ? 0 : errno; }
+
+/* Bytes and inodes (files) that an unprivileged user may still create on the file system
+ * of path; -1 in either for a file system that does not tell (f_favail = 0 with
+ * f_files = 0, as on some network and FUSE file systems). */
+int dc_free_space(const char *path, int64_t *bytes, int64_t *files)
+{
+    struct statvfs s;
+    if (statvfs(path, &s) != 0) return errno;
+    *bytes = (int64_t)s.f_bavail * (int64_t)(s.f_frsize ? s.f_frsize : s.f_bsize);
+    *files = s.f_files == 0 ? -1 : (int64_t)s.f_favail;
+    return 0;
+}
 
 int dc_unlink(const char *path) { return unlink(path) == 0 || errno == ENOENT ? 0 : errno; }
 
