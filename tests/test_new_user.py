@@ -219,3 +219,81 @@ def test_large_field_output_that_fits_is_announced(tmpfs, tmp_path):
     total = 6401 * (first + 100)
     assert f"note: the field snapshots will take about {total / 1e6:.1f} MB (6401 files" \
         in line, line
+
+
+# ------------------------------------------------------------------ locks after kill -9
+
+def _proc_identity(pid: int) -> str:
+    """'STARTTIME BOOT_ID' of a live process, as the core writes it in its lock."""
+    stat = Path(f"/proc/{pid}/stat").read_text()
+    start = stat[stat.rindex(")") + 2:].split()[19]
+    boot = Path("/proc/sys/kernel/random/boot_id").read_text().strip()
+    return f"{start} {boot}"
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_lock_left_by_kill_9_is_taken_over_by_the_next_run(kind, tmp_path):
+    """A run killed with SIGKILL leaves its lock (pid, start time, boot id); the next
+    run into the folder takes it over, runs, and releases it."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import time
+
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("no /proc")
+    out = tmp_path / "o"
+    long = write_scene(tmp_path / "long.nml", scheme__t_end="3000.0", output__every="100")
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    from test_reliability import entry
+    proc = subprocess.Popen(entry(kind) + [str(long), "--out", str(out)], cwd=tmp_path,
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    lock = out / ".dyncontact.lock"
+    t0 = time.time()
+    while not (lock.exists() and lock.read_text().endswith("\n")):
+        assert time.time() - t0 < 60 and proc.poll() is None, "the run did not start"
+        time.sleep(0.01)
+    assert lock.read_text() == f"{proc.pid} {_proc_identity(proc.pid)}\n"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=60)
+    assert lock.exists()                       # left behind
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.1")
+    res = run(kind, scene, "--out", out, cwd=tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert not lock.exists()
+    assert json.loads((out / "summary.json").read_text())["status"] == "ok"
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_lock_whose_pid_was_reused_is_taken_over(kind, tmp_path):
+    """After a kill -9 (or a reboot) the lock's pid may belong to another live process:
+    the start time or boot id recorded in the lock tells them apart. A lock naming a live
+    process with its own start time and boot id is held (exit 2, pid named)."""
+    import subprocess
+    import sys
+
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("no /proc")
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])
+    try:
+        start, boot = _proc_identity(other.pid).split()
+        scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.1")
+        for name, content in (("start", f"{other.pid} {int(start) - 1} {boot}\n"),
+                              ("boot", f"{other.pid} {start} 00000000-0000-0000-0000-0\n")):
+            out = tmp_path / name
+            out.mkdir()
+            (out / ".dyncontact.lock").write_text(content)
+            res = run(kind, scene, "--out", out, cwd=tmp_path)
+            assert res.returncode == EXIT_OK, (name, res.stderr)
+            assert not (out / ".dyncontact.lock").exists()
+        out = tmp_path / "held"
+        out.mkdir()
+        (out / ".dyncontact.lock").write_text(f"{other.pid} {start} {boot}\n")
+        line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), EXIT_BAD_INPUT)
+        assert "another run" in line and str(other.pid) in line
+        assert not (out / "trace.csv").exists()
+    finally:
+        other.kill()
+        other.wait()
