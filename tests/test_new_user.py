@@ -6,6 +6,7 @@ not repeated here."""
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -297,3 +298,83 @@ def test_lock_whose_pid_was_reused_is_taken_over(kind, tmp_path):
     finally:
         other.kill()
         other.wait()
+
+
+# ------------------------------------------------------------------ threads, Dask
+
+def _scenes(tmp_path, t_end="2.0"):
+    return [write_scene(tmp_path / f"{name}.nml", scheme__name=f"'{name}'", scheme__t_end=t_end)
+            for name in ("newmark", "hht")]
+
+
+def test_two_python_threads_run_scenes_like_one_after_the_other(tmp_path):
+    """Two threads of one process, two scenes, two folders: each trace is the serial
+    run's, bit for bit (the core keeps no module state). Into one folder: one run holds
+    the lock, the other is refused with BadInputError naming the folder."""
+    import threading
+
+    import dyncontact
+
+    scenes = _scenes(tmp_path)
+    ref = [dyncontact.run(s, out=tmp_path / f"ref{k}", progress=False).trace
+           for k, s in enumerate(scenes)]
+    got, errors = [None, None], []
+
+    def go(k, out):
+        try:
+            got[k] = dyncontact.run(scenes[k], out=out, progress=False)
+        except Exception as e:            # noqa: BLE001 - reported below
+            errors.append(e)
+
+    threads = [threading.Thread(target=go, args=(k, tmp_path / f"t{k}")) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(120)
+    assert not errors, errors
+    for k in range(2):
+        assert got[k].ok and set(got[k].trace) == set(ref[k])
+        for col in ref[k]:
+            np.testing.assert_array_equal(got[k].trace[col], ref[k][col])
+    # one folder: long runs (60 000 steps), started together
+    long = _scenes(tmp_path, t_end="150.0")
+    got, errors = [None, None], []
+    scenes[:] = long
+    threads = [threading.Thread(target=go, args=(k, tmp_path / "same")) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(300)
+    assert len(errors) == 1 and isinstance(errors[0], dyncontact.BadInputError), errors
+    assert f"{tmp_path / 'same'}: another run" in str(errors[0])
+    assert sum(r is not None and r.ok for r in got) == 1
+    assert not (tmp_path / "same" / ".dyncontact.lock").exists()
+
+
+def test_run_inside_a_dask_worker(tmp_path):
+    """dyncontact.run as a task of a one-worker LocalCluster (threads of this process):
+    the trace is the serial run's; bad input reaches the client as BadInputError with
+    the core's one-line message."""
+    distributed = pytest.importorskip("distributed")
+    import dyncontact
+
+    scene = _scenes(tmp_path)[0]
+    bad = tmp_path / "bad.nml"
+    bad.write_text("&scheme dt = nan /\n")
+    ref = dyncontact.run(scene, out=tmp_path / "ref", progress=False).trace
+
+    def task(path, out):
+        return dyncontact.run(path, out=out, progress=False).trace
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=":0") as cluster, \
+            distributed.Client(cluster) as client:
+        trace = client.submit(task, str(scene), str(tmp_path / "dask"), pure=False) \
+            .result(timeout=120)
+        with pytest.raises(dyncontact.BadInputError,
+                           match="^" + re.escape(f"{bad}: &scheme dt: expected a real number "
+                                                 "(got 'nan')") + "$"):
+            client.submit(task, str(bad), str(tmp_path / "bad"), pure=False).result(timeout=120)
+    for col in ref:
+        np.testing.assert_array_equal(trace[col], ref[col])
+    assert not (tmp_path / "bad" / "trace.csv").exists()
