@@ -378,3 +378,44 @@ def test_run_inside_a_dask_worker(tmp_path):
     for col in ref:
         np.testing.assert_array_equal(trace[col], ref[col])
     assert not (tmp_path / "bad" / "trace.csv").exists()
+
+
+# ------------------------------------------------------------------ empty contact group
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_empty_or_wrong_dimension_contact_group_is_refused(kind, tmp_path):
+    """A contact group with no facets: declared in $PhysicalNames without elements (as
+    a mesh tool leaves a group it emptied), or the body's surface group named as the
+    contact boundary. One line naming &boundary contact, the group and the mesh."""
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    text = mesh.read_text()
+    head = '$PhysicalNames\n2\n1 1 "outline"\n2 2 "body"\n'
+    assert head in text
+    (tmp_path / "rim.msh").write_text(text.replace(
+        head, '$PhysicalNames\n3\n1 1 "outline"\n2 2 "body"\n1 7 "rim"\n'))
+    for mesh_name, group in (("rim.msh", "rim"), ("disk.msh", "body")):
+        scene = disk_scene(tmp_path / f"{group}.nml", tmp_path / mesh_name,
+                           boundary__contact=f"'{group}'")
+        line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path),
+                        EXIT_BAD_INPUT)
+        assert f"{scene}: &boundary contact: group '{group}' has no facets" in line, line
+        assert mesh_name in line
+        assert not (tmp_path / "o" / "trace.csv").exists()
+    # the same empty group, clamped: named as such
+    scene = disk_scene(tmp_path / "clamped.nml", tmp_path / "rim.msh",
+                       boundary__clamped="'rim'")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert "&boundary clamped: group 'rim' has no facets or cells" in line
+
+
+def test_repeated_contact_group_counts_each_facet_once(tmp_path):
+    """contact = 'outline, outline' is the outline once: the same trace."""
+    import dyncontact
+
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    tr = [dyncontact.run(disk_scene(tmp_path / f"{k}.nml", mesh, boundary__contact=c),
+                         out=tmp_path / f"o{k}", progress=False).trace
+          for k, c in enumerate(("'outline'", "'outline, outline'"))]
+    assert min(tr[0]["p_n"]) < 0
+    for col in tr[0]:
+        np.testing.assert_array_equal(tr[1][col], tr[0][col])
