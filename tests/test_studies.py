@@ -623,3 +623,24 @@ def test_robustness_counts_refused_settings_apart():
     only_refused = [dict(x, theta=1) for x in rows if x["theta"] == 1 and x["gamma0"] == 0.01]
     x = robustness(only_refused, [("newmark", 1)], [0.01], ratios)[0]
     assert x["accepted"] == 0 and math.isnan(x["score"]) and x["refused"] == 3
+
+
+def test_skew_claim_counts_refused_settings_apart():
+    """The claim 'θ = −1 is robust for small γ0' compares θ on the settings each accepts:
+    θ = +1 refused at the smallest γ0 (the core's bound) is no rival and shows as
+    refused; hand-counted on 2 schemes x 3 Δt/h."""
+    from dyncontact.study.claims import _claim_skew
+
+    grid = {"gamma0": [0.01, 10.0], "theta": [-1, 1], "t_end": 15.0}
+    recs = []
+    for scheme, m1 in (("newmark", ("ok", "ok", "ok")), ("theta1", ("ok", "ok", "unstable"))):
+        for r, st in zip((0.05, 0.2, 1.0), m1):
+            for th, status in ((-1, st), (1, "refused")):
+                recs.append({"status": status, "task": make_task(
+                    "base.nml", {}, tags={"scheme": scheme, "gamma0": 0.01, "theta": th,
+                                          "dt_over_h": r})})
+    row = _claim_skew(recs, grid)
+    assert row["verdict"].startswith("partly: θ = −1 is stable on the whole grid for 1 of 2")
+    assert "at least as often stable as the other θ for 2 of 2" in row["verdict"]
+    assert "newmark: stable θ=-1 3/3, θ=+1 0/0 (3 refused)" in row["evidence"]
+    assert "theta1: stable θ=-1 2/3, θ=+1 0/0 (3 refused)" in row["evidence"]
