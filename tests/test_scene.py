@@ -69,6 +69,18 @@ BAD_CASES = [
     # file level
     BadCase("empty_file", b"", "", "empty scene file"),
     BadCase("binary_file", bytes(range(256)) * 8, "", "not a text file"),
+    BadCase("utf16_file", "&scheme dt = 1e-3 /\n".encode("utf-16"), "", "UTF-16 text"),
+    BadCase("utf16_be_file", b"\xfe\xff" + "&scheme dt = 1e-3 /\n".encode("utf-16-be"), "",
+            "UTF-16 text (byte-order mark FE FF)"),
+    # a string value goes into summary.json (UTF-8): Latin-1, a surrogate, an overlong form
+    BadCase("latin1_string", b"&output dir = 'r\xe9sultats' /\n", "&output dir",
+            "not UTF-8 text (byte 233 at character 2"),
+    BadCase("surrogate_string", b"&boundary contact = 'a\xed\xa0\x80' /\n",
+            "&boundary contact", "not UTF-8 text (byte 237 at character 2"),
+    BadCase("overlong_string", b"&boundary clamped = '\xc0\xaf' /\n", "&boundary clamped",
+            "not UTF-8 text (byte 192 at character 1"),
+    BadCase("truncated_utf8_string", b"&mesh file = 'm\xe2\x82' /\n", "&mesh file",
+            "not UTF-8 text (byte 226 at character 2"),
     BadCase("nul_in_text", b"&scheme dt = 1e-3 /\n\x00\n", "", "not a text file"),
     BadCase("garbage", "this is not a scene file\n", "", "text outside a group"),
     BadCase("garbage_symbols", "#%^ $$ {{ }} ::\n", "", "text outside a group"),
@@ -330,6 +342,15 @@ def test_byte_order_mark_is_skipped(core_ext, tmp_path):
     twice.write_bytes(b"\xef\xbb\xbf\xef\xbb\xbf" + text.encode())
     stat, msg, _ = fortran_read(core_ext, twice, tmp_path)
     assert stat == STAT_BAD_INPUT and msg.startswith(f"{twice}: line 1: text outside a group"), msg
+
+
+def test_utf8_strings_are_kept(core_ext, tmp_path):
+    """Well-formed UTF-8 of 2, 3 and 4 bytes in a string value reads as written."""
+    path = tmp_path / "u.nml"
+    path.write_bytes("&boundary contact = 'bas_é€😀' /\n".encode())
+    stat, msg, d = fortran_read(core_ext, path, tmp_path)
+    assert stat == 0, msg
+    assert d["boundary"]["contact"] == "bas_é€😀"
 
 
 def test_run_refuses_empty_file(tmp_path):

@@ -204,6 +204,11 @@ contains
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': cannot read scene file')
         else if (n == 0) then    ! a failed copy, not a scene: comments alone give the defaults
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': empty scene file (0 bytes)')
+        else if (n >= 2 .and. (text(1:min(2, n)) == achar(255)//achar(254) .or. &
+                               text(1:min(2, n)) == achar(254)//achar(255))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': UTF-16 text (byte-order '// &
+                       'mark '//merge('FF FE', 'FE FF', text(1:1) == achar(255))// &
+                       '); save the scene as UTF-8')
         else if (n > MAX_FILE_BYTES) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
                        '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
@@ -464,6 +469,10 @@ contains
                 what = 'expected a quoted string'
             else if (len_trim(buf) > len(key%s)) then
                 msg = ctx//': string too long (more than '//int_text(len(key%s))//' characters)'
+            else if (utf8_bad(trim(buf)) > 0) then    ! it ends up in summary.json
+                ios = iachar(buf(utf8_bad(trim(buf)):utf8_bad(trim(buf))))
+                msg = ctx//': not UTF-8 text (byte '//int_text(ios)//' at character '// &
+                      int_text(utf8_bad(trim(buf)))//'; save the scene as UTF-8)'
             else
                 key%s = buf
             end if
@@ -537,6 +546,43 @@ contains
         end do
         ok = .true.
     end function real_syntax
+
+    !> Position of the first byte of s that is not part of well-formed UTF-8 (the
+    !> Unicode standard's table 3-7: no overlong forms, no surrogates, at most U+10FFFF),
+    !> 0 if s is UTF-8. A string value is written into summary.json, which is UTF-8.
+    pure integer function utf8_bad(s) result(bad)
+        character(len=*), intent(in) :: s   !! text
+        integer :: i, n, k, b, lo, hi
+        i = 1
+        bad = 0
+        do while (i <= len(s))
+            b = iachar(s(i:i))
+            lo = 128; hi = 191
+            select case (b)
+            case (0:127); n = 0
+            case (194:223); n = 1
+            case (224); n = 2; lo = 160
+            case (225:236, 238:239); n = 2
+            case (237); n = 2; hi = 159
+            case (240); n = 3; lo = 144
+            case (241:243); n = 3
+            case (244); n = 3; hi = 143
+            case default
+                bad = i; return
+            end select
+            do k = 1, n
+                if (i + k > len(s)) then
+                    bad = i; return
+                end if
+                b = iachar(s(i + k:i + k))
+                if (b < lo .or. b > hi) then
+                    bad = i; return
+                end if
+                lo = 128; hi = 191
+            end do
+            i = i + n + 1
+        end do
+    end function utf8_bad
 
     ! ---------------------------------------------------------------- checks
 
