@@ -419,3 +419,33 @@ def test_repeated_contact_group_counts_each_facet_once(tmp_path):
     assert min(tr[0]["p_n"]) < 0
     for col in tr[0]:
         np.testing.assert_array_equal(tr[1][col], tr[0][col])
+
+
+# ------------------------------------------------------------------ non-UTF-8 file names
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_output_folder_named_in_latin1_bytes(kind, tmp_path):
+    """A folder name that is not UTF-8 (b'r\\xe9s', as a Latin-1 system writes it) given
+    with --out: the run is correct, summary.json stays UTF-8 JSON (the byte is written as
+    \\udce9, Python's surrogate for it) and its dir names the folder exactly."""
+    import json
+    import os
+
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.05")
+    out = os.fsencode(str(tmp_path)) + b"/r\xe9s"
+    import subprocess
+
+    from test_reliability import entry
+
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    # bytes out: the executable prints the folder's name as it is
+    res = subprocess.run(entry(kind) + [str(scene), "--out", os.fsdecode(out)], cwd=tmp_path,
+                         env=env, capture_output=True, timeout=120)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert b"Traceback" not in res.stderr
+    raw = (Path(os.fsdecode(out)) / "summary.json").read_bytes()
+    summary = json.loads(raw.decode("utf-8"))         # strict UTF-8
+    assert b"\\udcE9" in raw or b"\\udce9" in raw
+    assert os.fsencode(summary["scene"]["output"]["dir"]) == out
+    assert summary["status"] == "ok"

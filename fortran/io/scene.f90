@@ -17,7 +17,7 @@
 !> converted by one list-directed internal read.
 module scene
     use kinds, only: dp, i8
-    use text, only: int_text, real_text
+    use text, only: int_text, real_text, utf8_len
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
     implicit none
     private
@@ -547,40 +547,19 @@ contains
         ok = .true.
     end function real_syntax
 
-    !> Position of the first byte of s that is not part of well-formed UTF-8 (the
-    !> Unicode standard's table 3-7: no overlong forms, no surrogates, at most U+10FFFF),
+    !> Position of the first byte of s that is not part of well-formed UTF-8 (utf8_len),
     !> 0 if s is UTF-8. A string value is written into summary.json, which is UTF-8.
     pure integer function utf8_bad(s) result(bad)
         character(len=*), intent(in) :: s   !! text
-        integer :: i, n, k, b, lo, hi
+        integer :: i, n
         i = 1
         bad = 0
         do while (i <= len(s))
-            b = iachar(s(i:i))
-            lo = 128; hi = 191
-            select case (b)
-            case (0:127); n = 0
-            case (194:223); n = 1
-            case (224); n = 2; lo = 160
-            case (225:236, 238:239); n = 2
-            case (237); n = 2; hi = 159
-            case (240); n = 3; lo = 144
-            case (241:243); n = 3
-            case (244); n = 3; hi = 143
-            case default
+            n = utf8_len(s, i)
+            if (n == 0) then
                 bad = i; return
-            end select
-            do k = 1, n
-                if (i + k > len(s)) then
-                    bad = i; return
-                end if
-                b = iachar(s(i + k:i + k))
-                if (b < lo .or. b > hi) then
-                    bad = i; return
-                end if
-                lo = 128; hi = 191
-            end do
-            i = i + n + 1
+            end if
+            i = i + n
         end do
     end function utf8_bad
 
@@ -881,22 +860,31 @@ contains
         number = number / den
     end function number
 
-    !> JSON string literal (", \ and control characters escaped; other bytes as they are).
+    !> JSON string literal (", \ and control characters escaped; UTF-8 as it is; a byte
+    !> that is not UTF-8, e.g. of a path given on the command line, as \udcXX, the lone
+    !> surrogate by which Python decodes such a byte of a file name, so that the text
+    !> stays UTF-8 and the name round-trips).
     function json_string(s) result(js)
         character(len=*), intent(in) :: s   !! text
         character(len=:), allocatable :: js
         character(len=6) :: u
-        integer :: i
+        integer :: i, n
         js = '"'
-        do i = 1, len(s)
+        i = 1
+        do while (i <= len(s))
+            n = utf8_len(s, i)
             if (s(i:i) == '"' .or. s(i:i) == '\') then
                 js = js//'\'//s(i:i)
             else if (iachar(s(i:i)) < 32 .or. iachar(s(i:i)) == 127) then
                 write (u, '(a, z4.4)') '\u', iachar(s(i:i))
                 js = js//u
+            else if (n == 0) then
+                write (u, '(a, z2.2)') '\udc', iachar(s(i:i))
+                js = js//u
             else
-                js = js//s(i:i)
+                js = js//s(i:i + n - 1)
             end if
+            i = i + max(n, 1)
         end do
         js = js//'"'
     end function json_string
