@@ -457,10 +457,11 @@ contains
         end do
         if (dbest > PROBE_SNAP * hbest) then
             st = STAT_BAD_INPUT
-            write (vfmt, '(a, i0, a)') '(a, es10.3e3, a, ', max(2, dim), '(es12.5e3, 1x))'
+            ! es13.5e3 holds -d.ddddE-ddd (13 characters); single_blanks drops the padding
+            write (vfmt, '(a, i0, a)') '(a, es10.3e3, a, ', max(2, dim), '(es13.5e3, 1x))'
             write (buf, vfmt) 'the point is not on the contact boundary: ' &
                 //'distance ', dbest, ' to its nearest point ', best
-            m = trim(buf)//' (snapped only within '//trim(real_str(PROBE_SNAP))//' x the facet length)'
+            m = single_blanks(buf)//' (snapped only within '//trim(real_str(PROBE_SNAP))//' x the facet length)'
             return
         end if
         call locate_probe(mdl, best, st)
@@ -469,10 +470,10 @@ contains
             return
         end if
         if (dbest > EXACT * hbest) then
-            write (vfmt, '(a, i0, a)') '(a, ', dim, '(es12.5e3, 1x), a, es10.3e3, a)'
+            write (vfmt, '(a, i0, a)') '(a, ', dim, '(es13.5e3, 1x), a, es10.3e3, a)'
             write (buf, vfmt) 'note: &contact probe snapped to ', &
                 best(1:dim), '(distance ', dbest, ')'
-            call note(mdl, trim(buf))
+            call note(mdl, single_blanks(buf))
         end if
     end subroutine snap_probe
 
@@ -492,17 +493,22 @@ contains
         mdl%notes = trim(mdl%notes)//trim(line)//new_line('a')
     end subroutine note
 
-    !> Warn when obstacle_normal points into the body: the outward normals of the
-    !> contact facets (away from their owner cells), weighted by facet size, should
-    !> point the same way.
+    !> Warn when obstacle_normal points into the body. Rule: a contact facet can face
+    !> the obstacle when its outward normal (away from its owner cell) has a positive
+    !> component along obstacle_normal; the warning is given when no facet can. A mean
+    !> of the cosines would not do: on a closed contact boundary (a disk's whole
+    !> outline) it is 0 whatever the normal, and part of the facets always face the
+    !> obstacle, so a closed boundary never warns; an open one (the bar's bottom)
+    !> warns when all its facets face away from the obstacle or are parallel to it.
     subroutine check_normal(mdl)
         type(model_t), intent(inout) :: mdl          !! model being built
+        real(dp), parameter :: FACING = 1.0e-9_dp   ! cosine counted as facing
         integer :: f, dim
-        real(dp) :: xa(mdl%dim), xb(mdl%dim), xc(mdl%dim), nf(mdl%dim), s_dot, s_len
+        real(dp) :: xa(mdl%dim), xb(mdl%dim), xc(mdl%dim), nf(mdl%dim), c_max
         real(dp) :: ta(3), tb(3), tc(3)
         character(len=200) :: buf
         dim = mdl%dim
-        s_dot = 0.0_dp; s_len = 0.0_dp
+        c_max = -huge(1.0_dp)
         do f = 1, mdl%ct%n_facets
             xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
             xc = sum(mdl%msh%x(:, mdl%msh%cells(:, mdl%ct%cell(f))), dim=2) / (dim + 1)
@@ -519,13 +525,12 @@ contains
                 nf = [xb(2) - xa(2), xa(1) - xb(1)]
                 if (dot_product(nf, 0.5_dp * (xa + xb) - xc) < 0.0_dp) nf = -nf
             end if
-            s_dot = s_dot + dot_product(nf, mdl%normal(1:dim))
-            s_len = s_len + norm2(nf)
+            c_max = max(c_max, dot_product(nf, mdl%normal(1:dim)) / norm2(nf))
         end do
-        if (s_dot < 0.0_dp) then
+        if (mdl%ct%n_facets > 0 .and. c_max <= FACING) then
             write (buf, '(a, f6.3, a)') 'warning: &contact obstacle_normal points into the body ' &
-                //'(mean cosine with the outward normal of the contact facets: ', s_dot / s_len, &
-                '); it should point from the body into the obstacle'
+                //'(no contact facet faces the obstacle: largest cosine with their outward '// &
+                'normals ', c_max, '); it should point from the body into the obstacle'
             call note(mdl, trim(buf))
         end if
     end subroutine check_normal
@@ -665,6 +670,21 @@ contains
             if (r >= v * (1.0_dp - 1.0e-12_dp)) return
         end do
     end function round_up
+
+    !> Text t trimmed, with every run of blanks made one blank (numbers written with
+    !> room for a sign read as in prose).
+    pure function single_blanks(t) result(r)
+        character(len=*), intent(in) :: t            !! text
+        character(len=:), allocatable :: r
+        integer :: k
+        r = ''
+        do k = 1, len_trim(t)
+            if (t(k:k) == ' ' .and. k > 1) then
+                if (t(k - 1:k - 1) == ' ') cycle
+            end if
+            r = r//t(k:k)
+        end do
+    end function single_blanks
 
     !> A real as short text.
     pure function real_str(x) result(t)

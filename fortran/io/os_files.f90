@@ -2,7 +2,8 @@
 !> small C layer run_guard.c (POSIX calls with their errno). Every failure comes back
 !> as a status and a one-line message naming the path and the system's reason.
 module os_files
-    use iso_c_binding, only: c_int, c_long, c_char, c_null_char
+    use iso_c_binding, only: c_int, c_long, c_char, c_null_char, c_int64_t
+    use kinds, only: i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
     implicit none
     private
@@ -61,6 +62,12 @@ module os_files
             character(kind=c_char), intent(in) :: path(*)
             integer(c_int) :: r
         end function c_lock_take
+        function c_free_space(path, bytes, files) bind(C, name='dc_free_space') result(r)
+            import :: c_int, c_char, c_int64_t
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int64_t), intent(out) :: bytes, files
+            integer(c_int) :: r
+        end function c_free_space
         function c_lock_release(path) bind(C, name='dc_lock_release') result(r)
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: path(*)
@@ -69,7 +76,8 @@ module os_files
     end interface
 
     public :: signals_install, signal_caught, fd_open, fd_write, fd_close, file_rename, &
-              file_remove, check_writable, lock_take, lock_release, write_text_atomic, sys_error
+              file_remove, check_writable, lock_take, lock_release, write_text_atomic, sys_error, &
+              free_space
 
 contains
 
@@ -81,6 +89,20 @@ contains
         call c_strerror(int(err, c_int), buf, int(len(buf), c_int))
         s = trim(buf)
     end function sys_error
+
+    !> Bytes and files an unprivileged user may still create in folder dir's file system
+    !> (-1 for a count the file system does not report, or when dir cannot be queried).
+    subroutine free_space(dir, bytes, files)
+        character(len=*), intent(in) :: dir     !! an existing folder
+        integer(i8), intent(out) :: bytes       !! free bytes
+        integer(i8), intent(out) :: files       !! free file slots (inodes)
+        integer(c_int64_t) :: b, f
+        b = -1; f = -1
+        if (c_free_space(trim(dir)//c_null_char, b, f) /= 0) then
+            b = -1; f = -1
+        end if
+        bytes = int(b, i8); files = int(f, i8)
+    end subroutine free_space
 
     !> Install the SIGINT / SIGTERM handlers (they only set a flag; see signal_caught).
     subroutine signals_install(stat, errmsg)

@@ -8,7 +8,8 @@
 !> that involve several keys are in `validate_cross`, naming their keys.
 !>
 !> Grammar: text (no control byte other than tab, CR, LF), at most MAX_FILE_BYTES; outside
-!> groups only blanks and `!` comments (an empty file is the default scene); a group is
+!> groups only blanks and `!` comments (text with no group is the default scene; a 0-byte
+!> file is refused as a failed copy; a leading UTF-8 byte-order mark is skipped); a group is
 !> `&name ... /`, known names only, each at most once; inside it, `key = value[, value]`
 !> pairs (keys case-insensitive, values separated by commas and/or blanks, line breaks and
 !> comments between tokens). Strings are quoted with ' or " (a doubled quote stands for
@@ -16,7 +17,7 @@
 !> converted by one list-directed internal read.
 module scene
     use kinds, only: dp, i8
-    use text, only: int_text, real_text
+    use text, only: int_text, real_text, utf8_len
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
     implicit none
     private
@@ -218,10 +219,21 @@ contains
         end if
         if (ios /= 0) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': cannot read scene file')
+        else if (n == 0) then    ! a failed copy, not a scene: comments alone give the defaults
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': empty scene file (0 bytes)')
+        else if (n >= 2 .and. (text(1:min(2, n)) == achar(255)//achar(254) .or. &
+                               text(1:min(2, n)) == achar(254)//achar(255))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': UTF-16 text (byte-order '// &
+                       'mark '//merge('FF FE', 'FE FF', text(1:1) == achar(255))// &
+                       '); save the scene as UTF-8')
         else if (n > MAX_FILE_BYTES) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
                        '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
         else
+            ! a UTF-8 byte-order mark (some editors write one) is not part of the text
+            if (n >= 3) then
+                if (text(1:3) == achar(239)//achar(187)//achar(191)) text = text(4:)
+            end if
             call scene_parse(text, trim(path), path(1:index(path, '/', back=.true.)), .true., &
                              scn, stat, errmsg)
         end if
@@ -481,6 +493,10 @@ contains
                 what = 'expected a quoted string'
             else if (len_trim(buf) > len(key%s)) then
                 msg = ctx//': string too long (more than '//int_text(len(key%s))//' characters)'
+            else if (utf8_bad(trim(buf)) > 0) then    ! it ends up in summary.json
+                ios = iachar(buf(utf8_bad(trim(buf)):utf8_bad(trim(buf))))
+                msg = ctx//': not UTF-8 text (byte '//int_text(ios)//' at character '// &
+                      int_text(utf8_bad(trim(buf)))//'; save the scene as UTF-8)'
             else
                 key%s = buf
             end if
@@ -488,7 +504,7 @@ contains
             read (key%text, *, iostat=ios) x(1:key%nval)
             if (key%quoted) then
                 what = 'expected a real number, not a string'
-            else if (ios /= 0 .or. scan(key%text, 'nNiI') > 0) then    ! no nan, inf
+            else if (ios /= 0 .or. .not. real_syntax(key%text)) then    ! no nan, inf, 1-3
                 what = 'expected a real number'
             else if (.not. all(abs(x) <= huge(x))) then
                 what = 'real number out of range'
@@ -500,6 +516,76 @@ contains
         end if
         if (len(what) > 0) msg = ctx//': '//what//' (got '''//shown(key%text, VALUE_LEN)//''')'
     end subroutine convert
+
+    !> Whether every value in `text` (values joined by ', ', each maybe `r*`-prefixed) is a
+    !> real written [sign] digits [. digits] [e|d [sign] digits]. The list-directed read
+    !> also takes forms that hide a typing slip, refused here: nan and inf, an exponent
+    !> without its letter (`2.5+1` reads as 25), text after a ';' (`1e-3;5` reads as 1e-3).
+    pure logical function real_syntax(text) result(ok)
+        character(len=*), intent(in) :: text   !! key%text
+        integer :: i, j, n, digits
+        ok = .false.
+        n = len(text)
+        i = 1
+        do while (i <= n)
+            j = index(text(i:), '*')    ! repeat count (checked by read_values)
+            if (j > 1 .and. j <= scan(text(i:)//',', ',')) then
+                if (verify(text(i:i + j - 2), '0123456789') == 0) i = i + j
+            end if
+            if (i <= n) then
+                if (scan(text(i:i), '+-') == 1) i = i + 1
+            end if
+            digits = 0
+            do while (i <= n)
+                if (scan(text(i:i), '0123456789') /= 1) exit
+                i = i + 1; digits = digits + 1
+            end do
+            if (i <= n) then
+                if (text(i:i) == '.') then
+                    i = i + 1
+                    do while (i <= n)
+                        if (scan(text(i:i), '0123456789') /= 1) exit
+                        i = i + 1; digits = digits + 1
+                    end do
+                end if
+            end if
+            if (digits == 0) return
+            if (i <= n) then
+                if (scan(text(i:i), 'eEdD') == 1) then
+                    i = i + 1
+                    if (i <= n) then
+                        if (scan(text(i:i), '+-') == 1) i = i + 1
+                    end if
+                    digits = 0
+                    do while (i <= n)
+                        if (scan(text(i:i), '0123456789') /= 1) exit
+                        i = i + 1; digits = digits + 1
+                    end do
+                    if (digits == 0) return
+                end if
+            end if
+            if (i > n) exit
+            if (text(i:min(i + 1, n)) /= ', ') return
+            i = i + 2
+        end do
+        ok = .true.
+    end function real_syntax
+
+    !> Position of the first byte of s that is not part of well-formed UTF-8 (utf8_len),
+    !> 0 if s is UTF-8. A string value is written into summary.json, which is UTF-8.
+    pure integer function utf8_bad(s) result(bad)
+        character(len=*), intent(in) :: s   !! text
+        integer :: i, n
+        i = 1
+        bad = 0
+        do while (i <= len(s))
+            n = utf8_len(s, i)
+            if (n == 0) then
+                bad = i; return
+            end if
+            i = i + n
+        end do
+    end function utf8_bad
 
     ! ---------------------------------------------------------------- checks
 
@@ -884,22 +970,31 @@ contains
         number = number / den
     end function number
 
-    !> JSON string literal (", \ and control characters escaped; other bytes as they are).
+    !> JSON string literal (", \ and control characters escaped; UTF-8 as it is; a byte
+    !> that is not UTF-8, e.g. of a path given on the command line, as \udcXX, the lone
+    !> surrogate by which Python decodes such a byte of a file name, so that the text
+    !> stays UTF-8 and the name round-trips).
     function json_string(s) result(js)
         character(len=*), intent(in) :: s   !! text
         character(len=:), allocatable :: js
         character(len=6) :: u
-        integer :: i
+        integer :: i, n
         js = '"'
-        do i = 1, len(s)
+        i = 1
+        do while (i <= len(s))
+            n = utf8_len(s, i)
             if (s(i:i) == '"' .or. s(i:i) == '\') then
                 js = js//'\'//s(i:i)
             else if (iachar(s(i:i)) < 32 .or. iachar(s(i:i)) == 127) then
                 write (u, '(a, z4.4)') '\u', iachar(s(i:i))
                 js = js//u
+            else if (n == 0) then
+                write (u, '(a, z2.2)') '\udc', iachar(s(i:i))
+                js = js//u
             else
-                js = js//s(i:i)
+                js = js//s(i:i + n - 1)
             end if
+            i = i + max(n, 1)
         end do
         js = js//'"'
     end function json_string

@@ -13,7 +13,7 @@ module vtk_output
 
     character(len=*), parameter :: REAL_FMT = '(3(1x,es24.16e3))'   ! round-trips doubles
 
-    public :: vtk_write_vtu, vtk_write_pvd
+    public :: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
 
 contains
 
@@ -269,6 +269,37 @@ contains
         end do
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
     end subroutine write_vectors
+
+    !> Size in bytes of the file vtk_write_vtu writes for these cells on n nodes, without
+    !> the optional scalar and time: the real lines exactly; the integers digit by digit.
+    pure function vtk_vtu_bytes(dim, n, cells) result(bytes)
+        integer, intent(in) :: dim                  !! space dimension 1, 2 or 3
+        integer, intent(in) :: n                    !! number of nodes
+        integer, intent(in) :: cells(:, :)          !! (dim+1, nc) 1-based node numbers
+        integer(i8) :: bytes
+        integer(i8), parameter :: REAL_LINE = 3 * 25 + 1   ! REAL_FMT and its newline
+        integer(i8), parameter :: FIXED = 903               ! the tag lines and newlines
+        integer :: k, nc
+        nc = size(cells, 2)
+        bytes = FIXED + digits10(int(n, i8)) + digits10(int(nc, i8)) + 3 * n * REAL_LINE
+        do k = 1, nc
+            bytes = bytes + sum(1 + digits10(int(cells(:, k) - 1, i8))) + 1 &  ! connectivity
+                    + 1 + digits10(int(size(cells, 1), i8) * k) + 1 + 3        ! offsets, types
+        end do
+        if (dim < 1 .or. dim > 3) bytes = 0
+    end function vtk_vtu_bytes
+
+    !> Number of decimal digits of i >= 0.
+    elemental integer(i8) function digits10(i)
+        integer(i8), intent(in) :: i    !! a count
+        integer(i8) :: j
+        digits10 = 1
+        j = i
+        do while (j >= 10)
+            j = j / 10
+            digits10 = digits10 + 1
+        end do
+    end function digits10
 
     !> s with the XML special characters & < > " ' replaced by entities.
     pure function xml_escape(s) result(e)

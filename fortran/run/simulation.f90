@@ -23,9 +23,9 @@ module simulation
     use trace_output, only: make_dirs, trace_t, trace_open, trace_row, trace_flush, trace_close, &
                             json_real, json_string, TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
-                        write_text_atomic, signal_caught
+                        write_text_atomic, signal_caught, free_space
     use sparse, only: csc_t
-    use vtk_output, only: vtk_write_vtu, vtk_write_pvd
+    use vtk_output, only: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
     use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
     implicit none
     private
@@ -196,6 +196,7 @@ contains
             if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
             if (st == STAT_OK .and. sim%scn%fields_every > 0) &
                 call check_writable(dir//'/fields.pvd', st, msg)
+            if (st == STAT_OK) call check_space(dir, st, msg)
             if (st /= STAT_OK) return
             call energy_limit()
             call trace_open(dir//'/trace.csv.tmp', sim%trace, st, msg)
@@ -216,10 +217,57 @@ contains
                 call make_dirs(dir//'/fields', st, msg)
                 if (st /= STAT_OK) return
                 allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
-                          sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
+                          sim%snap_file(sim%n_steps / sim%scn%fields_every + 2), stat=st)
+                if (st /= 0) then
+                    call raise(st, msg, STAT_BAD_INPUT, trim(sim%scn%path)//': &output '// &
+                               'fields_every: no memory for the list of '// &
+                               int_text(sim%n_steps / sim%scn%fields_every + 1)//' snapshots')
+                    return
+                end if
                 call snapshot(sim, st, msg)
             end if
         end subroutine open_outputs
+
+        !> With field snapshots (fields_every > 0), refuse a run whose outputs cannot fit in
+        !> the output folder's file system, before anything is written: the trace
+        !> (TRACE_ROW_BYTES a row) and every snapshot (vtk_vtu_bytes, exact) against the
+        !> free bytes, the snapshot files against the free file slots. The key named is
+        !> the one that thins the larger part. Large field output is announced as a large
+        !> trace is. Without fields nothing is refused here: a trace that outgrows the disk
+        !> stops the run as a failed write (exit 4) with whole rows kept.
+        subroutine check_space(dir, st, msg)
+            character(len=*), intent(in) :: dir
+            integer, intent(out) :: st
+            character(len=*), intent(inout), optional :: msg
+            integer(i8), parameter :: SLACK = 16384_i8   ! summary.json, fields.pvd header
+            integer(i8) :: n_snap, snap, fields, trace, free_b, free_f
+            character(len=:), allocatable :: key, what
+            st = STAT_OK
+            if (sim%scn%fields_every <= 0) return
+            n_snap = sim%n_steps / sim%scn%fields_every + 1
+            snap = vtk_vtu_bytes(sim%mdl%dim, sim%mdl%msh%n_nodes, sim%mdl%msh%cells)
+            fields = n_snap * (snap + 100_i8)    ! and its line in fields.pvd
+            trace = sim_trace_bytes(sim)
+            call free_space(dir, free_b, free_f)
+            key = merge('fields_every', 'every       ', fields > trace)
+            what = 'the run would write about '//bytes_text(trace + fields)//' (the trace '// &
+                   bytes_text(trace)//', '//int_text(n_snap)//' snapshots of '// &
+                   bytes_text(snap)//' each)'
+            if (free_b >= 0 .and. trace + fields + SLACK > free_b) then
+                call raise(st, msg, STAT_BAD_INPUT, trim(sim%scn%path)//': &output '// &
+                           trim(key)//': '//what//' but '//dir//' has '//bytes_text(free_b)// &
+                           ' free; a larger &output '//trim(key)//' thins it')
+            else if (free_f >= 0 .and. n_snap + 8 > free_f) then
+                call raise(st, msg, STAT_BAD_INPUT, trim(sim%scn%path)//': &output '// &
+                           'fields_every: the run would write '//int_text(n_snap)// &
+                           ' snapshot files but '//dir//' has room for '//int_text(free_f)// &
+                           ' more files; a larger &output fields_every thins them')
+            else if (fields > BIG_TRACE_BYTES) then
+                sim%mdl%notes = trim(sim%mdl%notes)//'note: the field snapshots will take about ' &
+                    //bytes_text(fields)//' ('//int_text(n_snap)//' files; &output fields_every'// &
+                    ' thins them)'//new_line('a')
+            end if
+        end subroutine check_space
 
         !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
         !> blowup x e_total(0) as always (the stored penalty energy when e_total(0) = 0,
@@ -284,6 +332,22 @@ contains
             call ls_free(lu)
         end function load_energy
     end subroutine sim_open_scene
+
+    !> A byte count as text with a unit: '512 B', '3.4 kB', '1.2 MB', '250.0 GB'.
+    function bytes_text(b) result(s)
+        integer(i8), intent(in) :: b   !! bytes
+        character(len=:), allocatable :: s
+        character(len=32) :: buf
+        character(len=2), parameter :: UNITS(4) = ['kB', 'MB', 'GB', 'TB']
+        integer :: k
+        if (b < 1000_i8) then
+            s = int_text(b)//' B'
+            return
+        end if
+        k = min(4, int(log10(real(b, dp)) / 3.0_dp))
+        write (buf, '(f0.1, 1x, a)') real(b, dp) / 1000.0_dp**k, UNITS(k)
+        s = trim(buf)
+    end function bytes_text
 
     !> Expected size of trace.csv in bytes (rows of typical width).
     function sim_trace_bytes(sim) result(bytes)
@@ -521,7 +585,7 @@ contains
         allocate (uf(sim%mdl%dim, sim%mdl%msh%n_nodes), vf(sim%mdl%dim, sim%mdl%msh%n_nodes))
         call model_full_field(sim%mdl, sim%st%u, uf)
         call model_full_field(sim%mdl, sim%st%v, vf)
-        write (name, '(a, i7.7, a)') 'fields/step_', sim%step, '.vtu'
+        write (name, '(a, i0.7, a)') 'fields/step_', sim%step, '.vtu'  ! 7 digits or more
         call vtk_write_vtu(trim(sim%scn%out_dir)//'/'//trim(name), sim%mdl%dim, sim%mdl%msh%x, &
                            sim%mdl%msh%cells, uf, vf, stat, errmsg)
         if (stat /= STAT_OK) return
