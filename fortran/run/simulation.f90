@@ -97,27 +97,57 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: n
-        real(dp) :: ratio
-        character(len=256) :: msg
-        character(len=1024) :: mmsg
-        type(mesh_t) :: msh
-        type(model_params_t) :: mprm
-        type(scheme_params_t) :: sprm
         call system_clock(sim%clock0, sim%clock_rate)
         sim%scn = scn
-        mprm = model_params(scn)
-        sprm = scheme_params(scn)
-        mmsg = ''
-        call mesh_load(scn%mesh_file, scn%mesh_dim, scn%mesh_length, scn%mesh_width, scn%mesh_h, &
-                       msh, stat, mmsg)
+        call build_model(sim, stat, errmsg)
+        if (stat /= STAT_OK) return
+        ! dt = 0 (central): the step count is known once the scheme has chosen dt
+        if (sim%scn%dt > 0.0_dp) then
+            call count_steps(sim, write_output, stat, errmsg)
+            if (stat /= STAT_OK) return
+        end if
+        n = sim%n_dofs
+        allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
+                  sim%st%mv(n))
+        call model_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v)
+        call state_eval(sim%mdl, sim%st)
+        call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
+        sim%st%a = 0.0_dp
+        if (.not. write_output) return
+        call start_scheme(sim, stat, errmsg)
+        if (stat /= STAT_OK) return
+        call open_outputs(sim, stat, errmsg)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &mesh: '//trim(mmsg))
+            if (sim%trace%fd >= 0) then    ! ours: remove it (never another run's)
+                call trace_close(sim%trace, n)
+                call file_remove(trim(sim%scn%out_dir)//'/trace.csv.tmp')
+            end if
+            if (sim%locked) call lock_release(sim%scn%out_dir)
+            sim%locked = .false.
+            sim%outputs = .false.
             return
         end if
-        call model_build(msh, mprm, sim%mdl, stat, errmsg)
+        sim%finished = sim%n_steps == 0
+    end subroutine sim_open_scene
+
+    !> The mesh and the model of the run's scene, and the run's sizes (a mesh file above
+    !> &mesh max_elements is refused).
+    subroutine build_model(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (scn set)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=1024) :: mmsg
+        type(mesh_t) :: msh
+        mmsg = ''
+        call mesh_load(sim%scn%mesh_file, sim%scn%mesh_dim, sim%scn%mesh_length, &
+                       sim%scn%mesh_width, sim%scn%mesh_h, msh, stat, mmsg)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh: '//trim(mmsg))
+            return
+        end if
+        call model_build(msh, model_params(sim%scn), sim%mdl, stat, errmsg)
         if (stat /= STAT_OK) return
-        n = sim%mdl%n_dofs
-        sim%n_dofs = n
+        sim%n_dofs = sim%mdl%n_dofs
         sim%n_cells = sim%mdl%msh%n_cells
         sim%n_contact = sim%mdl%ct%n_facets
         if (len_trim(sim%scn%mesh_file) > 0 .and. sim%n_cells > sim%scn%max_elements) then
@@ -126,18 +156,16 @@ contains
                        int_text(int(sim%scn%max_elements, i8))//' (&mesh max_elements)')
             return
         end if
-        ! dt = 0 (central): the step count is known once the scheme has chosen dt
-        if (sim%scn%dt > 0.0_dp) then
-            call count_steps(stat, errmsg)
-            if (stat /= STAT_OK) return
-        end if
-        allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
-                  sim%st%mv(n))
-        call model_initial(sim%mdl, mprm, sim%st%u, sim%st%v)
-        call state_eval(sim%mdl, sim%st)
-        call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
-        sim%st%a = 0.0_dp
-        if (.not. write_output) return
+    end subroutine build_model
+
+    !> The time scheme of the scene, set up on the initial state; with &scheme dt = 0
+    !> (central) the run takes the step the scheme chose, and counts its steps then.
+    subroutine start_scheme(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (model and initial state)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        type(scheme_params_t) :: sprm
+        sprm = scheme_params(sim%scn)
         select case (sprm%kind)
         case (SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED)
             allocate (pc_scheme_t :: sim%scheme)
@@ -158,130 +186,122 @@ contains
                 ' a safe bound with &contact theta = '//int_text(sim%scn%nitsche_theta)// &
                 ' (measured up to 1.3x above the limit at gamma0 = 10, far more at small gamma0:'// &
                 ' docs/numerics.md); give dt or use theta = 1'//new_line('a')
-            call count_steps(stat, errmsg)
+            call count_steps(sim, .true., stat, errmsg)
             if (stat /= STAT_OK) return
         end if
+    end subroutine start_scheme
 
-        call open_outputs(stat, errmsg)
-        if (stat /= STAT_OK) then
-            if (sim%trace%fd >= 0) then    ! ours: remove it (never another run's)
-                call trace_close(sim%trace, n)
-                call file_remove(trim(sim%scn%out_dir)//'/trace.csv.tmp')
-            end if
-            if (sim%locked) call lock_release(sim%scn%out_dir)
-            sim%locked = .false.
-            sim%outputs = .false.
+    !> Output folder, lock, checks that every target can be written, then the new
+    !> trace under a temporary name; it replaces trace.csv only once its t = 0 row
+    !> and the first summary.json are written (previous results are kept until then).
+    subroutine open_outputs(sim, st, msg)
+        type(simulation_t), intent(inout) :: sim            !! the run (scheme set up)
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
+        character(len=:), allocatable :: dir
+        dir = trim(sim%scn%out_dir)
+        call make_dirs(dir, st, msg)
+        if (st /= STAT_OK) return
+        call lock_take(dir, st, msg)
+        if (st /= STAT_OK) return
+        sim%locked = .true.
+        call check_writable(dir//'/trace.csv', st, msg)
+        if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
+        if (st == STAT_OK .and. sim%scn%fields_every > 0) &
+            call check_writable(dir//'/fields.pvd', st, msg)
+        if (st /= STAT_OK) return
+        call energy_limit(sim)
+        call trace_open(dir//'/trace.csv.tmp', sim%trace, st, msg)
+        if (st /= STAT_OK) return
+        sim%outputs = .true.
+        call record(sim, sim%e0, stat=st, errmsg=msg)
+        if (st == STAT_OK) call trace_flush(sim%trace, st, msg)
+        if (st /= STAT_OK) return
+        sim%status = 'running'
+        call write_summary(sim, st, msg)
+        if (st /= STAT_OK) return
+        call file_rename(dir//'/trace.csv.tmp', dir//'/trace.csv', st, msg)
+        if (st /= STAT_OK) return
+        sim%trace%path = dir//'/trace.csv'
+        call system_clock(sim%clock_flush)
+        sim%clock_summary = sim%clock_flush
+        if (sim%scn%fields_every > 0) then
+            call make_dirs(dir//'/fields', st, msg)
+            if (st /= STAT_OK) return
+            allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
+                      sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
+            call snapshot(sim, st, msg)
+        end if
+    end subroutine open_outputs
+
+    !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
+    !> blowup x e_total(0) as always (the stored penalty energy when e_total(0) = 0,
+    !> e.g. a body at rest starting in the obstacle). With a load L the test energy
+    !> is e_total - u.L and the scale |e_total(0) - u0.L| + the stored penalty energy
+    !> + the load's energy 1/2 L.(K + M/t_end^2)^{-1} L (the static energy
+    !> 1/2 L.K^{-1} L when K dominates; the work of L on the free body over t_end
+    !> when K has rigid modes). Never a running maximum (growth must be seen).
+    subroutine energy_limit(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run at its initial state
+        real(dp) :: e_tot, e_scale
+        sim%has_load = any(sim%mdl%load /= 0.0_dp)
+        e_tot = 0.5_dp * dot_product(sim%st%v, sim%st%mv) &
+                + 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
+        e_scale = e_tot
+        if (sim%has_load) then
+            e_scale = abs(e_tot - dot_product(sim%st%u, sim%mdl%load)) &
+                      + max(sim%st%e_pen, 0.0_dp) + load_energy(sim)
+        else if (.not. e_scale > 0.0_dp) then
+            e_scale = max(sim%st%e_pen, 0.0_dp)
+        end if
+        sim%e_limit = sim%scn%blowup * max(e_scale, tiny(1.0_dp))
+    end subroutine energy_limit
+
+    !> Step count in 64 bits, refused above &scheme max_steps (t_end / dt may not even
+    !> fit); a note on the trace size when it is large (and outputs are written).
+    subroutine count_steps(sim, write_output, st, em)
+        type(simulation_t), intent(inout) :: sim            !! the run (scn%dt set)
+        logical, intent(in) :: write_output                 !! outputs will be written
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: em     !! message
+        real(dp) :: ratio
+        character(len=256) :: msg
+        st = STAT_OK
+        ratio = sim%scn%t_end / sim%scn%dt
+        if (.not. ratio - 1.0e-9_dp <= real(sim%scn%max_steps, dp)) then
+            call raise(st, em, STAT_BAD_INPUT, trim(sim%scn%path)//': &scheme dt: t_end / dt = ' &
+                       //real_text(ratio, 6)//' steps exceed the limit of '// &
+                       int_text(int(sim%scn%max_steps, i8))//' (&scheme max_steps)')
             return
         end if
-        sim%finished = sim%n_steps == 0
+        sim%n_steps = max(0_i8, ceiling(ratio - 1.0e-9_dp, i8))
+        if (write_output .and. sim_trace_bytes(sim) > BIG_TRACE_BYTES) then
+            write (msg, '(a, f0.1, a, i0, a)') 'note: the trace will take about ', &
+                real(sim_trace_bytes(sim), dp) / 1.0e9_dp, ' GB (', &
+                sim%n_steps / sim%scn%every + 1_i8, ' rows; &output every thins it)'
+            sim%mdl%notes = trim(sim%mdl%notes)//trim(msg)//new_line('a')
+        end if
+    end subroutine count_steps
 
-    contains
-
-        !> Output folder, lock, checks that every target can be written, then the new
-        !> trace under a temporary name; it replaces trace.csv only once its t = 0 row
-        !> and the first summary.json are written (previous results are kept until then).
-        subroutine open_outputs(st, msg)
-            integer, intent(out) :: st
-            character(len=*), intent(inout), optional :: msg
-            character(len=:), allocatable :: dir
-            dir = trim(sim%scn%out_dir)
-            call make_dirs(dir, st, msg)
-            if (st /= STAT_OK) return
-            call lock_take(dir, st, msg)
-            if (st /= STAT_OK) return
-            sim%locked = .true.
-            call check_writable(dir//'/trace.csv', st, msg)
-            if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
-            if (st == STAT_OK .and. sim%scn%fields_every > 0) &
-                call check_writable(dir//'/fields.pvd', st, msg)
-            if (st /= STAT_OK) return
-            call energy_limit()
-            call trace_open(dir//'/trace.csv.tmp', sim%trace, st, msg)
-            if (st /= STAT_OK) return
-            sim%outputs = .true.
-            call record(sim, sim%e0, stat=st, errmsg=msg)
-            if (st == STAT_OK) call trace_flush(sim%trace, st, msg)
-            if (st /= STAT_OK) return
-            sim%status = 'running'
-            call write_summary(sim, st, msg)
-            if (st /= STAT_OK) return
-            call file_rename(dir//'/trace.csv.tmp', dir//'/trace.csv', st, msg)
-            if (st /= STAT_OK) return
-            sim%trace%path = dir//'/trace.csv'
-            call system_clock(sim%clock_flush)
-            sim%clock_summary = sim%clock_flush
-            if (sim%scn%fields_every > 0) then
-                call make_dirs(dir//'/fields', st, msg)
-                if (st /= STAT_OK) return
-                allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
-                          sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
-                call snapshot(sim, st, msg)
-            end if
-        end subroutine open_outputs
-
-        !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
-        !> blowup x e_total(0) as always (the stored penalty energy when e_total(0) = 0,
-        !> e.g. a body at rest starting in the obstacle). With a load L the test energy
-        !> is e_total - u.L and the scale |e_total(0) - u0.L| + the stored penalty energy
-        !> + the load's energy 1/2 L.(K + M/t_end^2)^{-1} L (the static energy
-        !> 1/2 L.K^{-1} L when K dominates; the work of L on the free body over t_end
-        !> when K has rigid modes). Never a running maximum (growth must be seen).
-        subroutine energy_limit()
-            real(dp) :: e_tot, e_scale
-            sim%has_load = any(sim%mdl%load /= 0.0_dp)
-            e_tot = 0.5_dp * dot_product(sim%st%v, sim%st%mv) &
-                    + 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
-            e_scale = e_tot
-            if (sim%has_load) then
-                e_scale = abs(e_tot - dot_product(sim%st%u, sim%mdl%load)) &
-                          + max(sim%st%e_pen, 0.0_dp) + load_energy()
-            else if (.not. e_scale > 0.0_dp) then
-                e_scale = max(sim%st%e_pen, 0.0_dp)
-            end if
-            sim%e_limit = sim%scn%blowup * max(e_scale, tiny(1.0_dp))
-        end subroutine energy_limit
-
-        !> Step count in 64 bits, refused above &scheme max_steps (t_end / dt may not even
-        !> fit); a note on the trace size when it is large.
-        subroutine count_steps(st, em)
-            integer, intent(out) :: st
-            character(len=*), intent(inout), optional :: em
-            st = STAT_OK
-            ratio = sim%scn%t_end / sim%scn%dt
-            if (.not. ratio - 1.0e-9_dp <= real(sim%scn%max_steps, dp)) then
-                call raise(st, em, STAT_BAD_INPUT, trim(sim%scn%path)//': &scheme dt: t_end / dt = ' &
-                           //real_text(ratio, 6)//' steps exceed the limit of '// &
-                           int_text(int(sim%scn%max_steps, i8))//' (&scheme max_steps)')
-                return
-            end if
-            sim%n_steps = max(0_i8, ceiling(ratio - 1.0e-9_dp, i8))
-            if (write_output .and. sim_trace_bytes(sim) > BIG_TRACE_BYTES) then
-                write (msg, '(a, f0.1, a, i0, a)') 'note: the trace will take about ', &
-                    real(sim_trace_bytes(sim), dp) / 1.0e9_dp, ' GB (', &
-                    sim%n_steps / sim%scn%every + 1_i8, ' rows; &output every thins it)'
-                sim%mdl%notes = trim(sim%mdl%notes)//trim(msg)//new_line('a')
-            end if
-        end subroutine count_steps
-
-        !> 1/2 L.(K + M/t_end^2)^{-1} L (0 if the factorization fails).
-        function load_energy() result(e)
-            real(dp) :: e
-            type(csc_t) :: a
-            type(factor_t) :: lu
-            real(dp), allocatable :: x(:)
-            real(dp) :: c
-            integer :: st
-            e = 0.0_dp
-            c = 1.0_dp / max(sim%scn%t_end, sim%scn%dt)**2
-            a = sim%mdl%stiff
-            a%val = sim%mdl%stiff%val + c * sim%mdl%mass%val
-            allocate (x(sim%n_dofs))
-            call ls_factor(lu, a, st)
-            if (st == STAT_OK) call ls_solve(lu, a, sim%mdl%load, x, st)
-            if (st == STAT_OK) e = 0.5_dp * dot_product(sim%mdl%load, x)
-            call ls_free(lu)
-        end function load_energy
-    end subroutine sim_open_scene
+    !> 1/2 L.(K + M/t_end^2)^{-1} L (0 if the factorization fails).
+    function load_energy(sim) result(e)
+        type(simulation_t), intent(in) :: sim               !! the run (model built)
+        real(dp) :: e
+        type(csc_t) :: a
+        type(factor_t) :: lu
+        real(dp), allocatable :: x(:)
+        real(dp) :: c
+        integer :: st
+        e = 0.0_dp
+        c = 1.0_dp / max(sim%scn%t_end, sim%scn%dt)**2
+        a = sim%mdl%stiff
+        a%val = sim%mdl%stiff%val + c * sim%mdl%mass%val
+        allocate (x(sim%n_dofs))
+        call ls_factor(lu, a, st)
+        if (st == STAT_OK) call ls_solve(lu, a, sim%mdl%load, x, st)
+        if (st == STAT_OK) e = 0.5_dp * dot_product(sim%mdl%load, x)
+        call ls_free(lu)
+    end function load_energy
 
     !> Expected size of trace.csv in bytes (rows of typical width).
     function sim_trace_bytes(sim) result(bytes)
