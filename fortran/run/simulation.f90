@@ -20,13 +20,16 @@ module simulation
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
-    use trace_output, only: make_dirs, trace_t, trace_open, trace_row, trace_flush, trace_close, &
-                            json_real, json_string, TRACE_ROW_BYTES
+    use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
+                            trace_sync, trace_close, json_real, json_string, TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
                         write_text_atomic, signal_caught
     use sparse, only: csc_t
     use vtk_output, only: vtk_write_vtu, vtk_write_pvd
     use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
+    use byte_buffer, only: byte_buffer_t, buf_put, buf_get, buf_put_text, buf_get_text, buf_from
+    use checkpoint_file, only: CHECKPOINT_NAME, checkpoint_scene_hash, checkpoint_write, &
+                               checkpoint_read
     implicit none
     private
 
@@ -62,23 +65,37 @@ module simulation
         integer :: n_snap = 0                      !! field snapshots written
         real(dp), allocatable :: snap_t(:)         !! their times
         character(len=64), allocatable :: snap_file(:) !! their file names
+        integer(i8) :: scene_hash = 0              !! hash of the parsed scene (checkpoints)
+        integer(i8) :: restart_step = -1           !! the step the run restarted from (-1: none)
     end type simulation_t
 
-    public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes
+    public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes, &
+              sim_checkpoint_save, sim_checkpoint_load
 
 contains
 
     !> Read the scene, build the model, open the outputs (nothing is overwritten
     !> before this succeeds) and write the t = 0 row. `out_dir` /= '' overrides &output dir.
-    subroutine sim_open(sim, scene_path, out_dir, write_output, stat, errmsg)
+    !> `restart` /= '': continue the run from the checkpoint in that folder (which is
+    !> then the output folder) instead of starting at t = 0.
+    subroutine sim_open(sim, scene_path, out_dir, write_output, stat, errmsg, restart)
         type(simulation_t), intent(out) :: sim              !! the run
         character(len=*), intent(in) :: scene_path          !! scene file
         character(len=*), intent(in) :: out_dir             !! output folder override ('' = scene's)
         logical, intent(in) :: write_output                 !! .false.: build the model only
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=*), intent(in), optional :: restart   !! folder of the checkpoint ('' = none)
         type(scene_t) :: scn
-        if (len_trim(out_dir) > len(scn%out_dir)) then
+        character(len=:), allocatable :: rdir
+        rdir = ''
+        if (present(restart)) rdir = trim(restart)
+        if (len(rdir) > 0 .and. len_trim(out_dir) > 0 .and. trim(out_dir) /= rdir) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, '--restart '//rdir//' continues the run in'// &
+                       ' that folder: --out must be the same folder or left out')
+            return
+        end if
+        if (max(len_trim(out_dir), len(rdir)) > len(scn%out_dir)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'output folder: the path is longer than ' &
                        //int_text(int(len(scn%out_dir), i8))//' characters')
             return
@@ -86,19 +103,26 @@ contains
         call scene_read(scene_path, scn, stat, errmsg)
         if (stat /= STAT_OK) return
         if (len_trim(out_dir) > 0) scn%out_dir = out_dir
-        call sim_open_scene(sim, scn, write_output, stat, errmsg)
+        if (len(rdir) > 0) scn%out_dir = rdir
+        call sim_open_scene(sim, scn, write_output, stat, errmsg, restart=len(rdir) > 0)
     end subroutine sim_open
 
-    !> sim_open for a scene already read and validated.
-    subroutine sim_open_scene(sim, scn, write_output, stat, errmsg)
+    !> sim_open for a scene already read and validated (`restart`: continue from the
+    !> checkpoint in the scene's output folder).
+    subroutine sim_open_scene(sim, scn, write_output, stat, errmsg, restart)
         type(simulation_t), intent(out) :: sim              !! the run
         type(scene_t), intent(in) :: scn                    !! validated scene
         logical, intent(in) :: write_output                 !! .false.: build the model only
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(in), optional :: restart            !! continue from the checkpoint
         integer :: n
+        logical :: again
+        again = .false.
+        if (present(restart)) again = restart
         call system_clock(sim%clock0, sim%clock_rate)
         sim%scn = scn
+        sim%scene_hash = checkpoint_scene_hash(scn)
         call build_model(sim, stat, errmsg)
         if (stat /= STAT_OK) return
         ! dt = 0 (central): the step count is known once the scheme has chosen dt
@@ -116,7 +140,11 @@ contains
         if (.not. write_output) return
         call start_scheme(sim, stat, errmsg)
         if (stat /= STAT_OK) return
-        call open_outputs(sim, stat, errmsg)
+        if (again) then
+            call reopen_outputs(sim, stat, errmsg)
+        else
+            call open_outputs(sim, stat, errmsg)
+        end if
         if (stat /= STAT_OK) then
             if (sim%trace%fd >= 0) then    ! ours: remove it (never another run's)
                 call trace_close(sim%trace, n)
@@ -127,7 +155,7 @@ contains
             sim%outputs = .false.
             return
         end if
-        sim%finished = sim%n_steps == 0
+        sim%finished = sim%step >= sim%n_steps
     end subroutine sim_open_scene
 
     !> The mesh and the model of the run's scene, and the run's sizes (a mesh file above
@@ -234,6 +262,53 @@ contains
         end if
     end subroutine open_outputs
 
+    !> The outputs of a run continued from its checkpoint: the folder's lock, the state
+    !> and counters from checkpoint.bin (refused unless it is this scene's and this
+    !> build's, whole and intact), trace.csv cut back to the rows up to the checkpoint's
+    !> step and continued, the snapshots listed so far kept.
+    subroutine reopen_outputs(sim, st, msg)
+        type(simulation_t), intent(inout) :: sim            !! the run (scheme set up)
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
+        character(len=:), allocatable :: dir, path
+        integer(i8) :: trace_bytes, size
+        logical :: exists
+        dir = trim(sim%scn%out_dir)
+        path = dir//'/'//CHECKPOINT_NAME
+        inquire (file=path, exist=exists)
+        if (.not. exists) then
+            call raise(st, msg, STAT_BAD_INPUT, path//': no checkpoint to restart from (no such'// &
+                       ' file; &output checkpoint_every writes one)')
+            return
+        end if
+        call lock_take(dir, st, msg)
+        if (st /= STAT_OK) return
+        sim%locked = .true.
+        call check_writable(dir//'/trace.csv', st, msg)
+        if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
+        if (st /= STAT_OK) return
+        if (sim%scn%fields_every > 0) allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
+                                                sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
+        call sim_checkpoint_load(sim, path, st, msg, trace_bytes)
+        if (st /= STAT_OK) return
+        inquire (file=dir//'/trace.csv', exist=exists, size=size)
+        if (.not. exists .or. size < trace_bytes) then
+            call raise(st, msg, STAT_BAD_INPUT, dir//'/trace.csv: missing or shorter than the '// &
+                       int_text(trace_bytes)//' bytes written up to the checkpoint; cannot continue it')
+            return
+        end if
+        call trace_reopen(dir//'/trace.csv', trace_bytes, sim%trace, st, msg)
+        if (st /= STAT_OK) return
+        sim%outputs = .true.
+        sim%restart_step = sim%step
+        sim%status = 'running'
+        call write_summary(sim, st, msg)
+        if (st /= STAT_OK) return
+        call system_clock(sim%clock_flush)
+        sim%clock_summary = sim%clock_flush
+        if (sim%scn%fields_every > 0) call make_dirs(dir//'/fields', st, msg)
+    end subroutine reopen_outputs
+
     !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
     !> blowup x e_total(0) as always (the stored penalty energy when e_total(0) = 0,
     !> e.g. a body at rest starting in the obstacle). With a load L the test energy
@@ -338,6 +413,16 @@ contains
                 sim%status = 'interrupted'
                 sim%message = 'interrupted by signal '//int_text(int(sig, i8))//' at t = ' &
                               //real_text(sim%st%t, 6)//' (trace kept)'
+                if (sim%scn%checkpoint_every > 0) then
+                    call write_checkpoint(sim, stat, wmsg)
+                    if (stat /= STAT_OK) then
+                        call write_failed(wmsg)
+                        return
+                    end if
+                    sim%message = 'interrupted by signal '//int_text(int(sig, i8))//' at t = ' &
+                                  //real_text(sim%st%t, 6)//' (trace and checkpoint kept: --restart '// &
+                                  trim(sim%scn%out_dir)//' continues)'
+                end if
                 sim%finished = .true.
                 call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
                 return
@@ -398,6 +483,15 @@ contains
                 end if
             end if
             if (sim%step >= sim%n_steps) sim%finished = .true.
+            if (sim%scn%checkpoint_every > 0 .and. .not. sim%finished) then
+                if (mod(sim%step, int(sim%scn%checkpoint_every, i8)) == 0) then
+                    call write_checkpoint(sim, stat, wmsg)
+                    if (stat /= STAT_OK) then
+                        call write_failed(wmsg)
+                        return
+                    end if
+                end if
+            end if
             call system_clock(clock)
             if (real(clock - sim%clock_flush, dp) > FLUSH_S * sim%clock_rate) then
                 sim%clock_flush = clock
@@ -436,9 +530,22 @@ contains
         character(len=512) :: msg2
         stat = STAT_OK
         if (sim%outputs) then
+            if (.not. sim%finished .and. sim%scn%checkpoint_every > 0) then
+                ! stopped between steps by the caller (Ctrl-C in Python): resumable
+                call write_checkpoint(sim, stat, errmsg)
+                if (stat /= STAT_OK) then
+                    sim%status = 'write_failed'
+                    if (present(errmsg)) sim%message = errmsg
+                    sim%finished = .true.
+                end if
+            end if
             if (.not. sim%finished) sim%status = 'interrupted'
             if (sim%status == 'running') sim%status = 'ok'
-            call trace_close(sim%trace, stat, errmsg)
+            if (stat == STAT_OK) then
+                call trace_close(sim%trace, stat, errmsg)
+            else
+                call trace_close(sim%trace, st2, msg2)
+            end if
             if (stat /= STAT_OK .and. sim%status /= 'write_failed') then
                 sim%status = 'write_failed'
                 if (present(errmsg)) sim%message = errmsg
@@ -454,6 +561,130 @@ contains
         sim%locked = .false.
         if (allocated(sim%scheme)) call sim%scheme%free()
     end subroutine sim_close
+
+    !> Write the run's checkpoint (output folder, CHECKPOINT_NAME): the trace rows so far
+    !> are written and synced first, so that the checkpoint never counts rows the file
+    !> does not hold.
+    subroutine write_checkpoint(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (outputs open)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        call trace_sync(sim%trace, stat, errmsg)
+        if (stat /= STAT_OK) return
+        call sim_checkpoint_save(sim, trim(sim%scn%out_dir)//'/'//CHECKPOINT_NAME, stat, errmsg)
+    end subroutine write_checkpoint
+
+    !> Save the state the next step needs, with the run's counters, to the checkpoint
+    !> file `path` (atomic: see checkpoint_write). The payload, in order: step, t,
+    !> e_total(0), the blow-up limit, the trace's bytes, Newton iterations and
+    !> factorizations so far, u, v, a, M v, B(u), K_theta u, the contact state
+    !> (active points, e_pen, e_theta), the last step's Newton iterations, the snapshots
+    !> written (times, names), then what the scheme carries (time_scheme_t%save).
+    subroutine sim_checkpoint_save(sim, path, stat, errmsg)
+        type(simulation_t), intent(in) :: sim               !! an open run (scheme set up)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        type(byte_buffer_t) :: buf
+        integer :: k
+        if (.not. allocated(sim%scheme)) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
+            return
+        end if
+        call buf_put(buf, sim%step)
+        call buf_put(buf, sim%st%t)
+        call buf_put(buf, sim%e0)
+        call buf_put(buf, sim%e_limit)
+        call buf_put(buf, sim%trace%bytes)
+        call buf_put(buf, int(sim%scheme%newton_total, i8))
+        call buf_put(buf, int(sim%scheme%factorizations, i8))
+        call buf_put(buf, sim%st%u)
+        call buf_put(buf, sim%st%v)
+        call buf_put(buf, sim%st%a)
+        call buf_put(buf, sim%st%mv)
+        call buf_put(buf, sim%st%bu)
+        call buf_put(buf, sim%st%ktu)
+        call buf_put(buf, int(sim%st%active, i8))
+        call buf_put(buf, sim%st%e_pen)
+        call buf_put(buf, sim%st%e_theta)
+        call buf_put(buf, int(sim%st%newton_its, i8))
+        call buf_put(buf, int(sim%n_snap, i8))
+        do k = 1, sim%n_snap
+            call buf_put(buf, sim%snap_t(k))
+            call buf_put_text(buf, trim(sim%snap_file(k)))
+        end do
+        call sim%scheme%save(buf)
+        call checkpoint_write(path, sim%scene_hash, int(sim%n_dofs, i8), sim%step, buf, stat, errmsg)
+    end subroutine sim_checkpoint_save
+
+    !> Load the state and counters saved by sim_checkpoint_save into an open run of the
+    !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
+    !> a truncated or corrupt checkpoint; the run is then not to be advanced).
+    subroutine sim_checkpoint_load(sim, path, stat, errmsg, trace_bytes)
+        type(simulation_t), intent(inout) :: sim            !! an open run (scheme set up)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(i8), intent(out), optional :: trace_bytes   !! the trace's bytes at the checkpoint
+        type(byte_buffer_t) :: buf
+        character(len=:), allocatable :: payload
+        integer(i8) :: step, k8, tb, its, facts, act, nits, nsnap
+        integer :: k
+        if (.not. allocated(sim%scheme)) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
+            return
+        end if
+        call checkpoint_read(path, sim%scene_hash, int(sim%n_dofs, i8), payload, step, stat, errmsg)
+        if (stat /= STAT_OK) return
+        buf = buf_from(payload)
+        call buf_get(buf, k8)
+        if (k8 /= step .or. step < 0 .or. step > sim%n_steps) buf%bad = .true.
+        sim%step = k8
+        call buf_get(buf, sim%st%t)
+        call buf_get(buf, sim%e0)
+        call buf_get(buf, sim%e_limit)
+        call buf_get(buf, tb)
+        call buf_get(buf, its)
+        call buf_get(buf, facts)
+        call buf_get(buf, sim%st%u)
+        call buf_get(buf, sim%st%v)
+        call buf_get(buf, sim%st%a)
+        call buf_get(buf, sim%st%mv)
+        call buf_get(buf, sim%st%bu)
+        call buf_get(buf, sim%st%ktu)
+        call buf_get(buf, act)
+        call buf_get(buf, sim%st%e_pen)
+        call buf_get(buf, sim%st%e_theta)
+        call buf_get(buf, nits)
+        call buf_get(buf, nsnap)
+        if (nsnap < 0) buf%bad = .true.
+        if (nsnap > 0) then
+            if (.not. allocated(sim%snap_t)) then
+                buf%bad = .true.
+            else if (nsnap > size(sim%snap_t)) then
+                buf%bad = .true.
+            end if
+        end if
+        if (.not. buf%bad) then
+            sim%n_snap = int(nsnap)
+            do k = 1, sim%n_snap
+                call buf_get(buf, sim%snap_t(k))
+                call buf_get_text(buf, sim%snap_file(k))
+            end do
+        end if
+        if (.not. buf%bad) call sim%scheme%load(buf)
+        if (buf%bad .or. buf%pos /= buf%n) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': corrupt checkpoint (its'// &
+                       ' contents do not fit this run); refused')
+            return
+        end if
+        sim%scheme%newton_total = int(its)
+        sim%scheme%factorizations = int(facts)
+        sim%st%active = int(act)
+        sim%st%newton_its = int(nits)
+        sim%finished = sim%step >= sim%n_steps
+        if (present(trace_bytes)) trace_bytes = tb
+    end subroutine sim_checkpoint_load
 
     !> The model's parameters from a validated scene (the one place they are read).
     function model_params(scn) result(p)

@@ -42,6 +42,7 @@ module implicit_schemes
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
+    use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
                            SCHEME_HHT_SEED, SCHEME_GALPHA
     implicit none
@@ -102,6 +103,8 @@ module implicit_schemes
         procedure :: free => implicit_free
         procedure :: solver => implicit_solver
         procedure :: kernel => implicit_kernel
+        procedure :: save => implicit_save
+        procedure :: load => implicit_load
     end type implicit_scheme_t
 
 contains
@@ -212,6 +215,46 @@ contains
         character(len=:), allocatable :: name
         name = trim(this%lu0%backend)
     end function implicit_solver
+
+    !> The time step, and what a step carries into the next besides the state: M (u - u~) and u - u~ of the
+    !> next step's predictor, and the contact part C on the contact-cell dofs with its
+    !> tangent and the vector it was evaluated at (reused when u has not moved there).
+    subroutine implicit_save(this, buf)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
+        call buf_put(buf, this%dt)
+        call buf_put(buf, this%md)
+        call buf_put(buf, this%dvec)
+        call buf_put(buf, int(merge(1, 0, this%cached), kind(buf%n)))
+        call buf_put(buf, int(this%rank, kind(buf%n)))
+        call buf_put(buf, this%xc)
+        call buf_put(buf, this%cx)
+        call buf_put(buf, this%ua)
+        call buf_put(buf, this%vb)
+        call buf_put(buf, this%qloc)
+    end subroutine implicit_save
+
+    !> Read back what implicit_save wrote (buf%bad on any mismatch of sizes).
+    subroutine implicit_load(this, buf)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (set up by init)
+        type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
+        integer(kind(buf%n)) :: k
+        real(dp) :: dt
+        call buf_get(buf, dt)
+        if (.not. dt == this%dt) buf%bad = .true.
+        call buf_get(buf, this%md)
+        call buf_get(buf, this%dvec)
+        call buf_get(buf, k)
+        this%cached = k == 1
+        call buf_get(buf, k)
+        if (k < 0 .or. k > size(this%ua, 2)) buf%bad = .true.
+        if (.not. buf%bad) this%rank = int(k)
+        call buf_get(buf, this%xc)
+        call buf_get(buf, this%cx)
+        call buf_get(buf, this%ua)
+        call buf_get(buf, this%vb)
+        call buf_get(buf, this%qloc)
+    end subroutine implicit_load
 
     !> The triangular solve used with the J0 factors.
     function implicit_kernel(this) result(name)
