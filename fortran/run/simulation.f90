@@ -619,7 +619,7 @@ contains
 
     !> Load the state and counters saved by sim_checkpoint_save into an open run of the
     !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
-    !> a truncated or corrupt checkpoint; the run is then not to be advanced).
+    !> a truncated or corrupt checkpoint; the run is then finished, not to be advanced).
     subroutine sim_checkpoint_load(sim, path, stat, errmsg, trace_bytes)
         type(simulation_t), intent(inout) :: sim            !! an open run (scheme set up)
         character(len=*), intent(in) :: path                !! checkpoint file
@@ -634,6 +634,9 @@ contains
             call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
             return
         end if
+        ! a failed load leaves the run stopped (finished: never advanced, no checkpoint
+        ! written over the file at close)
+        sim%finished = .true.
         call checkpoint_read(path, sim%scene_hash, int(sim%n_dofs, i8), payload, step, stat, errmsg)
         if (stat /= STAT_OK) return
         buf = buf_from(payload)
