@@ -410,18 +410,10 @@ contains
         do while (.not. sim%finished .and. steps_done < max_steps)
             sig = signal_caught()
             if (sig /= 0) then
-                sim%status = 'interrupted'
-                sim%message = 'interrupted by signal '//int_text(int(sig, i8))//' at t = ' &
-                              //real_text(sim%st%t, 6)//' (trace kept)'
-                if (sim%scn%checkpoint_every > 0) then
-                    call write_checkpoint(sim, stat, wmsg)
-                    if (stat /= STAT_OK) then
-                        call write_failed(wmsg)
-                        return
-                    end if
-                    sim%message = 'interrupted by signal '//int_text(int(sig, i8))//' at t = ' &
-                                  //real_text(sim%st%t, 6)//' (trace and checkpoint kept: --restart '// &
-                                  trim(sim%scn%out_dir)//' continues)'
+                call stop_interrupted(sim, sig, stat, wmsg)
+                if (stat /= STAT_OK) then
+                    call write_failed(wmsg)
+                    return
                 end if
                 sim%finished = .true.
                 call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
@@ -455,22 +447,9 @@ contains
                     return
                 end if
                 sim%status = 'unstable'
-                if (sim%has_load) then
-                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
-                        sim%st%t, ': e_total + e_load = ', e_test, ' exceeds blowup x energy scale = ', &
-                        sim%e_limit, ' (run stopped, trace kept)'
-                else if (sim%e0 > 0.0_dp) then
-                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
-                        sim%st%t, ': e_total = ', e_total, ' exceeds blowup x e_total(0) = ', &
-                        sim%e_limit, ' (run stopped, trace kept)'
-                else
-                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
-                        sim%st%t, ': e_total = ', e_total, ' exceeds blowup x energy scale = ', &
-                        sim%e_limit, ' (run stopped, trace kept)'
-                end if
-                sim%message = msg
+                sim%message = unstable_message(sim, e_total, e_test)
                 sim%finished = .true.
-                call raise(stat, errmsg, STAT_NUMERIC, trim(msg))
+                call raise(stat, errmsg, STAT_NUMERIC, trim(sim%message))
                 return
             end if
             if (sim%scn%fields_every > 0) then
@@ -518,6 +497,47 @@ contains
             call raise(stat, errmsg, STAT_INTERNAL, trim(m))
         end subroutine write_failed
     end subroutine sim_advance
+
+    !> The run stopped by signal sig at the end of a step: status and message, and the
+    !> checkpoint of that step when the scene asks for checkpoints.
+    subroutine stop_interrupted(sim, sig, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        integer, intent(in) :: sig                          !! signal caught
+        integer, intent(out) :: stat                        !! status (a failed write)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=:), allocatable :: head
+        stat = STAT_OK
+        sim%status = 'interrupted'
+        head = 'interrupted by signal '//int_text(int(sig, i8))//' at t = '//real_text(sim%st%t, 6)
+        sim%message = head//' (trace kept)'
+        if (sim%scn%checkpoint_every > 0) then
+            call write_checkpoint(sim, stat, errmsg)
+            if (stat /= STAT_OK) return
+            sim%message = head//' (trace and checkpoint kept: --restart '//trim(sim%scn%out_dir) &
+                          //' continues)'
+        end if
+    end subroutine stop_interrupted
+
+    !> The message of a run stopped by the blow-up test (docs/scenes.md).
+    function unstable_message(sim, e_total, e_test) result(msg)
+        type(simulation_t), intent(in) :: sim               !! the run
+        real(dp), intent(in) :: e_total                     !! e_kin + e_el
+        real(dp), intent(in) :: e_test                      !! the tested energy
+        character(len=256) :: msg
+        if (sim%has_load) then
+            write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                sim%st%t, ': e_total + e_load = ', e_test, ' exceeds blowup x energy scale = ', &
+                sim%e_limit, ' (run stopped, trace kept)'
+        else if (sim%e0 > 0.0_dp) then
+            write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                sim%st%t, ': e_total = ', e_total, ' exceeds blowup x e_total(0) = ', &
+                sim%e_limit, ' (run stopped, trace kept)'
+        else
+            write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                sim%st%t, ': e_total = ', e_total, ' exceeds blowup x energy scale = ', &
+                sim%e_limit, ' (run stopped, trace kept)'
+        end if
+    end function unstable_message
 
     !> Write the last rows and summary.json (when outputs are open), release the
     !> output folder's lock and everything else. A write error is returned (the
