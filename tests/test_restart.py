@@ -339,3 +339,35 @@ def test_checkpoint_every_zero_writes_none(tmp_path):
     assert run(exe_cmd(scene, "--out", "o"), tmp_path).returncode == EXIT_OK
     assert not (tmp_path / "o" / CKPT).exists()
     assert not list((tmp_path / "o").glob("*.tmp"))
+
+
+def test_checkpoint_file_holds_the_state_it_stands_for(tmp_path):
+    """The format of docs/scenes.md, read independently: the header's dofs and step, the
+    payload's checksum (64-bit FNV-1a), and the state vectors equal to the run's own."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1"))
+    with Stepper(scene, tmp_path / "o") as s:
+        s.advance(123)
+        s.save(tmp_path / "c.bin")
+        st = s.state()
+        dofs = s.dofs
+    data = (tmp_path / "c.bin").read_bytes()
+    assert data[:8] == b"DYNCKPT\0"
+    version, _hash, plen, checksum, n, step = np.frombuffer(data[8:56], dtype="<i8")
+    assert (version, n, step) == (1, dofs, 123)
+    payload = data[HEADER:]
+    assert plen == len(payload)
+    h = 0xcbf29ce484222325
+    for byte in payload:
+        h = ((h ^ byte) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
+    assert np.int64(np.uint64(h)) == checksum
+    ints = np.frombuffer(payload[:56], dtype="<i8")
+    reals = np.frombuffer(payload[:56], dtype="<f8")
+    assert ints[0] == 123 and reals[1] == st["t"]
+    pos = 56
+    for key in ("u", "v", "a", "mv", "bu"):
+        count = int(np.frombuffer(payload[pos:pos + 8], dtype="<i8")[0])
+        assert count == dofs
+        vec = np.frombuffer(payload[pos + 8:pos + 8 + 8 * count], dtype="<f8")
+        assert np.array_equal(vec, st[key]), key
+        pos += 8 + 8 * count
