@@ -555,6 +555,7 @@ class Stepper(Model):
             s.advance(10)
             st = s.state()          # t, u, v, a, mv, load on the free dofs
             M = s.matrix("M")       # the assembled matrix, dense
+            s.save("state.bin")     # a checkpoint; s.load("state.bin") goes back to it
     """
 
     _WHICH = {"M": 1, "K": 2, "K_theta": 3}
