@@ -232,6 +232,8 @@ BAD_CASES = [
     BadCase("every_zero", "&output every = 0 /\n", "&output every", "must be > 0"),
     BadCase("fields_every_negative", "&output fields_every = -1 /\n", "&output fields_every",
             "must be >= 0"),
+    BadCase("checkpoint_every_negative", "&output checkpoint_every = -1 /\n",
+            "&output checkpoint_every", "must be >= 0"),
 ]
 
 

@@ -500,3 +500,73 @@ subroutine dc_sim_info(handle, n_steps, trace_bytes, notes)
     trace_bytes = sim_trace_bytes(sim)
     notes = sim%mdl%notes
 end subroutine dc_sim_info
+
+!> Open a run that continues from the checkpoint in restart_dir (its output folder):
+!> as dc_sim_open with outputs, and the step it restarts at.
+subroutine dc_sim_open_restart(path, restart_dir, handle, n_steps, step, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t, c_loc
+    use errors, only: STAT_OK
+    use simulation, only: simulation_t, sim_open
+    implicit none
+    character(len=*), intent(in) :: path         !! scene file
+    character(len=*), intent(in) :: restart_dir  !! folder holding checkpoint.bin
+    integer(c_int64_t), intent(out) :: handle    !! opaque run handle (0 on error)
+    integer(c_int64_t), intent(out) :: n_steps   !! steps to t_end
+    integer(c_int64_t), intent(out) :: step      !! the step the run continues from
+    integer(c_int), intent(out) :: stat          !! status (2: no, foreign or corrupt checkpoint)
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st
+    errmsg = ''
+    handle = 0
+    n_steps = 0; step = 0
+    allocate (sim)
+    call sim_open(sim, path, '', .true., st, errmsg, restart=restart_dir)
+    stat = st
+    if (st /= STAT_OK) then
+        deallocate (sim)
+        return
+    end if
+    n_steps = sim%n_steps
+    step = sim%step
+    handle = transfer(c_loc(sim), handle)
+end subroutine dc_sim_open_restart
+
+!> Save the state of an open run (and its counters) to a checkpoint file.
+subroutine dc_sim_save(handle, path, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t
+    use simulation, only: simulation_t, sim_checkpoint_save
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    character(len=*), intent(in) :: path         !! checkpoint file to write
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st
+    errmsg = ''
+    call sim_from_handle(handle, sim)
+    call sim_checkpoint_save(sim, path, st, errmsg)
+    stat = st
+end subroutine dc_sim_save
+
+!> Load a state saved by dc_sim_save (or a run's checkpoint) of the same scene into an
+!> open run; its trace continues from there. step: the step loaded.
+subroutine dc_sim_load(handle, path, step, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t
+    use simulation, only: simulation_t, sim_checkpoint_load
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    character(len=*), intent(in) :: path         !! checkpoint file
+    integer(c_int64_t), intent(out) :: step      !! the step of the loaded state
+    integer(c_int), intent(out) :: stat          !! status (2: foreign or corrupt checkpoint)
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st
+    errmsg = ''
+    call sim_from_handle(handle, sim)
+    call sim_checkpoint_load(sim, path, st, errmsg)
+    step = sim%step
+    stat = st
+end subroutine dc_sim_load

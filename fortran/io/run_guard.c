@@ -7,7 +7,9 @@
  *   - whole-buffer writes to a file descriptor (every error reported, EINTR retried),
  *     close, rename and unlink with their errno, so that a full disk is never silent;
  *   - the free bytes and file slots of a folder's file system (statvfs), to refuse a run
- *     whose outputs cannot fit before it starts.
+ *     whose outputs cannot fit before it starts;
+ *   - fsync, reopening a file cut back to a given size (a trace continued from a
+ *     checkpoint), and a 64-bit FNV-1a hash of a byte buffer (checkpoint checksums).
  * Every function returns 0 on success and errno (> 0) on failure unless said otherwise. */
 #include <errno.h>
 #include <math.h>
@@ -83,6 +85,44 @@ int dc_fd_write(int fd, const char *buf, long n)
 
 /* Close a descriptor (its error, e.g. a delayed ENOSPC on a network disk, is returned). */
 int dc_fd_close(int fd) { return close(fd) == 0 ? 0 : errno; }
+
+/* Flush a descriptor's data to the device. */
+int dc_fsync(int fd)
+{
+    int r;
+    do { r = fsync(fd); } while (r != 0 && errno == EINTR);
+    return r == 0 ? 0 : errno;
+}
+
+/* Open an existing file for writing, cut it back to `size` bytes and place the offset
+ * at its end. Returns fd >= 0 or -errno. */
+int dc_fd_reopen(const char *path, long long size)
+{
+    int fd;
+    do {
+        fd = open(path, O_WRONLY | O_CLOEXEC);
+    } while (fd < 0 && errno == EINTR);
+    if (fd < 0) return -errno;
+    if (ftruncate(fd, (off_t)size) != 0 || lseek(fd, (off_t)size, SEEK_SET) < 0) {
+        int err = errno;
+        close(fd);
+        return -err;
+    }
+    return fd;
+}
+
+/* 64-bit FNV-1a hash of n bytes, continuing from h (start with 0: the offset basis is
+ * used then). The unsigned result is returned in a signed 64-bit integer. */
+long long dc_hash64(const char *buf, long long n, long long h)
+{
+    uint64_t x = h == 0 ? 14695981039346656037ULL : (uint64_t)h;
+    long long i;
+    for (i = 0; i < n; i++) {
+        x ^= (unsigned char)buf[i];
+        x *= 1099511628211ULL;
+    }
+    return (long long)x;
+}
 
 int dc_rename(const char *from, const char *to) { return rename(from, to) == 0 ? 0 : errno; }
 

@@ -73,6 +73,7 @@ module scene
         character(len=PATH_LEN) :: out_dir         !! output folder
         integer :: every                           !! trace row every this many steps
         integer :: fields_every                    !! VTU snapshot every this many steps (0 = none)
+        integer :: checkpoint_every                !! checkpoint every this many steps (0 = none)
     end type scene_t
 
     public :: scene_read, scene_parse, scene_to_json, scene_check_dim
@@ -163,7 +164,8 @@ contains
             row('scheme', 'blowup', '10.0', '> 1', r=scn%blowup), &
             row('output', 'dir', "'out'", 'not be empty', s=scn%out_dir), &
             row('output', 'every', '1', '> 0', i=scn%every), &
-            row('output', 'fields_every', '0', '>= 0', i=scn%fields_every)]
+            row('output', 'fields_every', '0', '>= 0', i=scn%fields_every), &
+            row('output', 'checkpoint_every', '0', '>= 0', i=scn%checkpoint_every)]
     end subroutine scene_keys
 
     !> One row of the key table (exactly one of i, r, v, s is given; n and default3

@@ -42,6 +42,7 @@ module implicit_schemes
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
+    use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
                            SCHEME_HHT_SEED, SCHEME_GALPHA
     implicit none
@@ -102,6 +103,8 @@ module implicit_schemes
         procedure :: free => implicit_free
         procedure :: solver => implicit_solver
         procedure :: kernel => implicit_kernel
+        procedure :: save => implicit_save
+        procedure :: load => implicit_load
     end type implicit_scheme_t
 
 contains
@@ -213,6 +216,46 @@ contains
         name = trim(this%lu0%backend)
     end function implicit_solver
 
+    !> The time step, and what a step carries into the next besides the state: M (u - u~) and u - u~ of the
+    !> next step's predictor, and the contact part C on the contact-cell dofs with its
+    !> tangent and the vector it was evaluated at (reused when u has not moved there).
+    subroutine implicit_save(this, buf)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
+        call buf_put(buf, this%dt)
+        call buf_put(buf, this%md)
+        call buf_put(buf, this%dvec)
+        call buf_put(buf, int(merge(1, 0, this%cached), kind(buf%n)))
+        call buf_put(buf, int(this%rank, kind(buf%n)))
+        call buf_put(buf, this%xc)
+        call buf_put(buf, this%cx)
+        call buf_put(buf, this%ua)
+        call buf_put(buf, this%vb)
+        call buf_put(buf, this%qloc)
+    end subroutine implicit_save
+
+    !> Read back what implicit_save wrote (buf%bad on any mismatch of sizes).
+    subroutine implicit_load(this, buf)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (set up by init)
+        type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
+        integer(kind(buf%n)) :: k
+        real(dp) :: dt
+        call buf_get(buf, dt)
+        if (.not. dt == this%dt) buf%bad = .true.
+        call buf_get(buf, this%md)
+        call buf_get(buf, this%dvec)
+        call buf_get(buf, k)
+        this%cached = k == 1
+        call buf_get(buf, k)
+        if (k < 0 .or. k > size(this%ua, 2)) buf%bad = .true.
+        if (.not. buf%bad) this%rank = int(k)
+        call buf_get(buf, this%xc)
+        call buf_get(buf, this%cx)
+        call buf_get(buf, this%ua)
+        call buf_get(buf, this%vb)
+        call buf_get(buf, this%qloc)
+    end subroutine implicit_load
+
     !> The triangular solve used with the J0 factors.
     function implicit_kernel(this) result(name)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
@@ -235,14 +278,46 @@ contains
         type(state_t), intent(inout) :: st                  !! state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc, cb, kb
-        integer :: it, active, i, q, n
+        real(dp) :: e_pen, e_theta, cb, kb
+        integer :: it, active
         stat = STAT_OK
-        dt = this%dt
-        n = size(st%u)
         ! right-hand side b and R(u^n) = M (u^n - u~) + c B(u^n) - b in one pass; the
         ! convergence test's scale |M (u^n - u~)| + c |B(u^n)| + |b| is formed only when
         ! a test needs it (see newton_scale)
+        call rhs_coefficients(this, cb, kb)
+        call newton_rhs(size(st%u), cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
+        ! contact part at u^n: kept from the end of the previous step when u^n on the
+        ! contact-cell dofs is the vector it was evaluated at
+        active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
+        if (this%m > 0) then
+            if (.not. this%cached) then
+                call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
+            else if (moved(st%u, mdl%ct%cdofs, this%xc)) then
+                call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
+            end if
+            this%tsum = 0.0_dp
+            call gather(st%u, mdl%ct%cdofs, this%xc)
+        end if
+        call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
+        st%newton_its = it
+        this%newton_total = this%newton_total + it
+        if (stat /= STAT_OK) return
+        ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction)
+        if (it == 0) this%dx = 0.0_dp
+        if (this%m > 0) then
+            if (any(this%tsum /= 0.0_dp)) call add_z_correction(this)
+        end if
+        call update_state(this, mdl, st)
+        st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
+        st%t = st%t + this%dt
+    end subroutine implicit_step
+
+    !> The coefficients of b = cb (L - kb B(u^n)) for the scheme's family.
+    pure subroutine rhs_coefficients(this, cb, kb)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        real(dp), intent(out) :: cb, kb                     !! coefficients
+        real(dp) :: dt
+        dt = this%dt
         if (this%kind == KIND_NEWMARK) then
             kb = this%alpha_f
             cb = this%beta * dt**2 / (1.0_dp - this%alpha_m)
@@ -250,28 +325,29 @@ contains
             kb = 1.0_dp - this%theta
             cb = this%theta * dt**2
         end if
-        call newton_rhs(n, cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
+    end subroutine rhs_coefficients
+
+    !> The Newton iterations of a step, from x = u^n (R(u^n) in this%r): the first
+    !> always solves with J0 (its linear part exactly) and the test runs after it, on R
+    !> at the new iterate. A zero residual passes any scale (a step in flight: no
+    !> contact point active at either iterate, rho = 0 exactly), so the scale's three
+    !> sums over the dofs are formed only at a step where the contact part moved R, once
+    !> a step. On return dx holds y0 and tsum the coefficients T; `it` iterations.
+    subroutine newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(in) :: st                     !! state at t^n
+        real(dp), intent(in) :: cb, kb                      !! coefficients of b
+        integer, intent(out) :: it                          !! iterations done
+        integer, intent(inout) :: active                    !! contact state at the iterate
+        real(dp), intent(inout) :: e_pen, e_theta           !! contact energies at the iterate
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: rnorm, scale, dt
+        stat = STAT_OK
+        dt = this%dt
         scale = -1.0_dp
         rnorm = 0.0_dp
-        ! contact part at u^n: kept from the end of the previous step when u^n on the
-        ! contact-cell dofs is the vector it was evaluated at
-        active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
-        if (this%m > 0) then
-            if (.not. this%cached) then
-                call contact_part(st%u, this%cx, active, e_pen, e_theta)
-            else if (moved(st%u, mdl%ct%cdofs, this%xc)) then
-                call contact_part(st%u, this%cx, active, e_pen, e_theta)
-            end if
-            this%tsum = 0.0_dp
-            do i = 1, this%m
-                this%xc(i) = st%u(mdl%ct%cdofs(i))
-            end do
-        end if
-        ! the first iteration always solves with J0 (its linear part exactly): the test
-        ! runs after it, on R at the new iterate. A zero residual passes any scale (a
-        ! step in flight: no contact point active at either iterate, rho = 0 exactly),
-        ! so the scale's three sums over the dofs are formed only at a step where the
-        ! contact part moved R, once a step
         it = 0
         do
             if (it > 0) then
@@ -287,7 +363,6 @@ contains
                            //real_text(st%t + dt, 6)//' after '//int_text(it) &
                            //' iterations (relative residual ' &
                            //real_text(rnorm / max(scale, tiny(1.0_dp)), 4)//')')
-                call end_newton()
                 return
             end if
             ! the Newton step x <- x - J^{-1} R: J^{-1} R = y + Z tk with y = J0^{-1} R on
@@ -298,14 +373,11 @@ contains
                 if (stat /= STAT_OK) then
                     call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
                                //real_text(st%t + dt, 6))
-                    call end_newton()
                     return
                 end if
                 it = 1
                 if (this%m == 0) exit
-                do i = 1, this%m
-                    this%yc(i) = this%dx(mdl%ct%cdofs(i))
-                end do
+                call gather(this%dx, mdl%ct%cdofs, this%yc)
                 this%y0c = this%yc
                 this%tk = 0.0_dp
             else
@@ -314,61 +386,84 @@ contains
                 it = it + 1
             end if
             if (this%rank > 0) then
-                call woodbury(stat)
+                call woodbury(this, mdl, stat)
                 if (stat /= STAT_OK) then
                     call raise(stat, errmsg, STAT_NUMERIC, 'singular contact correction in ' &
                                //'Newton at t = '//real_text(st%t + dt, 6))
-                    call end_newton()
                     return
                 end if
             end if
             this%tsum = this%tsum + this%tk
-            ! P dx = y0c + W T (the same sums, in the same order, as the full dx at the
-            ! end), P x' = P u^n - P dx; dxc = P x - P x' for the tangent's part of R'
-            this%dxc = this%y0c
-            call add_columns(this%m, this%m, this%w, this%tsum, this%dxc)
-            do i = 1, this%m
-                acc = st%u(mdl%ct%cdofs(i)) - this%dxc(i)
-                this%dxc(i) = this%xc(i) - acc
-                this%xc(i) = acc
-                this%x(mdl%ct%cdofs(i)) = acc
-            end do
-            ! R' = c (C(x') - C(x) + D dx) on the contact-cell dofs (zero elsewhere: the
-            ! step solved the linearization exactly); tvec = D P dx, D = U V^T at x
-            this%tvec = 0.0_dp
-            do q = 1, this%rank
-                acc = 0.0_dp
-                do i = 1, mdl%ndof_e
-                    if (this%qloc(i, q) > 0) acc = acc + this%vb(i, q) * this%dxc(this%qloc(i, q))
-                end do
-                do i = 1, mdl%ndof_e
-                    if (this%qloc(i, q) > 0) this%tvec(this%qloc(i, q)) = &
-                        this%tvec(this%qloc(i, q)) + this%ua(i, q) * acc
-                end do
-            end do
-            this%cold = this%cx
-            call contact_part(this%x, this%cx, active, e_pen, e_theta)
-            this%rho = this%c * (this%cx - this%cold + this%tvec)
-            rnorm = sqrt(sum(this%rho**2))
+            call contact_residual(this, mdl, st%u, active, e_pen, e_theta, rnorm)
         end do
-        call end_newton()
-        ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction)
-        if (it == 0) this%dx = 0.0_dp
-        if (this%m > 0) then
-            if (any(this%tsum /= 0.0_dp)) then
-                do i = 1, size(this%zrows)
-                    this%xz(i) = this%dx(this%zrows(i))
-                end do
-                call add_columns(size(this%zrows), this%m, this%z, this%tsum, this%xz)
-                do i = 1, size(this%zrows)
-                    this%dx(this%zrows(i)) = this%xz(i)
-                end do
-            end if
-        end if
-        ! the scheme's update of u, v, a from x = u - dx and the next predictor u~' in one
-        ! pass; then K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u').
-        ! Dofs without inertia (redistributed mass) are quasi-static: their v, a do not
-        ! enter the dynamics (zero rows of M), and are reported as v = (u' - u)/dt, a = 0.
+    end subroutine newton_iterate
+
+    !> After a Newton correction (T in tsum): P dx = y0c + W T (the same sums, in the
+    !> same order, as the full dx at the end), P x' = P u^n - P dx, dxc = P x - P x',
+    !> then R' = c (C(x') - C(x) + D dx) on the contact-cell dofs (zero elsewhere: the
+    !> step solved the linearization exactly), tvec = D P dx with D = U V^T at x; the
+    !> contact part and its tangent are left at x'. rnorm = |R'|.
+    subroutine contact_residual(this, mdl, u, active, e_pen, e_theta, rnorm)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        real(dp), intent(in) :: u(:)                        !! u^n
+        integer, intent(out) :: active                      !! contact state at x'
+        real(dp), intent(out) :: e_pen, e_theta             !! contact energies at x'
+        real(dp), intent(out) :: rnorm                      !! |R'|
+        real(dp) :: acc
+        integer :: i, q
+        this%dxc = this%y0c
+        call add_columns(this%m, this%m, this%w, this%tsum, this%dxc)
+        do i = 1, this%m
+            acc = u(mdl%ct%cdofs(i)) - this%dxc(i)
+            this%dxc(i) = this%xc(i) - acc
+            this%xc(i) = acc
+            this%x(mdl%ct%cdofs(i)) = acc
+        end do
+        this%tvec = 0.0_dp
+        do q = 1, this%rank
+            acc = 0.0_dp
+            do i = 1, mdl%ndof_e
+                if (this%qloc(i, q) > 0) acc = acc + this%vb(i, q) * this%dxc(this%qloc(i, q))
+            end do
+            do i = 1, mdl%ndof_e
+                if (this%qloc(i, q) > 0) this%tvec(this%qloc(i, q)) = &
+                    this%tvec(this%qloc(i, q)) + this%ua(i, q) * acc
+            end do
+        end do
+        this%cold = this%cx
+        call contact_part(this, mdl, this%x, this%cx, active, e_pen, e_theta)
+        this%rho = this%c * (this%cx - this%cold + this%tvec)
+        rnorm = sqrt(sum(this%rho**2))
+    end subroutine contact_residual
+
+    !> dx <- dx + Z T on the rows of Z kept (J0^{-1} of the contact correction).
+    subroutine add_z_correction(this)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        integer :: i
+        do i = 1, size(this%zrows)
+            this%xz(i) = this%dx(this%zrows(i))
+        end do
+        call add_columns(size(this%zrows), this%m, this%z, this%tsum, this%xz)
+        do i = 1, size(this%zrows)
+            this%dx(this%zrows(i)) = this%xz(i)
+        end do
+    end subroutine add_z_correction
+
+    !> The scheme's update of u, v, a from x = u - dx and the next predictor u~' in one
+    !> pass; then K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u').
+    !> Dofs without inertia (redistributed mass) are quasi-static: their v, a do not
+    !> enter the dynamics (zero rows of M), and are reported as v = (u' - u)/dt, a = 0.
+    !> The contact part is kept for the next step, with the vector it was evaluated at
+    !> (u' on the contact-cell dofs).
+    subroutine update_state(this, mdl, st)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(inout) :: st                  !! state (u, v, a and products)
+        real(dp) :: dt
+        integer :: i, q, n
+        dt = this%dt
+        n = size(st%u)
         do q = 1, size(mdl%massless_dofs)
             i = mdl%massless_dofs(q)
             this%vq(q) = ((st%u(i) - this%dx(i)) - st%u(i)) / dt
@@ -394,96 +489,97 @@ contains
             do i = 1, this%m
                 st%bu(mdl%ct%cdofs(i)) = st%bu(mdl%ct%cdofs(i)) + this%cx(i)
             end do
-            ! the contact part is kept for the next step, with the vector it was
-            ! evaluated at (u' on the contact-cell dofs)
-            do i = 1, this%m
-                this%xc(i) = st%u(mdl%ct%cdofs(i))
-            end do
+            call gather(st%u, mdl%ct%cdofs, this%xc)
             this%cached = .true.
         end if
-        st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
-        st%t = st%t + dt
+    end subroutine update_state
 
-    contains
+    !> Contact part C(xx) of B on the contact-cell dofs, its tangent in low-rank
+    !> form (rank, ua, vb, qloc) and the contact energy parts.
+    subroutine contact_part(this, mdl, xx, cvec, act, ep, et)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (tangent, scratch)
+        type(model_t), intent(in) :: mdl                    !! model
+        real(dp), intent(in) :: xx(:)                       !! displacement
+        real(dp), intent(out) :: cvec(:)                    !! (m) C(xx) on the contact-cell dofs
+        integer, intent(out) :: act                         !! active contact quadrature points
+        real(dp), intent(out) :: ep, et                     !! contact energy parts
+        integer :: j
+        do j = 1, this%m
+            this%scratch(mdl%ct%cdofs(j)) = 0.0_dp
+        end do
+        call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%rank, this%ua, this%vb, &
+                          this%qloc)
+        do j = 1, this%m
+            cvec(j) = this%scratch(mdl%ct%cdofs(j))
+        end do
+    end subroutine contact_part
 
-        !> Record the step's Newton iterations.
-        subroutine end_newton()
-            st%newton_its = it
-            this%newton_total = this%newton_total + it
-        end subroutine end_newton
-
-        !> Contact part C(xx) of B on the contact-cell dofs, its tangent in low-rank
-        !> form (rank, ua, vb, qloc) and the contact energy parts.
-        subroutine contact_part(xx, cvec, act, ep, et)
-            real(dp), intent(in) :: xx(:)
-            real(dp), intent(out) :: cvec(:)
-            integer, intent(out) :: act
-            real(dp), intent(out) :: ep, et
-            integer :: j
-            do j = 1, this%m
-                this%scratch(mdl%ct%cdofs(j)) = 0.0_dp
+    !> Woodbury for one Newton step, on the contact-cell dofs: with yc = P J0^{-1} R,
+    !> J^{-1} R = J0^{-1} R - Z U (I + c V^T W U)^{-1} c V^T yc, so tk <- tk - U s,
+    !> s = (I + c V^T W U)^{-1} c V^T yc.
+    subroutine woodbury(this, mdl, st2)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
+        integer :: r, i, j, k, info, l
+        real(dp) :: acc2
+        st2 = STAT_OK
+        r = this%rank
+        ! W U: each column of U lives on <= ndof_e contact-cell dofs
+        do j = 1, r
+            this%wu(:, j) = 0.0_dp
+            do k = 1, mdl%ndof_e
+                l = this%qloc(k, j)
+                if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) * this%w(:, l)
             end do
-            call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%rank, this%ua, this%vb, &
-                              this%qloc)
-            do j = 1, this%m
-                cvec(j) = this%scratch(mdl%ct%cdofs(j))
-            end do
-        end subroutine contact_part
-
-        !> Woodbury for one Newton step, on the contact-cell dofs: with yc = P J0^{-1} R,
-        !> J^{-1} R = J0^{-1} R - Z U (I + c V^T W U)^{-1} c V^T yc, so tk <- tk - U s,
-        !> s = (I + c V^T W U)^{-1} c V^T yc.
-        subroutine woodbury(st2)
-            integer, intent(out) :: st2
-            integer :: r, i, j, k, info, l
-            real(dp) :: acc2
-            st2 = STAT_OK
-            r = this%rank
-            ! W U: each column of U lives on <= ndof_e contact-cell dofs
+        end do
+        ! small = I + c V^T W U; zs = c V^T yc. Row i of V^T W U sums the rows
+        ! qloc(:, i) of W U, read as columns of its transpose (contiguous, vector
+        ! operations over the r columns; each entry's sum in the order of k)
+        do l = 1, size(this%wu, 1)
             do j = 1, r
-                this%wu(:, j) = 0.0_dp
-                do k = 1, mdl%ndof_e
-                    l = this%qloc(k, j)
-                    if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) * this%w(:, l)
-                end do
+                this%wut(j, l) = this%wu(l, j)
             end do
-            ! small = I + c V^T W U; zs = c V^T yc. Row i of V^T W U sums the rows
-            ! qloc(:, i) of W U, read as columns of its transpose (contiguous, vector
-            ! operations over the r columns; each entry's sum in the order of k as before)
-            do l = 1, size(this%wu, 1)
-                do j = 1, r
-                    this%wut(j, l) = this%wu(l, j)
-                end do
+        end do
+        do i = 1, r
+            this%srow(1:r) = 0.0_dp
+            acc2 = 0.0_dp
+            do k = 1, mdl%ndof_e
+                l = this%qloc(k, i)
+                if (l > 0) then
+                    this%srow(1:r) = this%srow(1:r) + this%vb(k, i) * this%wut(1:r, l)
+                    acc2 = acc2 + this%vb(k, i) * this%yc(l)
+                end if
             end do
-            do i = 1, r
-                this%srow(1:r) = 0.0_dp
-                acc2 = 0.0_dp
-                do k = 1, mdl%ndof_e
-                    l = this%qloc(k, i)
-                    if (l > 0) then
-                        this%srow(1:r) = this%srow(1:r) + this%vb(k, i) * this%wut(1:r, l)
-                        acc2 = acc2 + this%vb(k, i) * this%yc(l)
-                    end if
-                end do
-                this%small(i, 1:r) = this%c * this%srow(1:r)
-                this%small(i, i) = this%small(i, i) + 1.0_dp
-                this%zs(i) = this%c * acc2
+            this%small(i, 1:r) = this%c * this%srow(1:r)
+            this%small(i, i) = this%small(i, i) + 1.0_dp
+            this%zs(i) = this%c * acc2
+        end do
+        call dense_lu_factor(r, this%small, this%piv, info)
+        if (info /= 0) then
+            st2 = STAT_NUMERIC
+            return
+        end if
+        call dense_lu_solve(r, this%small, this%piv, this%zs)
+        ! tk = tk - U s
+        do j = 1, r
+            do k = 1, mdl%ndof_e
+                l = this%qloc(k, j)
+                if (l > 0) this%tk(l) = this%tk(l) - this%ua(k, j) * this%zs(j)
             end do
-            call dense_lu_factor(r, this%small, this%piv, info)
-            if (info /= 0) then
-                st2 = STAT_NUMERIC
-                return
-            end if
-            call dense_lu_solve(r, this%small, this%piv, this%zs)
-            ! tk = tk - U s
-            do j = 1, r
-                do k = 1, mdl%ndof_e
-                    l = this%qloc(k, j)
-                    if (l > 0) this%tk(l) = this%tk(l) - this%ua(k, j) * this%zs(j)
-                end do
-            end do
-        end subroutine woodbury
-    end subroutine implicit_step
+        end do
+    end subroutine woodbury
+
+    !> y(i) = u(idx(i)): a vector on the contact-cell dofs.
+    pure subroutine gather(u, idx, y)
+        real(dp), intent(in) :: u(:)                        !! vector
+        integer, intent(in) :: idx(:)                       !! dofs
+        real(dp), intent(out) :: y(:)                       !! (size(idx)) its values there
+        integer :: i
+        do i = 1, size(idx)
+            y(i) = u(idx(i))
+        end do
+    end subroutine gather
 
     !> y <- y + sum_l t(l) a(:, l) over the l with t(l) /= 0, column after column (the
     !> same order for W and the rows of Z, so both give the same numbers on shared rows).
