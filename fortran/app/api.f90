@@ -302,18 +302,20 @@ subroutine dc_p1_element(dim, x, young, poisson, density, ke, me, ml)
     call p1_mass(dim, x(1:dim, 1:dim + 1), density, .true., ml(1:n, 1:n))
 end subroutine dc_p1_element
 
-!> Sizes of a mesh: a .msh file (path /= '') or the built-in bar (dim, length, width, h).
-subroutine dc_mesh_sizes(path, bar_dim, length, width, h, dim, n_nodes, n_cells, n_facets, &
-                         n_groups, stat, errmsg)
+!> Sizes of a mesh: a mesh file (path /= '') or the built-in bar (dim, length, width, h).
+!> checked = 0: a file's mesh is read without mesh_check (reader-level use, 3D meshes).
+subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, dim, n_nodes, n_cells, &
+                         n_facets, n_groups, stat, errmsg)
     use iso_c_binding, only: c_int, c_double
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load
     implicit none
-    character(len=*), intent(in) :: path         !! .msh file, '' = built-in bar
+    character(len=*), intent(in) :: path         !! .msh/.geo file, '' = built-in bar
     integer(c_int), intent(in) :: bar_dim        !! built-in bar dimension
     real(c_double), intent(in) :: length         !! built-in bar length
     real(c_double), intent(in) :: width          !! built-in bar width
     real(c_double), intent(in) :: h              !! built-in bar mesh size
+    integer(c_int), intent(in) :: checked        !! 0: no mesh_check of a file's mesh
     integer(c_int), intent(out) :: dim           !! mesh dimension
     integer(c_int), intent(out) :: n_nodes       !! nodes
     integer(c_int), intent(out) :: n_cells       !! cells
@@ -324,25 +326,26 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, dim, n_nodes, n_cells,
     type(mesh_t) :: msh
     integer :: st
     errmsg = ''
-    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg)
+    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg, checked /= 0)
     stat = st
     dim = msh%dim; n_nodes = msh%n_nodes; n_cells = msh%n_cells
     n_facets = msh%n_facets; n_groups = msh%n_groups
 end subroutine dc_mesh_sizes
 
 !> Arrays of a mesh (sizes from dc_mesh_sizes). Group names are joined by ','.
-subroutine dc_mesh_arrays(path, bar_dim, length, width, h, dim, n_nodes, n_cells, n_facets, &
-                          n_groups, x, cells, cell_group, facets, facet_group, group_dim, &
+subroutine dc_mesh_arrays(path, bar_dim, length, width, h, checked, dim, n_nodes, n_cells, &
+                          n_facets, n_groups, x, cells, cell_group, facets, facet_group, group_dim, &
                           group_names, stat, errmsg)
     use iso_c_binding, only: c_int, c_double
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load
     implicit none
-    character(len=*), intent(in) :: path         !! .msh file, '' = built-in bar
+    character(len=*), intent(in) :: path         !! .msh/.geo file, '' = built-in bar
     integer(c_int), intent(in) :: bar_dim        !! built-in bar dimension
     real(c_double), intent(in) :: length         !! built-in bar length
     real(c_double), intent(in) :: width          !! built-in bar width
     real(c_double), intent(in) :: h              !! built-in bar mesh size
+    integer(c_int), intent(in) :: checked        !! 0: no mesh_check of a file's mesh
     integer(c_int), intent(in) :: dim            !! mesh dimension
     integer(c_int), intent(in) :: n_nodes        !! nodes
     integer(c_int), intent(in) :: n_cells        !! cells
@@ -362,7 +365,7 @@ subroutine dc_mesh_arrays(path, bar_dim, length, width, h, dim, n_nodes, n_cells
     errmsg = ''
     group_names = ''
     x = 0; cells = 0; cell_group = 0; facets = 0; facet_group = 0; group_dim = 0
-    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg)
+    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg, checked /= 0)
     stat = st
     if (st /= 0) return
     if (msh%dim /= dim .or. msh%n_nodes /= n_nodes .or. msh%n_cells /= n_cells .or. &
