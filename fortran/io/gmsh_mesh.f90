@@ -97,7 +97,7 @@ contains
         real(dp), allocatable :: xyz(:, :)
         character(kind=c_char), allocatable :: names(:)
         logical :: exists, is_dir
-        integer :: ios, ist
+        integer :: ios, ist, nbytes
 
         stat = STAT_OK
         p = trim(path)
@@ -113,6 +113,11 @@ contains
         inquire (file=p//'/.', exist=is_dir, iostat=ios)
         if (ios == 0 .and. is_dir) then
             call raise(stat, errmsg, STAT_BAD_INPUT, p//': is a folder, not a mesh file')
+            return
+        end if
+        inquire (file=p, size=nbytes, iostat=ios)
+        if (ios == 0 .and. nbytes == 0) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, p//': file is empty')
             return
         end if
         ext = lower(extension(p))

@@ -2,8 +2,9 @@
  *
  * libgmsh is large (about 90 MB): it is dlopen()ed by the first call that names a mesh
  * file, never at start-up, so a run on a built-in mesh does not map it. Where it is looked
- * for, in order: $DYNCONTACT_GMSH_LIB, the library found by meson at build time
- * (DC_GMSH_LIB), then the dynamic loader's own search (libgmsh.so.<version>, libgmsh.so).
+ * for: $DYNCONTACT_GMSH_LIB alone when it is set; otherwise the library found by meson at
+ * build time (DC_GMSH_LIB), then the dynamic loader's own search (libgmsh.so.<version>,
+ * libgmsh.so).
  * A build without gmshc.h (DC_HAVE_GMSHC undefined) still compiles: every call then reports
  * that mesh files need gmsh.
  *
@@ -113,12 +114,15 @@ static int gmsh_load(void)
     int n = 0, i;
     if (G.lib) return 1;
     const char *env = getenv("DYNCONTACT_GMSH_LIB");
-    if (env && *env) candidates[n++] = env;
-    if (*DC_GMSH_LIB) candidates[n++] = DC_GMSH_LIB;
+    if (env && *env) {
+        candidates[n++] = env;
+    } else {
+        if (*DC_GMSH_LIB) candidates[n++] = DC_GMSH_LIB;
 #ifdef DC_GMSH_SOVERSION
-    candidates[n++] = "libgmsh.so." DC_GMSH_SOVERSION;
+        candidates[n++] = "libgmsh.so." DC_GMSH_SOVERSION;
 #endif
-    candidates[n++] = "libgmsh.so";
+        candidates[n++] = "libgmsh.so";
+    }
     load_error[0] = '\0';
     for (i = 0; i < n && !G.lib; i++) {
         G.lib = dlopen(candidates[i], RTLD_NOW | RTLD_LOCAL);
@@ -165,8 +169,8 @@ static void gmsh_error(const char *path, const char *what, char *msg, int msglen
     char buf[1024];
     snprintf(buf, sizeof buf, ": %s: %s", what,
              (ierr == 0 && err && *err) ? err : "gmsh failed without a message");
-    /* one line */
-    for (char *p = buf; *p; p++) if (*p == '\n' || *p == '\r') *p = ' ';
+    /* one line of printable text */
+    for (char *p = buf; *p; p++) if ((unsigned char)*p < 0x20 || *p == 0x7f) *p = ' ';
     set_msg(msg, msglen, path, buf, NULL);
     if (err) G.free(err);
 }
