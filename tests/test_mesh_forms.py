@@ -293,3 +293,24 @@ def test_reading_keeps_callers_gmsh_session(core_ext):
     finally:
         gmsh.finalize()
     assert m.dim == 2 and len(m.cells) > 0
+
+
+def test_gmsh_prints_nothing(run_exe, tmp_path, capfd, core_ext):
+    """A run on a .geo prints only its own lines; a read from Python prints nothing."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(f"&mesh file = '{ROOT / 'meshes' / 'disk.geo'}' /\n"
+                     "&boundary clamped = 'top', contact = 'bottom' /\n"
+                     "&contact probe = 0.0, 0.01 /\n&initial amplitude = 0.05 /\n"
+                     "&scheme t_end = 0.01 /\n&output dir = 'out' /\n")
+    r = run_exe(scene)
+    assert r.returncode == 0, r.stderr
+    lines = (r.stdout + r.stderr).strip().split("\n")
+    assert len(lines) == 2 and all(s.startswith("dyncontact: ") for s in lines), lines
+    capfd.readouterr()
+    mesh_io.read_mesh(ROOT / "meshes" / "disk.geo", h=0.05)
+    bad = tmp_path / "bad.geo"
+    bad.write_text("Point(1) = {0, 0, 0};\nLine(1) = {1, 7};\n")
+    with pytest.raises(BadInputError):
+        mesh_io.read_mesh(bad)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
