@@ -50,6 +50,8 @@ typedef struct {
 
 #define NO_GMSH_MSG "mesh files need gmsh (libgmsh): install it with `pip install gmsh` " \
     "(scripts/setup does) and rebuild, or set DYNCONTACT_GMSH_LIB to the path of libgmsh.so"
+#define NO_GMSH_BUILD_MSG "mesh files need gmsh, and this build has none: install it with " \
+    "`pip install gmsh` (scripts/setup does), then rebuild (meson finds it in the venv)"
 
 static void set_msg(char *msg, int len, const char *a, const char *b, const char *c)
 {
@@ -65,13 +67,17 @@ void dc_gmsh_build_lib(char *out, int len)
 
 #ifndef DC_HAVE_GMSHC
 
-int dc_gmsh_available(char *msg, int msglen) { set_msg(msg, msglen, NO_GMSH_MSG, 0, 0); return 0; }
+int dc_gmsh_available(char *msg, int msglen)
+{
+    set_msg(msg, msglen, NO_GMSH_BUILD_MSG, 0, 0);
+    return 0;
+}
 
 int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
                  char *msg, int msglen)
 {
     (void)params; (void)is_geo; *out = NULL;
-    set_msg(msg, msglen, path, ": ", NO_GMSH_MSG);
+    set_msg(msg, msglen, path, ": ", NO_GMSH_BUILD_MSG);
     return 2;
 }
 
