@@ -45,7 +45,8 @@ def _msg(errmsg) -> str:
 
 def fortran_sizes(core_ext, path) -> tuple[int, str]:
     """stat and message of the Fortran reader on `path`."""
-    *_, stat, errmsg = core_ext.dc_mesh_sizes(str(path), 2, 1.0, 0.1, 0.05, 1)
+    handle, *_, stat, errmsg = core_ext.dc_mesh_sizes(str(path), 2, 1.0, 0.1, 0.05, 1)
+    core_ext.dc_mesh_free(handle)
     return int(stat), _msg(errmsg)
 
 
@@ -370,7 +371,8 @@ def test_builtin_bar_1d_equals_gmsh_line(core_ext, generated):
 ])
 def test_builtin_bar_errors(core_ext, args, fragment):
     dim, length, width, h = args
-    *_, stat, errmsg = core_ext.dc_mesh_sizes("", dim, length, width, h, 1)
+    handle, *_, stat, errmsg = core_ext.dc_mesh_sizes("", dim, length, width, h, 1)
+    core_ext.dc_mesh_free(handle)
     assert int(stat) == STAT_BAD_INPUT
     assert fragment in _msg(errmsg)
     with pytest.raises(BadInputError, match="built-in bar"):

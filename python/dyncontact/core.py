@@ -382,13 +382,11 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
     """
     core = _core()
     p = _fpath(path, "mesh file")
-    dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(p, int(dim), float(length),
-                                                            float(width), float(h),
-                                                            int(bool(check)))
+    handle, dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(
+        p, int(dim), float(length), float(width), float(h), int(bool(check)))
     _check(stat, errmsg, "reading the mesh")
     (x, cells, cell_group, facets, facet_group, group_dim, names, stat,
-     errmsg) = core.dc_mesh_arrays(p, int(dim), float(length), float(width), float(h),
-                                   int(bool(check)), dim_, nn, nc, nf, ng)
+     errmsg) = core.dc_mesh_arrays(handle, dim_, nn, nc, nf, ng)
     _check(stat, errmsg, "reading the mesh")
     group_names = [s for s in _str(names).split(",")] if ng else []
     return {
