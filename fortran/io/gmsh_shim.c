@@ -267,7 +267,7 @@ static int find_tag(const size_t *sorted, size_t n, size_t tag)
     return (lo < n && sorted[lo] == tag) ? (int)lo + 1 : 0;
 }
 
-/* Number of nodes of a P1 simplex of dimension d: its gmsh element type. */
+/* gmsh element type of the linear simplex of dimension d (point, segment, triangle, tet). */
 static int simplex_type(int d) { static const int t[4] = {15, 1, 2, 4}; return t[d]; }
 
 static const char *dim_noun(int d)
@@ -336,7 +336,7 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
     int n_groups = 0;
     char *names = NULL;
     size_t names_len = 0;
-    size_t *node_tags = NULL, n_node_tags = 0, *sorted = NULL, *order = NULL;
+    size_t *node_tags = NULL, n_node_tags = 0, *sorted = NULL;
     double *coord = NULL, *param = NULL;
     size_t n_coord = 0, n_param = 0;
     int *ents[4] = {0};
@@ -428,7 +428,9 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
     }
     if (st == 0) {
         sorted = malloc((n_node_tags + 1) * sizeof *sorted);
-        order = malloc((n_node_tags + 1) * sizeof *order);
+        if (!sorted) st = 4;
+    }
+    if (st == 0) {
         for (i = 0; i < n_node_tags; i++) sorted[i] = node_tags[i];
         qsort(sorted, n_node_tags, sizeof *sorted, cmp_size);
         for (i = 1; i < n_node_tags; i++)
@@ -542,7 +544,7 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
     for (int g = 0; g < n_groups; g++) m->group_dim[g] = groups[g].dim;
     m->group_names = names;
     free(groups);
-    free(sorted); free(order);
+    free(sorted);
     if (node_tags) G.free(node_tags);
     if (coord) G.free(coord);
     if (param) G.free(param);
