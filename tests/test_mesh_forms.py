@@ -103,6 +103,7 @@ def test_getfem3d_read_as_file(core_ext):
     e = m.x[m.cells[:, 1:]] - m.x[m.cells[:, :1]]
     vol = np.linalg.det(e) / 6
     assert np.all(np.abs(vol) > 0)
+    assert np.any(vol > 0) and np.any(vol < 0)     # kept in GetFEM's node order
     np.testing.assert_allclose(np.abs(vol).sum(), 0.1 * 0.1 * 1.0, rtol=1e-12)
 
 
@@ -151,6 +152,20 @@ def test_every_form_same_trace(core_ext, forms, tmp_path, name, probe, amp):
         for k in first:
             np.testing.assert_allclose(tr[k], first[k], rtol=1e-10, atol=1e-13,
                                        err_msg=f"{name} {form}: {k}")
+
+
+def test_mesh_command_any_geo(run_cli, tmp_path):
+    """`python -m dyncontact mesh --geo` meshes any .geo, in the form asked for."""
+    r = run_cli("mesh", "--geo", ROOT / "meshes" / "disk.geo", "--h", "0.02", "--out", "d.msh",
+                "--binary", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "triangles; groups bottom" in r.stdout
+    head = (tmp_path / "d.msh").read_bytes()[:40]
+    assert head.startswith(b"$MeshFormat\n4.1 1 8\n")
+    same_mesh(mesh_io.read_mesh(tmp_path / "d.msh"),
+              mesh_io.read_mesh(ROOT / "meshes" / "disk.geo", h=0.02), "mesh command")
+    r = run_cli("mesh", "--geo", tmp_path / "none.geo", "--out", "x.msh", cwd=tmp_path)
+    assert r.returncode == 2 and "none.geo: no such file" in r.stderr
 
 
 # --------------------------------------------------------------------------- bad input
