@@ -390,8 +390,11 @@ def _scene_attr_output_dir(scene) -> str | None:
 # --------------------------------------------------------------------------- helpers
 
 def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0,
-              width: float = 0.1, h: float = 0.05) -> dict[str, Any]:
-    """A mesh as the Fortran core reads it: a .msh file, or the built-in bar (path '').
+              width: float = 0.1, h: float = 0.05, check: bool = True) -> dict[str, Any]:
+    """A mesh as the Fortran core reads it: a mesh file (.msh in any version gmsh reads,
+    or .geo meshed with the parameters h, length, width), or the built-in bar (path '').
+    ``check=False`` skips the core's mesh checks of a file's mesh (reader level: meshes
+    the model does not take, such as tetrahedra).
 
     Returns a dict with 0-based indices: ``x`` (n_nodes, dim), ``cells`` (n_cells, dim+1),
     ``cell_group`` (n_cells; -1 = none), ``facets`` (n_facets, dim), ``facet_group``
@@ -399,12 +402,11 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
     """
     core = _core()
     p = _fpath(path, "mesh file")
-    dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(p, int(dim), float(length),
-                                                            float(width), float(h))
+    handle, dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(
+        p, int(dim), float(length), float(width), float(h), int(bool(check)))
     _check(stat, errmsg, "reading the mesh")
     (x, cells, cell_group, facets, facet_group, group_dim, names, stat,
-     errmsg) = core.dc_mesh_arrays(p, int(dim), float(length), float(width), float(h),
-                                   dim_, nn, nc, nf, ng)
+     errmsg) = core.dc_mesh_arrays(handle, dim_, nn, nc, nf, ng)
     _check(stat, errmsg, "reading the mesh")
     group_names = [s for s in _str(names).split(",")] if ng else []
     return {
