@@ -260,8 +260,8 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: penalty            !! penalty contact (default .false.)
-        integer :: dim, nf, f, c, j, a, kk, nloc, ndof_e, i, cnt
-        integer, allocatable :: first(:), adj(:), mark(:)
+        integer :: dim, nf, f, c, j, a, kk, nloc, ndof_e, i
+        integer, allocatable :: first(:), adj(:)
         real(dp) :: grad(msh%dim, msh%dim + 1), xe(msh%dim, msh%dim + 1), gn, xq(6), e1(3), e2(3)
         stat = STAT_OK
         dim = msh%dim
@@ -285,24 +285,7 @@ contains
         allocate (ct%cell(nf), ct%nodes(dim, nf), ct%dofs(ndof_e, nf), ct%s(ndof_e, nf), &
                   ct%nvec(ndof_e, dim, nf), ct%gap(dim, nf), ct%gamma(nf), ct%measure(nf), &
                   ct%cloc(ndof_e, nf))
-        ! node -> cells adjacency (CSR)
-        allocate (first(msh%n_nodes + 1), adj(msh%n_cells * (dim + 1)))
-        first = 0
-        do c = 1, msh%n_cells
-            first(msh%cells(:, c) + 1) = first(msh%cells(:, c) + 1) + 1
-        end do
-        first(1) = 1
-        do i = 2, msh%n_nodes + 1
-            first(i) = first(i) + first(i - 1)
-        end do
-        allocate (mark(msh%n_nodes + 1))
-        mark = first
-        do c = 1, msh%n_cells
-            do a = 1, dim + 1
-                adj(mark(msh%cells(a, c))) = c
-                mark(msh%cells(a, c)) = mark(msh%cells(a, c)) + 1
-            end do
-        end do
+        call node_cells(msh, first, adj)
         do f = 1, nf
             ct%nodes(:, f) = msh%facets(:, facets(f))
             ct%cell(f) = 0
@@ -354,13 +337,53 @@ contains
                 ct%gap(j, f) = dot_product(point(1:dim) - msh%x(:, ct%nodes(j, f)), normal(1:dim))
             end do
         end do
-        ! distinct free dofs of the owner cells
-        deallocate (mark)
-        allocate (mark(maxval([0, dof])))
+        call number_contact_dofs(ct, maxval([0, dof]))
+        if (present(penalty)) then
+            if (penalty) then
+                ct%s = 0.0_dp
+                ct%theta = 0
+            end if
+        end if
+    end subroutine contact_init
+
+    !> Node -> cells adjacency in CSR form: the cells of node i are
+    !> adj(first(i):first(i + 1) - 1), in increasing order.
+    pure subroutine node_cells(msh, first, adj)
+        type(mesh_t), intent(in) :: msh                     !! mesh
+        integer, allocatable, intent(out) :: first(:)       !! (n_nodes + 1) row starts
+        integer, allocatable, intent(out) :: adj(:)         !! cells, node by node
+        integer, allocatable :: next(:)
+        integer :: c, a, i
+        allocate (first(msh%n_nodes + 1), adj(msh%n_cells * (msh%dim + 1)))
+        first = 0
+        do c = 1, msh%n_cells
+            first(msh%cells(:, c) + 1) = first(msh%cells(:, c) + 1) + 1
+        end do
+        first(1) = 1
+        do i = 2, msh%n_nodes + 1
+            first(i) = first(i) + first(i - 1)
+        end do
+        next = first
+        do c = 1, msh%n_cells
+            do a = 1, msh%dim + 1
+                adj(next(msh%cells(a, c))) = c
+                next(msh%cells(a, c)) = next(msh%cells(a, c)) + 1
+            end do
+        end do
+    end subroutine node_cells
+
+    !> The distinct free dofs of the contact facets' owner cells, numbered in order of
+    !> first appearance (ct%m, ct%cdofs), and each facet dof's place among them (ct%cloc).
+    pure subroutine number_contact_dofs(ct, n_dofs)
+        type(contact_t), intent(inout) :: ct                !! contact data (dofs set)
+        integer, intent(in) :: n_dofs                       !! number of free dofs
+        integer, allocatable :: mark(:)
+        integer :: f, i, j, cnt
+        allocate (mark(n_dofs))
         mark = 0
         cnt = 0
-        do f = 1, nf
-            do i = 1, ndof_e
+        do f = 1, ct%n_facets
+            do i = 1, ct%ndof_e
                 j = ct%dofs(i, f)
                 if (j == 0) cycle
                 if (mark(j) == 0) then
@@ -374,19 +397,13 @@ contains
         do j = 1, size(mark)
             if (mark(j) > 0) ct%cdofs(mark(j)) = j
         end do
-        do f = 1, nf
-            do i = 1, ndof_e
+        do f = 1, ct%n_facets
+            do i = 1, ct%ndof_e
                 ct%cloc(i, f) = 0
                 if (ct%dofs(i, f) > 0) ct%cloc(i, f) = mark(ct%dofs(i, f))
             end do
         end do
-        if (present(penalty)) then
-            if (penalty) then
-                ct%s = 0.0_dp
-                ct%theta = 0
-            end if
-        end if
-    end subroutine contact_init
+    end subroutine number_contact_dofs
 
     !> Add the nonlinear contact part of B(u) to r (free dofs); count active points;
     !> e_pen = int [P]_-^2/(2 gamma); e_theta = sum theta |F| sigma_n^2/(2 gamma).
