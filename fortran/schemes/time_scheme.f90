@@ -1,6 +1,6 @@
 !> The state advanced by time schemes and the abstract scheme interface.
 module time_scheme
-    use kinds, only: dp
+    use kinds, only: dp, i8
     use model, only: model_t, model_eval_b
     implicit none
     private
@@ -56,6 +56,7 @@ module time_scheme
         procedure(scheme_free), deferred :: free
         procedure(scheme_solver), deferred :: solver
         procedure(scheme_solver), deferred :: kernel
+        procedure :: factor_info => scheme_factor_info
     end type time_scheme_t
 
     abstract interface
@@ -99,6 +100,17 @@ module time_scheme
     public :: state_eval, scheme_kind
 
 contains
+
+    !> The fill-reducing ordering and the stored entries of the factors of the scheme's
+    !> sparse systems ('' and 0 when the scheme has no sparse factor of its own; the
+    !> implicit schemes report J0's).
+    subroutine scheme_factor_info(this, ordering, nnz)
+        class(time_scheme_t), intent(in) :: this            !! scheme
+        character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
+        integer(i8), intent(out) :: nnz                     !! stored entries of the factor
+        ordering = ''
+        nnz = 0
+    end subroutine scheme_factor_info
 
     !> The kind of the scheme called `name` (&scheme name); 0 if there is none.
     pure function scheme_kind(name) result(kind)
