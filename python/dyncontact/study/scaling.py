@@ -4,9 +4,9 @@ For each mesh size h of the seed's strip (hht, Δt = 0.0005) the executable is r
 user runs it, once with 0 steps (the set-up) and once with ``steps`` steps; each child's
 CPU time (user + system: the machine is shared, the wall time would count the other
 processes) and peak resident memory (/usr/bin/time's max RSS) are recorded. The loop's
-time per step is the CPU time of the steps of one open run (:class:`dyncontact.Stepper`,
+time per step is the CPU time of the steps of one open run (:class:`dyncontact.core.Stepper`,
 the set-up left out), and the floors (one triangular solve of the factor the run uses,
-one SpMV with K_θ) are measured on that run (:meth:`dyncontact.Stepper.floors`).
+one SpMV with K_θ) are measured on that run (:meth:`dyncontact.core.Stepper.floors`).
 summary.json gives the sizes: the dofs, the stored entries of one matrix (``matrix_nnz``)
 and of the factor (``factor_nnz``), and the ordering and kernel of the factorization.
 Each size is also run without a contact boundary, which separates the contact
@@ -136,7 +136,7 @@ def _loop_and_floors(scene: str, out: str, steps: int, repeats: int, dofs: int,
     """(ms per step, floors) on one open run: the CPU time of ``repeats`` stretches of
     steps // repeats steps (the smallest kept: the set-up is not in it, and a stretch
     slowed down by the other processes on the machine is dropped), then the floors
-    measured on the same run's factors (:meth:`dyncontact.Stepper.floors`)."""
+    measured on the same run's factors (:meth:`dyncontact.core.Stepper.floors`)."""
     from ..core import Stepper
 
     old = {k: os.environ.get(k) for k in (env or {})}
@@ -241,7 +241,8 @@ def _plot(out: str, rows) -> None:
     for ax, title in ((axes[0], "time"), (axes[1], "memory")):
         ax.set_xlabel("dofs")
         ax.set_title(f"2D strip, hht, dt = {DT:g}: {title}")
-        ax.legend(fontsize=6)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=6)
         ax.grid(True, which="both", alpha=0.3)
     save_figure(fig, os.path.join(out, "scaling.png"))
 
