@@ -22,7 +22,8 @@ module cholmod
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
     use sparse, only: csc_t
-    use ldl_solves, only: pair_ldl_t, pair_ldl_build, pair_ldl_solve, pair_ldl_free
+    use ldl_solves, only: pair_ldl_t, pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, &
+                          pair_ldl_free
     implicit none
     private
 
@@ -299,8 +300,8 @@ contains
         end if
     end subroutine solve_one
 
-    !> Solve A X = B for all columns of B: column after column with the block factors,
-    !> else in one cholmod_solve2 call.
+    !> Solve A X = B for all columns of B: in one pass over the block factors for all
+    !> columns (pair_ldl_solve_many), else in one cholmod_solve2 call.
     subroutine chol_solve_many(ch, b, x, stat, errmsg)
         type(cholmod_t), intent(inout) :: ch                !! factors
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)
@@ -318,12 +319,7 @@ contains
         stat = STAT_OK
         if (size(b, 2) == 0) return
         if (ch%pairs%n > 0) then
-            block
-                integer :: j
-                do j = 1, size(b, 2)
-                    call pair_ldl_solve(ch%pairs, b(:, j), x(:, j))
-                end do
-            end block
+            call pair_ldl_solve_many(ch%pairs, b, x)
             return
         end if
         if (dc_cholmod_solve(ch%handle, int(size(b, 2), c_int), b, x) /= DC_OK) &

@@ -56,7 +56,7 @@ module time_scheme
         procedure(scheme_free), deferred :: free
         procedure(scheme_solver), deferred :: solver
         procedure(scheme_solver), deferred :: kernel
-        procedure :: factor_info => scheme_factor_info
+        procedure(scheme_factor_info), deferred :: factor_info
     end type time_scheme_t
 
     abstract interface
@@ -95,22 +95,21 @@ module time_scheme
             class(time_scheme_t), intent(in) :: this            !! scheme
             character(len=:), allocatable :: name
         end function scheme_solver
+
+        !> The fill-reducing ordering and the stored entries of the factor of the
+        !> scheme's sparse systems (J0 for the implicit schemes, M for the explicit ones;
+        !> '' and 0 without a sparse factor, e.g. a lumped mass).
+        subroutine scheme_factor_info(this, ordering, nnz)
+            import :: time_scheme_t, i8
+            class(time_scheme_t), intent(in) :: this                !! scheme
+            character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
+            integer(i8), intent(out) :: nnz                         !! stored entries
+        end subroutine scheme_factor_info
     end interface
 
     public :: state_eval, scheme_kind
 
 contains
-
-    !> The fill-reducing ordering and the stored entries of the factors of the scheme's
-    !> sparse systems ('' and 0 when the scheme has no sparse factor of its own; the
-    !> implicit schemes report J0's).
-    subroutine scheme_factor_info(this, ordering, nnz)
-        class(time_scheme_t), intent(in) :: this            !! scheme
-        character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
-        integer(i8), intent(out) :: nnz                     !! stored entries of the factor
-        ordering = ''
-        nnz = 0
-    end subroutine scheme_factor_info
 
     !> The kind of the scheme called `name` (&scheme name); 0 if there is none.
     pure function scheme_kind(name) result(kind)
