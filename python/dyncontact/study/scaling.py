@@ -15,7 +15,7 @@ machinery's memory from the rest.
 Writes ``scaling.csv``, ``scaling.png`` (log-log, with fitted slopes) and ``scaling.md``
 into the output folder. The memory model the table reports, ``model_mb``, is
 4 matrices (M, K, K_θ, J0 = M + c K_θ; 8-byte values and 4-byte rows) plus one factor
-(8-byte values, 4-byte rows): the issue's target is peak ≤ 1.5 × that.
+(8-byte values, 4-byte rows): the target is peak ≤ 1.5 × that (docs/performance.md, "Scaling").
 
     python -m dyncontact.study.scaling --out out/scaling [--large] [--steps N]
 """
