@@ -876,12 +876,15 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: last               !! the final one: rewrite in place if need be
         integer :: its, facts
-        integer(i8) :: clock
-        character(len=:), allocatable :: text, dt_crit_line
+        integer(i8) :: clock, fnnz
+        character(len=:), allocatable :: text, dt_crit_line, ordering
         character(len=1), parameter :: nl = new_line('a')
         call system_clock(clock)
         its = 0; facts = 0
         dt_crit_line = ''
+        ordering = ''
+        fnnz = 0
+        if (allocated(sim%scheme)) call sim%scheme%factor_info(ordering, fnnz)
         if (allocated(sim%scheme)) then
             its = sim%scheme%newton_total
             facts = sim%scheme%factorizations
@@ -905,6 +908,9 @@ contains
                dt_crit_line// &
                '  "solver": '//json_string(sim_solver(sim))//','//nl// &
                '  "solve_kernel": '//json_string(sim_kernel(sim))//','//nl// &
+               '  "ordering": '//json_string(ordering)//','//nl// &
+               '  "factor_nnz": '//int_text(fnnz)//','//nl// &
+               '  "matrix_nnz": '//int_text(int(sim%mdl%mass%nnz, i8))//','//nl// &
                '  "scene": '//scene_to_json(sim%scn)//','//nl// &
                '  "version": '//json_string(DYNCONTACT_VERSION)//','//nl// &
                '  "isa": '//json_string(DYNCONTACT_ISA)//nl//'}'//nl

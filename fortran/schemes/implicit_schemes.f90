@@ -32,12 +32,13 @@
 !> entry exceeds ZDROP max|Z| (J0^{-1} decays geometrically away from Gamma_C); the
 !> dropped part of Z T is below 1e-20 of the correction, far under round-off.
 module implicit_schemes
-    use kinds, only: dp
+    use kinds, only: dp, i8
     use vector_ops, only: dot
     use text, only: int_text, real_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, &
+                             ls_factor_info
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
@@ -105,6 +106,7 @@ module implicit_schemes
         procedure :: kernel => implicit_kernel
         procedure :: save => implicit_save
         procedure :: load => implicit_load
+        procedure :: factor_info => implicit_factor_info
     end type implicit_scheme_t
 
 contains
@@ -119,9 +121,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         type(mass_solver_t) :: ms
-        integer :: n, j, rmax
-        real(dp) :: zmax
-        real(dp), allocatable :: e(:, :), zfull(:, :)
+        integer :: n, rmax
         n = mdl%n_dofs
         this%dt = prm%dt
         this%tol = prm%newton_tol
@@ -182,26 +182,79 @@ contains
                   this%piv(rmax), this%tvec(this%m), &
                   this%cx(this%m), this%cold(this%m), this%rho(this%m), this%xbase(this%m), &
                   this%xc(this%m), this%dxc(this%m), this%yc(this%m), this%tk(this%m), &
-                  this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)), &
-                  e(n, this%m), zfull(n, this%m))
+                  this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)))
         this%scratch = 0.0_dp
-        ! Z = J0^{-1} P^T: one solve per contact-cell dof
-        e = 0.0_dp
-        do j = 1, this%m
-            e(mdl%ct%cdofs(j), j) = 1.0_dp
-        end do
-        call ls_solve_many(this%lu0, this%jac0, e, zfull, stat, errmsg)
-        if (stat /= STAT_OK) return
         if (this%m > 0) then
-            this%w = zfull(mdl%ct%cdofs, :)
-            zmax = maxval(abs(zfull))
-            this%zrows = pack([(j, j = 1, n)], maxval(abs(zfull), dim=2) > ZDROP * zmax)
+            call woodbury_z(this, mdl%ct%cdofs, stat, errmsg)
+            if (stat /= STAT_OK) return
         else
-            allocate (this%zrows(0))
+            allocate (this%zrows(0), this%z(0, 0), this%xz(0))
         end if
-        this%z = zfull(this%zrows, :)
-        allocate (this%xz(size(this%zrows)))
     end subroutine implicit_init
+
+    !> Z = J0^{-1} P^T on its kept rows (ZDROP) and W = P Z, solved ZCHUNK columns at a
+    !> time, so that no dense n x m block is ever held (at 129 600 dofs and m = 324
+    !> contact-cell dofs one such block is 336 MB). Each chunk keeps the rows where
+    !> its largest entry exceeds ZDROP times its own largest entry, and every row's
+    !> largest entry; the rows kept are those whose largest entry exceeds ZDROP max|Z|,
+    !> as if Z were held whole. A kept row's entries in a chunk that did not keep it are
+    !> at most ZDROP max|Z| and are set to 0 (below round-off in Z T, like the rows dropped).
+    subroutine woodbury_z(this, cdofs, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (lu0 factorized, m set)
+        integer, intent(in) :: cdofs(:)                     !! (m >= 1) the contact-cell dofs
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer, parameter :: ZCHUNK = 16
+        type :: part_t
+            integer, allocatable :: rows(:)                 ! rows this chunk keeps
+            real(dp), allocatable :: val(:, :)              ! its columns on them
+        end type part_t
+        type(part_t), allocatable :: parts(:)
+        real(dp), allocatable :: e(:, :), zb(:, :), rowmax(:)
+        integer, allocatable :: pos(:)
+        real(dp) :: zmax, cmax
+        integer :: n, m, k, j0, nb, j, i
+        n = this%jac0%n
+        m = this%m
+        stat = STAT_OK
+        allocate (parts((m + ZCHUNK - 1) / ZCHUNK), rowmax(n), e(n, min(m, ZCHUNK)), &
+                  zb(n, min(m, ZCHUNK)))
+        rowmax = 0.0_dp
+        zmax = 0.0_dp
+        do k = 1, size(parts)
+            j0 = (k - 1) * ZCHUNK
+            nb = min(ZCHUNK, m - j0)
+            e = 0.0_dp
+            do j = 1, nb
+                e(cdofs(j0 + j), j) = 1.0_dp
+            end do
+            call ls_solve_many(this%lu0, this%jac0, e(:, 1:nb), zb(:, 1:nb), stat, errmsg)
+            if (stat /= STAT_OK) return
+            this%w(:, j0 + 1:j0 + nb) = zb(cdofs, 1:nb)
+            cmax = 0.0_dp
+            do i = 1, n
+                rowmax(i) = max(rowmax(i), maxval(abs(zb(i, 1:nb))))
+                cmax = max(cmax, maxval(abs(zb(i, 1:nb))))
+            end do
+            zmax = max(zmax, cmax)
+            parts(k)%rows = pack([(i, i = 1, n)], maxval(abs(zb(:, 1:nb)), dim=2) > ZDROP * cmax)
+            parts(k)%val = zb(parts(k)%rows, 1:nb)
+        end do
+        deallocate (e, zb)
+        this%zrows = pack([(i, i = 1, n)], rowmax > ZDROP * zmax)
+        allocate (pos(n), this%z(size(this%zrows), m), this%xz(size(this%zrows)))
+        pos = 0
+        pos(this%zrows) = [(i, i = 1, size(this%zrows))]
+        this%z = 0.0_dp
+        do k = 1, size(parts)
+            j0 = (k - 1) * ZCHUNK
+            nb = size(parts(k)%val, 2)
+            do i = 1, size(parts(k)%rows)
+                if (pos(parts(k)%rows(i)) > 0) &
+                    this%z(pos(parts(k)%rows(i)), j0 + 1:j0 + nb) = parts(k)%val(i, :)
+            end do
+        end do
+    end subroutine woodbury_z
 
     !> Release the factors of J0.
     subroutine implicit_free(this)
@@ -262,6 +315,14 @@ contains
         character(len=:), allocatable :: name
         name = ls_kernel(this%lu0)
     end function implicit_kernel
+
+    !> The ordering and the stored entries of the J0 factors.
+    subroutine implicit_factor_info(this, ordering, nnz)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
+        integer(i8), intent(out) :: nnz                     !! stored entries of the factor
+        call ls_factor_info(this%lu0, ordering, nnz)
+    end subroutine implicit_factor_info
 
     !> One step: semi-smooth Newton from x = u^n. u~ and M (u^n - u~) were formed at
     !> the end of the previous step (or in init). The first iteration solves with J0

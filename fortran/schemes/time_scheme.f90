@@ -1,6 +1,6 @@
 !> The state advanced by time schemes and the abstract scheme interface.
 module time_scheme
-    use kinds, only: dp
+    use kinds, only: dp, i8
     use model, only: model_t, model_eval_b
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     implicit none
@@ -60,6 +60,7 @@ module time_scheme
         procedure(scheme_solver), deferred :: kernel
         procedure :: save => scheme_save_none
         procedure :: load => scheme_load_none
+        procedure(scheme_factor_info), deferred :: factor_info
     end type time_scheme_t
 
     abstract interface
@@ -98,6 +99,16 @@ module time_scheme
             class(time_scheme_t), intent(in) :: this            !! scheme
             character(len=:), allocatable :: name
         end function scheme_solver
+
+        !> The fill-reducing ordering and the stored entries of the factor of the
+        !> scheme's sparse systems (J0 for the implicit schemes, M for the explicit ones;
+        !> '' and 0 without a sparse factor, e.g. a lumped mass).
+        subroutine scheme_factor_info(this, ordering, nnz)
+            import :: time_scheme_t, i8
+            class(time_scheme_t), intent(in) :: this                !! scheme
+            character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
+            integer(i8), intent(out) :: nnz                         !! stored entries
+        end subroutine scheme_factor_info
     end interface
 
     public :: state_eval, scheme_kind
