@@ -248,7 +248,7 @@ def _plot(out: str, rows) -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="scripts/bench_scaling", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="scripts/bench --scaling", description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="out/scaling", help="output folder")
     ap.add_argument("--steps", type=int, default=20, help="steps of the timed runs")
     ap.add_argument("--large", action="store_true", help=f"add h = {LARGE} (~520k dofs)")
