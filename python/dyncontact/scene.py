@@ -166,7 +166,8 @@ class Scene:
             for key, value in keys.items():
                 if omit and (group, key) in omit:
                     continue
-                if absolute_mesh and (group, key) == ("mesh", "file") and value:
+                if absolute_mesh and (group, key) == ("mesh", "file") and value \
+                        and not os.path.isabs(value):      # as the core reads it, '..' kept
                     value = os.path.abspath(value)
                 if replace and (group, key) in replace:
                     text = replace[(group, key)]
