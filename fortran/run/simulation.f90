@@ -11,6 +11,7 @@ module simulation
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
+    use alm_contact, only: ALM_OFF, ALM_INTEGRAL, ALM_NODAL
     use model, only: model_t, model_params_t, model_build, model_initial, model_probe, &
                      model_mass_apply, model_full_field, MASS_CONSISTENT, MASS_LUMPED, &
                      MASS_REDISTRIBUTED, INITIAL_REST, INITIAL_VELOCITY, INITIAL_COMPRESSED_BAR
@@ -132,7 +133,8 @@ contains
             if (stat /= STAT_OK) return
         end if
         allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
-                  sim%st%mv(n))
+                  sim%st%mv(n), sim%st%lam(sim%mdl%alm%nl))
+        sim%st%lam = 0.0_dp
         call model_initial(sim%mdl, mprm, sim%st%u, sim%st%v)
         call state_eval(sim%mdl, sim%st)
         call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
@@ -454,6 +456,9 @@ contains
             p%mass = MASS_CONSISTENT
         end select
         p%penalty = scn%contact_method == 'penalty'
+        p%multiplier = ALM_OFF
+        if (scn%contact_method == 'alm') &
+            p%multiplier = merge(ALM_NODAL, ALM_INTEGRAL, scn%multiplier == 'nodal')
         p%nitsche_theta = scn%nitsche_theta
         p%gamma0 = scn%gamma0
         p%obstacle_point = scn%obstacle_point; p%obstacle_normal = scn%obstacle_normal
@@ -504,7 +509,7 @@ contains
         end if
         e_load = 0.0_dp
         if (sim%has_load) e_load = 0.0_dp - dot(sim%st%u, sim%mdl%load)   ! +0, not -0
-        call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn)
+        call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn, sim%st%lam)
         call trace_row(sim%trace, sim%st%t, un, vn, pn, e_kin, e_el, e_contact, e_total, &
                        sim%st%newton_its, sim%st%active, e_load, stat, errmsg)
     end subroutine record

@@ -41,6 +41,8 @@ module implicit_schemes
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
+    use alm_contact, only: ALM_OFF
+    use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
                            SCHEME_HHT_SEED, SCHEME_GALPHA
@@ -96,6 +98,7 @@ module implicit_schemes
         real(dp), allocatable :: dvec(:)          !! (n) u - u~ (the vector multiplied by M)
         real(dp), allocatable :: bvec(:)          !! (n) b of the step's residual
         real(dp), allocatable :: r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
+        type(alm_newton_t) :: almn                !! Newton on (u, lambda) (augmented Lagrangian)
     contains
         procedure :: init => implicit_init
         procedure :: step => implicit_step
@@ -198,6 +201,7 @@ contains
         end if
         this%z = zfull(this%zrows, :)
         allocate (this%xz(size(this%zrows)))
+        if (mdl%alm%kind /= ALM_OFF) call alm_newton_init(this%almn, mdl, this%w)
     end subroutine implicit_init
 
     !> Release the factors of J0.
@@ -237,6 +241,10 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc, cb, kb
         integer :: it, active, i, q, n
+        if (mdl%alm%kind /= ALM_OFF) then
+            call implicit_step_alm(this, mdl, st, stat, errmsg)
+            return
+        end if
         stat = STAT_OK
         dt = this%dt
         n = size(st%u)
@@ -484,6 +492,83 @@ contains
             end do
         end subroutine woodbury
     end subroutine implicit_step
+
+    !> One step with the augmented Lagrangian (module alm_newton): R(u^n, lambda^n) with
+    !> B(u^n) = K u^n - N lambda^n, the first solve y0 = J0^{-1} R, Newton on the
+    !> contact-cell dofs and the multipliers, x = u^n - y0 - Z T, then the scheme's update
+    !> as in implicit_step; B(u') = K u' - N lambda'.
+    subroutine implicit_step_alm(this, mdl, st, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(inout) :: st                  !! state (with st%lam)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: dt, cb, kb
+        integer :: it, active, i, q, n
+        stat = STAT_OK
+        dt = this%dt
+        n = size(st%u)
+        if (this%kind == KIND_NEWMARK) then
+            kb = this%alpha_f
+            cb = this%beta * dt**2 / (1.0_dp - this%alpha_m)
+        else
+            kb = 1.0_dp - this%theta
+            cb = this%theta * dt**2
+        end if
+        call newton_rhs(n, cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
+        call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
+                       //real_text(st%t + dt, 6))
+            st%newton_its = 1
+            return
+        end if
+        do i = 1, this%m
+            this%xc(i) = st%u(mdl%ct%cdofs(i))
+            this%y0c(i) = this%dx(mdl%ct%cdofs(i))
+        end do
+        call alm_newton_solve(this%almn, mdl, this%c, this%tol, this%maxit, st%t + dt, &
+                              this%xc, this%y0c, st%lam, this%tsum, this%cx, active, it, &
+                              stat, errmsg)
+        st%newton_its = it
+        this%newton_total = this%newton_total + it
+        if (stat /= STAT_OK) return
+        if (any(this%tsum /= 0.0_dp)) then
+            do i = 1, size(this%zrows)
+                this%xz(i) = this%dx(this%zrows(i))
+            end do
+            call add_columns(size(this%zrows), this%m, this%z, this%tsum, this%xz)
+            do i = 1, size(this%zrows)
+                this%dx(this%zrows(i)) = this%xz(i)
+            end do
+        end if
+        do q = 1, size(mdl%massless_dofs)
+            i = mdl%massless_dofs(q)
+            this%vq(q) = ((st%u(i) - this%dx(i)) - st%u(i)) / dt
+        end do
+        if (this%kind == KIND_NEWMARK) then
+            call newmark_update(n, this%dx, 1.0_dp / (this%beta * dt**2), &
+                                dt * (1.0_dp - this%gamma), dt * this%gamma, dt, &
+                                dt**2 * (0.5_dp - this%beta), this%kga, &
+                                st%u, st%v, st%a, this%dvec)
+        else
+            call theta_update(n, this%dx, 1.0_dp / (this%theta * dt), dt * (1.0_dp - this%theta), &
+                              dt, st%u, st%v, this%dvec)
+        end if
+        do q = 1, size(mdl%massless_dofs)
+            i = mdl%massless_dofs(q)
+            st%v(i) = this%vq(q)
+            if (this%kind == KIND_NEWMARK) st%a(i) = 0.0_dp
+        end do
+        if (size(mdl%massless_dofs) > 0) call form_predictor(this, st%u, st%v, st%a, &
+                                                             mdl%massless_dofs)
+        call model_step_products(mdl, st%u, st%v, this%dvec, st%ktu, st%mv, this%md, st%bu)
+        do i = 1, this%m
+            st%bu(mdl%ct%cdofs(i)) = st%bu(mdl%ct%cdofs(i)) + this%cx(i)
+        end do
+        st%active = active; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
+        st%t = st%t + dt
+    end subroutine implicit_step_alm
 
     !> y <- y + sum_l t(l) a(:, l) over the l with t(l) /= 0, column after column (the
     !> same order for W and the rows of Z, so both give the same numbers on shared rows).
