@@ -225,3 +225,34 @@ def test_alm_carried_b_is_k_u_minus_n_lambda_and_balances(scheme, tmp_path):
                  + np.abs(M @ s1["u"]).max() / (beta * dt * dt))
         assert np.abs(bal).max() <= 1e-12 * scale, (step, np.abs(bal).max() / scale)
     assert seen_contact >= 3
+
+
+def test_alm_energy_change_is_the_work_of_the_multipliers(tmp_path):
+    """Where the energy goes: with the trapezoidal rule (newmark 1/4 1/2, no load),
+    E = 1/2 v.M v + 1/2 u.K u changes over a step by exactly -1/2 (C + C').(u' - u), the work
+    of the mean contact force C = -N lambda (the contact part of the carried B). Summed over
+    the steps through the first impact it is the whole change of E (consistent mass: the
+    chattering multipliers feed energy in)."""
+    from dyncontact.core import Stepper
+    s = seed_alm(scheme__t_end=1.6)
+    first, last = 440, 640
+    work = 0.0
+    with Stepper(s, tmp_path / "run") as run:
+        M, K = run.matrix("M"), run.matrix("K")
+        run.advance(first)
+        s0 = run.state()
+        e_first = 0.5 * s0["v"] @ M @ s0["v"] + 0.5 * s0["u"] @ K @ s0["u"]
+        for _ in range(last - first):
+            run.advance(1)
+            s1 = run.state()
+            e0 = 0.5 * s0["v"] @ M @ s0["v"] + 0.5 * s0["u"] @ K @ s0["u"]
+            e1 = 0.5 * s1["v"] @ M @ s1["v"] + 0.5 * s1["u"] @ K @ s1["u"]
+            c0 = s0["bu"] - K @ s0["u"]
+            c1 = s1["bu"] - K @ s1["u"]
+            w = -0.5 * (c0 + c1) @ (s1["u"] - s0["u"])
+            assert abs((e1 - e0) - w) <= 1e-12 * e0, (s1["t"], e1 - e0, w)
+            work += w
+            s0 = s1
+        e_last = e1
+    assert abs(e_last - e_first) > 1e-4 * e_first       # the impact changed E ...
+    assert abs((e_last - e_first) - work) <= 1e-11 * e_first   # ... by the multipliers' work
