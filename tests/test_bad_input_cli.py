@@ -14,7 +14,8 @@ EXIT_BAD_INPUT = 2
 
 #: Cases run by the quick suite (`pytest -m "not slow"`): one of each kind; the others
 #: start two subprocesses each and are marked slow (scripts/test runs them all).
-QUICK = {"unknown_key", "unterminated_group", "binary_file", "missing_scene_file",
+QUICK = {"unknown_key", "unterminated_group", "empty_file", "nan_real", "real_sum",
+         "latin1_string", "utf16_file", "binary_file", "missing_scene_file",
          "unquoted_string", "missing_mesh_file", "dt_zero", "t_end_below_dt",
          "steps_over_limit", "bar_too_fine", "output_dir_empty", "boundary_group_missing",
          "probe_off_contact", "alm_explicit"}

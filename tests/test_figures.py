@@ -1,5 +1,6 @@
-"""scripts/figures --quick end to end (every figure file, index.md, the runs' outputs),
-and the pieces of dyncontact.studies that scripts/figures and scripts/bench use."""
+"""scripts/figures --quick end to end (every figure file, index.md, the runs' outputs,
+a second run from the cache), and the pieces of dyncontact.study.figures and
+dyncontact.study.bench that scripts/figures and scripts/bench use."""
 
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ def quick_figures(tmp_path_factory):
 
 @pytest.mark.slow
 def test_quick_figures_exit_and_every_file(quick_figures):
-    from dyncontact.studies import figure_plan
+    from dyncontact.study.figures import figure_plan
 
     out, res = quick_figures
     assert res.returncode == 0, (res.stdout[-3000:], res.stderr[-3000:])
@@ -48,7 +49,7 @@ def test_quick_figures_exit_and_every_file(quick_figures):
 @pytest.mark.slow
 def test_quick_index_lists_every_run_with_its_status(quick_figures):
     from dyncontact.core import read_summary
-    from dyncontact.studies import figure_plan
+    from dyncontact.study.figures import figure_plan
 
     out, res = quick_figures
     index = (out / "index.md").read_text(encoding="utf-8")
@@ -78,7 +79,7 @@ def test_quick_index_lists_every_run_with_its_status(quick_figures):
 def test_quick_traces_are_short_and_fig1_has_fields(quick_figures):
     from dyncontact.core import read_trace
     from dyncontact.plotting import read_pvd
-    from dyncontact.studies import MAX_ROWS, figure_plan
+    from dyncontact.study.figures import MAX_ROWS, figure_plan
 
     out, _ = quick_figures
     plan = figure_plan(quick=True)
@@ -95,10 +96,63 @@ def test_quick_traces_are_short_and_fig1_has_fields(quick_figures):
     assert f"runs/{fig1.runs[0].name}/fields.pvd" in (out / "index.md").read_text("utf-8")
 
 
-# --------------------------------------------------------------------------- studies
+def test_figures_run_on_the_pool_on_dask_and_from_the_cache(tmp_path, monkeypatch):
+    """The figures' runs go through the sweep runner: the local pool and a Dask cluster
+    write the same traces, and a second make_figures takes every run from the cache and
+    writes them again, byte for byte, with summary.json naming the folder it is in."""
+    distributed = pytest.importorskip("distributed")
+    from dyncontact.core import read_summary
+    from dyncontact.study import figures
+    from dyncontact.study.common import seed_spec
+
+    fig = figures.FigureSpec(
+        key="fig2", png="fig2.png", title="two short runs", kind="traces",
+        runs=[seed_spec("hht", 0.1, 0.005, 0.5, alpha=0.0),
+              seed_spec("pc", 0.1, 0.001, 0.5, beta=0.25, gamma=0.5)])
+    monkeypatch.setattr(figures, "figure_plan", lambda quick=False: [fig])
+    pool = figures.make_figures(str(tmp_path / "pool"), workers=2, log=None)
+    with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=1,
+                                  dashboard_address=None) as cluster:
+        dask = figures.make_figures(str(tmp_path / "dask"), scheduler=cluster.scheduler_address,
+                                    log=None)
+    again = figures.make_figures(str(tmp_path / "pool"), workers=2, log=None)
+    assert [r["cached"] for r in pool["runs"] + dask["runs"]] == [False] * 4
+    assert [r["cached"] for r in again["runs"]] == [True] * 2
+    assert dask["jobs"] is None and "Dask" in (tmp_path / "dask" / "index.md").read_text()
+    for rep in (pool, dask, again):
+        assert rep["figures"][0]["plot"]["ok"], rep["figures"][0]
+    for run in fig.runs:
+        folder = tmp_path / "pool" / "runs" / run.name
+        trace = (folder / "trace.csv").read_bytes()
+        assert (tmp_path / "dask" / "runs" / run.name / "trace.csv").read_bytes() == trace
+        assert read_summary(folder)["scene"]["output"]["dir"] == str(folder)
+    rec = {r["name"]: r for r in again["runs"]}[fig.runs[0].name]
+    assert rec["status"] == "ok" and rec["steps"] == 100 and rec["rows"] == 101
+
+
+def test_figures_take_the_studies_options(tmp_path, monkeypatch, capsys):
+    """scripts/figures passes the runner's options (as `dyncontact study` takes them, and
+    --jobs as before) to make_figures, and refuses a pool of no process."""
+    from dyncontact.study import figures
+
+    seen = []
+    monkeypatch.setattr(figures, "make_figures", lambda out, **kw: seen.append((out, kw))
+                        or {"figures": [], "runs": []})
+    assert figures.figures_main(["--workers", "3", "--cache", "C", "--out", "O"]) == 0
+    assert figures.figures_main(["-j", "2", "--scheduler", "tcp://h:8786"],
+                                root=str(tmp_path)) == 0
+    assert [(kw["workers"], kw["scheduler"], kw["cache"]) for _, kw in seen] == [
+        (3, None, "C"), (2, "tcp://h:8786", None)]
+    assert seen[0][0] == "O" and seen[1][0] == str(tmp_path / "out" / "figures")
+    with pytest.raises(SystemExit) as exc:
+        figures.figures_main(["--workers", "0"])
+    assert exc.value.code == 2 and "--workers must be >= 1" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- plan, runs, index
 
 def test_full_plan_matches_the_seed():
-    from dyncontact.studies import figure_plan
+    from dyncontact.study.figures import figure_plan
 
     plan = figure_plan()
     assert len(plan) == 7
@@ -129,7 +183,7 @@ def test_full_plan_matches_the_seed():
 
 
 def test_seed_spec_and_every():
-    from dyncontact.studies import every_for, seed_spec
+    from dyncontact.study.common import every_for, seed_spec
 
     assert every_for(15.0, 0.0001) == 50
     assert every_for(3.0, 0.001) == 1
@@ -140,23 +194,34 @@ def test_seed_spec_and_every():
     assert scene.get("scheme.alpha") == -0.05 and scene.get("mesh.h") == 0.02
     lumped = seed_spec("pc", 0.05, 0.0005, 15.0, mass="lumped", max_rows=None)
     assert lumped.name.endswith("_lumped") and lumped.settings["output.every"] == 1
-    assert lumped.estimated_dofs() == 120      # the seed bar at h = 0.05 (summary dofs)
+    assert lumped.estimated_steps() == 30000
     with pytest.raises(ValueError):
         seed_spec("hht", 0.05, 0.0025, 1.0, alfa=0.1)
 
 
-def test_run_spec_reports_instead_of_raising(tmp_path):
-    from dyncontact.studies import RunSpec, run_spec
+def test_uncached_run_reports_instead_of_raising(tmp_path):
+    """The bench's runs: the sweep runner's run of one scene into a folder of its own
+    (emptied first), never through a cache, never raising."""
+    from dyncontact.study.common import RunSpec
+    from dyncontact.study.sweep import run_uncached
 
-    rec = run_spec(RunSpec("bad", {"scheme.dt": -1.0}), str(tmp_path / "bad"))
-    assert rec["status"] == "error" and "dt" in rec["message"]
-    ok = run_spec(RunSpec("ok", {"scheme.t_end": 0.05}), str(tmp_path / "ok"))
-    assert ok["status"] == "ok" and ok["steps"] == 20 and ok["rows"] == 21
+    rec = run_uncached(RunSpec("bad", {"scheme.dt": -1.0}).task(), str(tmp_path / "bad"))
+    assert rec["status"] == "refused" and "dt" in rec["message"]
+    spec = RunSpec("ok", {"scheme.t_end": 0.05})
+    ok = run_uncached(spec.task(), str(tmp_path / "ok"))
+    assert ok["status"] == "ok" and ok["steps"] == 20 and ok["metrics"]["rows"] == 21
+    assert ok["metrics"]["dofs"] == 120 and not ok["cached"]
     assert ok["wall_measured_s"] >= ok["wall_s"] > 0
+    (tmp_path / "ok" / "marker").write_text("from the first run")
+    again = run_uncached(spec.task(), str(tmp_path / "ok"))
+    assert again["status"] == "ok" and not again["cached"]
+    assert sorted(p.name for p in (tmp_path / "ok").iterdir()) == ["summary.json",
+                                                                    "trace.csv"]
 
 
 def test_write_index_shows_unstable_runs(tmp_path):
-    from dyncontact.studies import seed_spec, write_index
+    from dyncontact.study.common import seed_spec
+    from dyncontact.study.figures import write_index
 
     a = seed_spec("pc", 0.05, 0.0025, 15.0, beta=0.25, gamma=0.5)
     b = seed_spec("pc_hht", 0.05, 0.0025, 15.0, alpha=-0.1)
@@ -180,7 +245,7 @@ def test_write_index_shows_unstable_runs(tmp_path):
 
 
 def test_bench_rows_and_table():
-    from dyncontact.studies import bench_specs, bench_table
+    from dyncontact.study.bench import bench_specs, bench_table
 
     names = [s.name for s in bench_specs()]
     assert names == ["seed_h0.05", "seed_h0.02", "seed_h0.01", "seed_free_h0.01",
@@ -211,18 +276,18 @@ def test_bench_rows_and_table():
                                floor_ratio_max=1.5)]).splitlines()[2].split()
     assert ranged[-4:] == ["1.20", "1.10-1.50", "n/a", "ok"]
     # the floor of a step (one solve + one SpMV for the implicit rows) and the ratio to it
-    from dyncontact.studies import _step_floor
-    assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,
+    from dyncontact.study.bench import step_floor
+    assert step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,
                         "floor_spmv_us": 10.0}) == 60.0
-    assert _step_floor({"scene": "pc_h0.01_consistent", "floor_mass_solve_us": 30.0,
+    assert step_floor({"scene": "pc_h0.01_consistent", "floor_mass_solve_us": 30.0,
                         "floor_spmv_us": 10.0}) == 80.0
-    assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": None,
+    assert step_floor({"scene": "seed_h0.01", "floor_solve_us": None,
                         "floor_spmv_us": 10.0}) is None
     # the same floor with CHOLMOD's solve in place of the run's (implicit rows only)
-    assert _step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,
+    assert step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,
                         "floor_cholmod_solve_us": 70.0, "floor_spmv_us": 10.0},
                        cholmod=True) == 80.0
-    assert _step_floor({"scene": "pc_h0.01_consistent", "floor_mass_solve_us": 30.0,
+    assert step_floor({"scene": "pc_h0.01_consistent", "floor_mass_solve_us": 30.0,
                         "floor_spmv_us": 10.0}, cholmod=True) is None
 
 
@@ -255,17 +320,17 @@ def test_interleaved_run_ratio_is_time_over_floors(tmp_path):
     """interleaved_run: every step is timed in some stretch, each stretch's ratio uses
     the floors next to it, and the run's ratio is Σ time / Σ steps × floor (so it
     equals µs/step ÷ the step-weighted floor, and lies within the stretches' ratios)."""
-    from dyncontact.studies import _step_floor, bench_specs, interleaved_run
+    from dyncontact.study.bench import bench_specs, interleaved_run, step_floor
 
     spec = bench_specs(quick=True, only=["seed_h0.05"])[0]
     spec.settings["scheme.t_end"] = 1.0
     rec = interleaved_run(spec, str(tmp_path / "run"), chunks=5, n_rep=20, batches=2)
     assert rec["status"] == "ok" and rec["steps"] == 400
     assert len(rec["chunk_ratios"]) == 5
-    assert rec["floor_us"] == pytest.approx(_step_floor(rec), rel=1e-12)
+    assert rec["floor_us"] == pytest.approx(step_floor(rec), rel=1e-12)
     assert rec["floor_ratio"] == pytest.approx(rec["us_per_step"] / rec["floor_us"],
                                                rel=1e-12)
     assert min(rec["chunk_ratios"]) <= rec["floor_ratio"] <= max(rec["chunk_ratios"])
     assert rec["floor_cholmod_ratio"] == pytest.approx(
-        rec["us_per_step"] / _step_floor(rec, cholmod=True), rel=1e-12)
+        rec["us_per_step"] / step_floor(rec, cholmod=True), rel=1e-12)
     assert (tmp_path / "run" / "summary.json").is_file()

@@ -212,7 +212,7 @@ def test_the_numerical_core_sees_no_scene_and_no_file_reader():
     layers = read_layers("fortran")
     for low in ("model", "time_scheme", "implicit_schemes", "explicit_schemes",
                 "central_difference", "mass_solver"):
-        for reader in ("scene", "gmsh_reader", "mesh_source", "os_files"):
+        for reader in ("scene", "gmsh_mesh", "mesh_source", "os_files"):
             assert layers[low] < layers[reader], (low, reader)
 
 

@@ -139,13 +139,41 @@ def test_disk_full_during_run_exits_4_and_says_so(kind, small_disk, tmp_path):
 
 
 @pytest.mark.parametrize("kind", ENTRIES)
-def test_disk_full_while_writing_fields_exits_4(kind, small_disk, tmp_path):
-    scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0", output__every="1000",
-                        output__fields_every="10")
-    out = small_disk / "o"
-    line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), EXIT_WRITE)
-    assert ".vtu" in line
-    assert json.loads((out / "summary.json").read_text())["status"] == "write_failed"
+def test_disk_full_while_writing_fields_exits_4(kind, tmp_path):
+    """Snapshots that fit the free space when the run starts (it checks: see
+    test_new_user.py), then the disk fills up under the run (stopped meanwhile)."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    res = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16m", "tmpfs", str(disk)],
+                         capture_output=True, text=True)
+    if res.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
+    try:
+        # 60 000 steps, 601 snapshots of 16.6 kB: 10 MB of the 16
+        scene = write_scene(tmp_path / "s.nml", scheme__t_end="150.0", output__every="1000",
+                            output__fields_every="100")
+        out = disk / "o"
+        env = dict(os.environ)
+        env.pop("PYTHONPATH", None)
+        proc = subprocess.Popen(entry(kind) + [str(scene), "--out", str(out)], cwd=tmp_path,
+                                env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                text=True)
+        t0 = time.time()
+        while not (out / "fields" / "step_0000000.vtu").exists():
+            assert time.time() - t0 < START_TIMEOUT and proc.poll() is None, "did not start"
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGSTOP)
+        try:
+            fill(disk)
+        finally:
+            proc.send_signal(signal.SIGCONT)
+        stdout, stderr = proc.communicate(timeout=120)
+        line = one_line(subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr),
+                        EXIT_WRITE)
+        assert ".vtu" in line
+        assert json.loads((out / "summary.json").read_text())["status"] == "write_failed"
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], capture_output=True)
 
 
 @pytest.mark.parametrize("kind", ENTRIES)

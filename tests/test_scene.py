@@ -68,7 +68,20 @@ BAD_CASES = [
     BadCase("text_after_group", "&scheme dt = 1e-3 / trailing words\n", "",
             "text outside a group"),
     # file level
+    BadCase("empty_file", b"", "", "empty scene file"),
     BadCase("binary_file", bytes(range(256)) * 8, "", "not a text file"),
+    BadCase("utf16_file", "&scheme dt = 1e-3 /\n".encode("utf-16"), "", "UTF-16 text"),
+    BadCase("utf16_be_file", b"\xfe\xff" + "&scheme dt = 1e-3 /\n".encode("utf-16-be"), "",
+            "UTF-16 text (byte-order mark FE FF)"),
+    # a string value goes into summary.json (UTF-8): Latin-1, a surrogate, an overlong form
+    BadCase("latin1_string", b"&output dir = 'r\xe9sultats' /\n", "&output dir",
+            "not UTF-8 text (byte 233 at character 2"),
+    BadCase("surrogate_string", b"&boundary contact = 'a\xed\xa0\x80' /\n",
+            "&boundary contact", "not UTF-8 text (byte 237 at character 2"),
+    BadCase("overlong_string", b"&boundary clamped = '\xc0\xaf' /\n", "&boundary clamped",
+            "not UTF-8 text (byte 192 at character 1"),
+    BadCase("truncated_utf8_string", b"&mesh file = 'm\xe2\x82' /\n", "&mesh file",
+            "not UTF-8 text (byte 226 at character 2"),
     BadCase("nul_in_text", b"&scheme dt = 1e-3 /\n\x00\n", "", "not a text file"),
     BadCase("garbage", "this is not a scene file\n", "", "text outside a group"),
     BadCase("garbage_symbols", "#%^ $$ {{ }} ::\n", "", "text outside a group"),
@@ -89,10 +102,34 @@ BAD_CASES = [
     BadCase("string_for_real", "&scheme dt = '1e-3' /\n", "&scheme dt",
             "expected a real number"),
     BadCase("real_overflow", "&scheme t_end = 1d400 /\n", "&scheme t_end", "out of range"),
+    # forms the list-directed read would take, each hiding a slip: an exponent without
+    # its letter (2.5+1 reads as 25), text after ';' (dropped), a repeat too many for a
+    # vector, a quad-precision letter, Fortran kind suffixes
+    BadCase("nan_real", "&material young = NaN /\n", "&material young",
+            "expected a real number"),
+    BadCase("real_sum", "&scheme dt = 2.5+1 /\n", "&scheme dt", "expected a real number"),
+    BadCase("real_no_exponent_letter", "&scheme dt = 1-3 /\n", "&scheme dt",
+            "expected a real number"),
+    BadCase("semicolon_in_value", "&scheme dt = 1e-3;5 /\n", "&scheme dt",
+            "expected a real number"),
+    BadCase("semicolon_between_keys", "&scheme dt = 1e-3; t_end = 1.0 /\n", "&scheme dt",
+            "expected a real number"),
+    BadCase("semicolon_in_vector", "&material gravity = 0.0;-9.81 /\n", "&material gravity",
+            "expected a real number"),
+    BadCase("repeat_too_many", "&material gravity = 3*0.0 /\n", "&material gravity",
+            "expected 1 or 2 values"),
+    BadCase("repeat_null", "&material gravity = 2* /\n", "&material gravity", "empty value"),
+    BadCase("quad_letter", "&scheme dt = 1.0q-3 /\n", "&scheme dt", "expected a real number"),
+    BadCase("kind_suffix", "&scheme dt = 1.0e-3_dp /\n", "&scheme dt",
+            "expected a real number"),
+    BadCase("array_element", "&material gravity(2) = -9.81 /\n", "&material gravity",
+            "expected '='"),
+    BadCase("old_end_marker", "&scheme dt = 1e-3 &end\n", "&scheme", "unterminated group"),
+    BadCase("dollar_groups", "$scheme dt = 1e-3 $end\n", "", "text outside a group"),
     BadCase("unquoted_string", "&scheme mass = lumped /\n", "&scheme mass",
             "expected a quoted string"),
     BadCase("too_many_values", "&contact probe = 0.05, 0.0, 0.0 /\n", "&contact probe",
-            "expected 1 or 2 values"),
+            "expected 1 or 2 values in 2D"),
     BadCase("many_values", "&scheme dt = " + "1, " * 300_000 + "1 /\n", "&scheme dt",
             "expected 1 value (got '1, 1, 1')"),
     BadCase("two_values_for_scalar", "&scheme dt = 1e-3, 2e-3 /\n", "&scheme dt",
@@ -103,7 +140,21 @@ BAD_CASES = [
     BadCase("mesh_file_is_directory", "&mesh file = '.' /\n", "&mesh file",
             "cannot read mesh file"),
     # ranges and choices
-    BadCase("dim_3", "&mesh dim = 3 /\n", "&mesh dim", "must be 1 or 2"),
+    BadCase("dim_4", "&mesh dim = 4 /\n", "&mesh dim", "must be 1, 2 or 3"),
+    # vectors against the dimension
+    BadCase("vector_2_in_3d", "&mesh dim = 3 /\n&contact probe = 0.05, 0.0 /\n",
+            "&contact probe", "expected 3 values in 3D (got '0.05, 0.0')"),
+    BadCase("gravity_1_in_3d", "&mesh dim = 3 /\n&material gravity = -9.81 /\n",
+            "&material gravity", "expected 3 values in 3D"),
+    BadCase("vector_3_in_2d", "&initial velocity = 0.0, 0.0, 1.0 /\n", "&initial velocity",
+            "expected 1 or 2 values in 2D"),
+    BadCase("vector_4_values", "&mesh dim = 3 /\n&initial velocity = 0, 0, 1, 2 /\n",
+            "&initial velocity", "expected 1, 2 or 3 values"),
+    BadCase("quad_points_7_in_2d", "&contact quadrature = 'gauss', quad_points = 7 /\n",
+            "&contact quad_points", "must be in 1..6 in 2D"),
+    BadCase("quad_points_4_in_3d",
+            "&mesh dim = 3 /\n&contact quadrature = 'gauss', quad_points = 4 /\n",
+            "&contact quad_points", "must be 1, 3, 6 or 7 in 3D"),
     BadCase("h_zero", "&mesh h = 0.0 /\n", "&mesh h", "must be > 0"),
     BadCase("h_negative", "&mesh h = -0.05 /\n", "&mesh h", "must be > 0"),
     BadCase("length_zero", "&mesh length = 0 /\n", "&mesh length", "must be > 0"),
@@ -126,8 +177,8 @@ BAD_CASES = [
             "&contact obstacle_normal", "nonzero in 1D"),
     BadCase("quadrature_unknown", "&contact quadrature = 'simpson' /\n",
             "&contact quadrature", "must be 'exact' or 'gauss'"),
-    BadCase("quad_points_7", "&contact quad_points = 7 /\n", "&contact quad_points",
-            "must be in 1..6"),
+    BadCase("quad_points_8", "&contact quad_points = 8 /\n", "&contact quad_points",
+            "must be in 1..7"),
     BadCase("initial_kind_unknown", "&initial kind = 'moving' /\n", "&initial kind",
             "must be one of"),
     BadCase("scheme_unknown", "&scheme name = 'rk4' /\n", "&scheme name", "must be one of"),
@@ -188,6 +239,8 @@ BAD_CASES = [
     BadCase("every_zero", "&output every = 0 /\n", "&output every", "must be > 0"),
     BadCase("fields_every_negative", "&output fields_every = -1 /\n", "&output fields_every",
             "must be >= 0"),
+    BadCase("checkpoint_every_negative", "&output checkpoint_every = -1 /\n",
+            "&output checkpoint_every", "must be >= 0"),
 ]
 
 
@@ -281,15 +334,56 @@ def test_defaults_values():
     assert d["contact"]["obstacle_normal"] == [0.0, -1.0]
 
 
-@pytest.mark.parametrize("content", ["", "! nothing but a comment\n\n", "\n  \t\n",
-                                     "! all defaults\n&output /\n"])
+@pytest.mark.parametrize("content", ["! nothing but a comment\n\n", "\n  \t\n", "\n",
+                                     "! all defaults\n&output /\n", "&mesh /\n&scheme /\n"])
 def test_empty_scene_is_the_default(core_ext, content, tmp_path):
-    """An empty file, or one with only comments, is the default scene (docs/scenes.md)."""
+    """A file with only blanks, comments or empty groups is the default scene
+    (docs/scenes.md); a 0-byte file is refused (BAD_CASES 'empty_file')."""
     path = scene_text(tmp_path, content)
     stat, errmsg, f_dict = fortran_read(core_ext, path, tmp_path)
     assert stat == 0, errmsg
     assert f_dict == Scene().to_dict()
     assert Scene.read(path) == Scene()
+
+
+def test_byte_order_mark_is_skipped(core_ext, tmp_path):
+    """A UTF-8 byte-order mark before the text reads like the same file without it,
+    with LF or CRLF line ends; a mark anywhere else is still text outside a group."""
+    text = "! saved by an editor\n&scheme name = 'newmark', dt = 1e-3 /\n&mesh h = 0.1 /\n"
+    plain = scene_text(tmp_path, text, "plain.nml")
+    ref = fortran_read(core_ext, plain, tmp_path)
+    assert ref[0] == 0 and ref[2]["scheme"]["dt"] == 1e-3, ref
+    for name, data in [("bom.nml", text.encode()),
+                       ("bom_crlf.nml", text.replace("\n", "\r\n").encode())]:
+        path = tmp_path / name
+        path.write_bytes(b"\xef\xbb\xbf" + data)
+        assert fortran_read(core_ext, path, tmp_path)[2] == ref[2], name
+        assert Scene.read(path) == Scene.read(plain)
+    only_bom = tmp_path / "only_bom.nml"
+    only_bom.write_bytes(b"\xef\xbb\xbf")
+    assert fortran_read(core_ext, only_bom, tmp_path)[2] == Scene().to_dict()
+    twice = tmp_path / "twice.nml"
+    twice.write_bytes(b"\xef\xbb\xbf\xef\xbb\xbf" + text.encode())
+    stat, msg, _ = fortran_read(core_ext, twice, tmp_path)
+    assert stat == STAT_BAD_INPUT and msg.startswith(f"{twice}: line 1: text outside a group"), msg
+
+
+def test_utf8_strings_are_kept(core_ext, tmp_path):
+    """Well-formed UTF-8 of 2, 3 and 4 bytes in a string value reads as written."""
+    path = tmp_path / "u.nml"
+    path.write_bytes("&boundary contact = 'bas_é€😀' /\n".encode())
+    stat, msg, d = fortran_read(core_ext, path, tmp_path)
+    assert stat == 0, msg
+    assert d["boundary"]["contact"] == "bas_é€😀"
+
+
+def test_run_refuses_empty_file(tmp_path):
+    """dyncontact.run on a 0-byte scene raises BadInputError naming the file."""
+    path = tmp_path / "copy_failed.nml"
+    path.write_bytes(b"")
+    with pytest.raises(BadInputError, match=f"^{path}: empty scene file"):
+        dyncontact.run(path, out=tmp_path / "out")
+    assert not (tmp_path / "out" / "trace.csv").exists()
 
 
 def test_bar1d_scene():
@@ -318,12 +412,55 @@ def test_syntax_variants(tmp_path):
     assert d["mesh"]["h"] == 0.01 and d["mesh"]["length"] == 2.0
     assert d["mesh"]["dim"] == 1          # kept, but ignored with a mesh file
     assert d["boundary"] == {"clamped": "top, left", "slip_x": "it's",
-                             "slip_y": 'a"b', "contact": "a!b/c&d"}
+                             "slip_y": 'a"b', "slip_z": "", "contact": "a!b/c&d"}
     assert d["material"]["gravity"] == [-9.81, -9.81]
     assert d["material"]["young"] == 5.0
     assert d["contact"]["obstacle_normal"] == [1.0, 0.0]   # 2D rule: normalized
     assert d["contact"]["theta"] == -1 and d["contact"]["quad_points"] == 2
     assert d["scheme"]["theta"] == 1.0 and d["scheme"]["dt"] == 5e-4
+
+
+def test_tabs_repeats_and_other_namelist_forms(core_ext, tmp_path):
+    """Tabs wherever blanks go, repeat counts, a comma before '/', no blanks at all,
+    '1*x', signs and exponents in e/E/d/D: each file reads like the plain one."""
+    plain = scene_text(tmp_path, "&material gravity = -1.0, -1.0, young = 2.0 /\n"
+                       "&scheme name = 'theta', dt = 0.001, t_end = 0.5 /\n", "plain.nml")
+    ref = fortran_read(core_ext, plain, tmp_path)
+    assert ref[0] == 0, ref
+    forms = {
+        "tabs": "&material\tgravity\t=\t-1.0,\t-1.0\tyoung\t=\t2.0\t/\n"
+                "\t&scheme\tname='theta'\tdt=0.001\tt_end=0.5/\n",
+        "repeat": "&material gravity = 2*-1.0, young = 1*2.0 /\n"
+                  "&scheme name = 'theta', dt = 1*1d-3, t_end = 5E-1 /\n",
+        "trailing_comma": "&material gravity = -1.0, -1.0, young = 2.0, /\n"
+                          "&scheme name = 'theta', dt = 0.001, t_end = 0.5, /\n",
+        "no_blanks": "&material gravity=-1.,-1.,young=+2./\n"
+                     "&scheme name='theta',dt=.1e-2,t_end=0.5D0/\n",
+        "one_per_line": "&material\n gravity =\n -1.0\n -1.0\n young\n =\n 2.0\n/\n"
+                        "&scheme\n name = 'theta' ! the scheme\n dt = 1.0e-03\n t_end = .5\n/\n",
+    }
+    for name, text in forms.items():
+        got = fortran_read(core_ext, scene_text(tmp_path, text, f"{name}.nml"), tmp_path)
+        assert got[0] == 0 and got[2] == ref[2], (name, got[1])
+
+
+#: Every numeric key, and values that are not finite reals or that overflow.
+NUMERIC_KEYS = [(g, k) for g, kv in Scene().to_dict().items() for k, v in kv.items()
+                if not isinstance(v, str)]
+NOT_FINITE = ["nan", "NaN", "-nan", "inf", "+Inf", "-Infinity", "INFINITY", "nan(0x1)",
+              "1e400", "-1d999", "2*nan", "0.0, nan", "inf, 0.0", "0.0 -inf"]
+
+
+@pytest.mark.parametrize("group, key", NUMERIC_KEYS, ids=lambda x: str(x))
+def test_nan_and_inf_are_refused_in_every_key(core_ext, group, key, tmp_path):
+    """NaN or Inf, in any spelling the list-directed read knows, or a value that
+    overflows, in any real, vector or integer key: one line naming the key."""
+    for k, value in enumerate(NOT_FINITE):
+        path = scene_text(tmp_path, f"&{group} {key} = {value} /\n", f"v{k}.nml")
+        stat, msg, _ = fortran_read(core_ext, path, tmp_path)
+        assert stat == STAT_BAD_INPUT, (value, msg)
+        assert msg.startswith(f"{path}: &{group} {key}: "), (value, msg)
+        assert "\n" not in msg
 
 
 def test_normal_is_normalized(tmp_path):

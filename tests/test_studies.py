@@ -90,6 +90,87 @@ def test_convergence_writes_csv_png_and_summary(convergence):
     assert os.path.getsize(convergence["png"]) > 10_000
     text = open(convergence["summary"], encoding="utf-8").read()
     assert "Observed orders" in text and "convergence.png" in text
+    # the relative norms beside the absolute ones: in the CSV and the summary
+    rel = ("u_Linf_L2_rel", "u_Linf_H1_rel", "v_Linf_L2_rel", "u_L2_L2_rel", "u_L2_H1_rel",
+           "v_L2_L2_rel", "p_L2_rel")
+    assert set(rel) <= set(rows[0])
+    assert "Relative errors at the finest mesh" in text and all(n in text for n in rel)
+    for r in rows:
+        vals = [float(r[n]) for n in rel]
+        assert all(math.isfinite(v) and v > 0 for v in vals), (r["scheme"], r["n"], vals)
+        # the fields' errors are fractions of the solution; the stress error of a
+        # non-dissipative scheme is not (its O(1) oscillation in contact, as p_L2 shows)
+        assert all(v < 1 for v in vals[:-1]), (r["scheme"], r["n"], vals)
+    for scheme in {r["scheme"] for r in rows}:
+        mine = sorted((r for r in rows if r["scheme"] == scheme), key=lambda r: int(r["n"]))
+        for n in rel[:-1]:
+            assert float(mine[-1][n]) < float(mine[0][n]), (scheme, n)
+
+
+def test_relative_norms_hand_computed():
+    """p1_norms and relative_in_time on cases small enough to do by hand.
+    Mesh x = (0, 1/2, 1):
+    - w = (0, 1, 0), the hat: int w^2 = 2 int_0^(1/2) (2x)^2 dx = 2 (4/3)(1/8) = 1/3,
+      int w'^2 = 2^2 * 1 = 4: L2 = sqrt(1/3), H1 = sqrt(13/3);
+    - w = (1, 1, 1): L2 = H1 = 1;
+    - w = (0, 1/2, 1) = x: L2 = sqrt(1/3) (int x^2), H1 = sqrt(1/3 + 1).
+    In time, space norms of the error (0.3, 0.4) against exact norms (1, 1):
+    L-infinity 0.4 / 1, L2 sqrt(0.09 + 0.16) / sqrt(2) = 0.5 / sqrt(2)."""
+    from dyncontact.study.analyses import p1_norms, relative_in_time
+
+    x = [0.0, 0.5, 1.0]
+    for w, l2, h1 in (([0, 1, 0], math.sqrt(1 / 3), math.sqrt(13 / 3)),
+                      ([1, 1, 1], 1.0, 1.0),
+                      ([0, 0.5, 1], math.sqrt(1 / 3), math.sqrt(4 / 3))):
+        got = p1_norms(x, w)
+        assert got == pytest.approx((l2, h1), rel=1e-15), w
+    assert relative_in_time([0.3, 0.4], [1.0, 1.0]) == pytest.approx(
+        (0.4, 0.5 / math.sqrt(2)), rel=1e-15)
+    # error largest where the exact norm is smallest: the max of each, not of the ratio
+    assert relative_in_time([0.2, 0.1], [1.0, 4.0]) == pytest.approx(
+        (0.2 / 4.0, math.sqrt(0.05) / math.sqrt(17.0)), rel=1e-15)
+    assert all(math.isnan(v) for v in relative_in_time([0.1], [0.0]))
+
+
+def test_relative_norms_of_a_run_scaled_from_the_interpolant(tmp_path):
+    """analyse_exact1d on a run folder written by hand: snapshots holding
+    (1 + eps) I_h u and (1 + eps) I_h u_t, a trace with p_n = (1 + eps) sigma_n. The error
+    against the interpolant is eps times the interpolant at every time, so every relative
+    norm is eps; the absolute norms against u itself are not 0 (u has kinks between the
+    nodes)."""
+    from types import SimpleNamespace
+
+    from dyncontact import exact1d as ex
+    from dyncontact.study.analyses import REL_NORMS, analyse_exact1d
+
+    eps = 0.01
+    x = np.linspace(0.0, 1.0, 8)        # h = 1/7: the kinks fall between nodes
+    times = np.arange(0, 151) * 0.02
+    entries = []
+    for k, t in enumerate(times):
+        name = f"step_{k:07d}.vtu"
+
+        def block(a):
+            return " ".join(f"{float(v)!r} 0.0 0.0" for v in a)
+
+        (tmp_path / name).write_text(
+            '<VTKFile type="UnstructuredGrid"><UnstructuredGrid><Piece>'
+            f'<PointData><DataArray Name="displacement">{block((1 + eps) * ex.u(x, t))}'
+            f'</DataArray><DataArray Name="velocity">{block((1 + eps) * ex.u_t(x, t))}'
+            f'</DataArray></PointData><Points><DataArray>{block(x)}</DataArray></Points>'
+            '</Piece></UnstructuredGrid></VTKFile>')
+        entries.append(f'<DataSet timestep="{float(t)!r}" file="{name}"/>')
+    (tmp_path / "fields.pvd").write_text(
+        "<VTKFile><Collection>" + "".join(entries) + "</Collection></VTKFile>")
+    t = np.arange(0, 3001) * 0.001
+    sigma = ex.sigma_n(t)
+    trace = {"t": t, "p_n": (1 + eps) * sigma, "u_n": ex.u_n(t), "v_n": ex.v_n(t),
+             "e_total": np.full_like(t, ex.ENERGY), "e_contact": np.zeros_like(t)}
+    m = analyse_exact1d(str(tmp_path), SimpleNamespace(trace=trace))["metrics"]
+    assert m["snapshots"] == 151
+    for n in REL_NORMS:
+        assert m[n] == pytest.approx(eps, rel=1e-12), n
+    assert m["u_Linf_H1"] > 10 * eps      # against u itself: the kinks between nodes
 
 
 def test_field_norms_are_exact_for_known_errors():
@@ -501,3 +582,65 @@ def test_which_scheme_table_is_built_from_runs(which, work_precision):
         assert p["pick"] == chosen["label"]
     text = open(which["summary"], encoding="utf-8").read()
     assert "Which scheme should I use" in text and "oscillation.csv" in text
+    # refused settings are reported apart and the table says how it ranks
+    assert "| refused |" in text and "among the settings each one accepts" in text
+    for x in which["robustness"]:
+        assert x["stable"] + x["unstable"] + x["refused"] == x["total"]
+        assert x["accepted"] == 0 or x["score"] == x["stable"] / x["accepted"]
+
+
+def test_robustness_counts_refused_settings_apart():
+    """A setting the core refuses (θ = 1, γ0 below its bound) is neither stable nor
+    unstable: the score is stable / accepted, hand-counted on a 2 x 3 grid."""
+    from dyncontact.study.which import robustness
+
+    gammas, ratios = [0.01, 10.0], [0.05, 0.2, 1.0]
+    rows = []
+    # θ = 1: refused at γ0 = 0.01 (every Δt), stable at γ0 = 10 up to Δt/h = 0.2
+    for r, st in zip(ratios, ("refused", "refused", "refused")):
+        rows.append({"scheme": "newmark", "theta": 1, "gamma0": 0.01, "dt_over_h": r,
+                     "status": st})
+    for r, st in zip(ratios, ("ok", "ok", "unstable")):
+        rows.append({"scheme": "newmark", "theta": 1, "gamma0": 10.0, "dt_over_h": r,
+                     "status": st})
+    # θ = -1: every setting accepted; 4 stable, one unstable, one Newton failure
+    for g0, sts in ((0.01, ("ok", "unstable", "ok")), (10.0, ("ok", "ok", "newton_failed"))):
+        for r, st in zip(ratios, sts):
+            rows.append({"scheme": "newmark", "theta": -1, "gamma0": g0, "dt_over_h": r,
+                         "status": st})
+    # θ = 0: no run recorded at all (a missing run is not stable, not refused)
+    got = {x["theta"]: x for x in robustness(rows, [("newmark", 1), ("newmark", -1),
+                                                    ("newmark", 0)], gammas, ratios)}
+    one, m1, zero = got[1], got[-1], got[0]
+    assert (one["stable"], one["unstable"], one["refused"]) == (2, 1, 3)
+    assert (one["accepted"], one["total"], one["score"]) == (3, 6, 2 / 3)
+    assert one["min_stable_dt_over_h"] == 0.2          # γ0 = 0.01 has no accepted setting
+    assert (m1["stable"], m1["unstable"], m1["refused"]) == (4, 2, 0)
+    assert (m1["accepted"], m1["score"]) == (6, 4 / 6)
+    assert m1["min_stable_dt_over_h"] == 0.05           # γ0 = 0.01: unstable at 0.2
+    assert (zero["stable"], zero["unstable"], zero["refused"], zero["score"]) == (0, 6, 0, 0)
+    # every setting refused: no score, and no stable Δt/h to report
+    only_refused = [dict(x, theta=1) for x in rows if x["theta"] == 1 and x["gamma0"] == 0.01]
+    x = robustness(only_refused, [("newmark", 1)], [0.01], ratios)[0]
+    assert x["accepted"] == 0 and math.isnan(x["score"]) and x["refused"] == 3
+
+
+def test_skew_claim_counts_refused_settings_apart():
+    """The claim 'θ = −1 is robust for small γ0' compares θ on the settings each accepts:
+    θ = +1 refused at the smallest γ0 (the core's bound) is no rival and shows as
+    refused; hand-counted on 2 schemes x 3 Δt/h."""
+    from dyncontact.study.claims import _claim_skew
+
+    grid = {"gamma0": [0.01, 10.0], "theta": [-1, 1], "t_end": 15.0}
+    recs = []
+    for scheme, m1 in (("newmark", ("ok", "ok", "ok")), ("theta1", ("ok", "ok", "unstable"))):
+        for r, st in zip((0.05, 0.2, 1.0), m1):
+            for th, status in ((-1, st), (1, "refused")):
+                recs.append({"status": status, "task": make_task(
+                    "base.nml", {}, tags={"scheme": scheme, "gamma0": 0.01, "theta": th,
+                                          "dt_over_h": r})})
+    row = _claim_skew(recs, grid)
+    assert row["verdict"].startswith("partly: θ = −1 is stable on the whole grid for 1 of 2")
+    assert "at least as often stable as the other θ for 2 of 2" in row["verdict"]
+    assert "newmark: stable θ=-1 3/3, θ=+1 0/0 (3 refused)" in row["evidence"]
+    assert "theta1: stable θ=-1 2/3, θ=+1 0/0 (3 refused)" in row["evidence"]

@@ -279,19 +279,19 @@ subroutine dc_ls_solve(n, nnz, rows, cols, vals, b, x, backend, stat, errmsg)
 end subroutine dc_ls_solve
 
 !> P1 element matrices of one cell: stiffness, consistent and lumped mass.
-!> dim = 1 uses the leading 2x2 blocks and x(1, 1:2).
+!> The leading n x n blocks (n = dim (dim + 1)) and x(1:dim, 1:dim + 1) are used.
 subroutine dc_p1_element(dim, x, young, poisson, density, ke, me, ml)
     use iso_c_binding, only: c_int, c_double
     use fe_p1, only: p1_stiffness, p1_mass, p1_lame
     implicit none
-    integer(c_int), intent(in) :: dim            !! 1 or 2
-    real(c_double), intent(in) :: x(2, 3)        !! node coordinates
+    integer(c_int), intent(in) :: dim            !! 1, 2 or 3
+    real(c_double), intent(in) :: x(3, 4)        !! node coordinates
     real(c_double), intent(in) :: young          !! E
     real(c_double), intent(in) :: poisson        !! nu
     real(c_double), intent(in) :: density        !! rho
-    real(c_double), intent(out) :: ke(6, 6)      !! stiffness
-    real(c_double), intent(out) :: me(6, 6)      !! consistent mass
-    real(c_double), intent(out) :: ml(6, 6)      !! lumped mass
+    real(c_double), intent(out) :: ke(12, 12)    !! stiffness
+    real(c_double), intent(out) :: me(12, 12)    !! consistent mass
+    real(c_double), intent(out) :: ml(12, 12)    !! lumped mass
     real(c_double) :: lambda, mu
     integer :: n
     ke = 0; me = 0; ml = 0
@@ -302,18 +302,23 @@ subroutine dc_p1_element(dim, x, young, poisson, density, ke, me, ml)
     call p1_mass(dim, x(1:dim, 1:dim + 1), density, .true., ml(1:n, 1:n))
 end subroutine dc_p1_element
 
-!> Sizes of a mesh: a .msh file (path /= '') or the built-in bar (dim, length, width, h).
-subroutine dc_mesh_sizes(path, bar_dim, length, width, h, dim, n_nodes, n_cells, n_facets, &
-                         n_groups, stat, errmsg)
-    use iso_c_binding, only: c_int, c_double
+!> Load a mesh: a mesh file (path /= '') or the built-in bar (dim, length, width, h), and
+!> its sizes. The mesh is kept behind `handle` (0 on error) for dc_mesh_arrays, which
+!> copies and releases it, or dc_mesh_free. checked = 0: a file's mesh is read without
+!> mesh_check (reader-level use, 3D meshes).
+subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, handle, dim, n_nodes, &
+                         n_cells, n_facets, n_groups, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t, c_double, c_loc
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load
     implicit none
-    character(len=*), intent(in) :: path         !! .msh file, '' = built-in bar
+    character(len=*), intent(in) :: path         !! .msh/.geo file, '' = built-in bar
     integer(c_int), intent(in) :: bar_dim        !! built-in bar dimension
     real(c_double), intent(in) :: length         !! built-in bar length
     real(c_double), intent(in) :: width          !! built-in bar width
     real(c_double), intent(in) :: h              !! built-in bar mesh size
+    integer(c_int), intent(in) :: checked        !! 0: no mesh_check of a file's mesh
+    integer(c_int64_t), intent(out) :: handle    !! the loaded mesh (0 on error)
     integer(c_int), intent(out) :: dim           !! mesh dimension
     integer(c_int), intent(out) :: n_nodes       !! nodes
     integer(c_int), intent(out) :: n_cells       !! cells
@@ -321,28 +326,44 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, dim, n_nodes, n_cells,
     integer(c_int), intent(out) :: n_groups      !! physical groups
     integer(c_int), intent(out) :: stat          !! status
     character(len=512), intent(out) :: errmsg    !! message
-    type(mesh_t) :: msh
+    type(mesh_t), pointer :: msh
     integer :: st
     errmsg = ''
-    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg)
+    handle = 0
+    allocate (msh)
+    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg, checked /= 0)
     stat = st
     dim = msh%dim; n_nodes = msh%n_nodes; n_cells = msh%n_cells
     n_facets = msh%n_facets; n_groups = msh%n_groups
+    if (st /= 0) then
+        deallocate (msh)
+        return
+    end if
+    handle = transfer(c_loc(msh), handle)
 end subroutine dc_mesh_sizes
 
-!> Arrays of a mesh (sizes from dc_mesh_sizes). Group names are joined by ','.
-subroutine dc_mesh_arrays(path, bar_dim, length, width, h, dim, n_nodes, n_cells, n_facets, &
-                          n_groups, x, cells, cell_group, facets, facet_group, group_dim, &
-                          group_names, stat, errmsg)
-    use iso_c_binding, only: c_int, c_double
+!> Release a mesh of dc_mesh_sizes without copying it (0 is ignored).
+subroutine dc_mesh_free(handle)
+    use iso_c_binding, only: c_int64_t, c_ptr, c_f_pointer
     use mesh, only: mesh_t
-    use mesh_source, only: mesh_load
     implicit none
-    character(len=*), intent(in) :: path         !! .msh file, '' = built-in bar
-    integer(c_int), intent(in) :: bar_dim        !! built-in bar dimension
-    real(c_double), intent(in) :: length         !! built-in bar length
-    real(c_double), intent(in) :: width          !! built-in bar width
-    real(c_double), intent(in) :: h              !! built-in bar mesh size
+    integer(c_int64_t), intent(in) :: handle     !! from dc_mesh_sizes
+    type(mesh_t), pointer :: msh
+    type(c_ptr) :: p
+    if (handle == 0) return
+    p = transfer(handle, p)
+    call c_f_pointer(p, msh)
+    deallocate (msh)
+end subroutine dc_mesh_free
+
+!> Arrays of the mesh of dc_mesh_sizes (its sizes), which is then released. Group names
+!> are joined by ','.
+subroutine dc_mesh_arrays(handle, dim, n_nodes, n_cells, n_facets, n_groups, x, cells, &
+                          cell_group, facets, facet_group, group_dim, group_names, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t, c_double, c_ptr, c_f_pointer
+    use mesh, only: mesh_t
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! from dc_mesh_sizes
     integer(c_int), intent(in) :: dim            !! mesh dimension
     integer(c_int), intent(in) :: n_nodes        !! nodes
     integer(c_int), intent(in) :: n_cells        !! cells
@@ -357,26 +378,33 @@ subroutine dc_mesh_arrays(path, bar_dim, length, width, h, dim, n_nodes, n_cells
     character(len=4096), intent(out) :: group_names         !! names joined by ','
     integer(c_int), intent(out) :: stat          !! status
     character(len=512), intent(out) :: errmsg    !! message
-    type(mesh_t) :: msh
-    integer :: st, g
+    type(mesh_t), pointer :: msh
+    type(c_ptr) :: p
+    integer :: g
     errmsg = ''
     group_names = ''
     x = 0; cells = 0; cell_group = 0; facets = 0; facet_group = 0; group_dim = 0
-    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg)
-    stat = st
-    if (st /= 0) return
+    stat = 0
+    if (handle == 0) then
+        stat = 4
+        errmsg = 'dc_mesh_arrays: no mesh (handle 0)'
+        return
+    end if
+    p = transfer(handle, p)
+    call c_f_pointer(p, msh)
     if (msh%dim /= dim .or. msh%n_nodes /= n_nodes .or. msh%n_cells /= n_cells .or. &
         msh%n_facets /= n_facets .or. msh%n_groups /= n_groups) then
         stat = 4
         errmsg = 'dc_mesh_arrays: sizes differ from the mesh'
-        return
+    else
+        x = msh%x; cells = msh%cells; cell_group = msh%cell_group
+        facets = msh%facets; facet_group = msh%facet_group; group_dim = msh%group_dim
+        do g = 1, n_groups
+            if (g > 1) group_names = trim(group_names)//','
+            group_names = trim(group_names)//trim(msh%group_name(g))
+        end do
     end if
-    x = msh%x; cells = msh%cells; cell_group = msh%cell_group
-    facets = msh%facets; facet_group = msh%facet_group; group_dim = msh%group_dim
-    do g = 1, n_groups
-        if (g > 1) group_names = trim(group_names)//','
-        group_names = trim(group_names)//trim(msh%group_name(g))
-    end do
+    deallocate (msh)
 end subroutine dc_mesh_arrays
 
 !> Cost floors of an open run's step (us): triangular solve with the cached factors
@@ -500,3 +528,73 @@ subroutine dc_sim_info(handle, n_steps, trace_bytes, notes)
     trace_bytes = sim_trace_bytes(sim)
     notes = sim%mdl%notes
 end subroutine dc_sim_info
+
+!> Open a run that continues from the checkpoint in restart_dir (its output folder):
+!> as dc_sim_open with outputs, and the step it restarts at.
+subroutine dc_sim_open_restart(path, restart_dir, handle, n_steps, step, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t, c_loc
+    use errors, only: STAT_OK
+    use simulation, only: simulation_t, sim_open
+    implicit none
+    character(len=*), intent(in) :: path         !! scene file
+    character(len=*), intent(in) :: restart_dir  !! folder holding checkpoint.bin
+    integer(c_int64_t), intent(out) :: handle    !! opaque run handle (0 on error)
+    integer(c_int64_t), intent(out) :: n_steps   !! steps to t_end
+    integer(c_int64_t), intent(out) :: step      !! the step the run continues from
+    integer(c_int), intent(out) :: stat          !! status (2: no, foreign or corrupt checkpoint)
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st
+    errmsg = ''
+    handle = 0
+    n_steps = 0; step = 0
+    allocate (sim)
+    call sim_open(sim, path, '', .true., st, errmsg, restart=restart_dir)
+    stat = st
+    if (st /= STAT_OK) then
+        deallocate (sim)
+        return
+    end if
+    n_steps = sim%n_steps
+    step = sim%step
+    handle = transfer(c_loc(sim), handle)
+end subroutine dc_sim_open_restart
+
+!> Save the state of an open run (and its counters) to a checkpoint file.
+subroutine dc_sim_save(handle, path, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t
+    use simulation, only: simulation_t, sim_checkpoint_save
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    character(len=*), intent(in) :: path         !! checkpoint file to write
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st
+    errmsg = ''
+    call sim_from_handle(handle, sim)
+    call sim_checkpoint_save(sim, path, st, errmsg)
+    stat = st
+end subroutine dc_sim_save
+
+!> Load a state saved by dc_sim_save (or a run's checkpoint) of the same scene into an
+!> open run; its trace continues from there. step: the step loaded.
+subroutine dc_sim_load(handle, path, step, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t
+    use simulation, only: simulation_t, sim_checkpoint_load
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    character(len=*), intent(in) :: path         !! checkpoint file
+    integer(c_int64_t), intent(out) :: step      !! the step of the loaded state
+    integer(c_int), intent(out) :: stat          !! status (2: foreign or corrupt checkpoint)
+    character(len=512), intent(out) :: errmsg    !! message
+    type(simulation_t), pointer :: sim
+    integer :: st
+    errmsg = ''
+    call sim_from_handle(handle, sim)
+    call sim_checkpoint_load(sim, path, st, errmsg)
+    step = sim%step
+    stat = st
+end subroutine dc_sim_load

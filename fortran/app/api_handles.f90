@@ -11,7 +11,7 @@ module api_handles
     use central_difference, only: central_scheme_t
     use mass_solver, only: mass_solver_t, mass_solver_apply
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, BACKEND_CHOLMOD
-    use cholmod, only: chol_solve_cholmod
+    use cholmod, only: cholmod_t, chol_factor, chol_solve_cholmod, chol_free
     use simulation, only: simulation_t
     implicit none
     private
@@ -63,13 +63,24 @@ contains
             end do
             call system_clock(c1)
             t_solve = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+            ! cholmod_solve2 on the same factor: CHOLMOD's copy is released when the run
+            ! solves on the block copy, so the floor factorizes J0 once more, keeping it
+            ! (the same analysis and ordering: the same factor)
             if (s%lu0%backend == BACKEND_CHOLMOD) then
-                call system_clock(c0)
-                do i = 1, n_rep
-                    call chol_solve_cholmod(s%lu0%ch, b, x, st)
-                end do
-                call system_clock(c1)
-                t_cholmod = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+                block
+                    type(cholmod_t) :: ch
+                    ch%keep_cholmod = .true.
+                    call chol_factor(ch, s%jac0, st)
+                    if (st == STAT_OK) then
+                        call system_clock(c0)
+                        do i = 1, n_rep
+                            call chol_solve_cholmod(ch, b, x, st)
+                        end do
+                        call system_clock(c1)
+                        t_cholmod = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+                    end if
+                    call chol_free(ch)
+                end block
             end if
         type is (pc_scheme_t)
             t_mass = mass_apply_us(s%ms)

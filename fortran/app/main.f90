@@ -1,4 +1,5 @@
-!> dyncontact executable: `dyncontact SCENE.nml [--out DIR]`. The only place that stops.
+!> dyncontact executable: `dyncontact SCENE.nml [--out DIR] [--restart DIR]`. The only
+!> place that stops.
 program main
     use simulation, only: simulation_t, sim_open, sim_advance, sim_close
     use iso_c_binding, only: c_int
@@ -15,13 +16,14 @@ program main
             integer(c_int), value :: status
         end subroutine c_exit
     end interface
-    character(len=*), parameter :: USAGE = 'usage: dyncontact SCENE.nml [--out DIR] | --help | --version'
+    character(len=*), parameter :: USAGE = &
+        'usage: dyncontact SCENE.nml [--out DIR] [--restart DIR] | --help | --version'
     type(simulation_t) :: sim
-    character(len=PATH_LEN) :: scene_path, out_dir
+    character(len=PATH_LEN) :: scene_path, out_dir, restart_dir
     character(len=:), allocatable :: arg
     character(len=MSG_LEN) :: errmsg
     integer :: stat, nargs, i, done
-    scene_path = ''; out_dir = ''; errmsg = ''
+    scene_path = ''; out_dir = ''; restart_dir = ''; errmsg = ''
     nargs = command_argument_count()
     i = 1
     do while (i <= nargs)
@@ -31,6 +33,8 @@ program main
             write (*, '(a)') USAGE
             write (*, '(a)') 'Runs a scene file (Fortran namelist, docs/scenes.md) and writes trace.csv and'
             write (*, '(a)') 'summary.json into the output folder (&output dir, or DIR).'
+            write (*, '(a)') '--restart DIR continues a stopped run from DIR/checkpoint.bin (written with'
+            write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv.'
             write (*, '(a)') 'Exit status: 0 ok, 2 bad input, 3 numerical failure, 4 write/internal error,'
             write (*, '(a)') '130 interrupted (SIGINT/SIGTERM).'
             call c_exit(0_c_int)
@@ -43,6 +47,12 @@ program main
             arg = argument(i)
             if (len(arg) == 0) call fail(STAT_BAD_INPUT, '--out: empty folder name')
             out_dir = arg
+        case ('--restart')
+            if (i == nargs) call fail(STAT_BAD_INPUT, '--restart needs a folder ('//USAGE//')')
+            i = i + 1
+            arg = argument(i)
+            if (len(arg) == 0) call fail(STAT_BAD_INPUT, '--restart: empty folder name')
+            restart_dir = arg
         case default
             if (len(arg) > 1) then
                 if (arg(1:1) == '-') call fail(STAT_BAD_INPUT, 'unknown option '//arg//' ('//USAGE//')')
@@ -59,8 +69,10 @@ program main
     end if
     call signals_install(stat, errmsg)
     if (stat /= STAT_OK) call fail(stat, errmsg)
-    call sim_open(sim, scene_path, out_dir, .true., stat, errmsg)
+    call sim_open(sim, scene_path, out_dir, .true., stat, errmsg, restart=restart_dir)
     if (stat /= STAT_OK) call fail(stat, errmsg)
+    if (sim%restart_step >= 0) write (*, '(a, i0, a, g0.6)') 'dyncontact: restart at step ', &
+        sim%restart_step, ', t=', sim%st%t
     write (*, '(a, i0, a, i0, a, i0, a, i0, a)') 'dyncontact: '//trim(scene_path)//': ', &
         sim%n_dofs, ' dofs, ', sim%n_cells, ' elements, ', sim%n_contact, &
         ' contact facets; '//trim(sim%scn%scheme_name)//', ', sim%n_steps, &

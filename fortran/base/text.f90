@@ -12,7 +12,7 @@ module text
         module procedure int_text_default, int_text_i8
     end interface int_text
 
-    public :: int_text, real_text
+    public :: int_text, real_text, utf8_len
 
 contains
 
@@ -55,4 +55,35 @@ contains
         end do
         s = trim(adjustl(buf))
     end function real_text
+
+    !> Length (1 to 4) of the well-formed UTF-8 sequence that starts at s(i:i), 0 if none
+    !> does (the Unicode standard's table 3-7: no overlong forms, no surrogates, at most
+    !> U+10FFFF). JSON and the summary files are UTF-8: other bytes must be escaped.
+    pure integer function utf8_len(s, i) result(n)
+        character(len=*), intent(in) :: s   !! text
+        integer, intent(in) :: i            !! position of the first byte
+        integer :: k, b, lo, hi
+        lo = 128; hi = 191
+        select case (iachar(s(i:i)))
+        case (0:127); n = 1
+        case (194:223); n = 2
+        case (224); n = 3; lo = 160
+        case (225:236, 238:239); n = 3
+        case (237); n = 3; hi = 159
+        case (240); n = 4; lo = 144
+        case (241:243); n = 4
+        case (244); n = 4; hi = 143
+        case default; n = 0
+        end select
+        do k = 1, n - 1
+            if (i + k > len(s)) then
+                n = 0; return
+            end if
+            b = iachar(s(i + k:i + k))
+            if (b < lo .or. b > hi) then
+                n = 0; return
+            end if
+            lo = 128; hi = 191
+        end do
+    end function utf8_len
 end module text

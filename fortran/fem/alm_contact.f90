@@ -18,14 +18,14 @@
 !> u_n - g, at an inactive one lambda / r.
 module alm_contact
     use kinds, only: dp
-    use nitsche_contact, only: contact_t, facet_shape, MAX_E, MAX_FN, QUAD_EXACT
+    use nitsche_contact, only: contact_t, facet_shape, triangle_active_rule, MAX_E, MAX_FN, MAX_Q, &
+                               QUAD_EXACT
     implicit none
     private
 
     integer, parameter, public :: ALM_OFF = 0        !! no multipliers (Nitsche or penalty)
     integer, parameter, public :: ALM_INTEGRAL = 1   !! lambda P1 on Gamma_C
     integer, parameter, public :: ALM_NODAL = 2      !! lambda_i a nodal force
-    integer, parameter :: MAXP = 6                   !! quadrature points a facet
 
     !> Multipliers on the contact nodes and the constant coupling N.
     type, public :: alm_t
@@ -51,7 +51,8 @@ contains
         integer, intent(in) :: kind              !! ALM_INTEGRAL or ALM_NODAL
         integer :: f, j, k, l, i, nmax, cnt
         integer, allocatable :: seen(:), nodes(:)
-        real(dp) :: nsh(MAX_FN), xs(2), nn
+        real(dp) :: nsh(MAX_FN), xs(2), nn, shp(MAX_FN, MAX_Q), ws(MAX_Q)
+        integer :: np
         integer, allocatable :: nfac(:)
         alm%kind = kind
         nmax = 0
@@ -91,16 +92,26 @@ contains
                 end if
             end do
             if (kind == ALM_INTEGRAL) then
-                ! int psi_J (phi_i . n): degree 2 along the facet, 2 Gauss points are exact
-                do k = 1, merge(1, 2, ct%nfn == 1)
-                    nsh = facet_shape(ct%nfn, xs(k))
+                ! int psi_J (phi_i . n): degree 2 on the facet; 2 Gauss points on a segment,
+                ! the 3-point degree-2 rule on a triangle are exact
+                if (ct%nfn == 1) then
+                    np = 1; shp(:, 1) = facet_shape(1, 0.0_dp); ws(1) = ct%measure(f)
+                else if (ct%nfn == 2) then
+                    np = 2; ws(1:2) = 0.5_dp * ct%measure(f)
+                    shp(:, 1) = facet_shape(2, xs(1)); shp(:, 2) = facet_shape(2, xs(2))
+                else
+                    call triangle_active_rule([-1.0_dp, -1.0_dp, -1.0_dp], ct%measure(f), np, &
+                                              shp, ws)
+                end if
+                do k = 1, np
+                    nsh = shp(:, k)
                     do i = 1, ct%ndof_e
                         if (ct%cloc(i, f) == 0) cycle
                         nn = dot_product(ct%nvec(i, 1:ct%nfn, f), nsh(1:ct%nfn))
                         do j = 1, ct%nfn
                             l = alm%lnode(j, f)
                             alm%nmat(ct%cloc(i, f), l) = alm%nmat(ct%cloc(i, f), l) + &
-                                ct%measure(f) * merge(1.0_dp, 0.5_dp, ct%nfn == 1) * nsh(j) * nn
+                                ws(k) * nsh(j) * nn
                         end do
                     end do
                 end do
@@ -122,11 +133,11 @@ contains
         real(dp), intent(out) :: al(:, :)        !! (nl, nl) dG/dlambda
         integer, intent(out) :: active           !! active points
         real(dp) :: ue(MAX_E), un(MAX_FN), lj(MAX_FN), pj(MAX_FN), nsh(MAX_FN), nn(MAX_E)
-        real(dp) :: xs(2 * MAXP), ws(2 * MAXP), r, pq, unq, lq, xi_star
-        integer :: f, i, j, k, q, np, l, nf
+        real(dp) :: shp(MAX_FN, 2 * MAX_Q), ws(2 * MAX_Q), r, pq, unq, lq, xi_star
+        logical :: act(2 * MAX_Q), signed
+        integer :: f, i, j, k, q, np, l, nf, na
         g = 0.0_dp; au = 0.0_dp; al = 0.0_dp
         active = 0
-        xi_star = 0.0_dp
         if (alm%kind == ALM_NODAL) then
             do l = 1, alm%nl
                 unq = dot_product(alm%nmat(:, l), xc) - alm%gnode(l)
@@ -154,27 +165,46 @@ contains
                 lj(j) = lam(alm%lnode(j, f))
                 pj(j) = lj(j) - r * un(j)
             end do
-            ! the points: one in 1D; the Gauss rule; or 2 Gauss points on each side of the
-            ! zero of the linear P = lambda - r (u_n - g)
+            ! the points: one in 1D; the Gauss rule; or, 'exact', the facet split at the zero
+            ! of the linear P = lambda - r (u_n - g): 2 Gauss points on each side of it on a
+            ! segment, the degree-2 rule on each piece of a triangle (signed: the side of
+            ! each point is known, act)
+            signed = .false.
             if (nf == 1) then
-                np = 1; xs(1) = 0.0_dp; ws(1) = ct%measure(f)
+                np = 1; shp(:, 1) = facet_shape(1, 0.0_dp); ws(1) = ct%measure(f)
             else if (ct%quad /= QUAD_EXACT) then
-                np = ct%nq; xs(1:np) = ct%qx(1:np); ws(1:np) = ct%measure(f) * ct%qw(1:np)
+                np = ct%nq; shp(:, 1:np) = ct%qs(:, 1:np); ws(1:np) = ct%measure(f) * ct%qw(1:np)
+            else if (nf == 3) then
+                signed = .true.
+                call triangle_active_rule(pj(1:3), ct%measure(f), na, shp, ws)
+                act(1:na) = .true.
+                if (all(pj(1:3) >= 0.0_dp)) then    ! all inactive (P = 0 counts as inactive)
+                    call triangle_active_rule([-1.0_dp, -1.0_dp, -1.0_dp], ct%measure(f), np, &
+                                              shp(:, na + 1:), ws(na + 1:))
+                else
+                    call triangle_active_rule(-pj(1:3), ct%measure(f), np, shp(:, na + 1:), &
+                                              ws(na + 1:))
+                end if
+                act(na + 1:na + np) = .false.
+                np = na + np
             else if ((pj(1) < 0.0_dp) .eqv. (pj(2) < 0.0_dp)) then
                 np = 2
-                call piece(0.0_dp, 1.0_dp, xs(1:2), ws(1:2))
+                call piece(0.0_dp, 1.0_dp, ct%measure(f), shp(:, 1:2), ws(1:2))
             else
                 np = 4
+                signed = .true.
                 xi_star = pj(1) / (pj(1) - pj(2))
-                call piece(0.0_dp, xi_star, xs(1:2), ws(1:2))
-                call piece(xi_star, 1.0_dp, xs(3:4), ws(3:4))
+                call piece(0.0_dp, xi_star, ct%measure(f), shp(:, 1:2), ws(1:2))
+                call piece(xi_star, 1.0_dp, ct%measure(f), shp(:, 3:4), ws(3:4))
+                act(1:2) = pj(1) < 0.0_dp
+                act(3:4) = .not. act(1)
             end if
             do q = 1, np
-                nsh = facet_shape(nf, xs(q))
+                nsh = shp(:, q)
                 unq = dot_product(nsh(1:nf), un(1:nf))
                 lq = dot_product(nsh(1:nf), lj(1:nf))
                 pq = lq - r * unq
-                if (np == 4) pq = merge(-1.0_dp, 1.0_dp, (xs(q) < xi_star) .eqv. (pj(1) < 0.0_dp))
+                if (signed) pq = merge(-1.0_dp, 1.0_dp, act(q))
                 if (pq < 0.0_dp) then
                     active = active + 1
                     do i = 1, ct%ndof_e
@@ -203,12 +233,16 @@ contains
 
     contains
 
-        !> 2 Gauss points and weights on [a, b] of the facet (weights times its measure).
-        pure subroutine piece(a, b, x2, w2)
-            real(dp), intent(in) :: a, b
-            real(dp), intent(out) :: x2(2), w2(2)
+        !> 2 Gauss points on [a, b] of a segment facet of length meas: shape values and
+        !> weights (times meas).
+        pure subroutine piece(a, b, meas, shp2, w2)
+            real(dp), intent(in) :: a, b, meas
+            real(dp), intent(out) :: shp2(:, :), w2(:)
+            real(dp) :: x2(2)
             x2 = a + (b - a) * (0.5_dp + [-0.5_dp, 0.5_dp] / sqrt(3.0_dp))
-            w2 = 0.5_dp * (b - a) * ct%measure(f)
+            shp2(:, 1) = facet_shape(2, x2(1))
+            shp2(:, 2) = facet_shape(2, x2(2))
+            w2 = 0.5_dp * (b - a) * meas
         end subroutine piece
     end subroutine alm_eval
 
@@ -224,17 +258,16 @@ contains
         end do
     end subroutine alm_force
 
-    !> The contact stress at a point xi of facet f: lambda interpolated ('integral'), or the
-    !> nodal force over the node's share of Gamma_C, interpolated ('nodal').
-    pure real(dp) function alm_probe(alm, ct, lam, f, xi) result(p)
+    !> The contact stress at a point of facet f (its facet shape values nsh): lambda
+    !> interpolated ('integral'), or the nodal force over the node's share of Gamma_C,
+    !> interpolated ('nodal').
+    pure real(dp) function alm_probe(alm, ct, lam, f, nsh) result(p)
         type(alm_t), intent(in) :: alm           !! multipliers
         type(contact_t), intent(in) :: ct        !! contact facets
         real(dp), intent(in) :: lam(:)           !! (nl) multipliers
         integer, intent(in) :: f                 !! facet
-        real(dp), intent(in) :: xi               !! position along it
-        real(dp) :: nsh(MAX_FN)
+        real(dp), intent(in) :: nsh(MAX_FN)      !! facet shape values at the point
         integer :: j, l
-        nsh = facet_shape(ct%nfn, xi)
         p = 0.0_dp
         do j = 1, ct%nfn
             l = alm%lnode(j, f)

@@ -1,5 +1,6 @@
-!> P1 Lagrange elements: segments (1D bar) and triangles (plane strain), pure
-!> kernels. Dofs of a cell are ordered node by node: (u1x, u1y, u2x, u2y, ...).
+!> P1 Lagrange elements: segments (1D bar), triangles (plane strain) and tetrahedra
+!> (3D isotropic elasticity), pure kernels. Dofs of a cell are ordered node by node:
+!> (u1x, u1y, u2x, u2y, ...) in 2D, (u1x, u1y, u1z, u2x, ...) in 3D.
 module fe_p1
     use kinds, only: dp
     implicit none
@@ -19,13 +20,16 @@ contains
         mu = young / (2.0_dp * (1.0_dp + poisson))
     end subroutine p1_lame
 
-    !> Signed measure of the cell: length in 1D, (signed) area in 2D.
+    !> Signed measure of the cell: length in 1D, (signed) area in 2D, (signed) volume
+    !> in 3D (positive when the edges from node 1 form a right-handed frame).
     pure function p1_measure(dim, xe) result(m)
-        integer, intent(in) :: dim          !! 1 or 2
+        integer, intent(in) :: dim          !! 1, 2 or 3
         real(dp), intent(in) :: xe(:, :)    !! (dim, dim+1) node coordinates
         real(dp) :: m
         if (dim == 1) then
             m = xe(1, 2) - xe(1, 1)
+        else if (dim == 3) then
+            m = det3(edge_matrix(xe)) / 6.0_dp
         else
             m = 0.5_dp * ((xe(1, 2) - xe(1, 1)) * (xe(2, 3) - xe(2, 1)) &
                           - (xe(1, 3) - xe(1, 1)) * (xe(2, 2) - xe(2, 1)))
@@ -34,11 +38,19 @@ contains
 
     !> Diameter (longest edge) of the cell.
     pure function p1_diameter(dim, xe) result(d)
-        integer, intent(in) :: dim          !! 1 or 2
+        integer, intent(in) :: dim          !! 1, 2 or 3
         real(dp), intent(in) :: xe(:, :)    !! (dim, dim+1) node coordinates
         real(dp) :: d
+        integer :: a, b
         if (dim == 1) then
             d = abs(xe(1, 2) - xe(1, 1))
+        else if (dim == 3) then
+            d = 0.0_dp
+            do a = 1, 4
+                do b = a + 1, 4
+                    d = max(d, norm2(xe(:, b) - xe(:, a)))
+                end do
+            end do
         else
             d = max(norm2(xe(:, 2) - xe(:, 1)), norm2(xe(:, 3) - xe(:, 2)), &
                     norm2(xe(:, 1) - xe(:, 3)))
@@ -48,14 +60,23 @@ contains
     !> Gradients of the dim+1 shape functions (constant on the cell); either
     !> orientation. grad(:, a) = grad phi_a.
     pure subroutine p1_gradients(dim, xe, grad)
-        integer, intent(in) :: dim            !! 1 or 2
+        integer, intent(in) :: dim            !! 1, 2 or 3
         real(dp), intent(in) :: xe(:, :)      !! (dim, dim+1) node coordinates
         real(dp), intent(out) :: grad(:, :)   !! (dim, dim+1)
-        real(dp) :: det
+        real(dp) :: det, e(3, 3)
         if (dim == 1) then
             det = xe(1, 2) - xe(1, 1)
             grad(1, 1) = -1.0_dp / det
             grad(1, 2) = 1.0_dp / det
+        else if (dim == 3) then
+            ! grad phi_{a+1} = row a of J^-1, J = [x2 - x1, x3 - x1, x4 - x1] (columns):
+            ! J^-1 = cofactor^T / det J; the rows are cross products of J's columns
+            e = edge_matrix(xe)
+            det = det3(e)
+            grad(:, 2) = cross(e(:, 2), e(:, 3)) / det
+            grad(:, 3) = cross(e(:, 3), e(:, 1)) / det
+            grad(:, 4) = cross(e(:, 1), e(:, 2)) / det
+            grad(:, 1) = -(grad(:, 2) + grad(:, 3) + grad(:, 4))
         else
             det = 2.0_dp * p1_measure(2, xe)
             grad(:, 1) = [xe(2, 2) - xe(2, 3), xe(1, 3) - xe(1, 2)] / det
@@ -65,12 +86,12 @@ contains
     end subroutine p1_gradients
 
     !> Element stiffness: 1D E u' v' (per unit cross-section); 2D plane strain
-    !> isotropic elasticity. ke is (n, n) with n = dim (dim+1).
+    !> and 3D isotropic elasticity. ke is (n, n) with n = dim (dim+1).
     pure subroutine p1_stiffness(dim, xe, lambda, mu, young, ke)
-        integer, intent(in) :: dim           !! 1 or 2
+        integer, intent(in) :: dim           !! 1, 2 or 3
         real(dp), intent(in) :: xe(:, :)     !! (dim, dim+1) node coordinates
-        real(dp), intent(in) :: lambda       !! Lame lambda (2D)
-        real(dp), intent(in) :: mu           !! Lame mu (2D)
+        real(dp), intent(in) :: lambda       !! Lame lambda (2D, 3D)
+        real(dp), intent(in) :: mu           !! Lame mu (2D, 3D)
         real(dp), intent(in) :: young        !! E (1D)
         real(dp), intent(out) :: ke(:, :)    !! (dim (dim+1), dim (dim+1))
         real(dp) :: grad(dim, dim + 1), area, bmat(3, 6), dmat(3, 3)
@@ -80,6 +101,10 @@ contains
         if (dim == 1) then
             ke(:, 1) = young * area * grad(1, 1) * grad(1, :)
             ke(:, 2) = young * area * grad(1, 2) * grad(1, :)
+            return
+        end if
+        if (dim == 3) then
+            call tet_stiffness(grad, area, lambda, mu, ke)
             return
         end if
         bmat = 0.0_dp
@@ -97,7 +122,7 @@ contains
 
     !> Element mass, consistent (exact for P1) or row-sum lumped.
     pure subroutine p1_mass(dim, xe, density, lumped, me)
-        integer, intent(in) :: dim           !! 1 or 2
+        integer, intent(in) :: dim           !! 1, 2 or 3
         real(dp), intent(in) :: xe(:, :)     !! (dim, dim+1) node coordinates
         real(dp), intent(in) :: density      !! rho
         logical, intent(in) :: lumped        !! .true.: diagonal (row sums)
@@ -127,4 +152,60 @@ contains
             end do
         end do
     end subroutine p1_mass
+
+    !> Tetrahedron stiffness vol B^T D B, Voigt order (xx, yy, zz, yz, xz, xy) with
+    !> engineering shear strains.
+    pure subroutine tet_stiffness(grad, vol, lambda, mu, ke)
+        real(dp), intent(in) :: grad(3, 4)   !! shape-function gradients
+        real(dp), intent(in) :: vol          !! |T|
+        real(dp), intent(in) :: lambda       !! Lame lambda
+        real(dp), intent(in) :: mu           !! Lame mu
+        real(dp), intent(out) :: ke(:, :)    !! (12, 12)
+        real(dp) :: bmat(6, 12), dmat(6, 6)
+        integer :: a, k
+        bmat = 0.0_dp
+        do a = 1, 4
+            k = 3 * (a - 1)
+            bmat(1, k + 1) = grad(1, a)
+            bmat(2, k + 2) = grad(2, a)
+            bmat(3, k + 3) = grad(3, a)
+            bmat(4, k + 2) = grad(3, a)
+            bmat(4, k + 3) = grad(2, a)
+            bmat(5, k + 1) = grad(3, a)
+            bmat(5, k + 3) = grad(1, a)
+            bmat(6, k + 1) = grad(2, a)
+            bmat(6, k + 2) = grad(1, a)
+        end do
+        dmat = 0.0_dp
+        dmat(1:3, 1:3) = lambda
+        do a = 1, 3
+            dmat(a, a) = lambda + 2.0_dp * mu
+            dmat(a + 3, a + 3) = mu
+        end do
+        ke = vol * matmul(transpose(bmat), matmul(dmat, bmat))
+    end subroutine tet_stiffness
+
+    !> Edges from node 1 as columns: [x2 - x1, x3 - x1, x4 - x1].
+    pure function edge_matrix(xe) result(e)
+        real(dp), intent(in) :: xe(:, :)     !! (3, 4) node coordinates
+        real(dp) :: e(3, 3)
+        e(:, 1) = xe(:, 2) - xe(:, 1)
+        e(:, 2) = xe(:, 3) - xe(:, 1)
+        e(:, 3) = xe(:, 4) - xe(:, 1)
+    end function edge_matrix
+
+    !> Determinant of a 3x3 matrix (triple product of its columns).
+    pure function det3(e) result(d)
+        real(dp), intent(in) :: e(3, 3)      !! matrix
+        real(dp) :: d
+        d = dot_product(e(:, 1), cross(e(:, 2), e(:, 3)))
+    end function det3
+
+    !> Cross product a x b.
+    pure function cross(a, b) result(c)
+        real(dp), intent(in) :: a(3)         !! first vector
+        real(dp), intent(in) :: b(3)         !! second vector
+        real(dp) :: c(3)
+        c = [a(2) * b(3) - a(3) * b(2), a(3) * b(1) - a(1) * b(3), a(1) * b(2) - a(2) * b(1)]
+    end function cross
 end module fe_p1

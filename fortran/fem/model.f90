@@ -24,6 +24,8 @@ module model
     integer, parameter, public :: INITIAL_REST = 1         !! initial conditions
     integer, parameter, public :: INITIAL_VELOCITY = 2
     integer, parameter, public :: INITIAL_COMPRESSED_BAR = 3
+    !> Most contact facets that can hold the probe (a node of Gamma_C and its facets).
+    integer, parameter, public :: MAX_PROBE = 32
 
     !> The plain parameters a model is built from (docs/scenes.md names the keys).
     type, public :: model_params_t
@@ -32,30 +34,31 @@ module model
         character(len=256) :: clamped = ''        !! groups with u = 0
         character(len=256) :: slip_x = ''         !! groups with u_x = 0
         character(len=256) :: slip_y = ''         !! groups with u_y = 0
+        character(len=256) :: slip_z = ''         !! groups with u_z = 0 (3D)
         character(len=256) :: contact = ''        !! contact boundary groups ('' = none)
         real(dp) :: young = 1.0_dp                !! Young's modulus E
         real(dp) :: poisson = 0.0_dp              !! Poisson ratio
         real(dp) :: density = 1.0_dp              !! rho
-        real(dp) :: gravity(2) = 0.0_dp           !! body acceleration g (f = rho g)
+        real(dp) :: gravity(3) = 0.0_dp           !! body acceleration g (f = rho g), first dim used
         integer :: mass = MASS_CONSISTENT         !! MASS_CONSISTENT | MASS_LUMPED | MASS_REDISTRIBUTED
         logical :: penalty = .false.              !! penalty contact instead of Nitsche
         integer :: multiplier = ALM_OFF           !! augmented Lagrangian: ALM_INTEGRAL | ALM_NODAL
         integer :: nitsche_theta = 1              !! -1, 0 or 1
         real(dp) :: gamma0 = 10.0_dp              !! gamma_N = gamma0 / h_T
-        real(dp) :: obstacle_point(2) = 0.0_dp    !! a point of the obstacle plane
-        real(dp) :: obstacle_normal(2) = [0.0_dp, -1.0_dp] !! normal into the obstacle
-        real(dp) :: probe(2) = 0.0_dp             !! probe point on Gamma_C
+        real(dp) :: obstacle_point(3) = 0.0_dp    !! a point of the obstacle plane
+        real(dp) :: obstacle_normal(3) = [0.0_dp, -1.0_dp, 0.0_dp] !! normal into the obstacle
+        real(dp) :: probe(3) = 0.0_dp             !! probe point on Gamma_C
         integer :: quadrature = QUAD_EXACT        !! QUAD_EXACT | QUAD_GAUSS
         integer :: quad_points = 3                !! Gauss points per facet (QUAD_GAUSS)
         integer :: initial = INITIAL_REST         !! INITIAL_REST | INITIAL_VELOCITY | INITIAL_COMPRESSED_BAR
         real(dp) :: amplitude = 0.0_dp            !! compressed_bar lift
-        real(dp) :: velocity(2) = 0.0_dp          !! INITIAL_VELOCITY velocity
+        real(dp) :: velocity(3) = 0.0_dp          !! INITIAL_VELOCITY velocity
         real(dp) :: length = 1.0_dp               !! compressed_bar: the lift falls to 0 over it
     end type model_params_t
 
     !> Everything constant in time.
     type, public :: model_t
-        integer :: dim = 0                        !! 1 or 2
+        integer :: dim = 0                        !! 1, 2 or 3
         integer :: n_dofs = 0                     !! free dofs
         integer :: ndof_e = 0                     !! dofs per cell
         type(mesh_t) :: msh                       !! the mesh
@@ -79,10 +82,10 @@ module model
         logical :: has_contact = .false.          !! a contact boundary exists
         type(contact_t) :: ct                     !! contact facets
         type(alm_t) :: alm                        !! augmented Lagrangian multipliers (kind ALM_OFF: none)
-        real(dp) :: normal(2) = 0.0_dp            !! unit normal (into the obstacle)
-        integer :: n_probe = 0                    !! facets holding the probe (0, 1 or 2)
-        integer :: probe_facet(2) = 0             !! their indices in ct
-        real(dp) :: probe_xi(2) = 0.0_dp          !! probe position along each
+        real(dp) :: normal(3) = 0.0_dp            !! unit normal (into the obstacle)
+        integer :: n_probe = 0                    !! facets holding the probe (0, 1, or those sharing its edge or node)
+        integer :: probe_facet(MAX_PROBE) = 0     !! their indices in ct
+        real(dp) :: probe_shape(MAX_FN, MAX_PROBE) = 0.0_dp !! facet shape values at the probe on each
         character(len=4096) :: notes = ''          !! warnings and notes for the user, one per line
         real(dp) :: gamma0_min = 0.0_dp           !! smallest gamma0 keeping K_theta PSD (element bound, theta = 1)
     end type model_t
@@ -121,7 +124,7 @@ contains
         mdl%normal(1:dim) = prm%obstacle_normal(1:dim) / norm2(prm%obstacle_normal(1:dim))
         call p1_lame(prm%young, prm%poisson, lambda, mu)
 
-        call number_dofs(stat, msg)
+        call number_dofs(mdl, prm, stat, msg)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &boundary '//trim(msg) &
                        //' ('//trim(prm%mesh_name)//')')
@@ -133,7 +136,7 @@ contains
                        //''' in '//trim(prm%mesh_name)//')')
             return
         end if
-        call assemble(stat, msg)
+        call assemble(mdl, prm, lambda, mu, stat, msg)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//trim(msg))
             return
@@ -149,7 +152,7 @@ contains
         allocate (mdl%massless(mdl%n_dofs))
         mdl%massless = .false.
         if (prm%mass == MASS_REDISTRIBUTED) then
-            call redistribute(stat, msg)
+            call redistribute(mdl, facets, stat, msg)
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &scheme mass: ' &
                            //trim(msg)//' ('//trim(prm%mesh_name)//')')
@@ -170,483 +173,634 @@ contains
         if (mdl%has_contact .and. prm%multiplier /= ALM_OFF) &
             call alm_init(mdl%alm, mdl%ct, prm%multiplier)
         if (mdl%has_contact) then
-            call check_normal()
-            call check_gamma0(stat, msg)
+            call check_normal(mdl)
+            call check_gamma0(mdl, prm, lambda, mu, stat, msg)
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &contact gamma0: '//trim(msg))
                 return
             end if
         else
-            call note('warning: no contact boundary (&boundary contact = '''//trim(prm%contact)// &
+            call note(mdl, 'warning: no contact boundary (&boundary contact = '''//trim(prm%contact)// &
                       '''): the probe reports nothing (u_n, v_n, p_n are 0 in trace.csv)')
         end if
-        call add_theta_term()
-        call block_copy(stat, msg)
+        call add_theta_term(mdl)
+        call block_copy(mdl, stat, msg)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//trim(msg))
             return
         end if
         if (mdl%has_contact) then
-            call snap_probe(stat, msg)
+            call snap_probe(mdl, prm, stat, msg)
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &contact probe: '//trim(msg))
                 return
             end if
         end if
 
-    contains
+    end subroutine model_build
 
-        !> Dirichlet masks -> free dof numbering (node-major).
-        subroutine number_dofs(st, m)
-            integer, intent(out) :: st
-            character(len=*), intent(inout) :: m
-            logical, allocatable :: fixed(:, :), mask(:)
-            integer :: i, k, n
-            allocate (fixed(dim, mdl%msh%n_nodes), mask(mdl%msh%n_nodes))
-            fixed = .false.
-            mask = .false.
-            call mesh_group_nodes(mdl%msh, prm%clamped, mask, st, m)
-            if (st /= STAT_OK) then
-                m = 'clamped: '//trim(m)
-                return
-            end if
+    !> Dirichlet masks -> free dof numbering (node-major).
+    subroutine number_dofs(mdl, prm, st, m)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        type(model_params_t), intent(in) :: prm      !! parameters
+        integer, intent(out) :: st                   !! status
+        character(len=*), intent(inout) :: m         !! message
+        logical, allocatable :: fixed(:, :), mask(:)
+        integer :: i, k, n, dim
+        dim = mdl%dim
+        allocate (fixed(dim, mdl%msh%n_nodes), mask(mdl%msh%n_nodes))
+        fixed = .false.
+        mask = .false.
+        call mesh_group_nodes(mdl%msh, prm%clamped, mask, st, m)
+        if (st /= STAT_OK) then
+            m = 'clamped: '//trim(m)
+            return
+        end if
+        do k = 1, dim
+            fixed(k, :) = mask
+        end do
+        mask = .false.
+        call mesh_group_nodes(mdl%msh, prm%slip_x, mask, st, m)
+        if (st /= STAT_OK) then
+            m = 'slip_x: '//trim(m)
+            return
+        end if
+        fixed(1, :) = fixed(1, :) .or. mask
+        mask = .false.
+        call mesh_group_nodes(mdl%msh, prm%slip_y, mask, st, m)
+        if (st /= STAT_OK) then
+            m = 'slip_y: '//trim(m)
+            return
+        end if
+        if (dim == 1 .and. any(mask)) then
+            st = STAT_BAD_INPUT
+            m = 'slip_y: a 1D model has no y component'
+            return
+        end if
+        if (dim >= 2) fixed(2, :) = fixed(2, :) .or. mask
+        mask = .false.
+        call mesh_group_nodes(mdl%msh, prm%slip_z, mask, st, m)
+        if (st /= STAT_OK) then
+            m = 'slip_z: '//trim(m)
+            return
+        end if
+        if (dim < 3 .and. any(mask)) then
+            st = STAT_BAD_INPUT
+            m = 'slip_z: a '//merge('1D', '2D', dim == 1)//' model has no z component'
+            return
+        end if
+        if (dim == 3) fixed(3, :) = fixed(3, :) .or. mask
+        allocate (mdl%dof(dim, mdl%msh%n_nodes))
+        n = 0
+        do i = 1, mdl%msh%n_nodes
             do k = 1, dim
-                fixed(k, :) = mask
-            end do
-            mask = .false.
-            call mesh_group_nodes(mdl%msh, prm%slip_x, mask, st, m)
-            if (st /= STAT_OK) then
-                m = 'slip_x: '//trim(m)
-                return
-            end if
-            fixed(1, :) = fixed(1, :) .or. mask
-            mask = .false.
-            call mesh_group_nodes(mdl%msh, prm%slip_y, mask, st, m)
-            if (st /= STAT_OK) then
-                m = 'slip_y: '//trim(m)
-                return
-            end if
-            if (dim == 1 .and. any(mask)) then
-                st = STAT_BAD_INPUT
-                m = 'slip_y: a 1D model has no y component'
-                return
-            end if
-            if (dim == 2) fixed(2, :) = fixed(2, :) .or. mask
-            allocate (mdl%dof(dim, mdl%msh%n_nodes))
-            n = 0
-            do i = 1, mdl%msh%n_nodes
-                do k = 1, dim
-                    if (fixed(k, i)) then
-                        mdl%dof(k, i) = 0
-                    else
-                        n = n + 1
-                        mdl%dof(k, i) = n
-                    end if
-                end do
-            end do
-            mdl%n_dofs = n
-            allocate (mdl%dof_node(n), mdl%dof_comp(n))
-            do i = 1, mdl%msh%n_nodes
-                do k = 1, dim
-                    if (mdl%dof(k, i) > 0) then
-                        mdl%dof_node(mdl%dof(k, i)) = i
-                        mdl%dof_comp(mdl%dof(k, i)) = k
-                    end if
-                end do
-            end do
-        end subroutine number_dofs
-
-        !> Pattern, cell positions, M, K, K_theta (= K for now) and L.
-        subroutine assemble(st, m)
-            integer, intent(out) :: st
-            character(len=*), intent(inout) :: m
-            integer :: c, a, b, i, j, nnz, ne, cd(6)
-            integer, allocatable :: rows(:), cols(:)
-            real(dp), allocatable :: zeros(:)
-            real(dp) :: xe(2, 3), ke(6, 6), me(6, 6)
-            real(dp) :: vol
-            ne = mdl%ndof_e
-            allocate (rows(ne * ne * mdl%msh%n_cells), cols(ne * ne * mdl%msh%n_cells))
-            nnz = 0
-            do c = 1, mdl%msh%n_cells
-                call cell_dofs(c, cd(1:ne))
-                do b = 1, ne
-                    if (cd(b) == 0) cycle
-                    do a = 1, ne
-                        if (cd(a) == 0) cycle
-                        nnz = nnz + 1
-                        rows(nnz) = cd(a)
-                        cols(nnz) = cd(b)
-                    end do
-                end do
-            end do
-            allocate (zeros(nnz))
-            zeros = 0.0_dp
-            call csc_from_coo(mdl%n_dofs, rows(1:nnz), cols(1:nnz), zeros, mdl%stiff, st, m)
-            if (st /= STAT_OK) return
-            mdl%mass = mdl%stiff
-            allocate (mdl%cell_pos(ne, ne, mdl%msh%n_cells), mdl%load(mdl%n_dofs))
-            mdl%load = 0.0_dp
-            mdl%lumped = prm%mass == MASS_LUMPED
-            do c = 1, mdl%msh%n_cells
-                call cell_dofs(c, cd(1:ne))
-                do b = 1, ne
-                    do a = 1, ne
-                        mdl%cell_pos(a, b, c) = 0
-                        if (cd(a) > 0 .and. cd(b) > 0) mdl%cell_pos(a, b, c) = csc_find(mdl%stiff, cd(a), cd(b))
-                    end do
-                end do
-                xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, c))
-                call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, prm%young, ke(1:ne, 1:ne))
-                call p1_mass(dim, xe(1:dim, 1:dim + 1), prm%density, mdl%lumped, me(1:ne, 1:ne))
-                do b = 1, ne
-                    do a = 1, ne
-                        i = mdl%cell_pos(a, b, c)
-                        if (i == 0) cycle
-                        mdl%stiff%val(i) = mdl%stiff%val(i) + ke(a, b)
-                        mdl%mass%val(i) = mdl%mass%val(i) + me(a, b)
-                    end do
-                end do
-                vol = abs(p1_measure(dim, xe(1:dim, 1:dim + 1)))
-                do a = 1, dim + 1
-                    do j = 1, dim
-                        i = cd(dim * (a - 1) + j)
-                        if (i > 0) mdl%load(i) = mdl%load(i) + prm%density * prm%gravity(j) * vol / (dim + 1)
-                    end do
-                end do
-            end do
-            mdl%stiff_theta = mdl%stiff
-            if (mdl%lumped) then
-                allocate (mdl%mass_diag(mdl%n_dofs))
-                do j = 1, mdl%n_dofs
-                    mdl%mass_diag(j) = mdl%mass%val(csc_find(mdl%mass, j, j))
-                end do
-            end if
-        end subroutine assemble
-
-        !> Free dofs of cell c (0 = constrained).
-        subroutine cell_dofs(c, cd)
-            integer, intent(in) :: c
-            integer, intent(out) :: cd(:)
-            integer :: a, k
-            do a = 1, dim + 1
-                do k = 1, dim
-                    cd(dim * (a - 1) + k) = mdl%dof(k, mdl%msh%cells(a, c))
-                end do
-            end do
-        end subroutine cell_dofs
-
-        !> K_theta = K - sum_f theta |F| / gamma_N s_f s_f^T.
-        subroutine add_theta_term()
-            integer :: f, a, b, i
-            real(dp) :: coef
-            if (mdl%ct%theta == 0) return     ! theta = 0, or penalty
-            do f = 1, mdl%ct%n_facets
-                coef = mdl%ct%theta * mdl%ct%measure(f) / mdl%ct%gamma(f)
-                do b = 1, mdl%ndof_e
-                    do a = 1, mdl%ndof_e
-                        i = mdl%cell_pos(a, b, mdl%ct%cell(f))
-                        if (i == 0) cycle
-                        mdl%stiff_theta%val(i) = mdl%stiff_theta%val(i) &
-                                                 - coef * mdl%ct%s(a, f) * mdl%ct%s(b, f)
-                    end do
-                end do
-            end do
-        end subroutine add_theta_term
-
-        !> Redistributed mass: no inertia on the contact nodes (module mass_redistribution).
-        subroutine redistribute(st, m)
-            integer, intent(out) :: st
-            character(len=*), intent(inout) :: m
-            logical, allocatable :: contact_node(:), region(:)
-            integer, parameter :: LAYERS = 4
-            allocate (contact_node(mdl%msh%n_nodes), region(mdl%msh%n_nodes))
-            contact_node = .false.
-            if (size(facets) > 0) contact_node(reshape(mdl%msh%facets(:, facets), [size(facets) &
-                                               * size(mdl%msh%facets, 1)])) = .true.
-            call mass_region(mdl%msh%cells, contact_node, LAYERS, region)
-            call mass_redistribute(mdl%mass, mdl%dof_node, mdl%dof_comp, mdl%msh%x, contact_node, &
-                                   region, mdl%massless, st, m)
-        end subroutine redistribute
-
-        !> 2x2 node-block copy of K_theta (2D): the free dofs of a node are consecutive.
-        subroutine block_copy(st, m)
-            integer, intent(out) :: st
-            character(len=*), intent(inout) :: m
-            integer, allocatable :: first(:)
-            integer :: i, ng
-            st = STAT_OK
-            if (dim /= 2 .or. mdl%n_dofs == 0) return
-            allocate (first(mdl%msh%n_nodes + 1))
-            ng = 0
-            do i = 1, mdl%msh%n_nodes
-                if (any(mdl%dof(:, i) > 0)) then
-                    ng = ng + 1
-                    first(ng) = minval(mdl%dof(:, i), mask=mdl%dof(:, i) > 0)
-                end if
-            end do
-            first(ng + 1) = mdl%n_dofs + 1
-            call block2_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b, st, m)
-            if (st == STAT_OK) call block2_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b, st, m)
-            mdl%blocked = st == STAT_OK
-            if (mdl%blocked) call block2_scalar_blocks(mdl%mass_b, mdl%mass_s, mdl%mass_scalar)
-        end subroutine block_copy
-
-        !> Snap the probe to the nearest point of Gamma_C when it lies within
-        !> PROBE_SNAP x the local facet length (a note reports the point used);
-        !> farther, an error gives the distance and the nearest point.
-        subroutine snap_probe(st, m)
-            integer, intent(out) :: st
-            character(len=*), intent(inout) :: m
-            real(dp), parameter :: PROBE_SNAP = 0.5_dp   ! tolerance / facet length
-            real(dp), parameter :: EXACT = 1.0e-9_dp      ! relative distance counted as "on Gamma_C"
-            real(dp) :: p(dim), q(dim), best(dim), xa(dim), xb(dim), t, d, dbest, hbest
-            integer :: f
-            character(len=160) :: buf
-            st = STAT_OK
-            p = prm%probe(1:dim)
-            dbest = huge(1.0_dp); hbest = 1.0_dp; best = p
-            do f = 1, mdl%ct%n_facets
-                xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
-                if (dim == 1) then
-                    q = xa
-                    d = abs(p(1) - xa(1))
-                    t = facet_size(f)
+                if (fixed(k, i)) then
+                    mdl%dof(k, i) = 0
                 else
-                    xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
-                    t = dot_product(p - xa, xb - xa) / sum((xb - xa)**2)
-                    q = xa + min(1.0_dp, max(0.0_dp, t)) * (xb - xa)
-                    d = norm2(p - q)
-                    t = norm2(xb - xa)
-                end if
-                if (d < dbest) then
-                    dbest = d; best = q; hbest = t
+                    n = n + 1
+                    mdl%dof(k, i) = n
                 end if
             end do
-            if (dbest > PROBE_SNAP * hbest) then
-                st = STAT_BAD_INPUT
-                write (buf, '(a, es10.3e3, a, 2(es12.5e3, 1x))') 'the point is not on the contact boundary: ' &
-                    //'distance ', dbest, ' to its nearest point ', best
-                m = trim(buf)//' (snapped only within '//trim(real_str(PROBE_SNAP))//' x the facet length)'
-                return
-            end if
-            call locate_probe(best, st)
-            if (st /= STAT_OK) then
-                m = 'the point is not on the contact boundary'
-                return
-            end if
-            if (dbest > EXACT * hbest) then
-                write (buf, '(a, 2(es12.5e3, 1x), a, es10.3e3, a)') 'note: &contact probe snapped to ', &
-                    best(1:dim), '(distance ', dbest, ')'
-                call note(trim(buf))
-            end if
-        end subroutine snap_probe
-
-        !> Length of the owner cell of contact facet f along x (1D facet size).
-        function facet_size(f) result(hf)
-            integer, intent(in) :: f
-            real(dp) :: hf
-            hf = maxval(mdl%msh%x(1, mdl%msh%cells(:, mdl%ct%cell(f)))) &
-                 - minval(mdl%msh%x(1, mdl%msh%cells(:, mdl%ct%cell(f))))
-        end function facet_size
-
-        !> Append one line to the model's notes.
-        subroutine note(line)
-            character(len=*), intent(in) :: line
-            mdl%notes = trim(mdl%notes)//trim(line)//new_line('a')
-        end subroutine note
-
-        !> Warn when obstacle_normal points into the body: the outward normals of the
-        !> contact facets (away from their owner cells), weighted by facet size, should
-        !> point the same way.
-        subroutine check_normal()
-            integer :: f
-            real(dp) :: xa(dim), xb(dim), xc(dim), nf(dim), s_dot, s_len
-            character(len=200) :: buf
-            s_dot = 0.0_dp; s_len = 0.0_dp
-            do f = 1, mdl%ct%n_facets
-                xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
-                xc = sum(mdl%msh%x(:, mdl%msh%cells(:, mdl%ct%cell(f))), dim=2) / (dim + 1)
-                if (dim == 1) then
-                    nf = sign(1.0_dp, xa - xc)
-                else
-                    xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
-                    nf = [xb(2) - xa(2), xa(1) - xb(1)]
-                    if (dot_product(nf, 0.5_dp * (xa + xb) - xc) < 0.0_dp) nf = -nf
+        end do
+        mdl%n_dofs = n
+        allocate (mdl%dof_node(n), mdl%dof_comp(n))
+        do i = 1, mdl%msh%n_nodes
+            do k = 1, dim
+                if (mdl%dof(k, i) > 0) then
+                    mdl%dof_node(mdl%dof(k, i)) = i
+                    mdl%dof_comp(mdl%dof(k, i)) = k
                 end if
-                s_dot = s_dot + dot_product(nf, mdl%normal(1:dim))
-                s_len = s_len + norm2(nf)
             end do
-            if (s_dot < 0.0_dp) then
-                write (buf, '(a, f6.3, a)') 'warning: &contact obstacle_normal points into the body ' &
-                    //'(mean cosine with the outward normal of the contact facets: ', s_dot / s_len, &
-                    '); it should point from the body into the obstacle'
-                call note(trim(buf))
-            end if
-        end subroutine check_normal
+        end do
+    end subroutine number_dofs
 
-        !> gamma0 against the material: with theta = 1, K_theta = K - sum theta |F| /
-        !> gamma_N s s^T stays positive semi-definite if on every cell touching Gamma_C
-        !> sum_f (|F| / gamma_N) s^T K_e^+ s <= 1 (Cauchy-Schwarz in the K_e norm; s is
-        !> orthogonal to the rigid modes). This gives gamma0_min; below it theta = 1 is an
-        !> error, theta = 0 / -1 a warning (weakly enforced contact).
-        subroutine check_gamma0(st, m)
-            integer, intent(out) :: st
-            character(len=*), intent(inout) :: m
-            real(dp), parameter :: SUGGEST = 2.0_dp   ! margin of the suggested value over gamma0_min
-            real(dp), parameter :: BOUND_RTOL = 1.0e-12_dp   ! 'at the bound', relative
-            real(dp) :: ratio_max, g_min, g_sug, stiff
-            real(dp), allocatable :: ratio(:)
-            integer :: f
-            character(len=400) :: buf
-            st = STAT_OK
-            allocate (ratio(mdl%msh%n_cells))
-            ratio = 0.0_dp
-            do f = 1, mdl%ct%n_facets
-                ratio(mdl%ct%cell(f)) = ratio(mdl%ct%cell(f)) + &
-                    mdl%ct%measure(f) * facet_compliance(f) / mdl%ct%gamma(f)
-            end do
-            ratio_max = maxval(ratio)
-            g_min = prm%gamma0 * ratio_max
-            mdl%gamma0_min = g_min
-            ! at the bound K_theta is singular on a contact cell: fine while M gives J0 =
-            ! M + c K_theta its definiteness, not with the redistributed mass (no inertia on
-            ! the contact nodes), which needs gamma0 above the bound (to round-off)
-            if (prm%mass == MASS_REDISTRIBUTED .and. prm%nitsche_theta == 1) then
-                if (prm%gamma0 > g_min * (1.0_dp + BOUND_RTOL)) return
-            else if (prm%gamma0 >= g_min) then
-                return
-            end if
-            stiff = prm%young
-            if (dim == 2) stiff = lambda + 2.0_dp * mu
-            g_sug = round_up(SUGGEST * g_min)
-            if (prm%nitsche_theta == 1) then
-                st = STAT_BAD_INPUT
-                write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a, es10.3e3, a)') '', prm%gamma0, &
-                    ' is too small for the material: with theta = 1, K_theta is indefinite below ' &
-                    //'gamma0 = ', g_min, ' (element bound); use gamma0 = ', g_sug, &
-                    ' (the stiffness E or lambda + 2 mu is ', stiff, '; docs/scenes.md)'
-                m = trim(adjustl(buf))
-                if (prm%mass == MASS_REDISTRIBUTED) m = trim(m)//' [the redistributed mass '// &
-                    'needs gamma0 above the bound: K_theta is singular at it]'
-            else
-                write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
-                    'warning: &contact gamma0 = ', prm%gamma0, &
-                    ' is small for the material (contact weakly enforced, large penetration; ' &
-                    //'theta = 1 would need gamma0 >= ', g_min, '): consider gamma0 = ', g_sug, &
-                    ' (docs/scenes.md)'
-                call note(trim(buf))
-            end if
-        end subroutine check_gamma0
-
-        !> s^T K_e^+ s for contact facet f (owner cell stiffness, rigid modes removed).
-        function facet_compliance(f) result(c)
-            integer, intent(in) :: f
-            real(dp) :: c
-            real(dp) :: xe(2, 3), ke(6, 6), r(6, 3), x(6), scale
-            integer :: ne, nr, a, b, piv(6), info, cell
-            cell = mdl%ct%cell(f)
-            ne = mdl%ndof_e
-            xe = 0.0_dp
-            xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, cell))
-            call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, prm%young, ke(1:ne, 1:ne))
-            ! Rigid modes (translations, rotation about the centroid), orthonormalized.
-            r = 0.0_dp
-            if (dim == 1) then
-                nr = 1
-                r(1:2, 1) = 1.0_dp
-            else
-                nr = 3
-                do a = 1, 3
-                    r(2 * a - 1, 1) = 1.0_dp
-                    r(2 * a, 2) = 1.0_dp
-                    r(2 * a - 1, 3) = -(xe(2, a) - sum(xe(2, 1:3)) / 3.0_dp)
-                    r(2 * a, 3) = xe(1, a) - sum(xe(1, 1:3)) / 3.0_dp
+    !> Pattern, cell positions, M, K, K_theta (= K for now) and L.
+    subroutine assemble(mdl, prm, lambda, mu, st, m)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        type(model_params_t), intent(in) :: prm      !! parameters
+        real(dp), intent(in) :: lambda, mu           !! Lame parameters
+        integer, intent(out) :: st                   !! status
+        character(len=*), intent(inout) :: m         !! message
+        integer :: c, a, b, i, j, nnz, ne, dim, cd(MAX_E)
+        integer, allocatable :: rows(:), cols(:)
+        real(dp), allocatable :: zeros(:)
+        real(dp) :: xe(3, 4), ke(MAX_E, MAX_E), me(MAX_E, MAX_E)
+        real(dp) :: vol
+        dim = mdl%dim
+        ne = mdl%ndof_e
+        allocate (rows(ne * ne * mdl%msh%n_cells), cols(ne * ne * mdl%msh%n_cells))
+        nnz = 0
+        do c = 1, mdl%msh%n_cells
+            call cell_dofs(mdl, c, cd(1:ne))
+            do b = 1, ne
+                if (cd(b) == 0) cycle
+                do a = 1, ne
+                    if (cd(a) == 0) cycle
+                    nnz = nnz + 1
+                    rows(nnz) = cd(a)
+                    cols(nnz) = cd(b)
                 end do
-            end if
-            do a = 1, nr
-                do b = 1, a - 1
-                    r(1:ne, a) = r(1:ne, a) - dot_product(r(1:ne, a), r(1:ne, b)) * r(1:ne, b)
-                end do
-                r(1:ne, a) = r(1:ne, a) / norm2(r(1:ne, a))
             end do
-            scale = 0.0_dp
-            do a = 1, ne
-                scale = scale + ke(a, a)
-            end do
-            scale = scale / ne
+        end do
+        allocate (zeros(nnz))
+        zeros = 0.0_dp
+        call csc_from_coo(mdl%n_dofs, rows(1:nnz), cols(1:nnz), zeros, mdl%stiff, st, m)
+        if (st /= STAT_OK) return
+        mdl%mass = mdl%stiff
+        allocate (mdl%cell_pos(ne, ne, mdl%msh%n_cells), mdl%load(mdl%n_dofs))
+        mdl%load = 0.0_dp
+        mdl%lumped = prm%mass == MASS_LUMPED
+        do c = 1, mdl%msh%n_cells
+            call cell_dofs(mdl, c, cd(1:ne))
             do b = 1, ne
                 do a = 1, ne
-                    ke(a, b) = ke(a, b) + scale * dot_product(r(a, 1:nr), r(b, 1:nr))
+                    mdl%cell_pos(a, b, c) = 0
+                    if (cd(a) > 0 .and. cd(b) > 0) mdl%cell_pos(a, b, c) = csc_find(mdl%stiff, cd(a), cd(b))
                 end do
             end do
-            call dense_lu_factor(ne, ke(1:ne, 1:ne), piv(1:ne), info)
-            c = huge(1.0_dp)
-            if (info /= 0) return
-            x(1:ne) = mdl%ct%s(1:ne, f)
-            call dense_lu_solve(ne, ke(1:ne, 1:ne), piv(1:ne), x(1:ne))
-            c = dot_product(mdl%ct%s(1:ne, f), x(1:ne))
-        end function facet_compliance
-
-        !> The smallest of 1, 2, 5 x 10^k that is >= v (v > 0).
-        function round_up(v) result(r)
-            real(dp), intent(in) :: v
-            real(dp) :: r
-            real(dp), parameter :: STEPS(4) = [1.0_dp, 2.0_dp, 5.0_dp, 10.0_dp]
-            real(dp) :: p
-            integer :: k
-            p = 10.0_dp**floor(log10(v))
-            do k = 1, 4
-                r = p * STEPS(k)
-                if (r >= v * (1.0_dp - 1.0e-12_dp)) return
+            xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, c))
+            call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, prm%young, ke(1:ne, 1:ne))
+            call p1_mass(dim, xe(1:dim, 1:dim + 1), prm%density, mdl%lumped, me(1:ne, 1:ne))
+            do b = 1, ne
+                do a = 1, ne
+                    i = mdl%cell_pos(a, b, c)
+                    if (i == 0) cycle
+                    mdl%stiff%val(i) = mdl%stiff%val(i) + ke(a, b)
+                    mdl%mass%val(i) = mdl%mass%val(i) + me(a, b)
+                end do
             end do
-        end function round_up
+            vol = abs(p1_measure(dim, xe(1:dim, 1:dim + 1)))
+            do a = 1, dim + 1
+                do j = 1, dim
+                    i = cd(dim * (a - 1) + j)
+                    if (i > 0) mdl%load(i) = mdl%load(i) + prm%density * prm%gravity(j) * vol / (dim + 1)
+                end do
+            end do
+        end do
+        mdl%stiff_theta = mdl%stiff
+        if (mdl%lumped) then
+            allocate (mdl%mass_diag(mdl%n_dofs))
+            do j = 1, mdl%n_dofs
+                mdl%mass_diag(j) = mdl%mass%val(csc_find(mdl%mass, j, j))
+            end do
+        end if
+    end subroutine assemble
 
-        !> A real as short text.
-        function real_str(x) result(t)
-            real(dp), intent(in) :: x
-            character(len=:), allocatable :: t
-            character(len=32) :: b
-            write (b, '(g0.3)') x
-            t = trim(adjustl(b))
-        end function real_str
+    !> Free dofs of cell c (0 = constrained).
+    pure subroutine cell_dofs(mdl, c, cd)
+        type(model_t), intent(in) :: mdl             !! model
+        integer, intent(in) :: c                     !! cell
+        integer, intent(out) :: cd(:)                !! (ndof_e) its free dofs
+        integer :: a, k
+        do a = 1, mdl%dim + 1
+            do k = 1, mdl%dim
+                cd(mdl%dim * (a - 1) + k) = mdl%dof(k, mdl%msh%cells(a, c))
+            end do
+        end do
+    end subroutine cell_dofs
 
-        !> Facets holding the probe point p (two when it is a shared node).
-        subroutine locate_probe(p, st)
-            real(dp), intent(in) :: p(:)
-            integer, intent(out) :: st
-            integer :: f
-            real(dp) :: xa(dim), xb(dim), t, len2, dist, tol
-            st = STAT_OK
-            mdl%n_probe = 0
-            do f = 1, mdl%ct%n_facets
-                if (mdl%n_probe == 2) exit
-                xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
-                if (dim == 1) then
-                    tol = 1.0e-9_dp * max(1.0_dp, abs(xa(1)))
-                    if (abs(p(1) - xa(1)) <= tol) call add(f, 0.0_dp)
-                    cycle
-                end if
+    !> K_theta = K - sum_f theta |F| / gamma_N s_f s_f^T.
+    subroutine add_theta_term(mdl)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        integer :: f, a, b, i
+        real(dp) :: coef
+        if (mdl%ct%theta == 0) return     ! theta = 0, or penalty
+        do f = 1, mdl%ct%n_facets
+            coef = mdl%ct%theta * mdl%ct%measure(f) / mdl%ct%gamma(f)
+            do b = 1, mdl%ndof_e
+                do a = 1, mdl%ndof_e
+                    i = mdl%cell_pos(a, b, mdl%ct%cell(f))
+                    if (i == 0) cycle
+                    mdl%stiff_theta%val(i) = mdl%stiff_theta%val(i) &
+                                             - coef * mdl%ct%s(a, f) * mdl%ct%s(b, f)
+                end do
+            end do
+        end do
+    end subroutine add_theta_term
+
+    !> Redistributed mass: no inertia on the contact nodes (module mass_redistribution).
+    subroutine redistribute(mdl, facets, st, m)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        integer, intent(in) :: facets(:)             !! contact facets (mesh facet indices)
+        integer, intent(out) :: st                   !! status
+        character(len=*), intent(inout) :: m         !! message
+        logical, allocatable :: contact_node(:), region(:)
+        integer, parameter :: LAYERS = 4
+        allocate (contact_node(mdl%msh%n_nodes), region(mdl%msh%n_nodes))
+        contact_node = .false.
+        if (size(facets) > 0) contact_node(reshape(mdl%msh%facets(:, facets), [size(facets) &
+                                           * size(mdl%msh%facets, 1)])) = .true.
+        call mass_region(mdl%msh%cells, contact_node, LAYERS, region)
+        call mass_redistribute(mdl%mass, mdl%dof_node, mdl%dof_comp, mdl%msh%x, contact_node, &
+                               region, mdl%massless, st, m)
+    end subroutine redistribute
+
+    !> 2x2 node-block copy of K_theta (2D): the free dofs of a node are consecutive.
+    subroutine block_copy(mdl, st, m)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        integer, intent(out) :: st                   !! status
+        character(len=*), intent(inout) :: m         !! message
+        integer, allocatable :: first(:)
+        integer :: i, ng
+        st = STAT_OK
+        if (mdl%dim /= 2 .or. mdl%n_dofs == 0) return
+        allocate (first(mdl%msh%n_nodes + 1))
+        ng = 0
+        do i = 1, mdl%msh%n_nodes
+            if (any(mdl%dof(:, i) > 0)) then
+                ng = ng + 1
+                first(ng) = minval(mdl%dof(:, i), mask=mdl%dof(:, i) > 0)
+            end if
+        end do
+        first(ng + 1) = mdl%n_dofs + 1
+        call block2_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b, st, m)
+        if (st == STAT_OK) call block2_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b, st, m)
+        mdl%blocked = st == STAT_OK
+        if (mdl%blocked) call block2_scalar_blocks(mdl%mass_b, mdl%mass_s, mdl%mass_scalar)
+    end subroutine block_copy
+
+    !> Snap the probe to the nearest point of Gamma_C when it lies within
+    !> PROBE_SNAP x the local facet length (a note reports the point used);
+    !> farther, an error gives the distance and the nearest point.
+    subroutine snap_probe(mdl, prm, st, m)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        type(model_params_t), intent(in) :: prm      !! parameters
+        integer, intent(out) :: st                   !! status
+        character(len=*), intent(inout) :: m         !! message
+        real(dp), parameter :: PROBE_SNAP = 0.5_dp   ! tolerance / facet length
+        real(dp), parameter :: EXACT = 1.0e-9_dp      ! relative distance counted as "on Gamma_C"
+        real(dp) :: p(mdl%dim), q(mdl%dim), best(mdl%dim), xa(mdl%dim), xb(mdl%dim), t, d, dbest, hbest
+        real(dp) :: ta(3), tb(3), tc(3), w(3)
+        integer :: f, dim
+        character(len=160) :: buf
+        character(len=40) :: vfmt
+        st = STAT_OK
+        dim = mdl%dim
+        p = prm%probe(1:dim)
+        dbest = huge(1.0_dp); hbest = 1.0_dp; best = p
+        do f = 1, mdl%ct%n_facets
+            xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
+            if (dim == 1) then
+                q = xa
+                d = abs(p(1) - xa(1))
+                t = facet_size(mdl, f)
+            else if (dim == 3) then
+                call facet_triangle(mdl, f, ta, tb, tc)
+                w = triangle_nearest(p, ta, tb, tc)
+                q = w(1) * ta + w(2) * tb + w(3) * tc
+                d = norm2(p - q)
+                t = max(norm2(tb - ta), norm2(tc - tb), norm2(ta - tc))
+            else
                 xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
-                len2 = sum((xb - xa)**2)
-                t = dot_product(p - xa, xb - xa) / len2
-                dist = norm2(p - xa - t * (xb - xa))
-                tol = 1.0e-9_dp * sqrt(len2)
-                if (dist > tol .or. t < -1.0e-9_dp .or. t > 1.0_dp + 1.0e-9_dp) cycle
-                call add(f, min(1.0_dp, max(0.0_dp, t)))
-            end do
-            if (mdl%n_probe == 0) st = STAT_BAD_INPUT
-        end subroutine locate_probe
+                t = dot_product(p - xa, xb - xa) / sum((xb - xa)**2)
+                q = xa + min(1.0_dp, max(0.0_dp, t)) * (xb - xa)
+                d = norm2(p - q)
+                t = norm2(xb - xa)
+            end if
+            if (d < dbest) then
+                dbest = d; best = q; hbest = t
+            end if
+        end do
+        if (dbest > PROBE_SNAP * hbest) then
+            st = STAT_BAD_INPUT
+            ! es13.5e3 holds -d.ddddE-ddd (13 characters); single_blanks drops the padding
+            write (vfmt, '(a, i0, a)') '(a, es10.3e3, a, ', max(2, dim), '(es13.5e3, 1x))'
+            write (buf, vfmt) 'the point is not on the contact boundary: ' &
+                //'distance ', dbest, ' to its nearest point ', best
+            m = single_blanks(buf)//' (snapped only within '//trim(real_str(PROBE_SNAP))//' x the facet length)'
+            return
+        end if
+        call locate_probe(mdl, best, st)
+        if (st /= STAT_OK) then
+            m = 'the point is not on the contact boundary'
+            return
+        end if
+        if (dbest > EXACT * hbest) then
+            write (vfmt, '(a, i0, a)') '(a, ', dim, '(es13.5e3, 1x), a, es10.3e3, a)'
+            write (buf, vfmt) 'note: &contact probe snapped to ', &
+                best(1:dim), '(distance ', dbest, ')'
+            call note(mdl, single_blanks(buf))
+        end if
+    end subroutine snap_probe
 
-        !> Record facet f (position xi along it) as holding the probe.
-        subroutine add(f, xi)
-            integer, intent(in) :: f
-            real(dp), intent(in) :: xi
-            mdl%n_probe = mdl%n_probe + 1
-            mdl%probe_facet(mdl%n_probe) = f
-            mdl%probe_xi(mdl%n_probe) = xi
-        end subroutine add
-    end subroutine model_build
+    !> Length of the owner cell of contact facet f along x (1D facet size).
+    pure function facet_size(mdl, f) result(hf)
+        type(model_t), intent(in) :: mdl             !! model
+        integer, intent(in) :: f                     !! contact facet
+        real(dp) :: hf
+        hf = maxval(mdl%msh%x(1, mdl%msh%cells(:, mdl%ct%cell(f)))) &
+             - minval(mdl%msh%x(1, mdl%msh%cells(:, mdl%ct%cell(f))))
+    end function facet_size
+
+    !> Append one line to the model's notes.
+    subroutine note(mdl, line)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        character(len=*), intent(in) :: line
+        mdl%notes = trim(mdl%notes)//trim(line)//new_line('a')
+    end subroutine note
+
+    !> Warn when obstacle_normal points into the body. Rule: a contact facet can face
+    !> the obstacle when its outward normal (away from its owner cell) has a positive
+    !> component along obstacle_normal; the warning is given when no facet can. A mean
+    !> of the cosines would not do: on a closed contact boundary (a disk's whole
+    !> outline) it is 0 whatever the normal, and part of the facets always face the
+    !> obstacle, so a closed boundary never warns; an open one (the bar's bottom)
+    !> warns when all its facets face away from the obstacle or are parallel to it.
+    subroutine check_normal(mdl)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        real(dp), parameter :: FACING = 1.0e-9_dp   ! cosine counted as facing
+        integer :: f, dim
+        real(dp) :: xa(mdl%dim), xb(mdl%dim), xc(mdl%dim), nf(mdl%dim), c_max
+        real(dp) :: ta(3), tb(3), tc(3)
+        character(len=200) :: buf
+        dim = mdl%dim
+        c_max = -huge(1.0_dp)
+        do f = 1, mdl%ct%n_facets
+            xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
+            xc = sum(mdl%msh%x(:, mdl%msh%cells(:, mdl%ct%cell(f))), dim=2) / (dim + 1)
+            if (dim == 1) then
+                nf = sign(1.0_dp, xa - xc)
+            else if (dim == 3) then
+                call facet_triangle(mdl, f, ta, tb, tc)
+                tb = tb - ta; tc = tc - ta
+                nf = [tb(2) * tc(3) - tb(3) * tc(2), tb(3) * tc(1) - tb(1) * tc(3), &
+                      tb(1) * tc(2) - tb(2) * tc(1)]
+                if (dot_product(nf, ta - xc) < 0.0_dp) nf = -nf
+            else
+                xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
+                nf = [xb(2) - xa(2), xa(1) - xb(1)]
+                if (dot_product(nf, 0.5_dp * (xa + xb) - xc) < 0.0_dp) nf = -nf
+            end if
+            c_max = max(c_max, dot_product(nf, mdl%normal(1:dim)) / norm2(nf))
+        end do
+        if (mdl%ct%n_facets > 0 .and. c_max <= FACING) then
+            write (buf, '(a, f6.3, a)') 'warning: &contact obstacle_normal points into the body ' &
+                //'(no contact facet faces the obstacle: largest cosine with their outward '// &
+                'normals ', c_max, '); it should point from the body into the obstacle'
+            call note(mdl, trim(buf))
+        end if
+    end subroutine check_normal
+
+    !> gamma0 against the material: with theta = 1, K_theta = K - sum theta |F| /
+    !> gamma_N s s^T stays positive semi-definite if on every cell touching Gamma_C
+    !> sum_f (|F| / gamma_N) s^T K_e^+ s <= 1 (Cauchy-Schwarz in the K_e norm; s is
+    !> orthogonal to the rigid modes). This gives gamma0_min; below it theta = 1 is an
+    !> error, theta = 0 / -1 a warning (weakly enforced contact).
+    subroutine check_gamma0(mdl, prm, lambda, mu, st, m)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        type(model_params_t), intent(in) :: prm      !! parameters
+        real(dp), intent(in) :: lambda, mu           !! Lame parameters
+        integer, intent(out) :: st                   !! status
+        character(len=*), intent(inout) :: m         !! message
+        real(dp), parameter :: SUGGEST = 2.0_dp   ! margin of the suggested value over gamma0_min
+        real(dp), parameter :: BOUND_RTOL = 1.0e-12_dp   ! 'at the bound', relative
+        real(dp) :: ratio_max, g_min, g_sug, stiff
+        real(dp), allocatable :: ratio(:)
+        integer :: f
+        character(len=400) :: buf
+        st = STAT_OK
+        allocate (ratio(mdl%msh%n_cells))
+        ratio = 0.0_dp
+        do f = 1, mdl%ct%n_facets
+            ratio(mdl%ct%cell(f)) = ratio(mdl%ct%cell(f)) + &
+                mdl%ct%measure(f) * facet_compliance(mdl, prm%young, lambda, mu, f) / mdl%ct%gamma(f)
+        end do
+        ratio_max = maxval(ratio)
+        g_min = prm%gamma0 * ratio_max
+        mdl%gamma0_min = g_min
+        ! at the bound K_theta is singular on a contact cell: fine while M gives J0 =
+        ! M + c K_theta its definiteness, not with the redistributed mass (no inertia on
+        ! the contact nodes), which needs gamma0 above the bound (to round-off)
+        if (prm%mass == MASS_REDISTRIBUTED .and. prm%nitsche_theta == 1) then
+            if (prm%gamma0 > g_min * (1.0_dp + BOUND_RTOL)) return
+        else if (prm%gamma0 >= g_min) then
+            return
+        end if
+        stiff = prm%young
+        if (mdl%dim >= 2) stiff = lambda + 2.0_dp * mu
+        g_sug = round_up(SUGGEST * g_min)
+        if (prm%nitsche_theta == 1) then
+            st = STAT_BAD_INPUT
+            write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a, es10.3e3, a)') '', prm%gamma0, &
+                ' is too small for the material: with theta = 1, K_theta is indefinite below ' &
+                //'gamma0 = ', g_min, ' (element bound); use gamma0 = ', g_sug, &
+                ' (the stiffness E or lambda + 2 mu is ', stiff, '; docs/scenes.md)'
+            m = trim(adjustl(buf))
+            if (prm%mass == MASS_REDISTRIBUTED) m = trim(m)//' [the redistributed mass '// &
+                'needs gamma0 above the bound: K_theta is singular at it]'
+        else
+            write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
+                'warning: &contact gamma0 = ', prm%gamma0, &
+                ' is small for the material (contact weakly enforced, large penetration; ' &
+                //'theta = 1 would need gamma0 >= ', g_min, '): consider gamma0 = ', g_sug, &
+                ' (docs/scenes.md)'
+            call note(mdl, trim(buf))
+        end if
+    end subroutine check_gamma0
+
+    !> s^T K_e^+ s for contact facet f (owner cell stiffness, rigid modes removed).
+    function facet_compliance(mdl, young, lambda, mu, f) result(c)
+        type(model_t), intent(in) :: mdl             !! model
+        real(dp), intent(in) :: young                !! E (1D)
+        real(dp), intent(in) :: lambda, mu           !! Lame parameters
+        integer, intent(in) :: f                     !! contact facet
+        real(dp) :: c
+        real(dp) :: xe(3, 4), ke(MAX_E, MAX_E), r(MAX_E, 6), x(MAX_E), scale
+        integer :: ne, nr, a, b, piv(MAX_E), info, cell, dim
+        dim = mdl%dim
+        cell = mdl%ct%cell(f)
+        ne = mdl%ndof_e
+        xe = 0.0_dp
+        xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, cell))
+        call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, young, ke(1:ne, 1:ne))
+        ! Rigid modes (translations, rotation about the centroid), orthonormalized.
+        r = 0.0_dp
+        if (dim == 1) then
+            nr = 1
+            r(1:2, 1) = 1.0_dp
+        else if (dim == 3) then
+            nr = 6
+            do a = 1, 4
+                x(1:3) = xe(:, a) - sum(xe(:, 1:4), dim=2) / 4.0_dp
+                do b = 1, 3
+                    r(3 * (a - 1) + b, b) = 1.0_dp
+                end do
+                ! rotations about the axes through the centroid: e_k x (x - x_c)
+                r(3 * a - 1, 4) = -x(3); r(3 * a, 4) = x(2)
+                r(3 * a - 2, 5) = x(3); r(3 * a, 5) = -x(1)
+                r(3 * a - 2, 6) = -x(2); r(3 * a - 1, 6) = x(1)
+            end do
+        else
+            nr = 3
+            do a = 1, 3
+                r(2 * a - 1, 1) = 1.0_dp
+                r(2 * a, 2) = 1.0_dp
+                r(2 * a - 1, 3) = -(xe(2, a) - sum(xe(2, 1:3)) / 3.0_dp)
+                r(2 * a, 3) = xe(1, a) - sum(xe(1, 1:3)) / 3.0_dp
+            end do
+        end if
+        do a = 1, nr
+            do b = 1, a - 1
+                r(1:ne, a) = r(1:ne, a) - dot_product(r(1:ne, a), r(1:ne, b)) * r(1:ne, b)
+            end do
+            r(1:ne, a) = r(1:ne, a) / norm2(r(1:ne, a))
+        end do
+        scale = 0.0_dp
+        do a = 1, ne
+            scale = scale + ke(a, a)
+        end do
+        scale = scale / ne
+        do b = 1, ne
+            do a = 1, ne
+                ke(a, b) = ke(a, b) + scale * dot_product(r(a, 1:nr), r(b, 1:nr))
+            end do
+        end do
+        call dense_lu_factor(ne, ke(1:ne, 1:ne), piv(1:ne), info)
+        c = huge(1.0_dp)
+        if (info /= 0) return
+        x(1:ne) = mdl%ct%s(1:ne, f)
+        call dense_lu_solve(ne, ke(1:ne, 1:ne), piv(1:ne), x(1:ne))
+        c = dot_product(mdl%ct%s(1:ne, f), x(1:ne))
+    end function facet_compliance
+
+    !> The smallest of 1, 2, 5 x 10^k that is >= v (v > 0).
+    pure function round_up(v) result(r)
+        real(dp), intent(in) :: v
+        real(dp) :: r
+        real(dp), parameter :: STEPS(4) = [1.0_dp, 2.0_dp, 5.0_dp, 10.0_dp]
+        real(dp) :: p
+        integer :: k
+        p = 10.0_dp**floor(log10(v))
+        do k = 1, 4
+            r = p * STEPS(k)
+            if (r >= v * (1.0_dp - 1.0e-12_dp)) return
+        end do
+    end function round_up
+
+    !> Text t trimmed, with every run of blanks made one blank (numbers written with
+    !> room for a sign read as in prose).
+    pure function single_blanks(t) result(r)
+        character(len=*), intent(in) :: t            !! text
+        character(len=:), allocatable :: r
+        integer :: k
+        r = ''
+        do k = 1, len_trim(t)
+            if (t(k:k) == ' ' .and. k > 1) then
+                if (t(k - 1:k - 1) == ' ') cycle
+            end if
+            r = r//t(k:k)
+        end do
+    end function single_blanks
+
+    !> A real as short text.
+    pure function real_str(x) result(t)
+        real(dp), intent(in) :: x
+        character(len=:), allocatable :: t
+        character(len=32) :: b
+        write (b, '(g0.3)') x
+        t = trim(adjustl(b))
+    end function real_str
+
+    !> Facets holding the probe point p (two when it is a shared node).
+    subroutine locate_probe(mdl, p, st)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        real(dp), intent(in) :: p(:)                 !! the point (on Gamma_C)
+        integer, intent(out) :: st                   !! status
+        integer :: f, dim
+        real(dp) :: xa(mdl%dim), xb(mdl%dim), t, len2, dist, tol, ta(3), tb(3), tc(3), w(3), nsh(MAX_FN)
+        dim = mdl%dim
+        st = STAT_OK
+        mdl%n_probe = 0
+        do f = 1, mdl%ct%n_facets
+            if (mdl%n_probe == 2 .and. dim < 3) exit
+            xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
+            if (dim == 1) then
+                tol = 1.0e-9_dp * max(1.0_dp, abs(xa(1)))
+                if (abs(p(1) - xa(1)) <= tol) call add_probe_facet(mdl, f, facet_shape(1, 0.0_dp))
+                cycle
+            else if (dim == 3) then
+                call facet_triangle(mdl, f, ta, tb, tc)
+                w = triangle_nearest(p, ta, tb, tc)
+                dist = norm2(p - w(1) * ta - w(2) * tb - w(3) * tc)
+                tol = 1.0e-9_dp * max(norm2(tb - ta), norm2(tc - tb), norm2(ta - tc))
+                if (dist > tol) cycle
+                where (w < 1.0e-9_dp) w = 0.0_dp   ! on an edge or node: exactly there
+                nsh = w / sum(w)
+                call add_probe_facet(mdl, f, nsh)
+                cycle
+            end if
+            xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
+            len2 = sum((xb - xa)**2)
+            t = dot_product(p - xa, xb - xa) / len2
+            dist = norm2(p - xa - t * (xb - xa))
+            tol = 1.0e-9_dp * sqrt(len2)
+            if (dist > tol .or. t < -1.0e-9_dp .or. t > 1.0_dp + 1.0e-9_dp) cycle
+            call add_probe_facet(mdl, f, facet_shape(2, min(1.0_dp, max(0.0_dp, t))))
+        end do
+        if (mdl%n_probe == 0) st = STAT_BAD_INPUT
+    end subroutine locate_probe
+
+    !> Record facet f (its shape values nsh at the probe) as holding the probe.
+    subroutine add_probe_facet(mdl, f, nsh)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        integer, intent(in) :: f                     !! contact facet
+        real(dp), intent(in) :: nsh(:)               !! (MAX_FN) its shape values at the probe
+        if (mdl%n_probe == MAX_PROBE) return
+        mdl%n_probe = mdl%n_probe + 1
+        mdl%probe_facet(mdl%n_probe) = f
+        mdl%probe_shape(:, mdl%n_probe) = nsh
+    end subroutine add_probe_facet
+
+    !> The point of triangle (a, b, c) nearest to p, as barycentric coordinates
+    !> (Ericson, Real-Time Collision Detection, 5.1.5: the Voronoi regions of the
+    !> vertices, then of the edges, else the inside).
+    pure function triangle_nearest(p, a, b, c) result(w)
+        real(dp), intent(in) :: p(3), a(3), b(3), c(3)   !! point, triangle
+        real(dp) :: w(3)
+        real(dp) :: ab(3), ac(3), ap(3), bp(3), cp(3), d1, d2, d3, d4, d5, d6, va, vb, vc, t, den
+        ab = b - a; ac = c - a; ap = p - a
+        d1 = dot_product(ab, ap); d2 = dot_product(ac, ap)
+        if (d1 <= 0.0_dp .and. d2 <= 0.0_dp) then
+            w = [1.0_dp, 0.0_dp, 0.0_dp]; return
+        end if
+        bp = p - b
+        d3 = dot_product(ab, bp); d4 = dot_product(ac, bp)
+        if (d3 >= 0.0_dp .and. d4 <= d3) then
+            w = [0.0_dp, 1.0_dp, 0.0_dp]; return
+        end if
+        vc = d1 * d4 - d3 * d2
+        if (vc <= 0.0_dp .and. d1 >= 0.0_dp .and. d3 <= 0.0_dp) then
+            t = d1 / (d1 - d3)
+            w = [1.0_dp - t, t, 0.0_dp]; return
+        end if
+        cp = p - c
+        d5 = dot_product(ab, cp); d6 = dot_product(ac, cp)
+        if (d6 >= 0.0_dp .and. d5 <= d6) then
+            w = [0.0_dp, 0.0_dp, 1.0_dp]; return
+        end if
+        vb = d5 * d2 - d1 * d6
+        if (vb <= 0.0_dp .and. d2 >= 0.0_dp .and. d6 <= 0.0_dp) then
+            t = d2 / (d2 - d6)
+            w = [1.0_dp - t, 0.0_dp, t]; return
+        end if
+        va = d3 * d6 - d5 * d4
+        if (va <= 0.0_dp .and. d4 - d3 >= 0.0_dp .and. d5 - d6 >= 0.0_dp) then
+            t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+            w = [0.0_dp, 1.0_dp - t, t]; return
+        end if
+        den = 1.0_dp / (va + vb + vc)
+        w = [va * den, vb * den, vc * den]
+    end function triangle_nearest
+
+    !> Contact facet f of a 3D model: its node coordinates.
+    pure subroutine facet_triangle(mdl, f, xa, xb, xc)
+        type(model_t), intent(in) :: mdl             !! model
+        integer, intent(in) :: f                     !! contact facet
+        real(dp), intent(out) :: xa(3), xb(3), xc(3) !! its nodes
+        xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
+        xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
+        xc = mdl%msh%x(:, mdl%ct%nodes(3, f))
+    end subroutine facet_triangle
 
     !> b = B(u) = K_theta u + contact part; ktu = K_theta u; active points and the
     !> contact energy parts (see contact_eval).
@@ -719,7 +873,7 @@ contains
     end subroutine model_initial
 
     !> Probe values: u_n, v_n interpolated; p_n = Nitsche pressure (mean over the
-    !> facets when the probe is a shared node). Zero without contact boundary.
+    !> facets when the probe is on a shared node or edge). Zero without contact boundary.
     subroutine model_probe(mdl, u, v, un, vn, pn, lam)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: u(:)          !! displacement
@@ -738,13 +892,12 @@ contains
             f = mdl%probe_facet(q)
             call gather(f, u, ue(1:ne))
             call gather(f, v, ve(1:ne))
-            nsh = facet_shape(nf, mdl%probe_xi(q))
+            nsh = mdl%probe_shape(:, q)
             if (mdl%alm%kind /= ALM_OFF .and. present(lam)) then
-                pn = pn + alm_probe(mdl%alm, mdl%ct, lam, f, mdl%probe_xi(q))
+                pn = pn + alm_probe(mdl%alm, mdl%ct, lam, f, nsh)
             else
                 pn = pn + facet_pressure(ne, nf, ue(1:ne), mdl%ct%s(:, f), &
-                                         mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), &
-                                         mdl%probe_xi(q))
+                                         mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), nsh)
             end if
             if (q == 1) then
                 ! the normal components at the facet's nodes, then their interpolation

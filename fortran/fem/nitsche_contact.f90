@@ -5,10 +5,15 @@
 !>
 !> On a P1 facet sigma_n(u) is constant (it lives on the owner cell) and u_n, g are
 !> linear, so P(xi) = P_1(u) + gamma_N g is linear along the facet. Quadrature
-!> 'exact' splits the facet at the zero of P and integrates the active piece with
-!> 2 Gauss points: exact for the residual, the tangent and the energy (polynomials
-!> of degree <= 2 on the piece). 'gauss' uses quad_points Gauss points on the whole
-!> facet (GetFEM's reference runs used 3), which does not resolve the kink.
+!> 'exact' splits the facet at the zero of P and integrates the active piece exactly
+!> (the residual, the tangent and the energy are polynomials of degree <= 2 on it):
+!> on a segment (2D) 2 Gauss points on the active sub-segment; on a triangle (3D) the
+!> active part {P < 0} is cut by the zero line into a triangle or a quadrilateral
+!> (two triangles), each integrated with the symmetric 3-point rule of degree 2.
+!> 'gauss' uses a fixed rule on the whole facet, which does not resolve the kink:
+!> quad_points Gauss-Legendre points on a segment (GetFEM's 2D reference runs used 3),
+!> the symmetric triangle rules with 1, 3, 6 or 7 points (degree 1, 2, 4, 5; 7 is the
+!> face rule of GetFEM's 3D reference runs).
 !>
 !> Penalty contact (`&contact method = 'penalty'`, eps_N = gamma0 / h_T) is the same
 !> term with the sigma_n parts removed: P(u) = -eps_N (u_n - g), theta = 0, so
@@ -25,23 +30,24 @@ module nitsche_contact
 
     integer, parameter, public :: QUAD_EXACT = 1   !! split at the kink
     integer, parameter, public :: QUAD_GAUSS = 2   !! fixed Gauss rule
-    !> Largest owner-cell dofs (dim (dim+1), dim <= 2) and facet nodes: the facet kernels'
-    !> local arrays have these fixed sizes (run-time sizes put them on the heap, one
-    !> malloc a facet).
-    integer, parameter, public :: MAX_E = 6
-    integer, parameter, public :: MAX_FN = 2
+    !> Largest owner-cell dofs (dim (dim+1), dim <= 3), facet nodes and quadrature
+    !> points of a facet: the facet kernels' local arrays have these fixed sizes
+    !> (run-time sizes put them on the heap, one malloc a facet).
+    integer, parameter, public :: MAX_E = 12
+    integer, parameter, public :: MAX_FN = 3
+    integer, parameter, public :: MAX_Q = 7
 
     !> Contact facets with everything constant precomputed.
     type, public :: contact_t
-        integer :: dim = 0                    !! 1 or 2
+        integer :: dim = 0                    !! 1, 2 or 3
         integer :: n_facets = 0               !! contact facets
         integer :: ndof_e = 0                 !! dofs of an owner cell: dim (dim+1)
         integer :: nfn = 0                    !! nodes per facet: dim
         integer :: theta = 1                  !! Nitsche theta in {-1, 0, 1}
         integer :: quad = QUAD_EXACT          !! QUAD_EXACT or QUAD_GAUSS
         integer :: nq = 0                     !! Gauss points (QUAD_GAUSS)
-        real(dp) :: qx(6) = 0.0_dp            !! Gauss points on [0, 1]
-        real(dp) :: qw(6) = 0.0_dp            !! Gauss weights on [0, 1]
+        real(dp) :: qs(MAX_FN, MAX_Q) = 0.0_dp !! facet shape values at the Gauss points
+        real(dp) :: qw(MAX_Q) = 0.0_dp        !! Gauss weights (sum 1)
         integer, allocatable :: cell(:)       !! (n_facets) owner cell
         integer, allocatable :: nodes(:, :)   !! (nfn, n_facets) facet nodes (global)
         integer, allocatable :: dofs(:, :)    !! (ndof_e, n_facets) owner free dofs, 0 = constrained
@@ -49,25 +55,27 @@ module nitsche_contact
         real(dp), allocatable :: nvec(:, :, :) !! (ndof_e, nfn, n_facets) v_n at facet node j = nvec(:, j) . v_e
         real(dp), allocatable :: gap(:, :)    !! (nfn, n_facets) initial gap g >= 0 at facet nodes
         real(dp), allocatable :: gamma(:)     !! (n_facets) gamma_N = gamma0 / h_T
-        real(dp), allocatable :: measure(:)   !! (n_facets) facet length (1 in 1D)
+        real(dp), allocatable :: measure(:)   !! (n_facets) facet length (2D), area (3D), 1 in 1D
         integer :: m = 0                      !! distinct free dofs of all owner cells
         integer, allocatable :: cdofs(:)      !! (m) those free dofs
         integer, allocatable :: cloc(:, :)    !! (ndof_e, n_facets) index into cdofs, 0 = constrained
     end type contact_t
 
-    public :: contact_init, contact_eval, contact_max_rank, nitsche_facet, facet_pressure, facet_shape
+    public :: contact_init, contact_eval, contact_max_rank, nitsche_facet, facet_pressure, facet_shape, &
+              triangle_rule, triangle_active_rule
 
 contains
 
-    !> Values of the facet's nodal shape functions at xi in [0, 1].
+    !> Values of a segment facet's nodal shape functions at xi in [0, 1] (1 in 1D).
     pure function facet_shape(nfn, xi) result(nsh)
         integer, intent(in) :: nfn     !! nodes per facet (1 or 2)
         real(dp), intent(in) :: xi     !! position along the facet
         real(dp) :: nsh(MAX_FN)        !! the first nfn entries (the rest 0)
+        nsh = 0.0_dp
         if (nfn == 1) then
-            nsh = [1.0_dp, 0.0_dp]
+            nsh(1) = 1.0_dp
         else
-            nsh = [1.0_dp - xi, xi]
+            nsh(1:2) = [1.0_dp - xi, xi]
         end if
     end function facet_shape
 
@@ -75,30 +83,31 @@ contains
     !> r = int (1/gamma) [P]_- P_theta; the tangent dr/du_e = sum_q qa_q qb_q^T over the
     !> active points (rank one each); energy = int (1/(2 gamma)) [P]_-^2.
     pure subroutine nitsche_facet(ndof_e, nfn, ue, s, nvec, gap, gamma, theta, measure, &
-                                  quad, nq, qx, qw, r, energy, active, qa, qb)
+                                  quad, nq, qs, qw, r, energy, active, qa, qb)
         integer, intent(in) :: ndof_e          !! owner cell dofs
-        integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D)
+        integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D, 3 in 3D)
         real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
         real(dp), intent(in) :: s(ndof_e)      !! sigma_n row
         real(dp), intent(in) :: nvec(ndof_e, nfn) !! normal-displacement rows at facet nodes
         real(dp), intent(in) :: gap(nfn)       !! initial gap at facet nodes
         real(dp), intent(in) :: gamma          !! gamma_N > 0
         integer, intent(in) :: theta           !! -1, 0, 1
-        real(dp), intent(in) :: measure        !! facet length (1 in 1D)
+        real(dp), intent(in) :: measure        !! facet length (2D), area (3D), 1 in 1D
         integer, intent(in) :: quad            !! QUAD_EXACT or QUAD_GAUSS
         integer, intent(in) :: nq              !! Gauss points (QUAD_GAUSS)
-        real(dp), intent(in) :: qx(:)          !! Gauss points on [0, 1]
-        real(dp), intent(in) :: qw(:)          !! Gauss weights on [0, 1]
+        real(dp), intent(in) :: qs(:, :)       !! (MAX_FN, nq) facet shape values at the Gauss points
+        real(dp), intent(in) :: qw(:)          !! Gauss weights (sum 1)
         real(dp), intent(out) :: r(ndof_e)     !! residual contribution
         real(dp), intent(out) :: energy        !! int [P]_-^2 / (2 gamma)
         integer, intent(out) :: active         !! active quadrature points
         real(dp), intent(out), optional :: qa(:, :) !! (ndof_e, >= active) tangent factors:
         real(dp), intent(out), optional :: qb(:, :) !! qa = (w/gamma) P_theta row, qb = dP/du_e
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
-        real(dp) :: sn, pnode(MAX_FN), xs(6), ws(6), a, b, xi_star
-        real(dp) :: nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
+        real(dp) :: sn, pnode(MAX_FN), xs(MAX_Q), ws(MAX_Q), a, b, xi_star
+        real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
         integer :: np, q, j
         sn = dot_product(s, ue)
+        pnode = 0.0_dp
         do j = 1, nfn
             pnode(j) = sn - gamma * (dot_product(ue, nvec(:, j)) - gap(j))
         end do
@@ -106,9 +115,13 @@ contains
         energy = 0.0_dp
         active = 0
         if (nfn == 1) then
-            np = 1; xs(1) = 0.0_dp; ws(1) = measure
+            np = 1; ws(1) = measure
+            shp(:, 1) = facet_shape(1, 0.0_dp)
         else if (quad == QUAD_GAUSS) then
-            np = nq; xs(1:nq) = qx(1:nq); ws(1:nq) = measure * qw(1:nq)
+            np = nq; shp(:, 1:nq) = qs(:, 1:nq); ws(1:nq) = measure * qw(1:nq)
+        else if (nfn == 3) then
+            call triangle_active_rule(pnode(1:3), measure, np, shp, ws)
+            if (np == 0) return
         else
             if (pnode(1) >= 0.0_dp .and. pnode(2) >= 0.0_dp) return
             if (pnode(1) < 0.0_dp .and. pnode(2) < 0.0_dp) then
@@ -124,9 +137,11 @@ contains
             np = 2
             xs(1:2) = a + (b - a) * [0.5_dp - g2, 0.5_dp + g2]
             ws(1:2) = 0.5_dp * measure * (b - a)
+            shp(:, 1) = facet_shape(2, xs(1))
+            shp(:, 2) = facet_shape(2, xs(2))
         end if
         do q = 1, np
-            nsh = facet_shape(nfn, xs(q))
+            nsh = shp(:, q)
             pv = dot_product(nsh(1:nfn), pnode(1:nfn))
             if (.not. (pv < 0.0_dp)) cycle
             active = active + 1
@@ -143,8 +158,68 @@ contains
         end do
     end subroutine nitsche_facet
 
-    !> Nitsche contact pressure [P_1(u) + gamma g]_- at xi on one facet.
-    pure function facet_pressure(ndof_e, nfn, ue, s, nvec, gap, gamma, xi) result(p)
+    !> The exact rule of a triangle facet for the integrands of nitsche_facet: the part
+    !> {P < 0} of the triangle (P linear, nodal values pnode) is a triangle or a
+    !> quadrilateral (two triangles) cut off by the zero line of P; each piece gets the
+    !> symmetric 3-point rule of degree 2 (points inside the piece, where P < 0).
+    pure subroutine triangle_active_rule(pnode, measure, np, shp, ws)
+        real(dp), intent(in) :: pnode(3)          !! P at the facet's nodes
+        real(dp), intent(in) :: measure           !! facet area
+        integer, intent(out) :: np                !! points (0, 3 or 6)
+        real(dp), intent(out) :: shp(:, :)        !! (MAX_FN, >= 6) shape values at the points
+        real(dp), intent(out) :: ws(:)            !! (>= 6) weights (area x rule weight)
+        real(dp) :: e(3, 3), z1(3), z2(3)
+        integer :: neg, i, j, k
+        e = 0.0_dp
+        do i = 1, 3
+            e(i, i) = 1.0_dp
+        end do
+        neg = count(pnode < 0.0_dp)
+        np = 0
+        select case (neg)
+        case (3)
+            call add_piece(e(:, 1), e(:, 2), e(:, 3), measure, np, shp, ws)
+        case (1, 2)
+            ! i: the node alone on its side of the zero line; j, k: the other two
+            if (neg == 1) then
+                i = findloc(pnode < 0.0_dp, .true., dim=1)
+            else
+                i = findloc(pnode < 0.0_dp, .false., dim=1)
+            end if
+            j = modulo(i, 3) + 1
+            k = modulo(j, 3) + 1
+            z1 = e(:, i) + pnode(i) / (pnode(i) - pnode(j)) * (e(:, j) - e(:, i))   ! zero on edge i-j
+            z2 = e(:, i) + pnode(i) / (pnode(i) - pnode(k)) * (e(:, k) - e(:, i))   ! zero on edge i-k
+            if (neg == 1) then
+                call add_piece(e(:, i), z1, z2, measure, np, shp, ws)
+            else
+                call add_piece(e(:, j), e(:, k), z2, measure, np, shp, ws)
+                call add_piece(e(:, j), z2, z1, measure, np, shp, ws)
+            end if
+        end select
+    end subroutine triangle_active_rule
+
+    !> Append the 3-point rule of degree 2 on the sub-triangle with barycentric
+    !> vertices v1, v2, v3 of a facet of area `measure`.
+    pure subroutine add_piece(v1, v2, v3, measure, np, shp, ws)
+        real(dp), intent(in) :: v1(3), v2(3), v3(3)   !! vertices (barycentric)
+        real(dp), intent(in) :: measure               !! facet area
+        integer, intent(inout) :: np                  !! points so far
+        real(dp), intent(inout) :: shp(:, :)          !! shape values at the points
+        real(dp), intent(inout) :: ws(:)              !! weights
+        real(dp), parameter :: P_MAJ = 2.0_dp / 3.0_dp, P_MIN = 1.0_dp / 6.0_dp
+        real(dp) :: frac
+        frac = abs((v2(2) - v1(2)) * (v3(3) - v1(3)) - (v2(3) - v1(3)) * (v3(2) - v1(2)))
+        shp(:, np + 1) = P_MAJ * v1 + P_MIN * v2 + P_MIN * v3
+        shp(:, np + 2) = P_MIN * v1 + P_MAJ * v2 + P_MIN * v3
+        shp(:, np + 3) = P_MIN * v1 + P_MIN * v2 + P_MAJ * v3
+        ws(np + 1:np + 3) = measure * frac / 3.0_dp
+        np = np + 3
+    end subroutine add_piece
+
+    !> Nitsche contact pressure [P_1(u) + gamma g]_- at a point of one facet, given by
+    !> the facet's shape values there.
+    pure function facet_pressure(ndof_e, nfn, ue, s, nvec, gap, gamma, nsh) result(p)
         integer, intent(in) :: ndof_e          !! owner cell dofs
         integer, intent(in) :: nfn             !! facet nodes
         real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
@@ -152,11 +227,10 @@ contains
         real(dp), intent(in) :: nvec(ndof_e, nfn) !! normal rows
         real(dp), intent(in) :: gap(nfn)       !! gap at facet nodes
         real(dp), intent(in) :: gamma          !! gamma_N
-        real(dp), intent(in) :: xi             !! position along the facet
+        real(dp), intent(in) :: nsh(:)         !! (>= nfn) facet shape values at the point
         real(dp) :: p
-        real(dp) :: nsh(MAX_FN), un(MAX_FN)
+        real(dp) :: un(MAX_FN)
         integer :: j
-        nsh = facet_shape(nfn, xi)
         do j = 1, nfn
             un(j) = dot_product(ue, nvec(:, j)) - gap(j)
         end do
@@ -186,37 +260,32 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: penalty            !! penalty contact (default .false.)
-        integer :: dim, nf, f, c, j, a, kk, nloc, ndof_e, i, cnt
-        integer, allocatable :: first(:), adj(:), mark(:)
-        real(dp) :: grad(msh%dim, msh%dim + 1), xe(msh%dim, msh%dim + 1), gn
+        integer :: dim, nf, f, c, j, a, kk, nloc, ndof_e, i
+        integer, allocatable :: first(:), adj(:)
+        real(dp) :: grad(msh%dim, msh%dim + 1), xe(msh%dim, msh%dim + 1), gn, xq(6), e1(3), e2(3)
         stat = STAT_OK
         dim = msh%dim
         nf = size(facets)
         ndof_e = dim * (dim + 1)
         ct%dim = dim; ct%n_facets = nf; ct%ndof_e = ndof_e; ct%nfn = dim
         ct%theta = theta; ct%quad = quad; ct%nq = nq
-        if (quad == QUAD_GAUSS) call gauss_rule(nq, ct%qx, ct%qw)
+        if (quad == QUAD_GAUSS .and. dim == 3) then
+            if (.not. any(nq == [1, 3, 6, 7])) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, 'quad_points must be 1, 3, 6 or 7 '// &
+                           'on triangle facets (3D)')
+                return
+            end if
+            call triangle_rule(nq, ct%qs, ct%qw)
+        else if (quad == QUAD_GAUSS) then
+            call gauss_rule(nq, xq, ct%qw(1:6))
+            do j = 1, nq
+                ct%qs(:, j) = facet_shape(2, xq(j))
+            end do
+        end if
         allocate (ct%cell(nf), ct%nodes(dim, nf), ct%dofs(ndof_e, nf), ct%s(ndof_e, nf), &
                   ct%nvec(ndof_e, dim, nf), ct%gap(dim, nf), ct%gamma(nf), ct%measure(nf), &
                   ct%cloc(ndof_e, nf))
-        ! node -> cells adjacency (CSR)
-        allocate (first(msh%n_nodes + 1), adj(msh%n_cells * (dim + 1)))
-        first = 0
-        do c = 1, msh%n_cells
-            first(msh%cells(:, c) + 1) = first(msh%cells(:, c) + 1) + 1
-        end do
-        first(1) = 1
-        do i = 2, msh%n_nodes + 1
-            first(i) = first(i) + first(i - 1)
-        end do
-        allocate (mark(msh%n_nodes + 1))
-        mark = first
-        do c = 1, msh%n_cells
-            do a = 1, dim + 1
-                adj(mark(msh%cells(a, c))) = c
-                mark(msh%cells(a, c)) = mark(msh%cells(a, c)) + 1
-            end do
-        end do
+        call node_cells(msh, first, adj)
         do f = 1, nf
             ct%nodes(:, f) = msh%facets(:, facets(f))
             ct%cell(f) = 0
@@ -237,6 +306,12 @@ contains
             ct%gamma(f) = gamma0 / p1_diameter(dim, xe)
             if (dim == 1) then
                 ct%measure(f) = 1.0_dp
+            else if (dim == 3) then
+                e1 = msh%x(:, ct%nodes(2, f)) - msh%x(:, ct%nodes(1, f))
+                e2 = msh%x(:, ct%nodes(3, f)) - msh%x(:, ct%nodes(1, f))
+                ct%measure(f) = 0.5_dp * norm2([e1(2) * e2(3) - e1(3) * e2(2), &
+                                                e1(3) * e2(1) - e1(1) * e2(3), &
+                                                e1(1) * e2(2) - e1(2) * e2(1)])
             else
                 ct%measure(f) = norm2(msh%x(:, ct%nodes(2, f)) - msh%x(:, ct%nodes(1, f)))
             end if
@@ -262,13 +337,53 @@ contains
                 ct%gap(j, f) = dot_product(point(1:dim) - msh%x(:, ct%nodes(j, f)), normal(1:dim))
             end do
         end do
-        ! distinct free dofs of the owner cells
-        deallocate (mark)
-        allocate (mark(maxval([0, dof])))
+        call number_contact_dofs(ct, maxval([0, dof]))
+        if (present(penalty)) then
+            if (penalty) then
+                ct%s = 0.0_dp
+                ct%theta = 0
+            end if
+        end if
+    end subroutine contact_init
+
+    !> Node -> cells adjacency in CSR form: the cells of node i are
+    !> adj(first(i):first(i + 1) - 1), in increasing order.
+    pure subroutine node_cells(msh, first, adj)
+        type(mesh_t), intent(in) :: msh                     !! mesh
+        integer, allocatable, intent(out) :: first(:)       !! (n_nodes + 1) row starts
+        integer, allocatable, intent(out) :: adj(:)         !! cells, node by node
+        integer, allocatable :: next(:)
+        integer :: c, a, i
+        allocate (first(msh%n_nodes + 1), adj(msh%n_cells * (msh%dim + 1)))
+        first = 0
+        do c = 1, msh%n_cells
+            first(msh%cells(:, c) + 1) = first(msh%cells(:, c) + 1) + 1
+        end do
+        first(1) = 1
+        do i = 2, msh%n_nodes + 1
+            first(i) = first(i) + first(i - 1)
+        end do
+        next = first
+        do c = 1, msh%n_cells
+            do a = 1, msh%dim + 1
+                adj(next(msh%cells(a, c))) = c
+                next(msh%cells(a, c)) = next(msh%cells(a, c)) + 1
+            end do
+        end do
+    end subroutine node_cells
+
+    !> The distinct free dofs of the contact facets' owner cells, numbered in order of
+    !> first appearance (ct%m, ct%cdofs), and each facet dof's place among them (ct%cloc).
+    pure subroutine number_contact_dofs(ct, n_dofs)
+        type(contact_t), intent(inout) :: ct                !! contact data (dofs set)
+        integer, intent(in) :: n_dofs                       !! number of free dofs
+        integer, allocatable :: mark(:)
+        integer :: f, i, j, cnt
+        allocate (mark(n_dofs))
         mark = 0
         cnt = 0
-        do f = 1, nf
-            do i = 1, ndof_e
+        do f = 1, ct%n_facets
+            do i = 1, ct%ndof_e
                 j = ct%dofs(i, f)
                 if (j == 0) cycle
                 if (mark(j) == 0) then
@@ -282,19 +397,13 @@ contains
         do j = 1, size(mark)
             if (mark(j) > 0) ct%cdofs(mark(j)) = j
         end do
-        do f = 1, nf
-            do i = 1, ndof_e
+        do f = 1, ct%n_facets
+            do i = 1, ct%ndof_e
                 ct%cloc(i, f) = 0
                 if (ct%dofs(i, f) > 0) ct%cloc(i, f) = mark(ct%dofs(i, f))
             end do
         end do
-        if (present(penalty)) then
-            if (penalty) then
-                ct%s = 0.0_dp
-                ct%theta = 0
-            end if
-        end if
-    end subroutine contact_init
+    end subroutine number_contact_dofs
 
     !> Add the nonlinear contact part of B(u) to r (free dofs); count active points;
     !> e_pen = int [P]_-^2/(2 gamma); e_theta = sum theta |F| sigma_n^2/(2 gamma).
@@ -328,7 +437,7 @@ contains
             if (present(ua)) then
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qx, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:))
+                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:))
                 do i = nr + 1, nr + af
                     qloc(:, i) = ct%cloc(:, f)
                 end do
@@ -336,7 +445,7 @@ contains
             else
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qx, ct%qw, rf, ef, af)
+                                   ct%nq, ct%qs, ct%qw, rf, ef, af)
             end if
             if (af == 0) cycle
             active = active + af
@@ -352,8 +461,13 @@ contains
     pure function contact_max_rank(ct) result(rmax)
         type(contact_t), intent(in) :: ct   !! contact data
         integer :: rmax
-        rmax = ct%n_facets * merge(2, max(ct%nq, 1), ct%quad == QUAD_EXACT .or. ct%nfn == 1)
-        if (ct%nfn == 1) rmax = ct%n_facets
+        if (ct%nfn == 1) then
+            rmax = ct%n_facets
+        else if (ct%quad == QUAD_GAUSS) then
+            rmax = ct%n_facets * max(ct%nq, 1)
+        else
+            rmax = ct%n_facets * merge(6, 2, ct%nfn == 3)   ! exact: two 3-point pieces on a triangle
+        end if
     end function contact_max_rank
 
     !> Gauss-Legendre rule with n (1..6) points on [0, 1].
@@ -393,4 +507,47 @@ contains
             x(n + 1:) = 0.0_dp; w(n + 1:) = 0.0_dp
         end if
     end subroutine gauss_rule
+
+    !> Symmetric rules on a triangle with n = 1, 3, 6, 7 points (degree 1, 2, 4, 5; the
+    !> 7-point one is Radon's, GetFEM's IM_TRIANGLE(5)): barycentric coordinates of the
+    !> points and weights summing to 1.
+    pure subroutine triangle_rule(n, bary, w)
+        integer, intent(in) :: n              !! 1, 3, 6 or 7
+        real(dp), intent(out) :: bary(:, :)   !! (3, >= n) barycentric coordinates
+        real(dp), intent(out) :: w(:)         !! (>= n) weights
+        real(dp) :: a, b, s15
+        bary = 0.0_dp
+        w = 0.0_dp
+        select case (n)
+        case (1)
+            bary(:, 1) = 1.0_dp / 3.0_dp
+            w(1) = 1.0_dp
+        case (3)
+            call orbit(bary, w, 1, 1.0_dp / 6.0_dp, 1.0_dp / 3.0_dp)
+        case (6)
+            call orbit(bary, w, 1, 0.445948490915964886_dp, 0.223381589678011466_dp)
+            call orbit(bary, w, 4, 0.091576213509770743_dp, 0.109951743655321868_dp)
+        case (7)
+            s15 = sqrt(15.0_dp)
+            bary(:, 1) = 1.0_dp / 3.0_dp
+            w(1) = 9.0_dp / 40.0_dp
+            a = (6.0_dp - s15) / 21.0_dp
+            b = (6.0_dp + s15) / 21.0_dp
+            call orbit(bary, w, 2, a, (155.0_dp - s15) / 1200.0_dp)
+            call orbit(bary, w, 5, b, (155.0_dp + s15) / 1200.0_dp)
+        end select
+    end subroutine triangle_rule
+
+    !> The point (1 - 2c, c, c) and its rotations, weight wc each, as points k..k+2.
+    pure subroutine orbit(bary, w, k, c, wc)
+        real(dp), intent(inout) :: bary(:, :)   !! barycentric coordinates
+        real(dp), intent(inout) :: w(:)         !! weights
+        integer, intent(in) :: k                !! first point
+        real(dp), intent(in) :: c               !! the repeated coordinate
+        real(dp), intent(in) :: wc              !! weight
+        bary(:, k) = [1.0_dp - 2.0_dp * c, c, c]
+        bary(:, k + 1) = [c, 1.0_dp - 2.0_dp * c, c]
+        bary(:, k + 2) = [c, c, 1.0_dp - 2.0_dp * c]
+        w(k:k + 2) = wc
+    end subroutine orbit
 end module nitsche_contact

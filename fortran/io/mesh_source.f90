@@ -1,9 +1,9 @@
-!> The one place a mesh is loaded: a gmsh file or the built-in bar (used by the run
+!> The one place a mesh is loaded: a mesh file (read through gmsh) or the built-in bar (used by the run
 !> and by the flat API).
 module mesh_source
     use kinds, only: dp
     use mesh, only: mesh_t
-    use gmsh_reader, only: read_gmsh
+    use gmsh_mesh, only: read_mesh_file
     use bar_mesh, only: bar_mesh_build
     implicit none
     private
@@ -11,9 +11,11 @@ module mesh_source
 
 contains
 
-    !> A .msh file (path /= '') or the built-in bar (bar_dim, length, width, h).
-    subroutine mesh_load(path, bar_dim, length, width, h, msh, stat, errmsg)
-        character(len=*), intent(in) :: path                !! .msh file or '' (built-in bar)
+    !> A mesh file (path /= '': .msh, or .geo meshed with the parameters h, length, width)
+    !> or the built-in bar (bar_dim, length, width, h). check = .false.: a file's mesh is
+    !> not checked (mesh_check), for reading meshes the model does not take yet.
+    subroutine mesh_load(path, bar_dim, length, width, h, msh, stat, errmsg, check)
+        character(len=*), intent(in) :: path                !! .msh/.geo file or '' (built-in bar)
         integer, intent(in) :: bar_dim                      !! bar dimension
         real(dp), intent(in) :: length                      !! bar length
         real(dp), intent(in) :: width                       !! bar width
@@ -21,8 +23,9 @@ contains
         type(mesh_t), intent(out) :: msh                    !! mesh
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(in), optional :: check              !! check a file's mesh (default)
         if (len_trim(path) > 0) then
-            call read_gmsh(path, msh, stat, errmsg)
+            call read_mesh_file(path, h, length, width, msh, stat, errmsg, check)
         else
             call bar_mesh_build(bar_dim, length, width, h, msh, stat, errmsg)
         end if
@@ -30,7 +33,7 @@ contains
 
     !> How messages name the mesh mesh_load(path, ...) gives.
     function mesh_label(path) result(label)
-        character(len=*), intent(in) :: path   !! .msh file or ''
+        character(len=*), intent(in) :: path   !! mesh file or ''
         character(len=:), allocatable :: label
         if (len_trim(path) > 0) then
             label = "mesh '"//trim(path)//"'"

@@ -2,7 +2,8 @@
 !> small C layer run_guard.c (POSIX calls with their errno). Every failure comes back
 !> as a status and a one-line message naming the path and the system's reason.
 module os_files
-    use iso_c_binding, only: c_int, c_long, c_char, c_null_char
+    use iso_c_binding, only: c_int, c_long, c_long_long, c_char, c_null_char, c_int64_t
+    use kinds, only: i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
     implicit none
     private
@@ -35,6 +36,23 @@ module os_files
             integer(c_int), value :: fd
             integer(c_int) :: r
         end function c_fd_close
+        function c_fsync(fd) bind(C, name='dc_fsync') result(r)
+            import :: c_int
+            integer(c_int), value :: fd
+            integer(c_int) :: r
+        end function c_fsync
+        function c_fd_reopen(path, size) bind(C, name='dc_fd_reopen') result(r)
+            import :: c_int, c_char, c_long_long
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_long_long), value :: size
+            integer(c_int) :: r
+        end function c_fd_reopen
+        function c_hash64(buf, n, h) bind(C, name='dc_hash64') result(r)
+            import :: c_char, c_long_long
+            character(kind=c_char), intent(in) :: buf(*)
+            integer(c_long_long), value :: n, h
+            integer(c_long_long) :: r
+        end function c_hash64
         function c_rename(from, to) bind(C, name='dc_rename') result(r)
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: from(*), to(*)
@@ -61,6 +79,12 @@ module os_files
             character(kind=c_char), intent(in) :: path(*)
             integer(c_int) :: r
         end function c_lock_take
+        function c_free_space(path, bytes, files) bind(C, name='dc_free_space') result(r)
+            import :: c_int, c_char, c_int64_t
+            character(kind=c_char), intent(in) :: path(*)
+            integer(c_int64_t), intent(out) :: bytes, files
+            integer(c_int) :: r
+        end function c_free_space
         function c_lock_release(path) bind(C, name='dc_lock_release') result(r)
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: path(*)
@@ -69,7 +93,8 @@ module os_files
     end interface
 
     public :: signals_install, signal_caught, fd_open, fd_write, fd_close, file_rename, &
-              file_remove, check_writable, lock_take, lock_release, write_text_atomic, sys_error
+              file_remove, check_writable, lock_take, lock_release, write_text_atomic, sys_error, &
+              free_space, fd_sync, fd_reopen, bytes_hash
 
 contains
 
@@ -81,6 +106,20 @@ contains
         call c_strerror(int(err, c_int), buf, int(len(buf), c_int))
         s = trim(buf)
     end function sys_error
+
+    !> Bytes and files an unprivileged user may still create in folder dir's file system
+    !> (-1 for a count the file system does not report, or when dir cannot be queried).
+    subroutine free_space(dir, bytes, files)
+        character(len=*), intent(in) :: dir     !! an existing folder
+        integer(i8), intent(out) :: bytes       !! free bytes
+        integer(i8), intent(out) :: files       !! free file slots (inodes)
+        integer(c_int64_t) :: b, f
+        b = -1; f = -1
+        if (c_free_space(trim(dir)//c_null_char, b, f) /= 0) then
+            b = -1; f = -1
+        end if
+        bytes = int(b, i8); files = int(f, i8)
+    end subroutine free_space
 
     !> Install the SIGINT / SIGTERM handlers (they only set a flag; see signal_caught).
     subroutine signals_install(stat, errmsg)
@@ -140,6 +179,45 @@ contains
         if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': close failed: ' &
                                //sys_error(r))
     end subroutine fd_close
+
+    !> Flush fd's data to the device (fsync).
+    subroutine fd_sync(fd, path, stat, errmsg)
+        integer, intent(in) :: fd                           !! descriptor
+        character(len=*), intent(in) :: path                !! file name (for the message)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        stat = STAT_OK
+        r = c_fsync(int(fd, c_int))
+        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': fsync failed: ' &
+                               //sys_error(r))
+    end subroutine fd_sync
+
+    !> Open an existing file for writing, cut back to `bytes` bytes, positioned at its end.
+    subroutine fd_reopen(path, bytes, fd, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file
+        integer(c_long_long), intent(in) :: bytes           !! size to keep
+        integer, intent(out) :: fd                          !! descriptor (-1 on failure)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        stat = STAT_OK
+        fd = -1
+        r = c_fd_reopen(trim(path)//c_null_char, bytes)
+        if (r < 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot reopen: '//sys_error(-r))
+        else
+            fd = r
+        end if
+    end subroutine fd_reopen
+
+    !> 64-bit FNV-1a hash of the bytes of s, continuing from h (0 to start).
+    function bytes_hash(s, h) result(r)
+        character(len=*), intent(in) :: s                   !! bytes
+        integer(c_long_long), intent(in) :: h               !! hash so far (0 to start)
+        integer(c_long_long) :: r
+        r = c_hash64(s, int(len(s), c_long_long), h)
+    end function bytes_hash
 
     !> Rename a file (atomic within one file system, replaces `to`).
     subroutine file_rename(from, to, stat, errmsg)

@@ -1,9 +1,15 @@
 /* run_guard.c: the few POSIX calls the Fortran core needs and Fortran cannot make
  * itself (bound through bind(C) in os_files.f90 and main.f90):
  *   - SIGINT / SIGTERM handlers that only set a flag, polled at the end of each step;
- *   - an output-folder lock file created with O_EXCL that holds the owner's pid;
+ *   - an output-folder lock file created with O_EXCL that holds the owner's pid (and, on
+ *     Linux, the process's start time and the boot id, so that a pid reused after a
+ *     kill -9 or a reboot is not taken for the owner);
  *   - whole-buffer writes to a file descriptor (every error reported, EINTR retried),
- *     close, rename and unlink with their errno, so that a full disk is never silent.
+ *     close, rename and unlink with their errno, so that a full disk is never silent;
+ *   - the free bytes and file slots of a folder's file system (statvfs), to refuse a run
+ *     whose outputs cannot fit before it starts;
+ *   - fsync, reopening a file cut back to a given size (a trace continued from a
+ *     checkpoint), and a 64-bit FNV-1a hash of a byte buffer (checkpoint checksums).
  * Every function returns 0 on success and errno (> 0) on failure unless said otherwise. */
 #include <errno.h>
 #include <math.h>
@@ -14,6 +20,7 @@
 #include <string.h>
 #include <stdint.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <sys/types.h>
 #include <unistd.h>
 
@@ -79,7 +86,57 @@ int dc_fd_write(int fd, const char *buf, long n)
 /* Close a descriptor (its error, e.g. a delayed ENOSPC on a network disk, is returned). */
 int dc_fd_close(int fd) { return close(fd) == 0 ? 0 : errno; }
 
+/* Flush a descriptor's data to the device. */
+int dc_fsync(int fd)
+{
+    int r;
+    do { r = fsync(fd); } while (r != 0 && errno == EINTR);
+    return r == 0 ? 0 : errno;
+}
+
+/* Open an existing file for writing, cut it back to `size` bytes and place the offset
+ * at its end. Returns fd >= 0 or -errno. */
+int dc_fd_reopen(const char *path, long long size)
+{
+    int fd;
+    do {
+        fd = open(path, O_WRONLY | O_CLOEXEC);
+    } while (fd < 0 && errno == EINTR);
+    if (fd < 0) return -errno;
+    if (ftruncate(fd, (off_t)size) != 0 || lseek(fd, (off_t)size, SEEK_SET) < 0) {
+        int err = errno;
+        close(fd);
+        return -err;
+    }
+    return fd;
+}
+
+/* 64-bit FNV-1a hash of n bytes, continuing from h (start with 0: the offset basis is
+ * used then). The unsigned result is returned in a signed 64-bit integer. */
+long long dc_hash64(const char *buf, long long n, long long h)
+{
+    uint64_t x = h == 0 ? 14695981039346656037ULL : (uint64_t)h;
+    long long i;
+    for (i = 0; i < n; i++) {
+        x ^= (unsigned char)buf[i];
+        x *= 1099511628211ULL;
+    }
+    return (long long)x;
+}
+
 int dc_rename(const char *from, const char *to) { return rename(from, to) == 0 ? 0 : errno; }
+
+/* Bytes and inodes (files) that an unprivileged user may still create on the file system
+ * of path; -1 in either for a file system that does not tell (f_favail = 0 with
+ * f_files = 0, as on some network and FUSE file systems). */
+int dc_free_space(const char *path, int64_t *bytes, int64_t *files)
+{
+    struct statvfs s;
+    if (statvfs(path, &s) != 0) return errno;
+    *bytes = (int64_t)s.f_bavail * (int64_t)(s.f_frsize ? s.f_frsize : s.f_bsize);
+    *files = s.f_files == 0 ? -1 : (int64_t)s.f_favail;
+    return 0;
+}
 
 int dc_unlink(const char *path) { return unlink(path) == 0 || errno == ENOENT ? 0 : errno; }
 
@@ -98,17 +155,53 @@ void dc_strerror(int err, char *msg, int len)
     for (i = 0; i < len; i++) msg[i] = i < n ? s[i] : ' ';
 }
 
-/* Take the lock file path: created with O_EXCL, holding our pid. A lock whose pid is
- * not a live process (stale, e.g. after kill -9) is taken over.
+/* "STARTTIME BOOT_ID" of process pid (its start in clock ticks after boot, field 22 of
+ * /proc/PID/stat, and the kernel's boot id) into out; 0 on success, -1 where /proc does
+ * not tell (another system, a process already gone). */
+static int dc_proc_identity(long pid, char *out, size_t n)
+{
+    char name[64], stat[1024], boot[64];
+    unsigned long long start = 0;
+    ssize_t r;
+    int fd, field;
+    char *p;
+    snprintf(name, sizeof name, "/proc/%ld/stat", pid);
+    fd = open(name, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return -1;
+    r = read(fd, stat, sizeof stat - 1);
+    close(fd);
+    if (r <= 0) return -1;
+    stat[r] = '\0';
+    p = strrchr(stat, ')');              /* the command name may hold blanks and ')' */
+    if (p == NULL) return -1;
+    for (field = 2; field < 22 && p != NULL; field++) p = strchr(p + 1, ' ');
+    if (p == NULL || sscanf(p + 1, "%llu", &start) != 1) return -1;
+    fd = open("/proc/sys/kernel/random/boot_id", O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return -1;
+    r = read(fd, boot, sizeof boot - 1);
+    close(fd);
+    if (r <= 0) return -1;
+    boot[r] = '\0';
+    boot[strcspn(boot, "\n")] = '\0';
+    snprintf(out, n, "%llu %s", start, boot);
+    return 0;
+}
+
+/* Take the lock file path: created with O_EXCL, holding "PID STARTTIME BOOT_ID" (just
+ * "PID" where /proc does not tell). A lock whose pid is not a live process (stale, e.g.
+ * after kill -9), or is a live process with another start time or boot id (the pid
+ * reused after a kill -9 or a reboot), is taken over.
  * Returns 0 (taken), -pid (held by the live process pid) or errno (> 0). */
 int dc_lock_take(const char *path)
 {
-    char buf[32];
+    char buf[160], mine[128], theirs[128];
     int attempt;
     for (attempt = 0; attempt < 3; attempt++) {
         int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
         if (fd >= 0) {
-            int n = snprintf(buf, sizeof buf, "%ld\n", (long)getpid());
+            int n = dc_proc_identity((long)getpid(), mine, sizeof mine) == 0
+                        ? snprintf(buf, sizeof buf, "%ld %s\n", (long)getpid(), mine)
+                        : snprintf(buf, sizeof buf, "%ld\n", (long)getpid());
             int err = dc_fd_write(fd, buf, n);
             int err2 = dc_fd_close(fd);
             if (err == 0) err = err2;
@@ -125,9 +218,12 @@ int dc_lock_take(const char *path)
         ssize_t r = read(fd, buf, sizeof buf - 1);
         close(fd);
         long pid = 0;
+        char *rest = buf;
         if (r > 0) {
             buf[r] = '\0';
-            pid = strtol(buf, NULL, 10);
+            pid = strtol(buf, &rest, 10);
+            while (*rest == ' ') rest++;
+            rest[strcspn(rest, "\n")] = '\0';
         }
         if (pid <= 0) {
             /* Being written by its owner right now (O_EXCL then write): treat as held
@@ -143,8 +239,14 @@ int dc_lock_take(const char *path)
             }
             continue;
         }
-        if (kill((pid_t)pid, 0) == 0 || errno == EPERM) return (int)-pid;
-        /* Stale: the process is gone. Remove and try again. */
+        if (kill((pid_t)pid, 0) == 0 || errno == EPERM) {
+            /* Alive: the owner unless the lock names another start or boot of that pid. */
+            if (*rest == '\0' || dc_proc_identity(pid, theirs, sizeof theirs) != 0
+                || strcmp(rest, theirs) == 0)
+                return (int)-pid;
+        }
+        /* Stale: the process is gone, or the pid is another process now. Remove and
+         * try again. */
         unlink(path);
     }
     return EEXIST;
@@ -153,7 +255,7 @@ int dc_lock_take(const char *path)
 /* Remove the lock file if it holds our pid. */
 int dc_lock_release(const char *path)
 {
-    char buf[32];
+    char buf[160];
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     if (fd < 0) return 0;
     ssize_t r = read(fd, buf, sizeof buf - 1);

@@ -8,7 +8,8 @@
 !> that involve several keys are in `validate_cross`, naming their keys.
 !>
 !> Grammar: text (no control byte other than tab, CR, LF), at most MAX_FILE_BYTES; outside
-!> groups only blanks and `!` comments (an empty file is the default scene); a group is
+!> groups only blanks and `!` comments (text with no group is the default scene; a 0-byte
+!> file is refused as a failed copy; a leading UTF-8 byte-order mark is skipped); a group is
 !> `&name ... /`, known names only, each at most once; inside it, `key = value[, value]`
 !> pairs (keys case-insensitive, values separated by commas and/or blanks, line breaks and
 !> comments between tokens). Strings are quoted with ' or " (a doubled quote stands for
@@ -16,7 +17,7 @@
 !> converted by one list-directed internal read.
 module scene
     use kinds, only: dp, i8
-    use text, only: int_text, real_text
+    use text, only: int_text, real_text, utf8_len
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
     implicit none
     private
@@ -36,23 +37,27 @@ module scene
         character(len=NAME_LEN) :: clamped         !! groups with u = 0
         character(len=NAME_LEN) :: slip_x          !! groups with u_x = 0
         character(len=NAME_LEN) :: slip_y          !! groups with u_y = 0
+        character(len=NAME_LEN) :: slip_z          !! groups with u_z = 0 (3D)
         character(len=NAME_LEN) :: contact         !! contact boundary groups ('' = none)
         real(dp) :: young                          !! Young's modulus E
         real(dp) :: poisson                        !! Poisson ratio
         real(dp) :: density                        !! rho
-        real(dp) :: gravity(2)                     !! body acceleration g (f = rho g)
+        real(dp) :: gravity(3)                     !! body acceleration g (f = rho g)
         character(len=NAME_LEN) :: contact_method  !! 'nitsche' | 'penalty' | 'alm'
         character(len=NAME_LEN) :: multiplier      !! 'integral' | 'nodal' (method 'alm')
         integer :: nitsche_theta                   !! -1, 0 or 1
         real(dp) :: gamma0                         !! gamma_N = gamma0 / h_T
-        real(dp) :: obstacle_point(2)              !! a point of the obstacle plane
-        real(dp) :: obstacle_normal(2)             !! outward normal into the obstacle, unit length
-        real(dp) :: probe(2)                       !! probe point on Gamma_C
+        real(dp) :: obstacle_point(3)              !! a point of the obstacle plane
+        real(dp) :: obstacle_normal(3)             !! outward normal into the obstacle, unit length
+        real(dp) :: probe(3)                       !! probe point on Gamma_C
         character(len=NAME_LEN) :: quadrature      !! 'exact' or 'gauss'
         integer :: quad_points                     !! Gauss points per facet for 'gauss'
         character(len=NAME_LEN) :: initial_kind    !! 'rest' | 'velocity' | 'compressed_bar'
         real(dp) :: amplitude                      !! compressed_bar lift
-        real(dp) :: velocity(2)                    !! 'velocity' initial velocity
+        real(dp) :: velocity(3)                    !! 'velocity' initial velocity
+        !> Components given for each vector key, in table order (gravity, obstacle_point,
+        !> obstacle_normal, probe, velocity); 0 = not given (the default of the dimension).
+        integer :: vector_count(5) = 0
         character(len=NAME_LEN) :: scheme_name     !! newmark|hht|hht_seed|theta|pc|pc_hht|..._seed
         real(dp) :: alpha                          !! HHT alpha
         real(dp) :: beta                           !! Newmark / pc beta
@@ -69,9 +74,10 @@ module scene
         character(len=PATH_LEN) :: out_dir         !! output folder
         integer :: every                           !! trace row every this many steps
         integer :: fields_every                    !! VTU snapshot every this many steps (0 = none)
+        integer :: checkpoint_every                !! checkpoint every this many steps (0 = none)
     end type scene_t
 
-    public :: scene_read, scene_parse, scene_to_json
+    public :: scene_read, scene_parse, scene_to_json, scene_check_dim
 
     !> One key: its table row, the component it fills and its value as read.
     type :: key_t
@@ -84,12 +90,14 @@ module scene
         character(len=64) :: hint = ''            !! added to the check's message
         integer, pointer :: i => null()           !! integer component, or
         real(dp), pointer :: r => null()          !! real component, or
-        real(dp), pointer :: v(:) => null()       !! 2-vector component (1 or 2 values), or
+        real(dp), pointer :: v(:) => null()       !! vector component (1 to 3 values), or
         character(len=:), pointer :: s => null()  !! string component
         character(len=:), allocatable :: text     !! value as written, tokens joined by ', '
         integer :: nval = 0                       !! number of values (repeats counted)
         logical :: quoted = .false.               !! the first token is a quoted string
         logical :: given = .false.                !! the key appears in the scene
+        integer, pointer :: count => null()       !! vector: components given (0 = default)
+        character(len=40) :: default3 = ''        !! vector: default in 3D
     end type key_t
 
     integer, parameter :: MAX_FILE_BYTES = 1048576  !! larger scene files are rejected
@@ -107,7 +115,7 @@ contains
         type(key_t), allocatable, intent(out) :: keys(:)     !! the table
         keys = [ &
             row('mesh', 'file', "''", '', s=scn%mesh_file), &
-            row('mesh', 'dim', '2', '1 or 2', i=scn%mesh_dim), &
+            row('mesh', 'dim', '2', '1, 2 or 3', i=scn%mesh_dim), &
             row('mesh', 'length', '1.0', '> 0', r=scn%mesh_length), &
             row('mesh', 'width', '0.1', '> 0', r=scn%mesh_width), &
             row('mesh', 'h', '0.05', '> 0', r=scn%mesh_h), &
@@ -115,25 +123,31 @@ contains
             row('boundary', 'clamped', "'top'", '', s=scn%clamped), &
             row('boundary', 'slip_x', "''", '', s=scn%slip_x), &
             row('boundary', 'slip_y', "''", '', s=scn%slip_y), &
+            row('boundary', 'slip_z', "''", '', s=scn%slip_z), &
             row('boundary', 'contact', "'bottom'", '', s=scn%contact), &
             row('material', 'young', '0.6666666666666666', '> 0', r=scn%young), &
             row('material', 'poisson', '0.3333333333333333', 'in (-1, 1/2)', r=scn%poisson), &
             row('material', 'density', '1.0', '> 0', r=scn%density), &
-            row('material', 'gravity', '0.0, 0.0', '', v=scn%gravity), &
+            row('material', 'gravity', '0.0, 0.0', '', v=scn%gravity, n=scn%vector_count(1), &
+                default3='0.0, 0.0, 0.0'), &
             row('contact', 'method', "'nitsche'", "one of 'nitsche', 'penalty', 'alm'", &
                 s=scn%contact_method), &
             row('contact', 'multiplier', "'integral'", "'integral' or 'nodal'", s=scn%multiplier), &
             row('contact', 'theta', '1', '-1, 0 or 1', i=scn%nitsche_theta), &
             row('contact', 'gamma0', '10.0', '> 0', r=scn%gamma0), &
-            row('contact', 'obstacle_point', '0.0, 0.0', '', v=scn%obstacle_point), &
-            row('contact', 'obstacle_normal', '0.0, -1.0', '', v=scn%obstacle_normal), &
-            row('contact', 'probe', '0.05, 0.0', '', v=scn%probe), &
+            row('contact', 'obstacle_point', '0.0, 0.0', '', v=scn%obstacle_point, &
+                n=scn%vector_count(2), default3='0.0, 0.0, 0.0'), &
+            row('contact', 'obstacle_normal', '0.0, -1.0', '', v=scn%obstacle_normal, &
+                n=scn%vector_count(3), default3='0.0, 0.0, -1.0'), &
+            row('contact', 'probe', '0.05, 0.0', '', v=scn%probe, n=scn%vector_count(4), &
+                default3='0.05, 0.05, 0.0'), &
             row('contact', 'quadrature', "'exact'", "'exact' or 'gauss'", s=scn%quadrature), &
-            row('contact', 'quad_points', '3', 'in 1..6', i=scn%quad_points), &
+            row('contact', 'quad_points', '3', 'in 1..7', i=scn%quad_points), &
             row('initial', 'kind', "'compressed_bar'", &
                 "one of 'rest', 'velocity', 'compressed_bar'", s=scn%initial_kind), &
             row('initial', 'amplitude', '0.5', '', r=scn%amplitude), &
-            row('initial', 'velocity', '0.0, 0.0', '', v=scn%velocity), &
+            row('initial', 'velocity', '0.0, 0.0', '', v=scn%velocity, n=scn%vector_count(5), &
+                default3='0.0, 0.0, 0.0'), &
             row('scheme', 'name', "'hht'", "one of 'newmark', 'hht', 'hht_seed', 'theta', "// &
                 "'galpha', 'pc', 'pc_hht', 'pc_hht_seed', 'central'", s=scn%scheme_name), &
             row('scheme', 'alpha', '0.0', 'in [-1/3, 0]', r=scn%alpha, when='hht pc_hht'), &
@@ -153,17 +167,21 @@ contains
             row('scheme', 'blowup', '10.0', '> 1', r=scn%blowup), &
             row('output', 'dir', "'out'", 'not be empty', s=scn%out_dir), &
             row('output', 'every', '1', '> 0', i=scn%every), &
-            row('output', 'fields_every', '0', '>= 0', i=scn%fields_every)]
+            row('output', 'fields_every', '0', '>= 0', i=scn%fields_every), &
+            row('output', 'checkpoint_every', '0', '>= 0', i=scn%checkpoint_every)]
     end subroutine scene_keys
 
-    !> One row of the key table (exactly one of i, r, v, s is given).
-    function row(group, name, default, check, i, r, v, s, when, hint) result(k)
+    !> One row of the key table (exactly one of i, r, v, s is given; n and default3
+    !> with v).
+    function row(group, name, default, check, i, r, v, s, when, hint, n, default3) result(k)
         character(len=*), intent(in) :: group, name         !! group and key
         character(len=*), intent(in) :: default             !! default, namelist text
         character(len=*), intent(in) :: check               !! see scene_keys
         integer, target, intent(inout), optional :: i       !! integer component
         real(dp), target, intent(inout), optional :: r      !! real component
-        real(dp), target, intent(inout), optional :: v(2)   !! 2-vector component
+        real(dp), target, intent(inout), optional :: v(3)   !! vector component
+        integer, target, intent(inout), optional :: n       !! its count of components given
+        character(len=*), intent(in), optional :: default3  !! its default in 3D
         character(len=*), target, intent(inout), optional :: s  !! string component
         character(len=*), intent(in), optional :: when      !! schemes the check is for
         character(len=*), intent(in), optional :: hint      !! added to the message
@@ -175,6 +193,8 @@ contains
         if (present(s)) k%s => s
         if (present(when)) k%when = when
         if (present(hint)) k%hint = hint
+        if (present(n)) k%count => n
+        if (present(default3)) k%default3 = default3
     end function row
 
     !> Read and validate the scene file `path`. A relative &mesh file is taken from the
@@ -204,10 +224,21 @@ contains
         end if
         if (ios /= 0) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': cannot read scene file')
+        else if (n == 0) then    ! a failed copy, not a scene: comments alone give the defaults
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': empty scene file (0 bytes)')
+        else if (n >= 2 .and. (text(1:min(2, n)) == achar(255)//achar(254) .or. &
+                               text(1:min(2, n)) == achar(254)//achar(255))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': UTF-16 text (byte-order '// &
+                       'mark '//merge('FF FE', 'FE FF', text(1:1) == achar(255))// &
+                       '); save the scene as UTF-8')
         else if (n > MAX_FILE_BYTES) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
                        '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
         else
+            ! a UTF-8 byte-order mark (some editors write one) is not part of the text
+            if (n >= 3) then
+                if (text(1:3) == achar(239)//achar(187)//achar(191)) text = text(4:)
+            end if
             call scene_parse(text, trim(path), path(1:index(path, '/', back=.true.)), .true., &
                              scn, stat, errmsg)
         end if
@@ -238,7 +269,11 @@ contains
         if (len(msg) == 0) call tokenize(text, name, keys, msg)
         do k = 1, size(keys)
             if (keys(k)%given) call convert(keys(k), key_ctx(name, keys(k)), msg)
+            if (associated(keys(k)%count)) keys(k)%count = merge(keys(k)%nval, 0, keys(k)%given)
         end do
+        ! the built-in bar's dimension is known now (a mesh file's once it is read)
+        if (len(msg) == 0 .and. len_trim(scn%mesh_file) == 0 .and. &
+            scn%mesh_dim >= 1 .and. scn%mesh_dim <= 3) call vector_dims(keys, name, scn%mesh_dim, msg)
         if (full .and. len(msg) == 0) call validate(keys, name, msg)
         if (full .and. len(msg) == 0) call validate_cross(keys, scn, name, base, msg)
         stat = STAT_OK
@@ -265,8 +300,11 @@ contains
             json = json//'"'//trim(keys(k)%name)//'": '
             if (associated(keys(k)%i)) json = json//int_text(keys(k)%i)
             if (associated(keys(k)%r)) json = json//real_text(keys(k)%r)
-            if (associated(keys(k)%v)) json = json//'['//real_text(keys(k)%v(1))//', ' &
-                                              //real_text(keys(k)%v(2))//']'
+            if (associated(keys(k)%v)) then
+                json = json//'['//real_text(keys(k)%v(1))//', '//real_text(keys(k)%v(2))
+                if (keys(k)%count == 3) json = json//', '//real_text(keys(k)%v(3))
+                json = json//']'
+            end if
             if (associated(keys(k)%s)) json = json//json_string(trim(keys(k)%s))
         end do
         json = json//'}}'
@@ -429,15 +467,15 @@ contains
         character(len=len(key%text)) :: buf
         character(len=:), allocatable :: what
         integer(i8) :: big
-        real(dp) :: x(2)
+        real(dp) :: x(3)
         integer :: ios
 
         if (len(msg) > 0) return
         what = ''
         x = 0.0_dp
         ios = 1
-        if (associated(key%v) .and. key%nval > 2) then
-            what = 'expected 1 or 2 values'
+        if (associated(key%v) .and. key%nval > 3) then
+            what = 'expected 1, 2 or 3 values'
         else if (.not. associated(key%v) .and. key%nval /= 1) then
             what = 'expected 1 value'
         else if (associated(key%i)) then
@@ -460,6 +498,10 @@ contains
                 what = 'expected a quoted string'
             else if (len_trim(buf) > len(key%s)) then
                 msg = ctx//': string too long (more than '//int_text(len(key%s))//' characters)'
+            else if (utf8_bad(trim(buf)) > 0) then    ! it ends up in summary.json
+                ios = iachar(buf(utf8_bad(trim(buf)):utf8_bad(trim(buf))))
+                msg = ctx//': not UTF-8 text (byte '//int_text(ios)//' at character '// &
+                      int_text(utf8_bad(trim(buf)))//'; save the scene as UTF-8)'
             else
                 key%s = buf
             end if
@@ -467,7 +509,7 @@ contains
             read (key%text, *, iostat=ios) x(1:key%nval)
             if (key%quoted) then
                 what = 'expected a real number, not a string'
-            else if (ios /= 0 .or. scan(key%text, 'nNiI') > 0) then    ! no nan, inf
+            else if (ios /= 0 .or. .not. real_syntax(key%text)) then    ! no nan, inf, 1-3
                 what = 'expected a real number'
             else if (.not. all(abs(x) <= huge(x))) then
                 what = 'real number out of range'
@@ -479,6 +521,76 @@ contains
         end if
         if (len(what) > 0) msg = ctx//': '//what//' (got '''//shown(key%text, VALUE_LEN)//''')'
     end subroutine convert
+
+    !> Whether every value in `text` (values joined by ', ', each maybe `r*`-prefixed) is a
+    !> real written [sign] digits [. digits] [e|d [sign] digits]. The list-directed read
+    !> also takes forms that hide a typing slip, refused here: nan and inf, an exponent
+    !> without its letter (`2.5+1` reads as 25), text after a ';' (`1e-3;5` reads as 1e-3).
+    pure logical function real_syntax(text) result(ok)
+        character(len=*), intent(in) :: text   !! key%text
+        integer :: i, j, n, digits
+        ok = .false.
+        n = len(text)
+        i = 1
+        do while (i <= n)
+            j = index(text(i:), '*')    ! repeat count (checked by read_values)
+            if (j > 1 .and. j <= scan(text(i:)//',', ',')) then
+                if (verify(text(i:i + j - 2), '0123456789') == 0) i = i + j
+            end if
+            if (i <= n) then
+                if (scan(text(i:i), '+-') == 1) i = i + 1
+            end if
+            digits = 0
+            do while (i <= n)
+                if (scan(text(i:i), '0123456789') /= 1) exit
+                i = i + 1; digits = digits + 1
+            end do
+            if (i <= n) then
+                if (text(i:i) == '.') then
+                    i = i + 1
+                    do while (i <= n)
+                        if (scan(text(i:i), '0123456789') /= 1) exit
+                        i = i + 1; digits = digits + 1
+                    end do
+                end if
+            end if
+            if (digits == 0) return
+            if (i <= n) then
+                if (scan(text(i:i), 'eEdD') == 1) then
+                    i = i + 1
+                    if (i <= n) then
+                        if (scan(text(i:i), '+-') == 1) i = i + 1
+                    end if
+                    digits = 0
+                    do while (i <= n)
+                        if (scan(text(i:i), '0123456789') /= 1) exit
+                        i = i + 1; digits = digits + 1
+                    end do
+                    if (digits == 0) return
+                end if
+            end if
+            if (i > n) exit
+            if (text(i:min(i + 1, n)) /= ', ') return
+            i = i + 2
+        end do
+        ok = .true.
+    end function real_syntax
+
+    !> Position of the first byte of s that is not part of well-formed UTF-8 (utf8_len),
+    !> 0 if s is UTF-8. A string value is written into summary.json, which is UTF-8.
+    pure integer function utf8_bad(s) result(bad)
+        character(len=*), intent(in) :: s   !! text
+        integer :: i, n
+        i = 1
+        bad = 0
+        do while (i <= len(s))
+            n = utf8_len(s, i)
+            if (n == 0) then
+                bad = i; return
+            end if
+            i = i + n
+        end do
+    end function utf8_bad
 
     ! ---------------------------------------------------------------- checks
 
@@ -570,6 +682,8 @@ contains
             n_elem = max(1.0_dp, anint(scn%mesh_length / scn%mesh_h))
             if (scn%mesh_dim == 2) &
                 n_elem = 2 * n_elem * max(1.0_dp, anint(scn%mesh_width / scn%mesh_h))
+            if (scn%mesh_dim == 3) &
+                n_elem = 6 * n_elem * max(1.0_dp, anint(scn%mesh_width / scn%mesh_h))**2
             if (n_elem > scn%max_elements) then
                 msg = bad(keys, name, 'mesh', 'h', 'the built-in bar would have '// &
                           real_text(n_elem, 4)//' elements, more than &mesh max_elements = ' &
@@ -582,7 +696,7 @@ contains
                 msg = bad(keys, name, 'contact', 'obstacle_normal', &
                           'component 1 must be nonzero in 1D'); return
             end if
-            scn%obstacle_normal = [sign(1.0_dp, scn%obstacle_normal(1)), 0.0_dp]
+            scn%obstacle_normal = [sign(1.0_dp, scn%obstacle_normal(1)), 0.0_dp, 0.0_dp]
         else if (.not. (nrm > 0.0_dp .and. nrm <= huge(nrm))) then
             msg = bad(keys, name, 'contact', 'obstacle_normal', 'must be a nonzero vector'); return
         else if (abs(nrm - 1.0_dp) > 4.0_dp * epsilon(nrm)) then
@@ -617,6 +731,90 @@ contains
                       //int_text(scn%max_steps))
         end if
     end subroutine validate_cross
+
+    !> The keys that depend on the mesh dimension: the vector keys take 3 components in 3D
+    !> (a key not given takes its 3D default), 1 or 2 in 1D and 2D; &contact quad_points
+    !> (with 'gauss') is 1..6 in 2D, 1, 3, 6 or 7 in 3D. For a mesh read from a file, once its
+    !> dimension is known. Errors: STAT_BAD_INPUT, "PATH: &group key: ..." naming the
+    !> dimension.
+    subroutine scene_check_dim(scn, dim, stat, errmsg)
+        type(scene_t), intent(inout) :: scn                 !! the scene (3D defaults filled in)
+        integer, intent(in) :: dim                          !! mesh dimension
+        integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message
+        type(scene_t), target :: copy
+        type(key_t), allocatable :: keys(:)
+        character(len=:), allocatable :: msg
+        integer :: k
+        copy = scn
+        call scene_keys(copy, keys)
+        do k = 1, size(keys)      ! the table's texts of the values as in the scene
+            if (.not. associated(keys(k)%v)) cycle
+            keys(k)%given = keys(k)%count > 0
+            keys(k)%nval = keys(k)%count
+            keys(k)%text = vector_text(keys(k)%v(1:max(1, keys(k)%count)))
+        end do
+        msg = ''
+        call vector_dims(keys, trim(scn%path), dim, msg)
+        stat = STAT_OK
+        if (len(msg) > 0) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, msg)
+        else
+            scn = copy
+        end if
+    end subroutine scene_check_dim
+
+    !> See scene_check_dim (on the key table, values read).
+    subroutine vector_dims(keys, name, dim, msg)
+        type(key_t), intent(inout) :: keys(:)                !! the table, values read
+        character(len=*), intent(in) :: name                 !! scene name (messages)
+        integer, intent(in) :: dim                           !! mesh dimension
+        character(len=:), allocatable, intent(inout) :: msg  !! error ('' = none)
+        integer :: k, pos, nq
+        logical :: gauss
+        k = key_index(keys, 'contact', 'quad_points')
+        nq = keys(k)%i
+        gauss = keys(key_index(keys, 'contact', 'quadrature'))%s == 'gauss'
+        if (gauss .and. dim == 2 .and. nq == 7) then
+            msg = key_ctx(name, keys(k))//': must be in 1..6 in 2D (Gauss-Legendre points a '// &
+                  'segment facet; got '''//int_text(nq)//''')'
+            return
+        else if (gauss .and. dim == 3 .and. .not. any(nq == [1, 3, 6, 7])) then
+            msg = key_ctx(name, keys(k))//': must be 1, 3, 6 or 7 in 3D (symmetric rules on '// &
+                  'a triangle facet; got '''//int_text(nq)//''')'
+            return
+        end if
+        do k = 1, size(keys)
+            if (.not. associated(keys(k)%count)) cycle
+            if (dim == 3 .and. .not. keys(k)%given) then
+                pos = 1
+                keys(k)%text = ''
+                keys(k)%nval = 0
+                call read_values(trim(keys(k)%default3), pos, keys(k), 'default', msg)
+                call convert(keys(k), 'default of '//trim(keys(k)%name), msg)
+                keys(k)%count = 3
+            else if (dim == 3 .and. keys(k)%nval /= 3) then
+                msg = key_ctx(name, keys(k))//': expected 3 values in 3D (got '''// &
+                      shown(keys(k)%text, VALUE_LEN)//''')'
+                return
+            else if (dim < 3 .and. keys(k)%nval > 2) then
+                msg = key_ctx(name, keys(k))//': expected 1 or 2 values in '//int_text(dim)// &
+                      'D (got '''//shown(keys(k)%text, VALUE_LEN)//''')'
+                return
+            end if
+        end do
+    end subroutine vector_dims
+
+    !> Components as namelist text 'a, b, c'.
+    function vector_text(v) result(s)
+        real(dp), intent(in) :: v(:)     !! components
+        character(len=:), allocatable :: s
+        integer :: i
+        s = real_text(v(1))
+        do i = 2, size(v)
+            s = s//', '//real_text(v(i))
+        end do
+    end function vector_text
 
     ! ---------------------------------------------------------------- helpers
 
@@ -782,22 +980,31 @@ contains
         number = number / den
     end function number
 
-    !> JSON string literal (", \ and control characters escaped; other bytes as they are).
+    !> JSON string literal (", \ and control characters escaped; UTF-8 as it is; a byte
+    !> that is not UTF-8, e.g. of a path given on the command line, as \udcXX, the lone
+    !> surrogate by which Python decodes such a byte of a file name, so that the text
+    !> stays UTF-8 and the name round-trips).
     function json_string(s) result(js)
         character(len=*), intent(in) :: s   !! text
         character(len=:), allocatable :: js
         character(len=6) :: u
-        integer :: i
+        integer :: i, n
         js = '"'
-        do i = 1, len(s)
+        i = 1
+        do while (i <= len(s))
+            n = utf8_len(s, i)
             if (s(i:i) == '"' .or. s(i:i) == '\') then
                 js = js//'\'//s(i:i)
             else if (iachar(s(i:i)) < 32 .or. iachar(s(i:i)) == 127) then
                 write (u, '(a, z4.4)') '\u', iachar(s(i:i))
                 js = js//u
+            else if (n == 0) then
+                write (u, '(a, z2.2)') '\udc', iachar(s(i:i))
+                js = js//u
             else
-                js = js//s(i:i)
+                js = js//s(i:i + n - 1)
             end if
+            i = i + max(n, 1)
         end do
         js = js//'"'
     end function json_string

@@ -1,9 +1,10 @@
 !> Run outputs: trace.csv (buffered, written in whole rows), JSON helpers, output folders.
 module trace_output
     use iso_c_binding, only: c_int, c_char, c_null_char, c_double
-    use kinds, only: dp
+    use text, only: utf8_len
+    use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_INTERNAL, raise
-    use os_files, only: fd_open, fd_write, fd_close
+    use os_files, only: fd_open, fd_write, fd_close, fd_reopen, fd_sync
     implicit none
     private
 
@@ -19,6 +20,7 @@ module trace_output
         character(len=:), allocatable :: path      !! file name (for messages)
         character(len=:), allocatable :: buf       !! rows not yet written
         integer :: n = 0                           !! bytes used in buf
+        integer(i8) :: bytes = 0                   !! bytes written to the file
     end type trace_t
 
     interface
@@ -38,7 +40,8 @@ module trace_output
         end function c_format_es
     end interface
 
-    public :: make_dirs, trace_open, trace_row, trace_flush, trace_close, json_real, json_string
+    public :: make_dirs, trace_open, trace_reopen, trace_row, trace_flush, trace_sync, &
+              trace_close, json_real, json_string
 
 contains
 
@@ -76,6 +79,31 @@ contains
         tr%buf(1:len(TRACE_HEADER) + 1) = TRACE_HEADER//new_line('a')
         tr%n = len(TRACE_HEADER) + 1
     end subroutine trace_open
+
+    !> Continue an existing trace file: its first `bytes` bytes are kept (the rows up to
+    !> a checkpoint), the rest is cut off, and new rows are appended after them.
+    subroutine trace_reopen(path, bytes, tr, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file to continue
+        integer(i8), intent(in) :: bytes                    !! bytes to keep
+        type(trace_t), intent(out) :: tr                    !! the trace
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        call fd_reopen(path, bytes, tr%fd, stat, errmsg)
+        if (stat /= STAT_OK) return
+        tr%path = trim(path)
+        allocate (character(len=TRACE_BUFFER) :: tr%buf)
+        tr%n = 0
+        tr%bytes = bytes
+    end subroutine trace_reopen
+
+    !> Write the buffered rows and flush the file to the device (before a checkpoint).
+    subroutine trace_sync(tr, stat, errmsg)
+        type(trace_t), intent(inout) :: tr                  !! the trace
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        call trace_flush(tr, stat, errmsg)
+        if (stat == STAT_OK .and. tr%fd >= 0) call fd_sync(tr%fd, tr%path, stat, errmsg)
+    end subroutine trace_sync
 
     !> Append one row (written when the buffer is full or at trace_flush).
     subroutine trace_row(tr, t, un, vn, pn, e_kin, e_el, e_contact, e_total, newton_its, &
@@ -155,6 +183,7 @@ contains
         stat = STAT_OK
         if (tr%fd < 0 .or. tr%n == 0) return
         call fd_write(tr%fd, tr%buf(1:tr%n), tr%path, stat, errmsg)
+        if (stat == STAT_OK) tr%bytes = tr%bytes + tr%n
         tr%n = 0
     end subroutine trace_flush
 
@@ -188,23 +217,32 @@ contains
         end if
     end function json_real
 
-    !> A string as a JSON string (quotes and backslashes escaped).
+    !> A string as a JSON string (quotes and backslashes escaped, control characters as
+    !> blanks, UTF-8 as it is, a byte that is not UTF-8 as \udcXX: see scene's
+    !> json_string).
     function json_string(x) result(s)
         character(len=*), intent(in) :: x    !! value
         character(len=:), allocatable :: s
-        integer :: i
+        character(len=6) :: u
+        integer :: i, n
         s = '"'
-        do i = 1, len_trim(x)
+        i = 1
+        do while (i <= len_trim(x))
+            n = utf8_len(x, i)
             select case (x(i:i))
             case ('"', '\')
                 s = s//'\'//x(i:i)
             case default
                 if (iachar(x(i:i)) < 32) then
                     s = s//' '
+                else if (n == 0) then
+                    write (u, '(a, z2.2)') '\udc', iachar(x(i:i))
+                    s = s//u
                 else
-                    s = s//x(i:i)
+                    s = s//x(i:i + n - 1)
                 end if
             end select
+            i = i + max(n, 1)
         end do
         s = s//'"'
     end function json_string

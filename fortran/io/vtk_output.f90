@@ -13,7 +13,7 @@ module vtk_output
 
     character(len=*), parameter :: REAL_FMT = '(3(1x,es24.16e3))'   ! round-trips doubles
 
-    public :: vtk_write_vtu, vtk_write_pvd
+    public :: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
 
 contains
 
@@ -35,14 +35,13 @@ contains
         real(dp), intent(in), optional :: scalar(:)         !! (n) optional scalar point field
         character(len=*), intent(in), optional :: scalar_name !! its name (default 'scalar')
         real(dp), intent(in), optional :: time              !! optional TimeValue field data
-        integer :: n, nc, nv, unit, ios, k, ctype
+        integer :: n, nc, unit, ios, k, ctype
         integer(i8) :: expected
         character(len=256) :: iomsg
         character(len=:), allocatable :: sname
 
         n = size(x, 2)
         nc = size(cells, 2)
-        nv = dim + 1
         select case (dim)
         case (1); ctype = VTK_LINE
         case (2); ctype = VTK_TRIANGLE
@@ -51,26 +50,8 @@ contains
             call raise(stat, errmsg, STAT_BAD_INPUT, 'vtk_write_vtu: dim must be 1, 2 or 3')
             return
         end select
-        if (size(x, 1) /= dim .or. size(u, 1) /= dim .or. size(v, 1) /= dim &
-            .or. size(u, 2) /= n .or. size(v, 2) /= n .or. size(cells, 1) /= nv) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, &
-                       'vtk_write_vtu: x, u, v must be (dim, n) and cells (dim+1, nc)')
-            return
-        end if
-        if (present(scalar)) then
-            if (size(scalar) /= n) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, &
-                           'vtk_write_vtu: scalar must have n entries')
-                return
-            end if
-        end if
-        if (nc > 0) then
-            if (minval(cells) < 1 .or. maxval(cells) > n) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, &
-                           'vtk_write_vtu: cell node number out of range 1..n')
-                return
-            end if
-        end if
+        call check_arrays(dim, x, cells, u, v, stat, errmsg, scalar)
+        if (stat /= STAT_OK) return
         sname = 'scalar'
         if (present(scalar_name)) sname = xml_escape(trim(scalar_name))
 
@@ -117,29 +98,7 @@ contains
         if (ios == 0) call write_vectors(unit, '', dim, x, ios, iomsg)
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      </Points>'
 
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      <Cells>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
-            '        <DataArray type="Int32" Name="connectivity" format="ascii">'
-        do k = 1, nc
-            if (ios /= 0) exit
-            write (unit, '(4(1x,i0))', iostat=ios, iomsg=iomsg) cells(:, k) - 1
-        end do
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
-            '        <DataArray type="Int32" Name="offsets" format="ascii">'
-        do k = 1, nc
-            if (ios /= 0) exit
-            write (unit, '(1x,i0)', iostat=ios, iomsg=iomsg) nv * k
-        end do
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
-            '        <DataArray type="UInt8" Name="types" format="ascii">'
-        do k = 1, nc
-            if (ios /= 0) exit
-            write (unit, '(1x,i0)', iostat=ios, iomsg=iomsg) ctype
-        end do
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      </Cells>'
+        if (ios == 0) call write_cells(unit, cells, ctype, ios, iomsg)
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '    </Piece>'
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </UnstructuredGrid>'
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
@@ -163,6 +122,76 @@ contains
         if (stat /= STAT_OK) return
         stat = STAT_OK
     end subroutine vtk_write_vtu
+
+    !> The shapes of vtk_write_vtu's arrays: x, u, v (dim, n), cells (dim+1, nc) with node
+    !> numbers in 1..n, scalar (n).
+    subroutine check_arrays(dim, x, cells, u, v, stat, errmsg, scalar)
+        integer, intent(in) :: dim                          !! space dimension
+        real(dp), intent(in) :: x(:, :)                     !! (dim, n) node coordinates
+        integer, intent(in) :: cells(:, :)                  !! (dim+1, nc) node numbers
+        real(dp), intent(in) :: u(:, :)                     !! (dim, n) displacement
+        real(dp), intent(in) :: v(:, :)                     !! (dim, n) velocity
+        integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: scalar(:)         !! (n) scalar point field
+        integer :: n
+        stat = STAT_OK
+        n = size(x, 2)
+        if (size(x, 1) /= dim .or. size(u, 1) /= dim .or. size(v, 1) /= dim &
+            .or. size(u, 2) /= n .or. size(v, 2) /= n .or. size(cells, 1) /= dim + 1) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       'vtk_write_vtu: x, u, v must be (dim, n) and cells (dim+1, nc)')
+            return
+        end if
+        if (present(scalar)) then
+            if (size(scalar) /= n) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, &
+                           'vtk_write_vtu: scalar must have n entries')
+                return
+            end if
+        end if
+        if (size(cells, 2) > 0) then
+            if (minval(cells) < 1 .or. maxval(cells) > n) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, &
+                           'vtk_write_vtu: cell node number out of range 1..n')
+                return
+            end if
+        end if
+    end subroutine check_arrays
+
+    !> The <Cells> element: connectivity (0-based), offsets and the VTK cell type.
+    subroutine write_cells(unit, cells, ctype, ios, iomsg)
+        integer, intent(in) :: unit                         !! open formatted stream
+        integer, intent(in) :: cells(:, :)                  !! (nv, nc) 1-based node numbers
+        integer, intent(in) :: ctype                        !! VTK cell type
+        integer, intent(out) :: ios                         !! iostat
+        character(len=*), intent(inout) :: iomsg            !! iomsg
+        integer :: k, nv
+        nv = size(cells, 1)
+        write (unit, '(a)', iostat=ios, iomsg=iomsg) '      <Cells>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '        <DataArray type="Int32" Name="connectivity" format="ascii">'
+        do k = 1, size(cells, 2)
+            if (ios /= 0) exit
+            write (unit, '(4(1x,i0))', iostat=ios, iomsg=iomsg) cells(:, k) - 1
+        end do
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '        <DataArray type="Int32" Name="offsets" format="ascii">'
+        do k = 1, size(cells, 2)
+            if (ios /= 0) exit
+            write (unit, '(1x,i0)', iostat=ios, iomsg=iomsg) nv * k
+        end do
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '        <DataArray type="UInt8" Name="types" format="ascii">'
+        do k = 1, size(cells, 2)
+            if (ios /= 0) exit
+            write (unit, '(1x,i0)', iostat=ios, iomsg=iomsg) ctype
+        end do
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      </Cells>'
+    end subroutine write_cells
 
     !> Write the ParaView collection index (.pvd) listing files(k) at times(k); file
     !> names are written as given (trimmed), so give them relative to the .pvd's folder.
@@ -269,6 +298,37 @@ contains
         end do
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
     end subroutine write_vectors
+
+    !> Size in bytes of the file vtk_write_vtu writes for these cells on n nodes, without
+    !> the optional scalar and time: the real lines exactly; the integers digit by digit.
+    pure function vtk_vtu_bytes(dim, n, cells) result(bytes)
+        integer, intent(in) :: dim                  !! space dimension 1, 2 or 3
+        integer, intent(in) :: n                    !! number of nodes
+        integer, intent(in) :: cells(:, :)          !! (dim+1, nc) 1-based node numbers
+        integer(i8) :: bytes
+        integer(i8), parameter :: REAL_LINE = 3 * 25 + 1   ! REAL_FMT and its newline
+        integer(i8), parameter :: FIXED = 903               ! the tag lines and newlines
+        integer :: k, nc
+        nc = size(cells, 2)
+        bytes = FIXED + digits10(int(n, i8)) + digits10(int(nc, i8)) + 3 * n * REAL_LINE
+        do k = 1, nc
+            bytes = bytes + sum(1 + digits10(int(cells(:, k) - 1, i8))) + 1 &  ! connectivity
+                    + 1 + digits10(int(size(cells, 1), i8) * k) + 1 + 3        ! offsets, types
+        end do
+        if (dim < 1 .or. dim > 3) bytes = 0
+    end function vtk_vtu_bytes
+
+    !> Number of decimal digits of i >= 0.
+    elemental integer(i8) function digits10(i)
+        integer(i8), intent(in) :: i    !! a count
+        integer(i8) :: j
+        digits10 = 1
+        j = i
+        do while (j >= 10)
+            j = j / 10
+            digits10 = digits10 + 1
+        end do
+    end function digits10
 
     !> s with the XML special characters & < > " ' replaced by entities.
     pure function xml_escape(s) result(e)

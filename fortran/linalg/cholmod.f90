@@ -7,9 +7,12 @@
 !> pivot gives STAT_NUMERIC ('not positive definite'): the caller decides what to do
 !> (linear_solver falls back to UMFPACK's LU).
 !>
+!> Ordering: AMD, METIS or CHOLMOD's nested dissection, whichever gives L the fewest
+!> entries (a rule on the pattern alone, so runs are deterministic; chol_ordering).
 !> Solves: when the matrix is made of the 2x2 blocks of node pairs (the shim then orders
 !> the pairs together), the factor is copied by blocks and solved with ldl_solves'
-!> sweeps (about 1.4x faster than cholmod_solve2 on the same factor); otherwise through
+!> sweeps (about 1.4x faster than cholmod_solve2 on the same factor), and CHOLMOD's
+!> numerical copy is released (one copy of the factor; keep_cholmod keeps it); otherwise through
 !> cholmod_solve2 with workspaces kept in the shim (no allocation per solve): own
 !> scalar loops on the copied factors are slower than CHOLMOD's, which treats chains
 !> of up to 3 columns with the same pattern at once (docs/performance.md, "The solves").
@@ -19,7 +22,8 @@ module cholmod
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
     use sparse, only: csc_t
-    use ldl_solves, only: pair_ldl_t, pair_ldl_build, pair_ldl_solve, pair_ldl_free
+    use ldl_solves, only: pair_ldl_t, pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, &
+                          pair_ldl_free
     implicit none
     private
 
@@ -34,6 +38,10 @@ module cholmod
         integer :: lnz = 0                       !! entries of L below the diagonal
         integer :: factorizations = 0            !! numeric factorizations done (kept by chol_free)
         integer :: analyses = 0                  !! symbolic analyses done (kept by chol_free)
+        integer :: ordering = 0                  !! ORDERING_NAMES index of the analysis (0: none)
+        integer(c_long) :: factor_nnz = 0        !! entries of the factor kept (D and L)
+        logical :: keep_cholmod = .false.        !! keep CHOLMOD's factor next to the block
+                                                 !! copy (chol_solve_cholmod; tests, floors)
         type(pair_ldl_t) :: pairs                !! the factor by 2x2 blocks (pairs%n = 0: none)
     end type cholmod_t
 
@@ -41,7 +49,12 @@ module cholmod
     character(len=*), parameter, public :: KERNEL_PAIRS = 'ldl_node_pairs'     !! ldl_solves
     character(len=*), parameter, public :: KERNEL_CHOLMOD = 'cholmod_solve2'   !! CHOLMOD's
 
-    public :: chol_factor, chol_solve, chol_solve_many, chol_free, chol_kernel, &
+    !> Fill-reducing orderings (dc_cholmod_ordering's codes 1..4): of the node pairs'
+    !> graph when they are ordered together, else CHOLMOD's own choice.
+    character(len=*), parameter, public :: ORDERING_NAMES(4) = &
+        [character(len=8) :: 'amd', 'metis', 'nesdis', 'cholmod']
+
+    public :: chol_factor, chol_solve, chol_ordering, chol_solve_many, chol_free, chol_kernel, &
               chol_solve_cholmod
 
     interface
@@ -91,6 +104,21 @@ module cholmod
             real(c_double), intent(out) :: val(*)        !! (nnz) D and L by columns
             integer(c_int) :: status
         end function dc_cholmod_export
+
+        !> int dc_cholmod_ordering(h)
+        function dc_cholmod_ordering(h) result(code) bind(C, name='dc_cholmod_ordering')
+            import :: c_ptr, c_int
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int) :: code
+        end function dc_cholmod_ordering
+
+        !> int dc_cholmod_release_numeric(h)
+        function dc_cholmod_release_numeric(h) result(status) &
+            bind(C, name='dc_cholmod_release_numeric')
+            import :: c_ptr, c_int
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int) :: status
+        end function dc_cholmod_release_numeric
 
         !> int dc_cholmod_solve(h, ncol, b, x)
         function dc_cholmod_solve(h, ncol, b, x) result(status) bind(C, name='dc_cholmod_solve')
@@ -156,6 +184,8 @@ contains
 
         ch%lnz = int(lnz)
         ch%n = a%n
+        ch%ordering = int(dc_cholmod_ordering(ch%handle))
+        ch%factor_nnz = lnz + a%n
         stat = STAT_OK
         if (paired /= 0) call copy_pairs()
 
@@ -171,10 +201,36 @@ contains
             if (nnz < 0) return
             allocate (perm(a%n), colptr(a%n + 1), rowind(nnz), val(nnz))
             if (dc_cholmod_export(ch%handle, perm, colptr, rowind, val) /= DC_OK) return
+            ! one copy of the factor: CHOLMOD's values go before the block copy is built
+            ! (the symbolic analysis stays for the next factorization)
+            if (.not. ch%keep_cholmod) then
+                if (dc_cholmod_release_numeric(ch%handle) /= DC_OK) then
+                    ch%n = 0
+                    call raise(stat, errmsg, STAT_INTERNAL, 'chol_factor: CHOLMOD failed')
+                    return
+                end if
+            end if
             call pair_ldl_build(ch%pairs, a%n, perm, colptr, rowind, val, ok)
-            if (.not. ok) call pair_ldl_free(ch%pairs)
+            if (.not. ok) then
+                ! not reached: an ordering that keeps the pairs together gives 2x2 blocks
+                call pair_ldl_free(ch%pairs)
+                if (.not. ch%keep_cholmod) then
+                    ch%n = 0
+                    call raise(stat, errmsg, STAT_INTERNAL, &
+                               'chol_factor: the factor is not made of 2x2 node blocks')
+                end if
+            end if
         end subroutine copy_pairs
     end subroutine chol_factor
+
+    !> The fill-reducing ordering of the factors ('' without factors): see ORDERING_NAMES.
+    pure function chol_ordering(ch) result(name)
+        type(cholmod_t), intent(in) :: ch                   !! factors
+        character(len=:), allocatable :: name
+        name = ''
+        if (ch%n >= 1 .and. ch%ordering >= 1 .and. ch%ordering <= size(ORDERING_NAMES)) &
+            name = trim(ORDERING_NAMES(ch%ordering))
+    end function chol_ordering
 
     !> The triangular solve chol_solve uses: KERNEL_PAIRS or KERNEL_CHOLMOD ('' without
     !> factors).
@@ -204,7 +260,9 @@ contains
     end subroutine chol_solve
 
     !> Solve A x = b with cholmod_solve2 whatever chol_solve uses (to compare the two:
-    !> the benchmark's floors and the tests). Errors as chol_solve.
+    !> the benchmark's floors and the tests). Needs CHOLMOD's factor: with a block copy it
+    !> is kept only when ch%keep_cholmod was set before chol_factor (STAT_BAD_INPUT
+    !> otherwise). Errors as chol_solve.
     subroutine chol_solve_cholmod(ch, b, x, stat, errmsg)
         type(cholmod_t), intent(inout) :: ch                !! factors
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
@@ -235,13 +293,15 @@ contains
         stat = STAT_OK
         if (pairs .and. ch%pairs%n > 0) then
             call pair_ldl_solve(ch%pairs, b, x)
+        else if (ch%pairs%n > 0 .and. .not. ch%keep_cholmod) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, who//': CHOLMOD''s factor was released')
         else if (dc_cholmod_solve(ch%handle, 1_c_int, b, x) /= DC_OK) then
             call raise(stat, errmsg, STAT_INTERNAL, who//': cholmod_solve2 failed')
         end if
     end subroutine solve_one
 
-    !> Solve A X = B for all columns of B: column after column with the block factors,
-    !> else in one cholmod_solve2 call.
+    !> Solve A X = B for all columns of B: in one pass over the block factors for all
+    !> columns (pair_ldl_solve_many), else in one cholmod_solve2 call.
     subroutine chol_solve_many(ch, b, x, stat, errmsg)
         type(cholmod_t), intent(inout) :: ch                !! factors
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)
@@ -259,12 +319,7 @@ contains
         stat = STAT_OK
         if (size(b, 2) == 0) return
         if (ch%pairs%n > 0) then
-            block
-                integer :: j
-                do j = 1, size(b, 2)
-                    call pair_ldl_solve(ch%pairs, b(:, j), x(:, j))
-                end do
-            end block
+            call pair_ldl_solve_many(ch%pairs, b, x)
             return
         end if
         if (dc_cholmod_solve(ch%handle, int(size(b, 2), c_int), b, x) /= DC_OK) &
@@ -280,5 +335,7 @@ contains
         call pair_ldl_free(ch%pairs)
         ch%n = 0
         ch%lnz = 0
+        ch%factor_nnz = 0
+        ch%ordering = 0
     end subroutine chol_free
 end module cholmod

@@ -11,9 +11,12 @@
  * symmetric matrix or its upper triangle.
  *
  * Node pairs: when the dofs 2k, 2k+1 (0-based) come in pairs whose 2x2 blocks are all
- * stored (the free dofs of the nodes of a 2D mesh), the ordering is AMD's on the graph
- * of the pairs, each pair kept together (no postordering). L is then made of full 2x2
- * blocks, which fortran/linalg/ldl_solves.f90 copies (dc_cholmod_export) and solves with.
+ * stored (the free dofs of the nodes of a 2D mesh), the ordering is one of the graph of
+ * the pairs, each pair kept together (no postordering): AMD's, METIS's or CHOLMOD's
+ * nested dissection, whichever gives L the fewest entries (analyze_pairs). L is then
+ * made of full 2x2 blocks, which fortran/linalg/ldl_solves.f90 copies
+ * (dc_cholmod_export) and solves with; the caller then releases CHOLMOD's numerical
+ * copy (dc_cholmod_release_numeric), so that one copy of the factor is kept.
  */
 #include <stdlib.h>
 #include <string.h>
@@ -30,6 +33,7 @@ typedef struct {
     cholmod_dense *B, *X, *Y, *E;   /* solve2 right-hand side header and workspaces */
     int bcols;             /* columns of B */
     int paired;            /* the analysis ordered node pairs together */
+    int ordering;          /* the ordering of the analysis (ORD_*) */
 } dc_cholmod;
 
 /* Statuses returned to Fortran. */
@@ -123,19 +127,75 @@ static int pairs_pattern(int n, const int *colptr, const int *rowind)
     return 1;
 }
 
-/* Analysis with AMD's ordering of the graph of the node pairs (each pair kept together,
- * no postordering, so that L is made of 2x2 blocks). NULL on failure. */
-static cholmod_factor *analyze_pairs(cholmod_sparse *a, cholmod_common *c)
+/* Entries of a symbolic simplicial factor (its column counts, diagonal included). */
+static double h_lnz(const cholmod_factor *L)
 {
-    int n = (int) a->nrow, nn = n / 2, J, p, cnt = 0;
+    const int *cc = L->ColCount;
+    double k = 0;
+    size_t j;
+    for (j = 0; j < L->n; j++) k += cc[j];
+    return k;
+}
+
+/* Orderings of the node pairs' graph (dc_cholmod_ordering's codes). */
+enum { ORD_NONE = 0, ORD_AMD = 1, ORD_METIS = 2, ORD_NESDIS = 3, ORD_CHOLMOD = 4 };
+
+/* The ordering DYNCONTACT_ORDERING forces ('amd', 'metis', 'nesdis'), or ORD_NONE (the
+ * analysis picks): a test-only switch, to check that every ordering gives the same
+ * results to round-off. */
+static int forced_ordering(void)
+{
+    const char *e = getenv("DYNCONTACT_ORDERING");
+    if (e == NULL) return ORD_NONE;
+    if (strcmp(e, "amd") == 0) return ORD_AMD;
+    if (strcmp(e, "metis") == 0) return ORD_METIS;
+    if (strcmp(e, "nesdis") == 0) return ORD_NESDIS;
+    return ORD_NONE;
+}
+
+/* Order the pairs' graph g with ordering ord into nperm (1 on success). */
+static int order_pairs(cholmod_sparse *g, int ord, int *nperm, cholmod_common *c)
+{
+    int nn = (int) g->nrow, ok = 0;
+    int *cp, *cm;
+    switch (ord) {
+    case ORD_AMD:
+        return cholmod_amd(g, NULL, 0, nperm, c);
+    case ORD_METIS:
+        return cholmod_metis(g, NULL, 0, 0, nperm, c);
+    case ORD_NESDIS:
+        cp = malloc(sizeof(int) * (size_t) nn);
+        cm = malloc(sizeof(int) * (size_t) nn);
+        if (cp != NULL && cm != NULL)
+            ok = cholmod_nested_dissection(g, NULL, 0, nperm, cp, cm, c) >= 0;
+        free(cp);
+        free(cm);
+        return ok;
+    default:
+        return 0;
+    }
+}
+
+/* Analysis with a fill-reducing ordering of the graph of the node pairs (each pair kept
+ * together, no postordering, so that L is made of 2x2 blocks). AMD, METIS and CHOLMOD's
+ * nested dissection are tried and the ordering with the fewest entries in L is kept
+ * (AMD on a tie; the solves' cost is proportional to those entries, so the choice is
+ * the one that solves fastest, and it depends on the pattern alone: deterministic).
+ * *ord = the ordering kept. NULL on failure. */
+static cholmod_factor *analyze_pairs(cholmod_sparse *a, cholmod_common *c, int *ord)
+{
+    int n = (int) a->nrow, nn = n / 2, J, p, cnt = 0, k;
     const int *colptr = a->p, *rowind = a->i;
     int *np = malloc(sizeof(int) * (size_t) (nn + 1));
     int *ni = malloc(sizeof(int) * (size_t) (colptr[n] > 0 ? colptr[n] : 1));
     int *nperm = malloc(sizeof(int) * (size_t) nn);
     int *perm = malloc(sizeof(int) * (size_t) n);
     cholmod_sparse g;
-    cholmod_factor *L = NULL;
+    cholmod_factor *L = NULL, *Lk;
     int nmethods = c->nmethods, ordering = c->method[0].ordering, postorder = c->postorder;
+    int forced = forced_ordering();
+    static const int tries[3] = { ORD_AMD, ORD_METIS, ORD_NESDIS };
+    *ord = ORD_NONE;
     if (np == NULL || ni == NULL || nperm == NULL || perm == NULL) goto done;
     /* the pairs' upper pattern: column J's rows are those of column 2J+1, halved */
     for (J = 0; J < nn; J++) {
@@ -145,18 +205,31 @@ static cholmod_factor *analyze_pairs(cholmod_sparse *a, cholmod_common *c)
     }
     np[nn] = cnt;
     csc_header(&g, nn, np, ni, NULL);
-    if (!cholmod_amd(&g, NULL, 0, nperm, c)) goto done;
-    for (J = 0; J < nn; J++) {
-        perm[2 * J] = 2 * nperm[J];
-        perm[2 * J + 1] = 2 * nperm[J] + 1;
-    }
     c->nmethods = 1;
     c->method[0].ordering = CHOLMOD_GIVEN;
     c->postorder = 0;
-    L = cholmod_analyze_p(a, perm, NULL, 0, c);
+    for (k = 0; k < 3; k++) {
+        if (forced != ORD_NONE && tries[k] != forced) continue;
+        c->status = CHOLMOD_OK;
+        if (!order_pairs(&g, tries[k], nperm, c)) continue;
+        for (J = 0; J < nn; J++) {
+            perm[2 * J] = 2 * nperm[J];
+            perm[2 * J + 1] = 2 * nperm[J] + 1;
+        }
+        Lk = cholmod_analyze_p(a, perm, NULL, 0, c);
+        if (Lk == NULL) continue;
+        if (L == NULL || h_lnz(Lk) < h_lnz(L)) {
+            if (L != NULL) cholmod_free_factor(&L, c);
+            L = Lk;
+            *ord = tries[k];
+        } else {
+            cholmod_free_factor(&Lk, c);
+        }
+    }
     c->nmethods = nmethods;
     c->method[0].ordering = ordering;
     c->postorder = postorder;
+    if (L != NULL) c->status = CHOLMOD_OK;
 done:
     free(np);
     free(ni);
@@ -199,7 +272,12 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
         }
         h->c.status = CHOLMOD_OK;
         h->paired = pairs_pattern(n, colptr, rowind);
-        h->L = h->paired ? analyze_pairs(&a, &h->c) : cholmod_analyze(&a, &h->c);
+        if (h->paired) {
+            h->L = analyze_pairs(&a, &h->c, &h->ordering);
+        } else {
+            h->L = cholmod_analyze(&a, &h->c);
+            h->ordering = ORD_CHOLMOD;
+        }
         if (h->L == NULL) {
             int st = h->c.status;
             free_factor(h);
@@ -274,6 +352,34 @@ int dc_cholmod_export(void *handle, int *perm, int *colptr, int *rowind, double 
         }
     }
     colptr[h->n] = k;
+    return DC_OK;
+}
+
+/* The ordering of the analysis: 1 AMD, 2 METIS, 3 CHOLMOD's nested dissection (on the
+ * node pairs' graph when the pairs are ordered together, else CHOLMOD's own choice), 4
+ * another one of CHOLMOD's, 0 without an analysis. */
+int dc_cholmod_ordering(void *handle)
+{
+    dc_cholmod *h = handle;
+    if (h == NULL || h->L == NULL) return ORD_NONE;
+    if (h->ordering != ORD_CHOLMOD) return h->ordering;
+    switch (h->L->ordering) {
+    case CHOLMOD_AMD: return ORD_AMD;
+    case CHOLMOD_METIS: return ORD_METIS;
+    case CHOLMOD_NESDIS: return ORD_NESDIS;
+    default: return ORD_CHOLMOD;
+    }
+}
+
+/* Release the numerical values of CHOLMOD's factor (after dc_cholmod_export, when the
+ * caller solves with its own copy), keeping the symbolic analysis for the next
+ * factorization; cholmod_solve2 is no longer possible until then. DC_OK or DC_FAILED. */
+int dc_cholmod_release_numeric(void *handle)
+{
+    dc_cholmod *h = handle;
+    if (h == NULL || h->L == NULL) return DC_FAILED;
+    free_dense(h);
+    if (!cholmod_change_factor(CHOLMOD_PATTERN, 0, 0, 1, 1, h->L, &h->c)) return DC_FAILED;
     return DC_OK;
 }
 

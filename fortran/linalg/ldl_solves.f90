@@ -28,7 +28,7 @@ module ldl_solves
         real(dp), allocatable :: y(:)             !! (n) work vector of the solves
     end type pair_ldl_t
 
-    public :: pair_ldl_build, pair_ldl_solve, pair_ldl_free
+    public :: pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, pair_ldl_free
 
 contains
 
@@ -100,6 +100,65 @@ contains
         real(dp), intent(out) :: x(:)                       !! solution (n)
         call pair_sweeps(f%n, f%nn, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%l21, f%d, b, x, f%y)
     end subroutine pair_ldl_solve
+
+    !> X = A^{-1} B for the k columns of B with one pass over the factor for all of them
+    !> (the factor is read once per k columns instead of once per column: the solves of
+    !> many right-hand sides are bound by reading L). Each column gets the operations of
+    !> pair_ldl_solve in the same order.
+    pure subroutine pair_ldl_solve_many(f, b, x)
+        type(pair_ldl_t), intent(in) :: f                   !! block factors
+        real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, k)
+        real(dp), intent(out) :: x(:, :)                    !! solutions (n, k)
+        real(dp), allocatable :: y(:, :)
+        allocate (y(size(b, 2), f%n))
+        call pair_sweeps_many(f%n, f%nn, size(f%bi), size(b, 2), f%perm, f%bp, f%bi, f%bx, &
+                              f%l21, f%d, b, x, y)
+    end subroutine pair_ldl_solve_many
+
+    !> pair_sweeps for k right-hand sides, the work array by rows (y(:, i): row i of the
+    !> k columns, adjacent).
+    pure subroutine pair_sweeps_many(n, nn, nb, k, perm, bp, bi, bx, l21, d, b, x, y)
+        integer, intent(in) :: n, nn, nb, k                 !! size, pairs, blocks, columns
+        integer, intent(in) :: perm(n), bp(nn + 1), bi(nb)  !! permutation, block structure
+        real(dp), intent(in) :: bx(4, nb), l21(nn), d(n)    !! L's blocks, diagonal blocks, D
+        real(dp), intent(in) :: b(n, k)                     !! right-hand sides
+        real(dp), intent(out) :: x(n, k)                    !! solutions
+        real(dp), intent(out) :: y(k, n)                    !! work
+        real(dp) :: y0(k), y1(k), s1(k), s2(k), s3(k), s4(k)
+        integer :: jb, q, i, c
+        do i = 1, n
+            y(:, i) = b(perm(i), :)
+        end do
+        do jb = 1, nn
+            y0 = y(:, 2 * jb - 1)
+            y1 = y(:, 2 * jb) - l21(jb) * y0
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                y(:, i) = y(:, i) - (bx(1, q) * y0 + bx(3, q) * y1)
+                y(:, i + 1) = y(:, i + 1) - (bx(2, q) * y0 + bx(4, q) * y1)
+            end do
+            y(:, 2 * jb - 1) = y0 / d(2 * jb - 1)
+            y(:, 2 * jb) = y1 / d(2 * jb)
+        end do
+        do jb = nn, 1, -1
+            s1 = 0.0_dp; s2 = 0.0_dp; s3 = 0.0_dp; s4 = 0.0_dp
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                s1 = s1 + bx(1, q) * y(:, i)
+                s2 = s2 + bx(2, q) * y(:, i + 1)
+                s3 = s3 + bx(3, q) * y(:, i)
+                s4 = s4 + bx(4, q) * y(:, i + 1)
+            end do
+            y1 = y(:, 2 * jb) - (s3 + s4)
+            y0 = y(:, 2 * jb - 1) - (s1 + s2) - l21(jb) * y1
+            y(:, 2 * jb) = y1
+            y(:, 2 * jb - 1) = y0
+            do c = 1, k
+                x(perm(2 * jb), c) = y1(c)
+                x(perm(2 * jb - 1), c) = y0(c)
+            end do
+        end do
+    end subroutine pair_sweeps_many
 
     !> The two sweeps: y = P b; L y' = y by block columns (each block's two rows updated
     !> as one 2-vector), each pair scaled by D^{-1} once final; L^T z = y' by block

@@ -8,11 +8,12 @@
 !> schemes need an exact solve, so this is not an error). f%backend records which
 !> one holds the factors. A factor_t owns C pointers: never copy one by assignment.
 module linear_solver
-    use kinds, only: dp
+    use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
     use sparse, only: csc_t, csc_find
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
-    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free, chol_kernel
+    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free, chol_kernel, &
+                       chol_ordering
     implicit none
     private
 
@@ -37,7 +38,8 @@ module linear_solver
         type(lu_t) :: lu                        !! LU factors
     end type factor_t
 
-    public :: ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, csc_is_symmetric
+    public :: ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, ls_factor_info, &
+              csc_is_symmetric
 
 contains
 
@@ -131,6 +133,24 @@ contains
             name = 'umfpack'
         end if
     end function ls_kernel
+
+    !> The fill-reducing ordering of the LDL^T factors ('amd', 'metis', 'nesdis',
+    !> 'cholmod'; 'umfpack' for the LU, whose ordering is UMFPACK's own; '' without
+    !> factors) and the entries stored in the LDL^T factor (D and L; 0 for the LU).
+    subroutine ls_factor_info(f, ordering, nnz)
+        type(factor_t), intent(in) :: f                      !! factors
+        character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
+        integer(i8), intent(out) :: nnz                      !! stored entries
+        ordering = ''
+        nnz = 0
+        if (f%n < 1) return
+        if (f%backend == BACKEND_CHOLMOD) then
+            ordering = chol_ordering(f%ch)
+            nnz = int(f%ch%factor_nnz, i8)
+        else
+            ordering = 'umfpack'
+        end if
+    end subroutine ls_factor_info
 
     !> Release both backends' factors (safe to call twice). The counter is kept.
     subroutine ls_free(f)

@@ -1,5 +1,5 @@
-!> Simplicial meshes: nodes, cells (segments in 1D, triangles in 2D), tagged
-!> boundary facets and named physical groups.
+!> Simplicial meshes: nodes, cells (segments in 1D, triangles in 2D, tetrahedra in
+!> 3D), tagged boundary facets and named physical groups.
 module mesh
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp
@@ -12,10 +12,10 @@ module mesh
     !> Relative size below which a cell counts as degenerate (see mesh_check).
     real(dp), parameter :: DEGENERATE_TOL = 1.0e-12_dp
 
-    !> A mesh of dimension `dim` (spatial = cell dimension, 1 or 2).
+    !> A mesh of dimension `dim` (spatial = cell dimension, 1, 2 or 3).
     !> A facet that belongs to several groups is stored once per group.
     type, public :: mesh_t
-        integer :: dim = 0                        !! 1 (segments) or 2 (triangles)
+        integer :: dim = 0                        !! 1 (segments), 2 (triangles) or 3 (tetrahedra)
         integer :: n_nodes = 0                    !! number of nodes
         integer :: n_cells = 0                    !! number of cells
         integer :: n_facets = 0                   !! number of tagged boundary facets
@@ -23,7 +23,7 @@ module mesh
         real(dp), allocatable :: x(:, :)          !! (dim, n_nodes) coordinates
         integer, allocatable :: cells(:, :)       !! (dim+1, n_cells) 1-based node numbers, any orientation
         integer, allocatable :: cell_group(:)     !! (n_cells) group index of each cell, 0 = none
-        integer, allocatable :: facets(:, :)      !! (dim, n_facets) facet nodes (a point in 1D, a segment in 2D)
+        integer, allocatable :: facets(:, :)      !! (dim, n_facets) facet nodes (a point in 1D, a segment in 2D, a triangle in 3D)
         integer, allocatable :: facet_group(:)    !! (n_facets) group index of each facet
         character(len=GROUP_NAME_LEN), allocatable :: group_name(:)  !! (n_groups)
         integer, allocatable :: group_dim(:)      !! (n_groups) dimension of the group's entities
@@ -140,8 +140,8 @@ contains
 
         stat = STAT_OK
         d = this%dim
-        if (d < 1 .or. d > 2) then
-            write (buf, '(a, i0, a)') 'mesh check: dimension ', d, ' is not 1 or 2'
+        if (d < 1 .or. d > 3) then
+            write (buf, '(a, i0, a)') 'mesh check: dimension ', d, ' is not 1, 2 or 3'
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
             return
         end if
@@ -175,16 +175,31 @@ contains
         end if
     end subroutine check_sizes
 
-    !> Signed measure (length in 1D, area in 2D) and longest edge of cell `c`.
+    !> Signed measure (length in 1D, area in 2D, volume in 3D) and longest edge of cell `c`.
     pure subroutine mesh_cell_size(this, c, meas, hmax)
         type(mesh_t), intent(in) :: this   !! mesh (nodes of cell c must be in range)
         integer, intent(in) :: c           !! cell index
-        real(dp), intent(out) :: meas      !! signed length (1D) or area (2D, > 0 counter-clockwise)
+        real(dp), intent(out) :: meas      !! signed length (1D), area (2D, > 0 counter-clockwise), volume (3D)
         real(dp), intent(out) :: hmax      !! longest edge (diameter) of the cell
-        real(dp) :: a(2), b(2), p(2)
+        real(dp) :: a(2), b(2), p(2), e(3, 4)
+        integer :: i, j
         if (this%dim == 1) then
             meas = this%x(1, this%cells(2, c)) - this%x(1, this%cells(1, c))
             hmax = abs(meas)
+        else if (this%dim == 3) then
+            do i = 1, 4
+                e(:, i) = this%x(:, this%cells(i, c))
+            end do
+            hmax = 0.0_dp
+            do i = 1, 4
+                do j = i + 1, 4
+                    hmax = max(hmax, norm2(e(:, j) - e(:, i)))
+                end do
+            end do
+            e(:, 2:4) = e(:, 2:4) - spread(e(:, 1), 2, 3)
+            meas = (e(1, 2) * (e(2, 3) * e(3, 4) - e(3, 3) * e(2, 4)) &
+                    - e(2, 2) * (e(1, 3) * e(3, 4) - e(3, 3) * e(1, 4)) &
+                    + e(3, 2) * (e(1, 3) * e(2, 4) - e(2, 3) * e(1, 4))) / 6.0_dp
         else
             p = this%x(:, this%cells(1, c))
             a = this%x(:, this%cells(2, c)) - p

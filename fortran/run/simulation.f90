@@ -7,7 +7,7 @@ module simulation
     use text, only: int_text, real_text
     use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
-    use scene, only: scene_t, scene_read, scene_to_json
+    use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
@@ -21,13 +21,16 @@ module simulation
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
-    use trace_output, only: make_dirs, trace_t, trace_open, trace_row, trace_flush, trace_close, &
-                            json_real, json_string, TRACE_ROW_BYTES
+    use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
+                            trace_sync, trace_close, json_real, json_string, TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
-                        write_text_atomic, signal_caught
+                        write_text_atomic, signal_caught, free_space
     use sparse, only: csc_t
-    use vtk_output, only: vtk_write_vtu, vtk_write_pvd
+    use vtk_output, only: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
     use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
+    use byte_buffer, only: byte_buffer_t, buf_put, buf_get, buf_put_text, buf_get_text, buf_from
+    use checkpoint_file, only: CHECKPOINT_NAME, checkpoint_scene_hash, checkpoint_write, &
+                               checkpoint_read
     implicit none
     private
 
@@ -63,23 +66,37 @@ module simulation
         integer :: n_snap = 0                      !! field snapshots written
         real(dp), allocatable :: snap_t(:)         !! their times
         character(len=64), allocatable :: snap_file(:) !! their file names
+        integer(i8) :: scene_hash = 0              !! hash of the parsed scene (checkpoints)
+        integer(i8) :: restart_step = -1           !! the step the run restarted from (-1: none)
     end type simulation_t
 
-    public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes
+    public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes, &
+              sim_checkpoint_save, sim_checkpoint_load
 
 contains
 
     !> Read the scene, build the model, open the outputs (nothing is overwritten
     !> before this succeeds) and write the t = 0 row. `out_dir` /= '' overrides &output dir.
-    subroutine sim_open(sim, scene_path, out_dir, write_output, stat, errmsg)
+    !> `restart` /= '': continue the run from the checkpoint in that folder (which is
+    !> then the output folder) instead of starting at t = 0.
+    subroutine sim_open(sim, scene_path, out_dir, write_output, stat, errmsg, restart)
         type(simulation_t), intent(out) :: sim              !! the run
         character(len=*), intent(in) :: scene_path          !! scene file
         character(len=*), intent(in) :: out_dir             !! output folder override ('' = scene's)
         logical, intent(in) :: write_output                 !! .false.: build the model only
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=*), intent(in), optional :: restart   !! folder of the checkpoint ('' = none)
         type(scene_t) :: scn
-        if (len_trim(out_dir) > len(scn%out_dir)) then
+        character(len=:), allocatable :: rdir
+        rdir = ''
+        if (present(restart)) rdir = trim(restart)
+        if (len(rdir) > 0 .and. len_trim(out_dir) > 0 .and. trim(out_dir) /= rdir) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, '--restart '//rdir//' continues the run in'// &
+                       ' that folder: --out must be the same folder or left out')
+            return
+        end if
+        if (max(len_trim(out_dir), len(rdir)) > len(scn%out_dir)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'output folder: the path is longer than ' &
                        //int_text(int(len(scn%out_dir), i8))//' characters')
             return
@@ -87,38 +104,82 @@ contains
         call scene_read(scene_path, scn, stat, errmsg)
         if (stat /= STAT_OK) return
         if (len_trim(out_dir) > 0) scn%out_dir = out_dir
-        call sim_open_scene(sim, scn, write_output, stat, errmsg)
+        if (len(rdir) > 0) scn%out_dir = rdir
+        call sim_open_scene(sim, scn, write_output, stat, errmsg, restart=len(rdir) > 0)
     end subroutine sim_open
 
-    !> sim_open for a scene already read and validated.
-    subroutine sim_open_scene(sim, scn, write_output, stat, errmsg)
+    !> sim_open for a scene already read and validated (`restart`: continue from the
+    !> checkpoint in the scene's output folder).
+    subroutine sim_open_scene(sim, scn, write_output, stat, errmsg, restart)
         type(simulation_t), intent(out) :: sim              !! the run
         type(scene_t), intent(in) :: scn                    !! validated scene
         logical, intent(in) :: write_output                 !! .false.: build the model only
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(in), optional :: restart            !! continue from the checkpoint
         integer :: n
-        real(dp) :: ratio
-        character(len=256) :: msg
-        character(len=1024) :: mmsg
-        type(mesh_t) :: msh
-        type(model_params_t) :: mprm
-        type(scheme_params_t) :: sprm
+        logical :: again
+        again = .false.
+        if (present(restart)) again = restart
         call system_clock(sim%clock0, sim%clock_rate)
         sim%scn = scn
-        mprm = model_params(scn)
-        sprm = scheme_params(scn)
-        mmsg = ''
-        call mesh_load(scn%mesh_file, scn%mesh_dim, scn%mesh_length, scn%mesh_width, scn%mesh_h, &
-                       msh, stat, mmsg)
+        sim%scene_hash = checkpoint_scene_hash(scn)
+        call build_model(sim, stat, errmsg)
+        if (stat /= STAT_OK) return
+        ! dt = 0 (central): the step count is known once the scheme has chosen dt
+        if (sim%scn%dt > 0.0_dp) then
+            call count_steps(sim, write_output, stat, errmsg)
+            if (stat /= STAT_OK) return
+        end if
+        n = sim%n_dofs
+        allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
+                  sim%st%mv(n), sim%st%lam(sim%mdl%alm%nl))
+        sim%st%lam = 0.0_dp
+        call model_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v)
+        call state_eval(sim%mdl, sim%st)
+        call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
+        sim%st%a = 0.0_dp
+        if (.not. write_output) return
+        call start_scheme(sim, stat, errmsg)
+        if (stat /= STAT_OK) return
+        if (again) then
+            call reopen_outputs(sim, stat, errmsg)
+        else
+            call open_outputs(sim, stat, errmsg)
+        end if
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(scn%path)//': &mesh: '//trim(mmsg))
+            if (sim%trace%fd >= 0) then    ! ours: remove it (never another run's)
+                call trace_close(sim%trace, n)
+                call file_remove(trim(sim%scn%out_dir)//'/trace.csv.tmp')
+            end if
+            if (sim%locked) call lock_release(sim%scn%out_dir)
+            sim%locked = .false.
+            sim%outputs = .false.
             return
         end if
-        call model_build(msh, mprm, sim%mdl, stat, errmsg)
+        sim%finished = sim%step >= sim%n_steps
+    end subroutine sim_open_scene
+
+    !> The mesh and the model of the run's scene, and the run's sizes (a mesh file above
+    !> &mesh max_elements is refused).
+    subroutine build_model(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (scn set)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=1024) :: mmsg
+        type(mesh_t) :: msh
+        mmsg = ''
+        call mesh_load(sim%scn%mesh_file, sim%scn%mesh_dim, sim%scn%mesh_length, &
+                       sim%scn%mesh_width, sim%scn%mesh_h, msh, stat, mmsg)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh: '//trim(mmsg))
+            return
+        end if
+        call scene_check_dim(sim%scn, msh%dim, stat, errmsg)   ! the vector keys
         if (stat /= STAT_OK) return
-        n = sim%mdl%n_dofs
-        sim%n_dofs = n
+        call model_build(msh, model_params(sim%scn), sim%mdl, stat, errmsg)
+        if (stat /= STAT_OK) return
+        sim%n_dofs = sim%mdl%n_dofs
         sim%n_cells = sim%mdl%msh%n_cells
         sim%n_contact = sim%mdl%ct%n_facets
         if (len_trim(sim%scn%mesh_file) > 0 .and. sim%n_cells > sim%scn%max_elements) then
@@ -127,19 +188,16 @@ contains
                        int_text(int(sim%scn%max_elements, i8))//' (&mesh max_elements)')
             return
         end if
-        ! dt = 0 (central): the step count is known once the scheme has chosen dt
-        if (sim%scn%dt > 0.0_dp) then
-            call count_steps(stat, errmsg)
-            if (stat /= STAT_OK) return
-        end if
-        allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
-                  sim%st%mv(n), sim%st%lam(sim%mdl%alm%nl))
-        sim%st%lam = 0.0_dp
-        call model_initial(sim%mdl, mprm, sim%st%u, sim%st%v)
-        call state_eval(sim%mdl, sim%st)
-        call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
-        sim%st%a = 0.0_dp
-        if (.not. write_output) return
+    end subroutine build_model
+
+    !> The time scheme of the scene, set up on the initial state; with &scheme dt = 0
+    !> (central) the run takes the step the scheme chose, and counts its steps then.
+    subroutine start_scheme(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (model and initial state)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        type(scheme_params_t) :: sprm
+        sprm = scheme_params(sim%scn)
         select case (sprm%kind)
         case (SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED)
             allocate (pc_scheme_t :: sim%scheme)
@@ -160,130 +218,234 @@ contains
                 ' a safe bound with &contact theta = '//int_text(sim%scn%nitsche_theta)// &
                 ' (measured up to 1.3x above the limit at gamma0 = 10, far more at small gamma0:'// &
                 ' docs/numerics.md); give dt or use theta = 1'//new_line('a')
-            call count_steps(stat, errmsg)
+            call count_steps(sim, .true., stat, errmsg)
             if (stat /= STAT_OK) return
         end if
+    end subroutine start_scheme
 
-        call open_outputs(stat, errmsg)
-        if (stat /= STAT_OK) then
-            if (sim%trace%fd >= 0) then    ! ours: remove it (never another run's)
-                call trace_close(sim%trace, n)
-                call file_remove(trim(sim%scn%out_dir)//'/trace.csv.tmp')
-            end if
-            if (sim%locked) call lock_release(sim%scn%out_dir)
-            sim%locked = .false.
-            sim%outputs = .false.
-            return
-        end if
-        sim%finished = sim%n_steps == 0
-
-    contains
-
-        !> Output folder, lock, checks that every target can be written, then the new
-        !> trace under a temporary name; it replaces trace.csv only once its t = 0 row
-        !> and the first summary.json are written (previous results are kept until then).
-        subroutine open_outputs(st, msg)
-            integer, intent(out) :: st
-            character(len=*), intent(inout), optional :: msg
-            character(len=:), allocatable :: dir
-            dir = trim(sim%scn%out_dir)
-            call make_dirs(dir, st, msg)
+    !> Output folder, lock, checks that every target can be written, then the new
+    !> trace under a temporary name; it replaces trace.csv only once its t = 0 row
+    !> and the first summary.json are written (previous results are kept until then).
+    subroutine open_outputs(sim, st, msg)
+        type(simulation_t), intent(inout) :: sim            !! the run (scheme set up)
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
+        character(len=:), allocatable :: dir
+        dir = trim(sim%scn%out_dir)
+        call make_dirs(dir, st, msg)
+        if (st /= STAT_OK) return
+        call lock_take(dir, st, msg)
+        if (st /= STAT_OK) return
+        sim%locked = .true.
+        call check_writable(dir//'/trace.csv', st, msg)
+        if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
+        if (st == STAT_OK .and. sim%scn%fields_every > 0) &
+            call check_writable(dir//'/fields.pvd', st, msg)
+        if (st == STAT_OK) call check_space(sim, dir, st, msg)
+        if (st /= STAT_OK) return
+        call energy_limit(sim)
+        call trace_open(dir//'/trace.csv.tmp', sim%trace, st, msg)
+        if (st /= STAT_OK) return
+        sim%outputs = .true.
+        call record(sim, sim%e0, stat=st, errmsg=msg)
+        if (st == STAT_OK) call trace_flush(sim%trace, st, msg)
+        if (st /= STAT_OK) return
+        sim%status = 'running'
+        call write_summary(sim, st, msg)
+        if (st /= STAT_OK) return
+        call file_rename(dir//'/trace.csv.tmp', dir//'/trace.csv', st, msg)
+        if (st /= STAT_OK) return
+        sim%trace%path = dir//'/trace.csv'
+        call system_clock(sim%clock_flush)
+        sim%clock_summary = sim%clock_flush
+        if (sim%scn%fields_every > 0) then
+            call make_dirs(dir//'/fields', st, msg)
             if (st /= STAT_OK) return
-            call lock_take(dir, st, msg)
-            if (st /= STAT_OK) return
-            sim%locked = .true.
-            call check_writable(dir//'/trace.csv', st, msg)
-            if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
-            if (st == STAT_OK .and. sim%scn%fields_every > 0) &
-                call check_writable(dir//'/fields.pvd', st, msg)
-            if (st /= STAT_OK) return
-            call energy_limit()
-            call trace_open(dir//'/trace.csv.tmp', sim%trace, st, msg)
-            if (st /= STAT_OK) return
-            sim%outputs = .true.
-            call record(sim, sim%e0, stat=st, errmsg=msg)
-            if (st == STAT_OK) call trace_flush(sim%trace, st, msg)
-            if (st /= STAT_OK) return
-            sim%status = 'running'
-            call write_summary(sim, st, msg)
-            if (st /= STAT_OK) return
-            call file_rename(dir//'/trace.csv.tmp', dir//'/trace.csv', st, msg)
-            if (st /= STAT_OK) return
-            sim%trace%path = dir//'/trace.csv'
-            call system_clock(sim%clock_flush)
-            sim%clock_summary = sim%clock_flush
-            if (sim%scn%fields_every > 0) then
-                call make_dirs(dir//'/fields', st, msg)
-                if (st /= STAT_OK) return
-                allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
-                          sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
-                call snapshot(sim, st, msg)
-            end if
-        end subroutine open_outputs
-
-        !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
-        !> blowup x e_total(0) as always (the stored penalty energy when e_total(0) = 0,
-        !> e.g. a body at rest starting in the obstacle). With a load L the test energy
-        !> is e_total - u.L and the scale |e_total(0) - u0.L| + the stored penalty energy
-        !> + the load's energy 1/2 L.(K + M/t_end^2)^{-1} L (the static energy
-        !> 1/2 L.K^{-1} L when K dominates; the work of L on the free body over t_end
-        !> when K has rigid modes). Never a running maximum (growth must be seen).
-        subroutine energy_limit()
-            real(dp) :: e_tot, e_scale
-            sim%has_load = any(sim%mdl%load /= 0.0_dp)
-            e_tot = 0.5_dp * dot_product(sim%st%v, sim%st%mv) &
-                    + 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
-            e_scale = e_tot
-            if (sim%has_load) then
-                e_scale = abs(e_tot - dot_product(sim%st%u, sim%mdl%load)) &
-                          + max(sim%st%e_pen, 0.0_dp) + load_energy()
-            else if (.not. e_scale > 0.0_dp) then
-                e_scale = max(sim%st%e_pen, 0.0_dp)
-            end if
-            sim%e_limit = sim%scn%blowup * max(e_scale, tiny(1.0_dp))
-        end subroutine energy_limit
-
-        !> Step count in 64 bits, refused above &scheme max_steps (t_end / dt may not even
-        !> fit); a note on the trace size when it is large.
-        subroutine count_steps(st, em)
-            integer, intent(out) :: st
-            character(len=*), intent(inout), optional :: em
-            st = STAT_OK
-            ratio = sim%scn%t_end / sim%scn%dt
-            if (.not. ratio - 1.0e-9_dp <= real(sim%scn%max_steps, dp)) then
-                call raise(st, em, STAT_BAD_INPUT, trim(sim%scn%path)//': &scheme dt: t_end / dt = ' &
-                           //real_text(ratio, 6)//' steps exceed the limit of '// &
-                           int_text(int(sim%scn%max_steps, i8))//' (&scheme max_steps)')
+            allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
+                      sim%snap_file(sim%n_steps / sim%scn%fields_every + 2), stat=st)
+            if (st /= 0) then
+                call raise(st, msg, STAT_BAD_INPUT, trim(sim%scn%path)//': &output '// &
+                           'fields_every: no memory for the list of '// &
+                           int_text(sim%n_steps / sim%scn%fields_every + 1)//' snapshots')
                 return
             end if
-            sim%n_steps = max(0_i8, ceiling(ratio - 1.0e-9_dp, i8))
-            if (write_output .and. sim_trace_bytes(sim) > BIG_TRACE_BYTES) then
-                write (msg, '(a, f0.1, a, i0, a)') 'note: the trace will take about ', &
-                    real(sim_trace_bytes(sim), dp) / 1.0e9_dp, ' GB (', &
-                    sim%n_steps / sim%scn%every + 1_i8, ' rows; &output every thins it)'
-                sim%mdl%notes = trim(sim%mdl%notes)//trim(msg)//new_line('a')
-            end if
-        end subroutine count_steps
+            call snapshot(sim, st, msg)
+        end if
+    end subroutine open_outputs
 
-        !> 1/2 L.(K + M/t_end^2)^{-1} L (0 if the factorization fails).
-        function load_energy() result(e)
-            real(dp) :: e
-            type(csc_t) :: a
-            type(factor_t) :: lu
-            real(dp), allocatable :: x(:)
-            real(dp) :: c
-            integer :: st
-            e = 0.0_dp
-            c = 1.0_dp / max(sim%scn%t_end, sim%scn%dt)**2
-            a = sim%mdl%stiff
-            a%val = sim%mdl%stiff%val + c * sim%mdl%mass%val
-            allocate (x(sim%n_dofs))
-            call ls_factor(lu, a, st)
-            if (st == STAT_OK) call ls_solve(lu, a, sim%mdl%load, x, st)
-            if (st == STAT_OK) e = 0.5_dp * dot_product(sim%mdl%load, x)
-            call ls_free(lu)
-        end function load_energy
-    end subroutine sim_open_scene
+    !> With field snapshots (fields_every > 0), refuse a run whose outputs cannot fit in
+    !> the output folder's file system, before anything is written: the trace
+    !> (TRACE_ROW_BYTES a row) and every snapshot (vtk_vtu_bytes, exact) against the
+    !> free bytes, the snapshot files against the free file slots. The key named is
+    !> the one that thins the larger part. Large field output is announced as a large
+    !> trace is. Without fields nothing is refused here: a trace that outgrows the disk
+    !> stops the run as a failed write (exit 4) with whole rows kept.
+    subroutine check_space(sim, dir, st, msg)
+        type(simulation_t), intent(inout) :: sim            !! the run (model built)
+        character(len=*), intent(in) :: dir                 !! output folder
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
+        integer(i8), parameter :: SLACK = 16384_i8   ! summary.json, fields.pvd header
+        integer(i8) :: n_snap, snap, fields, trace, free_b, free_f
+        character(len=:), allocatable :: key, what
+        st = STAT_OK
+        if (sim%scn%fields_every <= 0) return
+        n_snap = sim%n_steps / sim%scn%fields_every + 1
+        snap = vtk_vtu_bytes(sim%mdl%dim, sim%mdl%msh%n_nodes, sim%mdl%msh%cells)
+        fields = n_snap * (snap + 100_i8)    ! and its line in fields.pvd
+        trace = sim_trace_bytes(sim)
+        call free_space(dir, free_b, free_f)
+        key = merge('fields_every', 'every       ', fields > trace)
+        what = 'the run would write about '//bytes_text(trace + fields)//' (the trace '// &
+               bytes_text(trace)//', '//int_text(n_snap)//' snapshots of '// &
+               bytes_text(snap)//' each)'
+        if (free_b >= 0 .and. trace + fields + SLACK > free_b) then
+            call raise(st, msg, STAT_BAD_INPUT, trim(sim%scn%path)//': &output '// &
+                       trim(key)//': '//what//' but '//dir//' has '//bytes_text(free_b)// &
+                       ' free; a larger &output '//trim(key)//' thins it')
+        else if (free_f >= 0 .and. n_snap + 8 > free_f) then
+            call raise(st, msg, STAT_BAD_INPUT, trim(sim%scn%path)//': &output '// &
+                       'fields_every: the run would write '//int_text(n_snap)// &
+                       ' snapshot files but '//dir//' has room for '//int_text(free_f)// &
+                       ' more files; a larger &output fields_every thins them')
+        else if (fields > BIG_TRACE_BYTES) then
+            sim%mdl%notes = trim(sim%mdl%notes)//'note: the field snapshots will take about ' &
+                //bytes_text(fields)//' ('//int_text(n_snap)//' files; &output fields_every'// &
+                ' thins them)'//new_line('a')
+        end if
+    end subroutine check_space
+
+    !> A byte count as text with a unit: '512 B', '3.4 kB', '1.2 MB', '250.0 GB'.
+    function bytes_text(b) result(s)
+        integer(i8), intent(in) :: b   !! bytes
+        character(len=:), allocatable :: s
+        character(len=32) :: buf
+        character(len=2), parameter :: UNITS(4) = ['kB', 'MB', 'GB', 'TB']
+        integer :: k
+        if (b < 1000_i8) then
+            s = int_text(b)//' B'
+            return
+        end if
+        k = min(4, int(log10(real(b, dp)) / 3.0_dp))
+        write (buf, '(f0.1, 1x, a)') real(b, dp) / 1000.0_dp**k, UNITS(k)
+        s = trim(buf)
+    end function bytes_text
+
+    !> The outputs of a run continued from its checkpoint: the folder's lock, the state
+    !> and counters from checkpoint.bin (refused unless it is this scene's and this
+    !> build's, whole and intact), trace.csv cut back to the rows up to the checkpoint's
+    !> step and continued, the snapshots listed so far kept.
+    subroutine reopen_outputs(sim, st, msg)
+        type(simulation_t), intent(inout) :: sim            !! the run (scheme set up)
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
+        character(len=:), allocatable :: dir, path
+        integer(i8) :: trace_bytes, size
+        logical :: exists
+        dir = trim(sim%scn%out_dir)
+        path = dir//'/'//CHECKPOINT_NAME
+        inquire (file=path, exist=exists)
+        if (.not. exists) then
+            call raise(st, msg, STAT_BAD_INPUT, path//': no checkpoint to restart from (no such'// &
+                       ' file; &output checkpoint_every writes one)')
+            return
+        end if
+        call lock_take(dir, st, msg)
+        if (st /= STAT_OK) return
+        sim%locked = .true.
+        call check_writable(dir//'/trace.csv', st, msg)
+        if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
+        if (st /= STAT_OK) return
+        if (sim%scn%fields_every > 0) allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
+                                                sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
+        call sim_checkpoint_load(sim, path, st, msg, trace_bytes)
+        if (st /= STAT_OK) return
+        inquire (file=dir//'/trace.csv', exist=exists, size=size)
+        if (.not. exists .or. size < trace_bytes) then
+            call raise(st, msg, STAT_BAD_INPUT, dir//'/trace.csv: missing or shorter than the '// &
+                       int_text(trace_bytes)//' bytes written up to the checkpoint; cannot continue it')
+            return
+        end if
+        call trace_reopen(dir//'/trace.csv', trace_bytes, sim%trace, st, msg)
+        if (st /= STAT_OK) return
+        sim%outputs = .true.
+        sim%restart_step = sim%step
+        sim%status = 'running'
+        call write_summary(sim, st, msg)
+        if (st /= STAT_OK) return
+        call system_clock(sim%clock_flush)
+        sim%clock_summary = sim%clock_flush
+        if (sim%scn%fields_every > 0) call make_dirs(dir//'/fields', st, msg)
+    end subroutine reopen_outputs
+
+    !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
+    !> blowup x e_total(0) as always (the stored penalty energy when e_total(0) = 0,
+    !> e.g. a body at rest starting in the obstacle). With a load L the test energy
+    !> is e_total - u.L and the scale |e_total(0) - u0.L| + the stored penalty energy
+    !> + the load's energy 1/2 L.(K + M/t_end^2)^{-1} L (the static energy
+    !> 1/2 L.K^{-1} L when K dominates; the work of L on the free body over t_end
+    !> when K has rigid modes). Never a running maximum (growth must be seen).
+    subroutine energy_limit(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run at its initial state
+        real(dp) :: e_tot, e_scale
+        sim%has_load = any(sim%mdl%load /= 0.0_dp)
+        e_tot = 0.5_dp * dot_product(sim%st%v, sim%st%mv) &
+                + 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
+        e_scale = e_tot
+        if (sim%has_load) then
+            e_scale = abs(e_tot - dot_product(sim%st%u, sim%mdl%load)) &
+                      + max(sim%st%e_pen, 0.0_dp) + load_energy(sim)
+        else if (.not. e_scale > 0.0_dp) then
+            e_scale = max(sim%st%e_pen, 0.0_dp)
+        end if
+        sim%e_limit = sim%scn%blowup * max(e_scale, tiny(1.0_dp))
+    end subroutine energy_limit
+
+    !> Step count in 64 bits, refused above &scheme max_steps (t_end / dt may not even
+    !> fit); a note on the trace size when it is large (and outputs are written).
+    subroutine count_steps(sim, write_output, st, em)
+        type(simulation_t), intent(inout) :: sim            !! the run (scn%dt set)
+        logical, intent(in) :: write_output                 !! outputs will be written
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: em     !! message
+        real(dp) :: ratio
+        character(len=256) :: msg
+        st = STAT_OK
+        ratio = sim%scn%t_end / sim%scn%dt
+        if (.not. ratio - 1.0e-9_dp <= real(sim%scn%max_steps, dp)) then
+            call raise(st, em, STAT_BAD_INPUT, trim(sim%scn%path)//': &scheme dt: t_end / dt = ' &
+                       //real_text(ratio, 6)//' steps exceed the limit of '// &
+                       int_text(int(sim%scn%max_steps, i8))//' (&scheme max_steps)')
+            return
+        end if
+        sim%n_steps = max(0_i8, ceiling(ratio - 1.0e-9_dp, i8))
+        if (write_output .and. sim_trace_bytes(sim) > BIG_TRACE_BYTES) then
+            write (msg, '(a, f0.1, a, i0, a)') 'note: the trace will take about ', &
+                real(sim_trace_bytes(sim), dp) / 1.0e9_dp, ' GB (', &
+                sim%n_steps / sim%scn%every + 1_i8, ' rows; &output every thins it)'
+            sim%mdl%notes = trim(sim%mdl%notes)//trim(msg)//new_line('a')
+        end if
+    end subroutine count_steps
+
+    !> 1/2 L.(K + M/t_end^2)^{-1} L (0 if the factorization fails).
+    function load_energy(sim) result(e)
+        type(simulation_t), intent(in) :: sim               !! the run (model built)
+        real(dp) :: e
+        type(csc_t) :: a
+        type(factor_t) :: lu
+        real(dp), allocatable :: x(:)
+        real(dp) :: c
+        integer :: st
+        e = 0.0_dp
+        c = 1.0_dp / max(sim%scn%t_end, sim%scn%dt)**2
+        a = sim%mdl%stiff
+        a%val = sim%mdl%stiff%val + c * sim%mdl%mass%val
+        allocate (x(sim%n_dofs))
+        call ls_factor(lu, a, st)
+        if (st == STAT_OK) call ls_solve(lu, a, sim%mdl%load, x, st)
+        if (st == STAT_OK) e = 0.5_dp * dot_product(sim%mdl%load, x)
+        call ls_free(lu)
+    end function load_energy
 
     !> Expected size of trace.csv in bytes (rows of typical width).
     function sim_trace_bytes(sim) result(bytes)
@@ -317,9 +479,11 @@ contains
         do while (.not. sim%finished .and. steps_done < max_steps)
             sig = signal_caught()
             if (sig /= 0) then
-                sim%status = 'interrupted'
-                sim%message = 'interrupted by signal '//int_text(int(sig, i8))//' at t = ' &
-                              //real_text(sim%st%t, 6)//' (trace kept)'
+                call stop_interrupted(sim, sig, stat, wmsg)
+                if (stat /= STAT_OK) then
+                    call write_failed(wmsg)
+                    return
+                end if
                 sim%finished = .true.
                 call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
                 return
@@ -352,22 +516,9 @@ contains
                     return
                 end if
                 sim%status = 'unstable'
-                if (sim%has_load) then
-                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
-                        sim%st%t, ': e_total + e_load = ', e_test, ' exceeds blowup x energy scale = ', &
-                        sim%e_limit, ' (run stopped, trace kept)'
-                else if (sim%e0 > 0.0_dp) then
-                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
-                        sim%st%t, ': e_total = ', e_total, ' exceeds blowup x e_total(0) = ', &
-                        sim%e_limit, ' (run stopped, trace kept)'
-                else
-                    write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
-                        sim%st%t, ': e_total = ', e_total, ' exceeds blowup x energy scale = ', &
-                        sim%e_limit, ' (run stopped, trace kept)'
-                end if
-                sim%message = msg
+                sim%message = unstable_message(sim, e_total, e_test)
                 sim%finished = .true.
-                call raise(stat, errmsg, STAT_NUMERIC, trim(msg))
+                call raise(stat, errmsg, STAT_NUMERIC, trim(sim%message))
                 return
             end if
             if (sim%scn%fields_every > 0) then
@@ -380,6 +531,15 @@ contains
                 end if
             end if
             if (sim%step >= sim%n_steps) sim%finished = .true.
+            if (sim%scn%checkpoint_every > 0 .and. .not. sim%finished) then
+                if (mod(sim%step, int(sim%scn%checkpoint_every, i8)) == 0) then
+                    call write_checkpoint(sim, stat, wmsg)
+                    if (stat /= STAT_OK) then
+                        call write_failed(wmsg)
+                        return
+                    end if
+                end if
+            end if
             call system_clock(clock)
             if (real(clock - sim%clock_flush, dp) > FLUSH_S * sim%clock_rate) then
                 sim%clock_flush = clock
@@ -407,6 +567,47 @@ contains
         end subroutine write_failed
     end subroutine sim_advance
 
+    !> The run stopped by signal sig at the end of a step: status and message, and the
+    !> checkpoint of that step when the scene asks for checkpoints.
+    subroutine stop_interrupted(sim, sig, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        integer, intent(in) :: sig                          !! signal caught
+        integer, intent(out) :: stat                        !! status (a failed write)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=:), allocatable :: head
+        stat = STAT_OK
+        sim%status = 'interrupted'
+        head = 'interrupted by signal '//int_text(int(sig, i8))//' at t = '//real_text(sim%st%t, 6)
+        sim%message = head//' (trace kept)'
+        if (sim%scn%checkpoint_every > 0) then
+            call write_checkpoint(sim, stat, errmsg)
+            if (stat /= STAT_OK) return
+            sim%message = head//' (trace and checkpoint kept: --restart '//trim(sim%scn%out_dir) &
+                          //' continues)'
+        end if
+    end subroutine stop_interrupted
+
+    !> The message of a run stopped by the blow-up test (docs/scenes.md).
+    function unstable_message(sim, e_total, e_test) result(msg)
+        type(simulation_t), intent(in) :: sim               !! the run
+        real(dp), intent(in) :: e_total                     !! e_kin + e_el
+        real(dp), intent(in) :: e_test                      !! the tested energy
+        character(len=256) :: msg
+        if (sim%has_load) then
+            write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                sim%st%t, ': e_total + e_load = ', e_test, ' exceeds blowup x energy scale = ', &
+                sim%e_limit, ' (run stopped, trace kept)'
+        else if (sim%e0 > 0.0_dp) then
+            write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                sim%st%t, ': e_total = ', e_total, ' exceeds blowup x e_total(0) = ', &
+                sim%e_limit, ' (run stopped, trace kept)'
+        else
+            write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
+                sim%st%t, ': e_total = ', e_total, ' exceeds blowup x energy scale = ', &
+                sim%e_limit, ' (run stopped, trace kept)'
+        end if
+    end function unstable_message
+
     !> Write the last rows and summary.json (when outputs are open), release the
     !> output folder's lock and everything else. A write error is returned (the
     !> summary is still attempted after a failed trace write).
@@ -418,9 +619,22 @@ contains
         character(len=512) :: msg2
         stat = STAT_OK
         if (sim%outputs) then
+            if (.not. sim%finished .and. sim%scn%checkpoint_every > 0) then
+                ! stopped between steps by the caller (Ctrl-C in Python): resumable
+                call write_checkpoint(sim, stat, errmsg)
+                if (stat /= STAT_OK) then
+                    sim%status = 'write_failed'
+                    if (present(errmsg)) sim%message = errmsg
+                    sim%finished = .true.
+                end if
+            end if
             if (.not. sim%finished) sim%status = 'interrupted'
             if (sim%status == 'running') sim%status = 'ok'
-            call trace_close(sim%trace, stat, errmsg)
+            if (stat == STAT_OK) then
+                call trace_close(sim%trace, stat, errmsg)
+            else
+                call trace_close(sim%trace, st2, msg2)
+            end if
             if (stat /= STAT_OK .and. sim%status /= 'write_failed') then
                 sim%status = 'write_failed'
                 if (present(errmsg)) sim%message = errmsg
@@ -437,13 +651,143 @@ contains
         if (allocated(sim%scheme)) call sim%scheme%free()
     end subroutine sim_close
 
+    !> Write the run's checkpoint (output folder, CHECKPOINT_NAME): the trace rows so far
+    !> are written and synced first, so that the checkpoint never counts rows the file
+    !> does not hold.
+    subroutine write_checkpoint(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (outputs open)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        call trace_sync(sim%trace, stat, errmsg)
+        if (stat /= STAT_OK) return
+        call sim_checkpoint_save(sim, trim(sim%scn%out_dir)//'/'//CHECKPOINT_NAME, stat, errmsg)
+    end subroutine write_checkpoint
+
+    !> Save the state the next step needs, with the run's counters, to the checkpoint
+    !> file `path` (atomic: see checkpoint_write). The payload, in order: step, t,
+    !> e_total(0), the blow-up limit, the trace's bytes, Newton iterations and
+    !> factorizations so far, u, v, a, M v, B(u), K_theta u, the augmented Lagrangian's
+    !> multipliers lambda (none without them), the contact state
+    !> (active points, e_pen, e_theta), the last step's Newton iterations, the snapshots
+    !> written (times, names), then what the scheme carries (time_scheme_t%save).
+    subroutine sim_checkpoint_save(sim, path, stat, errmsg)
+        type(simulation_t), intent(in) :: sim               !! an open run (scheme set up)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        type(byte_buffer_t) :: buf
+        integer :: k
+        if (.not. allocated(sim%scheme)) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
+            return
+        end if
+        call buf_put(buf, sim%step)
+        call buf_put(buf, sim%st%t)
+        call buf_put(buf, sim%e0)
+        call buf_put(buf, sim%e_limit)
+        call buf_put(buf, sim%trace%bytes)
+        call buf_put(buf, int(sim%scheme%newton_total, i8))
+        call buf_put(buf, int(sim%scheme%factorizations, i8))
+        call buf_put(buf, sim%st%u)
+        call buf_put(buf, sim%st%v)
+        call buf_put(buf, sim%st%a)
+        call buf_put(buf, sim%st%mv)
+        call buf_put(buf, sim%st%bu)
+        call buf_put(buf, sim%st%ktu)
+        call buf_put(buf, sim%st%lam)
+        call buf_put(buf, int(sim%st%active, i8))
+        call buf_put(buf, sim%st%e_pen)
+        call buf_put(buf, sim%st%e_theta)
+        call buf_put(buf, int(sim%st%newton_its, i8))
+        call buf_put(buf, int(sim%n_snap, i8))
+        do k = 1, sim%n_snap
+            call buf_put(buf, sim%snap_t(k))
+            call buf_put_text(buf, trim(sim%snap_file(k)))
+        end do
+        call sim%scheme%save(buf)
+        call checkpoint_write(path, sim%scene_hash, int(sim%n_dofs, i8), sim%step, buf, stat, errmsg)
+    end subroutine sim_checkpoint_save
+
+    !> Load the state and counters saved by sim_checkpoint_save into an open run of the
+    !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
+    !> a truncated or corrupt checkpoint; the run is then finished, not to be advanced).
+    subroutine sim_checkpoint_load(sim, path, stat, errmsg, trace_bytes)
+        type(simulation_t), intent(inout) :: sim            !! an open run (scheme set up)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(i8), intent(out), optional :: trace_bytes   !! the trace's bytes at the checkpoint
+        type(byte_buffer_t) :: buf
+        character(len=:), allocatable :: payload
+        integer(i8) :: step, k8, tb, its, facts, act, nits, nsnap
+        integer :: k
+        if (.not. allocated(sim%scheme)) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
+            return
+        end if
+        ! a failed load leaves the run stopped (finished: never advanced, no checkpoint
+        ! written over the file at close)
+        sim%finished = .true.
+        call checkpoint_read(path, sim%scene_hash, int(sim%n_dofs, i8), payload, step, stat, errmsg)
+        if (stat /= STAT_OK) return
+        buf = buf_from(payload)
+        call buf_get(buf, k8)
+        if (k8 /= step .or. step < 0 .or. step > sim%n_steps) buf%bad = .true.
+        sim%step = k8
+        call buf_get(buf, sim%st%t)
+        call buf_get(buf, sim%e0)
+        call buf_get(buf, sim%e_limit)
+        call buf_get(buf, tb)
+        call buf_get(buf, its)
+        call buf_get(buf, facts)
+        call buf_get(buf, sim%st%u)
+        call buf_get(buf, sim%st%v)
+        call buf_get(buf, sim%st%a)
+        call buf_get(buf, sim%st%mv)
+        call buf_get(buf, sim%st%bu)
+        call buf_get(buf, sim%st%ktu)
+        call buf_get(buf, sim%st%lam)
+        call buf_get(buf, act)
+        call buf_get(buf, sim%st%e_pen)
+        call buf_get(buf, sim%st%e_theta)
+        call buf_get(buf, nits)
+        call buf_get(buf, nsnap)
+        if (nsnap < 0) buf%bad = .true.
+        if (nsnap > 0) then
+            if (.not. allocated(sim%snap_t)) then
+                buf%bad = .true.
+            else if (nsnap > size(sim%snap_t)) then
+                buf%bad = .true.
+            end if
+        end if
+        if (.not. buf%bad) then
+            sim%n_snap = int(nsnap)
+            do k = 1, sim%n_snap
+                call buf_get(buf, sim%snap_t(k))
+                call buf_get_text(buf, sim%snap_file(k))
+            end do
+        end if
+        if (.not. buf%bad) call sim%scheme%load(buf)
+        if (buf%bad .or. buf%pos /= buf%n) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': corrupt checkpoint (its'// &
+                       ' contents do not fit this run); refused')
+            return
+        end if
+        sim%scheme%newton_total = int(its)
+        sim%scheme%factorizations = int(facts)
+        sim%st%active = int(act)
+        sim%st%newton_its = int(nits)
+        sim%finished = sim%step >= sim%n_steps
+        if (present(trace_bytes)) trace_bytes = tb
+    end subroutine sim_checkpoint_load
+
     !> The model's parameters from a validated scene (the one place they are read).
     function model_params(scn) result(p)
         type(scene_t), intent(in) :: scn   !! validated scene
         type(model_params_t) :: p
         p%name = scn%path
         p%mesh_name = mesh_label(scn%mesh_file)
-        p%clamped = scn%clamped; p%slip_x = scn%slip_x; p%slip_y = scn%slip_y
+        p%clamped = scn%clamped; p%slip_x = scn%slip_x; p%slip_y = scn%slip_y; p%slip_z = scn%slip_z
         p%contact = scn%contact
         p%young = scn%young; p%poisson = scn%poisson; p%density = scn%density
         p%gravity = scn%gravity
@@ -524,7 +868,7 @@ contains
         allocate (uf(sim%mdl%dim, sim%mdl%msh%n_nodes), vf(sim%mdl%dim, sim%mdl%msh%n_nodes))
         call model_full_field(sim%mdl, sim%st%u, uf)
         call model_full_field(sim%mdl, sim%st%v, vf)
-        write (name, '(a, i7.7, a)') 'fields/step_', sim%step, '.vtu'
+        write (name, '(a, i0.7, a)') 'fields/step_', sim%step, '.vtu'  ! 7 digits or more
         call vtk_write_vtu(trim(sim%scn%out_dir)//'/'//trim(name), sim%mdl%dim, sim%mdl%msh%x, &
                            sim%mdl%msh%cells, uf, vf, stat, errmsg)
         if (stat /= STAT_OK) return
@@ -540,12 +884,15 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: last               !! the final one: rewrite in place if need be
         integer :: its, facts
-        integer(i8) :: clock
-        character(len=:), allocatable :: text, dt_crit_line
+        integer(i8) :: clock, fnnz
+        character(len=:), allocatable :: text, dt_crit_line, ordering
         character(len=1), parameter :: nl = new_line('a')
         call system_clock(clock)
         its = 0; facts = 0
         dt_crit_line = ''
+        ordering = ''
+        fnnz = 0
+        if (allocated(sim%scheme)) call sim%scheme%factor_info(ordering, fnnz)
         if (allocated(sim%scheme)) then
             its = sim%scheme%newton_total
             facts = sim%scheme%factorizations
@@ -569,6 +916,9 @@ contains
                dt_crit_line// &
                '  "solver": '//json_string(sim_solver(sim))//','//nl// &
                '  "solve_kernel": '//json_string(sim_kernel(sim))//','//nl// &
+               '  "ordering": '//json_string(ordering)//','//nl// &
+               '  "factor_nnz": '//int_text(fnnz)//','//nl// &
+               '  "matrix_nnz": '//int_text(int(sim%mdl%mass%nnz, i8))//','//nl// &
                '  "scene": '//scene_to_json(sim%scn)//','//nl// &
                '  "version": '//json_string(DYNCONTACT_VERSION)//','//nl// &
                '  "isa": '//json_string(DYNCONTACT_ISA)//nl//'}'//nl

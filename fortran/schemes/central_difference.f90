@@ -16,6 +16,7 @@
 !> exactly (the quadratic invariant of its amplification matrix).
 module central_difference
     use kinds, only: dp, i8
+    use linear_solver, only: ls_factor_info
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use model, only: model_t, model_apply_jacobian, model_stiff_apply, model_mass_apply
     use nitsche_contact, only: contact_eval
@@ -39,6 +40,7 @@ module central_difference
         procedure :: free => central_free
         procedure :: solver => central_solver
         procedure :: kernel => central_kernel
+        procedure :: factor_info => central_factor_info
     end type central_scheme_t
 
     public :: central_critical_dt
@@ -92,6 +94,14 @@ contains
         character(len=:), allocatable :: name
         name = mass_solver_kernel(this%ms)
     end function central_kernel
+
+    !> The ordering and the stored entries of the M factors ('' and 0 when lumped).
+    subroutine central_factor_info(this, ordering, nnz)
+        class(central_scheme_t), intent(in) :: this              !! scheme
+        character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
+        integer(i8), intent(out) :: nnz                         !! stored entries
+        call ls_factor_info(this%ms%lu, ordering, nnz)
+    end subroutine central_factor_info
 
     !> One step: u' from (u, v, a), B(u') and M v' products, a' = M^{-1}(L - B(u')).
     subroutine central_step(this, mdl, st, stat, errmsg)

@@ -8,7 +8,8 @@
 !> State: u, v, a are vectors; M v' is formed by a product at the end of each step
 !> (in the same pass over the node blocks as K_theta u'), never carried by an update.
 module explicit_schemes
-    use kinds, only: dp
+    use kinds, only: dp, i8
+    use linear_solver, only: ls_factor_info
     use errors, only: STAT_OK
     use model, only: model_t, model_stiff_apply, model_stiff_mass_apply
     use nitsche_contact, only: contact_eval
@@ -31,6 +32,7 @@ module explicit_schemes
         procedure :: free => pc_free
         procedure :: solver => pc_solver
         procedure :: kernel => pc_kernel
+        procedure :: factor_info => pc_factor_info
     end type pc_scheme_t
 
 contains
@@ -79,6 +81,14 @@ contains
         character(len=:), allocatable :: name
         name = mass_solver_kernel(this%ms)
     end function pc_kernel
+
+    !> The ordering and the stored entries of the M factors ('' and 0 when lumped).
+    subroutine pc_factor_info(this, ordering, nnz)
+        class(pc_scheme_t), intent(in) :: this              !! scheme
+        character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
+        integer(i8), intent(out) :: nnz                         !! stored entries
+        call ls_factor_info(this%ms%lu, ordering, nnz)
+    end subroutine pc_factor_info
 
     !> One predictor-corrector step: two B evaluations, two M^{-1} applications, and
     !> three passes over the vectors besides them (the predictor; the first right-hand

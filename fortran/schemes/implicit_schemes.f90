@@ -32,18 +32,20 @@
 !> entry exceeds ZDROP max|Z| (J0^{-1} decays geometrically away from Gamma_C); the
 !> dropped part of Z T is below 1e-20 of the correction, far under round-off.
 module implicit_schemes
-    use kinds, only: dp
+    use kinds, only: dp, i8
     use vector_ops, only: dot
     use text, only: int_text, real_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, &
+                             ls_factor_info
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
     use alm_contact, only: ALM_OFF
     use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
+    use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
                            SCHEME_HHT_SEED, SCHEME_GALPHA
     implicit none
@@ -105,6 +107,9 @@ module implicit_schemes
         procedure :: free => implicit_free
         procedure :: solver => implicit_solver
         procedure :: kernel => implicit_kernel
+        procedure :: save => implicit_save
+        procedure :: load => implicit_load
+        procedure :: factor_info => implicit_factor_info
     end type implicit_scheme_t
 
 contains
@@ -119,9 +124,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         type(mass_solver_t) :: ms
-        integer :: n, j, rmax
-        real(dp) :: zmax
-        real(dp), allocatable :: e(:, :), zfull(:, :)
+        integer :: n, rmax
         n = mdl%n_dofs
         this%dt = prm%dt
         this%tol = prm%newton_tol
@@ -182,27 +185,80 @@ contains
                   this%piv(rmax), this%tvec(this%m), &
                   this%cx(this%m), this%cold(this%m), this%rho(this%m), this%xbase(this%m), &
                   this%xc(this%m), this%dxc(this%m), this%yc(this%m), this%tk(this%m), &
-                  this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)), &
-                  e(n, this%m), zfull(n, this%m))
+                  this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)))
         this%scratch = 0.0_dp
-        ! Z = J0^{-1} P^T: one solve per contact-cell dof
-        e = 0.0_dp
-        do j = 1, this%m
-            e(mdl%ct%cdofs(j), j) = 1.0_dp
-        end do
-        call ls_solve_many(this%lu0, this%jac0, e, zfull, stat, errmsg)
-        if (stat /= STAT_OK) return
         if (this%m > 0) then
-            this%w = zfull(mdl%ct%cdofs, :)
-            zmax = maxval(abs(zfull))
-            this%zrows = pack([(j, j = 1, n)], maxval(abs(zfull), dim=2) > ZDROP * zmax)
+            call woodbury_z(this, mdl%ct%cdofs, stat, errmsg)
+            if (stat /= STAT_OK) return
         else
-            allocate (this%zrows(0))
+            allocate (this%zrows(0), this%z(0, 0), this%xz(0))
         end if
-        this%z = zfull(this%zrows, :)
-        allocate (this%xz(size(this%zrows)))
         if (mdl%alm%kind /= ALM_OFF) call alm_newton_init(this%almn, mdl, this%w)
     end subroutine implicit_init
+
+    !> Z = J0^{-1} P^T on its kept rows (ZDROP) and W = P Z, solved ZCHUNK columns at a
+    !> time, so that no dense n x m block is ever held (at 129 600 dofs and m = 324
+    !> contact-cell dofs one such block is 336 MB). Each chunk keeps the rows where
+    !> its largest entry exceeds ZDROP times its own largest entry, and every row's
+    !> largest entry; the rows kept are those whose largest entry exceeds ZDROP max|Z|,
+    !> as if Z were held whole. A kept row's entries in a chunk that did not keep it are
+    !> at most ZDROP max|Z| and are set to 0 (below round-off in Z T, like the rows dropped).
+    subroutine woodbury_z(this, cdofs, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (lu0 factorized, m set)
+        integer, intent(in) :: cdofs(:)                     !! (m >= 1) the contact-cell dofs
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer, parameter :: ZCHUNK = 16
+        type :: part_t
+            integer, allocatable :: rows(:)                 ! rows this chunk keeps
+            real(dp), allocatable :: val(:, :)              ! its columns on them
+        end type part_t
+        type(part_t), allocatable :: parts(:)
+        real(dp), allocatable :: e(:, :), zb(:, :), rowmax(:)
+        integer, allocatable :: pos(:)
+        real(dp) :: zmax, cmax
+        integer :: n, m, k, j0, nb, j, i
+        n = this%jac0%n
+        m = this%m
+        stat = STAT_OK
+        allocate (parts((m + ZCHUNK - 1) / ZCHUNK), rowmax(n), e(n, min(m, ZCHUNK)), &
+                  zb(n, min(m, ZCHUNK)))
+        rowmax = 0.0_dp
+        zmax = 0.0_dp
+        do k = 1, size(parts)
+            j0 = (k - 1) * ZCHUNK
+            nb = min(ZCHUNK, m - j0)
+            e = 0.0_dp
+            do j = 1, nb
+                e(cdofs(j0 + j), j) = 1.0_dp
+            end do
+            call ls_solve_many(this%lu0, this%jac0, e(:, 1:nb), zb(:, 1:nb), stat, errmsg)
+            if (stat /= STAT_OK) return
+            this%w(:, j0 + 1:j0 + nb) = zb(cdofs, 1:nb)
+            cmax = 0.0_dp
+            do i = 1, n
+                rowmax(i) = max(rowmax(i), maxval(abs(zb(i, 1:nb))))
+                cmax = max(cmax, maxval(abs(zb(i, 1:nb))))
+            end do
+            zmax = max(zmax, cmax)
+            parts(k)%rows = pack([(i, i = 1, n)], maxval(abs(zb(:, 1:nb)), dim=2) > ZDROP * cmax)
+            parts(k)%val = zb(parts(k)%rows, 1:nb)
+        end do
+        deallocate (e, zb)
+        this%zrows = pack([(i, i = 1, n)], rowmax > ZDROP * zmax)
+        allocate (pos(n), this%z(size(this%zrows), m), this%xz(size(this%zrows)))
+        pos = 0
+        pos(this%zrows) = [(i, i = 1, size(this%zrows))]
+        this%z = 0.0_dp
+        do k = 1, size(parts)
+            j0 = (k - 1) * ZCHUNK
+            nb = size(parts(k)%val, 2)
+            do i = 1, size(parts(k)%rows)
+                if (pos(parts(k)%rows(i)) > 0) &
+                    this%z(pos(parts(k)%rows(i)), j0 + 1:j0 + nb) = parts(k)%val(i, :)
+            end do
+        end do
+    end subroutine woodbury_z
 
     !> Release the factors of J0.
     subroutine implicit_free(this)
@@ -217,12 +273,60 @@ contains
         name = trim(this%lu0%backend)
     end function implicit_solver
 
+    !> The time step, and what a step carries into the next besides the state: M (u - u~) and u - u~ of the
+    !> next step's predictor, and the contact part C on the contact-cell dofs with its
+    !> tangent and the vector it was evaluated at (reused when u has not moved there).
+    subroutine implicit_save(this, buf)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
+        call buf_put(buf, this%dt)
+        call buf_put(buf, this%md)
+        call buf_put(buf, this%dvec)
+        call buf_put(buf, int(merge(1, 0, this%cached), kind(buf%n)))
+        call buf_put(buf, int(this%rank, kind(buf%n)))
+        call buf_put(buf, this%xc)
+        call buf_put(buf, this%cx)
+        call buf_put(buf, this%ua)
+        call buf_put(buf, this%vb)
+        call buf_put(buf, this%qloc)
+    end subroutine implicit_save
+
+    !> Read back what implicit_save wrote (buf%bad on any mismatch of sizes).
+    subroutine implicit_load(this, buf)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (set up by init)
+        type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
+        integer(kind(buf%n)) :: k
+        real(dp) :: dt
+        call buf_get(buf, dt)
+        if (.not. dt == this%dt) buf%bad = .true.
+        call buf_get(buf, this%md)
+        call buf_get(buf, this%dvec)
+        call buf_get(buf, k)
+        this%cached = k == 1
+        call buf_get(buf, k)
+        if (k < 0 .or. k > size(this%ua, 2)) buf%bad = .true.
+        if (.not. buf%bad) this%rank = int(k)
+        call buf_get(buf, this%xc)
+        call buf_get(buf, this%cx)
+        call buf_get(buf, this%ua)
+        call buf_get(buf, this%vb)
+        call buf_get(buf, this%qloc)
+    end subroutine implicit_load
+
     !> The triangular solve used with the J0 factors.
     function implicit_kernel(this) result(name)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
         character(len=:), allocatable :: name
         name = ls_kernel(this%lu0)
     end function implicit_kernel
+
+    !> The ordering and the stored entries of the J0 factors.
+    subroutine implicit_factor_info(this, ordering, nnz)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
+        integer(i8), intent(out) :: nnz                     !! stored entries of the factor
+        call ls_factor_info(this%lu0, ordering, nnz)
+    end subroutine implicit_factor_info
 
     !> One step: semi-smooth Newton from x = u^n. u~ and M (u^n - u~) were formed at
     !> the end of the previous step (or in init). The first iteration solves with J0
@@ -239,18 +343,50 @@ contains
         type(state_t), intent(inout) :: st                  !! state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: dt, rnorm, scale, e_pen, e_theta, acc, cb, kb
-        integer :: it, active, i, q, n
+        real(dp) :: e_pen, e_theta, cb, kb
+        integer :: it, active
         if (mdl%alm%kind /= ALM_OFF) then
             call implicit_step_alm(this, mdl, st, stat, errmsg)
             return
         end if
         stat = STAT_OK
-        dt = this%dt
-        n = size(st%u)
         ! right-hand side b and R(u^n) = M (u^n - u~) + c B(u^n) - b in one pass; the
         ! convergence test's scale |M (u^n - u~)| + c |B(u^n)| + |b| is formed only when
         ! a test needs it (see newton_scale)
+        call rhs_coefficients(this, cb, kb)
+        call newton_rhs(size(st%u), cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
+        ! contact part at u^n: kept from the end of the previous step when u^n on the
+        ! contact-cell dofs is the vector it was evaluated at
+        active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
+        if (this%m > 0) then
+            if (.not. this%cached) then
+                call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
+            else if (moved(st%u, mdl%ct%cdofs, this%xc)) then
+                call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
+            end if
+            this%tsum = 0.0_dp
+            call gather(st%u, mdl%ct%cdofs, this%xc)
+        end if
+        call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
+        st%newton_its = it
+        this%newton_total = this%newton_total + it
+        if (stat /= STAT_OK) return
+        ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction)
+        if (it == 0) this%dx = 0.0_dp
+        if (this%m > 0) then
+            if (any(this%tsum /= 0.0_dp)) call add_z_correction(this)
+        end if
+        call update_state(this, mdl, st)
+        st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
+        st%t = st%t + this%dt
+    end subroutine implicit_step
+
+    !> The coefficients of b = cb (L - kb B(u^n)) for the scheme's family.
+    pure subroutine rhs_coefficients(this, cb, kb)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        real(dp), intent(out) :: cb, kb                     !! coefficients
+        real(dp) :: dt
+        dt = this%dt
         if (this%kind == KIND_NEWMARK) then
             kb = this%alpha_f
             cb = this%beta * dt**2 / (1.0_dp - this%alpha_m)
@@ -258,28 +394,29 @@ contains
             kb = 1.0_dp - this%theta
             cb = this%theta * dt**2
         end if
-        call newton_rhs(n, cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
+    end subroutine rhs_coefficients
+
+    !> The Newton iterations of a step, from x = u^n (R(u^n) in this%r): the first
+    !> always solves with J0 (its linear part exactly) and the test runs after it, on R
+    !> at the new iterate. A zero residual passes any scale (a step in flight: no
+    !> contact point active at either iterate, rho = 0 exactly), so the scale's three
+    !> sums over the dofs are formed only at a step where the contact part moved R, once
+    !> a step. On return dx holds y0 and tsum the coefficients T; `it` iterations.
+    subroutine newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(in) :: st                     !! state at t^n
+        real(dp), intent(in) :: cb, kb                      !! coefficients of b
+        integer, intent(out) :: it                          !! iterations done
+        integer, intent(inout) :: active                    !! contact state at the iterate
+        real(dp), intent(inout) :: e_pen, e_theta           !! contact energies at the iterate
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: rnorm, scale, dt
+        stat = STAT_OK
+        dt = this%dt
         scale = -1.0_dp
         rnorm = 0.0_dp
-        ! contact part at u^n: kept from the end of the previous step when u^n on the
-        ! contact-cell dofs is the vector it was evaluated at
-        active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
-        if (this%m > 0) then
-            if (.not. this%cached) then
-                call contact_part(st%u, this%cx, active, e_pen, e_theta)
-            else if (moved(st%u, mdl%ct%cdofs, this%xc)) then
-                call contact_part(st%u, this%cx, active, e_pen, e_theta)
-            end if
-            this%tsum = 0.0_dp
-            do i = 1, this%m
-                this%xc(i) = st%u(mdl%ct%cdofs(i))
-            end do
-        end if
-        ! the first iteration always solves with J0 (its linear part exactly): the test
-        ! runs after it, on R at the new iterate. A zero residual passes any scale (a
-        ! step in flight: no contact point active at either iterate, rho = 0 exactly),
-        ! so the scale's three sums over the dofs are formed only at a step where the
-        ! contact part moved R, once a step
         it = 0
         do
             if (it > 0) then
@@ -295,7 +432,6 @@ contains
                            //real_text(st%t + dt, 6)//' after '//int_text(it) &
                            //' iterations (relative residual ' &
                            //real_text(rnorm / max(scale, tiny(1.0_dp)), 4)//')')
-                call end_newton()
                 return
             end if
             ! the Newton step x <- x - J^{-1} R: J^{-1} R = y + Z tk with y = J0^{-1} R on
@@ -306,14 +442,11 @@ contains
                 if (stat /= STAT_OK) then
                     call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
                                //real_text(st%t + dt, 6))
-                    call end_newton()
                     return
                 end if
                 it = 1
                 if (this%m == 0) exit
-                do i = 1, this%m
-                    this%yc(i) = this%dx(mdl%ct%cdofs(i))
-                end do
+                call gather(this%dx, mdl%ct%cdofs, this%yc)
                 this%y0c = this%yc
                 this%tk = 0.0_dp
             else
@@ -322,61 +455,84 @@ contains
                 it = it + 1
             end if
             if (this%rank > 0) then
-                call woodbury(stat)
+                call woodbury(this, mdl, stat)
                 if (stat /= STAT_OK) then
                     call raise(stat, errmsg, STAT_NUMERIC, 'singular contact correction in ' &
                                //'Newton at t = '//real_text(st%t + dt, 6))
-                    call end_newton()
                     return
                 end if
             end if
             this%tsum = this%tsum + this%tk
-            ! P dx = y0c + W T (the same sums, in the same order, as the full dx at the
-            ! end), P x' = P u^n - P dx; dxc = P x - P x' for the tangent's part of R'
-            this%dxc = this%y0c
-            call add_columns(this%m, this%m, this%w, this%tsum, this%dxc)
-            do i = 1, this%m
-                acc = st%u(mdl%ct%cdofs(i)) - this%dxc(i)
-                this%dxc(i) = this%xc(i) - acc
-                this%xc(i) = acc
-                this%x(mdl%ct%cdofs(i)) = acc
-            end do
-            ! R' = c (C(x') - C(x) + D dx) on the contact-cell dofs (zero elsewhere: the
-            ! step solved the linearization exactly); tvec = D P dx, D = U V^T at x
-            this%tvec = 0.0_dp
-            do q = 1, this%rank
-                acc = 0.0_dp
-                do i = 1, mdl%ndof_e
-                    if (this%qloc(i, q) > 0) acc = acc + this%vb(i, q) * this%dxc(this%qloc(i, q))
-                end do
-                do i = 1, mdl%ndof_e
-                    if (this%qloc(i, q) > 0) this%tvec(this%qloc(i, q)) = &
-                        this%tvec(this%qloc(i, q)) + this%ua(i, q) * acc
-                end do
-            end do
-            this%cold = this%cx
-            call contact_part(this%x, this%cx, active, e_pen, e_theta)
-            this%rho = this%c * (this%cx - this%cold + this%tvec)
-            rnorm = sqrt(sum(this%rho**2))
+            call contact_residual(this, mdl, st%u, active, e_pen, e_theta, rnorm)
         end do
-        call end_newton()
-        ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction)
-        if (it == 0) this%dx = 0.0_dp
-        if (this%m > 0) then
-            if (any(this%tsum /= 0.0_dp)) then
-                do i = 1, size(this%zrows)
-                    this%xz(i) = this%dx(this%zrows(i))
-                end do
-                call add_columns(size(this%zrows), this%m, this%z, this%tsum, this%xz)
-                do i = 1, size(this%zrows)
-                    this%dx(this%zrows(i)) = this%xz(i)
-                end do
-            end if
-        end if
-        ! the scheme's update of u, v, a from x = u - dx and the next predictor u~' in one
-        ! pass; then K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u').
-        ! Dofs without inertia (redistributed mass) are quasi-static: their v, a do not
-        ! enter the dynamics (zero rows of M), and are reported as v = (u' - u)/dt, a = 0.
+    end subroutine newton_iterate
+
+    !> After a Newton correction (T in tsum): P dx = y0c + W T (the same sums, in the
+    !> same order, as the full dx at the end), P x' = P u^n - P dx, dxc = P x - P x',
+    !> then R' = c (C(x') - C(x) + D dx) on the contact-cell dofs (zero elsewhere: the
+    !> step solved the linearization exactly), tvec = D P dx with D = U V^T at x; the
+    !> contact part and its tangent are left at x'. rnorm = |R'|.
+    subroutine contact_residual(this, mdl, u, active, e_pen, e_theta, rnorm)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        real(dp), intent(in) :: u(:)                        !! u^n
+        integer, intent(out) :: active                      !! contact state at x'
+        real(dp), intent(out) :: e_pen, e_theta             !! contact energies at x'
+        real(dp), intent(out) :: rnorm                      !! |R'|
+        real(dp) :: acc
+        integer :: i, q
+        this%dxc = this%y0c
+        call add_columns(this%m, this%m, this%w, this%tsum, this%dxc)
+        do i = 1, this%m
+            acc = u(mdl%ct%cdofs(i)) - this%dxc(i)
+            this%dxc(i) = this%xc(i) - acc
+            this%xc(i) = acc
+            this%x(mdl%ct%cdofs(i)) = acc
+        end do
+        this%tvec = 0.0_dp
+        do q = 1, this%rank
+            acc = 0.0_dp
+            do i = 1, mdl%ndof_e
+                if (this%qloc(i, q) > 0) acc = acc + this%vb(i, q) * this%dxc(this%qloc(i, q))
+            end do
+            do i = 1, mdl%ndof_e
+                if (this%qloc(i, q) > 0) this%tvec(this%qloc(i, q)) = &
+                    this%tvec(this%qloc(i, q)) + this%ua(i, q) * acc
+            end do
+        end do
+        this%cold = this%cx
+        call contact_part(this, mdl, this%x, this%cx, active, e_pen, e_theta)
+        this%rho = this%c * (this%cx - this%cold + this%tvec)
+        rnorm = sqrt(sum(this%rho**2))
+    end subroutine contact_residual
+
+    !> dx <- dx + Z T on the rows of Z kept (J0^{-1} of the contact correction).
+    subroutine add_z_correction(this)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        integer :: i
+        do i = 1, size(this%zrows)
+            this%xz(i) = this%dx(this%zrows(i))
+        end do
+        call add_columns(size(this%zrows), this%m, this%z, this%tsum, this%xz)
+        do i = 1, size(this%zrows)
+            this%dx(this%zrows(i)) = this%xz(i)
+        end do
+    end subroutine add_z_correction
+
+    !> The scheme's update of u, v, a from x = u - dx and the next predictor u~' in one
+    !> pass; then K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u').
+    !> Dofs without inertia (redistributed mass) are quasi-static: their v, a do not
+    !> enter the dynamics (zero rows of M), and are reported as v = (u' - u)/dt, a = 0.
+    !> The contact part is kept for the next step, with the vector it was evaluated at
+    !> (u' on the contact-cell dofs).
+    subroutine update_state(this, mdl, st)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(inout) :: st                  !! state (u, v, a and products)
+        real(dp) :: dt
+        integer :: i, q, n
+        dt = this%dt
+        n = size(st%u)
         do q = 1, size(mdl%massless_dofs)
             i = mdl%massless_dofs(q)
             this%vq(q) = ((st%u(i) - this%dx(i)) - st%u(i)) / dt
@@ -402,172 +558,132 @@ contains
             do i = 1, this%m
                 st%bu(mdl%ct%cdofs(i)) = st%bu(mdl%ct%cdofs(i)) + this%cx(i)
             end do
-            ! the contact part is kept for the next step, with the vector it was
-            ! evaluated at (u' on the contact-cell dofs)
-            do i = 1, this%m
-                this%xc(i) = st%u(mdl%ct%cdofs(i))
-            end do
+            call gather(st%u, mdl%ct%cdofs, this%xc)
             this%cached = .true.
         end if
-        st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
-        st%t = st%t + dt
+    end subroutine update_state
 
-    contains
+    !> Contact part C(xx) of B on the contact-cell dofs, its tangent in low-rank
+    !> form (rank, ua, vb, qloc) and the contact energy parts.
+    subroutine contact_part(this, mdl, xx, cvec, act, ep, et)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (tangent, scratch)
+        type(model_t), intent(in) :: mdl                    !! model
+        real(dp), intent(in) :: xx(:)                       !! displacement
+        real(dp), intent(out) :: cvec(:)                    !! (m) C(xx) on the contact-cell dofs
+        integer, intent(out) :: act                         !! active contact quadrature points
+        real(dp), intent(out) :: ep, et                     !! contact energy parts
+        integer :: j
+        do j = 1, this%m
+            this%scratch(mdl%ct%cdofs(j)) = 0.0_dp
+        end do
+        call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%rank, this%ua, this%vb, &
+                          this%qloc)
+        do j = 1, this%m
+            cvec(j) = this%scratch(mdl%ct%cdofs(j))
+        end do
+    end subroutine contact_part
 
-        !> Record the step's Newton iterations.
-        subroutine end_newton()
-            st%newton_its = it
-            this%newton_total = this%newton_total + it
-        end subroutine end_newton
-
-        !> Contact part C(xx) of B on the contact-cell dofs, its tangent in low-rank
-        !> form (rank, ua, vb, qloc) and the contact energy parts.
-        subroutine contact_part(xx, cvec, act, ep, et)
-            real(dp), intent(in) :: xx(:)
-            real(dp), intent(out) :: cvec(:)
-            integer, intent(out) :: act
-            real(dp), intent(out) :: ep, et
-            integer :: j
-            do j = 1, this%m
-                this%scratch(mdl%ct%cdofs(j)) = 0.0_dp
+    !> Woodbury for one Newton step, on the contact-cell dofs: with yc = P J0^{-1} R,
+    !> J^{-1} R = J0^{-1} R - Z U (I + c V^T W U)^{-1} c V^T yc, so tk <- tk - U s,
+    !> s = (I + c V^T W U)^{-1} c V^T yc.
+    subroutine woodbury(this, mdl, st2)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
+        integer :: r, i, j, k, info, l
+        real(dp) :: acc2
+        st2 = STAT_OK
+        r = this%rank
+        ! W U: each column of U lives on <= ndof_e contact-cell dofs
+        do j = 1, r
+            this%wu(:, j) = 0.0_dp
+            do k = 1, mdl%ndof_e
+                l = this%qloc(k, j)
+                if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) * this%w(:, l)
             end do
-            call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%rank, this%ua, this%vb, &
-                              this%qloc)
-            do j = 1, this%m
-                cvec(j) = this%scratch(mdl%ct%cdofs(j))
-            end do
-        end subroutine contact_part
-
-        !> Woodbury for one Newton step, on the contact-cell dofs: with yc = P J0^{-1} R,
-        !> J^{-1} R = J0^{-1} R - Z U (I + c V^T W U)^{-1} c V^T yc, so tk <- tk - U s,
-        !> s = (I + c V^T W U)^{-1} c V^T yc.
-        subroutine woodbury(st2)
-            integer, intent(out) :: st2
-            integer :: r, i, j, k, info, l
-            real(dp) :: acc2
-            st2 = STAT_OK
-            r = this%rank
-            ! W U: each column of U lives on <= ndof_e contact-cell dofs
+        end do
+        ! small = I + c V^T W U; zs = c V^T yc. Row i of V^T W U sums the rows
+        ! qloc(:, i) of W U, read as columns of its transpose (contiguous, vector
+        ! operations over the r columns; each entry's sum in the order of k)
+        do l = 1, size(this%wu, 1)
             do j = 1, r
-                this%wu(:, j) = 0.0_dp
-                do k = 1, mdl%ndof_e
-                    l = this%qloc(k, j)
-                    if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) * this%w(:, l)
-                end do
+                this%wut(j, l) = this%wu(l, j)
             end do
-            ! small = I + c V^T W U; zs = c V^T yc. Row i of V^T W U sums the rows
-            ! qloc(:, i) of W U, read as columns of its transpose (contiguous, vector
-            ! operations over the r columns; each entry's sum in the order of k as before)
-            do l = 1, size(this%wu, 1)
-                do j = 1, r
-                    this%wut(j, l) = this%wu(l, j)
-                end do
+        end do
+        do i = 1, r
+            this%srow(1:r) = 0.0_dp
+            acc2 = 0.0_dp
+            do k = 1, mdl%ndof_e
+                l = this%qloc(k, i)
+                if (l > 0) then
+                    this%srow(1:r) = this%srow(1:r) + this%vb(k, i) * this%wut(1:r, l)
+                    acc2 = acc2 + this%vb(k, i) * this%yc(l)
+                end if
             end do
-            do i = 1, r
-                this%srow(1:r) = 0.0_dp
-                acc2 = 0.0_dp
-                do k = 1, mdl%ndof_e
-                    l = this%qloc(k, i)
-                    if (l > 0) then
-                        this%srow(1:r) = this%srow(1:r) + this%vb(k, i) * this%wut(1:r, l)
-                        acc2 = acc2 + this%vb(k, i) * this%yc(l)
-                    end if
-                end do
-                this%small(i, 1:r) = this%c * this%srow(1:r)
-                this%small(i, i) = this%small(i, i) + 1.0_dp
-                this%zs(i) = this%c * acc2
+            this%small(i, 1:r) = this%c * this%srow(1:r)
+            this%small(i, i) = this%small(i, i) + 1.0_dp
+            this%zs(i) = this%c * acc2
+        end do
+        call dense_lu_factor(r, this%small, this%piv, info)
+        if (info /= 0) then
+            st2 = STAT_NUMERIC
+            return
+        end if
+        call dense_lu_solve(r, this%small, this%piv, this%zs)
+        ! tk = tk - U s
+        do j = 1, r
+            do k = 1, mdl%ndof_e
+                l = this%qloc(k, j)
+                if (l > 0) this%tk(l) = this%tk(l) - this%ua(k, j) * this%zs(j)
             end do
-            call dense_lu_factor(r, this%small, this%piv, info)
-            if (info /= 0) then
-                st2 = STAT_NUMERIC
-                return
-            end if
-            call dense_lu_solve(r, this%small, this%piv, this%zs)
-            ! tk = tk - U s
-            do j = 1, r
-                do k = 1, mdl%ndof_e
-                    l = this%qloc(k, j)
-                    if (l > 0) this%tk(l) = this%tk(l) - this%ua(k, j) * this%zs(j)
-                end do
-            end do
-        end subroutine woodbury
-    end subroutine implicit_step
+        end do
+    end subroutine woodbury
+
+    !> y(i) = u(idx(i)): a vector on the contact-cell dofs.
+    pure subroutine gather(u, idx, y)
+        real(dp), intent(in) :: u(:)                        !! vector
+        integer, intent(in) :: idx(:)                       !! dofs
+        real(dp), intent(out) :: y(:)                       !! (size(idx)) its values there
+        integer :: i
+        do i = 1, size(idx)
+            y(i) = u(idx(i))
+        end do
+    end subroutine gather
 
     !> One step with the augmented Lagrangian (module alm_newton): R(u^n, lambda^n) with
     !> B(u^n) = K u^n - N lambda^n, the first solve y0 = J0^{-1} R, Newton on the
     !> contact-cell dofs and the multipliers, x = u^n - y0 - Z T, then the scheme's update
-    !> as in implicit_step; B(u') = K u' - N lambda'.
+    !> (update_state, with C = -N lambda' in cx); B(u') = K u' - N lambda'.
     subroutine implicit_step_alm(this, mdl, st, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(state_t), intent(inout) :: st                  !! state (with st%lam)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: dt, cb, kb
-        integer :: it, active, i, q, n
+        real(dp) :: cb, kb
+        integer :: it, active
         stat = STAT_OK
-        dt = this%dt
-        n = size(st%u)
-        if (this%kind == KIND_NEWMARK) then
-            kb = this%alpha_f
-            cb = this%beta * dt**2 / (1.0_dp - this%alpha_m)
-        else
-            kb = 1.0_dp - this%theta
-            cb = this%theta * dt**2
-        end if
-        call newton_rhs(n, cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
+        call rhs_coefficients(this, cb, kb)
+        call newton_rhs(size(st%u), cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
         call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
-                       //real_text(st%t + dt, 6))
+                       //real_text(st%t + this%dt, 6))
             st%newton_its = 1
             return
         end if
-        do i = 1, this%m
-            this%xc(i) = st%u(mdl%ct%cdofs(i))
-            this%y0c(i) = this%dx(mdl%ct%cdofs(i))
-        end do
-        call alm_newton_solve(this%almn, mdl, this%c, this%tol, this%maxit, st%t + dt, &
+        call gather(st%u, mdl%ct%cdofs, this%xc)
+        call gather(this%dx, mdl%ct%cdofs, this%y0c)
+        call alm_newton_solve(this%almn, mdl, this%c, this%tol, this%maxit, st%t + this%dt, &
                               this%xc, this%y0c, st%lam, this%tsum, this%cx, active, it, &
                               stat, errmsg)
         st%newton_its = it
         this%newton_total = this%newton_total + it
         if (stat /= STAT_OK) return
-        if (any(this%tsum /= 0.0_dp)) then
-            do i = 1, size(this%zrows)
-                this%xz(i) = this%dx(this%zrows(i))
-            end do
-            call add_columns(size(this%zrows), this%m, this%z, this%tsum, this%xz)
-            do i = 1, size(this%zrows)
-                this%dx(this%zrows(i)) = this%xz(i)
-            end do
-        end if
-        do q = 1, size(mdl%massless_dofs)
-            i = mdl%massless_dofs(q)
-            this%vq(q) = ((st%u(i) - this%dx(i)) - st%u(i)) / dt
-        end do
-        if (this%kind == KIND_NEWMARK) then
-            call newmark_update(n, this%dx, 1.0_dp / (this%beta * dt**2), &
-                                dt * (1.0_dp - this%gamma), dt * this%gamma, dt, &
-                                dt**2 * (0.5_dp - this%beta), this%kga, &
-                                st%u, st%v, st%a, this%dvec)
-        else
-            call theta_update(n, this%dx, 1.0_dp / (this%theta * dt), dt * (1.0_dp - this%theta), &
-                              dt, st%u, st%v, this%dvec)
-        end if
-        do q = 1, size(mdl%massless_dofs)
-            i = mdl%massless_dofs(q)
-            st%v(i) = this%vq(q)
-            if (this%kind == KIND_NEWMARK) st%a(i) = 0.0_dp
-        end do
-        if (size(mdl%massless_dofs) > 0) call form_predictor(this, st%u, st%v, st%a, &
-                                                             mdl%massless_dofs)
-        call model_step_products(mdl, st%u, st%v, this%dvec, st%ktu, st%mv, this%md, st%bu)
-        do i = 1, this%m
-            st%bu(mdl%ct%cdofs(i)) = st%bu(mdl%ct%cdofs(i)) + this%cx(i)
-        end do
+        if (any(this%tsum /= 0.0_dp)) call add_z_correction(this)
+        call update_state(this, mdl, st)
         st%active = active; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
-        st%t = st%t + dt
+        st%t = st%t + this%dt
     end subroutine implicit_step_alm
 
     !> y <- y + sum_l t(l) a(:, l) over the l with t(l) /= 0, column after column (the

@@ -1,7 +1,8 @@
 !> The state advanced by time schemes and the abstract scheme interface.
 module time_scheme
-    use kinds, only: dp
+    use kinds, only: dp, i8
     use model, only: model_t, model_eval_b
+    use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     implicit none
     private
 
@@ -47,7 +48,8 @@ module time_scheme
 
     !> A time-integration scheme: init (coefficients, factorizations, initial
     !> acceleration), step (t -> t + dt), free (its factors), solver (their backend),
-    !> kernel (the triangular solve that runs with them).
+    !> kernel (the triangular solve that runs with them); save and load (what the scheme
+    !> carries from one step into the next besides the state: nothing by default).
     type, abstract, public :: time_scheme_t
         real(dp) :: dt = 0.0_dp                 !! time step
         integer :: factorizations = 0           !! sparse numeric factorizations done
@@ -58,6 +60,9 @@ module time_scheme
         procedure(scheme_free), deferred :: free
         procedure(scheme_solver), deferred :: solver
         procedure(scheme_solver), deferred :: kernel
+        procedure :: save => scheme_save_none
+        procedure :: load => scheme_load_none
+        procedure(scheme_factor_info), deferred :: factor_info
     end type time_scheme_t
 
     abstract interface
@@ -96,11 +101,38 @@ module time_scheme
             class(time_scheme_t), intent(in) :: this            !! scheme
             character(len=:), allocatable :: name
         end function scheme_solver
+
+        !> The fill-reducing ordering and the stored entries of the factor of the
+        !> scheme's sparse systems (J0 for the implicit schemes, M for the explicit ones;
+        !> '' and 0 without a sparse factor, e.g. a lumped mass).
+        subroutine scheme_factor_info(this, ordering, nnz)
+            import :: time_scheme_t, i8
+            class(time_scheme_t), intent(in) :: this                !! scheme
+            character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
+            integer(i8), intent(out) :: nnz                         !! stored entries
+        end subroutine scheme_factor_info
     end interface
 
     public :: state_eval, scheme_kind
 
 contains
+
+    !> The time step only: the explicit schemes carry nothing between steps besides
+    !> the state.
+    subroutine scheme_save_none(this, buf)
+        class(time_scheme_t), intent(in) :: this            !! scheme
+        type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
+        call buf_put(buf, this%dt)
+    end subroutine scheme_save_none
+
+    !> Read back scheme_save_none's time step: bad unless it is this scheme's, bit for bit.
+    subroutine scheme_load_none(this, buf)
+        class(time_scheme_t), intent(inout) :: this         !! scheme (set up by init)
+        type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
+        real(dp) :: dt
+        call buf_get(buf, dt)
+        if (.not. dt == this%dt) buf%bad = .true.
+    end subroutine scheme_load_none
 
     !> The kind of the scheme called `name` (&scheme name); 0 if there is none.
     pure function scheme_kind(name) result(kind)

@@ -103,7 +103,7 @@ def cmd_run(args) -> int:
         warnings.showwarning = show
         while True:
             try:
-                result = core.run(scene, out=args.out, progress=progress)
+                result = core.run(scene, out=args.out, progress=progress, restart=args.restart)
                 break
             except core.BadInputError as exc:
                 if not (args.wait and LOCK_HELD in str(exc)):
@@ -183,6 +183,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("scene", metavar="SCENE.nml")
     r.add_argument("--set", action="append", metavar="GROUP.KEY=VALUE",
                    help="override one scene key, e.g. --set scheme.dt=0.001 (repeatable)")
+    r.add_argument("--restart", metavar="DIR", help="continue the stopped run whose output "
+                   "folder DIR holds a checkpoint (&output checkpoint_every); the run continues "
+                   "in DIR")
     r.add_argument("--out", metavar="DIR", help="output folder (default: the scene's "
                    "&output dir)")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")

@@ -275,7 +275,8 @@ def _progress_bar(progress, total: int, desc: str):
 
 
 def run(scene, out: str | os.PathLike | None = None, progress: bool | None = None,
-        callback: Callable[[int, int], None] | None = None) -> RunResult:
+        callback: Callable[[int, int], None] | None = None,
+        restart: str | os.PathLike | None = None) -> RunResult:
     """Run one scene to its end (or until it becomes unstable) and read its outputs.
 
     Parameters
@@ -287,6 +288,10 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     progress : None (default) shows a progress bar on stderr when it is a terminal;
         True / False force it on / off.
     callback : optional ``callback(step, n_steps)`` called after each chunk of steps.
+    restart : output folder of a stopped run of the same scene, holding the checkpoint.bin
+        its ``&output checkpoint_every`` wrote: the run continues from it in that folder
+        (trace.csv continued, summary.json counting the whole run; the result is the one
+        of the run never stopped, bit for bit). ``out`` must then be None or that folder.
 
     Returns
     -------
@@ -297,7 +302,8 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     Raises
     ------
     BadInputError
-        bad scene, mesh or argument (Fortran stat 2).
+        bad scene, mesh or argument (Fortran stat 2); with ``restart``, a missing,
+        foreign (another scene or build), truncated or corrupt checkpoint.
     DyncontactError
         internal failure (stat 4).
     """
@@ -307,6 +313,9 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         raise TypeError("run(): scene must be a path (str, bytes or os.PathLike) or a "
                         f"dyncontact.Scene, not {type(scene).__name__}")
     core = _core()
+    explicit_out = out is not None
+    if restart is not None and out is None:
+        out = restart
     tmp = tempfile.mkdtemp(prefix="dyncontact-")
     try:
         if isinstance(scene, (str, bytes, os.PathLike)):
@@ -321,9 +330,18 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                 out = _scene_attr_output_dir(scene) or "out"
         # Relative output folders count from the current folder, for both entry points.
         out_dir = os.path.abspath(os.fspath(out))
-
-        handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
-            _fpath(path, "scene file"), _fpath(out_dir, "output folder"), 0)
+        start = 0
+        if restart is not None:
+            restart_dir = os.path.abspath(os.fspath(restart))
+            if explicit_out and restart_dir != out_dir:
+                raise BadInputError(f"restart={os.fspath(restart)!r} continues the run in that "
+                                    "folder: out must be the same folder or None")
+            out_dir = restart_dir
+            handle, _n, start, stat, errmsg = core.dc_sim_open_restart(
+                _fpath(path, "scene file"), _fpath(out_dir, "restart folder"))
+        else:
+            handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
+                _fpath(path, "scene file"), _fpath(out_dir, "output folder"), 0)
         _check(stat, errmsg, "opening the run")
         message = ""
         try:
@@ -332,6 +350,8 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                 warnings.warn(note, DyncontactWarning, stacklevel=2)
             chunk = max(100, int(n_steps) // 200)
             with _progress_bar(progress, int(n_steps), os.path.basename(out_dir)) as bar:
+                if bar is not None and start:
+                    bar.update(int(start))
                 finished = 0
                 while not finished:
                     done, step, finished, stat, errmsg = core.dc_sim_advance(handle, chunk)
@@ -370,8 +390,11 @@ def _scene_attr_output_dir(scene) -> str | None:
 # --------------------------------------------------------------------------- helpers
 
 def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0,
-              width: float = 0.1, h: float = 0.05) -> dict[str, Any]:
-    """A mesh as the Fortran core reads it: a .msh file, or the built-in bar (path '').
+              width: float = 0.1, h: float = 0.05, check: bool = True) -> dict[str, Any]:
+    """A mesh as the Fortran core reads it: a mesh file (.msh in any version gmsh reads,
+    or .geo meshed with the parameters h, length, width), or the built-in bar (path '').
+    ``check=False`` skips the core's mesh checks of a file's mesh (reader level: meshes
+    the model does not take, such as tetrahedra).
 
     Returns a dict with 0-based indices: ``x`` (n_nodes, dim), ``cells`` (n_cells, dim+1),
     ``cell_group`` (n_cells; -1 = none), ``facets`` (n_facets, dim), ``facet_group``
@@ -379,12 +402,11 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
     """
     core = _core()
     p = _fpath(path, "mesh file")
-    dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(p, int(dim), float(length),
-                                                            float(width), float(h))
+    handle, dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(
+        p, int(dim), float(length), float(width), float(h), int(bool(check)))
     _check(stat, errmsg, "reading the mesh")
     (x, cells, cell_group, facets, facet_group, group_dim, names, stat,
-     errmsg) = core.dc_mesh_arrays(p, int(dim), float(length), float(width), float(h),
-                                   dim_, nn, nc, nf, ng)
+     errmsg) = core.dc_mesh_arrays(handle, dim_, nn, nc, nf, ng)
     _check(stat, errmsg, "reading the mesh")
     group_names = [s for s in _str(names).split(",")] if ng else []
     return {
@@ -408,7 +430,7 @@ def p1_element(dim: int, x, young: float, poisson: float, density: float):
     x = np.asarray(x, dtype=np.float64)
     if x.shape != (dim, dim + 1):
         raise ValueError(f"x must have shape ({dim}, {dim + 1}), got {x.shape}")
-    xf = np.zeros((2, 3), dtype=np.float64, order="F")
+    xf = np.zeros((3, 4), dtype=np.float64, order="F")
     xf[:dim, :dim + 1] = x
     ke, me, ml = _core().dc_p1_element(int(dim), xf, float(young), float(poisson),
                                        float(density))
@@ -535,6 +557,7 @@ class Stepper(Model):
             s.advance(10)
             st = s.state()          # t, u, v, a, mv, load on the free dofs
             M = s.matrix("M")       # the assembled matrix, dense
+            s.save("state.bin")     # a checkpoint; s.load("state.bin") goes back to it
     """
 
     _WHICH = {"M": 1, "K": 2, "K_theta": 3}
@@ -562,6 +585,27 @@ class Stepper(Model):
         if not bench_floors_available():
             return None
         return _handle_floors(self.handle, n_rep, batches)
+
+    def save(self, path: str | os.PathLike) -> None:
+        """Save the run's state and counters to the checkpoint file ``path`` (the format
+        of ``&output checkpoint_every``; written atomically)."""
+        self._need()
+        stat, errmsg = _core().dc_sim_save(self.handle, _fpath(path, "checkpoint file"))
+        _check(stat, errmsg, "saving the state")
+
+    def load(self, path: str | os.PathLike) -> int:
+        """Load a state saved by :meth:`save` (or a run's checkpoint.bin) of the same scene
+        and build; the next :meth:`advance` continues from it, bit for bit as the run that
+        saved it. Returns the step loaded. A missing, foreign, truncated or corrupt file
+        raises :class:`BadInputError` naming it (the Stepper is then finished: it advances
+        no further)."""
+        self._need()
+        step, stat, errmsg = _core().dc_sim_load(self.handle, _fpath(path, "checkpoint file"))
+        if int(stat) != STAT_OK:
+            self.finished = True
+        _check(stat, errmsg, "loading the state")
+        self.finished = False
+        return int(step)
 
     def state(self) -> dict[str, Any]:
         """t, u, v, a, mv (the product M v the energies use), load and bu (B(u) as the

@@ -1,19 +1,25 @@
-"""Meshes in Python: the Fortran .msh 4.1 reader and the built-in bar as
-:class:`MeshData`, and the bar of ``meshes/bar2d.geo`` meshed and written through
-the gmsh API (``python -m dyncontact mesh``).
+"""Meshes in Python: mesh files read by the core (through gmsh's API, the same reader
+as the executable) and the built-in bar as :class:`MeshData`, and any ``.geo`` meshed
+and written through the gmsh API (``python -m dyncontact mesh``).
 
-Conventions (the same as the Fortran reader ``fortran/io/gmsh_reader.f90``, with
-0-based indices here):
+The core reads every .msh gmsh reads (versions 2.2 and 4.x, ASCII or binary) and
+``.geo`` files, meshed in-process with the parameters h, length, width
+(``fortran/io/gmsh_shim.c``, ``fortran/io/gmsh_mesh.f90``). Conventions (0-based
+indices here):
 
-- nodes are numbered in increasing order of their gmsh tags;
-- groups are the physical groups in the order of the file's ``$PhysicalNames``,
-  then the unnamed ones (named by their tag) in order of first use by an entity;
+- nodes are numbered in increasing order of their gmsh tags (a .geo: the nodes of
+  the kept cells);
+- groups are the named physical groups by (dimension, tag) -- the order of
+  ``$PhysicalNames`` in every file gmsh writes -- then the unnamed ones (named by
+  their tag) in order of first use by an entity;
 - the mesh dimension is the highest element dimension present (1: segments,
-  2: triangles); cells are the elements of that dimension (in element-tag
-  order), with the first physical group of their entity (-1 if none);
+  2: triangles, 3: tetrahedra); cells are the elements of that dimension, entity
+  by entity (increasing tag), with the first physical group of their entity (-1 if
+  none); from a .geo with physical groups, only the cells of entities with a
+  group, as gmsh would save them;
 - facets are the elements of dimension ``dim - 1`` (points in 1D, segments in
-  2D) of entities with physical groups, stored once per group; others are
-  dropped;
+  2D, triangles in 3D) of entities with physical groups, stored once per group;
+  others are dropped;
 - ``x`` holds the first ``dim`` coordinates (the others must be constant).
 
 >>> from dyncontact import mesh_io
@@ -36,10 +42,10 @@ import numpy as np
 
 from .core import BadInputError
 
-__all__ = ["MeshData", "read_msh_fortran", "builtin_bar", "generate_bar",
-           "find_geo", "main"]
+__all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
+           "generate", "find_geo", "main"]
 
-#: Parameters of meshes/bar2d.geo set by :func:`generate_bar`.
+#: Parameters of a .geo set by :func:`generate` and by the core (like gmsh -setnumber).
 GEO_PARAMETERS = ("h", "length", "width")
 
 
@@ -50,7 +56,7 @@ class MeshData:
     Attributes
     ----------
     dim : int
-        1 (segments) or 2 (triangles).
+        1 (segments), 2 (triangles) or 3 (tetrahedra).
     x : ndarray, shape (n_nodes, dim), float64
         Node coordinates.
     cells : ndarray, shape (n_cells, dim + 1), int
@@ -58,7 +64,8 @@ class MeshData:
     cell_group : ndarray, shape (n_cells,), int
         Group index of each cell, -1 if none.
     facets : ndarray, shape (n_facets, dim), int
-        Node indices of each tagged boundary facet (a point in 1D, a segment in 2D).
+        Node indices of each tagged boundary facet (a point in 1D, a segment in 2D,
+        a triangle in 3D).
     facet_group : ndarray, shape (n_facets,), int
         Group index of each facet.
     group_names : list of str
@@ -105,7 +112,8 @@ def _gmsh_session(model: str = "dyncontact") -> Iterator:
         names_before: set = set()
     else:
         saved = {k: gmsh.option.getNumber(k)
-                 for k in ("General.Terminal", "Mesh.MshFileVersion", "Mesh.Binary")}
+                 for k in ("General.Terminal", "Mesh.MshFileVersion", "Mesh.Binary",
+                           "Mesh.MeshSizeMax")}
         previous_model = gmsh.model.getCurrent()
         names_before = set(gmsh.parser.getNames())
     try:
@@ -146,20 +154,30 @@ def _from_core(d: dict) -> MeshData:
     )
 
 
-def read_msh_fortran(path: str | os.PathLike) -> MeshData:
-    """Read a .msh 4.1 ASCII file with the Fortran reader (``dyncontact._core``).
+def read_mesh(path: str | os.PathLike, *, h: float = 0.05, length: float = 1.0,
+              width: float = 0.1, check: bool = True) -> MeshData:
+    """Read a mesh file as the core does: .msh (2.2, 4.x, ASCII or binary) or .geo
+    (meshed in-process; h, length, width are its parameters of those names, and h the
+    largest mesh size where the file uses no h).
+
+    ``check=False`` skips the core's mesh checks (for meshes the model does not take).
 
     Raises
     ------
     BadInputError
-        With the Fortran message, which starts with the path.
+        With the core's message, which starts with the path.
     """
     from .core import load_mesh
 
     path = os.fspath(path)
     if not path.strip():
-        raise BadInputError("read_msh_fortran: empty file name")
-    return _from_core(load_mesh(path))
+        raise BadInputError("read_mesh: empty file name")
+    return _from_core(load_mesh(path, h=h, length=length, width=width, check=check))
+
+
+def read_msh_fortran(path: str | os.PathLike) -> MeshData:
+    """:func:`read_mesh` with its defaults (the name the package used first)."""
+    return read_mesh(path)
 
 
 def builtin_bar(dim: int = 2, length: float = 1.0, width: float = 0.1,
@@ -187,9 +205,58 @@ def find_geo(name: str = "bar2d.geo") -> Path:
     raise FileNotFoundError(f"{name} not found (looked in {', '.join(map(str, candidates))})")
 
 
+def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float = 0.05,
+             length: float = 1.0, width: float = 0.1, binary: bool = False,
+             version: float = 4.1) -> Path:
+    """Mesh a .geo with gmsh and write it as .msh (default 4.1 ASCII).
+
+    h, length and width are set as the file's parameters of those names (as
+    ``gmsh -setnumber h 0.02`` would); where the file uses no h, h is the largest
+    mesh size. The mesh has the geometry's dimension.
+
+    Returns
+    -------
+    Path
+        `out_path`.
+    """
+    for name, value in (("h", h), ("length", length), ("width", width)):
+        if not (np.isfinite(value) and value > 0):
+            raise BadInputError(f"generate: {name} = {value} (must be > 0)")
+    geo = Path(geo_path)
+    if not geo.is_file():
+        raise BadInputError(f"{geo}: no such file")
+    out = Path(out_path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with _gmsh_session("dyncontact-generate") as gmsh:
+        gmsh.parser.setNumber("length", [float(length)])
+        gmsh.parser.setNumber("width", [float(width)])
+        uses_h = True
+        try:                       # does the file use h? parsed once without it
+            gmsh.merge(str(geo))
+            uses_h = "h" in gmsh.parser.getNames("h")
+        except Exception:
+            pass
+        gmsh.model.remove()
+        gmsh.model.add("dyncontact-generate")
+        for name, value in (("h", h), ("length", length), ("width", width)):
+            gmsh.parser.setNumber(name, [float(value)])
+        try:
+            gmsh.merge(str(geo))
+            if not uses_h:
+                gmsh.option.setNumber("Mesh.MeshSizeMax", float(h))
+            gmsh.model.mesh.generate(gmsh.model.getDimension())
+        except Exception as exc:
+            raise BadInputError(f"{geo}: gmsh cannot mesh it: {exc}") from None
+        gmsh.option.setNumber("Mesh.MshFileVersion", float(version))
+        gmsh.option.setNumber("Mesh.Binary", int(bool(binary)))
+        gmsh.write(str(out))
+    return out
+
+
 def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
-                 width: float = 0.1, geo_path: str | os.PathLike | None = None) -> Path:
-    """Mesh ``meshes/bar2d.geo`` with gmsh and write it as .msh 4.1 ASCII.
+                 width: float = 0.1, geo_path: str | os.PathLike | None = None,
+                 binary: bool = False, version: float = 4.1) -> Path:
+    """Mesh ``meshes/bar2d.geo`` with gmsh and write it as .msh (default 4.1 ASCII).
 
     Structured (transfinite) triangles of [0, width] x [0, length] with
     ``round(width/h)`` by ``round(length/h)`` squares and alternating diagonals;
@@ -205,6 +272,8 @@ def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
         Bar size (> 0).
     geo_path : str or path-like, optional
         The .geo file (default: :func:`find_geo`).
+    binary, version : bool, float
+        Format of the file (see :func:`generate`).
 
     Returns
     -------
@@ -217,28 +286,15 @@ def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
     if round(length / h) * round(width / h) > 5e7:
         raise BadInputError(f"generate_bar: h = {h} gives too many elements")
     geo = Path(geo_path) if geo_path is not None else find_geo()
-    out = Path(out_path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with _gmsh_session("bar2d") as gmsh:
-        gmsh.parser.setNumber("h", [float(h)])
-        gmsh.parser.setNumber("length", [float(length)])
-        gmsh.parser.setNumber("width", [float(width)])
-        try:
-            gmsh.merge(str(geo))
-            gmsh.model.mesh.generate(2)
-        except Exception as exc:
-            raise BadInputError(f"{geo}: gmsh failed: {exc}") from None
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        gmsh.write(str(out))
-    return out
+    return generate(geo, out_path, h=h, length=length, width=width, binary=binary,
+                    version=version)
 
 
 # --------------------------------------------------------------------------- command line
 
 def _summary(m: MeshData) -> str:
     """One line describing a mesh."""
-    kind = "triangles" if m.dim == 2 else "segments"
+    kind = {1: "segments", 2: "triangles", 3: "tetrahedra"}[m.dim]
     groups = ", ".join(f"{n} ({int((m.facet_group == i).sum() + (m.cell_group == i).sum())})"
                        for i, n in enumerate(m.group_names))
     return f"{len(m.x)} nodes, {len(m.cells)} {kind}; groups {groups}"
@@ -248,13 +304,20 @@ def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m dyncontact mesh``."""
     p = argparse.ArgumentParser(
         prog="dyncontact mesh",
-        description="Mesh the bar of meshes/bar2d.geo with gmsh (structured triangles) and "
-                    "write it as .msh 4.1 ASCII.")
+        description="Mesh a .geo with gmsh (default: the bar of meshes/bar2d.geo, "
+                    "structured triangles) and write it as .msh 4.1 ASCII. h, length and "
+                    "width are set as the file's parameters of those names; where the file "
+                    "uses no h, h is the largest mesh size.")
     p.add_argument("--h", type=float, default=0.05, help="mesh size (default 0.05)")
     p.add_argument("--out", required=True, metavar="FILE.msh", help="mesh file to write")
-    p.add_argument("--length", type=float, default=1.0, help="bar length, y (default 1)")
-    p.add_argument("--width", type=float, default=0.1, help="bar width, x (default 0.1)")
+    p.add_argument("--length", type=float, default=1.0,
+                   help="parameter length (the bar's length, y; default 1)")
+    p.add_argument("--width", type=float, default=0.1,
+                   help="parameter width (the bar's width, x; default 0.1)")
     p.add_argument("--geo", metavar="FILE.geo", help="geometry (default meshes/bar2d.geo)")
+    p.add_argument("--binary", action="store_true", help="write binary .msh")
+    p.add_argument("--msh-version", type=float, default=4.1, choices=(2.2, 4.1),
+                   help="msh format version (default 4.1)")
     p.add_argument("--quiet", "-q", action="store_true", help="print nothing")
     return p
 
@@ -269,9 +332,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         argv = argv[1:]
     args = build_parser().parse_args(argv)
     try:
-        out = generate_bar(args.h, args.out, length=args.length, width=args.width,
-                           geo_path=args.geo)
-        mesh = read_msh_fortran(out)
+        fmt = dict(binary=args.binary, version=args.msh_version)
+        if args.geo is None:
+            out = generate_bar(args.h, args.out, length=args.length, width=args.width, **fmt)
+        else:
+            out = generate(args.geo, args.out, h=args.h, length=args.length,
+                           width=args.width, **fmt)
+        mesh = read_mesh(out, check=False)
     except (BadInputError, FileNotFoundError) as exc:
         print(f"dyncontact mesh: {exc}", file=sys.stderr)
         return 2

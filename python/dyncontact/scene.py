@@ -99,7 +99,7 @@ class Scene:
                          f"{', '.join(self._values[group])})")
 
     def get(self, name: str) -> Any:
-        """Value of ``'group.key'`` (a list of 2 floats for vectors)."""
+        """Value of ``'group.key'`` (a list of 2 floats for vectors, 3 in 3D)."""
         group, key = self._check_name(name)
         return copy.copy(self._values[group][key])
 
@@ -109,10 +109,19 @@ class Scene:
         ``value`` may be a Python or numpy value or a command-line string: ``'0.001'``,
         ``"'lumped'"`` or ``'lumped'``, ``'0.0,-1.0'``. A single number for a vector sets
         component 1 and zeroes component 2. Ranges are checked by :meth:`validate`.
+
+        Setting ``'mesh.dim'`` gives the vector keys still at the old dimension's defaults
+        those of the new one (3 components in 3D).
         """
         group, key = self._check_name(name)
         text = _value_text(value, self._values[group][key])
-        self._values = core.scene_parse(self.to_text({(group, key): text}), self._name())
+        omit = set()
+        if (group, key) == ("mesh", "dim") and self._values["mesh"]["dim"] in (1, 2, 3):
+            old = core.scene_parse(f"&mesh dim = {self._values['mesh']['dim']} /", "<defaults>")
+            omit = {(g, k) for g, keys in old.items() for k, v in keys.items()
+                    if isinstance(v, list) and self._values[g][k] == v}
+        self._values = core.scene_parse(self.to_text({(group, key): text}, omit=omit),
+                                        self._name())
 
     def __getitem__(self, name: str) -> Any:
         return self.get(name)
@@ -147,13 +156,16 @@ class Scene:
 
     # -- writing
     def to_text(self, replace: dict[tuple[str, str], str] | None = None,
-                absolute_mesh: bool = False) -> str:
+                absolute_mesh: bool = False, omit: set[tuple[str, str]] | None = None) -> str:
         """The scene as namelist text, one key a line (`replace`: value texts to use
-        instead of the stored values; `absolute_mesh`: write the mesh file absolute)."""
+        instead of the stored values; `absolute_mesh`: write the mesh file absolute;
+        `omit`: keys left out, so that they take their defaults)."""
         lines = ["! dyncontact scene (written by dyncontact.Scene)"]
         for group, keys in self._values.items():
             lines.append(f"&{group}")
             for key, value in keys.items():
+                if omit and (group, key) in omit:
+                    continue
                 if absolute_mesh and (group, key) == ("mesh", "file") and value:
                     value = os.path.abspath(value)
                 if replace and (group, key) in replace:

@@ -9,7 +9,7 @@ program test_cholmod
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, MSG_LEN
     use sparse, only: csc_t, csc_from_coo, csc_matvec
     use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free, &
-                       chol_kernel, chol_solve_cholmod, KERNEL_PAIRS, KERNEL_CHOLMOD
+                       chol_kernel, chol_solve_cholmod, chol_ordering, KERNEL_PAIRS, KERNEL_CHOLMOD
     use ldl_solves, only: pair_ldl_t, pair_ldl_build
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, &
                              csc_is_symmetric, BACKEND_CHOLMOD, BACKEND_UMFPACK, SYM_RTOL
@@ -454,9 +454,18 @@ contains
             call chol_solve(ch, b(:, 1), x(:, 1), stat)
             call checks%check(stat == STAT_OK .and. maxval(abs(x(:, 1) - xe(:, 1))) <= thr, &
                               'pairs: x = xe')
+            ! one copy of the factor: CHOLMOD's was released after the block copy
+            call chol_solve_cholmod(ch, b(:, 1), xc, stat)
+            call checks%check(stat == STAT_BAD_INPUT .and. ch%pairs%n == n, &
+                              'pairs: CHOLMOD''s copy released')
+            call checks%check(any(chol_ordering(ch) == ['amd   ', 'metis ', 'nesdis']) .and. &
+                              ch%factor_nnz == ch%lnz + n, 'pairs: ordering, factor entries')
+            ch%keep_cholmod = .true.
+            call chol_factor(ch, a, stat)
             call chol_solve_cholmod(ch, b(:, 1), xc, stat)
             call checks%check(stat == STAT_OK .and. maxval(abs(x(:, 1) - xc)) <= thr, &
                               'pairs: same as cholmod_solve2')
+            ch%keep_cholmod = .false.
             x = 0.0_dp
             call chol_solve_many(ch, b, x, stat)
             call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr, 'pairs: many')

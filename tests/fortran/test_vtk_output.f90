@@ -5,7 +5,8 @@
 program test_vtk_output
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, MSG_LEN
-    use vtk_output, only: vtk_write_vtu, vtk_write_pvd
+    use kinds, only: i8
+    use vtk_output, only: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
     use unit_checks, only: checks_t
     implicit none
 
@@ -18,6 +19,7 @@ program test_vtk_output
     call test_triangles()
     call test_segments()
     call test_pvd()
+    call test_size()
     call test_bad_input()
 
     call checks%finish('test_vtk_output')
@@ -70,6 +72,50 @@ contains
         call checks%check(index(text, ' 3'//new_line('a')//' 3'//new_line('a')//' 3') > 0, &
                    'line: VTK_LINE types')
     end subroutine test_segments
+
+    !> vtk_vtu_bytes (the run's estimate of its field output) equals the size of the file
+    !> written, for segments and for a grid of triangles with node numbers of 1 to 4
+    !> digits (0-based numbers 0..1088) and cells from 1 to 4 digits.
+    subroutine test_size()
+        real(dp), allocatable :: x(:, :), u(:, :), v(:, :)
+        integer, allocatable :: cells(:, :)
+        integer :: stat, i, j, m, n, c, unit
+        integer(i8) :: size_on_disk
+        character(len=:), allocatable :: path
+        do m = 1, 32, 31                       ! (m+1)^2 nodes, 2 m^2 triangles
+            n = (m + 1)**2
+            allocate (x(2, n), u(2, n), v(2, n), cells(3, 2 * m * m))
+            do j = 0, m
+                do i = 0, m
+                    x(:, 1 + i + j * (m + 1)) = [real(i, dp), -real(j, dp) / 3]
+                end do
+            end do
+            u = -x / 7; v = x * 1.0e-300_dp
+            c = 0
+            do j = 0, m - 1
+                do i = 1, m
+                    cells(:, c + 1) = [i + j * (m + 1), i + 1 + j * (m + 1), i + (j + 1) * (m + 1)]
+                    cells(:, c + 2) = [i + 1 + j * (m + 1), i + 1 + (j + 1) * (m + 1), &
+                                       i + (j + 1) * (m + 1)]
+                    c = c + 2
+                end do
+            end do
+            path = trim(dir)//'/test_vtk_size.vtu'
+            call vtk_write_vtu(path, 2, x, cells, u, v, stat)
+            open (newunit=unit, file=path, access='stream')
+            inquire (unit=unit, size=size_on_disk)
+            close (unit)
+            call checks%check(stat == STAT_OK .and. size_on_disk == vtk_vtu_bytes(2, n, cells), &
+                              'size: triangles')
+            call vtk_write_vtu(path, 1, x(1:1, :), cells(1:2, :), u(1:1, :), v(1:1, :), stat)
+            open (newunit=unit, file=path, access='stream')
+            inquire (unit=unit, size=size_on_disk)
+            close (unit, status='delete')
+            call checks%check(stat == STAT_OK .and. &
+                              size_on_disk == vtk_vtu_bytes(1, n, cells(1:2, :)), 'size: segments')
+            deallocate (x, u, v, cells)
+        end do
+    end subroutine test_size
 
     subroutine test_pvd()
         character(len=20) :: files(2)

@@ -11,10 +11,13 @@ are independent; :mod:`.sweep` executes them on a local process pool (``--worker
 or a Dask cluster (``--scheduler ADDRESS``), with a per-run cache that makes a re-run
 resume where it stopped.
 
+The same runner runs the seed's figures (:mod:`.figures`, ``scripts/figures``) and the
+benchmark (:mod:`.bench`, ``scripts/bench``, which never takes a timing from the cache).
+
 >>> from dyncontact.study.convergence import run_convergence
 >>> report = run_convergence("out/conv", quick=True)           # doctest: +SKIP
 >>> report["orders"][0]                                         # doctest: +SKIP
 """
 
 __all__: list[str] = []   # the modules: sweep, analyses, convergence, workprecision,
-                          # stability, claims, cli
+                          # stability, claims, which, figures, bench, cli

@@ -5,6 +5,9 @@
   optionally, t, u_n, e_total (the stability study and the claims).
 - ``contact``: energy ratios and the p_n oscillation during contact
   (:func:`pn_oscillation`), for the "which scheme" table.
+- ``outputs``: every output of the run kept as it is (trace, summary, field snapshots)
+  and the summary's sizes and counters, for runs whose outputs are the result (the
+  seed's figures) or whose timings are (the benchmark).
 - ``exact1d``: errors of a run of the 1D exact case (SPEC section 2) against the closed
   form :mod:`dyncontact.exact1d`: the field norms from the VTU snapshots and the probe
   errors from the trace.
@@ -18,6 +21,19 @@ on every piece both u_h and u are linear and a 3-point Gauss rule is exact for e
 (e')^2. ``H1`` is the full norm (L2 of e plus L2 of e'). Time norms over the snapshot
 times t_0 = 0 < ... < t_K = T: L-infinity = max over k, L2 = trapezoidal rule.
 The contact stress error is integrated in time over every trace row (``every`` = 1).
+
+Relative norms (the literature's)
+---------------------------------
+GetFEM's 1D dynamic-contact demo and the papers it comes from report relative errors,
+``REL_NORMS`` (suffix ``_rel``). At each sampled time t_k the error is taken against the
+nodal interpolant I_h u of the exact solution (e_h = u_h - I_h u, a P1 function, and
+v_h - I_h u_t), its L2 and full H1 norms integrated exactly on the P1 space
+(:func:`p1_norms`), and the exact solution's norm of the same kind is that of I_h u
+(resp. I_h u_t). In time (:func:`relative_in_time`): L-infinity = max_k ||e_h(t_k)|| /
+max_k ||I_h u(t_k)||; L2 = (sum_k dt ||e_h(t_k)||^2)^(1/2) / (sum_k dt ||I_h u(t_k)||^2)^(1/2),
+the rectangle rule on equally spaced samples (dt cancels). Field norms are sampled at
+the snapshots (the study's uniform grid), the contact stress at every step: p_L2_rel =
+(sum_k (p_n - sigma_n)^2)^(1/2) / (sum_k sigma_n^2)^(1/2) over every trace row.
 """
 
 from __future__ import annotations
@@ -33,12 +49,16 @@ from .sweep import register_analysis
 
 __all__ = ["read_pvd", "read_vtu_1d", "field_errors_1d", "probe_errors_1d", "rms_in_time",
            "impacts", "contact_phases", "pn_oscillation", "FIELD_NORMS", "IMPACT_GAP",
-           "PHASE_TRIM"]
+           "PHASE_TRIM", "REL_NORMS", "p1_norms", "relative_in_time",
+           "interpolant_errors_1d"]
 
 #: Columns of the field/stress norms: L∞(0,T) then L²(0,T) of ‖u‖_L², ‖u‖_H¹ and ‖u̇‖_L²,
 #: then ‖p_n − σ_n‖ in L²(0,T).
 FIELD_NORMS = ("u_Linf_L2", "u_Linf_H1", "v_Linf_L2", "u_L2_L2", "u_L2_H1", "v_L2_L2",
                "p_L2")
+
+#: The relative norms beside them (module docstring, "Relative norms").
+REL_NORMS = tuple(f"{n}_rel" for n in FIELD_NORMS)
 
 #: A new impact is a contact that starts after at least this long without contact.
 IMPACT_GAP = 0.5
@@ -98,6 +118,42 @@ def field_errors_1d(x, u_h, v_h, t) -> dict[str, float]:
             "v_L2": float(np.sqrt(np.sum(wq * ev ** 2)))}
 
 
+def p1_norms(x, w) -> tuple[float, float]:
+    """(L2, full H1) norms of the P1 function with nodal values w on the 1D mesh x,
+    exact: on [a, b], int w^2 = (b - a)/3 (w_a^2 + w_a w_b + w_b^2) and
+    int w'^2 = (w_b - w_a)^2 / (b - a)."""
+    x, w = np.asarray(x, dtype=float), np.asarray(w, dtype=float)
+    le = np.diff(x)
+    wa, wb = w[:-1], w[1:]
+    l2sq = float(np.sum(le / 3.0 * (wa * wa + wa * wb + wb * wb)))
+    semi_sq = float(np.sum((wb - wa) ** 2 / le))
+    return float(np.sqrt(l2sq)), float(np.sqrt(l2sq + semi_sq))
+
+
+def interpolant_errors_1d(x, u_h, v_h, t) -> dict[str, float]:
+    """At time t: the norms of u_h - I_h u (L2, H1) and v_h - I_h u_t (L2), and those of
+    I_h u and I_h u_t (keys ``ex_*``), I_h the nodal interpolant on the mesh x."""
+    x = np.asarray(x, dtype=float)
+    iu, iv = ex.u(x, t), ex.u_t(x, t)
+    eu_l2, eu_h1 = p1_norms(x, np.asarray(u_h) - iu)
+    ev_l2, _ = p1_norms(x, np.asarray(v_h) - iv)
+    xu_l2, xu_h1 = p1_norms(x, iu)
+    xv_l2, _ = p1_norms(x, iv)
+    return {"u_L2": eu_l2, "u_H1": eu_h1, "v_L2": ev_l2,
+            "ex_u_L2": xu_l2, "ex_u_H1": xu_h1, "ex_v_L2": xv_l2}
+
+
+def relative_in_time(err, exact) -> tuple[float, float]:
+    """(L-infinity, L2) in time of the relative error, from space norms at equally
+    spaced times: max(err)/max(exact), and (sum err^2)^(1/2) / (sum exact^2)^(1/2)
+    (the rectangle rule; the common step cancels). nan when the exact norms are all 0."""
+    err, exact = np.asarray(err, dtype=float), np.asarray(exact, dtype=float)
+    if len(err) == 0 or not np.max(np.abs(exact)) > 0:
+        return float("nan"), float("nan")
+    return (float(np.max(err) / np.max(exact)),
+            float(np.sqrt(np.sum(err ** 2)) / np.sqrt(np.sum(exact ** 2))))
+
+
 def _time_l2(t: np.ndarray, e: np.ndarray) -> float:
     """(int_0^T e(t)^2 dt)^(1/2) by the trapezoidal rule."""
     if len(t) < 2:
@@ -142,10 +198,13 @@ def analyse_exact1d(run_dir: str, result, fields: bool = True) -> dict[str, Any]
     metrics: dict[str, Any] = dict(_energy_metrics(trace))
     metrics.update(probe_errors_1d(trace))
     t = trace["t"]
-    metrics["p_L2"] = _time_l2(t, trace["p_n"] - ex.sigma_n(t))
+    sigma = ex.sigma_n(t)
+    metrics["p_L2"] = _time_l2(t, trace["p_n"] - sigma)
+    metrics["p_L2_rel"] = relative_in_time(np.abs(trace["p_n"] - sigma), np.abs(sigma))[1]
     pvd = os.path.join(run_dir, "fields.pvd")
     if fields and os.path.isfile(pvd):
         ts, eu, eh, ev = [], [], [], []
+        rel = {k: [] for k in ("u_L2", "u_H1", "v_L2", "ex_u_L2", "ex_u_H1", "ex_v_L2")}
         for tk, vtu in read_pvd(pvd):
             x, u_h, v_h = read_vtu_1d(vtu)
             e = field_errors_1d(x, u_h, v_h, tk)
@@ -153,13 +212,34 @@ def analyse_exact1d(run_dir: str, result, fields: bool = True) -> dict[str, Any]
             eu.append(e["u_L2"])
             eh.append(e["u_H1"])
             ev.append(e["v_L2"])
+            for k, val in interpolant_errors_1d(x, u_h, v_h, tk).items():
+                rel[k].append(val)
         ts = np.array(ts)
         metrics.update(
             u_Linf_L2=float(np.max(eu)), u_Linf_H1=float(np.max(eh)),
             v_Linf_L2=float(np.max(ev)), u_L2_L2=_time_l2(ts, np.array(eu)),
             u_L2_H1=_time_l2(ts, np.array(eh)), v_L2_L2=_time_l2(ts, np.array(ev)),
             snapshots=len(ts))
+        for space, key in (("L2", "u_L2"), ("H1", "u_H1")):
+            lin, l2 = relative_in_time(rel[key], rel["ex_" + key])
+            metrics[f"u_Linf_{space}_rel"], metrics[f"u_L2_{space}_rel"] = lin, l2
+        metrics["v_Linf_L2_rel"], metrics["v_L2_L2_rel"] = \
+            relative_in_time(rel["v_L2"], rel["ex_v_L2"])
     return {"metrics": metrics}
+
+
+#: The summary.json fields that the ``outputs`` analysis copies into its metrics.
+OUTPUT_COUNTERS = ("factorizations", "dofs", "elements", "isa", "solve_kernel")
+
+
+@register_analysis("outputs")
+def analyse_outputs(run_dir: str, result) -> dict[str, Any]:
+    """Keep every output of the run; metrics: the summary's :data:`OUTPUT_COUNTERS` and
+    rows (the trace's rows)."""
+    s = result.summary
+    metrics = {k: s.get(k) for k in OUTPUT_COUNTERS}
+    metrics["rows"] = int(len(result.trace.get("t", ())))
+    return {"metrics": metrics, "keep": sorted(os.listdir(run_dir))}
 
 
 @register_analysis("trace")

@@ -14,6 +14,8 @@ import sys
 import time
 from typing import Any, Sequence
 
+from .common import add_runner_options
+
 __all__ = ["main", "write_index"]
 
 STUDIES = ("convergence", "work-precision", "stability")
@@ -39,12 +41,7 @@ def _parser() -> argparse.ArgumentParser:
         s = sub.add_parser(name, help=helps[name], description=helps[name])
         s.add_argument("--quick", action="store_true", help="small sizes (seconds)")
         s.add_argument("--out", required=True, metavar="DIR", help="output folder")
-        s.add_argument("--workers", type=int, default=None, metavar="N",
-                       help="processes of the local pool (default: all cores)")
-        s.add_argument("--scheduler", metavar="ADDRESS", default=None,
-                       help="run on this dask.distributed scheduler instead of the pool")
-        s.add_argument("--cache", metavar="DIR", default=None,
-                       help="per-run cache (default: OUT/cache)")
+        add_runner_options(s)
         s.add_argument("--no-progress", action="store_true", help="no progress bar")
         if name in ("convergence", "work-precision", "all"):
             s.add_argument("--c-implicit", type=float, default=20.0,

@@ -1,4 +1,5 @@
-"""Shared pieces of the studies: base scenes, the scheme catalogue, CSV/markdown/plots."""
+"""Shared pieces of the studies, the figures and the benchmark: base scenes, named runs
+of the seed's bar, the scheme catalogue, CSV/markdown/plots."""
 
 from __future__ import annotations
 
@@ -10,7 +11,9 @@ from typing import Any, Iterable, Mapping, Sequence
 
 __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0",
            "CENTRAL_C", "write_base_scenes", "write_csv",
-           "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS"]
+           "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS",
+           "RunSpec", "seed_spec", "every_for", "scheme_text", "num", "loadavg",
+           "package_version", "add_runner_options", "MAX_ROWS"]
 
 #: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016).
 EXACT_1D = """\
@@ -52,6 +55,135 @@ def write_base_scenes(folder: str) -> dict[str, str]:
         paths[name] = p
     return paths
 
+
+# --------------------------------------------------------------------------- named runs
+
+#: Trace rows a figure run keeps at most (output.every is chosen for it).
+MAX_ROWS = 3000
+
+
+def num(x: float) -> str:
+    """A number as it appears in run names and labels: 0.05, 0.0025, -0.1, 1e-05."""
+    return f"{float(x):.6g}"
+
+
+@dataclasses.dataclass
+class RunSpec:
+    """One run with a name (its output folder) and the scene keys it sets.
+
+    ``settings`` maps 'group.key' to a value (``Scene.set``), applied to the scene file
+    ``base`` or, when ``base`` is None, to the built-in default scene (the seed's test
+    case). ``label`` (optional) is the legend text; by default the figures use
+    :func:`dyncontact.plotting.run_label` of the run's summary.
+    """
+
+    name: str
+    settings: dict[str, Any]
+    base: str | None = None
+    label: str | None = None
+
+    def scene(self):
+        """The :class:`dyncontact.Scene` of this run."""
+        from ..scene import Scene
+
+        scn = Scene.read(self.base) if self.base else Scene()
+        for key, value in self.settings.items():
+            scn.set(key, value)
+        return scn
+
+    def task(self, analysis: str = "outputs"):
+        """This run as a :class:`.sweep.Task` (tagged with its name)."""
+        from .sweep import make_task
+
+        return make_task(self.base, self.settings, analysis, tags={"name": self.name})
+
+    def get(self, key: str) -> Any:
+        """A scene key of this run: its setting, or the base scene's value."""
+        return self.settings[key] if key in self.settings else self.scene().get(key)
+
+    def estimated_steps(self) -> int:
+        """Steps to t_end (the run stops earlier if it blows up)."""
+        dt, t_end = float(self.get("scheme.dt")), float(self.get("scheme.t_end"))
+        return max(0, math.ceil(t_end / dt - 1e-9))
+
+
+def every_for(t_end: float, dt: float, max_rows: int = MAX_ROWS) -> int:
+    """The smallest output.every that keeps a trace to at most ~max_rows rows."""
+    steps = max(1, math.ceil(float(t_end) / float(dt) - 1e-9))
+    return max(1, math.ceil(steps / max_rows))
+
+
+_SCHEME_KEYS = {"alpha": "a", "beta": "b", "gamma": "g", "theta": "th"}
+
+
+def seed_spec(scheme: str, h: float, dt: float, t_end: float, *, mass: str = "consistent",
+              every: int | None = None, max_rows: int | None = MAX_ROWS,
+              fields_every: int = 0, prefix: str = "", **params: float) -> RunSpec:
+    """A run of the seed's 2D bar (the built-in default scene) with one scheme.
+
+    ``params`` are scheme keys (alpha, beta, gamma, theta). ``every`` = output.every;
+    None: :func:`every_for` (max_rows), or 1 when max_rows is None. The name says all:
+    ``hht_a-0.05_h0.02_dt0.001_T15`` (+ ``_lumped``).
+    """
+    dt = round(float(dt), 15)
+    if every is None:
+        every = 1 if max_rows is None else every_for(t_end, dt, max_rows)
+    settings: dict[str, Any] = {"mesh.h": float(h), "scheme.name": scheme,
+                                "scheme.dt": dt, "scheme.t_end": float(t_end),
+                                "scheme.mass": mass, "output.every": int(every),
+                                "output.fields_every": int(fields_every)}
+    tag = [scheme]
+    for key, value in params.items():
+        if key not in _SCHEME_KEYS:
+            raise ValueError(f"unknown scheme parameter {key!r}")
+        settings[f"scheme.{key}"] = float(value)
+        tag.append(f"{_SCHEME_KEYS[key]}{num(value)}")
+    name = "_".join(tag) + f"_h{num(h)}_dt{num(dt)}_T{num(t_end)}"
+    if mass != "consistent":
+        name += f"_{mass}"
+    return RunSpec(name=prefix + name, settings=settings)
+
+
+def scheme_text(settings: Mapping[str, Any]) -> str:
+    """A run's scheme as a report shows it: 'pc β=0.25, γ=0.5, lumped mass'."""
+    name = settings.get("scheme.name", "hht")
+    params = [f"{sym}={num(settings[f'scheme.{k}'])}"
+              for k, sym in (("alpha", "α"), ("beta", "β"), ("gamma", "γ"), ("theta", "θ"))
+              if f"scheme.{k}" in settings]
+    text = name + (" " + ", ".join(params) if params else "")
+    if settings.get("scheme.mass", "consistent") != "consistent":
+        text += f", {settings['scheme.mass']} mass"
+    return text
+
+
+def loadavg() -> list[float] | None:
+    """The machine's load averages (1, 5, 15 min), or None where there are none."""
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except (AttributeError, OSError):
+        return None
+
+
+def package_version() -> str:
+    from .. import __version__
+
+    return __version__
+
+
+def add_runner_options(parser, *worker_aliases: str) -> None:
+    """The sweep runner's options, the same for every command that runs a sweep:
+    --workers N (and ``worker_aliases``), --scheduler ADDRESS (then --workers is
+    ignored) and --cache DIR."""
+    parser.add_argument("--workers", *worker_aliases, dest="workers", type=int,
+                        default=None, metavar="N",
+                        help="processes of the local pool (default: all cores)")
+    parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                        help="run on this dask.distributed scheduler instead of the pool")
+    parser.add_argument("--cache", metavar="DIR", default=None,
+                        help="per-run cache (default: OUT/cache)")
+
+
+# --------------------------------------------------------------------------- schemes
 
 @dataclasses.dataclass(frozen=True)
 class SchemeSpec:

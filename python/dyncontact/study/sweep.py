@@ -1,8 +1,13 @@
 """Sweeps of independent runs: a per-run cache, a local process pool or a Dask cluster.
 
-A :class:`Task` is one run: a base scene file, the keys it changes (``Scene.set``) and
-the *analysis* that turns the run's outputs into a record (numbers, optionally small
-arrays). :func:`sweep` executes a list of tasks and returns their records in order.
+The one runner of the package: the studies, the seed's figures (:mod:`.figures`) and the
+benchmark (:mod:`.bench`) all run their scenes through it.
+
+A :class:`Task` is one run: a base scene file (or the built-in default scene), the keys
+it changes (``Scene.set``) and the *analysis* that turns the run's outputs into a record
+(numbers, optionally small arrays). :func:`sweep` executes a list of tasks and returns
+their records in order. :func:`run_uncached` runs one task into a given folder without
+the cache, for measurements that must be taken afresh (the benchmark's timings).
 
 Cache
 -----
@@ -18,7 +23,8 @@ Each run is stored under ``CACHE/<k[:2]>/<k>/`` where ``k`` is the SHA-256 of
   invalidate the runs).
 
 An entry is written in a temporary folder next to it and renamed into place when
-complete (``record.json`` last, holding the SHA-256 of every file it lists), so an
+complete (``record.json`` last, holding the SHA-256 of every file it lists, those in the
+sub-folders the analysis keeps included), so an
 interrupted sweep leaves no entry that looks finished. On a lookup the record is parsed
 and each listed file's hash checked; anything missing, unreadable or different is a
 *corrupt* entry: it is removed and the run is done again. A re-run of a sweep therefore
@@ -57,8 +63,8 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["Task", "sweep", "task_key", "code_version", "lookup", "execute",
-           "register_analysis", "ERROR", "REFUSED"]
+__all__ = ["Task", "make_task", "sweep", "task_key", "code_version", "lookup", "execute",
+           "run_uncached", "register_analysis", "ERROR", "REFUSED"]
 
 #: Status of a record whose run could not be done (not a numerical verdict).
 ERROR = "error"
@@ -85,11 +91,13 @@ def register_analysis(name: str):
 class Task:
     """One run of a sweep.
 
-    ``base``: scene file; ``settings``: ((group.key, value), ...) applied with
+    ``base``: scene file ('' for the built-in default scene, the seed's test case);
+    ``settings``: ((group.key, value), ...) applied with
     ``Scene.set``; ``analysis``: a registered analysis name with ``params``
     (((name, value), ...)); ``tags``: labels carried into the record (scheme label,
     grid coordinates), not part of the cache key. The analysis may name more files of
-    the run folder to keep in the cache (``keep``) besides trace.csv and summary.json.
+    the run folder (files or sub-folders) to keep in the cache (``keep``) besides
+    trace.csv and summary.json.
     """
 
     base: str
@@ -105,11 +113,12 @@ class Task:
         return dict(self.tags).get(key, default)
 
 
-def make_task(base: str, settings: Mapping[str, Any], analysis: str = "trace",
+def make_task(base: str | None, settings: Mapping[str, Any], analysis: str = "trace",
               params: Mapping[str, Any] | None = None,
               tags: Mapping[str, Any] | None = None) -> Task:
-    """A :class:`Task` from plain dicts (values must be plain numbers / strings)."""
-    return Task(base=os.path.abspath(base), settings=tuple(settings.items()),
+    """A :class:`Task` from plain dicts (values must be plain numbers / strings);
+    ``base`` None or '': the built-in default scene."""
+    return Task(base=os.path.abspath(base) if base else "", settings=tuple(settings.items()),
                 analysis=analysis, params=tuple(sorted((params or {}).items())),
                 tags=tuple((tags or {}).items()))
 
@@ -164,7 +173,7 @@ def _analysis_version(name: str) -> str:
 def _scene(task: Task):
     from ..scene import Scene
 
-    scn = Scene.read(task.base)
+    scn = Scene.read(task.base) if task.base else Scene()
     for key, value in task.settings:
         scn.set(key, value)
     return scn
@@ -247,66 +256,42 @@ def _error_record(task: Task, key: str | None, message: str) -> dict[str, Any]:
             "metrics": {}, "arrays": {}, "cached": False, "run_dir": None}
 
 
-def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
-    """Run one task (or take it from the cache) and return its record; never raises.
+def _files(folder: str) -> list[str]:
+    """Every file below folder, as sorted relative paths."""
+    return sorted(os.path.relpath(os.path.join(d, name), folder)
+                  for d, _, names in os.walk(folder) for name in names)
 
-    The record: key, status ('ok' | 'unstable' | 'newton_failed' | 'error'), message,
-    t_end_reached, steps, wall_s (the core's time loop), cpu_s (process CPU time around
-    :func:`dyncontact.run`, set-up and trace reading included), newton_its_total, metrics
-    (numbers from the analysis), arrays (numpy arrays from the analysis), cached, run_dir.
-    """
+
+def _run(task: Task, run_dir: str, key: str | None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Run the task's scene into run_dir and its analysis on the outputs: the record
+    (without files and cache fields) and the analysis' output. Raises what the run or
+    the analysis raises."""
+    from .. import core
+
+    scene = _scene(task)
+    cpu0, wall0 = time.process_time(), time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:   # kept in the record,
+        warnings.simplefilter("always")                    # not printed by workers
+        res = core.run(scene, out=run_dir, progress=False)
+    cpu_s, wall_measured_s = time.process_time() - cpu0, time.perf_counter() - wall0
+    out = _analysis(task.analysis)(run_dir, res, **dict(task.params)) or {}
+    s = res.summary
+    rec = {"key": key, "status": res.status, "message": res.message,
+           "t_end_reached": s.get("t_end_reached"), "steps": s.get("steps"),
+           "wall_s": s.get("wall_s"), "cpu_s": cpu_s, "wall_measured_s": wall_measured_s,
+           "newton_its_total": s.get("newton_its_total"),
+           "metrics": out.get("metrics", {}), "code": code_version(),
+           "warnings": sorted({str(w.message) for w in caught})}
+    return rec, out
+
+
+def _guarded(task: Task, key: str | None, body: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+    """body() or, when it raises, the record that says why: 'refused' for bad input the
+    core refuses at run time, 'error' for anything else."""
     from .. import core
 
     try:
-        key = key or task_key(task)
-        hit = lookup(cache, key)
-        if hit is not None:
-            return hit
-        final = _entry(cache, key)
-        os.makedirs(os.path.dirname(final), exist_ok=True)
-        tmp = f"{final}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
-        os.makedirs(tmp)
-        try:
-            scene = _scene(task)
-            run_dir = os.path.join(tmp, "run")
-            cpu0 = time.process_time()
-            with warnings.catch_warnings(record=True) as caught:   # kept in the record,
-                warnings.simplefilter("always")                    # not printed by workers
-                res = core.run(scene, out=run_dir, progress=False)
-            cpu_s = time.process_time() - cpu0
-            out = _analysis(task.analysis)(run_dir, res, **dict(task.params)) or {}
-            s = res.summary
-            rec = {"key": key, "status": res.status, "message": res.message,
-                   "t_end_reached": s.get("t_end_reached"), "steps": s.get("steps"),
-                   "wall_s": s.get("wall_s"), "cpu_s": cpu_s,
-                   "newton_its_total": s.get("newton_its_total"),
-                   "metrics": out.get("metrics", {}), "code": code_version(),
-                   "warnings": sorted({str(w.message) for w in caught})}
-            keep = set(out.get("keep", ())) | {"trace.csv", "summary.json"}
-            for name in os.listdir(run_dir):
-                src = os.path.join(run_dir, name)
-                if name in keep and os.path.isfile(src):
-                    os.replace(src, os.path.join(tmp, name))
-            shutil.rmtree(run_dir, ignore_errors=True)
-            arrays = out.get("arrays", {})
-            if arrays:
-                np.savez(os.path.join(tmp, "arrays.npz"),
-                         **{k: np.asarray(v) for k, v in arrays.items()})
-            rec["files"] = {name: _sha256_file(os.path.join(tmp, name))
-                            for name in sorted(os.listdir(tmp))}
-            with open(os.path.join(tmp, "record.json"), "w", encoding="utf-8") as f:
-                json.dump(rec, f, indent=1, default=_json_default)
-            try:
-                os.rename(tmp, final)
-            except OSError:   # another worker finished the same run first
-                shutil.rmtree(tmp, ignore_errors=True)
-            rec["arrays"] = {k: np.asarray(v) for k, v in arrays.items()}
-            rec["cached"] = False
-            rec["run_dir"] = final
-            return rec
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
-            raise
+        return body()
     except core.BadInputError as exc:   # refused by the core: outside the method's domain
         rec = _error_record(task, key, f"{type(exc).__name__}: {exc}")
         rec["status"] = REFUSED
@@ -316,6 +301,76 @@ def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
         if os.environ.get("DYNCONTACT_STUDY_DEBUG"):
             msg += "\n" + traceback.format_exc()
         return _error_record(task, key, msg)
+
+
+def run_uncached(task: Task, run_dir: str) -> dict[str, Any]:
+    """Run one task into run_dir (emptied first), never through the cache: what it
+    measures (wall_s, cpu_s, wall_measured_s around :func:`dyncontact.run`) is of this
+    run. Never raises; the record is :func:`execute`'s, with run_dir = run_dir and all
+    of the run's outputs left there."""
+
+    def body() -> dict[str, Any]:
+        folder = os.path.abspath(run_dir)
+        if os.path.isdir(folder):
+            shutil.rmtree(folder)
+        rec, out = _run(task, folder, None)
+        rec["arrays"] = {k: np.asarray(v) for k, v in out.get("arrays", {}).items()}
+        rec["cached"] = False
+        rec["run_dir"] = folder
+        return rec
+
+    return _guarded(task, None, body)
+
+
+def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
+    """Run one task (or take it from the cache) and return its record; never raises.
+
+    The record: key, status ('ok' | 'unstable' | 'newton_failed' | 'refused' | 'error'),
+    message, t_end_reached, steps, wall_s (the core's time loop), cpu_s (process CPU time
+    around :func:`dyncontact.run`, set-up and trace reading included), wall_measured_s
+    (the wall time of the same), newton_its_total, metrics (numbers from the analysis),
+    arrays (numpy arrays from the analysis), cached, run_dir (the cache entry, holding
+    the files the analysis keeps).
+    """
+
+    def body() -> dict[str, Any]:
+        k = key or task_key(task)
+        hit = lookup(cache, k)
+        if hit is not None:
+            return hit
+        final = _entry(cache, k)
+        os.makedirs(os.path.dirname(final), exist_ok=True)
+        tmp = f"{final}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        os.makedirs(tmp)
+        try:
+            run_dir = os.path.join(tmp, "run")
+            rec, out = _run(task, run_dir, k)
+            keep = set(out.get("keep", ())) | {"trace.csv", "summary.json"}
+            for name in os.listdir(run_dir):
+                if name in keep:
+                    os.replace(os.path.join(run_dir, name), os.path.join(tmp, name))
+            shutil.rmtree(run_dir, ignore_errors=True)
+            arrays = out.get("arrays", {})
+            if arrays:
+                np.savez(os.path.join(tmp, "arrays.npz"),
+                         **{n: np.asarray(v) for n, v in arrays.items()})
+            rec["files"] = {name: _sha256_file(os.path.join(tmp, name))
+                            for name in _files(tmp)}
+            with open(os.path.join(tmp, "record.json"), "w", encoding="utf-8") as f:
+                json.dump(rec, f, indent=1, default=_json_default)
+            try:
+                os.rename(tmp, final)
+            except OSError:   # another worker finished the same run first
+                shutil.rmtree(tmp, ignore_errors=True)
+            rec["arrays"] = {n: np.asarray(v) for n, v in arrays.items()}
+            rec["cached"] = False
+            rec["run_dir"] = final
+            return rec
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+
+    return _guarded(task, key, body)
 
 
 def _json_default(x):
@@ -362,12 +417,16 @@ def _cost(task: Task) -> float:
 
 def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
           scheduler: Any = None, progress: bool | None = None, desc: str = "runs",
-          log: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
+          log: Callable[[str], None] | None = None,
+          on_done: Callable[[int, dict[str, Any]], None] | None = None
+          ) -> list[dict[str, Any]]:
     """Execute tasks (cached ones are taken from ``cache``) and return their records in
     the order of ``tasks``. Each record gets ``task`` (the Task) added.
 
     ``workers``: processes of the local pool (default: all cores); ``scheduler``: a
     dask.distributed scheduler address or Client (then ``workers`` is ignored).
+    ``on_done(i, record)`` is called in this process as soon as task i's record is
+    known (from the cache or a finished run), for work that need not wait for the rest.
     """
     cache = os.path.abspath(cache)
     os.makedirs(cache, exist_ok=True)
@@ -391,6 +450,8 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
                 msg = rec["message"].splitlines()[0] if rec["message"] else ""
                 say(f"{desc}: run failed ({_describe(tasks[i])}): {msg}")
             bar.update(1)
+            if on_done is not None:
+                on_done(i, rec)
 
         for i, task in enumerate(tasks):
             try:
@@ -400,8 +461,7 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
                 continue
             hit = lookup(cache, keys[i])
             if hit is not None:
-                records[i] = hit
-                bar.update(1)
+                done(i, hit)
             else:
                 todo.append(i)
         todo.sort(key=lambda i: -_cost(tasks[i]))

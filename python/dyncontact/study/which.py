@@ -18,12 +18,16 @@ never written by hand, for the 1D exact case and the seed's 2D bar.
   that do not lose a significant amount of energy at impact: |E change across the first
   contact phase| ≤ 1 % of E(0) (the claims table's "significant", :mod:`.claims`).
 - **Most robust in γ0 and Δt**: an option is a scheme with a Nitsche θ (θ is the user's
-  choice too; penalty contact has none). Its score is the fraction of stable runs over
-  γ0 x Δt/h (a setting the core refuses, θ = 1 below the γ0 bound, counts as not stable:
-  it cannot be run), Δt/h from the values every scheme was swept at. 2D: the stability
+  choice too; penalty contact has none). Its runs over γ0 x Δt/h (Δt/h from the values
+  every scheme was swept at) are counted as stable, not stable (unstable, Newton failed,
+  failed to run) and refused (the core refuses the setting as bad input: θ = 1 with γ0
+  below its bound). Its score is the fraction of stable runs among the settings it
+  accepts (stable + not stable): a refused setting is the user being told no, not a run
+  that went wrong, so it neither counts against an option nor for it. 2D: the stability
   study's grid runs (every h). 1D: an own sweep of the same grid (h = 0.02, T = 15, five
-  impacts). Ties are broken by the smallest, over γ0, largest stable Δt/h below the first
-  unstable one (the top of the grid when all are stable), and listed when they remain.
+  impacts). Ties are broken by the smallest, over the accepted γ0, largest stable Δt/h
+  below the first one that is not stable (the top of the grid when all are stable), and
+  listed when they remain.
 """
 
 from __future__ import annotations
@@ -40,7 +44,7 @@ from .common import (SCHEMES, fmt, md_table, scheme_list, step_ratio, write_base
                      write_csv, write_markdown)
 from .stability import thetas
 from .claims import SIGNIFICANT_GAIN
-from .sweep import make_task, sweep
+from .sweep import REFUSED, make_task, sweep
 
 __all__ = ["run_which", "OSC_SCHEMES", "OSC_SIZES", "ROBUST_1D"]
 
@@ -106,29 +110,47 @@ def common_ratios(grid: Mapping[str, Any]) -> list[float]:
 
 
 def robustness(rows, options, gammas, ratios) -> list[dict[str, Any]]:
-    """Per option (scheme, θ): stable runs / grid points (a missing or refused run counts
-    as not stable), and the smallest over γ0 of the largest stable Δt/h below the first
-    unstable one (the top of the grid when all are stable)."""
+    """Per option (scheme, θ) over the grid points γ0 x Δt/h: ``stable`` (status ok),
+    ``refused`` (the core refused the setting as bad input), ``unstable`` (any other
+    status, or no run), ``total`` = their sum, ``accepted`` = total − refused and
+    ``score`` = stable / accepted (nan when every setting is refused); and
+    ``min_stable_dt_over_h``, the smallest over γ0 of the largest stable Δt/h below the
+    first accepted one that is not stable (the top of the grid when all are stable;
+    refused settings are skipped, a γ0 with every setting refused is left out; inf when
+    no setting is accepted)."""
     out = []
     for s, th in options:
-        stable, total, worst = 0, 0, math.inf
+        stable, unstable, refused, worst = 0, 0, 0, math.inf
         for g0 in gammas:
-            first_bad = None
+            first_bad, seen = None, []
             for r in ratios:
-                total += 1
                 row = next((x for x in rows if x["scheme"] == s and x["gamma0"] == g0
                             and x["theta"] == th
                             and math.isclose(x["dt_over_h"], r, rel_tol=1e-9)), None)
+                if row is not None and row["status"] == REFUSED:
+                    refused += 1
+                    continue
+                seen.append(r)
                 ok = row is not None and row["status"] == "ok"
                 stable += ok
+                unstable += not ok
                 if not ok and first_bad is None:
                     first_bad = r
-            below = [r for r in ratios if first_bad is None or r < first_bad]
-            worst = min(worst, max(below) if below else 0.0)
-        out.append({"scheme": s, "theta": th, "stable": stable, "total": total,
-                    "score": stable / total if total else float("nan"),
-                    "min_stable_dt_over_h": worst})
+            if seen:
+                below = [r for r in seen if first_bad is None or r < first_bad]
+                worst = min(worst, max(below) if below else 0.0)
+        out.append(_scored({"scheme": s, "theta": th, "stable": stable,
+                            "unstable": unstable, "refused": refused,
+                            "min_stable_dt_over_h": worst}))
     return out
+
+
+def _scored(x: dict[str, Any]) -> dict[str, Any]:
+    """x with total, accepted and score from its stable, unstable and refused counts."""
+    x["total"] = x["stable"] + x["unstable"] + x["refused"]
+    x["accepted"] = x["stable"] + x["unstable"]
+    x["score"] = x["stable"] / x["accepted"] if x["accepted"] else float("nan")
+    return x
 
 
 def _best(items, key, reverse=False):
@@ -224,18 +246,18 @@ def run_which(out: str, wp: Mapping[str, Any], stab: Mapping[str, Any], *,
             for x in robustness(rows, options, grid["gamma0"], ratios):
                 p = per.setdefault((x["scheme"], x["theta"]),
                                    {"scheme": x["scheme"], "theta": x["theta"], "stable": 0,
-                                    "total": 0, "min_stable_dt_over_h": math.inf})
-                p["stable"] += x["stable"]
-                p["total"] += x["total"]
+                                    "unstable": 0, "refused": 0,
+                                    "min_stable_dt_over_h": math.inf})
+                for k in ("stable", "unstable", "refused"):
+                    p[k] += x[k]
                 p["min_stable_dt_over_h"] = min(p["min_stable_dt_over_h"],
                                                 x["min_stable_dt_over_h"])
         for p in per.values():
             p["case"] = case
-            p["score"] = p["stable"] / p["total"] if p["total"] else float("nan")
-            robust.append(p)
+            robust.append(_scored(p))
     rob_csv = write_csv(os.path.join(out, "robustness.csv"), robust,
-                        ["case", "scheme", "theta", "stable", "total", "score",
-                         "min_stable_dt_over_h"])
+                        ["case", "scheme", "theta", "stable", "unstable", "refused",
+                         "accepted", "total", "score", "min_stable_dt_over_h"])
     # the picks
     picks = []
     for case in ("1d", "2d"):
@@ -281,16 +303,19 @@ def run_which(out: str, wp: Mapping[str, Any], stab: Mapping[str, Any], *,
         if top:
             labels = ", ".join(_option(x) for x in top)
             x = top[0]
-            ev = (f"stable in {x['stable']}/{x['total']} runs of γ0 ∈ "
+            ev = (f"stable in {x['stable']}/{x['accepted']} accepted settings "
+                  f"({x['refused']} refused) of γ0 ∈ "
                   f"{{{', '.join(f'{g:g}' for g in grid['gamma0'])}}} × Δt/h ∈ "
                   f"{{{', '.join(f'{r:.3g}' for r in ratios)}}}"
                   + (" (every h of the stability sweep)" if case == "2d" else
                      f" (h = {ROBUST_1D['h']:g}, T = {ROBUST_1D['t_end']:g})")
                   + f"; {len(top)} tied" + (f": {labels}" if len(top) > 1 else ""))
-            others = sorted((y for y in rob if y not in top), key=lambda y: -y["score"])
+            others = sorted((y for y in rob if y not in top and y["accepted"]),
+                            key=lambda y: -y["score"])
             if others:
-                ev += "; then " + ", ".join(f"{_option(y)} {y['stable']}/{y['total']}"
+                ev += "; then " + ", ".join(f"{_option(y)} {y['stable']}/{y['accepted']}"
                                             for y in others[:4])
+            ev += "; scores count only the settings each option accepts"
             picks.append({"case": case, "question": "most robust in γ0 and Δt",
                           "pick": labels if len(top) <= 3 else
                           f"{len(top)} options tie (listed in the evidence)",
@@ -353,13 +378,25 @@ def _summary(report, path) -> str:
                       fmt(_pct((x.get("ec_end_ratio") or float("nan")) - 1), "+.3f")])
     lines += md_table(["case", "h", "scheme", "status", "mean p_n", "rel. std", "TV",
                        "E first step %", "E first contact %", "E(T)−E(0) %"], table)
-    lines += ["", "## Robustness (robustness.csv)", ""]
-    table = [[CASE_NAME[x["case"]], _option(x), f"{x['stable']}/{x['total']}",
+    lines += ["", "## Robustness (robustness.csv)", "",
+              "Each option's settings γ0 × Δt/h are counted as stable, not stable (unstable, "
+              "Newton failed or failed to run) and refused (bad input for the core: θ = 1 "
+              "with γ0 below its bound). The score is stable / (stable + not stable): "
+              "options are ranked only among the settings each one accepts, so a refused "
+              "setting counts neither for nor against an option.", ""]
+    table = [[CASE_NAME[x["case"]], _option(x), str(x["stable"]), str(x["unstable"]),
+              str(x["refused"]), fmt(x["score"], ".3f"),
               fmt(x["min_stable_dt_over_h"], ".3g")]
-             for x in sorted(report["robustness"], key=lambda x: (x["case"], -x["score"]))]
-    lines += md_table(["case", "option", "stable runs", "smallest stable Δt/h over γ0"],
-                      table)
+             for x in sorted(report["robustness"],
+                             key=lambda x: (x["case"], -_num(x["score"])))]
+    lines += md_table(["case", "option", "stable", "not stable", "refused",
+                       "score (of accepted)", "smallest stable Δt/h over γ0"], table)
     return write_markdown(path, lines)
+
+
+def _num(x) -> float:
+    """x, or -inf for nan (sorts last when negated)."""
+    return x if x == x else -math.inf
 
 
 def _pct(x):

@@ -1,0 +1,277 @@
+!> Mesh files read through gmsh's own API (fortran/io/gmsh_shim.c, which loads libgmsh at
+!> run time): msh 2.2 and 4.x, ASCII or binary, and .geo geometries meshed in-process.
+!>
+!> Conventions (shared with python/dyncontact/mesh_io.py, applied by the shim):
+!> - nodes are numbered 1..n in increasing order of their gmsh tags;
+!> - groups are the named physical groups by (dimension, tag), which is the order of
+!>   $PhysicalNames in every file gmsh writes, then the unnamed ones (named by their tag,
+!>   e.g. '7') in order of first use by an entity;
+!> - the mesh dimension is the highest element dimension (1 segments, 2 triangles,
+!>   3 tetrahedra); cells are its elements, entity by entity, each with the first physical
+!>   group of its entity (0 if none);
+!> - facets (elements of dimension dim-1) are stored once per physical group of their
+!>   entity; facets of entities without a physical group are dropped;
+!> - x holds the first dim coordinates; the others must be constant.
+module gmsh_mesh
+    use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_ptr, c_long_long, &
+        c_null_char, c_null_ptr
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise, MSG_LEN
+    use mesh, only: mesh_t, mesh_check, GROUP_NAME_LEN
+    implicit none
+    private
+    public :: read_mesh_file, gmsh_available
+
+    !> Relative tolerance of the test that dropped coordinates are constant.
+    real(dp), parameter :: PLANE_TOL = 1.0e-10_dp
+
+    interface
+        function c_gmsh_available(msg, msglen) result(ok) bind(C, name='dc_gmsh_available')
+            import :: c_int, c_char
+            character(kind=c_char), intent(out) :: msg(*)
+            integer(c_int), value :: msglen
+            integer(c_int) :: ok
+        end function c_gmsh_available
+        function c_gmsh_read(path, params, is_geo, out, msg, msglen) result(st) &
+            bind(C, name='dc_gmsh_read')
+            import :: c_int, c_char, c_double, c_ptr
+            character(kind=c_char), intent(in) :: path(*)
+            real(c_double), intent(in) :: params(3)
+            integer(c_int), value :: is_geo
+            type(c_ptr), intent(out) :: out
+            character(kind=c_char), intent(out) :: msg(*)
+            integer(c_int), value :: msglen
+            integer(c_int) :: st
+        end function c_gmsh_read
+        subroutine c_gmsh_sizes(p, dim, n_nodes, n_cells, n_facets, n_groups, names_len) &
+            bind(C, name='dc_gmsh_sizes')
+            import :: c_int, c_ptr, c_long_long
+            type(c_ptr), value :: p
+            integer(c_int), intent(out) :: dim, n_groups, names_len
+            integer(c_long_long), intent(out) :: n_nodes, n_cells, n_facets
+        end subroutine c_gmsh_sizes
+        subroutine c_gmsh_arrays(p, xyz, cells, cell_group, facets, facet_group, group_dim, &
+                                 names) bind(C, name='dc_gmsh_arrays')
+            import :: c_int, c_ptr, c_double, c_char
+            type(c_ptr), value :: p
+            real(c_double), intent(out) :: xyz(*)
+            integer(c_int), intent(out) :: cells(*), cell_group(*), facets(*), facet_group(*)
+            integer(c_int), intent(out) :: group_dim(*)
+            character(kind=c_char), intent(out) :: names(*)
+        end subroutine c_gmsh_arrays
+        subroutine c_gmsh_free(p) bind(C, name='dc_gmsh_free')
+            import :: c_ptr
+            type(c_ptr), value :: p
+        end subroutine c_gmsh_free
+    end interface
+
+contains
+
+    !> Whether libgmsh can be loaded (this loads it); why not in `why`.
+    function gmsh_available(why) result(ok)
+        character(len=*), intent(out), optional :: why   !! reason when .false.
+        logical :: ok
+        character(kind=c_char) :: buf(MSG_LEN)
+        ok = c_gmsh_available(buf, int(MSG_LEN, c_int)) /= 0
+        if (present(why)) why = from_c(buf)
+    end function gmsh_available
+
+    !> Read the mesh file `path` (.msh in any version gmsh reads, or .geo meshed with the
+    !> parameters h, length, width) into `msh`, then check it (mesh_check) unless
+    !> check = .false. Errors: STAT_BAD_INPUT with a one-line message starting with the path.
+    subroutine read_mesh_file(path, h, length, width, msh, stat, errmsg, check)
+        character(len=*), intent(in) :: path                !! .msh or .geo file
+        real(dp), intent(in) :: h                           !! .geo parameter h
+        real(dp), intent(in) :: length                      !! .geo parameter length
+        real(dp), intent(in) :: width                       !! .geo parameter width
+        type(mesh_t), intent(out) :: msh                    !! mesh read
+        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
+        character(len=*), intent(inout), optional :: errmsg !! one-line message naming the file
+        logical, intent(in), optional :: check              !! run mesh_check (default .true.)
+        character(kind=c_char) :: cmsg(MSG_LEN)
+        character(len=MSG_LEN) :: msg
+        character(len=:), allocatable :: p, ext
+        type(c_ptr) :: handle
+        integer(c_int) :: st, dim, n_groups, names_len, is_geo
+        integer(c_long_long) :: nn, nc, nf
+        real(dp), allocatable :: xyz(:, :)
+        character(kind=c_char), allocatable :: names(:)
+        logical :: exists, is_dir
+        integer :: ios, ist, nbytes
+
+        stat = STAT_OK
+        p = trim(path)
+        if (len(p) == 0) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'read_mesh_file: empty file name')
+            return
+        end if
+        inquire (file=p, exist=exists, iostat=ios)
+        if (ios /= 0 .or. .not. exists) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, p//': no such file')
+            return
+        end if
+        inquire (file=p//'/.', exist=is_dir, iostat=ios)
+        if (ios == 0 .and. is_dir) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, p//': is a folder, not a mesh file')
+            return
+        end if
+        inquire (file=p, size=nbytes, iostat=ios)
+        if (ios == 0 .and. nbytes == 0) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, p//': file is empty')
+            return
+        end if
+        ext = lower(extension(p))
+        select case (ext)
+        case ('.msh')
+            is_geo = 0
+        case ('.geo')
+            is_geo = 1
+        case default
+            call raise(stat, errmsg, STAT_BAD_INPUT, p//": unknown mesh file extension '"// &
+                       ext//"' (a mesh file is a gmsh .msh or .geo file)")
+            return
+        end select
+
+        handle = c_null_ptr
+        st = c_gmsh_read(p//c_null_char, [h, length, width], is_geo, handle, cmsg, &
+                         int(MSG_LEN, c_int))
+        if (st /= 0) then
+            call raise(stat, errmsg, merge(STAT_BAD_INPUT, STAT_INTERNAL, st == 2), from_c(cmsg))
+            return
+        end if
+        call c_gmsh_sizes(handle, dim, nn, nc, nf, n_groups, names_len)
+        if (max(nn, nc, nf) > huge(1)) then
+            call c_gmsh_free(handle)
+            call raise(stat, errmsg, STAT_BAD_INPUT, p//': too many nodes or elements')
+            return
+        end if
+        msh%dim = dim
+        msh%n_nodes = int(nn)
+        msh%n_cells = int(nc)
+        msh%n_facets = int(nf)
+        msh%n_groups = n_groups
+        allocate (xyz(3, nn), msh%cells(dim + 1, nc), msh%cell_group(nc), msh%facets(dim, nf), &
+                  msh%facet_group(nf), msh%group_dim(n_groups), names(max(1, names_len)), &
+                  stat=ist)
+        if (ist /= 0) then
+            call c_gmsh_free(handle)
+            call raise(stat, errmsg, STAT_INTERNAL, p//': out of memory')
+            return
+        end if
+        call c_gmsh_arrays(handle, xyz, msh%cells, msh%cell_group, msh%facets, &
+                           msh%facet_group, msh%group_dim, names)
+        call c_gmsh_free(handle)
+
+        call set_names(p, names(1:names_len), msh, stat, errmsg)
+        if (stat /= STAT_OK) return
+        call set_coordinates(p, xyz, msh, stat, errmsg)
+        if (stat /= STAT_OK) return
+        if (present(check)) then
+            if (.not. check) return
+        end if
+        msg = ''
+        call mesh_check(msh, ios, msg)
+        if (ios /= STAT_OK) call raise(stat, errmsg, ios, p//': '//trim(msg))
+    end subroutine read_mesh_file
+
+    !> Group names from the shim's newline-terminated list; no comma (Python joins with ',').
+    subroutine set_names(path, names, msh, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file (messages)
+        character(kind=c_char), intent(in) :: names(:)      !! names, each ended by newline
+        type(mesh_t), intent(inout) :: msh                  !! gets group_name
+        integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: g, i, start
+        stat = STAT_OK
+        allocate (msh%group_name(msh%n_groups))
+        msh%group_name = ''
+        g = 0
+        start = 1
+        do i = 1, size(names)
+            if (names(i) /= achar(10)) cycle
+            g = g + 1
+            if (g > msh%n_groups) exit
+            if (i - start > GROUP_NAME_LEN) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, path//': a physical group name is '// &
+                           'longer than the limit of 64 characters')
+                return
+            end if
+            msh%group_name(g) = transfer(names(start:i - 1), repeat(' ', i - start))
+            if (index(msh%group_name(g), ',') > 0) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, path//": physical group name '"// &
+                           trim(msh%group_name(g))//"' contains a comma")
+                return
+            end if
+            start = i + 1
+        end do
+    end subroutine set_names
+
+    !> x = the first dim coordinates; the others must be constant (a 2D mesh in a plane
+    !> z = const, a 1D mesh on a line y = const, z = const).
+    subroutine set_coordinates(path, xyz, msh, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file (messages)
+        real(dp), intent(in) :: xyz(:, :)                   !! (3, n_nodes)
+        type(mesh_t), intent(inout) :: msh                  !! gets x
+        integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=200) :: buf
+        real(dp) :: span, scale
+        integer :: j, dim
+        stat = STAT_OK
+        dim = msh%dim
+        msh%x = xyz(1:dim, :)
+        if (size(xyz, 2) == 0) return
+        scale = maxval(maxval(xyz, dim=2) - minval(xyz, dim=2))
+        do j = dim + 1, 3
+            span = maxval(xyz(j, :)) - minval(xyz(j, :))
+            if (span > PLANE_TOL * scale) then
+                write (buf, '(a, i0, a, a, a)') ': the mesh is ', dim, 'D but its ', &
+                    trim(merge('y', 'z', j == 2)), ' coordinates are not constant'
+                if (dim == 1) buf = trim(buf)//' (a 2D geometry saved without triangles:'// &
+                    ' no Physical Surface?)'
+                if (dim == 2) buf = trim(buf)//' (a 3D geometry saved without tetrahedra:'// &
+                    ' no Physical Volume?)'
+                call raise(stat, errmsg, STAT_BAD_INPUT, path//trim(buf))
+                return
+            end if
+        end do
+    end subroutine set_coordinates
+
+    !> The extension of `path` ('.msh'), '' if none.
+    pure function extension(path) result(ext)
+        character(len=*), intent(in) :: path   !! file name
+        character(len=:), allocatable :: ext
+        integer :: i
+        i = index(path, '.', back=.true.)
+        if (i == 0 .or. index(path(max(i, 1):), '/') > 0) then
+            ext = ''
+        else
+            ext = path(i:)
+        end if
+    end function extension
+
+    !> `s` in lower case (ASCII).
+    pure function lower(s) result(t)
+        character(len=*), intent(in) :: s   !! text
+        character(len=len(s)) :: t
+        integer :: i
+        t = s
+        do i = 1, len(s)
+            if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') t(i:i) = achar(iachar(s(i:i)) + 32)
+        end do
+    end function lower
+
+    !> Fortran text of a NUL-terminated C buffer.
+    pure function from_c(buf) result(s)
+        character(kind=c_char), intent(in) :: buf(:)   !! C string
+        character(len=:), allocatable :: s
+        integer :: n
+        n = 0
+        do while (n < size(buf))
+            if (buf(n + 1) == c_null_char) exit
+            n = n + 1
+        end do
+        allocate (character(len=n) :: s)
+        s = transfer(buf(1:n), s)
+    end function from_c
+end module gmsh_mesh

@@ -1,0 +1,671 @@
+/* gmsh_shim.c: meshes read through gmsh's own C API (libgmsh), loaded at run time.
+ *
+ * libgmsh is large (about 90 MB): it is dlopen()ed by the first call that names a mesh
+ * file, never at start-up, so a run on a built-in mesh does not map it. Where it is looked
+ * for: $DYNCONTACT_GMSH_LIB alone when it is set; otherwise the library found by meson at
+ * build time (DC_GMSH_LIB), then the dynamic loader's own search (libgmsh.so.<version>,
+ * libgmsh.so).
+ * A build without gmshc.h (DC_HAVE_GMSHC undefined) still compiles: every call then reports
+ * that mesh files need gmsh.
+ *
+ * dc_gmsh_read() loads a file (msh 2.2 / 4.x, ASCII or binary, or a .geo meshed in-process
+ * with the parameters h, length, width) and applies the project's conventions
+ * (docs/scenes.md, python/dyncontact/mesh_io.py):
+ *   - nodes: all nodes of the file (of the kept cells for a .geo), by increasing tag;
+ *   - dim: the highest dimension with elements; cells: elements of dimension dim, by entity
+ *     (increasing tag), in the entity's order, with the first physical group of the entity;
+ *   - facets: elements of dimension dim - 1 of entities with physical groups, once per group;
+ *   - groups: the named physical groups by (dimension, tag) -- the order of $PhysicalNames in
+ *     every file gmsh writes --, then the unnamed ones in order of first use by an entity.
+ * The result (1-based indices) is copied by the Fortran module gmsh_mesh, then freed with
+ * dc_gmsh_free(). gmsh state: initialized and finalized around the read; if the process
+ * already runs gmsh (the Python gmsh module), a model is added and removed and the options
+ * and parser variables set here are restored. Terminal output is off (General.Terminal 0).
+ * Status: 0 ok, 2 bad input (message in msg), 4 out of memory. */
+#include <dlfcn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#ifdef DC_HAVE_GMSHC
+#include <gmshc.h>
+#endif
+
+#ifndef DC_GMSH_LIB
+#define DC_GMSH_LIB ""
+#endif
+
+/* The mesh handed to Fortran (1-based node numbers and group indices, 0 = no group). */
+typedef struct {
+    int dim, n_groups;
+    size_t n_nodes, n_cells, n_facets;
+    double *xyz;           /* 3 * n_nodes */
+    int *cells;            /* (dim + 1) * n_cells */
+    int *cell_group;       /* n_cells */
+    int *facets;           /* dim * n_facets */
+    int *facet_group;      /* n_facets */
+    int *group_dim;        /* n_groups */
+    char *group_names;     /* n_groups names, each followed by '\n' */
+} dc_gmsh_mesh_t;
+
+#define NO_GMSH_MSG "mesh files need gmsh (libgmsh): install it with `pip install gmsh` " \
+    "(scripts/setup does) and rebuild, or set DYNCONTACT_GMSH_LIB to the path of libgmsh.so"
+#define NO_GMSH_BUILD_MSG "mesh files need gmsh, and this build has none: install it with " \
+    "`pip install gmsh` (scripts/setup does), then rebuild (meson finds it in the venv)"
+
+static void set_msg(char *msg, int len, const char *a, const char *b, const char *c)
+{
+    if (len <= 0) return;
+    snprintf(msg, (size_t)len, "%s%s%s", a, b ? b : "", c ? c : "");
+}
+
+/* Path of the libgmsh this build would load ('' if none found); for messages and tests. */
+void dc_gmsh_build_lib(char *out, int len)
+{
+    set_msg(out, len, DC_GMSH_LIB, NULL, NULL);
+}
+
+#ifndef DC_HAVE_GMSHC
+
+int dc_gmsh_available(char *msg, int msglen)
+{
+    set_msg(msg, msglen, NO_GMSH_BUILD_MSG, 0, 0);
+    return 0;
+}
+
+int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
+                 char *msg, int msglen)
+{
+    (void)params; (void)is_geo; *out = NULL;
+    set_msg(msg, msglen, path, ": ", NO_GMSH_BUILD_MSG);
+    return 2;
+}
+
+#else
+
+/* The gmshc functions used, resolved with dlsym. */
+static struct {
+    void *lib;
+    __typeof__(&gmshInitialize) initialize;
+    __typeof__(&gmshFinalize) finalize;
+    __typeof__(&gmshIsInitialized) is_initialized;
+    __typeof__(&gmshOptionSetNumber) option_set_number;
+    __typeof__(&gmshOptionGetNumber) option_get_number;
+    __typeof__(&gmshMerge) merge;
+    __typeof__(&gmshModelAdd) model_add;
+    __typeof__(&gmshModelRemove) model_remove;
+    __typeof__(&gmshModelGetCurrent) model_get_current;
+    __typeof__(&gmshModelSetCurrent) model_set_current;
+    __typeof__(&gmshParserSetNumber) parser_set_number;
+    __typeof__(&gmshParserGetNames) parser_get_names;
+    __typeof__(&gmshParserClear) parser_clear;
+    __typeof__(&gmshModelMeshGenerate) mesh_generate;
+    __typeof__(&gmshModelGetDimension) get_dimension;
+    __typeof__(&gmshModelMeshGetNodes) get_nodes;
+    __typeof__(&gmshModelGetEntities) get_entities;
+    __typeof__(&gmshModelMeshGetElements) get_elements;
+    __typeof__(&gmshModelGetPhysicalGroups) get_physical_groups;
+    __typeof__(&gmshModelGetPhysicalName) get_physical_name;
+    __typeof__(&gmshModelGetPhysicalGroupsForEntity) get_physical_groups_for_entity;
+    __typeof__(&gmshFree) free;
+    __typeof__(&gmshLoggerGetLastError) last_error;
+} G;
+
+static char load_error[512];
+
+/* dlopen libgmsh once (the process keeps it); 1 if the functions are there. */
+static int gmsh_load(void)
+{
+    const char *candidates[4];
+    int n = 0, i;
+    if (G.lib) return 1;
+    const char *env = getenv("DYNCONTACT_GMSH_LIB");
+    if (env && *env) {
+        candidates[n++] = env;
+    } else {
+        if (*DC_GMSH_LIB) candidates[n++] = DC_GMSH_LIB;
+#ifdef DC_GMSH_SOVERSION
+        candidates[n++] = "libgmsh.so." DC_GMSH_SOVERSION;
+#endif
+        candidates[n++] = "libgmsh.so";
+    }
+    load_error[0] = '\0';
+    for (i = 0; i < n && !G.lib; i++) {
+        G.lib = dlopen(candidates[i], RTLD_NOW | RTLD_LOCAL);
+        if (!G.lib && i == 0 && env && *env)
+            snprintf(load_error, sizeof load_error, "DYNCONTACT_GMSH_LIB: %s", dlerror());
+    }
+    if (!G.lib) return 0;
+#define SYM(field, name) \
+    if (!(*(void **)&G.field = dlsym(G.lib, name))) { \
+        snprintf(load_error, sizeof load_error, "libgmsh lacks %s", name); \
+        dlclose(G.lib); G.lib = NULL; return 0; }
+    SYM(initialize, "gmshInitialize") SYM(finalize, "gmshFinalize")
+    SYM(is_initialized, "gmshIsInitialized") SYM(option_set_number, "gmshOptionSetNumber")
+    SYM(option_get_number, "gmshOptionGetNumber") SYM(merge, "gmshMerge")
+    SYM(model_add, "gmshModelAdd") SYM(model_remove, "gmshModelRemove")
+    SYM(model_get_current, "gmshModelGetCurrent") SYM(model_set_current, "gmshModelSetCurrent")
+    SYM(parser_set_number, "gmshParserSetNumber") SYM(parser_get_names, "gmshParserGetNames")
+    SYM(parser_clear, "gmshParserClear") SYM(mesh_generate, "gmshModelMeshGenerate")
+    SYM(get_dimension, "gmshModelGetDimension") SYM(get_nodes, "gmshModelMeshGetNodes")
+    SYM(get_entities, "gmshModelGetEntities") SYM(get_elements, "gmshModelMeshGetElements")
+    SYM(get_physical_groups, "gmshModelGetPhysicalGroups")
+    SYM(get_physical_name, "gmshModelGetPhysicalName")
+    SYM(get_physical_groups_for_entity, "gmshModelGetPhysicalGroupsForEntity")
+    SYM(free, "gmshFree") SYM(last_error, "gmshLoggerGetLastError")
+#undef SYM
+    return 1;
+}
+
+/* 1 if libgmsh can be loaded; otherwise 0 and why in msg. */
+int dc_gmsh_available(char *msg, int msglen)
+{
+    if (gmsh_load()) { set_msg(msg, msglen, "", 0, 0); return 1; }
+    set_msg(msg, msglen, NO_GMSH_MSG, *load_error ? " (" : "", *load_error ? load_error : "");
+    if (*load_error && msglen > 2 && strlen(msg) + 2 < (size_t)msglen) strcat(msg, ")");
+    return 0;
+}
+
+/* gmsh's last error as "path: gmsh: <error>" in msg. */
+static void gmsh_error(const char *path, const char *what, char *msg, int msglen)
+{
+    char *err = NULL;
+    int ierr = 0;
+    G.last_error(&err, &ierr);
+    char buf[1024];
+    snprintf(buf, sizeof buf, ": %s: %s", what,
+             (ierr == 0 && err && *err) ? err : "gmsh failed without a message");
+    /* one line of printable text */
+    for (char *p = buf; *p; p++) if ((unsigned char)*p < 0x20 || *p == 0x7f) *p = ' ';
+    set_msg(msg, msglen, path, buf, NULL);
+    if (err) G.free(err);
+}
+
+/* Saved state of a gmsh session the caller already runs. */
+typedef struct {
+    int own;
+    char *previous_model;
+    double terminal, size_max;
+    char **names_before;
+    size_t n_names_before;
+} session_t;
+
+static const char *MODEL = "dyncontact-read";
+static const char *PARAM_NAMES[3] = {"h", "length", "width"};
+
+static int session_begin(session_t *s)
+{
+    int ierr = 0;
+    memset(s, 0, sizeof *s);
+    s->own = !G.is_initialized(&ierr);
+    if (s->own) {
+        char arg0[] = "dyncontact";
+        char *argv[] = {arg0, NULL};
+        G.initialize(1, argv, 0, 0, &ierr);
+        if (ierr) return ierr;
+    } else {
+        G.model_get_current(&s->previous_model, &ierr);
+        G.option_get_number("General.Terminal", &s->terminal, &ierr);
+        G.option_get_number("Mesh.MeshSizeMax", &s->size_max, &ierr);
+        G.parser_get_names(&s->names_before, &s->n_names_before, "", &ierr);
+    }
+    G.option_set_number("General.Terminal", 0, &ierr);
+    G.model_add(MODEL, &ierr);
+    return ierr;
+}
+
+/* Clear the parser variables created since session_begin. */
+static void clear_new_names(const session_t *s)
+{
+    int ierr = 0;
+    size_t i, j;
+    char **names = NULL;
+    size_t n = 0;
+    G.parser_get_names(&names, &n, "", &ierr);
+    for (i = 0; i < n; i++) {
+        int seen = 0;
+        for (j = 0; j < s->n_names_before && !seen; j++)
+            seen = strcmp(names[i], s->names_before[j]) == 0;
+        if (!seen) G.parser_clear(names[i], &ierr);
+        G.free(names[i]);
+    }
+    if (names) G.free(names);
+}
+
+static void session_end(session_t *s)
+{
+    int ierr = 0;
+    size_t j;
+    if (s->own) { G.finalize(&ierr); return; }
+    G.model_set_current(MODEL, &ierr);
+    if (!ierr) G.model_remove(&ierr);
+    clear_new_names(s);
+    for (j = 0; j < s->n_names_before; j++) G.free(s->names_before[j]);
+    if (s->names_before) G.free(s->names_before);
+    G.option_set_number("General.Terminal", s->terminal, &ierr);
+    G.option_set_number("Mesh.MeshSizeMax", s->size_max, &ierr);
+    if (s->previous_model) {
+        G.model_set_current(s->previous_model, &ierr);
+        G.free(s->previous_model);
+    }
+}
+
+static int cmp_size(const void *a, const void *b)
+{
+    size_t x = *(const size_t *)a, y = *(const size_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Index (1-based) of tag in sorted[0..n), 0 if absent. */
+static int find_tag(const size_t *sorted, size_t n, size_t tag)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (sorted[mid] < tag) lo = mid + 1; else hi = mid;
+    }
+    return (lo < n && sorted[lo] == tag) ? (int)lo + 1 : 0;
+}
+
+/* gmsh element type of the linear simplex of dimension d (point, segment, triangle, tet). */
+static int simplex_type(int d) { static const int t[4] = {15, 1, 2, 4}; return t[d]; }
+
+static const char *dim_noun(int d)
+{
+    static const char *n[4] = {"points", "segments", "triangles", "tetrahedra"};
+    return n[d];
+}
+
+/* Elements of entity (d, tag): the P1 simplices (tags, nodes) or an error for others. */
+typedef struct { size_t n; size_t *tags; size_t *nodes; } block_t;
+
+static int entity_elements(int d, int tag, block_t *b, const char *path, char *msg, int msglen)
+{
+    int *types = NULL, ierr = 0, st = 0;
+    size_t n_types = 0, **etags = NULL, *etags_n = NULL, etags_nn = 0;
+    size_t **ntags = NULL, *ntags_n = NULL, ntags_nn = 0, i;
+    memset(b, 0, sizeof *b);
+    G.get_elements(&types, &n_types, &etags, &etags_n, &etags_nn, &ntags, &ntags_n, &ntags_nn,
+                   d, tag, &ierr);
+    if (ierr) { gmsh_error(path, "reading the elements", msg, msglen); return 2; }
+    for (i = 0; i < n_types; i++) {
+        if (types[i] == simplex_type(d) && !b->tags) {
+            b->n = etags_n[i];
+            b->tags = etags[i];
+            b->nodes = ntags[i];
+            etags[i] = ntags[i] = NULL;
+        } else if (etags_n[i] > 0 && st == 0) {
+            char buf[200];
+            snprintf(buf, sizeof buf, ": element type %d (dimension %d) is not a linear "
+                     "simplex; only %s are supported in dimension %d", types[i], d,
+                     dim_noun(d), d);
+            set_msg(msg, msglen, path, buf, NULL);
+            st = 2;
+        }
+    }
+    for (i = 0; i < n_types; i++) {
+        if (etags[i]) G.free(etags[i]);
+        if (ntags[i]) G.free(ntags[i]);
+    }
+    G.free(types); G.free(etags); G.free(etags_n); G.free(ntags); G.free(ntags_n);
+    if (st) { if (b->tags) G.free(b->tags); if (b->nodes) G.free(b->nodes); memset(b, 0, sizeof *b); }
+    return st;
+}
+
+/* Physical tags of entity (d, tag) (gmsh-allocated, may be NULL). */
+static int *entity_physicals(int d, int tag, size_t *n)
+{
+    int *p = NULL, ierr = 0;
+    *n = 0;
+    G.get_physical_groups_for_entity(d, tag, &p, n, &ierr);
+    if (ierr) *n = 0;
+    return p;
+}
+
+typedef struct { int dim, tag; } group_key_t;
+
+/* Build the mesh from the current model. keep_untagged: keep cells of entities without a
+ * physical group when the model has some (a file: gmsh saved them; a .geo: gmsh would not). */
+static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char *msg, int msglen)
+{
+    int ierr = 0, st = 0, d, dim = 0;
+    size_t i, k, e, v;
+    int *all_groups = NULL;
+    size_t n_all_groups = 0;
+    group_key_t *groups = NULL;
+    int n_groups = 0;
+    char *names = NULL;
+    size_t names_len = 0;
+    size_t *node_tags = NULL, n_node_tags = 0, *sorted = NULL;
+    double *coord = NULL, *param = NULL;
+    size_t n_coord = 0, n_param = 0;
+    int *ents[4] = {0};
+    size_t n_ents[4] = {0};
+    block_t *blocks[4] = {0};
+
+    /* groups: named by (dim, tag), then unnamed by first use */
+    G.get_physical_groups(&all_groups, &n_all_groups, -1, &ierr);
+    n_all_groups /= 2;
+    groups = calloc(n_all_groups + 1, sizeof *groups);
+    if (!groups) return 4;
+    for (int pass = 0; pass < 2; pass++) {
+        for (d = 0; d <= 3 && pass == 0; d++) {
+            for (i = 0; i < n_all_groups; i++) {
+                char *name = NULL;
+                if (all_groups[2 * i] != d) continue;
+                G.get_physical_name(d, all_groups[2 * i + 1], &name, &ierr);
+                if (name && *name) {
+                    size_t l = strlen(name);
+                    names = realloc(names, names_len + l + 2);
+                    memcpy(names + names_len, name, l);
+                    names[names_len + l] = '\n';
+                    names_len += l + 1;
+                    groups[n_groups].dim = d;
+                    groups[n_groups++].tag = all_groups[2 * i + 1];
+                }
+                if (name) G.free(name);
+            }
+        }
+        if (pass == 1) {
+            /* unnamed groups in order of first use by an entity (by dimension, tag) */
+            for (d = 0; d <= 3; d++) {
+                int *dt = NULL;
+                size_t n = 0;
+                G.get_entities(&dt, &n, d, &ierr);
+                for (e = 0; e < n / 2; e++) {
+                    size_t np;
+                    int *p = entity_physicals(d, dt[2 * e + 1], &np);
+                    for (k = 0; k < np; k++) {
+                        int g, found = 0;
+                        for (g = 0; g < n_groups && !found; g++)
+                            found = groups[g].dim == d && groups[g].tag == p[k];
+                        if (!found) {
+                            char buf[16];
+                            int l = snprintf(buf, sizeof buf, "%d\n", p[k]);
+                            names = realloc(names, names_len + (size_t)l + 1);
+                            memcpy(names + names_len, buf, (size_t)l);
+                            names_len += (size_t)l;
+                            groups[n_groups].dim = d;
+                            groups[n_groups++].tag = p[k];
+                        }
+                    }
+                    if (p) G.free(p);
+                }
+                if (dt) G.free(dt);
+            }
+        }
+    }
+    if (all_groups) G.free(all_groups);
+    names = realloc(names, names_len + 1);
+    names[names_len] = '\0';
+
+    /* entities and their simplices, dimension by dimension */
+    for (d = 0; d <= 3 && st == 0; d++) {
+        G.get_entities(&ents[d], &n_ents[d], d, &ierr);
+        n_ents[d] /= 2;
+        blocks[d] = calloc(n_ents[d] + 1, sizeof(block_t));
+        for (e = 0; e < n_ents[d] && st == 0; e++)
+            st = entity_elements(d, ents[d][2 * e + 1], &blocks[d][e], path, msg, msglen);
+    }
+    for (d = 1; d <= 3 && st == 0; d++)
+        for (e = 0; e < n_ents[d]; e++)
+            if (blocks[d][e].n > 0) {
+                size_t np;
+                int *p = entity_physicals(d, ents[d][2 * e + 1], &np);
+                if (p) G.free(p);
+                if (keep_untagged || np > 0 || n_groups == 0) dim = d;
+            }
+    if (st == 0 && dim == 0) {
+        set_msg(msg, msglen, path, ": no segments, triangles or tetrahedra in the mesh", NULL);
+        st = 2;
+    }
+
+    /* nodes by increasing tag */
+    if (st == 0) {
+        G.get_nodes(&node_tags, &n_node_tags, &coord, &n_coord, &param, &n_param, -1, -1, 0, 0,
+                    &ierr);
+        if (ierr) { gmsh_error(path, "reading the nodes", msg, msglen); st = 2; }
+    }
+    if (st == 0) {
+        sorted = malloc((n_node_tags + 1) * sizeof *sorted);
+        if (!sorted) st = 4;
+    }
+    if (st == 0) {
+        for (i = 0; i < n_node_tags; i++) sorted[i] = node_tags[i];
+        qsort(sorted, n_node_tags, sizeof *sorted, cmp_size);
+        for (i = 1; i < n_node_tags; i++)
+            if (sorted[i] == sorted[i - 1]) {
+                char buf[120];
+                snprintf(buf, sizeof buf, ": node tag %zu appears twice", sorted[i]);
+                set_msg(msg, msglen, path, buf, NULL);
+                st = 2;
+                break;
+            }
+    }
+
+    /* cells and facets */
+    if (st == 0) {
+        int *used = NULL;
+        size_t nc = 0, nf = 0, c = 0, f = 0, nn = 0;
+        for (int pass = 0; pass < 2 && st == 0; pass++) {
+            for (int dd = dim; dd >= dim - 1 && dd >= 0 && st == 0; dd--) {
+                for (e = 0; e < n_ents[dd] && st == 0; e++) {
+                    block_t *b = &blocks[dd][e];
+                    size_t np;
+                    int *p = entity_physicals(dd, ents[dd][2 * e + 1], &np);
+                    int gidx[64];
+                    size_t ng = np < 64 ? np : 64;
+                    for (k = 0; k < ng; k++) {
+                        gidx[k] = 0;
+                        for (int g = 0; g < n_groups && !gidx[k]; g++)
+                            if (groups[g].dim == dd && groups[g].tag == p[k]) gidx[k] = g + 1;
+                    }
+                    if (p) G.free(p);
+                    if (dd == dim) {
+                        if (!keep_untagged && np == 0 && n_groups > 0) continue;
+                        if (pass == 0) { nc += b->n; continue; }
+                        for (i = 0; i < b->n && st == 0; i++, c++) {
+                            for (v = 0; v < (size_t)dim + 1; v++) {
+                                int idx = find_tag(sorted, n_node_tags, b->nodes[i * (dim + 1) + v]);
+                                if (!idx) {
+                                    char buf[160];
+                                    snprintf(buf, sizeof buf, ": element %zu refers to unknown "
+                                             "node %zu", b->tags[i], b->nodes[i * (dim + 1) + v]);
+                                    set_msg(msg, msglen, path, buf, NULL);
+                                    st = 2;
+                                    break;
+                                }
+                                m->cells[c * (dim + 1) + v] = idx;
+                                if (used) used[idx - 1] = 1;
+                            }
+                            m->cell_group[c] = ng > 0 ? gidx[0] : 0;
+                        }
+                    } else {
+                        if (pass == 0) { nf += b->n * ng; continue; }
+                        for (i = 0; i < b->n && st == 0; i++)
+                            for (k = 0; k < ng && st == 0; k++, f++) {
+                                for (v = 0; v < (size_t)dim; v++) {
+                                    int idx = find_tag(sorted, n_node_tags, b->nodes[i * dim + v]);
+                                    if (!idx) {
+                                        char buf[160];
+                                        snprintf(buf, sizeof buf, ": element %zu refers to "
+                                                 "unknown node %zu", b->tags[i],
+                                                 b->nodes[i * dim + v]);
+                                        set_msg(msg, msglen, path, buf, NULL);
+                                        st = 2;
+                                        break;
+                                    }
+                                    m->facets[f * dim + v] = idx;
+                                }
+                                m->facet_group[f] = gidx[k];
+                            }
+                    }
+                }
+            }
+            if (pass == 0) {
+                m->dim = dim;
+                m->n_cells = nc;
+                m->n_facets = nf;
+                m->cells = malloc((nc * (dim + 1) + 1) * sizeof(int));
+                m->cell_group = malloc((nc + 1) * sizeof(int));
+                m->facets = malloc((nf * dim + 1) * sizeof(int));
+                m->facet_group = malloc((nf + 1) * sizeof(int));
+                if (!keep_untagged) used = calloc(n_node_tags + 1, sizeof(int));
+                if (!m->cells || !m->cell_group || !m->facets || !m->facet_group)
+                    st = 4;
+            }
+        }
+        /* nodes: all of them (a file), or those of the kept cells (a .geo) */
+        if (st == 0) {
+            size_t *pos = malloc((n_node_tags + 1) * sizeof *pos);   /* tag position */
+            int *renum = malloc((n_node_tags + 1) * sizeof *renum);
+            for (i = 0; i < n_node_tags; i++)
+                pos[find_tag(sorted, n_node_tags, node_tags[i]) - 1] = i;
+            for (i = 0; i < n_node_tags; i++)
+                renum[i] = (!used || used[i]) ? (int)++nn : 0;
+            m->n_nodes = nn;
+            m->xyz = malloc((3 * nn + 1) * sizeof(double));
+            for (i = 0; i < n_node_tags; i++)
+                if (renum[i])
+                    memcpy(m->xyz + 3 * (renum[i] - 1), coord + 3 * pos[i], 3 * sizeof(double));
+            if (used) {
+                for (i = 0; i < m->n_cells * (dim + 1); i++) m->cells[i] = renum[m->cells[i] - 1];
+                for (i = 0; i < m->n_facets * dim; i++)
+                    m->facets[i] = renum[m->facets[i] - 1];
+            }
+            free(pos);
+            free(renum);
+        }
+        free(used);
+    }
+
+    m->n_groups = n_groups;
+    m->group_dim = malloc(((size_t)n_groups + 1) * sizeof(int));
+    for (int g = 0; g < n_groups; g++) m->group_dim[g] = groups[g].dim;
+    m->group_names = names;
+    free(groups);
+    free(sorted);
+    if (node_tags) G.free(node_tags);
+    if (coord) G.free(coord);
+    if (param) G.free(param);
+    for (d = 0; d <= 3; d++) {
+        for (e = 0; blocks[d] && e < n_ents[d]; e++) {
+            if (blocks[d][e].tags) G.free(blocks[d][e].tags);
+            if (blocks[d][e].nodes) G.free(blocks[d][e].nodes);
+        }
+        free(blocks[d]);
+        if (ents[d]) G.free(ents[d]);
+    }
+    return st;
+}
+
+void dc_gmsh_free(void *p);
+
+/* Read path into *out (free with dc_gmsh_free). params = (h, length, width) for a .geo:
+ * they are set as the file's parser variables of those names; if the file uses no h, h is
+ * the largest mesh size (Mesh.MeshSizeMax). */
+int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
+                 char *msg, int msglen)
+{
+    session_t s;
+    int ierr = 0, st = 0, i;
+    dc_gmsh_mesh_t *m;
+    *out = NULL;
+    if (!gmsh_load()) {
+        dc_gmsh_available(msg, msglen);
+        char buf[1024];
+        snprintf(buf, sizeof buf, "%s: %s", path, msg);
+        set_msg(msg, msglen, buf, NULL, NULL);
+        return 2;
+    }
+    m = calloc(1, sizeof *m);
+    if (!m) return 4;
+    if (session_begin(&s)) {
+        gmsh_error(path, "gmsh initialization", msg, msglen);
+        session_end(&s);
+        free(m);
+        return 2;
+    }
+    if (is_geo) {
+        /* does the file use h? parse it once without h: it then defines h, or fails */
+        int uses_h = 0;
+        char **names = NULL;
+        size_t n = 0, j;
+        for (i = 1; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
+        G.parser_clear("h", &ierr);
+        ierr = 0;
+        G.merge(path, &ierr);
+        if (ierr) {
+            uses_h = 1;
+        } else {
+            G.parser_get_names(&names, &n, "h", &ierr);
+            for (j = 0; j < n; j++) {
+                if (strcmp(names[j], "h") == 0) uses_h = 1;
+                G.free(names[j]);
+            }
+            if (names) G.free(names);
+        }
+        G.model_remove(&ierr);
+        G.model_add(MODEL, &ierr);
+        clear_new_names(&s);         /* the variables of that parse */
+        for (i = 0; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
+        ierr = 0;
+        G.merge(path, &ierr);
+        if (ierr) { gmsh_error(path, "gmsh cannot read it", msg, msglen); st = 2; }
+        if (st == 0 && !uses_h) {
+            G.option_set_number("Mesh.MeshSizeMax", params[0], &ierr);
+        }
+        if (st == 0) {
+            int d = G.get_dimension(&ierr);
+            G.mesh_generate(d, &ierr);
+            if (ierr) { gmsh_error(path, "gmsh cannot mesh it", msg, msglen); st = 2; }
+        }
+    } else {
+        G.merge(path, &ierr);
+        if (ierr) { gmsh_error(path, "gmsh cannot read it", msg, msglen); st = 2; }
+    }
+    if (st == 0) st = extract(path, !is_geo, m, msg, msglen);
+    session_end(&s);
+    if (st) { dc_gmsh_free(m); return st; }
+    *out = m;
+    return 0;
+}
+
+#endif
+
+/* Sizes of a mesh read by dc_gmsh_read. */
+void dc_gmsh_sizes(void *p, int *dim, long long *n_nodes, long long *n_cells,
+                   long long *n_facets, int *n_groups, int *names_len)
+{
+    dc_gmsh_mesh_t *m = p;
+    *dim = m->dim;
+    *n_nodes = (long long)m->n_nodes;
+    *n_cells = (long long)m->n_cells;
+    *n_facets = (long long)m->n_facets;
+    *n_groups = m->n_groups;
+    *names_len = m->group_names ? (int)strlen(m->group_names) : 0;
+}
+
+/* Copy the arrays of a mesh read by dc_gmsh_read (sizes from dc_gmsh_sizes). */
+void dc_gmsh_arrays(void *p, double *xyz, int *cells, int *cell_group, int *facets,
+                    int *facet_group, int *group_dim, char *names)
+{
+    dc_gmsh_mesh_t *m = p;
+    memcpy(xyz, m->xyz, 3 * m->n_nodes * sizeof(double));
+    memcpy(cells, m->cells, (size_t)(m->dim + 1) * m->n_cells * sizeof(int));
+    memcpy(cell_group, m->cell_group, m->n_cells * sizeof(int));
+    memcpy(facets, m->facets, (size_t)m->dim * m->n_facets * sizeof(int));
+    memcpy(facet_group, m->facet_group, m->n_facets * sizeof(int));
+    memcpy(group_dim, m->group_dim, (size_t)m->n_groups * sizeof(int));
+    if (m->group_names) memcpy(names, m->group_names, strlen(m->group_names));
+}
+
+/* Release a mesh of dc_gmsh_read (NULL is fine). */
+void dc_gmsh_free(void *p)
+{
+    dc_gmsh_mesh_t *m = p;
+    if (!m) return;
+    free(m->xyz); free(m->cells); free(m->cell_group); free(m->facets);
+    free(m->facet_group); free(m->group_dim); free(m->group_names);
+    free(m);
+}

@@ -1,0 +1,83 @@
+!> Unit tests of the 3D mesh checks: the built-in box passes mesh_check, with triangle
+!> facets owned by tetrahedra (the owner's opposite node off the facet); a tetrahedron of
+!> zero volume, a triangle that is no face of any tetrahedron and a repeated facet node
+!> are refused with messages naming them. Exit status 1 (error stop) on any failure.
+program test_mesh3d
+    use kinds, only: dp
+    use errors, only: STAT_OK, STAT_BAD_INPUT
+    use mesh, only: mesh_t, mesh_check, mesh_facet_owner, mesh_cell_size
+    use bar_mesh, only: bar_mesh_build
+    use unit_checks, only: checks_t
+    implicit none
+    type(checks_t) :: checks
+    type(mesh_t) :: box, bad
+    integer, allocatable :: owner(:), opposite(:)
+    integer :: stat, f, c
+    character(len=200) :: msg
+    real(dp) :: meas, hmax, vol
+
+    call bar_mesh_build(3, 1.0_dp, 0.1_dp, 0.05_dp, box, stat, msg)
+    call checks%check(stat == STAT_OK, 'box built')
+    call mesh_check(box, stat, msg)
+    call checks%check(stat == STAT_OK, 'box passes mesh_check')
+    call mesh_facet_owner(box, owner, stat, msg, opposite)
+    call checks%check(stat == STAT_OK .and. all(owner > 0), 'every box facet has an owner')
+    do f = 1, box%n_facets
+        call checks%check(.not. any(box%facets(:, f) == box%cells(opposite(f), owner(f))), &
+                          'opposite node off the facet')
+    end do
+    vol = 0.0_dp
+    do c = 1, box%n_cells
+        call mesh_cell_size(box, c, meas, hmax)
+        vol = vol + abs(meas)
+        call checks%check(abs(hmax - sqrt(3.0_dp) * 0.05_dp) < 1.0e-15_dp, 'diameter = cube diagonal')
+    end do
+    call checks%check(abs(vol - 0.01_dp) < 1.0e-15_dp, 'volumes sum to the box')
+
+    ! one tetrahedron, its four faces
+    call one_tet(bad)
+    call mesh_check(bad, stat, msg)
+    call checks%check(stat == STAT_OK, 'a single tetrahedron passes')
+    bad%x(:, 4) = [0.5_dp, 0.5_dp, 0.0_dp]     ! flat: in the plane of the others
+    msg = ''
+    call mesh_check(bad, stat, msg)
+    call checks%check(stat == STAT_BAD_INPUT .and. index(msg, 'cell 1 is degenerate') > 0, &
+                      'zero-volume tetrahedron refused: '//trim(msg))
+    call one_tet(bad)
+    bad%facets(:, 2) = [1, 2, 2]
+    msg = ''
+    call mesh_check(bad, stat, msg)
+    call checks%check(stat == STAT_BAD_INPUT .and. index(msg, 'facet 2 repeats a node') > 0, &
+                      'repeated facet node refused: '//trim(msg))
+    call one_tet(bad)
+    bad%n_nodes = 5
+    bad%x = reshape([0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1], [3, 5]) * 1.0_dp
+    bad%cells = reshape([1, 2, 3, 4, 2, 3, 4, 5], [4, 2])
+    bad%n_cells = 2
+    bad%cell_group = [1, 1]
+    bad%facets(:, 1) = [1, 2, 5]
+    msg = ''
+    call mesh_check(bad, stat, msg)
+    call checks%check(stat == STAT_BAD_INPUT .and. index(msg, 'facet 1 is not a face') > 0, &
+                      'a triangle that is no face refused: '//trim(msg))
+    call checks%finish('test_mesh3d')
+
+contains
+
+    !> The unit tetrahedron with its four faces in one group.
+    subroutine one_tet(m)
+        type(mesh_t), intent(out) :: m
+        m%dim = 3
+        m%n_nodes = 4
+        m%n_cells = 1
+        m%n_facets = 4
+        m%n_groups = 2
+        m%x = reshape([0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1], [3, 4]) * 1.0_dp
+        m%cells = reshape([1, 2, 3, 4], [4, 1])
+        m%cell_group = [2]
+        m%facets = reshape([1, 2, 3, 1, 2, 4, 1, 3, 4, 2, 3, 4], [3, 4])
+        m%facet_group = [1, 1, 1, 1]
+        m%group_name = [character(len=64) :: 'boundary', 'body']
+        m%group_dim = [2, 3]
+    end subroutine one_tet
+end program test_mesh3d

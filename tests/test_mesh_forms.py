@@ -1,0 +1,331 @@
+"""Mesh files through gmsh's API: one mesh in every form gmsh writes (msh 2.2 ASCII,
+4.1 ASCII, 4.1 binary) and named as its .geo gives the same mesh, and in 2D the same
+trace; bad mesh files stop with exit 2 naming the file; gmsh is loaded only when a mesh
+file is named, and leaves no state behind in the Python process.
+
+Meshes: the 2D bar of meshes/bar2d.geo, the 2D disk of meshes/disk.geo, the 3D box of
+GetFEM (tests/data/meshes/bar3d_getfem_h0.05.msh) and a small 3D box .geo
+(tests/data/meshes/box3d.geo); 3D is checked at the reader level (check=False), since
+the model takes 2D meshes.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from dyncontact import core, mesh_io
+from dyncontact.core import BadInputError
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests" / "data" / "meshes"
+
+#: msh forms gmsh writes: name -> (version, binary)
+FORMS = {"msh22": (2.2, False), "msh41": (4.1, False), "msh41bin": (4.1, True)}
+
+#: .geo sources: name -> (file, parameters)
+GEOS = {
+    "bar": (ROOT / "meshes" / "bar2d.geo", dict(h=0.05, length=1.0, width=0.1)),
+    "disk": (ROOT / "meshes" / "disk.geo", dict(h=0.02, length=1.0, width=0.1)),
+    "box3d": (DATA / "box3d.geo", dict(h=0.05, length=0.3, width=0.1)),
+}
+
+
+def rewrite(src: Path, out: Path, version: float, binary: bool) -> Path:
+    """The mesh file `src` written by gmsh in another form."""
+    with mesh_io._gmsh_session("rewrite") as gmsh:
+        gmsh.merge(str(src))
+        gmsh.option.setNumber("Mesh.MshFileVersion", version)
+        gmsh.option.setNumber("Mesh.Binary", int(binary))
+        gmsh.write(str(out))
+    return out
+
+
+def same_mesh(a: mesh_io.MeshData, b: mesh_io.MeshData, what: str) -> None:
+    """Same numbering, cells, facets and groups; coordinates to one rounding (an ASCII
+    file holds 16 significant digits of the in-process mesh's doubles)."""
+    assert (a.dim, a.group_names) == (b.dim, b.group_names), what
+    np.testing.assert_array_equal(a.group_dim, b.group_dim, err_msg=what)
+    scale = np.abs(a.x).max()
+    np.testing.assert_allclose(a.x, b.x, rtol=0, atol=4 * np.finfo(float).eps * scale,
+                               err_msg=what)
+    for k in ("cells", "cell_group", "facets", "facet_group"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=f"{what}: {k}")
+
+
+@pytest.fixture(scope="module")
+def forms(tmp_path_factory):
+    """name -> {form: path}: every .geo written by gmsh in each form, plus the .geo."""
+    d = tmp_path_factory.mktemp("forms")
+    out = {}
+    for name, (geo, par) in GEOS.items():
+        out[name] = {"geo": geo}
+        for form, (version, binary) in FORMS.items():
+            out[name][form] = mesh_io.generate(geo, d / f"{name}_{form}.msh", binary=binary,
+                                               version=version, **par)
+    ref3d = DATA / "bar3d_getfem_h0.05.msh"
+    out["getfem3d"] = {"orig": ref3d}
+    for form, (version, binary) in FORMS.items():
+        out["getfem3d"][form] = rewrite(ref3d, d / f"getfem3d_{form}.msh", version, binary)
+    return out
+
+
+@pytest.mark.parametrize("name", ["bar", "disk", "box3d", "getfem3d"])
+def test_every_form_same_mesh(core_ext, forms, name):
+    par = GEOS.get(name, (None, {}))[1]
+    meshes = {f: mesh_io.read_mesh(p, check=False, **par) for f, p in forms[name].items()}
+    first = next(iter(meshes))
+    for f, m in meshes.items():
+        same_mesh(m, meshes[first], f"{name}: {f} vs {first}")
+    m = meshes[first]
+    assert m.dim == (3 if "3d" in name else 2)
+    assert len(m.cells) > 0 and len(m.facets) > 0
+    if m.dim == 3:
+        assert m.cells.shape[1] == 4 and m.facets.shape[1] == 3
+        assert m.group_names == ["bottom", "top", "sides", "body"]
+        # the facets of `bottom` lie on z = 0
+        bottom = m.facets[m.facet_group == m.group("bottom")]
+        assert np.all(m.x[bottom, 2] == 0.0)
+
+
+def test_getfem3d_read_as_file(core_ext):
+    """The GetFEM box (documented sizes: 2 x 2 x 20 cubes of 6 tetrahedra, 3 x 3 x 21
+    nodes) with its groups; the tetrahedra have both orientations and none is flat."""
+    m = mesh_io.read_mesh(DATA / "bar3d_getfem_h0.05.msh", check=False)
+    assert (m.dim, len(m.x), len(m.cells)) == (3, 3 * 3 * 21, 2 * 2 * 20 * 6)
+    # facets: bottom and top 2 x 2 x 2 triangles, sides 4 x 2 x 20 x 2
+    counts = np.bincount(m.facet_group, minlength=4)
+    assert list(counts[:3]) == [8, 8, 320]
+    e = m.x[m.cells[:, 1:]] - m.x[m.cells[:, :1]]
+    vol = np.linalg.det(e) / 6
+    assert np.all(np.abs(vol) > 0)
+    assert np.any(vol > 0) and np.any(vol < 0)     # kept in GetFEM's node order
+    np.testing.assert_allclose(np.abs(vol).sum(), 0.1 * 0.1 * 1.0, rtol=1e-12)
+
+
+def test_geo_parameters_and_default_size(core_ext, tmp_path):
+    """h, length, width reach the .geo's variables of those names; a .geo that uses no h
+    is meshed with h as the largest mesh size."""
+    bar = mesh_io.read_mesh(ROOT / "meshes" / "bar2d.geo", h=0.1, length=2.0, width=0.2)
+    assert len(bar.cells) == 2 * 2 * 20
+    np.testing.assert_allclose(bar.x.max(axis=0), [0.2, 2.0])
+    geo = tmp_path / "square.geo"
+    geo.write_text('Point(1) = {0, 0, 0}; Point(2) = {1, 0, 0}; Point(3) = {1, 1, 0};\n'
+                   'Point(4) = {0, 1, 0}; Line(1) = {1, 2}; Line(2) = {2, 3};\n'
+                   'Line(3) = {3, 4}; Line(4) = {4, 1}; Curve Loop(1) = {1, 2, 3, 4};\n'
+                   'Plane Surface(1) = {1};\n')
+    for h in (0.1, 0.05):       # both below gmsh's default size (1/10 of the diagonal)
+        m = mesh_io.read_mesh(geo, h=h)
+        edges = np.concatenate([m.cells[:, [0, 1]], m.cells[:, [1, 2]], m.cells[:, [2, 0]]])
+        longest = np.linalg.norm(m.x[edges[:, 0]] - m.x[edges[:, 1]], axis=1).max()
+        assert longest <= 1.5 * h, (h, longest)
+        assert m.group_names == [] and np.all(m.cell_group == -1)
+    assert len(mesh_io.read_mesh(geo, h=0.05).cells) > 3 * len(mesh_io.read_mesh(geo, h=0.1).cells)
+
+
+SCENE = """&mesh file = '{file}', h = {h} /
+&boundary clamped = 'top', contact = 'bottom' /
+&contact probe = {probe} /
+&initial kind = 'compressed_bar', amplitude = {amp} /
+&scheme name = 'hht', dt = 0.0025, t_end = 0.05 /
+&output dir = 'out' /
+"""
+
+
+@pytest.mark.parametrize("name,probe,amp", [("bar", "0.05, 0.0", 0.5),
+                                            ("disk", "0.0, 0.01", 0.05)])
+def test_every_form_same_trace(core_ext, forms, tmp_path, name, probe, amp):
+    traces = {}
+    for form, path in forms[name].items():
+        scene = tmp_path / f"{form}.nml"
+        scene.write_text(SCENE.format(file=path, h=GEOS[name][1]["h"], probe=probe, amp=amp))
+        r = core.run(scene, out=tmp_path / f"out_{form}", progress=False)
+        assert r.summary["status"] == "ok", r.message
+        traces[form] = r.trace
+    first = traces["msh41"]
+    assert len(first["t"]) == 21 and np.any(first["e_el"] > 0)
+    for form, tr in traces.items():
+        for k in first:
+            np.testing.assert_allclose(tr[k], first[k], rtol=1e-10, atol=1e-13,
+                                       err_msg=f"{name} {form}: {k}")
+
+
+def test_mesh_command_any_geo(run_cli, tmp_path):
+    """`python -m dyncontact mesh --geo` meshes any .geo, in the form asked for."""
+    r = run_cli("mesh", "--geo", ROOT / "meshes" / "disk.geo", "--h", "0.02", "--out", "d.msh",
+                "--binary", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "triangles; groups bottom" in r.stdout
+    head = (tmp_path / "d.msh").read_bytes()[:40]
+    assert head.startswith(b"$MeshFormat\n4.1 1 8\n")
+    same_mesh(mesh_io.read_mesh(tmp_path / "d.msh"),
+              mesh_io.read_mesh(ROOT / "meshes" / "disk.geo", h=0.02), "mesh command")
+    r = run_cli("mesh", "--geo", tmp_path / "none.geo", "--out", "x.msh", cwd=tmp_path)
+    assert r.returncode == 2 and "none.geo: no such file" in r.stderr
+
+
+# --------------------------------------------------------------------------- bad input
+
+def _exe_error(run_exe, tmp_path, mesh_file, **keys):
+    extra = "".join(f"&{g} {v} /\n" for g, v in keys.items())
+    scene = tmp_path / "s.nml"
+    scene.write_text(f"&mesh file = '{mesh_file}' /\n{extra}&scheme t_end = 0.01 /\n")
+    r = run_exe(scene)
+    assert r.returncode == 2, (r.returncode, r.stdout, r.stderr)
+    lines = r.stderr.strip().split("\n")
+    assert len(lines) == 1, r.stderr
+    return lines[0]
+
+
+def test_unknown_extension(run_exe, tmp_path):
+    p = tmp_path / "mesh.vtk"
+    p.write_text("# vtk DataFile Version 2.0\n")
+    msg = _exe_error(run_exe, tmp_path, p)
+    assert f"{p}: unknown mesh file extension '.vtk'" in msg
+
+
+def test_missing_file(run_exe, tmp_path):
+    msg = _exe_error(run_exe, tmp_path, tmp_path / "none.msh")
+    assert "none.msh" in msg and "cannot read mesh file" in msg
+
+
+def test_geo_gmsh_cannot_read(run_exe, tmp_path):
+    p = tmp_path / "bad.geo"
+    p.write_text("Point(1) = {0, 0, 0};\nLine(1) = {1, 7};\n")
+    msg = _exe_error(run_exe, tmp_path, p)
+    assert f"{p}: gmsh cannot" in msg
+    with pytest.raises(BadInputError, match="gmsh cannot"):
+        mesh_io.read_mesh(p)
+
+
+def test_geo_without_cells(run_exe, tmp_path):
+    p = tmp_path / "points.geo"
+    p.write_text("Point(1) = {0, 0, 0};\nPoint(2) = {1, 0, 0};\n")
+    msg = _exe_error(run_exe, tmp_path, p)
+    assert f"{p}: no segments, triangles or tetrahedra" in msg
+
+
+def test_quadrangles_refused(run_exe, tmp_path):
+    p = tmp_path / "quads.geo"
+    p.write_text((ROOT / "meshes" / "bar2d.geo").read_text()
+                 + "\nRecombine Surface{1};\n")
+    msg = _exe_error(run_exe, tmp_path, p)
+    assert f"{p}: element type 3 (dimension 2) is not a linear simplex" in msg
+
+
+def test_named_group_missing(run_exe, tmp_path):
+    msg = _exe_error(run_exe, tmp_path, ROOT / "meshes" / "disk.geo",
+                     boundary="clamped = 'top', contact = 'left'")
+    assert "&boundary contact: group 'left' not in mesh" in msg and "disk.geo" in msg
+
+
+def test_mixed_dimensions(run_exe, tmp_path):
+    """Triangles off the z = 0 plane with no tetrahedra: a 3D geometry saved as 2D."""
+    p = tmp_path / "tilted.geo"
+    p.write_text("Point(1) = {0, 0, 0}; Point(2) = {1, 0, 0}; Point(3) = {0, 1, 1};\n"
+                 "Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 1};\n"
+                 "Curve Loop(1) = {1, 2, 3}; Plane Surface(1) = {1};\n")
+    msg = _exe_error(run_exe, tmp_path, p)
+    assert f"{p}: the mesh is 2D but its z coordinates are not constant" in msg
+
+
+def test_no_gmsh(exe, tmp_path):
+    """Without libgmsh: built-in meshes run, a mesh file gets exit 2 saying how to get
+    gmsh (DYNCONTACT_GMSH_LIB set to a missing file stands for a machine without it)."""
+    env = dict(os.environ, DYNCONTACT_GMSH_LIB=str(tmp_path / "libgmsh.so"))
+    env.pop("PYTHONPATH", None)
+    scene = tmp_path / "s.nml"
+    scene.write_text("&scheme t_end = 0.01 /\n&output dir = 'out' /\n")
+    r = subprocess.run([exe, scene], env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    scene.write_text(f"&mesh file = '{ROOT / 'meshes' / 'disk.geo'}' /\n"
+                     "&scheme t_end = 0.01 /\n&output dir = 'out' /\n")
+    r = subprocess.run([exe, scene], env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2
+    assert "disk.geo: mesh files need gmsh" in r.stderr and "pip install gmsh" in r.stderr
+
+
+# --------------------------------------------------------------------------- loading, state
+
+def _loaded_libraries(exe, scene: Path) -> str:
+    """What the dynamic loader opens during a run (LD_DEBUG=files)."""
+    env = dict(os.environ, LD_DEBUG="files")
+    env.pop("PYTHONPATH", None)
+    env.pop("DYNCONTACT_GMSH_LIB", None)
+    r = subprocess.run([exe, scene], env=env, capture_output=True, text=True, timeout=120,
+                       cwd=scene.parent)
+    assert r.returncode == 0, r.stderr[-2000:]
+    return r.stderr
+
+
+def test_builtin_mesh_does_not_load_gmsh(exe, tmp_path):
+    """No libgmsh among the executable's needed libraries, none opened by a run on the
+    built-in bar; the same run on a mesh file opens it (the check sees a load)."""
+    ldd = subprocess.run(["ldd", exe], capture_output=True, text=True).stdout
+    assert "libgmsh" not in ldd and "libumfpack" in ldd
+    scene = tmp_path / "builtin.nml"
+    scene.write_text("&scheme t_end = 0.01 /\n&output dir = 'out1' /\n")
+    log = _loaded_libraries(exe, scene)
+    assert "libumfpack" in log and "libgmsh" not in log
+    scene = tmp_path / "file.nml"
+    scene.write_text(f"&mesh file = '{ROOT / 'meshes' / 'bar2d_getfem_h0.05.msh'}' /\n"
+                     "&scheme t_end = 0.01 /\n&output dir = 'out2' /\n")
+    assert "libgmsh" in _loaded_libraries(exe, scene)
+
+
+def test_reading_leaves_gmsh_finalized(core_ext):
+    import gmsh
+
+    mesh_io.read_mesh(ROOT / "meshes" / "disk.geo", h=0.05)
+    assert not gmsh.isInitialized()
+
+
+def test_reading_keeps_callers_gmsh_session(core_ext):
+    """Inside a caller's gmsh session: its model, options and variables survive a read of
+    a .geo and of a .msh by the core, and nothing is printed."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("mine")
+        gmsh.model.occ.addPoint(0, 0, 0)
+        gmsh.model.occ.synchronize()
+        gmsh.parser.setNumber("mine", [3.0])
+        size_max = gmsh.option.getNumber("Mesh.MeshSizeMax")
+        m = mesh_io.read_mesh(ROOT / "meshes" / "disk.geo", h=0.05)
+        mesh_io.read_mesh(ROOT / "meshes" / "bar2d_getfem_h0.05.msh")
+        assert gmsh.model.getCurrent() == "mine"
+        assert gmsh.model.getEntities() == [(0, 1)]
+        assert gmsh.model.list() == ["", "mine"]
+        assert gmsh.option.getNumber("Mesh.MeshSizeMax") == size_max
+        assert gmsh.option.getNumber("General.Terminal") == 0
+        assert set(gmsh.parser.getNames()) == {"mine"}
+    finally:
+        gmsh.finalize()
+    assert m.dim == 2 and len(m.cells) > 0
+
+
+def test_gmsh_prints_nothing(run_exe, tmp_path, capfd, core_ext):
+    """A run on a .geo prints only its own lines; a read from Python prints nothing."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(f"&mesh file = '{ROOT / 'meshes' / 'disk.geo'}' /\n"
+                     "&boundary clamped = 'top', contact = 'bottom' /\n"
+                     "&contact probe = 0.0, 0.01 /\n&initial amplitude = 0.05 /\n"
+                     "&scheme t_end = 0.01 /\n&output dir = 'out' /\n")
+    r = run_exe(scene)
+    assert r.returncode == 0, r.stderr
+    lines = (r.stdout + r.stderr).strip().split("\n")
+    assert len(lines) == 2 and all(s.startswith("dyncontact: ") for s in lines), lines
+    capfd.readouterr()
+    mesh_io.read_mesh(ROOT / "meshes" / "disk.geo", h=0.05)
+    bad = tmp_path / "bad.geo"
+    bad.write_text("Point(1) = {0, 0, 0};\nLine(1) = {1, 7};\n")
+    with pytest.raises(BadInputError):
+        mesh_io.read_mesh(bad)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""

@@ -1,0 +1,453 @@
+"""What a new user tries, through the executable, the Python CLI and the API: each case
+ends either as a correct run or as exit 2 (BadInputError) with one line naming the file
+and the key. Cases already covered by test_reliability.py and test_bad_input_cli.py are
+not repeated here."""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from test_reliability import (ENTRIES, EXIT_BAD_INPUT, EXIT_OK, one_line, run,
+                              write_scene)
+
+#: Radius and centre height of the disk; the obstacle is the plane y = 0.
+RADIUS = 0.1
+
+
+def disk_mesh(path: Path, h: float = 0.02, invert_every: int = 0) -> Path:
+    """A disk of radius RADIUS centred at (0, RADIUS), meshed by gmsh's Python API, with
+    its whole outline as the physical group 'outline' and the surface as 'body'. With
+    invert_every = k, every k-th triangle is written with its nodes in clockwise order
+    (negative Jacobian), as some mesh tools write them."""
+    gmsh = pytest.importorskip("gmsh")
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("disk")
+        occ = gmsh.model.occ
+        c = occ.addPoint(0, RADIUS, 0)
+        p = [occ.addPoint(RADIUS * np.cos(a), RADIUS + RADIUS * np.sin(a), 0)
+             for a in (0.0, np.pi / 2, np.pi, 1.5 * np.pi)]
+        arcs = [occ.addCircleArc(p[i], c, p[(i + 1) % 4]) for i in range(4)]
+        s = occ.addPlaneSurface([occ.addCurveLoop(arcs)])
+        occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+        gmsh.model.addPhysicalGroup(1, arcs, 1, "outline")
+        gmsh.model.addPhysicalGroup(2, [s], 2, "body")
+        gmsh.model.mesh.generate(2)
+        if invert_every:
+            types, tags, nodes = gmsh.model.mesh.getElements(2, s)
+            tri = np.asarray(nodes[0]).reshape(-1, 3)
+            tri[::invert_every] = tri[::invert_every, ::-1]
+            gmsh.model.mesh.removeElements(2, s)
+            gmsh.model.mesh.addElements(2, s, [types[0]], [tags[0]], [tri.ravel()])
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    return path
+
+
+def disk_scene(path: Path, mesh: Path, **over) -> Path:
+    """The disk falling onto y = 0 at speed 0.1, nothing clamped, whole outline in contact."""
+    settings = dict(mesh__file=f"'{mesh.name}'", boundary__clamped="''",
+                    boundary__contact="'outline'", initial__kind="'velocity'",
+                    initial__velocity="0.0, -0.1", scheme__name="'newmark'",
+                    scheme__dt="0.001", scheme__t_end="0.1", contact__probe="0.0, 0.0")
+    settings.update(over)
+    return write_scene(path, **settings)
+
+
+# ------------------------------------------------------------------ 2D disk, closed contact
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_disk_with_closed_contact_boundary_says_nothing_false(kind, tmp_path):
+    """A probe at a negative x is snapped and the note prints its coordinates (a format
+    too narrow for a sign printed asterisks); the closed outline gives no warning about
+    obstacle_normal, with either sign of it (every closed boundary has facets that face
+    the obstacle)."""
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    a = -2.0   # a point of the true circle with x < 0, below the centre
+    probe = np.array([RADIUS * np.cos(a), RADIUS + RADIUS * np.sin(a)])
+    # down: the plane y = 0 below; up: the plane y = 1 above (never reached)
+    for name, normal, point in (("down", "0.0, -1.0", "0.0, 0.0"), ("up", "0.0, 1.0", "0.0, 1.0")):
+        scene = disk_scene(tmp_path / f"{name}.nml", mesh,
+                           contact__probe=f"{float(probe[0])!r}, {float(probe[1])!r}",
+                           contact__obstacle_normal=normal, contact__obstacle_point=point)
+        res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        assert "*" not in res.stderr and "obstacle_normal" not in res.stderr, res.stderr
+        note = [ln for ln in res.stderr.splitlines() if "probe snapped to" in ln]
+        assert len(note) == 1, res.stderr
+        words = note[0].split("snapped to ")[1].replace("(distance ", "").rstrip(")").split()
+        x, y, dist = (float(w) for w in words)
+        # the nearest point of a chord: inside the circle, within a facet of the probe
+        assert x < 0 and math.hypot(x, y - RADIUS) < RADIUS
+        assert dist == pytest.approx(math.hypot(x - probe[0], y - probe[1]), rel=1e-3)
+        assert 0 < dist < 0.02
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_open_contact_boundary_facing_away_still_warns(kind, tmp_path):
+    """The bar's bottom with obstacle_normal along +y: no facet faces the obstacle; the
+    warning says so (the default normal gives none, test_reliability)."""
+    scene = write_scene(tmp_path / "s.nml", contact__obstacle_normal="0.0, 1.0",
+                        contact__obstacle_point="0.0, -1.0", scheme__t_end="0.05")
+    res = run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    warn = [ln for ln in res.stderr.splitlines() if "obstacle_normal" in ln]
+    assert len(warn) == 1 and "no contact facet faces the obstacle" in warn[0], res.stderr
+    assert "-1.000" in warn[0]    # every bottom facet's outward normal is -y
+
+
+# ------------------------------------------------------------------ inverted cells
+
+def test_gmsh_mesh_with_inverted_cells_runs_like_the_oriented_one(tmp_path):
+    """A third of the disk's triangles written clockwise (negative Jacobian): the mesh
+    is the same set of cells, so the run gives the same trace (to round-off: the
+    element matrices are summed in another order) and the same energy."""
+    import dyncontact
+    from dyncontact.core import load_mesh
+
+    plain = disk_mesh(tmp_path / "plain.msh")
+    inv = disk_mesh(tmp_path / "inv.msh", invert_every=3)
+    m = load_mesh(inv)
+    tri = m["cells"]
+    x = m["x"]
+    e1, e2 = x[tri[:, 1]] - x[tri[:, 0]], x[tri[:, 2]] - x[tri[:, 0]]
+    d = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]    # twice the signed area
+    assert (d < 0).sum() == len(tri[::3]) and (d > 0).sum() == len(tri) - len(tri[::3])
+    res = {}
+    for name, mesh in (("plain", plain), ("inv", inv)):
+        scene = disk_scene(tmp_path / f"{name}.nml", mesh, scheme__t_end="0.2")
+        res[name] = dyncontact.run(scene, out=tmp_path / f"o_{name}", progress=False)
+        assert res[name].ok
+    a, b = res["plain"].trace, res["inv"].trace
+    assert min(a["p_n"]) < 0          # the disk has hit the plane (p_n < 0 in contact)
+    for col in ("u_n", "v_n", "p_n", "e_total"):
+        np.testing.assert_allclose(b[col], a[col], rtol=1e-9, atol=1e-12 * max(abs(a[col])))
+
+
+
+# ------------------------------------------------------------------ fields_every = 1
+
+@pytest.fixture
+def tmpfs(tmp_path):
+    """mount(options) -> a folder on a fresh tmpfs with those options (root only; else
+    skip); unmounted at the end."""
+    import subprocess
+
+    mounted = []
+
+    def mount(options: str) -> Path:
+        mnt = tmp_path / f"disk{len(mounted)}"
+        mnt.mkdir()
+        res = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(mnt)],
+                             capture_output=True, text=True)
+        if res.returncode != 0:
+            pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
+        mounted.append(mnt)
+        return mnt
+
+    yield mount
+    for mnt in mounted:
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_fields_every_1_that_cannot_fit_is_refused_before_writing(kind, tmpfs, tmp_path):
+    """The seed run with a snapshot every step: 6001 snapshots of 16.6 kB (101.9 MB with
+    the trace) on a 1 MB disk. Refused before anything is written, naming the key and
+    saying how much; a previous run's results stay as they were."""
+    disk = tmpfs("size=1m")
+    out = disk / "o"
+    small = write_scene(tmp_path / "small.nml", scheme__t_end="0.05", output__fields_every="5")
+    assert run(kind, small, "--out", out, cwd=tmp_path).returncode == EXIT_OK
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert len([p for p in before if p.suffix == ".vtu"]) == 5
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0", output__fields_every="1")
+    line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), EXIT_BAD_INPUT)
+    assert f"{scene}: &output fields_every: the run would write about 101.9 MB" in line
+    assert "6001 snapshots of 16.6 kB each" in line and f"but {out} has" in line
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after == before
+
+
+def test_fields_every_1_refused_in_python(tmpfs, tmp_path):
+    import dyncontact
+
+    disk = tmpfs("size=1m")
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0", output__fields_every="1")
+    with pytest.raises(dyncontact.BadInputError, match="&output fields_every: the run would"):
+        dyncontact.run(scene, out=disk / "o", progress=False)
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_more_snapshot_files_than_the_disk_holds_is_refused(kind, tmpfs, tmp_path):
+    """Room for the bytes, not for the files: a file system with 64 inodes and a run of
+    201 snapshots."""
+    disk = tmpfs("size=64m,nr_inodes=64")
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.5", output__fields_every="1")
+    line = one_line(run(kind, scene, "--out", disk / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert "&output fields_every: the run would write 201 snapshot files" in line
+    assert "more files" in line
+
+
+def test_large_field_output_that_fits_is_announced(tmpfs, tmp_path):
+    """Above 100 MB of snapshots the run says how much before it starts (as for a large
+    trace); it is not refused when the disk has room. Stopped right after the note."""
+    import subprocess
+    import signal
+    import sys
+
+    disk = tmpfs("size=512m")
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="16.0", output__fields_every="1")
+    proc = subprocess.Popen([sys.executable, "-m", "dyncontact", "run", str(scene), "--out",
+                             str(disk / "o")], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stderr.readline()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=120)
+    # each snapshot is the size of the first one (same mesh), plus its line in fields.pvd
+    first = (disk / "o" / "fields" / "step_0000000.vtu").stat().st_size
+    total = 6401 * (first + 100)
+    assert f"note: the field snapshots will take about {total / 1e6:.1f} MB (6401 files" \
+        in line, line
+
+
+# ------------------------------------------------------------------ locks after kill -9
+
+def _proc_identity(pid: int) -> str:
+    """'STARTTIME BOOT_ID' of a live process, as the core writes it in its lock."""
+    stat = Path(f"/proc/{pid}/stat").read_text()
+    start = stat[stat.rindex(")") + 2:].split()[19]
+    boot = Path("/proc/sys/kernel/random/boot_id").read_text().strip()
+    return f"{start} {boot}"
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_lock_left_by_kill_9_is_taken_over_by_the_next_run(kind, tmp_path):
+    """A run killed with SIGKILL leaves its lock (pid, start time, boot id); the next
+    run into the folder takes it over, runs, and releases it."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import time
+
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("no /proc")
+    out = tmp_path / "o"
+    long = write_scene(tmp_path / "long.nml", scheme__t_end="3000.0", output__every="100")
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    from test_reliability import entry
+    proc = subprocess.Popen(entry(kind) + [str(long), "--out", str(out)], cwd=tmp_path,
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    lock = out / ".dyncontact.lock"
+    t0 = time.time()
+    while not (lock.exists() and lock.read_text().endswith("\n")):
+        assert time.time() - t0 < 60 and proc.poll() is None, "the run did not start"
+        time.sleep(0.01)
+    assert lock.read_text() == f"{proc.pid} {_proc_identity(proc.pid)}\n"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=60)
+    assert lock.exists()                       # left behind
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.1")
+    res = run(kind, scene, "--out", out, cwd=tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert not lock.exists()
+    assert json.loads((out / "summary.json").read_text())["status"] == "ok"
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_lock_whose_pid_was_reused_is_taken_over(kind, tmp_path):
+    """After a kill -9 (or a reboot) the lock's pid may belong to another live process:
+    the start time or boot id recorded in the lock tells them apart. A lock naming a live
+    process with its own start time and boot id is held (exit 2, pid named)."""
+    import subprocess
+    import sys
+
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("no /proc")
+    other = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"])
+    try:
+        start, boot = _proc_identity(other.pid).split()
+        scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.1")
+        for name, content in (("start", f"{other.pid} {int(start) - 1} {boot}\n"),
+                              ("boot", f"{other.pid} {start} 00000000-0000-0000-0000-0\n")):
+            out = tmp_path / name
+            out.mkdir()
+            (out / ".dyncontact.lock").write_text(content)
+            res = run(kind, scene, "--out", out, cwd=tmp_path)
+            assert res.returncode == EXIT_OK, (name, res.stderr)
+            assert not (out / ".dyncontact.lock").exists()
+        out = tmp_path / "held"
+        out.mkdir()
+        (out / ".dyncontact.lock").write_text(f"{other.pid} {start} {boot}\n")
+        line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), EXIT_BAD_INPUT)
+        assert "another run" in line and str(other.pid) in line
+        assert not (out / "trace.csv").exists()
+    finally:
+        other.kill()
+        other.wait()
+
+
+# ------------------------------------------------------------------ threads, Dask
+
+def _scenes(tmp_path, t_end="2.0"):
+    return [write_scene(tmp_path / f"{name}.nml", scheme__name=f"'{name}'", scheme__t_end=t_end)
+            for name in ("newmark", "hht")]
+
+
+def test_two_python_threads_run_scenes_like_one_after_the_other(tmp_path):
+    """Two threads of one process, two scenes, two folders: each trace is the serial
+    run's, bit for bit (the core keeps no module state). Into one folder: one run holds
+    the lock, the other is refused with BadInputError naming the folder."""
+    import threading
+
+    import dyncontact
+
+    scenes = _scenes(tmp_path)
+    ref = [dyncontact.run(s, out=tmp_path / f"ref{k}", progress=False).trace
+           for k, s in enumerate(scenes)]
+    got, errors = [None, None], []
+
+    def go(k, out):
+        try:
+            got[k] = dyncontact.run(scenes[k], out=out, progress=False)
+        except Exception as e:            # noqa: BLE001 - reported below
+            errors.append(e)
+
+    threads = [threading.Thread(target=go, args=(k, tmp_path / f"t{k}")) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(120)
+    assert not errors, errors
+    for k in range(2):
+        assert got[k].ok and set(got[k].trace) == set(ref[k])
+        for col in ref[k]:
+            np.testing.assert_array_equal(got[k].trace[col], ref[k][col])
+    # one folder: long runs (60 000 steps), started together
+    long = _scenes(tmp_path, t_end="150.0")
+    got, errors = [None, None], []
+    scenes[:] = long
+    threads = [threading.Thread(target=go, args=(k, tmp_path / "same")) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(300)
+    assert len(errors) == 1 and isinstance(errors[0], dyncontact.BadInputError), errors
+    assert f"{tmp_path / 'same'}: another run" in str(errors[0])
+    assert sum(r is not None and r.ok for r in got) == 1
+    assert not (tmp_path / "same" / ".dyncontact.lock").exists()
+
+
+def test_run_inside_a_dask_worker(tmp_path):
+    """dyncontact.run as a task of a one-worker LocalCluster (threads of this process):
+    the trace is the serial run's; bad input reaches the client as BadInputError with
+    the core's one-line message."""
+    distributed = pytest.importorskip("distributed")
+    import dyncontact
+
+    scene = _scenes(tmp_path)[0]
+    bad = tmp_path / "bad.nml"
+    bad.write_text("&scheme dt = nan /\n")
+    ref = dyncontact.run(scene, out=tmp_path / "ref", progress=False).trace
+
+    def task(path, out):
+        return dyncontact.run(path, out=out, progress=False).trace
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=":0") as cluster, \
+            distributed.Client(cluster) as client:
+        trace = client.submit(task, str(scene), str(tmp_path / "dask"), pure=False) \
+            .result(timeout=120)
+        with pytest.raises(dyncontact.BadInputError,
+                           match="^" + re.escape(f"{bad}: &scheme dt: expected a real number "
+                                                 "(got 'nan')") + "$"):
+            client.submit(task, str(bad), str(tmp_path / "bad"), pure=False).result(timeout=120)
+    for col in ref:
+        np.testing.assert_array_equal(trace[col], ref[col])
+    assert not (tmp_path / "bad" / "trace.csv").exists()
+
+
+# ------------------------------------------------------------------ empty contact group
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_empty_or_wrong_dimension_contact_group_is_refused(kind, tmp_path):
+    """A contact group with no facets: declared in $PhysicalNames without elements (as
+    a mesh tool leaves a group it emptied), or the body's surface group named as the
+    contact boundary. One line naming &boundary contact, the group and the mesh."""
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    text = mesh.read_text()
+    head = '$PhysicalNames\n2\n1 1 "outline"\n2 2 "body"\n'
+    assert head in text
+    (tmp_path / "rim.msh").write_text(text.replace(
+        head, '$PhysicalNames\n3\n1 1 "outline"\n2 2 "body"\n1 7 "rim"\n'))
+    # gmsh reports no physical group without entities: the emptied group is not in the mesh
+    for mesh_name, group, what in (("rim.msh", "rim", "not in mesh"),
+                                   ("disk.msh", "body", "has no facets")):
+        scene = disk_scene(tmp_path / f"{group}.nml", tmp_path / mesh_name,
+                           boundary__contact=f"'{group}'")
+        line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path),
+                        EXIT_BAD_INPUT)
+        assert f"{scene}: &boundary contact: group '{group}' {what}" in line, line
+        assert mesh_name in line
+        assert not (tmp_path / "o" / "trace.csv").exists()
+    # the same empty group, clamped: named as such
+    scene = disk_scene(tmp_path / "clamped.nml", tmp_path / "rim.msh",
+                       boundary__clamped="'rim'")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert "&boundary clamped: group 'rim' not in mesh" in line
+
+
+def test_repeated_contact_group_counts_each_facet_once(tmp_path):
+    """contact = 'outline, outline' is the outline once: the same trace."""
+    import dyncontact
+
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    tr = [dyncontact.run(disk_scene(tmp_path / f"{k}.nml", mesh, boundary__contact=c),
+                         out=tmp_path / f"o{k}", progress=False).trace
+          for k, c in enumerate(("'outline'", "'outline, outline'"))]
+    assert min(tr[0]["p_n"]) < 0
+    for col in tr[0]:
+        np.testing.assert_array_equal(tr[1][col], tr[0][col])
+
+
+# ------------------------------------------------------------------ non-UTF-8 file names
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_output_folder_named_in_latin1_bytes(kind, tmp_path):
+    """A folder name that is not UTF-8 (b'r\\xe9s', as a Latin-1 system writes it) given
+    with --out: the run is correct, summary.json stays UTF-8 JSON (the byte is written as
+    \\udce9, Python's surrogate for it) and its dir names the folder exactly."""
+    import json
+    import os
+
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.05")
+    out = os.fsencode(str(tmp_path)) + b"/r\xe9s"
+    import subprocess
+
+    from test_reliability import entry
+
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    # bytes out: the executable prints the folder's name as it is
+    res = subprocess.run(entry(kind) + [str(scene), "--out", os.fsdecode(out)], cwd=tmp_path,
+                         env=env, capture_output=True, timeout=120)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert b"Traceback" not in res.stderr
+    raw = (Path(os.fsdecode(out)) / "summary.json").read_bytes()
+    summary = json.loads(raw.decode("utf-8"))         # strict UTF-8
+    assert b"\\udcE9" in raw or b"\\udce9" in raw
+    assert os.fsencode(summary["scene"]["output"]["dir"]) == out
+    assert summary["status"] == "ok"

@@ -1,0 +1,433 @@
+"""Checkpoint and restart (&output checkpoint_every, --restart DIR, run(restart=),
+Stepper.save/load): a run killed with SIGKILL at a random step, or stopped by SIGTERM
+or Ctrl-C, and continued from its checkpoint gives the files of the run never stopped,
+byte for byte (trace.csv, the numbers of summary.json, the VTU fields), for every scheme
+family and mass kind whose carried data differ; a checkpoint that is missing, of another
+scene or build, truncated or corrupt is refused with exit 2 naming the file and leaves
+the folder as it was."""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dyncontact
+from conftest import EXE
+from dyncontact.core import Stepper
+
+EXIT_OK, EXIT_BAD_INPUT, EXIT_SIGNAL = 0, 2, 130
+#: The checkpoint's file name in the output folder (docs/scenes.md).
+CKPT = "checkpoint.bin"
+#: Bytes of the checkpoint header (docs/scenes.md): 7 fields of 8 bytes, a 96-byte build id.
+HEADER = 7 * 8 + 96
+#: Steps between checkpoints: more than the ~280 rows of the trace's write buffer, so that
+#: a killed run sometimes leaves rows after its checkpoint in trace.csv (cut at restart).
+EVERY = 300
+
+
+def scene_text(name: str, mass: str = "consistent", dt: str = "0.0025", t_end: str = "15.0",
+               extra: str = "", gamma0: str = "10.0", fields: int = 0,
+               every: int = EVERY, contact: str = "theta = 1") -> str:
+    return ("&mesh file = '', dim = 2, length = 1.0, width = 0.1, h = 0.05 /\n"
+            "&boundary clamped = 'top', contact = 'bottom' /\n"
+            f"&contact {contact}, gamma0 = {gamma0}, probe = 0.05, 0.0 /\n"
+            "&initial kind = 'compressed_bar', amplitude = 0.5 /\n"
+            f"&scheme name = '{name}', dt = {dt}, t_end = {t_end}, mass = '{mass}'{extra} /\n"
+            f"&output dir = 'out', checkpoint_every = {every}, fields_every = {fields} /\n")
+
+
+def exe_cmd(scene: Path, *args) -> list[str]:
+    if not EXE.is_file():
+        pytest.skip(f"{EXE} is not built; run scripts/setup")
+    return [str(EXE), str(scene), *map(str, args)]
+
+
+def cli_cmd(scene: Path, *args) -> list[str]:
+    return [sys.executable, "-m", "dyncontact", "run", str(scene), "--quiet", *map(str, args)]
+
+
+def run(cmd, cwd) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    return subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+
+
+def summary_numbers(folder: Path) -> dict:
+    """summary.json without its timing and without the output folder's name."""
+    s = json.loads((folder / "summary.json").read_text())
+    s.pop("wall_s")
+    s["scene"]["output"].pop("dir")
+    return s
+
+
+def assert_same_results(a: Path, b: Path, what: str) -> None:
+    assert (a / "trace.csv").read_bytes() == (b / "trace.csv").read_bytes(), what
+    assert summary_numbers(a) == summary_numbers(b), what
+    fields_a = sorted(p.name for p in (a / "fields").glob("*.vtu")) if (a / "fields").exists() else []
+    fields_b = sorted(p.name for p in (b / "fields").glob("*.vtu")) if (b / "fields").exists() else []
+    assert fields_a == fields_b, what
+    for name in fields_a:
+        assert (a / "fields" / name).read_bytes() == (b / "fields" / name).read_bytes(), what
+    if fields_a:
+        assert (a / "fields.pvd").read_bytes() == (b / "fields.pvd").read_bytes(), what
+
+
+def checkpoint_step(path: Path) -> int:
+    return int(np.frombuffer(path.read_bytes()[48:56], dtype="<i8")[0])
+
+
+# (scheme, mass, dt, t_end, extra keys): every family, and the mass kinds that change
+# what a step carries (lumped: no solve, the one-pass end of central; redistributed:
+# massless dofs updated apart in the implicit schemes).
+FAMILIES = [
+    ("newmark", "consistent", "0.0025", "15.0", ""),
+    ("hht", "consistent", "0.0025", "15.0", ", alpha = -0.1"),
+    ("hht", "lumped", "0.0025", "15.0", ", alpha = -0.1"),
+    ("hht", "redistributed", "0.0025", "15.0", ", alpha = -0.1"),
+    ("theta", "consistent", "0.0025", "15.0", ", theta = 0.6"),
+    ("galpha", "redistributed", "0.0025", "15.0", ", rho_inf = 0.8"),
+    ("pc", "consistent", "0.0005", "3.0", ""),
+    ("pc_hht", "lumped", "0.0005", "3.0", ", alpha = -0.1"),
+    ("central", "lumped", "0.01", "15.0", ""),
+    ("central", "consistent", "0.0", "60.0", ""),
+]
+
+
+# the augmented Lagrangian carries its multipliers lambda from step to step (in the
+# checkpoint with the state): both multipliers, on the mass each is meant for and on the
+# chattering consistent mass
+ALM_FAMILIES = [
+    ("newmark", "consistent", "integral"),
+    ("hht", "redistributed", "nodal"),
+]
+
+
+@pytest.mark.parametrize("name,mass,dt,t_end,extra", FAMILIES,
+                         ids=[f"{f[0]}-{f[1]}" for f in FAMILIES])
+def test_kill_9_at_a_random_step_then_restart_is_bit_identical(name, mass, dt, t_end, extra,
+                                                                tmp_path):
+    kill_9_then_restart(tmp_path, scene_text(name, mass, dt, t_end, extra, fields=1000),
+                        f"{name}/{mass}")
+
+
+@pytest.mark.parametrize("name,mass,multiplier", ALM_FAMILIES,
+                         ids=[f"{f[0]}-{f[1]}-alm_{f[2]}" for f in ALM_FAMILIES])
+def test_kill_9_then_restart_with_the_augmented_lagrangian_is_bit_identical(name, mass,
+                                                                            multiplier, tmp_path):
+    extra = ", alpha = -0.1" if name == "hht" else ""
+    contact = f"method = 'alm', multiplier = '{multiplier}'"
+    # every 500 steps: the first checkpoint (t = 1.25) is in the first contact phase
+    kill_9_then_restart(tmp_path, scene_text(name, mass, extra=extra, fields=1000,
+                                             contact=contact, every=500),
+                        f"{name}/{mass}/alm {multiplier}", every=500)
+
+
+def checkpoint_multipliers(path: Path) -> np.ndarray:
+    """lambda from a checkpoint: after the 7 leading numbers and the 6 state vectors."""
+    payload = path.read_bytes()[HEADER:]
+    pos = 56
+    for _ in range(6):
+        pos += 8 + 8 * int(np.frombuffer(payload[pos:pos + 8], dtype="<i8")[0])
+    count = int(np.frombuffer(payload[pos:pos + 8], dtype="<i8")[0])
+    return np.frombuffer(payload[pos + 8:pos + 8 + 8 * count], dtype="<f8")
+
+
+@pytest.mark.parametrize("multiplier", ["integral", "nodal"])
+def test_alm_checkpoint_in_contact_holds_the_multipliers(multiplier, tmp_path):
+    """Saved in contact (t = 1.25, lambda /= 0) and loaded into another run, the
+    augmented Lagrangian continues as the run that never stopped, bit for bit."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("newmark", "redistributed",
+                                contact=f"method = 'alm', multiplier = '{multiplier}'"))
+    with Stepper(scene, tmp_path / "a") as a:
+        a.advance(500)
+        a.save(tmp_path / "state.bin")
+        a.advance(700)
+        ref = a.state()
+    lam = checkpoint_multipliers(tmp_path / "state.bin")
+    assert lam.size == 3 and lam.min() < 0.0     # the 3 nodes of the bottom
+    with Stepper(scene, tmp_path / "b") as b:
+        assert b.load(tmp_path / "state.bin") == 500
+        b.advance(700)
+        got = b.state()
+    for key in ("t", "u", "v", "a", "mv", "bu"):
+        assert np.array_equal(ref[key], got[key]), key
+
+
+def kill_9_then_restart(tmp_path: Path, text: str, label: str, every: int = EVERY) -> None:
+    """Run the scene whole; run it again, SIGKILL it at a random moment after its first
+    checkpoint, restart from that checkpoint: the results are the whole run's, byte for byte."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(text)
+    full = run(exe_cmd(scene, "--out", "full"), tmp_path)
+    assert full.returncode == EXIT_OK, full.stderr
+    n_steps = json.loads((tmp_path / "full" / "summary.json").read_text())["steps"]
+    assert n_steps > 3 * every
+    seed = int.from_bytes(os.urandom(4), "little")
+    rng = random.Random(seed)
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    proc = subprocess.Popen(exe_cmd(scene, "--out", "part"), cwd=tmp_path, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    t0 = time.time()
+    while not (tmp_path / "part" / CKPT).exists() and proc.poll() is None:
+        assert time.time() - t0 < 120
+        time.sleep(0.0005)
+    time.sleep(rng.uniform(0.0, 0.05))
+    proc.kill()                      # SIGKILL: no handler runs, nothing is tidied up
+    proc.wait(timeout=60)
+    what = f"{label}, random seed {seed}"
+    step = checkpoint_step(tmp_path / "part" / CKPT)
+    assert step % every == 0 and 0 < step < n_steps, what
+    res = run(exe_cmd(scene, "--restart", "part"), tmp_path)
+    assert res.returncode == EXIT_OK, (what, res.stderr)
+    assert f"restart at step {step}," in res.stdout, what
+    assert_same_results(tmp_path / "part", tmp_path / "full", what)
+
+
+def test_restart_twice_and_from_the_last_checkpoint_of_a_finished_run(tmp_path):
+    """A checkpoint is kept after the run ends: a restart from it redoes the tail and
+    writes the same files again; so does a restart of that restarted run."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="5.0"))
+    assert run(exe_cmd(scene, "--out", "full"), tmp_path).returncode == EXIT_OK
+    shutil.copytree(tmp_path / "full", tmp_path / "again")
+    for _ in range(2):
+        res = run(exe_cmd(scene, "--restart", "again"), tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        assert "restart at step 1800," in res.stdout    # the last multiple of 300 < 2000
+        assert_same_results(tmp_path / "again", tmp_path / "full", "restart of a finished run")
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_signal_writes_a_checkpoint_at_the_step_it_stops_on(sig, tmp_path):
+    scene = tmp_path / "s.nml"
+    # h = 0.02: about 1 s of steps, and a checkpoint interval no signal falls on by chance
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", every=7919)
+                     .replace("h = 0.05", "h = 0.02").replace("dt = 0.0025", "dt = 0.001"))
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    proc = subprocess.Popen(exe_cmd(scene, "--out", "part"), cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.time()
+    while not (tmp_path / "part" / "trace.csv").exists():
+        assert time.time() - t0 < 120 and proc.poll() is None
+        time.sleep(0.001)
+    time.sleep(0.2)
+    proc.send_signal(sig)
+    _out, err = proc.communicate(timeout=120)
+    assert proc.returncode == EXIT_SIGNAL, err
+    assert "checkpoint kept" in err
+    summary = json.loads((tmp_path / "part" / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    step = checkpoint_step(tmp_path / "part" / CKPT)
+    assert step == summary["steps"] > 0                  # the step it stopped on
+    assert run(exe_cmd(scene, "--out", "full"), tmp_path).returncode == EXIT_OK
+    res = run(exe_cmd(scene, "--restart", "part"), tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert_same_results(tmp_path / "part", tmp_path / "full", f"signal {sig}")
+
+
+def test_python_restart_after_ctrl_c_between_chunks(tmp_path):
+    """run() stopped by KeyboardInterrupt (here from the progress callback) writes the
+    checkpoint when it closes the run; run(restart=) and `python -m dyncontact run
+    --restart` continue it."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("pc_hht", "lumped", "0.0005", "3.0", ", alpha = -0.1",
+                                fields=1000))
+    full = dyncontact.run(scene, out=tmp_path / "full", progress=False)
+    assert full.ok
+
+    def stop(step, n_steps):
+        if step >= 2000:
+            raise KeyboardInterrupt
+
+    for entry in ("api", "cli"):
+        part = tmp_path / f"part_{entry}"
+        with pytest.raises(KeyboardInterrupt):
+            dyncontact.run(scene, out=part, progress=False, callback=stop)
+        assert json.loads((part / "summary.json").read_text())["status"] == "interrupted"
+        step = checkpoint_step(part / CKPT)
+        assert step == json.loads((part / "summary.json").read_text())["steps"] >= 2000
+        if entry == "api":
+            res = dyncontact.run(scene, restart=part, progress=False)
+            assert res.ok and res.summary["steps"] == full.summary["steps"]
+        else:
+            res = run(cli_cmd(scene, "--restart", part), tmp_path)
+            assert res.returncode == EXIT_OK, res.stderr
+        assert_same_results(part, tmp_path / "full", entry)
+
+
+def test_stepper_save_and_load(tmp_path):
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("galpha", "redistributed", extra=", rho_inf = 0.8"))
+    with Stepper(scene, tmp_path / "a") as a:
+        a.advance(777)
+        a.save(tmp_path / "state.bin")
+        a.advance(500)
+        ref = a.state()
+    with Stepper(scene, tmp_path / "b") as b:
+        b.advance(3)              # any state: load replaces it
+        assert b.load(tmp_path / "state.bin") == 777
+        assert b.state()["t"] == 777 * 0.0025
+        b.advance(500)
+        got = b.state()
+    for key in ("t", "u", "v", "a", "mv", "bu"):
+        assert np.array_equal(ref[key], got[key]), key
+    other = tmp_path / "other.nml"
+    other.write_text(scene_text("galpha", "redistributed", extra=", rho_inf = 0.7"))
+    with Stepper(other, tmp_path / "c") as c:
+        with pytest.raises(dyncontact.BadInputError, match="state.bin.*another scene"):
+            c.load(tmp_path / "state.bin")
+        assert c.advance(10) == 0     # a failed load leaves the Stepper finished
+
+
+# ------------------------------------------------------------------ refusals
+
+@pytest.fixture
+def stopped(tmp_path):
+    """A run stopped after its checkpoints (the folder `part`) and its scene."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0"))
+    assert run(exe_cmd(scene, "--out", "part"), tmp_path).returncode == EXIT_OK
+    return scene, tmp_path / "part"
+
+
+def _flip(path: Path, offset: int) -> None:
+    data = bytearray(path.read_bytes())
+    data[offset] ^= 0x01
+    path.write_bytes(bytes(data))
+
+
+def _truncate(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[:len(data) - 8])
+
+
+def _other_build(path: Path) -> None:
+    data = bytearray(path.read_bytes())
+    data[56:HEADER] = b"0.0.0 x86-64 GCC version 1.0".ljust(96)
+    path.write_bytes(bytes(data))
+
+
+def _bad_magic(path: Path) -> None:
+    _flip(path, 0)
+
+
+DAMAGE = {
+    "corrupt_payload_byte": (lambda p: _flip(p, HEADER + 1000), "corrupt checkpoint"),
+    "corrupt_last_byte": (lambda p: _flip(p, p.stat().st_size - 1), "corrupt checkpoint"),
+    "truncated": (_truncate, "truncated"),
+    "truncated_to_the_header": (lambda p: p.write_bytes(p.read_bytes()[:HEADER - 1]),
+                                "truncated"),
+    "empty": (lambda p: p.write_bytes(b""), "truncated"),
+    "other_build": (_other_build, "another build"),
+    "not_a_checkpoint": (_bad_magic, "not a dyncontact checkpoint"),
+}
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+@pytest.mark.parametrize("damage", sorted(DAMAGE))
+def test_damaged_checkpoint_is_refused_naming_the_file(entry, damage, stopped, tmp_path):
+    scene, part = stopped
+    harm, words = DAMAGE[damage]
+    harm(part / CKPT)
+    before = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    res = run(cmd(scene, "--restart", part), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    assert f"{part / CKPT}" in lines[0] and words in lines[0], lines[0]
+    after = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
+    assert after == before       # nothing was used, nothing was written
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+def test_checkpoint_of_another_scene_is_refused(entry, stopped, tmp_path):
+    _scene, part = stopped
+    other = tmp_path / "other.nml"
+    other.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0", gamma0="20.0"))
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    res = run(cmd(other, "--restart", part), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    assert f"{part / CKPT}" in res.stderr and "another scene" in res.stderr, res.stderr
+    with pytest.raises(dyncontact.BadInputError, match="another scene"):
+        dyncontact.run(other, restart=part, progress=False)
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+def test_missing_restart_folder_is_refused_naming_the_file(entry, stopped, tmp_path):
+    scene, _part = stopped
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    res = run(cmd(scene, "--restart", "nowhere"), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    assert f"nowhere/{CKPT}" in res.stderr and "no checkpoint" in res.stderr, res.stderr
+    assert "Traceback" not in res.stderr
+    assert not (tmp_path / "nowhere").exists()
+
+
+def test_restart_with_another_out_folder_is_refused(stopped, tmp_path):
+    scene, part = stopped
+    res = run(exe_cmd(scene, "--restart", part, "--out", tmp_path / "elsewhere"), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT and "--out" in res.stderr, res.stderr
+    with pytest.raises(dyncontact.BadInputError, match="out must be"):
+        dyncontact.run(scene, out=tmp_path / "elsewhere", restart=part, progress=False)
+
+
+def test_restart_refuses_a_trace_shorter_than_the_checkpoint(stopped, tmp_path):
+    scene, part = stopped
+    (part / "trace.csv").write_text("t,u_n\n")
+    res = run(exe_cmd(scene, "--restart", part), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    assert "trace.csv" in res.stderr and "shorter" in res.stderr, res.stderr
+
+
+def test_checkpoint_every_zero_writes_none(tmp_path):
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", t_end="1.0", every=0))
+    assert run(exe_cmd(scene, "--out", "o"), tmp_path).returncode == EXIT_OK
+    assert not (tmp_path / "o" / CKPT).exists()
+    assert not list((tmp_path / "o").glob("*.tmp"))
+
+
+def test_checkpoint_file_holds_the_state_it_stands_for(tmp_path):
+    """The format of docs/scenes.md, read independently: the header's dofs and step, the
+    payload's checksum (64-bit FNV-1a), and the state vectors equal to the run's own."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1"))
+    with Stepper(scene, tmp_path / "o") as s:
+        s.advance(123)
+        s.save(tmp_path / "c.bin")
+        st = s.state()
+        dofs = s.dofs
+    data = (tmp_path / "c.bin").read_bytes()
+    assert data[:8] == b"DYNCKPT\0"
+    version, _hash, plen, checksum, n, step = np.frombuffer(data[8:56], dtype="<i8")
+    assert (version, n, step) == (1, dofs, 123)
+    payload = data[HEADER:]
+    assert plen == len(payload)
+    h = 0xcbf29ce484222325
+    for byte in payload:
+        h = ((h ^ byte) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
+    assert np.int64(np.uint64(h)) == checksum
+    ints = np.frombuffer(payload[:56], dtype="<i8")
+    reals = np.frombuffer(payload[:56], dtype="<f8")
+    assert ints[0] == 123 and reals[1] == st["t"]
+    pos = 56
+    for key in ("u", "v", "a", "mv", "bu"):
+        count = int(np.frombuffer(payload[pos:pos + 8], dtype="<i8")[0])
+        assert count == dofs
+        vec = np.frombuffer(payload[pos + 8:pos + 8 + 8 * count], dtype="<f8")
+        assert np.array_equal(vec, st[key]), key
+        pos += 8 + 8 * count
