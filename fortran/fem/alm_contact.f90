@@ -4,7 +4,8 @@
 !>   'integral': lambda P1 on Gamma_C (lambda = sigma_n), <lambda, v_n> = int lambda v_n and
 !>     G_J = int (1/r) (lambda - min(lambda - r (u_n - g), 0)) psi_J = 0 on the contact
 !>     quadrature ('gauss': quad_points points a facet; 'exact': the facet split at the
-!>     zero of lambda - r (u_n - g), which is linear along it, 2 Gauss points a piece, so
+!>     zero of lambda - r (u_n - g), which is linear on it, 2 Gauss points a piece of a
+!>     segment, the 3-point degree-2 rule on each triangle of a split triangle facet, so
 !>     G is integrated exactly);
 !>   'nodal': lambda_i a force at contact node i, <lambda, v_n> = sum_i lambda_i v_n(x_i) and
 !>     G_i = (1/r_i) (lambda_i - min(lambda_i - r_i (u_n(x_i) - g_i), 0)) = 0, r_i the mean
