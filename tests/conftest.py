@@ -66,3 +66,21 @@ def run_exe(exe, tmp_path):
         return _run([exe, *args], cwd or tmp_path)
 
     return run
+
+
+def sampled_steps(run, n_steps: int, samples, extra=None) -> dict:
+    """Advance a Stepper `run` to n_steps, keeping at each step of `samples` the states
+    before and after it: {step: (s0, s1)}, or (s0, s1, *extra(s0, s1)) with `extra`."""
+    states = {}
+    step = 0
+    while step < n_steps:
+        if step in samples:
+            s0 = run.state()
+            run.advance(1)
+            s1 = run.state()
+            states[step] = (s0, s1) + (tuple(extra(s0, s1)) if extra else ())
+            step += 1
+        else:
+            step += run.advance(min(n_steps - step, min(s for s in set(samples) | {n_steps}
+                                                        if s > step) - step))
+    return states

@@ -18,7 +18,7 @@ QUICK = {"unknown_key", "unterminated_group", "empty_file", "nan_real", "real_su
          "latin1_string", "utf16_file", "binary_file", "missing_scene_file",
          "unquoted_string", "missing_mesh_file", "dt_zero", "t_end_below_dt",
          "steps_over_limit", "bar_too_fine", "output_dir_empty", "boundary_group_missing",
-         "probe_off_contact"}
+         "probe_off_contact", "alm_explicit"}
 ALL_CASES = [pytest.param(c, id=c.id, marks=() if c.id in QUICK else pytest.mark.slow)
              for c in BAD_CASES + MESH_CASES]
 

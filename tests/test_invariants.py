@@ -23,7 +23,7 @@ import pytest
 import dyncontact
 from dyncontact.core import Stepper, read_trace
 
-from conftest import ROOT
+from conftest import ROOT, sampled_steps
 
 SCENE = ROOT / "scripts" / "scenes" / "bar2d_hht.nml"
 
@@ -103,20 +103,10 @@ def test_state_invariants(label, mass, tmp_path):
     n_steps = int(round(T_END / dt))
     samples = set(np.linspace(0, n_steps - 1, N_SAMPLES).astype(int).tolist())
     samples |= set(np.linspace(int(T_CONTACT / dt), n_steps - 1, N_SAMPLES).astype(int).tolist())
-    states = {}
     with Stepper(scene, out) as run:
         M, K = run.matrix("M"), run.matrix("K")
-        step = 0
-        while step < n_steps:
-            if step in samples:
-                s0 = run.state()
-                run.advance(1)
-                s1 = run.state()
-                states[step] = (s0, s1, run.eval_b(s0["u"])[0], run.eval_b(s1["u"])[0])
-                step += 1
-            else:
-                step += run.advance(min(n_steps - step, min(s for s in samples | {n_steps}
-                                                             if s > step) - step))
+        states = sampled_steps(run, n_steps, samples,
+                               lambda s0, s1: (run.eval_b(s0["u"])[0], run.eval_b(s1["u"])[0]))
     trace = read_trace(out)
     assert len(trace["t"]) == n_steps + 1
     assert np.all(trace["e_kin"] >= 0.0), "e_kin < 0 in the trace"

@@ -37,10 +37,10 @@ EVERY = 300
 
 def scene_text(name: str, mass: str = "consistent", dt: str = "0.0025", t_end: str = "15.0",
                extra: str = "", gamma0: str = "10.0", fields: int = 0,
-               every: int = EVERY) -> str:
+               every: int = EVERY, contact: str = "theta = 1") -> str:
     return ("&mesh file = '', dim = 2, length = 1.0, width = 0.1, h = 0.05 /\n"
             "&boundary clamped = 'top', contact = 'bottom' /\n"
-            f"&contact theta = 1, gamma0 = {gamma0}, probe = 0.05, 0.0 /\n"
+            f"&contact {contact}, gamma0 = {gamma0}, probe = 0.05, 0.0 /\n"
             "&initial kind = 'compressed_bar', amplitude = 0.5 /\n"
             f"&scheme name = '{name}', dt = {dt}, t_end = {t_end}, mass = '{mass}'{extra} /\n"
             f"&output dir = 'out', checkpoint_every = {every}, fields_every = {fields} /\n")
@@ -103,16 +103,76 @@ FAMILIES = [
 ]
 
 
+# the augmented Lagrangian carries its multipliers lambda from step to step (in the
+# checkpoint with the state): both multipliers, on the mass each is meant for and on the
+# chattering consistent mass
+ALM_FAMILIES = [
+    ("newmark", "consistent", "integral"),
+    ("hht", "redistributed", "nodal"),
+]
+
+
 @pytest.mark.parametrize("name,mass,dt,t_end,extra", FAMILIES,
                          ids=[f"{f[0]}-{f[1]}" for f in FAMILIES])
 def test_kill_9_at_a_random_step_then_restart_is_bit_identical(name, mass, dt, t_end, extra,
                                                                 tmp_path):
+    kill_9_then_restart(tmp_path, scene_text(name, mass, dt, t_end, extra, fields=1000),
+                        f"{name}/{mass}")
+
+
+@pytest.mark.parametrize("name,mass,multiplier", ALM_FAMILIES,
+                         ids=[f"{f[0]}-{f[1]}-alm_{f[2]}" for f in ALM_FAMILIES])
+def test_kill_9_then_restart_with_the_augmented_lagrangian_is_bit_identical(name, mass,
+                                                                            multiplier, tmp_path):
+    extra = ", alpha = -0.1" if name == "hht" else ""
+    contact = f"method = 'alm', multiplier = '{multiplier}'"
+    # every 500 steps: the first checkpoint (t = 1.25) is in the first contact phase
+    kill_9_then_restart(tmp_path, scene_text(name, mass, extra=extra, fields=1000,
+                                             contact=contact, every=500),
+                        f"{name}/{mass}/alm {multiplier}", every=500)
+
+
+def checkpoint_multipliers(path: Path) -> np.ndarray:
+    """lambda from a checkpoint: after the 7 leading numbers and the 6 state vectors."""
+    payload = path.read_bytes()[HEADER:]
+    pos = 56
+    for _ in range(6):
+        pos += 8 + 8 * int(np.frombuffer(payload[pos:pos + 8], dtype="<i8")[0])
+    count = int(np.frombuffer(payload[pos:pos + 8], dtype="<i8")[0])
+    return np.frombuffer(payload[pos + 8:pos + 8 + 8 * count], dtype="<f8")
+
+
+@pytest.mark.parametrize("multiplier", ["integral", "nodal"])
+def test_alm_checkpoint_in_contact_holds_the_multipliers(multiplier, tmp_path):
+    """Saved in contact (t = 1.25, lambda /= 0) and loaded into another run, the
+    augmented Lagrangian continues as the run that never stopped, bit for bit."""
     scene = tmp_path / "s.nml"
-    scene.write_text(scene_text(name, mass, dt, t_end, extra, fields=1000))
+    scene.write_text(scene_text("newmark", "redistributed",
+                                contact=f"method = 'alm', multiplier = '{multiplier}'"))
+    with Stepper(scene, tmp_path / "a") as a:
+        a.advance(500)
+        a.save(tmp_path / "state.bin")
+        a.advance(700)
+        ref = a.state()
+    lam = checkpoint_multipliers(tmp_path / "state.bin")
+    assert lam.size == 3 and lam.min() < 0.0     # the 3 nodes of the bottom
+    with Stepper(scene, tmp_path / "b") as b:
+        assert b.load(tmp_path / "state.bin") == 500
+        b.advance(700)
+        got = b.state()
+    for key in ("t", "u", "v", "a", "mv", "bu"):
+        assert np.array_equal(ref[key], got[key]), key
+
+
+def kill_9_then_restart(tmp_path: Path, text: str, label: str, every: int = EVERY) -> None:
+    """Run the scene whole; run it again, SIGKILL it at a random moment after its first
+    checkpoint, restart from that checkpoint: the results are the whole run's, byte for byte."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(text)
     full = run(exe_cmd(scene, "--out", "full"), tmp_path)
     assert full.returncode == EXIT_OK, full.stderr
     n_steps = json.loads((tmp_path / "full" / "summary.json").read_text())["steps"]
-    assert n_steps > 3 * EVERY
+    assert n_steps > 3 * every
     seed = int.from_bytes(os.urandom(4), "little")
     rng = random.Random(seed)
     env = dict(os.environ)
@@ -126,9 +186,9 @@ def test_kill_9_at_a_random_step_then_restart_is_bit_identical(name, mass, dt, t
     time.sleep(rng.uniform(0.0, 0.05))
     proc.kill()                      # SIGKILL: no handler runs, nothing is tidied up
     proc.wait(timeout=60)
-    what = f"{name}/{mass}, random seed {seed}"
+    what = f"{label}, random seed {seed}"
     step = checkpoint_step(tmp_path / "part" / CKPT)
-    assert step % EVERY == 0 and 0 < step < n_steps, what
+    assert step % every == 0 and 0 < step < n_steps, what
     res = run(exe_cmd(scene, "--restart", "part"), tmp_path)
     assert res.returncode == EXIT_OK, (what, res.stderr)
     assert f"restart at step {step}," in res.stdout, what

@@ -166,7 +166,7 @@ BAD_CASES = [
     BadCase("density_negative", "&material density = -1.0 /\n", "&material density",
             "must be > 0"),
     BadCase("method_unknown", "&contact method = 'mortar' /\n", "&contact method",
-            "must be 'nitsche' or 'penalty'"),
+            "must be one of 'nitsche', 'penalty', 'alm'"),
     BadCase("theta_2", "&contact theta = 2 /\n", "&contact theta", "must be -1, 0 or 1"),
     BadCase("theta_real", "&contact theta = 1.0 /\n", "&contact theta",
             "expected an integer"),
@@ -217,6 +217,13 @@ BAD_CASES = [
     BadCase("mass_redistributed_explicit",
             "&scheme name = 'pc', dt = 0.0005, mass = 'redistributed' /\n", "&scheme mass",
             "'redistributed' (no inertia on the contact nodes) needs an implicit scheme"),
+    BadCase("alm_explicit", "&contact method = 'alm' /\n&scheme name = 'central', dt = 0.001 /\n",
+            "&contact method", "'alm' (multipliers solved with the displacement by Newton) "
+            "needs an implicit scheme, not 'central'"),
+    BadCase("alm_pc", "&contact method = 'alm' /\n&scheme name = 'pc', dt = 0.0005 /\n",
+            "&contact method", "needs an implicit scheme, not 'pc'"),
+    BadCase("multiplier_unknown", "&contact method = 'alm', multiplier = 'mortar' /\n",
+            "&contact multiplier", "must be 'integral' or 'nodal'"),
     BadCase("dt_zero_implicit", "&scheme dt = 0.0 /\n", "&scheme dt",
             "must be > 0 (0, a step chosen by the run, is for scheme 'central')"),
     BadCase("dt_negative_central", "&scheme name = 'central', dt = -1e-3 /\n", "&scheme dt",
@@ -279,7 +286,7 @@ def test_scene_files_exist():
     names = {p.name for p in SCENE_FILES}
     expected = {"bar2d_hht.nml", "bar1d.nml", "bar2d_newmark.nml", "bar2d_hht_seed.nml",
                 "bar2d_theta.nml", "bar2d_pc.nml", "bar2d_pc_hht.nml",
-                "bar2d_pc_hht_seed.nml"}
+                "bar2d_pc_hht_seed.nml", "bar2d_alm_consistent.nml", "bar2d_alm_redistributed.nml"}
     assert expected <= names, expected - names
 
 

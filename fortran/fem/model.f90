@@ -14,6 +14,7 @@ module model
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
                                facet_shape, MAX_E, MAX_FN, QUAD_EXACT, QUAD_GAUSS
+    use alm_contact, only: alm_t, alm_init, alm_probe, ALM_OFF
     implicit none
     private
 
@@ -41,6 +42,7 @@ module model
         real(dp) :: gravity(3) = 0.0_dp           !! body acceleration g (f = rho g), first dim used
         integer :: mass = MASS_CONSISTENT         !! MASS_CONSISTENT | MASS_LUMPED | MASS_REDISTRIBUTED
         logical :: penalty = .false.              !! penalty contact instead of Nitsche
+        integer :: multiplier = ALM_OFF           !! augmented Lagrangian: ALM_INTEGRAL | ALM_NODAL
         integer :: nitsche_theta = 1              !! -1, 0 or 1
         real(dp) :: gamma0 = 10.0_dp              !! gamma_N = gamma0 / h_T
         real(dp) :: obstacle_point(3) = 0.0_dp    !! a point of the obstacle plane
@@ -79,6 +81,7 @@ module model
         real(dp), allocatable :: load(:)          !! (n_dofs) L = int rho g . v
         logical :: has_contact = .false.          !! a contact boundary exists
         type(contact_t) :: ct                     !! contact facets
+        type(alm_t) :: alm                        !! augmented Lagrangian multipliers (kind ALM_OFF: none)
         real(dp) :: normal(3) = 0.0_dp            !! unit normal (into the obstacle)
         integer :: n_probe = 0                    !! facets holding the probe (0, 1, or those sharing its edge or node)
         integer :: probe_facet(MAX_PROBE) = 0     !! their indices in ct
@@ -160,12 +163,15 @@ contains
         call contact_init(mdl%ct, mdl%msh, facets, mdl%dof, prm%young, lambda, mu, &
                           mdl%normal(1:dim), prm%obstacle_point(1:dim), prm%gamma0, &
                           prm%nitsche_theta, prm%quadrature, &
-                          prm%quad_points, stat, msg, penalty=prm%penalty)
+                          prm%quad_points, stat, msg, &
+                          penalty=prm%penalty .or. prm%multiplier /= ALM_OFF)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &boundary contact: ' &
                        //trim(msg))
             return
         end if
+        if (mdl%has_contact .and. prm%multiplier /= ALM_OFF) &
+            call alm_init(mdl%alm, mdl%ct, prm%multiplier)
         if (mdl%has_contact) then
             call check_normal(mdl)
             call check_gamma0(mdl, prm, lambda, mu, stat, msg)
@@ -809,7 +815,9 @@ contains
         call model_stiff_apply(mdl, u, ktu)
         b = ktu
         active = 0; e_pen = 0.0_dp; e_theta = 0.0_dp
-        if (mdl%has_contact) call contact_eval(mdl%ct, u, b, active, e_pen, e_theta)
+        ! the augmented Lagrangian's contact part -N lambda is the scheme's (it holds lambda)
+        if (mdl%has_contact .and. mdl%alm%kind == ALM_OFF) &
+            call contact_eval(mdl%ct, u, b, active, e_pen, e_theta)
     end subroutine model_eval_b
 
     !> jdu = B'(u) du (generalized derivative).
@@ -823,7 +831,7 @@ contains
         integer :: active, rank, q, i
         real(dp) :: e1, e2, vdu
         call model_stiff_apply(mdl, du, jdu)
-        if (.not. mdl%has_contact) return
+        if (.not. mdl%has_contact .or. mdl%alm%kind /= ALM_OFF) return
         allocate (ua(mdl%ndof_e, contact_max_rank(mdl%ct)), vb(mdl%ndof_e, contact_max_rank(mdl%ct)), &
                   qloc(mdl%ndof_e, contact_max_rank(mdl%ct)), rdummy(size(u)))
         rdummy = 0.0_dp
@@ -866,13 +874,14 @@ contains
 
     !> Probe values: u_n, v_n interpolated; p_n = Nitsche pressure (mean over the
     !> facets when the probe is on a shared node or edge). Zero without contact boundary.
-    subroutine model_probe(mdl, u, v, un, vn, pn)
+    subroutine model_probe(mdl, u, v, un, vn, pn, lam)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: u(:)          !! displacement
         real(dp), intent(in) :: v(:)          !! velocity
         real(dp), intent(out) :: un           !! u . n at the probe
         real(dp), intent(out) :: vn           !! v . n at the probe
         real(dp), intent(out) :: pn           !! contact pressure (<= 0)
+        real(dp), intent(in), optional :: lam(:) !! augmented Lagrangian multipliers (p_n from them)
         integer :: q, f, ne, nf, j
         real(dp) :: ue(MAX_E), ve(MAX_E), nsh(MAX_FN), nu(MAX_FN), nv(MAX_FN)
         un = 0.0_dp; vn = 0.0_dp; pn = 0.0_dp
@@ -884,8 +893,12 @@ contains
             call gather(f, u, ue(1:ne))
             call gather(f, v, ve(1:ne))
             nsh = mdl%probe_shape(:, q)
-            pn = pn + facet_pressure(ne, nf, ue(1:ne), mdl%ct%s(:, f), &
-                                     mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), nsh)
+            if (mdl%alm%kind /= ALM_OFF .and. present(lam)) then
+                pn = pn + alm_probe(mdl%alm, mdl%ct, lam, f, nsh)
+            else
+                pn = pn + facet_pressure(ne, nf, ue(1:ne), mdl%ct%s(:, f), &
+                                         mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), nsh)
+            end if
             if (q == 1) then
                 ! the normal components at the facet's nodes, then their interpolation
                 ! (fixed-size locals: no heap in a trace row)

@@ -62,7 +62,7 @@ module nitsche_contact
     end type contact_t
 
     public :: contact_init, contact_eval, contact_max_rank, nitsche_facet, facet_pressure, facet_shape, &
-              triangle_rule
+              triangle_rule, triangle_active_rule
 
 contains
 

@@ -43,7 +43,8 @@ module scene
         real(dp) :: poisson                        !! Poisson ratio
         real(dp) :: density                        !! rho
         real(dp) :: gravity(3)                     !! body acceleration g (f = rho g)
-        character(len=NAME_LEN) :: contact_method  !! 'nitsche' | 'penalty'
+        character(len=NAME_LEN) :: contact_method  !! 'nitsche' | 'penalty' | 'alm'
+        character(len=NAME_LEN) :: multiplier      !! 'integral' | 'nodal' (method 'alm')
         integer :: nitsche_theta                   !! -1, 0 or 1
         real(dp) :: gamma0                         !! gamma_N = gamma0 / h_T
         real(dp) :: obstacle_point(3)              !! a point of the obstacle plane
@@ -129,7 +130,9 @@ contains
             row('material', 'density', '1.0', '> 0', r=scn%density), &
             row('material', 'gravity', '0.0, 0.0', '', v=scn%gravity, n=scn%vector_count(1), &
                 default3='0.0, 0.0, 0.0'), &
-            row('contact', 'method', "'nitsche'", "'nitsche' or 'penalty'", s=scn%contact_method), &
+            row('contact', 'method', "'nitsche'", "one of 'nitsche', 'penalty', 'alm'", &
+                s=scn%contact_method), &
+            row('contact', 'multiplier', "'integral'", "'integral' or 'nodal'", s=scn%multiplier), &
             row('contact', 'theta', '1', '-1, 0 or 1', i=scn%nitsche_theta), &
             row('contact', 'gamma0', '10.0', '> 0', r=scn%gamma0), &
             row('contact', 'obstacle_point', '0.0, 0.0', '', v=scn%obstacle_point, &
@@ -702,6 +705,11 @@ contains
         end if
         select case (trim(scn%scheme_name))
         case ('pc', 'pc_hht', 'pc_hht_seed', 'central')
+            if (scn%contact_method == 'alm') then
+                msg = bad(keys, name, 'contact', 'method', '''alm'' (multipliers solved with '// &
+                          'the displacement by Newton) needs an implicit scheme, not '''// &
+                          trim(scn%scheme_name)//''''); return
+            end if
             if (scn%mass == 'redistributed') then
                 msg = bad(keys, name, 'scheme', 'mass', '''redistributed'' (no inertia on the '// &
                           'contact nodes) needs an implicit scheme, not '''// &

@@ -11,6 +11,7 @@ module simulation
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
+    use alm_contact, only: ALM_OFF, ALM_INTEGRAL, ALM_NODAL
     use model, only: model_t, model_params_t, model_build, model_initial, model_probe, &
                      model_mass_apply, model_full_field, MASS_CONSISTENT, MASS_LUMPED, &
                      MASS_REDISTRIBUTED, INITIAL_REST, INITIAL_VELOCITY, INITIAL_COMPRESSED_BAR
@@ -132,7 +133,8 @@ contains
         end if
         n = sim%n_dofs
         allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
-                  sim%st%mv(n))
+                  sim%st%mv(n), sim%st%lam(sim%mdl%alm%nl))
+        sim%st%lam = 0.0_dp
         call model_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v)
         call state_eval(sim%mdl, sim%st)
         call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
@@ -664,7 +666,8 @@ contains
     !> Save the state the next step needs, with the run's counters, to the checkpoint
     !> file `path` (atomic: see checkpoint_write). The payload, in order: step, t,
     !> e_total(0), the blow-up limit, the trace's bytes, Newton iterations and
-    !> factorizations so far, u, v, a, M v, B(u), K_theta u, the contact state
+    !> factorizations so far, u, v, a, M v, B(u), K_theta u, the augmented Lagrangian's
+    !> multipliers lambda (none without them), the contact state
     !> (active points, e_pen, e_theta), the last step's Newton iterations, the snapshots
     !> written (times, names), then what the scheme carries (time_scheme_t%save).
     subroutine sim_checkpoint_save(sim, path, stat, errmsg)
@@ -691,6 +694,7 @@ contains
         call buf_put(buf, sim%st%mv)
         call buf_put(buf, sim%st%bu)
         call buf_put(buf, sim%st%ktu)
+        call buf_put(buf, sim%st%lam)
         call buf_put(buf, int(sim%st%active, i8))
         call buf_put(buf, sim%st%e_pen)
         call buf_put(buf, sim%st%e_theta)
@@ -742,6 +746,7 @@ contains
         call buf_get(buf, sim%st%mv)
         call buf_get(buf, sim%st%bu)
         call buf_get(buf, sim%st%ktu)
+        call buf_get(buf, sim%st%lam)
         call buf_get(buf, act)
         call buf_get(buf, sim%st%e_pen)
         call buf_get(buf, sim%st%e_theta)
@@ -795,6 +800,9 @@ contains
             p%mass = MASS_CONSISTENT
         end select
         p%penalty = scn%contact_method == 'penalty'
+        p%multiplier = ALM_OFF
+        if (scn%contact_method == 'alm') &
+            p%multiplier = merge(ALM_NODAL, ALM_INTEGRAL, scn%multiplier == 'nodal')
         p%nitsche_theta = scn%nitsche_theta
         p%gamma0 = scn%gamma0
         p%obstacle_point = scn%obstacle_point; p%obstacle_normal = scn%obstacle_normal
@@ -845,7 +853,7 @@ contains
         end if
         e_load = 0.0_dp
         if (sim%has_load) e_load = 0.0_dp - dot(sim%st%u, sim%mdl%load)   ! +0, not -0
-        call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn)
+        call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn, sim%st%lam)
         call trace_row(sim%trace, sim%st%t, un, vn, pn, e_kin, e_el, e_contact, e_total, &
                        sim%st%newton_its, sim%st%active, e_load, stat, errmsg)
     end subroutine record

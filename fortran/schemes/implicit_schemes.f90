@@ -42,6 +42,8 @@ module implicit_schemes
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
+    use alm_contact, only: ALM_OFF
+    use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
@@ -98,6 +100,7 @@ module implicit_schemes
         real(dp), allocatable :: dvec(:)          !! (n) u - u~ (the vector multiplied by M)
         real(dp), allocatable :: bvec(:)          !! (n) b of the step's residual
         real(dp), allocatable :: r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
+        type(alm_newton_t) :: almn                !! Newton on (u, lambda) (augmented Lagrangian)
     contains
         procedure :: init => implicit_init
         procedure :: step => implicit_step
@@ -190,6 +193,7 @@ contains
         else
             allocate (this%zrows(0), this%z(0, 0), this%xz(0))
         end if
+        if (mdl%alm%kind /= ALM_OFF) call alm_newton_init(this%almn, mdl, this%w)
     end subroutine implicit_init
 
     !> Z = J0^{-1} P^T on its kept rows (ZDROP) and W = P Z, solved ZCHUNK columns at a
@@ -341,6 +345,10 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: e_pen, e_theta, cb, kb
         integer :: it, active
+        if (mdl%alm%kind /= ALM_OFF) then
+            call implicit_step_alm(this, mdl, st, stat, errmsg)
+            return
+        end if
         stat = STAT_OK
         ! right-hand side b and R(u^n) = M (u^n - u~) + c B(u^n) - b in one pass; the
         ! convergence test's scale |M (u^n - u~)| + c |B(u^n)| + |b| is formed only when
@@ -641,6 +649,42 @@ contains
             y(i) = u(idx(i))
         end do
     end subroutine gather
+
+    !> One step with the augmented Lagrangian (module alm_newton): R(u^n, lambda^n) with
+    !> B(u^n) = K u^n - N lambda^n, the first solve y0 = J0^{-1} R, Newton on the
+    !> contact-cell dofs and the multipliers, x = u^n - y0 - Z T, then the scheme's update
+    !> (update_state, with C = -N lambda' in cx); B(u') = K u' - N lambda'.
+    subroutine implicit_step_alm(this, mdl, st, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(inout) :: st                  !! state (with st%lam)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: cb, kb
+        integer :: it, active
+        stat = STAT_OK
+        call rhs_coefficients(this, cb, kb)
+        call newton_rhs(size(st%u), cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
+        call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat)
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
+                       //real_text(st%t + this%dt, 6))
+            st%newton_its = 1
+            return
+        end if
+        call gather(st%u, mdl%ct%cdofs, this%xc)
+        call gather(this%dx, mdl%ct%cdofs, this%y0c)
+        call alm_newton_solve(this%almn, mdl, this%c, this%tol, this%maxit, st%t + this%dt, &
+                              this%xc, this%y0c, st%lam, this%tsum, this%cx, active, it, &
+                              stat, errmsg)
+        st%newton_its = it
+        this%newton_total = this%newton_total + it
+        if (stat /= STAT_OK) return
+        if (any(this%tsum /= 0.0_dp)) call add_z_correction(this)
+        call update_state(this, mdl, st)
+        st%active = active; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
+        st%t = st%t + this%dt
+    end subroutine implicit_step_alm
 
     !> y <- y + sum_l t(l) a(:, l) over the l with t(l) /= 0, column after column (the
     !> same order for W and the rows of Z, so both give the same numbers on shared rows).

@@ -38,6 +38,8 @@ module time_scheme
                                                 !! changes (never updated incrementally)
         real(dp), allocatable :: bu(:)          !! B(u)
         real(dp), allocatable :: ktu(:)         !! K_theta u
+        real(dp), allocatable :: lam(:)         !! augmented Lagrangian multipliers (one a contact
+                                                !! node; size 0 for Nitsche and penalty)
         integer :: active = 0                   !! active contact quadrature points at u
         real(dp) :: e_pen = 0.0_dp              !! int [P]_-^2 / (2 gamma) at u
         real(dp) :: e_theta = 0.0_dp            !! sum theta |F| sigma_n^2 / (2 gamma) at u

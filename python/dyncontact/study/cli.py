@@ -1,4 +1,4 @@
-"""``python -m dyncontact study {convergence,work-precision,stability,all} ...``.
+"""``python -m dyncontact study {convergence,work-precision,stability,methods,all} ...``.
 
 Exit status: 0 when every run could be done (unstable runs are results, not failures),
 1 when some runs failed to run (each is reported, the study still completes), 2 bad
@@ -33,8 +33,11 @@ def _parser() -> argparse.ArgumentParser:
                           "seed's claims",
              "all": "the three studies into OUT/<study>/, the 'which scheme should I use' "
                     "table into OUT/which/ (from their runs and two sweeps of its own) and "
-                    "OUT/index.md"}
-    for name in (*STUDIES, "all"):
+                    "OUT/index.md",
+             "methods": "contact method (Nitsche, penalty, augmented Lagrangian) x mass x "
+                        "scheme on the 2D seed bar: energy drift, p_n, penetration, Newton "
+                        "iterations, stability"}
+    for name in (*STUDIES, "methods", "all"):
         s = sub.add_parser(name, help=helps[name], description=helps[name])
         s.add_argument("--quick", action="store_true", help="small sizes (seconds)")
         s.add_argument("--out", required=True, metavar="DIR", help="output folder")
@@ -72,6 +75,10 @@ def run_one(name: str, out: str, args) -> dict[str, Any]:
 
         return run_work_precision(out, quick=args.quick, c_implicit=args.c_implicit,
                                   c_explicit=args.c_explicit, **kw)
+    if name == "methods":
+        from .methods import run_methods
+
+        return run_methods(out, quick=args.quick, **kw)
     from .stability import run_stability
 
     return run_stability(out, quick=args.quick, **kw)
