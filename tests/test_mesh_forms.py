@@ -4,7 +4,7 @@ trace; bad mesh files stop with exit 2 naming the file; gmsh is loaded only when
 file is named, and leaves no state behind in the Python process.
 
 Meshes: the 2D bar of meshes/bar2d.geo, the 2D disk of meshes/disk.geo, the 3D box of
-GetFEM (tests/data/meshes/bar3d_getfem_h0.05.msh) and a small 3D box .geo
+GetFEM (meshes/bar3d_getfem_h0.05.msh) and a small 3D box .geo
 (tests/data/meshes/box3d.geo); 3D is checked at the reader level (check=False), since
 the model takes 2D meshes.
 """
@@ -23,6 +23,7 @@ from dyncontact.core import BadInputError
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "meshes"
+ROOT_MESHES = ROOT / "meshes"
 
 #: msh forms gmsh writes: name -> (version, binary)
 FORMS = {"msh22": (2.2, False), "msh41": (4.1, False), "msh41bin": (4.1, True)}
@@ -67,7 +68,7 @@ def forms(tmp_path_factory):
         for form, (version, binary) in FORMS.items():
             out[name][form] = mesh_io.generate(geo, d / f"{name}_{form}.msh", binary=binary,
                                                version=version, **par)
-    ref3d = DATA / "bar3d_getfem_h0.05.msh"
+    ref3d = ROOT_MESHES / "bar3d_getfem_h0.05.msh"
     out["getfem3d"] = {"orig": ref3d}
     for form, (version, binary) in FORMS.items():
         out["getfem3d"][form] = rewrite(ref3d, d / f"getfem3d_{form}.msh", version, binary)
@@ -95,7 +96,7 @@ def test_every_form_same_mesh(core_ext, forms, name):
 def test_getfem3d_read_as_file(core_ext):
     """The GetFEM box (documented sizes: 2 x 2 x 20 cubes of 6 tetrahedra, 3 x 3 x 21
     nodes) with its groups; the tetrahedra have both orientations and none is flat."""
-    m = mesh_io.read_mesh(DATA / "bar3d_getfem_h0.05.msh", check=False)
+    m = mesh_io.read_mesh(ROOT_MESHES / "bar3d_getfem_h0.05.msh", check=False)
     assert (m.dim, len(m.x), len(m.cells)) == (3, 3 * 3 * 21, 2 * 2 * 20 * 6)
     # facets: bottom and top 2 x 2 x 2 triangles, sides 4 x 2 x 20 x 2
     counts = np.bincount(m.facet_group, minlength=4)
