@@ -163,8 +163,7 @@ contains
         stat = STAT_OK
         if (len(buf) == 0) return
         r = c_fd_write(int(fd, c_int), buf, int(len(buf), c_long))
-        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': write failed: ' &
-                               //sys_error(r))
+        call check_errno(r, path, 'write failed', stat, errmsg)
     end subroutine fd_write
 
     !> Close fd, reporting a delayed write error.
@@ -174,10 +173,8 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: r
-        stat = STAT_OK
         r = c_fd_close(int(fd, c_int))
-        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': close failed: ' &
-                               //sys_error(r))
+        call check_errno(r, path, 'close failed', stat, errmsg)
     end subroutine fd_close
 
     !> Flush fd's data to the device (fsync).
@@ -187,10 +184,8 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: r
-        stat = STAT_OK
         r = c_fsync(int(fd, c_int))
-        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': fsync failed: ' &
-                               //sys_error(r))
+        call check_errno(r, path, 'fsync failed', stat, errmsg)
     end subroutine fd_sync
 
     !> Open an existing file for writing, cut back to `bytes` bytes, positioned at its end.
@@ -226,11 +221,22 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: r
-        stat = STAT_OK
         r = c_rename(trim(from)//c_null_char, trim(to)//c_null_char)
-        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(to)//': cannot replace: ' &
-                               //sys_error(r))
+        call check_errno(r, to, 'cannot replace', stat, errmsg)
     end subroutine file_rename
+
+    !> STAT_OK when a system call returned r = 0; otherwise STAT_INTERNAL with
+    !> "path: what: <the errno r's text>".
+    subroutine check_errno(r, path, what, stat, errmsg)
+        integer, intent(in) :: r                            !! 0 or an errno value
+        character(len=*), intent(in) :: path                !! file name (for the message)
+        character(len=*), intent(in) :: what                !! what failed
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        stat = STAT_OK
+        if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': '//what//': ' &
+                               //sys_error(r))
+    end subroutine check_errno
 
     !> Remove a file if it exists (errors ignored: used for clean-up only).
     subroutine file_remove(path)

@@ -36,7 +36,6 @@ contains
         character(len=*), intent(in), optional :: scalar_name !! its name (default 'scalar')
         real(dp), intent(in), optional :: time              !! optional TimeValue field data
         integer :: n, nc, unit, ios, k, ctype
-        integer(i8) :: expected
         character(len=256) :: iomsg
         character(len=:), allocatable :: sname
 
@@ -102,25 +101,7 @@ contains
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '    </Piece>'
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </UnstructuredGrid>'
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
-        ! libgfortran does not report a failed write of its buffer (a full disk) at
-        ! FLUSH or CLOSE: compare the bytes written with the file's size after closing.
-        if (ios == 0) inquire (unit=unit, pos=expected)
-
-        if (ios /= 0) then
-            close (unit, iostat=k)
-            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_vtu: cannot write '//trim(path) &
-                       //': '//trim(iomsg))
-            return
-        end if
-        close (unit, iostat=ios, iomsg=iomsg)
-        if (ios /= 0) then
-            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_vtu: cannot close '//trim(path) &
-                       //': '//trim(iomsg))
-            return
-        end if
-        call check_size(path, expected - 1, 'vtk_write_vtu', stat, errmsg)
-        if (stat /= STAT_OK) return
-        stat = STAT_OK
+        call close_checked(unit, path, ios, iomsg, 'vtk_write_vtu', stat, errmsg)
     end subroutine vtk_write_vtu
 
     !> The shapes of vtk_write_vtu's arrays: x, u, v (dim, n), cells (dim+1, nc) with node
@@ -203,7 +184,6 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK, _BAD_INPUT, _INTERNAL
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: unit, ios, k
-        integer(i8) :: expected
         character(len=256) :: iomsg
         character(len=32) :: tbuf
 
@@ -232,25 +212,38 @@ contains
         end do
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </Collection>'
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
-        ! libgfortran does not report a failed write of its buffer (a full disk) at
-        ! FLUSH or CLOSE: compare the bytes written with the file's size after closing.
+        call close_checked(unit, path, ios, iomsg, 'vtk_write_pvd', stat, errmsg)
+    end subroutine vtk_write_pvd
+
+    !> Closes a file written through `unit` and reports any failure: a write error
+    !> already met (ios /= 0), a failed close, or a closed file whose size differs from
+    !> the bytes written. libgfortran does not report a failed write of its buffer (a full
+    !> disk) at FLUSH or CLOSE, hence the size check.
+    subroutine close_checked(unit, path, ios, iomsg, who, stat, errmsg)
+        integer, intent(in) :: unit                         !! open unit
+        character(len=*), intent(in) :: path                !! its file
+        integer, intent(inout) :: ios                       !! status of the writes so far
+        character(len=*), intent(inout) :: iomsg            !! message of the failed write
+        character(len=*), intent(in) :: who                 !! procedure name (message)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(i8) :: expected
+        integer :: k
         if (ios == 0) inquire (unit=unit, pos=expected)
         if (ios /= 0) then
             close (unit, iostat=k)
-            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_pvd: cannot write '//trim(path) &
+            call raise(stat, errmsg, STAT_INTERNAL, who//': cannot write '//trim(path) &
                        //': '//trim(iomsg))
             return
         end if
         close (unit, iostat=ios, iomsg=iomsg)
         if (ios /= 0) then
-            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_pvd: cannot close '//trim(path) &
+            call raise(stat, errmsg, STAT_INTERNAL, who//': cannot close '//trim(path) &
                        //': '//trim(iomsg))
             return
         end if
-        call check_size(path, expected - 1, 'vtk_write_pvd', stat, errmsg)
-        if (stat /= STAT_OK) return
-        stat = STAT_OK
-    end subroutine vtk_write_pvd
+        call check_size(path, expected - 1, who, stat, errmsg)
+    end subroutine close_checked
 
     !> STAT_INTERNAL unless the closed file holds `bytes` bytes (a write lost on a full
     !> disk shows up here).
