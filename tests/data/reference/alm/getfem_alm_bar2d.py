@@ -94,7 +94,8 @@ def trace(out, t_end, perturb):
     iy = [i for i in range(mfu.nbdof()) if i % 2 == 1 and abs(dn[0, i] - 0.05) < 1e-12
           and abs(dn[1, i]) < 1e-12][0]
     ln = mfl.basic_dof_nodes()
-    lp = [i for i in range(mfl.nbdof()) if abs(ln[0, i] - 0.05) < 1e-12 and abs(ln[1, i]) < 1e-12][0]
+    lp = [i for i in range(mfl.nbdof())
+          if abs(ln[0, i] - 0.05) < 1e-12 and abs(ln[1, i]) < 1e-12][0]
     ilp = list(np.sort(mfl.basic_dof_on_region(GC))).index(lp)
     rows = []
 
