@@ -48,12 +48,13 @@ from .sweep import REFUSED, make_task, sweep
 
 __all__ = ["run_which", "OSC_SCHEMES", "OSC_SIZES", "ROBUST_1D"]
 
-#: Schemes of the oscillation sweep: the work-precision set plus implicit lumped mass and
-#: stiffer penalties (γ0 = 100, 1000).
+#: Schemes of the oscillation sweep: the work-precision set (with the augmented
+#: Lagrangian's rows) plus implicit lumped mass and stiffer penalties (γ0 = 100, 1000).
 OSC_SCHEMES = ("newmark", "newmark_lumped", "hht-0.05", "hht-0.1", "theta0.5", "theta1",
                "galpha1", "galpha0.8", "galpha0.5", "pc", "pc_hht-0.1", "central_lumped",
                "newmark_penalty", "newmark_penalty100", "newmark_penalty1000",
-               "newmark_redist", "hht-0.1_redist")
+               "newmark_redist", "hht-0.1_redist", "newmark_alm", "newmark_alm_nodal",
+               "newmark_alm_redist", "newmark_alm_nodal_redist")
 #: (case, h, T) of the oscillation sweep; the 1D case also at h/2 and 2h for the energy
 #: of the redistributed mass (first order in h).
 OSC_SIZES = {"full": (("1d", 0.02, 3.0), ("1d", 0.01, 3.0), ("1d", 0.005, 3.0),

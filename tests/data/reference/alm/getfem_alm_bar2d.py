@@ -7,13 +7,14 @@ interface (Debian `python3-getfem` 5.4.2) and runs under the system Python:
     /usr/bin/python3 getfem_alm_bar2d.py trace OUT.csv [--t-end 4.5] [--perturb 1e-14]
     /usr/bin/python3 getfem_alm_bar2d.py one-step STATES.npz
 
-The model is the reference's (README.md, "alm/"): P1 on the h = 0.05 "regular simplices"
-mesh, plane strain (lambda = 1/2, mu = 1/4), rho = 1, clamped at y = 1; GetFEM's integral
-contact brick with a rigid obstacle (option 1, non-symmetric Alart-Curnier; option 2, the
-symmetric one, gives the same trace), lambda P1 on Gamma_C, r = gamma0 / (h sqrt 2),
-gamma0 = 10, the obstacle the signed distance y; IM_TRIANGLE(4) (3 Gauss points a contact
-facet); GetFEM's Newmark dispatcher (1/4, 1/2), dt = h/20, a0 from M a0 + K u0 = 0; Newton
-to the absolute residual 1e-10. `--perturb e` multiplies u0 by 1 + e.
+The model is the reference's (the "alm/" section of tests/data/reference/README.md): P1 on
+the h = 0.05 "regular simplices" mesh, plane strain (lambda = 1/2, mu = 1/4), rho = 1,
+clamped at y = 1; GetFEM's integral contact brick with a rigid obstacle (option 1, non-
+symmetric Alart-Curnier; option 2, the symmetric one, gives the same trace), lambda P1 on
+Gamma_C, r = gamma0 / (h sqrt 2), gamma0 = 10, the obstacle the signed distance y;
+IM_TRIANGLE(4) (3 Gauss points a contact facet); GetFEM's Newmark dispatcher (1/4, 1/2), dt
+= h/20, a0 from M a0 + K u0 = 0; Newton to the absolute residual 1e-10. `--perturb e`
+multiplies u0 by 1 + e.
 
 `one-step` reads states of our run (keys x, node, comp: our mesh's node coordinates and each
 free dof's node and component; U, V, A: u, v, a at step n in rows 2k and at step n + 1 in
