@@ -441,6 +441,27 @@ def test_work_precision_quick_keeps_every_run_and_names_the_cheapest(work_precis
     assert "converged enough" in text and "Cheapest scheme" in text
 
 
+def test_work_precision_quick_has_the_alm_series(work_precision):
+    """The augmented Lagrangian's rows (integral and nodal, consistent and redistributed
+    mass) run on both cases. In 1D, against the closed form, the consistent mass chatters
+    (p_n error of order 1; the multiplier feeds energy in: an energy error of order 0.1
+    that grows with time) and the redistributed mass does not (its massless contact
+    node: errors below a fifth of those)."""
+    rows = [r for r in work_precision["rows"] if "alm" in r["series"]]
+    keys = ("newmark_alm", "newmark_alm_nodal", "newmark_alm_redist", "newmark_alm_nodal_redist")
+    assert {r["series"].split("@")[0] for r in rows} == set(keys)
+    assert {(r["case"], r["series"].split("@")[0]) for r in rows} == {
+        (c, k) for c in ("1d", "2d") for k in keys}
+    assert all(r["status"] == "ok" and r["newton_its_total"] > 0 for r in rows)
+    h_min = min(r["h"] for r in rows if r["case"] == "1d")
+    fine = {r["series"].split("@")[0]: r for r in rows if r["case"] == "1d" and r["h"] == h_min}
+    for k in ("newmark_alm", "newmark_alm_nodal"):
+        assert fine[k]["err_p_n"] > 0.5 and fine[k]["err_e_total"] > 0.1
+    for k in ("newmark_alm_redist", "newmark_alm_nodal_redist"):
+        assert fine[k]["err_p_n"] < fine["newmark_alm"]["err_p_n"] / 5
+        assert fine[k]["err_e_total"] < fine["newmark_alm"]["err_e_total"] / 5
+
+
 def test_work_precision_marks_unstable_runs_without_dropping_them(tmp_path):
     from dyncontact.study import workprecision as wp
 
@@ -497,6 +518,27 @@ def test_stability_quick_has_the_rows_beyond_the_seed_and_compares_central_estim
                 c["dt_crit_estimate"] / math.sqrt(c["dt_crit_lo"] * c["dt_crit_hi"]))
     text = open(stability["summary"], encoding="utf-8").read()
     assert "critical-step estimate against the measured one" in text
+
+
+def test_stability_quick_has_the_alm_rows(stability):
+    """The augmented Lagrangian has no Nitsche θ (one group per (h, γ0), θ = +1). With the
+    consistent mass its chattering multipliers feed the bar energy at every impact (GetFEM's
+    own ALM run: 2.8 e(0) by t = 4.5, tests/data/reference/alm/); with the redistributed
+    mass and nodal multipliers it never gains energy (the massless contact nodes hold
+    u_n = 0 exactly), and is stable on the whole grid."""
+    crit = [c for c in stability["critical"] if c["method"] == "alm"]
+    assert {c["scheme"] for c in crit} == {"newmark_alm", "newmark_alm_nodal_redist"}
+    assert all(c["theta"] == 1 for c in crit)
+    runs = [r for r in stability["runs"] if r["phase"] == "grid" and r["method"] == "alm"]
+    chatter = [r for r in runs if r["scheme"] == "newmark_alm"]
+    assert chatter and all(r["e_max_ratio"] > 2 for r in chatter)
+    nodal = [r for r in runs if r["scheme"] == "newmark_alm_nodal_redist"]
+    assert nodal and all(r["classification"] == "stable" and r["e_max_ratio"] <= 1 + 1e-9
+                         and r["impacts"] >= 5 for r in nodal)
+    assert all(c["bracket"] == "above grid" for c in crit
+               if c["scheme"] == "newmark_alm_nodal_redist")
+    text = open(stability["summary"], encoding="utf-8").read()
+    assert "newmark_alm_nodal_redist" in text
 
 
 def test_a_scene_the_core_refuses_is_recorded_as_refused_not_failed(tmp_path, capsys):

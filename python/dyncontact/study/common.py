@@ -204,7 +204,7 @@ class SchemeSpec:
 
     @property
     def method(self) -> str:
-        """The contact method: 'nitsche' (the scenes' default) or 'penalty'."""
+        """The contact method: 'nitsche' (the scenes' default), 'penalty' or 'alm'."""
         return dict(self.settings).get("contact.method", "nitsche")
 
 
@@ -264,6 +264,23 @@ SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
        gamma=0.5, contact={"method": "penalty", "gamma0": 100.0}),
     _s("newmark_penalty1000", "newmark β=¼ γ=½ penalty γ0=1000", name="newmark", beta=0.25,
        gamma=0.5, contact={"method": "penalty", "gamma0": 1000.0}),
+    # the augmented Lagrangian (r = γ0/h_T, the scene's γ0): integral and nodal
+    # multipliers, with the consistent mass (where a multiplier method chatters) and the
+    # redistributed one (where it behaves)
+    _s("newmark_alm", "newmark β=¼ γ=½ ALM integral", name="newmark", beta=0.25, gamma=0.5,
+       contact={"method": "alm", "multiplier": "integral"}),
+    _s("newmark_alm_nodal", "newmark β=¼ γ=½ ALM nodal", name="newmark", beta=0.25,
+       gamma=0.5, contact={"method": "alm", "multiplier": "nodal"}),
+    _s("newmark_alm_redist", "newmark β=¼ γ=½ ALM integral redistributed", name="newmark",
+       beta=0.25, gamma=0.5, mass="redistributed",
+       contact={"method": "alm", "multiplier": "integral"}),
+    _s("newmark_alm_nodal_redist", "newmark β=¼ γ=½ ALM nodal redistributed", name="newmark",
+       beta=0.25, gamma=0.5, mass="redistributed",
+       contact={"method": "alm", "multiplier": "nodal"}),
+    _s("hht-0.1_alm_redist", "hht α=-0.1 ALM integral redistributed", name="hht",
+       alpha=-0.1, mass="redistributed", contact={"method": "alm", "multiplier": "integral"}),
+    _s("hht-0.1_alm_nodal_redist", "hht α=-0.1 ALM nodal redistributed", name="hht",
+       alpha=-0.1, mass="redistributed", contact={"method": "alm", "multiplier": "nodal"}),
 )}
 
 

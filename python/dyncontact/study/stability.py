@@ -8,8 +8,9 @@ h/100 says nothing a run at h/20 does not.
 
 The options beyond the seed are rows: galpha, central differences (lumped and consistent mass,
 on the explicit dt/h grid; their own critical-step estimate is compared with the
-bisection), the redistributed mass and penalty contact (no Nitsche theta: one run per
-(h, gamma0, dt), listed as theta = +1).
+bisection), the redistributed mass, penalty contact and the augmented Lagrangian (integral
+and nodal multipliers, consistent and redistributed mass; r = gamma0/h_T). Penalty and ALM
+have no Nitsche theta: one run per (h, gamma0, dt), listed as theta = +1.
 
 Classification (from summary.json, i.e. the core's own verdict, SPEC section 4):
 ``stable`` (ran to T), ``unstable`` (energy of the written state over ``blowup`` x
@@ -49,14 +50,16 @@ GRIDS = {
                          # beyond the seed
                          "galpha1", "galpha0.5", "central_lumped", "central",
                          "newmark_redist", "hht-0.1_redist", "newmark_penalty",
-                         "hht-0.1_penalty"),
+                         "hht-0.1_penalty", "newmark_alm", "newmark_alm_nodal",
+                         "newmark_alm_redist", "newmark_alm_nodal_redist",
+                         "hht-0.1_alm_redist", "hht-0.1_alm_nodal_redist"),
              "h": (0.1, 0.05), "gamma0": (0.01, 1.0, 10.0, 100.0),
              "theta": (-1, 0, 1),
              "dt_over_h": {"implicit": (1 / 80, 1 / 20, 1 / 5, 1.0),
                            "explicit": (1 / 100, 1 / 20, 1 / 10, 1 / 5, 1 / 2, 1.0)},
              "t_end": 30.0, "rounds": 4},
     "quick": {"schemes": ("hht-0.1", "pc", "pc_lumped", "central_lumped", "hht-0.1_redist",
-                          "newmark_penalty"),
+                          "newmark_penalty", "newmark_alm", "newmark_alm_nodal_redist"),
               "h": (0.1,), "gamma0": (10.0,), "theta": (-1, 1),
               "dt_over_h": {"implicit": (1 / 20, 1 / 2), "explicit": (1 / 20, 1 / 10, 1 / 2)},
               "t_end": 30.0, "rounds": 3},
@@ -73,9 +76,9 @@ AUTO_FACTOR = 0.9
 
 
 def thetas(s, g) -> tuple[int, ...]:
-    """The Nitsche θ of the sweep for scheme s: penalty contact has no θ (one run, θ = 1
-    in the tables)."""
-    return (1,) if s.method == "penalty" else tuple(g["theta"])
+    """The Nitsche θ of the sweep for scheme s: penalty and the augmented Lagrangian have
+    no θ (one run, θ = 1 in the tables)."""
+    return tuple(g["theta"]) if s.method == "nitsche" else (1,)
 
 
 def classify(status: str) -> str:
@@ -357,7 +360,8 @@ def _summary(report, schemes, path) -> str:
         f"bad input), {report['wall_s']:.1f} s.", "",
         "Verdicts are the core's (summary.json status): `unstable` = the energy of the "
         "written state exceeded blowup × e_total(0) (or was not finite). Penalty rows "
-        "(ε_N = γ0/h) have no Nitsche θ: one run per (γ0, Δt), listed as θ = +1. "
+        "(ε_N = γ0/h) and augmented Lagrangian rows (r = γ0/h) have no Nitsche θ: one run "
+        "per (γ0, Δt), listed as θ = +1. "
         "θ = 1 with γ0 below the element bound is refused by the core (`refused`).", ""]
     lines += ["## The seed's claims", ""]
     lines += md_table(["claim", "setting tested", "verdict", "evidence"],

@@ -18,8 +18,8 @@ never written by hand, for the 1D exact case and the seed's 2D bar.
   that do not lose a significant amount of energy at impact: |E change across the first
   contact phase| ≤ 1 % of E(0) (the claims table's "significant", :mod:`.claims`).
 - **Most robust in γ0 and Δt**: an option is a scheme with a Nitsche θ (θ is the user's
-  choice too; penalty contact has none). Its runs over γ0 x Δt/h (Δt/h from the values
-  every scheme was swept at) are counted as stable, not stable (unstable, Newton failed,
+  choice too; penalty and ALM contact have none). Its runs over γ0 x Δt/h (Δt/h from the
+  values every scheme was swept at) are counted as stable, not stable (unstable, Newton failed,
   failed to run) and refused (the core refuses the setting as bad input: θ = 1 with γ0
   below its bound). Its score is the fraction of stable runs among the settings it
   accepts (stable + not stable): a refused setting is the user being told no, not a run
@@ -48,12 +48,13 @@ from .sweep import REFUSED, make_task, sweep
 
 __all__ = ["run_which", "OSC_SCHEMES", "OSC_SIZES", "ROBUST_1D"]
 
-#: Schemes of the oscillation sweep: the work-precision set plus implicit lumped mass and
-#: stiffer penalties (γ0 = 100, 1000).
+#: Schemes of the oscillation sweep: the work-precision set (with the augmented
+#: Lagrangian's rows) plus implicit lumped mass and stiffer penalties (γ0 = 100, 1000).
 OSC_SCHEMES = ("newmark", "newmark_lumped", "hht-0.05", "hht-0.1", "theta0.5", "theta1",
                "galpha1", "galpha0.8", "galpha0.5", "pc", "pc_hht-0.1", "central_lumped",
                "newmark_penalty", "newmark_penalty100", "newmark_penalty1000",
-               "newmark_redist", "hht-0.1_redist")
+               "newmark_redist", "hht-0.1_redist", "newmark_alm", "newmark_alm_nodal",
+               "newmark_alm_redist", "newmark_alm_nodal_redist")
 #: (case, h, T) of the oscillation sweep; the 1D case also at h/2 and 2h for the energy
 #: of the redistributed mass (first order in h).
 OSC_SIZES = {"full": (("1d", 0.02, 3.0), ("1d", 0.01, 3.0), ("1d", 0.005, 3.0),
@@ -332,9 +333,9 @@ def run_which(out: str, wp: Mapping[str, Any], stab: Mapping[str, Any], *,
 
 
 def _option(x) -> str:
-    """'label θ=±1', or the label alone for penalty contact (no θ)."""
+    """'label θ=±1', or the label alone for penalty and ALM contact (no θ)."""
     s = SCHEMES[x["scheme"]]
-    return s.label if s.method == "penalty" else f"{s.label}, Nitsche θ={x['theta']}"
+    return s.label if s.method != "nitsche" else f"{s.label}, Nitsche θ={x['theta']}"
 
 
 def _osc_evidence(cands, mine, h_rank) -> str:

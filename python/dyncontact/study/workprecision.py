@@ -44,7 +44,11 @@ DEFAULT_SERIES = (("newmark", None), ("hht-0.05", None), ("hht-0.1", None),
                   # dt = h/4), penalty (gamma0 = 10), the redistributed mass
                   ("galpha1", None), ("galpha0.8", None), ("galpha0.5", None),
                   ("central_lumped", None), ("newmark_penalty", None),
-                  ("newmark_redist", None), ("hht-0.1_redist", None))
+                  ("newmark_redist", None), ("hht-0.1_redist", None),
+                  # the augmented Lagrangian, integral and nodal, consistent and
+                  # redistributed mass
+                  ("newmark_alm", None), ("newmark_alm_nodal", None),
+                  ("newmark_alm_redist", None), ("newmark_alm_nodal_redist", None))
 LADDER_1D = {"full": (25, 50, 100, 200, 400), "quick": (25, 50)}
 LADDER_2D = {"full": (0.1, 0.05, 0.025), "quick": (0.1, 0.05)}
 REF_FACTOR = {"full": 8, "quick": 2}
