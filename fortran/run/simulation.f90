@@ -172,7 +172,9 @@ contains
         call mesh_load(sim%scn%mesh_file, sim%scn%mesh_dim, sim%scn%mesh_length, &
                        sim%scn%mesh_width, sim%scn%mesh_h, msh, stat, mmsg)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh: '//trim(mmsg))
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh'// &
+                       trim(merge(' file:', ':     ', len_trim(sim%scn%mesh_file) > 0))//' '// &
+                       trim(mmsg))
             return
         end if
         call scene_check_dim(sim%scn, msh%dim, stat, errmsg)   ! the vector keys
