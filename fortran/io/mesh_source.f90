@@ -16,7 +16,7 @@ contains
     !> not checked (mesh_check), for reading meshes the model does not take yet.
     subroutine mesh_load(path, bar_dim, length, width, h, msh, stat, errmsg, check)
         character(len=*), intent(in) :: path                !! .msh/.geo file or '' (built-in bar)
-        integer, intent(in) :: bar_dim                      !! bar dimension (0: 2)
+        integer, intent(in) :: bar_dim                      !! bar dimension
         real(dp), intent(in) :: length                      !! bar length
         real(dp), intent(in) :: width                       !! bar width
         real(dp), intent(in) :: h                           !! bar mesh size
@@ -27,8 +27,7 @@ contains
         if (len_trim(path) > 0) then
             call read_mesh_file(path, h, length, width, msh, stat, errmsg, check)
         else
-            call bar_mesh_build(merge(2, bar_dim, bar_dim == 0), length, width, h, msh, stat, &
-                                errmsg)
+            call bar_mesh_build(bar_dim, length, width, h, msh, stat, errmsg)
         end if
     end subroutine mesh_load
 

@@ -77,7 +77,7 @@ module scene
         integer :: checkpoint_every                !! checkpoint every this many steps (0 = none)
     end type scene_t
 
-    public :: scene_read, scene_parse, scene_to_json, scene_check_dim
+    public :: scene_read, scene_parse, scene_to_json, scene_check_dim, scene_bar_dim
 
     !> One key: its table row, the component it fills and its value as read.
     type :: key_t
@@ -274,7 +274,7 @@ contains
         ! the built-in bar's dimension is known now (a mesh file's once it is read)
         if (len(msg) == 0 .and. len_trim(scn%mesh_file) == 0 .and. &
             scn%mesh_dim >= 0 .and. scn%mesh_dim <= 3) &
-            call vector_dims(keys, name, bar_dim(scn%mesh_dim), msg)
+            call vector_dims(keys, name, scene_bar_dim(scn%mesh_dim), msg)
         if (full .and. len(msg) == 0) call validate(keys, name, msg)
         if (full .and. len(msg) == 0) call validate_cross(keys, scn, name, base, msg)
         stat = STAT_OK
@@ -681,7 +681,7 @@ contains
         else
             ! the built-in bar: 1D n segments, 2D 2 nx ny triangles (bar_mesh.f90)
             n_elem = max(1.0_dp, anint(scn%mesh_length / scn%mesh_h))
-            if (bar_dim(scn%mesh_dim) == 2) &
+            if (scene_bar_dim(scn%mesh_dim) == 2) &
                 n_elem = 2 * n_elem * max(1.0_dp, anint(scn%mesh_width / scn%mesh_h))
             if (scn%mesh_dim == 3) &
                 n_elem = 6 * n_elem * max(1.0_dp, anint(scn%mesh_width / scn%mesh_h))**2
@@ -733,11 +733,11 @@ contains
         end if
     end subroutine validate_cross
 
-    !> The built-in bar's dimension for &mesh dim = d (0: 2).
-    pure integer function bar_dim(d)
+    !> The built-in bar's dimension for &mesh dim = d (0, the default: 2).
+    pure integer function scene_bar_dim(d)
         integer, intent(in) :: d   !! &mesh dim
-        bar_dim = merge(2, d, d == 0)
-    end function bar_dim
+        scene_bar_dim = merge(2, d, d == 0)
+    end function scene_bar_dim
 
     !> The keys that depend on the mesh dimension: the vector keys take 3 components in 3D
     !> (a key not given takes its 3D default), 1 or 2 in 1D and 2D; &contact quad_points
