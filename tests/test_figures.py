@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 
+import numpy as np
 import pytest
 
 from conftest import ROOT
@@ -36,7 +37,7 @@ def test_quick_figures_exit_and_every_file(quick_figures):
     out, res = quick_figures
     assert res.returncode == 0, (res.stdout[-3000:], res.stderr[-3000:])
     plan = figure_plan(quick=True)
-    assert [f.key for f in plan] == [f"fig{k}" for k in range(1, 8)]
+    assert [f.key for f in plan] == [f"fig{k}" for k in range(1, 10)]
     for fig in plan:
         png = out / fig.png
         assert png.is_file(), fig.png
@@ -94,6 +95,118 @@ def test_quick_traces_are_short_and_fig1_has_fields(quick_figures):
     assert all(os.path.isfile(p) for _, p in sets)
     assert sets[0][0] == 0.0 and sets[-1][0] == pytest.approx(3.0)
     assert f"runs/{fig1.runs[0].name}/fields.pvd" in (out / "index.md").read_text("utf-8")
+
+
+@pytest.mark.slow
+def test_quick_fig8_draws_the_box_and_strip_traces(quick_figures):
+    """Fig. 8's values (index.json) are those of the two runs' traces: the 2D strip and
+    the 3D box of the same scheme, written at the same times."""
+    from dyncontact.core import read_summary, read_trace
+    from dyncontact.study.figures import figure_plan
+
+    out, _ = quick_figures
+    report = json.loads((out / "index.json").read_text(encoding="utf-8"))
+    fig = next(f for f in report["figures"] if f["key"] == "fig8")
+    assert fig["plot"]["ok"], fig
+    data = fig["plot"]["data"]
+    strip, box = next(f for f in figure_plan(quick=True) if f.key == "fig8").runs
+    assert box.settings["mesh.dim"] == 3
+    assert {k: v for k, v in box.settings.items() if k != "mesh.dim"} == strip.settings
+    a, b = read_trace(out / "runs" / strip.name), read_trace(out / "runs" / box.name)
+    assert read_summary(out / "runs" / box.name)["dofs"] == data["box"]["dofs"] == 540
+    assert read_summary(out / "runs" / strip.name)["dofs"] == data["strip"]["dofs"] == 120
+    assert np.array_equal(a["t"], b["t"]) and data["common_rows"] == len(a["t"])
+    assert data["max_abs_du_n"] == np.max(np.abs(a["u_n"] - b["u_n"]))
+    assert data["max_abs_dp_n"] == np.max(np.abs(a["p_n"] - b["p_n"]))
+    for key, tr in (("strip", a), ("box", b)):
+        assert data[key]["e0"] == tr["e_total"][0]
+        assert data[key]["p_n_min"] == tr["p_n"].min() < 0
+        assert data[key]["e_end_ratio"] == tr["e_total"][-1] / tr["e_total"][0]
+    # the same 1D-like motion: the compressed bar starts at u_n = -1/2 in both
+    assert a["u_n"][0] == b["u_n"][0] == -0.5
+
+
+def _von_mises_loop(x, tets, u, young, poisson):
+    """Von Mises stress per tetrahedron, written out element by element (P1 gradients
+    from the barycentric coordinates), to check the figure's vectorized one."""
+    lam = young * poisson / ((1 + poisson) * (1 - 2 * poisson))
+    mu = young / (2 * (1 + poisson))
+    out = []
+    for t in tets:
+        a = np.hstack([np.ones((4, 1)), x[t]])        # rows: 1, x, y, z of each node
+        grads = np.linalg.inv(a)[1:, :]               # (3, 4): gradients of the 4 shape fns
+        g = u[t].T @ grads.T                          # (3, 3): du_i/dx_j
+        eps = 0.5 * (g + g.T)
+        sig = lam * np.trace(eps) * np.eye(3) + 2 * mu * eps
+        s = sig - np.trace(sig) / 3 * np.eye(3)
+        out.append(np.sqrt(1.5 * np.sum(s * s)))
+    return np.array(out)
+
+
+@pytest.mark.slow
+def test_quick_fig9_snapshot_is_the_ball_at_its_maximum_compression(quick_figures):
+    """Fig. 9: the snapshot run stops at the trace run's largest elastic energy and is
+    the same state (same steps, same e_el); the drawn stress and patch are those of its
+    VTU; the impact is Hertz's to the accuracy of this coarse ball."""
+    meshio = pytest.importorskip("meshio")
+    from dyncontact.core import read_trace
+    from dyncontact.plotting import read_pvd
+    from dyncontact.study.figures import figure_plan
+
+    out, _ = quick_figures
+    report = json.loads((out / "index.json").read_text(encoding="utf-8"))
+    fig = next(f for f in report["figures"] if f["key"] == "fig9")
+    assert fig["plot"]["ok"], fig
+    data = fig["plot"]["data"]
+    trace_run = next(f for f in figure_plan(quick=True) if f.key == "fig9").runs[0]
+    assert fig["runs"][0] == trace_run.name and len(fig["runs"]) == 2
+    tr = read_trace(out / "runs" / trace_run.name)
+    k = int(np.argmax(tr["e_el"]))
+    assert 0 < k < len(tr["t"]) - 1                   # a maximum inside the run
+    assert data["t_star"] == tr["t"][k] and data["e_el_max"] == tr["e_el"][k]
+    assert tr["active"][0] == 0 and tr["active"][k] > 0 and tr["active"][-1] == 0
+    snap_dir = out / "runs" / fig["runs"][1]
+    snap = read_trace(snap_dir)
+    assert snap["t"][-1] == pytest.approx(tr["t"][k], abs=1e-12)
+    assert snap["e_el"][-1] == pytest.approx(tr["e_el"][k], rel=1e-12)
+    sets = read_pvd(snap_dir / "fields.pvd")
+    assert [t for t, _ in sets] == pytest.approx([0.0, tr["t"][k]], abs=1e-12)
+    m = meshio.read(sets[-1][1])
+    x, u = m.points, m.point_data["displacement"]
+    tets = m.cells_dict["tetra"]
+    vm = _von_mises_loop(x, tets, u, data["young"], data["poisson"])
+    assert data["von_mises_max"] == pytest.approx(vm.max(), rel=1e-10)
+    assert data["tets"] == len(tets) and data["contact_nodes"] >= 1
+    assert data["min_gap"] == pytest.approx(float(np.min(x[:, 2] + u[:, 2])), abs=1e-15)
+    # Hertz's quasi-static impact (R = 0.2, E* = 1/0.91, v = 0.1): contact time 1.55,
+    # approach 0.053; this ball of 257 tetrahedra: 1.37 and 0.046 (the coarse sphere is
+    # stiffer, and the impact not quite quasi-static); within 25 %
+    hz = data["hertz"]
+    assert data["contact_end"] - data["contact_start"] == pytest.approx(hz["t_contact"],
+                                                                         rel=0.25)
+    assert data["approach"] == pytest.approx(hz["delta_max"], rel=0.25)
+
+
+def test_von_mises_and_mid_plane_cut_on_known_states():
+    """Uniaxial stress gives σ_vm = |σ_xx|, pure shear √3 |σ_xy|; the mid-plane section of
+    the unit cube (6 tetrahedra, at rest) has area 1."""
+    from dyncontact.study.figures import mid_plane_cut, von_mises
+
+    x = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0, 0, 1], [1, 0, 1],
+                  [0, 1, 1], [1, 1, 1]], dtype=float)
+    tets = np.array([[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7],
+                     [0, 4, 6, 7]])
+    young, nu, e = 2.0, 0.25, 1e-3
+    u = x @ np.diag([e, -nu * e, -nu * e]).T
+    assert von_mises(x, tets, u, young, nu) == pytest.approx(young * e, rel=1e-12)
+    g = 1e-3
+    u = np.column_stack([g * x[:, 1], g * x[:, 0], 0 * x[:, 0]])     # ε_xy = g
+    assert von_mises(x, tets, u, young, nu) == pytest.approx(
+        np.sqrt(3) * young / (1 + nu) * g, rel=1e-12)
+    polys, cut = mid_plane_cut(x, tets, 0 * x, axis=1, value=0.5)
+    area = sum(0.5 * abs(np.dot(p[:, 0], np.roll(p[:, 1], 1))
+                         - np.dot(p[:, 1], np.roll(p[:, 0], 1))) for p in polys)
+    assert len(cut) == 6 and area == pytest.approx(1.0, rel=1e-12)
 
 
 def test_figures_run_on_the_pool_on_dask_and_from_the_cache(tmp_path, monkeypatch):
@@ -155,7 +268,7 @@ def test_full_plan_matches_the_seed():
     from dyncontact.study.figures import figure_plan
 
     plan = figure_plan()
-    assert len(plan) == 7
+    assert len(plan) == 9
     f1 = plan[0].runs[0].settings
     assert (f1["scheme.name"], f1["scheme.beta"], f1["scheme.gamma"]) == ("newmark", 0.25, 0.5)
     assert (f1["mesh.h"], f1["scheme.dt"], f1["scheme.t_end"]) == (0.02, 0.001, 3.0)

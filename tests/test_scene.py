@@ -140,7 +140,7 @@ BAD_CASES = [
     BadCase("mesh_file_is_directory", "&mesh file = '.' /\n", "&mesh file",
             "cannot read mesh file"),
     # ranges and choices
-    BadCase("dim_4", "&mesh dim = 4 /\n", "&mesh dim", "must be 1, 2 or 3"),
+    BadCase("dim_4", "&mesh dim = 4 /\n", "&mesh dim", "must be 0, 1, 2 or 3"),
     # vectors against the dimension
     BadCase("vector_2_in_3d", "&mesh dim = 3 /\n&contact probe = 0.05, 0.0 /\n",
             "&contact probe", "expected 3 values in 3D (got '0.05, 0.0')"),
@@ -308,9 +308,12 @@ def test_dump_keeps_the_keys_it_had(tmp_path):
 
 
 def test_seed_default_scene_is_the_default():
-    """bar2d_hht.nml spells out the defaults except the output folder."""
+    """bar2d_hht.nml spells out the defaults except the output folder, and dim = 2, the
+    dimension the default dim = 0 gives the built-in bar."""
     scn = Scene.read(SCENES_DIR / "bar2d_hht.nml")
+    assert scn.get("mesh.dim") == 2
     scn.set("output.dir", "out")
+    scn.set("mesh.dim", 0)
     assert scn == Scene()
 
 
@@ -410,7 +413,7 @@ def test_syntax_variants(tmp_path):
     d = Scene.read(path).to_dict()
     assert d["mesh"]["file"] == os.path.join(str(tmp_path), "m.msh")
     assert d["mesh"]["h"] == 0.01 and d["mesh"]["length"] == 2.0
-    assert d["mesh"]["dim"] == 1          # kept, but ignored with a mesh file
+    assert d["mesh"]["dim"] == 1          # kept (checked against the file's when it is read)
     assert d["boundary"] == {"clamped": "top, left", "slip_x": "it's",
                              "slip_y": 'a"b', "slip_z": "", "contact": "a!b/c&d"}
     assert d["material"]["gravity"] == [-9.81, -9.81]
@@ -468,15 +471,22 @@ def test_normal_is_normalized(tmp_path):
     assert Scene.read(path).get("contact.obstacle_normal") == [0.6, -0.8]
 
 
-def test_dim_is_ignored_with_a_mesh_file(tmp_path):
-    """dim = 1 with a mesh file: the 1D check of the normal does not apply (the mesh
-    decides the dimension), and the model is built from the file."""
+def test_dim_given_with_a_mesh_file_must_be_the_files(tmp_path):
+    """dim = 1 with a 2D mesh file: the 1D check of the normal does not apply (the mesh
+    decides the dimension), and the model refuses the dim that is not the file's, naming
+    the key and the file; left out (0, the default) or 2, the model is built from it."""
     mesh = ROOT / "meshes" / "bar2d_getfem_h0.05.msh"
     path = scene_text(tmp_path, f"&mesh file = '{mesh}', dim = 1 /\n")
     scn = Scene.read(path)
     assert scn.get("contact.obstacle_normal") == [0.0, -1.0]
-    with dyncontact.core.Model(path) as m:
-        assert m.elements == 80    # the file's triangles
+    with pytest.raises(BadInputError, match=f"&mesh dim: 1 given, but the mesh file "
+                                            f"'{mesh}' is 2D"):
+        dyncontact.core.Model(path)
+    for keys in ("", ", dim = 2"):
+        ok = scene_text(tmp_path, f"&mesh file = '{mesh}'{keys} /\n", "ok.nml")
+        assert Scene.read(ok).get("mesh.dim") == (2 if keys else 0)
+        with dyncontact.core.Model(ok) as m:
+            assert m.elements == 80    # the file's triangles
     no_file = scene_text(tmp_path, "&mesh dim = 1 /\n", "nofile.nml")
     with pytest.raises(BadInputError, match="&contact obstacle_normal: component 1"):
         Scene.read(no_file)

@@ -29,7 +29,7 @@ module scene
     type, public :: scene_t
         character(len=PATH_LEN) :: path = ''       !! the scene's name in messages (its file)
         character(len=PATH_LEN) :: mesh_file       !! &mesh file, resolved ('' = built-in bar)
-        integer :: mesh_dim                        !! built-in bar dimension (ignored with a file)
+        integer :: mesh_dim                        !! 0: the mesh's (a file's, 2 for the built-in bar)
         real(dp) :: mesh_length                    !! built-in bar length
         real(dp) :: mesh_width                     !! built-in bar width (2D)
         real(dp) :: mesh_h                         !! built-in bar mesh size
@@ -77,7 +77,7 @@ module scene
         integer :: checkpoint_every                !! checkpoint every this many steps (0 = none)
     end type scene_t
 
-    public :: scene_read, scene_parse, scene_to_json, scene_check_dim
+    public :: scene_read, scene_parse, scene_to_json, scene_check_dim, scene_bar_dim
 
     !> One key: its table row, the component it fills and its value as read.
     type :: key_t
@@ -115,7 +115,7 @@ contains
         type(key_t), allocatable, intent(out) :: keys(:)     !! the table
         keys = [ &
             row('mesh', 'file', "''", '', s=scn%mesh_file), &
-            row('mesh', 'dim', '2', '1, 2 or 3', i=scn%mesh_dim), &
+            row('mesh', 'dim', '0', '0, 1, 2 or 3', i=scn%mesh_dim), &
             row('mesh', 'length', '1.0', '> 0', r=scn%mesh_length), &
             row('mesh', 'width', '0.1', '> 0', r=scn%mesh_width), &
             row('mesh', 'h', '0.05', '> 0', r=scn%mesh_h), &
@@ -273,7 +273,8 @@ contains
         end do
         ! the built-in bar's dimension is known now (a mesh file's once it is read)
         if (len(msg) == 0 .and. len_trim(scn%mesh_file) == 0 .and. &
-            scn%mesh_dim >= 1 .and. scn%mesh_dim <= 3) call vector_dims(keys, name, scn%mesh_dim, msg)
+            scn%mesh_dim >= 0 .and. scn%mesh_dim <= 3) &
+            call vector_dims(keys, name, scene_bar_dim(scn%mesh_dim), msg)
         if (full .and. len(msg) == 0) call validate(keys, name, msg)
         if (full .and. len(msg) == 0) call validate_cross(keys, scn, name, base, msg)
         stat = STAT_OK
@@ -680,7 +681,7 @@ contains
         else
             ! the built-in bar: 1D n segments, 2D 2 nx ny triangles (bar_mesh.f90)
             n_elem = max(1.0_dp, anint(scn%mesh_length / scn%mesh_h))
-            if (scn%mesh_dim == 2) &
+            if (scene_bar_dim(scn%mesh_dim) == 2) &
                 n_elem = 2 * n_elem * max(1.0_dp, anint(scn%mesh_width / scn%mesh_h))
             if (scn%mesh_dim == 3) &
                 n_elem = 6 * n_elem * max(1.0_dp, anint(scn%mesh_width / scn%mesh_h))**2
@@ -732,11 +733,17 @@ contains
         end if
     end subroutine validate_cross
 
+    !> The built-in bar's dimension for &mesh dim = d (0, the default: 2).
+    pure integer function scene_bar_dim(d)
+        integer, intent(in) :: d   !! &mesh dim
+        scene_bar_dim = merge(2, d, d == 0)
+    end function scene_bar_dim
+
     !> The keys that depend on the mesh dimension: the vector keys take 3 components in 3D
     !> (a key not given takes its 3D default), 1 or 2 in 1D and 2D; &contact quad_points
     !> (with 'gauss') is 1..6 in 2D, 1, 3, 6 or 7 in 3D. For a mesh read from a file, once its
-    !> dimension is known. Errors: STAT_BAD_INPUT, "PATH: &group key: ..." naming the
-    !> dimension.
+    !> dimension is known; with a mesh file, &mesh dim must be 0 or the file's dimension.
+    !> Errors: STAT_BAD_INPUT, "PATH: &group key: ..." naming the dimension.
     subroutine scene_check_dim(scn, dim, stat, errmsg)
         type(scene_t), intent(inout) :: scn                 !! the scene (3D defaults filled in)
         integer, intent(in) :: dim                          !! mesh dimension
@@ -755,7 +762,14 @@ contains
             keys(k)%text = vector_text(keys(k)%v(1:max(1, keys(k)%count)))
         end do
         msg = ''
-        call vector_dims(keys, trim(scn%path), dim, msg)
+        if (len_trim(scn%mesh_file) > 0 .and. scn%mesh_dim /= 0 .and. scn%mesh_dim /= dim) then
+            msg = trim(scn%path)//': &mesh dim: '//int_text(scn%mesh_dim)//' given, but the '// &
+                  "mesh file '"//shown(trim(scn%mesh_file), VALUE_LEN)//"' is "//int_text(dim)// &
+                  'D (dim is for the built-in bar: leave it out with a mesh file, or give '// &
+                  int_text(dim)//')'
+        else
+            call vector_dims(keys, trim(scn%path), dim, msg)
+        end if
         stat = STAT_OK
         if (len(msg) > 0) then
             call raise(stat, errmsg, STAT_BAD_INPUT, msg)

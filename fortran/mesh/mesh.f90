@@ -49,7 +49,7 @@ contains
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! what is wrong (cell number, ...)
         integer, allocatable :: owner(:)
-        character(len=160) :: buf
+        character(len=320) :: buf
         integer :: c, f, k, nv
         real(dp) :: meas, hmax
 
@@ -76,8 +76,9 @@ contains
             end if
             call mesh_cell_size(this, c, meas, hmax)
             if (abs(meas) <= DEGENERATE_TOL * hmax**this%dim) then
-                write (buf, '(a, i0, a, es10.3, a, es10.3, a)') 'mesh check: cell ', c, &
-                    ' is degenerate (measure ', abs(meas), ', longest edge ', hmax, ')'
+                write (buf, '(a, i0, a, a, es10.3, a, es10.3, a)') 'mesh check: cell ', c, &
+                    ' is degenerate (', trim(merge('volume ', 'measure', this%dim == 3)), &
+                    abs(meas), ', longest edge ', hmax, ')'
                 call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
                 return
             end if
@@ -114,7 +115,7 @@ contains
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message naming the node
         logical, allocatable :: used(:)
-        character(len=160) :: buf
+        character(len=320) :: buf
         integer :: c, i
         stat = STAT_OK
         allocate (used(this%n_nodes))
@@ -125,7 +126,8 @@ contains
         if (all(used)) return
         i = findloc(used, .false., dim=1)
         write (buf, '(a, i0, a, i0, a)') 'mesh check: node ', i, ' (and ', count(.not. used) - 1, &
-            ' more) belongs to no cell'
+            ' more) belongs to no cell (the cells are the '//element_kind(this%dim)// &
+            '; elements of a lower dimension outside a physical group are dropped)'
         call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
     end subroutine check_nodes_used
 
@@ -134,7 +136,7 @@ contains
         type(mesh_t), intent(in) :: this                  !! mesh to check
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! what is wrong
-        character(len=160) :: buf
+        character(len=320) :: buf
         logical :: ok
         integer :: d
 
@@ -219,7 +221,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message naming the facet
         integer, allocatable, intent(out), optional :: opposite(:) !! (n_facets) opposite local node
         integer, allocatable :: first(:), list(:)
-        character(len=160) :: buf
+        character(len=320) :: buf
         integer :: c, f, k, j, nv, loc
 
         stat = STAT_OK
@@ -255,6 +257,9 @@ contains
                 if (this%facet_group(f) >= 1 .and. this%facet_group(f) <= this%n_groups) then
                     buf = trim(buf)//" (group '"//trim(this%group_name(this%facet_group(f)))//"')"
                 end if
+                ! the cells are the elements of the highest dimension, the others facets
+                buf = trim(buf)//': the cells are the '//element_kind(this%dim)// &
+                      '; a mesh mixing cells of two dimensions is not supported'
                 call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
                 return
             end if
@@ -412,8 +417,11 @@ contains
         do k = 1, size(groups)
             g = groups(k)
             if (.not. any(this%facet_group == g)) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, &
-                           "group '"//trim(this%group_name(g))//"' has no facets in the mesh")
+                call raise(stat, errmsg, STAT_BAD_INPUT, "group '"//trim(this%group_name(g))// &
+                           "' has no facets in the mesh (its elements are "// &
+                           element_kind(this%group_dim(g))//'; the facets of a '// &
+                           achar(iachar('0') + this%dim)//'D mesh are '// &
+                           element_kind(this%dim - 1)//')')
                 return
             end if
             where (this%facet_group == g) take = .true.
@@ -421,6 +429,25 @@ contains
         call drop_duplicate_facets(this, take)
         list = pack([(k, k = 1, this%n_facets)], take)
     end subroutine mesh_group_facets
+
+    !> The elements of dimension d, as messages name them: 'points', 'segments',
+    !> 'triangles', 'tetrahedra'.
+    pure function element_kind(d) result(s)
+        integer, intent(in) :: d   !! element dimension
+        character(len=:), allocatable :: s
+        select case (d)
+        case (0)
+            s = 'points'
+        case (1)
+            s = 'segments'
+        case (2)
+            s = 'triangles'
+        case (3)
+            s = 'tetrahedra'
+        case default
+            s = 'of an unknown kind'
+        end select
+    end function element_kind
 
     !> Among the facets with take = .true., keep only the first of those with
     !> the same node set. Facets are bucketed by their smallest node.

@@ -7,7 +7,7 @@ module simulation
     use text, only: int_text, real_text
     use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
-    use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim
+    use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
@@ -169,10 +169,12 @@ contains
         character(len=1024) :: mmsg
         type(mesh_t) :: msh
         mmsg = ''
-        call mesh_load(sim%scn%mesh_file, sim%scn%mesh_dim, sim%scn%mesh_length, &
-                       sim%scn%mesh_width, sim%scn%mesh_h, msh, stat, mmsg)
+        call mesh_load(sim%scn%mesh_file, scene_bar_dim(sim%scn%mesh_dim), &
+                       sim%scn%mesh_length, sim%scn%mesh_width, sim%scn%mesh_h, msh, stat, mmsg)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh: '//trim(mmsg))
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh'// &
+                       trim(merge(' file:', ':     ', len_trim(sim%scn%mesh_file) > 0))//' '// &
+                       trim(mmsg))
             return
         end if
         call scene_check_dim(sim%scn, msh%dim, stat, errmsg)   ! the vector keys

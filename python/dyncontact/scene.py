@@ -116,7 +116,7 @@ class Scene:
         group, key = self._check_name(name)
         text = _value_text(value, self._values[group][key])
         omit = set()
-        if (group, key) == ("mesh", "dim") and self._values["mesh"]["dim"] in (1, 2, 3):
+        if (group, key) == ("mesh", "dim") and self._values["mesh"]["dim"] in (0, 1, 2, 3):
             old = core.scene_parse(f"&mesh dim = {self._values['mesh']['dim']} /", "<defaults>")
             omit = {(g, k) for g, keys in old.items() for k, v in keys.items()
                     if isinstance(v, list) and self._values[g][k] == v}

@@ -13,6 +13,12 @@ kind, L2 in time by the rectangle rule.
 The field norms come from VTU snapshots every k steps with k = round(SNAP_DT / dt): the
 same time grid (spacing SNAP_DT = 1/50, 151 snapshots over T = 3) for every h, so the
 time norms of all runs are computed on the same points. The stress norm uses every step.
+
+The 3D rows (:func:`box3d_rows`): the box [0, 0.1]^2 x [0, 1] of P1 tetrahedra
+(&mesh dim = 3) with E = 1, nu = 0, whose exact solution is the 1D bar's (the lateral
+faces carry no traction): its probe (the centre of the bottom face) against the closed
+form, u_n, v_n, p_n and the energy per unit cross-section, beside the 1D bar at the same
+h, dt and scheme, both measured by the same code (:func:`probe_errors`).
 """
 
 from __future__ import annotations
@@ -30,7 +36,8 @@ from .common import (fmt, md_table, new_figure, save_figure, scheme_list, slope,
 from .analyses import FIELD_NORMS, REL_NORMS
 from .sweep import make_task, sweep
 
-__all__ = ["run_convergence", "DEFAULT_SCHEMES", "FULL_NS", "QUICK_NS"]
+__all__ = ["run_convergence", "DEFAULT_SCHEMES", "FULL_NS", "QUICK_NS", "box3d_rows",
+           "probe_errors", "BOX3D_SCHEMES", "BOX3D_NS", "BOX3D_QUICK_NS", "BOX3D_COLUMNS"]
 
 DEFAULT_SCHEMES = ("newmark", "hht-0.05", "hht-0.1", "theta0.5", "theta1", "pc",
                    "pc_hht-0.1",
@@ -41,6 +48,15 @@ DEFAULT_SCHEMES = ("newmark", "hht-0.05", "hht-0.1", "theta0.5", "theta1", "pc",
 FULL_NS = (25, 50, 100, 200, 400)
 QUICK_NS = (25, 50, 100)
 SNAP_DT = 1.0 / 50.0
+#: The 3D rows: schemes and 1/h (h must divide the box's width 0.1 and length 1).
+BOX3D_SCHEMES = ("newmark", "hht-0.1")
+BOX3D_NS = (20, 40)
+BOX3D_QUICK_NS = (20,)
+#: The box's cross-section: the 1D closed form's energy 1/8 is per unit cross-section.
+BOX3D_WIDTH = 0.1
+#: Columns of the 3D rows (convergence_3d.csv).
+BOX3D_COLUMNS = ("err_u_n", "err_v_n", "err_p_n", "p_L2", "p_L2_rel", "err_e_total",
+                 "max_err_u_n", "e_end_ratio")
 NORM_LABELS = {
     "u_Linf_L2": "L∞(0,T; L²) of u", "u_Linf_H1": "L∞(0,T; H¹) of u",
     "v_Linf_L2": "L∞(0,T; L²) of u̇", "u_L2_L2": "L²(0,T; L²) of u",
@@ -113,8 +129,16 @@ def run_convergence(out: str, *, quick: bool = False, schemes: str | None = None
     ord_path = write_csv(os.path.join(out, "orders.csv"), orders,
                          ["scheme", "norm", "order_fit", "order_last", "runs_ok", "runs"])
     png = _plot(rows, sch, os.path.join(out, "convergence.png"))
+    # the 3D rows for the study's schemes among BOX3D_SCHEMES
+    box_schemes = [k for k in BOX3D_SCHEMES if k in {s.key for s in sch}]
+    box = box3d_rows(out, base, c_implicit=c_implicit, t_end=t_end,
+                     ns=BOX3D_QUICK_NS if quick else BOX3D_NS, schemes=box_schemes,
+                     cache=cache, workers=workers, scheduler=scheduler, progress=progress,
+                     log=log) if box_schemes else None
+    recs = list(recs) + (box["records"] if box else [])
     report = {"rows": rows, "orders": orders, "csv": csv_path, "orders_csv": ord_path,
-              "png": png, "n_runs": len(tasks), "n_cached": sum(r["cached"] for r in recs),
+              "png": png, "n_runs": len(recs),
+              "n_cached": sum(r["cached"] for r in recs), "box3d": box,
               "n_errors": sum(r["status"] == "error" for r in recs),
               "wall_s": time.perf_counter() - t0, "ns": ns, "t_end": t_end,
               "c_implicit": c_implicit, "c_explicit": c_explicit, "quick": quick}
@@ -124,6 +148,122 @@ def run_convergence(out: str, *, quick: bool = False, schemes: str | None = None
 
 def _first(msg):
     return msg.splitlines()[0] if msg else ""
+
+
+# --------------------------------------------------------------------------- 3D rows
+
+def probe_errors(trace: dict[str, np.ndarray], area: float = 1.0) -> dict[str, float]:
+    """Errors of a run's probe trace against the 1D closed form: RMS in time of u_n, v_n,
+    p_n and of the energy per unit cross-section (e_total / ``area``) relative to 1/8;
+    p_L2 and p_L2_rel as the 1D rows (:mod:`.analyses`); max |u_n - exact|; and
+    e_total(T) / e_total(0)."""
+    from .. import exact1d as ex
+    from .analyses import relative_in_time, rms_in_time
+
+    t = np.asarray(trace["t"], dtype=float)
+    sigma = ex.sigma_n(t)
+    e = np.asarray(trace["e_total"], dtype=float) / area
+    dp = np.asarray(trace["p_n"]) - sigma
+    return {"err_u_n": rms_in_time(t, trace["u_n"] - ex.u_n(t)),
+            "err_v_n": rms_in_time(t, trace["v_n"] - ex.v_n(t)),
+            "err_p_n": rms_in_time(t, dp),
+            "p_L2": float(np.sqrt(np.trapezoid(dp ** 2, t))) if len(t) > 1 else float("nan"),
+            "p_L2_rel": relative_in_time(np.abs(dp), np.abs(sigma))[1],
+            "err_e_total": rms_in_time(t, (e - ex.ENERGY) / ex.ENERGY),
+            "max_err_u_n": float(np.max(np.abs(trace["u_n"] - ex.u_n(t)))),
+            "e_end_ratio": float(e[-1] / e[0])}
+
+
+def box3d_tasks(base_1d: str, schemes, ns, c_implicit: float, t_end: float):
+    """Per scheme and n: the nu = 0, E = 1 box at h = 1/n (&mesh dim = 3 first, so that the
+    vector keys are 3D; the probe at the centre of the bottom face) and the 1D bar of
+    ``base_1d`` at the same h, dt and scheme; each keeps its whole probe trace."""
+    cols = {"columns": "t,u_n,v_n,p_n,e_total", "stride": 1}
+    tasks = []
+    for s in schemes:
+        c = step_ratio(s, c_implicit, c_implicit)
+        for n in ns:
+            h = 1.0 / n
+            common = dict(s.settings)
+            common.update({"mesh.h": h, "scheme.dt": h / c, "scheme.t_end": t_end,
+                           "output.every": 1, "output.fields_every": 0})
+            box = {"mesh.dim": 3, "mesh.length": 1.0, "mesh.width": BOX3D_WIDTH,
+                   "material.young": 1.0, "material.poisson": 0.0, "material.density": 1.0,
+                   "contact.theta": 1, "contact.gamma0": 10.0,
+                   "contact.probe": f"{BOX3D_WIDTH / 2!r}, {BOX3D_WIDTH / 2!r}, 0.0",
+                   "initial.kind": "compressed_bar", "initial.amplitude": 0.5, **common}
+            for model, base, settings in (("3d", None, box), ("1d", base_1d, common)):
+                tasks.append(make_task(base, settings, "trace", cols,
+                                       tags={"scheme": s.key, "label": s.label, "model": model,
+                                             "n": n, "h": h, "dt": h / c}))
+    return tasks
+
+
+def box3d_rows(out: str, base_1d: str, *, c_implicit: float = 20.0, t_end: float = 3.0,
+               ns=BOX3D_NS, schemes=BOX3D_SCHEMES, cache: str | None = None,
+               workers: int | None = None, scheduler: Any = None,
+               progress: bool | None = None, log=print) -> dict[str, Any]:
+    """The 3D rows (module docstring): run the box and the 1D bar, write
+    convergence_3d.csv; returns {'rows', 'orders', 'csv', 'records'}."""
+    sch = scheme_list(schemes)
+    tasks = box3d_tasks(base_1d, sch, ns, c_implicit, t_end)
+    recs = sweep(tasks, cache or os.path.join(out, "cache"), workers=workers,
+                 scheduler=scheduler, progress=progress, desc="convergence 3D", log=log)
+    rows = []
+    for r in recs:
+        tg = dict(r["task"].tags)
+        row = {k: tg[k] for k in ("scheme", "model", "n", "h", "dt")}
+        row.update(status=r["status"], steps=r.get("steps"), message=_first(r.get("message")))
+        arr = r.get("arrays") or {}
+        if r["status"] == "ok" and len(arr.get("t", ())):
+            area = BOX3D_WIDTH ** 2 if tg["model"] == "3d" else 1.0
+            row.update(probe_errors(arr, area))
+        rows.append(row)
+    cols = ["scheme", "model", "n", "h", "dt", "status", "steps", *BOX3D_COLUMNS, "message"]
+    csv_path = write_csv(os.path.join(out, "convergence_3d.csv"), rows, cols)
+    orders = []
+    for s in sch:
+        for model in ("3d", "1d"):
+            mine = [r for r in rows if r["scheme"] == s.key and r["model"] == model
+                    and r["status"] == "ok"]
+            for col in ("err_u_n", "err_p_n", "err_e_total"):
+                orders.append({"scheme": s.key, "model": model, "norm": col,
+                               "order": slope([r["h"] for r in mine],
+                                              [abs(r.get(col) or float("nan"))
+                                               for r in mine])})
+    return {"rows": rows, "orders": orders, "csv": csv_path, "records": list(recs),
+            "ns": tuple(ns), "schemes": [s.key for s in sch]}
+
+
+def _box3d_summary(box) -> list[str]:
+    rows = box["rows"]
+    lines = ["", "## 3D: the ν = 0 box against the 1D closed form", "",
+             f"The box [0, {BOX3D_WIDTH:g}]² × [0, 1] of P1 tetrahedra (`&mesh dim = 3`), "
+             "E = 1, ν = 0, θ = 1, γ0 = 10: its exact solution is the 1D bar's (the lateral "
+             "faces carry no traction). Probe at the centre of the bottom face; energy per "
+             f"unit cross-section (e_total / {BOX3D_WIDTH:g}²). Beside each 3D row the 1D bar "
+             "at the same h, Δt and scheme, measured by the same code. RMS in time over "
+             "every step: u_n, u̇_n, p_n against −½ in contact, and (e − 1/8)/(1/8); "
+             "p_L2_rel as the 1D rows. convergence_3d.csv has every column.", ""]
+    table = []
+    for r in rows:
+        table.append([r["scheme"], r["model"], f"1/{r['n']}", fmt(r["dt"], ".4g"),
+                      r["status"]] + [fmt(r.get(c)) for c in BOX3D_COLUMNS])
+    lines += md_table(["scheme", "model", "h", "Δt", "status", *BOX3D_COLUMNS], table)
+    if len(box["ns"]) > 1:
+        lines += ["", "Observed orders (slope over h = "
+                  + ", ".join(f"1/{n}" for n in box["ns"]) + "):", ""]
+        table = []
+        for s in box["schemes"]:
+            for model in ("3d", "1d"):
+                cells = [s, model]
+                for col in ("err_u_n", "err_p_n", "err_e_total"):
+                    o = next(o for o in box["orders"] if o["scheme"] == s
+                             and o["model"] == model and o["norm"] == col)
+                    cells.append(fmt(o["order"], ".2f"))
+                table.append(cells)
+        lines += md_table(["scheme", "model", "err_u_n", "err_p_n", "err_e_total"], table)
+    return lines
 
 
 def _plot(rows, schemes, path):
@@ -208,4 +348,6 @@ def _summary(report, schemes, path) -> str:
         if r is not None:
             table.append([s.label, r["status"]] + [fmt(r[n]) for n in REL_NORMS])
     lines += md_table(["scheme", "status", *REL_NORMS], table)
+    if report.get("box3d"):
+        lines += _box3d_summary(report["box3d"])
     return write_markdown(path, lines)

@@ -12,6 +12,11 @@ bisection), the redistributed mass, penalty contact and the augmented Lagrangian
 and nodal multipliers, consistent and redistributed mass; r = gamma0/h_T). Penalty and ALM
 have no Nitsche theta: one run per (h, gamma0, dt), listed as theta = +1.
 
+The 3D rows (:data:`BOX3D_GRIDS`, :func:`run_box3d`): the box [0, 0.1]^2 x [0, 1] of P1
+tetrahedra (&mesh dim = 3) with the seed's material, initial state and contact, for the
+main schemes at h = 0.05 on the same dt/h grid, T and bisection; their critical dt is set
+beside the 2D bar's (OUT/box3d/, a section of summary.md).
+
 Classification (from summary.json, i.e. the core's own verdict, SPEC section 4):
 ``stable`` (ran to T), ``unstable`` (energy of the written state over ``blowup`` x
 e_total(0), or not finite: stop time and the core's message), ``newton_failed``,
@@ -40,7 +45,8 @@ from .common import (STATUS_COLORS, fmt, md_table, new_figure, save_figure,
 from .analyses import impacts  # noqa: F401 - part of this module's API
 from .sweep import ERROR, REFUSED, Task, make_task, sweep
 
-__all__ = ["run_stability", "bisect_critical", "classify", "GRIDS", "impacts"]
+__all__ = ["run_stability", "bisect_critical", "classify", "GRIDS", "impacts",
+           "BOX3D_GRIDS", "run_box3d", "critical_groups"]
 
 #: Sweep sizes. 'dt_over_h': {'implicit': (...), 'explicit': (...)}.
 GRIDS = {
@@ -63,6 +69,16 @@ GRIDS = {
               "h": (0.1,), "gamma0": (10.0,), "theta": (-1, 1),
               "dt_over_h": {"implicit": (1 / 20, 1 / 2), "explicit": (1 / 20, 1 / 10, 1 / 2)},
               "t_end": 30.0, "rounds": 3},
+}
+#: The 3D box rows (&mesh dim = 3: [0, 0.1]^2 x [0, 1] of P1 tetrahedra, the seed's
+#: material and initial state): the main schemes at h = 0.05 with the 2D grid's dt/h,
+#: T and bisection rounds, beside the 2D rows of the same (scheme, h, gamma0, theta).
+BOX3D_GRIDS = {
+    "full": {"schemes": ("newmark", "hht-0.1", "pc", "pc_lumped", "central_lumped"),
+             "h": (0.05,), "gamma0": (10.0,), "theta": (-1, 1)},
+    # quick: two schemes over the first two impacts (T = 6)
+    "quick": {"schemes": ("hht-0.1", "pc_lumped"), "h": (0.05,), "gamma0": (10.0,),
+              "theta": (1,), "t_end": 6.0},
 }
 #: Trace rows kept per grid run for the claims (u_n over the first period, energies).
 KEEP_ROWS = 1500
@@ -119,8 +135,49 @@ def bisect_critical(groups: Mapping[Hashable, tuple[float, float]],
 
 # --------------------------------------------------------------------------- study
 
-def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0):
-    settings = dict(s.settings)
+def critical_groups(recs) -> tuple[dict[tuple, dict[str, Any]], dict[tuple, tuple]]:
+    """Group the grid runs by (scheme, h, gamma0, theta) and bracket each group's
+    critical dt on the grid: ({group: info}, {group: (lo, hi)} of the groups to bisect).
+    info: grid_stable ('k/n'), bracket ('bisection', 'above grid', 'below grid',
+    'refused'), lo, hi, non_monotone, dt_crit_estimate, and the first unstable run's
+    status, stop time and reason."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in recs:
+        tg = r["task"].tag
+        groups.setdefault((tg("scheme"), tg("h"), tg("gamma0"), tg("theta")), []).append(r)
+    brackets, crit = {}, {}
+    for key, rs in groups.items():
+        rs.sort(key=lambda r: r["task"].tag("dt"))
+        dts = [r["task"].tag("dt") for r in rs]
+        ok = [r["status"] == "ok" for r in rs]
+        first_bad = next((i for i, o in enumerate(ok) if not o
+                          and rs[i]["status"] not in (ERROR, REFUSED)), None)
+        est = [r.get("metrics", {}).get("dt_crit_estimate") for r in rs]
+        est = [x for x in est if x]
+        info = {"grid_stable": f"{sum(ok)}/{len(ok)}", "non_monotone": False,
+                "lo": None, "hi": None, "bracket": "",
+                "dt_crit_estimate": est[0] if est else None}
+        if all(r["status"] == REFUSED for r in rs):
+            info.update(bracket="refused")
+        elif first_bad is None:
+            info.update(bracket="above grid", lo=dts[-1])
+        elif first_bad == 0:
+            info.update(bracket="below grid", hi=dts[0])
+        else:
+            info.update(bracket="bisection", lo=dts[first_bad - 1], hi=dts[first_bad])
+            brackets[key] = (dts[first_bad - 1], dts[first_bad])
+            info["non_monotone"] = any(ok[first_bad + 1:])
+        if first_bad is not None:
+            info["first_unstable_status"] = rs[first_bad]["status"]
+            info["first_unstable_stop"] = rs[first_bad].get("t_end_reached")
+            info["first_unstable_reason"] = _first(rs[first_bad].get("message"))
+        crit[key] = info
+    return crit, brackets
+
+
+def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0, first=None):
+    settings = dict(first or {})        # first: keys that must come first (mesh.dim)
+    settings.update(s.settings)
     settings.update({"mesh.h": h, "contact.gamma0": g0, "contact.theta": int(th),
                      "scheme.dt": dt, "scheme.t_end": t_end,
                      "output.every": max(1, int(round(OUTPUT_DT / dt))),
@@ -158,37 +215,7 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
                                            KEEP_ROWS))
     recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,
                  desc="stability grid", log=log)
-    groups: dict[tuple, list[dict]] = {}
-    for r in recs:
-        tg = r["task"].tag
-        groups.setdefault((tg("scheme"), tg("h"), tg("gamma0"), tg("theta")), []).append(r)
-    brackets, crit = {}, {}
-    for key, rs in groups.items():
-        rs.sort(key=lambda r: r["task"].tag("dt"))
-        dts = [r["task"].tag("dt") for r in rs]
-        ok = [r["status"] == "ok" for r in rs]
-        first_bad = next((i for i, o in enumerate(ok) if not o
-                          and rs[i]["status"] not in (ERROR, REFUSED)), None)
-        est = [r.get("metrics", {}).get("dt_crit_estimate") for r in rs]
-        est = [x for x in est if x]
-        info = {"grid_stable": f"{sum(ok)}/{len(ok)}", "non_monotone": False,
-                "lo": None, "hi": None, "bracket": "",
-                "dt_crit_estimate": est[0] if est else None}
-        if all(r["status"] == REFUSED for r in rs):
-            info.update(bracket="refused")
-        elif first_bad is None:
-            info.update(bracket="above grid", lo=dts[-1])
-        elif first_bad == 0:
-            info.update(bracket="below grid", hi=dts[0])
-        else:
-            info.update(bracket="bisection", lo=dts[first_bad - 1], hi=dts[first_bad])
-            brackets[key] = (dts[first_bad - 1], dts[first_bad])
-            info["non_monotone"] = any(ok[first_bad + 1:])
-        if first_bad is not None:
-            info["first_unstable_status"] = rs[first_bad]["status"]
-            info["first_unstable_stop"] = rs[first_bad].get("t_end_reached")
-            info["first_unstable_reason"] = _first(rs[first_bad].get("message"))
-        crit[key] = info
+    crit, brackets = critical_groups(recs)
     by_key = {s.key: s for s in schemes}
 
     def task_for(key, dt):
@@ -233,8 +260,13 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
     from .claims import claims_table
 
     claims = claims_table(recs, g)
+    # the 3D rows: BOX3D_GRIDS, or grid['box3d'] (None: none)
+    g3 = (grid or {}).get("box3d", BOX3D_GRIDS["quick" if quick else "full"])
+    box = run_box3d(out, base, g, g3, cache, workers=workers, scheduler=scheduler,
+                    progress=progress, log=log) if g3 else None
+    all_recs = all_recs + (box["records"] if box else [])
     report = {"runs": run_rows, "critical": crit_rows, "claims": claims,
-              "csv": crit_csv, "runs_csv": runs_csv, "pngs": pngs, "grid": g,
+              "csv": crit_csv, "runs_csv": runs_csv, "pngs": pngs, "grid": g, "box3d": box,
               "n_runs": len(all_recs), "n_cached": sum(r["cached"] for r in all_recs),
               "n_errors": sum(r["status"] == ERROR for r in all_recs),
               "n_refused": sum(r["status"] == REFUSED for r in all_recs),
@@ -245,6 +277,108 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
 
 def _first(msg) -> str:
     return msg.splitlines()[0] if msg else ""
+
+
+def run_box3d(out: str, base: str, g: Mapping[str, Any], g3: Mapping[str, Any], cache: str,
+              *, workers=None, scheduler=None, progress=None, log=print) -> dict[str, Any]:
+    """The 3D box rows: the grid of ``g3`` (schemes, h, gamma0, theta) with the dt/h,
+    T and bisection rounds of the 2D grid ``g``, then the bisections; writes
+    OUT/box3d/runs.csv, stability.csv and the heat maps there. Returns {'critical',
+    'runs', 'records', 'grid', 'csv', 'pngs'}."""
+    folder = os.path.join(out, "box3d")
+    os.makedirs(folder, exist_ok=True)
+    grid = dict(g)
+    grid.update(g3)
+    schemes = scheme_list(grid["schemes"])
+    t_end = float(grid["t_end"])
+    first = {"mesh.dim": 3}             # the vector keys become 3D before the others
+    tasks = []
+    for s in schemes:
+        ratios = grid["dt_over_h"]["explicit" if s.explicit else "implicit"]
+        for h in grid["h"]:
+            for g0 in grid["gamma0"]:
+                for th in thetas(s, grid):
+                    for r in ratios:
+                        tasks.append(_task(base, s, h, g0, th, h * r, t_end, "grid",
+                                           first=first))
+    recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,
+                 desc="stability 3D grid", log=log)
+    crit, brackets = critical_groups(recs)
+    by_key = {s.key: s for s in schemes}
+    bis = bisect_critical(
+        brackets, lambda key, dt: _task(base, by_key[key[0]], key[1], key[2], key[3], dt,
+                                        t_end, "bisect", first=first),
+        int(grid["rounds"]), cache, workers=workers, scheduler=scheduler,
+        progress=progress, log=log, desc="stability 3D bisection")
+    for key, st in bis.items():
+        crit[key].update(lo=st["lo"], hi=st["hi"])
+    all_recs = list(recs) + [r for st in bis.values() for r in st["runs"]]
+    run_rows = [_run_row(r) for r in all_recs]
+    runs_csv = write_csv(os.path.join(folder, "runs.csv"), run_rows, list(run_rows[0])
+                         if run_rows else ["scheme"])
+    crit_rows = []
+    for key in sorted(crit, key=lambda k: ([s.key for s in schemes].index(k[0]),) + k[1:]):
+        c = crit[key]
+        lo, hi = c["lo"], c["hi"]
+        mid = math.sqrt(lo * hi) if lo and hi else None
+        est = c["dt_crit_estimate"]
+        crit_rows.append({"scheme": key[0], "mass": by_key[key[0]].mass,
+                          "method": by_key[key[0]].method, "h": key[1], "gamma0": key[2],
+                          "theta": key[3], "dt_crit_lo": lo, "dt_crit_hi": hi,
+                          "dt_crit": mid, "dt_crit_over_h": mid / key[1] if mid else None,
+                          "bracket": c["bracket"], "grid_stable": c["grid_stable"],
+                          "non_monotone": c["non_monotone"],
+                          "first_unstable_status": c.get("first_unstable_status", ""),
+                          "first_unstable_stop": c.get("first_unstable_stop"),
+                          "dt_crit_estimate": est,
+                          "estimate_over_measured": est / mid if est and mid else None})
+    crit_csv = write_csv(os.path.join(folder, "stability.csv"), crit_rows,
+                         list(crit_rows[0]) if crit_rows else ["scheme"])
+    pngs = _heatmaps(run_rows, crit_rows, schemes, grid, folder)
+    return {"critical": crit_rows, "runs": run_rows, "records": all_recs, "grid": grid,
+            "csv": crit_csv, "runs_csv": runs_csv, "pngs": pngs}
+
+
+def _crit_text(c) -> str:
+    if c is None:
+        return "-"
+    if c["bracket"] == "bisection":
+        return f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')}"
+    if c["bracket"] == "above grid":
+        return f"> {fmt(c['dt_crit_lo'], '.4g')}"
+    if c["bracket"] == "refused":
+        return "refused"
+    return f"< {fmt(c['dt_crit_hi'], '.4g')}"
+
+
+def _box3d_summary(report) -> list[str]:
+    box = report["box3d"]
+    g3 = box["grid"]
+    lines = ["", "## 3D box (P1 tetrahedra) beside the 2D bar", "",
+             "The box [0, 0.1]² × [0, 1] (`&mesh dim = 3`) with the seed's material, "
+             f"initial state and contact; h ∈ {{{', '.join(f'{h:g}' for h in g3['h'])}}}, "
+             f"γ0 ∈ {{{', '.join(f'{x:g}' for x in g3['gamma0'])}}}, θ ∈ "
+             f"{{{', '.join(str(x) for x in g3['theta'])}}}, the 2D grid's Δt/h, T and "
+             "bisection. Critical Δt beside the 2D bar's at the same (scheme, h, γ0, θ); "
+             "heat maps and CSV in box3d/.", ""]
+    for p in box["pngs"]:
+        lines += [f"![{os.path.basename(p)}](box3d/{os.path.basename(p)})", ""]
+    crit2 = {(c["scheme"], c["h"], c["gamma0"], c["theta"]): c for c in report["critical"]}
+    table = []
+    for c in box["critical"]:
+        c2 = crit2.get((c["scheme"], c["h"], c["gamma0"], c["theta"]))
+        ratio = c["dt_crit"] / c2["dt_crit"] if c.get("dt_crit") and c2 and \
+            c2.get("dt_crit") else None
+        stop = f"{c['first_unstable_status']} at t={fmt(c['first_unstable_stop'], '.4g')}" \
+            if c["first_unstable_status"] else ""
+        table.append([c["scheme"], fmt(c["h"], "g"), fmt(c["gamma0"], "g"), c["theta"],
+                      _crit_text(c), _crit_text(c2), fmt(ratio, ".3f"), c["grid_stable"],
+                      fmt(c.get("dt_crit_estimate"), ".4g"),
+                      fmt(c.get("estimate_over_measured"), ".3f"), stop])
+    lines += md_table(["scheme", "h", "γ0", "θ", "critical Δt 3D", "critical Δt 2D",
+                       "3D / 2D", "3D grid stable", "3D estimate (central)",
+                       "estimate / measured", "first unstable 3D grid run"], table)
+    return lines
 
 
 def _run_row(r) -> dict[str, Any]:
@@ -420,4 +554,6 @@ def _summary(report, schemes, path) -> str:
                       for c in unsafe) if unsafe else "") + "."]
     else:
         lines.append("No central-difference run in the sweep.")
+    if report.get("box3d"):
+        lines += _box3d_summary(report)
     return write_markdown(path, lines)
