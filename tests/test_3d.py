@@ -288,15 +288,14 @@ def test_3d_mesh_file_with_2d_vectors_is_refused(exe, tmp_path):
 
 
 def test_ball_contact_patch_grows_and_shrinks(tmp_path):
-    """The ball of meshes/ball.geo (coarse, h = 0.1) dropped at 1 m/s: the number of
+    """The ball of meshes/ball.geo (coarse, h = 0.1) dropped at 0.1 m/s: the number of
     active contact points rises from 0, peaks and falls back to 0 as the ball bounces
-    off; after the bounce the energy is e0 to a few % (measured: +1.4 % at this h, +0.4 % at
-    the scene's h = 0.05; inside the contact e_total is not conserved by Nitsche's term)."""
+    off; after the bounce the energy is e0 to a few % (measured: +0.2 % at this h; inside
+    the contact e_total is not conserved by Nitsche's term: up to 12 % here)."""
     s = Scene.read(Path(__file__).resolve().parents[1] / "scripts" / "scenes"
                    / "ball3d_newmark.nml")
     s.set("mesh.h", 0.1)
-    s.set("scheme.t_end", 1.2)
-    s.set("scheme.dt", 0.005)
+    s.set("scheme.t_end", 1.6)
     s.set("output.fields_every", 0)
     res = run(s, tmp_path, "ball")
     assert res.status == "ok"

@@ -91,12 +91,12 @@ PC_FAMILY = (  # (scheme, params) of Figs. 5-7
 BALL_SCENE = str(Path(__file__).resolve().parents[3] / "scripts" / "scenes"
                  / "ball3d_newmark.nml")
 #: Fig. 9's ball: (mesh size, dt, t_end) of the trace run, quick and full, dropped at
-#: BALL_SPEED. The scene's own 1 m/s squashes this soft ball (E = 1, ρ = 1: the kinetic
-#: energy per volume is half of E) to strains of order 1, where the linear model inverts
-#: tetrahedra; at 0.1 m/s the compression is a quarter of the radius (Hertz: 0.053) and
-#: the contact lasts about 1.3 (Hertz: 1.55), with its largest elastic energy near
-#: t = 0.75. T = 1.6 holds the whole contact: the patch grows and shrinks. h = 0.1:
-#: 257 tetrahedra, ~3 ms a step; h = 0.05 (the scene's): ~50 ms a step.
+#: BALL_SPEED, the scene's own speed. A faster drop squashes this soft ball (E = 1, ρ = 1:
+#: at 1 m/s the kinetic energy per volume is half of E) to strains of order 1, where the
+#: linear model inverts tetrahedra; at 0.1 m/s the compression is a quarter of the radius
+#: (Hertz: 0.053) and the contact lasts about 1.3 (Hertz: 1.55), with its largest elastic
+#: energy near t = 0.75. T = 1.6 holds the whole contact: the patch grows and shrinks.
+#: h = 0.1: 257 tetrahedra, ~3 ms a step; h = 0.05 (the scene's): ~50 ms a step.
 BALL_SPEED = 0.1
 BALL_QUICK = (0.1, 0.01, 1.6)
 BALL_FULL = (0.05, 0.01, 1.6)
