@@ -473,10 +473,14 @@ def work_precision(tmp_path_factory):
 def test_work_precision_quick_keeps_every_run_and_names_the_cheapest(work_precision):
     import csv
 
+    from dyncontact.study import workprecision as wp
+
     with open(work_precision["csv"], encoding="utf-8") as f:
         rows = list(csv.DictReader(f))
-    # every run of both ladders is in the CSV (the two 2D references are not)
-    assert len(rows) == work_precision["n_runs"] - 2
+    # every run of both ladders is in the CSV (the 2D references are not: each at every
+    # level and once more at dt/2)
+    n_ref = sum(len(spec[3]["quick"]) + 1 for spec in wp.REFERENCES.values())
+    assert len(rows) == work_precision["n_runs"] - n_ref
     assert {r["case"] for r in rows} == {"1d", "2d"}
     assert all(r["status"] in ("ok", "unstable", "newton_failed") for r in rows)
     assert all(float(r["cpu_s"]) > 0 for r in rows)
@@ -497,6 +501,39 @@ def test_work_precision_quick_keeps_every_run_and_names_the_cheapest(work_precis
         assert min(float(r["cpu_s"]) for r in same) == pytest.approx(c["cpu_s"])
     text = open(work_precision["summary"], encoding="utf-8").read()
     assert "converged enough" in text and "Cheapest scheme" in text
+    # each quantity against its reference, whose error comes from its own levels
+    ref = work_precision["ref"]
+    assert [ref["quantities"][q]["ref"] for q in wp.QUANTITIES] == \
+        ["consistent", "filtered", "filtered", "consistent"]
+    for name, r in ref["references"].items():
+        assert r["h"] == list(wp.REFERENCES[name][3]["quick"])
+        for q in wp.QUANTITIES:
+            assert len(r[q]["d"]) == 2 and all(d > 0 for d in r[q]["d"])
+            assert (r[q]["p"], r[q]["est"]) == wp.richardson(*r[q]["d"])
+            assert math.isfinite(r[q]["dt_err"]) and r[q]["dt_err"] >= 0
+
+
+def test_reference_error_estimate_recovers_a_known_error():
+    """Three levels r(h) = r + C h^p g(t) of a trace (h halving): the differences are
+    d1 = C (2^p - 1) (2h)^p |g| and d2 = C (2^p - 1) h^p |g|, so richardson gives p back
+    and the finest level's true error C h^p |g| (RMS in time). Levels that do not get
+    closer give an unknown error; a barely converging pair is floored at MIN_ORDER."""
+    from dyncontact.study import workprecision as wp
+    from dyncontact.study.analyses import rms_in_time
+
+    t = np.linspace(0.0, 3.0, 1201)
+    g = np.sin(7.0 * t) + 0.3 * np.cos(31.0 * t)
+    for p in (0.5, 1.0, 2.0):
+        levels = [(0.00625 / 2 ** i) ** p * 5.0 * g for i in range(3)]
+        d1 = rms_in_time(t, levels[0] - levels[1])
+        d2 = rms_in_time(t, levels[1] - levels[2])
+        got_p, est = wp.richardson(d1, d2)
+        assert got_p == pytest.approx(p, rel=1e-12)
+        assert est == pytest.approx(rms_in_time(t, levels[2]), rel=1e-12)
+    assert wp.richardson(0.1, 0.1) == (pytest.approx(float("nan"), nan_ok=True), math.inf)
+    assert wp.richardson(0.1, 0.2)[1] == math.inf
+    p, est = wp.richardson(0.101, 0.1)
+    assert p < wp.MIN_ORDER and est == pytest.approx(0.1 / (2 ** wp.MIN_ORDER - 1))
 
 
 def test_work_precision_marks_unstable_runs_without_dropping_them(tmp_path):
