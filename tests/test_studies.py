@@ -504,13 +504,15 @@ def test_work_precision_quick_keeps_every_run_and_names_the_cheapest(work_precis
     # each quantity against its reference, whose error comes from its own levels
     ref = work_precision["ref"]
     assert [ref["quantities"][q]["ref"] for q in wp.QUANTITIES] == \
-        ["consistent", "filtered", "filtered", "consistent"]
+        ["filtered", "filtered", "filtered", "consistent"]
     for name, r in ref["references"].items():
         assert r["h"] == list(wp.REFERENCES[name][3]["quick"])
         for q in wp.QUANTITIES:
             assert len(r[q]["d"]) == 2 and all(d > 0 for d in r[q]["d"])
             assert (r[q]["p"], r[q]["est"]) == wp.richardson(*r[q]["d"])
             assert math.isfinite(r[q]["dt_err"]) and r[q]["dt_err"] >= 0
+    for q in wp.QUANTITIES:
+        assert math.isfinite(ref["quantities"][q]["between"])
 
 
 def test_reference_error_estimate_recovers_a_known_error():
