@@ -9,35 +9,39 @@
   and the summary's sizes and counters, for runs whose outputs are the result (the
   seed's figures) or whose timings are (the benchmark).
 - ``exact1d``: errors of a run of the 1D exact case (SPEC section 2) against the closed
-  form :mod:`dyncontact.exact1d`: the field norms from the VTU snapshots and the probe
-  errors from the trace.
+  form :mod:`dyncontact.exact1d`. Its runner (:func:`run_exact1d`) steps the run through a
+  :class:`dyncontact.core.Stepper` and evaluates the fields in memory: the relative norms
+  at every step, the absolute field norms at every ``snap_every``-th step; no field is
+  written to disk. The probe errors come from the trace.
 
 Field norms (1D)
 ----------------
-At each snapshot time t_k the space norms of e = u_h - u are integrated exactly: the
+At each sampled time t_k the space norms of e = u_h - u are integrated exactly: the
 interval [0, 1] is cut at the mesh nodes *and* at the kinks of the exact solution
 (x = tau, tau - 1, 2 - tau, 3 - tau with tau = t mod 3, where u is not smooth), so that
 on every piece both u_h and u are linear and a 3-point Gauss rule is exact for e^2 and
-(e')^2. ``H1`` is the full norm (L2 of e plus L2 of e'). Time norms over the snapshot
-times t_0 = 0 < ... < t_K = T: L-infinity = max over k, L2 = trapezoidal rule.
+(e')^2. ``H1`` is the full norm (L2 of e plus L2 of e'). These absolute norms are
+sampled every ``snap_every`` steps (the study's uniform grid t_0 = 0 < ... < t_K = T,
+the same for every h): L-infinity = max over k, L2 = trapezoidal rule.
 The contact stress error is integrated in time over every trace row (``every`` = 1).
 
 Relative norms (the literature's)
 ---------------------------------
 GetFEM's 1D dynamic-contact demo and the papers it comes from report relative errors,
-``REL_NORMS`` (suffix ``_rel``). At each sampled time t_k the error is taken against the
-nodal interpolant I_h u of the exact solution (e_h = u_h - I_h u, a P1 function, and
-v_h - I_h u_t), its L2 and full H1 norms integrated exactly on the P1 space
-(:func:`p1_norms`), and the exact solution's norm of the same kind is that of I_h u
-(resp. I_h u_t). In time (:func:`relative_in_time`): L-infinity = max_k ||e_h(t_k)|| /
-max_k ||I_h u(t_k)||; L2 = (sum_k dt ||e_h(t_k)||^2)^(1/2) / (sum_k dt ||I_h u(t_k)||^2)^(1/2),
-the rectangle rule on equally spaced samples (dt cancels). Field norms are sampled at
-the snapshots (the study's uniform grid), the contact stress at every step: p_L2_rel =
-(sum_k (p_n - sigma_n)^2)^(1/2) / (sum_k sigma_n^2)^(1/2) over every trace row.
+``REL_NORMS`` (suffix ``_rel``). At *every step* t_k = k dt, k = 0 (the initial state),
+1, ..., N, the error is taken against the nodal interpolant I_h u of the exact solution
+(e_h = u_h - I_h u, a P1 function, and v_h - I_h u_t), its L2 and full H1 norms
+integrated exactly on the P1 space (:func:`p1_norms`), and the exact solution's norm of
+the same kind is that of I_h u (resp. I_h u_t). In time (:func:`relative_in_time`):
+L-infinity = max_k ||e_h(t_k)|| / max_k ||I_h u(t_k)||; L2 = (sum_k dt ||e_h(t_k)||^2)^(1/2)
+/ (sum_k dt ||I_h u(t_k)||^2)^(1/2), the rectangle rule (dt cancels). The contact stress
+likewise over every trace row: p_L2_rel = (sum_k (p_n - sigma_n)^2)^(1/2) /
+(sum_k sigma_n^2)^(1/2).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import xml.etree.ElementTree as ET
 from typing import Any
@@ -45,12 +49,13 @@ from typing import Any
 import numpy as np
 
 from .. import exact1d as ex
+from .. import core
 from .sweep import register_analysis
 
 __all__ = ["read_pvd", "read_vtu_1d", "field_errors_1d", "probe_errors_1d", "rms_in_time",
            "impacts", "contact_phases", "pn_oscillation", "FIELD_NORMS", "IMPACT_GAP",
            "PHASE_TRIM", "REL_NORMS", "p1_norms", "relative_in_time",
-           "interpolant_errors_1d"]
+           "interpolant_errors_1d", "interpolant_errors_steps", "run_exact1d", "SteppedRun"]
 
 #: Columns of the field/stress norms: L∞(0,T) then L²(0,T) of ‖u‖_L², ‖u‖_H¹ and ‖u̇‖_L²,
 #: then ‖p_n − σ_n‖ in L²(0,T).
@@ -143,6 +148,101 @@ def interpolant_errors_1d(x, u_h, v_h, t) -> dict[str, float]:
             "ex_u_L2": xu_l2, "ex_u_H1": xu_h1, "ex_v_L2": xv_l2}
 
 
+def interpolant_errors_steps(x, t, u_h, v_h) -> dict[str, np.ndarray]:
+    """:func:`interpolant_errors_1d` at many times at once: ``t`` (K,), ``u_h`` and ``v_h``
+    (K, n) nodal values on the mesh x (n,); each key holds a (K,) array."""
+    x = np.asarray(x, dtype=float)
+    t = np.asarray(t, dtype=float)[:, None]
+    iu, iv = ex.u(x[None, :], t), ex.u_t(x[None, :], t)
+    w = np.stack([np.asarray(u_h, dtype=float) - iu, np.asarray(v_h, dtype=float) - iv,
+                  iu, iv])                                       # (4, K, n)
+    le = np.diff(x)
+    wa, wb = w[..., :-1], w[..., 1:]
+    # the element sums as products with the element lengths (no (4, K, n) temporaries
+    # beyond the three products)
+    l2sq = (wa * wa + wa * wb + wb * wb) @ (le / 3.0)
+    dw = wb - wa
+    semi_sq = (dw * dw) @ (1.0 / le)
+    l2 = np.sqrt(l2sq)
+    h1 = np.sqrt(l2sq + semi_sq)
+    return {"u_L2": l2[0], "u_H1": h1[0], "v_L2": l2[1],
+            "ex_u_L2": l2[2], "ex_u_H1": h1[2], "ex_v_L2": l2[3]}
+
+
+@dataclasses.dataclass
+class SteppedRun(core.RunResult):
+    """A :class:`dyncontact.core.RunResult` and what :func:`run_exact1d` evaluated in
+    memory: ``x`` the mesh nodes, ``steps`` the space norms of
+    :func:`interpolant_errors_steps` at every step (key ``t`` their times, from 0), and
+    ``snapshots`` [(t, u_h, v_h)] every ``snap_every``-th step (nodal values on x)."""
+
+    x: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    steps: dict = dataclasses.field(default_factory=dict)
+    snapshots: list = dataclasses.field(default_factory=list)
+
+
+#: Steps gathered before their norms are evaluated together (a bound on the memory).
+STEP_BATCH = 512
+
+
+def run_exact1d(scene, run_dir: str, snap_every: int = 0, **_params) -> SteppedRun:
+    """Run a 1D exact-case scene into run_dir (as :func:`dyncontact.run`: trace.csv and
+    summary.json) through a Stepper, and evaluate the fields at every step in memory:
+    the norms of :func:`interpolant_errors_steps` at steps 0 (the initial state), 1, ...,
+    N, and the nodal fields at every ``snap_every``-th step (0: none). The mesh nodes are
+    those of the built-in bar of the scene's ``&mesh``; the clamped node x = 1 holds 0."""
+    h = float(scene.get("mesh.h"))
+    length = float(scene.get("mesh.length"))
+    x = np.asarray(core.load_mesh(dim=1, length=length, h=h)["x"])[:, 0]
+    snap = int(snap_every)
+    steps: dict[str, list] = {}
+    snapshots: list = []
+    message = ""
+    ts: list[float] = []
+    us: list[np.ndarray] = []
+    vs: list[np.ndarray] = []
+
+    def flush() -> None:
+        if ts:
+            for k, val in interpolant_errors_steps(x, ts, us, vs).items():
+                steps.setdefault(k, []).append(val)
+            steps.setdefault("t", []).append(np.array(ts))
+            ts.clear(), us.clear(), vs.clear()
+
+    with core.Stepper(scene, run_dir) as s:
+        node, _comp = s.dof_map()
+        n_done = 0
+        while True:
+            st = s.state()
+            u = np.zeros(len(x))
+            v = np.zeros(len(x))
+            u[node], v[node] = st["u"], st["v"]
+            ts.append(st["t"])
+            us.append(u)
+            vs.append(v)
+            if snap and n_done % snap == 0:
+                snapshots.append((st["t"], u, v))
+            if len(ts) >= STEP_BATCH:
+                flush()
+            if s.finished:
+                break
+            try:
+                if s.advance(1) == 0:
+                    break
+            except core.NumericalError as exc:   # unstable: the trace is kept
+                message = str(exc) or "numerical failure"
+                break
+            n_done += 1
+    flush()
+    summary = core.read_summary(run_dir)
+    if message and summary.get("status", "ok") == "ok":
+        summary = dict(summary, status="unstable")
+    return SteppedRun(trace=core.read_trace(run_dir), summary=summary, out_dir=run_dir,
+                      message=message, x=x,
+                      steps={k: np.concatenate(v) for k, v in steps.items()},
+                      snapshots=snapshots)
+
+
 def relative_in_time(err, exact) -> tuple[float, float]:
     """(L-infinity, L2) in time of the relative error, from space norms at equally
     spaced times: max(err)/max(exact), and (sum err^2)^(1/2) / (sum exact^2)^(1/2)
@@ -191,9 +291,11 @@ def _energy_metrics(trace: dict[str, np.ndarray]) -> dict[str, float]:
             "t_last": float(trace["t"][-1])}
 
 
-@register_analysis("exact1d")
-def analyse_exact1d(run_dir: str, result, fields: bool = True) -> dict[str, Any]:
-    """Field norms (when the run wrote snapshots) and probe errors of a 1D exact-case run."""
+@register_analysis("exact1d", runner=run_exact1d)
+def analyse_exact1d(run_dir: str, result, snap_every: int = 0) -> dict[str, Any]:
+    """Probe errors and stress norms from the trace; the absolute field norms from the
+    snapshots and the relative ones from every step, when the result holds them (a
+    :class:`SteppedRun` of :func:`run_exact1d`)."""
     trace = result.trace
     metrics: dict[str, Any] = dict(_energy_metrics(trace))
     metrics.update(probe_errors_1d(trace))
@@ -201,30 +303,24 @@ def analyse_exact1d(run_dir: str, result, fields: bool = True) -> dict[str, Any]
     sigma = ex.sigma_n(t)
     metrics["p_L2"] = _time_l2(t, trace["p_n"] - sigma)
     metrics["p_L2_rel"] = relative_in_time(np.abs(trace["p_n"] - sigma), np.abs(sigma))[1]
-    pvd = os.path.join(run_dir, "fields.pvd")
-    if fields and os.path.isfile(pvd):
-        ts, eu, eh, ev = [], [], [], []
-        rel = {k: [] for k in ("u_L2", "u_H1", "v_L2", "ex_u_L2", "ex_u_H1", "ex_v_L2")}
-        for tk, vtu in read_pvd(pvd):
-            x, u_h, v_h = read_vtu_1d(vtu)
-            e = field_errors_1d(x, u_h, v_h, tk)
-            ts.append(tk)
-            eu.append(e["u_L2"])
-            eh.append(e["u_H1"])
-            ev.append(e["v_L2"])
-            for k, val in interpolant_errors_1d(x, u_h, v_h, tk).items():
-                rel[k].append(val)
-        ts = np.array(ts)
+    x = getattr(result, "x", None)
+    snaps = getattr(result, "snapshots", None) or []
+    if snaps:
+        errs = [field_errors_1d(x, u_h, v_h, tk) for tk, u_h, v_h in snaps]
+        ts = np.array([tk for tk, _, _ in snaps])
+        eu, eh, ev = (np.array([e[k] for e in errs]) for k in ("u_L2", "u_H1", "v_L2"))
         metrics.update(
             u_Linf_L2=float(np.max(eu)), u_Linf_H1=float(np.max(eh)),
-            v_Linf_L2=float(np.max(ev)), u_L2_L2=_time_l2(ts, np.array(eu)),
-            u_L2_H1=_time_l2(ts, np.array(eh)), v_L2_L2=_time_l2(ts, np.array(ev)),
-            snapshots=len(ts))
+            v_Linf_L2=float(np.max(ev)), u_L2_L2=_time_l2(ts, eu),
+            u_L2_H1=_time_l2(ts, eh), v_L2_L2=_time_l2(ts, ev), snapshots=len(ts))
+    steps = getattr(result, "steps", None) or {}
+    if steps and len(steps.get("t", ())):
         for space, key in (("L2", "u_L2"), ("H1", "u_H1")):
-            lin, l2 = relative_in_time(rel[key], rel["ex_" + key])
+            lin, l2 = relative_in_time(steps[key], steps["ex_" + key])
             metrics[f"u_Linf_{space}_rel"], metrics[f"u_L2_{space}_rel"] = lin, l2
         metrics["v_Linf_L2_rel"], metrics["v_L2_L2_rel"] = \
-            relative_in_time(rel["v_L2"], rel["ex_v_L2"])
+            relative_in_time(steps["v_L2"], steps["ex_v_L2"])
+        metrics["rel_steps"] = int(len(steps["t"]))
     return {"metrics": metrics}
 
 

@@ -76,11 +76,17 @@ STALE_S = 6 * 3600
 _ANALYSES: dict[str, Callable[..., dict[str, Any]]] = {}
 
 
-def register_analysis(name: str):
+def register_analysis(name: str, runner: Callable[..., Any] | None = None):
     """Decorator: ``fn(run_dir, result, **params) -> {'metrics': {...}, 'arrays': {...}}``
-    names an analysis that tasks can ask for. ``result`` is the :class:`RunResult`."""
+    names an analysis that tasks can ask for. ``result`` is the :class:`RunResult`.
+
+    ``runner(scene, run_dir, **params) -> RunResult``, when given, runs the scene instead
+    of :func:`dyncontact.run` (same outputs in run_dir), for an analysis that must see
+    the state at every step (stepping a :class:`dyncontact.core.Stepper`) without
+    writing every field to disk; what it measures rides on the result it returns."""
 
     def deco(fn):
+        fn.runner = runner
         _ANALYSES[name] = fn
         return fn
 
@@ -269,12 +275,17 @@ def _run(task: Task, run_dir: str, key: str | None) -> tuple[dict[str, Any], dic
     from .. import core
 
     scene = _scene(task)
+    analysis = _analysis(task.analysis)
+    runner = getattr(analysis, "runner", None)
     cpu0, wall0 = time.process_time(), time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:   # kept in the record,
         warnings.simplefilter("always")                    # not printed by workers
-        res = core.run(scene, out=run_dir, progress=False)
+        if runner is None:
+            res = core.run(scene, out=run_dir, progress=False)
+        else:
+            res = runner(scene, run_dir, **dict(task.params))
     cpu_s, wall_measured_s = time.process_time() - cpu0, time.perf_counter() - wall0
-    out = _analysis(task.analysis)(run_dir, res, **dict(task.params)) or {}
+    out = analysis(run_dir, res, **dict(task.params)) or {}
     s = res.summary
     rec = {"key": key, "status": res.status, "message": res.message,
            "t_end_reached": s.get("t_end_reached"), "steps": s.get("steps"),
