@@ -180,19 +180,22 @@ contains
     end subroutine cg_fall_back
 
     !> Solve A x = b with the factors of a (no allocation). b and x must have n entries.
-    subroutine ls_solve(f, a, b, x, stat, errmsg)
+    !> With `guess` true, x holds a first guess, which CG starts from (the direct solves
+    !> ignore it).
+    subroutine ls_solve(f, a, b, x, stat, errmsg, guess)
         type(factor_t), intent(inout) :: f                  !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
-        real(dp), intent(out) :: x(:)                       !! solution (n)
+        real(dp), intent(inout) :: x(:)                     !! guess (with `guess`), solution (n)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(in), optional :: guess              !! x holds a first guess (CG)
         if (f%n /= a%n .or. f%n < 1) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'ls_solve: no factors of this matrix')
             return
         end if
         if (f%backend == BACKEND_PCG) then
-            call pcg_solve(f%cg, a, b, x, stat, errmsg)
+            call pcg_solve(f%cg, a, b, x, stat, errmsg, guess)
             if (stat == STAT_OK .or. .not. f%cg%indefinite) return
             call cg_fall_back(f, a, stat, errmsg)
             if (stat /= STAT_OK) return

@@ -1,11 +1,12 @@
 !> Jacobi-preconditioned conjugate gradients for symmetric positive definite csc_t
 !> matrices (the iterative kind of module linear_solver).
 !>
-!> A solve starts from x = 0 and stops when the residual |b - A x| is at most
-!> rtol |b|: the recurrence's residual first, then the residual formed by a product
-!> with A (the recurrence drifts from it by round-off; the iterations go on until the
-!> formed one passes too). No warm start: the result depends only on A and b, so a
-!> run restarted from a checkpoint repeats the same numbers.
+!> A solve starts from x = 0, or from a guess the caller passes in x, and stops when the
+!> residual |b - A x| is at most rtol |b|: the recurrence's residual first, then the
+!> residual formed by a product with A (the recurrence drifts from it by round-off; the
+!> iterations go on until the formed one passes too). Nothing is kept from one solve to
+!> the next: the result depends only on A, b and the guess, so a run restarted from a
+!> checkpoint (whose state gives the same guess) repeats the same numbers.
 !>
 !> A right-hand side with few nonzeros (a column of the identity, as in the contact
 !> correction's J0^{-1} P^T) is solved on its support only: after k iterations x, r and
@@ -90,17 +91,20 @@ contains
         stat = STAT_OK
     end subroutine pcg_setup
 
-    !> Solve A x = b (x = 0 first). STAT_NUMERIC when the residual does not reach
-    !> rtol |b| within max_iter iterations, or A shows it is not positive definite.
-    subroutine pcg_solve(p, a, b, x, stat, errmsg)
+    !> Solve A x = b from x = 0, or from the x given when `guess` is true. STAT_NUMERIC
+    !> when the residual does not reach rtol |b| within max_iter iterations, or A shows
+    !> it is not positive definite.
+    subroutine pcg_solve(p, a, b, x, stat, errmsg, guess)
         type(pcg_t), intent(inout) :: p                     !! solver set up for a
         type(csc_t), intent(in) :: a                        !! the matrix
         real(dp), intent(in), contiguous :: b(:)            !! right-hand side (n)
-        real(dp), intent(out), contiguous :: x(:)           !! solution (n)
+        real(dp), intent(inout), contiguous :: x(:)         !! guess (with `guess`), solution (n)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(in), optional :: guess              !! x holds a first guess
         real(dp) :: bnorm, tol2, rz, rz_new, pq, alpha, beta, rr
         integer :: it, n
+        logical :: warm
         n = p%n
         if (n < 1 .or. a%n /= n .or. size(b) < n .or. size(x) < n) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'pcg_solve: not set up for this matrix')
@@ -108,13 +112,23 @@ contains
         end if
         stat = STAT_OK
         p%indefinite = .false.
-        x(1:n) = 0.0_dp
+        warm = .false.
+        if (present(guess)) warm = guess
+        if (.not. warm) x(1:n) = 0.0_dp
         bnorm = sqrt(dot(b(1:n), b(1:n)))
         p%solves = p%solves + 1
         p%last_its = 0
-        if (bnorm == 0.0_dp) return
+        if (bnorm == 0.0_dp) then
+            x(1:n) = 0.0_dp
+            return
+        end if
         tol2 = (p%rtol * bnorm)**2
-        p%r = b(1:n)
+        if (warm) then
+            call csc_matvec_t(a, x, p%q)
+            p%r = b(1:n) - p%q
+        else
+            p%r = b(1:n)
+        end if
         p%z = p%dinv * p%r
         p%p = p%z
         rz = dot(p%r, p%z)

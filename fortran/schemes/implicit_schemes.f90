@@ -429,6 +429,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: rnorm, scale, dt
         character(len=256) :: why
+        logical :: warm
         stat = STAT_OK
         dt = this%dt
         scale = -1.0_dp
@@ -455,7 +456,10 @@ contains
             ! J0^{-1} R = Z rho): yc = P y, tk = 0 or rho, then Woodbury's - U s
             if (it == 0) then
                 why = ''
-                call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat, why)
+                ! CG starts from the step the predictor with a' = a takes (see first_guess)
+                warm = this%lu0%backend == BACKEND_PCG
+                if (warm) call first_guess(this, st%a)
+                call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat, why, guess=warm)
                 if (stat /= STAT_OK) then
                     call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
                                //real_text(st%t + dt, 6)//': '//trim(why))
@@ -483,6 +487,21 @@ contains
             call contact_residual(this, mdl, st%u, active, e_pen, e_theta, rnorm)
         end do
     end subroutine newton_iterate
+
+    !> A first guess of y0 = J0^{-1} R(u^n) = u^n - x for an iterative solve, from the state
+    !> alone (so a restarted run makes the same guess): the step the predictor takes when
+    !> a' = a (Newmark family: x = u~ + beta dt^2 a, so dx = dvec - (k + beta dt^2) a with
+    !> dvec = u - u~ + k a) or v' = v (theta: x = u~, dx = dvec). It misses y0 by
+    !> beta dt^2 (a' - a), small against y0 ~ dt v for the modes the step resolves.
+    subroutine first_guess(this, a)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (dx set)
+        real(dp), intent(in) :: a(:)                        !! acceleration a^n
+        if (this%kind == KIND_NEWMARK) then
+            this%dx = this%dvec - (this%kga + this%beta * this%dt**2) * a
+        else
+            this%dx = this%dvec
+        end if
+    end subroutine first_guess
 
     !> After a Newton correction (T in tsum): P dx = y0c + W T (the same sums, in the
     !> same order, as the full dx at the end), P x' = P u^n - P dx, dxc = P x - P x',
