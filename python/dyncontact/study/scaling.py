@@ -85,7 +85,8 @@ def estimate_dofs(geometry: str, h: float) -> int:
 def scene_text(geometry: str, h: float, steps: int, contact: bool, out_dir: str,
                solver: str = "direct") -> str:
     """The scene of one row: the strip (see :func:`strip_scene`), the disk (a free disk of
-    radius 0.1 whose whole outline may touch y = 0, dropped at 1 m/s) or the 3D box (the
+    radius 0.1 whose whole outline may touch the obstacle, its lowest point on the plane
+    y = 0.01 at t = 0 and moving into it at 1 m/s: in contact from the first step) or the 3D box (the
     strip's set-up in 3D); hht with Δt = 0.0005, ``steps`` steps, ``&solver kind`` solver."""
     solver_line = f"&solver kind = '{solver}' /\n"
     if geometry == "strip":
@@ -108,7 +109,7 @@ def scene_text(geometry: str, h: float, steps: int, contact: bool, out_dir: str,
             f"&mesh file = '{DISK_GEO}', h = {h!r}, width = 0.1 /\n"
             f"&boundary clamped = '', contact = '{'bottom,top' if contact else ''}' /\n"
             "&material young = 0.6666666666666666, poisson = 0.3333333333333333, density = 1.0 /\n"
-            "&contact method = 'nitsche', theta = 1, gamma0 = 10.0, obstacle_point = 0.0, 0.0,\n"
+            "&contact method = 'nitsche', theta = 1, gamma0 = 10.0, obstacle_point = 0.0, 0.01,\n"
             "         obstacle_normal = 0.0, -1.0, probe = 0.0, 0.01 /\n"
             "&initial kind = 'velocity', velocity = 0.0, -1.0 /\n"
             f"&scheme name = 'hht', alpha = 0.0, dt = {DT!r}, t_end = {steps * DT!r},"
