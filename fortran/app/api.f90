@@ -278,6 +278,60 @@ subroutine dc_ls_solve(n, nnz, rows, cols, vals, b, x, backend, stat, errmsg)
     stat = st
 end subroutine dc_ls_solve
 
+!> Solve A X = B (m columns) with linear_solver configured to `kind` ('direct', 'cg',
+!> 'auto' with dimension 2), A as 1-based COO triplets: one column through ls_solve,
+!> several through ls_solve_many. backend is the one that solved ('pcg_jacobi' for CG),
+!> note why CG did not run where asked, cg_its the CG iterations over all columns.
+subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_max_iter, x, &
+                            backend, note, cg_its, stat, errmsg)
+    use iso_c_binding, only: c_int, c_double
+    use kinds, only: i8
+    use errors, only: STAT_OK
+    use sparse, only: csc_t, csc_from_coo
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, &
+                             ls_configure, ls_cg_counts
+    implicit none
+    integer(c_int), intent(in) :: n              !! size
+    integer(c_int), intent(in) :: nnz            !! triplets
+    integer(c_int), intent(in) :: m              !! right-hand sides
+    integer(c_int), intent(in) :: rows(nnz)      !! 1-based rows
+    integer(c_int), intent(in) :: cols(nnz)      !! 1-based columns
+    real(c_double), intent(in) :: vals(nnz)      !! values
+    real(c_double), intent(in) :: b(n, m)        !! right-hand sides
+    character(len=*), intent(in) :: kind         !! 'direct', 'cg' or 'auto'
+    real(c_double), intent(in) :: cg_rtol        !! CG relative residual tolerance
+    integer(c_int), intent(in) :: cg_max_iter    !! CG iteration limit
+    real(c_double), intent(out) :: x(n, m)       !! solutions
+    character(len=16), intent(out) :: backend    !! solver that ran
+    character(len=200), intent(out) :: note      !! why CG did not run ('' if it did)
+    integer(c_int), intent(out) :: cg_its        !! CG iterations
+    integer(c_int), intent(out) :: stat          !! status (3: singular, CG failure)
+    character(len=512), intent(out) :: errmsg    !! message
+    type(csc_t) :: a
+    type(factor_t) :: f
+    integer(i8) :: solves, its
+    integer :: st, mx
+    errmsg = ''
+    backend = ''
+    x = 0
+    call csc_from_coo(n, rows, cols, vals, a, st, errmsg)
+    call ls_configure(f, kind, 2, cg_rtol, cg_max_iter)
+    if (st == STAT_OK) call ls_factor(f, a, st, errmsg)
+    if (st == STAT_OK) then
+        if (m == 1) then
+            call ls_solve(f, a, b(:, 1), x(:, 1), st, errmsg)
+        else
+            call ls_solve_many(f, a, b, x, st, errmsg)
+        end if
+    end if
+    if (st == STAT_OK) backend = f%backend
+    note = f%note
+    call ls_cg_counts(f, solves, its, mx)
+    cg_its = int(its, c_int)
+    call ls_free(f)
+    stat = st
+end subroutine dc_ls_solve_kind
+
 !> P1 element matrices of one cell: stiffness, consistent and lumped mass.
 !> The leading n x n blocks (n = dim (dim + 1)) and x(1:dim, 1:dim + 1) are used.
 subroutine dc_p1_element(dim, x, young, poisson, density, ke, me, ml)

@@ -75,6 +75,9 @@ module scene
         integer :: every                           !! trace row every this many steps
         integer :: fields_every                    !! VTU snapshot every this many steps (0 = none)
         integer :: checkpoint_every                !! checkpoint every this many steps (0 = none)
+        character(len=NAME_LEN) :: solver_kind     !! 'direct' | 'cg' | 'auto'
+        real(dp) :: cg_rtol                        !! CG relative residual tolerance
+        integer :: cg_max_iter                     !! CG iteration limit of one solve
     end type scene_t
 
     public :: scene_read, scene_parse, scene_to_json, scene_check_dim, scene_bar_dim
@@ -168,7 +171,10 @@ contains
             row('output', 'dir', "'out'", 'not be empty', s=scn%out_dir), &
             row('output', 'every', '1', '> 0', i=scn%every), &
             row('output', 'fields_every', '0', '>= 0', i=scn%fields_every), &
-            row('output', 'checkpoint_every', '0', '>= 0', i=scn%checkpoint_every)]
+            row('output', 'checkpoint_every', '0', '>= 0', i=scn%checkpoint_every), &
+            row('solver', 'kind', "'direct'", "one of 'direct', 'cg', 'auto'", s=scn%solver_kind), &
+            row('solver', 'cg_rtol', '1e-12', 'in (0, 1)', r=scn%cg_rtol), &
+            row('solver', 'cg_max_iter', '500', '> 0', i=scn%cg_max_iter)]
     end subroutine scene_keys
 
     !> One row of the key table (exactly one of i, r, v, s is given; n and default3
@@ -717,6 +723,13 @@ contains
                           trim(scn%scheme_name)//''''); return
             end if
         end select
+        ! CG leaves a residual of at most cg_rtol |R(u^n)| that Newton's test does not see
+        ! (it tests the contact part after the first solve): keep it under the test's own
+        ! tolerance (|R(u^n)| <= the test's scale)
+        if (scn%solver_kind /= 'direct' .and. scn%cg_rtol > scn%newton_tol) then
+            msg = bad(keys, name, 'solver', 'cg_rtol', 'must be at most &scheme newton_tol = '// &
+                      real_text(scn%newton_tol, 4)); return
+        end if
         if (scn%dt < 0.0_dp) then      ! central (the row checks the others)
             msg = bad(keys, name, 'scheme', 'dt', 'must be >= 0 for scheme ''central'' '// &
                       '(0: a step chosen by the run)'); return

@@ -1,12 +1,18 @@
-!> Direct solves of csc_t matrices for the time schemes: symmetric positive definite
-!> matrices with CHOLMOD's simplicial LDL^T (about half the factor entries and half
-!> the solve time of an LU), anything else with UMFPACK's LU.
+!> Solves of csc_t matrices for the time schemes. Direct (the default): symmetric
+!> positive definite matrices with CHOLMOD's simplicial LDL^T (about half the factor
+!> entries and half the solve time of an LU), anything else with UMFPACK's LU.
+!> Iterative (ls_configure kind 'cg', or 'auto' above AUTO_CG_DOFS): Jacobi-preconditioned
+!> conjugate gradients (module pcg), for symmetric positive definite matrices only.
 !>
 !> ls_factor tries LDL^T when the matrix is symmetric (to SYM_RTOL) and falls back to
 !> UMFPACK when it is not, or when LDL^T meets a zero, negative or non-finite pivot
 !> (an indefinite J0 = M + c K_theta, e.g. small gamma0 with Nitsche theta = 1: the
-!> schemes need an exact solve, so this is not an error). f%backend records which
-!> one holds the factors. A factor_t owns C pointers: never copy one by assignment.
+!> schemes need an exact solve, so this is not an error). With kind 'cg' a matrix that
+!> is not symmetric, or has a diagonal entry <= 0, is factorized directly instead; a CG
+!> solve that meets a curvature p^T A p <= 0 (not positive definite) factorizes the
+!> matrix directly then and solves again. Either way f%note says so, and f%backend
+!> records which one holds the factors. A factor_t owns C pointers: never copy one by
+!> assignment.
 module linear_solver
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
@@ -14,6 +20,7 @@ module linear_solver
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
     use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free, chol_kernel, &
                        chol_ordering
+    use pcg, only: pcg_t, pcg_setup, pcg_solve, pcg_solve_many, pcg_free
     implicit none
     private
 
@@ -26,24 +33,39 @@ module linear_solver
 
     character(len=*), parameter, public :: BACKEND_CHOLMOD = 'cholmod_ldlt'  !! LDL^T ran
     character(len=*), parameter, public :: BACKEND_UMFPACK = 'umfpack_lu'    !! LU ran
+    character(len=*), parameter, public :: BACKEND_PCG = 'pcg_jacobi'        !! CG ran
+
+    !> Kind 'auto' runs CG from this many unknowns on, by the dimension of the mesh (1, 2,
+    !> 3): a size where the scaling sweep (docs/performance.md, "Scaling") measured CG's step
+    !> faster than the direct solver's. None was measured yet (the strip to 515 200 dofs,
+    !> the disk to 47 392, the 3D box to 19 440): 'auto' is the direct solver everywhere.
+    integer, parameter, public :: AUTO_CG_DOFS(3) = [huge(1), huge(1), huge(1)]
 
     !> Factors of one matrix and the backend that computed them.
     type, public :: factor_t
-        character(len=16) :: backend = ''       !! BACKEND_CHOLMOD, BACKEND_UMFPACK, '' (none)
+        character(len=16) :: backend = ''       !! BACKEND_CHOLMOD, _UMFPACK, _PCG, '' (none)
         logical :: symmetric = .false.          !! the last matrix factorized was symmetric
         logical :: fell_back = .false.          !! symmetric, but LDL^T met a bad pivot
         integer :: n = 0                        !! size factorized (0: no factors)
         integer :: factorizations = 0           !! successful factorizations (kept by ls_free)
         type(cholmod_t) :: ch                   !! LDL^T factors
         type(lu_t) :: lu                        !! LU factors
+        character(len=8) :: kind = 'direct'     !! requested: 'direct', 'cg' or 'auto'
+        integer :: dim = 0                      !! mesh dimension for 'auto' (0: unknown)
+        real(dp) :: cg_rtol = 1.0e-12_dp        !! CG relative residual tolerance
+        integer :: cg_max_iter = 500            !! CG iteration limit of one solve
+        type(pcg_t) :: cg                       !! CG preconditioner, work and counters
+        character(len=200) :: note = ''         !! why CG was asked for and did not run
     end type factor_t
 
     public :: ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, ls_factor_info, &
-              csc_is_symmetric
+              csc_is_symmetric, ls_configure, ls_cg_counts, ls_auto_kind
 
 contains
 
-    !> Factorize a: LDL^T if symmetric and positive definite, UMFPACK LU otherwise.
+    !> Factorize a: LDL^T if symmetric and positive definite, UMFPACK LU otherwise; or,
+    !> when the configured kind resolves to 'cg' and a is symmetric with a positive
+    !> diagonal, set up conjugate gradients instead (no factors; f%backend BACKEND_PCG).
     !> Errors are those of the LU (STAT_NUMERIC 'singular matrix', STAT_BAD_INPUT for
     !> inconsistent arrays, STAT_INTERNAL); an LDL^T error other than a bad pivot is
     !> returned as is.
@@ -52,10 +74,80 @@ contains
         type(csc_t), intent(in) :: a                        !! matrix
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=:), allocatable :: kind
         f%backend = ''
         f%n = 0
         f%fell_back = .false.
+        f%note = ''
         f%symmetric = csc_is_symmetric(a)
+        kind = ls_auto_kind(f%kind, a%n, f%dim)
+        call pcg_free(f%cg)
+        if (kind == 'cg') then
+            if (.not. f%symmetric) then
+                f%note = 'the matrix is not symmetric: conjugate gradients do not apply; '// &
+                         'it was factorized directly'
+            else
+                call pcg_setup(f%cg, a, f%cg_rtol, f%cg_max_iter, stat)
+                if (stat == STAT_OK) then
+                    call chol_free(f%ch)
+                    call lu_free(f%lu)
+                    f%backend = BACKEND_PCG
+                    f%n = a%n
+                    return
+                end if
+                f%note = 'the matrix has a diagonal entry <= 0 (not positive definite): '// &
+                         'conjugate gradients do not apply; it was factorized directly'
+            end if
+        end if
+        call direct_factor(f, a, stat, errmsg)
+    end subroutine ls_factor
+
+    !> Set the solver kind of the next ls_factor calls: 'direct', 'cg' or 'auto' (CG
+    !> from AUTO_CG_DOFS(dim) unknowns on), with the CG tolerance and iteration limit.
+    subroutine ls_configure(f, kind, dim, cg_rtol, cg_max_iter)
+        type(factor_t), intent(inout) :: f                  !! solver (before ls_factor)
+        character(len=*), intent(in) :: kind                !! 'direct', 'cg' or 'auto'
+        integer, intent(in) :: dim                          !! mesh dimension (1 to 3)
+        real(dp), intent(in) :: cg_rtol                     !! CG relative residual tolerance
+        integer, intent(in) :: cg_max_iter                  !! CG iteration limit
+        f%kind = kind
+        f%dim = dim
+        f%cg_rtol = cg_rtol
+        f%cg_max_iter = cg_max_iter
+    end subroutine ls_configure
+
+    !> The kind that runs for a requested kind and an n x n matrix of a mesh of dimension
+    !> dim: 'cg' or 'direct' ('auto' resolved by AUTO_CG_DOFS).
+    pure function ls_auto_kind(kind, n, dim) result(k)
+        character(len=*), intent(in) :: kind                !! 'direct', 'cg' or 'auto'
+        integer, intent(in) :: n                            !! unknowns
+        integer, intent(in) :: dim                          !! mesh dimension (0: unknown)
+        character(len=:), allocatable :: k
+        k = 'direct'
+        if (trim(kind) == 'cg') then
+            k = 'cg'
+        else if (trim(kind) == 'auto' .and. dim >= 1 .and. dim <= 3) then
+            if (n >= AUTO_CG_DOFS(dim)) k = 'cg'
+        end if
+    end function ls_auto_kind
+
+    !> CG counters: solves, iterations over them, the most of one solve (0 without CG).
+    subroutine ls_cg_counts(f, solves, iterations, max_its)
+        type(factor_t), intent(in) :: f                     !! solver
+        integer(i8), intent(out) :: solves, iterations      !! solves, iterations
+        integer, intent(out) :: max_its                     !! most iterations of one solve
+        solves = f%cg%solves
+        iterations = f%cg%iterations
+        max_its = f%cg%max_its
+    end subroutine ls_cg_counts
+
+    !> The direct factorization of ls_factor (LDL^T, else LU).
+    subroutine direct_factor(f, a, stat, errmsg)
+        type(factor_t), intent(inout) :: f                  !! factors (created or replaced)
+        type(csc_t), intent(in) :: a                        !! matrix
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        call pcg_free(f%cg)
         if (f%symmetric) then
             call chol_factor(f%ch, a, stat, errmsg)
             if (stat == STAT_OK) then
@@ -74,19 +166,40 @@ contains
         f%backend = BACKEND_UMFPACK
         f%n = a%n
         f%factorizations = f%factorizations + 1
-    end subroutine ls_factor
+    end subroutine direct_factor
+
+    !> After a CG solve that proved a not positive definite: factorize it directly (for
+    !> the rest of the run) and say so in f%note.
+    subroutine cg_fall_back(f, a, stat, errmsg)
+        type(factor_t), intent(inout) :: f                  !! solver
+        type(csc_t), intent(in) :: a                        !! matrix
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        f%note = 'conjugate gradients met a curvature <= 0 (the matrix is not positive '// &
+                 'definite): it was factorized directly'
+        call direct_factor(f, a, stat, errmsg)
+    end subroutine cg_fall_back
 
     !> Solve A x = b with the factors of a (no allocation). b and x must have n entries.
-    subroutine ls_solve(f, a, b, x, stat, errmsg)
+    !> With `guess` true, x holds a first guess, which CG starts from (the direct solves
+    !> ignore it).
+    subroutine ls_solve(f, a, b, x, stat, errmsg, guess)
         type(factor_t), intent(inout) :: f                  !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
-        real(dp), intent(out) :: x(:)                       !! solution (n)
+        real(dp), intent(inout) :: x(:)                     !! guess (with `guess`), solution (n)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(in), optional :: guess              !! x holds a first guess (CG)
         if (f%n /= a%n .or. f%n < 1) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'ls_solve: no factors of this matrix')
             return
+        end if
+        if (f%backend == BACKEND_PCG) then
+            call pcg_solve(f%cg, a, b, x, stat, errmsg, guess)
+            if (stat == STAT_OK .or. .not. f%cg%indefinite) return
+            call cg_fall_back(f, a, stat, errmsg)
+            if (stat /= STAT_OK) return
         end if
         if (f%backend == BACKEND_CHOLMOD) then
             call chol_solve(f%ch, b, x, stat, errmsg)
@@ -113,6 +226,12 @@ contains
             call raise(stat, errmsg, STAT_BAD_INPUT, 'ls_solve_many: no factors of this matrix')
             return
         end if
+        if (f%backend == BACKEND_PCG) then
+            call pcg_solve_many(f%cg, a, b, x, stat, errmsg)
+            if (stat == STAT_OK .or. .not. f%cg%indefinite) return
+            call cg_fall_back(f, a, stat, errmsg)
+            if (stat /= STAT_OK) return
+        end if
         if (f%backend == BACKEND_CHOLMOD) then
             call chol_solve_many(f%ch, b, x, stat, errmsg)
         else
@@ -121,7 +240,7 @@ contains
     end subroutine ls_solve_many
 
     !> The triangular solve ls_solve runs: 'ldl_node_pairs' (LDL^T by 2x2 node blocks),
-    !> 'cholmod_solve2', 'umfpack' ('' without factors).
+    !> 'cholmod_solve2', 'umfpack', or 'pcg_jacobi' (no factors: CG) ('' without either).
     pure function ls_kernel(f) result(name)
         type(factor_t), intent(in) :: f      !! factors
         character(len=:), allocatable :: name
@@ -129,6 +248,8 @@ contains
             name = ''
         else if (f%backend == BACKEND_CHOLMOD) then
             name = chol_kernel(f%ch)
+        else if (f%backend == BACKEND_PCG) then
+            name = BACKEND_PCG
         else
             name = 'umfpack'
         end if
@@ -136,7 +257,8 @@ contains
 
     !> The fill-reducing ordering of the LDL^T factors ('amd', 'metis', 'nesdis',
     !> 'cholmod'; 'umfpack' for the LU, whose ordering is UMFPACK's own; '' without
-    !> factors) and the entries stored in the LDL^T factor (D and L; 0 for the LU).
+    !> factors or with CG) and the entries stored in the LDL^T factor (D and L; 0 for the
+    !> LU and CG).
     subroutine ls_factor_info(f, ordering, nnz)
         type(factor_t), intent(in) :: f                      !! factors
         character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
@@ -147,16 +269,19 @@ contains
         if (f%backend == BACKEND_CHOLMOD) then
             ordering = chol_ordering(f%ch)
             nnz = int(f%ch%factor_nnz, i8)
+        else if (f%backend == BACKEND_PCG) then
+            ordering = ''
         else
             ordering = 'umfpack'
         end if
     end subroutine ls_factor_info
 
-    !> Release both backends' factors (safe to call twice). The counter is kept.
+    !> Release every backend's factors (safe to call twice). The counters are kept.
     subroutine ls_free(f)
         type(factor_t), intent(inout) :: f   !! factors to release
         call chol_free(f%ch)
         call lu_free(f%lu)
+        call pcg_free(f%cg)
         f%n = 0
     end subroutine ls_free
 

@@ -17,7 +17,7 @@ module simulation
                      MASS_REDISTRIBUTED, INITIAL_REST, INITIAL_VELOCITY, INITIAL_COMPRESSED_BAR
     use time_scheme, only: time_scheme_t, state_t, state_eval, scheme_params_t, scheme_kind, &
                            SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED, SCHEME_CENTRAL
-    use implicit_schemes, only: implicit_scheme_t
+    use implicit_schemes, only: implicit_scheme_t, implicit_solver_report
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free
@@ -834,6 +834,8 @@ contains
         p%alpha = scn%alpha; p%beta = scn%beta; p%gamma = scn%gamma
         p%theta = scn%time_theta; p%rho_inf = scn%rho_inf
         p%newton_tol = scn%newton_tol; p%newton_maxit = scn%newton_maxit
+        p%solver_kind = trim(scn%solver_kind)
+        p%cg_rtol = scn%cg_rtol; p%cg_max_iter = scn%cg_max_iter
     end function scheme_params
 
     !> Energies and probe values of the current state; a trace row when `row`
@@ -885,9 +887,9 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: last               !! the final one: rewrite in place if need be
-        integer :: its, facts
-        integer(i8) :: clock, fnnz
-        character(len=:), allocatable :: text, dt_crit_line, ordering
+        integer :: its, facts, cg_max
+        integer(i8) :: clock, fnnz, cg_solves, cg_its
+        character(len=:), allocatable :: text, dt_crit_line, ordering, skind, snote
         character(len=1), parameter :: nl = new_line('a')
         call system_clock(clock)
         its = 0; facts = 0
@@ -895,6 +897,14 @@ contains
         ordering = ''
         fnnz = 0
         if (allocated(sim%scheme)) call sim%scheme%factor_info(ordering, fnnz)
+        skind = ''; snote = ''
+        cg_solves = 0; cg_its = 0; cg_max = 0
+        if (allocated(sim%scheme)) then
+            select type (s => sim%scheme)
+            type is (implicit_scheme_t)
+                call implicit_solver_report(s, skind, cg_solves, cg_its, cg_max, snote)
+            end select
+        end if
         if (allocated(sim%scheme)) then
             its = sim%scheme%newton_total
             facts = sim%scheme%factorizations
@@ -918,6 +928,11 @@ contains
                dt_crit_line// &
                '  "solver": '//json_string(sim_solver(sim))//','//nl// &
                '  "solve_kernel": '//json_string(sim_kernel(sim))//','//nl// &
+               '  "solver_kind": '//json_string(skind)//','//nl// &
+               '  "solver_note": '//json_string(snote)//','//nl// &
+               '  "cg_solves": '//int_text(cg_solves)//','//nl// &
+               '  "cg_iterations": '//int_text(cg_its)//','//nl// &
+               '  "cg_max_iterations": '//int_text(int(cg_max, i8))//','//nl// &
                '  "ordering": '//json_string(ordering)//','//nl// &
                '  "factor_nnz": '//int_text(fnnz)//','//nl// &
                '  "matrix_nnz": '//int_text(int(sim%mdl%mass%nnz, i8))//','//nl// &

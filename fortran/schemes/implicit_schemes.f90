@@ -38,7 +38,7 @@ module implicit_schemes
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, &
-                             ls_factor_info
+                             ls_factor_info, ls_configure, ls_cg_counts, BACKEND_PCG
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_max_rank
@@ -112,6 +112,8 @@ module implicit_schemes
         procedure :: factor_info => implicit_factor_info
     end type implicit_scheme_t
 
+    public :: implicit_solver_report
+
 contains
 
     !> Coefficients from the parameters, J0 factorization, Woodbury blocks, and the
@@ -171,9 +173,10 @@ contains
 
         this%jac0 = mdl%mass
         this%jac0%val = mdl%mass%val + this%c * mdl%stiff_theta%val
+        call ls_configure(this%lu0, prm%solver_kind, mdl%dim, prm%cg_rtol, prm%cg_max_iter)
         call ls_factor(this%lu0, this%jac0, stat, errmsg)
         if (stat /= STAT_OK) return
-        this%factorizations = this%factorizations + 1
+        if (this%lu0%backend /= BACKEND_PCG) this%factorizations = this%factorizations + 1
 
         this%m = 0
         if (mdl%has_contact) this%m = mdl%ct%m
@@ -320,6 +323,18 @@ contains
         name = ls_kernel(this%lu0)
     end function implicit_kernel
 
+    !> The &solver kind applied to J0, the CG counters and the fallback note.
+    subroutine implicit_solver_report(this, kind, solves, iterations, max_its, note)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        character(len=:), allocatable, intent(out) :: kind  !! kind requested
+        integer(i8), intent(out) :: solves, iterations      !! CG solves and iterations
+        integer, intent(out) :: max_its                     !! most iterations of one solve
+        character(len=:), allocatable, intent(out) :: note  !! fallback note
+        kind = trim(this%lu0%kind)
+        call ls_cg_counts(this%lu0, solves, iterations, max_its)
+        note = trim(this%lu0%note)
+    end subroutine implicit_solver_report
+
     !> The ordering and the stored entries of the J0 factors.
     subroutine implicit_factor_info(this, ordering, nnz)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
@@ -413,6 +428,8 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: rnorm, scale, dt
+        character(len=256) :: why
+        logical :: warm
         stat = STAT_OK
         dt = this%dt
         scale = -1.0_dp
@@ -438,10 +455,14 @@ contains
             ! the first iteration (R is full) and y = 0 after it (R = P^T rho, so
             ! J0^{-1} R = Z rho): yc = P y, tk = 0 or rho, then Woodbury's - U s
             if (it == 0) then
-                call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat)
+                why = ''
+                ! CG starts from the step the predictor with a' = a takes (see first_guess)
+                warm = this%lu0%backend == BACKEND_PCG
+                if (warm) call first_guess(this, st%a)
+                call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat, why, guess=warm)
                 if (stat /= STAT_OK) then
                     call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
-                               //real_text(st%t + dt, 6))
+                               //real_text(st%t + dt, 6)//': '//trim(why))
                     return
                 end if
                 it = 1
@@ -466,6 +487,21 @@ contains
             call contact_residual(this, mdl, st%u, active, e_pen, e_theta, rnorm)
         end do
     end subroutine newton_iterate
+
+    !> A first guess of y0 = J0^{-1} R(u^n) = u^n - x for an iterative solve, from the state
+    !> alone (so a restarted run makes the same guess): the step the predictor takes when
+    !> a' = a (Newmark family: x = u~ + beta dt^2 a, so dx = dvec - (k + beta dt^2) a with
+    !> dvec = u - u~ + k a) or v' = v (theta: x = u~, dx = dvec). It misses y0 by
+    !> beta dt^2 (a' - a), small against y0 ~ dt v for the modes the step resolves.
+    subroutine first_guess(this, a)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (dx set)
+        real(dp), intent(in) :: a(:)                        !! acceleration a^n
+        if (this%kind == KIND_NEWMARK) then
+            this%dx = this%dvec - (this%kga + this%beta * this%dt**2) * a
+        else
+            this%dx = this%dvec
+        end if
+    end subroutine first_guess
 
     !> After a Newton correction (T in tsum): P dx = y0c + W T (the same sums, in the
     !> same order, as the full dx at the end), P x' = P u^n - P dx, dxc = P x - P x',
@@ -662,13 +698,15 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: cb, kb
         integer :: it, active
+        character(len=256) :: why
         stat = STAT_OK
         call rhs_coefficients(this, cb, kb)
         call newton_rhs(size(st%u), cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
-        call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat)
+        why = ''
+        call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat, why)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
-                       //real_text(st%t + this%dt, 6))
+                       //real_text(st%t + this%dt, 6)//': '//trim(why))
             st%newton_its = 1
             return
         end if

@@ -26,6 +26,9 @@ module time_scheme
         real(dp) :: rho_inf = 1.0_dp              !! galpha spectral radius at infinity
         real(dp) :: newton_tol = 1.0e-10_dp       !! relative residual tolerance
         integer :: newton_maxit = 50              !! Newton iteration limit
+        character(len=8) :: solver_kind = 'direct'  !! &solver kind: 'direct', 'cg', 'auto'
+        real(dp) :: cg_rtol = 1.0e-12_dp          !! &solver cg_rtol
+        integer :: cg_max_iter = 500              !! &solver cg_max_iter
     end type scheme_params_t
 
     !> State at time t, with B(u) and its parts cached (every scheme needs them).

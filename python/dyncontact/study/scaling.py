@@ -1,7 +1,12 @@
-"""Scaling sweep: time and memory of the 2D strip as the mesh is refined.
+"""Scaling sweep: time and memory as the mesh is refined, direct and CG solvers.
 
-For each mesh size h of the seed's strip (hht, Δt = 0.0005) the executable is run as a
-user runs it, once with 0 steps (the set-up) and once with ``steps`` steps; each child's
+Geometries (``--geometry``): the seed's 2D strip (built-in, h = 0.01 to 0.00125, ``--large``
+down to 0.000625), a 2D disk (meshes/disk.geo through gmsh, radius 0.1, its whole outline
+the contact boundary, dropped at 1 m/s) and the 3D box [0, 0.1]^2 x [0, 1] of tetrahedra
+(built-in, h = 0.05 to 0.00625); each with ``&solver kind`` 'direct' and/or 'cg'
+(``--solvers``). Sizes whose estimated dofs exceed ``--max-dofs`` are left out (and
+listed in scaling.md as such). For each mesh size h (hht, Δt = 0.0005) the executable is
+run as a user runs it, once with 0 steps (the set-up) and once with ``steps`` steps; each child's
 CPU time (user + system: the machine is shared, the wall time would count the other
 processes) and peak resident memory (/usr/bin/time's max RSS) are recorded. The loop's
 time per step is the CPU time of the steps of one open run (:class:`dyncontact.core.Stepper`,
@@ -17,7 +22,11 @@ into the output folder. The memory model the table reports, ``model_mb``, is
 4 matrices (M, K, K_θ, J0 = M + c K_θ; 8-byte values and 4-byte rows) plus one factor
 (8-byte values, 4-byte rows): the target is peak ≤ 1.5 × that (docs/performance.md, "Scaling").
 
-    python -m dyncontact.study.scaling --out out/scaling [--large] [--steps N]
+The rows also give the CG iterations per solve (the timed run's mean), so the chart shows
+where CG's step time crosses the direct solver's.
+
+    python -m dyncontact.study.scaling --out out/scaling [--geometry strip,disk,box]
+        [--solvers direct,cg] [--max-dofs N] [--large] [--steps N]
 """
 
 from __future__ import annotations
@@ -33,17 +42,80 @@ from typing import Any, Sequence
 
 from .common import md_table, new_figure, save_figure, slope, write_csv
 
-__all__ = ["SIZES", "LARGE", "strip_scene", "measure_one", "run_scaling", "main"]
+__all__ = ["SIZES", "LARGE", "GEOMETRY_SIZES", "strip_scene", "scene_text", "estimate_dofs",
+           "measure_one", "run_scaling", "main"]
 
 #: The strip's mesh sizes swept by default (2 200 to 129 600 dofs).
 SIZES = (0.01, 0.005, 0.0025, 0.00125)
 #: The size added by ``--large`` (about 520 000 dofs; minutes and about 2 GB today).
 LARGE = 0.000625
 DT = 0.0005
+#: Sizes of each geometry (the strip's ``--large`` size added on request).
+GEOMETRY_SIZES = {
+    "strip": SIZES,
+    "disk": (0.005, 0.0025, 0.00125, 0.000625, 0.0003125),
+    "box": (0.05, 0.025, 0.0125, 0.00625),
+}
+#: The disk's mesh file.
+DISK_GEO = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(
+    os.path.abspath(__file__))))), "meshes", "disk.geo")
 
-COLUMNS = ["h", "contact", "dofs", "matrix_nnz", "factor_nnz", "solver", "solve_kernel",
+COLUMNS = ["geometry", "solver_kind", "h", "contact", "dofs", "matrix_nnz", "factor_nnz", "solver", "solve_kernel",
            "ordering", "setup_s", "loop_ms_per_step", "solve_ms", "spmv_ms", "step_over_floor",
-           "peak_mb", "setup_peak_mb", "model_mb", "peak_over_model", "steps"]
+           "peak_mb", "setup_peak_mb", "model_mb", "peak_over_model", "steps", "cg_its_per_solve"]
+
+
+def estimate_dofs(geometry: str, h: float) -> int:
+    """The free dofs of a geometry at mesh size h, before any run (for ``--max-dofs``):
+    the strip and the box count their grid nodes less the clamped top; gmsh meshes the
+    disk with about 1.19 area / h^2 + 0.78 perimeter / h nodes (area π 0.1^2, perimeter
+    2π 0.1; fitted to the meshes at h = 0.01 and 0.005, within 5 % at 0.02)."""
+    if geometry == "strip":
+        nw, nl = round(0.1 / h), round(1.0 / h)
+        return 2 * (nw + 1) * nl
+    if geometry == "box":
+        nx, nz = round(0.1 / h), round(1.0 / h)
+        return 3 * (nx + 1) ** 2 * nz
+    if geometry == "disk":
+        pi = 3.141592653589793
+        return int(2 * (1.19 * pi * 0.01 / h ** 2 + 0.78 * 2 * pi * 0.1 / h))
+    raise ValueError(f"unknown geometry {geometry!r}")
+
+
+def scene_text(geometry: str, h: float, steps: int, contact: bool, out_dir: str,
+               solver: str = "direct") -> str:
+    """The scene of one row: the strip (see :func:`strip_scene`), the disk (a free disk of
+    radius 0.1 whose whole outline may touch the obstacle, its lowest point on the plane
+    y = 0.01 at t = 0 and moving into it at 1 m/s: in contact from the first step) or the 3D box (the
+    strip's set-up in 3D); hht with Δt = 0.0005, ``steps`` steps, ``&solver kind`` solver."""
+    solver_line = f"&solver kind = '{solver}' /\n"
+    if geometry == "strip":
+        return strip_scene(h, steps, contact, out_dir) + solver_line
+    if geometry == "box":
+        return (
+            "! Scaling sweep: the 3D box, written by dyncontact.study.scaling.\n"
+            f"&mesh file = '', dim = 3, length = 1.0, width = 0.1, h = {h!r} /\n"
+            f"&boundary clamped = 'top', contact = '{'bottom' if contact else ''}' /\n"
+            "&material young = 0.6666666666666666, poisson = 0.3333333333333333, density = 1.0 /\n"
+            "&contact method = 'nitsche', theta = 1, gamma0 = 10.0, obstacle_point = 0.0, 0.0, 0.0,\n"
+            "         obstacle_normal = 0.0, 0.0, -1.0, probe = 0.05, 0.05, 0.0 /\n"
+            "&initial kind = 'compressed_bar', amplitude = 0.5 /\n"
+            f"&scheme name = 'hht', alpha = 0.0, dt = {DT!r}, t_end = {steps * DT!r},"
+            " mass = 'consistent' /\n"
+            f"&output dir = '{out_dir}', every = 1, fields_every = 0 /\n" + solver_line)
+    if geometry == "disk":
+        return (
+            "! Scaling sweep: the 2D disk (meshes/disk.geo), written by dyncontact.study.scaling.\n"
+            f"&mesh file = '{DISK_GEO}', h = {h!r}, width = 0.1 /\n"
+            f"&boundary clamped = '', contact = '{'bottom,top' if contact else ''}' /\n"
+            "&material young = 0.6666666666666666, poisson = 0.3333333333333333, density = 1.0 /\n"
+            "&contact method = 'nitsche', theta = 1, gamma0 = 10.0, obstacle_point = 0.0, 0.01,\n"
+            "         obstacle_normal = 0.0, -1.0, probe = 0.0, 0.01 /\n"
+            "&initial kind = 'velocity', velocity = 0.0, -1.0 /\n"
+            f"&scheme name = 'hht', alpha = 0.0, dt = {DT!r}, t_end = {steps * DT!r},"
+            " mass = 'consistent' /\n"
+            f"&output dir = '{out_dir}', every = 1, fields_every = 0 /\n" + solver_line)
+    raise ValueError(f"unknown geometry {geometry!r}")
 
 
 def strip_scene(h: float, steps: int, contact: bool, out_dir: str) -> str:
@@ -85,22 +157,26 @@ def _run_child(exe: str, scene: str, env: dict[str, str] | None) -> tuple[float,
 
 
 def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
-                floors: bool = True, env: dict[str, str] | None = None, repeats: int = 2) -> dict[str, Any]:
+                floors: bool = True, env: dict[str, str] | None = None, repeats: int = 2,
+                geometry: str = "strip", solver: str = "direct") -> dict[str, Any]:
     """One row of the table (see the module docstring). Each run is repeated ``repeats``
     times: the smallest CPU time is kept (the machine is shared), and the largest peak.
-    Below h = 0.00125 the step count grows as 1/h^2 (at most 2000)."""
+    Small meshes take more steps (up to 2000), so that the loop is not lost in the
+    start-up's noise."""
     from ..core import read_summary
 
-    tag = f"h{h:g}_{'c' if contact else 'nc'}"
+    tag = f"{geometry}_h{h:g}_{'c' if contact else 'nc'}_{solver}"
     rows: dict[int, tuple[float, float, int]] = {}
-    summary: dict[str, Any] = {}
-    # small meshes: more steps, so that the loop is not lost in the start-up's noise
-    steps = min(2000, max(steps, int(round(steps * 0.0026 / (h * h * 200.0)))))
+    sums: dict[int, dict[str, Any]] = {}
+    if geometry == "strip":
+        steps = min(2000, max(steps, int(round(steps * 0.0026 / (h * h * 200.0)))))
+    else:
+        steps = min(2000, max(steps, int(steps * 20000 / max(1, estimate_dofs(geometry, h)))))
     for n in (0, steps):
         out = os.path.join(work, f"{tag}_{n}")
         path = os.path.join(work, f"{tag}_{n}.nml")
         with open(path, "w", encoding="utf-8") as f:
-            f.write(strip_scene(h, n, contact, out))
+            f.write(scene_text(geometry, h, n, contact, out, solver))
         best = None
         for _ in range(max(1, repeats)):
             got = _run_child(exe, path, env)
@@ -108,7 +184,8 @@ def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
                 raise RuntimeError(f"{exe} {path} exited with status {got[2]}")
             best = got if best is None else (min(best[0], got[0]), max(best[1], got[1]), 0)
         rows[n] = best
-        summary = read_summary(out)
+        sums[n] = read_summary(out)
+    summary = sums[steps]
     (w0, m0, _), (_w1, m1, _) = rows[0], rows[steps]
     loop_ms, fl = _loop_and_floors(os.path.join(work, f"{tag}_{steps}.nml"),
                                    os.path.join(work, f"{tag}_stepper"), steps, repeats,
@@ -120,7 +197,11 @@ def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
         model = (4 * 12.0 * mnnz + 12.0 * fnnz) / 1.0e6
     solve_ms = fl["solve_us"] / 1e3 if fl and fl.get("solve_us") else None
     spmv_ms = fl["spmv_us"] / 1e3 if fl and fl.get("spmv_us") else None
+    # CG iterations of the steps' solves (the set-up's solves, Z = J0^-1 P^T, left out)
+    d_solves = summary.get("cg_solves", 0) - sums[0].get("cg_solves", 0)
+    d_its = summary.get("cg_iterations", 0) - sums[0].get("cg_iterations", 0)
     return {
+        "geometry": geometry, "solver_kind": solver,
         "h": h, "contact": int(contact), "dofs": summary.get("dofs"), "matrix_nnz": mnnz,
         "factor_nnz": fnnz, "solver": summary.get("solver"),
         "solve_kernel": summary.get("solve_kernel"), "ordering": summary.get("ordering", ""),
@@ -128,6 +209,7 @@ def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
         "step_over_floor": (loop_ms / (solve_ms + spmv_ms)) if solve_ms and spmv_ms else None,
         "peak_mb": max(m0, m1), "setup_peak_mb": m0, "model_mb": model,
         "peak_over_model": (max(m0, m1) / model) if model else None, "steps": steps,
+        "cg_its_per_solve": (d_its / d_solves) if d_solves > 0 else None,
     }
 
 
@@ -170,28 +252,51 @@ def _fmt(x: Any, nd: int = 3) -> str:
     return str(x)
 
 
-def run_scaling(out: str, sizes: Sequence[float] = SIZES, steps: int = 20,
+def run_scaling(out: str, sizes: Sequence[float] | None = None, steps: int = 20,
                 exe: str | None = None, no_contact: bool = True, floors: bool = True,
-                env: dict[str, str] | None = None, repeats: int = 2, log=print) -> list[dict[str, Any]]:
-    """The sweep; writes scaling.csv, scaling.md and scaling.png into ``out``."""
+                env: dict[str, str] | None = None, repeats: int = 2, log=print,
+                geometries: Sequence[str] = ("strip",), solvers: Sequence[str] = ("direct",),
+                max_dofs: int | None = None, large: bool = False) -> list[dict[str, Any]]:
+    """The sweep; writes scaling.csv, scaling.md and scaling.png into ``out``. ``sizes``
+    replaces every geometry's own (GEOMETRY_SIZES); runs without contact are made for the
+    strip only (``no_contact``); sizes above ``max_dofs`` (estimated) are skipped and
+    listed in scaling.md."""
     os.makedirs(out, exist_ok=True)
     if exe is None:
         root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(
             os.path.abspath(__file__)))))
         exe = os.path.join(root, "build", "dyncontact")
     rows = []
+    skipped = []
     with tempfile.TemporaryDirectory(prefix="dyncontact-scaling-") as work:
-        for h in sizes:
-            for contact in ((True, False) if no_contact else (True,)):
-                r = measure_one(exe, h, contact, steps, work, floors=floors, env=env,
-                                repeats=repeats)
-                rows.append(r)
-                log(f"h = {h:g} contact = {int(contact)}: dofs {r['dofs']}, set-up "
-                    f"{_fmt(r['setup_s'])} s, loop {_fmt(r['loop_ms_per_step'])} ms/step, "
-                    f"solve {_fmt(r['solve_ms'])} ms, SpMV {_fmt(r['spmv_ms'])} ms, peak "
-                    f"{_fmt(r['peak_mb'])} MB, model {_fmt(r['model_mb'])} MB")
+        for geometry in geometries:
+            hs = list(sizes) if sizes else list(GEOMETRY_SIZES[geometry])
+            if large and not sizes and geometry == "strip":
+                hs.append(LARGE)
+            for h in hs:
+                est = estimate_dofs(geometry, h)
+                if max_dofs and est > max_dofs:
+                    skipped.append((geometry, h, est))
+                    log(f"{geometry} h = {h:g}: about {est} dofs, above --max-dofs {max_dofs}: "
+                        "skipped")
+                    continue
+                for solver in solvers:
+                    contacts = (True, False) if (no_contact and geometry == "strip"
+                                                 and solver == solvers[0]) else (True,)
+                    for contact in contacts:
+                        r = measure_one(exe, h, contact, steps, work, floors=floors, env=env,
+                                        repeats=repeats, geometry=geometry, solver=solver)
+                        rows.append(r)
+                        log(f"{geometry} h = {h:g} {solver} contact = {int(contact)}: dofs "
+                            f"{r['dofs']}, set-up {_fmt(r['setup_s'])} s, loop "
+                            f"{_fmt(r['loop_ms_per_step'])} ms/step, solve {_fmt(r['solve_ms'])} "
+                            f"ms, SpMV {_fmt(r['spmv_ms'])} ms, peak {_fmt(r['peak_mb'])} MB, "
+                            f"model {_fmt(r['model_mb'])} MB, CG its "
+                            f"{_fmt(r['cg_its_per_solve'])}")
+                        # each row as it comes: a long sweep stopped halfway keeps its rows
+                        write_csv(os.path.join(out, "scaling.csv"), rows, COLUMNS)
     write_csv(os.path.join(out, "scaling.csv"), rows, COLUMNS)
-    _write_md(out, rows)
+    _write_md(out, rows, skipped, max_dofs)
     _plot(out, rows)
     return rows
 
@@ -201,50 +306,114 @@ def _slopes(rows, key):
     return slope([r["dofs"] for r in c], [r[key] for r in c])
 
 
-def _write_md(out: str, rows) -> None:
-    head = ["h", "contact", "dofs", "set-up s", "loop ms/step", "solve ms", "SpMV ms",
-            "peak MB", "model MB", "peak/model", "factor nnz", "ordering", "kernel"]
-    body = [[_fmt(r["h"]), r["contact"], r["dofs"], _fmt(r["setup_s"]),
+def _series(rows):
+    """(geometry, solver kind) -> the rows with contact, in order of dofs."""
+    out: dict[tuple[str, str], list] = {}
+    for r in rows:
+        if r["contact"]:
+            out.setdefault((r.get("geometry", "strip"), r.get("solver_kind", "direct")), []).append(r)
+    return {k: sorted(v, key=lambda r: r["dofs"]) for k, v in out.items()}
+
+
+def _write_md(out: str, rows, skipped=(), max_dofs=None) -> None:
+    head = ["geometry", "solver", "h", "contact", "dofs", "set-up s", "loop ms/step",
+            "solve ms", "SpMV ms", "CG its/solve", "peak MB", "model MB", "peak/model",
+            "factor nnz", "ordering", "kernel"]
+    body = [[r.get("geometry", "strip"), r.get("solver_kind", "direct"), _fmt(r["h"]),
+             r["contact"], r["dofs"], _fmt(r["setup_s"]),
              _fmt(r["loop_ms_per_step"]), _fmt(r["solve_ms"]), _fmt(r["spmv_ms"]),
+             _fmt(r.get("cg_its_per_solve")),
              _fmt(r["peak_mb"]), _fmt(r["model_mb"]), _fmt(r["peak_over_model"]),
              _fmt(r["factor_nnz"]), _fmt(r["ordering"]), _fmt(r["solve_kernel"])]
             for r in rows]
     lines = md_table(head, body)
     lines.append("")
-    lines.append("Fitted slopes against dofs (with contact): " + ", ".join(
-        f"{k} {_slopes(rows, k):.2f}" for k in ("setup_s", "loop_ms_per_step", "solve_ms",
-                                                   "spmv_ms", "peak_mb")))
+    for (geometry, solver), c in _series(rows).items():
+        if len(c) < 2:
+            continue
+        lines.append(f"Fitted slopes against dofs ({geometry}, {solver}, with contact): " + ", ".join(
+            f"{k} {_slopes(c, k):.2f}" for k in ("setup_s", "loop_ms_per_step", "solve_ms",
+                                               "spmv_ms", "peak_mb") if _has(c, k)))
+        lines.append("")
+    for geometry, h, est in skipped:
+        lines.append(f"Skipped: {geometry} h = {h:g} (about {est} dofs, above --max-dofs "
+                     f"{max_dofs}).")
     with open(os.path.join(out, "scaling.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines) + "\n")
 
 
+def _has(c, key) -> bool:
+    return sum(1 for r in c if r.get(key)) >= 2
+
+
 def _plot(out: str, rows) -> None:
-    fig, axes = new_figure(1, 2, width=5.0)
-    axes = axes[0]
-    for contact, style in ((1, "-"), (0, ":")):
-        c = [r for r in rows if r["contact"] == contact]
-        if not c:
-            continue
-        x = [r["dofs"] for r in c]
-        for key, label, ax in (("loop_ms_per_step", "step (ms)", axes[0]),
-                               ("solve_ms", "one solve (ms)", axes[0]),
-                               ("spmv_ms", "one SpMV (ms)", axes[0]),
-                               ("setup_s", "set-up (s)", axes[0]),
-                               ("peak_mb", "peak RSS (MB)", axes[1]),
-                               ("model_mb", "matrices + factor (MB)", axes[1])):
-            pts = [(xi, r[key]) for xi, r in zip(x, c) if r.get(key)]
-            if len(pts) < 2 or (contact == 0 and key not in ("peak_mb", "loop_ms_per_step")):
+    series = _series(rows)
+    geometries = []
+    for g, _s in series:
+        if g not in geometries:
+            geometries.append(g)
+    if not geometries:
+        geometries = ["strip"]
+    fig, axes = new_figure(len(geometries), 2, width=5.0)
+    for gi, geometry in enumerate(geometries):
+        ax_t, ax_m = axes[gi][0], axes[gi][1]
+        for (g, solver), c in series.items():
+            if g != geometry:
                 continue
-            s = slope([p[0] for p in pts], [p[1] for p in pts])
-            ax.loglog([p[0] for p in pts], [p[1] for p in pts], style, marker="o",
-                      label=f"{label}{'' if contact else ', no contact'}: slope {s:.2f}")
-    for ax, title in ((axes[0], "time"), (axes[1], "memory")):
-        ax.set_xlabel("dofs")
-        ax.set_title(f"2D strip, hht, dt = {DT:g}: {title}")
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=6)
-        ax.grid(True, which="both", alpha=0.3)
+            style = "-" if solver == "direct" else "--"
+            keys = (("loop_ms_per_step", "step (ms)", ax_t), ("solve_ms", "one solve (ms)", ax_t),
+                    ("setup_s", "set-up (s)", ax_t), ("peak_mb", "peak RSS (MB)", ax_m))
+            if solver == "direct":
+                keys += (("spmv_ms", "one SpMV (ms)", ax_t),
+                         ("model_mb", "matrices + factor (MB)", ax_m))
+            for key, label, ax in keys:
+                pts = [(r["dofs"], r[key]) for r in c if r.get(key)]
+                if len(pts) < 2:
+                    continue
+                sl = slope([p[0] for p in pts], [p[1] for p in pts])
+                ax.loglog([p[0] for p in pts], [p[1] for p in pts], style, marker="o",
+                          label=f"{solver}: {label}, slope {sl:.2f}")
+        if geometry == "strip":
+            nc = [r for r in rows if not r["contact"] and r.get("geometry", "strip") == "strip"]
+            pts = [(r["dofs"], r["peak_mb"]) for r in nc if r.get("peak_mb")]
+            if len(pts) >= 2:
+                sl = slope([p[0] for p in pts], [p[1] for p in pts])
+                ax_m.loglog([p[0] for p in pts], [p[1] for p in pts], ":", marker="o",
+                            label=f"direct: peak RSS, no contact, slope {sl:.2f}")
+        for ax, title in ((ax_t, "time"), (ax_m, "memory")):
+            ax.set_xlabel("dofs")
+            ax.set_title(f"{geometry}, hht, dt = {DT:g}: {title}", fontsize=8)
+            if ax.get_legend_handles_labels()[0]:
+                ax.legend(fontsize=5)
+            ax.grid(True, which="both", alpha=0.3)
     save_figure(fig, os.path.join(out, "scaling.png"))
+
+
+def replot(out: str, csv_paths: Sequence[str]) -> list[dict[str, Any]]:
+    """scaling.md and scaling.png in ``out`` from the rows of earlier sweeps' CSV files
+    (e.g. one sweep per geometry, or a sweep stopped halfway: its CSV has every row done)."""
+    import csv
+
+    rows = []
+    for path in csv_paths:
+        with open(path, encoding="utf-8") as f:
+            for r in csv.DictReader(f):
+                row: dict[str, Any] = {}
+                for k, v in r.items():
+                    if v in ("", None):
+                        row[k] = None
+                        continue
+                    try:
+                        row[k] = int(v) if k in ("contact", "dofs", "steps", "matrix_nnz",
+                                                 "factor_nnz") else float(v)
+                    except ValueError:
+                        row[k] = v
+                rows.append(row)
+    os.makedirs(out, exist_ok=True)
+    write_csv(os.path.join(out, "scaling.csv"), rows, COLUMNS)
+    _write_md(out, rows)
+    _plot(out, rows)
+    return rows
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -257,12 +426,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--contact-only", action="store_true", help="skip the runs without contact")
     ap.add_argument("--repeats", type=int, default=2, help="runs of each (fastest kept)")
     ap.add_argument("--exe", default=None, help="the dyncontact executable")
+    ap.add_argument("--geometry", default="strip",
+                    help="comma-separated: strip, disk, box (default strip)")
+    ap.add_argument("--solvers", default="direct",
+                    help="comma-separated &solver kinds: direct, cg, auto (default direct)")
+    ap.add_argument("--max-dofs", type=int, default=None,
+                    help="skip the sizes estimated above this many dofs")
+    ap.add_argument("--replot", nargs="+", default=None, metavar="CSV",
+                    help="no runs: table and chart in --out from these scaling.csv files")
     a = ap.parse_args(argv)
-    sizes = [float(s) for s in a.sizes.split(",") if s] if a.sizes else list(SIZES)
-    if a.large:
-        sizes.append(LARGE)
+    if a.replot:
+        rows = replot(a.out, a.replot)
+        print(json.dumps({"rows": len(rows), "out": a.out}))
+        return 0
+    sizes = [float(s) for s in a.sizes.split(",") if s] if a.sizes else None
+    geometries = [g for g in a.geometry.split(",") if g]
+    for g in geometries:
+        if g not in GEOMETRY_SIZES:
+            ap.error(f"--geometry: unknown geometry {g!r} (expected strip, disk or box)")
+    solvers = [k for k in a.solvers.split(",") if k]
+    for k in solvers:
+        if k not in ("direct", "cg", "auto"):
+            ap.error(f"--solvers: unknown solver kind {k!r} (expected direct, cg or auto)")
     rows = run_scaling(a.out, sizes, a.steps, a.exe, no_contact=not a.contact_only,
-                       floors=not a.no_floors, repeats=a.repeats)
+                       floors=not a.no_floors, repeats=a.repeats, geometries=geometries,
+                       solvers=solvers, max_dofs=a.max_dofs, large=a.large)
     print(json.dumps({"rows": len(rows), "out": a.out}))
     return 0
 
