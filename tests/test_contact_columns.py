@@ -49,7 +49,7 @@ def test_active_columns_equal_the_full_correction_while_the_patch_moves(monkeypa
     assert inside.size >= 10 and np.count_nonzero(np.diff(inside)) >= 0.6 * (inside.size - 1)
     for col in lazy.trace:
         # the same columns by the same solves, summed in the same order: equal to the bit
-        # (the bound is 1e-12)
+        # (stronger than the 1e-12 round-off bound)
         np.testing.assert_array_equal(lazy.trace[col], full.trace[col], err_msg=col)
         np.testing.assert_array_equal(lazy.trace[col], evicting.trace[col], err_msg=col)
 
