@@ -88,12 +88,12 @@ module implicit_schemes
         real(dp), allocatable :: ua(:, :)         !! (ndof_e, rmax) columns of U (on qloc)
         real(dp), allocatable :: vb(:, :)         !! (ndof_e, rmax) columns of V (on qloc)
         integer, allocatable :: qloc(:, :)        !! (ndof_e, rmax) their contact-cell dofs
-        real(dp), allocatable :: wu(:, :)         !! (m, rmax) W U
-        real(dp), allocatable :: wut(:, :)        !! (rmax, m) (W U)^T
-        real(dp), allocatable :: srow(:)          !! (rmax) one row of V^T W U
-        real(dp), allocatable :: small(:, :)      !! (rmax, rmax) Woodbury system I + c V^T W U
-        real(dp), allocatable :: zs(:)            !! (rmax) its right-hand side / solution
-        integer, allocatable :: piv(:)            !! (rmax) pivots
+        real(dp), allocatable :: wu(:, :)         !! (m, cap) W U (cap: see grow_woodbury)
+        real(dp), allocatable :: wut(:, :)        !! (cap, m) (W U)^T
+        real(dp), allocatable :: srow(:)          !! (cap) one row of V^T W U
+        real(dp), allocatable :: small(:, :)      !! (cap, cap) Woodbury system I + c V^T W U
+        real(dp), allocatable :: zs(:)            !! (cap) its right-hand side / solution
+        integer, allocatable :: piv(:)            !! (cap) pivots
         real(dp), allocatable :: tvec(:)          !! (m) D P dx, the tangent's part of R'
         real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
         real(dp), allocatable :: rho(:)           !! (m) R on the contact-cell dofs (zero elsewhere)
@@ -191,9 +191,9 @@ contains
         rmax = 0
         if (mdl%has_contact) rmax = contact_max_rank(mdl%ct)
         allocate (this%need(max(this%m, mdl%ndof_e * rmax)), this%ua(mdl%ndof_e, rmax), &
-                  this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), this%wu(this%m, rmax), &
-                  this%wut(rmax, this%m), this%srow(rmax), this%small(rmax, rmax), this%zs(rmax), &
-                  this%piv(rmax), this%tvec(this%m), &
+                  this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), this%wu(this%m, 0), &
+                  this%wut(0, this%m), this%srow(0), this%small(0, 0), this%zs(0), &
+                  this%piv(0), this%tvec(this%m), &
                   this%cx(this%m), this%cold(this%m), this%rho(this%m), this%xbase(this%m), &
                   this%xc(this%m), this%dxc(this%m), this%yc(this%m), this%tk(this%m), &
                   this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)))
@@ -592,8 +592,10 @@ contains
         integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
         integer :: r, i, j, k, info, l
         real(dp) :: acc2
+        ! (W U, (W U)^T, the system and its right-hand side in their leading r entries)
         st2 = STAT_OK
         r = this%rank
+        if (r > size(this%small, 1)) call grow_woodbury(this, r)
         ! W U: each column of U lives on <= ndof_e contact-cell dofs
         do j = 1, r
             this%wu(:, j) = 0.0_dp
@@ -639,6 +641,19 @@ contains
             end do
         end do
     end subroutine woodbury
+
+    !> The Woodbury work arrays for rank r: their size follows the largest rank met (at
+    !> least doubled when it grows), not the number of contact quadrature points of
+    !> Gamma_C (rmax^2 reals for the system alone: 128 MB on the ball's 4 000 points).
+    subroutine grow_woodbury(this, r)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        integer, intent(in) :: r                            !! rank needed
+        integer :: cap
+        cap = min(size(this%ua, 2), max(r, 2 * size(this%small, 1), 16))
+        deallocate (this%wu, this%wut, this%srow, this%small, this%zs, this%piv)
+        allocate (this%wu(this%m, cap), this%wut(cap, this%m), this%srow(cap), &
+                  this%small(cap, cap), this%zs(cap), this%piv(cap))
+    end subroutine grow_woodbury
 
     !> y(i) = u(idx(i)): a vector on the contact-cell dofs.
     pure subroutine gather(u, idx, y)
