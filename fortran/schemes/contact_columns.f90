@@ -15,7 +15,7 @@
 !> Z), else on the rows where its magnitude exceeds ZDROP times the column's largest
 !> (J0^{-1} decays geometrically away from the dof; the part dropped is below 1e-20 of
 !> the column, far under round-off). Either way a column's kept rows depend on the
-!> column alone.
+!> column alone. (Without dropping, Z's columns are kept as n values, without rows.)
 !>
 !> The cache holds at most `budget` bytes besides the groups used at the current step:
 !> when it exceeds it, the groups least recently used (before the current step) are
@@ -36,7 +36,7 @@ module contact_columns
 
     !> One column of Z on its kept rows.
     type :: zcol_t
-        integer, allocatable :: rows(:)           !! rows kept, ascending
+        integer, allocatable :: rows(:)           !! rows kept, ascending (none: all n)
         real(dp), allocatable :: val(:)           !! Z there
     end type zcol_t
 
@@ -184,17 +184,21 @@ contains
             zc%w(:, s) = zb(cdofs, j)
             cmax = -1.0_dp
             if (zc%drop) cmax = ZDROP * maxval(abs(zb(:, j)))
-            nk = count(abs(zb(:, j)) > cmax)
-            allocate (zc%z(s)%rows(nk), zc%z(s)%val(nk))
-            nk = 0
-            do i = 1, zc%n
-                if (abs(zb(i, j)) > cmax) then
-                    nk = nk + 1
-                    zc%z(s)%rows(nk) = i
-                    zc%z(s)%val(nk) = zb(i, j)
-                end if
-            end do
-            zc%bytes = zc%bytes + column_bytes(zc, nk)
+            if (zc%drop) then
+                nk = count(abs(zb(:, j)) > cmax)
+                allocate (zc%z(s)%rows(nk), zc%z(s)%val(nk))
+                nk = 0
+                do i = 1, zc%n
+                    if (abs(zb(i, j)) > cmax) then
+                        nk = nk + 1
+                        zc%z(s)%rows(nk) = i
+                        zc%z(s)%val(nk) = zb(i, j)
+                    end if
+                end do
+            else
+                zc%z(s)%val = zb(:, j)
+            end if
+            zc%bytes = zc%bytes + column_bytes(zc, zc%z(s))
             zc%held = zc%held + 1
             zc%computed = zc%computed + 1
         end do
@@ -215,11 +219,12 @@ contains
         group_last = min(zc%m, ZCHUNK * g)
     end function group_last
 
-    !> Bytes of one held column with nk kept rows of Z.
-    pure integer(i8) function column_bytes(zc, nk)
+    !> Bytes of one held column (W's and Z's parts).
+    pure integer(i8) function column_bytes(zc, zcol)
         type(zcache_t), intent(in) :: zc             !! cache
-        integer, intent(in) :: nk                    !! kept rows
-        column_bytes = 8_i8 * zc%m + 12_i8 * nk
+        type(zcol_t), intent(in) :: zcol             !! its Z part
+        column_bytes = 8_i8 * zc%m + 8_i8 * size(zcol%val)
+        if (allocated(zcol%rows)) column_bytes = column_bytes + 4_i8 * size(zcol%rows)
     end function column_bytes
 
     !> A free slot (the slot arrays doubled when full).
@@ -267,10 +272,11 @@ contains
             if (old == 0) return
             do l = group_first(old), group_last(zc, old)
                 s = zc%slot(l)
-                zc%bytes = zc%bytes - column_bytes(zc, size(zc%z(s)%rows))
+                zc%bytes = zc%bytes - column_bytes(zc, zc%z(s))
                 zc%slot(l) = 0
                 zc%owner(s) = 0
-                deallocate (zc%z(s)%rows, zc%z(s)%val)
+                if (allocated(zc%z(s)%rows)) deallocate (zc%z(s)%rows)
+                deallocate (zc%z(s)%val)
                 zc%held = zc%held - 1
                 zc%evicted = zc%evicted + 1
             end do
@@ -323,7 +329,11 @@ contains
         do l = 1, zc%m
             if (t(l) == 0.0_dp) cycle
             s = zc%slot(l)
-            call scatter_add(size(zc%z(s)%rows), zc%z(s)%rows, zc%z(s)%val, t(l), y)
+            if (allocated(zc%z(s)%rows)) then
+                call scatter_add(size(zc%z(s)%rows), zc%z(s)%rows, zc%z(s)%val, t(l), y)
+            else
+                call add1(zc%n, zc%z(s)%val, t(l), y)
+            end if
         end do
     end subroutine zcache_add_z
 

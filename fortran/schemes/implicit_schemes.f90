@@ -642,15 +642,15 @@ contains
         end do
     end subroutine woodbury
 
-    !> The Woodbury work arrays for rank r: their size follows the largest rank met (an
-    !> eighth more, so that a growing patch reallocates them a few times only), not the
-    !> number of contact quadrature points of Gamma_C (rmax^2 reals for the system alone:
-    !> 128 MB on the ball's 4 000 points; the system and W U are r^2 and m r reals).
+    !> The Woodbury work arrays for rank r: their size follows the largest rank met (at
+    !> least doubled when it grows: few reallocations, and the pages beyond the leading
+    !> r x r block are never touched), not the number of contact quadrature points of
+    !> Gamma_C (rmax^2 reals for the system alone: 128 MB on the ball's 4 000 points).
     subroutine grow_woodbury(this, r)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         integer, intent(in) :: r                            !! rank needed
         integer :: cap
-        cap = min(size(this%ua, 2), max(r + r / 8, 16))
+        cap = min(size(this%ua, 2), max(r, 2 * size(this%small, 1), 16))
         deallocate (this%wu, this%wut, this%srow, this%small, this%zs, this%piv)
         allocate (this%wu(this%m, cap), this%wut(cap, this%m), this%srow(cap), &
                   this%small(cap, cap), this%zs(cap), this%piv(cap))
