@@ -65,7 +65,6 @@ module model
         integer, allocatable :: dof(:, :)         !! (dim, n_nodes) free dof number, 0 = constrained
         integer, allocatable :: dof_node(:)       !! (n_dofs) node of each free dof
         integer, allocatable :: dof_comp(:)       !! (n_dofs) component of each free dof
-        integer, allocatable :: cell_pos(:, :, :) !! (ndof_e, ndof_e, n_cells) positions in the pattern, 0 = constrained
         type(csc_t) :: mass                       !! M (consistent or lumped), shared pattern
         type(csc_t) :: stiff                      !! K, shared pattern
         type(csc_t) :: stiff_theta                !! K_theta = K - sum theta |F| / gamma s s^T
@@ -281,7 +280,7 @@ contains
         real(dp), intent(in) :: lambda, mu           !! Lame parameters
         integer, intent(out) :: st                   !! status
         character(len=*), intent(inout) :: m         !! message
-        integer :: c, a, b, i, j, nnz, ne, dim, cd(MAX_E)
+        integer :: c, a, b, i, j, nnz, ne, dim, cd(MAX_E), pos(MAX_E, MAX_E)
         integer, allocatable :: rows(:), cols(:)
         real(dp), allocatable :: zeros(:)
         real(dp) :: xe(3, 4), ke(MAX_E, MAX_E), me(MAX_E, MAX_E)
@@ -306,24 +305,19 @@ contains
         zeros = 0.0_dp
         call csc_from_coo(mdl%n_dofs, rows(1:nnz), cols(1:nnz), zeros, mdl%stiff, st, m)
         if (st /= STAT_OK) return
+        deallocate (rows, cols, zeros)
         mdl%mass = mdl%stiff
-        allocate (mdl%cell_pos(ne, ne, mdl%msh%n_cells), mdl%load(mdl%n_dofs))
+        allocate (mdl%load(mdl%n_dofs))
         mdl%load = 0.0_dp
         mdl%lumped = prm%mass == MASS_LUMPED
         do c = 1, mdl%msh%n_cells
-            call cell_dofs(mdl, c, cd(1:ne))
-            do b = 1, ne
-                do a = 1, ne
-                    mdl%cell_pos(a, b, c) = 0
-                    if (cd(a) > 0 .and. cd(b) > 0) mdl%cell_pos(a, b, c) = csc_find(mdl%stiff, cd(a), cd(b))
-                end do
-            end do
+            call cell_positions(mdl, c, cd(1:ne), pos(1:ne, 1:ne))
             xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, c))
             call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, prm%young, ke(1:ne, 1:ne))
             call p1_mass(dim, xe(1:dim, 1:dim + 1), prm%density, mdl%lumped, me(1:ne, 1:ne))
             do b = 1, ne
                 do a = 1, ne
-                    i = mdl%cell_pos(a, b, c)
+                    i = pos(a, b)
                     if (i == 0) cycle
                     mdl%stiff%val(i) = mdl%stiff%val(i) + ke(a, b)
                     mdl%mass%val(i) = mdl%mass%val(i) + me(a, b)
@@ -359,17 +353,37 @@ contains
         end do
     end subroutine cell_dofs
 
+    !> The free dofs cd of cell c and the positions pos(a, b) of its entries (cd(a), cd(b))
+    !> in the matrices' pattern (0 where a dof is constrained): found again where needed,
+    !> not stored (ndof_e^2 integers a cell would be as large as the pattern's values).
+    pure subroutine cell_positions(mdl, c, cd, pos)
+        type(model_t), intent(in) :: mdl             !! model (pattern assembled)
+        integer, intent(in) :: c                     !! cell
+        integer, intent(out) :: cd(:)                !! (ndof_e) its free dofs
+        integer, intent(out) :: pos(:, :)            !! (ndof_e, ndof_e) positions
+        integer :: a, b
+        call cell_dofs(mdl, c, cd)
+        do b = 1, size(cd)
+            do a = 1, size(cd)
+                pos(a, b) = 0
+                if (cd(a) > 0 .and. cd(b) > 0) pos(a, b) = csc_find(mdl%stiff, cd(a), cd(b))
+            end do
+        end do
+    end subroutine cell_positions
+
     !> K_theta = K - sum_f theta |F| / gamma_N s_f s_f^T.
     subroutine add_theta_term(mdl)
         type(model_t), intent(inout) :: mdl          !! model being built
-        integer :: f, a, b, i
+        integer :: f, a, b, i, cd(MAX_E), pos(MAX_E, MAX_E)
         real(dp) :: coef
         if (mdl%ct%theta == 0) return     ! theta = 0, or penalty
         do f = 1, mdl%ct%n_facets
             coef = mdl%ct%theta * mdl%ct%measure(f) / mdl%ct%gamma(f)
+            call cell_positions(mdl, mdl%ct%cell(f), cd(1:mdl%ndof_e), &
+                                pos(1:mdl%ndof_e, 1:mdl%ndof_e))
             do b = 1, mdl%ndof_e
                 do a = 1, mdl%ndof_e
-                    i = mdl%cell_pos(a, b, mdl%ct%cell(f))
+                    i = pos(a, b)
                     if (i == 0) cycle
                     mdl%stiff_theta%val(i) = mdl%stiff_theta%val(i) &
                                              - coef * mdl%ct%s(a, f) * mdl%ct%s(b, f)

@@ -179,17 +179,18 @@ contains
         end if
         call scene_check_dim(sim%scn, msh%dim, stat, errmsg)   ! the vector keys
         if (stat /= STAT_OK) return
+        ! a mesh file over the limit is refused before the model allocates its matrices
+        if (len_trim(sim%scn%mesh_file) > 0 .and. msh%n_cells > sim%scn%max_elements) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh file: '// &
+                       int_text(int(msh%n_cells, i8))//' elements exceed the limit of '// &
+                       int_text(int(sim%scn%max_elements, i8))//' (&mesh max_elements)')
+            return
+        end if
         call model_build(msh, model_params(sim%scn), sim%mdl, stat, errmsg)
         if (stat /= STAT_OK) return
         sim%n_dofs = sim%mdl%n_dofs
         sim%n_cells = sim%mdl%msh%n_cells
         sim%n_contact = sim%mdl%ct%n_facets
-        if (len_trim(sim%scn%mesh_file) > 0 .and. sim%n_cells > sim%scn%max_elements) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh file: '// &
-                       int_text(int(sim%n_cells, i8))//' elements exceed the limit of '// &
-                       int_text(int(sim%scn%max_elements, i8))//' (&mesh max_elements)')
-            return
-        end if
     end subroutine build_model
 
     !> The time scheme of the scene, set up on the initial state; with &scheme dt = 0

@@ -25,12 +25,18 @@
 !> the contact cells) is the contact tangent: J^{-1} is applied with the Woodbury
 !> identity, so the active set changing never costs a factorization. Only the first
 !> Newton iteration solves with J0 (y0 = J0^{-1} R(u^n)); every correction after it
-!> lies in the range of Z = J0^{-1} P^T (precomputed), so the iterations run on the
-!> m contact-cell dofs alone with W = P Z, accumulating the coefficients T of
-!> x = u^n - y0 - Z T, and Z T is applied once at the end of the step: a contact step
-!> costs one sparse solve, like a contact-free one. Z is kept on the rows where some
-!> entry exceeds ZDROP max|Z| (J0^{-1} decays geometrically away from Gamma_C); the
-!> dropped part of Z T is below 1e-20 of the correction, far under round-off.
+!> lies in the range of Z = J0^{-1} P^T, so the iterations run on the m contact-cell
+!> dofs alone with W = P Z, accumulating the coefficients T of x = u^n - y0 - Z T, and
+!> Z T is applied once at the end of the step: a contact step costs one sparse solve,
+!> like a contact-free one. T, the Woodbury terms and the residual's contact part live
+!> on the dofs of the cells with an active contact point (at some iterate of the step),
+!> so only those columns of Z and W are used: they are solved when a dof first needs
+!> them and kept in a bounded cache (module contact_columns), and the sums over them
+!> run in the order of the contact-cell dofs, as over the whole of W and Z. With the
+!> augmented Lagrangian every column is computed at set-up (its Newton uses all of W).
+!> The environment variable DYNCONTACT_CONTACT_COLUMNS = 'all' computes every column at
+!> set-up for the Nitsche schemes too (the reference the lazy columns are tested
+!> against); a number sets the cache's budget in MB (0: keep only the current step's).
 module implicit_schemes
     use kinds, only: dp, i8
     use vector_ops, only: dot
@@ -44,6 +50,9 @@ module implicit_schemes
     use nitsche_contact, only: contact_eval, contact_max_rank
     use alm_contact, only: ALM_OFF
     use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
+    use contact_columns, only: zcache_t, zcache_init, zcache_new_step, zcache_ensure, &
+                               zcache_ensure_all, zcache_w_times, zcache_add_w, zcache_add_z, &
+                               zcache_free
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
@@ -53,8 +62,10 @@ module implicit_schemes
 
     integer, parameter :: KIND_NEWMARK = 1   ! newmark, hht, hht_seed
     integer, parameter :: KIND_THETA = 2     ! theta
-    !> Rows of Z = J0^{-1} P^T whose largest entry is at most ZDROP max|Z| are dropped.
-    real(dp), parameter :: ZDROP = 1.0e-20_dp
+    !> The environment variable that forces the full precomputation or sets the budget.
+    character(len=*), parameter :: COLUMNS_VAR = 'DYNCONTACT_CONTACT_COLUMNS'
+    !> The least budget of the column cache, bytes.
+    integer(i8), parameter :: BUDGET_MIN = 64_i8 * 1024_i8**2
 
     !> Newmark-family and theta schemes.
     type, extends(time_scheme_t), public :: implicit_scheme_t
@@ -70,19 +81,19 @@ module implicit_schemes
         type(csc_t) :: jac0                       !! J0 = M + c K_theta
         type(factor_t) :: lu0                     !! its factors
         integer :: m = 0                          !! contact-cell dofs
-        integer, allocatable :: zrows(:)          !! (nz) the rows of Z kept (see ZDROP)
-        real(dp), allocatable :: z(:, :)          !! (nz, m) J0^{-1} P^T on those rows
-        real(dp), allocatable :: w(:, :)          !! (m, m) P J0^{-1} P^T
+        type(zcache_t) :: zc                      !! columns of Z = J0^{-1} P^T and W = P Z
+        logical :: all_columns = .false.          !! every column computed at set-up
+        integer, allocatable :: need(:)           !! (max(m, ndof_e rmax)) columns a step needs
         integer :: rank = 0                       !! rank of the contact tangent D = U V^T
         real(dp), allocatable :: ua(:, :)         !! (ndof_e, rmax) columns of U (on qloc)
         real(dp), allocatable :: vb(:, :)         !! (ndof_e, rmax) columns of V (on qloc)
         integer, allocatable :: qloc(:, :)        !! (ndof_e, rmax) their contact-cell dofs
-        real(dp), allocatable :: wu(:, :)         !! (m, rmax) W U
-        real(dp), allocatable :: wut(:, :)        !! (rmax, m) (W U)^T
-        real(dp), allocatable :: srow(:)          !! (rmax) one row of V^T W U
-        real(dp), allocatable :: small(:, :)      !! (rmax, rmax) Woodbury system I + c V^T W U
-        real(dp), allocatable :: zs(:)            !! (rmax) its right-hand side / solution
-        integer, allocatable :: piv(:)            !! (rmax) pivots
+        real(dp), allocatable :: wu(:, :)         !! (m, cap) W U (cap: see grow_woodbury)
+        real(dp), allocatable :: wut(:, :)        !! (cap, m) (W U)^T
+        real(dp), allocatable :: srow(:)          !! (cap) one row of V^T W U
+        real(dp), allocatable :: small(:, :)      !! (cap, cap) Woodbury system I + c V^T W U
+        real(dp), allocatable :: zs(:)            !! (cap) its right-hand side / solution
+        integer, allocatable :: piv(:)            !! (cap) pivots
         real(dp), allocatable :: tvec(:)          !! (m) D P dx, the tangent's part of R'
         real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
         real(dp), allocatable :: rho(:)           !! (m) R on the contact-cell dofs (zero elsewhere)
@@ -90,7 +101,6 @@ module implicit_schemes
         real(dp), allocatable :: xc(:), dxc(:)    !! (m) P x, P dx
         real(dp), allocatable :: yc(:), tk(:)     !! (m) P J0^{-1} R and one iteration's coefficients
         real(dp), allocatable :: tsum(:)          !! (m) T, the coefficients of Z in x
-        real(dp), allocatable :: xz(:)            !! (nz) dx on the kept rows of Z
         real(dp), allocatable :: y0c(:)           !! (m) P y0
         logical :: cached = .false.               !! cx, the tangent and st%active/e_pen/e_theta
                                                   !! are C at xc (kept from the last step)
@@ -127,6 +137,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         type(mass_solver_t) :: ms
         integer :: n, rmax
+        integer(i8) :: budget
         n = mdl%n_dofs
         this%dt = prm%dt
         this%tol = prm%newton_tol
@@ -182,91 +193,59 @@ contains
         if (mdl%has_contact) this%m = mdl%ct%m
         rmax = 0
         if (mdl%has_contact) rmax = contact_max_rank(mdl%ct)
-        allocate (this%w(this%m, this%m), this%ua(mdl%ndof_e, rmax), &
-                  this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), this%wu(this%m, rmax), &
-                  this%wut(rmax, this%m), this%srow(rmax), this%small(rmax, rmax), this%zs(rmax), &
-                  this%piv(rmax), this%tvec(this%m), &
+        allocate (this%need(max(this%m, mdl%ndof_e * rmax)), this%ua(mdl%ndof_e, rmax), &
+                  this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), this%wu(this%m, 0), &
+                  this%wut(0, this%m), this%srow(0), this%small(0, 0), this%zs(0), &
+                  this%piv(0), this%tvec(this%m), &
                   this%cx(this%m), this%cold(this%m), this%rho(this%m), this%xbase(this%m), &
                   this%xc(this%m), this%dxc(this%m), this%yc(this%m), this%tk(this%m), &
                   this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)))
         this%scratch = 0.0_dp
-        if (this%m > 0) then
-            call woodbury_z(this, mdl%ct%cdofs, stat, errmsg)
+        budget = default_budget(this)
+        call zcache_init(this%zc, n, this%m, budget, budget)
+        this%all_columns = mdl%alm%kind /= ALM_OFF
+        call columns_env(this%all_columns, this%zc%budget)
+        if (this%all_columns .and. this%m > 0) then
+            call zcache_ensure_all(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, stat, errmsg)
             if (stat /= STAT_OK) return
-        else
-            allocate (this%zrows(0), this%z(0, 0), this%xz(0))
         end if
-        if (mdl%alm%kind /= ALM_OFF) call alm_newton_init(this%almn, mdl, this%w)
+        ! zcache_ensure_all on an empty cache: slot l holds column l, w(:, 1:m) is W
+        if (mdl%alm%kind /= ALM_OFF) call alm_newton_init(this%almn, mdl, this%zc%w(:, 1:this%m))
     end subroutine implicit_init
 
-    !> Z = J0^{-1} P^T on its kept rows (ZDROP) and W = P Z, solved ZCHUNK columns at a
-    !> time, so that no dense n x m block is ever held (at 129 600 dofs and m = 324
-    !> contact-cell dofs one such block is 336 MB). Each chunk keeps the rows where
-    !> its largest entry exceeds ZDROP times its own largest entry, and every row's
-    !> largest entry; the rows kept are those whose largest entry exceeds ZDROP max|Z|,
-    !> as if Z were held whole. A kept row's entries in a chunk that did not keep it are
-    !> at most ZDROP max|Z| and are set to 0 (below round-off in Z T, like the rows dropped).
-    subroutine woodbury_z(this, cdofs, stat, errmsg)
-        class(implicit_scheme_t), intent(inout) :: this     !! scheme (lu0 factorized, m set)
-        integer, intent(in) :: cdofs(:)                     !! (m >= 1) the contact-cell dofs
-        integer, intent(out) :: stat                        !! status
-        character(len=*), intent(inout), optional :: errmsg !! message
-        integer, parameter :: ZCHUNK = 16
-        type :: part_t
-            integer, allocatable :: rows(:)                 ! rows this chunk keeps
-            real(dp), allocatable :: val(:, :)              ! its columns on them
-        end type part_t
-        type(part_t), allocatable :: parts(:)
-        real(dp), allocatable :: e(:, :), zb(:, :), rowmax(:)
-        integer, allocatable :: pos(:)
-        real(dp) :: zmax, cmax
-        integer :: n, m, k, j0, nb, j, i
-        n = this%jac0%n
-        m = this%m
-        stat = STAT_OK
-        allocate (parts((m + ZCHUNK - 1) / ZCHUNK), rowmax(n), e(n, min(m, ZCHUNK)), &
-                  zb(n, min(m, ZCHUNK)))
-        rowmax = 0.0_dp
-        zmax = 0.0_dp
-        do k = 1, size(parts)
-            j0 = (k - 1) * ZCHUNK
-            nb = min(ZCHUNK, m - j0)
-            e = 0.0_dp
-            do j = 1, nb
-                e(cdofs(j0 + j), j) = 1.0_dp
-            end do
-            call ls_solve_many(this%lu0, this%jac0, e(:, 1:nb), zb(:, 1:nb), stat, errmsg)
-            if (stat /= STAT_OK) return
-            this%w(:, j0 + 1:j0 + nb) = zb(cdofs, 1:nb)
-            cmax = 0.0_dp
-            do i = 1, n
-                rowmax(i) = max(rowmax(i), maxval(abs(zb(i, 1:nb))))
-                cmax = max(cmax, maxval(abs(zb(i, 1:nb))))
-            end do
-            zmax = max(zmax, cmax)
-            parts(k)%rows = pack([(i, i = 1, n)], maxval(abs(zb(:, 1:nb)), dim=2) > ZDROP * cmax)
-            parts(k)%val = zb(parts(k)%rows, 1:nb)
-        end do
-        deallocate (e, zb)
-        this%zrows = pack([(i, i = 1, n)], rowmax > ZDROP * zmax)
-        allocate (pos(n), this%z(size(this%zrows), m), this%xz(size(this%zrows)))
-        pos = 0
-        pos(this%zrows) = [(i, i = 1, size(this%zrows))]
-        this%z = 0.0_dp
-        do k = 1, size(parts)
-            j0 = (k - 1) * ZCHUNK
-            nb = size(parts(k)%val, 2)
-            do i = 1, size(parts(k)%rows)
-                if (pos(parts(k)%rows(i)) > 0) &
-                    this%z(pos(parts(k)%rows(i)), j0 + 1:j0 + nb) = parts(k)%val(i, :)
-            end do
-        end do
-    end subroutine woodbury_z
+    !> The column cache's budget in bytes: half the bytes of the matrices and the factor
+    !> (12 per stored entry), at least BUDGET_MIN.
+    function default_budget(this) result(budget)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme (J0 factorized)
+        integer(i8) :: budget
+        character(len=:), allocatable :: ordering
+        integer(i8) :: fnnz
+        call ls_factor_info(this%lu0, ordering, fnnz)
+        budget = max(BUDGET_MIN, 6_i8 * (4_i8 * this%jac0%nnz + fnnz))
+    end function default_budget
+
+    !> DYNCONTACT_CONTACT_COLUMNS: 'all' sets every (every column at set-up), a number
+    !> >= 0 the budget in MB; anything else leaves both as they are.
+    subroutine columns_env(every, budget)
+        logical, intent(inout) :: every                     !! every column at set-up
+        integer(i8), intent(inout) :: budget                !! bytes
+        character(len=32) :: text_value
+        integer :: length, st, mb
+        call get_environment_variable(COLUMNS_VAR, text_value, length, st)
+        if (st /= 0 .or. length == 0) return
+        if (trim(adjustl(text_value)) == 'all') then
+            every = .true.
+            return
+        end if
+        read (text_value, *, iostat=st) mb
+        if (st == 0 .and. mb >= 0) budget = int(mb, i8) * 1024_i8**2
+    end subroutine columns_env
 
     !> Release the factors of J0.
     subroutine implicit_free(this)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         call ls_free(this%lu0)
+        call zcache_free(this%zc)
     end subroutine implicit_free
 
     !> The backend of the J0 factors.
@@ -314,6 +293,8 @@ contains
         call buf_get(buf, this%ua)
         call buf_get(buf, this%vb)
         call buf_get(buf, this%qloc)
+        ! the cache of columns is derived state: computed again as the steps need them
+        if (.not. this%all_columns) call zcache_free(this%zc)
     end subroutine implicit_load
 
     !> The triangular solve used with the J0 factors.
@@ -374,6 +355,7 @@ contains
         ! contact-cell dofs is the vector it was evaluated at
         active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
         if (this%m > 0) then
+            call zcache_new_step(this%zc)
             if (.not. this%cached) then
                 call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
             else if (moved(st%u, mdl%ct%cdofs, this%xc)) then
@@ -389,7 +371,7 @@ contains
         ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction)
         if (it == 0) this%dx = 0.0_dp
         if (this%m > 0) then
-            if (any(this%tsum /= 0.0_dp)) call add_z_correction(this)
+            if (any(this%tsum /= 0.0_dp)) call zcache_add_z(this%zc, this%tsum, this%dx)
         end if
         call update_state(this, mdl, st)
         st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
@@ -430,6 +412,7 @@ contains
         real(dp) :: rnorm, scale, dt
         character(len=256) :: why
         logical :: warm
+        integer :: l
         stat = STAT_OK
         dt = this%dt
         scale = -1.0_dp
@@ -471,11 +454,19 @@ contains
                 this%y0c = this%yc
                 this%tk = 0.0_dp
             else
-                call matvec_small(this%w, this%rho, this%yc)
+                call need_columns(this, mdl, this%rho /= 0.0_dp, [(l, l = 1, this%m)], &
+                                  stat, errmsg)
+                if (stat /= STAT_OK) return
+                call zcache_w_times(this%zc, this%rho, this%yc)
                 this%tk = this%rho
                 it = it + 1
             end if
             if (this%rank > 0) then
+                call need_columns(this, mdl, reshape(this%qloc(:, 1:this%rank) > 0, &
+                                                [mdl%ndof_e * this%rank]), &
+                                  reshape(this%qloc(:, 1:this%rank), [mdl%ndof_e * this%rank]), &
+                                  stat, errmsg)
+                if (stat /= STAT_OK) return
                 call woodbury(this, mdl, stat)
                 if (stat /= STAT_OK) then
                     call raise(stat, errmsg, STAT_NUMERIC, 'singular contact correction in ' &
@@ -518,7 +509,7 @@ contains
         real(dp) :: acc
         integer :: i, q
         this%dxc = this%y0c
-        call add_columns(this%m, this%m, this%w, this%tsum, this%dxc)
+        call zcache_add_w(this%zc, this%tsum, this%dxc)
         do i = 1, this%m
             acc = u(mdl%ct%cdofs(i)) - this%dxc(i)
             this%dxc(i) = this%xc(i) - acc
@@ -542,18 +533,27 @@ contains
         rnorm = sqrt(sum(this%rho**2))
     end subroutine contact_residual
 
-    !> dx <- dx + Z T on the rows of Z kept (J0^{-1} of the contact correction).
-    subroutine add_z_correction(this)
+    !> The columns cols(k) with mask(k) of Z and W made available for this step (solved
+    !> if not held); a failed solve stops the run (STAT_NUMERIC).
+    subroutine need_columns(this, mdl, mask, cols, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
-        integer :: i
-        do i = 1, size(this%zrows)
-            this%xz(i) = this%dx(this%zrows(i))
+        type(model_t), intent(in) :: mdl                    !! model
+        logical, intent(in) :: mask(:)                      !! which entries of cols count
+        integer, intent(in) :: cols(:)                      !! contact-cell dofs (columns)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: k, nk
+        nk = 0
+        do k = 1, size(cols)
+            if (.not. mask(k)) cycle
+            nk = nk + 1
+            this%need(nk) = cols(k)
         end do
-        call add_columns(size(this%zrows), this%m, this%z, this%tsum, this%xz)
-        do i = 1, size(this%zrows)
-            this%dx(this%zrows(i)) = this%xz(i)
-        end do
-    end subroutine add_z_correction
+        call zcache_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, this%need(1:nk), &
+                           stat, errmsg)
+        if (stat /= STAT_OK) call raise(stat, errmsg, STAT_NUMERIC, &
+                                        'linear solve failed for the contact correction')
+    end subroutine need_columns
 
     !> The scheme's update of u, v, a from x = u - dx and the next predictor u~' in one
     !> pass; then K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u').
@@ -628,14 +628,17 @@ contains
         integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
         integer :: r, i, j, k, info, l
         real(dp) :: acc2
+        ! (W U, (W U)^T, the system and its right-hand side in their leading r entries)
         st2 = STAT_OK
         r = this%rank
+        if (r > size(this%small, 1)) call grow_woodbury(this, r)
         ! W U: each column of U lives on <= ndof_e contact-cell dofs
         do j = 1, r
             this%wu(:, j) = 0.0_dp
             do k = 1, mdl%ndof_e
                 l = this%qloc(k, j)
-                if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) * this%w(:, l)
+                if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) &
+                                           * this%zc%w(:, this%zc%slot(l))
             end do
         end do
         ! small = I + c V^T W U; zs = c V^T yc. Row i of V^T W U sums the rows
@@ -674,6 +677,20 @@ contains
             end do
         end do
     end subroutine woodbury
+
+    !> The Woodbury work arrays for rank r: their size follows the largest rank met (at
+    !> least doubled when it grows: few reallocations, and the pages beyond the leading
+    !> r x r block are never touched), not the number of contact quadrature points of
+    !> Gamma_C (rmax^2 reals for the system alone: 128 MB on the ball's 4 000 points).
+    subroutine grow_woodbury(this, r)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        integer, intent(in) :: r                            !! rank needed
+        integer :: cap
+        cap = min(size(this%ua, 2), max(r, 2 * size(this%small, 1), 16))
+        deallocate (this%wu, this%wut, this%srow, this%small, this%zs, this%piv)
+        allocate (this%wu(this%m, cap), this%wut(cap, this%m), this%srow(cap), &
+                  this%small(cap, cap), this%zs(cap), this%piv(cap))
+    end subroutine grow_woodbury
 
     !> y(i) = u(idx(i)): a vector on the contact-cell dofs.
     pure subroutine gather(u, idx, y)
@@ -718,44 +735,11 @@ contains
         st%newton_its = it
         this%newton_total = this%newton_total + it
         if (stat /= STAT_OK) return
-        if (any(this%tsum /= 0.0_dp)) call add_z_correction(this)
+        if (any(this%tsum /= 0.0_dp)) call zcache_add_z(this%zc, this%tsum, this%dx)
         call update_state(this, mdl, st)
         st%active = active; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
         st%t = st%t + this%dt
     end subroutine implicit_step_alm
-
-    !> y <- y + sum_l t(l) a(:, l) over the l with t(l) /= 0, column after column (the
-    !> same order for W and the rows of Z, so both give the same numbers on shared rows).
-    !> Four columns are added in one pass over y, each entry's additions in column order
-    !> (the same numbers as one pass a column, with a quarter of the loads and stores of y).
-    pure subroutine add_columns(k, m, a, t, y)
-        integer, intent(in) :: k, m                         !! rows, columns
-        real(dp), intent(in) :: a(k, m)                     !! columns
-        real(dp), intent(in) :: t(m)                        !! coefficients
-        real(dp), intent(inout) :: y(k)                     !! updated
-        integer :: l, q, i, nc, ls(4)
-        real(dp) :: t1, t2, t3, t4
-        nc = 0
-        do l = 1, m
-            if (t(l) == 0.0_dp) cycle
-            nc = nc + 1
-            ls(nc) = l
-            if (nc == 4) then
-                t1 = t(ls(1)); t2 = t(ls(2)); t3 = t(ls(3)); t4 = t(ls(4))
-                do i = 1, k
-                    y(i) = (((y(i) + t1 * a(i, ls(1))) + t2 * a(i, ls(2))) + t3 * a(i, ls(3))) &
-                           + t4 * a(i, ls(4))
-                end do
-                nc = 0
-            end if
-        end do
-        do q = 1, nc
-            t1 = t(ls(q))
-            do i = 1, k
-                y(i) = y(i) + t1 * a(i, ls(q))
-            end do
-        end do
-    end subroutine add_columns
 
     !> Whether u on the dofs idx differs from xc (no temporary array).
     pure logical function moved(u, idx, xc)
@@ -771,18 +755,6 @@ contains
             end if
         end do
     end function moved
-
-    !> y = a x for a small dense matrix (no temporary).
-    pure subroutine matvec_small(a, x, y)
-        real(dp), intent(in) :: a(:, :)                     !! (k, m) matrix
-        real(dp), intent(in) :: x(:)                        !! (m) vector
-        real(dp), intent(out) :: y(:)                       !! (k) product
-        integer :: l
-        y = 0.0_dp
-        do l = 1, size(x)
-            y = y + x(l) * a(:, l)
-        end do
-    end subroutine matvec_small
 
     !> The Newton initial residual: r = md + c bu - b with b = newton_b(cb, kb, load, bu),
     !> in one pass (b itself is formed only for the test's scale).

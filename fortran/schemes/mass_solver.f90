@@ -59,8 +59,8 @@ contains
                     end do
                     call csc_drop_zeros(m1, ms%mass)
                 end block
-            else
-                call csc_drop_zeros(mdl%mass, ms%mass)
+            else if (.not. mdl%mass_scalar) then
+                call csc_drop_zeros(mdl%mass, ms%mass)    ! (S alone is factorized otherwise)
             end if
             if (mdl%mass_scalar .and. size(ms%massless) == 0) then
                 call scalar_mass(stat)
@@ -139,12 +139,16 @@ contains
         end if
     end subroutine mass_solver_apply
 
-    !> Release the factors.
+    !> Release the factors and the matrices they were computed from.
     subroutine mass_solver_free(ms)
         type(mass_solver_t), intent(inout) :: ms   !! solver
+        type(csc_t) :: empty
         call ls_free(ms%lu)
         if (allocated(ms%inv_diag)) deallocate (ms%inv_diag)
         if (allocated(ms%bs)) deallocate (ms%bs, ms%xs)
+        if (allocated(ms%first)) deallocate (ms%first)
+        ms%mass = empty
+        ms%s = empty
         ms%scalar = .false.
     end subroutine mass_solver_free
 

@@ -1,0 +1,376 @@
+!> The columns of Z = J0^{-1} P^T and W = P Z (P restricts to the m contact-cell dofs)
+!> that the implicit schemes' contact correction uses, computed when a contact-cell dof
+!> first needs them (its cell has an active contact point) and kept in a cache, so that
+!> memory grows with n x (dofs recently active), not n x (all contact-cell dofs).
+!>
+!> Columns are solved with J0 by fixed groups of ZCHUNK (group g: columns ZCHUNK (g-1) + 1
+!> to ZCHUNK g), one ls_solve_many call a group, the group whole whenever one of its
+!> columns is needed: a multi-column solve (CHOLMOD's cholmod_solve2) need not give a
+!> column the bits of a solve with other columns beside it, so each column is always
+!> solved beside the same ones, and its numbers do not depend on when it is computed
+!> (the same calls as a precomputation of all of Z by groups). The group is also the
+!> unit the cache keeps and drops. W(:, l) = Z(cdofs, l) is kept whole (m entries); Z(:, l) is
+!> kept as row indices and values, on every row when the whole of Z (8 n m bytes) is
+!> within the budget the scheme gives (the small meshes: the same numbers as a dense
+!> Z), else on the rows where its magnitude exceeds ZDROP times the column's largest
+!> (J0^{-1} decays geometrically away from the dof; the part dropped is below 1e-20 of
+!> the column, far under round-off). Either way a column's kept rows depend on the
+!> column alone. (Without dropping, Z's columns are kept as n values, without rows.)
+!>
+!> The cache holds at most `budget` bytes besides the groups used at the current step:
+!> when it exceeds it, the groups least recently used (before the current step) are
+!> dropped, and computed again, to the same numbers, if needed again. Nothing here is
+!> state of the simulation: a restart starts from an empty cache.
+module contact_columns
+    use kinds, only: dp, i8
+    use errors, only: STAT_OK
+    use sparse, only: csc_t
+    use linear_solver, only: factor_t, ls_solve_many
+    implicit none
+    private
+
+    !> Entries of a column of Z at most ZDROP times its largest magnitude are dropped.
+    real(dp), parameter, public :: ZDROP = 1.0e-20_dp
+    !> Columns of a group (solved in one call).
+    integer, parameter, public :: ZCHUNK = 16
+
+    !> One column of Z on its kept rows.
+    type :: zcol_t
+        integer, allocatable :: rows(:)           !! rows kept, ascending (none: all n)
+        real(dp), allocatable :: val(:)           !! Z there
+    end type zcol_t
+
+    !> The cache of columns of Z and W.
+    type, public :: zcache_t
+        integer :: n = 0                          !! dofs
+        integer :: m = 0                          !! contact-cell dofs (columns)
+        integer(i8) :: budget = 0                 !! bytes kept beyond the current step's columns
+        logical :: drop = .false.                 !! Z's entries below ZDROP max|Z(:, l)| dropped
+        integer(i8) :: bytes = 0                  !! bytes of the columns held
+        integer(i8) :: peak_bytes = 0             !! the largest `bytes` so far
+        integer :: step = 0                       !! current step (zcache_new_step)
+        integer :: held = 0                       !! columns held
+        integer :: computed = 0                   !! columns solved (recomputations included)
+        integer :: evicted = 0                    !! columns dropped by the budget
+        integer, allocatable :: slot(:)           !! (m) where column l is held, 0: not held
+        integer, allocatable :: owner(:)          !! (cap) column held in a slot, 0: free
+        integer, allocatable :: glast(:)          !! (groups) the step that last needed the
+                                                  !! group, -1: not held
+        real(dp), allocatable :: w(:, :)          !! (m, cap) W(:, owner)
+        type(zcol_t), allocatable :: z(:)         !! (cap) Z(:, owner) on its kept rows
+        integer, allocatable :: pending(:)        !! (m) columns to solve (work)
+    end type zcache_t
+
+    public :: zcache_init, zcache_new_step, zcache_ensure, zcache_ensure_all, zcache_w_times, &
+              zcache_add_w, zcache_add_z, zcache_free
+
+contains
+
+    !> An empty cache for n dofs and m contact-cell dofs, with a budget in bytes; Z's
+    !> tiny entries are dropped when 8 n m bytes exceed drop_above (see the module header).
+    subroutine zcache_init(zc, n, m, budget, drop_above)
+        type(zcache_t), intent(out) :: zc            !! cache
+        integer, intent(in) :: n, m                  !! dofs, contact-cell dofs
+        integer(i8), intent(in) :: budget            !! bytes (see the module header)
+        integer(i8), intent(in) :: drop_above        !! bytes of a whole Z kept whole
+        zc%n = n
+        zc%m = m
+        zc%budget = max(0_i8, budget)
+        zc%drop = 8_i8 * n * m > drop_above
+        allocate (zc%slot(m), zc%pending(m), zc%owner(0), zc%w(m, 0), zc%z(0), &
+                  zc%glast((m + ZCHUNK - 1) / ZCHUNK))
+        zc%slot = 0
+        zc%glast = -1
+    end subroutine zcache_init
+
+    !> Release every column (the counters are kept).
+    subroutine zcache_free(zc)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        if (allocated(zc%slot)) zc%slot = 0
+        if (allocated(zc%glast)) zc%glast = -1
+        if (allocated(zc%owner)) deallocate (zc%owner, zc%w, zc%z)
+        allocate (zc%owner(0), zc%w(zc%m, 0), zc%z(0))
+        zc%bytes = 0
+        zc%held = 0
+    end subroutine zcache_free
+
+    !> A new step: the columns needed from now on are the current step's.
+    pure subroutine zcache_new_step(zc)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        zc%step = zc%step + 1
+    end subroutine zcache_new_step
+
+    !> Make the columns need(:) (entries <= 0 ignored, repeats allowed) available, solving
+    !> the groups not held, and mark their groups used at the current step; then drop the
+    !> least recently used groups of earlier steps while the cache exceeds its budget.
+    subroutine zcache_ensure(zc, lu, a, cdofs, need, stat, errmsg)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        type(factor_t), intent(inout) :: lu          !! factors of J0
+        type(csc_t), intent(in) :: a                 !! J0
+        integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
+        integer, intent(in) :: need(:)               !! columns needed
+        integer, intent(out) :: stat                 !! status (of the solves)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: k, l, g, np, q
+        stat = STAT_OK
+        np = 0
+        do k = 1, size(need)
+            l = need(k)
+            if (l <= 0) cycle
+            g = (l - 1) / ZCHUNK + 1
+            if (zc%glast(g) >= 0) then
+                zc%glast(g) = zc%step
+            else if (zc%slot(l) == 0) then
+                np = np + 1
+                zc%pending(np) = g
+                zc%slot(group_first(g):group_last(zc, g)) = -1
+            end if
+        end do
+        do q = 1, np
+            call solve_group(zc, lu, a, cdofs, zc%pending(q), stat, errmsg)
+            if (stat /= STAT_OK) then
+                where (zc%slot < 0) zc%slot = 0
+                return
+            end if
+        end do
+        if (np > 0) call evict(zc)
+    end subroutine zcache_ensure
+
+    !> Every column, group after group, without a budget: the full precomputation (the
+    !> augmented Lagrangian's Newton uses all of W). On an empty cache slot l then holds
+    !> column l, so w(:, 1:m) is W.
+    subroutine zcache_ensure_all(zc, lu, a, cdofs, stat, errmsg)
+        type(zcache_t), intent(inout) :: zc          !! cache (empty)
+        type(factor_t), intent(inout) :: lu          !! factors of J0
+        type(csc_t), intent(in) :: a                 !! J0
+        integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
+        integer, intent(out) :: stat                 !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: l
+        stat = STAT_OK
+        if (zc%m == 0) return
+        zc%budget = huge(zc%budget)
+        call zcache_ensure(zc, lu, a, cdofs, [(l, l = 1, zc%m)], stat, errmsg)
+    end subroutine zcache_ensure_all
+
+    !> Solve the columns of group g (not held) in one call and store them.
+    subroutine solve_group(zc, lu, a, cdofs, g, stat, errmsg)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        type(factor_t), intent(inout) :: lu          !! factors of J0
+        type(csc_t), intent(in) :: a                 !! J0
+        integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
+        integer, intent(in) :: g                     !! group
+        integer, intent(out) :: stat                 !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), allocatable :: e(:, :), zb(:, :)
+        integer :: j0, nb, j, l, s, i, nk
+        real(dp) :: cmax
+        stat = STAT_OK
+        j0 = group_first(g) - 1
+        nb = group_last(zc, g) - j0
+        allocate (e(zc%n, nb), zb(zc%n, nb))
+        e = 0.0_dp
+        do j = 1, nb
+            e(cdofs(j0 + j), j) = 1.0_dp
+        end do
+        call ls_solve_many(lu, a, e, zb, stat, errmsg)
+        if (stat /= STAT_OK) return
+        deallocate (e)
+        do j = 1, nb
+            l = j0 + j
+            s = free_slot(zc)
+            zc%owner(s) = l
+            zc%slot(l) = s
+            zc%w(:, s) = zb(cdofs, j)
+            cmax = -1.0_dp
+            if (zc%drop) cmax = ZDROP * maxval(abs(zb(:, j)))
+            if (zc%drop) then
+                nk = count(abs(zb(:, j)) > cmax)
+                allocate (zc%z(s)%rows(nk), zc%z(s)%val(nk))
+                nk = 0
+                do i = 1, zc%n
+                    if (abs(zb(i, j)) > cmax) then
+                        nk = nk + 1
+                        zc%z(s)%rows(nk) = i
+                        zc%z(s)%val(nk) = zb(i, j)
+                    end if
+                end do
+            else
+                zc%z(s)%val = zb(:, j)
+            end if
+            zc%bytes = zc%bytes + column_bytes(zc, zc%z(s))
+            zc%held = zc%held + 1
+            zc%computed = zc%computed + 1
+        end do
+        zc%glast(g) = zc%step
+        zc%peak_bytes = max(zc%peak_bytes, zc%bytes)
+    end subroutine solve_group
+
+    !> The first column of group g.
+    pure integer function group_first(g)
+        integer, intent(in) :: g                     !! group
+        group_first = ZCHUNK * (g - 1) + 1
+    end function group_first
+
+    !> The last column of group g.
+    pure integer function group_last(zc, g)
+        type(zcache_t), intent(in) :: zc             !! cache
+        integer, intent(in) :: g                     !! group
+        group_last = min(zc%m, ZCHUNK * g)
+    end function group_last
+
+    !> Bytes of one held column (W's and Z's parts).
+    pure integer(i8) function column_bytes(zc, zcol)
+        type(zcache_t), intent(in) :: zc             !! cache
+        type(zcol_t), intent(in) :: zcol             !! its Z part
+        column_bytes = 8_i8 * zc%m + 8_i8 * size(zcol%val)
+        if (allocated(zcol%rows)) column_bytes = column_bytes + 4_i8 * size(zcol%rows)
+    end function column_bytes
+
+    !> A free slot (the slot arrays doubled when full).
+    integer function free_slot(zc) result(s)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        integer, allocatable :: itmp(:)
+        real(dp), allocatable :: wtmp(:, :)
+        type(zcol_t), allocatable :: ztmp(:)
+        integer :: cap, ncap, k
+        cap = size(zc%owner)
+        do s = 1, cap
+            if (zc%owner(s) == 0) return
+        end do
+        ncap = min(zc%m, max(2 * cap, ZCHUNK))
+        allocate (itmp(ncap))
+        itmp = 0
+        itmp(1:cap) = zc%owner
+        call move_alloc(itmp, zc%owner)
+        allocate (wtmp(zc%m, ncap))
+        wtmp(:, 1:cap) = zc%w
+        call move_alloc(wtmp, zc%w)
+        allocate (ztmp(ncap))
+        do k = 1, cap
+            call move_alloc(zc%z(k)%rows, ztmp(k)%rows)
+            call move_alloc(zc%z(k)%val, ztmp(k)%val)
+        end do
+        call move_alloc(ztmp, zc%z)
+        s = cap + 1
+    end function free_slot
+
+    !> Drop the least recently used groups of earlier steps while bytes > budget.
+    subroutine evict(zc)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        integer :: g, old, l, s
+        do while (zc%bytes > zc%budget)
+            old = 0
+            do g = 1, size(zc%glast)
+                if (zc%glast(g) < 0 .or. zc%glast(g) >= zc%step) cycle
+                if (old == 0) then
+                    old = g
+                else if (zc%glast(g) < zc%glast(old)) then
+                    old = g
+                end if
+            end do
+            if (old == 0) return
+            do l = group_first(old), group_last(zc, old)
+                s = zc%slot(l)
+                zc%bytes = zc%bytes - column_bytes(zc, zc%z(s))
+                zc%slot(l) = 0
+                zc%owner(s) = 0
+                if (allocated(zc%z(s)%rows)) deallocate (zc%z(s)%rows)
+                deallocate (zc%z(s)%val)
+                zc%held = zc%held - 1
+                zc%evicted = zc%evicted + 1
+            end do
+            zc%glast(old) = -1
+        end do
+    end subroutine evict
+
+    !> y = W t over the columns with t(l) /= 0, in the order of l (the same sums as the
+    !> dense product: a zero coefficient adds nothing). Every such column must be held.
+    pure subroutine zcache_w_times(zc, t, y)
+        type(zcache_t), intent(in) :: zc             !! cache
+        real(dp), intent(in) :: t(:)                 !! (m) coefficients
+        real(dp), intent(out) :: y(:)                !! (m) W t
+        y = 0.0_dp
+        call zcache_add_w(zc, t, y)
+    end subroutine zcache_w_times
+
+    !> y <- y + sum_l t(l) W(:, l) over the l with t(l) /= 0, column after column in the
+    !> order of l (each entry's additions in that order). Every such column must be held.
+    pure subroutine zcache_add_w(zc, t, y)
+        type(zcache_t), intent(in) :: zc             !! cache
+        real(dp), intent(in) :: t(:)                 !! (m) coefficients
+        real(dp), intent(inout) :: y(:)              !! (m) updated
+        integer :: l, q, nc, ls(4)
+        nc = 0
+        do l = 1, zc%m
+            if (t(l) == 0.0_dp) cycle
+            nc = nc + 1
+            ls(nc) = zc%slot(l)
+            if (nc == 4) then
+                call add4(zc%m, zc%w(:, ls(1)), zc%w(:, ls(2)), zc%w(:, ls(3)), &
+                          zc%w(:, ls(4)), t(zc%owner(ls(1))), t(zc%owner(ls(2))), &
+                          t(zc%owner(ls(3))), t(zc%owner(ls(4))), y)
+                nc = 0
+            end if
+        end do
+        do q = 1, nc
+            call add1(zc%m, zc%w(:, ls(q)), t(zc%owner(ls(q))), y)
+        end do
+    end subroutine zcache_add_w
+
+    !> y(rows) <- y(rows) + sum_l t(l) Z(rows, l) over the l with t(l) /= 0, column after
+    !> column in the order of l (each entry's additions in that order). Every such column
+    !> must be held.
+    pure subroutine zcache_add_z(zc, t, y)
+        type(zcache_t), intent(in) :: zc             !! cache
+        real(dp), intent(in) :: t(:)                 !! (m) coefficients
+        real(dp), intent(inout) :: y(:)              !! (n) updated
+        integer :: l, s
+        do l = 1, zc%m
+            if (t(l) == 0.0_dp) cycle
+            s = zc%slot(l)
+            if (allocated(zc%z(s)%rows)) then
+                call scatter_add(size(zc%z(s)%rows), zc%z(s)%rows, zc%z(s)%val, t(l), y)
+            else
+                call add1(zc%n, zc%z(s)%val, t(l), y)
+            end if
+        end do
+    end subroutine zcache_add_z
+
+    !> y(rows) <- y(rows) + t v.
+    pure subroutine scatter_add(k, rows, v, t, y)
+        integer, intent(in) :: k                     !! entries
+        integer, intent(in) :: rows(k)               !! rows
+        real(dp), intent(in) :: v(k)                 !! values
+        real(dp), intent(in) :: t                    !! coefficient
+        real(dp), intent(inout) :: y(:)              !! updated
+        integer :: i
+        do i = 1, k
+            y(rows(i)) = y(rows(i)) + t * v(i)
+        end do
+    end subroutine scatter_add
+
+    !> y <- (((y + t1 a1) + t2 a2) + t3 a3) + t4 a4, one pass.
+    pure subroutine add4(k, a1, a2, a3, a4, t1, t2, t3, t4, y)
+        integer, intent(in) :: k                     !! rows
+        real(dp), intent(in) :: a1(k), a2(k), a3(k), a4(k)  !! columns
+        real(dp), intent(in) :: t1, t2, t3, t4       !! coefficients
+        real(dp), intent(inout) :: y(k)              !! updated
+        integer :: i
+        do i = 1, k
+            y(i) = (((y(i) + t1 * a1(i)) + t2 * a2(i)) + t3 * a3(i)) + t4 * a4(i)
+        end do
+    end subroutine add4
+
+    !> y <- y + t a.
+    pure subroutine add1(k, a, t, y)
+        integer, intent(in) :: k                     !! rows
+        real(dp), intent(in) :: a(k)                 !! column
+        real(dp), intent(in) :: t                    !! coefficient
+        real(dp), intent(inout) :: y(k)              !! updated
+        integer :: i
+        do i = 1, k
+            y(i) = y(i) + t * a(i)
+        end do
+    end subroutine add1
+end module contact_columns
