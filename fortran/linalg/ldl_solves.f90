@@ -12,10 +12,13 @@
 !> cholmod_solve2's by round-off (another order of the same products).
 !>
 !> In 3D the nodes' three dofs are ordered together in the same way, and L is made of 3x3
-!> blocks: triple_ldl_t, with the same sweeps. There a block's columns are stored padded
-!> to four rows (the fourth zero) and the work vector by nodes padded to four entries, so
-!> that a block's rows are updated as one 4-vector (one 256-bit multiply and add a column
-!> with AVX; 3-vectors were compiled to scalar operations).
+!> blocks: triple_ldl_t, with the same sweeps. There the work vector is stored by nodes
+!> padded to four entries, and a block's column is read as four adjacent entries (its
+!> three and the next one), so that a block's rows are updated as one 4-vector: one
+!> 256-bit multiply and add a column with AVX, where 3-vectors were compiled to scalar
+!> operations. The fourth lane carries a throw-away value that never meets the other
+!> three (lanes are independent) and is reset at each solve; the blocks stay 9 entries
+!> (columns padded to four in memory were slower: the sweeps read the factor from L3).
 module ldl_solves
     use kinds, only: dp
     implicit none
@@ -41,7 +44,7 @@ module ldl_solves
         integer, allocatable :: perm(:)           !! (n) row k of P A P^T is row perm(k) of A
         integer, allocatable :: bp(:)             !! (nt + 1) blocks of each block column
         integer, allocatable :: bi(:)             !! (n_blocks) block row (triple I: rows 3I-2 .. 3I)
-        real(dp), allocatable :: bx(:, :)         !! (12, n_blocks) by columns: l11, l21, l31, 0, l12, ..., l33, 0
+        real(dp), allocatable :: bx(:, :)         !! (9, n_blocks + 1) by columns: l11, l21, l31, l12, ..., l33; a last zero block (the fourth lane's read)
         real(dp), allocatable :: ld(:, :)         !! (3, nt) L's entries l21, l31, l32 in each diagonal block
         real(dp), allocatable :: d(:)             !! (n) D
         real(dp), allocatable :: y(:, :)          !! (4, nt) work vector of the solves, by triples
@@ -284,7 +287,7 @@ contains
             end do
             nb = nb + m / 3
         end do
-        allocate (f%bi(nb), f%bx(12, nb))
+        allocate (f%bi(nb), f%bx(9, nb + 1))
         f%bx = 0.0_dp
         f%y = 0.0_dp
         nb = 0
@@ -300,8 +303,8 @@ contains
                 nb = nb + 1
                 f%bi(nb) = rowind(p(0) + 3 + 3 * i) / 3 + 1
                 f%bx(1:3, nb) = val(p(0) + 3 + 3 * i:p(0) + 5 + 3 * i)
-                f%bx(5:7, nb) = val(p(1) + 2 + 3 * i:p(1) + 4 + 3 * i)
-                f%bx(9:11, nb) = val(p(2) + 1 + 3 * i:p(2) + 3 + 3 * i)
+                f%bx(4:6, nb) = val(p(1) + 2 + 3 * i:p(1) + 4 + 3 * i)
+                f%bx(7:9, nb) = val(p(2) + 1 + 3 * i:p(2) + 3 + 3 * i)
             end do
         end do
         f%bp(f%nt + 1) = nb + 1
@@ -338,17 +341,19 @@ contains
     pure subroutine triple_sweeps(n, nt, nb, perm, bp, bi, bx, ld, d, b, x, y)
         integer, intent(in) :: n, nt, nb                    !! size, triples, blocks
         integer, intent(in) :: perm(n), bp(nt + 1), bi(nb)  !! permutation, block structure
-        real(dp), intent(in) :: bx(12, nb), ld(3, nt), d(n) !! L's blocks, diagonal blocks, D
+        real(dp), intent(in) :: bx(9 * nb + 9)              !! L's blocks (and the zero block)
+        real(dp), intent(in) :: ld(3, nt), d(n)             !! diagonal blocks, D
         real(dp), intent(in) :: b(n)                        !! right-hand side
         real(dp), intent(out) :: x(n)                       !! solution
-        real(dp), intent(inout) :: y(4, nt)                 !! work (fourth row zero)
+        real(dp), intent(inout) :: y(4, nt)                 !! work (fourth row: throw-away)
         real(dp) :: y0, y1, y2, s0(4), s1(4), s2(4)
-        integer :: jb, q, i, c
+        integer :: jb, q, i, c, o
         do jb = 1, nt
             c = 3 * jb - 2
             y(1, jb) = b(perm(c))
             y(2, jb) = b(perm(c + 1))
             y(3, jb) = b(perm(c + 2))
+            y(4, jb) = 0.0_dp
         end do
         do jb = 1, nt
             y0 = y(1, jb)
@@ -356,7 +361,9 @@ contains
             y2 = y(3, jb) - ld(2, jb) * y0 - ld(3, jb) * y1
             do q = bp(jb), bp(jb + 1) - 1
                 i = bi(q)
-                y(:, i) = y(:, i) - (bx(1:4, q) * y0 + bx(5:8, q) * y1 + bx(9:12, q) * y2)
+                o = 9 * (q - 1)
+                y(:, i) = y(:, i) - (bx(o + 1:o + 4) * y0 + bx(o + 4:o + 7) * y1 &
+                                     + bx(o + 7:o + 10) * y2)
             end do
             c = 3 * jb - 2
             y(1, jb) = y0 / d(c)
@@ -367,9 +374,10 @@ contains
             s0 = 0.0_dp; s1 = 0.0_dp; s2 = 0.0_dp
             do q = bp(jb), bp(jb + 1) - 1
                 i = bi(q)
-                s0 = s0 + bx(1:4, q) * y(:, i)
-                s1 = s1 + bx(5:8, q) * y(:, i)
-                s2 = s2 + bx(9:12, q) * y(:, i)
+                o = 9 * (q - 1)
+                s0 = s0 + bx(o + 1:o + 4) * y(:, i)
+                s1 = s1 + bx(o + 4:o + 7) * y(:, i)
+                s2 = s2 + bx(o + 7:o + 10) * y(:, i)
             end do
             y2 = y(3, jb) - ((s2(1) + s2(2)) + s2(3))
             y1 = y(2, jb) - ((s1(1) + s1(2)) + s1(3)) - ld(3, jb) * y2
@@ -389,7 +397,7 @@ contains
     pure subroutine triple_sweeps_many(n, nt, nb, k, perm, bp, bi, bx, ld, d, b, x, y)
         integer, intent(in) :: n, nt, nb, k                 !! size, triples, blocks, columns
         integer, intent(in) :: perm(n), bp(nt + 1), bi(nb)  !! permutation, block structure
-        real(dp), intent(in) :: bx(12, nb), ld(3, nt), d(n) !! L's blocks, diagonal blocks, D
+        real(dp), intent(in) :: bx(9, nb + 1), ld(3, nt), d(n) !! L's blocks, diagonal blocks, D
         real(dp), intent(in) :: b(n, k)                     !! right-hand sides
         real(dp), intent(out) :: x(n, k)                    !! solutions
         real(dp), intent(out) :: y(k, n)                    !! work
@@ -406,8 +414,8 @@ contains
             do q = bp(jb), bp(jb + 1) - 1
                 i = 3 * bi(q) - 2
                 do r = 0, 2
-                    y(:, i + r) = y(:, i + r) - (bx(1 + r, q) * y0 + bx(5 + r, q) * y1 &
-                                                 + bx(9 + r, q) * y2)
+                    y(:, i + r) = y(:, i + r) - (bx(1 + r, q) * y0 + bx(4 + r, q) * y1 &
+                                                 + bx(7 + r, q) * y2)
                 end do
             end do
             y(:, c) = y0 / d(c)
@@ -421,7 +429,7 @@ contains
                 i = 3 * bi(q) - 2
                 do j = 1, 3          ! column j of the block
                     do r = 1, 3      ! its row r
-                        s(:, r, j) = s(:, r, j) + bx(4 * (j - 1) + r, q) * y(:, i + r - 1)
+                        s(:, r, j) = s(:, r, j) + bx(3 * (j - 1) + r, q) * y(:, i + r - 1)
                     end do
                 end do
             end do

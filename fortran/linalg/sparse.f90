@@ -57,12 +57,14 @@ module sparse
     !> dofs grouped in runs of one to three consecutive dofs (the free dofs of a node).
     !> A block holds the rows of a row group and the columns of a column group, padded
     !> with zeros to 3x3; a group of fewer than three dofs repeats its first column index
-    !> (col2, col3) against zero columns. Each column of a block is stored padded to four
-    !> rows (the fourth zero), so that the products sum a block's rows as one 4-vector, one
-    !> 256-bit multiply and add a column with AVX (a 3-vector was compiled to scalar and
-    !> 2-lane operations), in the order of csc_matvec_t within each row (bitwise equal to
-    !> it, as block2_t's). When every group is a triple the kernels read x as x(c:c+2),
-    !> with explicit-shape dummies (see block2_t).
+    !> (col2, col3) against zero columns. The products sum a block's rows in the order of
+    !> csc_matvec_t within each row (bitwise equal to it, as block2_t's). When every group
+    !> is a triple the kernels read x as x(c:c+2) and a block's column as four adjacent
+    !> entries (its three and the next one; val has a last zero block for the last read),
+    !> so that a block's rows are summed as one 4-vector: one 256-bit multiply and add a
+    !> column with AVX, where a 3-vector was compiled to scalar and 2-lane operations. The
+    !> fourth lane is thrown away and never meets the other three (lanes are independent).
+    !> Columns padded to four in memory were as fast and a third larger.
     type, public :: block3_t
         integer :: n = 0                          !! matrix size
         integer :: n_groups = 0                   !! row/column groups
@@ -72,7 +74,7 @@ module sparse
         integer, allocatable :: col2(:)           !! (n_blocks) second dof (= col1 if none)
         integer, allocatable :: col3(:)           !! (n_blocks) third dof (= col1 if none)
         logical :: triples = .false.              !! every group a triple (col_k = col1 + k - 1)
-        real(dp), allocatable :: val(:, :)        !! (12, n_blocks) by columns: a11, a21, a31, 0, a12, ..., a33, 0
+        real(dp), allocatable :: val(:, :)        !! (9, n_blocks + 1) by columns: a11, a21, a31, a12, ..., a33; a last zero block
     end type block3_t
 
 contains
@@ -552,7 +554,7 @@ contains
             end do
             b%row_ptr(g + 1) = nb + 1
         end do
-        allocate (b%col1(nb), b%col2(nb), b%col3(nb), b%val(12, nb))
+        allocate (b%col1(nb), b%col2(nb), b%col3(nb), b%val(9, nb + 1))
         b%val = 0.0_dp
         mark = 0
         nb = 0
@@ -573,7 +575,7 @@ contains
                     slot = mark(h)
                     c = i - first(h)
                     ! row r of group g, column c of group h (A(j, i) = A(i, j))
-                    b%val(1 + r + 4 * c, slot) = a%val(k)
+                    b%val(1 + r + 3 * c, slot) = a%val(k)
                 end do
             end do
         end do
@@ -585,7 +587,7 @@ contains
         real(dp), intent(in) :: x(b%n)                     !! (n)
         real(dp), intent(out) :: y(b%n)                    !! (n)
         integer :: g, k, i, sz
-        real(dp) :: s(4)
+        real(dp) :: s(3)
         if (b%triples) then
             call triples_rows(b%n, b%n_groups, size(b%col1), b%row_ptr, b%col1, b%first, b%val, x, y)
             return
@@ -593,8 +595,8 @@ contains
         do g = 1, b%n_groups
             s = 0.0_dp
             do k = b%row_ptr(g), b%row_ptr(g + 1) - 1
-                s = s + b%val(1:4, k) * x(b%col1(k)) + b%val(5:8, k) * x(b%col2(k)) &
-                    + b%val(9:12, k) * x(b%col3(k))
+                s = s + b%val(1:3, k) * x(b%col1(k)) + b%val(4:6, k) * x(b%col2(k)) &
+                    + b%val(7:9, k) * x(b%col3(k))
             end do
             i = b%first(g)
             sz = b%first(g + 1) - i
@@ -609,16 +611,18 @@ contains
         integer, intent(in) :: row_ptr(ng + 1)             !! block range of each row group
         integer, intent(in) :: col1(nb)                    !! first dof of each block's column group
         integer, intent(in) :: first(ng + 1)               !! first dof of each group
-        real(dp), intent(in) :: val(12, nb)                 !! blocks
+        real(dp), intent(in) :: val(9 * nb + 9)             !! blocks (and the zero block)
         real(dp), intent(in) :: x(n)                       !! vector
         real(dp), intent(out) :: y(n)                      !! product
-        integer :: g, k, c, i
+        integer :: g, k, c, i, o
         real(dp) :: s(4)
         do g = 1, ng
             s = 0.0_dp
             do k = row_ptr(g), row_ptr(g + 1) - 1
                 c = col1(k)
-                s = s + val(1:4, k) * x(c) + val(5:8, k) * x(c + 1) + val(9:12, k) * x(c + 2)
+                o = 9 * (k - 1)
+                s = s + val(o + 1:o + 4) * x(c) + val(o + 4:o + 7) * x(c + 1) &
+                    + val(o + 7:o + 10) * x(c + 2)
             end do
             i = first(g)
             y(i:i + 2) = s(1:3)
@@ -638,7 +642,7 @@ contains
         real(dp), intent(out) :: mv(kb%n)                  !! (n) M v
         real(dp), intent(out) :: md(kb%n)                  !! (n) M d
         integer :: g, k, c1, c2, c3, i, sz
-        real(dp) :: y(4), p(4), q(4)
+        real(dp) :: y(3), p(3), q(3)
         do g = 1, kb%n_groups
             y = 0.0_dp
             p = 0.0_dp
@@ -647,9 +651,9 @@ contains
                 c1 = kb%col1(k)
                 c2 = kb%col2(k)
                 c3 = kb%col3(k)
-                y = y + kb%val(1:4, k) * x(c1) + kb%val(5:8, k) * x(c2) + kb%val(9:12, k) * x(c3)
-                p = p + mb%val(1:4, k) * v(c1) + mb%val(5:8, k) * v(c2) + mb%val(9:12, k) * v(c3)
-                q = q + mb%val(1:4, k) * d(c1) + mb%val(5:8, k) * d(c2) + mb%val(9:12, k) * d(c3)
+                y = y + kb%val(1:3, k) * x(c1) + kb%val(4:6, k) * x(c2) + kb%val(7:9, k) * x(c3)
+                p = p + mb%val(1:3, k) * v(c1) + mb%val(4:6, k) * v(c2) + mb%val(7:9, k) * v(c3)
+                q = q + mb%val(1:3, k) * d(c1) + mb%val(4:6, k) * d(c2) + mb%val(7:9, k) * d(c3)
             end do
             i = kb%first(g)
             sz = kb%first(g + 1) - i
@@ -666,12 +670,13 @@ contains
         type(block3_t), intent(in) :: b                  !! matrix
         real(dp), allocatable, intent(out) :: s(:)       !! (n_blocks) the scalars
         logical, intent(out) :: ok                       !! b has that form
+        integer :: nb
         ok = b%n_groups > 0 .and. b%triples
-        if (ok) ok = all(b%val(2:3, :) == 0.0_dp) .and. all(b%val(5, :) == 0.0_dp) .and. &
-                     all(b%val(7, :) == 0.0_dp) .and. all(b%val(9:10, :) == 0.0_dp) .and. &
-                     all(b%val(1, :) == b%val(6, :)) .and. all(b%val(1, :) == b%val(11, :))
+        nb = size(b%col1)
+        if (ok) ok = all(b%val(2:4, :nb) == 0.0_dp) .and. all(b%val(6:8, :nb) == 0.0_dp) .and. &
+                     all(b%val(1, :nb) == b%val(5, :nb)) .and. all(b%val(1, :nb) == b%val(9, :nb))
         if (ok) then
-            s = b%val(1, :)
+            s = b%val(1, :nb)
         else
             allocate (s(0))
         end if
@@ -696,18 +701,20 @@ contains
         integer, intent(in) :: row_ptr(ng + 1)             !! block range of each row group
         integer, intent(in) :: col1(nb)                    !! first dof of each block's column group
         integer, intent(in) :: first(ng + 1)               !! first dof of each group
-        real(dp), intent(in) :: val(12, nb)                 !! blocks of K
+        real(dp), intent(in) :: val(9 * nb + 9)             !! blocks of K (and the zero block)
         real(dp), intent(in) :: ms(nb)                     !! scalar blocks of M
         real(dp), intent(in) :: x(n), v(n)                 !! vectors
         real(dp), intent(out) :: kx(n), mv(n)              !! K x, M v
-        integer :: g, k, c, i
+        integer :: g, k, c, i, o
         real(dp) :: y(4), p(3)
         do g = 1, ng
             y = 0.0_dp
             p = 0.0_dp
             do k = row_ptr(g), row_ptr(g + 1) - 1
                 c = col1(k)
-                y = y + val(1:4, k) * x(c) + val(5:8, k) * x(c + 1) + val(9:12, k) * x(c + 2)
+                o = 9 * (k - 1)
+                y = y + val(o + 1:o + 4) * x(c) + val(o + 4:o + 7) * x(c + 1) &
+                    + val(o + 7:o + 10) * x(c + 2)
                 p = p + ms(k) * v(c:c + 2)
             end do
             i = first(g)
@@ -739,12 +746,12 @@ contains
         integer, intent(in) :: row_ptr(ng + 1)             !! block range of each row group
         integer, intent(in) :: col1(nb)                    !! first dof of each block's column group
         integer, intent(in) :: first(ng + 1)               !! first dof of each group
-        real(dp), intent(in) :: val(12, nb)                 !! blocks of K
+        real(dp), intent(in) :: val(9 * nb + 9)             !! blocks of K (and the zero block)
         real(dp), intent(in) :: ms(nb)                     !! scalar blocks of M
         real(dp), intent(in) :: x(n), v(n), d(n)           !! vectors
         real(dp), intent(out) :: kx(n), mv(n), md(n)       !! K x, M v, M d
         real(dp), intent(out) :: bx(n)                     !! K x again
-        integer :: g, k, c, i
+        integer :: g, k, c, i, o
         real(dp) :: y(4), p(3), q(3)
         do g = 1, ng
             y = 0.0_dp
@@ -752,7 +759,9 @@ contains
             q = 0.0_dp
             do k = row_ptr(g), row_ptr(g + 1) - 1
                 c = col1(k)
-                y = y + val(1:4, k) * x(c) + val(5:8, k) * x(c + 1) + val(9:12, k) * x(c + 2)
+                o = 9 * (k - 1)
+                y = y + val(o + 1:o + 4) * x(c) + val(o + 4:o + 7) * x(c + 1) &
+                    + val(o + 7:o + 10) * x(c + 2)
                 p = p + ms(k) * v(c:c + 2)
                 q = q + ms(k) * d(c:c + 2)
             end do
