@@ -16,7 +16,7 @@ program test_blocks3d
                        chol_kernel, chol_free, KERNEL_TRIPLES, KERNEL_CHOLMOD
     use ldl_solves, only: triple_ldl_t, triple_ldl_build
     use model, only: model_t, model_params_t, model_build, model_stiff_apply, model_step_products, &
-                     model_stiff_mass_apply, MASS_CONSISTENT
+                     model_stiff_mass_apply, model_mass_apply, MASS_CONSISTENT
     use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
     use unit_checks, only: checks_t, seed
     implicit none
@@ -77,6 +77,8 @@ contains
         call checks%check(all(kx == kx0), what//': model_stiff_apply bitwise = CSC')
         call block3_matvec(mdl%mass_b3, v, mv)
         call checks%check(all(mv == mv0), what//': block3 M v bitwise = CSC')
+        call model_mass_apply(mdl, v, mv)
+        call checks%check(all(mv == mv0), what//': model_mass_apply bitwise = CSC')
         ! the fused passes
         call block3_matvec_km(mdl%stiff_theta_b3, mdl%mass_b3, x, v, d, kx, mv, md)
         call checks%check(all(kx == kx0) .and. all(mv == mv0) .and. all(md == md0), &
