@@ -18,7 +18,8 @@
 !> 256-bit multiply and add a column with AVX, where 3-vectors were compiled to scalar
 !> operations. The fourth lane carries a throw-away value that never meets the other
 !> three (lanes are independent) and is reset at each solve; the blocks stay 9 entries
-!> (columns padded to four in memory were slower: the sweeps read the factor from L3).
+!> (columns padded to four in memory took a third more memory and were no faster,
+!> docs/performance.md).
 module ldl_solves
     use kinds, only: dp
     implicit none
