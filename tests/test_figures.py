@@ -407,6 +407,15 @@ def test_bench_rows_and_table():
                        cholmod=True) == 80.0
     assert step_floor({"scene": "pc_h0.01_consistent", "floor_mass_solve_us": 30.0,
                         "floor_spmv_us": 10.0}, cholmod=True) is None
+    # the implicit floor's solve is the best of the two on the same factor
+    assert step_floor({"scene": "box3d_h0.05", "floor_solve_us": 50.0,
+                        "floor_cholmod_solve_us": 40.0, "floor_spmv_us": 10.0}) == 50.0
+    # the 3D box rows are implicit: their solve floors are shown, the M^-1 floor is not
+    box_cells = bench_table([{"scene": "box3d_h0.05", "dofs": 540, "steps": 6000,
+                              "wall_s": 0.2, "status": "ok", "floor_solve_us": 11.0,
+                              "floor_cholmod_solve_us": 13.0, "floor_spmv_us": 4.0}]
+                            ).splitlines()[2].split()
+    assert box_cells[-9:-5] == ["11.00", "13.00", "-", "4.00"]
 
 
 def test_floors_between_steps_leave_the_run_unchanged(tmp_path):

@@ -330,9 +330,9 @@ def test_indefinite_k_theta_is_refused_before_any_solve(tmp_path):
 
 
 # Which triangular solve ran with the factors: summary.json "solve_kernel" (docs/scenes.md).
-# The 2D bars' J0 is made of 2x2 node blocks (every free node has two dofs): solved by
-# blocks (ldl_solves); a 1D bar, or sliding sides (nodes with one free dof), are not:
-# cholmod_solve2. The numbers of both are checked against the GetFEM traces elsewhere.
+# The 2D bars' J0 is made of 2x2 node blocks (every free node has two dofs), the 3D box's
+# of 3x3 blocks: solved by blocks (ldl_solves); a 1D bar, or sliding sides (nodes with
+# some dofs fixed), are not: cholmod_solve2. The numbers of both are checked against the GetFEM traces elsewhere.
 @pytest.mark.parametrize("scene_file, keys, kernel", [
     ("bar2d_hht.nml", {}, "ldl_node_pairs"),
     ("bar2d_theta.nml", {}, "ldl_node_pairs"),
@@ -340,6 +340,8 @@ def test_indefinite_k_theta_is_refused_before_any_solve(tmp_path):
     ("bar1d.nml", {}, "cholmod_solve2"),
     ("bar2d_pc.nml", {}, "cholmod_solve2"),        # M's nodal scalar S, two right-hand sides
     ("bar2d_pc.nml", {"scheme__mass": "lumped"}, "diagonal"),
+    ("bar3d_hht.nml", {}, "ldl_node_triples"),                          # 3x3 node blocks
+    ("bar3d_hht.nml", {"boundary__slip_z": "sides"}, "cholmod_solve2"),  # nodes with two free dofs
 ])
 def test_summary_reports_solve_kernel(tmp_path, scene_file, keys, kernel):
     s = _short_run(tmp_path, scene_file, scheme__t_end=0.01, **keys)

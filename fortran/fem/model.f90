@@ -9,7 +9,8 @@ module model
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec_t, block2_t, block2_from_csc, &
                       block2_matvec, block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, &
-                      block2_matvec_ks3
+                      block2_matvec_ks3, block3_t, block3_from_csc, block3_matvec, block3_matvec_km, &
+                      block3_scalar_blocks, block3_matvec_ks2, block3_matvec_ks3
     use mass_redistribution, only: mass_region, mass_redistribute
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
@@ -68,10 +69,12 @@ module model
         type(csc_t) :: mass                       !! M (consistent or lumped), shared pattern
         type(csc_t) :: stiff                      !! K, shared pattern
         type(csc_t) :: stiff_theta                !! K_theta = K - sum theta |F| / gamma s s^T
-        logical :: blocked = .false.              !! K_theta also in 2x2 node blocks (2D)
-        type(block2_t) :: stiff_theta_b           !! its node-block copy (fast products)
-        type(block2_t) :: mass_b                  !! node-block copy of M (same blocks)
-        logical :: mass_scalar = .false.          !! every block of M is m I (no single-dof node)
+        logical :: blocked = .false.              !! K_theta also in node blocks (2x2 in 2D, 3x3 in 3D)
+        type(block2_t) :: stiff_theta_b           !! its node-block copy (fast products; 2D)
+        type(block2_t) :: mass_b                  !! node-block copy of M (same blocks; 2D)
+        type(block3_t) :: stiff_theta_b3          !! the 3x3 node-block copy of K_theta (3D)
+        type(block3_t) :: mass_b3                 !! the 3x3 node-block copy of M (3D)
+        logical :: mass_scalar = .false.          !! every block of M is m I (no node with a constrained dof)
         real(dp), allocatable :: mass_s(:)        !! then the m of each block
         logical :: lumped = .false.               !! M is diagonal
         real(dp), allocatable :: mass_diag(:)     !! (n_dofs) diagonal of M when lumped
@@ -409,7 +412,8 @@ contains
                                region, mdl%massless, st, m)
     end subroutine redistribute
 
-    !> 2x2 node-block copy of K_theta (2D): the free dofs of a node are consecutive.
+    !> Node-block copy of K_theta and M, built once: 2x2 blocks in 2D, 3x3 in 3D (the
+    !> free dofs of a node are consecutive), and the scalars of M's blocks when each is m I.
     subroutine block_copy(mdl, st, m)
         type(model_t), intent(inout) :: mdl          !! model being built
         integer, intent(out) :: st                   !! status
@@ -417,7 +421,7 @@ contains
         integer, allocatable :: first(:)
         integer :: i, ng
         st = STAT_OK
-        if (mdl%dim /= 2 .or. mdl%n_dofs == 0) return
+        if ((mdl%dim /= 2 .and. mdl%dim /= 3) .or. mdl%n_dofs == 0) return
         allocate (first(mdl%msh%n_nodes + 1))
         ng = 0
         do i = 1, mdl%msh%n_nodes
@@ -427,6 +431,13 @@ contains
             end if
         end do
         first(ng + 1) = mdl%n_dofs + 1
+        if (mdl%dim == 3) then
+            call block3_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b3, st, m)
+            if (st == STAT_OK) call block3_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b3, st, m)
+            mdl%blocked = st == STAT_OK
+            if (mdl%blocked) call block3_scalar_blocks(mdl%mass_b3, mdl%mass_s, mdl%mass_scalar)
+            return
+        end if
         call block2_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b, st, m)
         if (st == STAT_OK) call block2_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b, st, m)
         mdl%blocked = st == STAT_OK
@@ -941,32 +952,37 @@ contains
         end subroutine gather
     end subroutine model_probe
 
-    !> y = K_theta x (node blocks in 2D, gather-form CSC product otherwise).
+    !> y = K_theta x (node blocks in 2D and 3D, gather-form CSC product otherwise).
     subroutine model_stiff_apply(mdl, x, y)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: x(:)          !! vector
         real(dp), intent(out) :: y(:)         !! K_theta x
-        if (mdl%blocked) then
+        if (mdl%blocked .and. mdl%dim == 3) then
+            call block3_matvec(mdl%stiff_theta_b3, x, y)
+        else if (mdl%blocked) then
             call block2_matvec(mdl%stiff_theta_b, x, y)
         else
             call csc_matvec_t(mdl%stiff_theta, x, y)   ! symmetric: A^T x = A x
         end if
     end subroutine model_stiff_apply
 
-    !> y = M x.
+    !> y = M x (by 3x3 node blocks in 3D, the gather-form CSC product otherwise: the same
+    !> numbers).
     subroutine model_mass_apply(mdl, x, y)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: x(:)          !! vector
         real(dp), intent(out) :: y(:)         !! M x
         if (mdl%lumped) then
             y = mdl%mass_diag * x
+        else if (mdl%blocked .and. mdl%dim == 3) then
+            call block3_matvec(mdl%mass_b3, x, y)
         else
             call csc_matvec_t(mdl%mass, x, y)   ! symmetric
         end if
     end subroutine model_mass_apply
 
     !> The products a step ends with, formed from the vectors (never carried):
-    !> kx = K_theta x, mv = M v, md = M d; one pass over the shared node blocks in 2D,
+    !> kx = K_theta x, mv = M v, md = M d; one pass over the shared node blocks in 2D and 3D,
     !> which also stores K_theta x in bx (the caller's B(x) before its contact part: a
     !> second store a row instead of a copy pass).
     subroutine model_step_products(mdl, x, v, d, kx, mv, md, bx)
@@ -982,9 +998,14 @@ contains
             call model_stiff_apply(mdl, x, kx)
             mv = mdl%mass_diag * v
             md = mdl%mass_diag * d
+        else if (mdl%mass_scalar .and. mdl%dim == 3) then
+            call block3_matvec_ks3(mdl%stiff_theta_b3, mdl%mass_s, x, v, d, kx, mv, md, bx)
+            return
         else if (mdl%mass_scalar) then
             call block2_matvec_ks3(mdl%stiff_theta_b, mdl%mass_s, x, v, d, kx, mv, md, bx)
             return
+        else if (mdl%blocked .and. mdl%dim == 3) then
+            call block3_matvec_km(mdl%stiff_theta_b3, mdl%mass_b3, x, v, d, kx, mv, md)
         else if (mdl%blocked) then
             call block2_matvec_km(mdl%stiff_theta_b, mdl%mass_b, x, v, d, kx, mv, md)
         else
@@ -1003,7 +1024,9 @@ contains
         real(dp), intent(in) :: v(:)          !! velocity
         real(dp), intent(out) :: kx(:)        !! K_theta x
         real(dp), intent(out) :: mv(:)        !! M v
-        if (mdl%mass_scalar .and. .not. mdl%lumped) then
+        if (mdl%mass_scalar .and. .not. mdl%lumped .and. mdl%dim == 3) then
+            call block3_matvec_ks2(mdl%stiff_theta_b3, mdl%mass_s, x, v, kx, mv)
+        else if (mdl%mass_scalar .and. .not. mdl%lumped) then
             call block2_matvec_ks2(mdl%stiff_theta_b, mdl%mass_s, x, v, kx, mv)
         else
             call model_stiff_apply(mdl, x, kx)

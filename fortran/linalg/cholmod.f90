@@ -9,9 +9,10 @@
 !>
 !> Ordering: AMD, METIS or CHOLMOD's nested dissection, whichever gives L the fewest
 !> entries (a rule on the pattern alone, so runs are deterministic; chol_ordering).
-!> Solves: when the matrix is made of the 2x2 blocks of node pairs (the shim then orders
-!> the pairs together), the factor is copied by blocks and solved with ldl_solves'
-!> sweeps (about 1.4x faster than cholmod_solve2 on the same factor), and CHOLMOD's
+!> Solves: when the matrix is made of the 2x2 blocks of node pairs, or of the 3x3 blocks
+!> of node triples (the shim then orders the nodes' dofs together), the factor is copied
+!> by blocks and solved with ldl_solves' sweeps (about 1.4x faster than cholmod_solve2 on
+!> the same factor in 2D; docs/performance.md), and CHOLMOD's
 !> numerical copy is released (one copy of the factor; keep_cholmod keeps it); otherwise through
 !> cholmod_solve2 with workspaces kept in the shim (no allocation per solve): own
 !> scalar loops on the copied factors are slower than CHOLMOD's, which treats chains
@@ -23,7 +24,8 @@ module cholmod
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
     use sparse, only: csc_t
     use ldl_solves, only: pair_ldl_t, pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, &
-                          pair_ldl_free
+                          pair_ldl_free, triple_ldl_t, triple_ldl_build, triple_ldl_solve, &
+                          triple_ldl_solve_many, triple_ldl_free
     implicit none
     private
 
@@ -43,13 +45,15 @@ module cholmod
         logical :: keep_cholmod = .false.        !! keep CHOLMOD's factor next to the block
                                                  !! copy (chol_solve_cholmod; tests, floors)
         type(pair_ldl_t) :: pairs                !! the factor by 2x2 blocks (pairs%n = 0: none)
+        type(triple_ldl_t) :: triples            !! the factor by 3x3 blocks (triples%n = 0: none)
     end type cholmod_t
 
     !> Names of the triangular solves (chol_kernel).
-    character(len=*), parameter, public :: KERNEL_PAIRS = 'ldl_node_pairs'     !! ldl_solves
+    character(len=*), parameter, public :: KERNEL_PAIRS = 'ldl_node_pairs'     !! ldl_solves, 2x2
+    character(len=*), parameter, public :: KERNEL_TRIPLES = 'ldl_node_triples' !! ldl_solves, 3x3
     character(len=*), parameter, public :: KERNEL_CHOLMOD = 'cholmod_solve2'   !! CHOLMOD's
 
-    !> Fill-reducing orderings (dc_cholmod_ordering's codes 1..4): of the node pairs'
+    !> Fill-reducing orderings (dc_cholmod_ordering's codes 1..4): of the node blocks'
     !> graph when they are ordered together, else CHOLMOD's own choice.
     character(len=*), parameter, public :: ORDERING_NAMES(4) = &
         [character(len=8) :: 'amd', 'metis', 'nesdis', 'cholmod']
@@ -82,7 +86,7 @@ module cholmod
             integer(c_int), intent(out) :: analysed      !! 1 if the analysis was redone
             integer(c_long), intent(out) :: lnz          !! entries of L below the diagonal
             integer(c_int), intent(out) :: minor         !! failing column (0-based) or -1
-            integer(c_int), intent(out) :: paired        !! 1 if node pairs were ordered together
+            integer(c_int), intent(out) :: paired        !! size of the node blocks ordered together (2, 3) or 0
             integer(c_int) :: status
         end function dc_cholmod_factor
 
@@ -148,6 +152,7 @@ contains
 
         ch%n = 0
         call pair_ldl_free(ch%pairs)
+        call triple_ldl_free(ch%triples)
         if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
                                 allocated(a%val))) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_factor: matrix is empty or not allocated')
@@ -187,12 +192,14 @@ contains
         ch%ordering = int(dc_cholmod_ordering(ch%handle))
         ch%factor_nnz = lnz + a%n
         stat = STAT_OK
-        if (paired /= 0) call copy_pairs()
+        if (paired /= 0) call copy_blocks(int(paired))
 
     contains
 
-        !> The factor copied by 2x2 blocks (left empty if it is not made of them).
-        subroutine copy_pairs()
+        !> The factor copied by bs x bs blocks, bs = 2 or 3 (left empty if it is not made
+        !> of them).
+        subroutine copy_blocks(bs)
+            integer, intent(in) :: bs                       !! block size
             integer(c_int), allocatable :: perm(:), colptr(:), rowind(:)
             real(c_double), allocatable :: val(:)
             integer(c_long) :: nnz
@@ -210,17 +217,22 @@ contains
                     return
                 end if
             end if
-            call pair_ldl_build(ch%pairs, a%n, perm, colptr, rowind, val, ok)
+            if (bs == 3) then
+                call triple_ldl_build(ch%triples, a%n, perm, colptr, rowind, val, ok)
+            else
+                call pair_ldl_build(ch%pairs, a%n, perm, colptr, rowind, val, ok)
+            end if
             if (.not. ok) then
-                ! not reached: an ordering that keeps the pairs together gives 2x2 blocks
+                ! not reached: an ordering that keeps the blocks together gives bs x bs blocks
                 call pair_ldl_free(ch%pairs)
+                call triple_ldl_free(ch%triples)
                 if (.not. ch%keep_cholmod) then
                     ch%n = 0
                     call raise(stat, errmsg, STAT_INTERNAL, &
-                               'chol_factor: the factor is not made of 2x2 node blocks')
+                               'chol_factor: the factor is not made of node blocks')
                 end if
             end if
-        end subroutine copy_pairs
+        end subroutine copy_blocks
     end subroutine chol_factor
 
     !> The fill-reducing ordering of the factors ('' without factors): see ORDERING_NAMES.
@@ -232,8 +244,8 @@ contains
             name = trim(ORDERING_NAMES(ch%ordering))
     end function chol_ordering
 
-    !> The triangular solve chol_solve uses: KERNEL_PAIRS or KERNEL_CHOLMOD ('' without
-    !> factors).
+    !> The triangular solve chol_solve uses: KERNEL_PAIRS, KERNEL_TRIPLES or KERNEL_CHOLMOD
+    !> ('' without factors).
     pure function chol_kernel(ch) result(name)
         type(cholmod_t), intent(in) :: ch                   !! factors
         character(len=:), allocatable :: name
@@ -241,12 +253,14 @@ contains
             name = ''
         else if (ch%pairs%n > 0) then
             name = KERNEL_PAIRS
+        else if (ch%triples%n > 0) then
+            name = KERNEL_TRIPLES
         else
             name = KERNEL_CHOLMOD
         end if
     end function chol_kernel
 
-    !> Solve A x = b: by 2x2 blocks when the factor was copied so (ldl_solves), else with
+    !> Solve A x = b: by 2x2 or 3x3 blocks when the factor was copied so (ldl_solves), else with
     !> cholmod_solve2 (workspaces reused, no allocation after the first call). b and x
     !> must have n entries (STAT_BAD_INPUT otherwise, or without factors); STAT_INTERNAL
     !> if CHOLMOD fails.
@@ -293,7 +307,9 @@ contains
         stat = STAT_OK
         if (pairs .and. ch%pairs%n > 0) then
             call pair_ldl_solve(ch%pairs, b, x)
-        else if (ch%pairs%n > 0 .and. .not. ch%keep_cholmod) then
+        else if (pairs .and. ch%triples%n > 0) then
+            call triple_ldl_solve(ch%triples, b, x)
+        else if ((ch%pairs%n > 0 .or. ch%triples%n > 0) .and. .not. ch%keep_cholmod) then
             call raise(stat, errmsg, STAT_BAD_INPUT, who//': CHOLMOD''s factor was released')
         else if (dc_cholmod_solve(ch%handle, 1_c_int, b, x) /= DC_OK) then
             call raise(stat, errmsg, STAT_INTERNAL, who//': cholmod_solve2 failed')
@@ -301,7 +317,7 @@ contains
     end subroutine solve_one
 
     !> Solve A X = B for all columns of B: in one pass over the block factors for all
-    !> columns (pair_ldl_solve_many), else in one cholmod_solve2 call.
+    !> columns (pair_ldl_solve_many, triple_ldl_solve_many), else in one cholmod_solve2 call.
     subroutine chol_solve_many(ch, b, x, stat, errmsg)
         type(cholmod_t), intent(inout) :: ch                !! factors
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)
@@ -322,6 +338,10 @@ contains
             call pair_ldl_solve_many(ch%pairs, b, x)
             return
         end if
+        if (ch%triples%n > 0) then
+            call triple_ldl_solve_many(ch%triples, b, x)
+            return
+        end if
         if (dc_cholmod_solve(ch%handle, int(size(b, 2), c_int), b, x) /= DC_OK) &
             call raise(stat, errmsg, STAT_INTERNAL, 'chol_solve_many: cholmod_solve2 failed')
     end subroutine chol_solve_many
@@ -333,6 +353,7 @@ contains
         if (c_associated(ch%handle)) call dc_cholmod_free(ch%handle)
         ch%handle = c_null_ptr
         call pair_ldl_free(ch%pairs)
+        call triple_ldl_free(ch%triples)
         ch%n = 0
         ch%lnz = 0
         ch%factor_nnz = 0

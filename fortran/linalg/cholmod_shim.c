@@ -10,13 +10,15 @@
  * Only the upper triangle of the CSC matrix is read (stype = +1): pass the full
  * symmetric matrix or its upper triangle.
  *
- * Node pairs: when the dofs 2k, 2k+1 (0-based) come in pairs whose 2x2 blocks are all
- * stored (the free dofs of the nodes of a 2D mesh), the ordering is one of the graph of
- * the pairs, each pair kept together (no postordering): AMD's, METIS's or CHOLMOD's
- * nested dissection, whichever gives L the fewest entries (analyze_pairs). L is then
- * made of full 2x2 blocks, which fortran/linalg/ldl_solves.f90 copies
+ * Node blocks: when the dofs 2k, 2k+1 (0-based) come in pairs whose 2x2 blocks are all
+ * stored (the free dofs of the nodes of a 2D mesh), or else the dofs 3k, 3k+1, 3k+2 in
+ * triples whose 3x3 blocks are all stored (3D), the ordering is one of the graph of the
+ * node blocks, each block kept together (no postordering): AMD's, METIS's or CHOLMOD's
+ * nested dissection, whichever gives L the fewest entries (analyze_blocks). L is then
+ * made of full 2x2 (3x3) blocks, which fortran/linalg/ldl_solves.f90 copies
  * (dc_cholmod_export) and solves with; the caller then releases CHOLMOD's numerical
- * copy (dc_cholmod_release_numeric), so that one copy of the factor is kept.
+ * copy (dc_cholmod_release_numeric), so that one copy of the factor is kept. Pairs are
+ * tried first: a matrix made of node pairs is never ordered as triples.
  */
 #include <stdlib.h>
 #include <string.h>
@@ -32,7 +34,7 @@ typedef struct {
     int *rowind;
     cholmod_dense *B, *X, *Y, *E;   /* solve2 right-hand side header and workspaces */
     int bcols;             /* columns of B */
-    int paired;            /* the analysis ordered node pairs together */
+    int paired;            /* the analysis ordered node blocks together: their size (2, 3), or 0 */
     int ordering;          /* the ordering of the analysis (ORD_*) */
 } dc_cholmod;
 
@@ -104,25 +106,35 @@ static void csc_header(cholmod_sparse *a, int n, const int *colptr, const int *r
     a->packed = 1;
 }
 
-/* Whether the upper triangle of the pattern is made of whole 2x2 blocks of the pairs
- * (2k, 2k+1): columns 2J and 2J+1 hold the same rows above 2J, those rows come in
- * pairs, and the diagonal block is stored (2J, 2J+1 in column 2J+1, 2J in column 2J). */
-static int pairs_pattern(int n, const int *colptr, const int *rowind)
+/* Whether the upper triangle of the pattern is made of whole bs x bs blocks of the node
+ * blocks (bs k, ..., bs k + bs - 1): the bs columns of block J hold the same rows above
+ * bs J, those rows come in whole blocks, and the diagonal block's upper triangle is
+ * stored (rows bs J .. c in column c). */
+static int blocks_pattern(int n, int bs, const int *colptr, const int *rowind)
 {
-    int J, p, q, pe, qe;
-    if (n < 2 || n % 2 != 0) return 0;
-    for (J = 0; 2 * J < n; J++) {
-        int c0 = 2 * J, c1 = 2 * J + 1;
-        p = colptr[c0]; pe = colptr[c0 + 1];
-        q = colptr[c1]; qe = colptr[c1 + 1];
-        while (p < pe && rowind[p] < c0) {
-            if (q + 1 >= qe || rowind[q] != rowind[p] || rowind[p] % 2 != 0) return 0;
-            if (p + 1 >= pe || rowind[p + 1] != rowind[p] + 1 || rowind[q + 1] != rowind[p] + 1)
-                return 0;
-            p += 2; q += 2;
+    int J, r, t;
+    if (n < bs || n % bs != 0) return 0;
+    for (J = 0; bs * J < n; J++) {
+        int c0 = bs * J;
+        int p0 = colptr[c0], pe0 = colptr[c0 + 1];
+        int nabove = 0;
+        /* column c0: whole blocks above the diagonal block */
+        while (p0 + nabove < pe0 && rowind[p0 + nabove] < c0) {
+            int q = p0 + nabove;
+            if (rowind[q] % bs != 0 || q + bs > pe0) return 0;
+            for (t = 1; t < bs; t++)
+                if (rowind[q + t] != rowind[q] + t) return 0;
+            nabove += bs;
         }
-        if (p >= pe || rowind[p] != c0) return 0;
-        if (q + 1 >= qe || rowind[q] != c0 || rowind[q + 1] != c1) return 0;
+        /* every column of the block: the same rows above, then its diagonal block part */
+        for (r = 0; r < bs; r++) {
+            int c = c0 + r, p = colptr[c], pe = colptr[c + 1];
+            if (pe - p < nabove + r + 1) return 0;
+            for (t = 0; t < nabove; t++)
+                if (rowind[p + t] != rowind[p0 + t]) return 0;
+            for (t = 0; t <= r; t++)
+                if (rowind[p + nabove + t] != c0 + t) return 0;
+        }
     }
     return 1;
 }
@@ -137,7 +149,7 @@ static double h_lnz(const cholmod_factor *L)
     return k;
 }
 
-/* Orderings of the node pairs' graph (dc_cholmod_ordering's codes). */
+/* Orderings of the node blocks' graph (dc_cholmod_ordering's codes). */
 enum { ORD_NONE = 0, ORD_AMD = 1, ORD_METIS = 2, ORD_NESDIS = 3, ORD_CHOLMOD = 4 };
 
 /* The ordering DYNCONTACT_ORDERING forces ('amd', 'metis', 'nesdis'), or ORD_NONE (the
@@ -153,7 +165,7 @@ static int forced_ordering(void)
     return ORD_NONE;
 }
 
-/* Order the pairs' graph g with ordering ord into nperm (1 on success). */
+/* Order the node blocks' graph g with ordering ord into nperm (1 on success). */
 static int order_pairs(cholmod_sparse *g, int ord, int *nperm, cholmod_common *c)
 {
     int nn = (int) g->nrow, ok = 0;
@@ -176,15 +188,15 @@ static int order_pairs(cholmod_sparse *g, int ord, int *nperm, cholmod_common *c
     }
 }
 
-/* Analysis with a fill-reducing ordering of the graph of the node pairs (each pair kept
- * together, no postordering, so that L is made of 2x2 blocks). AMD, METIS and CHOLMOD's
- * nested dissection are tried and the ordering with the fewest entries in L is kept
- * (AMD on a tie; the solves' cost is proportional to those entries, so the choice is
- * the one that solves fastest, and it depends on the pattern alone: deterministic).
- * *ord = the ordering kept. NULL on failure. */
-static cholmod_factor *analyze_pairs(cholmod_sparse *a, cholmod_common *c, int *ord)
+/* Analysis with a fill-reducing ordering of the graph of the node blocks of size bs
+ * (each block kept together, no postordering, so that L is made of bs x bs blocks).
+ * AMD, METIS and CHOLMOD's nested dissection are tried and the ordering with the fewest
+ * entries in L is kept (AMD on a tie; the solves' cost is proportional to those entries,
+ * so the choice is the one that solves fastest, and it depends on the pattern alone:
+ * deterministic). *ord = the ordering kept. NULL on failure. */
+static cholmod_factor *analyze_blocks(cholmod_sparse *a, int bs, cholmod_common *c, int *ord)
 {
-    int n = (int) a->nrow, nn = n / 2, J, p, cnt = 0, k;
+    int n = (int) a->nrow, nn = n / bs, J, p, cnt = 0, k, t;
     const int *colptr = a->p, *rowind = a->i;
     int *np = malloc(sizeof(int) * (size_t) (nn + 1));
     int *ni = malloc(sizeof(int) * (size_t) (colptr[n] > 0 ? colptr[n] : 1));
@@ -197,11 +209,12 @@ static cholmod_factor *analyze_pairs(cholmod_sparse *a, cholmod_common *c, int *
     static const int tries[3] = { ORD_AMD, ORD_METIS, ORD_NESDIS };
     *ord = ORD_NONE;
     if (np == NULL || ni == NULL || nperm == NULL || perm == NULL) goto done;
-    /* the pairs' upper pattern: column J's rows are those of column 2J+1, halved */
+    /* the blocks' upper pattern: column J's rows are those of column bs J + bs - 1 up to
+     * the diagonal, one a block, divided by bs */
     for (J = 0; J < nn; J++) {
         np[J] = cnt;
-        for (p = colptr[2 * J + 1]; p < colptr[2 * J + 2] && rowind[p] <= 2 * J; p += 2)
-            ni[cnt++] = rowind[p] / 2;
+        for (p = colptr[bs * J + bs - 1]; p < colptr[bs * J + bs] && rowind[p] <= bs * J; p += bs)
+            ni[cnt++] = rowind[p] / bs;
     }
     np[nn] = cnt;
     csc_header(&g, nn, np, ni, NULL);
@@ -212,10 +225,8 @@ static cholmod_factor *analyze_pairs(cholmod_sparse *a, cholmod_common *c, int *
         if (forced != ORD_NONE && tries[k] != forced) continue;
         c->status = CHOLMOD_OK;
         if (!order_pairs(&g, tries[k], nperm, c)) continue;
-        for (J = 0; J < nn; J++) {
-            perm[2 * J] = 2 * nperm[J];
-            perm[2 * J + 1] = 2 * nperm[J] + 1;
-        }
+        for (J = 0; J < nn; J++)
+            for (t = 0; t < bs; t++) perm[bs * J + t] = bs * nperm[J] + t;
         Lk = cholmod_analyze_p(a, perm, NULL, 0, c);
         if (Lk == NULL) continue;
         if (L == NULL || h_lnz(Lk) < h_lnz(L)) {
@@ -240,8 +251,8 @@ done:
 
 /* Analyse (when n or the pattern changed) and factorize P A P' = L D L' for the n x n
  * CSC matrix (0-based colptr[n+1], rowind[nnz], sorted rows, values val), reading its
- * upper triangle; node pairs are ordered together when the pattern allows (*paired = 1,
- * see the header). Returns DC_OK; DC_NOT_POSDEF when a pivot is zero, negative or not
+ * upper triangle; node blocks are ordered together when the pattern allows (*paired = their
+ * size, 2 or 3, else 0; see the header). Returns DC_OK; DC_NOT_POSDEF when a pivot is zero, negative or not
  * finite (minor = its column, 0-based; the factor is kept but must not be used);
  * DC_OUT_OF_MEMORY; DC_FAILED (other CHOLMOD errors). *analysed = 1 when the symbolic
  * analysis was redone, *lnz = stored entries of L (unit diagonal not counted). */
@@ -271,9 +282,10 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
             return DC_OUT_OF_MEMORY;
         }
         h->c.status = CHOLMOD_OK;
-        h->paired = pairs_pattern(n, colptr, rowind);
+        h->paired = blocks_pattern(n, 2, colptr, rowind) ? 2
+                    : blocks_pattern(n, 3, colptr, rowind) ? 3 : 0;
         if (h->paired) {
-            h->L = analyze_pairs(&a, &h->c, &h->ordering);
+            h->L = analyze_blocks(&a, h->paired, &h->c, &h->ordering);
         } else {
             h->L = cholmod_analyze(&a, &h->c);
             h->ordering = ORD_CHOLMOD;
@@ -356,7 +368,7 @@ int dc_cholmod_export(void *handle, int *perm, int *colptr, int *rowind, double 
 }
 
 /* The ordering of the analysis: 1 AMD, 2 METIS, 3 CHOLMOD's nested dissection (on the
- * node pairs' graph when the pairs are ordered together, else CHOLMOD's own choice), 4
+ * node blocks' graph when the blocks are ordered together, else CHOLMOD's own choice), 4
  * another one of CHOLMOD's, 0 without an analysis. */
 int dc_cholmod_ordering(void *handle)
 {

@@ -10,6 +10,16 @@
 !> 1.4x faster than cholmod_solve2 on the same factor (docs/performance.md, "The
 !> solves"), which chases one row index per entry. The results differ from
 !> cholmod_solve2's by round-off (another order of the same products).
+!>
+!> In 3D the nodes' three dofs are ordered together in the same way, and L is made of 3x3
+!> blocks: triple_ldl_t, with the same sweeps. There the work vector is stored by nodes
+!> padded to four entries, and a block's column is read as four adjacent entries (its
+!> three and the next one), so that a block's rows are updated as one 4-vector: one
+!> 256-bit multiply and add a column with AVX, where 3-vectors were compiled to scalar
+!> operations. The fourth lane carries a throw-away value that never meets the other
+!> three (lanes are independent) and is reset at each solve; the blocks stay 9 entries
+!> (columns padded to four in memory took a third more memory and were no faster,
+!> docs/performance.md).
 module ldl_solves
     use kinds, only: dp
     implicit none
@@ -28,7 +38,21 @@ module ldl_solves
         real(dp), allocatable :: y(:)             !! (n) work vector of the solves
     end type pair_ldl_t
 
+    !> LDL^T factors by 3x3 blocks of node triples.
+    type, public :: triple_ldl_t
+        integer :: n = 0                          !! matrix size (a multiple of 3; 0: no factors)
+        integer :: nt = 0                         !! node triples (n/3)
+        integer, allocatable :: perm(:)           !! (n) row k of P A P^T is row perm(k) of A
+        integer, allocatable :: bp(:)             !! (nt + 1) blocks of each block column
+        integer, allocatable :: bi(:)             !! (n_blocks) block row (triple I: rows 3I-2 .. 3I)
+        real(dp), allocatable :: bx(:, :)         !! (9, n_blocks + 1) by columns: l11, l21, l31, l12, ..., l33; a last zero block (the fourth lane's read)
+        real(dp), allocatable :: ld(:, :)         !! (3, nt) L's entries l21, l31, l32 in each diagonal block
+        real(dp), allocatable :: d(:)             !! (n) D
+        real(dp), allocatable :: y(:, :)          !! (4, nt) work vector of the solves, by triples
+    end type triple_ldl_t
+
     public :: pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, pair_ldl_free
+    public :: triple_ldl_build, triple_ldl_solve, triple_ldl_solve_many, triple_ldl_free
 
 contains
 
@@ -218,4 +242,224 @@ contains
         f%n = 0
         f%nn = 0
     end subroutine pair_ldl_free
+    !> The block copy of the factor P A P^T = L D L^T given by columns, as pair_ldl_build,
+    !> for 3x3 blocks of the triples (3J-2, 3J-1, 3J). ok = .false. (and f empty) when L
+    !> is not made of them.
+    pure subroutine triple_ldl_build(f, n, perm, colptr, rowind, val, ok)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors (replaced)
+        integer, intent(in) :: n                            !! size
+        integer, intent(in) :: perm(:)                      !! (n) 0-based permutation
+        integer, intent(in) :: colptr(:)                    !! (n + 1) 0-based column starts
+        integer, intent(in) :: rowind(:)                    !! 0-based rows
+        real(dp), intent(in) :: val(:)                      !! D and L by columns
+        logical, intent(out) :: ok                          !! L is made of 3x3 blocks
+        integer :: jb, c0, p(0:2), e(0:2), nb, i, m, r, t
+        call triple_ldl_free(f)
+        ok = .false.
+        if (n < 3 .or. mod(n, 3) /= 0) return
+        f%nt = n / 3
+        allocate (f%perm(n), f%bp(f%nt + 1), f%ld(3, f%nt), f%d(n), f%y(4, f%nt))
+        ! count the blocks and check the structure: column c0 + r holds its diagonal, the
+        ! rows c0 + r + 1 .. c0 + 2 of the diagonal block, then m whole triples of rows
+        ! below, the same in the three columns
+        nb = 0
+        do jb = 1, f%nt
+            c0 = 3 * jb - 2
+            do r = 0, 2
+                p(r) = colptr(c0 + r) + 1
+                e(r) = colptr(c0 + r + 1)
+            end do
+            m = e(2) - p(2)
+            if (mod(m, 3) /= 0) return
+            do r = 0, 2
+                if (e(r) - p(r) /= m + 2 - r) return
+                do t = 0, 2 - r
+                    if (rowind(p(r) + t) + 1 /= c0 + r + t) return
+                end do
+            end do
+            do i = 0, m - 1
+                if (rowind(p(2) + 1 + i) /= rowind(p(0) + 3 + i) .or. &
+                    rowind(p(1) + 2 + i) /= rowind(p(0) + 3 + i)) return
+                if (mod(i, 3) == 0) then
+                    if (mod(rowind(p(0) + 3 + i), 3) /= 0) return
+                else if (rowind(p(0) + 3 + i) /= rowind(p(0) + 2 + i) + 1) then
+                    return
+                end if
+            end do
+            nb = nb + m / 3
+        end do
+        allocate (f%bi(nb), f%bx(9, nb + 1))
+        f%bx = 0.0_dp
+        f%y = 0.0_dp
+        nb = 0
+        do jb = 1, f%nt
+            c0 = 3 * jb - 2
+            do r = 0, 2
+                p(r) = colptr(c0 + r) + 1
+                f%d(c0 + r) = val(p(r))
+            end do
+            f%bp(jb) = nb + 1
+            f%ld(:, jb) = [val(p(0) + 1), val(p(0) + 2), val(p(1) + 1)]
+            do i = 0, (colptr(c0 + 3) - p(2)) / 3 - 1
+                nb = nb + 1
+                f%bi(nb) = rowind(p(0) + 3 + 3 * i) / 3 + 1
+                f%bx(1:3, nb) = val(p(0) + 3 + 3 * i:p(0) + 5 + 3 * i)
+                f%bx(4:6, nb) = val(p(1) + 2 + 3 * i:p(1) + 4 + 3 * i)
+                f%bx(7:9, nb) = val(p(2) + 1 + 3 * i:p(2) + 3 + 3 * i)
+            end do
+        end do
+        f%bp(f%nt + 1) = nb + 1
+        f%perm = perm(1:n) + 1
+        f%n = n
+        ok = .true.
+    end subroutine triple_ldl_build
+
+    !> x = A^{-1} b with the 3x3 block factors (b and x: n entries; they may not alias).
+    pure subroutine triple_ldl_solve(f, b, x)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors (work vector used)
+        real(dp), intent(in) :: b(:)                        !! right-hand side (n)
+        real(dp), intent(out) :: x(:)                       !! solution (n)
+        call triple_sweeps(f%n, f%nt, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%ld, f%d, b, x, f%y)
+    end subroutine triple_ldl_solve
+
+    !> X = A^{-1} B for the k columns of B in one pass over the factor (as
+    !> pair_ldl_solve_many). Each column gets the operations of triple_ldl_solve in the
+    !> same order.
+    pure subroutine triple_ldl_solve_many(f, b, x)
+        type(triple_ldl_t), intent(in) :: f                 !! block factors
+        real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, k)
+        real(dp), intent(out) :: x(:, :)                    !! solutions (n, k)
+        real(dp), allocatable :: y(:, :)
+        allocate (y(size(b, 2), f%n))
+        call triple_sweeps_many(f%n, f%nt, size(f%bi), size(b, 2), f%perm, f%bp, f%bi, f%bx, &
+                                f%ld, f%d, b, x, y)
+    end subroutine triple_ldl_solve_many
+
+    !> The two sweeps of pair_sweeps by 3x3 blocks: L y' = P b by block columns (each
+    !> block's rows updated as one padded 4-vector), D^{-1} on each triple once final;
+    !> L^T z = y' by block columns (three partial 4-vectors, one for each column of the
+    !> block), x = P^T z on each triple once final. y's fourth entries stay zero.
+    pure subroutine triple_sweeps(n, nt, nb, perm, bp, bi, bx, ld, d, b, x, y)
+        integer, intent(in) :: n, nt, nb                    !! size, triples, blocks
+        integer, intent(in) :: perm(n), bp(nt + 1), bi(nb)  !! permutation, block structure
+        real(dp), intent(in) :: bx(9 * nb + 9)              !! L's blocks (and the zero block)
+        real(dp), intent(in) :: ld(3, nt), d(n)             !! diagonal blocks, D
+        real(dp), intent(in) :: b(n)                        !! right-hand side
+        real(dp), intent(out) :: x(n)                       !! solution
+        real(dp), intent(inout) :: y(4, nt)                 !! work (fourth row: throw-away)
+        real(dp) :: y0, y1, y2, s0(4), s1(4), s2(4)
+        integer :: jb, q, i, c, o
+        do jb = 1, nt
+            c = 3 * jb - 2
+            y(1, jb) = b(perm(c))
+            y(2, jb) = b(perm(c + 1))
+            y(3, jb) = b(perm(c + 2))
+            y(4, jb) = 0.0_dp
+        end do
+        do jb = 1, nt
+            y0 = y(1, jb)
+            y1 = y(2, jb) - ld(1, jb) * y0
+            y2 = y(3, jb) - ld(2, jb) * y0 - ld(3, jb) * y1
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                o = 9 * (q - 1)
+                y(:, i) = y(:, i) - (bx(o + 1:o + 4) * y0 + bx(o + 4:o + 7) * y1 &
+                                     + bx(o + 7:o + 10) * y2)
+            end do
+            c = 3 * jb - 2
+            y(1, jb) = y0 / d(c)
+            y(2, jb) = y1 / d(c + 1)
+            y(3, jb) = y2 / d(c + 2)
+        end do
+        do jb = nt, 1, -1
+            s0 = 0.0_dp; s1 = 0.0_dp; s2 = 0.0_dp
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                o = 9 * (q - 1)
+                s0 = s0 + bx(o + 1:o + 4) * y(:, i)
+                s1 = s1 + bx(o + 4:o + 7) * y(:, i)
+                s2 = s2 + bx(o + 7:o + 10) * y(:, i)
+            end do
+            y2 = y(3, jb) - ((s2(1) + s2(2)) + s2(3))
+            y1 = y(2, jb) - ((s1(1) + s1(2)) + s1(3)) - ld(3, jb) * y2
+            y0 = y(1, jb) - ((s0(1) + s0(2)) + s0(3)) - ld(1, jb) * y1 - ld(2, jb) * y2
+            y(1, jb) = y0
+            y(2, jb) = y1
+            y(3, jb) = y2
+            c = 3 * jb - 2
+            x(perm(c)) = y0
+            x(perm(c + 1)) = y1
+            x(perm(c + 2)) = y2
+        end do
+    end subroutine triple_sweeps
+
+    !> triple_sweeps for k right-hand sides, the work array by rows (y(:, i): row i of
+    !> the k columns, adjacent); the same operations on each column.
+    pure subroutine triple_sweeps_many(n, nt, nb, k, perm, bp, bi, bx, ld, d, b, x, y)
+        integer, intent(in) :: n, nt, nb, k                 !! size, triples, blocks, columns
+        integer, intent(in) :: perm(n), bp(nt + 1), bi(nb)  !! permutation, block structure
+        real(dp), intent(in) :: bx(9, nb + 1), ld(3, nt), d(n) !! L's blocks, diagonal blocks, D
+        real(dp), intent(in) :: b(n, k)                     !! right-hand sides
+        real(dp), intent(out) :: x(n, k)                    !! solutions
+        real(dp), intent(out) :: y(k, n)                    !! work
+        real(dp) :: y0(k), y1(k), y2(k), s(k, 3, 3)
+        integer :: jb, q, i, c, j, r
+        do i = 1, n
+            y(:, i) = b(perm(i), :)
+        end do
+        do jb = 1, nt
+            c = 3 * jb - 2
+            y0 = y(:, c)
+            y1 = y(:, c + 1) - ld(1, jb) * y0
+            y2 = y(:, c + 2) - ld(2, jb) * y0 - ld(3, jb) * y1
+            do q = bp(jb), bp(jb + 1) - 1
+                i = 3 * bi(q) - 2
+                do r = 0, 2
+                    y(:, i + r) = y(:, i + r) - (bx(1 + r, q) * y0 + bx(4 + r, q) * y1 &
+                                                 + bx(7 + r, q) * y2)
+                end do
+            end do
+            y(:, c) = y0 / d(c)
+            y(:, c + 1) = y1 / d(c + 1)
+            y(:, c + 2) = y2 / d(c + 2)
+        end do
+        do jb = nt, 1, -1
+            c = 3 * jb - 2
+            s = 0.0_dp
+            do q = bp(jb), bp(jb + 1) - 1
+                i = 3 * bi(q) - 2
+                do j = 1, 3          ! column j of the block
+                    do r = 1, 3      ! its row r
+                        s(:, r, j) = s(:, r, j) + bx(3 * (j - 1) + r, q) * y(:, i + r - 1)
+                    end do
+                end do
+            end do
+            y2 = y(:, c + 2) - ((s(:, 1, 3) + s(:, 2, 3)) + s(:, 3, 3))
+            y1 = y(:, c + 1) - ((s(:, 1, 2) + s(:, 2, 2)) + s(:, 3, 2)) - ld(3, jb) * y2
+            y0 = y(:, c) - ((s(:, 1, 1) + s(:, 2, 1)) + s(:, 3, 1)) - ld(1, jb) * y1 &
+                 - ld(2, jb) * y2
+            y(:, c) = y0
+            y(:, c + 1) = y1
+            y(:, c + 2) = y2
+            do j = 1, k
+                x(perm(c), j) = y0(j)
+                x(perm(c + 1), j) = y1(j)
+                x(perm(c + 2), j) = y2(j)
+            end do
+        end do
+    end subroutine triple_sweeps_many
+
+    !> Release the 3x3 block factors.
+    pure subroutine triple_ldl_free(f)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors
+        if (allocated(f%perm)) deallocate (f%perm)
+        if (allocated(f%bp)) deallocate (f%bp)
+        if (allocated(f%bi)) deallocate (f%bi)
+        if (allocated(f%bx)) deallocate (f%bx)
+        if (allocated(f%ld)) deallocate (f%ld)
+        if (allocated(f%d)) deallocate (f%d)
+        if (allocated(f%y)) deallocate (f%y)
+        f%n = 0
+        f%nt = 0
+    end subroutine triple_ldl_free
 end module ldl_solves

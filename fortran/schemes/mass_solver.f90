@@ -1,9 +1,9 @@
 !> M^{-1} applications: a diagonal for lumped mass, linear_solver factors (CHOLMOD
-!> LDL^T) of the compacted consistent mass otherwise (factorized once). When every 2x2
-!> node block of M is m I (2D P1 with both components of every node free), M = S (x) I2
-!> with S the scalar mass on the nodes, and M x = b is solved as S X = B with the two
-!> components as two right-hand sides: a factor half the size of M's, each of its
-!> entries used twice.
+!> LDL^T) of the compacted consistent mass otherwise (factorized once). When every node
+!> block of M is m I (P1 with every component of every node free; 2x2 blocks in 2D, 3x3
+!> in 3D), M = S (x) I_d with S the scalar mass on the nodes, and M x = b is solved as
+!> S X = B with the d components as d right-hand sides: a factor 1/d the size of M's,
+!> each of its entries used d times.
 module mass_solver
     use kinds, only: dp
     use errors, only: STAT_OK
@@ -20,10 +20,10 @@ module mass_solver
         type(csc_t) :: mass                      !! M without structural zeros
         type(factor_t) :: lu                     !! its factors (LDL^T, or LU as fallback)
         integer, allocatable :: massless(:)      !! dofs with no inertia: x = 0 there
-        logical :: scalar = .false.              !! M = S (x) I2: lu holds the factors of S
+        logical :: scalar = .false.              !! M = S (x) I_d: lu holds the factors of S
         type(csc_t) :: s                         !! S, one row per node
-        integer, allocatable :: first(:)         !! (nodes) the first of each node's two dofs
-        real(dp), allocatable :: bs(:, :), xs(:, :)  !! (nodes, 2) right-hand sides, solutions
+        integer, allocatable :: first(:)         !! (nodes) the first of each node's d dofs
+        real(dp), allocatable :: bs(:, :), xs(:, :)  !! (nodes, d) right-hand sides, solutions
     end type mass_solver_t
 
     public :: mass_solver_init, mass_solver_apply, mass_solver_free, mass_solver_name, &
@@ -77,18 +77,29 @@ contains
         !> S from the node blocks of M (block k of row group g holds mass_s(k) I).
         subroutine scalar_mass(st)
             integer, intent(out) :: st
-            integer, allocatable :: grp(:), rows(:), cols(:)
-            integer :: g, k, ng
-            ng = mdl%mass_b%n_groups
-            ms%first = mdl%mass_b%first(1:ng)
+            integer, allocatable :: grp(:), rows(:), cols(:), bfirst(:), row_ptr(:), col1(:)
+            integer :: g, k, ng, nc
+            if (mdl%dim == 3) then
+                bfirst = mdl%mass_b3%first
+                row_ptr = mdl%mass_b3%row_ptr
+                col1 = mdl%mass_b3%col1
+                nc = 3
+            else
+                bfirst = mdl%mass_b%first
+                row_ptr = mdl%mass_b%row_ptr
+                col1 = mdl%mass_b%col1
+                nc = 2
+            end if
+            ng = size(bfirst) - 1
+            ms%first = bfirst(1:ng)
             allocate (grp(mdl%n_dofs), rows(size(mdl%mass_s)), cols(size(mdl%mass_s)), &
-                      ms%bs(ng, 2), ms%xs(ng, 2))
+                      ms%bs(ng, nc), ms%xs(ng, nc))
             grp = 0
             grp(ms%first) = [(g, g = 1, ng)]
             do g = 1, ng
-                do k = mdl%mass_b%row_ptr(g), mdl%mass_b%row_ptr(g + 1) - 1
+                do k = row_ptr(g), row_ptr(g + 1) - 1
                     rows(k) = g
-                    cols(k) = grp(mdl%mass_b%col1(k))
+                    cols(k) = grp(col1(k))
                 end do
             end do
             call csc_from_coo(ng, rows, cols, mdl%mass_s, ms%s, st, errmsg)
@@ -119,19 +130,21 @@ contains
         real(dp), intent(out) :: x(:)                       !! solution
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: g
+        integer :: g, c
         if (ms%lumped) then
             x = ms%inv_diag * b
             stat = STAT_OK
         else if (ms%scalar) then
-            do g = 1, size(ms%first)
-                ms%bs(g, 1) = b(ms%first(g))
-                ms%bs(g, 2) = b(ms%first(g) + 1)
+            do c = 1, size(ms%bs, 2)
+                do g = 1, size(ms%first)
+                    ms%bs(g, c) = b(ms%first(g) + c - 1)
+                end do
             end do
             call ls_solve_many(ms%lu, ms%s, ms%bs, ms%xs, stat, errmsg)
-            do g = 1, size(ms%first)
-                x(ms%first(g)) = ms%xs(g, 1)
-                x(ms%first(g) + 1) = ms%xs(g, 2)
+            do c = 1, size(ms%bs, 2)
+                do g = 1, size(ms%first)
+                    x(ms%first(g) + c - 1) = ms%xs(g, c)
+                end do
             end do
         else
             call ls_solve(ms%lu, ms%mass, b, x, stat, errmsg)

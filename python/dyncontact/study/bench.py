@@ -218,12 +218,17 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100,
 
 def step_floor(row: Mapping[str, Any], cholmod: bool = False) -> float | None:
     """The floor of one step: one solve + one SpMV with K_θ for the implicit scheme, two
-    M⁻¹ applications + two SpMVs for the predictor-corrector. ``cholmod``: the implicit
-    scheme's floor with cholmod_solve2 on the same factor as its solve (CHOLMOD's own
-    solve, the reference for the run's solve kernel); None for the predictor-corrector."""
+    M⁻¹ applications + two SpMVs for the predictor-corrector. The implicit scheme's solve
+    is the faster of the run's own triangular solve and cholmod_solve2 on the same factor
+    (the best solve of that factor; in 2D and 3D the run's node-block solve). ``cholmod``:
+    the implicit scheme's floor with cholmod_solve2 (CHOLMOD's own solve, the reference
+    for the run's solve kernel); None for the predictor-corrector."""
     spmv = row.get("floor_spmv_us")
     if row.get("floor_mass_solve_us") is None:     # an implicit scheme: no M^-1 solve
-        solve = row.get("floor_cholmod_solve_us" if cholmod else "floor_solve_us")
+        chol = row.get("floor_cholmod_solve_us")
+        solve = chol if cholmod else row.get("floor_solve_us")
+        if not cholmod and solve is not None and chol is not None:
+            solve = min(solve, chol)
         return solve + spmv if solve is not None and spmv is not None else None
     if cholmod:
         return None
@@ -261,7 +266,8 @@ def _cell(row: Mapping[str, Any], key: str, fmt: str) -> str:
         return f"{lo:.2f}-{hi:.2f}" if lo is not None and hi is not None else "-"
     v = row.get(key)
     if key.startswith("floor_"):
-        implicit = str(row.get("scene", "")).startswith("seed")
+        # an implicit scheme's row (the seed's and the 3D box's): no M^-1 floor
+        implicit = not str(row.get("scene", "")).startswith("pc")
         applies = {"floor_solve_us": implicit, "floor_cholmod_solve_us": implicit,
                    "floor_cholmod_ratio": implicit,
                    "floor_mass_solve_us": not implicit}.get(key, True)
