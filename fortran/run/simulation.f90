@@ -148,6 +148,8 @@ contains
             call open_outputs(sim, stat, errmsg)
         end if
         if (stat /= STAT_OK) then
+            if (sim%status == 'running' .and. stat == STAT_INTERNAL) &
+                call open_write_failed(sim, errmsg)
             if (sim%trace%fd >= 0) then    ! ours: remove it (never another run's)
                 call trace_close(sim%trace, n)
                 call file_remove(trim(sim%scn%out_dir)//'/trace.csv.tmp')
@@ -225,6 +227,21 @@ contains
             if (stat /= STAT_OK) return
         end if
     end subroutine start_scheme
+
+    !> The outputs were opened (trace.csv and the first summary.json replaced the
+    !> previous run's) but a later write of the opening failed (the t = 0 snapshot on a
+    !> full disk): summary.json says so, as it does for a write failed during the run.
+    subroutine open_write_failed(sim, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (outputs opened)
+        character(len=*), intent(in), optional :: errmsg    !! message of the failed write
+        integer :: st2
+        character(len=512) :: msg2
+        sim%status = 'write_failed'
+        sim%message = ''
+        if (present(errmsg)) sim%message = errmsg
+        sim%finished = .true.
+        call write_summary(sim, st2, msg2, last=.true.)
+    end subroutine open_write_failed
 
     !> Output folder, lock, checks that every target can be written, then the new
     !> trace under a temporary name; it replaces trace.csv only once its t = 0 row
