@@ -544,35 +544,21 @@ contains
             if (j > 1 .and. j <= scan(text(i:)//',', ',')) then
                 if (verify(text(i:i + j - 2), '0123456789') == 0) i = i + j
             end if
-            if (i <= n) then
-                if (scan(text(i:i), '+-') == 1) i = i + 1
-            end if
-            digits = 0
-            do while (i <= n)
-                if (scan(text(i:i), '0123456789') /= 1) exit
-                i = i + 1; digits = digits + 1
-            end do
+            call skip_sign(i)
+            call skip_digits(i, digits)
             if (i <= n) then
                 if (text(i:i) == '.') then
                     i = i + 1
-                    do while (i <= n)
-                        if (scan(text(i:i), '0123456789') /= 1) exit
-                        i = i + 1; digits = digits + 1
-                    end do
+                    call skip_digits(i, j)
+                    digits = digits + j
                 end if
             end if
             if (digits == 0) return
             if (i <= n) then
                 if (scan(text(i:i), 'eEdD') == 1) then
                     i = i + 1
-                    if (i <= n) then
-                        if (scan(text(i:i), '+-') == 1) i = i + 1
-                    end if
-                    digits = 0
-                    do while (i <= n)
-                        if (scan(text(i:i), '0123456789') /= 1) exit
-                        i = i + 1; digits = digits + 1
-                    end do
+                    call skip_sign(i)
+                    call skip_digits(i, digits)
                     if (digits == 0) return
                 end if
             end if
@@ -581,6 +567,26 @@ contains
             i = i + 2
         end do
         ok = .true.
+    contains
+        !> Moves i past a '+' or '-' at text(i).
+        pure subroutine skip_sign(i)
+            integer, intent(inout) :: i
+            if (i <= n) then
+                if (scan(text(i:i), '+-') == 1) i = i + 1
+            end if
+        end subroutine skip_sign
+
+        !> Moves i past the digits from text(i); count: how many there were.
+        pure subroutine skip_digits(i, count)
+            integer, intent(inout) :: i
+            integer, intent(out) :: count
+            count = 0
+            do while (i <= n)
+                if (scan(text(i:i), '0123456789') /= 1) exit
+                i = i + 1
+                count = count + 1
+            end do
+        end subroutine skip_digits
     end function real_syntax
 
     !> Position of the first byte of s that is not part of well-formed UTF-8 (utf8_len),
