@@ -175,6 +175,21 @@ def critical_groups(recs) -> tuple[dict[tuple, dict[str, Any]], dict[tuple, tupl
     return crit, brackets
 
 
+def _grid_tasks(base, schemes, grid, t_end, **task_kw):
+    """The grid's runs: every scheme x h x gamma0 x theta x dt/h of ``grid`` (the ratios
+    of the scheme's kind), in that order; ``task_kw`` goes to :func:`_task`."""
+    tasks = []
+    for s in schemes:
+        ratios = grid["dt_over_h"]["explicit" if s.explicit else "implicit"]
+        for h in grid["h"]:
+            for g0 in grid["gamma0"]:
+                for th in thetas(s, grid):
+                    for r in ratios:
+                        tasks.append(_task(base, s, h, g0, th, h * r, t_end, "grid",
+                                           **task_kw))
+    return tasks
+
+
 def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0, first=None):
     settings = dict(first or {})        # first: keys that must come first (mesh.dim)
     settings.update(s.settings)
@@ -204,15 +219,7 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
     base = write_base_scenes(os.path.join(out, "scenes"))["seed2d"]
     schemes = scheme_list(g["schemes"])
     t_end = float(g["t_end"])
-    tasks = []
-    for s in schemes:
-        ratios = g["dt_over_h"]["explicit" if s.explicit else "implicit"]
-        for h in g["h"]:
-            for g0 in g["gamma0"]:
-                for th in thetas(s, g):
-                    for r in ratios:
-                        tasks.append(_task(base, s, h, g0, th, h * r, t_end, "grid",
-                                           KEEP_ROWS))
+    tasks = _grid_tasks(base, schemes, g, t_end, keep_rows=KEEP_ROWS)
     recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,
                  desc="stability grid", log=log)
     crit, brackets = critical_groups(recs)
@@ -292,15 +299,7 @@ def run_box3d(out: str, base: str, g: Mapping[str, Any], g3: Mapping[str, Any], 
     schemes = scheme_list(grid["schemes"])
     t_end = float(grid["t_end"])
     first = {"mesh.dim": 3}             # the vector keys become 3D before the others
-    tasks = []
-    for s in schemes:
-        ratios = grid["dt_over_h"]["explicit" if s.explicit else "implicit"]
-        for h in grid["h"]:
-            for g0 in grid["gamma0"]:
-                for th in thetas(s, grid):
-                    for r in ratios:
-                        tasks.append(_task(base, s, h, g0, th, h * r, t_end, "grid",
-                                           first=first))
+    tasks = _grid_tasks(base, schemes, grid, t_end, first=first)
     recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,
                  desc="stability 3D grid", log=log)
     crit, brackets = critical_groups(recs)
