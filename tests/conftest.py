@@ -68,6 +68,27 @@ def run_exe(exe, tmp_path):
     return run
 
 
+def fd_jacobian_errors(m, u, active: int, rng, tries: int) -> list[float]:
+    """Relative errors |FD - J du| / |J du| of a Model `m`'s Jacobian at u against
+    central differences of B, for `tries` random directions; a direction along which a
+    quadrature point switches (the active count differs from `active`) is skipped: B is
+    not differentiable there."""
+    import numpy as np
+
+    errs = []
+    for _ in range(tries):
+        du = rng.standard_normal(u.shape)
+        eps = 1e-7 * np.linalg.norm(u) / np.linalg.norm(du)
+        bp, act_p = m.eval_b(u + eps * du)
+        bm, act_m = m.eval_b(u - eps * du)
+        if act_p != active or act_m != active:
+            continue
+        fd = (bp - bm) / (2 * eps)
+        jdu = m.jacobian_apply(u, du)
+        errs.append(float(np.linalg.norm(fd - jdu) / np.linalg.norm(jdu)))
+    return errs
+
+
 def sampled_steps(run, n_steps: int, samples, extra=None) -> dict:
     """Advance a Stepper `run` to n_steps, keeping at each step of `samples` the states
     before and after it: {step: (s0, s1)}, or (s0, s1, *extra(s0, s1)) with `extra`."""

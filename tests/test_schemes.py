@@ -21,6 +21,7 @@ import pytest
 import dyncontact
 from dyncontact import Scene
 from dyncontact.core import Model
+from conftest import fd_jacobian_errors
 
 REF = Path(__file__).parent / "data" / "reference"
 ROOT = Path(__file__).resolve().parents[1]
@@ -86,16 +87,7 @@ def test_generalized_derivative_matches_finite_differences(theta, quadrature, de
             assert active == 0
         else:
             assert active > 0
-        for _ in range(3):
-            du = rng.standard_normal(u.shape)
-            eps = 1e-7 * np.linalg.norm(u) / np.linalg.norm(du)
-            bp, act_p = m.eval_b(u + eps * du)
-            bm, act_m = m.eval_b(u - eps * du)
-            if act_p != active or act_m != active:
-                continue  # a quadrature point switched: not a point of differentiability
-            fd = (bp - bm) / (2 * eps)
-            jdu = m.jacobian_apply(u, du)
-            err = np.linalg.norm(fd - jdu) / np.linalg.norm(jdu)
+        for err in fd_jacobian_errors(m, u, active, rng, 3):
             assert err < FD_TOL, f"theta={theta} {quadrature}: relative FD error {err:.2e}"
 
 
