@@ -12,7 +12,7 @@ module text
         module procedure int_text_default, int_text_i8
     end interface int_text
 
-    public :: int_text, real_text, utf8_len
+    public :: int_text, real_text, utf8_len, lower
 
 contains
 
@@ -86,4 +86,15 @@ contains
             lo = 128; hi = 191
         end do
     end function utf8_len
+
+    !> `s` in lower case (ASCII letters; other bytes as they are).
+    pure function lower(s) result(r)
+        character(len=*), intent(in) :: s   !! text
+        character(len=len(s)) :: r
+        integer :: i
+        r = s
+        do i = 1, len(s)
+            if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') r(i:i) = achar(iachar(s(i:i)) + 32)
+        end do
+    end function lower
 end module text

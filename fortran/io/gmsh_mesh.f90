@@ -18,6 +18,7 @@ module gmsh_mesh
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise, MSG_LEN
     use mesh, only: mesh_t, mesh_check, GROUP_NAME_LEN
+    use text, only: lower
     implicit none
     private
     public :: read_mesh_file, gmsh_available
@@ -249,17 +250,6 @@ contains
             ext = path(i:)
         end if
     end function extension
-
-    !> `s` in lower case (ASCII).
-    pure function lower(s) result(t)
-        character(len=*), intent(in) :: s   !! text
-        character(len=len(s)) :: t
-        integer :: i
-        t = s
-        do i = 1, len(s)
-            if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') t(i:i) = achar(iachar(s(i:i)) + 32)
-        end do
-    end function lower
 
     !> Fortran text of a NUL-terminated C buffer.
     pure function from_c(buf) result(s)

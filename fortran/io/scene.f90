@@ -17,7 +17,7 @@
 !> converted by one list-directed internal read.
 module scene
     use kinds, only: dp, i8
-    use text, only: int_text, real_text, utf8_len
+    use text, only: int_text, real_text, utf8_len, lower
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
     implicit none
     private
@@ -989,17 +989,6 @@ contains
         end do
         if (len(s) > n) r = r//'...'
     end function shown
-
-    !> Lower-case ASCII copy.
-    pure function lower(s) result(r)
-        character(len=*), intent(in) :: s   !! text
-        character(len=len(s)) :: r
-        integer :: i
-        r = s
-        do i = 1, len(s)
-            if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') r(i:i) = achar(iachar(s(i:i)) + 32)
-        end do
-    end function lower
 
     !> The number written in a check: a real or a fraction 'a/b'.
     real(dp) function number(s)
