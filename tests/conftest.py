@@ -68,6 +68,12 @@ def run_exe(exe, tmp_path):
     return run
 
 
+def lame(young, poisson):
+    """Lamé's (lambda, mu) of Young's modulus and Poisson's ratio."""
+    return (young * poisson / ((1 + poisson) * (1 - 2 * poisson)),
+            young / (2 * (1 + poisson)))
+
+
 def fd_jacobian_errors(m, u, active: int, rng, tries: int) -> list[float]:
     """Relative errors |FD - J du| / |J du| of a Model `m`'s Jacobian at u against
     central differences of B, for `tries` random directions; a direction along which a

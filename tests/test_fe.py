@@ -15,6 +15,7 @@ import pytest
 
 from dyncontact import Scene
 from dyncontact.core import Model, load_mesh, p1_element
+from conftest import lame
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE_1D = ROOT / "scripts" / "scenes" / "bar1d.nml"
@@ -32,11 +33,6 @@ PATCH_TOL = 1e-12
 STATIC_TOL = 1e-10
 
 RNG = np.random.default_rng(1234)
-
-
-def lame(young, poisson):
-    return (young * poisson / ((1 + poisson) * (1 - 2 * poisson)),
-            young / (2 * (1 + poisson)))
 
 
 def reference_triangle(x, young, poisson, rho):

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from dyncontact.core import p1_element
+from conftest import lame
 
 #: Element matrices are a few flops from their entries: round-off relative to the
 #: largest entry.
@@ -24,11 +25,6 @@ ZERO_EIG_TOL = 1e-12
 PATCH_TOL = 1e-12
 
 RNG = np.random.default_rng(2024)
-
-
-def lame(young, poisson):
-    return (young * poisson / ((1 + poisson) * (1 - 2 * poisson)),
-            young / (2 * (1 + poisson)))
 
 
 def reference_tet(x, young, poisson, rho):
