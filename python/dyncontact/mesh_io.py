@@ -205,6 +205,13 @@ def find_geo(name: str = "bar2d.geo") -> Path:
     raise FileNotFoundError(f"{name} not found (looked in {', '.join(map(str, candidates))})")
 
 
+def _check_sizes(who: str, **sizes: float) -> None:
+    """BadInputError naming `who` unless every size is finite and > 0."""
+    for name, value in sizes.items():
+        if not (np.isfinite(value) and value > 0):
+            raise BadInputError(f"{who}: {name} = {value} (must be > 0)")
+
+
 def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float = 0.05,
              length: float = 1.0, width: float = 0.1, binary: bool = False,
              version: float = 4.1) -> Path:
@@ -219,9 +226,7 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float 
     Path
         `out_path`.
     """
-    for name, value in (("h", h), ("length", length), ("width", width)):
-        if not (np.isfinite(value) and value > 0):
-            raise BadInputError(f"generate: {name} = {value} (must be > 0)")
+    _check_sizes("generate", h=h, length=length, width=width)
     geo = Path(geo_path)
     if not geo.is_file():
         raise BadInputError(f"{geo}: no such file")
@@ -280,9 +285,7 @@ def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
     Path
         `out_path`.
     """
-    for name, value in (("h", h), ("length", length), ("width", width)):
-        if not (np.isfinite(value) and value > 0):
-            raise BadInputError(f"generate_bar: {name} = {value} (must be > 0)")
+    _check_sizes("generate_bar", h=h, length=length, width=width)
     if round(length / h) * round(width / h) > 5e7:
         raise BadInputError(f"generate_bar: h = {h} gives too many elements")
     geo = Path(geo_path) if geo_path is not None else find_geo()
