@@ -16,27 +16,42 @@ theta = 1, gamma0 = 10, gamma_N = gamma0 / h_T with h_T = sqrt(2) h, IM_TRIANGLE
 4 on the triangles, 3 Gauss points a contact facet), u0 = (0, 1/2 - y/2), v0 = 0,
 a0 from M a0 + B(u0) = 0, Newmark beta = 1/4, gamma = 1/2 (= hht alpha = 0).
 
-Everything is GetFEM's own: its mesh, its elasticity and mass bricks, its Newmark scheme
-(the model's time dispatcher: the balance at t_{n+1}), a nonlinear term for the contact and
-its Newton solver (`Model.solve`, full steps, the tangent assembled and factorized by its
-sparse direct solver at every iteration). The solver is `--lsolver mumps` (sequential MUMPS,
-an LU factorization since the model is not flagged symmetric; what GetFEM picks by itself
-when it has MUMPS). `--lsolver superlu` is GetFEM's other direct solver (sparse LU), but in
-Debian's 5.4.2 build it crashes (segmentation fault in the first solve). The contact term (`--contact spec`, the default) is SPEC §1's frictionless one,
-written in GetFEM's weak-form language:
+GetFEM makes the mesh, the P1 space, the integration and every matrix and vector (its
+elasticity and mass assemblies and, for the contact, a term in its weak-form language).
+Two time loops (`--loop`):
+
+- `scipy` (the default; "the GetFEM script" of docs/performance.md): the reference's
+  layout (tests/data/reference/README.md): numpy and scipy run Newmark and the semi-smooth
+  Newton on what GetFEM assembles (the contact term's residual and tangent at every
+  iterate, on Gamma_C only), with sparse LU (scipy's splu), the factor reused while the
+  Jacobian does not change (see `ScipyLoop`).
+- `model`: everything in GetFEM's model: its elasticity and mass bricks, its Newmark scheme
+  (the time dispatcher: the balance at t_{n+1}), the contact as a nonlinear term and its
+  Newton (`Model.solve`, full steps), which assembles the tangent and factorizes it at
+  every iteration with `--lsolver mumps` (sequential MUMPS, LU since the model is not
+  flagged symmetric; what GetFEM picks by itself when it has MUMPS). `--lsolver superlu`
+  is GetFEM's other direct solver, but in Debian's 5.4.2 build it crashes (segmentation
+  fault in the first solve).
+
+Both reproduce the reference trace bar2d_h0.05_hht_a0.csv (h = 0.05, dt = 0.0025, T = 15)
+to its printed digits in u_n (1.4e-11) and the energies (6e-13), and to 1e-9 in v_n and
+p_n (tests/test_getfem_compare.py). The contact term (`--contact spec`, the default) is
+SPEC §1's frictionless one:
 
     -(theta/gamma_N) sigma_n(u) sigma_n(v) + (1/gamma_N) [P_1(u) + gamma_N g]_- P_theta(v).
 
-`--contact brick` uses GetFEM's Nitsche brick (`add_Nitsche_contact_with_rigid_obstacle_
-brick`, friction coefficient 0, gamma0 scaled so that its gamma0 / element_size is the same
-gamma_N). That brick's symmetric term is -(theta/gamma) (sigma(u) n).(sigma(v) n), the whole
-traction and not only its normal part, so its discrete problem differs from SPEC's by the
-consistent term (theta/gamma_N) sigma_t(u) sigma_t(v): its traces differ from the reference
-by more than round-off (the script's output says by how much; same cost a step).
+`--contact brick` (with `--loop model`) uses GetFEM's Nitsche brick instead
+(`add_Nitsche_contact_with_rigid_obstacle_brick`, friction coefficient 0, gamma0 scaled so
+that its gamma0 / element_size is the same gamma_N). That brick's symmetric term is
+-(theta/gamma) (sigma(u) n).(sigma(v) n), the whole traction and not only its normal part,
+so its problem differs from SPEC's by the consistent term (theta/gamma_N) sigma_t(u)
+sigma_t(v), present in flight too: at h = 0.05 its u_n differs from the reference by 1.4e-3
+before the first impact and by 4e-2 over T = 15 (a different discretization, not round-off;
+the same cost a step).
 
 Output: one JSON line on stdout with dofs (free dofs, the count dyncontact reports), steps,
 setup_s, loop_s and loop_cpu_s (the time loop only: wall and CPU time of the process),
-ms_per_step (CPU), newton_its; `--trace FILE` also writes the reference's columns
+ms_per_step (CPU), newton_its, factorizations (in the loop); `--trace FILE` also writes the reference's columns
 (t,u_n,v_n,p_n,sigma_n,e_kin,e_el,e_contact,e_total,newton_its) every `--every` steps (the
 trace's own cost is inside the loop then: time without `--trace`). Peak memory: run it under
 `/usr/bin/time -v`.
@@ -232,9 +247,16 @@ def energies(st, u, v):
 class ScipyLoop:
     """The reference's layout of the time loop: GetFEM assembles (M, K once; the contact
     term's residual and tangent at every Newton iterate, on Gamma_C only), numpy and scipy
-    do the rest: Newmark (1/4, 1/2), semi-smooth Newton on the free dofs from u^n, the
-    Jacobian factorized by sparse LU (scipy's splu: SuperLU, COLAMD ordering) at every
-    iteration, stopped at ||R|| <= tol x (||M a|| + ||K u|| + ||r_c||)."""
+    do the rest: Newmark (1/4, 1/2), semi-smooth Newton on the free dofs from u^n, stopped
+    at ||R|| <= tol x (||M a|| + ||K u|| + ||r_c||). The Jacobian is factorized by sparse
+    LU (scipy's splu, SuperLU with the minimum-degree ordering of A^T + A: the fastest of
+    its orderings on this matrix) only when it changes: the factors are kept by the bytes
+    of the assembled contact tangent, which depends on u only through the active
+    quadrature points (at most ``keep`` factors, the oldest dropped). Contact-free steps
+    therefore reuse one factor and cost one solve. The first factor (at u0) is made with
+    the set-up."""
+
+    keep = 4
 
     def __init__(self, st, dt, beta=0.25, gamma=0.5):
         self.st, self.dt, self.beta, self.gamma = st, dt, beta, gamma
@@ -244,6 +266,30 @@ class ScipyLoop:
         self.mff = st["m"][f][:, f].tocsc()
         self.kff = st["k"][f][:, f].tocsc()
         self.u, self.v, self.a = st["u0"].copy(), np.zeros_like(st["u0"]), st["a0"].copy()
+        self.factors = {}           # bytes of the contact tangent -> splu factor
+        self.factorizations = 0
+        # the Jacobian at u0 factorized with the set-up, as dyncontact factorizes J0
+        # before its first step
+        self._u = self.u
+        self._solver(1.0 / (beta * dt * dt))
+
+    def _solver(self, c):
+        """The factor of the Jacobian at the current iterate (J_c assembled here)."""
+        import scipy.sparse.linalg as spl
+
+        jc = self._contact(self._u, 2)[self.f][:, self.f].tocsr()
+        jc.sum_duplicates()
+        jc.sort_indices()
+        key = jc.indptr.tobytes() + jc.indices.tobytes() + jc.data.tobytes()
+        lu = self.factors.pop(key, None)
+        if lu is None:
+            jac = (c * self.mff + self.kff + jc).tocsc()
+            lu = spl.splu(jac, permc_spec="MMD_AT_PLUS_A")
+            self.factorizations += 1
+            while len(self.factors) >= self.keep:
+                self.factors.pop(next(iter(self.factors)))
+        self.factors[key] = lu      # most recently used last
+        return lu
 
     def _contact(self, u, order):
         gf, st = self.st["gf"], self.st
@@ -253,8 +299,6 @@ class ScipyLoop:
 
     def step(self, tol=1e-10, maxit=50):
         """One step; returns the Newton iterations."""
-        import scipy.sparse.linalg as spl
-
         dt, b, g, f = self.dt, self.beta, self.gamma, self.f
         c = 1.0 / (b * dt * dt)
         pred = self.u + dt * self.v + dt * dt * (0.5 - b) * self.a
@@ -267,8 +311,8 @@ class ScipyLoop:
             if it > 1 and np.linalg.norm(r) <= tol * scale:
                 it -= 1
                 break
-            jac = (c * self.mff + self.kff + self._contact(u, 2)[f][:, f]).tocsc()
-            u[f] -= spl.splu(jac).solve(r)
+            self._u = u
+            u[f] -= self._solver(c).solve(r)
         else:
             raise RuntimeError("Newton did not converge")
         a = c * (u - pred)
@@ -278,7 +322,7 @@ class ScipyLoop:
 
 
 def run(h, dt, steps, trace=None, every=1, contact="spec", lsolver="mumps",
-        max_res=1e-10, loop="model"):
+        max_res=1e-10, loop="scipy"):
     """Set up, then ``steps`` steps; returns the timing record (and writes the trace).
     ``loop``: 'model' (GetFEM's Model.solve) or 'scipy' (:class:`ScipyLoop`)."""
     if loop == "scipy" and contact != "spec":
@@ -325,7 +369,8 @@ def run(h, dt, steps, trace=None, every=1, contact="spec", lsolver="mumps",
             "lsolver": lsolver if loop == "model" else "scipy splu",
             "setup_s": setup_s, "setup_cpu_s": t1c - t0c, "loop_s": loop_s,
             "loop_cpu_s": loop_cpu, "ms_per_step": 1e3 * loop_cpu / max(1, steps),
-            "ms_per_step_wall": 1e3 * loop_s / max(1, steps), "newton_its": its_total}
+            "ms_per_step_wall": 1e3 * loop_s / max(1, steps), "newton_its": its_total,
+            "factorizations": (sl.factorizations - 1) if sl is not None else its_total}
 
 
 def main(argv=None):
@@ -337,8 +382,9 @@ def main(argv=None):
     ap.add_argument("--trace", default=None, help="write the trace to this CSV")
     ap.add_argument("--every", type=int, default=1, help="trace every k-th step")
     ap.add_argument("--contact", choices=("spec", "brick"), default="spec")
-    ap.add_argument("--loop", choices=("model", "scipy"), default="model",
-                    help="model: GetFEM's Model.solve; scipy: the reference's loop")
+    ap.add_argument("--loop", choices=("scipy", "model"), default="scipy",
+                    help="scipy: the reference's loop (default); model: GetFEM's "
+                    "Model.solve")
     ap.add_argument("--lsolver", choices=("mumps", "superlu"), default="mumps",
                     help="GetFEM's sparse direct solver (default mumps, GetFEM's own "
                     "choice; superlu crashes in Debian's 5.4.2 build)")
