@@ -151,7 +151,8 @@ def build(h, dt, contact="spec", lsolver="mumps"):
     ms.assembly("build_rhs")
     b_u0 = -np.asarray(ms.rhs())[:nd]
     a0 = np.zeros(nd)
-    a0[free] = spl.spsolve(m[free][:, free].tocsc(), -b_u0[free])
+    a0[free] = spl.splu(m[free][:, free].tocsc(), permc_spec="MMD_AT_PLUS_A").solve(
+        -b_u0[free])
     del ms
 
     # the time model: the static part, Newmark (1/4, 1/2) on u and the mass on Dot2_u

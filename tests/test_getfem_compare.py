@@ -1,0 +1,173 @@
+"""The comparison with GetFEM (``scripts/bench --getfem``, dyncontact.study.getfem_compare).
+
+- The driver's own logic, without GetFEM: the ratio and the table on canned numbers, the
+  peak read from ``/usr/bin/time -v``, the step counts, the scene it gives dyncontact
+  (the GetFEM script's problem), interleaved rounds with the best kept, and a clean exit 0
+  with a message when no Python has GetFEM.
+- Skipped without GetFEM's Python interface (Debian python3-getfem): the GetFEM script
+  (scripts/getfem_bar.py), both of its time loops, gives the reference trace
+  tests/data/reference/bar2d_h0.05_hht_a0.csv (copied from ../shared/reference, computed
+  with GetFEM 5.4.2): it is the reference problem, so its times are for the same problem.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+from dyncontact import Scene
+from dyncontact.study import getfem_compare as gc
+
+REFERENCE = ROOT / "tests" / "data" / "reference" / "bar2d_h0.05_hht_a0.csv"
+SCRIPT = ROOT / "scripts" / "getfem_bar.py"
+
+#: The reference file prints 10 significant digits: |u_n| <= 0.5 is rounded to 2.5e-11,
+#: the energies (<= 0.0125) to 6.3e-13. Twice that leaves room for the script's own
+#: round-off (another sparse LU, another Newton stopping test, both at the 1e-10 relative
+#: Newton tolerance, which gives states equal to ~1e-12 after 6000 steps).
+TOL_U = 5e-11
+TOL_E = 1.3e-12
+#: v_n and p_n are u's differences amplified: v^{n+1} carries (gamma/(beta dt)) (u^{n+1} -
+#: u^n) = 800 (u^{n+1} - u^n) at dt = 0.0025, p_n carries gamma_N u_n = 141 u_n; 800 x
+#: 1e-12 (the states' agreement) plus the printed digits gives ~1e-9, taken as 1e-8.
+TOL_VP = 1e-8
+
+
+def _getfem_python():
+    py, _ = gc.find_getfem_python()
+    return py
+
+
+needs_getfem = pytest.mark.skipif(_getfem_python() is None,
+                                  reason="GetFEM's Python interface is not installed")
+
+
+# ----------------------------------------------------------------- the driver's logic
+
+def test_ratio_is_getfem_over_ours():
+    assert gc.ratio(20.0, 0.5) == pytest.approx(40.0)
+    assert gc.ratio(None, 0.5) is None
+    assert gc.ratio(20.0, None) is None
+    assert gc.ratio(20.0, 0.0) is None
+
+
+def test_table_on_canned_rows():
+    rows = [{"h": 0.0025, "dofs": 32800, "steps": 400, "getfem_ms": 21.0, "ours_ms": 1.5,
+             "ratio": gc.ratio(21.0, 1.5), "getfem_peak_mb": 150.0, "ours_peak_mb": 120.0},
+            {"h": 0.00125, "dofs": 129600, "steps": 200, "getfem_ms": 114.0,
+             "ours_ms": None, "ratio": None, "getfem_peak_mb": 780.0, "ours_peak_mb": None}]
+    lines = gc.rows_table(rows)
+    assert lines[0].startswith("| h | dofs | steps | GetFEM script ms/step")
+    assert "Model.solve" not in lines[0]           # not measured: no such columns
+    assert lines[2] == "| 0.0025 | 32800 | 400 | 21 | 1.5 | 14 | 150 | 120 |"
+    assert lines[3] == "| 0.00125 | 129600 | 200 | 114 | – | – | 780 | – |"
+    rows[0].update(model_steps=6, model_ms=700.0, model_ratio=gc.ratio(700.0, 1.5))
+    lines = gc.rows_table(rows)
+    assert lines[0].endswith("| Model.solve steps | Model.solve ms/step | ratio |")
+    assert lines[2].endswith("| 6 | 700 | 467 |")
+    assert lines[3].endswith("| – | – | – |")
+
+
+def test_peak_from_time_v():
+    text = ("\tCommand being timed: \"python3 getfem_bar.py\"\n"
+            "\tUser time (seconds): 1.20\n"
+            "\tMaximum resident set size (kbytes): 778572\n"
+            "\tExit status: 0\n")
+    assert gc.parse_time_v(text) == pytest.approx(778572 / 1024)
+    assert gc.parse_time_v("no report") is None
+
+
+def test_steps_stay_before_the_first_impact():
+    for h in gc.SIZES:
+        assert gc.steps_for(h) == gc.STEPS[h]
+    assert gc.steps_for(0.000625) == round(gc.STEPS[0.00125] / 4)
+    assert gc.steps_for(0.1) == gc.MAX_STEPS
+    # contact at the probe starts at t = 1.15 (reference README): every step is flight
+    assert max(gc.STEPS.values()) <= gc.MAX_STEPS
+    assert gc.MAX_STEPS * gc.DT < 1.15
+
+
+def test_scene_is_the_getfem_scripts_problem(tmp_path):
+    path = tmp_path / "s.nml"
+    path.write_text(gc.scene_text(0.01, 40, str(tmp_path / "out")))
+    s = Scene.read(path)
+    expected = {"mesh.h": 0.01, "mesh.dim": 2, "mesh.width": 0.1, "mesh.length": 1.0,
+                "contact.theta": 1, "contact.gamma0": 10.0, "contact.quadrature": "gauss",
+                "contact.quad_points": 3, "scheme.name": "hht", "scheme.alpha": 0.0,
+                "scheme.dt": gc.DT, "scheme.mass": "consistent",
+                "initial.kind": "compressed_bar", "initial.amplitude": 0.5,
+                "boundary.clamped": "top", "boundary.contact": "bottom"}
+    for key, value in expected.items():
+        assert s.get(key) == value, key
+    assert s.get("scheme.t_end") == pytest.approx(40 * gc.DT)
+    assert s.get("material.young") == pytest.approx(2 / 3)
+    assert s.get("material.poisson") == pytest.approx(1 / 3)
+
+
+def test_rounds_interleave_and_keep_the_best(monkeypatch):
+    calls = []
+    getfem_ms = iter([3.0, 2.0])
+    ours_ms = iter([0.05, 0.07])
+
+    def fake_getfem(py, h, steps, loop="scipy", env=None, script=None):
+        calls.append(("getfem", loop, steps))
+        return {"ms_per_step": next(getfem_ms), "peak_mb": 60.0 + len(calls),
+                "dofs": 2200, "setup_cpu_s": 0.1, "factorizations": 0}
+
+    def fake_ours(exe, h, steps, work, env=None):
+        calls.append(("ours", steps))
+        return {"ms_per_step": next(ours_ms), "peak_mb": 9.0, "dofs": 2200}
+
+    monkeypatch.setattr(gc, "measure_getfem", fake_getfem)
+    monkeypatch.setattr(gc, "measure_ours", fake_ours)
+    rows = gc.compare("py", "exe", [0.01], steps=50, repeats=2, log=lambda *_: None)
+    assert calls == [("getfem", "scipy", 50), ("ours", 50)] * 2
+    (r,) = rows
+    assert r["getfem_ms"] == 2.0 and r["ours_ms"] == 0.05
+    assert r["ratio"] == pytest.approx(40.0)
+    assert r["getfem_peak_mb"] == 63.0        # the largest of the rounds' peaks
+    assert r["dofs"] == 2200 and r["steps"] == 50
+
+
+def test_without_getfem_exits_0_with_a_message(capsys, tmp_path):
+    # the project's venv has no GetFEM (dyncontact must not depend on it)
+    rc = gc.main(["--getfem-python", sys.executable, "--out", str(tmp_path)])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "GetFEM's Python interface is not available" in out
+    assert not list(tmp_path.iterdir())       # nothing measured, nothing written
+
+
+def test_bench_dispatches_getfem_option(tmp_path):
+    r = subprocess.run([str(ROOT / "scripts" / "bench"), "--getfem", "--getfem-python",
+                        sys.executable, "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "nothing to compare" in r.stdout
+
+
+# ------------------------------------------- the GetFEM script is the reference problem
+
+@needs_getfem
+@pytest.mark.parametrize("loop", ["scipy", "model"])
+def test_getfem_script_gives_the_reference_trace(loop, tmp_path):
+    out = tmp_path / "trace.csv"
+    r = subprocess.run([_getfem_python(), str(SCRIPT), "--h", "0.05", "--dt", "0.0025",
+                        "--t-end", "15", "--every", "5", "--loop", loop, "--trace", str(out)],
+                       capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr
+    got = np.genfromtxt(out, delimiter=",", names=True)
+    ref = np.genfromtxt(REFERENCE, delimiter=",", names=True)
+    assert len(got) == len(ref) == 1201
+    np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-12)
+    tols = {"u_n": TOL_U, "e_kin": TOL_E, "e_el": TOL_E, "e_contact": TOL_E,
+            "e_total": TOL_E, "v_n": TOL_VP, "p_n": TOL_VP, "sigma_n": TOL_VP}
+    for col, tol in tols.items():
+        np.testing.assert_allclose(got[col], ref[col], rtol=0, atol=tol, err_msg=col)
+    # the comparison is meaningful: the trace goes through several impacts
+    assert (ref["p_n"] < 0).sum() > 100
