@@ -35,8 +35,8 @@ Two time loops (`--loop`):
 
 Both reproduce the reference trace bar2d_h0.05_hht_a0.csv (h = 0.05, dt = 0.0025, T = 15)
 to its printed digits in u_n (1.4e-11) and the energies (6e-13), and to 1e-9 in v_n and
-p_n (tests/test_getfem_compare.py). The contact term (`--contact spec`, the default) is
-SPEC §1's frictionless one:
+p_n (tests/test_getfem_compare.py checks the scipy loop to T = 15 and the model loop to
+t = 3). The contact term (`--contact spec`, the default) is SPEC §1's frictionless one:
 
     -(theta/gamma_N) sigma_n(u) sigma_n(v) + (1/gamma_N) [P_1(u) + gamma_N g]_- P_theta(v).
 
@@ -105,6 +105,7 @@ def build(h, dt, contact="spec", lsolver="mumps"):
 
     sn_u = f"(({_sigma('Grad_u')}*Normal).Normal)"
     sn_v = f"(({_sigma('Grad_Test_u')}*Normal).Normal)"
+    # Normal is Gamma_C's outward normal, (0, -1): the obstacle's n, so u.Normal = u_n
     gap = "X(2)"            # g = (obstacle_point - x).n with n = (0, -1): y
     p1 = f"({THETA}*{sn_u} - {gamma_n!r}*u.Normal + {gamma_n!r}*{gap})"
     contact_expr = (f"-({THETA}/{gamma_n!r})*{sn_u}*{sn_v} - (1/{gamma_n!r})"

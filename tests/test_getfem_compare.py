@@ -5,9 +5,10 @@
   (the GetFEM script's problem), interleaved rounds with the best kept, and a clean exit 0
   with a message when no Python has GetFEM.
 - Skipped without GetFEM's Python interface (Debian python3-getfem): the GetFEM script
-  (scripts/getfem_bar.py), both of its time loops, gives the reference trace
+  (scripts/getfem_bar.py) gives the reference trace
   tests/data/reference/bar2d_h0.05_hht_a0.csv (copied from ../shared/reference, computed
-  with GetFEM 5.4.2): it is the reference problem, so its times are for the same problem.
+  with GetFEM 5.4.2), its timed loop to T = 15 and GetFEM's Model.solve to t = 3: it is
+  the reference problem, so its times are for the same problem.
 """
 
 from __future__ import annotations
@@ -27,14 +28,17 @@ REFERENCE = ROOT / "tests" / "data" / "reference" / "bar2d_h0.05_hht_a0.csv"
 SCRIPT = ROOT / "scripts" / "getfem_bar.py"
 
 #: The reference file prints 10 significant digits: |u_n| <= 0.5 is rounded to 2.5e-11,
-#: the energies (<= 0.0125) to 6.3e-13. Twice that leaves room for the script's own
-#: round-off (another sparse LU, another Newton stopping test, both at the 1e-10 relative
-#: Newton tolerance, which gives states equal to ~1e-12 after 6000 steps).
+#: the energies (<= 0.0125) to 6.3e-13. On top of that, two codes that solve the same
+#: steps with other sparse factorizations and other Newton stopping tests (each at the
+#: 1e-10 relative tolerance) part by round-off over the 6000 steps: at h = 0.05 the GetFEM
+#: script's two loops differ by 3.8e-12 in u_n and 9e-14 in e_total, the GetFEM script
+#: and dyncontact (gauss 3) by 1.7e-11 and 3.9e-13. The sums (4.2e-11, 1.0e-12) are within:
 TOL_U = 5e-11
 TOL_E = 1.3e-12
-#: v_n and p_n are u's differences amplified: v^{n+1} carries (gamma/(beta dt)) (u^{n+1} -
-#: u^n) = 800 (u^{n+1} - u^n) at dt = 0.0025, p_n carries gamma_N u_n = 141 u_n; 800 x
-#: 1e-12 (the states' agreement) plus the printed digits gives ~1e-9, taken as 1e-8.
+#: v_n and p_n amplify u's differences: v^{n+1} carries (gamma/(beta dt)) (u^{n+1} - u^n)
+#: = 800 (u^{n+1} - u^n) at dt = 0.0025, p_n carries gamma_N u_n = 141 u_n. Measured: the
+#: two loops differ by 3e-10, the GetFEM script and dyncontact by 1.5e-9, the reference
+#: and the GetFEM script by 1.05e-9: 1e-8 is about 7 times the largest.
 TOL_VP = 1e-8
 
 
@@ -154,20 +158,24 @@ def test_bench_dispatches_getfem_option(tmp_path):
 # ------------------------------------------- the GetFEM script is the reference problem
 
 @needs_getfem
-@pytest.mark.parametrize("loop", ["scipy", "model"])
-def test_getfem_script_gives_the_reference_trace(loop, tmp_path):
+@pytest.mark.parametrize("loop, t_end", [("scipy", 15.0), ("model", 3.0)])
+def test_getfem_script_gives_the_reference_trace(loop, t_end, tmp_path):
+    """The timed loop (scipy) over the whole reference; GetFEM's Model.solve through the
+    first impact and rebound (t = 1.15 to about 1.9) only, to keep the test short."""
     out = tmp_path / "trace.csv"
     r = subprocess.run([_getfem_python(), str(SCRIPT), "--h", "0.05", "--dt", "0.0025",
-                        "--t-end", "15", "--every", "5", "--loop", loop, "--trace", str(out)],
-                       capture_output=True, text=True, timeout=900)
+                        "--t-end", repr(t_end), "--every", "5", "--loop", loop, "--trace",
+                        str(out)], capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     got = np.genfromtxt(out, delimiter=",", names=True)
     ref = np.genfromtxt(REFERENCE, delimiter=",", names=True)
-    assert len(got) == len(ref) == 1201
+    assert len(ref) == 1201
+    ref = ref[:len(got)]
+    assert len(got) == round(t_end / 0.0025 / 5) + 1
     np.testing.assert_allclose(got["t"], ref["t"], rtol=0, atol=1e-12)
     tols = {"u_n": TOL_U, "e_kin": TOL_E, "e_el": TOL_E, "e_contact": TOL_E,
             "e_total": TOL_E, "v_n": TOL_VP, "p_n": TOL_VP, "sigma_n": TOL_VP}
     for col, tol in tols.items():
         np.testing.assert_allclose(got[col], ref[col], rtol=0, atol=tol, err_msg=col)
-    # the comparison is meaningful: the trace goes through several impacts
-    assert (ref["p_n"] < 0).sum() > 100
+    # the comparison is meaningful: the trace goes through contact
+    assert (ref["p_n"] < 0).sum() > 40     # 55 rows in contact by t = 3, 235 by 15
