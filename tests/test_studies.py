@@ -456,6 +456,78 @@ def test_stability_quick_has_the_3d_box_rows(stability):
     assert "box3d/critical_dt.png" in text
 
 
+def test_stability_rows_are_built_once_with_the_reason_column_in_2d_and_3d(stability,
+                                                                            monkeypatch):
+    """One code path (stability.critical_dt, then critical_rows) builds the critical-Δt
+    rows of the 2D bar and of the 3D box: both stability.csv files have the same columns,
+    the first unstable grid run's reason among them, and a re-run (from the cache) builds
+    the rows exactly once per grid."""
+    import csv
+
+    from dyncontact.study import stability as st
+
+    for path in (stability["csv"], stability["box3d"]["csv"]):
+        with open(path, encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            rows = list(reader)
+        assert reader.fieldnames == st.CRITICAL_COLUMNS
+        unstable = [r for r in rows if r["first_unstable_status"]]
+        assert unstable and all(r["first_unstable_reason"] for r in unstable)
+    pc3 = next(c for c in stability["box3d"]["critical"] if c["scheme"] == "pc_lumped")
+    first = min((r for r in stability["box3d"]["runs"] if r["scheme"] == "pc_lumped"
+                 and r["phase"] == "grid" and r["status"] != "ok"),
+                key=lambda r: r["dt"])
+    assert pc3["first_unstable_reason"] == first["reason"] != ""
+    calls = []
+    real = st.critical_rows
+
+    def counting(crit, schemes):
+        calls.append(sorted({k[0] for k in crit}))
+        return real(crit, schemes)
+
+    monkeypatch.setattr(st, "critical_rows", counting)
+    out = os.path.dirname(stability["csv"])
+    again = st.run_stability(out, quick=True, workers=1, progress=False, log=None)
+    assert again["n_cached"] == again["n_runs"]
+    assert calls == [sorted({c["scheme"] for c in stability["critical"]}),
+                     sorted({c["scheme"] for c in stability["box3d"]["critical"]})]
+    assert again["critical"] == stability["critical"]
+    assert again["box3d"]["critical"] == stability["box3d"]["critical"]
+
+
+def test_critical_rows_from_synthetic_groups():
+    """critical_groups then critical_rows on records built by hand: the bracket between
+    the last stable and the first unstable Δt, the first unstable run's status, stop
+    time and reason, a group stable on the whole grid, and one the core refused."""
+    from dyncontact.study import stability as st
+    from dyncontact.study.common import scheme_list
+
+    def rec(scheme, dt, status, stop=None, msg=""):
+        return {"task": make_task("", {}, tags={"scheme": scheme, "h": 0.1, "gamma0": 10.0,
+                                                "theta": 1, "dt": dt}),
+                "status": status, "t_end_reached": stop, "message": msg, "metrics": {}}
+
+    recs = [rec("pc", 0.001, "ok"), rec("pc", 0.01, "ok"),
+            rec("pc", 0.05, "unstable", 7.5, "energy above blowup\nmore"),
+            rec("pc", 0.1, "ok"),
+            rec("hht-0.1", 0.005, "ok"), rec("hht-0.1", 0.1, "ok"),
+            rec("newmark", 0.005, "refused", msg="gamma0 below the bound")]
+    crit, brackets = st.critical_groups(recs)
+    assert brackets == {("pc", 0.1, 10.0, 1): (0.01, 0.05)}
+    for key, (lo, hi) in brackets.items():
+        crit[key].update(lo=lo, hi=hi)
+    rows = st.critical_rows(crit, scheme_list(("newmark", "hht-0.1", "pc")))
+    assert [r["scheme"] for r in rows] == ["newmark", "hht-0.1", "pc"]
+    assert all(list(r) == st.CRITICAL_COLUMNS for r in rows)
+    nm, hht, pc = rows
+    assert nm["bracket"] == "refused" and nm["first_unstable_reason"] == ""
+    assert (hht["bracket"], hht["dt_crit_lo"], hht["dt_crit_hi"]) == ("above grid", 0.1, None)
+    assert (pc["bracket"], pc["non_monotone"], pc["grid_stable"]) == ("bisection", True, "3/4")
+    assert pc["dt_crit"] == pytest.approx(math.sqrt(0.01 * 0.05))
+    assert (pc["first_unstable_status"], pc["first_unstable_stop"],
+            pc["first_unstable_reason"]) == ("unstable", 7.5, "energy above blowup")
+
+
 # --------------------------------------------------------------------------- sweep
 
 def _small_tasks(base):
