@@ -46,7 +46,8 @@ from .analyses import impacts  # noqa: F401 - part of this module's API
 from .sweep import ERROR, REFUSED, Task, make_task, sweep
 
 __all__ = ["run_stability", "bisect_critical", "classify", "GRIDS", "impacts",
-           "BOX3D_GRIDS", "run_box3d", "critical_groups"]
+           "BOX3D_GRIDS", "run_box3d", "critical_groups", "critical_rows", "critical_dt",
+           "RUN_COLUMNS", "CRITICAL_COLUMNS"]
 
 #: Sweep sizes. 'dt_over_h': {'implicit': (...), 'explicit': (...)}.
 GRIDS = {
@@ -204,6 +205,76 @@ def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0, first=None):
                            "phase": phase})
 
 
+#: Columns of runs.csv and stability.csv (2D and 3D alike).
+RUN_COLUMNS = ["scheme", "mass", "method", "h", "gamma0", "theta", "dt", "dt_over_h",
+               "phase", "status", "classification", "stop_time", "reason", "impacts",
+               "e_max_ratio", "e_end_ratio", "ec_end_ratio", "steps"]
+CRITICAL_COLUMNS = ["scheme", "mass", "method", "h", "gamma0", "theta", "dt_crit_lo",
+                    "dt_crit_hi", "dt_crit", "dt_crit_over_h", "dt_crit_estimate",
+                    "estimate_over_measured", "bracket", "grid_stable", "non_monotone",
+                    "first_unstable_status", "first_unstable_stop", "first_unstable_reason"]
+
+
+def critical_rows(crit: Mapping[tuple, Mapping[str, Any]], schemes) -> list[dict[str, Any]]:
+    """The rows of stability.csv (:data:`CRITICAL_COLUMNS`) from :func:`critical_groups`'
+    groups, with the bisection's [lo, hi] filled in, in the order of ``schemes`` then
+    (h, gamma0, theta): the bracket, its geometric mean (and / h), the first unstable grid
+    run's status, stop time and reason, and central differences' own estimate beside
+    the measured value."""
+    by_key = {s.key: s for s in schemes}
+    order = [s.key for s in schemes]
+    rows = []
+    for key in sorted(crit, key=lambda k: (order.index(k[0]),) + tuple(k[1:])):
+        c = crit[key]
+        lo, hi = c["lo"], c["hi"]
+        mid = math.sqrt(lo * hi) if lo and hi else None
+        est = c["dt_crit_estimate"]
+        rows.append({"scheme": key[0], "mass": by_key[key[0]].mass,
+                     "method": by_key[key[0]].method, "h": key[1], "gamma0": key[2],
+                     "theta": key[3], "dt_crit_lo": lo, "dt_crit_hi": hi, "dt_crit": mid,
+                     "dt_crit_over_h": mid / key[1] if mid else None,
+                     "dt_crit_estimate": est,
+                     "estimate_over_measured": est / mid if est and mid else None,
+                     "bracket": c["bracket"], "grid_stable": c["grid_stable"],
+                     "non_monotone": c["non_monotone"],
+                     "first_unstable_status": c.get("first_unstable_status", ""),
+                     "first_unstable_stop": c.get("first_unstable_stop"),
+                     "first_unstable_reason": c.get("first_unstable_reason", "")})
+    return rows
+
+
+def critical_dt(base: str, schemes, grid: Mapping[str, Any], folder: str, cache: str, *,
+                keep_rows: int = 0, first: Mapping[str, Any] | None = None,
+                workers=None, scheduler=None, progress=None, log=print,
+                desc: str = "stability") -> dict[str, Any]:
+    """The one path from a grid to its critical Δt, for the 2D bar and the 3D box alike:
+    the grid's runs (:func:`_grid_tasks`), the brackets (:func:`critical_groups`), the
+    bisections (:func:`bisect_critical`), then runs.csv and stability.csv in ``folder``.
+    ``first``: scene keys set before the scheme's (``mesh.dim``). Returns {'grid_records',
+    'records' (grid then bisection), 'runs', 'critical', 'runs_csv', 'csv'}."""
+    t_end = float(grid["t_end"])
+    tasks = _grid_tasks(base, schemes, grid, t_end, keep_rows=keep_rows, first=first)
+    recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,
+                 desc=f"{desc} grid", log=log)
+    crit, brackets = critical_groups(recs)
+    by_key = {s.key: s for s in schemes}
+    bis = bisect_critical(
+        brackets, lambda key, dt: _task(base, by_key[key[0]], key[1], key[2], key[3], dt,
+                                        t_end, "bisect", first=first),
+        int(grid["rounds"]), cache, workers=workers, scheduler=scheduler,
+        progress=progress, log=log, desc=f"{desc} bisection")
+    for key, st in bis.items():
+        crit[key].update(lo=st["lo"], hi=st["hi"])
+    all_recs = list(recs) + [r for st in bis.values() for r in st["runs"]]
+    run_rows = [_run_row(r) for r in all_recs]
+    crit_rows = critical_rows(crit, schemes)
+    return {"grid_records": recs, "records": all_recs, "runs": run_rows,
+            "critical": crit_rows,
+            "runs_csv": write_csv(os.path.join(folder, "runs.csv"), run_rows, RUN_COLUMNS),
+            "csv": write_csv(os.path.join(folder, "stability.csv"), crit_rows,
+                             CRITICAL_COLUMNS)}
+
+
 def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | None = None,
                   cache: str | None = None, workers: int | None = None,
                   scheduler: Any = None, progress: bool | None = None,
@@ -218,51 +289,12 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
     cache = cache or os.path.join(out, "cache")
     base = write_base_scenes(os.path.join(out, "scenes"))["seed2d"]
     schemes = scheme_list(g["schemes"])
-    t_end = float(g["t_end"])
-    tasks = _grid_tasks(base, schemes, g, t_end, keep_rows=KEEP_ROWS)
-    recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,
-                 desc="stability grid", log=log)
-    crit, brackets = critical_groups(recs)
-    by_key = {s.key: s for s in schemes}
-
-    def task_for(key, dt):
-        s, h, g0, th = by_key[key[0]], key[1], key[2], key[3]
-        return _task(base, s, h, g0, th, dt, t_end, "bisect")
-
-    bis = bisect_critical(brackets, task_for, int(g["rounds"]), cache, workers=workers,
-                          scheduler=scheduler, progress=progress, log=log,
-                          desc="stability bisection")
-    for key, st in bis.items():
-        crit[key].update(lo=st["lo"], hi=st["hi"])
-    all_recs = list(recs) + [r for st in bis.values() for r in st["runs"]]
-    run_rows = [_run_row(r) for r in all_recs]
-    run_cols = ["scheme", "mass", "method", "h", "gamma0", "theta", "dt", "dt_over_h", "phase",
-                "status", "classification", "stop_time", "reason", "impacts",
-                "e_max_ratio", "e_end_ratio", "ec_end_ratio", "steps"]
-    runs_csv = write_csv(os.path.join(out, "runs.csv"), run_rows, run_cols)
-    crit_rows = []
-    for key in sorted(crit, key=lambda k: ([s.key for s in schemes].index(k[0]),) + k[1:]):
-        c = crit[key]
-        lo, hi = c["lo"], c["hi"]
-        mid = math.sqrt(lo * hi) if lo and hi else None
-        est = c["dt_crit_estimate"]
-        crit_rows.append({"scheme": key[0], "mass": by_key[key[0]].mass,
-                          "method": by_key[key[0]].method, "h": key[1],
-                          "gamma0": key[2], "theta": key[3], "dt_crit_lo": lo,
-                          "dt_crit_hi": hi, "dt_crit": mid,
-                          "dt_crit_over_h": mid / key[1] if mid else None,
-                          "bracket": c["bracket"], "grid_stable": c["grid_stable"],
-                          "non_monotone": c["non_monotone"],
-                          "first_unstable_status": c.get("first_unstable_status", ""),
-                          "first_unstable_stop": c.get("first_unstable_stop"),
-                          "first_unstable_reason": c.get("first_unstable_reason", ""),
-                          "dt_crit_estimate": est,
-                          "estimate_over_measured": est / mid if est and mid else None})
-    crit_cols = ["scheme", "mass", "method", "h", "gamma0", "theta", "dt_crit_lo",
-                 "dt_crit_hi", "dt_crit", "dt_crit_over_h", "dt_crit_estimate",
-                 "estimate_over_measured", "bracket", "grid_stable", "non_monotone",
-                 "first_unstable_status", "first_unstable_stop", "first_unstable_reason"]
-    crit_csv = write_csv(os.path.join(out, "stability.csv"), crit_rows, crit_cols)
+    crit = critical_dt(base, schemes, g, out, cache, keep_rows=KEEP_ROWS,
+                       workers=workers, scheduler=scheduler, progress=progress, log=log,
+                       desc="stability")
+    recs, all_recs = crit["grid_records"], crit["records"]
+    run_rows, crit_rows = crit["runs"], crit["critical"]
+    crit_csv, runs_csv = crit["csv"], crit["runs_csv"]
     pngs = _heatmaps(run_rows, crit_rows, schemes, g, out)
     from .claims import claims_table
 
@@ -297,42 +329,12 @@ def run_box3d(out: str, base: str, g: Mapping[str, Any], g3: Mapping[str, Any], 
     grid = dict(g)
     grid.update(g3)
     schemes = scheme_list(grid["schemes"])
-    t_end = float(grid["t_end"])
-    first = {"mesh.dim": 3}             # the vector keys become 3D before the others
-    tasks = _grid_tasks(base, schemes, grid, t_end, first=first)
-    recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,
-                 desc="stability 3D grid", log=log)
-    crit, brackets = critical_groups(recs)
-    by_key = {s.key: s for s in schemes}
-    bis = bisect_critical(
-        brackets, lambda key, dt: _task(base, by_key[key[0]], key[1], key[2], key[3], dt,
-                                        t_end, "bisect", first=first),
-        int(grid["rounds"]), cache, workers=workers, scheduler=scheduler,
-        progress=progress, log=log, desc="stability 3D bisection")
-    for key, st in bis.items():
-        crit[key].update(lo=st["lo"], hi=st["hi"])
-    all_recs = list(recs) + [r for st in bis.values() for r in st["runs"]]
-    run_rows = [_run_row(r) for r in all_recs]
-    runs_csv = write_csv(os.path.join(folder, "runs.csv"), run_rows, list(run_rows[0])
-                         if run_rows else ["scheme"])
-    crit_rows = []
-    for key in sorted(crit, key=lambda k: ([s.key for s in schemes].index(k[0]),) + k[1:]):
-        c = crit[key]
-        lo, hi = c["lo"], c["hi"]
-        mid = math.sqrt(lo * hi) if lo and hi else None
-        est = c["dt_crit_estimate"]
-        crit_rows.append({"scheme": key[0], "mass": by_key[key[0]].mass,
-                          "method": by_key[key[0]].method, "h": key[1], "gamma0": key[2],
-                          "theta": key[3], "dt_crit_lo": lo, "dt_crit_hi": hi,
-                          "dt_crit": mid, "dt_crit_over_h": mid / key[1] if mid else None,
-                          "bracket": c["bracket"], "grid_stable": c["grid_stable"],
-                          "non_monotone": c["non_monotone"],
-                          "first_unstable_status": c.get("first_unstable_status", ""),
-                          "first_unstable_stop": c.get("first_unstable_stop"),
-                          "dt_crit_estimate": est,
-                          "estimate_over_measured": est / mid if est and mid else None})
-    crit_csv = write_csv(os.path.join(folder, "stability.csv"), crit_rows,
-                         list(crit_rows[0]) if crit_rows else ["scheme"])
+    crit = critical_dt(base, schemes, grid, folder, cache,
+                       first={"mesh.dim": 3},   # the vector keys become 3D before the others
+                       workers=workers, scheduler=scheduler, progress=progress, log=log,
+                       desc="stability 3D")
+    run_rows, crit_rows, all_recs = crit["runs"], crit["critical"], crit["records"]
+    crit_csv, runs_csv = crit["csv"], crit["runs_csv"]
     pngs = _heatmaps(run_rows, crit_rows, schemes, grid, folder)
     return {"critical": crit_rows, "runs": run_rows, "records": all_recs, "grid": grid,
             "csv": crit_csv, "runs_csv": runs_csv, "pngs": pngs}
