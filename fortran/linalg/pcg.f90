@@ -61,6 +61,8 @@ module pcg
         real(dp), allocatable :: binv(:, :)     !! (bs*bs, ng) inverse diagonal blocks, by columns
         type(block2_t) :: b2                    !! A by 2x2 blocks (bs = 2)
         type(block3_t) :: b3                    !! A by 3x3 blocks (bs = 3)
+        integer, allocatable :: kd(:)           !! (ng) the block of each row's diagonal (bs >= 2)
+        real(dp), allocatable :: dg(:), sd(:)   !! (n) diagonal of A and its square root (bs >= 2)
         real(dp), allocatable :: r(:), z(:), p(:), q(:)  !! (n) work vectors
         integer, allocatable :: loc(:)          !! (n) position of a dof in a solve's set (0: none)
         logical :: indefinite = .false.         !! the last solve met p^T A p <= 0
@@ -134,11 +136,12 @@ contains
             call pcg_free(p)
             return
         end if
+        p%n = a%n
+        if (p%bs >= 2) call ssor_setup(p)
         allocate (p%r(a%n), p%z(a%n), p%p(a%n), p%q(a%n), p%loc(a%n))
         p%q = 0.0_dp
         p%p = 0.0_dp
         p%loc = 0
-        p%n = a%n
         p%rtol = rtol
         p%max_iter = max_iter
     end subroutine pcg_setup
@@ -369,6 +372,10 @@ contains
         p%indefinite = .false.
         warm = .false.
         if (present(guess)) warm = guess
+        if (p%bs >= 2) then
+            call ssor_solve(p, a, b, x, warm, stat, errmsg)
+            return
+        end if
         if (.not. warm) x(1:n) = 0.0_dp
         bnorm = sqrt(dot(b(1:n), b(1:n)))
         p%solves = p%solves + 1
@@ -459,6 +466,266 @@ contains
             p%max_its = max(p%max_its, its)
         end subroutine tally
     end subroutine pcg_solve
+
+    !> The diagonal's blocks in the block copy and D, D^{1/2} for ssor_solve.
+    subroutine ssor_setup(p)
+        type(pcg_t), intent(inout) :: p                     !! solver (bs >= 2, block copy built)
+        integer :: g, k, i0, sz, r
+        allocate (p%kd(p%ng), p%dg(p%n), p%sd(p%n))
+        p%kd = 0
+        do g = 1, p%ng
+            i0 = p%first(g)
+            sz = p%first(g + 1) - i0
+            if (p%bs == 2) then
+                do k = p%b2%row_ptr(g), p%b2%row_ptr(g + 1) - 1
+                    if (p%b2%col1(k) == i0) p%kd(g) = k
+                end do
+                do r = 0, sz - 1
+                    p%dg(i0 + r) = p%b2%val(1 + 3 * r, p%kd(g))
+                end do
+            else
+                do k = p%b3%row_ptr(g), p%b3%row_ptr(g + 1) - 1
+                    if (p%b3%col1(k) == i0) p%kd(g) = k
+                end do
+                do r = 0, sz - 1
+                    p%dg(i0 + r) = p%b3%val(1 + 4 * r, p%kd(g))
+                end do
+            end if
+        end do
+        p%sd = sqrt(p%dg)
+    end subroutine ssor_setup
+
+    !> pcg_solve with the symmetric Gauss-Seidel (SSOR, omega = 1) preconditioner
+    !> M = F D^{-1} F^T, F = D + L (D the diagonal, L the strict lower triangle of A),
+    !> by Eisenstat's trick: CG on A^ = E^{-1} A E^{-T}, E = F D^{-1/2}, whose product
+    !> A^ v = D^{1/2} (t + F^{-1}(D^{1/2} v - D t)), t = F^{-T} D^{1/2} v, costs one
+    !> backward and one forward sweep over the node blocks: about one product with A.
+    !> x = E^{-T} x^ is kept as it goes (x += alpha t). On the mass-dominated J0 the
+    !> condition number drops from about 4 (2D) and 5 (3D) with Jacobi to 1.2 and 1.5,
+    !> so a solve takes about half the iterations at the same cost each. The recurrence
+    !> gives r^ = E^{-1} r, not r: it is stopped when |r^| has fallen by the factor
+    !> |r| needs (with the ratio |r^| / |r| of the last formed residual), then the formed
+    !> residual b - A x decides, as in pcg_solve.
+    subroutine ssor_solve(p, a, b, x, warm, stat, errmsg)
+        type(pcg_t), intent(inout) :: p                     !! solver set up for a (bs >= 2)
+        type(csc_t), intent(in) :: a                        !! the matrix
+        real(dp), intent(in), contiguous :: b(:)            !! right-hand side (n)
+        real(dp), intent(inout), contiguous :: x(:)         !! guess (with warm), solution (n)
+        logical, intent(in) :: warm                         !! x holds a first guess
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: bnorm, tol2, htol2, rh, rh_new, rr, pq, alpha, beta
+        integer :: it, n
+        n = p%n
+        stat = STAT_OK
+        p%solves = p%solves + 1
+        p%last_its = 0
+        if (.not. warm) x(1:n) = 0.0_dp
+        bnorm = sqrt(dot(b(1:n), b(1:n)))
+        if (bnorm == 0.0_dp) then
+            x(1:n) = 0.0_dp
+            return
+        end if
+        tol2 = (p%rtol * bnorm)**2
+        if (warm) then
+            call pcg_product(p, a, x, p%q)
+            p%q = b(1:n) - p%q
+        else
+            p%q = b(1:n)
+        end if
+        rr = dot(p%q, p%q)
+        call restart()
+        it = 0
+        do
+            if (rh <= htol2) then
+                ! the formed residual must pass
+                call pcg_product(p, a, x, p%q)
+                p%q = b(1:n) - p%q
+                rr = dot(p%q, p%q)
+                if (rr <= tol2) exit
+                call restart()
+            end if
+            if (.not. (rh == rh) .or. it >= p%max_iter) then
+                call tally(it)
+                call raise(stat, errmsg, STAT_NUMERIC, 'conjugate gradients did not converge: '// &
+                           'relative residual '//real_text(sqrt(rr) / bnorm, 3)//' after '// &
+                           int_text(it)//' iterations (&solver cg_rtol = '//real_text(p%rtol, 3)// &
+                           ', cg_max_iter = '//int_text(p%max_iter)//')')
+                return
+            end if
+            ! q = A^ p: t = F^{-T} D^{1/2} p in z, then q = D^{1/2} (t + F^{-1}(D^{1/2} p - D t))
+            p%z = p%sd * p%p
+            call sweep(.false., p%z)
+            p%q = p%sd * p%p - p%dg * p%z
+            call sweep(.true., p%q)
+            p%q = p%sd * (p%z + p%q)
+            pq = dot(p%p, p%q)
+            if (.not. (pq > 0.0_dp)) then
+                call tally(it)
+                p%indefinite = .true.
+                call raise(stat, errmsg, STAT_NUMERIC, 'conjugate gradients met the curvature '// &
+                           real_text(pq, 3)//' <= 0: the matrix is not positive definite')
+                return
+            end if
+            alpha = rh / pq
+            call ssor_update(n, alpha, p%z, p%q, x, p%r, rh_new)
+            beta = rh_new / rh
+            rh = rh_new
+            call direction(n, beta, p%r, p%p)
+            it = it + 1
+        end do
+        call tally(it)
+    contains
+        !> r^ = D^{1/2} F^{-1} q from the residual q (|q|^2 = rr), p^ = r^, and the
+        !> recurrence's target: |r^| reduced by the factor |r| needs.
+        subroutine restart()
+            p%r = p%q
+            call sweep(.true., p%r)
+            p%r = p%sd * p%r
+            p%p = p%r
+            rh = dot(p%r, p%r)
+            htol2 = tol2 * (rh / rr)
+        end subroutine restart
+        !> y = F^{-1} y (forward) or F^{-T} y (backward), in place.
+        subroutine sweep(forward, y)
+            logical, intent(in) :: forward                  !! forward (lower) sweep
+            real(dp), intent(inout) :: y(:)                 !! right-hand side, solution
+            if (p%bs == 2) then
+                call sweep2(forward, p%n, p%ng, size(p%b2%col1), p%b2%row_ptr, p%b2%col1, &
+                            p%b2%col2, p%first, p%kd, p%b2%val, y)
+            else
+                call sweep3(forward, p%n, p%ng, size(p%b3%col1), p%b3%row_ptr, p%b3%col1, &
+                            p%b3%col2, p%b3%col3, p%first, p%kd, p%b3%val, y)
+            end if
+        end subroutine sweep
+        !> Iteration counters.
+        subroutine tally(its)
+            integer, intent(in) :: its     !! iterations of this solve
+            p%last_its = its
+            p%iterations = p%iterations + its
+            p%max_its = max(p%max_its, its)
+        end subroutine tally
+    end subroutine ssor_solve
+
+    !> x += alpha t, r -= alpha q, rh = r.r (LANES partial sums).
+    pure subroutine ssor_update(n, alpha, t, q, x, r, rh)
+        integer, intent(in) :: n                            !! size
+        real(dp), intent(in) :: alpha                       !! step
+        real(dp), intent(in) :: t(n), q(n)                  !! E^{-T} p, A^ p
+        real(dp), intent(inout) :: x(n), r(n)               !! iterate, transformed residual
+        real(dp), intent(out) :: rh                         !! r.r
+        real(dp) :: ar(LANES)
+        integer :: i, j, nb
+        nb = n - mod(n, LANES)
+        ar = 0.0_dp
+        do i = 1, nb, LANES
+            do j = i, i + LANES - 1
+                x(j) = x(j) + alpha * t(j)
+                r(j) = r(j) - alpha * q(j)
+                ar(j - i + 1) = ar(j - i + 1) + r(j) * r(j)
+            end do
+        end do
+        do j = nb + 1, n
+            x(j) = x(j) + alpha * t(j)
+            r(j) = r(j) - alpha * q(j)
+            ar(1) = ar(1) + r(j) * r(j)
+        end do
+        rh = lane_sum(ar)
+    end subroutine ssor_update
+
+    !> y = F^{-1} y (forward) or F^{-T} y (backward) in place, F = D + L of a block2_t
+    !> matrix: a row group's blocks left (forward) or right (backward) of its diagonal
+    !> block kd(g), then the diagonal block's triangle.
+    pure subroutine sweep2(forward, n, ng, nb, row_ptr, col1, col2, first, kd, val, y)
+        logical, intent(in) :: forward                      !! forward (lower) sweep
+        integer, intent(in) :: n, ng, nb                    !! size, groups, blocks
+        integer, intent(in) :: row_ptr(ng + 1), col1(nb), col2(nb), first(ng + 1), kd(ng)
+        real(dp), intent(in) :: val(4, nb)                  !! blocks
+        real(dp), intent(inout) :: y(n)                     !! right-hand side, solution
+        integer :: g, k, i0, sz, d
+        real(dp) :: s(2)
+        if (forward) then
+            do g = 1, ng
+                i0 = first(g)
+                sz = first(g + 1) - i0
+                s(1) = y(i0)
+                s(2) = y(i0 + sz - 1)
+                do k = row_ptr(g), row_ptr(g + 1) - 1
+                    if (col1(k) < i0) s = s - val(1:2, k) * y(col1(k)) - val(3:4, k) * y(col2(k))
+                end do
+                d = kd(g)
+                y(i0) = s(1) / val(1, d)
+                if (sz == 2) y(i0 + 1) = (s(2) - val(2, d) * y(i0)) / val(4, d)
+            end do
+        else
+            do g = ng, 1, -1
+                i0 = first(g)
+                sz = first(g + 1) - i0
+                s(1) = y(i0)
+                s(2) = y(i0 + sz - 1)
+                do k = row_ptr(g), row_ptr(g + 1) - 1
+                    if (col1(k) > i0) s = s - val(1:2, k) * y(col1(k)) - val(3:4, k) * y(col2(k))
+                end do
+                d = kd(g)
+                if (sz == 2) then
+                    y(i0 + 1) = s(2) / val(4, d)
+                    y(i0) = (s(1) - val(3, d) * y(i0 + 1)) / val(1, d)
+                else
+                    y(i0) = s(1) / val(1, d)
+                end if
+            end do
+        end if
+    end subroutine sweep2
+
+    !> sweep2 for a block3_t matrix.
+    pure subroutine sweep3(forward, n, ng, nb, row_ptr, col1, col2, col3, first, kd, val, y)
+        logical, intent(in) :: forward                      !! forward (lower) sweep
+        integer, intent(in) :: n, ng, nb                    !! size, groups, blocks
+        integer, intent(in) :: row_ptr(ng + 1), col1(nb), col2(nb), col3(nb), first(ng + 1), kd(ng)
+        real(dp), intent(in) :: val(9, nb + 1)              !! blocks (and the zero block)
+        real(dp), intent(inout) :: y(n)                     !! right-hand side, solution
+        integer :: g, k, i0, sz, d
+        real(dp) :: s(3)
+        if (forward) then
+            do g = 1, ng
+                i0 = first(g)
+                sz = first(g + 1) - i0
+                s = 0.0_dp
+                s(1:sz) = y(i0:i0 + sz - 1)
+                do k = row_ptr(g), row_ptr(g + 1) - 1
+                    if (col1(k) < i0) s = s - val(1:3, k) * y(col1(k)) - val(4:6, k) * y(col2(k)) &
+                                          - val(7:9, k) * y(col3(k))
+                end do
+                d = kd(g)
+                y(i0) = s(1) / val(1, d)
+                if (sz >= 2) y(i0 + 1) = (s(2) - val(2, d) * y(i0)) / val(5, d)
+                if (sz == 3) y(i0 + 2) = (s(3) - val(3, d) * y(i0) - val(6, d) * y(i0 + 1)) / val(9, d)
+            end do
+        else
+            do g = ng, 1, -1
+                i0 = first(g)
+                sz = first(g + 1) - i0
+                s = 0.0_dp
+                s(1:sz) = y(i0:i0 + sz - 1)
+                do k = row_ptr(g), row_ptr(g + 1) - 1
+                    if (col1(k) > i0) s = s - val(1:3, k) * y(col1(k)) - val(4:6, k) * y(col2(k)) &
+                                          - val(7:9, k) * y(col3(k))
+                end do
+                d = kd(g)
+                select case (sz)
+                case (3)
+                    y(i0 + 2) = s(3) / val(9, d)
+                    y(i0 + 1) = (s(2) - val(8, d) * y(i0 + 2)) / val(5, d)
+                    y(i0) = (s(1) - val(4, d) * y(i0 + 1) - val(7, d) * y(i0 + 2)) / val(1, d)
+                case (2)
+                    y(i0 + 1) = s(2) / val(5, d)
+                    y(i0) = (s(1) - val(4, d) * y(i0 + 1)) / val(1, d)
+                case default
+                    y(i0) = s(1) / val(1, d)
+                end select
+            end do
+        end if
+    end subroutine sweep3
 
     !> z(:, 1:sz) = B^{-1} r(:, 1:sz) for one group of sz dofs, k values a dof (k = 1: a
     !> single vector), binv the group's inverse block (bs x bs by columns).
@@ -972,6 +1239,8 @@ contains
         if (allocated(p%binv)) deallocate (p%binv)
         if (allocated(p%r)) deallocate (p%r, p%z, p%p, p%q)
         if (allocated(p%loc)) deallocate (p%loc)
+        if (allocated(p%kd)) deallocate (p%kd)
+        if (allocated(p%dg)) deallocate (p%dg, p%sd)
         p%b2 = e2
         p%b3 = e3
         p%n = 0
