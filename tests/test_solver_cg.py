@@ -318,6 +318,43 @@ def test_example_j0_has_node_blocks(scene, dim, tmp_path):
     assert np.linalg.norm(b - J @ xs) <= 1e-12 * np.linalg.norm(b)
 
 
+@pytest.mark.parametrize("scene,dim", [("bar2d_hht", 2), ("bar3d_hht", 3)])
+def test_ssor_takes_fewer_iterations_than_jacobi(scene, dim, tmp_path):
+    """The step's solves are preconditioned by symmetric Gauss-Seidel (SSOR) over the node
+    blocks (pcg.f90, Eisenstat's trick). On the scene's J0 its preconditioned matrix
+    E⁻¹J0E⁻ᵀ, E = (D + L) D^{-1/2}, has a smaller condition number than D⁻¹J0 (computed
+    densely here), and CG takes fewer iterations with it than on the same matrix with its
+    dofs shuffled (no node runs left: scalar Jacobi, which does not depend on the order),
+    both to the same formed residual."""
+    scn = Scene.read(ROOT / "scripts" / "scenes" / f"{scene}.nml")
+    scn.write(tmp_path / "s.nml")
+    with dyncontact.core.Stepper(tmp_path / "s.nml", tmp_path / "out") as run:
+        M, K = run.matrix("M"), run.matrix("K_theta")
+    dt = scn.get("scheme.dt")
+    J = M + 0.25 * dt * dt * K
+    n = J.shape[0]
+    nodes = ((M != 0) | (K != 0)).reshape(n // dim, dim, n // dim, dim).any(axis=(1, 3))
+    r, c = np.nonzero(np.kron(nodes, np.ones((dim, dim), dtype=bool)))
+    d = np.diag(J)
+    jac = np.linalg.eigvalsh(J / np.sqrt(np.outer(d, d)))
+    e_inv = np.linalg.inv((np.diag(d) + np.tril(J, -1)) / np.sqrt(d))
+    ssor = np.linalg.eigvalsh(e_inv @ J @ e_inv.T)
+    assert ssor.max() / ssor.min() < jac.max() / jac.min()
+    rng = np.random.default_rng(48)
+    b = rng.standard_normal(n)
+    x, backend, _, its_ssor, stat, msg = solve_kind(r + 1, c + 1, J[r, c], b)
+    assert stat == STAT_OK and backend == "pcg_jacobi", msg
+    assert np.linalg.norm(b - J @ x) <= 1e-12 * np.linalg.norm(b)
+    perm = rng.permutation(n)
+    inv = np.argsort(perm)
+    yb, _, _, bs, _ = pcg_products(inv[r] + 1, inv[c] + 1, J[r, c], np.zeros(n))
+    assert bs == 1                                  # the shuffle hid the node blocks
+    xp, _, _, its_jacobi, stat, msg = solve_kind(inv[r] + 1, inv[c] + 1, J[r, c], b[perm])
+    assert stat == STAT_OK, msg
+    assert np.linalg.norm(b[perm] - J[np.ix_(perm, perm)] @ xp) <= 1e-12 * np.linalg.norm(b)
+    assert its_ssor < its_jacobi, (its_ssor, its_jacobi)
+
+
 def auto_kind(kind, n, dim):
     """dc_ls_auto_kind: the kind that runs, and AUTO_CG_DOFS."""
     res, dofs = _core.dc_ls_auto_kind(kind, n, dim)
