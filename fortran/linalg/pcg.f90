@@ -1,14 +1,16 @@
-!> Conjugate gradients preconditioned by node-block Jacobi, for symmetric positive definite
+!> Preconditioned conjugate gradients by node blocks, for symmetric positive definite
 !> csc_t matrices (the iterative kind of module linear_solver).
 !>
 !> Node blocks. pcg_setup finds the nodes in the pattern of A: a run of consecutive dofs
 !> whose columns have the same rows (the free dofs of one node, whose element blocks are
 !> full) is split into groups of the block size bs, the commonest run length (2 in 2D, 3
 !> in 3D, 1 on a bar). With bs = 2 or 3 the products with A run on a node-block copy of
-!> A (module sparse's block2_t / block3_t kernels, the direct path's: bitwise equal to the
-!> CSC product, about twice as fast), and the preconditioner is the inverse of each
-!> group's diagonal block (block Jacobi; the scalar Jacobi of bs = 1). Grouping dofs that
-!> are not one node would still give the same products and an SPD preconditioner.
+!> A (module sparse's block2_t / block3_t kernels, the direct path's: the same sums as the
+!> CSC product, about twice as fast). Preconditioners: one right-hand side (pcg_solve)
+!> with bs >= 2, symmetric Gauss-Seidel over the node blocks (ssor_solve); several
+!> (pcg_solve_many), the inverse of each group's diagonal block (block Jacobi); bs = 1,
+!> the scalar Jacobi. Grouping dofs that are not one node would still give the same
+!> products and SPD preconditioners.
 !>
 !> A solve starts from x = 0, or from a guess the caller passes in x, and stops when the
 !> residual |b - A x| is at most rtol |b|: the recurrence's residual first, then the
