@@ -159,6 +159,228 @@ def test_direct_and_auto_below_the_threshold_factorize():
         assert stat == STAT_OK and backend == "cholmod_ldlt" and its == 0 and note == ""
 
 
+# ------------------------------------------------------------------ node blocks
+
+
+def node_block_coo(rng, sizes, degree=4.0):
+    """A symmetric positive definite matrix whose nodes (consecutive dofs, sizes[i] of them)
+    are coupled by full blocks: a random node graph (about `degree` neighbours a node),
+    each edge and each node a dense block, shifted above the Gershgorin radius. The dofs
+    of a node share one pattern, as the free dofs of a mesh node do in J0. Returns 1-based
+    COO and the dense matrix."""
+    nn = len(sizes)
+    start = np.concatenate([[0], np.cumsum(sizes)])
+    n = int(start[-1])
+    edges = {(i, i) for i in range(nn)}
+    for _ in range(int(degree * nn / 2)):
+        i, j = rng.integers(0, nn, 2)
+        edges |= {(i, j), (j, i)}
+    dense = np.zeros((n, n))
+    for i, j in edges:
+        if i <= j:
+            blk = rng.uniform(-1.0, 1.0, (sizes[i], sizes[j]))
+            dense[start[i]:start[i + 1], start[j]:start[j + 1]] += blk
+            dense[start[j]:start[j + 1], start[i]:start[i + 1]] += blk.T
+    dense += (np.abs(dense).sum(axis=1).max() + 1.0) * np.eye(n)
+    r, c = np.nonzero(dense)
+    return r + 1, c + 1, dense[r, c], dense
+
+
+def pcg_products(rows, cols, vals, x):
+    """dc_pcg_products: A x by node blocks (one column, many columns) and by the CSC
+    product; the block size and groups found."""
+    x2 = np.asfortranarray(x.reshape(x.shape[0], -1), dtype=np.float64)
+    yb, ym, yc, bs, ng, stat, msg = _core.dc_pcg_products(
+        np.ascontiguousarray(rows, dtype=np.int32), np.ascontiguousarray(cols, dtype=np.int32),
+        np.ascontiguousarray(vals, dtype=np.float64), x2)
+    assert int(stat) == STAT_OK, msg
+    return yb, ym, yc, int(bs), int(ng)
+
+
+#: Node sizes of a 2D-like (pairs, some nodes with one free dof as on a sliding side) and
+#: a 3D-like (triples, some nodes with one or two free dofs) matrix.
+NODE_SIZES = {2: lambda rng: rng.choice([1, 2, 2, 2, 2, 2], 150),
+              3: lambda rng: rng.choice([1, 2, 3, 3, 3, 3, 3, 3], 120)}
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_block_product_equals_the_csc_product(dim):
+    """The node blocks are found from the pattern (block size = the dimension) and the
+    block products, one vector or many at once, equal csc_matvec_t to round-off: each row
+    is the same sum of a_ij x_j (zero padding adds exact zeros), so two summation orders
+    of k terms differ by at most 2 k eps sum|a_ij x_j| (k = the row's entries)."""
+    rng = np.random.default_rng(40 + dim)
+    sizes = NODE_SIZES[dim](rng)
+    rows, cols, vals, dense = node_block_coo(rng, sizes)
+    x = rng.standard_normal((dense.shape[0], 5))
+    yb, ym, yc, bs, ng = pcg_products(rows, cols, vals, x)
+    assert bs == dim
+    assert ng >= len(sizes)                       # runs split into groups of at most bs
+    k = (dense != 0).sum(axis=1).max()
+    bound = 2 * k * np.finfo(float).eps * (np.abs(dense) @ np.abs(x))
+    assert np.all(np.abs(yb - yc) <= bound)
+    assert np.all(np.abs(ym - yc) <= bound)
+
+
+def test_scalar_pattern_keeps_the_csc_product():
+    """A pattern without node runs (every column its own rows) gives block size 1."""
+    rng = np.random.default_rng(45)
+    rows, cols, vals, dense = spd_coo(rng, 200, 0.03)
+    x = rng.standard_normal((200, 3))
+    yb, ym, yc, bs, ng = pcg_products(rows, cols, vals, x)
+    assert bs == 1 and ng == 200
+    np.testing.assert_array_equal(yb, yc)
+    np.testing.assert_array_equal(ym, yc)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_block_jacobi_cg_solves_one_and_many(dim):
+    """CG with the node-block Jacobi preconditioner reaches its tolerance on the formed
+    residual; 37 columns of the identity (three groups of PCG_COLUMNS, the last partial),
+    a zero column and a dense one solved together equal the solves one at a time to the
+    tolerance (the same iteration on the support: another summation order), each with its
+    residual below the tolerance."""
+    rng = np.random.default_rng(50 + dim)
+    sizes = NODE_SIZES[dim](rng)
+    rows, cols, vals, dense = node_block_coo(rng, sizes)
+    n = dense.shape[0]
+    rtol = 1e-12
+    b = rng.standard_normal(n)
+    x, backend, note, its, stat, msg = solve_kind(rows, cols, vals, b, rtol=rtol)
+    assert stat == STAT_OK, msg
+    assert backend == "pcg_jacobi" and note == "" and its > 0
+    assert np.linalg.norm(b - dense @ x) <= rtol * np.linalg.norm(b)
+    picks = rng.choice(n, 37, replace=False)
+    e = np.zeros((n, 39))
+    e[picks, range(37)] = 1.0
+    e[:, 38] = b
+    xm, backend, _, _, stat, msg = solve_kind(rows, cols, vals, e, rtol=rtol)
+    assert stat == STAT_OK, msg
+    cond = np.linalg.cond(dense)
+    for j in range(39):
+        nb = np.linalg.norm(e[:, j])
+        assert np.linalg.norm(e[:, j] - dense @ xm[:, j]) <= rtol * nb
+        if nb == 0:
+            assert not xm[:, j].any()
+            continue
+        x1, _, _, _, stat, msg = solve_kind(rows, cols, vals, e[:, j].copy(), rtol=rtol)
+        assert stat == STAT_OK, msg
+        # both within cond * rtol of the solution (relative, in the 2-norm)
+        assert np.linalg.norm(xm[:, j] - x1) <= 2 * cond * rtol * np.linalg.norm(x1)
+
+
+def test_indefinite_diagonal_block_solves_directly():
+    """Node pairs [[1, 2], [2, 1]]: positive diagonal, indefinite diagonal blocks, so the
+    matrix is not positive definite; the block preconditioner's set-up sees it."""
+    rng = np.random.default_rng(46)
+    n = 40
+    i = np.arange(0, n, 2)
+    rows = np.concatenate([i, i + 1, i, i + 1]) + 1
+    cols = np.concatenate([i, i + 1, i + 1, i]) + 1
+    vals = np.concatenate([np.ones(n), np.full(n, 2.0)])
+    dense = np.zeros((n, n))
+    np.add.at(dense, (rows - 1, cols - 1), vals)
+    b = rng.standard_normal(n)
+    x, backend, note, its, stat, msg = solve_kind(rows, cols, vals, b)
+    assert stat == STAT_OK, msg
+    assert backend in ("cholmod_ldlt", "umfpack_lu") and its == 0
+    assert "not positive definite" in note
+    np.testing.assert_allclose(dense @ x, b, rtol=0, atol=1e-8 * np.abs(b).max())
+
+
+@pytest.mark.parametrize("scene,dim", [("bar2d_hht", 2), ("bar3d_hht", 3)])
+def test_example_j0_has_node_blocks(scene, dim, tmp_path):
+    """On a scene's own matrices (J0 = M + c K_θ, c = dt² / 4 of the trapezoidal rule, the
+    pattern of both) CG finds the mesh's nodes: block size = dim; the block products
+    equal the CSC product to round-off (bound as above) and block-Jacobi CG solves J0."""
+    scn = Scene.read(ROOT / "scripts" / "scenes" / f"{scene}.nml")
+    scn.write(tmp_path / "s.nml")
+    with dyncontact.core.Stepper(tmp_path / "s.nml", tmp_path / "out") as run:
+        M, K = run.matrix("M"), run.matrix("K_theta")
+    dt = scn.get("scheme.dt")
+    J = M + 0.25 * dt * dt * K
+    # the assembled pattern: full node blocks (a node's free dofs are consecutive, every
+    # node of these scenes has dim of them), some of whose entries are exact zeros of K
+    n = J.shape[0]
+    nodes = ((M != 0) | (K != 0)).reshape(n // dim, dim, n // dim, dim).any(axis=(1, 3))
+    pattern = np.kron(nodes, np.ones((dim, dim), dtype=bool))
+    r, c = np.nonzero(pattern)
+    rng = np.random.default_rng(47)
+    x = rng.standard_normal((J.shape[0], 3))
+    yb, ym, yc, bs, ng = pcg_products(r + 1, c + 1, J[r, c], x)
+    assert bs == dim and ng == n // dim
+    k = pattern.sum(axis=1).max()
+    bound = 2 * k * np.finfo(float).eps * (np.abs(J) @ np.abs(x))
+    assert np.all(np.abs(yb - yc) <= bound) and np.all(np.abs(ym - yc) <= bound)
+    b = rng.standard_normal(J.shape[0])
+    xs, backend, note, its, stat, msg = solve_kind(r + 1, c + 1, J[r, c], b)
+    assert stat == STAT_OK and backend == "pcg_jacobi", (msg, note)
+    assert np.linalg.norm(b - J @ xs) <= 1e-12 * np.linalg.norm(b)
+
+
+@pytest.mark.parametrize("scene,dim", [("bar2d_hht", 2), ("bar3d_hht", 3)])
+def test_ssor_takes_fewer_iterations_than_jacobi(scene, dim, tmp_path):
+    """The step's solves are preconditioned by symmetric Gauss-Seidel (SSOR) over the node
+    blocks (pcg.f90, Eisenstat's trick). On the scene's J0 its preconditioned matrix
+    E⁻¹J0E⁻ᵀ, E = (D + L) D^{-1/2}, has a smaller condition number than D⁻¹J0 (computed
+    densely here), and CG takes fewer iterations with it than on the same matrix with its
+    dofs shuffled (no node runs left: scalar Jacobi, which does not depend on the order),
+    both to the same formed residual."""
+    scn = Scene.read(ROOT / "scripts" / "scenes" / f"{scene}.nml")
+    scn.write(tmp_path / "s.nml")
+    with dyncontact.core.Stepper(tmp_path / "s.nml", tmp_path / "out") as run:
+        M, K = run.matrix("M"), run.matrix("K_theta")
+    dt = scn.get("scheme.dt")
+    J = M + 0.25 * dt * dt * K
+    n = J.shape[0]
+    nodes = ((M != 0) | (K != 0)).reshape(n // dim, dim, n // dim, dim).any(axis=(1, 3))
+    r, c = np.nonzero(np.kron(nodes, np.ones((dim, dim), dtype=bool)))
+    d = np.diag(J)
+    jac = np.linalg.eigvalsh(J / np.sqrt(np.outer(d, d)))
+    e_inv = np.linalg.inv((np.diag(d) + np.tril(J, -1)) / np.sqrt(d))
+    ssor = np.linalg.eigvalsh(e_inv @ J @ e_inv.T)
+    assert ssor.max() / ssor.min() < jac.max() / jac.min()
+    rng = np.random.default_rng(48)
+    b = rng.standard_normal(n)
+    x, backend, _, its_ssor, stat, msg = solve_kind(r + 1, c + 1, J[r, c], b)
+    assert stat == STAT_OK and backend == "pcg_jacobi", msg
+    assert np.linalg.norm(b - J @ x) <= 1e-12 * np.linalg.norm(b)
+    perm = rng.permutation(n)
+    inv = np.argsort(perm)
+    yb, _, _, bs, _ = pcg_products(inv[r] + 1, inv[c] + 1, J[r, c], np.zeros(n))
+    assert bs == 1                                  # the shuffle hid the node blocks
+    xp, _, _, its_jacobi, stat, msg = solve_kind(inv[r] + 1, inv[c] + 1, J[r, c], b[perm])
+    assert stat == STAT_OK, msg
+    assert np.linalg.norm(b[perm] - J[np.ix_(perm, perm)] @ xp) <= 1e-12 * np.linalg.norm(b)
+    assert its_ssor < its_jacobi, (its_ssor, its_jacobi)
+
+
+def auto_kind(kind, n, dim):
+    """dc_ls_auto_kind: the kind that runs, and AUTO_CG_DOFS."""
+    res, dofs = _core.dc_ls_auto_kind(kind, n, dim)
+    res = (res.tobytes() if hasattr(res, "tobytes") else bytes(res)).decode().strip()
+    return res, [int(d) for d in dofs]
+
+
+def test_auto_resolves_by_auto_cg_dofs():
+    """'auto' runs CG from AUTO_CG_DOFS(dim) unknowns on, the direct solver below (and
+    everywhere in a dimension whose threshold is huge(): no crossover measured there);
+    'direct' and 'cg' are what they say at every size."""
+    big = np.iinfo(np.int32).max
+    _, dofs = auto_kind("auto", 1, 1)
+    assert len(dofs) == 3
+    for dim, t in enumerate(dofs, start=1):
+        for n in (1, 1000, 10**6, big - 1):
+            assert auto_kind("direct", n, dim)[0] == "direct"
+            assert auto_kind("cg", n, dim)[0] == "cg"
+            want = "cg" if n >= t else "direct"
+            assert auto_kind("auto", n, dim)[0] == want, (dim, n, t)
+        if t < big:
+            assert auto_kind("auto", t - 1, dim)[0] == "direct"
+            assert auto_kind("auto", t, dim)[0] == "cg"
+    assert auto_kind("auto", big - 1, 0)[0] == "direct"        # dimension unknown
+
+
 # ------------------------------------------------------------------ runs
 
 #: The implicit example scenes (the explicit ones solve with M: &solver does not apply;

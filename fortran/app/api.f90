@@ -332,6 +332,74 @@ subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_ma
     stat = st
 end subroutine dc_ls_solve_kind
 
+!> y = A x for the m columns of x, A symmetric as 1-based COO triplets, three ways: by the
+!> node blocks CG finds in A's pattern one column at a time (pcg_product) and all columns
+!> in one pass (pcg_product_many), and by columns of the CSC matrix (csc_matvec_t).
+!> bs is the node block size found (1: the CSC product), ng the node groups.
+subroutine dc_pcg_products(n, nnz, m, rows, cols, vals, x, y_block, y_many, y_csc, bs, ng, &
+                           stat, errmsg)
+    use iso_c_binding, only: c_int, c_double
+    use errors, only: STAT_OK
+    use sparse, only: csc_t, csc_from_coo, csc_matvec_t
+    use pcg, only: pcg_t, pcg_setup, pcg_product, pcg_product_many, pcg_free
+    implicit none
+    integer(c_int), intent(in) :: n              !! size
+    integer(c_int), intent(in) :: nnz            !! triplets
+    integer(c_int), intent(in) :: m              !! vectors
+    integer(c_int), intent(in) :: rows(nnz)      !! 1-based rows
+    integer(c_int), intent(in) :: cols(nnz)      !! 1-based columns
+    real(c_double), intent(in) :: vals(nnz)      !! values
+    real(c_double), intent(in) :: x(n, m)        !! vectors
+    real(c_double), intent(out) :: y_block(n, m) !! A x by blocks, column by column
+    real(c_double), intent(out) :: y_many(n, m)  !! A x by blocks, all columns at once
+    real(c_double), intent(out) :: y_csc(n, m)   !! A x by the CSC product
+    integer(c_int), intent(out) :: bs            !! node block size found
+    integer(c_int), intent(out) :: ng            !! node groups
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(csc_t) :: a
+    type(pcg_t) :: p
+    real(c_double), allocatable :: xt(:, :), yt(:, :)
+    integer :: j, st
+    errmsg = ''
+    y_block = 0
+    y_many = 0
+    y_csc = 0
+    bs = 0
+    ng = 0
+    call csc_from_coo(n, rows, cols, vals, a, st, errmsg)
+    if (st == STAT_OK) call pcg_setup(p, a, 1.0e-12_c_double, 1, st, errmsg)
+    if (st == STAT_OK) then
+        bs = p%bs
+        ng = p%ng
+        do j = 1, m
+            call pcg_product(p, a, x(:, j), y_block(:, j))
+            call csc_matvec_t(a, x(:, j), y_csc(:, j))
+        end do
+        xt = transpose(x)
+        allocate (yt(m, n))
+        call pcg_product_many(p, a, m, xt, yt)
+        y_many = transpose(yt)
+    end if
+    call pcg_free(p)
+    stat = st
+end subroutine dc_pcg_products
+
+!> The solver kind that runs for a requested kind ('direct', 'cg', 'auto'), n unknowns
+!> and a mesh of dimension dim, and the thresholds of 'auto' (AUTO_CG_DOFS).
+subroutine dc_ls_auto_kind(kind, n, dim, resolved, auto_dofs)
+    use iso_c_binding, only: c_int
+    use linear_solver, only: ls_auto_kind, AUTO_CG_DOFS
+    implicit none
+    character(len=*), intent(in) :: kind         !! requested kind
+    integer(c_int), intent(in) :: n              !! unknowns
+    integer(c_int), intent(in) :: dim            !! mesh dimension
+    character(len=8), intent(out) :: resolved    !! 'direct' or 'cg'
+    integer(c_int), intent(out) :: auto_dofs(3)  !! AUTO_CG_DOFS by dimension
+    resolved = ls_auto_kind(kind, n, dim)
+    auto_dofs = AUTO_CG_DOFS
+end subroutine dc_ls_auto_kind
+
 !> P1 element matrices of one cell: stiffness, consistent and lumped mass.
 !> The leading n x n blocks (n = dim (dim + 1)) and x(1:dim, 1:dim + 1) are used.
 subroutine dc_p1_element(dim, x, young, poisson, density, ke, me, ml)

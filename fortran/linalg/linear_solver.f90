@@ -36,10 +36,13 @@ module linear_solver
     character(len=*), parameter, public :: BACKEND_PCG = 'pcg_jacobi'        !! CG ran
 
     !> Kind 'auto' runs CG from this many unknowns on, by the dimension of the mesh (1, 2,
-    !> 3): a size where the scaling sweep (docs/performance.md, "Scaling") measured CG's step
-    !> faster than the direct solver's. None was measured yet (the strip to 515 200 dofs,
-    !> the disk to 47 392, the 3D box to 19 440): 'auto' is the direct solver everywhere.
-    integer, parameter, public :: AUTO_CG_DOFS(3) = [huge(1), huge(1), huge(1)]
+    !> 3): the crossover the scaling sweep measured (docs/performance.md, "Direct and CG on
+    !> the strip, the disk and the 3D box"). 3D: on the box CG's step was 1.95x slower at
+    !> 8 820 dofs and 1.56x faster at 19 440 (and 36 300): the ratio crosses 1 near 14 000
+    !> (log-linear between the two). 2D: the round disk crosses near 10 000 dofs, but the
+    !> thin strip, whose factor fills little, shows none up to 515 200 (CG 1.9-3.4x slower):
+    !> a size alone cannot tell them apart, so 2D stays direct. 1D: not measured.
+    integer, parameter, public :: AUTO_CG_DOFS(3) = [huge(1), huge(1), 14000]
 
     !> Factors of one matrix and the backend that computed them.
     type, public :: factor_t
