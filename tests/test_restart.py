@@ -212,9 +212,13 @@ def test_restart_twice_and_from_the_last_checkpoint_of_a_finished_run(tmp_path):
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_signal_writes_a_checkpoint_at_the_step_it_stops_on(sig, tmp_path):
     scene = tmp_path / "s.nml"
-    # h = 0.02: about 1 s of steps, and a checkpoint interval no signal falls on by chance
-    scene.write_text(scene_text("hht", extra=", alpha = -0.1", every=7919)
-                     .replace("h = 0.05", "h = 0.02").replace("dt = 0.0025", "dt = 0.001"))
+    # h = 0.02 to t = 150: 150 000 steps, a few seconds on any machine here, so the run is
+    # still stepping when the signal comes 0.2 s after its trace appears (at t_end = 15 it
+    # can finish first); a checkpoint interval no signal falls on by chance; the trace every
+    # 10 steps keeps the files small
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", every=7919, t_end="150.0")
+                     .replace("h = 0.05", "h = 0.02").replace("dt = 0.0025", "dt = 0.001")
+                     .replace("dir = 'out',", "dir = 'out', every = 10,"))
     env = dict(os.environ)
     env.pop("PYTHONPATH", None)
     proc = subprocess.Popen(exe_cmd(scene, "--out", "part"), cwd=tmp_path, env=env,
