@@ -82,8 +82,15 @@ contains
     !> Residual, generalized tangent and penalty energy of one contact facet.
     !> r = int (1/gamma) [P]_- P_theta; the tangent dr/du_e = sum_q qa_q qb_q^T over the
     !> active points (rank one each); energy = int (1/(2 gamma)) [P]_-^2.
+    !> With nterm present the tangent comes in at most nfn terms instead (nterm of them):
+    !> the facet shape values sum to 1, so at a point P_theta = Mt nsh and dP/du_e = M nsh
+    !> with the columns Mt(:, j) = theta s - gamma nvec(:, j), M(:, j) = s - gamma nvec(:, j),
+    !> and sum_q (w_q/gamma) (Mt nsh_q) (M nsh_q)^T = Mt G M^T, G = sum_q (w_q/gamma)
+    !> nsh_q nsh_q^T (nfn x nfn): qa_j = Mt G(:, j), qb_j = M(:, j), the same tangent to
+    !> round-off. Used when more than nfn points are active (a 3D facet: 3 terms where its
+    !> rule has up to 6 or 7 points), else the terms are the points' (nterm = active).
     pure subroutine nitsche_facet(ndof_e, nfn, ue, s, nvec, gap, gamma, theta, measure, &
-                                  quad, nq, qs, qw, r, energy, active, qa, qb)
+                                  quad, nq, qs, qw, r, energy, active, qa, qb, nterm)
         integer, intent(in) :: ndof_e          !! owner cell dofs
         integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D, 3 in 3D)
         real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
@@ -102,10 +109,12 @@ contains
         integer, intent(out) :: active         !! active quadrature points
         real(dp), intent(out), optional :: qa(:, :) !! (ndof_e, >= active) tangent factors:
         real(dp), intent(out), optional :: qb(:, :) !! qa = (w/gamma) P_theta row, qb = dP/du_e
+        integer, intent(out), optional :: nterm     !! terms in qa, qb (<= nfn: see above)
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: sn, pnode(MAX_FN), xs(MAX_Q), ws(MAX_Q), a, b, xi_star
         real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
-        integer :: np, q, j
+        real(dp) :: g(MAX_FN, MAX_FN)
+        integer :: np, q, j, i
         sn = dot_product(s, ue)
         pnode = 0.0_dp
         do j = 1, nfn
@@ -114,6 +123,8 @@ contains
         r = 0.0_dp
         energy = 0.0_dp
         active = 0
+        if (present(nterm)) nterm = 0
+        g = 0.0_dp
         if (nfn == 1) then
             np = 1; ws(1) = measure
             shp(:, 1) = facet_shape(1, 0.0_dp)
@@ -155,6 +166,22 @@ contains
                 qa(:, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
                 qb(:, active) = s - gamma * nn(1:ndof_e)
             end if
+            if (present(nterm)) then
+                do j = 1, nfn
+                    g(1:nfn, j) = g(1:nfn, j) + ((ws(q) / gamma) * nsh(j)) * nsh(1:nfn)
+                end do
+            end if
+        end do
+        if (.not. present(nterm)) return
+        nterm = active
+        if (active <= nfn .or. .not. present(qa)) return
+        nterm = nfn
+        do j = 1, nfn
+            qa(:, j) = 0.0_dp
+            do i = 1, nfn
+                qa(:, j) = qa(:, j) + g(i, j) * (theta * s - gamma * nvec(:, i))
+            end do
+            qb(:, j) = s - gamma * nvec(:, j)
         end do
     end subroutine nitsche_facet
 
@@ -409,7 +436,10 @@ contains
     !> e_pen = int [P]_-^2/(2 gamma); e_theta = sum theta |F| sigma_n^2/(2 gamma).
     !> With ua present, also return the contact tangent in low-rank form on the
     !> contact-cell dofs (cdofs): D = sum_q ua(:, q) vb(:, q)^T, q = 1..rank, each pair
-    !> supported on the cdofs qloc(:, q) (0 = constrained dof, value 0).
+    !> supported on the cdofs qloc(:, q) (0 = constrained dof, value 0); a facet gives one
+    !> term an active point, or nfn terms when more points are active (nitsche_facet's
+    !> nterm: rank <= 3 a facet in 3D, the Woodbury system of the implicit schemes sized
+    !> by it).
     subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc)
         type(contact_t), intent(in) :: ct                   !! contact data
         real(dp), intent(in) :: u(:)                        !! free-dof displacement
@@ -422,7 +452,7 @@ contains
         real(dp), intent(inout), optional :: vb(:, :)       !! (ndof_e, >= rank) right factors
         integer, intent(inout), optional :: qloc(:, :)      !! (ndof_e, >= rank) their cdofs
         real(dp) :: ue(MAX_E), rf(MAX_E), ef, sn   ! fixed sizes: no heap array a call
-        integer :: f, i, af, nr
+        integer :: f, i, af, nr, nt
         active = 0
         e_pen = 0.0_dp
         e_theta = 0.0_dp
@@ -437,11 +467,12 @@ contains
             if (present(ua)) then
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:))
-                do i = nr + 1, nr + af
+                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
+                                   nt)
+                do i = nr + 1, nr + nt
                     qloc(:, i) = ct%cloc(:, f)
                 end do
-                nr = nr + af
+                nr = nr + nt
             else
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
