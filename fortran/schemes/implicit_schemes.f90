@@ -37,6 +37,14 @@
 !> The environment variable DYNCONTACT_CONTACT_COLUMNS = 'all' computes every column at
 !> set-up for the Nitsche schemes too (the reference the lazy columns are tested
 !> against); a number sets the cache's budget in MB (0: keep only the current step's).
+!> The LU factors of the Woodbury system I + c V^T W U are kept with a copy of the
+!> tangent (U, V and their dofs) they were formed from, and used again, across Newton
+!> iterations and steps, while the tangent is that copy bit for bit (W depends on J0
+!> alone): the same system, so the same factors and the same Newton step to the bit. A
+!> 'gauss' rule gives the same tangent whenever the same points are active; 'exact' as
+!> long as no active facet is cut. DYNCONTACT_WOODBURY_FRESH = 1 (read at set-up) forms
+!> and factorizes the system at every iteration (the reference the reuse is tested
+!> against, tests/test_woodbury_reuse.py).
 module implicit_schemes
     use kinds, only: dp, i8
     use vector_ops, only: dot
@@ -66,6 +74,8 @@ module implicit_schemes
     character(len=*), parameter :: COLUMNS_VAR = 'DYNCONTACT_CONTACT_COLUMNS'
     !> The least budget of the column cache, bytes.
     integer(i8), parameter :: BUDGET_MIN = 64_i8 * 1024_i8**2
+    !> The environment variable that turns the reuse of the Woodbury factors off ('1').
+    character(len=*), parameter :: FRESH_VAR = 'DYNCONTACT_WOODBURY_FRESH'
 
     !> Newmark-family and theta schemes.
     type, extends(time_scheme_t), public :: implicit_scheme_t
@@ -94,6 +104,11 @@ module implicit_schemes
         real(dp), allocatable :: small(:, :)      !! (cap, cap) Woodbury system I + c V^T W U
         real(dp), allocatable :: zs(:)            !! (cap) its right-hand side / solution
         integer, allocatable :: piv(:)            !! (cap) pivots
+        logical :: fresh = .false.                !! never reuse the factors (FRESH_VAR)
+        integer :: fac_rank = -1                  !! rank of the factorized system, -1: none
+        real(dp), allocatable :: fac_ua(:, :)     !! (ndof_e, rmax) U of the factorized system
+        real(dp), allocatable :: fac_vb(:, :)     !! (ndof_e, rmax) its V
+        integer, allocatable :: fac_qloc(:, :)    !! (ndof_e, rmax) their dofs
         real(dp), allocatable :: tvec(:)          !! (m) D P dx, the tangent's part of R'
         real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
         real(dp), allocatable :: rho(:)           !! (m) R on the contact-cell dofs (zero elsewhere)
@@ -195,12 +210,16 @@ contains
         if (mdl%has_contact) rmax = contact_max_rank(mdl%ct)
         allocate (this%need(max(this%m, mdl%ndof_e * rmax)), this%ua(mdl%ndof_e, rmax), &
                   this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), this%wu(this%m, 0), &
+                  this%fac_ua(mdl%ndof_e, rmax), this%fac_vb(mdl%ndof_e, rmax), &
+                  this%fac_qloc(mdl%ndof_e, rmax), &
                   this%wut(0, this%m), this%srow(0), this%small(0, 0), this%zs(0), &
                   this%piv(0), this%tvec(this%m), &
                   this%cx(this%m), this%cold(this%m), this%rho(this%m), this%xbase(this%m), &
                   this%xc(this%m), this%dxc(this%m), this%yc(this%m), this%tk(this%m), &
                   this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)))
         this%scratch = 0.0_dp
+        this%fac_rank = -1
+        call fresh_env(this%fresh)
         budget = default_budget(this)
         call zcache_init(this%zc, n, this%m, budget, budget)
         this%all_columns = mdl%alm%kind /= ALM_OFF
@@ -240,6 +259,17 @@ contains
         read (text_value, *, iostat=st) mb
         if (st == 0 .and. mb >= 0) budget = int(mb, i8) * 1024_i8**2
     end subroutine columns_env
+
+    !> DYNCONTACT_WOODBURY_FRESH = 1: fresh is set (the Woodbury factors never reused).
+    subroutine fresh_env(fresh)
+        logical, intent(out) :: fresh                       !! never reuse the factors
+        character(len=8) :: text_value
+        integer :: length, st
+        fresh = .false.
+        call get_environment_variable(FRESH_VAR, text_value, length, st)
+        if (st /= 0 .or. length == 0) return
+        fresh = trim(adjustl(text_value)) == '1'
+    end subroutine fresh_env
 
     !> Release the factors of J0.
     subroutine implicit_free(this)
@@ -295,6 +325,7 @@ contains
         call buf_get(buf, this%qloc)
         ! the cache of columns is derived state: computed again as the steps need them
         if (.not. this%all_columns) call zcache_free(this%zc)
+        this%fac_rank = -1      ! (so are the Woodbury factors)
     end subroutine implicit_load
 
     !> The triangular solve used with the J0 factors.
@@ -621,53 +652,33 @@ contains
 
     !> Woodbury for one Newton step, on the contact-cell dofs: with yc = P J0^{-1} R,
     !> J^{-1} R = J0^{-1} R - Z U (I + c V^T W U)^{-1} c V^T yc, so tk <- tk - U s,
-    !> s = (I + c V^T W U)^{-1} c V^T yc.
+    !> s = (I + c V^T W U)^{-1} c V^T yc. The system is formed and factorized only when
+    !> the tangent differs from the one of the factors held (see the module header).
     subroutine woodbury(this, mdl, st2)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
         integer :: r, i, j, k, info, l
         real(dp) :: acc2
-        ! (W U, (W U)^T, the system and its right-hand side in their leading r entries)
         st2 = STAT_OK
         r = this%rank
         if (r > size(this%small, 1)) call grow_woodbury(this, r)
-        ! W U: each column of U lives on <= ndof_e contact-cell dofs
-        do j = 1, r
-            this%wu(:, j) = 0.0_dp
-            do k = 1, mdl%ndof_e
-                l = this%qloc(k, j)
-                if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) &
-                                           * this%zc%w(:, this%zc%slot(l))
-            end do
-        end do
-        ! small = I + c V^T W U; zs = c V^T yc. Row i of V^T W U sums the rows
-        ! qloc(:, i) of W U, read as columns of its transpose (contiguous, vector
-        ! operations over the r columns; each entry's sum in the order of k)
-        do l = 1, size(this%wu, 1)
-            do j = 1, r
-                this%wut(j, l) = this%wu(l, j)
-            end do
-        end do
+        if (.not. same_tangent(this, mdl%ndof_e)) then
+            call woodbury_factor(this, mdl, info)
+            if (info /= 0) then
+                st2 = STAT_NUMERIC
+                return
+            end if
+        end if
+        ! zs = c V^T yc
         do i = 1, r
-            this%srow(1:r) = 0.0_dp
             acc2 = 0.0_dp
             do k = 1, mdl%ndof_e
                 l = this%qloc(k, i)
-                if (l > 0) then
-                    this%srow(1:r) = this%srow(1:r) + this%vb(k, i) * this%wut(1:r, l)
-                    acc2 = acc2 + this%vb(k, i) * this%yc(l)
-                end if
+                if (l > 0) acc2 = acc2 + this%vb(k, i) * this%yc(l)
             end do
-            this%small(i, 1:r) = this%c * this%srow(1:r)
-            this%small(i, i) = this%small(i, i) + 1.0_dp
             this%zs(i) = this%c * acc2
         end do
-        call dense_lu_factor(r, this%small, this%piv, info)
-        if (info /= 0) then
-            st2 = STAT_NUMERIC
-            return
-        end if
         call dense_lu_solve(r, this%small, this%piv, this%zs)
         ! tk = tk - U s
         do j = 1, r
@@ -677,6 +688,68 @@ contains
             end do
         end do
     end subroutine woodbury
+
+    !> Whether the factors held are those of the current tangent: the same rank, U, V
+    !> and dofs, bit for bit (never with fresh set).
+    pure logical function same_tangent(this, ndof_e) result(same)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        integer, intent(in) :: ndof_e                       !! dofs of a contact cell
+        integer :: j, k
+        same = .false.
+        if (this%fresh .or. this%fac_rank /= this%rank) return
+        do j = 1, this%rank
+            do k = 1, ndof_e
+                if (this%qloc(k, j) /= this%fac_qloc(k, j)) return
+                if (this%ua(k, j) /= this%fac_ua(k, j)) return
+                if (this%vb(k, j) /= this%fac_vb(k, j)) return
+            end do
+        end do
+        same = .true.
+    end function same_tangent
+
+    !> Form the Woodbury system I + c V^T W U of the current tangent and factorize it
+    !> (info as dense_lu_factor's); on success the tangent is copied as the factors'.
+    subroutine woodbury_factor(this, mdl, info)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: info                        !! 0 or the first zero pivot
+        integer :: r, i, j, k, l
+        ! (W U, (W U)^T and the system in their leading r entries)
+        r = this%rank
+        this%fac_rank = -1
+        ! W U: each column of U lives on <= ndof_e contact-cell dofs
+        do j = 1, r
+            this%wu(:, j) = 0.0_dp
+            do k = 1, mdl%ndof_e
+                l = this%qloc(k, j)
+                if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) &
+                                           * this%zc%w(:, this%zc%slot(l))
+            end do
+        end do
+        ! small = I + c V^T W U. Row i of V^T W U sums the rows qloc(:, i) of W U, read
+        ! as columns of its transpose (contiguous, vector operations over the r columns;
+        ! each entry's sum in the order of k)
+        do l = 1, size(this%wu, 1)
+            do j = 1, r
+                this%wut(j, l) = this%wu(l, j)
+            end do
+        end do
+        do i = 1, r
+            this%srow(1:r) = 0.0_dp
+            do k = 1, mdl%ndof_e
+                l = this%qloc(k, i)
+                if (l > 0) this%srow(1:r) = this%srow(1:r) + this%vb(k, i) * this%wut(1:r, l)
+            end do
+            this%small(i, 1:r) = this%c * this%srow(1:r)
+            this%small(i, i) = this%small(i, i) + 1.0_dp
+        end do
+        call dense_lu_factor(r, this%small, this%piv, info)
+        if (info /= 0) return
+        this%fac_rank = r
+        this%fac_ua(:, 1:r) = this%ua(:, 1:r)
+        this%fac_vb(:, 1:r) = this%vb(:, 1:r)
+        this%fac_qloc(:, 1:r) = this%qloc(:, 1:r)
+    end subroutine woodbury_factor
 
     !> The Woodbury work arrays for rank r: their size follows the largest rank met (at
     !> least doubled when it grows: few reallocations, and the pages beyond the leading
@@ -688,6 +761,7 @@ contains
         integer :: cap
         cap = min(size(this%ua, 2), max(r, 2 * size(this%small, 1), 16))
         deallocate (this%wu, this%wut, this%srow, this%small, this%zs, this%piv)
+        this%fac_rank = -1
         allocate (this%wu(this%m, cap), this%wut(cap, this%m), this%srow(cap), &
                   this%small(cap, cap), this%zs(cap), this%piv(cap))
     end subroutine grow_woodbury
