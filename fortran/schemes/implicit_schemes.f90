@@ -21,8 +21,9 @@
 !> M (u' - u~'). No product is carried across steps by an update identity, so none
 !> can drift from the vector it stands for.
 !> J = J0 + c P^T U V^T P where J0 = M + c K_theta is factorized once and
-!> D = U V^T (one rank-one term per active contact quadrature point, on the dofs of
-!> the contact cells) is the contact tangent: J^{-1} is applied with the Woodbury
+!> D = U V^T (one rank-one term per active contact quadrature point, or nfn a facet
+!> when more of its points are active, nitsche_facet's nterm; on the dofs of the
+!> contact cells) is the contact tangent: J^{-1} is applied with the Woodbury
 !> identity, so the active set changing never costs a factorization. Only the first
 !> Newton iteration solves with J0 (y0 = J0^{-1} R(u^n)); every correction after it
 !> lies in the range of Z = J0^{-1} P^T, so the iterations run on the m contact-cell
