@@ -1,16 +1,19 @@
 """The implicit schemes keep the LU factors of the Woodbury system I + c VᵀWU of the
 contact correction with a copy of the tangent (U, V and their dofs) they come from, and
 solve with them again, across Newton iterations and steps, while the tangent is that copy
-bit for bit (fortran/schemes/implicit_schemes.f90). DYNCONTACT_WOODBURY_FRESH=1 forms and
-factorizes the system at every Newton iteration: the reference. The traces with and
+bit for bit, and forms the system from X = MᵀW M_θ over the facets with active points,
+kept while those facets are the same (fortran/schemes/implicit_schemes.f90).
+DYNCONTACT_WOODBURY_FRESH=1 forms X and the system and factorizes it at every Newton
+iteration: the reference. The traces with and
 without reuse must be equal on 2D and 3D scenes, with 'exact' quadrature (cut facets move
 the tangent: few reuses) and 'gauss' (the same active points give the same tangent: many),
 including one whose active set changes at nearly every step (the ball).
 
 Equal to the bit, which is stronger than the 1e-12 relative round-off bound: the factors
-are reused only for a system formed from the same numbers (W depends on J0 alone and its
-columns do not depend on the cache's history, tests/test_contact_columns.py), so the
-factors and every Newton step are the ones a fresh factorization gives."""
+are reused only for a system formed from the same numbers, and X only for the same facets
+(X and the system depend on W, which depends on J0 alone, and its columns do not depend
+on the cache's history, tests/test_contact_columns.py), so the factors and every Newton
+step are the ones a fresh formation and factorization give."""
 
 from __future__ import annotations
 

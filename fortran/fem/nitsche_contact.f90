@@ -89,8 +89,11 @@ contains
     !> nsh_q nsh_q^T (nfn x nfn): qa_j = Mt G(:, j), qb_j = M(:, j), the same tangent to
     !> round-off. Used when more than nfn points are active (a 3D facet: 3 terms where its
     !> rule has up to 6 or 7 points), else the terms are the points' (nterm = active).
+    !> Either way each term is qa_t = Mt ca_t, qb_t = M cb_t (to round-off) with the nfn
+    !> coefficients ca_t, cb_t (a point: (w/gamma) nsh and nsh; a compressed term j:
+    !> G(:, j) and e_j), returned in ca, cb when present (with nterm).
     pure subroutine nitsche_facet(ndof_e, nfn, ue, s, nvec, gap, gamma, theta, measure, &
-                                  quad, nq, qs, qw, r, energy, active, qa, qb, nterm)
+                                  quad, nq, qs, qw, r, energy, active, qa, qb, nterm, ca, cb)
         integer, intent(in) :: ndof_e          !! owner cell dofs
         integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D, 3 in 3D)
         real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
@@ -110,6 +113,8 @@ contains
         real(dp), intent(out), optional :: qa(:, :) !! (ndof_e, >= active) tangent factors:
         real(dp), intent(out), optional :: qb(:, :) !! qa = (w/gamma) P_theta row, qb = dP/du_e
         integer, intent(out), optional :: nterm     !! terms in qa, qb (<= nfn: see above)
+        real(dp), intent(out), optional :: ca(:, :) !! (>= nfn, >= nterm) coefficients of qa in Mt
+        real(dp), intent(out), optional :: cb(:, :) !! (>= nfn, >= nterm) coefficients of qb in M
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: sn, pnode(MAX_FN), xs(MAX_Q), ws(MAX_Q), a, b, xi_star
         real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
@@ -171,6 +176,10 @@ contains
                     g(1:nfn, j) = g(1:nfn, j) + ((ws(q) / gamma) * nsh(j)) * nsh(1:nfn)
                 end do
             end if
+            if (present(ca)) then
+                ca(1:nfn, active) = (ws(q) / gamma) * nsh(1:nfn)
+                cb(1:nfn, active) = nsh(1:nfn)
+            end if
         end do
         if (.not. present(nterm)) return
         nterm = active
@@ -182,6 +191,11 @@ contains
                 qa(:, j) = qa(:, j) + g(i, j) * (theta * s - gamma * nvec(:, i))
             end do
             qb(:, j) = s - gamma * nvec(:, j)
+            if (present(ca)) then
+                ca(1:nfn, j) = g(1:nfn, j)
+                cb(1:nfn, j) = 0.0_dp
+                cb(j, j) = 1.0_dp
+            end if
         end do
     end subroutine nitsche_facet
 
@@ -439,8 +453,10 @@ contains
     !> supported on the cdofs qloc(:, q) (0 = constrained dof, value 0); a facet gives one
     !> term an active point, or nfn terms when more points are active (nitsche_facet's
     !> nterm: rank <= 3 a facet in 3D, the Woodbury system of the implicit schemes sized
-    !> by it).
-    subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc)
+    !> by it). With tfac present (and ua), also each term's facet and its coefficients
+    !> tca, tcb in the facet's Mt and M (nitsche_facet's ca, cb).
+    subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc, tfac, tca, &
+                            tcb)
         type(contact_t), intent(in) :: ct                   !! contact data
         real(dp), intent(in) :: u(:)                        !! free-dof displacement
         real(dp), intent(inout) :: r(:)                     !! residual (added to)
@@ -451,6 +467,9 @@ contains
         real(dp), intent(inout), optional :: ua(:, :)       !! (ndof_e, >= rank) left factors
         real(dp), intent(inout), optional :: vb(:, :)       !! (ndof_e, >= rank) right factors
         integer, intent(inout), optional :: qloc(:, :)      !! (ndof_e, >= rank) their cdofs
+        integer, intent(inout), optional :: tfac(:)         !! (>= rank) each term's facet
+        real(dp), intent(inout), optional :: tca(:, :)      !! (nfn, >= rank) its coefficients in Mt
+        real(dp), intent(inout), optional :: tcb(:, :)      !! (nfn, >= rank) and in M
         real(dp) :: ue(MAX_E), rf(MAX_E), ef, sn   ! fixed sizes: no heap array a call
         integer :: f, i, af, nr, nt
         active = 0
@@ -464,7 +483,17 @@ contains
             end do
             sn = dot_product(ct%s(:, f), ue(1:ct%ndof_e))
             e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
-            if (present(ua)) then
+            if (present(tfac)) then
+                call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
+                                   ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
+                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
+                                   nt, tca(:, nr + 1:), tcb(:, nr + 1:))
+                do i = nr + 1, nr + nt
+                    qloc(:, i) = ct%cloc(:, f)
+                    tfac(i) = f
+                end do
+                nr = nr + nt
+            else if (present(ua)) then
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
                                    ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &

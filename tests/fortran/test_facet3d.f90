@@ -130,10 +130,13 @@ contains
     !> the exact rule (3 or 6 points) and the Gauss rules (3, 6, 7 points) on facets with
     !> two or three active nodes, theta = 1, 0, -1, each rule's points' terms against the
     !> compressed ones. Both are sums of <= 7 products of O(1) numbers (entries of D up
-    !> to ~1): they agree to a few ulps, checked to 1e-14 of max |D|.
+    !> to ~1): they agree to a few ulps, checked to 1e-14 of max |D|. Each term is also
+    !> Mt ca, M cb with the returned coefficients (Mt(:, j) = theta s - gamma nvec(:, j),
+    !> M(:, j) = s - gamma nvec(:, j)), to 1e-14 of the largest term entry.
     subroutine check_terms()
-        real(dp) :: d1(NE, NE), d2(NE, NE)
-        integer :: k, th, nt, act2, quad, nq
+        real(dp) :: d1(NE, NE), d2(NE, NE), ca(MAX_FN, MAX_Q), cb(MAX_FN, MAX_Q)
+        real(dp) :: mt(NE, NF), mm(NE, NF), ea
+        integer :: k, th, nt, act2, quad, nq, j
         do k = 1, 12
             call random_facet(2 + mod(k, 2))
             th = 1 - mod(k, 3)
@@ -146,8 +149,16 @@ contains
                                r, e, act, qa, qb)
             d1 = matmul(qa(:, 1:act), transpose(qb(:, 1:act)))
             call nitsche_facet(NE, NF, ue, s, nvec, gap, gamma, th, measure, quad, nq, qs, qw, &
-                               r, e, act2, qa, qb, nt)
+                               r, e, act2, qa, qb, nt, ca, cb)
             d2 = matmul(qa(:, 1:nt), transpose(qb(:, 1:nt)))
+            do j = 1, NF
+                mt(:, j) = th * s - gamma * nvec(:, j)
+                mm(:, j) = s - gamma * nvec(:, j)
+            end do
+            ea = max(maxval(abs(qa(:, 1:nt) - matmul(mt, ca(1:NF, 1:nt)))) &
+                     / maxval(abs(qa(:, 1:nt))), maxval(abs(qb(:, 1:nt) &
+                     - matmul(mm, cb(1:NF, 1:nt)))) / maxval(abs(qb(:, 1:nt))))
+            call checks%check(ea <= 1.0e-14_dp, 'terms = Mt ca, M cb')
             write (what, '(a, i0, a, i0, a, i0, a, es9.2)') 'facet terms: trial ', k, &
                 ', active ', act, ', terms ', nt, ', difference ', &
                 maxval(abs(d1 - d2)) / max(maxval(abs(d1)), tiny(1.0_dp))
