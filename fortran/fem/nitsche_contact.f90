@@ -82,8 +82,18 @@ contains
     !> Residual, generalized tangent and penalty energy of one contact facet.
     !> r = int (1/gamma) [P]_- P_theta; the tangent dr/du_e = sum_q qa_q qb_q^T over the
     !> active points (rank one each); energy = int (1/(2 gamma)) [P]_-^2.
+    !> With nterm present the tangent comes in at most nfn terms instead (nterm of them):
+    !> the facet shape values sum to 1, so at a point P_theta = Mt nsh and dP/du_e = M nsh
+    !> with the columns Mt(:, j) = theta s - gamma nvec(:, j), M(:, j) = s - gamma nvec(:, j),
+    !> and sum_q (w_q/gamma) (Mt nsh_q) (M nsh_q)^T = Mt G M^T, G = sum_q (w_q/gamma)
+    !> nsh_q nsh_q^T (nfn x nfn): qa_j = Mt G(:, j), qb_j = M(:, j), the same tangent to
+    !> round-off. Used when more than nfn points are active (a 3D facet: 3 terms where its
+    !> rule has up to 6 or 7 points), else the terms are the points' (nterm = active).
+    !> Either way each term is qa_t = Mt ca_t, qb_t = M cb_t (to round-off) with the nfn
+    !> coefficients ca_t, cb_t (a point: (w/gamma) nsh and nsh; a compressed term j:
+    !> G(:, j) and e_j), returned in ca, cb when present (with nterm).
     pure subroutine nitsche_facet(ndof_e, nfn, ue, s, nvec, gap, gamma, theta, measure, &
-                                  quad, nq, qs, qw, r, energy, active, qa, qb)
+                                  quad, nq, qs, qw, r, energy, active, qa, qb, nterm, ca, cb)
         integer, intent(in) :: ndof_e          !! owner cell dofs
         integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D, 3 in 3D)
         real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
@@ -102,10 +112,14 @@ contains
         integer, intent(out) :: active         !! active quadrature points
         real(dp), intent(out), optional :: qa(:, :) !! (ndof_e, >= active) tangent factors:
         real(dp), intent(out), optional :: qb(:, :) !! qa = (w/gamma) P_theta row, qb = dP/du_e
+        integer, intent(out), optional :: nterm     !! terms in qa, qb (<= nfn: see above)
+        real(dp), intent(out), optional :: ca(:, :) !! (>= nfn, >= nterm) coefficients of qa in Mt
+        real(dp), intent(out), optional :: cb(:, :) !! (>= nfn, >= nterm) coefficients of qb in M
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: sn, pnode(MAX_FN), xs(MAX_Q), ws(MAX_Q), a, b, xi_star
         real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
-        integer :: np, q, j
+        real(dp) :: g(MAX_FN, MAX_FN)
+        integer :: np, q, j, i
         sn = dot_product(s, ue)
         pnode = 0.0_dp
         do j = 1, nfn
@@ -114,6 +128,8 @@ contains
         r = 0.0_dp
         energy = 0.0_dp
         active = 0
+        if (present(nterm)) nterm = 0
+        g = 0.0_dp
         if (nfn == 1) then
             np = 1; ws(1) = measure
             shp(:, 1) = facet_shape(1, 0.0_dp)
@@ -154,6 +170,31 @@ contains
             if (present(qa)) then
                 qa(:, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
                 qb(:, active) = s - gamma * nn(1:ndof_e)
+            end if
+            if (present(nterm)) then
+                do j = 1, nfn
+                    g(1:nfn, j) = g(1:nfn, j) + ((ws(q) / gamma) * nsh(j)) * nsh(1:nfn)
+                end do
+            end if
+            if (present(ca)) then
+                ca(1:nfn, active) = (ws(q) / gamma) * nsh(1:nfn)
+                cb(1:nfn, active) = nsh(1:nfn)
+            end if
+        end do
+        if (.not. present(nterm)) return
+        nterm = active
+        if (active <= nfn .or. .not. present(qa)) return
+        nterm = nfn
+        do j = 1, nfn
+            qa(:, j) = 0.0_dp
+            do i = 1, nfn
+                qa(:, j) = qa(:, j) + g(i, j) * (theta * s - gamma * nvec(:, i))
+            end do
+            qb(:, j) = s - gamma * nvec(:, j)
+            if (present(ca)) then
+                ca(1:nfn, j) = g(1:nfn, j)
+                cb(1:nfn, j) = 0.0_dp
+                cb(j, j) = 1.0_dp
             end if
         end do
     end subroutine nitsche_facet
@@ -409,8 +450,13 @@ contains
     !> e_pen = int [P]_-^2/(2 gamma); e_theta = sum theta |F| sigma_n^2/(2 gamma).
     !> With ua present, also return the contact tangent in low-rank form on the
     !> contact-cell dofs (cdofs): D = sum_q ua(:, q) vb(:, q)^T, q = 1..rank, each pair
-    !> supported on the cdofs qloc(:, q) (0 = constrained dof, value 0).
-    subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc)
+    !> supported on the cdofs qloc(:, q) (0 = constrained dof, value 0); a facet gives one
+    !> term an active point, or nfn terms when more points are active (nitsche_facet's
+    !> nterm: rank <= 3 a facet in 3D, the Woodbury system of the implicit schemes sized
+    !> by it). With tfac present (and ua), also each term's facet and its coefficients
+    !> tca, tcb in the facet's Mt and M (nitsche_facet's ca, cb).
+    subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc, tfac, tca, &
+                            tcb)
         type(contact_t), intent(in) :: ct                   !! contact data
         real(dp), intent(in) :: u(:)                        !! free-dof displacement
         real(dp), intent(inout) :: r(:)                     !! residual (added to)
@@ -421,8 +467,11 @@ contains
         real(dp), intent(inout), optional :: ua(:, :)       !! (ndof_e, >= rank) left factors
         real(dp), intent(inout), optional :: vb(:, :)       !! (ndof_e, >= rank) right factors
         integer, intent(inout), optional :: qloc(:, :)      !! (ndof_e, >= rank) their cdofs
+        integer, intent(inout), optional :: tfac(:)         !! (>= rank) each term's facet
+        real(dp), intent(inout), optional :: tca(:, :)      !! (nfn, >= rank) its coefficients in Mt
+        real(dp), intent(inout), optional :: tcb(:, :)      !! (nfn, >= rank) and in M
         real(dp) :: ue(MAX_E), rf(MAX_E), ef, sn   ! fixed sizes: no heap array a call
-        integer :: f, i, af, nr
+        integer :: f, i, af, nr, nt
         active = 0
         e_pen = 0.0_dp
         e_theta = 0.0_dp
@@ -434,14 +483,25 @@ contains
             end do
             sn = dot_product(ct%s(:, f), ue(1:ct%ndof_e))
             e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
-            if (present(ua)) then
+            if (present(tfac)) then
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:))
-                do i = nr + 1, nr + af
+                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
+                                   nt, tca(:, nr + 1:), tcb(:, nr + 1:))
+                do i = nr + 1, nr + nt
+                    qloc(:, i) = ct%cloc(:, f)
+                    tfac(i) = f
+                end do
+                nr = nr + nt
+            else if (present(ua)) then
+                call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
+                                   ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
+                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
+                                   nt)
+                do i = nr + 1, nr + nt
                     qloc(:, i) = ct%cloc(:, f)
                 end do
-                nr = nr + af
+                nr = nr + nt
             else
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &

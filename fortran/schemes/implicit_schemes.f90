@@ -21,8 +21,9 @@
 !> M (u' - u~'). No product is carried across steps by an update identity, so none
 !> can drift from the vector it stands for.
 !> J = J0 + c P^T U V^T P where J0 = M + c K_theta is factorized once and
-!> D = U V^T (one rank-one term per active contact quadrature point, on the dofs of
-!> the contact cells) is the contact tangent: J^{-1} is applied with the Woodbury
+!> D = U V^T (one rank-one term per active contact quadrature point, or nfn a facet
+!> when more of its points are active, nitsche_facet's nterm; on the dofs of the
+!> contact cells) is the contact tangent: J^{-1} is applied with the Woodbury
 !> identity, so the active set changing never costs a factorization. Only the first
 !> Newton iteration solves with J0 (y0 = J0^{-1} R(u^n)); every correction after it
 !> lies in the range of Z = J0^{-1} P^T, so the iterations run on the m contact-cell
@@ -37,6 +38,16 @@
 !> The environment variable DYNCONTACT_CONTACT_COLUMNS = 'all' computes every column at
 !> set-up for the Nitsche schemes too (the reference the lazy columns are tested
 !> against); a number sets the cache's budget in MB (0: keep only the current step's).
+!> The LU factors of the Woodbury system I + c V^T W U are kept with a copy of the
+!> tangent (U, V and their dofs) they were formed from, and used again, across Newton
+!> iterations and steps, while the tangent is that copy bit for bit (W depends on J0
+!> alone): the same system, so the same factors and the same Newton step to the bit. A
+!> 'gauss' rule gives the same tangent whenever the same points are active; 'exact' as
+!> long as no active facet is cut. The system is formed from X = M^T W Mt over the
+!> facets with active points (woodbury_factor), which depends on those facets alone and
+!> is kept while they are the same. DYNCONTACT_WOODBURY_FRESH = 1 (read at set-up) forms
+!> X and the system and factorizes it at every iteration (the reference the reuse is
+!> tested against, tests/test_woodbury_reuse.py).
 module implicit_schemes
     use kinds, only: dp, i8
     use vector_ops, only: dot
@@ -66,6 +77,8 @@ module implicit_schemes
     character(len=*), parameter :: COLUMNS_VAR = 'DYNCONTACT_CONTACT_COLUMNS'
     !> The least budget of the column cache, bytes.
     integer(i8), parameter :: BUDGET_MIN = 64_i8 * 1024_i8**2
+    !> The environment variable that turns the reuse of the Woodbury factors off ('1').
+    character(len=*), parameter :: FRESH_VAR = 'DYNCONTACT_WOODBURY_FRESH'
 
     !> Newmark-family and theta schemes.
     type, extends(time_scheme_t), public :: implicit_scheme_t
@@ -88,12 +101,24 @@ module implicit_schemes
         real(dp), allocatable :: ua(:, :)         !! (ndof_e, rmax) columns of U (on qloc)
         real(dp), allocatable :: vb(:, :)         !! (ndof_e, rmax) columns of V (on qloc)
         integer, allocatable :: qloc(:, :)        !! (ndof_e, rmax) their contact-cell dofs
-        real(dp), allocatable :: wu(:, :)         !! (m, cap) W U (cap: see grow_woodbury)
-        real(dp), allocatable :: wut(:, :)        !! (cap, m) (W U)^T
-        real(dp), allocatable :: srow(:)          !! (cap) one row of V^T W U
         real(dp), allocatable :: small(:, :)      !! (cap, cap) Woodbury system I + c V^T W U
         real(dp), allocatable :: zs(:)            !! (cap) its right-hand side / solution
         integer, allocatable :: piv(:)            !! (cap) pivots
+        logical :: fresh = .false.                !! never reuse the factors (FRESH_VAR)
+        integer :: fac_rank = -1                  !! rank of the factorized system, -1: none
+        real(dp), allocatable :: fac_ua(:, :)     !! (ndof_e, rmax) U of the factorized system
+        real(dp), allocatable :: fac_vb(:, :)     !! (ndof_e, rmax) its V
+        integer, allocatable :: fac_qloc(:, :)    !! (ndof_e, rmax) their dofs
+        integer, allocatable :: tfac(:)           !! (rmax) each term's facet
+        real(dp), allocatable :: tca(:, :)        !! (nfn, rmax) its coefficients in the facet's Mt
+        real(dp), allocatable :: tcb(:, :)        !! (nfn, rmax) and in its M
+        integer :: nxf = -1                       !! facets of X (-1: none formed)
+        integer, allocatable :: xfac(:)           !! (n_facets) those facets, in order
+        integer, allocatable :: flist(:)          !! (n_facets) the current terms' facets (work)
+        integer, allocatable :: fblk(:)           !! (n_facets) a facet's block in X
+        real(dp), allocatable :: wxu(:, :)        !! (m, kcap) W Mt over the facets of X
+        real(dp), allocatable :: xt(:, :)         !! (kcap, kcap) X^T, X = M^T W Mt
+        real(dp), allocatable :: yrow(:)          !! (kcap) one row of Cb^T X
         real(dp), allocatable :: tvec(:)          !! (m) D P dx, the tangent's part of R'
         real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
         real(dp), allocatable :: rho(:)           !! (m) R on the contact-cell dofs (zero elsewhere)
@@ -194,13 +219,21 @@ contains
         rmax = 0
         if (mdl%has_contact) rmax = contact_max_rank(mdl%ct)
         allocate (this%need(max(this%m, mdl%ndof_e * rmax)), this%ua(mdl%ndof_e, rmax), &
-                  this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), this%wu(this%m, 0), &
-                  this%wut(0, this%m), this%srow(0), this%small(0, 0), this%zs(0), &
+                  this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), &
+                  this%fac_ua(mdl%ndof_e, rmax), this%fac_vb(mdl%ndof_e, rmax), &
+                  this%fac_qloc(mdl%ndof_e, rmax), this%tfac(rmax), &
+                  this%tca(max(1, mdl%ct%nfn), rmax), this%tcb(max(1, mdl%ct%nfn), rmax), &
+                  this%xfac(mdl%ct%n_facets), this%flist(mdl%ct%n_facets), &
+                  this%fblk(mdl%ct%n_facets), this%wxu(this%m, 0), this%xt(0, 0), this%yrow(0), &
+                  this%small(0, 0), this%zs(0), &
                   this%piv(0), this%tvec(this%m), &
                   this%cx(this%m), this%cold(this%m), this%rho(this%m), this%xbase(this%m), &
                   this%xc(this%m), this%dxc(this%m), this%yc(this%m), this%tk(this%m), &
                   this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)))
         this%scratch = 0.0_dp
+        this%fac_rank = -1
+        this%nxf = -1
+        call fresh_env(this%fresh)
         budget = default_budget(this)
         call zcache_init(this%zc, n, this%m, budget, budget)
         this%all_columns = mdl%alm%kind /= ALM_OFF
@@ -240,6 +273,17 @@ contains
         read (text_value, *, iostat=st) mb
         if (st == 0 .and. mb >= 0) budget = int(mb, i8) * 1024_i8**2
     end subroutine columns_env
+
+    !> DYNCONTACT_WOODBURY_FRESH = 1: fresh is set (the Woodbury factors never reused).
+    subroutine fresh_env(fresh)
+        logical, intent(out) :: fresh                       !! never reuse the factors
+        character(len=8) :: text_value
+        integer :: length, st
+        fresh = .false.
+        call get_environment_variable(FRESH_VAR, text_value, length, st)
+        if (st /= 0 .or. length == 0) return
+        fresh = trim(adjustl(text_value)) == '1'
+    end subroutine fresh_env
 
     !> Release the factors of J0.
     subroutine implicit_free(this)
@@ -295,6 +339,11 @@ contains
         call buf_get(buf, this%qloc)
         ! the cache of columns is derived state: computed again as the steps need them
         if (.not. this%all_columns) call zcache_free(this%zc)
+        this%fac_rank = -1      ! (so are the Woodbury factors and X)
+        this%nxf = -1
+        ! the terms' facets and coefficients are not in the checkpoint: the first step
+        ! evaluates the contact part again at u (the same numbers as the ones saved)
+        this%cached = .false.
     end subroutine implicit_load
 
     !> The triangular solve used with the J0 factors.
@@ -613,7 +662,7 @@ contains
             this%scratch(mdl%ct%cdofs(j)) = 0.0_dp
         end do
         call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%rank, this%ua, this%vb, &
-                          this%qloc)
+                          this%qloc, this%tfac, this%tca, this%tcb)
         do j = 1, this%m
             cvec(j) = this%scratch(mdl%ct%cdofs(j))
         end do
@@ -621,53 +670,33 @@ contains
 
     !> Woodbury for one Newton step, on the contact-cell dofs: with yc = P J0^{-1} R,
     !> J^{-1} R = J0^{-1} R - Z U (I + c V^T W U)^{-1} c V^T yc, so tk <- tk - U s,
-    !> s = (I + c V^T W U)^{-1} c V^T yc.
+    !> s = (I + c V^T W U)^{-1} c V^T yc. The system is formed and factorized only when
+    !> the tangent differs from the one of the factors held (see the module header).
     subroutine woodbury(this, mdl, st2)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
         integer :: r, i, j, k, info, l
         real(dp) :: acc2
-        ! (W U, (W U)^T, the system and its right-hand side in their leading r entries)
         st2 = STAT_OK
         r = this%rank
         if (r > size(this%small, 1)) call grow_woodbury(this, r)
-        ! W U: each column of U lives on <= ndof_e contact-cell dofs
-        do j = 1, r
-            this%wu(:, j) = 0.0_dp
-            do k = 1, mdl%ndof_e
-                l = this%qloc(k, j)
-                if (l > 0) this%wu(:, j) = this%wu(:, j) + this%ua(k, j) &
-                                           * this%zc%w(:, this%zc%slot(l))
-            end do
-        end do
-        ! small = I + c V^T W U; zs = c V^T yc. Row i of V^T W U sums the rows
-        ! qloc(:, i) of W U, read as columns of its transpose (contiguous, vector
-        ! operations over the r columns; each entry's sum in the order of k)
-        do l = 1, size(this%wu, 1)
-            do j = 1, r
-                this%wut(j, l) = this%wu(l, j)
-            end do
-        end do
+        if (.not. same_tangent(this, mdl%ndof_e)) then
+            call woodbury_factor(this, mdl, info)
+            if (info /= 0) then
+                st2 = STAT_NUMERIC
+                return
+            end if
+        end if
+        ! zs = c V^T yc
         do i = 1, r
-            this%srow(1:r) = 0.0_dp
             acc2 = 0.0_dp
             do k = 1, mdl%ndof_e
                 l = this%qloc(k, i)
-                if (l > 0) then
-                    this%srow(1:r) = this%srow(1:r) + this%vb(k, i) * this%wut(1:r, l)
-                    acc2 = acc2 + this%vb(k, i) * this%yc(l)
-                end if
+                if (l > 0) acc2 = acc2 + this%vb(k, i) * this%yc(l)
             end do
-            this%small(i, 1:r) = this%c * this%srow(1:r)
-            this%small(i, i) = this%small(i, i) + 1.0_dp
             this%zs(i) = this%c * acc2
         end do
-        call dense_lu_factor(r, this%small, this%piv, info)
-        if (info /= 0) then
-            st2 = STAT_NUMERIC
-            return
-        end if
         call dense_lu_solve(r, this%small, this%piv, this%zs)
         ! tk = tk - U s
         do j = 1, r
@@ -678,6 +707,132 @@ contains
         end do
     end subroutine woodbury
 
+    !> Whether the factors held are those of the current tangent: the same rank, U, V
+    !> and dofs, bit for bit (never with fresh set).
+    pure logical function same_tangent(this, ndof_e) result(same)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        integer, intent(in) :: ndof_e                       !! dofs of a contact cell
+        integer :: j, k
+        same = .false.
+        if (this%fresh .or. this%fac_rank /= this%rank) return
+        do j = 1, this%rank
+            do k = 1, ndof_e
+                if (this%qloc(k, j) /= this%fac_qloc(k, j)) return
+                if (this%ua(k, j) /= this%fac_ua(k, j)) return
+                if (this%vb(k, j) /= this%fac_vb(k, j)) return
+            end do
+        end do
+        same = .true.
+    end function same_tangent
+
+    !> Form the Woodbury system I + c V^T W U of the current tangent and factorize it
+    !> (info as dense_lu_factor's); on success the tangent is copied as the factors'.
+    !> Each term of the tangent is u = Mt ca, v = M cb on its facet (nitsche_facet), so
+    !> the entry (i, j) of V^T W U is cb_i^T X(f_i, f_j) ca_j with X = M^T W Mt over the
+    !> facets (facets_x): r^2 nfn + r k nfn operations instead of r^2 ndof_e + m r ndof_e
+    !> with U, V themselves. The same system to round-off (the facet shape values sum to
+    !> 1), used with the U and V of the terms for the rest of the Newton step.
+    subroutine woodbury_factor(this, mdl, info)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: info                        !! 0 or the first zero pivot
+        integer :: r, i, j, k, l, nfn, i0, j0
+        real(dp) :: acc
+        r = this%rank
+        this%fac_rank = -1
+        ! V^T W U from X = M^T W Mt over the facets with terms (each term is
+        ! Mt ca, M cb of its facet): X is formed again only when those facets change
+        call facets_x(this, mdl)
+        nfn = mdl%ct%nfn
+        k = nfn * this%nxf
+        do i = 1, r
+            ! yrow = cb_i^T (rows of X of the facet of term i)
+            i0 = nfn * (this%fblk(this%tfac(i)) - 1)
+            this%yrow(1:k) = 0.0_dp
+            do j = 1, nfn
+                this%yrow(1:k) = this%yrow(1:k) + this%tcb(j, i) * this%xt(1:k, i0 + j)
+            end do
+            do j = 1, r
+                j0 = nfn * (this%fblk(this%tfac(j)) - 1)
+                acc = 0.0_dp
+                do l = 1, nfn
+                    acc = acc + this%yrow(j0 + l) * this%tca(l, j)
+                end do
+                this%small(i, j) = this%c * acc
+            end do
+            this%small(i, i) = this%small(i, i) + 1.0_dp
+        end do
+        call dense_lu_factor(r, this%small, this%piv, info)
+        if (info /= 0) return
+        this%fac_rank = r
+        this%fac_ua(:, 1:r) = this%ua(:, 1:r)
+        this%fac_vb(:, 1:r) = this%vb(:, 1:r)
+        this%fac_qloc(:, 1:r) = this%qloc(:, 1:r)
+    end subroutine woodbury_factor
+
+    !> The facets of the current terms (in order; a facet's terms are consecutive) in
+    !> flist, and X = M^T W Mt over them (blocks of nfn x nfn, facet by facet: M(:, j) =
+    !> s - gamma nvec(:, j), Mt(:, j) = theta s - gamma nvec(:, j) on the facet's cell
+    !> dofs) in xt (transposed), formed when the facets differ from those of the X held
+    !> (X depends on them alone) or with fresh set; fblk(f) = the block of facet f.
+    subroutine facets_x(this, mdl)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer :: nf, t, f, b, i, j, k, kk, l, col, row, nfn, ne, kc
+        real(dp) :: acc, coef
+        nf = 0
+        do t = 1, this%rank
+            f = this%tfac(t)
+            if (nf > 0) then
+                if (this%flist(nf) == f) cycle
+            end if
+            nf = nf + 1
+            this%flist(nf) = f
+        end do
+        if (.not. this%fresh .and. this%nxf == nf) then
+            if (all(this%xfac(1:nf) == this%flist(1:nf))) return
+        end if
+        nfn = mdl%ct%nfn
+        ne = mdl%ndof_e
+        k = nfn * nf
+        if (k > size(this%xt, 1)) then     ! (doubled at least, as grow_woodbury)
+            kc = max(k, 2 * size(this%xt, 1))
+            deallocate (this%wxu, this%xt, this%yrow)
+            allocate (this%wxu(this%m, kc), this%xt(kc, kc), this%yrow(kc))
+        end if
+        this%nxf = nf
+        this%xfac(1:nf) = this%flist(1:nf)
+        do b = 1, nf
+            f = this%xfac(b)
+            this%fblk(f) = b
+            do i = 1, nfn
+                col = nfn * (b - 1) + i
+                this%wxu(:, col) = 0.0_dp
+                do kk = 1, ne
+                    l = mdl%ct%cloc(kk, f)
+                    if (l <= 0) cycle
+                    coef = mdl%ct%theta * mdl%ct%s(kk, f) - mdl%ct%gamma(f) * mdl%ct%nvec(kk, i, f)
+                    this%wxu(:, col) = this%wxu(:, col) + coef * this%zc%w(:, this%zc%slot(l))
+                end do
+            end do
+        end do
+        do b = 1, nf
+            f = this%xfac(b)
+            do j = 1, nfn
+                row = nfn * (b - 1) + j
+                do col = 1, k
+                    acc = 0.0_dp
+                    do kk = 1, ne
+                        l = mdl%ct%cloc(kk, f)
+                        if (l > 0) acc = acc + (mdl%ct%s(kk, f) - mdl%ct%gamma(f) &
+                                                * mdl%ct%nvec(kk, j, f)) * this%wxu(l, col)
+                    end do
+                    this%xt(col, row) = acc
+                end do
+            end do
+        end do
+    end subroutine facets_x
+
     !> The Woodbury work arrays for rank r: their size follows the largest rank met (at
     !> least doubled when it grows: few reallocations, and the pages beyond the leading
     !> r x r block are never touched), not the number of contact quadrature points of
@@ -687,9 +842,9 @@ contains
         integer, intent(in) :: r                            !! rank needed
         integer :: cap
         cap = min(size(this%ua, 2), max(r, 2 * size(this%small, 1), 16))
-        deallocate (this%wu, this%wut, this%srow, this%small, this%zs, this%piv)
-        allocate (this%wu(this%m, cap), this%wut(cap, this%m), this%srow(cap), &
-                  this%small(cap, cap), this%zs(cap), this%piv(cap))
+        deallocate (this%small, this%zs, this%piv)
+        this%fac_rank = -1
+        allocate (this%small(cap, cap), this%zs(cap), this%piv(cap))
     end subroutine grow_woodbury
 
     !> y(i) = u(idx(i)): a vector on the contact-cell dofs.

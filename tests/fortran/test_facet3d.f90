@@ -62,6 +62,7 @@ program test_facet3d
     call nitsche_facet(NE, NF, ue, s, nvec, gap, gamma, 1, measure, QUAD_EXACT, 0, qs, qw, &
                        r, e, act, qa, qb)
     call checks%check(act == 0 .and. all(r == 0.0_dp) .and. e == 0.0_dp, 'inactive facet')
+    call check_terms()
     call checks%finish('test_facet3d')
 
 contains
@@ -124,6 +125,48 @@ contains
             end do
         end do
     end subroutine fine
+
+    !> The tangent in at most NF terms (nterm) is the sum of the points' rank-one terms:
+    !> the exact rule (3 or 6 points) and the Gauss rules (3, 6, 7 points) on facets with
+    !> two or three active nodes, theta = 1, 0, -1, each rule's points' terms against the
+    !> compressed ones. Both are sums of <= 7 products of O(1) numbers (entries of D up
+    !> to ~1): they agree to a few ulps, checked to 1e-14 of max |D|. Each term is also
+    !> Mt ca, M cb with the returned coefficients (Mt(:, j) = theta s - gamma nvec(:, j),
+    !> M(:, j) = s - gamma nvec(:, j)), to 1e-14 of the largest term entry.
+    subroutine check_terms()
+        real(dp) :: d1(NE, NE), d2(NE, NE), ca(MAX_FN, MAX_Q), cb(MAX_FN, MAX_Q)
+        real(dp) :: mt(NE, NF), mm(NE, NF), ea
+        integer :: k, th, nt, act2, quad, nq, j
+        do k = 1, 12
+            call random_facet(2 + mod(k, 2))
+            th = 1 - mod(k, 3)
+            quad = QUAD_EXACT; nq = 0
+            if (mod(k, 4) /= 0) then
+                quad = QUAD_GAUSS; nq = GAUSS_N(1 + mod(k, 3))
+                call triangle_rule(nq, qs, qw)
+            end if
+            call nitsche_facet(NE, NF, ue, s, nvec, gap, gamma, th, measure, quad, nq, qs, qw, &
+                               r, e, act, qa, qb)
+            d1 = matmul(qa(:, 1:act), transpose(qb(:, 1:act)))
+            call nitsche_facet(NE, NF, ue, s, nvec, gap, gamma, th, measure, quad, nq, qs, qw, &
+                               r, e, act2, qa, qb, nt, ca, cb)
+            d2 = matmul(qa(:, 1:nt), transpose(qb(:, 1:nt)))
+            do j = 1, NF
+                mt(:, j) = th * s - gamma * nvec(:, j)
+                mm(:, j) = s - gamma * nvec(:, j)
+            end do
+            ea = max(maxval(abs(qa(:, 1:nt) - matmul(mt, ca(1:NF, 1:nt)))) &
+                     / maxval(abs(qa(:, 1:nt))), maxval(abs(qb(:, 1:nt) &
+                     - matmul(mm, cb(1:NF, 1:nt)))) / maxval(abs(qb(:, 1:nt))))
+            call checks%check(ea <= 1.0e-14_dp, 'terms = Mt ca, M cb')
+            write (what, '(a, i0, a, i0, a, i0, a, es9.2)') 'facet terms: trial ', k, &
+                ', active ', act, ', terms ', nt, ', difference ', &
+                maxval(abs(d1 - d2)) / max(maxval(abs(d1)), tiny(1.0_dp))
+            call checks%check(act2 == act .and. nt == min(act, NF) .and. &
+                              maxval(abs(d1 - d2)) <= 1.0e-14_dp * maxval(abs(d1)), trim(what))
+            print '(a)', trim(what)
+        end do
+    end subroutine check_terms
 
     !> Barycentric coordinates of grid point (ii, jj) of the N-grid of the triangle.
     pure function lam_of(n, ii, jj) result(l)

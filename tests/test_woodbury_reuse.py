@@ -1,0 +1,97 @@
+"""The implicit schemes keep the LU factors of the Woodbury system I + c VᵀWU of the
+contact correction with a copy of the tangent (U, V and their dofs) they come from, and
+solve with them again, across Newton iterations and steps, while the tangent is that copy
+bit for bit, and forms the system from X = MᵀW M_θ over the facets with active points,
+kept while those facets are the same (fortran/schemes/implicit_schemes.f90).
+DYNCONTACT_WOODBURY_FRESH=1 forms X and the system and factorizes it at every Newton
+iteration: the reference. The traces with and
+without reuse must be equal on 2D and 3D scenes, with 'exact' quadrature (cut facets move
+the tangent: few reuses) and 'gauss' (the same active points give the same tangent: many),
+including one whose active set changes at nearly every step (the ball).
+
+Equal to the bit, which is stronger than the 1e-12 relative round-off bound: the factors
+are reused only for a system formed from the same numbers, and X only for the same facets
+(X and the system depend on W, which depends on J0 alone, and its columns do not depend
+on the cache's history, tests/test_contact_columns.py), so the factors and every Newton
+step are the ones a fresh formation and factorization give."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dyncontact
+from dyncontact import Scene
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = "DYNCONTACT_WOODBURY_FRESH"
+
+
+def ball() -> Scene:
+    """The coarse ball dropped at 1 m/s ('exact' quadrature): its patch grows by some
+    points at nearly every step of the window."""
+    s = Scene.read(ROOT / "scripts" / "scenes" / "ball3d_newmark.nml")
+    s.set("mesh.h", 0.1)
+    s.set("initial.velocity", "0.0, 0.0, -1.0")
+    s.set("scheme.dt", 0.005)
+    s.set("scheme.t_end", 0.075)
+    s.set("output.fields_every", 0)
+    return s
+
+
+def bar3d(quadrature: str) -> Scene:
+    """The 3D bar (GetFEM's 3D settings: 7-point 'gauss' face rule) through its first
+    contact (it lands at t = 1.21)."""
+    s = Scene.read(ROOT / "scripts" / "scenes" / "bar3d_hht.nml")
+    s.set("contact.quadrature", quadrature)
+    s.set("scheme.t_end", 1.45)
+    s.set("output.fields_every", 0)
+    return s
+
+
+def bar2d(quadrature: str) -> Scene:
+    """The 2D bar (HHT) through its first contact (it lands at t = 1.13)."""
+    s = Scene.read(ROOT / "scripts" / "scenes" / "bar2d_hht.nml")
+    s.set("contact.quadrature", quadrature)
+    if quadrature == "gauss":
+        s.set("contact.quad_points", 3)
+    s.set("scheme.t_end", 1.6)
+    s.set("output.fields_every", 0)
+    return s
+
+
+SCENES = {
+    "ball3d_exact": ball,
+    "bar3d_gauss": lambda: bar3d("gauss"),
+    "bar3d_exact": lambda: bar3d("exact"),
+    "bar2d_gauss": lambda: bar2d("gauss"),
+    "bar2d_exact": lambda: bar2d("exact"),
+}
+
+
+def run_with(monkeypatch, fresh: bool, s: Scene, out: Path):
+    if fresh:
+        monkeypatch.setenv(ENV, "1")
+    else:
+        monkeypatch.delenv(ENV, raising=False)
+    return dyncontact.run(s, out=out, progress=False)
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_reused_woodbury_factors_give_the_fresh_traces(monkeypatch, tmp_path, name):
+    s = SCENES[name]()
+    reuse = run_with(monkeypatch, False, s, tmp_path / "reuse")
+    fresh = run_with(monkeypatch, True, s, tmp_path / "fresh")
+    active = reuse.trace["active"]
+    inside = active[np.argmax(active > 0):]
+    # the window is one of contact, with Newton iterations beyond the first
+    assert inside.size >= 10 and np.count_nonzero(inside) >= 0.5 * inside.size, name
+    assert reuse.trace["newton_its"].max() >= 2, name
+    if name == "ball3d_exact":
+        # the patch grows: its active points change at most steps of the window
+        assert np.count_nonzero(np.diff(inside)) >= 0.6 * (inside.size - 1)
+    for col in reuse.trace:
+        np.testing.assert_array_equal(reuse.trace[col], fresh.trace[col],
+                                      err_msg=f"{name}: {col}")
