@@ -71,11 +71,11 @@ module model
         type(csc_t) :: stiff_theta                !! K_theta = K - sum theta |F| / gamma s s^T
         logical :: blocked = .false.              !! K_theta also in node blocks (2x2 in 2D, 3x3 in 3D)
         type(block2_t) :: stiff_theta_b           !! its node-block copy (fast products; 2D)
-        type(block2_t) :: mass_b                  !! node-block copy of M (same blocks; 2D)
+        type(block2_t) :: mass_b                  !! node-block copy of M (same blocks; 2D; empty when mass_scalar)
         type(block3_t) :: stiff_theta_b3          !! the 3x3 node-block copy of K_theta (3D)
-        type(block3_t) :: mass_b3                 !! the 3x3 node-block copy of M (3D)
+        type(block3_t) :: mass_b3                 !! the 3x3 node-block copy of M (3D; empty when mass_scalar)
         logical :: mass_scalar = .false.          !! every block of M is m I (no node with a constrained dof)
-        real(dp), allocatable :: mass_s(:)        !! then the m of each block
+        real(dp), allocatable :: mass_s(:)        !! then the m of each block, on K_theta's block pattern
         logical :: lumped = .false.               !! M is diagonal
         real(dp), allocatable :: mass_diag(:)     !! (n_dofs) diagonal of M when lumped
         logical, allocatable :: massless(:)       !! (n_dofs) no inertia (redistributed mass)
@@ -436,12 +436,33 @@ contains
             if (st == STAT_OK) call block3_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b3, st, m)
             mdl%blocked = st == STAT_OK
             if (mdl%blocked) call block3_scalar_blocks(mdl%mass_b3, mdl%mass_s, mdl%mass_scalar)
+            ! M's blocks are mass_s(k) I on K_theta's block pattern: their copy goes
+            if (mdl%mass_scalar) then
+                mdl%mass_scalar = same_pattern(mdl%mass_b3%row_ptr, mdl%mass_b3%col1, &
+                                               mdl%stiff_theta_b3%row_ptr, mdl%stiff_theta_b3%col1)
+                if (mdl%mass_scalar) mdl%mass_b3 = block3_t()
+            end if
             return
         end if
         call block2_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b, st, m)
         if (st == STAT_OK) call block2_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b, st, m)
         mdl%blocked = st == STAT_OK
         if (mdl%blocked) call block2_scalar_blocks(mdl%mass_b, mdl%mass_s, mdl%mass_scalar)
+        if (mdl%mass_scalar) then
+            mdl%mass_scalar = same_pattern(mdl%mass_b%row_ptr, mdl%mass_b%col1, &
+                                           mdl%stiff_theta_b%row_ptr, mdl%stiff_theta_b%col1)
+            if (mdl%mass_scalar) mdl%mass_b = block2_t()
+        end if
+
+    contains
+
+        !> Two block patterns (row ranges, column groups) are the same (M and K_theta
+        !> share their CSC pattern, so theirs are).
+        pure logical function same_pattern(rp1, c1, rp2, c2)
+            integer, intent(in) :: rp1(:), c1(:), rp2(:), c2(:)   !! the two patterns
+            same_pattern = size(rp1) == size(rp2) .and. size(c1) == size(c2)
+            if (same_pattern) same_pattern = all(rp1 == rp2) .and. all(c1 == c2)
+        end function same_pattern
     end subroutine block_copy
 
     !> Snap the probe to the nearest point of Gamma_C when it lies within
@@ -966,15 +987,15 @@ contains
         end if
     end subroutine model_stiff_apply
 
-    !> y = M x (by 3x3 node blocks in 3D, the gather-form CSC product otherwise: the same
-    !> numbers).
+    !> y = M x (by 3x3 node blocks in 3D when M has its block copy, the gather-form CSC
+    !> product otherwise: the same numbers).
     subroutine model_mass_apply(mdl, x, y)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: x(:)          !! vector
         real(dp), intent(out) :: y(:)         !! M x
         if (mdl%lumped) then
             y = mdl%mass_diag * x
-        else if (mdl%blocked .and. mdl%dim == 3) then
+        else if (mdl%blocked .and. mdl%dim == 3 .and. .not. mdl%mass_scalar) then
             call block3_matvec(mdl%mass_b3, x, y)
         else
             call csc_matvec_t(mdl%mass, x, y)   ! symmetric

@@ -19,7 +19,8 @@
 !> of up to 3 columns with the same pattern at once (docs/performance.md, "The solves").
 !> A cholmod_t owns a C handle: never copy one by assignment (double free).
 module cholmod
-    use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated
+    use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated, &
+                             c_f_pointer
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
     use sparse, only: csc_t
@@ -109,6 +110,22 @@ module cholmod
             integer(c_int) :: status
         end function dc_cholmod_export
 
+        !> int dc_cholmod_take_blocks(h, bs, perm, bp, d, ld, &nb, &bx, &bi)
+        function dc_cholmod_take_blocks(h, bs, perm, bp, d, ld, nb, bx, bi) result(status) &
+            bind(C, name='dc_cholmod_take_blocks')
+            import :: c_ptr, c_int, c_long, c_double
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int), value :: bs                  !! block size (2, 3)
+            integer(c_int), intent(out) :: perm(*)       !! (n) 1-based permutation
+            integer(c_int), intent(out) :: bp(*)         !! (n / bs + 1) first block of each block column
+            real(c_double), intent(out) :: d(*)          !! (n) D
+            real(c_double), intent(out) :: ld(*)         !! L in the diagonal blocks
+            integer(c_long), intent(out) :: nb           !! blocks below the diagonal blocks
+            type(c_ptr), intent(out) :: bx               !! the blocks' values (CHOLMOD's memory)
+            type(c_ptr), intent(out) :: bi               !! the blocks' rows (CHOLMOD's memory)
+            integer(c_int) :: status
+        end function dc_cholmod_take_blocks
+
         !> int dc_cholmod_ordering(h)
         function dc_cholmod_ordering(h) result(code) bind(C, name='dc_cholmod_ordering')
             import :: c_ptr, c_int
@@ -196,14 +213,19 @@ contains
 
     contains
 
-        !> The factor copied by bs x bs blocks, bs = 2 or 3 (left empty if it is not made
-        !> of them).
+        !> The factor by bs x bs blocks, bs = 2 or 3: turned so in place in CHOLMOD's
+        !> memory (one copy of the factor at any time), or, with keep_cholmod, copied
+        !> (CHOLMOD's factor kept for chol_solve_cholmod). Left empty, the solves going
+        !> through cholmod_solve2, if the factor is not made of them.
         subroutine copy_blocks(bs)
             integer, intent(in) :: bs                       !! block size
             integer(c_int), allocatable :: perm(:), colptr(:), rowind(:)
             real(c_double), allocatable :: val(:)
             integer(c_long) :: nnz
             logical :: ok
+            if (.not. ch%keep_cholmod) then
+                if (take_blocks(bs)) return
+            end if
             nnz = dc_cholmod_nnz(ch%handle)
             if (nnz < 0) return
             allocate (perm(a%n), colptr(a%n + 1), rowind(nnz), val(nnz))
@@ -233,6 +255,50 @@ contains
                 end if
             end if
         end subroutine copy_blocks
+
+        !> CHOLMOD's factor turned into the block factor in place (dc_cholmod_take_blocks);
+        !> .false. (CHOLMOD's factor untouched) if it is not made of bs x bs blocks.
+        logical function take_blocks(bs) result(done)
+            integer, intent(in) :: bs                       !! block size
+            integer(c_int), allocatable :: perm(:), bp(:)
+            real(c_double), allocatable :: d(:), ld(:)
+            integer(c_long) :: nb
+            type(c_ptr) :: pbx, pbi
+            integer :: nblk
+            nblk = a%n / bs
+            allocate (perm(a%n), bp(nblk + 1), d(a%n), ld(nblk * (bs * (bs - 1)) / 2))
+            done = dc_cholmod_take_blocks(ch%handle, int(bs, c_int), perm, bp, d, ld, nb, &
+                                          pbx, pbi) == DC_OK
+            if (.not. done) return
+            if (bs == 3) then
+                associate (f => ch%triples)
+                    f%nt = nblk
+                    call move_alloc(perm, f%perm)
+                    call move_alloc(bp, f%bp)
+                    call move_alloc(d, f%d)
+                    f%ld = reshape(ld, [3, nblk])
+                    allocate (f%y(4, nblk))
+                    f%y = 0.0_dp
+                    call c_f_pointer(pbx, f%bx, [9_c_long, nb + 1])
+                    call c_f_pointer(pbi, f%bi, [nb])
+                    f%borrowed = .true.
+                    f%n = a%n
+                end associate
+            else
+                associate (f => ch%pairs)
+                    f%nn = nblk
+                    call move_alloc(perm, f%perm)
+                    call move_alloc(bp, f%bp)
+                    call move_alloc(d, f%d)
+                    call move_alloc(ld, f%l21)
+                    allocate (f%y(a%n))
+                    call c_f_pointer(pbx, f%bx, [4_c_long, nb])
+                    call c_f_pointer(pbi, f%bi, [nb])
+                    f%borrowed = .true.
+                    f%n = a%n
+                end associate
+            end if
+        end function take_blocks
     end subroutine chol_factor
 
     !> The fill-reducing ordering of the factors ('' without factors): see ORDERING_NAMES.

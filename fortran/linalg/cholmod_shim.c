@@ -36,6 +36,9 @@ typedef struct {
     int bcols;             /* columns of B */
     int paired;            /* the analysis ordered node blocks together: their size (2, 3), or 0 */
     int ordering;          /* the ordering of the analysis (ORD_*) */
+    int taken;             /* L's values and rows were turned into node blocks in place
+                            * (dc_cholmod_take_blocks): L's numeric part is not a factor
+                            * any more, its x and i are lent to the caller */
 } dc_cholmod;
 
 /* Statuses returned to Fortran. */
@@ -68,6 +71,7 @@ static void free_dense(dc_cholmod *h)
 static void free_factor(dc_cholmod *h)
 {
     if (h->L) cholmod_free_factor(&h->L, &h->c);
+    h->taken = 0;
     free(h->colptr);
     free(h->rowind);
     h->colptr = NULL;
@@ -302,6 +306,14 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
         *analysed = 1;
     }
 
+    if (h->taken) {
+        /* the blocks lent to the caller were released by it before this call */
+        h->taken = 0;
+        if (!cholmod_change_factor(CHOLMOD_PATTERN, 0, 0, 1, 1, h->L, &h->c)) {
+            free_factor(h);
+            return DC_FAILED;
+        }
+    }
     h->c.status = CHOLMOD_OK;
     ok = cholmod_factorize(&a, h->L, &h->c);
     if (!ok || h->c.status < CHOLMOD_OK)
@@ -334,7 +346,7 @@ long dc_cholmod_nnz(void *handle)
     dc_cholmod *h = handle;
     long k = 0;
     int j;
-    if (h == NULL || h->L == NULL || h->L->is_super) return -1;
+    if (h == NULL || h->L == NULL || h->L->is_super || h->taken) return -1;
     for (j = 0; j < h->n; j++) k += ((const int *) h->L->nz)[j];
     return k;
 }
@@ -350,7 +362,7 @@ int dc_cholmod_export(void *handle, int *perm, int *colptr, int *rowind, double 
     const double *lx;
     int j, p, k = 0;
     if (h == NULL || h->L == NULL || h->L->is_super || h->L->is_ll
-        || h->L->xtype != CHOLMOD_REAL) return DC_FAILED;
+        || h->L->xtype != CHOLMOD_REAL || h->taken) return DC_FAILED;
     lp = h->L->p; li = h->L->i; lnz = h->L->nz; lx = h->L->x; lperm = h->L->Perm;
     for (j = 0; j < h->n; j++) {
         perm[j] = lperm[j];
@@ -391,6 +403,7 @@ int dc_cholmod_release_numeric(void *handle)
     dc_cholmod *h = handle;
     if (h == NULL || h->L == NULL) return DC_FAILED;
     free_dense(h);
+    h->taken = 0;
     if (!cholmod_change_factor(CHOLMOD_PATTERN, 0, 0, 1, 1, h->L, &h->c)) return DC_FAILED;
     return DC_OK;
 }
@@ -401,7 +414,7 @@ int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
 {
     dc_cholmod *h = handle;
     if (h == NULL || h->L == NULL || h->L->is_super || h->L->is_ll
-        || h->L->xtype != CHOLMOD_REAL) return DC_FAILED;
+        || h->L->xtype != CHOLMOD_REAL || h->taken) return DC_FAILED;
     if (h->B == NULL || h->bcols != ncol) {
         free_dense(h);
         h->B = calloc(1, sizeof(cholmod_dense));
@@ -419,5 +432,130 @@ int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
     if (!cholmod_solve2(CHOLMOD_A, h->L, h->B, NULL, &h->X, NULL, &h->Y, &h->E, &h->c))
         return DC_FAILED;
     memcpy(x, h->X->x, sizeof(double) * (size_t) h->n * (size_t) ncol);
+    return DC_OK;
+}
+
+/* Whether column block J (columns bs J .. bs J + bs - 1) of the simplicial factor is made
+ * of bs x bs blocks: column bs J + r holds its diagonal, the rows bs J + r + 1 ..
+ * bs J + bs - 1 of the diagonal block, then the same m whole blocks of bs rows as the
+ * block's other columns. *m = those blocks (valid when 1 is returned). */
+static int block_column(const cholmod_factor *L, int bs, int J, int *m)
+{
+    const int *lp = L->p, *li = L->i, *lnz = L->nz;
+    int c0 = bs * J, r, t, k, len;
+    len = lnz[c0 + bs - 1] - 1;
+    if (len < 0 || len % bs != 0) return 0;
+    *m = len / bs;
+    for (r = 0; r < bs; r++) {
+        int p = lp[c0 + r], q;
+        if (lnz[c0 + r] != bs - r + len) return 0;
+        for (t = 0; t < bs - r; t++)
+            if (li[p + t] != c0 + r + t) return 0;
+        q = p + bs - r;
+        for (k = 0; k < len; k++) {
+            int row = li[q + k];
+            if (row != li[lp[c0] + bs + k]) return 0;
+            if (k % bs == 0 ? row % bs != 0 : row != li[q + k - 1] + 1) return 0;
+        }
+    }
+    return 1;
+}
+
+/* The factor turned into the layout of fortran/linalg/ldl_solves.f90's pair_ldl_t (bs = 2)
+ * or triple_ldl_t (bs = 3), in place: CHOLMOD's values become the blocks' values and its
+ * row indices the blocks' rows, so that one copy of the factor is held at any time (the
+ * block factor takes 8 + 4 / bs^2 bytes an entry of L where CHOLMOD's took 12). The
+ * caller's arrays (1-based, as in ldl_solves): perm[n], bp[n / bs + 1] (the first block of
+ * each block column), d[n] (D), ld[n / 2] (pairs: l21 of each diagonal block) or
+ * ld[3 n / 3] (triples: l21, l31, l32 of each). *bx = the blocks' values (pairs: 4 a block,
+ * l11, l21, l12, l22; triples: 9 a block by columns, then one zero block), *bi = each
+ * block's row (pairs: its first row, odd; triples: its triple), *nb = the blocks. The
+ * arrays *bx and *bi stay owned by the handle: they are valid until the next
+ * dc_cholmod_factor, dc_cholmod_release_numeric or dc_cholmod_free. DC_FAILED (and the
+ * factor untouched) when the factor is not made of such blocks or not stored in column
+ * order. */
+int dc_cholmod_take_blocks(void *handle, int bs, int *perm, int *bp, double *d, double *ld,
+                           long *nb, double **bx, int **bi)
+{
+    dc_cholmod *h = handle;
+    cholmod_factor *L;
+    const int *lp, *lnz, *lperm;
+    int *li;
+    double *lx, *tmp = NULL, *nx;
+    int *ni;
+    int n, nn, J, m, mmax = 0, r, t, k;
+    long q = 0, need;
+    size_t nsize;
+    *nb = 0;
+    *bx = NULL;
+    *bi = NULL;
+    if (h == NULL || h->L == NULL || h->taken || (bs != 2 && bs != 3)) return DC_FAILED;
+    L = h->L;
+    if (L->is_super || L->is_ll || L->xtype != CHOLMOD_REAL || !L->is_monotonic)
+        return DC_FAILED;
+    n = (int) L->n;
+    if (n < bs || n % bs != 0) return DC_FAILED;
+    nn = n / bs;
+    lp = L->p; li = L->i; lnz = L->nz; lx = L->x; lperm = L->Perm;
+    /* check the layout (nothing changed yet) and count the blocks */
+    for (k = 1; k < n; k++)
+        if (lp[k] < lp[k - 1] + lnz[k - 1]) return DC_FAILED;
+    for (J = 0; J < nn; J++) {
+        if (!block_column(L, bs, J, &m)) return DC_FAILED;
+        q += m;
+        if (m > mmax) mmax = m;
+    }
+    /* room for the blocks (and the triples' zero block) in CHOLMOD's arrays: L holds
+     * bs (bs - 1) / 2 + bs entries more than the blocks for each block column */
+    need = (long) bs * bs * q + (bs == 3 ? 9 : 0);
+    if (need > (long) lp[n - 1] + lnz[n - 1]) return DC_FAILED;
+    tmp = malloc(sizeof(double) * (size_t) (bs * bs * (mmax > 0 ? mmax : 1)));
+    if (tmp == NULL) return DC_FAILED;
+    for (k = 0; k < n; k++) perm[k] = lperm[k] + 1;
+    /* move each block column's blocks down to their place, in column order: the place
+     * of block column J starts at or before CHOLMOD's column bs J, and ends before the
+     * next one's, so that no value is overwritten before it is read */
+    q = 0;
+    for (J = 0; J < nn; J++) {
+        int c0 = bs * J;
+        m = (lnz[c0 + bs - 1] - 1) / bs;
+        bp[J] = (int) q + 1;
+        for (r = 0; r < bs; r++) d[c0 + r] = lx[lp[c0 + r]];
+        if (bs == 2) {
+            ld[J] = lx[lp[c0] + 1];
+        } else {
+            ld[3 * J] = lx[lp[c0] + 1];
+            ld[3 * J + 1] = lx[lp[c0] + 2];
+            ld[3 * J + 2] = lx[lp[c0 + 1] + 1];
+        }
+        for (k = 0; k < m; k++)
+            for (r = 0; r < bs; r++)        /* column r of block k */
+                for (t = 0; t < bs; t++)    /* its row t */
+                    tmp[bs * bs * k + bs * r + t] = lx[lp[c0 + r] + bs - r + bs * k + t];
+        for (k = 0; k < m; k++) {
+            int row = li[lp[c0] + bs + bs * k];
+            li[q + k] = bs == 2 ? row + 1 : row / 3 + 1;
+        }
+        memcpy(lx + (size_t) bs * bs * q, tmp, sizeof(double) * (size_t) (bs * bs * m));
+        q += m;
+    }
+    free(tmp);
+    if (bs == 3)
+        for (k = 0; k < 9; k++) lx[9 * q + k] = 0.0;
+    bp[nn] = (int) q + 1;
+    /* give the tails back */
+    /* (CHOLMOD's allocator; its count of the bytes in use is then off by the tails, which
+     * matters to nothing here) */
+    nsize = L->nzmax;
+    nx = cholmod_realloc((size_t) (need > 0 ? need : 1), sizeof(double), lx, &nsize, &h->c);
+    if (nx != NULL) L->x = nx;
+    nsize = L->nzmax;
+    ni = cholmod_realloc((size_t) (q > 0 ? q : 1), sizeof(int), li, &nsize, &h->c);
+    if (ni != NULL) L->i = ni;
+    free_dense(h);
+    h->taken = 1;
+    *nb = q;
+    *bx = L->x;
+    *bi = L->i;
     return DC_OK;
 }
