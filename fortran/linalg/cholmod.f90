@@ -1,22 +1,25 @@
-!> CHOLMOD (SuiteSparse) binding: simplicial LDL^T factorization of symmetric csc_t
-!> matrices, through the flat C shim cholmod_shim.c (which owns cholmod_common and
-!> cholmod_factor; Fortran only holds an opaque handle).
+!> CHOLMOD (SuiteSparse) binding: LDL^T factorization of symmetric csc_t matrices,
+!> through the flat C shim cholmod_shim.c (which owns cholmod_common and cholmod_factor;
+!> Fortran only holds an opaque handle).
 !>
 !> P A P^T = L D L^T, L unit lower triangular, D diagonal, P CHOLMOD's fill-reducing
 !> permutation. Only the upper triangle of A is read. A zero, negative or non-finite
 !> pivot gives STAT_NUMERIC ('not positive definite'): the caller decides what to do
-!> (linear_solver falls back to UMFPACK's LU).
+!> (linear_solver falls back to UMFPACK's LU). The numerical factorization is CHOLMOD's
+!> simplicial LDL^T, or its supernodal LL^T where the factor's columns are long (3D, from
+!> some 10^4 dofs: faster; a rule on the pattern alone; chol_factor's `supernodal`).
 !>
-!> Ordering: AMD, METIS or CHOLMOD's nested dissection, whichever gives L the fewest
+!> Ordering: AMD, CHOLMOD's nested dissection or (3D) METIS, whichever gives L the fewest
 !> entries (a rule on the pattern alone, so runs are deterministic; chol_ordering).
 !> Solves: when the matrix is made of the 2x2 blocks of node pairs, or of the 3x3 blocks
-!> of node triples (the shim then orders the nodes' dofs together), the factor is copied
-!> by blocks and solved with ldl_solves' sweeps (about 1.4x faster than cholmod_solve2 on
-!> the same factor in 2D; docs/performance.md), and CHOLMOD's
-!> numerical copy is released (one copy of the factor; keep_cholmod keeps it); otherwise through
-!> cholmod_solve2 with workspaces kept in the shim (no allocation per solve): own
-!> scalar loops on the copied factors are slower than CHOLMOD's, which treats chains
-!> of up to 3 columns with the same pattern at once (docs/performance.md, "The solves").
+!> of node triples (the shim then orders the nodes' dofs together), CHOLMOD's factor is
+!> turned by blocks in place (the supernodal LL^T into LDL^T on the way) and solved with
+!> ldl_solves' sweeps (about 1.4x faster than cholmod_solve2 on the same factor in 2D;
+!> docs/performance.md): one copy of the factor at any time (keep_cholmod keeps
+!> CHOLMOD's and copies it instead); otherwise through cholmod_solve2 with workspaces
+!> kept in the shim (no allocation per solve): own scalar loops on the copied factors are
+!> slower than CHOLMOD's, which treats chains of up to 3 columns with the same pattern at
+!> once (docs/performance.md, "The solves").
 !> A cholmod_t owns a C handle: never copy one by assignment (double free).
 module cholmod
     use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated, &
@@ -42,6 +45,7 @@ module cholmod
         integer :: factorizations = 0            !! numeric factorizations done (kept by chol_free)
         integer :: analyses = 0                  !! symbolic analyses done (kept by chol_free)
         integer :: ordering = 0                  !! ORDERING_NAMES index of the analysis (0: none)
+        logical :: supernodal = .false.          !! CHOLMOD's supernodal LL^T (solved by cholmod_solve2)
         integer(c_long) :: factor_nnz = 0        !! entries of the factor kept (D and L)
         logical :: keep_cholmod = .false.        !! keep CHOLMOD's factor next to the block
                                                  !! copy (chol_solve_cholmod; tests, floors)
@@ -52,7 +56,8 @@ module cholmod
     !> Names of the triangular solves (chol_kernel).
     character(len=*), parameter, public :: KERNEL_PAIRS = 'ldl_node_pairs'     !! ldl_solves, 2x2
     character(len=*), parameter, public :: KERNEL_TRIPLES = 'ldl_node_triples' !! ldl_solves, 3x3
-    character(len=*), parameter, public :: KERNEL_CHOLMOD = 'cholmod_solve2'   !! CHOLMOD's
+    character(len=*), parameter, public :: KERNEL_CHOLMOD = 'cholmod_solve2'   !! CHOLMOD's, simplicial
+    character(len=*), parameter, public :: KERNEL_SUPERNODAL = 'cholmod_supernodal' !! CHOLMOD's, supernodal
 
     !> Fill-reducing orderings (dc_cholmod_ordering's codes 1..4): of the node blocks'
     !> graph when they are ordered together, else CHOLMOD's own choice.
@@ -126,6 +131,13 @@ module cholmod
             integer(c_int) :: status
         end function dc_cholmod_take_blocks
 
+        !> int dc_cholmod_supernodal(h)
+        function dc_cholmod_supernodal(h) result(code) bind(C, name='dc_cholmod_supernodal')
+            import :: c_ptr, c_int
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int) :: code
+        end function dc_cholmod_supernodal
+
         !> int dc_cholmod_ordering(h)
         function dc_cholmod_ordering(h) result(code) bind(C, name='dc_cholmod_ordering')
             import :: c_ptr, c_int
@@ -168,6 +180,7 @@ contains
         character(len=160) :: buf
 
         ch%n = 0
+        ch%supernodal = .false.
         call pair_ldl_free(ch%pairs)
         call triple_ldl_free(ch%triples)
         if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
@@ -207,6 +220,7 @@ contains
         ch%lnz = int(lnz)
         ch%n = a%n
         ch%ordering = int(dc_cholmod_ordering(ch%handle))
+        ch%supernodal = dc_cholmod_supernodal(ch%handle) /= 0
         ch%factor_nnz = lnz + a%n
         stat = STAT_OK
         if (paired /= 0) call copy_blocks(int(paired))
@@ -310,8 +324,8 @@ contains
             name = trim(ORDERING_NAMES(ch%ordering))
     end function chol_ordering
 
-    !> The triangular solve chol_solve uses: KERNEL_PAIRS, KERNEL_TRIPLES or KERNEL_CHOLMOD
-    !> ('' without factors).
+    !> The triangular solve chol_solve uses: KERNEL_PAIRS, KERNEL_TRIPLES, KERNEL_CHOLMOD or
+    !> KERNEL_SUPERNODAL ('' without factors).
     pure function chol_kernel(ch) result(name)
         type(cholmod_t), intent(in) :: ch                   !! factors
         character(len=:), allocatable :: name
@@ -321,6 +335,8 @@ contains
             name = KERNEL_PAIRS
         else if (ch%triples%n > 0) then
             name = KERNEL_TRIPLES
+        else if (ch%supernodal) then
+            name = KERNEL_SUPERNODAL
         else
             name = KERNEL_CHOLMOD
         end if
@@ -424,5 +440,6 @@ contains
         ch%lnz = 0
         ch%factor_nnz = 0
         ch%ordering = 0
+        ch%supernodal = .false.
     end subroutine chol_free
 end module cholmod
