@@ -211,12 +211,14 @@ static int forced_factorization(void)
 }
 
 /* Whether to factorize supernodally, from the simplicial symbolic factor L: see
- * SUPERNODAL_MIN_COLUMN. */
-static int use_supernodal(const cholmod_factor *L)
+ * SUPERNODAL_MIN_COLUMN. Only a factor made of node blocks (blocks = their size, else 0)
+ * is: it is solved by the same kernels either way, where a factor without them is solved
+ * by cholmod_solve2, which was measured slower on the supernodal factor. */
+static int use_supernodal(const cholmod_factor *L, int blocks)
 {
     int f = forced_factorization();
     if (f >= 0) return f;
-    return h_lnz(L) >= SUPERNODAL_MIN_COLUMN * (double) L->n;
+    return blocks > 0 && h_lnz(L) >= SUPERNODAL_MIN_COLUMN * (double) L->n;
 }
 
 /* Order the node blocks' graph g with ordering ord into nperm (1 on success). */
@@ -312,8 +314,8 @@ done:
 /* Two independent 64-bit hashes of a CSC pattern (FNV-1a over colptr and rowind, and a
  * multiply-xorshift over the same words): the analysis is reused when n, the number of
  * entries and both hashes agree, where a copy of the pattern took 4 bytes an entry
- * (7 MB at 129 600 dofs) for the whole run. Two patterns that differ and agree in both
- * hashes have a chance of the order of 2^-128. */
+ * (7 MB at 129 600 dofs) for the whole run (two patterns of the same size that differ
+ * would have to agree in 128 bits of hashes). */
 static void pattern_hash(int n, const int *colptr, const int *rowind, unsigned long long h[2])
 {
     unsigned long long a = 1469598103934665603ULL, b = 0x9E3779B97F4A7C15ULL, w;
@@ -365,7 +367,7 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
             h->ordering = ORD_CHOLMOD;
         }
         h->super = 0;
-        if (h->L != NULL && use_supernodal(h->L)) {
+        if (h->L != NULL && use_supernodal(h->L, h->paired)) {
             /* the same ordering, analysed for the supernodal factorization (not
              * postordered: the node blocks stay in place) */
             int *perm = malloc(sizeof(int) * (size_t) n);
