@@ -48,7 +48,9 @@ module cholmod
         logical :: supernodal = .false.          !! CHOLMOD's supernodal LL^T (solved by cholmod_solve2)
         integer(c_long) :: factor_nnz = 0        !! entries of the factor kept (D and L)
         logical :: keep_cholmod = .false.        !! keep CHOLMOD's factor next to the block
-                                                 !! copy (chol_solve_cholmod; tests, floors)
+                                                 !! copy (chol_solve_cholmod; tests, floors);
+                                                 !! a supernodal one is then not copied by
+                                                 !! blocks (solves by cholmod_solve2)
         type(pair_ldl_t) :: pairs                !! the factor by 2x2 blocks (pairs%n = 0: none)
         type(triple_ldl_t) :: triples            !! the factor by 3x3 blocks (triples%n = 0: none)
     end type cholmod_t
