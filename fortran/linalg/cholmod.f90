@@ -1,25 +1,29 @@
-!> CHOLMOD (SuiteSparse) binding: simplicial LDL^T factorization of symmetric csc_t
-!> matrices, through the flat C shim cholmod_shim.c (which owns cholmod_common and
-!> cholmod_factor; Fortran only holds an opaque handle).
+!> CHOLMOD (SuiteSparse) binding: LDL^T factorization of symmetric csc_t matrices,
+!> through the flat C shim cholmod_shim.c (which owns cholmod_common and cholmod_factor;
+!> Fortran only holds an opaque handle).
 !>
 !> P A P^T = L D L^T, L unit lower triangular, D diagonal, P CHOLMOD's fill-reducing
 !> permutation. Only the upper triangle of A is read. A zero, negative or non-finite
 !> pivot gives STAT_NUMERIC ('not positive definite'): the caller decides what to do
-!> (linear_solver falls back to UMFPACK's LU).
+!> (linear_solver falls back to UMFPACK's LU). The numerical factorization is CHOLMOD's
+!> simplicial LDL^T, or its supernodal LL^T where the factor's columns are long (3D, from
+!> some 10^4 dofs: faster; a rule on the pattern alone; chol_factor's `supernodal`).
 !>
-!> Ordering: AMD, METIS or CHOLMOD's nested dissection, whichever gives L the fewest
+!> Ordering: AMD, CHOLMOD's nested dissection or (3D) METIS, whichever gives L the fewest
 !> entries (a rule on the pattern alone, so runs are deterministic; chol_ordering).
 !> Solves: when the matrix is made of the 2x2 blocks of node pairs, or of the 3x3 blocks
-!> of node triples (the shim then orders the nodes' dofs together), the factor is copied
-!> by blocks and solved with ldl_solves' sweeps (about 1.4x faster than cholmod_solve2 on
-!> the same factor in 2D; docs/performance.md), and CHOLMOD's
-!> numerical copy is released (one copy of the factor; keep_cholmod keeps it); otherwise through
-!> cholmod_solve2 with workspaces kept in the shim (no allocation per solve): own
-!> scalar loops on the copied factors are slower than CHOLMOD's, which treats chains
-!> of up to 3 columns with the same pattern at once (docs/performance.md, "The solves").
+!> of node triples (the shim then orders the nodes' dofs together), CHOLMOD's factor is
+!> turned by blocks in place (the supernodal LL^T into LDL^T on the way) and solved with
+!> ldl_solves' sweeps (about 1.4x faster than cholmod_solve2 on the same factor in 2D;
+!> docs/performance.md): one copy of the factor at any time (keep_cholmod keeps
+!> CHOLMOD's and copies it instead); otherwise through cholmod_solve2 with workspaces
+!> kept in the shim (no allocation per solve): own scalar loops on the copied factors are
+!> slower than CHOLMOD's, which treats chains of up to 3 columns with the same pattern at
+!> once (docs/performance.md, "The solves").
 !> A cholmod_t owns a C handle: never copy one by assignment (double free).
 module cholmod
-    use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated
+    use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated, &
+                             c_f_pointer
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
     use sparse, only: csc_t
@@ -41,9 +45,12 @@ module cholmod
         integer :: factorizations = 0            !! numeric factorizations done (kept by chol_free)
         integer :: analyses = 0                  !! symbolic analyses done (kept by chol_free)
         integer :: ordering = 0                  !! ORDERING_NAMES index of the analysis (0: none)
+        logical :: supernodal = .false.          !! CHOLMOD's supernodal LL^T (solved by cholmod_solve2)
         integer(c_long) :: factor_nnz = 0        !! entries of the factor kept (D and L)
         logical :: keep_cholmod = .false.        !! keep CHOLMOD's factor next to the block
-                                                 !! copy (chol_solve_cholmod; tests, floors)
+                                                 !! copy (chol_solve_cholmod; tests, floors);
+                                                 !! a supernodal one is then not copied by
+                                                 !! blocks (solves by cholmod_solve2)
         type(pair_ldl_t) :: pairs                !! the factor by 2x2 blocks (pairs%n = 0: none)
         type(triple_ldl_t) :: triples            !! the factor by 3x3 blocks (triples%n = 0: none)
     end type cholmod_t
@@ -51,7 +58,8 @@ module cholmod
     !> Names of the triangular solves (chol_kernel).
     character(len=*), parameter, public :: KERNEL_PAIRS = 'ldl_node_pairs'     !! ldl_solves, 2x2
     character(len=*), parameter, public :: KERNEL_TRIPLES = 'ldl_node_triples' !! ldl_solves, 3x3
-    character(len=*), parameter, public :: KERNEL_CHOLMOD = 'cholmod_solve2'   !! CHOLMOD's
+    character(len=*), parameter, public :: KERNEL_CHOLMOD = 'cholmod_solve2'   !! CHOLMOD's, simplicial
+    character(len=*), parameter, public :: KERNEL_SUPERNODAL = 'cholmod_supernodal' !! CHOLMOD's, supernodal
 
     !> Fill-reducing orderings (dc_cholmod_ordering's codes 1..4): of the node blocks'
     !> graph when they are ordered together, else CHOLMOD's own choice.
@@ -109,6 +117,29 @@ module cholmod
             integer(c_int) :: status
         end function dc_cholmod_export
 
+        !> int dc_cholmod_take_blocks(h, bs, perm, bp, d, ld, &nb, &bx, &bi)
+        function dc_cholmod_take_blocks(h, bs, perm, bp, d, ld, nb, bx, bi) result(status) &
+            bind(C, name='dc_cholmod_take_blocks')
+            import :: c_ptr, c_int, c_long, c_double
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int), value :: bs                  !! block size (2, 3)
+            integer(c_int), intent(out) :: perm(*)       !! (n) 1-based permutation
+            integer(c_int), intent(out) :: bp(*)         !! (n / bs + 1) first block of each block column
+            real(c_double), intent(out) :: d(*)          !! (n) D
+            real(c_double), intent(out) :: ld(*)         !! L in the diagonal blocks
+            integer(c_long), intent(out) :: nb           !! blocks below the diagonal blocks
+            type(c_ptr), intent(out) :: bx               !! the blocks' values (CHOLMOD's memory)
+            type(c_ptr), intent(out) :: bi               !! the blocks' rows (CHOLMOD's memory)
+            integer(c_int) :: status
+        end function dc_cholmod_take_blocks
+
+        !> int dc_cholmod_supernodal(h)
+        function dc_cholmod_supernodal(h) result(code) bind(C, name='dc_cholmod_supernodal')
+            import :: c_ptr, c_int
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int) :: code
+        end function dc_cholmod_supernodal
+
         !> int dc_cholmod_ordering(h)
         function dc_cholmod_ordering(h) result(code) bind(C, name='dc_cholmod_ordering')
             import :: c_ptr, c_int
@@ -151,6 +182,7 @@ contains
         character(len=160) :: buf
 
         ch%n = 0
+        ch%supernodal = .false.
         call pair_ldl_free(ch%pairs)
         call triple_ldl_free(ch%triples)
         if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
@@ -190,20 +222,26 @@ contains
         ch%lnz = int(lnz)
         ch%n = a%n
         ch%ordering = int(dc_cholmod_ordering(ch%handle))
+        ch%supernodal = dc_cholmod_supernodal(ch%handle) /= 0
         ch%factor_nnz = lnz + a%n
         stat = STAT_OK
         if (paired /= 0) call copy_blocks(int(paired))
 
     contains
 
-        !> The factor copied by bs x bs blocks, bs = 2 or 3 (left empty if it is not made
-        !> of them).
+        !> The factor by bs x bs blocks, bs = 2 or 3: turned so in place in CHOLMOD's
+        !> memory (one copy of the factor at any time), or, with keep_cholmod, copied
+        !> (CHOLMOD's factor kept for chol_solve_cholmod). Left empty, the solves going
+        !> through cholmod_solve2, if the factor is not made of them.
         subroutine copy_blocks(bs)
             integer, intent(in) :: bs                       !! block size
             integer(c_int), allocatable :: perm(:), colptr(:), rowind(:)
             real(c_double), allocatable :: val(:)
             integer(c_long) :: nnz
             logical :: ok
+            if (.not. ch%keep_cholmod) then
+                if (take_blocks(bs)) return
+            end if
             nnz = dc_cholmod_nnz(ch%handle)
             if (nnz < 0) return
             allocate (perm(a%n), colptr(a%n + 1), rowind(nnz), val(nnz))
@@ -233,6 +271,50 @@ contains
                 end if
             end if
         end subroutine copy_blocks
+
+        !> CHOLMOD's factor turned into the block factor in place (dc_cholmod_take_blocks);
+        !> .false. (CHOLMOD's factor untouched) if it is not made of bs x bs blocks.
+        logical function take_blocks(bs) result(done)
+            integer, intent(in) :: bs                       !! block size
+            integer(c_int), allocatable :: perm(:), bp(:)
+            real(c_double), allocatable :: d(:), ld(:)
+            integer(c_long) :: nb
+            type(c_ptr) :: pbx, pbi
+            integer :: nblk
+            nblk = a%n / bs
+            allocate (perm(a%n), bp(nblk + 1), d(a%n), ld(nblk * (bs * (bs - 1)) / 2))
+            done = dc_cholmod_take_blocks(ch%handle, int(bs, c_int), perm, bp, d, ld, nb, &
+                                          pbx, pbi) == DC_OK
+            if (.not. done) return
+            if (bs == 3) then
+                associate (f => ch%triples)
+                    f%nt = nblk
+                    call move_alloc(perm, f%perm)
+                    call move_alloc(bp, f%bp)
+                    call move_alloc(d, f%d)
+                    f%ld = reshape(ld, [3, nblk])
+                    allocate (f%y(4, nblk))
+                    f%y = 0.0_dp
+                    call c_f_pointer(pbx, f%bx, [9_c_long, nb + 1])
+                    call c_f_pointer(pbi, f%bi, [nb])
+                    f%borrowed = .true.
+                    f%n = a%n
+                end associate
+            else
+                associate (f => ch%pairs)
+                    f%nn = nblk
+                    call move_alloc(perm, f%perm)
+                    call move_alloc(bp, f%bp)
+                    call move_alloc(d, f%d)
+                    call move_alloc(ld, f%l21)
+                    allocate (f%y(a%n))
+                    call c_f_pointer(pbx, f%bx, [4_c_long, nb])
+                    call c_f_pointer(pbi, f%bi, [nb])
+                    f%borrowed = .true.
+                    f%n = a%n
+                end associate
+            end if
+        end function take_blocks
     end subroutine chol_factor
 
     !> The fill-reducing ordering of the factors ('' without factors): see ORDERING_NAMES.
@@ -244,8 +326,8 @@ contains
             name = trim(ORDERING_NAMES(ch%ordering))
     end function chol_ordering
 
-    !> The triangular solve chol_solve uses: KERNEL_PAIRS, KERNEL_TRIPLES or KERNEL_CHOLMOD
-    !> ('' without factors).
+    !> The triangular solve chol_solve uses: KERNEL_PAIRS, KERNEL_TRIPLES, KERNEL_CHOLMOD or
+    !> KERNEL_SUPERNODAL ('' without factors).
     pure function chol_kernel(ch) result(name)
         type(cholmod_t), intent(in) :: ch                   !! factors
         character(len=:), allocatable :: name
@@ -255,6 +337,8 @@ contains
             name = KERNEL_PAIRS
         else if (ch%triples%n > 0) then
             name = KERNEL_TRIPLES
+        else if (ch%supernodal) then
+            name = KERNEL_SUPERNODAL
         else
             name = KERNEL_CHOLMOD
         end if
@@ -358,5 +442,6 @@ contains
         ch%lnz = 0
         ch%factor_nnz = 0
         ch%ordering = 0
+        ch%supernodal = .false.
     end subroutine chol_free
 end module cholmod

@@ -1,41 +1,50 @@
 /* Flat C interface to CHOLMOD (SuiteSparse 5.12, CHOLMOD 3.0) for fortran/linalg/cholmod.f90.
  *
  * cholmod_common is a large C struct whose layout depends on the build, so Fortran never
- * sees it: one dc_cholmod handle owns the common block, the factor, a copy of the
- * analysed pattern (the symbolic analysis is reused while the pattern stays the same)
- * and the dense workspaces of cholmod_solve2 (no allocation per solve).
+ * sees it: one dc_cholmod handle owns the common block, the factor (the symbolic
+ * analysis is reused while the pattern stays the same: n, the number of entries and two
+ * 64-bit hashes of the pattern are kept, not a copy of it) and the dense workspaces of
+ * cholmod_solve2 (no allocation per solve).
  *
  * Factorization: simplicial LDL' (Common->supernodal = CHOLMOD_SIMPLICIAL,
- * final_ll = FALSE), fill-reducing ordering chosen by CHOLMOD (AMD, METIS if it helps).
- * Only the upper triangle of the CSC matrix is read (stype = +1): pass the full
- * symmetric matrix or its upper triangle.
+ * final_ll = FALSE), or supernodal LL' when the factor's columns are long
+ * (use_supernodal: 3D meshes from some 10^4 dofs on). Only the upper triangle of the
+ * CSC matrix is read (stype = +1): pass the full symmetric matrix or its upper triangle.
  *
  * Node blocks: when the dofs 2k, 2k+1 (0-based) come in pairs whose 2x2 blocks are all
  * stored (the free dofs of the nodes of a 2D mesh), or else the dofs 3k, 3k+1, 3k+2 in
  * triples whose 3x3 blocks are all stored (3D), the ordering is one of the graph of the
- * node blocks, each block kept together (no postordering): AMD's, METIS's or CHOLMOD's
- * nested dissection, whichever gives L the fewest entries (analyze_blocks). L is then
- * made of full 2x2 (3x3) blocks, which fortran/linalg/ldl_solves.f90 copies
- * (dc_cholmod_export) and solves with; the caller then releases CHOLMOD's numerical
- * copy (dc_cholmod_release_numeric), so that one copy of the factor is kept. Pairs are
+ * node blocks, each block kept together (no postordering): AMD's, CHOLMOD's nested
+ * dissection or (triples only) METIS's, whichever gives L the fewest entries
+ * (analyze_blocks); the supernodes are then not relaxed. L is then made of full 2x2
+ * (3x3) blocks, which dc_cholmod_take_blocks turns in place into the layout that
+ * fortran/linalg/ldl_solves.f90 solves with (one copy of the factor at any time;
+ * dc_cholmod_export copies it instead, when the caller keeps CHOLMOD's factor). Pairs are
  * tried first: a matrix made of node pairs is never ordered as triples.
  */
 #include <stdlib.h>
 #include <string.h>
 #include <math.h>
 #include "cholmod.h"
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 typedef struct {
     cholmod_common c;
     cholmod_factor *L;
     int n;
     int nnz;
-    int *colptr;           /* copy of the analysed pattern (reuse test) */
-    int *rowind;
+    unsigned long long hash[2]; /* two hashes of the analysed pattern (reuse test) */
     cholmod_dense *B, *X, *Y, *E;   /* solve2 right-hand side header and workspaces */
     int bcols;             /* columns of B */
     int paired;            /* the analysis ordered node blocks together: their size (2, 3), or 0 */
     int ordering;          /* the ordering of the analysis (ORD_*) */
+    int super;             /* the factorization is CHOLMOD's supernodal LL' (else simplicial LDL') */
+    int *bi;               /* the blocks' rows taken from a supernodal factor (else NULL) */
+    int taken;             /* L's values and rows were turned into node blocks in place
+                            * (dc_cholmod_take_blocks): L's numeric part is not a factor
+                            * any more, its x and i are lent to the caller */
 } dc_cholmod;
 
 /* Statuses returned to Fortran. */
@@ -65,13 +74,26 @@ static void free_dense(dc_cholmod *h)
     h->bcols = 0;
 }
 
+/* The factor's numerical values go (the symbolic analysis stays, supernodal or
+ * simplicial, for the next factorization), with the blocks' rows taken from them. */
+static int release_values(dc_cholmod *h)
+{
+    free(h->bi);
+    h->bi = NULL;
+    h->taken = 0;
+    if (h->L == NULL || h->L->xtype == CHOLMOD_PATTERN) return 1;
+    return cholmod_change_factor(CHOLMOD_PATTERN, h->L->is_ll, h->L->is_super, 1, 1, h->L,
+                                 &h->c);
+}
+
 static void free_factor(dc_cholmod *h)
 {
+    free(h->bi);
+    h->bi = NULL;
     if (h->L) cholmod_free_factor(&h->L, &h->c);
-    free(h->colptr);
-    free(h->rowind);
-    h->colptr = NULL;
-    h->rowind = NULL;
+    h->taken = 0;
+    h->super = 0;
+    h->hash[0] = h->hash[1] = 0;
     h->n = 0;
     h->nnz = 0;
     free_dense(h);
@@ -149,6 +171,17 @@ static double h_lnz(const cholmod_factor *L)
     return k;
 }
 
+/* The supernodal factorization (CHOLMOD's supernodal LL', BLAS-3 on the dense blocks
+ * of columns that share a pattern) is used when the factor's columns hold at least this
+ * many entries on average (D included; from the simplicial symbolic analysis). Its
+ * numerical factorization, measured against the simplicial LDL' on the same ordering
+ * (docs/performance.md, "Supernodal factorization"): slower at 42.5 entries a column
+ * (2D strip, 129 600 dofs: 0.51 s against 0.44 s) and 77 (3D box, 3 000 dofs), 1.5x
+ * faster at 249 (3D box, 19 440 dofs: 0.61 s against 0.93 s); the factor's columns
+ * grow with the mesh in 3D, and so does the gain. Either way the factor is then solved
+ * by the same node-block kernels (dc_cholmod_take_blocks turns LL' into LDL'). */
+#define SUPERNODAL_MIN_COLUMN 150.0
+
 /* Orderings of the node blocks' graph (dc_cholmod_ordering's codes). */
 enum { ORD_NONE = 0, ORD_AMD = 1, ORD_METIS = 2, ORD_NESDIS = 3, ORD_CHOLMOD = 4 };
 
@@ -163,6 +196,29 @@ static int forced_ordering(void)
     if (strcmp(e, "metis") == 0) return ORD_METIS;
     if (strcmp(e, "nesdis") == 0) return ORD_NESDIS;
     return ORD_NONE;
+}
+
+/* The factorization DYNCONTACT_FACTORIZATION forces: 1 'supernodal', 0 'simplicial', -1
+ * unset or anything else (the rule of use_supernodal picks): a test-only switch, to
+ * check that both give the same results to round-off. */
+static int forced_factorization(void)
+{
+    const char *e = getenv("DYNCONTACT_FACTORIZATION");
+    if (e == NULL) return -1;
+    if (strcmp(e, "supernodal") == 0) return 1;
+    if (strcmp(e, "simplicial") == 0) return 0;
+    return -1;
+}
+
+/* Whether to factorize supernodally, from the simplicial symbolic factor L: see
+ * SUPERNODAL_MIN_COLUMN. Only a factor made of node blocks (blocks = their size, else 0)
+ * is: it is solved by the same kernels either way, where a factor without them is solved
+ * by cholmod_solve2, which was measured slower on the supernodal factor. */
+static int use_supernodal(const cholmod_factor *L, int blocks)
+{
+    int f = forced_factorization();
+    if (f >= 0) return f;
+    return blocks > 0 && h_lnz(L) >= SUPERNODAL_MIN_COLUMN * (double) L->n;
 }
 
 /* Order the node blocks' graph g with ordering ord into nperm (1 on success). */
@@ -190,8 +246,9 @@ static int order_pairs(cholmod_sparse *g, int ord, int *nperm, cholmod_common *c
 
 /* Analysis with a fill-reducing ordering of the graph of the node blocks of size bs
  * (each block kept together, no postordering, so that L is made of bs x bs blocks).
- * AMD, METIS and CHOLMOD's nested dissection are tried and the ordering with the fewest
- * entries in L is kept (AMD on a tie; the solves' cost is proportional to those entries,
+ * AMD and CHOLMOD's nested dissection (and for triples METIS) are tried, each by a
+ * symbolic analysis alone (the column counts of L, no numerical factorization), and the
+ * ordering with the fewest entries in L is kept (AMD on a tie; the solves' cost is proportional to those entries,
  * so the choice is the one that solves fastest, and it depends on the pattern alone:
  * deterministic). *ord = the ordering kept. NULL on failure. */
 static cholmod_factor *analyze_blocks(cholmod_sparse *a, int bs, cholmod_common *c, int *ord)
@@ -223,6 +280,11 @@ static cholmod_factor *analyze_blocks(cholmod_sparse *a, int bs, cholmod_common 
     c->postorder = 0;
     for (k = 0; k < 3; k++) {
         if (forced != ORD_NONE && tries[k] != forced) continue;
+        /* METIS is tried for node triples (3D) only: on the node pairs of 2D meshes,
+         * CHOLMOD's nested dissection (built on METIS's node separators) gave fewer
+         * entries than METIS at every size where either beat AMD, and METIS cost 0.3 s of
+         * the 1.5 s set-up at 129 600 dofs (docs/performance.md) */
+        if (forced == ORD_NONE && tries[k] == ORD_METIS && bs == 2) continue;
         c->status = CHOLMOD_OK;
         if (!order_pairs(&g, tries[k], nperm, c)) continue;
         for (J = 0; J < nn; J++)
@@ -249,6 +311,25 @@ done:
     return L;
 }
 
+/* Two independent 64-bit hashes of a CSC pattern (FNV-1a over colptr and rowind, and a
+ * multiply-xorshift over the same words): the analysis is reused when n, the number of
+ * entries and both hashes agree, where a copy of the pattern took 4 bytes an entry
+ * (7 MB at 129 600 dofs) for the whole run (two patterns of the same size that differ
+ * would have to agree in 128 bits of hashes). */
+static void pattern_hash(int n, const int *colptr, const int *rowind, unsigned long long h[2])
+{
+    unsigned long long a = 1469598103934665603ULL, b = 0x9E3779B97F4A7C15ULL, w;
+    int k, nnz = colptr[n];
+    for (k = 0; k <= n + nnz; k++) {
+        w = (unsigned long long) (unsigned int) (k <= n ? colptr[k] : rowind[k - n - 1]);
+        a = (a ^ w) * 1099511628211ULL;
+        b = (b ^ (w + (unsigned long long) k)) * 0xBF58476D1CE4E5B9ULL;
+        b ^= b >> 31;
+    }
+    h[0] = a;
+    h[1] = b;
+}
+
 /* Analyse (when n or the pattern changed) and factorize P A P' = L D L' for the n x n
  * CSC matrix (0-based colptr[n+1], rowind[nnz], sorted rows, values val), reading its
  * upper triangle; node blocks are ordered together when the pattern allows (*paired = their
@@ -262,6 +343,7 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
     dc_cholmod *h = handle;
     cholmod_sparse a;
     int nnz = colptr[n], j, k, ok;
+    unsigned long long hash[2];
     const double *d;
     const int *lp;
 
@@ -271,16 +353,10 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
     *paired = 0;
     csc_header(&a, n, colptr, rowind, val);
 
-    if (h->L == NULL || h->n != n || h->nnz != nnz
-        || memcmp(h->colptr, colptr, sizeof(int) * (size_t) (n + 1)) != 0
-        || memcmp(h->rowind, rowind, sizeof(int) * (size_t) nnz) != 0) {
+    pattern_hash(n, colptr, rowind, hash);
+    if (h->L == NULL || h->n != n || h->nnz != nnz || h->hash[0] != hash[0]
+        || h->hash[1] != hash[1]) {
         free_factor(h);
-        h->colptr = malloc(sizeof(int) * (size_t) (n + 1));
-        h->rowind = malloc(sizeof(int) * (size_t) (nnz > 0 ? nnz : 1));
-        if (h->colptr == NULL || h->rowind == NULL) {
-            free_factor(h);
-            return DC_OUT_OF_MEMORY;
-        }
         h->c.status = CHOLMOD_OK;
         h->paired = blocks_pattern(n, 2, colptr, rowind) ? 2
                     : blocks_pattern(n, 3, colptr, rowind) ? 3 : 0;
@@ -290,26 +366,99 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
             h->L = cholmod_analyze(&a, &h->c);
             h->ordering = ORD_CHOLMOD;
         }
+        h->super = 0;
+        if (h->L != NULL && use_supernodal(h->L, h->paired)) {
+            /* the same ordering, analysed for the supernodal factorization (not
+             * postordered: the node blocks stay in place) */
+            int *perm = malloc(sizeof(int) * (size_t) n);
+            int nmethods = h->c.nmethods, ordering = h->c.method[0].ordering;
+            int postorder = h->c.postorder;
+            size_t nrelax[3];
+            double zrelax[3];
+            cholmod_factor *Ls = NULL;
+            if (perm != NULL) {
+                memcpy(perm, h->L->Perm, sizeof(int) * (size_t) n);
+                h->c.nmethods = 1;
+                h->c.method[0].ordering = CHOLMOD_GIVEN;
+                h->c.postorder = 0;
+                h->c.supernodal = CHOLMOD_SUPERNODAL;
+                /* fundamental supernodes (no relaxed amalgamation): L keeps the simplicial
+                 * factor's pattern, node blocks included, and no zero is stored */
+                for (k = 0; k < 3; k++) {
+                    nrelax[k] = h->c.nrelax[k];
+                    zrelax[k] = h->c.zrelax[k];
+                    h->c.nrelax[k] = 0;
+                    h->c.zrelax[k] = 0.0;
+                }
+                h->c.status = CHOLMOD_OK;
+                Ls = cholmod_analyze_p(&a, perm, NULL, 0, &h->c);
+                h->c.supernodal = CHOLMOD_SIMPLICIAL;
+                for (k = 0; k < 3; k++) {
+                    h->c.nrelax[k] = nrelax[k];
+                    h->c.zrelax[k] = zrelax[k];
+                }
+                h->c.nmethods = nmethods;
+                h->c.method[0].ordering = ordering;
+                h->c.postorder = postorder;
+                free(perm);
+            }
+            if (Ls != NULL && Ls->is_super) {
+                cholmod_free_factor(&h->L, &h->c);
+                h->L = Ls;
+                h->super = 1;
+            } else if (Ls != NULL) {
+                cholmod_free_factor(&Ls, &h->c);
+            }
+            h->c.status = CHOLMOD_OK;
+        }
         if (h->L == NULL) {
             int st = h->c.status;
             free_factor(h);
             return st == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
         }
-        memcpy(h->colptr, colptr, sizeof(int) * (size_t) (n + 1));
-        memcpy(h->rowind, rowind, sizeof(int) * (size_t) nnz);
+        /* the orderings' workspace goes (the factorization allocates its own, smaller) */
+        cholmod_free_work(&h->c);
+        h->hash[0] = hash[0];
+        h->hash[1] = hash[1];
         h->n = n;
         h->nnz = nnz;
         *analysed = 1;
     }
 
+    if (h->taken && !release_values(h)) {
+        /* (the blocks lent to the caller were released by it before this call) */
+        free_factor(h);
+        return DC_FAILED;
+    }
+#ifdef __GLIBC__
+    /* the factor is the set-up's largest allocation: the memory freed before it (the
+     * assembly's, the orderings') goes back to the system first, where glibc would keep
+     * what lies between blocks in use resident */
+    malloc_trim(0);
+#endif
     h->c.status = CHOLMOD_OK;
     ok = cholmod_factorize(&a, h->L, &h->c);
     if (!ok || h->c.status < CHOLMOD_OK)
         return h->c.status == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
-    if (h->L->is_super || h->L->is_ll || h->L->xtype != CHOLMOD_REAL) return DC_FAILED;
+    if (h->L->xtype != CHOLMOD_REAL || (!h->super && (h->L->is_super || h->L->is_ll)))
+        return DC_FAILED;
     if (h->c.status == CHOLMOD_NOT_POSDEF || h->L->minor < h->L->n) {
         *minor = (int) h->L->minor;
         return DC_NOT_POSDEF;
+    }
+    if (h->super) {
+        /* LL' stops at the first pivot <= 0 (minor above). The supernodes are not relaxed
+         * (no zero added): the factor has the entries of the simplicial one, L's below the
+         * diagonal of each supernode's columns */
+        const int *sup = h->L->super, *pi = h->L->pi;
+        long cnt = 0;
+        int sn;
+        for (sn = 0; sn < (int) h->L->nsuper; sn++)
+            for (j = sup[sn]; j < sup[sn + 1]; j++)
+                cnt += pi[sn + 1] - pi[sn] - (j - sup[sn]) - 1;
+        *lnz = cnt;
+        *paired = h->paired;
+        return DC_OK;
     }
     /* LDL' does not stop at a negative pivot: check D (first entry of each column). */
     d = h->L->x;
@@ -334,7 +483,7 @@ long dc_cholmod_nnz(void *handle)
     dc_cholmod *h = handle;
     long k = 0;
     int j;
-    if (h == NULL || h->L == NULL || h->L->is_super) return -1;
+    if (h == NULL || h->L == NULL || h->L->is_super || h->taken) return -1;
     for (j = 0; j < h->n; j++) k += ((const int *) h->L->nz)[j];
     return k;
 }
@@ -350,7 +499,7 @@ int dc_cholmod_export(void *handle, int *perm, int *colptr, int *rowind, double 
     const double *lx;
     int j, p, k = 0;
     if (h == NULL || h->L == NULL || h->L->is_super || h->L->is_ll
-        || h->L->xtype != CHOLMOD_REAL) return DC_FAILED;
+        || h->L->xtype != CHOLMOD_REAL || h->taken) return DC_FAILED;
     lp = h->L->p; li = h->L->i; lnz = h->L->nz; lx = h->L->x; lperm = h->L->Perm;
     for (j = 0; j < h->n; j++) {
         perm[j] = lperm[j];
@@ -365,6 +514,13 @@ int dc_cholmod_export(void *handle, int *perm, int *colptr, int *rowind, double 
     }
     colptr[h->n] = k;
     return DC_OK;
+}
+
+/* 1 when the factor is CHOLMOD's supernodal LL', 0 when simplicial LDL' (or none). */
+int dc_cholmod_supernodal(void *handle)
+{
+    dc_cholmod *h = handle;
+    return h != NULL && h->L != NULL && h->super;
 }
 
 /* The ordering of the analysis: 1 AMD, 2 METIS, 3 CHOLMOD's nested dissection (on the
@@ -391,7 +547,7 @@ int dc_cholmod_release_numeric(void *handle)
     dc_cholmod *h = handle;
     if (h == NULL || h->L == NULL) return DC_FAILED;
     free_dense(h);
-    if (!cholmod_change_factor(CHOLMOD_PATTERN, 0, 0, 1, 1, h->L, &h->c)) return DC_FAILED;
+    if (!release_values(h)) return DC_FAILED;
     return DC_OK;
 }
 
@@ -400,8 +556,8 @@ int dc_cholmod_release_numeric(void *handle)
 int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
 {
     dc_cholmod *h = handle;
-    if (h == NULL || h->L == NULL || h->L->is_super || h->L->is_ll
-        || h->L->xtype != CHOLMOD_REAL) return DC_FAILED;
+    if (h == NULL || h->L == NULL || h->L->xtype != CHOLMOD_REAL || h->taken
+        || (!h->super && (h->L->is_super || h->L->is_ll))) return DC_FAILED;
     if (h->B == NULL || h->bcols != ncol) {
         free_dense(h);
         h->B = calloc(1, sizeof(cholmod_dense));
@@ -420,4 +576,194 @@ int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
         return DC_FAILED;
     memcpy(x, h->X->x, sizeof(double) * (size_t) h->n * (size_t) ncol);
     return DC_OK;
+}
+
+/* Column j of a numeric factor: its rows, its values (first the diagonal) and their
+ * number, for a simplicial LDL' factor (D on the diagonal) or a supernodal LL' one (the
+ * column of its supernode from the diagonal down). col_map gives, for the supernodal
+ * layout, the supernode of each column (NULL for the simplicial one). */
+typedef struct {
+    const int *rows;
+    double *vals;
+    int len;
+} dc_column;
+
+static dc_column factor_column(const cholmod_factor *L, const int *col_super, int j)
+{
+    dc_column c;
+    if (col_super == NULL) {
+        const int *lp = L->p, *lnz = L->nz;
+        c.rows = (const int *) L->i + lp[j];
+        c.vals = (double *) L->x + lp[j];
+        c.len = lnz[j];
+    } else {
+        const int *sup = L->super, *pi = L->pi, *px = L->px, *ls = L->s;
+        int sn = col_super[j], k = j - sup[sn], nsrow = pi[sn + 1] - pi[sn];
+        c.rows = ls + pi[sn] + k;
+        c.vals = (double *) L->x + px[sn] + (size_t) k * nsrow + k;
+        c.len = nsrow - k;
+    }
+    return c;
+}
+
+/* Whether column block J (columns bs J .. bs J + bs - 1) of the factor is made of
+ * bs x bs blocks: column bs J + r holds its diagonal, the rows bs J + r + 1 ..
+ * bs J + bs - 1 of the diagonal block, then the same m whole blocks of bs rows as the
+ * block's other columns. *m = those blocks (valid when 1 is returned). */
+static int block_column(const cholmod_factor *L, const int *col_super, int bs, int J, int *m)
+{
+    int c0 = bs * J, r, t, k, len;
+    dc_column first = factor_column(L, col_super, c0), last;
+    last = factor_column(L, col_super, c0 + bs - 1);
+    len = last.len - 1;
+    if (len < 0 || len % bs != 0) return 0;
+    *m = len / bs;
+    for (r = 0; r < bs; r++) {
+        dc_column c = factor_column(L, col_super, c0 + r);
+        if (c.len != bs - r + len) return 0;
+        for (t = 0; t < bs - r; t++)
+            if (c.rows[t] != c0 + r + t) return 0;
+        for (k = 0; k < len; k++) {
+            int row = c.rows[bs - r + k];
+            if (row != first.rows[bs + k]) return 0;
+            if (k % bs == 0 ? row % bs != 0 : row != c.rows[bs - r + k - 1] + 1) return 0;
+        }
+    }
+    return 1;
+}
+
+/* The factor turned into the layout of fortran/linalg/ldl_solves.f90's pair_ldl_t (bs = 2)
+ * or triple_ldl_t (bs = 3), in place: CHOLMOD's values become the blocks' values, so
+ * that one copy of the factor is held at any time. A simplicial LDL' factor's row
+ * indices become the blocks' rows (the block factor then takes 8 + 4 / bs^2 bytes an
+ * entry of L where CHOLMOD's took 12); a supernodal LL' factor (whose row indices are
+ * one list a supernode) is turned into LDL' on the way (l_ij / l_jj below the diagonal,
+ * D = l_jj^2) and its blocks' rows are a new array. The caller's arrays (1-based, as in
+ * ldl_solves): perm[n], bp[n / bs + 1] (the first block of each block column), d[n] (D),
+ * ld[n / 2] (pairs: l21 of each diagonal block) or ld[3 n / 3] (triples: l21, l31, l32
+ * of each). *bx = the blocks' values (pairs: 4 a block, l11, l21, l12, l22; triples: 9
+ * a block by columns, then one zero block), *bi = each block's row (pairs: its first row,
+ * odd; triples: its triple), *nb = the blocks. The arrays *bx and *bi stay owned by the
+ * handle: they are valid until the next dc_cholmod_factor, dc_cholmod_release_numeric or
+ * dc_cholmod_free. DC_FAILED (and the factor untouched) when the factor is not made of
+ * such blocks or not stored in column order. */
+int dc_cholmod_take_blocks(void *handle, int bs, int *perm, int *bp, double *d, double *ld,
+                           long *nb, double **bx, int **bi)
+{
+    dc_cholmod *h = handle;
+    cholmod_factor *L;
+    const int *lperm;
+    int *col_super = NULL, *nbi = NULL;
+    double *lx, *tmp = NULL, *nx, scale[3];
+    int *ni;
+    int n, nn, J, m, mmax = 0, r, t, k, super;
+    long q = 0, need, avail;
+    size_t nsize;
+    *nb = 0;
+    *bx = NULL;
+    *bi = NULL;
+    if (h == NULL || h->L == NULL || h->taken || (bs != 2 && bs != 3)) return DC_FAILED;
+    L = h->L;
+    super = L->is_super;
+    if (L->xtype != CHOLMOD_REAL || (super ? !L->is_ll : (L->is_ll || !L->is_monotonic)))
+        return DC_FAILED;
+    n = (int) L->n;
+    if (n < bs || n % bs != 0) return DC_FAILED;
+    nn = n / bs;
+    lperm = L->Perm;
+    if (super) {
+        const int *sup = L->super, *px = L->px;
+        int sn;
+        col_super = malloc(sizeof(int) * (size_t) n);
+        if (col_super == NULL) return DC_FAILED;
+        for (sn = 0; sn < (int) L->nsuper; sn++) {
+            if (sn > 0 && px[sn] < px[sn - 1]) goto fail;
+            for (k = sup[sn]; k < sup[sn + 1]; k++) col_super[k] = sn;
+        }
+        avail = (long) L->xsize;
+    } else {
+        const int *lp = L->p, *lnz = L->nz;
+        for (k = 1; k < n; k++)
+            if (lp[k] < lp[k - 1] + lnz[k - 1]) return DC_FAILED;
+        avail = (long) lp[n - 1] + lnz[n - 1];
+    }
+    /* check the layout (nothing changed yet) and count the blocks */
+    for (J = 0; J < nn; J++) {
+        if (!block_column(L, col_super, bs, J, &m)) goto fail;
+        q += m;
+        if (m > mmax) mmax = m;
+    }
+    /* room for the blocks (and the triples' zero block) in CHOLMOD's values: L holds
+     * bs (bs - 1) / 2 + bs entries more than the blocks for each block column */
+    need = (long) bs * bs * q + (bs == 3 ? 9 : 0);
+    if (need > avail) goto fail;
+    tmp = malloc(sizeof(double) * (size_t) (bs * bs * (mmax > 0 ? mmax : 1)));
+    if (super) nbi = malloc(sizeof(int) * (size_t) (q > 0 ? q : 1));
+    if (tmp == NULL || (super && nbi == NULL)) goto fail;
+    for (k = 0; k < n; k++) perm[k] = lperm[k] + 1;
+    /* move each block column's blocks down to their place, in column order: the place
+     * of block column J starts at or before CHOLMOD's column bs J, and ends before the
+     * next one's, so that no value is overwritten before it is read */
+    lx = L->x;
+    q = 0;
+    for (J = 0; J < nn; J++) {
+        int c0 = bs * J;
+        dc_column c[3];
+        int *rows_out;
+        for (r = 0; r < bs; r++) c[r] = factor_column(L, col_super, c0 + r);
+        m = (c[bs - 1].len - 1) / bs;
+        bp[J] = (int) q + 1;
+        /* LDL' of the column: D and the scale of L's entries (1 when already LDL') */
+        for (r = 0; r < bs; r++) {
+            double v = c[r].vals[0];
+            d[c0 + r] = super ? v * v : v;
+            scale[r] = super ? 1.0 / v : 1.0;
+        }
+        if (bs == 2) {
+            ld[J] = c[0].vals[1] * scale[0];
+        } else {
+            ld[3 * J] = c[0].vals[1] * scale[0];
+            ld[3 * J + 1] = c[0].vals[2] * scale[0];
+            ld[3 * J + 2] = c[1].vals[1] * scale[1];
+        }
+        for (k = 0; k < m; k++)
+            for (r = 0; r < bs; r++)        /* column r of block k */
+                for (t = 0; t < bs; t++)    /* its row t */
+                    tmp[bs * bs * k + bs * r + t] = c[r].vals[bs - r + bs * k + t] * scale[r];
+        rows_out = super ? nbi : (int *) L->i;
+        for (k = 0; k < m; k++) {
+            int row = c[0].rows[bs + bs * k];
+            rows_out[q + k] = bs == 2 ? row + 1 : row / 3 + 1;
+        }
+        memcpy(lx + (size_t) bs * bs * q, tmp, sizeof(double) * (size_t) (bs * bs * m));
+        q += m;
+    }
+    free(tmp);
+    free(col_super);
+    if (bs == 3)
+        for (k = 0; k < 9; k++) lx[9 * q + k] = 0.0;
+    bp[nn] = (int) q + 1;
+    /* give the tails back (CHOLMOD's allocator; its count of the bytes in use is then
+     * off by the tails, which matters to nothing here) */
+    nsize = super ? L->xsize : L->nzmax;
+    nx = cholmod_realloc((size_t) (need > 0 ? need : 1), sizeof(double), lx, &nsize, &h->c);
+    if (nx != NULL) L->x = nx;
+    if (super) {
+        h->bi = nbi;
+    } else {
+        nsize = L->nzmax;
+        ni = cholmod_realloc((size_t) (q > 0 ? q : 1), sizeof(int), L->i, &nsize, &h->c);
+        if (ni != NULL) L->i = ni;
+    }
+    free_dense(h);
+    h->taken = 1;
+    *nb = q;
+    *bx = L->x;
+    *bi = super ? h->bi : (int *) L->i;
+    return DC_OK;
+fail:
+    free(tmp);
+    free(col_super);
+    free(nbi);
+    return DC_FAILED;
 }

@@ -1,5 +1,7 @@
-!> Triangular solves with LDL^T factors copied out of CHOLMOD (cholmod_shim.c's
-!> dc_cholmod_export), in the layout of 2x2 node blocks.
+!> Triangular solves with LDL^T factors in the layout of 2x2 (3x3) node blocks: turned so
+!> in place from CHOLMOD's factor (cholmod_shim.c's dc_cholmod_take_blocks; the blocks'
+!> rows and values then stay CHOLMOD's memory, `borrowed`), or copied from its columns
+!> (dc_cholmod_export, then pair_ldl_build / triple_ldl_build).
 !>
 !> When the matrix is made of the 2x2 blocks of node pairs and the ordering keeps each
 !> pair together (the shim does so), L is made of 2x2 blocks too: block column J (dofs
@@ -31,8 +33,9 @@ module ldl_solves
         integer :: nn = 0                         !! node pairs (n/2)
         integer, allocatable :: perm(:)           !! (n) row k of P A P^T is row perm(k) of A
         integer, allocatable :: bp(:)             !! (nn + 1) blocks of each block column
-        integer, allocatable :: bi(:)             !! (n_blocks) first row of the block (odd)
-        real(dp), allocatable :: bx(:, :)         !! (4, n_blocks) l11, l21, l12, l22
+        integer, pointer, contiguous :: bi(:) => null()     !! (n_blocks) first row of the block (odd)
+        real(dp), pointer, contiguous :: bx(:, :) => null() !! (4, n_blocks) l11, l21, l12, l22
+        logical :: borrowed = .false.             !! bi, bx are CHOLMOD's memory (not freed here)
         real(dp), allocatable :: l21(:)           !! (nn) L's entry in each diagonal block
         real(dp), allocatable :: d(:)             !! (n) D
         real(dp), allocatable :: y(:)             !! (n) work vector of the solves
@@ -44,8 +47,9 @@ module ldl_solves
         integer :: nt = 0                         !! node triples (n/3)
         integer, allocatable :: perm(:)           !! (n) row k of P A P^T is row perm(k) of A
         integer, allocatable :: bp(:)             !! (nt + 1) blocks of each block column
-        integer, allocatable :: bi(:)             !! (n_blocks) block row (triple I: rows 3I-2 .. 3I)
-        real(dp), allocatable :: bx(:, :)         !! (9, n_blocks + 1) by columns: l11, l21, l31, l12, ..., l33; a last zero block (the fourth lane's read)
+        integer, pointer, contiguous :: bi(:) => null()     !! (n_blocks) block row (triple I: rows 3I-2 .. 3I)
+        real(dp), pointer, contiguous :: bx(:, :) => null() !! (9, n_blocks + 1) by columns: l11, l21, l31, l12, ..., l33; a last zero block (the fourth lane's read)
+        logical :: borrowed = .false.             !! bi, bx are CHOLMOD's memory (not freed here)
         real(dp), allocatable :: ld(:, :)         !! (3, nt) L's entries l21, l31, l32 in each diagonal block
         real(dp), allocatable :: d(:)             !! (n) D
         real(dp), allocatable :: y(:, :)          !! (4, nt) work vector of the solves, by triples
@@ -234,8 +238,7 @@ contains
         type(pair_ldl_t), intent(inout) :: f                !! block factors
         if (allocated(f%perm)) deallocate (f%perm)
         if (allocated(f%bp)) deallocate (f%bp)
-        if (allocated(f%bi)) deallocate (f%bi)
-        if (allocated(f%bx)) deallocate (f%bx)
+        call release_blocks(f%bi, f%bx, f%borrowed)
         if (allocated(f%l21)) deallocate (f%l21)
         if (allocated(f%d)) deallocate (f%d)
         if (allocated(f%y)) deallocate (f%y)
@@ -454,12 +457,25 @@ contains
         type(triple_ldl_t), intent(inout) :: f              !! block factors
         if (allocated(f%perm)) deallocate (f%perm)
         if (allocated(f%bp)) deallocate (f%bp)
-        if (allocated(f%bi)) deallocate (f%bi)
-        if (allocated(f%bx)) deallocate (f%bx)
+        call release_blocks(f%bi, f%bx, f%borrowed)
         if (allocated(f%ld)) deallocate (f%ld)
         if (allocated(f%d)) deallocate (f%d)
         if (allocated(f%y)) deallocate (f%y)
         f%n = 0
         f%nt = 0
     end subroutine triple_ldl_free
+
+    !> Release a block factor's rows and values: deallocated when they were allocated
+    !> here (the *_ldl_build routines), only disassociated when they are borrowed.
+    pure subroutine release_blocks(bi, bx, borrowed)
+        integer, pointer, contiguous, intent(inout) :: bi(:)      !! block rows
+        real(dp), pointer, contiguous, intent(inout) :: bx(:, :)  !! block values
+        logical, intent(inout) :: borrowed                        !! owned by CHOLMOD
+        if (.not. borrowed) then
+            if (associated(bi)) deallocate (bi)
+            if (associated(bx)) deallocate (bx)
+        end if
+        nullify (bi, bx)
+        borrowed = .false.
+    end subroutine release_blocks
 end module ldl_solves

@@ -1,5 +1,5 @@
 !> Solves of csc_t matrices for the time schemes. Direct (the default): symmetric
-!> positive definite matrices with CHOLMOD's simplicial LDL^T (about half the factor
+!> positive definite matrices with CHOLMOD's LDL^T (simplicial or supernodal; about half the factor
 !> entries and half the solve time of an LU), anything else with UMFPACK's LU.
 !> Iterative (ls_configure kind 'cg', or 'auto' above AUTO_CG_DOFS): Jacobi-preconditioned
 !> conjugate gradients (module pcg), for symmetric positive definite matrices only.
@@ -62,7 +62,7 @@ module linear_solver
     end type factor_t
 
     public :: ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, ls_factor_info, &
-              csc_is_symmetric, ls_configure, ls_cg_counts, ls_auto_kind
+              csc_is_symmetric, ls_configure, ls_cg_counts, ls_auto_kind, ls_factorization
 
 contains
 
@@ -278,6 +278,18 @@ contains
             ordering = 'umfpack'
         end if
     end subroutine ls_factor_info
+
+    !> The numerical factorization of the LDL^T factors: 'supernodal' (CHOLMOD's
+    !> supernodal LL^T, then solved as LDL^T by node blocks where the matrix has them) or
+    !> 'simplicial' (CHOLMOD's simplicial LDL^T); '' for the LU, CG or without factors.
+    pure function ls_factorization(f) result(name)
+        type(factor_t), intent(in) :: f      !! factors
+        character(len=:), allocatable :: name
+        name = ''
+        if (f%n < 1 .or. f%backend /= BACKEND_CHOLMOD) return
+        name = 'simplicial'
+        if (f%ch%supernodal) name = 'supernodal'
+    end function ls_factorization
 
     !> Release every backend's factors (safe to call twice). The counters are kept.
     subroutine ls_free(f)

@@ -74,20 +74,22 @@ contains
 
     contains
 
-        !> S from the node blocks of M (block k of row group g holds mass_s(k) I).
+        !> S from the node blocks of M (block k of row group g of K_theta's block pattern
+        !> holds mass_s(k) I).
         subroutine scalar_mass(st)
             integer, intent(out) :: st
             integer, allocatable :: grp(:), rows(:), cols(:), bfirst(:), row_ptr(:), col1(:)
             integer :: g, k, ng, nc
+            ! (M's blocks are mass_s on K_theta's block pattern; model's block_copy)
             if (mdl%dim == 3) then
-                bfirst = mdl%mass_b3%first
-                row_ptr = mdl%mass_b3%row_ptr
-                col1 = mdl%mass_b3%col1
+                bfirst = mdl%stiff_theta_b3%first
+                row_ptr = mdl%stiff_theta_b3%row_ptr
+                col1 = mdl%stiff_theta_b3%col1
                 nc = 3
             else
-                bfirst = mdl%mass_b%first
-                row_ptr = mdl%mass_b%row_ptr
-                col1 = mdl%mass_b%col1
+                bfirst = mdl%stiff_theta_b%first
+                row_ptr = mdl%stiff_theta_b%row_ptr
+                col1 = mdl%stiff_theta_b%col1
                 nc = 2
             end if
             ng = size(bfirst) - 1
