@@ -219,7 +219,7 @@ def test_scaling_sweep_of_every_geometry_and_solver(tmp_path):
     for r in rows:
         assert r["dofs"] > 0 and r["peak_mb"] > 0
         if r["solver_kind"] == "cg":
-            assert r["solver"] == "pcg_jacobi" and r["cg_its_per_solve"] > 1
+            assert r["solver"] == "pcg" and r["cg_its_per_solve"] > 1
         else:
             assert r["solver"] == "cholmod_ldlt" and r["cg_its_per_solve"] is None
     assert scaling.estimate_dofs("box", 0.05) == rows[2]["dofs"]

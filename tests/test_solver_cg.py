@@ -1,4 +1,4 @@
-"""&solver kind = 'cg': Jacobi-preconditioned conjugate gradients on J0 = M + c K_θ
+"""&solver kind = 'cg': preconditioned conjugate gradients (SSOR by node blocks) on J0 = M + c K_θ
 (fortran/linalg/pcg.f90 behind linear_solver; docs/scenes.md, "&solver").
 
 - On matrices: CG's solution has a formed residual |b - A x| <= cg_rtol |b|; several
@@ -57,7 +57,7 @@ def test_cg_residual_is_below_its_tolerance(rtol):
     b = rng.standard_normal(300)
     x, backend, note, its, stat, msg = solve_kind(rows, cols, vals, b, rtol=rtol)
     assert stat == STAT_OK, msg
-    assert backend == "pcg_jacobi" and note == ""
+    assert backend == "pcg" and note == ""
     assert its > 0
     # the formed residual, recomputed here in numpy
     assert np.linalg.norm(b - dense @ x) <= rtol * np.linalg.norm(b)
@@ -86,7 +86,7 @@ def test_cg_many_sparse_columns_equal_one_at_a_time():
     e[cols, range(len(cols))] = 1.0
     rtol = 1e-12
     xm, backend, _, _, stat, msg = solve_kind(r + 1, c + 1, v, e, rtol=rtol)
-    assert stat == STAT_OK, msg and backend == "pcg_jacobi"
+    assert stat == STAT_OK, msg and backend == "pcg"
     for j in range(len(cols)):
         x1, _, _, _, stat, msg = solve_kind(r + 1, c + 1, v, e[:, j].copy(), rtol=rtol)
         assert stat == STAT_OK, msg
@@ -248,7 +248,7 @@ def test_block_jacobi_cg_solves_one_and_many(dim):
     b = rng.standard_normal(n)
     x, backend, note, its, stat, msg = solve_kind(rows, cols, vals, b, rtol=rtol)
     assert stat == STAT_OK, msg
-    assert backend == "pcg_jacobi" and note == "" and its > 0
+    assert backend == "pcg" and note == "" and its > 0
     assert np.linalg.norm(b - dense @ x) <= rtol * np.linalg.norm(b)
     picks = rng.choice(n, 37, replace=False)
     e = np.zeros((n, 39))
@@ -314,7 +314,7 @@ def test_example_j0_has_node_blocks(scene, dim, tmp_path):
     assert np.all(np.abs(yb - yc) <= bound) and np.all(np.abs(ym - yc) <= bound)
     b = rng.standard_normal(J.shape[0])
     xs, backend, note, its, stat, msg = solve_kind(r + 1, c + 1, J[r, c], b)
-    assert stat == STAT_OK and backend == "pcg_jacobi", (msg, note)
+    assert stat == STAT_OK and backend == "pcg", (msg, note)
     assert np.linalg.norm(b - J @ xs) <= 1e-12 * np.linalg.norm(b)
 
 
@@ -343,7 +343,7 @@ def test_ssor_takes_fewer_iterations_than_jacobi(scene, dim, tmp_path):
     rng = np.random.default_rng(48)
     b = rng.standard_normal(n)
     x, backend, _, its_ssor, stat, msg = solve_kind(r + 1, c + 1, J[r, c], b)
-    assert stat == STAT_OK and backend == "pcg_jacobi", msg
+    assert stat == STAT_OK and backend == "pcg", msg
     assert np.linalg.norm(b - J @ x) <= 1e-12 * np.linalg.norm(b)
     perm = rng.permutation(n)
     inv = np.argsort(perm)
@@ -426,7 +426,7 @@ def test_cg_agrees_with_direct_to_the_newton_tolerance(name, tmp_path):
     scn, direct = _run(name, "direct", tmp_path / "direct", _t_end(name))
     _, cg = _run(name, "cg", tmp_path / "cg", _t_end(name))
     s = cg.summary
-    assert s["solver"] == "pcg_jacobi" and s["solve_kernel"] == "pcg_jacobi"
+    assert s["solver"] == "pcg" and s["solve_kernel"] == "pcg"
     assert s["solver_kind"] == "cg" and s["solver_note"] == ""
     assert s["cg_iterations"] > s["cg_solves"] >= s["steps"] > 0
     assert direct.summary["solver_kind"] == "direct" and direct.summary["cg_solves"] == 0

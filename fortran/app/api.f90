@@ -280,7 +280,7 @@ end subroutine dc_ls_solve
 
 !> Solve A X = B (m columns) with linear_solver configured to `kind` ('direct', 'cg',
 !> 'auto' with dimension 2), A as 1-based COO triplets: one column through ls_solve,
-!> several through ls_solve_many. backend is the one that solved ('pcg_jacobi' for CG),
+!> several through ls_solve_many. backend is the one that solved ('pcg' for CG),
 !> note why CG did not run where asked, cg_its the CG iterations over all columns.
 subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_max_iter, x, &
                             backend, note, cg_its, stat, errmsg)

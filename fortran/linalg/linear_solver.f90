@@ -1,8 +1,9 @@
 !> Solves of csc_t matrices for the time schemes. Direct (the default): symmetric
 !> positive definite matrices with CHOLMOD's LDL^T (simplicial or supernodal; about half the factor
 !> entries and half the solve time of an LU), anything else with UMFPACK's LU.
-!> Iterative (ls_configure kind 'cg', or 'auto' above AUTO_CG_DOFS): Jacobi-preconditioned
-!> conjugate gradients (module pcg), for symmetric positive definite matrices only.
+!> Iterative (ls_configure kind 'cg', or 'auto' above AUTO_CG_DOFS): preconditioned conjugate
+!> gradients (module pcg: SSOR by node blocks for one right-hand side, block Jacobi for
+!> several), for symmetric positive definite matrices only.
 !>
 !> ls_factor tries LDL^T when the matrix is symmetric (to SYM_RTOL) and falls back to
 !> UMFPACK when it is not, or when LDL^T meets a zero, negative or non-finite pivot
@@ -33,7 +34,7 @@ module linear_solver
 
     character(len=*), parameter, public :: BACKEND_CHOLMOD = 'cholmod_ldlt'  !! LDL^T ran
     character(len=*), parameter, public :: BACKEND_UMFPACK = 'umfpack_lu'    !! LU ran
-    character(len=*), parameter, public :: BACKEND_PCG = 'pcg_jacobi'        !! CG ran
+    character(len=*), parameter, public :: BACKEND_PCG = 'pcg'        !! CG ran
 
     !> Kind 'auto' runs CG from this many unknowns on, by the dimension of the mesh (1, 2,
     !> 3): the crossover the scaling sweep measured (docs/performance.md, "Direct and CG on
@@ -243,7 +244,7 @@ contains
     end subroutine ls_solve_many
 
     !> The triangular solve ls_solve runs: 'ldl_node_pairs' (LDL^T by 2x2 node blocks),
-    !> 'cholmod_solve2', 'umfpack', or 'pcg_jacobi' (no factors: CG) ('' without either).
+    !> 'cholmod_solve2', 'umfpack', or 'pcg' (no factors: CG) ('' without either).
     pure function ls_kernel(f) result(name)
         type(factor_t), intent(in) :: f      !! factors
         character(len=:), allocatable :: name
