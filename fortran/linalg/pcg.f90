@@ -433,7 +433,7 @@ contains
             call direction(n, beta, p%z, p%p)
             it = it + 1
         end do
-        call tally(it)
+        call tally(p, it)
     contains
         !> z = (block Jacobi) r.
         subroutine precondition()
@@ -446,7 +446,7 @@ contains
         !> Non-convergence: STAT_NUMERIC with the residual reached.
         subroutine fail(rel)
             real(dp), intent(in) :: rel    !! relative residual reached
-            call tally(it)
+            call tally(p, it)
             call raise(stat, errmsg, STAT_NUMERIC, 'conjugate gradients did not converge: '// &
                        'relative residual '//real_text(rel, 3)//' after '//int_text(it)// &
                        ' iterations (&solver cg_rtol = '//real_text(p%rtol, 3)// &
@@ -455,19 +455,21 @@ contains
         !> p^T A p <= 0: not positive definite.
         subroutine indefinite(curv)
             real(dp), intent(in) :: curv   !! p^T A p
-            call tally(it)
+            call tally(p, it)
             p%indefinite = .true.
             call raise(stat, errmsg, STAT_NUMERIC, 'conjugate gradients met the curvature '// &
                        real_text(curv, 3)//' <= 0: the matrix is not positive definite')
         end subroutine indefinite
-        !> Iteration counters.
-        subroutine tally(its)
-            integer, intent(in) :: its     !! iterations of this solve
-            p%last_its = its
-            p%iterations = p%iterations + its
-            p%max_its = max(p%max_its, its)
-        end subroutine tally
     end subroutine pcg_solve
+
+    !> The iteration counters after one solve of its iterations.
+    pure subroutine tally(p, its)
+        type(pcg_t), intent(inout) :: p                     !! solver
+        integer, intent(in) :: its                          !! iterations of this solve
+        p%last_its = its
+        p%iterations = p%iterations + its
+        p%max_its = max(p%max_its, its)
+    end subroutine tally
 
     !> The diagonal's blocks in the block copy and D, D^{1/2} for ssor_solve.
     subroutine ssor_setup(p)
@@ -548,7 +550,7 @@ contains
                 call restart()
             end if
             if (.not. (rh == rh) .or. it >= p%max_iter) then
-                call tally(it)
+                call tally(p, it)
                 call raise(stat, errmsg, STAT_NUMERIC, 'conjugate gradients did not converge: '// &
                            'relative residual '//real_text(sqrt(rr) / bnorm, 3)//' after '// &
                            int_text(it)//' iterations (&solver cg_rtol = '//real_text(p%rtol, 3)// &
@@ -563,7 +565,7 @@ contains
             p%q = p%sd * (p%z + p%q)
             pq = dot(p%p, p%q)
             if (.not. (pq > 0.0_dp)) then
-                call tally(it)
+                call tally(p, it)
                 p%indefinite = .true.
                 call raise(stat, errmsg, STAT_NUMERIC, 'conjugate gradients met the curvature '// &
                            real_text(pq, 3)//' <= 0: the matrix is not positive definite')
@@ -576,7 +578,7 @@ contains
             call direction(n, beta, p%r, p%p)
             it = it + 1
         end do
-        call tally(it)
+        call tally(p, it)
     contains
         !> r^ = D^{1/2} F^{-1} q from the residual q (|q|^2 = rr), p^ = r^, and the
         !> recurrence's target: |r^| reduced by the factor |r| needs.
@@ -600,13 +602,6 @@ contains
                             p%b3%col2, p%b3%col3, p%first, p%kd, p%b3%val, y)
             end if
         end subroutine sweep
-        !> Iteration counters.
-        subroutine tally(its)
-            integer, intent(in) :: its     !! iterations of this solve
-            p%last_its = its
-            p%iterations = p%iterations + its
-            p%max_its = max(p%max_its, its)
-        end subroutine tally
     end subroutine ssor_solve
 
     !> x += alpha t, r -= alpha q, rh = r.r (LANES partial sums).

@@ -3,11 +3,12 @@ of the seed's bar, the scheme catalogue, CSV/markdown/plots."""
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import math
 import os
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Iterable, Iterator, Mapping, Sequence
 
 __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0",
            "CENTRAL_C", "write_base_scenes", "write_csv",
@@ -154,6 +155,22 @@ def scheme_text(settings: Mapping[str, Any]) -> str:
     if settings.get("scheme.mass", "consistent") != "consistent":
         text += f", {settings['scheme.mass']} mass"
     return text
+
+
+@contextlib.contextmanager
+def environment(env: Mapping[str, str] | None) -> Iterator[None]:
+    """Set the variables of ``env`` in os.environ for the body of a with block (the core
+    reads its DYNCONTACT_* switches when a run opens), then restore what was there."""
+    old = {k: os.environ.get(k) for k in (env or {})}
+    os.environ.update(env or {})
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def loadavg() -> list[float] | None:

@@ -44,7 +44,7 @@ import tempfile
 import time
 from typing import Any, Mapping, Sequence
 
-from .common import loadavg, md_table, write_csv
+from .common import environment, loadavg, md_table, write_csv
 
 __all__ = ["SIZES", "DT", "STEPS", "MAX_STEPS", "MODEL_STEPS", "find_getfem_python", "scene_text",
            "steps_for", "ratio", "rows_table", "parse_time_v", "measure_getfem",
@@ -175,19 +175,10 @@ def measure_ours(exe: str, h: float, steps: int, work: str,
     if rc != 0:
         raise RuntimeError(f"{exe} {path} exited with status {rc}")
     summary = read_summary(out)
-    old = {k: os.environ.get(k) for k in (env or {})}
-    os.environ.update(env or {})
-    try:
-        with Stepper(path, out + "_loop") as st:
-            t0 = time.process_time()
-            done = st.advance(steps)
-            cpu = time.process_time() - t0
-    finally:
-        for k, v in old.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+    with environment(env), Stepper(path, out + "_loop") as st:
+        t0 = time.process_time()
+        done = st.advance(steps)
+        cpu = time.process_time() - t0
     return {"dofs": summary.get("dofs"), "steps": done, "status": summary.get("status"),
             "ms_per_step": 1e3 * cpu / max(1, done), "peak_mb": peak}
 

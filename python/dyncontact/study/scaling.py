@@ -40,7 +40,7 @@ import tempfile
 import time
 from typing import Any, Sequence
 
-from .common import md_table, new_figure, save_figure, slope, write_csv
+from .common import environment, md_table, new_figure, save_figure, slope, write_csv
 
 __all__ = ["SIZES", "LARGE", "GEOMETRY_SIZES", "strip_scene", "scene_text", "estimate_dofs",
            "measure_one", "run_scaling", "main"]
@@ -221,26 +221,17 @@ def _loop_and_floors(scene: str, out: str, steps: int, repeats: int, dofs: int,
     measured on the same run's factors (:meth:`dyncontact.core.Stepper.floors`)."""
     from ..core import Stepper
 
-    old = {k: os.environ.get(k) for k in (env or {})}
-    os.environ.update(env or {})
-    try:
-        with Stepper(scene, out) as st:
-            per = max(1, steps // max(1, repeats))
-            best = float("inf")
-            for _ in range(max(1, repeats)):
-                t0 = time.process_time()
-                done = st.advance(per)
-                if done < 1:
-                    break
-                best = min(best, (time.process_time() - t0) / done * 1e3)
-            n_rep = max(20, int(2.0e6 / max(1, dofs)))
-            fl = st.floors(n_rep=n_rep, batches=5) if floors else None
-    finally:
-        for k, v in old.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
+    with environment(env), Stepper(scene, out) as st:
+        per = max(1, steps // max(1, repeats))
+        best = float("inf")
+        for _ in range(max(1, repeats)):
+            t0 = time.process_time()
+            done = st.advance(per)
+            if done < 1:
+                break
+            best = min(best, (time.process_time() - t0) / done * 1e3)
+        n_rep = max(20, int(2.0e6 / max(1, dofs)))
+        fl = st.floors(n_rep=n_rep, batches=5) if floors else None
     return best, fl
 
 
