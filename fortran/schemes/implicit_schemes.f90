@@ -47,7 +47,13 @@
 !> facets with active points (woodbury_factor), which depends on those facets alone and
 !> is kept while they are the same. DYNCONTACT_WOODBURY_FRESH = 1 (read at set-up) forms
 !> X and the system and factorizes it at every iteration (the reference the reuse is
-!> tested against, tests/test_woodbury_reuse.py).
+!> tested against, tests/test_woodbury_reuse.py). When the terms' facets share nodes
+!> (3D) the system is formed on a smaller basis: every term lies on its facet's columns
+!> s_f - gamma_f n_j, so D = B H B^T with B = [s_f of each facet, n_j of each facet
+!> node] and the system I + c Y H, Y = B^T W B (kept while the facets are the same), has
+!> the order facets + nodes (node_basis; 57 against a rank of 96 for 32 facets on 25
+!> nodes); DYNCONTACT_WOODBURY_BASIS = terms (read at set-up) keeps it on the terms (the
+!> reference, tests/test_woodbury_basis.py).
 module implicit_schemes
     use kinds, only: dp, i8
     use vector_ops, only: dot
@@ -79,6 +85,9 @@ module implicit_schemes
     integer(i8), parameter :: BUDGET_MIN = 64_i8 * 1024_i8**2
     !> The environment variable that turns the reuse of the Woodbury factors off ('1').
     character(len=*), parameter :: FRESH_VAR = 'DYNCONTACT_WOODBURY_FRESH'
+    !> The environment variable that keeps the Woodbury system on the terms ('terms'):
+    !> never the smaller node basis (the reference that basis is tested against).
+    character(len=*), parameter :: BASIS_VAR = 'DYNCONTACT_WOODBURY_BASIS'
 
     !> Newmark-family and theta schemes.
     type, extends(time_scheme_t), public :: implicit_scheme_t
@@ -119,6 +128,23 @@ module implicit_schemes
         real(dp), allocatable :: wxu(:, :)        !! (m, kcap) W Mt over the facets of X
         real(dp), allocatable :: xt(:, :)         !! (kcap, kcap) X^T, X = M^T W Mt
         real(dp), allocatable :: yrow(:)          !! (kcap) one row of Cb^T X
+        logical :: terms_only = .false.           !! never the node basis (BASIS_VAR)
+        logical :: fac_nodes = .false.            !! the factors held are of the node basis
+        integer, allocatable :: fac_tfac(:)       !! (rmax) the factorized terms' facets
+        real(dp), allocatable :: fac_tca(:, :)    !! (nfn, rmax) and their coefficients
+        real(dp), allocatable :: fac_tcb(:, :)    !! (nfn, rmax)
+        integer :: nq = 0                         !! size of the node basis of the terms
+        logical :: ybas_ok = .false.              !! ybas is Y of the basis held
+        integer :: nyf = -1                       !! facets of Y (-1: none formed)
+        integer, allocatable :: yfac(:)           !! (n_facets) those facets, in order
+        integer, allocatable :: qnode(:, :)       !! (0:nfn, n_facets) basis index of a facet
+                                                  !! (row 0) and of its nodes
+        integer, allocatable :: bnode(:)          !! (>= facets nfn) the basis' nodes
+        integer, allocatable :: nrow(:, :)        !! (nfn, .) a node vector's contact-cell dofs
+        real(dp), allocatable :: nval(:, :)       !! (nfn, .) and its entries (the normal)
+        real(dp), allocatable :: wb(:, :)         !! (m, qcap) W B over the basis
+        real(dp), allocatable :: ybas(:, :)       !! (qcap, qcap) Y = B^T W B
+        real(dp), allocatable :: qa(:), qs(:)     !! (qcap) Y alpha_t, H s (work)
         real(dp), allocatable :: tvec(:)          !! (m) D P dx, the tangent's part of R'
         real(dp), allocatable :: cx(:), cold(:)   !! (m) contact part of B at the iterate, previous
         real(dp), allocatable :: rho(:)           !! (m) R on the contact-cell dofs (zero elsewhere)
@@ -221,7 +247,12 @@ contains
         allocate (this%need(max(this%m, mdl%ndof_e * rmax)), this%ua(mdl%ndof_e, rmax), &
                   this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), &
                   this%fac_ua(mdl%ndof_e, rmax), this%fac_vb(mdl%ndof_e, rmax), &
-                  this%fac_qloc(mdl%ndof_e, rmax), this%tfac(rmax), &
+                  this%fac_qloc(mdl%ndof_e, rmax), this%tfac(rmax), this%fac_tfac(rmax), &
+                  this%fac_tca(max(1, mdl%ct%nfn), rmax), this%fac_tcb(max(1, mdl%ct%nfn), rmax), &
+                  this%yfac(mdl%ct%n_facets), this%qnode(0:max(1, mdl%ct%nfn), mdl%ct%n_facets), &
+                  this%bnode(0), this%nrow(max(1, mdl%ct%nfn), 0), &
+                  this%nval(max(1, mdl%ct%nfn), 0), this%wb(this%m, 0), this%ybas(0, 0), &
+                  this%qa(0), this%qs(0), &
                   this%tca(max(1, mdl%ct%nfn), rmax), this%tcb(max(1, mdl%ct%nfn), rmax), &
                   this%xfac(mdl%ct%n_facets), this%flist(mdl%ct%n_facets), &
                   this%fblk(mdl%ct%n_facets), this%wxu(this%m, 0), this%xt(0, 0), this%yrow(0), &
@@ -233,7 +264,9 @@ contains
         this%scratch = 0.0_dp
         this%fac_rank = -1
         this%nxf = -1
+        this%nyf = -1
         call fresh_env(this%fresh)
+        call basis_env(this%terms_only)
         budget = default_budget(this)
         call zcache_init(this%zc, n, this%m, budget, budget)
         this%all_columns = mdl%alm%kind /= ALM_OFF
@@ -284,6 +317,17 @@ contains
         if (st /= 0 .or. length == 0) return
         fresh = trim(adjustl(text_value)) == '1'
     end subroutine fresh_env
+
+    !> DYNCONTACT_WOODBURY_BASIS = terms: terms_only is set (the system on the terms).
+    subroutine basis_env(terms_only)
+        logical, intent(out) :: terms_only                  !! never the node basis
+        character(len=8) :: text_value
+        integer :: length, st
+        terms_only = .false.
+        call get_environment_variable(BASIS_VAR, text_value, length, st)
+        if (st /= 0 .or. length == 0) return
+        terms_only = trim(adjustl(text_value)) == 'terms'
+    end subroutine basis_env
 
     !> Release the factors of J0.
     subroutine implicit_free(this)
@@ -339,8 +383,9 @@ contains
         call buf_get(buf, this%qloc)
         ! the cache of columns is derived state: computed again as the steps need them
         if (.not. this%all_columns) call zcache_free(this%zc)
-        this%fac_rank = -1      ! (so are the Woodbury factors and X)
+        this%fac_rank = -1      ! (so are the Woodbury factors, X and Y)
         this%nxf = -1
+        this%nyf = -1
         ! the terms' facets and coefficients are not in the checkpoint: the first step
         ! evaluates the contact part again at u (the same numbers as the ones saved)
         this%cached = .false.
@@ -678,15 +723,29 @@ contains
         integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
         integer :: r, i, j, k, info, l
         real(dp) :: acc2
+        logical :: nodes
         st2 = STAT_OK
         r = this%rank
         if (r > size(this%small, 1)) call grow_woodbury(this, r)
-        if (.not. same_tangent(this, mdl%ndof_e)) then
-            call woodbury_factor(this, mdl, info)
+        nodes = .false.
+        if (.not. this%terms_only) then
+            call node_basis(this, mdl)
+            nodes = this%nq < r
+        end if
+        if (.not. same_tangent(this, mdl%ndof_e, nodes)) then
+            if (nodes) then
+                call node_factor(this, mdl, info)
+            else
+                call woodbury_factor(this, mdl, info)
+            end if
             if (info /= 0) then
                 st2 = STAT_NUMERIC
                 return
             end if
+        end if
+        if (nodes) then
+            call node_solve(this, mdl)
+            return
         end if
         ! zs = c V^T yc
         do i = 1, r
@@ -707,15 +766,20 @@ contains
         end do
     end subroutine woodbury
 
-    !> Whether the factors held are those of the current tangent: the same rank, U, V
-    !> and dofs, bit for bit (never with fresh set).
-    pure logical function same_tangent(this, ndof_e) result(same)
+    !> Whether the factors held are those of the current tangent: the same basis, rank,
+    !> U, V and dofs, terms' facets and coefficients, bit for bit (never with fresh set).
+    pure logical function same_tangent(this, ndof_e, nodes) result(same)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
         integer, intent(in) :: ndof_e                       !! dofs of a contact cell
+        logical, intent(in) :: nodes                        !! the system on the node basis
         integer :: j, k
         same = .false.
         if (this%fresh .or. this%fac_rank /= this%rank) return
+        if (this%fac_nodes .neqv. nodes) return
         do j = 1, this%rank
+            if (this%tfac(j) /= this%fac_tfac(j)) return
+            if (any(this%tca(:, j) /= this%fac_tca(:, j))) return
+            if (any(this%tcb(:, j) /= this%fac_tcb(:, j))) return
             do k = 1, ndof_e
                 if (this%qloc(k, j) /= this%fac_qloc(k, j)) return
                 if (this%ua(k, j) /= this%fac_ua(k, j)) return
@@ -764,11 +828,24 @@ contains
         end do
         call dense_lu_factor(r, this%small, this%piv, info)
         if (info /= 0) return
+        call keep_tangent(this, .false.)
+    end subroutine woodbury_factor
+
+    !> The tangent of the factors just formed, kept to recognize it (same_tangent).
+    subroutine keep_tangent(this, nodes)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        logical, intent(in) :: nodes                        !! the node basis' factors
+        integer :: r
+        r = this%rank
         this%fac_rank = r
+        this%fac_nodes = nodes
         this%fac_ua(:, 1:r) = this%ua(:, 1:r)
         this%fac_vb(:, 1:r) = this%vb(:, 1:r)
         this%fac_qloc(:, 1:r) = this%qloc(:, 1:r)
-    end subroutine woodbury_factor
+        this%fac_tfac(1:r) = this%tfac(1:r)
+        this%fac_tca(:, 1:r) = this%tca(:, 1:r)
+        this%fac_tcb(:, 1:r) = this%tcb(:, 1:r)
+    end subroutine keep_tangent
 
     !> The facets of the current terms (in order; a facet's terms are consecutive) in
     !> flist, and X = M^T W Mt over them (blocks of nfn x nfn, facet by facet: M(:, j) =
@@ -778,17 +855,9 @@ contains
     subroutine facets_x(this, mdl)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
-        integer :: nf, t, f, b, i, j, k, kk, l, col, row, nfn, ne, kc
+        integer :: nf, f, b, i, j, k, kk, l, col, row, nfn, ne, kc
         real(dp) :: acc, coef
-        nf = 0
-        do t = 1, this%rank
-            f = this%tfac(t)
-            if (nf > 0) then
-                if (this%flist(nf) == f) cycle
-            end if
-            nf = nf + 1
-            this%flist(nf) = f
-        end do
+        call term_facets(this, nf)
         if (.not. this%fresh .and. this%nxf == nf) then
             if (all(this%xfac(1:nf) == this%flist(1:nf))) return
         end if
@@ -832,6 +901,247 @@ contains
             end do
         end do
     end subroutine facets_x
+
+    !> The facets of the current terms, in order (a facet's terms are consecutive), in
+    !> flist(1:nf).
+    subroutine term_facets(this, nf)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        integer, intent(out) :: nf                          !! facets
+        integer :: t, f
+        nf = 0
+        do t = 1, this%rank
+            f = this%tfac(t)
+            if (nf > 0) then
+                if (this%flist(nf) == f) cycle
+            end if
+            nf = nf + 1
+            this%flist(nf) = f
+        end do
+    end subroutine term_facets
+
+    !> The node basis of the current terms: every column of a facet's M and Mt is
+    !> s_f - gamma_f n_j or theta s_f - gamma_f n_j, where s_f (sigma_n of the facet's
+    !> cell) is the facet's own and n_j (the obstacle's normal on the dofs of node j, the
+    !> same vector for every facet of the node: one normal) the node's, so the tangent
+    !> D = sum_t u_t v_t^T = B H B^T with B = [s_f of each facet, n_j of each facet
+    !> node], nq = facets + nodes columns (fewer than 3 a facet when the facets share
+    !> nodes). qnode(0, f) is the basis index of facet f, qnode(i, f) that of its node
+    !> i; formed when the facets differ from those of the basis held (or with fresh
+    !> set), and Y = B^T W B is then formed again (node_factor).
+    subroutine node_basis(this, mdl)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer :: nf, nfn, ne, b, f, i, j, g, nk, kk, e, cap
+        call term_facets(this, nf)
+        if (.not. this%fresh .and. this%nyf == nf) then
+            if (all(this%yfac(1:nf) == this%flist(1:nf))) return
+        end if
+        nfn = mdl%ct%nfn
+        ne = mdl%ndof_e
+        if (nf * nfn > size(this%bnode)) then
+            cap = max(nf * nfn, 2 * size(this%bnode))
+            deallocate (this%bnode, this%nrow, this%nval)
+            allocate (this%bnode(cap), this%nrow(nfn, cap), this%nval(nfn, cap))
+        end if
+        nk = 0
+        do b = 1, nf
+            f = this%flist(b)
+            this%yfac(b) = f
+            this%qnode(0, f) = b
+            do i = 1, nfn
+                g = mdl%ct%nodes(i, f)
+                j = 0
+                do kk = 1, nk
+                    if (this%bnode(kk) == g) then
+                        j = kk
+                        exit
+                    end if
+                end do
+                if (j == 0) then
+                    nk = nk + 1
+                    j = nk
+                    this%bnode(j) = g
+                    this%nrow(:, j) = 0
+                    this%nval(:, j) = 0.0_dp
+                    e = 0
+                    do kk = 1, ne
+                        if (mdl%ct%cloc(kk, f) <= 0 .or. mdl%ct%nvec(kk, i, f) == 0.0_dp) cycle
+                        e = e + 1
+                        this%nrow(e, j) = mdl%ct%cloc(kk, f)
+                        this%nval(e, j) = mdl%ct%nvec(kk, i, f)
+                    end do
+                end if
+                this%qnode(i, f) = nf + j
+            end do
+        end do
+        this%nyf = nf
+        this%nq = nf + nk
+        this%ybas_ok = .false.
+    end subroutine node_basis
+
+    !> Y = B^T W B over the node basis (node_basis), in ybas.
+    subroutine form_y(this, mdl)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer :: q, nf, a, b, f, kk, e, l, cap
+        real(dp) :: acc
+        q = this%nq
+        nf = this%nyf
+        if (q > size(this%ybas, 1)) then     ! (doubled at least, as grow_woodbury)
+            cap = max(q, 2 * size(this%ybas, 1))
+            deallocate (this%wb, this%ybas, this%qa, this%qs)
+            allocate (this%wb(this%m, cap), this%ybas(cap, cap), this%qa(cap), this%qs(cap))
+        end if
+        do b = 1, q
+            this%wb(:, b) = 0.0_dp
+            if (b <= nf) then
+                f = this%yfac(b)
+                do kk = 1, mdl%ndof_e
+                    l = mdl%ct%cloc(kk, f)
+                    if (l <= 0) cycle
+                    this%wb(:, b) = this%wb(:, b) + mdl%ct%s(kk, f) * this%zc%w(:, this%zc%slot(l))
+                end do
+            else
+                do e = 1, mdl%ct%nfn
+                    l = this%nrow(e, b - nf)
+                    if (l <= 0) cycle
+                    this%wb(:, b) = this%wb(:, b) + this%nval(e, b - nf) * this%zc%w(:, this%zc%slot(l))
+                end do
+            end if
+        end do
+        do b = 1, q
+            do a = 1, q
+                acc = 0.0_dp
+                if (a <= nf) then
+                    f = this%yfac(a)
+                    do kk = 1, mdl%ndof_e
+                        l = mdl%ct%cloc(kk, f)
+                        if (l > 0) acc = acc + mdl%ct%s(kk, f) * this%wb(l, b)
+                    end do
+                else
+                    do e = 1, mdl%ct%nfn
+                        l = this%nrow(e, a - nf)
+                        if (l > 0) acc = acc + this%nval(e, a - nf) * this%wb(l, b)
+                    end do
+                end if
+                this%ybas(a, b) = acc
+            end do
+        end do
+        this%ybas_ok = .true.
+    end subroutine form_y
+
+    !> A term's coefficients in the node basis: u_t = B alpha, v_t = B beta, with alpha
+    !> = theta (sum ca) at the facet and -gamma_f ca(i) at its node i (beta the same
+    !> from cb, with 1 for theta).
+    pure subroutine term_coefficients(ct_theta, gamma, ca, cb, a0, ai, b0, bi)
+        real(dp), intent(in) :: ct_theta, gamma             !! theta, gamma_f
+        real(dp), intent(in) :: ca(:), cb(:)                !! (nfn) the term's coefficients
+        real(dp), intent(out) :: a0, b0                     !! at the facet
+        real(dp), intent(out) :: ai(:), bi(:)               !! (nfn) at its nodes
+        a0 = ct_theta * sum(ca)
+        b0 = sum(cb)
+        ai = -gamma * ca
+        bi = -gamma * cb
+    end subroutine term_coefficients
+
+    !> The Woodbury system on the node basis, I + c Y H with H = sum_t alpha_t beta_t^T
+    !> (J^{-1} = J0^{-1} - Z B H (I + c Y H)^{-1} c B^T P J0^{-1}: the Woodbury identity
+    !> with U = B H, V = B), factorized (info as dense_lu_factor's); Y is formed when
+    !> the basis changed. The columns of c Y H are sums over the terms of
+    !> c (Y alpha_t) beta_t^T, 2 (nfn + 1) columns of Y read a term.
+    subroutine node_factor(this, mdl, info)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: info                        !! 0 or the first zero pivot
+        integer :: q, t, f, i, nfn, fb
+        real(dp) :: a0, b0, ai(mdl%ct%nfn), bi(mdl%ct%nfn)
+        this%fac_rank = -1
+        if (.not. this%ybas_ok .or. this%fresh) call form_y(this, mdl)
+        q = this%nq
+        nfn = mdl%ct%nfn
+        this%small(1:q, 1:q) = 0.0_dp
+        do t = 1, this%rank
+            f = this%tfac(t)
+            fb = this%qnode(0, f)
+            call term_coefficients(real(mdl%ct%theta, dp), mdl%ct%gamma(f), this%tca(1:nfn, t), &
+                                   this%tcb(1:nfn, t), a0, ai, b0, bi)
+            this%qa(1:q) = a0 * this%ybas(1:q, fb)
+            do i = 1, nfn
+                this%qa(1:q) = this%qa(1:q) + ai(i) * this%ybas(1:q, this%qnode(i, f))
+            end do
+            this%small(1:q, fb) = this%small(1:q, fb) + (this%c * b0) * this%qa(1:q)
+            do i = 1, nfn
+                this%small(1:q, this%qnode(i, f)) = this%small(1:q, this%qnode(i, f)) &
+                                                    + (this%c * bi(i)) * this%qa(1:q)
+            end do
+        end do
+        do i = 1, q
+            this%small(i, i) = this%small(i, i) + 1.0_dp
+        end do
+        call dense_lu_factor(q, this%small, this%piv, info)
+        if (info /= 0) return
+        call keep_tangent(this, .true.)
+    end subroutine node_factor
+
+    !> The Woodbury step on the node basis: s = (I + c Y H)^{-1} c B^T yc, then
+    !> tk <- tk - B (H s).
+    subroutine node_solve(this, mdl)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer :: q, nf, b, f, kk, e, l, t, i, nfn, fb
+        real(dp) :: acc, a0, b0, ai(mdl%ct%nfn), bi(mdl%ct%nfn)
+        q = this%nq
+        nf = this%nyf
+        nfn = mdl%ct%nfn
+        do b = 1, q
+            acc = 0.0_dp
+            if (b <= nf) then
+                f = this%yfac(b)
+                do kk = 1, mdl%ndof_e
+                    l = mdl%ct%cloc(kk, f)
+                    if (l > 0) acc = acc + mdl%ct%s(kk, f) * this%yc(l)
+                end do
+            else
+                do e = 1, nfn
+                    l = this%nrow(e, b - nf)
+                    if (l > 0) acc = acc + this%nval(e, b - nf) * this%yc(l)
+                end do
+            end if
+            this%zs(b) = this%c * acc
+        end do
+        call dense_lu_solve(q, this%small, this%piv, this%zs)
+        ! qs = H s = sum_t alpha_t (beta_t . s)
+        this%qs(1:q) = 0.0_dp
+        do t = 1, this%rank
+            f = this%tfac(t)
+            fb = this%qnode(0, f)
+            call term_coefficients(real(mdl%ct%theta, dp), mdl%ct%gamma(f), this%tca(1:nfn, t), &
+                                   this%tcb(1:nfn, t), a0, ai, b0, bi)
+            acc = b0 * this%zs(fb)
+            do i = 1, nfn
+                acc = acc + bi(i) * this%zs(this%qnode(i, f))
+            end do
+            this%qs(fb) = this%qs(fb) + a0 * acc
+            do i = 1, nfn
+                this%qs(this%qnode(i, f)) = this%qs(this%qnode(i, f)) + ai(i) * acc
+            end do
+        end do
+        ! tk = tk - B qs
+        do b = 1, q
+            if (b <= nf) then
+                f = this%yfac(b)
+                do kk = 1, mdl%ndof_e
+                    l = mdl%ct%cloc(kk, f)
+                    if (l > 0) this%tk(l) = this%tk(l) - mdl%ct%s(kk, f) * this%qs(b)
+                end do
+            else
+                do e = 1, nfn
+                    l = this%nrow(e, b - nf)
+                    if (l > 0) this%tk(l) = this%tk(l) - this%nval(e, b - nf) * this%qs(b)
+                end do
+            end if
+        end do
+    end subroutine node_solve
 
     !> The Woodbury work arrays for rank r: their size follows the largest rank met (at
     !> least doubled when it grows: few reallocations, and the pages beyond the leading
