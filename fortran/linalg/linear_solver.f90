@@ -51,8 +51,9 @@ module linear_solver
     !> between (geometric middle of 1.66 and 2.19). The margin is above 1 because a
     !> factor entry costs more than a J0 entry once the factor leaves the caches, and the
     !> contact correction's columns are solved by CG on their small supports (the disk).
-    !> On the box the rule crosses near 13 000 dofs (the step's ratio crossed 1 near
-    !> 14 000), on the disk between 12 036 and 47 392, on the strip not up to 515 200.
+    !> By the model (log-linear between measured sizes) the box crosses near 13 000 dofs
+    !> (the step's measured ratio crossed 1 near 14 000), the disk near 22 000 (measured:
+    !> near 11 000), the strip not up to 515 200 (near 1.6 million by extrapolation).
     !> 1D: direct (not measured; small).
     integer, parameter, public :: AUTO_CG_ITS(3) = [0, 8, 10]
     real(dp), parameter, public :: AUTO_CG_MARGIN = 1.9_dp
