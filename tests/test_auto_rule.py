@@ -153,3 +153,21 @@ def test_auto_on_the_disk_above_its_crossover_is_cg(tmp_path):
     assert s["dofs"] == c.summary["dofs"] and s["cg_iterations"] == c.summary["cg_iterations"]
     for col in c.trace:
         np.testing.assert_array_equal(c.trace[col], a.trace[col])
+
+
+def test_no_analysis_where_cg_does_not_apply():
+    """1D (or an unknown dimension) and a non-symmetric matrix: the direct solver, without
+    an analysis (the decision's factor entries are 0), and auto_reason says why."""
+    rng = np.random.default_rng(9)
+    n = 60
+    rows, cols, vals, _ = symmetric_coo(rng, n, 0.1, 2.0 * n)
+    for dim in (0, 1):
+        kind, backend, _, annz, _, reason = auto_decide(rows, cols, vals, n, dim)
+        assert (kind, backend, annz) == ("direct", "cholmod_ldlt", 0)
+        assert reason == "direct: 1D or dimension unknown"
+    vals = vals.copy()
+    off = np.flatnonzero(rows != cols)[0]
+    vals[off] += 1.0                                        # one entry: not symmetric
+    kind, backend, _, annz, _, reason = auto_decide(rows, cols, vals, n, 2)
+    assert (kind, backend, annz) == ("direct", "umfpack_lu", 0)
+    assert reason == "direct: the matrix is not symmetric"

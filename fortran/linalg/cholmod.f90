@@ -66,7 +66,8 @@ module cholmod
     character(len=*), parameter, public :: ORDERING_NAMES(4) = &
         [character(len=8) :: 'amd', 'metis', 'nesdis', 'cholmod']
 
-    public :: chol_factor, chol_analyse, chol_solve, chol_ordering, chol_solve_many, chol_free, chol_kernel, &
+    public :: chol_factor, chol_analyse, chol_solve, chol_ordering, chol_solve_many, &
+              chol_free, chol_kernel, &
               chol_solve_cholmod
 
     interface
@@ -202,7 +203,8 @@ contains
         call triple_ldl_free(ch%triples)
         if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
                                 allocated(a%val))) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_analyse: matrix is empty or not allocated')
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       'chol_analyse: matrix is empty or not allocated')
             return
         end if
         if (size(a%colptr) < a%n + 1 .or. a%colptr(1) /= 0 .or. a%colptr(a%n + 1) /= a%nnz &

@@ -1,9 +1,10 @@
 !> Solves of csc_t matrices for the time schemes. Direct (the default): symmetric
 !> positive definite matrices with CHOLMOD's LDL^T (simplicial or supernodal; about half the factor
 !> entries and half the solve time of an LU), anything else with UMFPACK's LU.
-!> Iterative (ls_configure kind 'cg', or 'auto' where ls_auto_kind's cost model says so): preconditioned conjugate
-!> gradients (module pcg: SSOR by node blocks for one right-hand side, block Jacobi for
-!> several), for symmetric positive definite matrices only.
+!> Iterative (ls_configure kind 'cg', or 'auto' where ls_auto_kind's cost model, on the
+!> symbolic analysis, says so): preconditioned conjugate gradients (module pcg: SSOR by
+!> node blocks for one right-hand side, block Jacobi for several), for symmetric
+!> positive definite matrices only.
 !>
 !> ls_factor tries LDL^T when the matrix is symmetric (to SYM_RTOL) and falls back to
 !> UMFPACK when it is not, or when LDL^T meets a zero, negative or non-finite pivot
@@ -20,8 +21,8 @@ module linear_solver
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
     use sparse, only: csc_t, csc_find
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
-    use cholmod, only: cholmod_t, chol_factor, chol_analyse, chol_solve, chol_solve_many, chol_free, chol_kernel, &
-                       chol_ordering
+    use cholmod, only: cholmod_t, chol_factor, chol_analyse, chol_solve, chol_solve_many, &
+                       chol_free, chol_kernel, chol_ordering
     use pcg, only: pcg_t, pcg_setup, pcg_solve, pcg_solve_many, pcg_free
     implicit none
     private
@@ -178,7 +179,7 @@ contains
     pure function ls_auto_kind(kind, dim, matrix_nnz, factor_nnz) result(k)
         character(len=*), intent(in) :: kind                !! 'direct', 'cg' or 'auto'
         integer, intent(in) :: dim                          !! mesh dimension (0: unknown)
-        integer(i8), intent(in) :: matrix_nnz               !! entries of the matrix (both triangles)
+        integer(i8), intent(in) :: matrix_nnz               !! entries (both triangles)
         integer(i8), intent(in) :: factor_nnz               !! entries of its LDL^T factor
         character(len=:), allocatable :: k
         k = 'direct'
@@ -197,8 +198,11 @@ contains
         type(factor_t), intent(in) :: f      !! solver
         character(len=:), allocatable :: text
         character(len=160) :: buf
+        character(len=3) :: rel
         text = ''
         if (trim(f%kind) /= 'auto' .or. f%auto_kind == '') return
+        rel = ' >='
+        if (f%auto_kind == 'cg') rel = ' <'
         if (f%auto_factor_nnz <= 0) then
             if (f%dim < 2 .or. f%dim > 3) then
                 text = 'direct: 1D or dimension unknown'
@@ -208,9 +212,10 @@ contains
             return
         end if
         write (buf, '(a, a, i0, a, i0, a, f3.1, a, i0, a, f0.3, a)') trim(f%auto_kind), ': ', &
-            AUTO_CG_ITS(f%dim), ' x nnz(J0) ', f%auto_nnz, ' '//trim(adjustl(merge(' <', '>=', f%auto_kind == 'cg')))//' ', &
+            AUTO_CG_ITS(f%dim), ' x nnz(J0) ', f%auto_nnz, trim(rel)//' ', &
             AUTO_CG_MARGIN, ' x factor entries ', f%auto_factor_nnz, ' (ratio ', &
-            real(AUTO_CG_ITS(f%dim), dp) * real(f%auto_nnz, dp) / real(f%auto_factor_nnz, dp), ')'
+            real(AUTO_CG_ITS(f%dim), dp) * real(f%auto_nnz, dp) &
+            / real(f%auto_factor_nnz, dp), ')'
         text = trim(buf)
     end function ls_auto_reason
 
