@@ -355,30 +355,7 @@ def test_ssor_takes_fewer_iterations_than_jacobi(scene, dim, tmp_path):
     assert its_ssor < its_jacobi, (its_ssor, its_jacobi)
 
 
-def auto_kind(kind, n, dim):
-    """dc_ls_auto_kind: the kind that runs, and AUTO_CG_DOFS."""
-    res, dofs = _core.dc_ls_auto_kind(kind, n, dim)
-    res = (res.tobytes() if hasattr(res, "tobytes") else bytes(res)).decode().strip()
-    return res, [int(d) for d in dofs]
-
-
-def test_auto_resolves_by_auto_cg_dofs():
-    """'auto' runs CG from AUTO_CG_DOFS(dim) unknowns on, the direct solver below (and
-    everywhere in a dimension whose threshold is huge(): no crossover measured there);
-    'direct' and 'cg' are what they say at every size."""
-    big = np.iinfo(np.int32).max
-    _, dofs = auto_kind("auto", 1, 1)
-    assert len(dofs) == 3
-    for dim, t in enumerate(dofs, start=1):
-        for n in (1, 1000, 10**6, big - 1):
-            assert auto_kind("direct", n, dim)[0] == "direct"
-            assert auto_kind("cg", n, dim)[0] == "cg"
-            want = "cg" if n >= t else "direct"
-            assert auto_kind("auto", n, dim)[0] == want, (dim, n, t)
-        if t < big:
-            assert auto_kind("auto", t - 1, dim)[0] == "direct"
-            assert auto_kind("auto", t, dim)[0] == "cg"
-    assert auto_kind("auto", big - 1, 0)[0] == "direct"        # dimension unknown
+# 'auto''s rule (the cost model on the symbolic analysis): tests/test_auto_rule.py.
 
 
 # ------------------------------------------------------------------ runs

@@ -385,20 +385,86 @@ subroutine dc_pcg_products(n, nnz, m, rows, cols, vals, x, y_block, y_many, y_cs
     stat = st
 end subroutine dc_pcg_products
 
-!> The solver kind that runs for a requested kind ('direct', 'cg', 'auto'), n unknowns
-!> and a mesh of dimension dim, and the thresholds of 'auto' (AUTO_CG_DOFS).
-subroutine dc_ls_auto_kind(kind, n, dim, resolved, auto_dofs)
-    use iso_c_binding, only: c_int
-    use linear_solver, only: ls_auto_kind, AUTO_CG_DOFS
+!> The solver kind that runs for a requested kind ('direct', 'cg', 'auto'), a mesh of
+!> dimension dim, a matrix of matrix_nnz entries whose LDL^T factor has factor_nnz (the
+!> symbolic analysis'), and the constants of 'auto''s cost model.
+subroutine dc_ls_auto_kind(kind, dim, matrix_nnz, factor_nnz, resolved, auto_its, margin)
+    use iso_c_binding, only: c_int, c_int64_t, c_double
+    use kinds, only: i8
+    use linear_solver, only: ls_auto_kind, AUTO_CG_ITS, AUTO_CG_MARGIN
     implicit none
-    character(len=*), intent(in) :: kind         !! requested kind
-    integer(c_int), intent(in) :: n              !! unknowns
-    integer(c_int), intent(in) :: dim            !! mesh dimension
-    character(len=8), intent(out) :: resolved    !! 'direct' or 'cg'
-    integer(c_int), intent(out) :: auto_dofs(3)  !! AUTO_CG_DOFS by dimension
-    resolved = ls_auto_kind(kind, n, dim)
-    auto_dofs = AUTO_CG_DOFS
+    character(len=*), intent(in) :: kind            !! requested kind
+    integer(c_int), intent(in) :: dim               !! mesh dimension
+    integer(c_int64_t), intent(in) :: matrix_nnz  !! entries of the matrix
+    integer(c_int64_t), intent(in) :: factor_nnz  !! entries of its factor (D and L)
+    character(len=8), intent(out) :: resolved       !! 'direct' or 'cg'
+    integer(c_int), intent(out) :: auto_its(3)      !! AUTO_CG_ITS by dimension
+    real(c_double), intent(out) :: margin           !! AUTO_CG_MARGIN
+    resolved = ls_auto_kind(kind, dim, int(matrix_nnz, i8), int(factor_nnz, i8))
+    auto_its = AUTO_CG_ITS
+    margin = AUTO_CG_MARGIN
 end subroutine dc_ls_auto_kind
+
+!> 'auto' on a matrix given as 1-based COO triplets and a mesh dimension: the kind it
+!> chose, the backend that factorized, the inputs of the decision (nnz of the matrix and
+!> the analysis' factor entries, 0 without an analysis), its reason, and the entries of
+!> the factor a 'direct' factorization of the same matrix stores (D and L, 0 if not
+!> LDL^T).
+subroutine dc_ls_auto_decide(n, nnz, rows, cols, vals, dim, resolved, backend, matrix_nnz, &
+                             analysis_nnz, direct_nnz, reason, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t, c_double
+    use kinds, only: i8, dp
+    use errors, only: STAT_OK
+    use sparse, only: csc_t, csc_from_coo
+    use linear_solver, only: factor_t, ls_factor, ls_free, ls_configure, ls_factor_info, &
+                             ls_auto_reason
+    implicit none
+    integer(c_int), intent(in) :: n                     !! size
+    integer(c_int), intent(in) :: nnz                   !! triplets
+    integer(c_int), intent(in) :: rows(nnz)             !! 1-based rows
+    integer(c_int), intent(in) :: cols(nnz)             !! 1-based columns
+    real(c_double), intent(in) :: vals(nnz)             !! values
+    integer(c_int), intent(in) :: dim                   !! mesh dimension
+    character(len=8), intent(out) :: resolved           !! 'direct' or 'cg'
+    character(len=16), intent(out) :: backend           !! backend of the 'auto' factor_t
+    integer(c_int64_t), intent(out) :: matrix_nnz     !! the decision's nnz(A)
+    integer(c_int64_t), intent(out) :: analysis_nnz   !! the decision's factor entries
+    integer(c_int64_t), intent(out) :: direct_nnz     !! a direct factorization's entries
+    character(len=160), intent(out) :: reason           !! ls_auto_reason
+    integer(c_int), intent(out) :: stat                 !! status
+    character(len=512), intent(out) :: errmsg           !! message
+    type(csc_t) :: a
+    type(factor_t) :: f, g
+    character(len=:), allocatable :: ordering
+    integer(i8) :: fnnz
+    integer :: st
+    errmsg = ''
+    resolved = ''
+    backend = ''
+    reason = ''
+    matrix_nnz = 0
+    analysis_nnz = 0
+    direct_nnz = 0
+    call csc_from_coo(n, rows, cols, vals, a, st, errmsg)
+    call ls_configure(f, 'auto', dim, 1.0e-12_dp, 500)
+    if (st == STAT_OK) call ls_factor(f, a, st, errmsg)
+    if (st == STAT_OK) then
+        resolved = f%auto_kind
+        backend = f%backend
+        matrix_nnz = f%auto_nnz
+        analysis_nnz = f%auto_factor_nnz
+        reason = ls_auto_reason(f)
+        call ls_configure(g, 'direct', dim, 1.0e-12_dp, 500)
+        call ls_factor(g, a, st, errmsg)
+    end if
+    if (st == STAT_OK) then
+        call ls_factor_info(g, ordering, fnnz)
+        direct_nnz = fnnz
+    end if
+    call ls_free(f)
+    call ls_free(g)
+    stat = st
+end subroutine dc_ls_auto_decide
 
 !> P1 element matrices of one cell: stiffness, consistent and lumped mass.
 !> The leading n x n blocks (n = dim (dim + 1)) and x(1:dim, 1:dim + 1) are used.

@@ -66,7 +66,8 @@ module cholmod
     character(len=*), parameter, public :: ORDERING_NAMES(4) = &
         [character(len=8) :: 'amd', 'metis', 'nesdis', 'cholmod']
 
-    public :: chol_factor, chol_solve, chol_ordering, chol_solve_many, chol_free, chol_kernel, &
+    public :: chol_factor, chol_analyse, chol_solve, chol_ordering, chol_solve_many, &
+              chol_free, chol_kernel, &
               chol_solve_cholmod
 
     interface
@@ -97,6 +98,20 @@ module cholmod
             integer(c_int), intent(out) :: paired        !! size of the node blocks ordered together (2, 3) or 0
             integer(c_int) :: status
         end function dc_cholmod_factor
+
+        !> int dc_cholmod_analyse(h, n, colptr, rowind, val, &analysed, &entries)
+        function dc_cholmod_analyse(h, n, colptr, rowind, val, analysed, entries) &
+            result(status) bind(C, name='dc_cholmod_analyse')
+            import :: c_ptr, c_int, c_double
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int), value :: n                   !! size
+            integer(c_int), intent(in) :: colptr(*)      !! column starts (0-based)
+            integer(c_int), intent(in) :: rowind(*)      !! row indices (0-based)
+            real(c_double), intent(in) :: val(*)         !! values (not read by the analysis)
+            integer(c_int), intent(out) :: analysed      !! 1 if the analysis was redone
+            real(c_double), intent(out) :: entries       !! entries the factor will store (D and L)
+            integer(c_int) :: status
+        end function dc_cholmod_analyse
 
         !> long dc_cholmod_nnz(h)
         function dc_cholmod_nnz(h) result(nnz) bind(C, name='dc_cholmod_nnz')
@@ -167,6 +182,51 @@ module cholmod
     end interface
 
 contains
+
+    !> The symbolic analysis of chol_factor alone (ordering chosen, no numerical
+    !> factorization): `entries` = the entries the factor of a will store (D and L, what
+    !> chol_factor then reports as factor_nnz). The analysis is kept in ch, so the next
+    !> chol_factor of the same pattern does not redo it; ch holds no factors after this.
+    !> CHOLMOD errors give STAT_INTERNAL; an inconsistent csc_t gives STAT_BAD_INPUT.
+    subroutine chol_analyse(ch, a, entries, stat, errmsg)
+        type(cholmod_t), intent(inout) :: ch                !! analysis (factors released)
+        type(csc_t), intent(in) :: a                        !! symmetric matrix
+        integer(c_long), intent(out) :: entries             !! the factor's entries
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(c_int) :: status, analysed
+        real(c_double) :: e
+        entries = 0
+        ch%n = 0
+        ch%supernodal = .false.
+        call pair_ldl_free(ch%pairs)
+        call triple_ldl_free(ch%triples)
+        if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
+                                allocated(a%val))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, &
+                       'chol_analyse: matrix is empty or not allocated')
+            return
+        end if
+        if (size(a%colptr) < a%n + 1 .or. a%colptr(1) /= 0 .or. a%colptr(a%n + 1) /= a%nnz &
+            .or. size(a%rowind) < a%nnz .or. size(a%val) < a%nnz) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_analyse: inconsistent CSC arrays')
+            return
+        end if
+        if (.not. c_associated(ch%handle)) ch%handle = dc_cholmod_new()
+        if (.not. c_associated(ch%handle)) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'chol_analyse: out of memory')
+            return
+        end if
+        status = dc_cholmod_analyse(ch%handle, int(a%n, c_int), a%colptr, a%rowind, a%val, &
+                                    analysed, e)
+        if (status /= DC_OK) then
+            call raise(stat, errmsg, STAT_INTERNAL, 'chol_analyse: CHOLMOD failed')
+            return
+        end if
+        if (analysed /= 0) ch%analyses = ch%analyses + 1
+        entries = int(e, c_long)
+        stat = STAT_OK
+    end subroutine chol_analyse
 
     !> Factorize the symmetric matrix a (its upper triangle is read): P A P^T = L D L^T,
     !> simplicial. The analysis is redone only when n or the pattern changed. A zero,

@@ -41,6 +41,7 @@ typedef struct {
     int paired;            /* the analysis ordered node blocks together: their size (2, 3), or 0 */
     int ordering;          /* the ordering of the analysis (ORD_*) */
     int super;             /* the factorization is CHOLMOD's supernodal LL' (else simplicial LDL') */
+    double entries;        /* entries of the analysed factor (D and L: its column counts) */
     int *bi;               /* the blocks' rows taken from a supernodal factor (else NULL) */
     int taken;             /* L's values and rows were turned into node blocks in place
                             * (dc_cholmod_take_blocks): L's numeric part is not a factor
@@ -96,6 +97,7 @@ static void free_factor(dc_cholmod *h)
     h->hash[0] = h->hash[1] = 0;
     h->n = 0;
     h->nnz = 0;
+    h->entries = 0;
     free_dense(h);
 }
 
@@ -330,29 +332,19 @@ static void pattern_hash(int n, const int *colptr, const int *rowind, unsigned l
     h[1] = b;
 }
 
-/* Analyse (when n or the pattern changed) and factorize P A P' = L D L' for the n x n
- * CSC matrix (0-based colptr[n+1], rowind[nnz], sorted rows, values val), reading its
- * upper triangle; node blocks are ordered together when the pattern allows (*paired = their
- * size, 2 or 3, else 0; see the header). Returns DC_OK; DC_NOT_POSDEF when a pivot is zero, negative or not
- * finite (minor = its column, 0-based; the factor is kept but must not be used);
- * DC_OUT_OF_MEMORY; DC_FAILED (other CHOLMOD errors). *analysed = 1 when the symbolic
- * analysis was redone, *lnz = stored entries of L (unit diagonal not counted). */
-int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
-                      const double *val, int *analysed, long *lnz, int *minor, int *paired)
+/* The symbolic analysis of the n x n CSC matrix a (its pattern: colptr[n+1],
+ * rowind[nnz]), redone only when n or the pattern changed (*analysed = 1 then): node
+ * blocks ordered together when the pattern allows, the ordering with the fewest factor
+ * entries, the supernodal analysis when use_supernodal says so. h->entries = the
+ * factor's entries (D and L, from the column counts: what the numerical factorization
+ * will store). Returns DC_OK, DC_OUT_OF_MEMORY or DC_FAILED (no analysis kept). */
+static int analyse(dc_cholmod *h, cholmod_sparse *ap, int n, const int *colptr,
+                   const int *rowind, int *analysed)
 {
-    dc_cholmod *h = handle;
-    cholmod_sparse a;
-    int nnz = colptr[n], j, k, ok;
+    cholmod_sparse a = *ap;
+    int nnz = colptr[n], k;
     unsigned long long hash[2];
-    const double *d;
-    const int *lp;
-
     *analysed = 0;
-    *lnz = 0;
-    *minor = -1;
-    *paired = 0;
-    csc_header(&a, n, colptr, rowind, val);
-
     pattern_hash(n, colptr, rowind, hash);
     if (h->L == NULL || h->n != n || h->nnz != nnz || h->hash[0] != hash[0]
         || h->hash[1] != hash[1]) {
@@ -422,7 +414,54 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
         h->hash[1] = hash[1];
         h->n = n;
         h->nnz = nnz;
+        h->entries = h_lnz(h->L);
         *analysed = 1;
+    }
+    return DC_OK;
+}
+
+/* The symbolic analysis alone (see analyse; kept for the next dc_cholmod_factor of the
+ * same pattern, which then does not redo it): *entries = the entries the factor will
+ * store (D and L), no numerical factorization. Returns DC_OK, DC_OUT_OF_MEMORY or
+ * DC_FAILED. */
+int dc_cholmod_analyse(void *handle, int n, const int *colptr, const int *rowind,
+                       const double *val, int *analysed, double *entries)
+{
+    dc_cholmod *h = handle;
+    cholmod_sparse a;
+    int st;
+    *entries = 0;
+    csc_header(&a, n, colptr, rowind, val);
+    st = analyse(h, &a, n, colptr, rowind, analysed);
+    if (st == DC_OK) *entries = h->entries;
+    return st;
+}
+
+/* Analyse (when n or the pattern changed) and factorize P A P' = L D L' for the n x n
+ * CSC matrix (0-based colptr[n+1], rowind[nnz], sorted rows, values val), reading its
+ * upper triangle; node blocks are ordered together when the pattern allows (*paired = their
+ * size, 2 or 3, else 0; see the header). Returns DC_OK; DC_NOT_POSDEF when a pivot is zero, negative or not
+ * finite (minor = its column, 0-based; the factor is kept but must not be used);
+ * DC_OUT_OF_MEMORY; DC_FAILED (other CHOLMOD errors). *analysed = 1 when the symbolic
+ * analysis was redone, *lnz = stored entries of L (unit diagonal not counted). */
+int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
+                      const double *val, int *analysed, long *lnz, int *minor, int *paired)
+{
+    dc_cholmod *h = handle;
+    cholmod_sparse a;
+    int j, k, ok;
+    const double *d;
+    const int *lp;
+
+    *analysed = 0;
+    *lnz = 0;
+    *minor = -1;
+    *paired = 0;
+    csc_header(&a, n, colptr, rowind, val);
+
+    {
+        int st = analyse(h, &a, n, colptr, rowind, analysed);
+        if (st != DC_OK) return st;
     }
 
     if (h->taken && !release_values(h)) {

@@ -1,9 +1,10 @@
 !> Solves of csc_t matrices for the time schemes. Direct (the default): symmetric
 !> positive definite matrices with CHOLMOD's LDL^T (simplicial or supernodal; about half the factor
 !> entries and half the solve time of an LU), anything else with UMFPACK's LU.
-!> Iterative (ls_configure kind 'cg', or 'auto' above AUTO_CG_DOFS): preconditioned conjugate
-!> gradients (module pcg: SSOR by node blocks for one right-hand side, block Jacobi for
-!> several), for symmetric positive definite matrices only.
+!> Iterative (ls_configure kind 'cg', or 'auto' where ls_auto_kind's cost model, on the
+!> symbolic analysis, says so): preconditioned conjugate gradients (module pcg: SSOR by
+!> node blocks for one right-hand side, block Jacobi for several), for symmetric
+!> positive definite matrices only.
 !>
 !> ls_factor tries LDL^T when the matrix is symmetric (to SYM_RTOL) and falls back to
 !> UMFPACK when it is not, or when LDL^T meets a zero, negative or non-finite pivot
@@ -15,12 +16,13 @@
 !> records which one holds the factors. A factor_t owns C pointers: never copy one by
 !> assignment.
 module linear_solver
+    use iso_c_binding, only: c_long
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
     use sparse, only: csc_t, csc_find
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
-    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_free, chol_kernel, &
-                       chol_ordering
+    use cholmod, only: cholmod_t, chol_factor, chol_analyse, chol_solve, chol_solve_many, &
+                       chol_free, chol_kernel, chol_ordering
     use pcg, only: pcg_t, pcg_setup, pcg_solve, pcg_solve_many, pcg_free
     implicit none
     private
@@ -36,14 +38,26 @@ module linear_solver
     character(len=*), parameter, public :: BACKEND_UMFPACK = 'umfpack_lu'    !! LU ran
     character(len=*), parameter, public :: BACKEND_PCG = 'pcg'        !! CG ran
 
-    !> Kind 'auto' runs CG from this many unknowns on, by the dimension of the mesh (1, 2,
-    !> 3): the crossover the scaling sweep measured (docs/performance.md, "Direct and CG on
-    !> the strip, the disk and the 3D box"). 3D: on the box CG's step was 1.95x slower at
-    !> 8 820 dofs and 1.56x faster at 19 440 (and 36 300): the ratio crosses 1 near 14 000
-    !> (log-linear between the two). 2D: the round disk crosses near 10 000 dofs, but the
-    !> thin strip, whose factor fills little, shows none up to 515 200 (CG 1.9-3.4x slower):
-    !> a size alone cannot tell them apart, so 2D stays direct. 1D: not measured.
-    integer, parameter, public :: AUTO_CG_DOFS(3) = [huge(1), huge(1), 14000]
+    !> Kind 'auto' compares the costs of one solve, estimated from the symbolic analysis
+    !> (no numerical factorization): the direct solve sweeps the factor twice, 2 F (F its
+    !> entries, D and L); a CG iteration is one product with J0 and two SSOR sweeps of
+    !> about one product's cost, 2 nnz(J0), and the step's solve takes AUTO_CG_ITS(dim)
+    !> iterations (SSOR: 7.3-8.1 measured on the strip, 9-10 on the box; nearly constant
+    !> with the size). CG runs when its estimate is below AUTO_CG_MARGIN times the
+    !> direct one: its nnz(J0) < AUTO_CG_MARGIN F. Calibrated on the scaling sweep
+    !> (docs/performance.md, "Direct and CG on the strip, the disk and the 3D box"):
+    !> every measured point where CG's step was faster has its nnz / F <= 1.66 (disk
+    !> 47 392 dofs; box 19 440: 1.59), every one where it was slower >= 2.10 (disk 12 036,
+    !> CG 0.91x there: near even) or 2.19 (strip 515 200, CG 2.8x slower); 1.9 lies
+    !> between (geometric middle of 1.66 and 2.19). The margin is above 1 because a
+    !> factor entry costs more than a J0 entry once the factor leaves the caches, and the
+    !> contact correction's columns are solved by CG on their small supports (the disk).
+    !> By the model (log-linear between measured sizes) the box crosses near 13 000 dofs
+    !> (the step's measured ratio crossed 1 near 14 000), the disk near 22 000 (measured:
+    !> near 11 000), the strip not up to 515 200 (near 1.6 million by extrapolation).
+    !> 1D: direct (not measured; small).
+    integer, parameter, public :: AUTO_CG_ITS(3) = [0, 8, 10]
+    real(dp), parameter, public :: AUTO_CG_MARGIN = 1.9_dp
 
     !> Factors of one matrix and the backend that computed them.
     type, public :: factor_t
@@ -60,10 +74,15 @@ module linear_solver
         integer :: cg_max_iter = 500            !! CG iteration limit of one solve
         type(pcg_t) :: cg                       !! CG preconditioner, work and counters
         character(len=200) :: note = ''         !! why CG was asked for and did not run
+        integer :: auto_n = 0                   !! 'auto': size of the last decision (0: none)
+        integer(i8) :: auto_nnz = 0             !! 'auto': nnz(J0) of the last decision
+        integer(i8) :: auto_factor_nnz = 0      !! 'auto': the analysis' factor entries
+        character(len=8) :: auto_kind = ''      !! 'auto': what it chose ('' before any)
     end type factor_t
 
     public :: ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, ls_factor_info, &
-              csc_is_symmetric, ls_configure, ls_cg_counts, ls_auto_kind, ls_factorization
+              csc_is_symmetric, ls_configure, ls_cg_counts, ls_auto_kind, ls_factorization, &
+              ls_auto_reason
 
 contains
 
@@ -84,7 +103,13 @@ contains
         f%fell_back = .false.
         f%note = ''
         f%symmetric = csc_is_symmetric(a)
-        kind = ls_auto_kind(f%kind, a%n, f%dim)
+        if (trim(f%kind) == 'auto') then
+            call auto_decide(f, a, stat, errmsg)
+            if (stat /= STAT_OK) return
+            kind = trim(f%auto_kind)
+        else
+            kind = ls_auto_kind(f%kind, f%dim, int(a%nnz, i8), 0_i8)
+        end if
         call pcg_free(f%cg)
         if (kind == 'cg') then
             if (.not. f%symmetric) then
@@ -106,8 +131,33 @@ contains
         call direct_factor(f, a, stat, errmsg)
     end subroutine ls_factor
 
-    !> Set the solver kind of the next ls_factor calls: 'direct', 'cg' or 'auto' (CG
-    !> from AUTO_CG_DOFS(dim) unknowns on), with the CG tolerance and iteration limit.
+    !> 'auto': decide (once a pattern: n and nnz(J0) unchanged keep the decision) from
+    !> the symbolic analysis of a (chol_analyse, kept for the factorization that follows
+    !> when the direct solver is chosen, released when CG is). Not symmetric, or 1D: the
+    !> direct solver, without an analysis.
+    subroutine auto_decide(f, a, stat, errmsg)
+        type(factor_t), intent(inout) :: f                  !! solver
+        type(csc_t), intent(in) :: a                        !! matrix
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(c_long) :: entries
+        stat = STAT_OK
+        if (f%auto_n == a%n .and. f%auto_nnz == int(a%nnz, i8) .and. f%auto_kind /= '') return
+        f%auto_n = a%n
+        f%auto_nnz = int(a%nnz, i8)
+        f%auto_factor_nnz = 0
+        f%auto_kind = 'direct'
+        if (.not. f%symmetric .or. f%dim < 2 .or. f%dim > 3) return
+        call chol_analyse(f%ch, a, entries, stat, errmsg)
+        if (stat /= STAT_OK) return
+        f%auto_factor_nnz = int(entries, i8)
+        f%auto_kind = ls_auto_kind('auto', f%dim, f%auto_nnz, f%auto_factor_nnz)
+        if (f%auto_kind == 'cg') call chol_free(f%ch)
+    end subroutine auto_decide
+
+    !> Set the solver kind of the next ls_factor calls: 'direct', 'cg' or 'auto' (the
+    !> cost model of ls_auto_kind, on the symbolic analysis of the matrix), with the CG
+    !> tolerance and iteration limit.
     subroutine ls_configure(f, kind, dim, cg_rtol, cg_max_iter)
         type(factor_t), intent(inout) :: f                  !! solver (before ls_factor)
         character(len=*), intent(in) :: kind                !! 'direct', 'cg' or 'auto'
@@ -118,22 +168,56 @@ contains
         f%dim = dim
         f%cg_rtol = cg_rtol
         f%cg_max_iter = cg_max_iter
+        f%auto_n = 0
+        f%auto_kind = ''
     end subroutine ls_configure
 
-    !> The kind that runs for a requested kind and an n x n matrix of a mesh of dimension
-    !> dim: 'cg' or 'direct' ('auto' resolved by AUTO_CG_DOFS).
-    pure function ls_auto_kind(kind, n, dim) result(k)
+    !> The kind that runs for a requested kind, a mesh of dimension dim, a matrix with
+    !> matrix_nnz entries and a factor of factor_nnz entries (D and L, from the symbolic
+    !> analysis; <= 0: unknown): 'cg' or 'direct'. 'auto' is 'cg' when
+    !> AUTO_CG_ITS(dim) matrix_nnz < AUTO_CG_MARGIN factor_nnz (2D, 3D), else 'direct'.
+    pure function ls_auto_kind(kind, dim, matrix_nnz, factor_nnz) result(k)
         character(len=*), intent(in) :: kind                !! 'direct', 'cg' or 'auto'
-        integer, intent(in) :: n                            !! unknowns
         integer, intent(in) :: dim                          !! mesh dimension (0: unknown)
+        integer(i8), intent(in) :: matrix_nnz               !! entries (both triangles)
+        integer(i8), intent(in) :: factor_nnz               !! entries of its LDL^T factor
         character(len=:), allocatable :: k
         k = 'direct'
         if (trim(kind) == 'cg') then
             k = 'cg'
-        else if (trim(kind) == 'auto' .and. dim >= 1 .and. dim <= 3) then
-            if (n >= AUTO_CG_DOFS(dim)) k = 'cg'
+        else if (trim(kind) == 'auto' .and. dim >= 2 .and. dim <= 3 .and. factor_nnz > 0) then
+            if (real(AUTO_CG_ITS(dim), dp) * real(matrix_nnz, dp) &
+                < AUTO_CG_MARGIN * real(factor_nnz, dp)) k = 'cg'
         end if
     end function ls_auto_kind
+
+    !> 'auto''s decision and its inputs, for the run's summary: e.g. "cg: 8 x nnz(J0)
+    !> 659432 < 1.9 x factor entries 3166928 (ratio 1.67)"; '' when the kind is not 'auto'
+    !> or before the first ls_factor.
+    function ls_auto_reason(f) result(text)
+        type(factor_t), intent(in) :: f      !! solver
+        character(len=:), allocatable :: text
+        character(len=160) :: buf
+        character(len=3) :: rel
+        text = ''
+        if (trim(f%kind) /= 'auto' .or. f%auto_kind == '') return
+        rel = ' >='
+        if (f%auto_kind == 'cg') rel = ' <'
+        if (f%auto_factor_nnz <= 0) then
+            if (f%dim < 2 .or. f%dim > 3) then
+                text = 'direct: 1D or dimension unknown'
+            else
+                text = 'direct: the matrix is not symmetric'
+            end if
+            return
+        end if
+        write (buf, '(a, a, i0, a, i0, a, f3.1, a, i0, a, f0.3, a)') trim(f%auto_kind), ': ', &
+            AUTO_CG_ITS(f%dim), ' x nnz(J0) ', f%auto_nnz, trim(rel)//' ', &
+            AUTO_CG_MARGIN, ' x factor entries ', f%auto_factor_nnz, ' (ratio ', &
+            real(AUTO_CG_ITS(f%dim), dp) * real(f%auto_nnz, dp) &
+            / real(f%auto_factor_nnz, dp), ')'
+        text = trim(buf)
+    end function ls_auto_reason
 
     !> CG counters: solves, iterations over them, the most of one solve (0 without CG).
     subroutine ls_cg_counts(f, solves, iterations, max_its)

@@ -20,7 +20,7 @@ module simulation
     use implicit_schemes, only: implicit_scheme_t, implicit_solver_report
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, ls_factorization
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, ls_factorization, ls_auto_reason
     use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
                             trace_sync, trace_close, json_real, json_string, TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
@@ -907,7 +907,7 @@ contains
         logical, intent(in), optional :: last               !! the final one: rewrite in place if need be
         integer :: its, facts, cg_max
         integer(i8) :: clock, fnnz, cg_solves, cg_its
-        character(len=:), allocatable :: text, dt_crit_line, ordering, skind, snote, fact
+        character(len=:), allocatable :: text, dt_crit_line, ordering, skind, snote, fact, areason
         character(len=1), parameter :: nl = new_line('a')
         call system_clock(clock)
         its = 0; facts = 0
@@ -915,13 +915,14 @@ contains
         ordering = ''
         fnnz = 0
         if (allocated(sim%scheme)) call sim%scheme%factor_info(ordering, fnnz)
-        skind = ''; snote = ''; fact = ''
+        skind = ''; snote = ''; fact = ''; areason = ''
         cg_solves = 0; cg_its = 0; cg_max = 0
         if (allocated(sim%scheme)) then
             select type (s => sim%scheme)
             type is (implicit_scheme_t)
                 call implicit_solver_report(s, skind, cg_solves, cg_its, cg_max, snote)
                 fact = ls_factorization(s%lu0)
+                areason = ls_auto_reason(s%lu0)
             type is (pc_scheme_t)
                 fact = ls_factorization(s%ms%lu)
             type is (central_scheme_t)
@@ -953,6 +954,7 @@ contains
                '  "solve_kernel": '//json_string(sim_kernel(sim))//','//nl// &
                '  "solver_kind": '//json_string(skind)//','//nl// &
                '  "solver_note": '//json_string(snote)//','//nl// &
+               '  "auto_reason": '//json_string(areason)//','//nl// &
                '  "cg_solves": '//int_text(cg_solves)//','//nl// &
                '  "cg_iterations": '//int_text(cg_its)//','//nl// &
                '  "cg_max_iterations": '//int_text(int(cg_max, i8))//','//nl// &
