@@ -7,9 +7,9 @@ the top separator's rows: the updates from the two subtrees are summed in two bu
 and added to b, instead of one after the other. That reorders sums of at most k terms,
 k the entries of a row of L: a relative change of at most about k eps of the sum of
 their magnitudes (Wilkinson), which the rest of the solve carries into x amplified at
-most by kappa(A). On the test's grid (nested dissection of an n-node square: rows of L
-hold O(sqrt(n_dofs)) entries, and a shifted Laplacian with kappa <= KAPPA) that gives
-RTOL below.
+most by kappa(A). On the test's grid (a fill-reducing ordering of a square grid: rows of
+L hold O(sqrt(n_dofs)) entries; a shifted Laplacian with kappa <= KAPPA) that gives RTOL
+below.
 """
 from __future__ import annotations
 
