@@ -786,3 +786,56 @@ subroutine dc_sim_load(handle, path, step, stat, errmsg)
     step = sim%step
     stat = st
 end subroutine dc_sim_load
+
+!> The 2x2 block solves of A (symmetric positive definite, 1-based COO triplets, made of
+!> node pairs) on one thread and on two (ldl_solves' split of the elimination tree, at
+!> any size) for the m columns of b, to compare the two. split = [block columns, last
+!> column of the first range (0: no split, serial), first column of the separator];
+!> kernel = chol_kernel's name. The threads' setting is read again afterwards.
+subroutine dc_ldl_threads_compare(n, nnz, m, rows, cols, vals, b, x_serial, x_threads, split, &
+                                  kernel, stat, errmsg)
+    use iso_c_binding, only: c_int, c_double
+    use errors, only: STAT_OK
+    use sparse, only: csc_t, csc_from_coo
+    use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_kernel, chol_free
+    use ldl_solves, only: ldl_threads_set
+    implicit none
+    integer(c_int), intent(in) :: n              !! size
+    integer(c_int), intent(in) :: nnz            !! triplets
+    integer(c_int), intent(in) :: m              !! right-hand sides
+    integer(c_int), intent(in) :: rows(nnz)      !! 1-based rows
+    integer(c_int), intent(in) :: cols(nnz)      !! 1-based columns
+    real(c_double), intent(in) :: vals(nnz)      !! values
+    real(c_double), intent(in) :: b(n, m)        !! right-hand sides
+    real(c_double), intent(out) :: x_serial(n, m)   !! solutions on one thread
+    real(c_double), intent(out) :: x_threads(n, m)  !! solutions on two threads
+    integer(c_int), intent(out) :: split(3)      !! block columns, end of the first range, separator
+    character(len=16), intent(out) :: kernel     !! triangular solve used
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(csc_t) :: a
+    type(cholmod_t) :: ch
+    integer :: st, j
+    errmsg = ''
+    kernel = ''
+    x_serial = 0
+    x_threads = 0
+    split = 0
+    call csc_from_coo(n, rows, cols, vals, a, st, errmsg)
+    if (st == STAT_OK) call chol_factor(ch, a, st, errmsg)
+    if (st == STAT_OK) then
+        kernel = chol_kernel(ch)
+        call ldl_threads_set(1, huge(1))
+        do j = 1, m
+            if (st == STAT_OK) call chol_solve(ch, b(:, j), x_serial(:, j), st, errmsg)
+        end do
+        call ldl_threads_set(2, 0)
+        do j = 1, m
+            if (st == STAT_OK) call chol_solve(ch, b(:, j), x_threads(:, j), st, errmsg)
+        end do
+        call ldl_threads_set(0, 0)
+        split = [ch%pairs%nn, ch%pairs%sa, ch%pairs%ss]
+    end if
+    call chol_free(ch)
+    stat = st
+end subroutine dc_ldl_threads_compare

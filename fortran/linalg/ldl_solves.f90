@@ -23,7 +23,7 @@
 !> (columns padded to four in memory took a third more memory and were no faster,
 !> docs/performance.md).
 module ldl_solves
-    use kinds, only: dp
+    use kinds, only: dp, i8
     implicit none
     private
 
@@ -39,6 +39,10 @@ module ldl_solves
         real(dp), allocatable :: l21(:)           !! (nn) L's entry in each diagonal block
         real(dp), allocatable :: d(:)             !! (n) D
         real(dp), allocatable :: y(:)             !! (n) work vector of the solves
+        integer :: sa = -1                        !! two-thread split: block columns cols(1:sa) and cols(sa+1:ss-1) have no L entries between them (-1: not yet looked for; 0: none)
+        integer :: ss = 0                         !! first block column of the separator (ss..nn, after both)
+        integer, allocatable :: cols(:)           !! (nn) the two groups' block columns, each ascending, then ss..nn
+        real(dp), allocatable :: ys(:, :)         !! (n - 2 ss + 2, 2) each subtree's updates of the separator's rows
     end type pair_ldl_t
 
     !> LDL^T factors by 3x3 blocks of node triples.
@@ -57,6 +61,16 @@ module ldl_solves
 
     public :: pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, pair_ldl_free
     public :: triple_ldl_build, triple_ldl_solve, triple_ldl_solve_many, triple_ldl_free
+    public :: ldl_threads_set, ldl_threads_get
+
+    !> Two threads in the 2x2 block solves (pair_ldl_solve) from this many dofs: below it
+    !> the forking costs more than the half sweep saves (docs/performance.md, "Two
+    !> threads in the triangular solve").
+    integer, parameter :: PAR_MIN_DOFS = 20000
+    !> Threads of the solves when DYNCONTACT_THREADS is not set (1: serial).
+    integer, parameter :: PAR_DEFAULT_THREADS = 1
+    integer, save :: par_nthreads = 0          ! 0: not read yet; 1: serial; 2: two threads
+    integer, save :: par_min_n = PAR_MIN_DOFS
 
 contains
 
@@ -121,13 +135,283 @@ contains
         ok = .true.
     end subroutine pair_ldl_build
 
-    !> x = A^{-1} b with the block factors (b and x: n entries; they may not alias).
-    pure subroutine pair_ldl_solve(f, b, x)
+    !> x = A^{-1} b with the block factors (b and x: n entries; they may not alias). On
+    !> two threads (pair_sweeps_two) when they are switched on (ldl_threads_get), the
+    !> factor has n >= the threshold dofs and its elimination tree splits below a
+    !> separator (find_split, looked for at the first solve); else pair_sweeps.
+    subroutine pair_ldl_solve(f, b, x)
         type(pair_ldl_t), intent(inout) :: f                !! block factors (work vector used)
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
         real(dp), intent(out) :: x(:)                       !! solution (n)
+        integer :: threads, min_dofs
+        call ldl_threads_get(threads, min_dofs)
+        if (threads >= 2 .and. f%n >= min_dofs) then
+            if (f%sa < 0) call pair_find_split(f)
+            if (f%sa > 0) then
+                call pair_sweeps_two(f, b, x)
+                return
+            end if
+        end if
         call pair_sweeps(f%n, f%nn, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%l21, f%d, b, x, f%y)
     end subroutine pair_ldl_solve
+
+    !> The threads of the solves (1 or 2) and the size from which two are used: read once
+    !> from DYNCONTACT_THREADS (1: serial, 2: two threads; default PAR_DEFAULT_THREADS)
+    !> and the test-only DYNCONTACT_THREADS_MIN_DOFS (default PAR_MIN_DOFS), unless set
+    !> by ldl_threads_set.
+    subroutine ldl_threads_get(threads, min_dofs)
+        integer, intent(out) :: threads                     !! 1 or 2
+        integer, intent(out) :: min_dofs                    !! smallest n solved on two threads
+        character(len=32) :: v
+        integer :: ln, st, ios, m
+        if (par_nthreads == 0) then
+            par_nthreads = PAR_DEFAULT_THREADS
+            par_min_n = PAR_MIN_DOFS
+            call get_environment_variable('DYNCONTACT_THREADS', v, ln, st)
+            if (st == 0) then
+                if (trim(adjustl(v)) == '1') par_nthreads = 1
+                if (trim(adjustl(v)) == '2') par_nthreads = 2
+            end if
+            call get_environment_variable('DYNCONTACT_THREADS_MIN_DOFS', v, ln, st)
+            if (st == 0) then
+                read (v, *, iostat=ios) m
+                if (ios == 0 .and. m >= 0) par_min_n = m
+            end if
+        end if
+        threads = par_nthreads
+        min_dofs = par_min_n
+    end subroutine ldl_threads_get
+
+    !> Set the threads of the solves (1 or 2; 0: read the environment again at the next
+    !> solve) and the size from which two are used (tests compare both paths).
+    subroutine ldl_threads_set(threads, min_dofs)
+        integer, intent(in) :: threads                      !! 0, 1 or 2
+        integer, intent(in) :: min_dofs                     !! smallest n solved on two threads
+        par_nthreads = max(0, min(2, threads))
+        par_min_n = max(0, min_dofs)
+    end subroutine ldl_threads_set
+
+    !> The split of the pairs' elimination tree (find_split on the block rows) and the
+    !> separator buffers.
+    pure subroutine pair_find_split(f)
+        type(pair_ldl_t), intent(inout) :: f                !! block factors
+        integer, allocatable :: brow(:)
+        allocate (brow(size(f%bi)))
+        brow = (f%bi + 1) / 2
+        call find_split(f%nn, f%bp, brow, f%sa, f%ss, f%cols)
+        if (allocated(f%ys)) deallocate (f%ys)
+        if (f%sa > 0) allocate (f%ys(max(1, f%n - 2 * f%ss + 2), 2))
+    end subroutine pair_find_split
+
+    !> A split of the block columns 1..nblk of L for two threads: cols(1:na) and
+    !> cols(na+1:ss-1) (each ascending; together 1..ss-1) with no L entry of the one in
+    !> the rows of the other, and ss..nblk, the separator, after both; na = 0 when there
+    !> is none. From the elimination tree (parent: the first block row below the diagonal
+    !> of each column; the roots children of a virtual root nblk + 1): walk down from the
+    !> root while each node has one child (those nodes, the last columns since each is
+    !> the parent of all the others, are the separator), then share the first node with
+    !> two children or more's children, with their subtrees, between two groups of about
+    !> equal blocks (each child to the lighter group so far). L's rows in a column are
+    !> ancestors of it, so two subtrees touch only the separator; this is checked on the
+    !> blocks (na = 0 if not). The ordering need not be postordered (the shim's is not:
+    !> it keeps the node blocks in place), hence lists of columns, not ranges.
+    pure subroutine find_split(nblk, bp, brow, na, ss, cols)
+        integer, intent(in) :: nblk                         !! block columns
+        integer, intent(in) :: bp(nblk + 1)                 !! blocks of each block column
+        integer, intent(in) :: brow(:)                      !! block row of each block
+        integer, intent(out) :: na                          !! columns of the first group
+        integer, intent(out) :: ss                          !! first column of the separator
+        integer, allocatable, intent(out) :: cols(:)        !! (nblk) the two groups' columns, then ss..nblk
+        integer, allocatable :: parent(:), nch(:), child(:), top(:), grp(:)
+        integer(i8), allocatable :: work(:)
+        integer :: j, q, r, nb
+        integer(i8) :: wg(2)
+        na = 0
+        ss = nblk + 1
+        allocate (cols(0))
+        if (nblk < 4) return
+        allocate (parent(nblk), nch(nblk + 1), child(nblk + 1), top(nblk), work(nblk + 1), &
+                  grp(nblk))
+        nch = 0
+        do j = 1, nblk
+            parent(j) = nblk + 1
+            do q = bp(j), bp(j + 1) - 1
+                parent(j) = min(parent(j), brow(q))
+            end do
+            if (parent(j) <= j) return       ! not lower triangular by blocks
+            nch(parent(j)) = nch(parent(j)) + 1
+            child(parent(j)) = j
+        end do
+        r = nblk + 1
+        do while (nch(r) == 1)
+            r = child(r)
+        end do
+        if (nch(r) < 2) return               ! a path: no two subtrees
+        ss = r
+        ! top(j): the child of r whose subtree holds j; the subtrees' blocks
+        work = 0
+        do j = ss - 1, 1, -1
+            if (parent(j) == r) then
+                top(j) = j
+            else if (parent(j) >= ss) then
+                ss = nblk + 1                ! not below r: no split
+                return
+            else
+                top(j) = top(parent(j))
+            end if
+            work(top(j)) = work(top(j)) + (bp(j + 1) - bp(j)) + 1
+        end do
+        wg = 0
+        do j = 1, ss - 1
+            if (top(j) /= j) cycle
+            grp(j) = merge(1, 2, wg(1) <= wg(2))
+            wg(grp(j)) = wg(grp(j)) + work(j)
+        end do
+        do j = 1, ss - 1
+            grp(j) = grp(top(j))
+        end do
+        ! the check: a column's rows in its own group or the separator
+        do j = 1, ss - 1
+            do q = bp(j), bp(j + 1) - 1
+                if (brow(q) < ss) then
+                    if (grp(brow(q)) /= grp(j)) then
+                        ss = nblk + 1
+                        return
+                    end if
+                end if
+            end do
+        end do
+        deallocate (cols)
+        allocate (cols(nblk))
+        nb = 0
+        do q = 1, 2
+            do j = 1, ss - 1
+                if (grp(j) /= q) cycle
+                nb = nb + 1
+                cols(nb) = j
+            end do
+            if (q == 1) na = nb
+        end do
+        cols(ss:nblk) = [(j, j = ss, nblk)]
+        if (na == 0 .or. na == ss - 1) then
+            na = 0
+            ss = nblk + 1
+        end if
+    end subroutine find_split
+
+    !> pair_sweeps on two threads with the split of find_split: the forward sweep of
+    !> the two ranges at once, each adding its updates of the separator's rows into a
+    !> buffer of its own (zeroed), the separator's rows then b + first's + second's
+    !> (always this order: the same result run to run); the separator forward and back;
+    !> then the backward sweep of the two ranges at once (they read the separator's
+    !> rows, final). The operations are those of pair_sweeps but for the separator's
+    !> sums, added in another order: the results differ by round-off.
+    subroutine pair_sweeps_two(f, b, x)
+        type(pair_ldl_t), intent(inout) :: f                !! block factors (split found)
+        real(dp), intent(in) :: b(:)                        !! right-hand side (n)
+        real(dp), intent(out) :: x(:)                       !! solution (n)
+        integer :: rs, ns, nb, i, t, jb
+        real(dp) :: none(2)
+        rs = 2 * f%ss - 1
+        ns = size(f%ys, 1)
+        nb = size(f%bi)
+        !$omp parallel sections num_threads(2) default(shared) private(i, t, jb)
+        !$omp section
+        do t = 1, f%sa
+            jb = f%cols(t)
+            f%y(2 * jb - 1) = b(f%perm(2 * jb - 1))
+            f%y(2 * jb) = b(f%perm(2 * jb))
+        end do
+        f%ys(:, 1) = 0.0_dp
+        call pair_fwd(f%n, f%nn, nb, f%bp, f%bi, f%bx, f%l21, f%d, f%sa, f%cols(1:f%sa), &
+                      rs, f%y, ns, f%ys(:, 1))
+        !$omp section
+        do t = f%sa + 1, f%ss - 1
+            jb = f%cols(t)
+            f%y(2 * jb - 1) = b(f%perm(2 * jb - 1))
+            f%y(2 * jb) = b(f%perm(2 * jb))
+        end do
+        f%ys(:, 2) = 0.0_dp
+        call pair_fwd(f%n, f%nn, nb, f%bp, f%bi, f%bx, f%l21, f%d, f%ss - 1 - f%sa, &
+                      f%cols(f%sa + 1:f%ss - 1), rs, f%y, ns, f%ys(:, 2))
+        !$omp end parallel sections
+        do i = rs, f%n
+            f%y(i) = (b(f%perm(i)) + f%ys(i - rs + 1, 1)) + f%ys(i - rs + 1, 2)
+        end do
+        call pair_fwd(f%n, f%nn, nb, f%bp, f%bi, f%bx, f%l21, f%d, f%nn - f%ss + 1, &
+                      f%cols(f%ss:f%nn), f%n + 1, f%y, 2, none)
+        call pair_bwd(f%n, f%nn, nb, f%perm, f%bp, f%bi, f%bx, f%l21, f%nn - f%ss + 1, &
+                      f%cols(f%ss:f%nn), f%y, x)
+        !$omp parallel sections num_threads(2) default(shared)
+        !$omp section
+        call pair_bwd(f%n, f%nn, nb, f%perm, f%bp, f%bi, f%bx, f%l21, f%sa, f%cols(1:f%sa), &
+                      f%y, x)
+        !$omp section
+        call pair_bwd(f%n, f%nn, nb, f%perm, f%bp, f%bi, f%bx, f%l21, f%ss - 1 - f%sa, &
+                      f%cols(f%sa + 1:f%ss - 1), f%y, x)
+        !$omp end parallel sections
+    end subroutine pair_sweeps_two
+
+    !> The forward sweep of pair_sweeps on the block columns cl (ascending; y's rows
+    !> gathered): updates of rows >= rs go into ys (row rs: ys(1)), the others into y.
+    pure subroutine pair_fwd(n, nn, nb, bp, bi, bx, l21, d, nc, cl, rs, y, ns, ys)
+        integer, intent(in) :: n, nn, nb                    !! size, pairs, blocks
+        integer, intent(in) :: bp(nn + 1), bi(nb)           !! block structure
+        real(dp), intent(in) :: bx(4, nb), l21(nn), d(n)    !! L's blocks, diagonal blocks, D
+        integer, intent(in) :: nc                           !! block columns
+        integer, intent(in) :: cl(nc)                       !! their indices, ascending
+        integer, intent(in) :: rs                           !! first row kept in ys
+        real(dp), intent(inout) :: y(n)                     !! work
+        integer, intent(in) :: ns                           !! size of ys
+        real(dp), intent(inout) :: ys(ns)                   !! updates of rows >= rs
+        real(dp) :: y0, y1
+        integer :: t, jb, q, i, k
+        do t = 1, nc
+            jb = cl(t)
+            y0 = y(2 * jb - 1)
+            y1 = y(2 * jb) - l21(jb) * y0
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                if (i < rs) then
+                    y(i:i + 1) = y(i:i + 1) - (bx(1:2, q) * y0 + bx(3:4, q) * y1)
+                else
+                    k = i - rs + 1
+                    ys(k:k + 1) = ys(k:k + 1) - (bx(1:2, q) * y0 + bx(3:4, q) * y1)
+                end if
+            end do
+            y(2 * jb - 1) = y0 / d(2 * jb - 1)
+            y(2 * jb) = y1 / d(2 * jb)
+        end do
+    end subroutine pair_fwd
+
+    !> The backward sweep of pair_sweeps on the block columns cl, last first (the rows
+    !> below them final), each pair stored into x = P^T z.
+    pure subroutine pair_bwd(n, nn, nb, perm, bp, bi, bx, l21, nc, cl, y, x)
+        integer, intent(in) :: n, nn, nb                    !! size, pairs, blocks
+        integer, intent(in) :: perm(n), bp(nn + 1), bi(nb)  !! permutation, block structure
+        real(dp), intent(in) :: bx(4, nb), l21(nn)          !! L's blocks, diagonal blocks
+        integer, intent(in) :: nc                           !! block columns
+        integer, intent(in) :: cl(nc)                       !! their indices, ascending
+        real(dp), intent(inout) :: y(n)                     !! work
+        real(dp), intent(inout) :: x(n)                     !! solution (the pairs cl set)
+        real(dp) :: y0, y1, s(4)
+        integer :: t, jb, q, i
+        do t = nc, 1, -1
+            jb = cl(t)
+            s = 0.0_dp
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                s(1:2) = s(1:2) + bx(1:2, q) * y(i:i + 1)
+                s(3:4) = s(3:4) + bx(3:4, q) * y(i:i + 1)
+            end do
+            y1 = y(2 * jb) - (s(3) + s(4))
+            y0 = y(2 * jb - 1) - (s(1) + s(2)) - l21(jb) * y1
+            y(2 * jb) = y1
+            y(2 * jb - 1) = y0
+            x(perm(2 * jb)) = y1
+            x(perm(2 * jb - 1)) = y0
+        end do
+    end subroutine pair_bwd
 
     !> X = A^{-1} B for the k columns of B with one pass over the factor for all of them
     !> (the factor is read once per k columns instead of once per column: the solves of
@@ -242,6 +526,10 @@ contains
         if (allocated(f%l21)) deallocate (f%l21)
         if (allocated(f%d)) deallocate (f%d)
         if (allocated(f%y)) deallocate (f%y)
+        if (allocated(f%ys)) deallocate (f%ys)
+        if (allocated(f%cols)) deallocate (f%cols)
+        f%sa = -1
+        f%ss = 0
         f%n = 0
         f%nn = 0
     end subroutine pair_ldl_free

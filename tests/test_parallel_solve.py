@@ -1,0 +1,126 @@
+"""The 2x2 block triangular solves on two threads (fortran/linalg/ldl_solves.f90,
+pair_sweeps_two) equal the serial ones (pair_sweeps) to round-off, are the same run to
+run, and a scene's trace does not depend on them (DYNCONTACT_THREADS, docs/scenes.md).
+
+The two-thread solve does the serial solve's operations but for the forward updates of
+the top separator's rows: the updates from the two subtrees are summed in two buffers
+and added to b, instead of one after the other. That reorders sums of at most k terms,
+k the entries of a row of L: a relative change of at most about k eps of the sum of
+their magnitudes (Wilkinson), which the rest of the solve carries into x amplified at
+most by kappa(A). On the test's grid (a fill-reducing ordering of a square grid: rows of
+L hold O(sqrt(n_dofs)) entries; a shifted Laplacian with kappa <= KAPPA) that gives RTOL
+below.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from dyncontact import _core
+
+#: Nodes per side of the test grid: 2 * 60^2 = 7200 dofs, under the size from which the
+#: solves use two threads (20 000), hence the threshold lowered in the comparison.
+SIDE = 60
+#: kappa(A) of the grid matrix: kron(L + I, B), L's eigenvalues in [0, 8], B = [2 1; 1 2]
+#: with eigenvalues 1 and 3: A's eigenvalues in [1, 27].
+KAPPA = 27.0
+#: 4 kappa sqrt(n) eps with n = 2 SIDE^2 (the row lengths of L, see the docstring).
+RTOL = 4.0 * KAPPA * np.sqrt(2 * SIDE**2) * np.finfo(float).eps
+
+
+def grid_pairs(side):
+    """kron(L + I, B) with L the 5-point Laplacian of a side x side grid (Dirichlet-like
+    diagonal 4) and B = [2 1; 1 2]: two dofs a node, numbered by nodes, 1-based COO."""
+    n = side * side
+    idx = np.arange(n).reshape(side, side)
+    r = [idx.ravel()]
+    c = [idx.ravel()]
+    v = [np.full(n, 5.0)]
+    for a, b in ((idx[:, :-1], idx[:, 1:]), (idx[:-1, :], idx[1:, :])):
+        r += [a.ravel(), b.ravel()]
+        c += [b.ravel(), a.ravel()]
+        v += [np.full(a.size, -1.0)] * 2
+    r, c, v = np.concatenate(r), np.concatenate(c), np.concatenate(v)
+    blk = np.array([[2.0, 1.0], [1.0, 2.0]])
+    rows, cols, vals = [], [], []
+    for i in range(2):
+        for j in range(2):
+            rows.append(2 * r + i)
+            cols.append(2 * c + j)
+            vals.append(v * blk[i, j])
+    return (np.concatenate(rows) + 1, np.concatenate(cols) + 1, np.concatenate(vals), 2 * n)
+
+
+def compare(b):
+    rows, cols, vals, n = grid_pairs(SIDE)
+    b = np.asfortranarray(b, dtype=np.float64)
+    assert b.shape[0] == n
+    xs, xt, split, kernel, stat, msg = _core.dc_ldl_threads_compare(
+        rows.astype(np.int32), cols.astype(np.int32), vals, b)
+    assert stat == 0, msg
+    kernel = kernel.decode() if isinstance(kernel, bytes) else kernel
+    return xs, xt, split, kernel.strip()
+
+
+def test_two_threads_equal_serial_to_round_off():
+    rng = np.random.default_rng(7)
+    n = 2 * SIDE**2
+    b = rng.standard_normal((n, 5))
+    xs, xt, split, kernel = compare(b)
+    assert kernel == "ldl_node_pairs"
+    nn, sa, ss = split
+    # the two-thread path ran: two ranges of block columns and the separator after them
+    assert nn == SIDE**2 and 0 < sa < ss - 1 and ss <= nn + 1, split
+    for j in range(b.shape[1]):
+        diff = np.abs(xt[:, j] - xs[:, j]).max() / np.abs(xs[:, j]).max()
+        assert diff <= RTOL, (j, diff, RTOL)
+    # and both solve the system (the serial solve's own accuracy, same bound)
+    rows, cols, vals, _ = grid_pairs(SIDE)
+    ax = np.zeros(n)
+    np.add.at(ax, rows - 1, vals * xt[cols - 1, 0])
+    assert np.abs(ax - b[:, 0]).max() <= RTOL * np.abs(b[:, 0]).max() * KAPPA
+
+
+def test_two_threads_same_run_to_run():
+    rng = np.random.default_rng(8)
+    b = rng.standard_normal((2 * SIDE**2, 3))
+    _, x1, _, _ = compare(b)
+    _, x2, _, _ = compare(b)
+    assert np.array_equal(x1, x2)
+
+
+TRACE_SCRIPT = """
+import sys
+from pathlib import Path
+import dyncontact
+from dyncontact.scene import Scene
+scn = Scene.read(Path(sys.argv[1]))
+scn.set("scheme.t_end", 0.2)
+dyncontact.run(scn, out=sys.argv[2], progress=False)
+"""
+
+
+def test_scene_trace_does_not_depend_on_threads(tmp_path):
+    """bar2d_hht (J0 solved by 2x2 blocks each step) with every factor solved on two
+    threads (threshold 0) and on one: the traces agree to 1e-12."""
+    from conftest import ROOT
+    import dyncontact
+    traces = {}
+    for threads in ("1", "2"):
+        env = dict(os.environ, DYNCONTACT_THREADS=threads, DYNCONTACT_THREADS_MIN_DOFS="0")
+        env.pop("PYTHONPATH", None)
+        out = tmp_path / f"t{threads}"
+        res = subprocess.run([sys.executable, "-c", TRACE_SCRIPT,
+                              str(ROOT / "scripts" / "scenes" / "bar2d_hht.nml"), str(out)],
+                             env=env, capture_output=True, text=True, timeout=600)
+        assert res.returncode == 0, res.stderr
+        traces[threads] = dyncontact.core.read_trace(out)
+    a, b = traces["1"], traces["2"]
+    assert a["t"].shape == b["t"].shape and a["t"].size > 1
+    for col in a:
+        scale = max(1.0, np.abs(a[col]).max())
+        assert np.abs(a[col] - b[col]).max() <= 1e-12 * scale, col
