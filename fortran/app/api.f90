@@ -825,15 +825,14 @@ subroutine dc_ldl_threads_compare(n, nnz, m, rows, cols, vals, b, x_serial, x_th
     if (st == STAT_OK) call chol_factor(ch, a, st, errmsg)
     if (st == STAT_OK) then
         kernel = chol_kernel(ch)
-        call ldl_threads_set(1, huge(1))
+        call ldl_threads_set(ch%pairs, 1, huge(1))
         do j = 1, m
             if (st == STAT_OK) call chol_solve(ch, b(:, j), x_serial(:, j), st, errmsg)
         end do
-        call ldl_threads_set(2, 0)
+        call ldl_threads_set(ch%pairs, 2, 0)
         do j = 1, m
             if (st == STAT_OK) call chol_solve(ch, b(:, j), x_threads(:, j), st, errmsg)
         end do
-        call ldl_threads_set(0, 0)
         split = [ch%pairs%nn, ch%pairs%sa, ch%pairs%ss]
     end if
     call chol_free(ch)

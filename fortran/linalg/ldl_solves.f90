@@ -43,6 +43,8 @@ module ldl_solves
         integer :: ss = 0                         !! first block column of the separator (ss..nn, after both)
         integer, allocatable :: cols(:)           !! (nn) the two groups' block columns, each ascending, then ss..nn
         real(dp), allocatable :: ys(:, :)         !! (n - 2 ss + 2, 2) each subtree's updates of the separator's rows
+        integer :: threads = 0                    !! threads of the solves (1, 2; 0: read the environment at the first solve)
+        integer :: par_min_n = 0                  !! smallest n solved on two threads (with threads)
     end type pair_ldl_t
 
     !> LDL^T factors by 3x3 blocks of node triples.
@@ -61,7 +63,7 @@ module ldl_solves
 
     public :: pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, pair_ldl_free
     public :: triple_ldl_build, triple_ldl_solve, triple_ldl_solve_many, triple_ldl_free
-    public :: ldl_threads_set, ldl_threads_get
+    public :: ldl_threads_set, ldl_threads_env
 
     !> Two threads in the 2x2 block solves (pair_ldl_solve) from this many dofs: below it
     !> the forking costs more than the half sweep saves (docs/performance.md, "Two
@@ -69,8 +71,6 @@ module ldl_solves
     integer, parameter :: PAR_MIN_DOFS = 20000
     !> Threads of the solves when DYNCONTACT_THREADS is not set (1: serial).
     integer, parameter :: PAR_DEFAULT_THREADS = 1
-    integer, save :: par_nthreads = 0          ! 0: not read yet; 1: serial; 2: two threads
-    integer, save :: par_min_n = PAR_MIN_DOFS
 
 contains
 
@@ -136,16 +136,16 @@ contains
     end subroutine pair_ldl_build
 
     !> x = A^{-1} b with the block factors (b and x: n entries; they may not alias). On
-    !> two threads (pair_sweeps_two) when they are switched on (ldl_threads_get), the
+    !> two threads (pair_sweeps_two) when they are switched on (f%threads, from
+    !> ldl_threads_env at the first solve unless ldl_threads_set chose), the
     !> factor has n >= the threshold dofs and its elimination tree splits below a
     !> separator (find_split, looked for at the first solve); else pair_sweeps.
     subroutine pair_ldl_solve(f, b, x)
         type(pair_ldl_t), intent(inout) :: f                !! block factors (work vector used)
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
         real(dp), intent(out) :: x(:)                       !! solution (n)
-        integer :: threads, min_dofs
-        call ldl_threads_get(threads, min_dofs)
-        if (threads >= 2 .and. f%n >= min_dofs) then
+        if (f%threads == 0) call ldl_threads_env(f%threads, f%par_min_n)
+        if (f%threads >= 2 .and. f%n >= f%par_min_n) then
             if (f%sa < 0) call pair_find_split(f)
             if (f%sa > 0) then
                 call pair_sweeps_two(f, b, x)
@@ -155,40 +155,36 @@ contains
         call pair_sweeps(f%n, f%nn, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%l21, f%d, b, x, f%y)
     end subroutine pair_ldl_solve
 
-    !> The threads of the solves (1 or 2) and the size from which two are used: read once
-    !> from DYNCONTACT_THREADS (1: serial, 2: two threads; default PAR_DEFAULT_THREADS)
-    !> and the test-only DYNCONTACT_THREADS_MIN_DOFS (default PAR_MIN_DOFS), unless set
-    !> by ldl_threads_set.
-    subroutine ldl_threads_get(threads, min_dofs)
+    !> The threads of the solves (1 or 2) and the size from which two are used, from
+    !> DYNCONTACT_THREADS (1: serial, 2: two threads; default PAR_DEFAULT_THREADS) and the
+    !> test-only DYNCONTACT_THREADS_MIN_DOFS (default PAR_MIN_DOFS).
+    subroutine ldl_threads_env(threads, min_dofs)
         integer, intent(out) :: threads                     !! 1 or 2
         integer, intent(out) :: min_dofs                    !! smallest n solved on two threads
         character(len=32) :: v
         integer :: ln, st, ios, m
-        if (par_nthreads == 0) then
-            par_nthreads = PAR_DEFAULT_THREADS
-            par_min_n = PAR_MIN_DOFS
-            call get_environment_variable('DYNCONTACT_THREADS', v, ln, st)
-            if (st == 0) then
-                if (trim(adjustl(v)) == '1') par_nthreads = 1
-                if (trim(adjustl(v)) == '2') par_nthreads = 2
-            end if
-            call get_environment_variable('DYNCONTACT_THREADS_MIN_DOFS', v, ln, st)
-            if (st == 0) then
-                read (v, *, iostat=ios) m
-                if (ios == 0 .and. m >= 0) par_min_n = m
-            end if
+        threads = PAR_DEFAULT_THREADS
+        min_dofs = PAR_MIN_DOFS
+        call get_environment_variable('DYNCONTACT_THREADS', v, ln, st)
+        if (st == 0) then
+            if (trim(adjustl(v)) == '1') threads = 1
+            if (trim(adjustl(v)) == '2') threads = 2
         end if
-        threads = par_nthreads
-        min_dofs = par_min_n
-    end subroutine ldl_threads_get
+        call get_environment_variable('DYNCONTACT_THREADS_MIN_DOFS', v, ln, st)
+        if (st == 0) then
+            read (v, *, iostat=ios) m
+            if (ios == 0 .and. m >= 0) min_dofs = m
+        end if
+    end subroutine ldl_threads_env
 
-    !> Set the threads of the solves (1 or 2; 0: read the environment again at the next
-    !> solve) and the size from which two are used (tests compare both paths).
-    subroutine ldl_threads_set(threads, min_dofs)
+    !> Set the threads of a factor's solves (1 or 2; 0: read the environment again at the
+    !> next solve) and the size from which two are used (tests compare both paths).
+    pure subroutine ldl_threads_set(f, threads, min_dofs)
+        type(pair_ldl_t), intent(inout) :: f                !! block factors
         integer, intent(in) :: threads                      !! 0, 1 or 2
         integer, intent(in) :: min_dofs                     !! smallest n solved on two threads
-        par_nthreads = max(0, min(2, threads))
-        par_min_n = max(0, min_dofs)
+        f%threads = max(0, min(2, threads))
+        f%par_min_n = max(0, min_dofs)
     end subroutine ldl_threads_set
 
     !> The split of the pairs' elimination tree (find_split on the block rows) and the
