@@ -12,7 +12,7 @@ module text
         module procedure int_text_default, int_text_i8
     end interface int_text
 
-    public :: int_text, real_text, utf8_len, lower
+    public :: int_text, real_text, utf8_len, lower, env_text
 
 contains
 
@@ -97,4 +97,19 @@ contains
             if (s(i:i) >= 'A' .and. s(i:i) <= 'Z') r(i:i) = achar(iachar(s(i:i)) + 32)
         end do
     end function lower
+    !> The value of an environment variable, blanks trimmed on both sides ('' when it is
+    !> not set or longer than 64 characters): the DYNCONTACT_* switches read at set-up.
+    function env_text(name) result(v)
+        character(len=*), intent(in) :: name    !! variable
+        character(len=:), allocatable :: v
+        character(len=64) :: buf
+        integer :: length, st
+        call get_environment_variable(name, buf, length, st)
+        if (st /= 0 .or. length == 0) then
+            v = ''
+        else
+            v = trim(adjustl(buf))
+        end if
+    end function env_text
+
 end module text

@@ -24,6 +24,7 @@
 !> docs/performance.md).
 module ldl_solves
     use kinds, only: dp, i8
+    use text, only: env_text
     implicit none
     private
 
@@ -161,17 +162,15 @@ contains
     subroutine ldl_threads_env(threads, min_dofs)
         integer, intent(out) :: threads                     !! 1 or 2
         integer, intent(out) :: min_dofs                    !! smallest n solved on two threads
-        character(len=32) :: v
-        integer :: ln, st, ios, m
+        character(len=:), allocatable :: v
+        integer :: ios, m
         threads = PAR_DEFAULT_THREADS
         min_dofs = PAR_MIN_DOFS
-        call get_environment_variable('DYNCONTACT_THREADS', v, ln, st)
-        if (st == 0) then
-            if (trim(adjustl(v)) == '1') threads = 1
-            if (trim(adjustl(v)) == '2') threads = 2
-        end if
-        call get_environment_variable('DYNCONTACT_THREADS_MIN_DOFS', v, ln, st)
-        if (st == 0) then
+        v = env_text('DYNCONTACT_THREADS')
+        if (v == '1') threads = 1
+        if (v == '2') threads = 2
+        v = env_text('DYNCONTACT_THREADS_MIN_DOFS')
+        if (len(v) > 0) then
             read (v, *, iostat=ios) m
             if (ios == 0 .and. m >= 0) min_dofs = m
         end if

@@ -57,7 +57,7 @@
 module implicit_schemes
     use kinds, only: dp, i8
     use vector_ops, only: dot
-    use text, only: int_text, real_text
+    use text, only: int_text, real_text, env_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, &
@@ -265,8 +265,8 @@ contains
         this%fac_rank = -1
         this%nxf = -1
         this%nyf = -1
-        call fresh_env(this%fresh)
-        call basis_env(this%terms_only)
+        this%fresh = env_text(FRESH_VAR) == '1'          ! the Woodbury factors never reused
+        this%terms_only = env_text(BASIS_VAR) == 'terms' ! the system on the terms only
         budget = default_budget(this)
         call zcache_init(this%zc, n, this%m, budget, budget)
         this%all_columns = mdl%alm%kind /= ALM_OFF
@@ -295,39 +295,17 @@ contains
     subroutine columns_env(every, budget)
         logical, intent(inout) :: every                     !! every column at set-up
         integer(i8), intent(inout) :: budget                !! bytes
-        character(len=32) :: text_value
-        integer :: length, st, mb
-        call get_environment_variable(COLUMNS_VAR, text_value, length, st)
-        if (st /= 0 .or. length == 0) return
-        if (trim(adjustl(text_value)) == 'all') then
+        character(len=:), allocatable :: v
+        integer :: st, mb
+        v = env_text(COLUMNS_VAR)
+        if (len(v) == 0) return
+        if (v == 'all') then
             every = .true.
             return
         end if
-        read (text_value, *, iostat=st) mb
+        read (v, *, iostat=st) mb
         if (st == 0 .and. mb >= 0) budget = int(mb, i8) * 1024_i8**2
     end subroutine columns_env
-
-    !> DYNCONTACT_WOODBURY_FRESH = 1: fresh is set (the Woodbury factors never reused).
-    subroutine fresh_env(fresh)
-        logical, intent(out) :: fresh                       !! never reuse the factors
-        character(len=8) :: text_value
-        integer :: length, st
-        fresh = .false.
-        call get_environment_variable(FRESH_VAR, text_value, length, st)
-        if (st /= 0 .or. length == 0) return
-        fresh = trim(adjustl(text_value)) == '1'
-    end subroutine fresh_env
-
-    !> DYNCONTACT_WOODBURY_BASIS = terms: terms_only is set (the system on the terms).
-    subroutine basis_env(terms_only)
-        logical, intent(out) :: terms_only                  !! never the node basis
-        character(len=8) :: text_value
-        integer :: length, st
-        terms_only = .false.
-        call get_environment_variable(BASIS_VAR, text_value, length, st)
-        if (st /= 0 .or. length == 0) return
-        terms_only = trim(adjustl(text_value)) == 'terms'
-    end subroutine basis_env
 
     !> Release the factors of J0.
     subroutine implicit_free(this)
