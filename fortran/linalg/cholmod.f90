@@ -183,6 +183,37 @@ module cholmod
 
 contains
 
+    !> What chol_analyse and chol_factor do first: release the factors, check the csc_t
+    !> (STAT_BAD_INPUT when empty or inconsistent) and create CHOLMOD's handle
+    !> (STAT_INTERNAL when out of memory); `who` names the caller in the message.
+    subroutine chol_prepare(ch, a, who, stat, errmsg)
+        type(cholmod_t), intent(inout) :: ch                !! factors (released)
+        type(csc_t), intent(in) :: a                        !! symmetric matrix
+        character(len=*), intent(in) :: who                !! caller, for the message
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        stat = STAT_OK
+        ch%n = 0
+        ch%supernodal = .false.
+        call pair_ldl_free(ch%pairs)
+        call triple_ldl_free(ch%triples)
+        if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
+                                allocated(a%val))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, who//': matrix is empty or not allocated')
+            return
+        end if
+        if (size(a%colptr) < a%n + 1 .or. a%colptr(1) /= 0 .or. a%colptr(a%n + 1) /= a%nnz &
+            .or. size(a%rowind) < a%nnz .or. size(a%val) < a%nnz) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, who//': inconsistent CSC arrays')
+            return
+        end if
+        if (.not. c_associated(ch%handle)) ch%handle = dc_cholmod_new()
+        if (.not. c_associated(ch%handle)) then
+            call raise(stat, errmsg, STAT_INTERNAL, who//': out of memory')
+            return
+        end if
+    end subroutine chol_prepare
+
     !> The symbolic analysis of chol_factor alone (ordering chosen, no numerical
     !> factorization): `entries` = the entries the factor of a will store (D and L, what
     !> chol_factor then reports as factor_nnz). The analysis is kept in ch, so the next
@@ -197,26 +228,8 @@ contains
         integer(c_int) :: status, analysed
         real(c_double) :: e
         entries = 0
-        ch%n = 0
-        ch%supernodal = .false.
-        call pair_ldl_free(ch%pairs)
-        call triple_ldl_free(ch%triples)
-        if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
-                                allocated(a%val))) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, &
-                       'chol_analyse: matrix is empty or not allocated')
-            return
-        end if
-        if (size(a%colptr) < a%n + 1 .or. a%colptr(1) /= 0 .or. a%colptr(a%n + 1) /= a%nnz &
-            .or. size(a%rowind) < a%nnz .or. size(a%val) < a%nnz) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_analyse: inconsistent CSC arrays')
-            return
-        end if
-        if (.not. c_associated(ch%handle)) ch%handle = dc_cholmod_new()
-        if (.not. c_associated(ch%handle)) then
-            call raise(stat, errmsg, STAT_INTERNAL, 'chol_analyse: out of memory')
-            return
-        end if
+        call chol_prepare(ch, a, 'chol_analyse', stat, errmsg)
+        if (stat /= STAT_OK) return
         status = dc_cholmod_analyse(ch%handle, int(a%n, c_int), a%colptr, a%rowind, a%val, &
                                     analysed, e)
         if (status /= DC_OK) then
@@ -241,25 +254,8 @@ contains
         integer(c_long) :: lnz
         character(len=160) :: buf
 
-        ch%n = 0
-        ch%supernodal = .false.
-        call pair_ldl_free(ch%pairs)
-        call triple_ldl_free(ch%triples)
-        if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
-                                allocated(a%val))) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_factor: matrix is empty or not allocated')
-            return
-        end if
-        if (size(a%colptr) < a%n + 1 .or. a%colptr(1) /= 0 .or. a%colptr(a%n + 1) /= a%nnz &
-            .or. size(a%rowind) < a%nnz .or. size(a%val) < a%nnz) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_factor: inconsistent CSC arrays')
-            return
-        end if
-        if (.not. c_associated(ch%handle)) ch%handle = dc_cholmod_new()
-        if (.not. c_associated(ch%handle)) then
-            call raise(stat, errmsg, STAT_INTERNAL, 'chol_factor: out of memory')
-            return
-        end if
+        call chol_prepare(ch, a, 'chol_factor', stat, errmsg)
+        if (stat /= STAT_OK) return
         status = dc_cholmod_factor(ch%handle, int(a%n, c_int), a%colptr, a%rowind, a%val, &
                                    analysed, lnz, minor, paired)
         if (analysed /= 0) ch%analyses = ch%analyses + 1
