@@ -20,15 +20,12 @@ for bit: the node basis was used (its round-off differs)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-import dyncontact
 from dyncontact import Scene
 
-from test_woodbury_reuse import ball, bar3d
+from test_woodbury_reuse import ball, bar3d, run_with_env
 
 ENV = "DYNCONTACT_WOODBURY_BASIS"
 #: the Newton test's relative tolerance (see the module docstring)
@@ -55,19 +52,11 @@ SCENES = {
 }
 
 
-def run_with(monkeypatch, terms: bool, s: Scene, out: Path):
-    if terms:
-        monkeypatch.setenv(ENV, "terms")
-    else:
-        monkeypatch.delenv(ENV, raising=False)
-    return dyncontact.run(s, out=out, progress=False)
-
-
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_node_basis_gives_the_terms_traces(monkeypatch, tmp_path, name):
     s = SCENES[name]()
-    nodes = run_with(monkeypatch, False, s, tmp_path / "nodes")
-    terms = run_with(monkeypatch, True, s, tmp_path / "terms")
+    nodes = run_with_env(monkeypatch, ENV, None, s, tmp_path / "nodes")
+    terms = run_with_env(monkeypatch, ENV, "terms", s, tmp_path / "terms")
     assert terms.trace["active"].max() > 0 and terms.trace["newton_its"].max() >= 2, name
     np.testing.assert_array_equal(nodes.trace["active"], terms.trace["active"])
     np.testing.assert_array_equal(nodes.trace["newton_its"], terms.trace["newton_its"])

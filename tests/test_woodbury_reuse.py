@@ -71,19 +71,20 @@ SCENES = {
 }
 
 
-def run_with(monkeypatch, fresh: bool, s: Scene, out: Path):
-    if fresh:
-        monkeypatch.setenv(ENV, "1")
+def run_with_env(monkeypatch, var: str, value: str | None, s: Scene, out: Path):
+    """The run of s with the environment variable var set to value (None: unset)."""
+    if value is None:
+        monkeypatch.delenv(var, raising=False)
     else:
-        monkeypatch.delenv(ENV, raising=False)
+        monkeypatch.setenv(var, value)
     return dyncontact.run(s, out=out, progress=False)
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_reused_woodbury_factors_give_the_fresh_traces(monkeypatch, tmp_path, name):
     s = SCENES[name]()
-    reuse = run_with(monkeypatch, False, s, tmp_path / "reuse")
-    fresh = run_with(monkeypatch, True, s, tmp_path / "fresh")
+    reuse = run_with_env(monkeypatch, ENV, None, s, tmp_path / "reuse")
+    fresh = run_with_env(monkeypatch, ENV, "1", s, tmp_path / "fresh")
     active = reuse.trace["active"]
     inside = active[np.argmax(active > 0):]
     # the window is one of contact, with Newton iterations beyond the first
