@@ -23,24 +23,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dyncontact import Scene
-
-from test_woodbury_reuse import ball, bar3d, run_with_env
+from test_woodbury_reuse import ball, bar3d, box, run_with_env
 
 ENV = "DYNCONTACT_WOODBURY_BASIS"
 #: the Newton test's relative tolerance (see the module docstring)
 TOL = 1e-10
-
-
-def box(theta: int | None = None) -> Scene:
-    """The built-in 3D box at h = 0.05 (GetFEM's settings: hht α = 0, Δt = h/20)
-    through its first contact, whole facets active and sharing nodes."""
-    s = Scene()
-    s.set("mesh.dim", 3)
-    s.set("scheme.t_end", 3.0)
-    if theta is not None:
-        s.set("contact.theta", theta)
-    return s
 
 
 SCENES = {
