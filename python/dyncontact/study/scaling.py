@@ -21,6 +21,11 @@ Writes ``scaling.csv``, ``scaling.png`` (log-log, with fitted slopes) and ``scal
 into the output folder. The memory model the table reports, ``model_mb``, is
 4 matrices (M, K, K_θ, J0 = M + c K_θ; 8-byte values and 4-byte rows) plus one factor
 (8-byte values, 4-byte rows): the target is peak ≤ 1.5 × that (docs/performance.md, "Scaling").
+The sweep also runs the same executable on a trivial scene of each geometry and solver (0 steps
+on the geometry's coarsest mesh, ``BASE_H``): its peak, ``base_mb``, is the program's fixed
+footprint (code, shared libraries, runtime; gmsh's library for the disk), which does not grow
+with the problem, and ``peak_over_model_above_base`` = (peak_mb − base_mb) / model_mb is the
+memory that grows with the problem against the model. ``peak_over_model`` is kept as it is.
 
 The rows also give the CG iterations per solve (the timed run's mean), so the chart shows
 where CG's step time crosses the direct solver's.
@@ -42,8 +47,8 @@ from typing import Any, Sequence
 
 from .common import environment, md_table, new_figure, save_figure, slope, write_csv
 
-__all__ = ["SIZES", "LARGE", "GEOMETRY_SIZES", "strip_scene", "scene_text", "estimate_dofs",
-           "measure_one", "run_scaling", "main"]
+__all__ = ["SIZES", "LARGE", "GEOMETRY_SIZES", "BASE_H", "strip_scene", "scene_text",
+           "estimate_dofs", "measure_base", "measure_one", "run_scaling", "main"]
 
 #: The strip's mesh sizes swept by default (2 200 to 129 600 dofs).
 SIZES = (0.01, 0.005, 0.0025, 0.00125)
@@ -56,13 +61,16 @@ GEOMETRY_SIZES = {
     "disk": (0.005, 0.0025, 0.00125, 0.000625, 0.0003125),
     "box": (0.05, 0.025, 0.0125, 0.00625),
 }
+#: The coarsest mesh of each geometry: its 0-step run measures the fixed footprint (base_mb).
+BASE_H = {"strip": 0.1, "disk": 0.05, "box": 0.1}
 #: The disk's mesh file.
 DISK_GEO = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(
     os.path.abspath(__file__))))), "meshes", "disk.geo")
 
 COLUMNS = ["geometry", "solver_kind", "h", "contact", "dofs", "matrix_nnz", "factor_nnz", "solver", "solve_kernel",
            "ordering", "setup_s", "loop_ms_per_step", "solve_ms", "spmv_ms", "step_over_floor",
-           "peak_mb", "setup_peak_mb", "model_mb", "peak_over_model", "steps", "cg_its_per_solve"]
+           "peak_mb", "setup_peak_mb", "model_mb", "peak_over_model", "base_mb",
+           "peak_over_model_above_base", "steps", "cg_its_per_solve"]
 
 
 def estimate_dofs(geometry: str, h: float) -> int:
@@ -156,13 +164,36 @@ def _run_child(exe: str, scene: str, env: dict[str, str] | None) -> tuple[float,
     return cpu, peak, p.returncode
 
 
+def measure_base(exe: str, work: str, env: dict[str, str] | None = None, repeats: int = 2,
+                 geometry: str = "strip", solver: str = "direct") -> float:
+    """The executable's fixed footprint in MB: the peak RSS of the geometry's scene with
+    contact on its coarsest mesh (``BASE_H``), 0 steps, the same solver kind and
+    environment as the rows. The smallest of ``repeats`` runs is kept: the rows keep their
+    largest peak, so peak − base is not made smaller by the noise. The trivial scene's own
+    matrices and factor are in it (under 0.1 MB)."""
+    h = BASE_H[geometry]
+    out = os.path.join(work, f"base_{geometry}_{solver}")
+    path = out + ".nml"
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(scene_text(geometry, h, 0, True, out, solver))
+    best = None
+    for _ in range(max(1, repeats)):
+        _cpu, peak, status = _run_child(exe, path, env)
+        if status != 0:
+            raise RuntimeError(f"{exe} {path} exited with status {status}")
+        best = peak if best is None else min(best, peak)
+    return best
+
+
 def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
                 floors: bool = True, env: dict[str, str] | None = None, repeats: int = 2,
-                geometry: str = "strip", solver: str = "direct") -> dict[str, Any]:
+                geometry: str = "strip", solver: str = "direct",
+                base_mb: float | None = None) -> dict[str, Any]:
     """One row of the table (see the module docstring). Each run is repeated ``repeats``
     times: the smallest CPU time is kept (the machine is shared), and the largest peak.
     Small meshes take more steps (up to 2000), so that the loop is not lost in the
-    start-up's noise."""
+    start-up's noise. ``base_mb`` (:func:`measure_base`, None: not measured) gives the
+    row's ``base_mb`` and ``peak_over_model_above_base``."""
     from ..core import read_summary
 
     tag = f"{geometry}_h{h:g}_{'c' if contact else 'nc'}_{solver}"
@@ -200,6 +231,7 @@ def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
     # CG iterations of the steps' solves (the set-up's solves, Z = J0^-1 P^T, left out)
     d_solves = summary.get("cg_solves", 0) - sums[0].get("cg_solves", 0)
     d_its = summary.get("cg_iterations", 0) - sums[0].get("cg_iterations", 0)
+    peak = max(m0, m1)
     return {
         "geometry": geometry, "solver_kind": solver,
         "h": h, "contact": int(contact), "dofs": summary.get("dofs"), "matrix_nnz": mnnz,
@@ -207,8 +239,11 @@ def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
         "solve_kernel": summary.get("solve_kernel"), "ordering": summary.get("ordering", ""),
         "setup_s": w0, "loop_ms_per_step": loop_ms, "solve_ms": solve_ms, "spmv_ms": spmv_ms,
         "step_over_floor": (loop_ms / (solve_ms + spmv_ms)) if solve_ms and spmv_ms else None,
-        "peak_mb": max(m0, m1), "setup_peak_mb": m0, "model_mb": model,
-        "peak_over_model": (max(m0, m1) / model) if model else None, "steps": steps,
+        "peak_mb": peak, "setup_peak_mb": m0, "model_mb": model,
+        "peak_over_model": (peak / model) if model else None, "base_mb": base_mb,
+        "peak_over_model_above_base": ((peak - base_mb) / model)
+        if model and base_mb is not None else None,
+        "steps": steps,
         "cg_its_per_solve": (d_its / d_solves) if d_solves > 0 else None,
     }
 
@@ -259,6 +294,7 @@ def run_scaling(out: str, sizes: Sequence[float] | None = None, steps: int = 20,
         exe = os.path.join(root, "build", "dyncontact")
     rows = []
     skipped = []
+    bases: dict[tuple[str, str], float] = {}
     with tempfile.TemporaryDirectory(prefix="dyncontact-scaling-") as work:
         for geometry in geometries:
             hs = list(sizes) if sizes else list(GEOMETRY_SIZES[geometry])
@@ -272,17 +308,24 @@ def run_scaling(out: str, sizes: Sequence[float] | None = None, steps: int = 20,
                         "skipped")
                     continue
                 for solver in solvers:
+                    if (geometry, solver) not in bases:
+                        bases[(geometry, solver)] = measure_base(exe, work, env, repeats,
+                                                                 geometry, solver)
+                        log(f"{geometry} {solver}: fixed footprint (0 steps, h = "
+                            f"{BASE_H[geometry]:g}) {_fmt(bases[(geometry, solver)])} MB")
                     contacts = (True, False) if (no_contact and geometry == "strip"
                                                  and solver == solvers[0]) else (True,)
                     for contact in contacts:
                         r = measure_one(exe, h, contact, steps, work, floors=floors, env=env,
-                                        repeats=repeats, geometry=geometry, solver=solver)
+                                        repeats=repeats, geometry=geometry, solver=solver,
+                                        base_mb=bases[(geometry, solver)])
                         rows.append(r)
                         log(f"{geometry} h = {h:g} {solver} contact = {int(contact)}: dofs "
                             f"{r['dofs']}, set-up {_fmt(r['setup_s'])} s, loop "
                             f"{_fmt(r['loop_ms_per_step'])} ms/step, solve {_fmt(r['solve_ms'])} "
                             f"ms, SpMV {_fmt(r['spmv_ms'])} ms, peak {_fmt(r['peak_mb'])} MB, "
-                            f"model {_fmt(r['model_mb'])} MB, CG its "
+                            f"model {_fmt(r['model_mb'])} MB, above base / model "
+                            f"{_fmt(r['peak_over_model_above_base'])}, CG its "
                             f"{_fmt(r['cg_its_per_solve'])}")
                         # each row as it comes: a long sweep stopped halfway keeps its rows
                         write_csv(os.path.join(out, "scaling.csv"), rows, COLUMNS)
@@ -309,12 +352,13 @@ def _series(rows):
 def _write_md(out: str, rows, skipped=(), max_dofs=None) -> None:
     head = ["geometry", "solver", "h", "contact", "dofs", "set-up s", "loop ms/step",
             "solve ms", "SpMV ms", "CG its/solve", "peak MB", "model MB", "peak/model",
-            "factor nnz", "ordering", "kernel"]
+            "base MB", "(peak − base)/model", "factor nnz", "ordering", "kernel"]
     body = [[r.get("geometry", "strip"), r.get("solver_kind", "direct"), _fmt(r["h"]),
              r["contact"], r["dofs"], _fmt(r["setup_s"]),
              _fmt(r["loop_ms_per_step"]), _fmt(r["solve_ms"]), _fmt(r["spmv_ms"]),
              _fmt(r.get("cg_its_per_solve")),
              _fmt(r["peak_mb"]), _fmt(r["model_mb"]), _fmt(r["peak_over_model"]),
+             _fmt(r.get("base_mb")), _fmt(r.get("peak_over_model_above_base")),
              _fmt(r["factor_nnz"]), _fmt(r["ordering"]), _fmt(r["solve_kernel"])]
             for r in rows]
     lines = md_table(head, body)
