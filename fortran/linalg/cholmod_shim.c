@@ -420,6 +420,158 @@ static int analyse(dc_cholmod *h, cholmod_sparse *ap, int n, const int *colptr,
     return DC_OK;
 }
 
+/* Rows of L made by one cholmod_rowfac call: triu(P A P')'s columns of a range hold
+ * about 1/RANGES of its entries (see factor_by_ranges). */
+#define RANGES 16
+
+/* The number of ranges: RANGES, or DYNCONTACT_FACTOR_RANGES (a test-only switch: a
+ * number >= 1 of ranges, 0 for cholmod_factorize whole, to check that the factor does
+ * not depend on it). */
+static int factor_ranges(void)
+{
+    const char *e = getenv("DYNCONTACT_FACTOR_RANGES");
+    int r;
+    if (e == NULL || *e == '\0') return RANGES;
+    r = atoi(e);
+    return r >= 0 ? r : RANGES;
+}
+
+/* Insertion sort of n (row, value) pairs by row (a column of triu(P A P'): tens of
+ * entries). */
+static void sort_column(int n, int *ri, double *rx)
+{
+    int a, b, r;
+    double x;
+    for (a = 1; a < n; a++) {
+        r = ri[a];
+        x = rx[a];
+        for (b = a - 1; b >= 0 && ri[b] > r; b--) {
+            ri[b + 1] = ri[b];
+            rx[b + 1] = rx[b];
+        }
+        ri[b + 1] = r;
+        rx[b + 1] = x;
+    }
+}
+
+/* The simplicial LDL' of P A P' (h->L simplicial, A's upper triangle read) as
+ * cholmod_factorize makes it, with less memory. cholmod_factorize hands cholmod_rowfac
+ * triu(P A P') whole (two transposes of A's upper triangle: 12 bytes an entry, alive
+ * next to L while L is made, the set-up's peak). Here cholmod_rowfac makes the rows of
+ * L a range at a time (kstart, kend: rows in order, so every row's descendants in the
+ * elimination tree are done before it), and only that range's columns of triu(P A P')
+ * are built, about 1/ranges of them. They are cholmod_factorize's columns: each entry
+ * a(r, c), r <= c, of A's upper triangle at column max(pinv r, pinv c), row
+ * min(pinv r, pinv c), rows sorted (what a transpose gives); rowfac reads each column in
+ * that order, so L is the same bit for bit. Then, as cholmod_factorize does, L is
+ * packed (final_pack, final_monotonic). Returns 1, or 0 (h->c.status says why). */
+static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
+{
+    cholmod_factor *L = h->L;
+    cholmod_sparse s = *a;
+    const int *ap = a->p, *ai = a->i, *perm = L->Perm;
+    const double *ax = a->x;
+    int n = (int) L->n, c, k, k0, k1, p, r, pr, pc, q, status = CHOLMOD_OK, ok = 1;
+    long total = 0, target, cap = 0, sum;
+    int *pinv = malloc(sizeof(int) * (size_t) n);
+    int *cnt = calloc((size_t) n, sizeof(int));
+    int *sp = malloc(sizeof(int) * ((size_t) n + 1));
+    int *si = NULL, *lnz;
+    double *sx = NULL, beta[2] = {0.0, 0.0};
+    size_t grow2 = h->c.grow2;
+    if (pinv == NULL || cnt == NULL || sp == NULL) goto oom;
+    for (k = 0; k < n; k++) pinv[perm[k]] = k;
+    /* the entries of each column of triu(P A P') */
+    for (c = 0; c < n; c++) {
+        pc = pinv[c];
+        for (p = ap[c]; p < ap[c + 1]; p++) {
+            r = ai[p];
+            if (r > c) continue;
+            pr = pinv[r];
+            cnt[pr > pc ? pr : pc]++;
+        }
+    }
+    for (k = 0; k < n; k++) total += cnt[k];
+    target = total / ranges + 1;
+    for (k0 = 0; k0 < n; k0 = k1) {
+        for (sum = 0, k1 = k0; k1 < n && (k1 == k0 || sum + cnt[k1] <= target); k1++)
+            sum += cnt[k1];
+        if (sum > cap) cap = sum;
+    }
+    si = malloc(sizeof(int) * (size_t) (cap > 0 ? cap : 1));
+    sx = malloc(sizeof(double) * (size_t) (cap > 0 ? cap : 1));
+    if (si == NULL || sx == NULL) goto oom;
+    s.nzmax = (size_t) (cap > 0 ? cap : 1);
+    s.p = sp;
+    s.i = si;
+    s.x = sx;
+    s.nz = NULL;
+    s.packed = 1;
+    s.sorted = 1;
+    s.stype = 1;
+
+    L->is_ll = h->c.final_ll ? 1 : 0;
+    if (L->xtype == CHOLMOD_PATTERN) {
+        /* the values allocated with exactly the space required (as cholmod_factorize) */
+        if (h->c.final_pack) h->c.grow2 = 0;
+    } else {
+        /* a refactorization in place: what rowfac does for rows 0 .. n-1 in one call */
+        L->minor = (size_t) n;
+        lnz = L->nz;
+        for (k = 0; k < n; k++) lnz[k] = 1;
+    }
+    for (k0 = 0; k0 < n && ok; k0 = k1) {
+        for (sum = 0, k1 = k0; k1 < n && (k1 == k0 || sum + cnt[k1] <= target); k1++)
+            sum += cnt[k1];
+        /* sp[k + 1] is column k's next free place while the range is filled, its end after */
+        sp[k0] = 0;
+        sp[k0 + 1] = 0;
+        for (k = k0 + 1; k < k1; k++) sp[k + 1] = sp[k] + cnt[k - 1];
+        for (c = 0; c < n; c++) {
+            pc = pinv[c];
+            for (p = ap[c]; p < ap[c + 1]; p++) {
+                r = ai[p];
+                if (r > c) continue;
+                pr = pinv[r];
+                k = pr > pc ? pr : pc;
+                if (k < k0 || k >= k1) continue;
+                q = sp[k + 1]++;
+                si[q] = pr < pc ? pr : pc;
+                sx[q] = ax[p];
+            }
+        }
+        for (k = k0; k < k1; k++) sort_column(sp[k + 1] - sp[k], si + sp[k], sx + sp[k]);
+        ok = cholmod_rowfac(&s, NULL, beta, (size_t) k0, (size_t) k1, L, &h->c);
+        h->c.grow2 = grow2;
+        if (!ok || h->c.status < CHOLMOD_OK) {
+            ok = 0;
+            if (h->c.status >= CHOLMOD_OK) h->c.status = CHOLMOD_INVALID;
+        } else if (h->c.status > status) {
+            status = h->c.status;    /* a warning (not positive definite): kept */
+        }
+    }
+    free(si);
+    free(sx);
+    free(sp);
+    free(cnt);
+    free(pinv);
+    if (!ok) return 0;
+    if (!h->c.final_asis
+        && !cholmod_change_factor(L->xtype, L->is_ll, 0, h->c.final_pack,
+                                  h->c.final_monotonic, L, &h->c))
+        return 0;
+    if (status > h->c.status) h->c.status = status;
+    return 1;
+oom:
+    free(si);
+    free(sx);
+    free(sp);
+    free(cnt);
+    free(pinv);
+    h->c.status = CHOLMOD_OUT_OF_MEMORY;
+    return 0;
+}
+
 /* The symbolic analysis alone (see analyse; kept for the next dc_cholmod_factor of the
  * same pattern, which then does not redo it): *entries = the entries the factor will
  * store (D and L), no numerical factorization. Returns DC_OK, DC_OUT_OF_MEMORY or
@@ -449,7 +601,7 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
 {
     dc_cholmod *h = handle;
     cholmod_sparse a;
-    int j, k, ok;
+    int j, k, ok, ranges;
     const double *d;
     const int *lp;
 
@@ -476,7 +628,11 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
     malloc_trim(0);
 #endif
     h->c.status = CHOLMOD_OK;
-    ok = cholmod_factorize(&a, h->L, &h->c);
+    ranges = factor_ranges();
+    if (!h->L->is_super && h->L->ordering != CHOLMOD_NATURAL && ranges > 0)
+        ok = factor_by_ranges(h, &a, ranges);
+    else
+        ok = cholmod_factorize(&a, h->L, &h->c);
     if (!ok || h->c.status < CHOLMOD_OK)
         return h->c.status == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
     if (h->L->xtype != CHOLMOD_REAL || (!h->super && (h->L->is_super || h->L->is_ll)))
