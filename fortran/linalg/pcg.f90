@@ -267,10 +267,10 @@ contains
         select case (p%bs)
         case (2)
             call many2(k, p%n, p%ng, size(p%b2%col1), p%b2%row_ptr, p%b2%col1, p%b2%col2, &
-                       p%first, p%b2%val, v, y)
+                       p%b2%pairs, p%first, p%b2%val, v, y)
         case (3)
             call many3(k, p%n, p%ng, size(p%b3%col1), p%b3%row_ptr, p%b3%col1, p%b3%col2, &
-                       p%b3%col3, p%first, p%b3%val, v, y)
+                       p%b3%col3, p%b3%triples, p%first, p%b3%val, v, y)
         case default
             call many1(k, p%n, a%nnz, a%colptr, a%rowind, a%val, v, y)
         end select
@@ -295,10 +295,12 @@ contains
     end subroutine many1
 
     !> pcg_product_many on a block2_t's arrays (a block's rows summed as block2_matvec does).
-    pure subroutine many2(k, n, ng, nb, row_ptr, col1, col2, first, val, v, y)
+    pure subroutine many2(k, n, ng, nb, row_ptr, col1, col2, pairs, first, val, v, y)
         integer, intent(in) :: k, n, ng, nb                !! columns, size, groups, blocks
         integer, intent(in) :: row_ptr(ng + 1)             !! block range of each row group
-        integer, intent(in) :: col1(nb), col2(nb)          !! column dofs of each block
+        integer, intent(in) :: col1(nb)                    !! first column dof of each block
+        integer, intent(in) :: col2(*)                     !! (nb) second one (not read when pairs)
+        logical, intent(in) :: pairs                       !! every group a pair: col1 + 1
         integer, intent(in) :: first(ng + 1)               !! first dof of each group
         real(dp), intent(in) :: val(4, nb)                 !! blocks
         real(dp), intent(in) :: v(k, n)                    !! vectors
@@ -310,7 +312,11 @@ contains
             s2 = 0.0_dp
             do e = row_ptr(g), row_ptr(g + 1) - 1
                 c1 = col1(e)
-                c2 = col2(e)
+                if (pairs) then
+                    c2 = c1 + 1
+                else
+                    c2 = col2(e)
+                end if
                 s1 = s1 + val(1, e) * v(:, c1) + val(3, e) * v(:, c2)
                 s2 = s2 + val(2, e) * v(:, c1) + val(4, e) * v(:, c2)
             end do
@@ -321,10 +327,12 @@ contains
     end subroutine many2
 
     !> pcg_product_many on a block3_t's arrays (a block's rows summed as block3_matvec does).
-    pure subroutine many3(k, n, ng, nb, row_ptr, col1, col2, col3, first, val, v, y)
+    pure subroutine many3(k, n, ng, nb, row_ptr, col1, col2, col3, triples, first, val, v, y)
         integer, intent(in) :: k, n, ng, nb                !! columns, size, groups, blocks
         integer, intent(in) :: row_ptr(ng + 1)             !! block range of each row group
-        integer, intent(in) :: col1(nb), col2(nb), col3(nb) !! column dofs of each block
+        integer, intent(in) :: col1(nb)                    !! first column dof of each block
+        integer, intent(in) :: col2(*), col3(*)            !! (nb) second, third (not read when triples)
+        logical, intent(in) :: triples                     !! every group a triple: col1 + 1, col1 + 2
         integer, intent(in) :: first(ng + 1)               !! first dof of each group
         real(dp), intent(in) :: val(9, nb + 1)             !! blocks (and the zero block)
         real(dp), intent(in) :: v(k, n)                    !! vectors
@@ -337,8 +345,13 @@ contains
             s3 = 0.0_dp
             do e = row_ptr(g), row_ptr(g + 1) - 1
                 c1 = col1(e)
-                c2 = col2(e)
-                c3 = col3(e)
+                if (triples) then
+                    c2 = c1 + 1
+                    c3 = c1 + 2
+                else
+                    c2 = col2(e)
+                    c3 = col3(e)
+                end if
                 s1 = s1 + val(1, e) * v(:, c1) + val(4, e) * v(:, c2) + val(7, e) * v(:, c3)
                 s2 = s2 + val(2, e) * v(:, c1) + val(5, e) * v(:, c2) + val(8, e) * v(:, c3)
                 s3 = s3 + val(3, e) * v(:, c1) + val(6, e) * v(:, c2) + val(9, e) * v(:, c3)
@@ -596,10 +609,10 @@ contains
             real(dp), intent(inout) :: y(:)                 !! right-hand side, solution
             if (p%bs == 2) then
                 call sweep2(forward, p%n, p%ng, size(p%b2%col1), p%b2%row_ptr, p%b2%col1, &
-                            p%b2%col2, p%first, p%kd, p%b2%val, y)
+                            p%b2%col2, p%b2%pairs, p%first, p%kd, p%b2%val, y)
             else
                 call sweep3(forward, p%n, p%ng, size(p%b3%col1), p%b3%row_ptr, p%b3%col1, &
-                            p%b3%col2, p%b3%col3, p%first, p%kd, p%b3%val, y)
+                            p%b3%col2, p%b3%col3, p%b3%triples, p%first, p%kd, p%b3%val, y)
             end if
         end subroutine sweep
     end subroutine ssor_solve
@@ -633,13 +646,15 @@ contains
     !> y = F^{-1} y (forward) or F^{-T} y (backward) in place, F = D + L of a block2_t
     !> matrix: a row group's blocks left (forward) or right (backward) of its diagonal
     !> block kd(g), then the diagonal block's triangle.
-    pure subroutine sweep2(forward, n, ng, nb, row_ptr, col1, col2, first, kd, val, y)
+    pure subroutine sweep2(forward, n, ng, nb, row_ptr, col1, col2, pairs, first, kd, val, y)
         logical, intent(in) :: forward                      !! forward (lower) sweep
         integer, intent(in) :: n, ng, nb                    !! size, groups, blocks
-        integer, intent(in) :: row_ptr(ng + 1), col1(nb), col2(nb), first(ng + 1), kd(ng)
+        integer, intent(in) :: row_ptr(ng + 1), col1(nb), first(ng + 1), kd(ng)
+        integer, intent(in) :: col2(*)                      !! (nb) not read when pairs
+        logical, intent(in) :: pairs                        !! every group a pair: col1 + 1
         real(dp), intent(in) :: val(4, nb)                  !! blocks
         real(dp), intent(inout) :: y(n)                     !! right-hand side, solution
-        integer :: g, k, i0, sz, d
+        integer :: g, k, i0, sz, d, c2
         real(dp) :: s(2)
         if (forward) then
             do g = 1, ng
@@ -648,7 +663,14 @@ contains
                 s(1) = y(i0)
                 s(2) = y(i0 + sz - 1)
                 do k = row_ptr(g), row_ptr(g + 1) - 1
-                    if (col1(k) < i0) s = s - val(1:2, k) * y(col1(k)) - val(3:4, k) * y(col2(k))
+                    if (col1(k) < i0) then
+                        if (pairs) then
+                            c2 = col1(k) + 1
+                        else
+                            c2 = col2(k)
+                        end if
+                        s = s - val(1:2, k) * y(col1(k)) - val(3:4, k) * y(c2)
+                    end if
                 end do
                 d = kd(g)
                 y(i0) = s(1) / val(1, d)
@@ -661,7 +683,14 @@ contains
                 s(1) = y(i0)
                 s(2) = y(i0 + sz - 1)
                 do k = row_ptr(g), row_ptr(g + 1) - 1
-                    if (col1(k) > i0) s = s - val(1:2, k) * y(col1(k)) - val(3:4, k) * y(col2(k))
+                    if (col1(k) > i0) then
+                        if (pairs) then
+                            c2 = col1(k) + 1
+                        else
+                            c2 = col2(k)
+                        end if
+                        s = s - val(1:2, k) * y(col1(k)) - val(3:4, k) * y(c2)
+                    end if
                 end do
                 d = kd(g)
                 if (sz == 2) then
@@ -675,13 +704,15 @@ contains
     end subroutine sweep2
 
     !> sweep2 for a block3_t matrix.
-    pure subroutine sweep3(forward, n, ng, nb, row_ptr, col1, col2, col3, first, kd, val, y)
+    pure subroutine sweep3(forward, n, ng, nb, row_ptr, col1, col2, col3, triples, first, kd, val, y)
         logical, intent(in) :: forward                      !! forward (lower) sweep
         integer, intent(in) :: n, ng, nb                    !! size, groups, blocks
-        integer, intent(in) :: row_ptr(ng + 1), col1(nb), col2(nb), col3(nb), first(ng + 1), kd(ng)
+        integer, intent(in) :: row_ptr(ng + 1), col1(nb), first(ng + 1), kd(ng)
+        integer, intent(in) :: col2(*), col3(*)             !! (nb) not read when triples
+        logical, intent(in) :: triples                      !! every group a triple: col1 + 1, + 2
         real(dp), intent(in) :: val(9, nb + 1)              !! blocks (and the zero block)
         real(dp), intent(inout) :: y(n)                     !! right-hand side, solution
-        integer :: g, k, i0, sz, d
+        integer :: g, k, i0, sz, d, c2, c3
         real(dp) :: s(3)
         if (forward) then
             do g = 1, ng
@@ -690,8 +721,16 @@ contains
                 s = 0.0_dp
                 s(1:sz) = y(i0:i0 + sz - 1)
                 do k = row_ptr(g), row_ptr(g + 1) - 1
-                    if (col1(k) < i0) s = s - val(1:3, k) * y(col1(k)) - val(4:6, k) * y(col2(k)) &
-                                          - val(7:9, k) * y(col3(k))
+                    if (col1(k) < i0) then
+                        if (triples) then
+                            c2 = col1(k) + 1
+                            c3 = col1(k) + 2
+                        else
+                            c2 = col2(k)
+                            c3 = col3(k)
+                        end if
+                        s = s - val(1:3, k) * y(col1(k)) - val(4:6, k) * y(c2) - val(7:9, k) * y(c3)
+                    end if
                 end do
                 d = kd(g)
                 y(i0) = s(1) / val(1, d)
@@ -705,8 +744,16 @@ contains
                 s = 0.0_dp
                 s(1:sz) = y(i0:i0 + sz - 1)
                 do k = row_ptr(g), row_ptr(g + 1) - 1
-                    if (col1(k) > i0) s = s - val(1:3, k) * y(col1(k)) - val(4:6, k) * y(col2(k)) &
-                                          - val(7:9, k) * y(col3(k))
+                    if (col1(k) > i0) then
+                        if (triples) then
+                            c2 = col1(k) + 1
+                            c3 = col1(k) + 2
+                        else
+                            c2 = col2(k)
+                            c3 = col3(k)
+                        end if
+                        s = s - val(1:3, k) * y(col1(k)) - val(4:6, k) * y(c2) - val(7:9, k) * y(c3)
+                    end if
                 end do
                 d = kd(g)
                 select case (sz)

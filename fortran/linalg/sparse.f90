@@ -48,8 +48,8 @@ module sparse
         integer, allocatable :: first(:)          !! (n_groups + 1) first dof of each group
         integer, allocatable :: row_ptr(:)        !! (n_groups + 1) block range of each row group
         integer, allocatable :: col1(:)           !! (n_blocks) first dof of the column group
-        integer, allocatable :: col2(:)           !! (n_blocks) second dof (= col1 for a single)
-        logical :: pairs = .false.                !! every group a pair (col2 = col1 + 1)
+        integer, allocatable :: col2(:)           !! (n_blocks) second dof (= col1 for a single); empty when pairs
+        logical :: pairs = .false.                !! every group a pair (the second dof is col1 + 1: col2 not stored)
         real(dp), allocatable :: val(:, :)        !! (4, n_blocks) a11, a21, a12, a22
     end type block2_t
 
@@ -71,9 +71,9 @@ module sparse
         integer, allocatable :: first(:)          !! (n_groups + 1) first dof of each group
         integer, allocatable :: row_ptr(:)        !! (n_groups + 1) block range of each row group
         integer, allocatable :: col1(:)           !! (n_blocks) first dof of the column group
-        integer, allocatable :: col2(:)           !! (n_blocks) second dof (= col1 if none)
-        integer, allocatable :: col3(:)           !! (n_blocks) third dof (= col1 if none)
-        logical :: triples = .false.              !! every group a triple (col_k = col1 + k - 1)
+        integer, allocatable :: col2(:)           !! (n_blocks) second dof (= col1 if none); empty when triples
+        integer, allocatable :: col3(:)           !! (n_blocks) third dof (= col1 if none); empty when triples
+        logical :: triples = .false.              !! every group a triple (col_k = col1 + k - 1: col2, col3 not stored)
         real(dp), allocatable :: val(:, :)        !! (9, n_blocks + 1) by columns: a11, a21, a31, a12, ..., a33; a last zero block
     end type block3_t
 
@@ -293,7 +293,7 @@ contains
             end do
             b%row_ptr(g + 1) = nb + 1
         end do
-        allocate (b%col1(nb), b%col2(nb), b%val(4, nb))
+        allocate (b%col1(nb), b%col2(merge(0, nb, b%pairs)), b%val(4, nb))
         b%val = 0.0_dp
         mark = 0
         nb = 0
@@ -307,7 +307,7 @@ contains
                         nb = nb + 1
                         mark(h) = nb
                         b%col1(nb) = first(h)
-                        b%col2(nb) = first(h + 1) - 1
+                        if (.not. b%pairs) b%col2(nb) = first(h + 1) - 1
                     end if
                     slot = mark(h)
                     c = i - first(h)
@@ -389,7 +389,11 @@ contains
             q = 0.0_dp
             do k = kb%row_ptr(g), kb%row_ptr(g + 1) - 1
                 c1 = kb%col1(k)
-                c2 = kb%col2(k)
+                if (kb%pairs) then
+                    c2 = c1 + 1
+                else
+                    c2 = kb%col2(k)
+                end if
                 y = y + kb%val(1:2, k) * x(c1) + kb%val(3:4, k) * x(c2)
                 p = p + mb%val(1:2, k) * v(c1) + mb%val(3:4, k) * v(c2)
                 q = q + mb%val(1:2, k) * d(c1) + mb%val(3:4, k) * d(c2)
@@ -554,7 +558,8 @@ contains
             end do
             b%row_ptr(g + 1) = nb + 1
         end do
-        allocate (b%col1(nb), b%col2(nb), b%col3(nb), b%val(9, nb + 1))
+        allocate (b%col1(nb), b%col2(merge(0, nb, b%triples)), b%col3(merge(0, nb, b%triples)), &
+                  b%val(9, nb + 1))
         b%val = 0.0_dp
         mark = 0
         nb = 0
@@ -569,8 +574,10 @@ contains
                         mark(h) = nb
                         sz = first(h + 1) - first(h)
                         b%col1(nb) = first(h)
-                        b%col2(nb) = first(h) + merge(1, 0, sz >= 2)
-                        b%col3(nb) = first(h) + merge(2, 0, sz >= 3)
+                        if (.not. b%triples) then
+                            b%col2(nb) = first(h) + merge(1, 0, sz >= 2)
+                            b%col3(nb) = first(h) + merge(2, 0, sz >= 3)
+                        end if
                     end if
                     slot = mark(h)
                     c = i - first(h)
@@ -649,8 +656,13 @@ contains
             q = 0.0_dp
             do k = kb%row_ptr(g), kb%row_ptr(g + 1) - 1
                 c1 = kb%col1(k)
-                c2 = kb%col2(k)
-                c3 = kb%col3(k)
+                if (kb%triples) then
+                    c2 = c1 + 1
+                    c3 = c1 + 2
+                else
+                    c2 = kb%col2(k)
+                    c3 = kb%col3(k)
+                end if
                 y = y + kb%val(1:3, k) * x(c1) + kb%val(4:6, k) * x(c2) + kb%val(7:9, k) * x(c3)
                 p = p + mb%val(1:3, k) * v(c1) + mb%val(4:6, k) * v(c2) + mb%val(7:9, k) * v(c3)
                 q = q + mb%val(1:3, k) * d(c1) + mb%val(4:6, k) * d(c2) + mb%val(7:9, k) * d(c3)
