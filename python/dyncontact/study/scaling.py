@@ -408,6 +408,14 @@ def _plot(out: str, rows) -> None:
                 sl = slope([p[0] for p in pts], [p[1] for p in pts])
                 ax.loglog([p[0] for p in pts], [p[1] for p in pts], style, marker="o",
                           label=f"{solver}: {label}, slope {sl:.2f}")
+            # the memory that grows with the problem: the peak above the fixed footprint
+            pts = [(r["dofs"], r["peak_mb"] - r["base_mb"]) for r in c
+                   if r.get("peak_mb") and r.get("base_mb") is not None
+                   and r["peak_mb"] > r["base_mb"]]
+            if len(pts) >= 2:
+                sl = slope([p[0] for p in pts], [p[1] for p in pts])
+                ax_m.loglog([p[0] for p in pts], [p[1] for p in pts], style, marker="s",
+                            label=f"{solver}: peak RSS − fixed footprint (MB), slope {sl:.2f}")
         if geometry == "strip":
             nc = [r for r in rows if not r["contact"] and r.get("geometry", "strip") == "strip"]
             pts = [(r["dofs"], r["peak_mb"]) for r in nc if r.get("peak_mb")]
