@@ -7,8 +7,10 @@
  * cholmod_solve2 (no allocation per solve).
  *
  * Factorization: simplicial LDL' (Common->supernodal = CHOLMOD_SIMPLICIAL,
- * final_ll = FALSE), or supernodal LL' when the factor's columns are long
- * (use_supernodal: 3D meshes from some 10^4 dofs on). Only the upper triangle of the
+ * final_ll = FALSE), made by cholmod_rowfac a range of rows at a time, so that only a
+ * range's columns of the permuted matrix are held next to the factor (factor_by_ranges;
+ * the factor of cholmod_factorize bit for bit), or supernodal LL' when the factor's
+ * columns are long (use_supernodal: 3D meshes from some 10^4 dofs on). Only the upper triangle of the
  * CSC matrix is read (stype = +1): pass the full symmetric matrix or its upper triangle.
  *
  * Node blocks: when the dofs 2k, 2k+1 (0-based) come in pairs whose 2x2 blocks are all
