@@ -12,7 +12,10 @@ dyncontact.core.Stepper) and the assembled matrices:
 - e_kin >= 0 in every trace row.
 
 The scene is the seed bar at h = 0.05 (120 dofs) with gravity on (so the load L enters
-the balance), run past the first impact (contact starts at t ~ 1.15).
+the balance), run past the first impact (contact starts at t ~ 1.15); and, for every
+scheme with the consistent mass, the 3D box at h = 0.05 (540 dofs; contact from t ~ 0.98),
+whose products pass (K_theta u', M v', M (u' - u~') by node triples, M one scalar a block)
+is a kernel of its own (fortran/fem/block_products.c).
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from dyncontact.core import Stepper, read_trace
 from conftest import ROOT, sampled_steps
 
 SCENE = ROOT / "scripts" / "scenes" / "bar2d_hht.nml"
+SCENE_3D = ROOT / "scripts" / "scenes" / "bar3d_hht.nml"
 
 #: Relative round-off bound for identities evaluated in double precision over
 #: O(100) terms (products with M, K, the update formulas).
@@ -38,6 +42,8 @@ THR = 1e-12
 NEWTON_TOL = 1e-14
 T_END = 1.4      # past the start of the first impact
 T_CONTACT = 1.15  # about where it starts
+T_END_3D = 1.25   # the same for the 3D box (gravity -0.2 along the normal)
+T_CONTACT_3D = 0.98
 N_SAMPLES = 12   # sampled steps per run (each: the state before and after one step),
                  # as many again in contact
 
@@ -89,20 +95,31 @@ def rel(x, scale):
 
 @pytest.mark.parametrize("label, mass", CASES)
 def test_state_invariants(label, mass, tmp_path):
+    check_invariants(label, mass, SCENE, [0.0, -0.2], T_END, T_CONTACT, tmp_path)
+
+
+@pytest.mark.parametrize("label", list(SCHEMES))
+def test_state_invariants_3d(label, tmp_path):
+    check_invariants(label, "consistent", SCENE_3D, [0.0, 0.0, -0.2], T_END_3D, T_CONTACT_3D,
+                     tmp_path)
+
+
+def check_invariants(label, mass, scene_path, gravity, t_end, t_contact, tmp_path):
+    """The invariants of the module's docstring for one scheme and mass on one scene."""
     keys, dt = SCHEMES[label]
     family, am, af, beta, gamma, theta = coefficients(keys)
-    scene = dyncontact.Scene.read(SCENE)
+    scene = dyncontact.Scene.read(scene_path)
     for k, v in keys.items():
         scene.set(f"scheme.{k}", v)
     scene.set("scheme.dt", dt)
-    scene.set("scheme.t_end", T_END)
+    scene.set("scheme.t_end", t_end)
     scene.set("scheme.mass", mass)
     scene.set("scheme.newton_tol", NEWTON_TOL)
-    scene.set("material.gravity", [0.0, -0.2])
+    scene.set("material.gravity", gravity)
     out = tmp_path / "run"
-    n_steps = int(round(T_END / dt))
+    n_steps = int(round(t_end / dt))
     samples = set(np.linspace(0, n_steps - 1, N_SAMPLES).astype(int).tolist())
-    samples |= set(np.linspace(int(T_CONTACT / dt), n_steps - 1, N_SAMPLES).astype(int).tolist())
+    samples |= set(np.linspace(int(t_contact / dt), n_steps - 1, N_SAMPLES).astype(int).tolist())
     with Stepper(scene, out) as run:
         M, K = run.matrix("M"), run.matrix("K")
         states = sampled_steps(run, n_steps, samples,
