@@ -21,6 +21,14 @@
 !> when it exceeds it, the groups least recently used (before the current step) are
 !> dropped, and computed again, to the same numbers, if needed again. Nothing here is
 !> state of the simulation: a restart starts from an empty cache.
+!>
+!> Besides the columns of Z, the cache can hold combined columns Z b_k = sum_e c_e Z(:, l_e)
+!> of fixed vectors b_k on the contact-cell dofs (the implicit schemes' node basis: a
+!> facet's sigma_n row, a node's normal), formed from Z's columns when first needed and
+!> kept (zcache_basis_init, zcache_basis_ensure, zcache_add_basis): Z T for a T given by
+!> its coefficients on those vectors then reads one column a vector instead of one a dof.
+!> Only where Z is kept whole (never dropped rows): a held b_k is never evicted, so their
+!> count must be bounded by the caller (at most Z's own bytes).
 module contact_columns
     use kinds, only: dp, i8
     use errors, only: STAT_OK
@@ -59,10 +67,14 @@ module contact_columns
         real(dp), allocatable :: w(:, :)          !! (m, cap) W(:, owner)
         type(zcol_t), allocatable :: z(:)         !! (cap) Z(:, owner) on its kept rows
         integer, allocatable :: pending(:)        !! (m) columns to solve (work)
+        integer, allocatable :: bslot(:)          !! (basis vectors) where Z b_k is held, 0: not
+        real(dp), allocatable :: zb(:, :)         !! (n, bcap) Z b_k (column bslot(k))
+        integer :: nbheld = 0                     !! basis columns held
     end type zcache_t
 
     public :: zcache_init, zcache_new_step, zcache_ensure, zcache_ensure_all, zcache_w_times, &
-              zcache_add_w, zcache_add_z, zcache_free
+              zcache_add_w, zcache_add_z, zcache_free, zcache_basis_init, zcache_basis_ensure, &
+              zcache_add_basis
 
 contains
 
@@ -92,7 +104,81 @@ contains
         allocate (zc%owner(0), zc%w(zc%m, 0), zc%z(0))
         zc%bytes = 0
         zc%held = 0
+        if (allocated(zc%bslot)) then
+            zc%bslot = 0
+            deallocate (zc%zb)
+            allocate (zc%zb(zc%n, 0))
+            zc%nbheld = 0
+        end if
     end subroutine zcache_free
+
+    !> Room for nb combined columns Z b_k (none held); Z must be kept whole (not drop).
+    subroutine zcache_basis_init(zc, nb)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        integer, intent(in) :: nb                    !! basis vectors
+        if (allocated(zc%bslot)) deallocate (zc%bslot, zc%zb)
+        allocate (zc%bslot(nb), zc%zb(zc%n, 0))
+        zc%bslot = 0
+        zc%nbheld = 0
+    end subroutine zcache_basis_init
+
+    !> Make Z b_k = sum_e coef(e) Z(:, cols(e)) (e in order, cols(e) > 0 only) available,
+    !> solving the columns of Z it needs if they are not held; b_k held: nothing to do.
+    subroutine zcache_basis_ensure(zc, lu, a, cdofs, k, cols, coef, stat, errmsg)
+        type(zcache_t), intent(inout) :: zc          !! cache (zcache_basis_init done)
+        type(factor_t), intent(inout) :: lu          !! factors of J0
+        type(csc_t), intent(in) :: a                 !! J0
+        integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
+        integer, intent(in) :: k                     !! basis vector
+        integer, intent(in) :: cols(:)               !! its contact-cell dofs (<= 0: none)
+        real(dp), intent(in) :: coef(:)              !! and its entries there
+        integer, intent(out) :: stat                 !! status (of the solves)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), allocatable :: tmp(:, :)
+        integer :: s, e, cap
+        stat = STAT_OK
+        if (zc%bslot(k) > 0) return
+        call zcache_ensure(zc, lu, a, cdofs, cols, stat, errmsg)
+        if (stat /= STAT_OK) return
+        cap = size(zc%zb, 2)
+        if (zc%nbheld == cap) then
+            allocate (tmp(zc%n, min(size(zc%bslot), max(2 * cap, ZCHUNK))))
+            tmp(:, 1:cap) = zc%zb
+            call move_alloc(tmp, zc%zb)
+        end if
+        zc%nbheld = zc%nbheld + 1
+        s = zc%nbheld
+        zc%zb(:, s) = 0.0_dp
+        do e = 1, size(cols)
+            if (cols(e) <= 0) cycle
+            call add1(zc%n, zc%z(zc%slot(cols(e)))%val, coef(e), zc%zb(:, s))
+        end do
+        zc%bslot(k) = s
+    end subroutine zcache_basis_ensure
+
+    !> y <- y + sum_k t(k) Z b_k over the k with t(k) /= 0, in the order of k (each
+    !> entry's additions in that order), by fours of columns. Every such b_k must be held.
+    pure subroutine zcache_add_basis(zc, t, y)
+        type(zcache_t), intent(in) :: zc             !! cache
+        real(dp), intent(in) :: t(:)                 !! (basis vectors) coefficients
+        real(dp), intent(inout) :: y(:)              !! (n) updated
+        integer :: k, q, nc, ks(4)
+        nc = 0
+        do k = 1, size(t)
+            if (t(k) == 0.0_dp) cycle
+            nc = nc + 1
+            ks(nc) = k
+            if (nc == 4) then
+                call add4(zc%n, zc%zb(:, zc%bslot(ks(1))), zc%zb(:, zc%bslot(ks(2))), &
+                          zc%zb(:, zc%bslot(ks(3))), zc%zb(:, zc%bslot(ks(4))), t(ks(1)), &
+                          t(ks(2)), t(ks(3)), t(ks(4)), y)
+                nc = 0
+            end if
+        end do
+        do q = 1, nc
+            call add1(zc%n, zc%zb(:, zc%bslot(ks(q))), t(ks(q)), y)
+        end do
+    end subroutine zcache_add_basis
 
     !> A new step: the columns needed from now on are the current step's.
     pure subroutine zcache_new_step(zc)
