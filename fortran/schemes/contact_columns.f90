@@ -27,8 +27,12 @@
 !> facet's sigma_n row, a node's normal), formed from Z's columns when first needed and
 !> kept (zcache_basis_init, zcache_basis_ensure, zcache_add_basis): Z T for a T given by
 !> its coefficients on those vectors then reads one column a vector instead of one a dof.
-!> Only where Z is kept whole (never dropped rows): a held b_k is never evicted, so their
-!> count must be bounded by the caller (at most Z's own bytes).
+!> Each is applied on the rows from its first to its last entry above ZDROP times its
+!> largest magnitude (one contiguous range: J0^{-1} decays away from the contact, and the
+!> rows near the contact come first in the box's and the bar's numbering; at h = 0.025 the
+!> box's ranges end near row 2 100 of 3 000). Only where Z is kept whole (never dropped
+!> rows): a held b_k is never evicted, so their count must be bounded by the caller (at
+!> most Z's own bytes).
 module contact_columns
     use kinds, only: dp, i8
     use errors, only: STAT_OK
@@ -69,6 +73,7 @@ module contact_columns
         integer, allocatable :: pending(:)        !! (m) columns to solve (work)
         integer, allocatable :: bslot(:)          !! (basis vectors) where Z b_k is held, 0: not
         real(dp), allocatable :: zb(:, :)         !! (n, bcap) Z b_k (column bslot(k))
+        integer, allocatable :: brange(:, :)      !! (2, bcap) its rows applied (first, last)
         integer :: nbheld = 0                     !! basis columns held
     end type zcache_t
 
@@ -106,8 +111,8 @@ contains
         zc%held = 0
         if (allocated(zc%bslot)) then
             zc%bslot = 0
-            deallocate (zc%zb)
-            allocate (zc%zb(zc%n, 0))
+            deallocate (zc%zb, zc%brange)
+            allocate (zc%zb(zc%n, 0), zc%brange(2, 0))
             zc%nbheld = 0
         end if
     end subroutine zcache_free
@@ -116,8 +121,8 @@ contains
     subroutine zcache_basis_init(zc, nb)
         type(zcache_t), intent(inout) :: zc          !! cache
         integer, intent(in) :: nb                    !! basis vectors
-        if (allocated(zc%bslot)) deallocate (zc%bslot, zc%zb)
-        allocate (zc%bslot(nb), zc%zb(zc%n, 0))
+        if (allocated(zc%bslot)) deallocate (zc%bslot, zc%zb, zc%brange)
+        allocate (zc%bslot(nb), zc%zb(zc%n, 0), zc%brange(2, 0))
         zc%bslot = 0
         zc%nbheld = 0
     end subroutine zcache_basis_init
@@ -135,16 +140,21 @@ contains
         integer, intent(out) :: stat                 !! status (of the solves)
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), allocatable :: tmp(:, :)
-        integer :: s, e, cap
+        integer, allocatable :: itmp(:, :)
+        real(dp) :: cmax
+        integer :: s, e, cap, i
         stat = STAT_OK
         if (zc%bslot(k) > 0) return
         call zcache_ensure(zc, lu, a, cdofs, cols, stat, errmsg)
         if (stat /= STAT_OK) return
         cap = size(zc%zb, 2)
         if (zc%nbheld == cap) then
-            allocate (tmp(zc%n, min(size(zc%bslot), max(2 * cap, ZCHUNK))))
+            allocate (tmp(zc%n, min(size(zc%bslot), max(2 * cap, ZCHUNK))), &
+                      itmp(2, min(size(zc%bslot), max(2 * cap, ZCHUNK))))
             tmp(:, 1:cap) = zc%zb
+            itmp(:, 1:cap) = zc%brange
             call move_alloc(tmp, zc%zb)
+            call move_alloc(itmp, zc%brange)
         end if
         zc%nbheld = zc%nbheld + 1
         s = zc%nbheld
@@ -153,30 +163,38 @@ contains
             if (cols(e) <= 0) cycle
             call add1(zc%n, zc%z(zc%slot(cols(e)))%val, coef(e), zc%zb(:, s))
         end do
+        ! the rows applied: from the first to the last entry above ZDROP of the largest
+        cmax = ZDROP * maxval(abs(zc%zb(:, s)))
+        zc%brange(:, s) = [1, 0]
+        do i = 1, zc%n
+            if (abs(zc%zb(i, s)) > cmax) then
+                zc%brange(1, s) = i
+                exit
+            end if
+        end do
+        do i = zc%n, zc%brange(1, s), -1
+            if (abs(zc%zb(i, s)) > cmax) then
+                zc%brange(2, s) = i
+                exit
+            end if
+        end do
         zc%bslot(k) = s
     end subroutine zcache_basis_ensure
 
     !> y <- y + sum_k t(k) Z b_k over the k with t(k) /= 0, in the order of k (each
-    !> entry's additions in that order), by fours of columns. Every such b_k must be held.
+    !> entry's additions in that order), each on its range of rows. Every such b_k must
+    !> be held.
     pure subroutine zcache_add_basis(zc, t, y)
         type(zcache_t), intent(in) :: zc             !! cache
         real(dp), intent(in) :: t(:)                 !! (basis vectors) coefficients
         real(dp), intent(inout) :: y(:)              !! (n) updated
-        integer :: k, q, nc, ks(4)
-        nc = 0
+        integer :: k, s, lo, hi
         do k = 1, size(t)
             if (t(k) == 0.0_dp) cycle
-            nc = nc + 1
-            ks(nc) = k
-            if (nc == 4) then
-                call add4(zc%n, zc%zb(:, zc%bslot(ks(1))), zc%zb(:, zc%bslot(ks(2))), &
-                          zc%zb(:, zc%bslot(ks(3))), zc%zb(:, zc%bslot(ks(4))), t(ks(1)), &
-                          t(ks(2)), t(ks(3)), t(ks(4)), y)
-                nc = 0
-            end if
-        end do
-        do q = 1, nc
-            call add1(zc%n, zc%zb(:, zc%bslot(ks(q))), t(ks(q)), y)
+            s = zc%bslot(k)
+            lo = zc%brange(1, s)
+            hi = zc%brange(2, s)
+            if (hi >= lo) call add1(hi - lo + 1, zc%zb(lo:hi, s), t(k), y(lo:hi))
         end do
     end subroutine zcache_add_basis
 
