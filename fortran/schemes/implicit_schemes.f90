@@ -69,7 +69,7 @@
 !> reference, tests/test_zt_basis.py).
 module implicit_schemes
     use kinds, only: dp, i8
-    use vector_ops, only: dot
+    use vector_ops, only: dot, lane_sum, LANES
     use text, only: int_text, real_text, env_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
@@ -186,7 +186,6 @@ module implicit_schemes
         real(dp), allocatable :: vq(:)            !! (massless dofs) their v' = (u' - u)/dt
         real(dp), allocatable :: md(:)            !! (n) M (u - u~) of the next step
         real(dp), allocatable :: dvec(:)          !! (n) u - u~ (the vector multiplied by M)
-        real(dp), allocatable :: bvec(:)          !! (n) b of the step's residual
         real(dp), allocatable :: r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
         type(alm_newton_t) :: almn                !! Newton on (u, lambda) (augmented Lagrangian)
     contains
@@ -245,7 +244,7 @@ contains
         else
             this%c = (this%theta * this%dt)**2
         end if
-        allocate (this%md(n), this%dvec(n), this%r(n), this%bvec(n), this%dx(n), &
+        allocate (this%md(n), this%dvec(n), this%r(n), this%dx(n), &
                   this%x(n), this%scratch(n))
 
         ! initial acceleration (Newmark family only)
@@ -654,8 +653,7 @@ contains
             if (it > 0) then
                 if (rnorm == 0.0_dp) exit
                 if (scale < 0.0_dp) then
-                    this%bvec = newton_b(cb, kb, mdl%load, st%bu)
-                    scale = newton_scale(this%c, this%md, st%bu, this%bvec)
+                    scale = newton_scale(this%c, cb, kb, mdl%load, this%md, st%bu)
                 end if
                 if (rnorm <= this%tol * scale) exit
             end if
@@ -1408,14 +1406,40 @@ contains
     !> The scale of the Newton test, |md| + c |bu| + |b| (the norms of the three terms of
     !> R(u^n) = md + c bu - b), each sum of squares a `dot` (LANES partial sums: one
     !> reduction a loop is what the compiler vectorizes cleanly; several in one loop it
-    !> interleaves with shuffles).
-    pure real(dp) function newton_scale(c, md, bu, b) result(scale)
+    !> interleaves with shuffles); b = newton_b(cb, kb, load, bu) is not formed (b_dot).
+    pure real(dp) function newton_scale(c, cb, kb, load, md, bu) result(scale)
         real(dp), intent(in) :: c                           !! coefficient of B in R
+        real(dp), intent(in) :: cb, kb                      !! coefficients of b
+        real(dp), intent(in), contiguous :: load(:)         !! L
         real(dp), intent(in), contiguous :: md(:)           !! M (u^n - u~)
         real(dp), intent(in), contiguous :: bu(:)           !! B(u^n)
-        real(dp), intent(in), contiguous :: b(:)            !! b
-        scale = sqrt(dot(md, md)) + c * sqrt(dot(bu, bu)) + sqrt(dot(b, b))
+        scale = sqrt(dot(md, md)) + c * sqrt(dot(bu, bu)) + sqrt(b_dot(cb, kb, load, bu))
     end function newton_scale
+
+    !> b . b for b = newton_b(cb, kb, load, bu), each entry formed in the loop: the same
+    !> LANES partial sums in the same order as vector_ops' dot(b, b), so the same bits,
+    !> without a pass writing b and one reading it.
+    pure real(dp) function b_dot(cb, kb, load, bu) result(s)
+        real(dp), intent(in) :: cb, kb                      !! coefficients of b
+        real(dp), intent(in), contiguous :: load(:)         !! L
+        real(dp), intent(in), contiguous :: bu(:)           !! B(u^n)
+        real(dp) :: acc(LANES), b
+        integer :: i, j, n, nb
+        n = size(bu)
+        nb = n - mod(n, LANES)
+        acc = 0.0_dp
+        do i = 1, nb, LANES
+            do j = 1, LANES
+                b = newton_b(cb, kb, load(i + j - 1), bu(i + j - 1))
+                acc(j) = acc(j) + b * b
+            end do
+        end do
+        do i = nb + 1, n
+            b = newton_b(cb, kb, load(i), bu(i))
+            acc(1) = acc(1) + b * b
+        end do
+        s = lane_sum(acc)
+    end function b_dot
 
     !> The Newmark-family update from x = u - dx, in one pass: the step's predictor
     !> u~ = u + dt v + c1 a (from the old state), a' = (x - u~) inv, v' = v + g1 a + g2 a',
