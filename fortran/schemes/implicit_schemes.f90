@@ -518,11 +518,13 @@ contains
         ! basis when it has fewer columns to read (see the module header)
         if (it == 0) this%dx = 0.0_dp
         if (this%m > 0) then
-            if (basis_pays(this)) then
-                call apply_zt_basis(this, mdl, stat, errmsg)
-                if (stat /= STAT_OK) return
-            else if (any(this%tsum /= 0.0_dp)) then
-                call zcache_add_z(this%zc, this%tsum, this%dx)
+            if (any(this%tsum /= 0.0_dp)) then
+                if (basis_pays(this)) then
+                    call apply_zt_basis(this, mdl, stat, errmsg)
+                    if (stat /= STAT_OK) return
+                else
+                    call zcache_add_z(this%zc, this%tsum, this%dx)
+                end if
             end if
         end if
         call update_state(this, mdl, st)
