@@ -101,3 +101,20 @@ def test_zt_on_the_basis_gives_the_dofs_traces(monkeypatch, tmp_path, name):
     basis = run_with_env(monkeypatch, ENV, None, s, tmp_path / "basis")
     dofs = run_with_env(monkeypatch, ENV, "dofs", s, tmp_path / "dofs")
     compare(name, basis, dofs, used=name in SCENES)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_basis_columns_dropped_and_formed_again_give_the_same_traces(monkeypatch, tmp_path,
+                                                                       dim):
+    """The basis columns Z b_k are held in the column cache within its budget: with a
+    budget of 0 MB every one not used at the current step is dropped and formed again
+    when needed, from the same columns of Z by the same sums, so the traces are those of
+    the default budget bit for bit."""
+    s = box() if dim == 3 else bar2d("exact")
+    s.set("scheme.t_end", 1.6)
+    monkeypatch.delenv(ENV, raising=False)
+    kept = run_with_env(monkeypatch, "DYNCONTACT_CONTACT_COLUMNS", None, s, tmp_path / "kept")
+    dropped = run_with_env(monkeypatch, "DYNCONTACT_CONTACT_COLUMNS", "0", s, tmp_path / "zero")
+    assert kept.trace["active"].max() > 0
+    for col in kept.trace:
+        np.testing.assert_array_equal(kept.trace[col], dropped.trace[col], err_msg=col)

@@ -31,8 +31,10 @@
 !> largest magnitude (one contiguous range: J0^{-1} decays away from the contact, and the
 !> rows near the contact come first in the box's and the bar's numbering; at h = 0.025 the
 !> box's ranges end near row 2 100 of 3 000). Only where Z is kept whole (never dropped
-!> rows): a held b_k is never evicted, so their count must be bounded by the caller (at
-!> most Z's own bytes).
+!> rows). They count in the bytes held, and when the columns of Z of earlier steps are
+!> all dropped and the cache still exceeds its budget, the b_k least recently used
+!> (before the current step) are dropped too, and formed again, from the same columns of
+!> Z by the same sums, to the same numbers, if needed again.
 module contact_columns
     use kinds, only: dp, i8
     use errors, only: STAT_OK
@@ -74,7 +76,8 @@ module contact_columns
         integer, allocatable :: bslot(:)          !! (basis vectors) where Z b_k is held, 0: not
         real(dp), allocatable :: zb(:, :)         !! (n, bcap) Z b_k (column bslot(k))
         integer, allocatable :: brange(:, :)      !! (2, bcap) its rows applied (first, last)
-        integer :: nbheld = 0                     !! basis columns held
+        integer, allocatable :: bowner(:)         !! (bcap) basis vector held in a slot, 0: free
+        integer, allocatable :: blast(:)          !! (basis vectors) the step that last needed it
     end type zcache_t
 
     public :: zcache_init, zcache_new_step, zcache_ensure, zcache_ensure_all, zcache_w_times, &
@@ -111,9 +114,9 @@ contains
         zc%held = 0
         if (allocated(zc%bslot)) then
             zc%bslot = 0
-            deallocate (zc%zb, zc%brange)
-            allocate (zc%zb(zc%n, 0), zc%brange(2, 0))
-            zc%nbheld = 0
+            zc%blast = -1
+            deallocate (zc%zb, zc%brange, zc%bowner)
+            allocate (zc%zb(zc%n, 0), zc%brange(2, 0), zc%bowner(0))
         end if
     end subroutine zcache_free
 
@@ -121,14 +124,15 @@ contains
     subroutine zcache_basis_init(zc, nb)
         type(zcache_t), intent(inout) :: zc          !! cache
         integer, intent(in) :: nb                    !! basis vectors
-        if (allocated(zc%bslot)) deallocate (zc%bslot, zc%zb, zc%brange)
-        allocate (zc%bslot(nb), zc%zb(zc%n, 0), zc%brange(2, 0))
+        if (allocated(zc%bslot)) deallocate (zc%bslot, zc%zb, zc%brange, zc%bowner, zc%blast)
+        allocate (zc%bslot(nb), zc%zb(zc%n, 0), zc%brange(2, 0), zc%bowner(0), zc%blast(nb))
         zc%bslot = 0
-        zc%nbheld = 0
+        zc%blast = -1
     end subroutine zcache_basis_init
 
-    !> Make Z b_k = sum_e coef(e) Z(:, cols(e)) (e in order, cols(e) > 0 only) available,
-    !> solving the columns of Z it needs if they are not held; b_k held: nothing to do.
+    !> Make Z b_k = sum_e coef(e) Z(:, cols(e)) (e in order, cols(e) > 0 only) available
+    !> and mark it used at the current step, solving the columns of Z it needs if they are
+    !> not held; then drop what the budget asks for (see the module header).
     subroutine zcache_basis_ensure(zc, lu, a, cdofs, k, cols, coef, stat, errmsg)
         type(zcache_t), intent(inout) :: zc          !! cache (zcache_basis_init done)
         type(factor_t), intent(inout) :: lu          !! factors of J0
@@ -140,24 +144,29 @@ contains
         integer, intent(out) :: stat                 !! status (of the solves)
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), allocatable :: tmp(:, :)
-        integer, allocatable :: itmp(:, :)
+        integer, allocatable :: itmp(:, :), otmp(:)
         real(dp) :: cmax
-        integer :: s, e, cap, i
+        integer :: s, e, cap, ncap, i
         stat = STAT_OK
+        zc%blast(k) = zc%step
         if (zc%bslot(k) > 0) return
         call zcache_ensure(zc, lu, a, cdofs, cols, stat, errmsg)
         if (stat /= STAT_OK) return
-        cap = size(zc%zb, 2)
-        if (zc%nbheld == cap) then
-            allocate (tmp(zc%n, min(size(zc%bslot), max(2 * cap, ZCHUNK))), &
-                      itmp(2, min(size(zc%bslot), max(2 * cap, ZCHUNK))))
+        cap = size(zc%bowner)
+        s = findloc(zc%bowner, 0, dim=1)
+        if (s == 0) then      ! (the slot arrays doubled when full)
+            ncap = min(size(zc%bslot), max(2 * cap, ZCHUNK))
+            allocate (tmp(zc%n, ncap), itmp(2, ncap), otmp(ncap))
             tmp(:, 1:cap) = zc%zb
             itmp(:, 1:cap) = zc%brange
+            otmp = 0
+            otmp(1:cap) = zc%bowner
             call move_alloc(tmp, zc%zb)
             call move_alloc(itmp, zc%brange)
+            call move_alloc(otmp, zc%bowner)
+            s = cap + 1
         end if
-        zc%nbheld = zc%nbheld + 1
-        s = zc%nbheld
+        zc%bowner(s) = k
         zc%zb(:, s) = 0.0_dp
         do e = 1, size(cols)
             if (cols(e) <= 0) cycle
@@ -179,7 +188,36 @@ contains
             end if
         end do
         zc%bslot(k) = s
+        zc%bytes = zc%bytes + 8_i8 * zc%n
+        zc%peak_bytes = max(zc%peak_bytes, zc%bytes)
+        call evict(zc)
     end subroutine zcache_basis_ensure
+
+    !> Drop the basis column least recently used before the current step (dropped:
+    !> .false. when there is none).
+    subroutine drop_basis(zc, dropped)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        logical, intent(out) :: dropped              !! one was dropped
+        integer :: s, k, old
+        dropped = .false.
+        if (.not. allocated(zc%bowner)) return
+        old = 0
+        do s = 1, size(zc%bowner)
+            k = zc%bowner(s)
+            if (k == 0) cycle
+            if (zc%blast(k) >= zc%step) cycle
+            if (old == 0) then
+                old = s
+            else if (zc%blast(k) < zc%blast(zc%bowner(old))) then
+                old = s
+            end if
+        end do
+        if (old == 0) return
+        zc%bslot(zc%bowner(old)) = 0
+        zc%bowner(old) = 0
+        zc%bytes = zc%bytes - 8_i8 * zc%n
+        dropped = .true.
+    end subroutine drop_basis
 
     !> y <- y + sum_k t(k) Z b_k over the k with t(k) /= 0, in the order of k (each
     !> entry's additions in that order), each on its range of rows. Every such b_k must
@@ -359,10 +397,12 @@ contains
         s = cap + 1
     end function free_slot
 
-    !> Drop the least recently used groups of earlier steps while bytes > budget.
+    !> Drop the least recently used groups of earlier steps while bytes > budget, then
+    !> the least recently used basis columns of earlier steps.
     subroutine evict(zc)
         type(zcache_t), intent(inout) :: zc          !! cache
         integer :: g, old, l, s
+        logical :: dropped
         do while (zc%bytes > zc%budget)
             old = 0
             do g = 1, size(zc%glast)
@@ -373,7 +413,11 @@ contains
                     old = g
                 end if
             end do
-            if (old == 0) return
+            if (old == 0) then
+                call drop_basis(zc, dropped)
+                if (.not. dropped) return
+                cycle
+            end if
             do l = group_first(old), group_last(zc, old)
                 s = zc%slot(l)
                 zc%bytes = zc%bytes - column_bytes(zc, zc%z(s))

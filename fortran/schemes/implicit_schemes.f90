@@ -63,8 +63,9 @@
 !> one column of Z a dof: 57 against ~150 on the box at h = 0.025. The rows of dx on the
 !> contact-cell dofs are then set to the Newton's own P dx = P y0 + W T, so that the
 !> contact part kept for the next step is C at P u' bit for bit; the other rows differ
-!> from y0 + Z T by round-off. Taken when Z is kept whole, when the vectors' columns fit
-!> in the cache's budget, and at a step where fewer coefficients than dofs are nonzero;
+!> from y0 + Z T by round-off. Taken when Z is kept whole, when Z and the vectors'
+!> columns fit in the cache's default budget (the columns are held in the cache, within
+!> its budget), and at a step where fewer coefficients than dofs are nonzero;
 !> DYNCONTACT_ZT_BASIS = dofs (read at set-up) always applies Z T on the dofs (the
 !> reference, tests/test_zt_basis.py).
 module implicit_schemes
@@ -307,8 +308,9 @@ contains
     end subroutine implicit_init
 
     !> The contact nodes and the arrays of Z T on the node basis (see the module header);
-    !> zt_basis when Z is kept whole, its basis columns fit in the budget, the scheme is
-    !> Nitsche's and ZT_VAR does not ask for the dofs.
+    !> zt_basis when Z is kept whole, the whole of Z and the basis columns fit in the
+    !> default budget (so neither evicts the other; a budget set by COLUMNS_VAR is then
+    !> what bounds both), the scheme is Nitsche's and ZT_VAR does not ask for the dofs.
     subroutine zt_basis_init(this, mdl, budget)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme (zc set up)
         type(model_t), intent(in) :: mdl                    !! model
@@ -341,7 +343,7 @@ contains
         allocate (this%tau(nf + this%ncn))
         this%tau = 0.0_dp
         this%zt_basis = this%m > 0 .and. mdl%alm%kind == ALM_OFF .and. .not. this%zc%drop &
-                        .and. 8_i8 * n_of(mdl) * (nf + this%ncn) <= budget &
+                        .and. 8_i8 * n_of(mdl) * (this%m + nf + this%ncn) <= budget &
                         .and. env_text(ZT_VAR) /= 'dofs'
         if (this%zt_basis) call zcache_basis_init(this%zc, nf + this%ncn)
     end subroutine zt_basis_init
@@ -542,8 +544,8 @@ contains
     end function basis_pays
 
     !> dx <- dx + sum_k tau_k Z b_k over the vectors b_k = s_f (k = f) and n_j (k =
-    !> n_facets + j) with tau_k /= 0, their columns formed first if not held; then dx =
-    !> pdx (the Newton's P dx) on the contact-cell dofs.
+    !> n_facets + j) with tau_k /= 0, their columns formed first if not held (and marked
+    !> used at this step); then dx = pdx (the Newton's P dx) on the contact-cell dofs.
     subroutine apply_zt_basis(this, mdl, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
@@ -554,7 +556,6 @@ contains
         stat = STAT_OK
         do k = 1, size(this%tau)
             if (this%tau(k) == 0.0_dp) cycle
-            if (this%zc%bslot(k) > 0) cycle
             if (k <= nf) then
                 call zcache_basis_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, k, &
                                          mdl%ct%cloc(:, k), mdl%ct%s(:, k), stat, errmsg)
