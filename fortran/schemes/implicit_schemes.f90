@@ -556,6 +556,10 @@ contains
         stat = STAT_OK
         do k = 1, size(this%tau)
             if (this%tau(k) == 0.0_dp) cycle
+            if (this%zc%bslot(k) > 0) then      ! held: marked used (zcache_basis_ensure's)
+                this%zc%blast(k) = this%zc%step
+                cycle
+            end if
             if (k <= nf) then
                 call zcache_basis_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, k, &
                                          mdl%ct%cloc(:, k), mdl%ct%s(:, k), stat, errmsg)
