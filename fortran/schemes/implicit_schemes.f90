@@ -650,7 +650,7 @@ contains
         real(dp) :: rnorm, scale, dt
         character(len=256) :: why
         logical :: warm
-        integer :: l
+        integer :: l, q, nk
         stat = STAT_OK
         dt = this%dt
         scale = -1.0_dp
@@ -691,8 +691,13 @@ contains
                 this%y0c = this%yc
                 this%tk = 0.0_dp
             else
-                call need_columns(this, mdl, this%rho /= 0.0_dp, [(l, l = 1, this%m)], &
-                                  stat, errmsg)
+                nk = 0
+                do l = 1, this%m
+                    if (this%rho(l) == 0.0_dp) cycle
+                    nk = nk + 1
+                    this%need(nk) = l
+                end do
+                call need_columns(this, mdl, nk, stat, errmsg)
                 if (stat /= STAT_OK) return
                 call zcache_w_times(this%zc, this%rho, this%yc)
                 this%tk = this%rho
@@ -700,10 +705,15 @@ contains
                 it = it + 1
             end if
             if (this%rank > 0) then
-                call need_columns(this, mdl, reshape(this%qloc(:, 1:this%rank) > 0, &
-                                                [mdl%ndof_e * this%rank]), &
-                                  reshape(this%qloc(:, 1:this%rank), [mdl%ndof_e * this%rank]), &
-                                  stat, errmsg)
+                nk = 0
+                do q = 1, this%rank
+                    do l = 1, mdl%ndof_e
+                        if (this%qloc(l, q) <= 0) cycle
+                        nk = nk + 1
+                        this%need(nk) = this%qloc(l, q)
+                    end do
+                end do
+                call need_columns(this, mdl, nk, stat, errmsg)
                 if (stat /= STAT_OK) return
                 call woodbury(this, mdl, stat)
                 if (stat /= STAT_OK) then
@@ -778,22 +788,14 @@ contains
         rnorm = sqrt(sum(this%rho**2))
     end subroutine contact_residual
 
-    !> The columns cols(k) with mask(k) of Z and W made available for this step (solved
+    !> The columns need(1:nk) of Z and W made available for this step (solved
     !> if not held); a failed solve stops the run (STAT_NUMERIC).
-    subroutine need_columns(this, mdl, mask, cols, stat, errmsg)
+    subroutine need_columns(this, mdl, nk, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
-        logical, intent(in) :: mask(:)                      !! which entries of cols count
-        integer, intent(in) :: cols(:)                      !! contact-cell dofs (columns)
+        integer, intent(in) :: nk                           !! columns in need(1:nk)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: k, nk
-        nk = 0
-        do k = 1, size(cols)
-            if (.not. mask(k)) cycle
-            nk = nk + 1
-            this%need(nk) = cols(k)
-        end do
         call zcache_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, this%need(1:nk), &
                            stat, errmsg)
         if (stat /= STAT_OK) call raise(stat, errmsg, STAT_NUMERIC, &
