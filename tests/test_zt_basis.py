@@ -22,7 +22,8 @@ counts and the Newton iterations must be the same at every row, for every implic
 and mass (each forms T through the same Newton, with its own c and right-hand side; the
 redistributed mass makes the contact dofs massless), in 3D (the
 Woodbury system on the node basis) and 2D (on the terms), Nitsche with θ = 1, 0, −1 and
-penalty contact (s_f = 0), with a normal off the axes. The traces must not be equal bit
+penalty contact (s_f = 0), with a normal off the axes, and the ball (its patch grows at
+nearly every step: new basis vectors at most steps). The traces must not be equal bit
 for bit: the basis was used; but where T lies on the n_j alone (θ = 0, penalty) and each
 n_j is one dof (a normal along an axis) the basis is no smaller than T's dofs and is not
 taken: there they must be equal bit for bit."""
@@ -32,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from test_woodbury_reuse import IMPLICIT, bar2d, box, run_with_env
+from test_woodbury_reuse import IMPLICIT, ball, bar2d, bar3d, box, run_with_env
 
 ENV = "DYNCONTACT_ZT_BASIS"
 #: the Newton test's relative tolerance (see the module docstring)
@@ -90,6 +91,8 @@ SCENES = {
     "box3d_theta-1": lambda: box(-1),
     "bar2d_theta-1": lambda: bar2d_method(theta=-1),
     "bar2d_gauss": lambda: bar2d("gauss"),
+    "ball3d_exact": ball,
+    "bar3d_gauss": lambda: bar3d("gauss"),
 }
 #: With theta = 0 and penalty contact T lies on the n_j alone (M_theta has no s_f part),
 #: one dof a node for a normal along an axis: the basis has no fewer columns than T has
