@@ -91,9 +91,12 @@ contains
     !> rule has up to 6 or 7 points), else the terms are the points' (nterm = active).
     !> Either way each term is qa_t = Mt ca_t, qb_t = M cb_t (to round-off) with the nfn
     !> coefficients ca_t, cb_t (a point: (w/gamma) nsh and nsh; a compressed term j:
-    !> G(:, j) and e_j), returned in ca, cb when present (with nterm).
+    !> G(:, j) and e_j), returned in ca, cb when present (with nterm). The residual is
+    !> r = Mt rg (to round-off) with rg = sum_q (w_q/gamma) P_q nsh_q, returned in rg when
+    !> present (zero on an inactive facet).
     pure subroutine nitsche_facet(ndof_e, nfn, ue, s, nvec, gap, gamma, theta, measure, &
-                                  quad, nq, qs, qw, r, energy, active, qa, qb, nterm, ca, cb)
+                                  quad, nq, qs, qw, r, energy, active, qa, qb, nterm, ca, cb, &
+                                  rg)
         integer, intent(in) :: ndof_e          !! owner cell dofs
         integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D, 3 in 3D)
         real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
@@ -115,6 +118,7 @@ contains
         integer, intent(out), optional :: nterm     !! terms in qa, qb (<= nfn: see above)
         real(dp), intent(out), optional :: ca(:, :) !! (>= nfn, >= nterm) coefficients of qa in Mt
         real(dp), intent(out), optional :: cb(:, :) !! (>= nfn, >= nterm) coefficients of qb in M
+        real(dp), intent(out), optional :: rg(:)    !! (>= nfn) coefficients of r in Mt
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: sn, pnode(MAX_FN), xs(MAX_Q), ws(MAX_Q), a, b, xi_star
         real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
@@ -128,6 +132,7 @@ contains
         r = 0.0_dp
         energy = 0.0_dp
         active = 0
+        if (present(rg)) rg(1:nfn) = 0.0_dp
         if (present(nterm)) nterm = 0
         g = 0.0_dp
         if (nfn == 1) then
@@ -166,6 +171,7 @@ contains
             end do
             ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
             r = r + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
+            if (present(rg)) rg(1:nfn) = rg(1:nfn) + ((ws(q) / gamma) * pv) * nsh(1:nfn)
             energy = energy + (0.5_dp * ws(q) / gamma) * pv**2
             if (present(qa)) then
                 qa(:, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
@@ -454,9 +460,11 @@ contains
     !> term an active point, or nfn terms when more points are active (nitsche_facet's
     !> nterm: rank <= 3 a facet in 3D, the Woodbury system of the implicit schemes sized
     !> by it). With tfac present (and ua), also each term's facet and its coefficients
-    !> tca, tcb in the facet's Mt and M (nitsche_facet's ca, cb).
+    !> tca, tcb in the facet's Mt and M (nitsche_facet's ca, cb), and with rg present (and
+    !> tfac) each facet's residual coefficients in its Mt (nitsche_facet's rg; zero on a
+    !> facet without active points): the contact part is sum_f Mt_f rg(:, f).
     subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc, tfac, tca, &
-                            tcb)
+                            tcb, rg)
         type(contact_t), intent(in) :: ct                   !! contact data
         real(dp), intent(in) :: u(:)                        !! free-dof displacement
         real(dp), intent(inout) :: r(:)                     !! residual (added to)
@@ -470,6 +478,7 @@ contains
         integer, intent(inout), optional :: tfac(:)         !! (>= rank) each term's facet
         real(dp), intent(inout), optional :: tca(:, :)      !! (nfn, >= rank) its coefficients in Mt
         real(dp), intent(inout), optional :: tcb(:, :)      !! (nfn, >= rank) and in M
+        real(dp), intent(inout), optional :: rg(:, :)       !! (nfn, n_facets) residual in Mt
         real(dp) :: ue(MAX_E), rf(MAX_E), ef, sn   ! fixed sizes: no heap array a call
         integer :: f, i, af, nr, nt
         active = 0
@@ -483,7 +492,17 @@ contains
             end do
             sn = dot_product(ct%s(:, f), ue(1:ct%ndof_e))
             e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
-            if (present(tfac)) then
+            if (present(rg)) then
+                call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
+                                   ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
+                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
+                                   nt, tca(:, nr + 1:), tcb(:, nr + 1:), rg(:, f))
+                do i = nr + 1, nr + nt
+                    qloc(:, i) = ct%cloc(:, f)
+                    tfac(i) = f
+                end do
+                nr = nr + nt
+            else if (present(tfac)) then
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
                                    ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &

@@ -21,6 +21,20 @@
 !> when it exceeds it, the groups least recently used (before the current step) are
 !> dropped, and computed again, to the same numbers, if needed again. Nothing here is
 !> state of the simulation: a restart starts from an empty cache.
+!>
+!> Besides the columns of Z, the cache can hold combined columns Z b_k = sum_e c_e Z(:, l_e)
+!> of fixed vectors b_k on the contact-cell dofs (the implicit schemes' node basis: a
+!> facet's sigma_n row, a node's normal), formed from Z's columns when first needed and
+!> kept (zcache_basis_init, zcache_basis_ensure, zcache_add_basis): Z T for a T given by
+!> its coefficients on those vectors then reads one column a vector instead of one a dof.
+!> Each is applied on the rows from its first to its last entry above ZDROP times its
+!> largest magnitude (one contiguous range: J0^{-1} decays away from the contact, and the
+!> rows near the contact come first in the box's and the bar's numbering; at h = 0.025 the
+!> box's ranges end near row 2 100 of 3 000). Only where Z is kept whole (never dropped
+!> rows). They count in the bytes held, and when the columns of Z of earlier steps are
+!> all dropped and the cache still exceeds its budget, the b_k least recently used
+!> (before the current step) are dropped too, and formed again, from the same columns of
+!> Z by the same sums, to the same numbers, if needed again.
 module contact_columns
     use kinds, only: dp, i8
     use errors, only: STAT_OK
@@ -59,10 +73,16 @@ module contact_columns
         real(dp), allocatable :: w(:, :)          !! (m, cap) W(:, owner)
         type(zcol_t), allocatable :: z(:)         !! (cap) Z(:, owner) on its kept rows
         integer, allocatable :: pending(:)        !! (m) columns to solve (work)
+        integer, allocatable :: bslot(:)          !! (basis vectors) where Z b_k is held, 0: not
+        real(dp), allocatable :: zb(:, :)         !! (n, bcap) Z b_k (column bslot(k))
+        integer, allocatable :: brange(:, :)      !! (2, bcap) its rows applied (first, last)
+        integer, allocatable :: bowner(:)         !! (bcap) basis vector held in a slot, 0: free
+        integer, allocatable :: blast(:)          !! (basis vectors) the step that last needed it
     end type zcache_t
 
     public :: zcache_init, zcache_new_step, zcache_ensure, zcache_ensure_all, zcache_w_times, &
-              zcache_add_w, zcache_add_z, zcache_free
+              zcache_add_w, zcache_add_z, zcache_free, zcache_basis_init, zcache_basis_ensure, &
+              zcache_add_basis
 
 contains
 
@@ -92,7 +112,129 @@ contains
         allocate (zc%owner(0), zc%w(zc%m, 0), zc%z(0))
         zc%bytes = 0
         zc%held = 0
+        if (allocated(zc%bslot)) then
+            zc%bslot = 0
+            zc%blast = -1
+            deallocate (zc%zb, zc%brange, zc%bowner)
+            allocate (zc%zb(zc%n, 0), zc%brange(2, 0), zc%bowner(0))
+        end if
     end subroutine zcache_free
+
+    !> Room for nb combined columns Z b_k (none held); Z must be kept whole (not drop).
+    subroutine zcache_basis_init(zc, nb)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        integer, intent(in) :: nb                    !! basis vectors
+        if (allocated(zc%bslot)) deallocate (zc%bslot, zc%zb, zc%brange, zc%bowner, zc%blast)
+        allocate (zc%bslot(nb), zc%zb(zc%n, 0), zc%brange(2, 0), zc%bowner(0), zc%blast(nb))
+        zc%bslot = 0
+        zc%blast = -1
+    end subroutine zcache_basis_init
+
+    !> Make Z b_k = sum_e coef(e) Z(:, cols(e)) (e in order, cols(e) > 0 only) available
+    !> and mark it used at the current step, solving the columns of Z it needs if they are
+    !> not held; then drop what the budget asks for (see the module header).
+    subroutine zcache_basis_ensure(zc, lu, a, cdofs, k, cols, coef, stat, errmsg)
+        type(zcache_t), intent(inout) :: zc          !! cache (zcache_basis_init done)
+        type(factor_t), intent(inout) :: lu          !! factors of J0
+        type(csc_t), intent(in) :: a                 !! J0
+        integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
+        integer, intent(in) :: k                     !! basis vector
+        integer, intent(in) :: cols(:)               !! its contact-cell dofs (<= 0: none)
+        real(dp), intent(in) :: coef(:)              !! and its entries there
+        integer, intent(out) :: stat                 !! status (of the solves)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), allocatable :: tmp(:, :)
+        integer, allocatable :: itmp(:, :), otmp(:)
+        real(dp) :: cmax
+        integer :: s, e, cap, ncap, i
+        stat = STAT_OK
+        zc%blast(k) = zc%step
+        if (zc%bslot(k) > 0) return
+        call zcache_ensure(zc, lu, a, cdofs, cols, stat, errmsg)
+        if (stat /= STAT_OK) return
+        cap = size(zc%bowner)
+        s = findloc(zc%bowner, 0, dim=1)
+        if (s == 0) then      ! (the slot arrays doubled when full)
+            ncap = min(size(zc%bslot), max(2 * cap, ZCHUNK))
+            allocate (tmp(zc%n, ncap), itmp(2, ncap), otmp(ncap))
+            tmp(:, 1:cap) = zc%zb
+            itmp(:, 1:cap) = zc%brange
+            otmp = 0
+            otmp(1:cap) = zc%bowner
+            call move_alloc(tmp, zc%zb)
+            call move_alloc(itmp, zc%brange)
+            call move_alloc(otmp, zc%bowner)
+            s = cap + 1
+        end if
+        zc%bowner(s) = k
+        zc%zb(:, s) = 0.0_dp
+        do e = 1, size(cols)
+            if (cols(e) <= 0) cycle
+            call add1(zc%n, zc%z(zc%slot(cols(e)))%val, coef(e), zc%zb(:, s))
+        end do
+        ! the rows applied: from the first to the last entry above ZDROP of the largest
+        cmax = ZDROP * maxval(abs(zc%zb(:, s)))
+        zc%brange(:, s) = [1, 0]
+        do i = 1, zc%n
+            if (abs(zc%zb(i, s)) > cmax) then
+                zc%brange(1, s) = i
+                exit
+            end if
+        end do
+        do i = zc%n, zc%brange(1, s), -1
+            if (abs(zc%zb(i, s)) > cmax) then
+                zc%brange(2, s) = i
+                exit
+            end if
+        end do
+        zc%bslot(k) = s
+        zc%bytes = zc%bytes + 8_i8 * zc%n
+        zc%peak_bytes = max(zc%peak_bytes, zc%bytes)
+        call evict(zc)
+    end subroutine zcache_basis_ensure
+
+    !> Drop the basis column least recently used before the current step (dropped:
+    !> .false. when there is none).
+    subroutine drop_basis(zc, dropped)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        logical, intent(out) :: dropped              !! one was dropped
+        integer :: s, k, old
+        dropped = .false.
+        if (.not. allocated(zc%bowner)) return
+        old = 0
+        do s = 1, size(zc%bowner)
+            k = zc%bowner(s)
+            if (k == 0) cycle
+            if (zc%blast(k) >= zc%step) cycle
+            if (old == 0) then
+                old = s
+            else if (zc%blast(k) < zc%blast(zc%bowner(old))) then
+                old = s
+            end if
+        end do
+        if (old == 0) return
+        zc%bslot(zc%bowner(old)) = 0
+        zc%bowner(old) = 0
+        zc%bytes = zc%bytes - 8_i8 * zc%n
+        dropped = .true.
+    end subroutine drop_basis
+
+    !> y <- y + sum_k t(k) Z b_k over the k with t(k) /= 0, in the order of k (each
+    !> entry's additions in that order), each on its range of rows. Every such b_k must
+    !> be held.
+    pure subroutine zcache_add_basis(zc, t, y)
+        type(zcache_t), intent(in) :: zc             !! cache
+        real(dp), intent(in) :: t(:)                 !! (basis vectors) coefficients
+        real(dp), intent(inout) :: y(:)              !! (n) updated
+        integer :: k, s, lo, hi
+        do k = 1, size(t)
+            if (t(k) == 0.0_dp) cycle
+            s = zc%bslot(k)
+            lo = zc%brange(1, s)
+            hi = zc%brange(2, s)
+            if (hi >= lo) call add1(hi - lo + 1, zc%zb(lo:hi, s), t(k), y(lo:hi))
+        end do
+    end subroutine zcache_add_basis
 
     !> A new step: the columns needed from now on are the current step's.
     pure subroutine zcache_new_step(zc)
@@ -255,10 +397,12 @@ contains
         s = cap + 1
     end function free_slot
 
-    !> Drop the least recently used groups of earlier steps while bytes > budget.
+    !> Drop the least recently used groups of earlier steps while bytes > budget, then
+    !> the least recently used basis columns of earlier steps.
     subroutine evict(zc)
         type(zcache_t), intent(inout) :: zc          !! cache
         integer :: g, old, l, s
+        logical :: dropped
         do while (zc%bytes > zc%budget)
             old = 0
             do g = 1, size(zc%glast)
@@ -269,7 +413,11 @@ contains
                     old = g
                 end if
             end do
-            if (old == 0) return
+            if (old == 0) then
+                call drop_basis(zc, dropped)
+                if (.not. dropped) return
+                cycle
+            end if
             do l = group_first(old), group_last(zc, old)
                 s = zc%slot(l)
                 zc%bytes = zc%bytes - column_bytes(zc, zc%z(s))

@@ -54,9 +54,23 @@
 !> the order facets + nodes (node_basis; 57 against a rank of 96 for 32 facets on 25
 !> nodes); DYNCONTACT_WOODBURY_BASIS = terms (read at set-up) keeps it on the terms (the
 !> reference, tests/test_woodbury_basis.py).
+!> Z T is applied on the same kind of basis: T is a sum of contact residuals, tangent
+!> terms and Woodbury corrections, each a combination of the vectors s_f (every facet)
+!> and n_j (every facet node), so along with T on the contact-cell dofs the Newton
+!> carries its coefficients tau on those vectors (contact_eval gives each facet's
+!> residual in its Mt, the terms their coefficients), and Z T = sum_k tau_k Z b_k reads
+!> one kept column Z s_f or Z n_j a vector (contact_columns' basis columns) instead of
+!> one column of Z a dof: 57 against ~150 on the box at h = 0.025. The rows of dx on the
+!> contact-cell dofs are then set to the Newton's own P dx = P y0 + W T, so that the
+!> contact part kept for the next step is C at P u' bit for bit; the other rows differ
+!> from y0 + Z T by round-off. Taken when Z is kept whole, when Z and the vectors'
+!> columns fit in the cache's default budget (the columns are held in the cache, within
+!> its budget), and at a step where fewer coefficients than dofs are nonzero;
+!> DYNCONTACT_ZT_BASIS = dofs (read at set-up) always applies Z T on the dofs (the
+!> reference, tests/test_zt_basis.py).
 module implicit_schemes
     use kinds, only: dp, i8
-    use vector_ops, only: dot
+    use vector_ops, only: dot, lane_sum, LANES
     use text, only: int_text, real_text, env_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use sparse, only: csc_t
@@ -69,7 +83,8 @@ module implicit_schemes
     use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use contact_columns, only: zcache_t, zcache_init, zcache_new_step, zcache_ensure, &
                                zcache_ensure_all, zcache_w_times, zcache_add_w, zcache_add_z, &
-                               zcache_free
+                               zcache_free, zcache_basis_init, zcache_basis_ensure, &
+                               zcache_add_basis
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
@@ -88,6 +103,9 @@ module implicit_schemes
     !> The environment variable that keeps the Woodbury system on the terms ('terms'):
     !> never the smaller node basis (the reference that basis is tested against).
     character(len=*), parameter :: BASIS_VAR = 'DYNCONTACT_WOODBURY_BASIS'
+    !> The environment variable that applies Z T on the contact-cell dofs ('dofs'):
+    !> never on the node basis (the reference that basis is tested against).
+    character(len=*), parameter :: ZT_VAR = 'DYNCONTACT_ZT_BASIS'
 
     !> Newmark-family and theta schemes.
     type, extends(time_scheme_t), public :: implicit_scheme_t
@@ -140,6 +158,7 @@ module implicit_schemes
         integer, allocatable :: qnode(:, :)       !! (0:nfn, n_facets) basis index of a facet
                                                   !! (row 0) and of its nodes
         integer, allocatable :: bnode(:)          !! (>= facets nfn) the basis' nodes
+        integer, allocatable :: bcn(:)            !! (>= facets nfn) and their contact nodes
         integer, allocatable :: nrow(:, :)        !! (nfn, .) a node vector's contact-cell dofs
         real(dp), allocatable :: nval(:, :)       !! (nfn, .) and its entries (the normal)
         real(dp), allocatable :: wb(:, :)         !! (m, qcap) W B over the basis
@@ -153,13 +172,21 @@ module implicit_schemes
         real(dp), allocatable :: yc(:), tk(:)     !! (m) P J0^{-1} R and one iteration's coefficients
         real(dp), allocatable :: tsum(:)          !! (m) T, the coefficients of Z in x
         real(dp), allocatable :: y0c(:)           !! (m) P y0
+        logical :: zt_basis = .false.             !! Z T applied on the node basis (see header)
+        integer :: ncn = 0                        !! contact nodes (the facets' nodes)
+        integer, allocatable :: cnode(:, :)       !! (nfn, n_facets) a facet node's contact node
+        integer, allocatable :: cnf(:, :)         !! (2, ncn) a facet of the node, its place there
+        real(dp), allocatable :: tau(:)           !! (n_facets + ncn) T on [s_f, n_j]
+        real(dp), allocatable :: gx(:, :)         !! (nfn, n_facets) cx = sum_f Mt_f gx(:, f)
+        real(dp), allocatable :: gold(:, :)       !! (nfn, n_facets) the same for cold
+        real(dp), allocatable :: rhog(:, :)       !! (nfn, n_facets) the same for rho
+        real(dp), allocatable :: pdx(:)           !! (m) P dx = y0c + W T at the last iterate
         logical :: cached = .false.               !! cx, the tangent and st%active/e_pen/e_theta
                                                   !! are C at xc (kept from the last step)
         real(dp) :: kga = 0.0_dp                  !! beta dt^2 am/(1-am) (generalized-alpha)
         real(dp), allocatable :: vq(:)            !! (massless dofs) their v' = (u' - u)/dt
         real(dp), allocatable :: md(:)            !! (n) M (u - u~) of the next step
         real(dp), allocatable :: dvec(:)          !! (n) u - u~ (the vector multiplied by M)
-        real(dp), allocatable :: bvec(:)          !! (n) b of the step's residual
         real(dp), allocatable :: r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
         type(alm_newton_t) :: almn                !! Newton on (u, lambda) (augmented Lagrangian)
     contains
@@ -218,7 +245,7 @@ contains
         else
             this%c = (this%theta * this%dt)**2
         end if
-        allocate (this%md(n), this%dvec(n), this%r(n), this%bvec(n), this%dx(n), &
+        allocate (this%md(n), this%dvec(n), this%r(n), this%dx(n), &
                   this%x(n), this%scratch(n))
 
         ! initial acceleration (Newmark family only)
@@ -271,6 +298,7 @@ contains
         call zcache_init(this%zc, n, this%m, budget, budget)
         this%all_columns = mdl%alm%kind /= ALM_OFF
         call columns_env(this%all_columns, this%zc%budget)
+        call zt_basis_init(this, mdl, budget)
         if (this%all_columns .and. this%m > 0) then
             call zcache_ensure_all(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, stat, errmsg)
             if (stat /= STAT_OK) return
@@ -278,6 +306,53 @@ contains
         ! zcache_ensure_all on an empty cache: slot l holds column l, w(:, 1:m) is W
         if (mdl%alm%kind /= ALM_OFF) call alm_newton_init(this%almn, mdl, this%zc%w(:, 1:this%m))
     end subroutine implicit_init
+
+    !> The contact nodes and the arrays of Z T on the node basis (see the module header);
+    !> zt_basis when Z is kept whole, the whole of Z and the basis columns fit in the
+    !> default budget (so neither evicts the other; a budget set by COLUMNS_VAR is then
+    !> what bounds both), the scheme is Nitsche's and ZT_VAR does not ask for the dofs.
+    subroutine zt_basis_init(this, mdl, budget)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (zc set up)
+        type(model_t), intent(in) :: mdl                    !! model
+        integer(i8), intent(in) :: budget                   !! the cache's budget, bytes
+        integer, allocatable :: mark(:)
+        integer :: nfn, nf, f, i, g
+        nfn = max(1, mdl%ct%nfn)
+        nf = mdl%ct%n_facets
+        allocate (this%cnode(nfn, nf), this%gx(nfn, nf), this%gold(nfn, nf), &
+                  this%rhog(nfn, nf), this%pdx(this%m), this%bcn(0))
+        this%gx = 0.0_dp
+        this%ncn = 0
+        if (nf > 0 .and. mdl%ct%nfn > 0) then
+            allocate (mark(maxval(mdl%ct%nodes)), this%cnf(2, nf * nfn))
+            mark = 0
+            do f = 1, nf
+                do i = 1, nfn
+                    g = mdl%ct%nodes(i, f)
+                    if (mark(g) == 0) then
+                        this%ncn = this%ncn + 1
+                        mark(g) = this%ncn
+                        this%cnf(:, this%ncn) = [f, i]
+                    end if
+                    this%cnode(i, f) = mark(g)
+                end do
+            end do
+        else
+            allocate (this%cnf(2, 0))
+        end if
+        allocate (this%tau(nf + this%ncn))
+        this%tau = 0.0_dp
+        this%zt_basis = this%m > 0 .and. mdl%alm%kind == ALM_OFF .and. .not. this%zc%drop &
+                        .and. 8_i8 * n_of(mdl) * (this%m + nf + this%ncn) <= budget &
+                        .and. env_text(ZT_VAR) /= 'dofs'
+        if (this%zt_basis) call zcache_basis_init(this%zc, nf + this%ncn)
+    end subroutine zt_basis_init
+
+    !> The model's dofs as an i8.
+    pure integer(i8) function n_of(mdl)
+        type(model_t), intent(in) :: mdl                    !! model
+        n_of = int(mdl%n_dofs, i8)
+    end function n_of
 
     !> The column cache's budget in bytes: half the bytes of the matrices and the factor
     !> (12 per stored entry), at least BUDGET_MIN.
@@ -434,21 +509,112 @@ contains
                 call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
             end if
             this%tsum = 0.0_dp
+            if (this%zt_basis) this%tau = 0.0_dp
             call gather(st%u, mdl%ct%cdofs, this%xc)
         end if
         call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
         st%newton_its = it
         this%newton_total = this%newton_total + it
         if (stat /= STAT_OK) return
-        ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction)
+        ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction), on the node
+        ! basis when it has fewer columns to read (see the module header)
         if (it == 0) this%dx = 0.0_dp
         if (this%m > 0) then
-            if (any(this%tsum /= 0.0_dp)) call zcache_add_z(this%zc, this%tsum, this%dx)
+            if (any(this%tsum /= 0.0_dp)) then
+                if (basis_pays(this)) then
+                    call apply_zt_basis(this, mdl, stat, errmsg)
+                    if (stat /= STAT_OK) return
+                else
+                    call zcache_add_z(this%zc, this%tsum, this%dx)
+                end if
+            end if
         end if
         call update_state(this, mdl, st)
         st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
         st%t = st%t + this%dt
     end subroutine implicit_step
+
+    !> Whether Z T goes on the node basis at this step: zt_basis and fewer nonzero
+    !> coefficients in tau than in T.
+    pure logical function basis_pays(this)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        basis_pays = .false.
+        if (.not. this%zt_basis) return
+        basis_pays = count(this%tau /= 0.0_dp) < count(this%tsum /= 0.0_dp)
+    end function basis_pays
+
+    !> dx <- dx + sum_k tau_k Z b_k over the vectors b_k = s_f (k = f) and n_j (k =
+    !> n_facets + j) with tau_k /= 0, their columns formed first if not held (and marked
+    !> used at this step); then dx = pdx (the Newton's P dx) on the contact-cell dofs.
+    subroutine apply_zt_basis(this, mdl, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: k, nf, f, i, kk, cols(mdl%ndof_e)
+        nf = mdl%ct%n_facets
+        stat = STAT_OK
+        do k = 1, size(this%tau)
+            if (this%tau(k) == 0.0_dp) cycle
+            if (this%zc%bslot(k) > 0) then      ! held: marked used (zcache_basis_ensure's)
+                this%zc%blast(k) = this%zc%step
+                cycle
+            end if
+            if (k <= nf) then
+                call zcache_basis_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, k, &
+                                         mdl%ct%cloc(:, k), mdl%ct%s(:, k), stat, errmsg)
+            else
+                f = this%cnf(1, k - nf)
+                i = this%cnf(2, k - nf)
+                do kk = 1, mdl%ndof_e
+                    cols(kk) = mdl%ct%cloc(kk, f)
+                    if (mdl%ct%nvec(kk, i, f) == 0.0_dp) cols(kk) = 0
+                end do
+                call zcache_basis_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, k, &
+                                         cols, mdl%ct%nvec(:, i, f), stat, errmsg)
+            end if
+            if (stat /= STAT_OK) then
+                call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed for the contact correction')
+                return
+            end if
+        end do
+        call zcache_add_basis(this%zc, this%tau, this%dx)
+        do i = 1, this%m
+            this%dx(mdl%ct%cdofs(i)) = this%pdx(i)
+        end do
+    end subroutine apply_zt_basis
+
+    !> tau <- tau + w g on the node basis, g in the facets' Mt (a vector sum_f Mt_f g(:, f),
+    !> Mt_f(:, j) = theta s_f - gamma_f n_j): theta sum_j g(j, f) at s_f, -gamma_f g(j, f)
+    !> at n_j.
+    subroutine tau_add_g(this, mdl, w, g)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        real(dp), intent(in) :: w                           !! weight
+        real(dp), intent(in) :: g(:, :)                     !! (nfn, n_facets) coefficients
+        integer :: f
+        do f = 1, mdl%ct%n_facets
+            call tau_add_facet(this, mdl, f, w, g(:, f))
+        end do
+    end subroutine tau_add_g
+
+    !> tau <- tau + w Mt_f g on the node basis (one facet's part of tau_add_g).
+    pure subroutine tau_add_facet(this, mdl, f, w, g)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(in) :: f                            !! facet
+        real(dp), intent(in) :: w                           !! weight
+        real(dp), intent(in) :: g(:)                        !! (nfn) coefficients in Mt_f
+        integer :: j, k
+        real(dp) :: v
+        do j = 1, mdl%ct%nfn
+            v = w * g(j)
+            if (v == 0.0_dp) cycle
+            this%tau(f) = this%tau(f) + mdl%ct%theta * v
+            k = mdl%ct%n_facets + this%cnode(j, f)
+            this%tau(k) = this%tau(k) - mdl%ct%gamma(f) * v
+        end do
+    end subroutine tau_add_facet
 
     !> The coefficients of b = cb (L - kb B(u^n)) for the scheme's family.
     pure subroutine rhs_coefficients(this, cb, kb)
@@ -484,7 +650,7 @@ contains
         real(dp) :: rnorm, scale, dt
         character(len=256) :: why
         logical :: warm
-        integer :: l
+        integer :: l, q, nk
         stat = STAT_OK
         dt = this%dt
         scale = -1.0_dp
@@ -494,8 +660,7 @@ contains
             if (it > 0) then
                 if (rnorm == 0.0_dp) exit
                 if (scale < 0.0_dp) then
-                    this%bvec = newton_b(cb, kb, mdl%load, st%bu)
-                    scale = newton_scale(this%c, this%md, st%bu, this%bvec)
+                    scale = newton_scale(this%c, cb, kb, mdl%load, this%md, st%bu)
                 end if
                 if (rnorm <= this%tol * scale) exit
             end if
@@ -526,18 +691,29 @@ contains
                 this%y0c = this%yc
                 this%tk = 0.0_dp
             else
-                call need_columns(this, mdl, this%rho /= 0.0_dp, [(l, l = 1, this%m)], &
-                                  stat, errmsg)
+                nk = 0
+                do l = 1, this%m
+                    if (this%rho(l) == 0.0_dp) cycle
+                    nk = nk + 1
+                    this%need(nk) = l
+                end do
+                call need_columns(this, mdl, nk, stat, errmsg)
                 if (stat /= STAT_OK) return
                 call zcache_w_times(this%zc, this%rho, this%yc)
                 this%tk = this%rho
+                if (this%zt_basis) call tau_add_g(this, mdl, 1.0_dp, this%rhog)
                 it = it + 1
             end if
             if (this%rank > 0) then
-                call need_columns(this, mdl, reshape(this%qloc(:, 1:this%rank) > 0, &
-                                                [mdl%ndof_e * this%rank]), &
-                                  reshape(this%qloc(:, 1:this%rank), [mdl%ndof_e * this%rank]), &
-                                  stat, errmsg)
+                nk = 0
+                do q = 1, this%rank
+                    do l = 1, mdl%ndof_e
+                        if (this%qloc(l, q) <= 0) cycle
+                        nk = nk + 1
+                        this%need(nk) = this%qloc(l, q)
+                    end do
+                end do
+                call need_columns(this, mdl, nk, stat, errmsg)
                 if (stat /= STAT_OK) return
                 call woodbury(this, mdl, stat)
                 if (stat /= STAT_OK) then
@@ -582,6 +758,7 @@ contains
         integer :: i, q
         this%dxc = this%y0c
         call zcache_add_w(this%zc, this%tsum, this%dxc)
+        if (this%zt_basis) this%pdx = this%dxc
         do i = 1, this%m
             acc = u(mdl%ct%cdofs(i)) - this%dxc(i)
             this%dxc(i) = this%xc(i) - acc
@@ -589,6 +766,7 @@ contains
             this%x(mdl%ct%cdofs(i)) = acc
         end do
         this%tvec = 0.0_dp
+        if (this%zt_basis) this%rhog = 0.0_dp
         do q = 1, this%rank
             acc = 0.0_dp
             do i = 1, mdl%ndof_e
@@ -598,29 +776,26 @@ contains
                 if (this%qloc(i, q) > 0) this%tvec(this%qloc(i, q)) = &
                     this%tvec(this%qloc(i, q)) + this%ua(i, q) * acc
             end do
+            ! (the term's U column is Mt tca on its facet: tvec's coefficients in rhog)
+            if (this%zt_basis) this%rhog(:, this%tfac(q)) = this%rhog(:, this%tfac(q)) &
+                                                          + acc * this%tca(:, q)
         end do
         this%cold = this%cx
+        if (this%zt_basis) this%gold = this%gx
         call contact_part(this, mdl, this%x, this%cx, active, e_pen, e_theta)
         this%rho = this%c * (this%cx - this%cold + this%tvec)
+        if (this%zt_basis) this%rhog = this%c * (this%gx - this%gold + this%rhog)
         rnorm = sqrt(sum(this%rho**2))
     end subroutine contact_residual
 
-    !> The columns cols(k) with mask(k) of Z and W made available for this step (solved
+    !> The columns need(1:nk) of Z and W made available for this step (solved
     !> if not held); a failed solve stops the run (STAT_NUMERIC).
-    subroutine need_columns(this, mdl, mask, cols, stat, errmsg)
+    subroutine need_columns(this, mdl, nk, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
-        logical, intent(in) :: mask(:)                      !! which entries of cols count
-        integer, intent(in) :: cols(:)                      !! contact-cell dofs (columns)
+        integer, intent(in) :: nk                           !! columns in need(1:nk)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: k, nk
-        nk = 0
-        do k = 1, size(cols)
-            if (.not. mask(k)) cycle
-            nk = nk + 1
-            this%need(nk) = cols(k)
-        end do
         call zcache_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, this%need(1:nk), &
                            stat, errmsg)
         if (stat /= STAT_OK) call raise(stat, errmsg, STAT_NUMERIC, &
@@ -685,7 +860,7 @@ contains
             this%scratch(mdl%ct%cdofs(j)) = 0.0_dp
         end do
         call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%rank, this%ua, this%vb, &
-                          this%qloc, this%tfac, this%tca, this%tcb)
+                          this%qloc, this%tfac, this%tca, this%tcb, this%gx)
         do j = 1, this%m
             cvec(j) = this%scratch(mdl%ct%cdofs(j))
         end do
@@ -742,6 +917,12 @@ contains
                 if (l > 0) this%tk(l) = this%tk(l) - this%ua(k, j) * this%zs(j)
             end do
         end do
+        ! and on the node basis (U's column j is Mt tca(:, j) on its facet)
+        if (this%zt_basis) then
+            do j = 1, r
+                call tau_add_facet(this, mdl, this%tfac(j), -this%zs(j), this%tca(:, j))
+            end do
+        end if
     end subroutine woodbury
 
     !> Whether the factors held are those of the current tangent: the same basis, rank,
@@ -918,8 +1099,8 @@ contains
         ne = mdl%ndof_e
         if (nf * nfn > size(this%bnode)) then
             cap = max(nf * nfn, 2 * size(this%bnode))
-            deallocate (this%bnode, this%nrow, this%nval)
-            allocate (this%bnode(cap), this%nrow(nfn, cap), this%nval(nfn, cap))
+            deallocate (this%bnode, this%bcn, this%nrow, this%nval)
+            allocate (this%bnode(cap), this%bcn(cap), this%nrow(nfn, cap), this%nval(nfn, cap))
         end if
         nk = 0
         do b = 1, nf
@@ -939,6 +1120,7 @@ contains
                     nk = nk + 1
                     j = nk
                     this%bnode(j) = g
+                    this%bcn(j) = this%cnode(i, f)
                     this%nrow(:, j) = 0
                     this%nval(:, j) = 0.0_dp
                     e = 0
@@ -1119,6 +1301,17 @@ contains
                 end do
             end if
         end do
+        ! and on the node basis of Z T (tau: the facets, then the contact nodes)
+        if (this%zt_basis) then
+            do b = 1, q
+                if (b <= nf) then
+                    kk = this%yfac(b)
+                else
+                    kk = mdl%ct%n_facets + this%bcn(b - nf)
+                end if
+                this%tau(kk) = this%tau(kk) - this%qs(b)
+            end do
+        end if
     end subroutine node_solve
 
     !> The Woodbury work arrays for rank r: their size follows the largest rank met (at
@@ -1222,14 +1415,40 @@ contains
     !> The scale of the Newton test, |md| + c |bu| + |b| (the norms of the three terms of
     !> R(u^n) = md + c bu - b), each sum of squares a `dot` (LANES partial sums: one
     !> reduction a loop is what the compiler vectorizes cleanly; several in one loop it
-    !> interleaves with shuffles).
-    pure real(dp) function newton_scale(c, md, bu, b) result(scale)
+    !> interleaves with shuffles); b = newton_b(cb, kb, load, bu) is not formed (b_dot).
+    pure real(dp) function newton_scale(c, cb, kb, load, md, bu) result(scale)
         real(dp), intent(in) :: c                           !! coefficient of B in R
+        real(dp), intent(in) :: cb, kb                      !! coefficients of b
+        real(dp), intent(in), contiguous :: load(:)         !! L
         real(dp), intent(in), contiguous :: md(:)           !! M (u^n - u~)
         real(dp), intent(in), contiguous :: bu(:)           !! B(u^n)
-        real(dp), intent(in), contiguous :: b(:)            !! b
-        scale = sqrt(dot(md, md)) + c * sqrt(dot(bu, bu)) + sqrt(dot(b, b))
+        scale = sqrt(dot(md, md)) + c * sqrt(dot(bu, bu)) + sqrt(b_dot(cb, kb, load, bu))
     end function newton_scale
+
+    !> b . b for b = newton_b(cb, kb, load, bu), each entry formed in the loop: the same
+    !> LANES partial sums in the same order as vector_ops' dot(b, b), so the same bits,
+    !> without a pass writing b and one reading it.
+    pure real(dp) function b_dot(cb, kb, load, bu) result(s)
+        real(dp), intent(in) :: cb, kb                      !! coefficients of b
+        real(dp), intent(in), contiguous :: load(:)         !! L
+        real(dp), intent(in), contiguous :: bu(:)           !! B(u^n)
+        real(dp) :: acc(LANES), b
+        integer :: i, j, n, nb
+        n = size(bu)
+        nb = n - mod(n, LANES)
+        acc = 0.0_dp
+        do i = 1, nb, LANES
+            do j = 1, LANES
+                b = newton_b(cb, kb, load(i + j - 1), bu(i + j - 1))
+                acc(j) = acc(j) + b * b
+            end do
+        end do
+        do i = nb + 1, n
+            b = newton_b(cb, kb, load(i), bu(i))
+            acc(1) = acc(1) + b * b
+        end do
+        s = lane_sum(acc)
+    end function b_dot
 
     !> The Newmark-family update from x = u - dx, in one pass: the step's predictor
     !> u~ = u + dt v + c1 a (from the old state), a' = (x - u~) inv, v' = v + g1 a + g2 a',
