@@ -838,3 +838,24 @@ subroutine dc_ldl_threads_compare(n, nnz, m, rows, cols, vals, b, x_serial, x_th
     call chol_free(ch)
     stat = st
 end subroutine dc_ldl_threads_compare
+
+!> The threads of the triangular solves the core chooses (ldl_solves' ldl_threads_choice)
+!> for the setting `asked` (&solver threads: 0 automatic, 1, 2), DYNCONTACT_THREADS `env`
+!> (0: not set, 1, 2), `cpus` CPUs the process may use and a factor of n dofs; and the
+!> values this process sees: its CPUs (ldl_cpus) and the size from which two threads
+!> are used (PAR_MIN_DOFS).
+subroutine dc_threads_choice(asked, env, cpus, n, threads, cpus_here, min_dofs)
+    use iso_c_binding, only: c_int
+    use ldl_solves, only: ldl_threads_choice, ldl_cpus, PAR_MIN_DOFS
+    implicit none
+    integer(c_int), intent(in) :: asked          !! 0, 1 or 2
+    integer(c_int), intent(in) :: env            !! 0, 1 or 2
+    integer(c_int), intent(in) :: cpus           !! CPUs the process may use
+    integer(c_int), intent(in) :: n              !! dofs of the factor
+    integer(c_int), intent(out) :: threads       !! 1 or 2
+    integer(c_int), intent(out) :: cpus_here     !! ldl_cpus() in this process
+    integer(c_int), intent(out) :: min_dofs      !! PAR_MIN_DOFS
+    threads = ldl_threads_choice(asked, env, cpus, n, PAR_MIN_DOFS)
+    cpus_here = ldl_cpus()
+    min_dofs = PAR_MIN_DOFS
+end subroutine dc_threads_choice

@@ -44,7 +44,8 @@ module ldl_solves
         integer :: ss = 0                         !! first block column of the separator (ss..nn, after both)
         integer, allocatable :: cols(:)           !! (nn) the two groups' block columns, each ascending, then ss..nn
         real(dp), allocatable :: ys(:, :)         !! (n - 2 ss + 2, 2) each subtree's updates of the separator's rows
-        integer :: threads = 0                    !! threads of the solves (1, 2; 0: read the environment at the first solve)
+        integer :: asked = 0                      !! the threads setting (&solver threads): 0 automatic, 1, 2
+        integer :: threads = 0                    !! threads of the solves (1, 2; 0: not yet decided, pair_ldl_threads)
         integer :: par_min_n = 0                  !! smallest n solved on two threads (with threads)
     end type pair_ldl_t
 
@@ -64,14 +65,12 @@ module ldl_solves
 
     public :: pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, pair_ldl_free
     public :: triple_ldl_build, triple_ldl_solve, triple_ldl_solve_many, triple_ldl_free
-    public :: ldl_threads_set, ldl_threads_env
+    public :: ldl_threads_set, ldl_threads_env, ldl_threads_choice, ldl_cpus, pair_ldl_threads
 
     !> Two threads in the 2x2 block solves (pair_ldl_solve) from this many dofs: below it
     !> the forking costs more than the half sweep saves (docs/performance.md, "Two
     !> threads in the triangular solve").
-    integer, parameter :: PAR_MIN_DOFS = 20000
-    !> Threads of the solves when DYNCONTACT_THREADS is not set (1: serial).
-    integer, parameter :: PAR_DEFAULT_THREADS = 1
+    integer, parameter, public :: PAR_MIN_DOFS = 20000
 
 contains
 
@@ -137,15 +136,16 @@ contains
     end subroutine pair_ldl_build
 
     !> x = A^{-1} b with the block factors (b and x: n entries; they may not alias). On
-    !> two threads (pair_sweeps_two) when they are switched on (f%threads, from
-    !> ldl_threads_env at the first solve unless ldl_threads_set chose), the
+    !> two threads (pair_sweeps_two) when pair_ldl_threads chose two (decided at the
+    !> first solve unless it was called before, or ldl_threads_set forced a count), the
     !> factor has n >= the threshold dofs and its elimination tree splits below a
-    !> separator (find_split, looked for at the first solve); else pair_sweeps.
+    !> separator (find_split); else pair_sweeps.
     subroutine pair_ldl_solve(f, b, x)
         type(pair_ldl_t), intent(inout) :: f                !! block factors (work vector used)
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
         real(dp), intent(out) :: x(:)                       !! solution (n)
-        if (f%threads == 0) call ldl_threads_env(f%threads, f%par_min_n)
+        integer :: used
+        if (f%threads == 0) call pair_ldl_threads(f, f%asked, used)
         if (f%threads >= 2 .and. f%n >= f%par_min_n) then
             if (f%sa < 0) call pair_find_split(f)
             if (f%sa > 0) then
@@ -156,15 +156,62 @@ contains
         call pair_sweeps(f%n, f%nn, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%l21, f%d, b, x, f%y)
     end subroutine pair_ldl_solve
 
-    !> The threads of the solves (1 or 2) and the size from which two are used, from
-    !> DYNCONTACT_THREADS (1: serial, 2: two threads; default PAR_DEFAULT_THREADS) and the
-    !> test-only DYNCONTACT_THREADS_MIN_DOFS (default PAR_MIN_DOFS).
+    !> Decide the threads of a factor's solves from the setting `asked` (&solver threads:
+    !> 0 automatic, 1, 2), DYNCONTACT_THREADS, the CPUs the process may use (ldl_cpus)
+    !> and the factor's size (ldl_threads_choice); with two, look for the split of the
+    !> elimination tree, and fall back to one when there is none. `used`: the threads its
+    !> solves use from now on (1 or 2). Called again after a new factorization, it
+    !> decides again.
+    subroutine pair_ldl_threads(f, asked, used)
+        type(pair_ldl_t), intent(inout) :: f                !! block factors (n > 0)
+        integer, intent(in) :: asked                        !! 0 (automatic), 1 or 2
+        integer, intent(out) :: used                        !! threads of the solves
+        integer :: env
+        f%asked = max(0, min(2, asked))
+        call ldl_threads_env(env, f%par_min_n)
+        f%threads = ldl_threads_choice(f%asked, env, ldl_cpus(), f%n, f%par_min_n)
+        if (f%threads >= 2 .and. f%sa < 0) call pair_find_split(f)
+        if (f%sa <= 0) f%threads = 1
+        used = f%threads
+    end subroutine pair_ldl_threads
+
+    !> The threads of the triangular solves of a factor of n dofs: `env` (the
+    !> environment's DYNCONTACT_THREADS, 1 or 2; 0 when not set) overrides `asked` (the
+    !> scene's &solver threads: 0 automatic, 1, 2); 2 asked gives two threads from
+    !> min_dofs dofs; automatic gives two when the process may run on two CPUs or more
+    !> (cpus, ldl_cpus) and n >= min_dofs. Anything else: one.
+    pure integer function ldl_threads_choice(asked, env, cpus, n, min_dofs) result(threads)
+        integer, intent(in) :: asked                        !! 0, 1 or 2 (the scene)
+        integer, intent(in) :: env                          !! 0 (not set), 1 or 2
+        integer, intent(in) :: cpus                         !! CPUs the process may use
+        integer, intent(in) :: n                            !! dofs of the factor
+        integer, intent(in) :: min_dofs                     !! smallest n solved on two threads
+        integer :: want
+        want = asked
+        if (env == 1 .or. env == 2) want = env
+        threads = 1
+        if (n < min_dofs) return
+        if (want == 2 .or. (want == 0 .and. cpus >= 2)) threads = 2
+    end function ldl_threads_choice
+
+    !> The CPUs this process may run on, as OpenMP sees them: omp_get_num_procs (the
+    !> CPUs of the process's affinity mask, sched_getaffinity, in libgomp), limited by
+    !> omp_get_max_threads (OMP_NUM_THREADS, when set); 1 without OpenMP.
+    integer function ldl_cpus() result(cpus)
+        !$ use omp_lib, only: omp_get_num_procs, omp_get_max_threads
+        cpus = 1
+        !$ cpus = max(1, min(omp_get_num_procs(), omp_get_max_threads()))
+    end function ldl_cpus
+
+    !> DYNCONTACT_THREADS (1: one thread, 2: two; anything else, or not set: 0) and the
+    !> test-only DYNCONTACT_THREADS_MIN_DOFS (the size from which two threads are used;
+    !> default PAR_MIN_DOFS).
     subroutine ldl_threads_env(threads, min_dofs)
-        integer, intent(out) :: threads                     !! 1 or 2
+        integer, intent(out) :: threads                     !! 0, 1 or 2
         integer, intent(out) :: min_dofs                    !! smallest n solved on two threads
         character(len=:), allocatable :: v
         integer :: ios, m
-        threads = PAR_DEFAULT_THREADS
+        threads = 0
         min_dofs = PAR_MIN_DOFS
         v = env_text('DYNCONTACT_THREADS')
         if (v == '1') threads = 1
@@ -176,8 +223,9 @@ contains
         end if
     end subroutine ldl_threads_env
 
-    !> Set the threads of a factor's solves (1 or 2; 0: read the environment again at the
-    !> next solve) and the size from which two are used (tests compare both paths).
+    !> Force the threads of a factor's solves (1 or 2, whatever the setting and the
+    !> environment; 0: decide again at the next solve) and the size from which two are
+    !> used (tests compare both paths).
     pure subroutine ldl_threads_set(f, threads, min_dofs)
         type(pair_ldl_t), intent(inout) :: f                !! block factors
         integer, intent(in) :: threads                      !! 0, 1 or 2
