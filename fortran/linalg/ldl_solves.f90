@@ -23,6 +23,7 @@
 !> (columns padded to four in memory took a third more memory and were no faster,
 !> docs/performance.md).
 module ldl_solves
+    use iso_c_binding, only: c_int
     use kinds, only: dp, i8
     use text, only: env_text
     implicit none
@@ -71,6 +72,18 @@ module ldl_solves
     !> the forking costs more than the half sweep saves (docs/performance.md, "Two
     !> threads in the triangular solve").
     integer, parameter, public :: PAR_MIN_DOFS = 20000
+
+    interface
+        !> 1 when this process may start OpenMP threads (omp_fork.c: not a fork of a
+        !> process that had started them, whose children would hang).
+        function dc_omp_usable() bind(C, name='dc_omp_usable') result(ok)
+            import :: c_int
+            integer(c_int) :: ok
+        end function dc_omp_usable
+        !> Before a parallel region: this process starts OpenMP threads.
+        subroutine dc_omp_starting() bind(C, name='dc_omp_starting')
+        end subroutine dc_omp_starting
+    end interface
 
 contains
 
@@ -146,7 +159,7 @@ contains
         real(dp), intent(out) :: x(:)                       !! solution (n)
         integer :: used
         if (f%threads == 0) call pair_ldl_threads(f, f%asked, used)
-        if (f%threads >= 2 .and. f%n >= f%par_min_n) then
+        if (f%threads >= 2 .and. f%n >= f%par_min_n .and. dc_omp_usable() /= 0) then
             if (f%sa < 0) call pair_find_split(f)
             if (f%sa > 0) then
                 call pair_sweeps_two(f, b, x)
@@ -159,7 +172,8 @@ contains
     !> Decide the threads of a factor's solves from the setting `asked` (&solver threads:
     !> 0 automatic, 1, 2), DYNCONTACT_THREADS, the CPUs the process may use (ldl_cpus)
     !> and the factor's size (ldl_threads_choice); with two, look for the split of the
-    !> elimination tree, and fall back to one when there is none. `used`: the threads its
+    !> elimination tree, and fall back to one when there is none, or when this process is
+    !> a fork of one that had started OpenMP threads (omp_fork.c). `used`: the threads its
     !> solves use from now on (1 or 2). Called again after a new factorization, it
     !> decides again.
     subroutine pair_ldl_threads(f, asked, used)
@@ -171,7 +185,7 @@ contains
         call ldl_threads_env(env, f%par_min_n)
         f%threads = ldl_threads_choice(f%asked, env, ldl_cpus(), f%n, f%par_min_n)
         if (f%threads >= 2 .and. f%sa < 0) call pair_find_split(f)
-        if (f%sa <= 0) f%threads = 1
+        if (f%sa <= 0 .or. dc_omp_usable() == 0) f%threads = 1
         used = f%threads
     end subroutine pair_ldl_threads
 
@@ -358,6 +372,7 @@ contains
         rs = 2 * f%ss - 1
         ns = size(f%ys, 1)
         nb = size(f%bi)
+        call dc_omp_starting()
         !$omp parallel sections num_threads(2) default(shared) private(i, t, jb)
         !$omp section
         do t = 1, f%sa
