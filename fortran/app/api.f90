@@ -787,8 +787,8 @@ subroutine dc_sim_load(handle, path, step, stat, errmsg)
     stat = st
 end subroutine dc_sim_load
 
-!> The 2x2 block solves of A (symmetric positive definite, 1-based COO triplets, made of
-!> node pairs) on one thread and on two (ldl_solves' split of the elimination tree, at
+!> The 2x2 (3x3) block solves of A (symmetric positive definite, 1-based COO triplets,
+!> made of node pairs or triples) on one thread and on two (ldl_solves' split of the elimination tree, at
 !> any size) for the m columns of b, to compare the two. split = [block columns, last
 !> column of the first range (0: no split, serial), first column of the separator];
 !> kernel = chol_kernel's name. The threads' setting is read again afterwards.
@@ -826,14 +826,17 @@ subroutine dc_ldl_threads_compare(n, nnz, m, rows, cols, vals, b, x_serial, x_th
     if (st == STAT_OK) then
         kernel = chol_kernel(ch)
         call ldl_threads_set(ch%pairs, 1, huge(1))
+        call ldl_threads_set(ch%triples, 1, huge(1))
         do j = 1, m
             if (st == STAT_OK) call chol_solve(ch, b(:, j), x_serial(:, j), st, errmsg)
         end do
         call ldl_threads_set(ch%pairs, 2, 0)
+        call ldl_threads_set(ch%triples, 2, 0)
         do j = 1, m
             if (st == STAT_OK) call chol_solve(ch, b(:, j), x_threads(:, j), st, errmsg)
         end do
         split = [ch%pairs%nn, ch%pairs%sa, ch%pairs%ss]
+        if (ch%triples%n > 0) split = [ch%triples%nt, ch%triples%sa, ch%triples%ss]
     end if
     call chol_free(ch)
     stat = st

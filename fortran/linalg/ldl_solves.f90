@@ -62,11 +62,24 @@ module ldl_solves
         real(dp), allocatable :: ld(:, :)         !! (3, nt) L's entries l21, l31, l32 in each diagonal block
         real(dp), allocatable :: d(:)             !! (n) D
         real(dp), allocatable :: y(:, :)          !! (4, nt) work vector of the solves, by triples
+        integer :: sa = -1                        !! two-thread split (as pair_ldl_t's, by triples)
+        integer :: ss = 0                         !! first block column of the separator
+        integer, allocatable :: cols(:)           !! (nt) the two groups' block columns, then ss..nt
+        real(dp), allocatable :: ys(:, :, :)      !! (4, nt - ss + 1, 2) each subtree's updates of the separator's rows
+        integer :: asked = 0                      !! the threads setting: 0 automatic, 1, 2
+        integer :: threads = 0                    !! threads of the solves (1, 2; 0: not yet decided)
+        integer :: par_min_n = 0                  !! smallest n solved on two threads (with threads)
     end type triple_ldl_t
 
     public :: pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, pair_ldl_free
     public :: triple_ldl_build, triple_ldl_solve, triple_ldl_solve_many, triple_ldl_free
-    public :: ldl_threads_set, ldl_threads_env, ldl_threads_choice, ldl_cpus, pair_ldl_threads
+    public :: ldl_threads_set, ldl_threads_env, ldl_threads_choice, ldl_cpus, pair_ldl_threads, &
+              triple_ldl_threads
+
+    !> Force the threads of a factor's solves (tests compare both paths).
+    interface ldl_threads_set
+        module procedure pair_threads_set, triple_threads_set
+    end interface ldl_threads_set
 
     !> Two threads in the 2x2 block solves (pair_ldl_solve) from this many dofs: below it
     !> the forking costs more than the half sweep saves (docs/performance.md, "Two
@@ -180,14 +193,38 @@ contains
         type(pair_ldl_t), intent(inout) :: f                !! block factors (n > 0)
         integer, intent(in) :: asked                        !! 0 (automatic), 1 or 2
         integer, intent(out) :: used                        !! threads of the solves
-        integer :: env
         f%asked = max(0, min(2, asked))
-        call ldl_threads_env(env, f%par_min_n)
-        f%threads = ldl_threads_choice(f%asked, env, ldl_cpus(), f%n, f%par_min_n)
+        call threads_wanted(f%asked, f%n, f%threads, f%par_min_n)
         if (f%threads >= 2 .and. f%sa < 0) call pair_find_split(f)
-        if (f%sa <= 0 .or. dc_omp_usable() == 0) f%threads = 1
+        if (f%sa <= 0) f%threads = 1
         used = f%threads
     end subroutine pair_ldl_threads
+
+    !> pair_ldl_threads for the 3x3 block factors.
+    subroutine triple_ldl_threads(f, asked, used)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors (n > 0)
+        integer, intent(in) :: asked                        !! 0 (automatic), 1 or 2
+        integer, intent(out) :: used                        !! threads of the solves
+        f%asked = max(0, min(2, asked))
+        call threads_wanted(f%asked, f%n, f%threads, f%par_min_n)
+        if (f%threads >= 2 .and. f%sa < 0) call triple_find_split(f)
+        if (f%sa <= 0) f%threads = 1
+        used = f%threads
+    end subroutine triple_ldl_threads
+
+    !> The threads ldl_threads_choice gives a factor of n dofs in this process (1 in a
+    !> fork of a process that had started OpenMP threads, omp_fork.c) and the size from
+    !> which two are used (the environment's, else PAR_MIN_DOFS).
+    subroutine threads_wanted(asked, n, threads, min_dofs)
+        integer, intent(in) :: asked                        !! 0, 1 or 2
+        integer, intent(in) :: n                            !! dofs of the factor
+        integer, intent(out) :: threads                     !! 1 or 2
+        integer, intent(out) :: min_dofs                    !! smallest n solved on two threads
+        integer :: env
+        call ldl_threads_env(env, min_dofs)
+        threads = ldl_threads_choice(asked, env, ldl_cpus(), n, min_dofs)
+        if (dc_omp_usable() == 0) threads = 1
+    end subroutine threads_wanted
 
     !> The threads of the triangular solves of a factor of n dofs: `env` (the
     !> environment's DYNCONTACT_THREADS, 1 or 2; 0 when not set) overrides `asked` (the
@@ -240,13 +277,31 @@ contains
     !> Force the threads of a factor's solves (1 or 2, whatever the setting and the
     !> environment; 0: decide again at the next solve) and the size from which two are
     !> used (tests compare both paths).
-    pure subroutine ldl_threads_set(f, threads, min_dofs)
+    pure subroutine pair_threads_set(f, threads, min_dofs)
         type(pair_ldl_t), intent(inout) :: f                !! block factors
         integer, intent(in) :: threads                      !! 0, 1 or 2
         integer, intent(in) :: min_dofs                     !! smallest n solved on two threads
         f%threads = max(0, min(2, threads))
         f%par_min_n = max(0, min_dofs)
-    end subroutine ldl_threads_set
+    end subroutine pair_threads_set
+
+    !> pair_threads_set for the 3x3 block factors.
+    pure subroutine triple_threads_set(f, threads, min_dofs)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors
+        integer, intent(in) :: threads                      !! 0, 1 or 2
+        integer, intent(in) :: min_dofs                     !! smallest n solved on two threads
+        f%threads = max(0, min(2, threads))
+        f%par_min_n = max(0, min_dofs)
+    end subroutine triple_threads_set
+
+    !> The split of the triples' elimination tree (find_split on the block rows) and the
+    !> separator buffers.
+    pure subroutine triple_find_split(f)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors
+        call find_split(f%nt, f%bp, f%bi, f%sa, f%ss, f%cols)
+        if (allocated(f%ys)) deallocate (f%ys)
+        if (f%sa > 0) allocate (f%ys(4, max(1, f%nt - f%ss + 1), 2))
+    end subroutine triple_find_split
 
     !> The split of the pairs' elimination tree (find_split on the block rows) and the
     !> separator buffers.
@@ -663,13 +718,161 @@ contains
         ok = .true.
     end subroutine triple_ldl_build
 
-    !> x = A^{-1} b with the 3x3 block factors (b and x: n entries; they may not alias).
-    pure subroutine triple_ldl_solve(f, b, x)
+    !> x = A^{-1} b with the 3x3 block factors (b and x: n entries; they may not alias); on
+    !> two threads (triple_sweeps_two) as pair_ldl_solve decides for the 2x2 ones.
+    subroutine triple_ldl_solve(f, b, x)
         type(triple_ldl_t), intent(inout) :: f              !! block factors (work vector used)
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
         real(dp), intent(out) :: x(:)                       !! solution (n)
+        integer :: used
+        if (f%threads == 0) call triple_ldl_threads(f, f%asked, used)
+        if (f%threads >= 2 .and. f%n >= f%par_min_n .and. dc_omp_usable() /= 0) then
+            if (f%sa < 0) call triple_find_split(f)
+            if (f%sa > 0) then
+                call triple_sweeps_two(f, b, x)
+                return
+            end if
+        end if
         call triple_sweeps(f%n, f%nt, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%ld, f%d, b, x, f%y)
     end subroutine triple_ldl_solve
+
+    !> triple_sweeps on two threads with the split of find_split, as pair_sweeps_two: the
+    !> forward sweep of the two groups at once, each adding its updates of the
+    !> separator's rows into a buffer of its own, those rows then b + first's + second's
+    !> (this order: the same result run to run); the separator forward and back; the
+    !> backward sweep of the two groups at once. The same operations as triple_sweeps but
+    !> for the separator's sums (round-off).
+    subroutine triple_sweeps_two(f, b, x)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors (split found)
+        real(dp), intent(in) :: b(:)                        !! right-hand side (n)
+        real(dp), intent(out) :: x(:)                       !! solution (n)
+        integer :: ns, nb, i, c
+        real(dp) :: none(4, 1)
+        ns = size(f%ys, 2)
+        nb = size(f%bi)
+        call dc_omp_starting()
+        !$omp parallel sections num_threads(2) default(shared)
+        !$omp section
+        call triple_gather(f%n, f%nt, f%perm, f%sa, f%cols(1:f%sa), b, f%y)
+        f%ys(:, :, 1) = 0.0_dp
+        call triple_fwd(f%nt, nb, f%bp, f%bi, f%bx, f%ld, f%d, f%sa, f%cols(1:f%sa), f%ss, &
+                        f%y, ns, f%ys(:, :, 1))
+        !$omp section
+        call triple_gather(f%n, f%nt, f%perm, f%ss - 1 - f%sa, f%cols(f%sa + 1:f%ss - 1), b, f%y)
+        f%ys(:, :, 2) = 0.0_dp
+        call triple_fwd(f%nt, nb, f%bp, f%bi, f%bx, f%ld, f%d, f%ss - 1 - f%sa, &
+                        f%cols(f%sa + 1:f%ss - 1), f%ss, f%y, ns, f%ys(:, :, 2))
+        !$omp end parallel sections
+        do i = f%ss, f%nt
+            c = 3 * i - 2
+            f%y(1, i) = (b(f%perm(c)) + f%ys(1, i - f%ss + 1, 1)) + f%ys(1, i - f%ss + 1, 2)
+            f%y(2, i) = (b(f%perm(c + 1)) + f%ys(2, i - f%ss + 1, 1)) + f%ys(2, i - f%ss + 1, 2)
+            f%y(3, i) = (b(f%perm(c + 2)) + f%ys(3, i - f%ss + 1, 1)) + f%ys(3, i - f%ss + 1, 2)
+            f%y(4, i) = 0.0_dp
+        end do
+        call triple_fwd(f%nt, nb, f%bp, f%bi, f%bx, f%ld, f%d, f%nt - f%ss + 1, &
+                        f%cols(f%ss:f%nt), f%nt + 1, f%y, 1, none)
+        call triple_bwd(f%n, f%nt, nb, f%perm, f%bp, f%bi, f%bx, f%ld, f%nt - f%ss + 1, &
+                        f%cols(f%ss:f%nt), f%y, x)
+        !$omp parallel sections num_threads(2) default(shared)
+        !$omp section
+        call triple_bwd(f%n, f%nt, nb, f%perm, f%bp, f%bi, f%bx, f%ld, f%sa, f%cols(1:f%sa), &
+                        f%y, x)
+        !$omp section
+        call triple_bwd(f%n, f%nt, nb, f%perm, f%bp, f%bi, f%bx, f%ld, f%ss - 1 - f%sa, &
+                        f%cols(f%sa + 1:f%ss - 1), f%y, x)
+        !$omp end parallel sections
+    end subroutine triple_sweeps_two
+
+    !> y's triples cl from b (P b), the fourth entries zero.
+    pure subroutine triple_gather(n, nt, perm, nc, cl, b, y)
+        integer, intent(in) :: n, nt                        !! size, triples
+        integer, intent(in) :: perm(n)                      !! permutation
+        integer, intent(in) :: nc                           !! block columns
+        integer, intent(in) :: cl(nc)                       !! their indices
+        real(dp), intent(in) :: b(n)                        !! right-hand side
+        real(dp), intent(inout) :: y(4, nt)                 !! work
+        integer :: t, c
+        do t = 1, nc
+            c = 3 * cl(t) - 2
+            y(:, cl(t)) = [b(perm(c)), b(perm(c + 1)), b(perm(c + 2)), 0.0_dp]
+        end do
+    end subroutine triple_gather
+
+    !> The forward sweep of triple_sweeps on the block columns cl (ascending; y's triples
+    !> gathered): updates of block rows >= rs go into ys (row rs: ys(:, 1)), the others
+    !> into y.
+    pure subroutine triple_fwd(nt, nb, bp, bi, bx, ld, d, nc, cl, rs, y, ns, ys)
+        integer, intent(in) :: nt, nb                       !! triples, blocks
+        integer, intent(in) :: bp(nt + 1), bi(nb)          !! block structure
+        real(dp), intent(in) :: bx(9 * nb + 9)              !! L's blocks (and the zero block)
+        real(dp), intent(in) :: ld(3, nt), d(3 * nt)        !! diagonal blocks, D
+        integer, intent(in) :: nc                           !! block columns
+        integer, intent(in) :: cl(nc)                       !! their indices, ascending
+        integer, intent(in) :: rs                           !! first block row kept in ys
+        real(dp), intent(inout) :: y(4, nt)                 !! work (fourth row: throw-away)
+        integer, intent(in) :: ns                           !! block rows of ys
+        real(dp), intent(inout) :: ys(4, ns)                !! updates of block rows >= rs
+        real(dp) :: y0, y1, y2
+        integer :: t, jb, q, i, o, c
+        do t = 1, nc
+            jb = cl(t)
+            y0 = y(1, jb)
+            y1 = y(2, jb) - ld(1, jb) * y0
+            y2 = y(3, jb) - ld(2, jb) * y0 - ld(3, jb) * y1
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                o = 9 * (q - 1)
+                if (i < rs) then
+                    y(:, i) = y(:, i) - (bx(o + 1:o + 4) * y0 + bx(o + 4:o + 7) * y1 &
+                                         + bx(o + 7:o + 10) * y2)
+                else
+                    ys(:, i - rs + 1) = ys(:, i - rs + 1) - (bx(o + 1:o + 4) * y0 &
+                                        + bx(o + 4:o + 7) * y1 + bx(o + 7:o + 10) * y2)
+                end if
+            end do
+            c = 3 * jb - 2
+            y(1, jb) = y0 / d(c)
+            y(2, jb) = y1 / d(c + 1)
+            y(3, jb) = y2 / d(c + 2)
+        end do
+    end subroutine triple_fwd
+
+    !> The backward sweep of triple_sweeps on the block columns cl, last first (the rows
+    !> below them final), each triple stored into x = P^T z.
+    pure subroutine triple_bwd(n, nt, nb, perm, bp, bi, bx, ld, nc, cl, y, x)
+        integer, intent(in) :: n, nt, nb                    !! size, triples, blocks
+        integer, intent(in) :: perm(n), bp(nt + 1), bi(nb)  !! permutation, block structure
+        real(dp), intent(in) :: bx(9 * nb + 9)              !! L's blocks (and the zero block)
+        real(dp), intent(in) :: ld(3, nt)                   !! diagonal blocks
+        integer, intent(in) :: nc                           !! block columns
+        integer, intent(in) :: cl(nc)                       !! their indices, ascending
+        real(dp), intent(inout) :: y(4, nt)                 !! work
+        real(dp), intent(inout) :: x(n)                     !! solution (the triples cl set)
+        real(dp) :: y0, y1, y2, s0(4), s1(4), s2(4)
+        integer :: t, jb, q, i, o, c
+        do t = nc, 1, -1
+            jb = cl(t)
+            s0 = 0.0_dp; s1 = 0.0_dp; s2 = 0.0_dp
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                o = 9 * (q - 1)
+                s0 = s0 + bx(o + 1:o + 4) * y(:, i)
+                s1 = s1 + bx(o + 4:o + 7) * y(:, i)
+                s2 = s2 + bx(o + 7:o + 10) * y(:, i)
+            end do
+            y2 = y(3, jb) - ((s2(1) + s2(2)) + s2(3))
+            y1 = y(2, jb) - ((s1(1) + s1(2)) + s1(3)) - ld(3, jb) * y2
+            y0 = y(1, jb) - ((s0(1) + s0(2)) + s0(3)) - ld(1, jb) * y1 - ld(2, jb) * y2
+            y(1, jb) = y0
+            y(2, jb) = y1
+            y(3, jb) = y2
+            c = 3 * jb - 2
+            x(perm(c)) = y0
+            x(perm(c + 1)) = y1
+            x(perm(c + 2)) = y2
+        end do
+    end subroutine triple_bwd
 
     !> X = A^{-1} B for the k columns of B in one pass over the factor (as
     !> pair_ldl_solve_many). Each column gets the operations of triple_ldl_solve in the
@@ -807,6 +1010,10 @@ contains
         if (allocated(f%ld)) deallocate (f%ld)
         if (allocated(f%d)) deallocate (f%d)
         if (allocated(f%y)) deallocate (f%y)
+        if (allocated(f%ys)) deallocate (f%ys)
+        if (allocated(f%cols)) deallocate (f%cols)
+        f%sa = -1
+        f%ss = 0
         f%n = 0
         f%nt = 0
     end subroutine triple_ldl_free

@@ -24,7 +24,7 @@ module linear_solver
     use cholmod, only: cholmod_t, chol_factor, chol_analyse, chol_solve, chol_solve_many, &
                        chol_free, chol_kernel, chol_ordering
     use pcg, only: pcg_t, pcg_setup, pcg_solve, pcg_solve_many, pcg_free
-    use ldl_solves, only: pair_ldl_threads
+    use ldl_solves, only: pair_ldl_threads, triple_ldl_threads
     implicit none
     private
 
@@ -137,7 +137,8 @@ contains
     !> Set the threads of the triangular solves of the next factorizations (&solver
     !> threads): 0 automatic (two when the process may run on two CPUs or more and the
     !> factor is large enough), 1, or 2; DYNCONTACT_THREADS overrides it (ldl_solves'
-    !> ldl_threads_choice). Only the 2x2 node-block solves (ldl_node_pairs) use two.
+    !> ldl_threads_choice). The node-block solves (ldl_node_pairs, ldl_node_triples) use
+    !> two; the other solves one.
     pure subroutine ls_set_threads(f, threads)
         type(factor_t), intent(inout) :: f                  !! solver (before ls_factor)
         integer, intent(in) :: threads                      !! 0, 1 or 2
@@ -266,6 +267,8 @@ contains
                 f%factorizations = f%factorizations + 1
                 f%threads_used = 1
                 if (f%ch%pairs%n > 0) call pair_ldl_threads(f%ch%pairs, f%threads, f%threads_used)
+                if (f%ch%triples%n > 0) &
+                    call triple_ldl_threads(f%ch%triples, f%threads, f%threads_used)
                 return
             end if
             if (stat /= STAT_NUMERIC) return
