@@ -222,8 +222,8 @@ if __name__ == "__main__":
 
 def test_fork_after_two_threads(tmp_path):
     """A process that solved on two threads, then forks (a fork-context pool): the child
-    solves on one thread and finishes (GNU libgomp's threads do not survive fork(); a
-    child entering a parallel region would wait for them for ever: omp_fork.c)."""
+    solves on one thread and finishes (the helper thread does not survive fork();
+    two_threads.c. With an OpenMP team, GNU libgomp's, the child hung for ever)."""
     path = tmp_path / "s.nml"
     path.write_text(BAR + "&solver threads = 2 /\n")
     e = dict(os.environ, DYNCONTACT_THREADS_MIN_DOFS="0")

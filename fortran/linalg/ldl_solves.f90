@@ -23,7 +23,7 @@
 !> (columns padded to four in memory took a third more memory and were no faster,
 !> docs/performance.md).
 module ldl_solves
-    use iso_c_binding, only: c_int
+    use iso_c_binding, only: c_int, c_ptr, c_funptr, c_loc, c_funloc, c_f_pointer
     use kinds, only: dp, i8
     use text, only: env_text
     implicit none
@@ -87,16 +87,31 @@ module ldl_solves
     integer, parameter, public :: PAR_MIN_DOFS = 20000
 
     interface
-        !> 1 when this process may start OpenMP threads (omp_fork.c: not a fork of a
-        !> process that had started them, whose children would hang).
-        function dc_omp_usable() bind(C, name='dc_omp_usable') result(ok)
+        !> 1 when this process may use the helper thread (two_threads.c: not a fork of a
+        !> process that had started one).
+        function dc_two_usable() bind(C, name='dc_two_usable') result(ok)
             import :: c_int
             integer(c_int) :: ok
-        end function dc_omp_usable
-        !> Before a parallel region: this process starts OpenMP threads.
-        subroutine dc_omp_starting() bind(C, name='dc_omp_starting')
-        end subroutine dc_omp_starting
+        end function dc_two_usable
+        !> fn(ctx, 1) here and fn(ctx, 2) on the helper thread if it takes it before
+        !> item 1 is done, else here too (two_threads.c); 2 when the helper ran it.
+        function dc_two_items(fn, ctx) bind(C, name='dc_two_items') result(by)
+            import :: c_int, c_ptr, c_funptr
+            type(c_funptr), value :: fn
+            type(c_ptr), value :: ctx
+            integer(c_int) :: by
+        end function dc_two_items
     end interface
+
+    !> One two-thread solve's data for the work items (pair_item, triple_item): the
+    !> factors, b, x and the sweep (1 forward, 2 backward).
+    type :: two_job_t
+        type(pair_ldl_t), pointer :: pf => null()     !! 2x2 factors, or
+        type(triple_ldl_t), pointer :: tf => null()   !! 3x3 factors
+        real(dp), pointer :: b(:) => null()           !! right-hand side
+        real(dp), pointer :: x(:) => null()           !! solution
+        integer :: sweep = 1                          !! 1 forward, 2 backward
+    end type two_job_t
 
 contains
 
@@ -172,7 +187,7 @@ contains
         real(dp), intent(out) :: x(:)                       !! solution (n)
         integer :: used
         if (f%threads == 0) call pair_ldl_threads(f, f%asked, used)
-        if (f%threads >= 2 .and. f%n >= f%par_min_n .and. dc_omp_usable() /= 0) then
+        if (f%threads >= 2 .and. f%n >= f%par_min_n .and. dc_two_usable() /= 0) then
             if (f%sa < 0) call pair_find_split(f)
             if (f%sa > 0) then
                 call pair_sweeps_two(f, b, x)
@@ -186,7 +201,7 @@ contains
     !> 0 automatic, 1, 2), DYNCONTACT_THREADS, the CPUs the process may use (ldl_cpus)
     !> and the factor's size (ldl_threads_choice); with two, look for the split of the
     !> elimination tree, and fall back to one when there is none, or when this process is
-    !> a fork of one that had started OpenMP threads (omp_fork.c). `used`: the threads its
+    !> a fork of one that had started the helper thread (two_threads.c). `used`: the threads its
     !> solves use from now on (1 or 2). Called again after a new factorization, it
     !> decides again.
     subroutine pair_ldl_threads(f, asked, used)
@@ -212,9 +227,9 @@ contains
         used = f%threads
     end subroutine triple_ldl_threads
 
-    !> The threads ldl_threads_choice gives a factor of n dofs in this process (1 in a
-    !> fork of a process that had started OpenMP threads, omp_fork.c) and the size from
-    !> which two are used (the environment's, else PAR_MIN_DOFS).
+    !> The threads ldl_threads_choice gives a factor of n dofs in this process and the
+    !> size from which two are used (the environment's, else PAR_MIN_DOFS); 1 in a fork
+    !> of a process that had started the helper thread (two_threads.c).
     subroutine threads_wanted(asked, n, threads, min_dofs)
         integer, intent(in) :: asked                        !! 0, 1 or 2
         integer, intent(in) :: n                            !! dofs of the factor
@@ -223,7 +238,7 @@ contains
         integer :: env
         call ldl_threads_env(env, min_dofs)
         threads = ldl_threads_choice(asked, env, ldl_cpus(), n, min_dofs)
-        if (dc_omp_usable() == 0) threads = 1
+        if (dc_two_usable() == 0) threads = 1
     end subroutine threads_wanted
 
     !> The threads of the triangular solves of a factor of n dofs: `env` (the
@@ -411,43 +426,28 @@ contains
         end if
     end subroutine find_split
 
-    !> pair_sweeps on two threads with the split of find_split: the forward sweep of
-    !> the two ranges at once, each adding its updates of the separator's rows into a
+    !> pair_sweeps on two threads with the split of find_split (the calling thread and
+    !> two_threads.c's helper, when it is free in time; else the calling thread alone,
+    !> the same operations): the forward sweep of the two ranges at once, each adding its updates of the separator's rows into a
     !> buffer of its own (zeroed), the separator's rows then b + first's + second's
     !> (always this order: the same result run to run); the separator forward and back;
     !> then the backward sweep of the two ranges at once (they read the separator's
     !> rows, final). The operations are those of pair_sweeps but for the separator's
     !> sums, added in another order: the results differ by round-off.
     subroutine pair_sweeps_two(f, b, x)
-        type(pair_ldl_t), intent(inout) :: f                !! block factors (split found)
-        real(dp), intent(in) :: b(:)                        !! right-hand side (n)
-        real(dp), intent(out) :: x(:)                       !! solution (n)
-        integer :: rs, ns, nb, i, t, jb
+        type(pair_ldl_t), target, intent(inout) :: f        !! block factors (split found)
+        real(dp), target, intent(in) :: b(:)                !! right-hand side (n)
+        real(dp), target, intent(out) :: x(:)               !! solution (n)
+        type(two_job_t), target :: job
+        integer :: rs, nb, i, by
         real(dp) :: none(2)
         rs = 2 * f%ss - 1
-        ns = size(f%ys, 1)
         nb = size(f%bi)
-        call dc_omp_starting()
-        !$omp parallel sections num_threads(2) default(shared) private(i, t, jb)
-        !$omp section
-        do t = 1, f%sa
-            jb = f%cols(t)
-            f%y(2 * jb - 1) = b(f%perm(2 * jb - 1))
-            f%y(2 * jb) = b(f%perm(2 * jb))
-        end do
-        f%ys(:, 1) = 0.0_dp
-        call pair_fwd(f%n, f%nn, nb, f%bp, f%bi, f%bx, f%l21, f%d, f%sa, f%cols(1:f%sa), &
-                      rs, f%y, ns, f%ys(:, 1))
-        !$omp section
-        do t = f%sa + 1, f%ss - 1
-            jb = f%cols(t)
-            f%y(2 * jb - 1) = b(f%perm(2 * jb - 1))
-            f%y(2 * jb) = b(f%perm(2 * jb))
-        end do
-        f%ys(:, 2) = 0.0_dp
-        call pair_fwd(f%n, f%nn, nb, f%bp, f%bi, f%bx, f%l21, f%d, f%ss - 1 - f%sa, &
-                      f%cols(f%sa + 1:f%ss - 1), rs, f%y, ns, f%ys(:, 2))
-        !$omp end parallel sections
+        job%pf => f
+        job%b => b
+        job%x => x
+        job%sweep = 1
+        by = dc_two_items(c_funloc(pair_item), c_loc(job))
         do i = rs, f%n
             f%y(i) = (b(f%perm(i)) + f%ys(i - rs + 1, 1)) + f%ys(i - rs + 1, 2)
         end do
@@ -455,15 +455,37 @@ contains
                       f%cols(f%ss:f%nn), f%n + 1, f%y, 2, none)
         call pair_bwd(f%n, f%nn, nb, f%perm, f%bp, f%bi, f%bx, f%l21, f%nn - f%ss + 1, &
                       f%cols(f%ss:f%nn), f%y, x)
-        !$omp parallel sections num_threads(2) default(shared)
-        !$omp section
-        call pair_bwd(f%n, f%nn, nb, f%perm, f%bp, f%bi, f%bx, f%l21, f%sa, f%cols(1:f%sa), &
-                      f%y, x)
-        !$omp section
-        call pair_bwd(f%n, f%nn, nb, f%perm, f%bp, f%bi, f%bx, f%l21, f%ss - 1 - f%sa, &
-                      f%cols(f%sa + 1:f%ss - 1), f%y, x)
-        !$omp end parallel sections
+        job%sweep = 2
+        by = dc_two_items(c_funloc(pair_item), c_loc(job))
     end subroutine pair_sweeps_two
+
+    !> Work item `item` (1: the first group, cols(1:sa); 2: the second) of the sweep
+    !> job%sweep of pair_sweeps_two: forward, P b gathered into the group's rows, its
+    !> updates of the separator's rows into ys(:, item) (zeroed first); backward.
+    subroutine pair_item(ctx, item) bind(C)
+        type(c_ptr), value :: ctx                           !! the two_job_t
+        integer(c_int), value :: item                       !! 1 or 2
+        type(two_job_t), pointer :: job
+        integer :: t0, t1, t, jb
+        call c_f_pointer(ctx, job)
+        associate (f => job%pf)
+            t0 = merge(1, f%sa + 1, item == 1)
+            t1 = merge(f%sa, f%ss - 1, item == 1)
+            if (job%sweep == 1) then
+                do t = t0, t1
+                    jb = f%cols(t)
+                    f%y(2 * jb - 1) = job%b(f%perm(2 * jb - 1))
+                    f%y(2 * jb) = job%b(f%perm(2 * jb))
+                end do
+                f%ys(:, item) = 0.0_dp
+                call pair_fwd(f%n, f%nn, size(f%bi), f%bp, f%bi, f%bx, f%l21, f%d, t1 - t0 + 1, &
+                              f%cols(t0:t1), 2 * f%ss - 1, f%y, size(f%ys, 1), f%ys(:, item))
+            else
+                call pair_bwd(f%n, f%nn, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%l21, &
+                              t1 - t0 + 1, f%cols(t0:t1), f%y, job%x)
+            end if
+        end associate
+    end subroutine pair_item
 
     !> The forward sweep of pair_sweeps on the block columns cl (ascending; y's rows
     !> gathered): updates of rows >= rs go into ys (row rs: ys(1)), the others into y.
@@ -726,7 +748,7 @@ contains
         real(dp), intent(out) :: x(:)                       !! solution (n)
         integer :: used
         if (f%threads == 0) call triple_ldl_threads(f, f%asked, used)
-        if (f%threads >= 2 .and. f%n >= f%par_min_n .and. dc_omp_usable() /= 0) then
+        if (f%threads >= 2 .and. f%n >= f%par_min_n .and. dc_two_usable() /= 0) then
             if (f%sa < 0) call triple_find_split(f)
             if (f%sa > 0) then
                 call triple_sweeps_two(f, b, x)
@@ -743,46 +765,55 @@ contains
     !> backward sweep of the two groups at once. The same operations as triple_sweeps but
     !> for the separator's sums (round-off).
     subroutine triple_sweeps_two(f, b, x)
-        type(triple_ldl_t), intent(inout) :: f              !! block factors (split found)
-        real(dp), intent(in) :: b(:)                        !! right-hand side (n)
-        real(dp), intent(out) :: x(:)                       !! solution (n)
-        integer :: ns, nb, i, c
+        type(triple_ldl_t), target, intent(inout) :: f      !! block factors (split found)
+        real(dp), target, intent(in) :: b(:)                !! right-hand side (n)
+        real(dp), target, intent(out) :: x(:)               !! solution (n)
+        type(two_job_t), target :: job
+        integer :: nb, i, c, k, by
         real(dp) :: none(4, 1)
-        ns = size(f%ys, 2)
         nb = size(f%bi)
-        call dc_omp_starting()
-        !$omp parallel sections num_threads(2) default(shared)
-        !$omp section
-        call triple_gather(f%n, f%nt, f%perm, f%sa, f%cols(1:f%sa), b, f%y)
-        f%ys(:, :, 1) = 0.0_dp
-        call triple_fwd(f%nt, nb, f%bp, f%bi, f%bx, f%ld, f%d, f%sa, f%cols(1:f%sa), f%ss, &
-                        f%y, ns, f%ys(:, :, 1))
-        !$omp section
-        call triple_gather(f%n, f%nt, f%perm, f%ss - 1 - f%sa, f%cols(f%sa + 1:f%ss - 1), b, f%y)
-        f%ys(:, :, 2) = 0.0_dp
-        call triple_fwd(f%nt, nb, f%bp, f%bi, f%bx, f%ld, f%d, f%ss - 1 - f%sa, &
-                        f%cols(f%sa + 1:f%ss - 1), f%ss, f%y, ns, f%ys(:, :, 2))
-        !$omp end parallel sections
+        job%tf => f
+        job%b => b
+        job%x => x
+        job%sweep = 1
+        by = dc_two_items(c_funloc(triple_item), c_loc(job))
         do i = f%ss, f%nt
             c = 3 * i - 2
-            f%y(1, i) = (b(f%perm(c)) + f%ys(1, i - f%ss + 1, 1)) + f%ys(1, i - f%ss + 1, 2)
-            f%y(2, i) = (b(f%perm(c + 1)) + f%ys(2, i - f%ss + 1, 1)) + f%ys(2, i - f%ss + 1, 2)
-            f%y(3, i) = (b(f%perm(c + 2)) + f%ys(3, i - f%ss + 1, 1)) + f%ys(3, i - f%ss + 1, 2)
+            k = i - f%ss + 1
+            f%y(1, i) = (b(f%perm(c)) + f%ys(1, k, 1)) + f%ys(1, k, 2)
+            f%y(2, i) = (b(f%perm(c + 1)) + f%ys(2, k, 1)) + f%ys(2, k, 2)
+            f%y(3, i) = (b(f%perm(c + 2)) + f%ys(3, k, 1)) + f%ys(3, k, 2)
             f%y(4, i) = 0.0_dp
         end do
         call triple_fwd(f%nt, nb, f%bp, f%bi, f%bx, f%ld, f%d, f%nt - f%ss + 1, &
                         f%cols(f%ss:f%nt), f%nt + 1, f%y, 1, none)
         call triple_bwd(f%n, f%nt, nb, f%perm, f%bp, f%bi, f%bx, f%ld, f%nt - f%ss + 1, &
                         f%cols(f%ss:f%nt), f%y, x)
-        !$omp parallel sections num_threads(2) default(shared)
-        !$omp section
-        call triple_bwd(f%n, f%nt, nb, f%perm, f%bp, f%bi, f%bx, f%ld, f%sa, f%cols(1:f%sa), &
-                        f%y, x)
-        !$omp section
-        call triple_bwd(f%n, f%nt, nb, f%perm, f%bp, f%bi, f%bx, f%ld, f%ss - 1 - f%sa, &
-                        f%cols(f%sa + 1:f%ss - 1), f%y, x)
-        !$omp end parallel sections
+        job%sweep = 2
+        by = dc_two_items(c_funloc(triple_item), c_loc(job))
     end subroutine triple_sweeps_two
+
+    !> Work item `item` of triple_sweeps_two (as pair_item).
+    subroutine triple_item(ctx, item) bind(C)
+        type(c_ptr), value :: ctx                           !! the two_job_t
+        integer(c_int), value :: item                       !! 1 or 2
+        type(two_job_t), pointer :: job
+        integer :: t0, t1
+        call c_f_pointer(ctx, job)
+        associate (f => job%tf)
+            t0 = merge(1, f%sa + 1, item == 1)
+            t1 = merge(f%sa, f%ss - 1, item == 1)
+            if (job%sweep == 1) then
+                call triple_gather(f%n, f%nt, f%perm, t1 - t0 + 1, f%cols(t0:t1), job%b, f%y)
+                f%ys(:, :, item) = 0.0_dp
+                call triple_fwd(f%nt, size(f%bi), f%bp, f%bi, f%bx, f%ld, f%d, t1 - t0 + 1, &
+                                f%cols(t0:t1), f%ss, f%y, size(f%ys, 2), f%ys(:, :, item))
+            else
+                call triple_bwd(f%n, f%nt, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%ld, &
+                                t1 - t0 + 1, f%cols(t0:t1), f%y, job%x)
+            end if
+        end associate
+    end subroutine triple_item
 
     !> y's triples cl from b (P b), the fourth entries zero.
     pure subroutine triple_gather(n, nt, perm, nc, cl, b, y)
