@@ -788,10 +788,11 @@ subroutine dc_sim_load(handle, path, step, stat, errmsg)
 end subroutine dc_sim_load
 
 !> The 2x2 (3x3) block solves of A (symmetric positive definite, 1-based COO triplets,
-!> made of node pairs or triples) on one thread and on two (ldl_solves' split of the elimination tree, at
-!> any size) for the m columns of b, to compare the two. split = [block columns, last
-!> column of the first range (0: no split, serial), first column of the separator];
-!> kernel = chol_kernel's name. The threads' setting is read again afterwards.
+!> made of node pairs or triples) on one thread and on two (ldl_solves' split of the
+!> elimination tree, at any size, whatever the setting and the environment) for the m
+!> columns of b, to compare the two. split = [block columns, last column of the first
+!> range (0: no split, serial), first column of the separator]; kernel = chol_kernel's
+!> name.
 subroutine dc_ldl_threads_compare(n, nnz, m, rows, cols, vals, b, x_serial, x_threads, split, &
                                   kernel, stat, errmsg)
     use iso_c_binding, only: c_int, c_double

@@ -78,7 +78,7 @@ module scene
         character(len=NAME_LEN) :: solver_kind     !! 'direct' | 'cg' | 'auto'
         real(dp) :: cg_rtol                        !! CG relative residual tolerance
         integer :: cg_max_iter                     !! CG iteration limit of one solve
-        integer :: solver_threads                  !! threads of the triangular solves: 0 automatic, 1, 2
+        integer :: solver_threads                  !! solves' threads: 0 automatic, 1, 2
     end type scene_t
 
     public :: scene_read, scene_parse, scene_to_json, scene_check_dim, scene_bar_dim

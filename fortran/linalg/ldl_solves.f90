@@ -45,8 +45,8 @@ module ldl_solves
         integer :: ss = 0                         !! first block column of the separator (ss..nn, after both)
         integer, allocatable :: cols(:)           !! (nn) the two groups' block columns, each ascending, then ss..nn
         real(dp), allocatable :: ys(:, :)         !! (n - 2 ss + 2, 2) each subtree's updates of the separator's rows
-        integer :: asked = 0                      !! the threads setting (&solver threads): 0 automatic, 1, 2
-        integer :: threads = 0                    !! threads of the solves (1, 2; 0: not yet decided, pair_ldl_threads)
+        integer :: asked = 0                      !! &solver threads: 0 automatic, 1, 2
+        integer :: threads = 0                    !! threads of the solves (1, 2; 0: not decided)
         integer :: par_min_n = 0                  !! smallest n solved on two threads (with threads)
     end type pair_ldl_t
 
@@ -65,9 +65,10 @@ module ldl_solves
         integer :: sa = -1                        !! two-thread split (as pair_ldl_t's, by triples)
         integer :: ss = 0                         !! first block column of the separator
         integer, allocatable :: cols(:)           !! (nt) the two groups' block columns, then ss..nt
-        real(dp), allocatable :: ys(:, :, :)      !! (4, nt - ss + 1, 2) each subtree's updates of the separator's rows
+        real(dp), allocatable :: ys(:, :, :)      !! (4, nt - ss + 1, 2) updates of the separator
+
         integer :: asked = 0                      !! the threads setting: 0 automatic, 1, 2
-        integer :: threads = 0                    !! threads of the solves (1, 2; 0: not yet decided)
+        integer :: threads = 0                    !! threads of the solves (1, 2; 0: not decided)
         integer :: par_min_n = 0                  !! smallest n solved on two threads (with threads)
     end type triple_ldl_t
 
@@ -200,10 +201,10 @@ contains
     !> Decide the threads of a factor's solves from the setting `asked` (&solver threads:
     !> 0 automatic, 1, 2), DYNCONTACT_THREADS, the CPUs the process may use (ldl_cpus)
     !> and the factor's size (ldl_threads_choice); with two, look for the split of the
-    !> elimination tree, and fall back to one when there is none, or when this process is
-    !> a fork of one that had started the helper thread (two_threads.c). `used`: the threads its
-    !> solves use from now on (1 or 2). Called again after a new factorization, it
-    !> decides again.
+    !> elimination tree, and fall back to one when there is none, or when this process
+    !> is a fork of one that had started the helper thread (two_threads.c). `used`: the
+    !> threads its solves use from now on (1 or 2). Called again after a new
+    !> factorization, it decides again.
     subroutine pair_ldl_threads(f, asked, used)
         type(pair_ldl_t), intent(inout) :: f                !! block factors (n > 0)
         integer, intent(in) :: asked                        !! 0 (automatic), 1 or 2
@@ -428,8 +429,9 @@ contains
 
     !> pair_sweeps on two threads with the split of find_split (the calling thread and
     !> two_threads.c's helper, when it is free in time; else the calling thread alone,
-    !> the same operations): the forward sweep of the two ranges at once, each adding its updates of the separator's rows into a
-    !> buffer of its own (zeroed), the separator's rows then b + first's + second's
+    !> the same operations): the forward sweep of the two ranges at once, each adding
+    !> its updates of the separator's rows into a buffer of its own (zeroed), the
+    !> separator's rows then b + first's + second's
     !> (always this order: the same result run to run); the separator forward and back;
     !> then the backward sweep of the two ranges at once (they read the separator's
     !> rows, final). The operations are those of pair_sweeps but for the separator's

@@ -79,7 +79,7 @@ module linear_solver
         integer(i8) :: auto_nnz = 0             !! 'auto': nnz(J0) of the last decision
         integer(i8) :: auto_factor_nnz = 0      !! 'auto': the analysis' factor entries
         character(len=8) :: auto_kind = ''      !! 'auto': what it chose ('' before any)
-        integer :: threads = 0                  !! &solver threads: 0 automatic, 1, 2 (ls_set_threads)
+        integer :: threads = 0                  !! &solver threads: 0 automatic, 1, 2
         integer :: threads_used = 1             !! threads of the triangular solves of the factors
     end type factor_t
 

@@ -20,8 +20,8 @@ module simulation
     use implicit_schemes, only: implicit_scheme_t, implicit_solver_report
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, ls_factorization, ls_auto_reason, &
-                             ls_set_threads, ls_threads
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, ls_factorization, &
+                             ls_auto_reason, ls_set_threads, ls_threads
     use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
                             trace_sync, trace_close, json_real, json_string, TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
