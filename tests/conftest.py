@@ -16,6 +16,12 @@ EXE = ROOT / "build" / "dyncontact"
 #: Seconds a subprocess of a test may take before it counts as hung.
 SUBPROCESS_TIMEOUT = 120
 
+# Parallel test workers (pytest-xdist sets PYTEST_XDIST_WORKER) share the cores: each
+# runs its triangular solves on one thread, as the package's sweeps do (docs/scenes.md,
+# &solver threads), unless the environment already says otherwise. Subprocesses inherit it.
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    os.environ.setdefault("DYNCONTACT_THREADS", "1")
+
 
 @pytest.fixture(scope="session")
 def root() -> Path:

@@ -62,14 +62,18 @@ def test_ratio_is_getfem_over_ours():
 
 def test_table_on_canned_rows():
     rows = [{"h": 0.0025, "dofs": 32800, "steps": 400, "getfem_ms": 21.0, "ours_ms": 1.5,
-             "ratio": gc.ratio(21.0, 1.5), "getfem_peak_mb": 150.0, "ours_peak_mb": 120.0},
+             "ratio": gc.ratio(21.0, 1.5), "getfem_peak_mb": 150.0, "ours_peak_mb": 120.0,
+             "getfem_wall_ms": 22.0, "ours_wall_ms": 1.0, "wall_ratio": gc.ratio(22.0, 1.0),
+             "ours_threads": 2},
             {"h": 0.00125, "dofs": 129600, "steps": 200, "getfem_ms": 114.0,
              "ours_ms": None, "ratio": None, "getfem_peak_mb": 780.0, "ours_peak_mb": None}]
     lines = gc.rows_table(rows)
     assert lines[0].startswith("| h | dofs | steps | GetFEM script ms/step")
     assert "Model.solve" not in lines[0]           # not measured: no such columns
-    assert lines[2] == "| 0.0025 | 32800 | 400 | 21 | 1.5 | 14 | 150 | 120 |"
-    assert lines[3] == "| 0.00125 | 129600 | 200 | 114 | – | – | 780 | – |"
+    assert lines[2] == ("| 0.0025 | 32800 | 400 | 21 | 1.5 | 14 | 150 | 120 | 22 | 1 | 22 | 2 "
+                        "| auto |")
+    assert lines[3] == ("| 0.00125 | 129600 | 200 | 114 | – | – | 780 | – | – | – | – | – "
+                        "| auto |")
     rows[0].update(model_steps=6, model_ms=700.0, model_ratio=gc.ratio(700.0, 1.5))
     lines = gc.rows_table(rows)
     assert lines[0].endswith("| Model.solve steps | Model.solve ms/step | ratio |")
@@ -116,26 +120,59 @@ def test_scene_is_the_getfem_scripts_problem(tmp_path):
 def test_rounds_interleave_and_keep_the_best(monkeypatch):
     calls = []
     getfem_ms = iter([3.0, 2.0])
+    getfem_wall = iter([3.5, 3.1])
     ours_ms = iter([0.05, 0.07])
+    ours_wall = iter([0.06, 0.04])
 
     def fake_getfem(py, h, steps, loop="scipy", env=None, script=None):
-        calls.append(("getfem", loop, steps))
+        calls.append(("getfem", loop, steps, env))
         return {"ms_per_step": next(getfem_ms), "peak_mb": 60.0 + len(calls),
-                "dofs": 2200, "setup_cpu_s": 0.1, "factorizations": 0}
+                "dofs": 2200, "setup_cpu_s": 0.1, "factorizations": 0,
+                "ms_per_step_wall": next(getfem_wall)}
 
     def fake_ours(exe, h, steps, work, env=None):
-        calls.append(("ours", steps))
-        return {"ms_per_step": next(ours_ms), "peak_mb": 9.0, "dofs": 2200}
+        calls.append(("ours", steps, env))
+        return {"ms_per_step": next(ours_ms), "peak_mb": 9.0, "dofs": 2200,
+                "wall_ms_per_step": next(ours_wall), "threads": 2}
 
     monkeypatch.setattr(gc, "measure_getfem", fake_getfem)
     monkeypatch.setattr(gc, "measure_ours", fake_ours)
-    rows = gc.compare("py", "exe", [0.01], steps=50, repeats=2, log=lambda *_: None)
-    assert calls == [("getfem", "scipy", 50), ("ours", 50)] * 2
+    rows = gc.compare("py", "exe", [0.01], steps=50, repeats=2, log=lambda *_: None,
+                      env={"G": "1"}, ours_env={"O": "1"})
+    assert calls == [("getfem", "scipy", 50, {"G": "1"}), ("ours", 50, {"O": "1"})] * 2
     (r,) = rows
     assert r["getfem_ms"] == 2.0 and r["ours_ms"] == 0.05
     assert r["ratio"] == pytest.approx(40.0)
+    # the wall times: the smallest of the rounds, each side on its own
+    assert r["getfem_wall_ms"] == 3.1 and r["ours_wall_ms"] == 0.04
+    assert r["wall_ratio"] == pytest.approx(3.1 / 0.04) and r["ours_threads"] == 2
     assert r["getfem_peak_mb"] == 63.0        # the largest of the rounds' peaks
     assert r["dofs"] == 2200 and r["steps"] == 50
+
+
+def test_settings_share_the_getfem_runs(monkeypatch):
+    """--threads auto,1: each round runs GetFEM once, then dyncontact with each setting;
+    a row for each setting, against the same GetFEM numbers."""
+    calls = []
+
+    def fake_getfem(py, h, steps, loop="scipy", env=None, script=None):
+        calls.append("getfem")
+        return {"ms_per_step": 2.0, "peak_mb": 60.0, "dofs": 2200, "ms_per_step_wall": 2.5}
+
+    def fake_ours(exe, h, steps, work, env=None):
+        calls.append(env["T"])
+        wall = {"auto": 0.02, "1": 0.04}[env["T"]]
+        return {"ms_per_step": 0.05, "peak_mb": 9.0, "dofs": 2200, "wall_ms_per_step": wall,
+                "threads": 2 if env["T"] == "auto" else 1}
+
+    monkeypatch.setattr(gc, "measure_getfem", fake_getfem)
+    monkeypatch.setattr(gc, "measure_ours", fake_ours)
+    rows = gc.compare("py", "exe", [0.01], steps=50, repeats=2, log=lambda *_: None,
+                      settings=[("auto", {"T": "auto"}), ("1", {"T": "1"})])
+    assert calls == ["getfem", "auto", "1"] * 2
+    assert [r["threads_setting"] for r in rows] == ["auto", "1"]
+    assert [r["ours_threads"] for r in rows] == [2, 1]
+    assert [r["wall_ratio"] for r in rows] == [pytest.approx(125.0), pytest.approx(62.5)]
 
 
 def test_without_getfem_exits_0_with_a_message(capsys, tmp_path):

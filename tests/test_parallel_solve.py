@@ -1,6 +1,7 @@
 """The 2x2 block triangular solves on two threads (fortran/linalg/ldl_solves.f90,
 pair_sweeps_two) equal the serial ones (pair_sweeps) to round-off, are the same run to
-run, and a scene's trace does not depend on them (DYNCONTACT_THREADS, docs/scenes.md).
+run, and a scene's trace does not depend on them (DYNCONTACT_THREADS, docs/scenes.md);
+the same for the 3x3 block solves of node triples (triple_sweeps_two, 3D).
 
 The two-thread solve does the serial solve's operations but for the forward updates of
 the top separator's rows: the updates from the two subtrees are summed in two buffers
@@ -9,7 +10,8 @@ k the entries of a row of L: a relative change of at most about k eps of the sum
 their magnitudes (Wilkinson), which the rest of the solve carries into x amplified at
 most by kappa(A). On the test's grid (a fill-reducing ordering of a square grid: rows of
 L hold O(sqrt(n_dofs)) entries; a shifted Laplacian with kappa <= KAPPA) that gives RTOL
-below.
+below. On the 3D grid of the triples the rows of L hold O(n_dofs^(2/3)) entries (the
+top separator, a plane of the cube): RTOL3 = 4 kappa n^(2/3) eps.
 """
 from __future__ import annotations
 
@@ -55,8 +57,41 @@ def grid_pairs(side):
     return (np.concatenate(rows) + 1, np.concatenate(cols) + 1, np.concatenate(vals), 2 * n)
 
 
-def compare(b):
-    rows, cols, vals, n = grid_pairs(SIDE)
+#: Nodes per side of the 3D test grid: 3 * 16^3 = 12 288 dofs.
+SIDE3 = 16
+#: kappa(A) of the 3D grid matrix: kron(L + I, B3), L's eigenvalues in [0, 12], B3 =
+#: [3 1 1; 1 3 1; 1 1 3] with eigenvalues 2, 2, 5: A's eigenvalues in [2, 65].
+KAPPA3 = 32.5
+#: 4 kappa n^(2/3) eps with n = 3 SIDE3^3 (the row lengths of L, see the docstring).
+RTOL3 = 4.0 * KAPPA3 * (3 * SIDE3**3) ** (2.0 / 3.0) * np.finfo(float).eps
+
+
+def grid_triples(side):
+    """kron(L + I, B3) with L the 7-point Laplacian of a side^3 grid (Dirichlet-like
+    diagonal 6) and B3 = [3 1 1; 1 3 1; 1 1 3]: three dofs a node, 1-based COO."""
+    n = side**3
+    idx = np.arange(n).reshape(side, side, side)
+    r = [idx.ravel()]
+    c = [idx.ravel()]
+    v = [np.full(n, 7.0)]
+    for a, b in ((idx[:, :, :-1], idx[:, :, 1:]), (idx[:, :-1, :], idx[:, 1:, :]),
+                 (idx[:-1, :, :], idx[1:, :, :])):
+        r += [a.ravel(), b.ravel()]
+        c += [b.ravel(), a.ravel()]
+        v += [np.full(a.size, -1.0)] * 2
+    r, c, v = np.concatenate(r), np.concatenate(c), np.concatenate(v)
+    blk = np.ones((3, 3)) + 2.0 * np.eye(3)
+    rows, cols, vals = [], [], []
+    for i in range(3):
+        for j in range(3):
+            rows.append(3 * r + i)
+            cols.append(3 * c + j)
+            vals.append(v * blk[i, j])
+    return (np.concatenate(rows) + 1, np.concatenate(cols) + 1, np.concatenate(vals), 3 * n)
+
+
+def compare(b, grid=None):
+    rows, cols, vals, n = grid or grid_pairs(SIDE)
     b = np.asfortranarray(b, dtype=np.float64)
     assert b.shape[0] == n
     xs, xt, split, kernel, stat, msg = _core.dc_ldl_threads_compare(
@@ -118,6 +153,55 @@ def test_scene_trace_does_not_depend_on_threads(tmp_path):
                               str(ROOT / "scripts" / "scenes" / "bar2d_hht.nml"), str(out)],
                              env=env, capture_output=True, text=True, timeout=600)
         assert res.returncode == 0, res.stderr
+        traces[threads] = dyncontact.core.read_trace(out)
+    a, b = traces["1"], traces["2"]
+    assert a["t"].shape == b["t"].shape and a["t"].size > 1
+    for col in a:
+        scale = max(1.0, np.abs(a[col]).max())
+        assert np.abs(a[col] - b[col]).max() <= 1e-12 * scale, col
+
+
+def test_two_threads_equal_serial_to_round_off_3d():
+    """The 3x3 node-block solve (ldl_node_triples) on two threads."""
+    grid = grid_triples(SIDE3)
+    rows, cols, vals, n = grid
+    rng = np.random.default_rng(9)
+    b = rng.standard_normal((n, 3))
+    xs, xt, split, kernel = compare(b, grid)
+    assert kernel == "ldl_node_triples"
+    nt, sa, ss = split
+    assert nt == SIDE3**3 and 0 < sa < ss - 1 and ss <= nt + 1, split
+    for j in range(b.shape[1]):
+        diff = np.abs(xt[:, j] - xs[:, j]).max() / np.abs(xs[:, j]).max()
+        assert diff <= RTOL3, (j, diff, RTOL3)
+    ax = np.zeros(n)
+    np.add.at(ax, rows - 1, vals * xt[cols - 1, 0])
+    assert np.abs(ax - b[:, 0]).max() <= RTOL3 * np.abs(b[:, 0]).max() * KAPPA3
+    # run to run: the same bits
+    _, xt2, _, _ = compare(b, grid)
+    assert np.array_equal(xt, xt2)
+
+
+def test_scene_trace_does_not_depend_on_threads_3d(tmp_path):
+    """The 3D box (J0 solved by 3x3 blocks each step) on two threads (threshold 0) and on
+    one: the traces agree to 1e-12, and summary.json says which."""
+    import json
+    import dyncontact
+    text = ("&mesh dim = 3, h = 0.025 /\n&scheme dt = 0.0025, t_end = 0.05 /\n")
+    traces = {}
+    for threads in ("1", "2"):
+        out = tmp_path / f"t{threads}"
+        path = tmp_path / f"s{threads}.nml"
+        path.write_text(text + f"&solver threads = {threads} /\n&output dir = '{out}' /\n")
+        env = dict(os.environ, DYNCONTACT_THREADS_MIN_DOFS="0")
+        env.pop("DYNCONTACT_THREADS", None)
+        env.pop("PYTHONPATH", None)
+        res = subprocess.run([sys.executable, "-m", "dyncontact", "run", str(path)], env=env,
+                             capture_output=True, text=True, timeout=600)
+        assert res.returncode == 0, res.stderr
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["solve_kernel"] == "ldl_node_triples"
+        assert summary["solve_threads"] == int(threads)
         traces[threads] = dyncontact.core.read_trace(out)
     a, b = traces["1"], traces["2"]
     assert a["t"].shape == b["t"].shape and a["t"].size > 1

@@ -241,6 +241,12 @@ BAD_CASES = [
             "must be >= 0"),
     BadCase("checkpoint_every_negative", "&output checkpoint_every = -1 /\n",
             "&output checkpoint_every", "must be >= 0"),
+    BadCase("solver_threads_three", "&solver threads = 3 /\n", "&solver threads",
+            "must be 0, 1 or 2"),
+    BadCase("solver_threads_negative", "&solver threads = -1 /\n", "&solver threads",
+            "must be 0, 1 or 2"),
+    BadCase("solver_threads_name", "&solver threads = 'auto' /\n", "&solver threads",
+            "expected an integer, not a string"),
 ]
 
 

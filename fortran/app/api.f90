@@ -787,11 +787,12 @@ subroutine dc_sim_load(handle, path, step, stat, errmsg)
     stat = st
 end subroutine dc_sim_load
 
-!> The 2x2 block solves of A (symmetric positive definite, 1-based COO triplets, made of
-!> node pairs) on one thread and on two (ldl_solves' split of the elimination tree, at
-!> any size) for the m columns of b, to compare the two. split = [block columns, last
-!> column of the first range (0: no split, serial), first column of the separator];
-!> kernel = chol_kernel's name. The threads' setting is read again afterwards.
+!> The 2x2 (3x3) block solves of A (symmetric positive definite, 1-based COO triplets,
+!> made of node pairs or triples) on one thread and on two (ldl_solves' split of the
+!> elimination tree, at any size, whatever the setting and the environment) for the m
+!> columns of b, to compare the two. split = [block columns, last column of the first
+!> range (0: no split, serial), first column of the separator]; kernel = chol_kernel's
+!> name.
 subroutine dc_ldl_threads_compare(n, nnz, m, rows, cols, vals, b, x_serial, x_threads, split, &
                                   kernel, stat, errmsg)
     use iso_c_binding, only: c_int, c_double
@@ -826,15 +827,39 @@ subroutine dc_ldl_threads_compare(n, nnz, m, rows, cols, vals, b, x_serial, x_th
     if (st == STAT_OK) then
         kernel = chol_kernel(ch)
         call ldl_threads_set(ch%pairs, 1, huge(1))
+        call ldl_threads_set(ch%triples, 1, huge(1))
         do j = 1, m
             if (st == STAT_OK) call chol_solve(ch, b(:, j), x_serial(:, j), st, errmsg)
         end do
         call ldl_threads_set(ch%pairs, 2, 0)
+        call ldl_threads_set(ch%triples, 2, 0)
         do j = 1, m
             if (st == STAT_OK) call chol_solve(ch, b(:, j), x_threads(:, j), st, errmsg)
         end do
         split = [ch%pairs%nn, ch%pairs%sa, ch%pairs%ss]
+        if (ch%triples%n > 0) split = [ch%triples%nt, ch%triples%sa, ch%triples%ss]
     end if
     call chol_free(ch)
     stat = st
 end subroutine dc_ldl_threads_compare
+
+!> The threads of the triangular solves the core chooses (ldl_solves' ldl_threads_choice)
+!> for the setting `asked` (&solver threads: 0 automatic, 1, 2), DYNCONTACT_THREADS `env`
+!> (0: not set, 1, 2), `cpus` CPUs the process may use and a factor of n dofs; and the
+!> values this process sees: its CPUs (ldl_cpus) and the size from which two threads
+!> are used (PAR_MIN_DOFS).
+subroutine dc_threads_choice(asked, env, cpus, n, threads, cpus_here, min_dofs)
+    use iso_c_binding, only: c_int
+    use ldl_solves, only: ldl_threads_choice, ldl_cpus, PAR_MIN_DOFS
+    implicit none
+    integer(c_int), intent(in) :: asked          !! 0, 1 or 2
+    integer(c_int), intent(in) :: env            !! 0, 1 or 2
+    integer(c_int), intent(in) :: cpus           !! CPUs the process may use
+    integer(c_int), intent(in) :: n              !! dofs of the factor
+    integer(c_int), intent(out) :: threads       !! 1 or 2
+    integer(c_int), intent(out) :: cpus_here     !! ldl_cpus() in this process
+    integer(c_int), intent(out) :: min_dofs      !! PAR_MIN_DOFS
+    threads = ldl_threads_choice(asked, env, cpus, n, PAR_MIN_DOFS)
+    cpus_here = ldl_cpus()
+    min_dofs = PAR_MIN_DOFS
+end subroutine dc_threads_choice

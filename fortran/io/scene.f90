@@ -78,6 +78,7 @@ module scene
         character(len=NAME_LEN) :: solver_kind     !! 'direct' | 'cg' | 'auto'
         real(dp) :: cg_rtol                        !! CG relative residual tolerance
         integer :: cg_max_iter                     !! CG iteration limit of one solve
+        integer :: solver_threads                  !! solves' threads: 0 automatic, 1, 2
     end type scene_t
 
     public :: scene_read, scene_parse, scene_to_json, scene_check_dim, scene_bar_dim
@@ -174,7 +175,8 @@ contains
             row('output', 'checkpoint_every', '0', '>= 0', i=scn%checkpoint_every), &
             row('solver', 'kind', "'direct'", "one of 'direct', 'cg', 'auto'", s=scn%solver_kind), &
             row('solver', 'cg_rtol', '1e-12', 'in (0, 1)', r=scn%cg_rtol), &
-            row('solver', 'cg_max_iter', '500', '> 0', i=scn%cg_max_iter)]
+            row('solver', 'cg_max_iter', '500', '> 0', i=scn%cg_max_iter), &
+            row('solver', 'threads', '0', '0, 1 or 2', i=scn%solver_threads)]
     end subroutine scene_keys
 
     !> One row of the key table (exactly one of i, r, v, s is given; n and default3

@@ -23,6 +23,7 @@
 !> (columns padded to four in memory took a third more memory and were no faster,
 !> docs/performance.md).
 module ldl_solves
+    use iso_c_binding, only: c_int, c_ptr, c_funptr, c_loc, c_funloc, c_f_pointer
     use kinds, only: dp, i8
     use text, only: env_text
     implicit none
@@ -44,7 +45,8 @@ module ldl_solves
         integer :: ss = 0                         !! first block column of the separator (ss..nn, after both)
         integer, allocatable :: cols(:)           !! (nn) the two groups' block columns, each ascending, then ss..nn
         real(dp), allocatable :: ys(:, :)         !! (n - 2 ss + 2, 2) each subtree's updates of the separator's rows
-        integer :: threads = 0                    !! threads of the solves (1, 2; 0: read the environment at the first solve)
+        integer :: asked = 0                      !! &solver threads: 0 automatic, 1, 2
+        integer :: threads = 0                    !! threads of the solves (1, 2; 0: not decided)
         integer :: par_min_n = 0                  !! smallest n solved on two threads (with threads)
     end type pair_ldl_t
 
@@ -60,18 +62,57 @@ module ldl_solves
         real(dp), allocatable :: ld(:, :)         !! (3, nt) L's entries l21, l31, l32 in each diagonal block
         real(dp), allocatable :: d(:)             !! (n) D
         real(dp), allocatable :: y(:, :)          !! (4, nt) work vector of the solves, by triples
+        integer :: sa = -1                        !! two-thread split (as pair_ldl_t's, by triples)
+        integer :: ss = 0                         !! first block column of the separator
+        integer, allocatable :: cols(:)           !! (nt) the two groups' block columns, then ss..nt
+        real(dp), allocatable :: ys(:, :, :)      !! (4, nt - ss + 1, 2) updates of the separator
+
+        integer :: asked = 0                      !! the threads setting: 0 automatic, 1, 2
+        integer :: threads = 0                    !! threads of the solves (1, 2; 0: not decided)
+        integer :: par_min_n = 0                  !! smallest n solved on two threads (with threads)
     end type triple_ldl_t
 
     public :: pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, pair_ldl_free
     public :: triple_ldl_build, triple_ldl_solve, triple_ldl_solve_many, triple_ldl_free
-    public :: ldl_threads_set, ldl_threads_env
+    public :: ldl_threads_set, ldl_threads_env, ldl_threads_choice, ldl_cpus, pair_ldl_threads, &
+              triple_ldl_threads
+
+    !> Force the threads of a factor's solves (tests compare both paths).
+    interface ldl_threads_set
+        module procedure pair_threads_set, triple_threads_set
+    end interface ldl_threads_set
 
     !> Two threads in the 2x2 block solves (pair_ldl_solve) from this many dofs: below it
     !> the forking costs more than the half sweep saves (docs/performance.md, "Two
     !> threads in the triangular solve").
-    integer, parameter :: PAR_MIN_DOFS = 20000
-    !> Threads of the solves when DYNCONTACT_THREADS is not set (1: serial).
-    integer, parameter :: PAR_DEFAULT_THREADS = 1
+    integer, parameter, public :: PAR_MIN_DOFS = 20000
+
+    interface
+        !> 1 when this process may use the helper thread (two_threads.c: not a fork of a
+        !> process that had started one).
+        function dc_two_usable() bind(C, name='dc_two_usable') result(ok)
+            import :: c_int
+            integer(c_int) :: ok
+        end function dc_two_usable
+        !> fn(ctx, 1) here and fn(ctx, 2) on the helper thread if it takes it before
+        !> item 1 is done, else here too (two_threads.c); 2 when the helper ran it.
+        function dc_two_items(fn, ctx) bind(C, name='dc_two_items') result(by)
+            import :: c_int, c_ptr, c_funptr
+            type(c_funptr), value :: fn
+            type(c_ptr), value :: ctx
+            integer(c_int) :: by
+        end function dc_two_items
+    end interface
+
+    !> One two-thread solve's data for the work items (pair_item, triple_item): the
+    !> factors, b, x and the sweep (1 forward, 2 backward).
+    type :: two_job_t
+        type(pair_ldl_t), pointer :: pf => null()     !! 2x2 factors, or
+        type(triple_ldl_t), pointer :: tf => null()   !! 3x3 factors
+        real(dp), pointer :: b(:) => null()           !! right-hand side
+        real(dp), pointer :: x(:) => null()           !! solution
+        integer :: sweep = 1                          !! 1 forward, 2 backward
+    end type two_job_t
 
 contains
 
@@ -137,16 +178,17 @@ contains
     end subroutine pair_ldl_build
 
     !> x = A^{-1} b with the block factors (b and x: n entries; they may not alias). On
-    !> two threads (pair_sweeps_two) when they are switched on (f%threads, from
-    !> ldl_threads_env at the first solve unless ldl_threads_set chose), the
+    !> two threads (pair_sweeps_two) when pair_ldl_threads chose two (decided at the
+    !> first solve unless it was called before, or ldl_threads_set forced a count), the
     !> factor has n >= the threshold dofs and its elimination tree splits below a
-    !> separator (find_split, looked for at the first solve); else pair_sweeps.
+    !> separator (find_split); else pair_sweeps.
     subroutine pair_ldl_solve(f, b, x)
         type(pair_ldl_t), intent(inout) :: f                !! block factors (work vector used)
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
         real(dp), intent(out) :: x(:)                       !! solution (n)
-        if (f%threads == 0) call ldl_threads_env(f%threads, f%par_min_n)
-        if (f%threads >= 2 .and. f%n >= f%par_min_n) then
+        integer :: used
+        if (f%threads == 0) call pair_ldl_threads(f, f%asked, used)
+        if (f%threads >= 2 .and. f%n >= f%par_min_n .and. dc_two_usable() /= 0) then
             if (f%sa < 0) call pair_find_split(f)
             if (f%sa > 0) then
                 call pair_sweeps_two(f, b, x)
@@ -156,15 +198,87 @@ contains
         call pair_sweeps(f%n, f%nn, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%l21, f%d, b, x, f%y)
     end subroutine pair_ldl_solve
 
-    !> The threads of the solves (1 or 2) and the size from which two are used, from
-    !> DYNCONTACT_THREADS (1: serial, 2: two threads; default PAR_DEFAULT_THREADS) and the
-    !> test-only DYNCONTACT_THREADS_MIN_DOFS (default PAR_MIN_DOFS).
-    subroutine ldl_threads_env(threads, min_dofs)
+    !> Decide the threads of a factor's solves from the setting `asked` (&solver threads:
+    !> 0 automatic, 1, 2), DYNCONTACT_THREADS, the CPUs the process may use (ldl_cpus)
+    !> and the factor's size (ldl_threads_choice); with two, look for the split of the
+    !> elimination tree, and fall back to one when there is none, or when this process
+    !> is a fork of one that had started the helper thread (two_threads.c). `used`: the
+    !> threads its solves use from now on (1 or 2). Called again after a new
+    !> factorization, it decides again.
+    subroutine pair_ldl_threads(f, asked, used)
+        type(pair_ldl_t), intent(inout) :: f                !! block factors (n > 0)
+        integer, intent(in) :: asked                        !! 0 (automatic), 1 or 2
+        integer, intent(out) :: used                        !! threads of the solves
+        f%asked = max(0, min(2, asked))
+        call threads_wanted(f%asked, f%n, f%threads, f%par_min_n)
+        if (f%threads >= 2 .and. f%sa < 0) call pair_find_split(f)
+        if (f%sa <= 0) f%threads = 1
+        used = f%threads
+    end subroutine pair_ldl_threads
+
+    !> pair_ldl_threads for the 3x3 block factors.
+    subroutine triple_ldl_threads(f, asked, used)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors (n > 0)
+        integer, intent(in) :: asked                        !! 0 (automatic), 1 or 2
+        integer, intent(out) :: used                        !! threads of the solves
+        f%asked = max(0, min(2, asked))
+        call threads_wanted(f%asked, f%n, f%threads, f%par_min_n)
+        if (f%threads >= 2 .and. f%sa < 0) call triple_find_split(f)
+        if (f%sa <= 0) f%threads = 1
+        used = f%threads
+    end subroutine triple_ldl_threads
+
+    !> The threads ldl_threads_choice gives a factor of n dofs in this process and the
+    !> size from which two are used (the environment's, else PAR_MIN_DOFS); 1 in a fork
+    !> of a process that had started the helper thread (two_threads.c).
+    subroutine threads_wanted(asked, n, threads, min_dofs)
+        integer, intent(in) :: asked                        !! 0, 1 or 2
+        integer, intent(in) :: n                            !! dofs of the factor
         integer, intent(out) :: threads                     !! 1 or 2
+        integer, intent(out) :: min_dofs                    !! smallest n solved on two threads
+        integer :: env
+        call ldl_threads_env(env, min_dofs)
+        threads = ldl_threads_choice(asked, env, ldl_cpus(), n, min_dofs)
+        if (dc_two_usable() == 0) threads = 1
+    end subroutine threads_wanted
+
+    !> The threads of the triangular solves of a factor of n dofs: `env` (the
+    !> environment's DYNCONTACT_THREADS, 1 or 2; 0 when not set) overrides `asked` (the
+    !> scene's &solver threads: 0 automatic, 1, 2); 2 asked gives two threads from
+    !> min_dofs dofs; automatic gives two when the process may run on two CPUs or more
+    !> (cpus, ldl_cpus) and n >= min_dofs. Anything else: one.
+    pure integer function ldl_threads_choice(asked, env, cpus, n, min_dofs) result(threads)
+        integer, intent(in) :: asked                        !! 0, 1 or 2 (the scene)
+        integer, intent(in) :: env                          !! 0 (not set), 1 or 2
+        integer, intent(in) :: cpus                         !! CPUs the process may use
+        integer, intent(in) :: n                            !! dofs of the factor
+        integer, intent(in) :: min_dofs                     !! smallest n solved on two threads
+        integer :: want
+        want = asked
+        if (env == 1 .or. env == 2) want = env
+        threads = 1
+        if (n < min_dofs) return
+        if (want == 2 .or. (want == 0 .and. cpus >= 2)) threads = 2
+    end function ldl_threads_choice
+
+    !> The CPUs this process may run on, as OpenMP sees them: omp_get_num_procs (the
+    !> CPUs of the process's affinity mask, sched_getaffinity, in libgomp), limited by
+    !> omp_get_max_threads (OMP_NUM_THREADS, when set); 1 without OpenMP.
+    integer function ldl_cpus() result(cpus)
+        !$ use omp_lib, only: omp_get_num_procs, omp_get_max_threads
+        cpus = 1
+        !$ cpus = max(1, min(omp_get_num_procs(), omp_get_max_threads()))
+    end function ldl_cpus
+
+    !> DYNCONTACT_THREADS (1: one thread, 2: two; anything else, or not set: 0) and the
+    !> test-only DYNCONTACT_THREADS_MIN_DOFS (the size from which two threads are used;
+    !> default PAR_MIN_DOFS).
+    subroutine ldl_threads_env(threads, min_dofs)
+        integer, intent(out) :: threads                     !! 0, 1 or 2
         integer, intent(out) :: min_dofs                    !! smallest n solved on two threads
         character(len=:), allocatable :: v
         integer :: ios, m
-        threads = PAR_DEFAULT_THREADS
+        threads = 0
         min_dofs = PAR_MIN_DOFS
         v = env_text('DYNCONTACT_THREADS')
         if (v == '1') threads = 1
@@ -176,15 +290,34 @@ contains
         end if
     end subroutine ldl_threads_env
 
-    !> Set the threads of a factor's solves (1 or 2; 0: read the environment again at the
-    !> next solve) and the size from which two are used (tests compare both paths).
-    pure subroutine ldl_threads_set(f, threads, min_dofs)
+    !> Force the threads of a factor's solves (1 or 2, whatever the setting and the
+    !> environment; 0: decide again at the next solve) and the size from which two are
+    !> used (tests compare both paths).
+    pure subroutine pair_threads_set(f, threads, min_dofs)
         type(pair_ldl_t), intent(inout) :: f                !! block factors
         integer, intent(in) :: threads                      !! 0, 1 or 2
         integer, intent(in) :: min_dofs                     !! smallest n solved on two threads
         f%threads = max(0, min(2, threads))
         f%par_min_n = max(0, min_dofs)
-    end subroutine ldl_threads_set
+    end subroutine pair_threads_set
+
+    !> pair_threads_set for the 3x3 block factors.
+    pure subroutine triple_threads_set(f, threads, min_dofs)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors
+        integer, intent(in) :: threads                      !! 0, 1 or 2
+        integer, intent(in) :: min_dofs                     !! smallest n solved on two threads
+        f%threads = max(0, min(2, threads))
+        f%par_min_n = max(0, min_dofs)
+    end subroutine triple_threads_set
+
+    !> The split of the triples' elimination tree (find_split on the block rows) and the
+    !> separator buffers.
+    pure subroutine triple_find_split(f)
+        type(triple_ldl_t), intent(inout) :: f              !! block factors
+        call find_split(f%nt, f%bp, f%bi, f%sa, f%ss, f%cols)
+        if (allocated(f%ys)) deallocate (f%ys)
+        if (f%sa > 0) allocate (f%ys(4, max(1, f%nt - f%ss + 1), 2))
+    end subroutine triple_find_split
 
     !> The split of the pairs' elimination tree (find_split on the block rows) and the
     !> separator buffers.
@@ -294,42 +427,29 @@ contains
         end if
     end subroutine find_split
 
-    !> pair_sweeps on two threads with the split of find_split: the forward sweep of
-    !> the two ranges at once, each adding its updates of the separator's rows into a
-    !> buffer of its own (zeroed), the separator's rows then b + first's + second's
+    !> pair_sweeps on two threads with the split of find_split (the calling thread and
+    !> two_threads.c's helper, when it is free in time; else the calling thread alone,
+    !> the same operations): the forward sweep of the two ranges at once, each adding
+    !> its updates of the separator's rows into a buffer of its own (zeroed), the
+    !> separator's rows then b + first's + second's
     !> (always this order: the same result run to run); the separator forward and back;
     !> then the backward sweep of the two ranges at once (they read the separator's
     !> rows, final). The operations are those of pair_sweeps but for the separator's
     !> sums, added in another order: the results differ by round-off.
     subroutine pair_sweeps_two(f, b, x)
-        type(pair_ldl_t), intent(inout) :: f                !! block factors (split found)
-        real(dp), intent(in) :: b(:)                        !! right-hand side (n)
-        real(dp), intent(out) :: x(:)                       !! solution (n)
-        integer :: rs, ns, nb, i, t, jb
+        type(pair_ldl_t), target, intent(inout) :: f        !! block factors (split found)
+        real(dp), target, intent(in) :: b(:)                !! right-hand side (n)
+        real(dp), target, intent(out) :: x(:)               !! solution (n)
+        type(two_job_t), target :: job
+        integer :: rs, nb, i, by
         real(dp) :: none(2)
         rs = 2 * f%ss - 1
-        ns = size(f%ys, 1)
         nb = size(f%bi)
-        !$omp parallel sections num_threads(2) default(shared) private(i, t, jb)
-        !$omp section
-        do t = 1, f%sa
-            jb = f%cols(t)
-            f%y(2 * jb - 1) = b(f%perm(2 * jb - 1))
-            f%y(2 * jb) = b(f%perm(2 * jb))
-        end do
-        f%ys(:, 1) = 0.0_dp
-        call pair_fwd(f%n, f%nn, nb, f%bp, f%bi, f%bx, f%l21, f%d, f%sa, f%cols(1:f%sa), &
-                      rs, f%y, ns, f%ys(:, 1))
-        !$omp section
-        do t = f%sa + 1, f%ss - 1
-            jb = f%cols(t)
-            f%y(2 * jb - 1) = b(f%perm(2 * jb - 1))
-            f%y(2 * jb) = b(f%perm(2 * jb))
-        end do
-        f%ys(:, 2) = 0.0_dp
-        call pair_fwd(f%n, f%nn, nb, f%bp, f%bi, f%bx, f%l21, f%d, f%ss - 1 - f%sa, &
-                      f%cols(f%sa + 1:f%ss - 1), rs, f%y, ns, f%ys(:, 2))
-        !$omp end parallel sections
+        job%pf => f
+        job%b => b
+        job%x => x
+        job%sweep = 1
+        by = dc_two_items(c_funloc(pair_item), c_loc(job))
         do i = rs, f%n
             f%y(i) = (b(f%perm(i)) + f%ys(i - rs + 1, 1)) + f%ys(i - rs + 1, 2)
         end do
@@ -337,15 +457,37 @@ contains
                       f%cols(f%ss:f%nn), f%n + 1, f%y, 2, none)
         call pair_bwd(f%n, f%nn, nb, f%perm, f%bp, f%bi, f%bx, f%l21, f%nn - f%ss + 1, &
                       f%cols(f%ss:f%nn), f%y, x)
-        !$omp parallel sections num_threads(2) default(shared)
-        !$omp section
-        call pair_bwd(f%n, f%nn, nb, f%perm, f%bp, f%bi, f%bx, f%l21, f%sa, f%cols(1:f%sa), &
-                      f%y, x)
-        !$omp section
-        call pair_bwd(f%n, f%nn, nb, f%perm, f%bp, f%bi, f%bx, f%l21, f%ss - 1 - f%sa, &
-                      f%cols(f%sa + 1:f%ss - 1), f%y, x)
-        !$omp end parallel sections
+        job%sweep = 2
+        by = dc_two_items(c_funloc(pair_item), c_loc(job))
     end subroutine pair_sweeps_two
+
+    !> Work item `item` (1: the first group, cols(1:sa); 2: the second) of the sweep
+    !> job%sweep of pair_sweeps_two: forward, P b gathered into the group's rows, its
+    !> updates of the separator's rows into ys(:, item) (zeroed first); backward.
+    subroutine pair_item(ctx, item) bind(C)
+        type(c_ptr), value :: ctx                           !! the two_job_t
+        integer(c_int), value :: item                       !! 1 or 2
+        type(two_job_t), pointer :: job
+        integer :: t0, t1, t, jb
+        call c_f_pointer(ctx, job)
+        associate (f => job%pf)
+            t0 = merge(1, f%sa + 1, item == 1)
+            t1 = merge(f%sa, f%ss - 1, item == 1)
+            if (job%sweep == 1) then
+                do t = t0, t1
+                    jb = f%cols(t)
+                    f%y(2 * jb - 1) = job%b(f%perm(2 * jb - 1))
+                    f%y(2 * jb) = job%b(f%perm(2 * jb))
+                end do
+                f%ys(:, item) = 0.0_dp
+                call pair_fwd(f%n, f%nn, size(f%bi), f%bp, f%bi, f%bx, f%l21, f%d, t1 - t0 + 1, &
+                              f%cols(t0:t1), 2 * f%ss - 1, f%y, size(f%ys, 1), f%ys(:, item))
+            else
+                call pair_bwd(f%n, f%nn, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%l21, &
+                              t1 - t0 + 1, f%cols(t0:t1), f%y, job%x)
+            end if
+        end associate
+    end subroutine pair_item
 
     !> The forward sweep of pair_sweeps on the block columns cl (ascending; y's rows
     !> gathered): updates of rows >= rs go into ys (row rs: ys(1)), the others into y.
@@ -600,13 +742,170 @@ contains
         ok = .true.
     end subroutine triple_ldl_build
 
-    !> x = A^{-1} b with the 3x3 block factors (b and x: n entries; they may not alias).
-    pure subroutine triple_ldl_solve(f, b, x)
+    !> x = A^{-1} b with the 3x3 block factors (b and x: n entries; they may not alias); on
+    !> two threads (triple_sweeps_two) as pair_ldl_solve decides for the 2x2 ones.
+    subroutine triple_ldl_solve(f, b, x)
         type(triple_ldl_t), intent(inout) :: f              !! block factors (work vector used)
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
         real(dp), intent(out) :: x(:)                       !! solution (n)
+        integer :: used
+        if (f%threads == 0) call triple_ldl_threads(f, f%asked, used)
+        if (f%threads >= 2 .and. f%n >= f%par_min_n .and. dc_two_usable() /= 0) then
+            if (f%sa < 0) call triple_find_split(f)
+            if (f%sa > 0) then
+                call triple_sweeps_two(f, b, x)
+                return
+            end if
+        end if
         call triple_sweeps(f%n, f%nt, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%ld, f%d, b, x, f%y)
     end subroutine triple_ldl_solve
+
+    !> triple_sweeps on two threads with the split of find_split, as pair_sweeps_two: the
+    !> forward sweep of the two groups at once, each adding its updates of the
+    !> separator's rows into a buffer of its own, those rows then b + first's + second's
+    !> (this order: the same result run to run); the separator forward and back; the
+    !> backward sweep of the two groups at once. The same operations as triple_sweeps but
+    !> for the separator's sums (round-off).
+    subroutine triple_sweeps_two(f, b, x)
+        type(triple_ldl_t), target, intent(inout) :: f      !! block factors (split found)
+        real(dp), target, intent(in) :: b(:)                !! right-hand side (n)
+        real(dp), target, intent(out) :: x(:)               !! solution (n)
+        type(two_job_t), target :: job
+        integer :: nb, i, c, k, by
+        real(dp) :: none(4, 1)
+        nb = size(f%bi)
+        job%tf => f
+        job%b => b
+        job%x => x
+        job%sweep = 1
+        by = dc_two_items(c_funloc(triple_item), c_loc(job))
+        do i = f%ss, f%nt
+            c = 3 * i - 2
+            k = i - f%ss + 1
+            f%y(1, i) = (b(f%perm(c)) + f%ys(1, k, 1)) + f%ys(1, k, 2)
+            f%y(2, i) = (b(f%perm(c + 1)) + f%ys(2, k, 1)) + f%ys(2, k, 2)
+            f%y(3, i) = (b(f%perm(c + 2)) + f%ys(3, k, 1)) + f%ys(3, k, 2)
+            f%y(4, i) = 0.0_dp
+        end do
+        call triple_fwd(f%nt, nb, f%bp, f%bi, f%bx, f%ld, f%d, f%nt - f%ss + 1, &
+                        f%cols(f%ss:f%nt), f%nt + 1, f%y, 1, none)
+        call triple_bwd(f%n, f%nt, nb, f%perm, f%bp, f%bi, f%bx, f%ld, f%nt - f%ss + 1, &
+                        f%cols(f%ss:f%nt), f%y, x)
+        job%sweep = 2
+        by = dc_two_items(c_funloc(triple_item), c_loc(job))
+    end subroutine triple_sweeps_two
+
+    !> Work item `item` of triple_sweeps_two (as pair_item).
+    subroutine triple_item(ctx, item) bind(C)
+        type(c_ptr), value :: ctx                           !! the two_job_t
+        integer(c_int), value :: item                       !! 1 or 2
+        type(two_job_t), pointer :: job
+        integer :: t0, t1
+        call c_f_pointer(ctx, job)
+        associate (f => job%tf)
+            t0 = merge(1, f%sa + 1, item == 1)
+            t1 = merge(f%sa, f%ss - 1, item == 1)
+            if (job%sweep == 1) then
+                call triple_gather(f%n, f%nt, f%perm, t1 - t0 + 1, f%cols(t0:t1), job%b, f%y)
+                f%ys(:, :, item) = 0.0_dp
+                call triple_fwd(f%nt, size(f%bi), f%bp, f%bi, f%bx, f%ld, f%d, t1 - t0 + 1, &
+                                f%cols(t0:t1), f%ss, f%y, size(f%ys, 2), f%ys(:, :, item))
+            else
+                call triple_bwd(f%n, f%nt, size(f%bi), f%perm, f%bp, f%bi, f%bx, f%ld, &
+                                t1 - t0 + 1, f%cols(t0:t1), f%y, job%x)
+            end if
+        end associate
+    end subroutine triple_item
+
+    !> y's triples cl from b (P b), the fourth entries zero.
+    pure subroutine triple_gather(n, nt, perm, nc, cl, b, y)
+        integer, intent(in) :: n, nt                        !! size, triples
+        integer, intent(in) :: perm(n)                      !! permutation
+        integer, intent(in) :: nc                           !! block columns
+        integer, intent(in) :: cl(nc)                       !! their indices
+        real(dp), intent(in) :: b(n)                        !! right-hand side
+        real(dp), intent(inout) :: y(4, nt)                 !! work
+        integer :: t, c
+        do t = 1, nc
+            c = 3 * cl(t) - 2
+            y(:, cl(t)) = [b(perm(c)), b(perm(c + 1)), b(perm(c + 2)), 0.0_dp]
+        end do
+    end subroutine triple_gather
+
+    !> The forward sweep of triple_sweeps on the block columns cl (ascending; y's triples
+    !> gathered): updates of block rows >= rs go into ys (row rs: ys(:, 1)), the others
+    !> into y.
+    pure subroutine triple_fwd(nt, nb, bp, bi, bx, ld, d, nc, cl, rs, y, ns, ys)
+        integer, intent(in) :: nt, nb                       !! triples, blocks
+        integer, intent(in) :: bp(nt + 1), bi(nb)          !! block structure
+        real(dp), intent(in) :: bx(9 * nb + 9)              !! L's blocks (and the zero block)
+        real(dp), intent(in) :: ld(3, nt), d(3 * nt)        !! diagonal blocks, D
+        integer, intent(in) :: nc                           !! block columns
+        integer, intent(in) :: cl(nc)                       !! their indices, ascending
+        integer, intent(in) :: rs                           !! first block row kept in ys
+        real(dp), intent(inout) :: y(4, nt)                 !! work (fourth row: throw-away)
+        integer, intent(in) :: ns                           !! block rows of ys
+        real(dp), intent(inout) :: ys(4, ns)                !! updates of block rows >= rs
+        real(dp) :: y0, y1, y2
+        integer :: t, jb, q, i, o, c
+        do t = 1, nc
+            jb = cl(t)
+            y0 = y(1, jb)
+            y1 = y(2, jb) - ld(1, jb) * y0
+            y2 = y(3, jb) - ld(2, jb) * y0 - ld(3, jb) * y1
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                o = 9 * (q - 1)
+                if (i < rs) then
+                    y(:, i) = y(:, i) - (bx(o + 1:o + 4) * y0 + bx(o + 4:o + 7) * y1 &
+                                         + bx(o + 7:o + 10) * y2)
+                else
+                    ys(:, i - rs + 1) = ys(:, i - rs + 1) - (bx(o + 1:o + 4) * y0 &
+                                        + bx(o + 4:o + 7) * y1 + bx(o + 7:o + 10) * y2)
+                end if
+            end do
+            c = 3 * jb - 2
+            y(1, jb) = y0 / d(c)
+            y(2, jb) = y1 / d(c + 1)
+            y(3, jb) = y2 / d(c + 2)
+        end do
+    end subroutine triple_fwd
+
+    !> The backward sweep of triple_sweeps on the block columns cl, last first (the rows
+    !> below them final), each triple stored into x = P^T z.
+    pure subroutine triple_bwd(n, nt, nb, perm, bp, bi, bx, ld, nc, cl, y, x)
+        integer, intent(in) :: n, nt, nb                    !! size, triples, blocks
+        integer, intent(in) :: perm(n), bp(nt + 1), bi(nb)  !! permutation, block structure
+        real(dp), intent(in) :: bx(9 * nb + 9)              !! L's blocks (and the zero block)
+        real(dp), intent(in) :: ld(3, nt)                   !! diagonal blocks
+        integer, intent(in) :: nc                           !! block columns
+        integer, intent(in) :: cl(nc)                       !! their indices, ascending
+        real(dp), intent(inout) :: y(4, nt)                 !! work
+        real(dp), intent(inout) :: x(n)                     !! solution (the triples cl set)
+        real(dp) :: y0, y1, y2, s0(4), s1(4), s2(4)
+        integer :: t, jb, q, i, o, c
+        do t = nc, 1, -1
+            jb = cl(t)
+            s0 = 0.0_dp; s1 = 0.0_dp; s2 = 0.0_dp
+            do q = bp(jb), bp(jb + 1) - 1
+                i = bi(q)
+                o = 9 * (q - 1)
+                s0 = s0 + bx(o + 1:o + 4) * y(:, i)
+                s1 = s1 + bx(o + 4:o + 7) * y(:, i)
+                s2 = s2 + bx(o + 7:o + 10) * y(:, i)
+            end do
+            y2 = y(3, jb) - ((s2(1) + s2(2)) + s2(3))
+            y1 = y(2, jb) - ((s1(1) + s1(2)) + s1(3)) - ld(3, jb) * y2
+            y0 = y(1, jb) - ((s0(1) + s0(2)) + s0(3)) - ld(1, jb) * y1 - ld(2, jb) * y2
+            y(1, jb) = y0
+            y(2, jb) = y1
+            y(3, jb) = y2
+            c = 3 * jb - 2
+            x(perm(c)) = y0
+            x(perm(c + 1)) = y1
+            x(perm(c + 2)) = y2
+        end do
+    end subroutine triple_bwd
 
     !> X = A^{-1} B for the k columns of B in one pass over the factor (as
     !> pair_ldl_solve_many). Each column gets the operations of triple_ldl_solve in the
@@ -744,6 +1043,10 @@ contains
         if (allocated(f%ld)) deallocate (f%ld)
         if (allocated(f%d)) deallocate (f%d)
         if (allocated(f%y)) deallocate (f%y)
+        if (allocated(f%ys)) deallocate (f%ys)
+        if (allocated(f%cols)) deallocate (f%cols)
+        f%sa = -1
+        f%ss = 0
         f%n = 0
         f%nt = 0
     end subroutine triple_ldl_free

@@ -24,6 +24,7 @@ module linear_solver
     use cholmod, only: cholmod_t, chol_factor, chol_analyse, chol_solve, chol_solve_many, &
                        chol_free, chol_kernel, chol_ordering
     use pcg, only: pcg_t, pcg_setup, pcg_solve, pcg_solve_many, pcg_free
+    use ldl_solves, only: pair_ldl_threads, triple_ldl_threads
     implicit none
     private
 
@@ -78,11 +79,13 @@ module linear_solver
         integer(i8) :: auto_nnz = 0             !! 'auto': nnz(J0) of the last decision
         integer(i8) :: auto_factor_nnz = 0      !! 'auto': the analysis' factor entries
         character(len=8) :: auto_kind = ''      !! 'auto': what it chose ('' before any)
+        integer :: threads = 0                  !! &solver threads: 0 automatic, 1, 2
+        integer :: threads_used = 1             !! threads of the triangular solves of the factors
     end type factor_t
 
     public :: ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, ls_factor_info, &
               csc_is_symmetric, ls_configure, ls_cg_counts, ls_auto_kind, ls_factorization, &
-              ls_auto_reason
+              ls_auto_reason, ls_set_threads, ls_threads
 
 contains
 
@@ -130,6 +133,25 @@ contains
         end if
         call direct_factor(f, a, stat, errmsg)
     end subroutine ls_factor
+
+    !> Set the threads of the triangular solves of the next factorizations (&solver
+    !> threads): 0 automatic (two when the process may run on two CPUs or more and the
+    !> factor is large enough), 1, or 2; DYNCONTACT_THREADS overrides it (ldl_solves'
+    !> ldl_threads_choice). The node-block solves (ldl_node_pairs, ldl_node_triples) use
+    !> two; the other solves one.
+    pure subroutine ls_set_threads(f, threads)
+        type(factor_t), intent(inout) :: f                  !! solver (before ls_factor)
+        integer, intent(in) :: threads                      !! 0, 1 or 2
+        f%threads = max(0, min(2, threads))
+    end subroutine ls_set_threads
+
+    !> The threads the triangular solves of the current factors use (1 or 2; 1 for
+    !> UMFPACK, CG, cholmod_solve2 and without factors).
+    pure integer function ls_threads(f) result(threads)
+        type(factor_t), intent(in) :: f      !! factors
+        threads = 1
+        if (f%n >= 1 .and. f%backend == BACKEND_CHOLMOD) threads = f%threads_used
+    end function ls_threads
 
     !> 'auto': decide (once a pattern: n and nnz(J0) unchanged keep the decision) from
     !> the symbolic analysis of a (chol_analyse, kept for the factorization that follows
@@ -243,6 +265,10 @@ contains
                 f%backend = BACKEND_CHOLMOD
                 f%n = a%n
                 f%factorizations = f%factorizations + 1
+                f%threads_used = 1
+                if (f%ch%pairs%n > 0) call pair_ldl_threads(f%ch%pairs, f%threads, f%threads_used)
+                if (f%ch%triples%n > 0) &
+                    call triple_ldl_threads(f%ch%triples, f%threads, f%threads_used)
                 return
             end if
             if (stat /= STAT_NUMERIC) return

@@ -20,7 +20,8 @@ module simulation
     use implicit_schemes, only: implicit_scheme_t, implicit_solver_report
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, ls_factorization, ls_auto_reason
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, ls_factorization, &
+                             ls_auto_reason, ls_set_threads, ls_threads
     use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
                             trace_sync, trace_close, json_real, json_string, TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
@@ -210,6 +211,15 @@ contains
             allocate (central_scheme_t :: sim%scheme)
         case default
             allocate (implicit_scheme_t :: sim%scheme)
+        end select
+        ! &solver threads, kept by the factors through the scheme's set-up
+        select type (s => sim%scheme)
+        type is (implicit_scheme_t)
+            call ls_set_threads(s%lu0, sim%scn%solver_threads)
+        type is (pc_scheme_t)
+            call ls_set_threads(s%ms%lu, sim%scn%solver_threads)
+        type is (central_scheme_t)
+            call ls_set_threads(s%ms%lu, sim%scn%solver_threads)
         end select
         call sim%scheme%init(sim%mdl, sprm, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
@@ -905,7 +915,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: last               !! the final one: rewrite in place if need be
-        integer :: its, facts, cg_max
+        integer :: its, facts, cg_max, threads
         integer(i8) :: clock, fnnz, cg_solves, cg_its
         character(len=:), allocatable :: text, dt_crit_line, ordering, skind, snote, fact, areason
         character(len=1), parameter :: nl = new_line('a')
@@ -917,16 +927,20 @@ contains
         if (allocated(sim%scheme)) call sim%scheme%factor_info(ordering, fnnz)
         skind = ''; snote = ''; fact = ''; areason = ''
         cg_solves = 0; cg_its = 0; cg_max = 0
+        threads = 1
         if (allocated(sim%scheme)) then
             select type (s => sim%scheme)
             type is (implicit_scheme_t)
                 call implicit_solver_report(s, skind, cg_solves, cg_its, cg_max, snote)
                 fact = ls_factorization(s%lu0)
                 areason = ls_auto_reason(s%lu0)
+                threads = ls_threads(s%lu0)
             type is (pc_scheme_t)
                 fact = ls_factorization(s%ms%lu)
+                threads = ls_threads(s%ms%lu)
             type is (central_scheme_t)
                 fact = ls_factorization(s%ms%lu)
+                threads = ls_threads(s%ms%lu)
             end select
         end if
         if (allocated(sim%scheme)) then
@@ -961,6 +975,7 @@ contains
                '  "ordering": '//json_string(ordering)//','//nl// &
                '  "factor_nnz": '//int_text(fnnz)//','//nl// &
                '  "factorization": '//json_string(fact)//','//nl// &
+               '  "solve_threads": '//int_text(int(threads, i8))//','//nl// &
                '  "matrix_nnz": '//int_text(int(sim%mdl%mass%nnz, i8))//','//nl// &
                '  "scene": '//scene_to_json(sim%scn)//','//nl// &
                '  "version": '//json_string(DYNCONTACT_VERSION)//','//nl// &

@@ -26,10 +26,18 @@ both sides see the same machine state):
 Times are CPU seconds (user + system) of the time loop only, divided by the steps: on a
 shared machine the wall time would count the other processes. The smallest of the rounds is
 kept, and the largest peak (max RSS of the whole process, /usr/bin/time). ratio = GetFEM
-ms/step ÷ dyncontact ms/step. Writes ``getfem.csv`` and ``getfem.md`` into ``--out``.
+ms/step ÷ dyncontact ms/step. The wall time of the same loops is kept too (the smallest of
+the rounds; ``wall_ratio``): with two threads in dyncontact's solves (``&solver threads``,
+automatic by default) its CPU time counts both threads, and only the wall time shows
+what they save. GetFEM runs with one BLAS/OpenMP thread (its loop's sparse LU is
+single-threaded); dyncontact with the threads of its default (``--threads auto``: the
+process's environment decides, docs/scenes.md) or ``--threads 1``/``2``
+(``DYNCONTACT_THREADS``), or several settings against the same GetFEM runs
+(``--threads auto,1``: a row for each); ``ours_threads`` is the threads its solves used. Writes
+``getfem.csv`` and ``getfem.md`` into ``--out``.
 
     scripts/bench --getfem [--sizes 0.01,0.005] [--steps N] [--repeats 2] [--model]
-        [--out out/getfem] [--getfem-python PY]
+        [--threads auto,1] [--out out/getfem] [--getfem-python PY]
 """
 
 from __future__ import annotations
@@ -68,7 +76,8 @@ SCRIPT = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.di
 
 COLUMNS = ["h", "dofs", "steps", "getfem_ms", "ours_ms", "ratio", "getfem_peak_mb",
            "ours_peak_mb", "getfem_setup_s", "getfem_factorizations", "model_steps",
-           "model_ms", "model_ratio", "model_peak_mb", "getfem_dofs"]
+           "model_ms", "model_ratio", "model_peak_mb", "getfem_dofs", "getfem_wall_ms",
+           "ours_wall_ms", "wall_ratio", "ours_threads", "threads_setting"]
 
 
 def steps_for(h: float, table: Mapping[float, int] = STEPS) -> int:
@@ -161,7 +170,8 @@ def measure_getfem(py: str, h: float, steps: int, loop: str = "scipy",
 def measure_ours(exe: str, h: float, steps: int, work: str,
                  env: Mapping[str, str] | None = None) -> dict[str, Any]:
     """dyncontact on the same scene: the executable's peak (max RSS, /usr/bin/time), its
-    dofs, and the CPU ms a step of the time loop of an open run of the same scene
+    dofs and the threads of its solves (summary.json ``solve_threads``), and the CPU and
+    wall ms a step of the time loop of an open run of the same scene
     (:class:`dyncontact.core.Stepper`: the set-up left out, as on GetFEM's side)."""
     from ..core import Stepper, read_summary
     from .scaling import _run_child
@@ -176,55 +186,79 @@ def measure_ours(exe: str, h: float, steps: int, work: str,
         raise RuntimeError(f"{exe} {path} exited with status {rc}")
     summary = read_summary(out)
     with environment(env), Stepper(path, out + "_loop") as st:
-        t0 = time.process_time()
+        t0, w0 = time.process_time(), time.perf_counter()
         done = st.advance(steps)
-        cpu = time.process_time() - t0
+        cpu, wall = time.process_time() - t0, time.perf_counter() - w0
     return {"dofs": summary.get("dofs"), "steps": done, "status": summary.get("status"),
-            "ms_per_step": 1e3 * cpu / max(1, done), "peak_mb": peak}
+            "ms_per_step": 1e3 * cpu / max(1, done), "peak_mb": peak,
+            "wall_ms_per_step": 1e3 * wall / max(1, done),
+            "threads": summary.get("solve_threads")}
 
 
 def _best(old: dict[str, Any] | None, new: dict[str, Any]) -> dict[str, Any]:
-    """The round kept: the smallest time a step, the largest peak."""
+    """The round kept: the smallest CPU time a step, the largest peak, the smallest wall
+    time a step (``wall_ms_per_step``, dyncontact; ``ms_per_step_wall``, the script)."""
     if old is None:
         return dict(new)
     out = dict(old if old["ms_per_step"] <= new["ms_per_step"] else new)
     peaks = [p for p in (old.get("peak_mb"), new.get("peak_mb")) if p is not None]
     out["peak_mb"] = max(peaks) if peaks else None
+    for key in ("wall_ms_per_step", "ms_per_step_wall"):
+        walls = [w for w in (old.get(key), new.get(key)) if w is not None]
+        out[key] = min(walls) if walls else None
     return out
 
 
 def compare(py: str, exe: str, sizes: Sequence[float], steps: int | None = None,
             repeats: int = 2, model: bool = False, log=print,
-            env: Mapping[str, str] | None = None) -> list[dict[str, Any]]:
-    """The rows (COLUMNS), one a size, the runs interleaved (module docstring)."""
+            env: Mapping[str, str] | None = None,
+            ours_env: Mapping[str, str] | None = None,
+            settings: Sequence[tuple[str, Mapping[str, str] | None]] | None = None
+            ) -> list[dict[str, Any]]:
+    """The rows (COLUMNS), one a size and a dyncontact setting, the runs interleaved
+    (module docstring). ``env``: the environment of the runs (GetFEM's); ``settings``:
+    (label, environment) of each dyncontact setting to measure against the same GetFEM
+    runs (default: one, ``("auto", ours_env)``, ``ours_env`` defaulting to ``env``)."""
+    if settings is None:
+        settings = [("auto", env if ours_env is None else ours_env)]
     rows = []
     with tempfile.TemporaryDirectory(prefix="dyncontact-getfem-") as work:
         for h in sizes:
             n = steps or steps_for(h)
             nm = min(n, steps_for(h, MODEL_STEPS))
-            g = o = m = None
+            g = m = None
+            ours: dict[str, dict[str, Any] | None] = {label: None for label, _ in settings}
             for _ in range(max(1, repeats)):
                 g = _best(g, measure_getfem(py, h, n, "scipy", env))
-                o = _best(o, measure_ours(exe, h, n, work, env))
+                for label, senv in settings:
+                    ours[label] = _best(ours[label], measure_ours(exe, h, n, work, senv))
                 if model:
                     m = _best(m, measure_getfem(py, h, nm, "model", env))
-            row = {"h": h, "dofs": o["dofs"], "getfem_dofs": g["dofs"], "steps": n,
-                   "getfem_ms": g["ms_per_step"], "ours_ms": o["ms_per_step"],
-                   "ratio": ratio(g["ms_per_step"], o["ms_per_step"]),
-                   "getfem_peak_mb": g["peak_mb"], "ours_peak_mb": o["peak_mb"],
-                   "getfem_setup_s": g.get("setup_cpu_s"),
-                   "getfem_factorizations": g.get("factorizations")}
-            if m is not None:
-                row.update(model_steps=nm, model_ms=m["ms_per_step"],
-                           model_ratio=ratio(m["ms_per_step"], o["ms_per_step"]),
-                           model_peak_mb=m["peak_mb"])
-            rows.append(row)
-            log(f"getfem: h = {h:g}: {row['dofs']} dofs, {n} steps: GetFEM script "
-                f"{_f(row['getfem_ms'])} ms/step, dyncontact {_f(row['ours_ms'])} ms/step, "
-                f"ratio {_f(row['ratio'])}; peaks {_f(row['getfem_peak_mb'])} and "
-                f"{_f(row['ours_peak_mb'])} MB"
-                + (f"; GetFEM Model.solve {_f(row['model_ms'])} ms/step ({nm} steps)"
-                   if m is not None else ""))
+            for label, _ in settings:
+                o = ours[label]
+                row = {"h": h, "dofs": o["dofs"], "getfem_dofs": g["dofs"], "steps": n,
+                       "getfem_ms": g["ms_per_step"], "ours_ms": o["ms_per_step"],
+                       "ratio": ratio(g["ms_per_step"], o["ms_per_step"]),
+                       "getfem_peak_mb": g["peak_mb"], "ours_peak_mb": o["peak_mb"],
+                       "getfem_setup_s": g.get("setup_cpu_s"),
+                       "getfem_factorizations": g.get("factorizations"),
+                       "getfem_wall_ms": g.get("ms_per_step_wall"),
+                       "ours_wall_ms": o.get("wall_ms_per_step"),
+                       "wall_ratio": ratio(g.get("ms_per_step_wall"), o.get("wall_ms_per_step")),
+                       "ours_threads": o.get("threads"), "threads_setting": label}
+                if m is not None:
+                    row.update(model_steps=nm, model_ms=m["ms_per_step"],
+                               model_ratio=ratio(m["ms_per_step"], o["ms_per_step"]),
+                               model_peak_mb=m["peak_mb"])
+                rows.append(row)
+                log(f"getfem: h = {h:g}: {row['dofs']} dofs, {n} steps: GetFEM script "
+                    f"{_f(row['getfem_ms'])} ms/step, dyncontact ({label}) "
+                    f"{_f(row['ours_ms'])} ms/step, ratio {_f(row['ratio'])} (wall: "
+                    f"{_f(row['getfem_wall_ms'])} and {_f(row['ours_wall_ms'])} ms/step on "
+                    f"{_f(row['ours_threads'])} thread(s), ratio {_f(row['wall_ratio'])}); "
+                    f"peaks {_f(row['getfem_peak_mb'])} and {_f(row['ours_peak_mb'])} MB"
+                    + (f"; GetFEM Model.solve {_f(row['model_ms'])} ms/step ({nm} steps)"
+                       if m is not None else ""))
     return rows
 
 
@@ -240,14 +274,17 @@ def rows_table(rows: Sequence[Mapping[str, Any]]) -> list[str]:
     """The rows as a markdown table (the Model.solve columns only when measured)."""
     model = any(r.get("model_ms") is not None for r in rows)
     head = ["h", "dofs", "steps", "GetFEM script ms/step", "dyncontact ms/step", "ratio",
-            "GetFEM peak MB", "dyncontact peak MB"]
+            "GetFEM peak MB", "dyncontact peak MB", "GetFEM wall ms/step",
+            "dyncontact wall ms/step", "wall ratio", "dyncontact threads", "setting"]
     if model:
         head += ["Model.solve steps", "Model.solve ms/step", "ratio"]
     body = []
     for r in rows:
         line = [_f(r["h"]), _f(r["dofs"]), _f(r["steps"]), _f(r["getfem_ms"]),
                 _f(r["ours_ms"]), _f(r["ratio"]), _f(r["getfem_peak_mb"]),
-                _f(r["ours_peak_mb"])]
+                _f(r["ours_peak_mb"]), _f(r.get("getfem_wall_ms")),
+                _f(r.get("ours_wall_ms")), _f(r.get("wall_ratio")),
+                _f(r.get("ours_threads")), _f(r.get("threads_setting", "auto"))]
         if model:
             line += [_f(r.get("model_steps")), _f(r.get("model_ms")),
                      _f(r.get("model_ratio"))]
@@ -268,6 +305,10 @@ def main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=2, help="interleaved rounds (best kept)")
     ap.add_argument("--model", action="store_true",
                     help="also GetFEM's own Model.solve (MUMPS at every iteration)")
+    ap.add_argument("--threads", default="auto",
+                    help="dyncontact's solve threads, comma-separated settings measured "
+                         "against the same GetFEM runs: auto (its default, from the "
+                         "environment), 1 or 2 (DYNCONTACT_THREADS) (default %(default)s)")
     ap.add_argument("--out", default=os.path.join(root, "out", "getfem"), help="folder")
     ap.add_argument("--exe", default=os.path.join(root, "build", "dyncontact"))
     ap.add_argument("--getfem-python", default=None,
@@ -284,11 +325,23 @@ def main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
               "apt-get install python3-getfem) or pass --getfem-python.", flush=True)
         return 0
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    # dyncontact: one BLAS thread (numpy), its solves' threads as a user gets them
+    labels = [t.strip() for t in a.threads.split(",") if t.strip()]
+    if not labels or any(t not in ("auto", "1", "2") for t in labels):
+        ap.error(f"--threads: a comma-separated list of auto, 1, 2: {a.threads!r}")
+    settings = []
+    for label in labels:
+        ours_env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+        ours_env.pop("DYNCONTACT_THREADS", None)
+        if label != "auto":
+            ours_env["DYNCONTACT_THREADS"] = label
+        settings.append((label, ours_env))
     load0 = loadavg()
-    print(f"bench --getfem: GetFEM through {py}; sizes {sizes}; load average {load0}, "
-          f"{os.cpu_count()} cores", flush=True)
+    print(f"bench --getfem: GetFEM through {py}; sizes {sizes}; dyncontact threads "
+          f"{a.threads}; load average {load0}, {os.cpu_count()} cores", flush=True)
     try:
-        rows = compare(py, a.exe, sizes, a.steps, a.repeats, a.model, env=env)
+        rows = compare(py, a.exe, sizes, a.steps, a.repeats, a.model, env=env,
+                       settings=settings)
     except RuntimeError as exc:
         print(f"bench --getfem: a run failed: {exc}", file=sys.stderr)
         return 1
@@ -297,8 +350,9 @@ def main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     write_csv(os.path.join(a.out, "getfem.csv"), rows, COLUMNS)
     lines = rows_table(rows)
     lines += ["", f"Load average (1, 5, 15 min): {load0} at the start, {load1} at the end; "
-              f"{os.cpu_count()} cores. CPU time of the time loop only, best of "
-              f"{a.repeats} interleaved rounds; peaks = max RSS of the whole process."]
+              f"{os.cpu_count()} cores. CPU time (and wall time) of the time loop only, best "
+              f"of {a.repeats} interleaved rounds; peaks = max RSS of the whole process; "
+              f"dyncontact threads: {a.threads}."]
     with open(os.path.join(a.out, "getfem.md"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -37,7 +37,13 @@ default; with ``scheduler`` (an address such as ``tcp://host:8786``, or a
 ``distributed.Client``) the tasks go to a ``dask.distributed`` cluster (the workers must
 see the cache folder: a shared file system, or the same machine). A run that fails
 (bad input, an exception in the analysis, a worker that died) becomes a record with
-``status = 'error'`` and its message; the sweep goes on. A scene the core refuses as bad
+``status = 'error'`` and its message; the sweep goes on. Runs that share a machine
+with other runs (the pool's workers, and every Dask task) run their solves on one thread
+(``&solver threads = 1``, :data:`PARALLEL_THREADS`, unless the task sets the key; the
+environment's ``DYNCONTACT_THREADS`` still overrides it): two threads for each of several
+runs at once would be slower than one (docs/performance.md, "Two threads in the
+triangular solve"). The key is applied after the cache key is computed, so it does not
+change the key. A scene the core refuses as bad
 input *at run time* (for example Nitsche θ = 1 with γ0 below the element bound, which
 only the assembled mesh can tell) is a grid point outside the method's domain: status
 ``'refused'``, not cached, counted once per sweep on the log. The core's warnings are
@@ -64,10 +70,14 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 __all__ = ["Task", "make_task", "sweep", "task_key", "code_version", "lookup", "execute",
-           "run_uncached", "register_analysis", "ERROR", "REFUSED"]
+           "run_uncached", "register_analysis", "ERROR", "REFUSED", "PARALLEL_THREADS"]
 
 #: Status of a record whose run could not be done (not a numerical verdict).
 ERROR = "error"
+#: ``&solver threads`` of the runs that share the machine with other runs (workers of a
+#: pool, Dask tasks): one thread each, as MUMPS or PARDISO run under a sweep of one
+#: process per core.
+PARALLEL_THREADS = 1
 #: Bump when the layout of a cache entry changes.
 CACHE_LAYOUT = 1
 #: A temporary entry folder older than this (s) is left over from an interrupted sweep.
@@ -268,13 +278,17 @@ def _files(folder: str) -> list[str]:
                   for d, _, names in os.walk(folder) for name in names)
 
 
-def _run(task: Task, run_dir: str, key: str | None) -> tuple[dict[str, Any], dict[str, Any]]:
+def _run(task: Task, run_dir: str, key: str | None,
+         threads: int | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
     """Run the task's scene into run_dir and its analysis on the outputs: the record
-    (without files and cache fields) and the analysis' output. Raises what the run or
-    the analysis raises."""
+    (without files and cache fields) and the analysis' output. ``threads``: the
+    ``&solver threads`` to run with when the task does not set it (None: the scene's).
+    Raises what the run or the analysis raises."""
     from .. import core
 
     scene = _scene(task)
+    if threads is not None and task.setting("solver.threads") is None:
+        scene.set("solver.threads", threads)
     analysis = _analysis(task.analysis)
     runner = getattr(analysis, "runner", None)
     cpu0, wall0 = time.process_time(), time.perf_counter()
@@ -333,8 +347,11 @@ def run_uncached(task: Task, run_dir: str) -> dict[str, Any]:
     return _guarded(task, None, body)
 
 
-def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
+def execute(task: Task, cache: str, key: str | None = None,
+            threads: int | None = None) -> dict[str, Any]:
     """Run one task (or take it from the cache) and return its record; never raises.
+    ``threads``: the ``&solver threads`` of the run when the task does not set it (None:
+    the scene's; the sweep's workers pass :data:`PARALLEL_THREADS`).
 
     The record: key, status ('ok' | 'unstable' | 'newton_failed' | 'refused' | 'error'),
     message, t_end_reached, steps, wall_s (the core's time loop), cpu_s (process CPU time
@@ -355,7 +372,7 @@ def execute(task: Task, cache: str, key: str | None = None) -> dict[str, Any]:
         os.makedirs(tmp)
         try:
             run_dir = os.path.join(tmp, "run")
-            rec, out = _run(task, run_dir, k)
+            rec, out = _run(task, run_dir, k, threads)
             keep = set(out.get("keep", ())) | {"trace.csv", "summary.json"}
             for name in os.listdir(run_dir):
                 if name in keep:
@@ -526,7 +543,8 @@ def _warm_worker() -> None:
 
 def _sweep_pool(tasks, keys, todo, cache, workers, done) -> None:
     with cf.ProcessPoolExecutor(max_workers=workers, initializer=_warm_worker) as pool:
-        futs = {pool.submit(execute, tasks[i], cache, keys[i]): i for i in todo}
+        futs = {pool.submit(execute, tasks[i], cache, keys[i], PARALLEL_THREADS): i
+                for i in todo}
         try:
             for fut in cf.as_completed(futs):
                 i = futs[fut]
@@ -546,7 +564,7 @@ def _sweep_dask(tasks, keys, todo, cache, scheduler, done) -> None:
     own = not isinstance(scheduler, Client)
     client = Client(scheduler) if own else scheduler
     try:
-        futs = [client.submit(execute, tasks[i], cache, keys[i], pure=False,
+        futs = [client.submit(execute, tasks[i], cache, keys[i], PARALLEL_THREADS, pure=False,
                               key=f"dyncontact-{keys[i]}-{uuid.uuid4().hex[:6]}")
                 for i in todo]
         index = {f.key: i for f, i in zip(futs, todo)}
