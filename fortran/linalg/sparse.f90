@@ -22,6 +22,7 @@ module sparse
     end type csc_t
 
     public :: csc_from_coo, csc_find, csc_matvec, csc_matvec_t, csc_drop_zeros
+    public :: csc_matvec_t_values, csc_swap_values
     public :: block2_from_csc, block2_matvec, block2_matvec_km, block2_scalar_blocks, &
               block2_matvec_ks2, block2_matvec_ks3
     public :: block3_from_csc, block3_matvec, block3_matvec_km, block3_scalar_blocks, &
@@ -250,6 +251,36 @@ contains
             y(j) = acc
         end do
     end subroutine csc_matvec_t
+
+    !> y = B^T x for the matrix B with a's pattern and the values val (a%val is not
+    !> read): matrices that share one pattern keep their values only. The loop of
+    !> csc_matvec_t (bitwise equal to it on a matrix holding val).
+    pure subroutine csc_matvec_t_values(a, val, x, y)
+        type(csc_t), intent(in) :: a   !! the pattern
+        real(dp), intent(in) :: val(:) !! (a%nnz) values on it
+        real(dp), intent(in) :: x(:)   !! (n)
+        real(dp), intent(out) :: y(:)  !! (n)
+        integer :: j, k
+        real(dp) :: acc
+        do j = 1, a%n
+            acc = 0.0_dp
+            do k = a%colptr(j) + 1, a%colptr(j + 1)
+                acc = acc + val(k) * x(a%rowind(k) + 1)
+            end do
+            y(j) = acc
+        end do
+    end subroutine csc_matvec_t_values
+
+    !> Exchange a%val with val (same size, values on a's pattern), without a copy: a
+    !> routine that takes a csc_t then reads the other matrix; a second call restores.
+    subroutine csc_swap_values(a, val)
+        type(csc_t), intent(inout) :: a               !! the pattern and its values
+        real(dp), allocatable, intent(inout) :: val(:) !! (a%nnz) the other values
+        real(dp), allocatable :: keep(:)
+        call move_alloc(a%val, keep)
+        call move_alloc(val, a%val)
+        call move_alloc(keep, val)
+    end subroutine csc_swap_values
 
     !> Block copy of a symmetric CSC matrix; `first` (n_groups + 1) gives the first dof
     !> of each group of 1 or 2 consecutive dofs (first(n_groups + 1) = n + 1).
