@@ -664,6 +664,7 @@ subroutine dc_sim_matrix(handle, which, n, nnz, colptr, rowind, val, stat, errms
     use errors, only: STAT_OK, STAT_BAD_INPUT
     use simulation, only: simulation_t
     use api_handles, only: sim_from_handle
+    use model, only: model_stiff_theta_values
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! run handle
     integer(c_int), intent(in) :: which          !! 1 M, 2 K, 3 K_theta
@@ -692,7 +693,7 @@ subroutine dc_sim_matrix(handle, which, n, nnz, colptr, rowind, val, stat, errms
     case (2)
         val = sim%mdl%stiff%val
     case (3)
-        val = sim%mdl%stiff_theta_val
+        call model_stiff_theta_values(sim%mdl, val)
     case default
         stat = STAT_BAD_INPUT
         errmsg = 'dc_sim_matrix: which must be 1 (M), 2 (K) or 3 (K_theta)'

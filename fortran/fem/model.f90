@@ -7,7 +7,8 @@ module model
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use dense_lu, only: dense_lu_factor, dense_lu_solve
-    use sparse, only: csc_t, csc_find, csc_matvec_t_values, csc_swap_values, block2_t, block2_from_csc, &
+    use sparse, only: csc_t, csc_find, csc_matvec_t_values, csc_swap_values, block2_csc_values, &
+                      block3_csc_values, block2_t, block2_from_csc, &
                       block2_matvec, block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, &
                       block2_matvec_ks3, block3_t, block3_from_csc, block3_matvec, block3_matvec_km, &
                       block3_scalar_blocks, block3_matvec_ks2, block3_matvec_ks3
@@ -68,7 +69,8 @@ module model
         integer, allocatable :: dof_comp(:)       !! (n_dofs) component of each free dof
         type(csc_t) :: stiff                      !! K; its pattern is also M's and K_theta's
         real(dp), allocatable :: mass_val(:)      !! (stiff%nnz) M (consistent or lumped) on K's pattern
-        real(dp), allocatable :: stiff_theta_val(:) !! (stiff%nnz) K_theta = K - sum theta |F| / gamma s s^T on it
+        real(dp), allocatable :: stiff_theta_val(:) !! (stiff%nnz) K_theta = K - sum theta |F| / gamma s s^T
+                                                    !! on it; freed when blocked (model_stiff_theta_values)
         logical :: blocked = .false.              !! K_theta also in node blocks (2x2 in 2D, 3x3 in 3D)
         type(block2_t) :: stiff_theta_b           !! its node-block copy (fast products; 2D)
         type(block2_t) :: mass_b                  !! node-block copy of M (same blocks; 2D; empty when mass_scalar)
@@ -94,7 +96,7 @@ module model
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
               model_probe, model_mass_apply, model_stiff_apply, model_full_field, &
-              model_step_products, model_stiff_mass_apply
+              model_step_products, model_stiff_mass_apply, model_stiff_theta_values
 
 contains
 
@@ -191,6 +193,9 @@ contains
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//trim(msg))
             return
         end if
+        ! K_theta in its node blocks only: its products use them, and the few readers of
+        ! its CSC values (J0, the API) read them back (model_stiff_theta_values)
+        if (mdl%blocked) deallocate (mdl%stiff_theta_val)
         if (mdl%has_contact) then
             call snap_probe(mdl, prm, stat, msg)
             if (stat /= STAT_OK) then
@@ -1058,6 +1063,20 @@ contains
             end do
         end subroutine gather
     end subroutine model_probe
+
+    !> K_theta's values on K's pattern (mdl%stiff): its CSC values, or when it is held in
+    !> node blocks only, read back from them (the same numbers).
+    subroutine model_stiff_theta_values(mdl, val)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(out) :: val(:)       !! (mdl%stiff%nnz) values
+        if (allocated(mdl%stiff_theta_val)) then
+            val = mdl%stiff_theta_val
+        else if (mdl%dim == 3) then
+            call block3_csc_values(mdl%stiff, mdl%stiff_theta_b3, val)
+        else
+            call block2_csc_values(mdl%stiff, mdl%stiff_theta_b, val)
+        end if
+    end subroutine model_stiff_theta_values
 
     !> y = K_theta x (node blocks in 2D and 3D, gather-form CSC product otherwise).
     subroutine model_stiff_apply(mdl, x, y)

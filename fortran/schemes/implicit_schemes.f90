@@ -180,6 +180,7 @@ contains
     !> Coefficients from the parameters, J0 factorization, Woodbury blocks, and the
     !> initial acceleration M a0 = L - B(u0) for the Newmark family.
     subroutine implicit_init(this, mdl, prm, st, stat, errmsg)
+        use model, only: model_stiff_theta_values
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(scheme_params_t), intent(in) :: prm            !! parameters (kind: an implicit one)
@@ -233,7 +234,8 @@ contains
         call model_mass_apply(mdl, this%dvec, this%md)
 
         this%jac0 = mdl%stiff      ! on the model's pattern (M's, K's and K_theta's)
-        this%jac0%val = mdl%mass_val + this%c * mdl%stiff_theta_val
+        call model_stiff_theta_values(mdl, this%jac0%val)   ! K_theta's values, in place
+        this%jac0%val = mdl%mass_val + this%c * this%jac0%val
         call ls_configure(this%lu0, prm%solver_kind, mdl%dim, prm%cg_rtol, prm%cg_max_iter)
         call ls_factor(this%lu0, this%jac0, stat, errmsg)
         if (stat /= STAT_OK) return
