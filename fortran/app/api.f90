@@ -654,7 +654,7 @@ subroutine dc_sim_matrix_nnz(handle, nnz)
     integer(c_int), intent(out) :: nnz           !! stored entries
     type(simulation_t), pointer :: sim
     call sim_from_handle(handle, sim)
-    nnz = sim%mdl%mass%nnz
+    nnz = sim%mdl%stiff%nnz
 end subroutine dc_sim_matrix_nnz
 
 !> One assembled matrix of an open run on the free dofs, as 0-based CSC:
@@ -664,6 +664,7 @@ subroutine dc_sim_matrix(handle, which, n, nnz, colptr, rowind, val, stat, errms
     use errors, only: STAT_OK, STAT_BAD_INPUT
     use simulation, only: simulation_t
     use api_handles, only: sim_from_handle
+    use model, only: model_stiff_theta_values
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! run handle
     integer(c_int), intent(in) :: which          !! 1 M, 2 K, 3 K_theta
@@ -678,21 +679,21 @@ subroutine dc_sim_matrix(handle, which, n, nnz, colptr, rowind, val, stat, errms
     errmsg = ''
     colptr = 0; rowind = 0; val = 0.0_c_double
     call sim_from_handle(handle, sim)
-    if (n /= sim%mdl%n_dofs .or. nnz /= sim%mdl%mass%nnz) then
+    if (n /= sim%mdl%n_dofs .or. nnz /= sim%mdl%stiff%nnz) then
         stat = STAT_BAD_INPUT
         errmsg = 'dc_sim_matrix: n or nnz do not match the model'
         return
     end if
     stat = STAT_OK
-    colptr = sim%mdl%mass%colptr
-    rowind = sim%mdl%mass%rowind
+    colptr = sim%mdl%stiff%colptr    ! the pattern of M, K and K_theta
+    rowind = sim%mdl%stiff%rowind
     select case (which)
     case (1)
-        val = sim%mdl%mass%val
+        val = sim%mdl%mass_val
     case (2)
         val = sim%mdl%stiff%val
     case (3)
-        val = sim%mdl%stiff_theta%val
+        call model_stiff_theta_values(sim%mdl, val)
     case default
         stat = STAT_BAD_INPUT
         errmsg = 'dc_sim_matrix: which must be 1 (M), 2 (K) or 3 (K_theta)'

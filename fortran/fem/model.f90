@@ -7,7 +7,8 @@ module model
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use dense_lu, only: dense_lu_factor, dense_lu_solve
-    use sparse, only: csc_t, csc_find, csc_matvec_t, block2_t, block2_from_csc, &
+    use sparse, only: csc_t, csc_find, csc_matvec_t_values, csc_swap_values, block2_csc_values, &
+                      block3_csc_values, block2_t, block2_from_csc, &
                       block2_matvec, block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, &
                       block2_matvec_ks3, block3_t, block3_from_csc, block3_matvec, block3_matvec_km, &
                       block3_scalar_blocks, block3_matvec_ks2, block3_matvec_ks3
@@ -66,9 +67,10 @@ module model
         integer, allocatable :: dof(:, :)         !! (dim, n_nodes) free dof number, 0 = constrained
         integer, allocatable :: dof_node(:)       !! (n_dofs) node of each free dof
         integer, allocatable :: dof_comp(:)       !! (n_dofs) component of each free dof
-        type(csc_t) :: mass                       !! M (consistent or lumped), shared pattern
-        type(csc_t) :: stiff                      !! K, shared pattern
-        type(csc_t) :: stiff_theta                !! K_theta = K - sum theta |F| / gamma s s^T
+        type(csc_t) :: stiff                      !! K; its pattern is also M's and K_theta's
+        real(dp), allocatable :: mass_val(:)      !! (stiff%nnz) M (consistent or lumped) on K's pattern
+        real(dp), allocatable :: stiff_theta_val(:) !! (stiff%nnz) K_theta = K - sum theta |F| / gamma s s^T
+                                                    !! on it; freed when blocked (model_stiff_theta_values)
         logical :: blocked = .false.              !! K_theta also in node blocks (2x2 in 2D, 3x3 in 3D)
         type(block2_t) :: stiff_theta_b           !! its node-block copy (fast products; 2D)
         type(block2_t) :: mass_b                  !! node-block copy of M (same blocks; 2D; empty when mass_scalar)
@@ -94,7 +96,7 @@ module model
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
               model_probe, model_mass_apply, model_stiff_apply, model_full_field, &
-              model_step_products, model_stiff_mass_apply
+              model_step_products, model_stiff_mass_apply, model_stiff_theta_values
 
 contains
 
@@ -191,6 +193,9 @@ contains
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//trim(msg))
             return
         end if
+        ! K_theta in its node blocks only: its products use them, and the few readers of
+        ! its CSC values (J0, the API) read them back (model_stiff_theta_values)
+        if (mdl%blocked) deallocate (mdl%stiff_theta_val)
         if (mdl%has_contact) then
             call snap_probe(mdl, prm, stat, msg)
             if (stat /= STAT_OK) then
@@ -290,7 +295,7 @@ contains
         dim = mdl%dim
         ne = mdl%ndof_e
         call cell_pattern(mdl, mdl%stiff)
-        mdl%mass = mdl%stiff
+        mdl%mass_val = mdl%stiff%val
         allocate (mdl%load(mdl%n_dofs))
         mdl%load = 0.0_dp
         mdl%lumped = prm%mass == MASS_LUMPED
@@ -304,7 +309,7 @@ contains
                     i = pos(a, b)
                     if (i == 0) cycle
                     mdl%stiff%val(i) = mdl%stiff%val(i) + ke(a, b)
-                    mdl%mass%val(i) = mdl%mass%val(i) + me(a, b)
+                    mdl%mass_val(i) = mdl%mass_val(i) + me(a, b)
                 end do
             end do
             vol = abs(p1_measure(dim, xe(1:dim, 1:dim + 1)))
@@ -315,11 +320,11 @@ contains
                 end do
             end do
         end do
-        mdl%stiff_theta = mdl%stiff
+        mdl%stiff_theta_val = mdl%stiff%val
         if (mdl%lumped) then
             allocate (mdl%mass_diag(mdl%n_dofs))
             do j = 1, mdl%n_dofs
-                mdl%mass_diag(j) = mdl%mass%val(csc_find(mdl%mass, j, j))
+                mdl%mass_diag(j) = mdl%mass_val(csc_find(mdl%stiff, j, j))
             end do
         end if
     end subroutine assemble
@@ -464,7 +469,7 @@ contains
                 do a = 1, mdl%ndof_e
                     i = pos(a, b)
                     if (i == 0) cycle
-                    mdl%stiff_theta%val(i) = mdl%stiff_theta%val(i) &
+                    mdl%stiff_theta_val(i) = mdl%stiff_theta_val(i) &
                                              - coef * mdl%ct%s(a, f) * mdl%ct%s(b, f)
                 end do
             end do
@@ -484,8 +489,10 @@ contains
         if (size(facets) > 0) contact_node(reshape(mdl%msh%facets(:, facets), [size(facets) &
                                            * size(mdl%msh%facets, 1)])) = .true.
         call mass_region(mdl%msh%cells, contact_node, LAYERS, region)
-        call mass_redistribute(mdl%mass, mdl%dof_node, mdl%dof_comp, mdl%msh%x, contact_node, &
+        call csc_swap_values(mdl%stiff, mdl%mass_val)     ! mdl%stiff reads as M
+        call mass_redistribute(mdl%stiff, mdl%dof_node, mdl%dof_comp, mdl%msh%x, contact_node, &
                                region, mdl%massless, st, m)
+        call csc_swap_values(mdl%stiff, mdl%mass_val)
     end subroutine redistribute
 
     !> Node-block copy of K_theta and M, built once: 2x2 blocks in 2D, 3x3 in 3D (the
@@ -508,8 +515,12 @@ contains
         end do
         first(ng + 1) = mdl%n_dofs + 1
         if (mdl%dim == 3) then
-            call block3_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b3, st, m)
-            if (st == STAT_OK) call block3_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b3, st, m)
+            call csc_swap_values(mdl%stiff, mdl%stiff_theta_val)   ! mdl%stiff reads as K_theta
+            call block3_from_csc(mdl%stiff, first(1:ng + 1), mdl%stiff_theta_b3, st, m)
+            call csc_swap_values(mdl%stiff, mdl%stiff_theta_val)
+            call csc_swap_values(mdl%stiff, mdl%mass_val)          ! as M
+            if (st == STAT_OK) call block3_from_csc(mdl%stiff, first(1:ng + 1), mdl%mass_b3, st, m)
+            call csc_swap_values(mdl%stiff, mdl%mass_val)
             mdl%blocked = st == STAT_OK
             if (mdl%blocked) call block3_scalar_blocks(mdl%mass_b3, mdl%mass_s, mdl%mass_scalar)
             ! M's blocks are mass_s(k) I on K_theta's block pattern: their copy goes
@@ -520,8 +531,12 @@ contains
             end if
             return
         end if
-        call block2_from_csc(mdl%stiff_theta, first(1:ng + 1), mdl%stiff_theta_b, st, m)
-        if (st == STAT_OK) call block2_from_csc(mdl%mass, first(1:ng + 1), mdl%mass_b, st, m)
+        call csc_swap_values(mdl%stiff, mdl%stiff_theta_val)
+        call block2_from_csc(mdl%stiff, first(1:ng + 1), mdl%stiff_theta_b, st, m)
+        call csc_swap_values(mdl%stiff, mdl%stiff_theta_val)
+        call csc_swap_values(mdl%stiff, mdl%mass_val)
+        if (st == STAT_OK) call block2_from_csc(mdl%stiff, first(1:ng + 1), mdl%mass_b, st, m)
+        call csc_swap_values(mdl%stiff, mdl%mass_val)
         mdl%blocked = st == STAT_OK
         if (mdl%blocked) call block2_scalar_blocks(mdl%mass_b, mdl%mass_s, mdl%mass_scalar)
         if (mdl%mass_scalar) then
@@ -1049,6 +1064,20 @@ contains
         end subroutine gather
     end subroutine model_probe
 
+    !> K_theta's values on K's pattern (mdl%stiff): its CSC values, or when it is held in
+    !> node blocks only, read back from them (the same numbers).
+    subroutine model_stiff_theta_values(mdl, val)
+        type(model_t), intent(in) :: mdl      !! model
+        real(dp), intent(out) :: val(:)       !! (mdl%stiff%nnz) values
+        if (allocated(mdl%stiff_theta_val)) then
+            val = mdl%stiff_theta_val
+        else if (mdl%dim == 3) then
+            call block3_csc_values(mdl%stiff, mdl%stiff_theta_b3, val)
+        else
+            call block2_csc_values(mdl%stiff, mdl%stiff_theta_b, val)
+        end if
+    end subroutine model_stiff_theta_values
+
     !> y = K_theta x (node blocks in 2D and 3D, gather-form CSC product otherwise).
     subroutine model_stiff_apply(mdl, x, y)
         type(model_t), intent(in) :: mdl      !! model
@@ -1059,7 +1088,7 @@ contains
         else if (mdl%blocked) then
             call block2_matvec(mdl%stiff_theta_b, x, y)
         else
-            call csc_matvec_t(mdl%stiff_theta, x, y)   ! symmetric: A^T x = A x
+            call csc_matvec_t_values(mdl%stiff, mdl%stiff_theta_val, x, y)   ! symmetric: A^T x = A x
         end if
     end subroutine model_stiff_apply
 
@@ -1074,7 +1103,7 @@ contains
         else if (mdl%blocked .and. mdl%dim == 3 .and. .not. mdl%mass_scalar) then
             call block3_matvec(mdl%mass_b3, x, y)
         else
-            call csc_matvec_t(mdl%mass, x, y)   ! symmetric
+            call csc_matvec_t_values(mdl%stiff, mdl%mass_val, x, y)   ! symmetric
         end if
     end subroutine model_mass_apply
 
@@ -1106,9 +1135,9 @@ contains
         else if (mdl%blocked) then
             call block2_matvec_km(mdl%stiff_theta_b, mdl%mass_b, x, v, d, kx, mv, md)
         else
-            call csc_matvec_t(mdl%stiff_theta, x, kx)
-            call csc_matvec_t(mdl%mass, v, mv)
-            call csc_matvec_t(mdl%mass, d, md)
+            call csc_matvec_t_values(mdl%stiff, mdl%stiff_theta_val, x, kx)
+            call csc_matvec_t_values(mdl%stiff, mdl%mass_val, v, mv)
+            call csc_matvec_t_values(mdl%stiff, mdl%mass_val, d, md)
         end if
         bx = kx
     end subroutine model_step_products

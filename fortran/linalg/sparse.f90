@@ -22,6 +22,7 @@ module sparse
     end type csc_t
 
     public :: csc_from_coo, csc_find, csc_matvec, csc_matvec_t, csc_drop_zeros
+    public :: csc_matvec_t_values, csc_swap_values, block2_csc_values, block3_csc_values
     public :: block2_from_csc, block2_matvec, block2_matvec_km, block2_scalar_blocks, &
               block2_matvec_ks2, block2_matvec_ks3
     public :: block3_from_csc, block3_matvec, block3_matvec_km, block3_scalar_blocks, &
@@ -250,6 +251,36 @@ contains
             y(j) = acc
         end do
     end subroutine csc_matvec_t
+
+    !> y = B^T x for the matrix B with a's pattern and the values val (a%val is not
+    !> read): matrices that share one pattern keep their values only. The loop of
+    !> csc_matvec_t (bitwise equal to it on a matrix holding val).
+    pure subroutine csc_matvec_t_values(a, val, x, y)
+        type(csc_t), intent(in) :: a   !! the pattern
+        real(dp), intent(in) :: val(:) !! (a%nnz) values on it
+        real(dp), intent(in) :: x(:)   !! (n)
+        real(dp), intent(out) :: y(:)  !! (n)
+        integer :: j, k
+        real(dp) :: acc
+        do j = 1, a%n
+            acc = 0.0_dp
+            do k = a%colptr(j) + 1, a%colptr(j + 1)
+                acc = acc + val(k) * x(a%rowind(k) + 1)
+            end do
+            y(j) = acc
+        end do
+    end subroutine csc_matvec_t_values
+
+    !> Exchange a%val with val (same size, values on a's pattern), without a copy: a
+    !> routine that takes a csc_t then reads the other matrix; a second call restores.
+    subroutine csc_swap_values(a, val)
+        type(csc_t), intent(inout) :: a               !! the pattern and its values
+        real(dp), allocatable, intent(inout) :: val(:) !! (a%nnz) the other values
+        real(dp), allocatable :: keep(:)
+        call move_alloc(a%val, keep)
+        call move_alloc(val, a%val)
+        call move_alloc(keep, val)
+    end subroutine csc_swap_values
 
     !> Block copy of a symmetric CSC matrix; `first` (n_groups + 1) gives the first dof
     !> of each group of 1 or 2 consecutive dofs (first(n_groups + 1) = n + 1).
@@ -587,6 +618,58 @@ contains
             end do
         end do
     end subroutine block3_from_csc
+
+    !> The values on a's pattern of the matrix whose node-block copy is b (block2_from_csc
+    !> of a matrix with a's pattern): the copy read back entry by entry, the same numbers.
+    !> A matrix kept in blocks needs no CSC values of its own. O(nnz).
+    subroutine block2_csc_values(a, b, val)
+        type(csc_t), intent(in) :: a        !! the pattern b was copied from
+        type(block2_t), intent(in) :: b     !! the block copy
+        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
+        call blocks_to_csc(a, b%first, b%row_ptr, b%val, 2, val)
+    end subroutine block2_csc_values
+
+    !> block2_csc_values for a 3x3 node-block copy (block3_from_csc).
+    subroutine block3_csc_values(a, b, val)
+        type(csc_t), intent(in) :: a        !! the pattern b was copied from
+        type(block3_t), intent(in) :: b     !! the block copy
+        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
+        call blocks_to_csc(a, b%first, b%row_ptr, b%val, 3, val)
+    end subroutine block3_csc_values
+
+    !> The inverse of the copies' second pass: the same walk (a's columns by row groups,
+    !> the blocks of a row group numbered as they are met), each entry read from its slot.
+    subroutine blocks_to_csc(a, first, row_ptr, bval, w, val)
+        type(csc_t), intent(in) :: a            !! pattern
+        integer, intent(in) :: first(:)         !! (n_groups + 1) group starts
+        integer, intent(in) :: row_ptr(:)       !! (n_groups + 1) block range of each row group
+        real(dp), intent(in) :: bval(:, :)      !! (w * w, n_blocks) block values by columns
+        integer, intent(in) :: w                !! block width (2 or 3)
+        real(dp), intent(out) :: val(:)         !! (a%nnz) values
+        integer, allocatable :: group(:), mark(:)
+        integer :: ng, g, j, k, i, h, r, nb
+        ng = size(first) - 1
+        allocate (group(a%n), mark(ng))
+        do g = 1, ng
+            group(first(g):first(g + 1) - 1) = g
+        end do
+        mark = 0
+        nb = 0
+        do g = 1, ng
+            do j = first(g), first(g + 1) - 1
+                r = j - first(g)
+                do k = a%colptr(j) + 1, a%colptr(j + 1)
+                    i = a%rowind(k) + 1
+                    h = group(i)
+                    if (mark(h) < row_ptr(g)) then
+                        nb = nb + 1
+                        mark(h) = nb
+                    end if
+                    val(k) = bval(1 + r + w * (i - first(h)), mark(h))
+                end do
+            end do
+        end do
+    end subroutine blocks_to_csc
 
     !> y = B x for a block3_t matrix (rows of a block summed as a 3-vector, see block3_t).
     pure subroutine block3_matvec(b, x, y)

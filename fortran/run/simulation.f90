@@ -469,7 +469,7 @@ contains
         e = 0.0_dp
         c = 1.0_dp / max(sim%scn%t_end, sim%scn%dt)**2
         a = sim%mdl%stiff
-        a%val = sim%mdl%stiff%val + c * sim%mdl%mass%val
+        a%val = sim%mdl%stiff%val + c * sim%mdl%mass_val
         allocate (x(sim%n_dofs))
         call ls_factor(lu, a, st)
         if (st == STAT_OK) call ls_solve(lu, a, sim%mdl%load, x, st)
@@ -976,7 +976,7 @@ contains
                '  "factor_nnz": '//int_text(fnnz)//','//nl// &
                '  "factorization": '//json_string(fact)//','//nl// &
                '  "solve_threads": '//int_text(int(threads, i8))//','//nl// &
-               '  "matrix_nnz": '//int_text(int(sim%mdl%mass%nnz, i8))//','//nl// &
+               '  "matrix_nnz": '//int_text(int(sim%mdl%stiff%nnz, i8))//','//nl// &
                '  "scene": '//scene_to_json(sim%scn)//','//nl// &
                '  "version": '//json_string(DYNCONTACT_VERSION)//','//nl// &
                '  "isa": '//json_string(DYNCONTACT_ISA)//nl//'}'//nl

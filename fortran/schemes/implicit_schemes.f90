@@ -207,6 +207,7 @@ contains
     !> Coefficients from the parameters, J0 factorization, Woodbury blocks, and the
     !> initial acceleration M a0 = L - B(u0) for the Newmark family.
     subroutine implicit_init(this, mdl, prm, st, stat, errmsg)
+        use model, only: model_stiff_theta_values
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(scheme_params_t), intent(in) :: prm            !! parameters (kind: an implicit one)
@@ -245,8 +246,7 @@ contains
         else
             this%c = (this%theta * this%dt)**2
         end if
-        allocate (this%md(n), this%dvec(n), this%r(n), this%dx(n), &
-                  this%x(n), this%scratch(n))
+        allocate (this%md(n), this%dvec(n))
 
         ! initial acceleration (Newmark family only)
         if (this%kind == KIND_NEWMARK) then
@@ -260,12 +260,15 @@ contains
         call form_predictor(this, st%u, st%v, st%a)
         call model_mass_apply(mdl, this%dvec, this%md)
 
-        this%jac0 = mdl%mass
-        this%jac0%val = mdl%mass%val + this%c * mdl%stiff_theta%val
+        this%jac0 = mdl%stiff      ! on the model's pattern (M's, K's and K_theta's)
+        call model_stiff_theta_values(mdl, this%jac0%val)   ! K_theta's values, in place
+        this%jac0%val = mdl%mass_val + this%c * this%jac0%val
         call ls_configure(this%lu0, prm%solver_kind, mdl%dim, prm%cg_rtol, prm%cg_max_iter)
         call ls_factor(this%lu0, this%jac0, stat, errmsg)
         if (stat /= STAT_OK) return
         if (this%lu0%backend /= BACKEND_PCG) this%factorizations = this%factorizations + 1
+        ! the step's vectors, allocated after J0's factorization: not held at its peak
+        allocate (this%r(n), this%dx(n), this%x(n), this%scratch(n))
 
         this%m = 0
         if (mdl%has_contact) this%m = mdl%ct%m

@@ -50,7 +50,8 @@ contains
                 block
                     type(csc_t) :: m1
                     integer :: k, j, p
-                    m1 = mdl%mass
+                    m1 = mdl%stiff
+                    m1%val = mdl%mass_val
                     do k = 1, size(ms%massless)
                         j = ms%massless(k)
                         do p = m1%colptr(j) + 1, m1%colptr(j + 1)
@@ -60,7 +61,12 @@ contains
                     call csc_drop_zeros(m1, ms%mass)
                 end block
             else if (.not. mdl%mass_scalar) then
-                call csc_drop_zeros(mdl%mass, ms%mass)    ! (S alone is factorized otherwise)
+                block                                     ! (S alone is factorized otherwise)
+                    type(csc_t) :: m1
+                    m1 = mdl%stiff
+                    m1%val = mdl%mass_val
+                    call csc_drop_zeros(m1, ms%mass)
+                end block
             end if
             if (mdl%mass_scalar .and. size(ms%massless) == 0) then
                 call scalar_mass(stat)

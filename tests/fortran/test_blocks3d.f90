@@ -10,13 +10,14 @@ program test_blocks3d
     use errors, only: STAT_OK
     use mesh, only: mesh_t
     use bar_mesh, only: bar_mesh_build
-    use sparse, only: csc_t, csc_matvec, csc_matvec_t, block3_matvec, block3_matvec_km, &
-                      block3_matvec_ks2, block3_matvec_ks3
+    use sparse, only: csc_t, csc_matvec, csc_matvec_t, csc_matvec_t_values, block3_matvec, &
+                      block3_matvec_km, block3_matvec_ks2, block3_matvec_ks3
     use cholmod, only: cholmod_t, chol_factor, chol_solve, chol_solve_many, chol_solve_cholmod, &
                        chol_kernel, chol_free, KERNEL_TRIPLES, KERNEL_CHOLMOD
     use ldl_solves, only: triple_ldl_t, triple_ldl_build
     use model, only: model_t, model_params_t, model_build, model_stiff_apply, model_step_products, &
-                     model_stiff_mass_apply, model_mass_apply, MASS_CONSISTENT
+                     model_stiff_mass_apply, model_mass_apply, model_stiff_theta_values, &
+                     MASS_CONSISTENT
     use mass_solver, only: mass_solver_t, mass_solver_init, mass_solver_apply, mass_solver_free
     use unit_checks, only: checks_t, seed
     implicit none
@@ -43,6 +44,7 @@ contains
         character(len=300) :: msg
         real(dp), allocatable :: x(:), v(:), d(:), kx(:), mv(:), md(:), bx(:), &
                                  kx0(:), mv0(:), md0(:), y(:)
+        type(csc_t) :: kth, mm
         call bar_mesh_build(3, 1.0_dp, 0.1_dp, 0.05_dp, msh, stat, msg)
         call checks%check(stat == STAT_OK, what//': box builds')
         prm%clamped = 'top'; prm%contact = 'bottom'; prm%slip_z = slip_z
@@ -64,13 +66,27 @@ contains
         call random_number(d)
         x = x - 0.5_dp
         v = v - 0.5_dp
-        call csc_matvec_t(mdl%stiff_theta, x, kx0)
-        call csc_matvec_t(mdl%mass, v, mv0)
-        call csc_matvec_t(mdl%mass, d, md0)
+        ! M and K_theta are values on K's pattern: each as a matrix of its own (pattern
+        ! copied), the products on the shared pattern are bitwise theirs
+        call checks%check(size(mdl%mass_val) == mdl%stiff%nnz .and. &
+                          .not. allocated(mdl%stiff_theta_val), &
+                          what//': M on the one pattern of K, K_theta in its blocks only')
+        kth = mdl%stiff
+        call model_stiff_theta_values(mdl, kth%val)
+        mm = mdl%stiff
+        mm%val = mdl%mass_val
+        call csc_matvec_t(kth, x, kx0)
+        call csc_matvec_t(mm, v, mv0)
+        call csc_matvec_t(mm, d, md0)
+        call csc_matvec_t_values(mdl%stiff, kth%val, x, kx)
+        call csc_matvec_t_values(mdl%stiff, mdl%mass_val, v, mv)
+        call csc_matvec_t_values(mdl%stiff, mdl%mass_val, d, md)
+        call checks%check(all(kx == kx0) .and. all(mv == mv0) .and. all(md == md0), &
+                          what//': products on the shared pattern bitwise = own-pattern CSC')
         ! K x by blocks: bitwise the gather-form CSC product, to 1e-15 the scatter form
         call block3_matvec(mdl%stiff_theta_b3, x, kx)
         call checks%check(all(kx == kx0), what//': block3 K x bitwise = CSC')
-        call csc_matvec(mdl%stiff_theta, x, y)
+        call csc_matvec(kth, x, y)
         call checks%check(maxval(abs(kx - y)) <= 1.0e-15_dp * maxval(abs(y)), &
                           what//': block3 K x = scattered CSC product')
         call model_stiff_apply(mdl, x, kx)
@@ -120,8 +136,9 @@ contains
         integer :: stat, j
         logical :: ok
         c = 0.25_dp * 0.0025_dp**2
-        jac = mdl%mass
-        jac%val = mdl%mass%val + c * mdl%stiff_theta%val
+        jac = mdl%stiff
+        call model_stiff_theta_values(mdl, jac%val)
+        jac%val = mdl%mass_val + c * jac%val
         ch%keep_cholmod = .true.
         call chol_factor(ch, jac, stat)
         call checks%check(stat == STAT_OK, what//': J0 factorized')
@@ -170,12 +187,15 @@ contains
         type(mass_solver_t) :: ms
         real(dp) :: b(mdl%n_dofs), x(mdl%n_dofs), r(mdl%n_dofs)
         integer :: stat
+        type(csc_t) :: mm
+        mm = mdl%stiff
+        mm%val = mdl%mass_val
         call mass_solver_init(ms, mdl, stat)
         call checks%check(stat == STAT_OK .and. (ms%scalar .eqv. mdl%mass_scalar), &
                           what//': mass solver (scalar mass iff scalar blocks)')
         call random_number(b)
         call mass_solver_apply(ms, b, x, stat)
-        call csc_matvec(mdl%mass, x, r)
+        call csc_matvec(mm, x, r)
         call checks%check(stat == STAT_OK .and. maxval(abs(r - b)) <= 1.0e-12_dp * maxval(abs(b)), &
                           what//': M (M^-1 b) = b')
         call mass_solver_free(ms)

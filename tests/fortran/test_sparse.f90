@@ -1,12 +1,14 @@
 !> Unit tests of module sparse: COO -> CSC (sorting, duplicates, explicit zeros,
 !> bad indices), csc_find, matvec kernels against a dense product, drop_zeros,
-!> same-pattern value updates, the fused node-block products. Exit status 1 (error stop) on any failure.
+!> same-pattern value updates, the fused node-block products, the CSC values read back from
+!> block copies. Exit status 1 (error stop) on any failure.
 program test_sparse
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, MSG_LEN
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec, csc_matvec_t, &
                       csc_drop_zeros, block2_t, block2_from_csc, block2_matvec, &
-                      block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, block2_matvec_ks3
+                      block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, block2_matvec_ks3, &
+                      block2_csc_values, block3_t, block3_from_csc, block3_csc_values
     use unit_checks, only: checks_t, seed
     implicit none
 
@@ -203,9 +205,33 @@ contains
         yd = matmul(dense, x)
         call block2_matvec(b, x, y)
         call checks%check(maxval(abs(y - yd)) <= thr * max(1.0_dp, maxval(abs(yd))), 'block2: matvec')
+        ! the CSC values read back from the blocks: the same numbers, entry by entry
+        call block2_csc_values(a, b, v(1:a%nnz))
+        call checks%check(all(v(1:a%nnz) == a%val), 'block2: CSC values read back bitwise')
+        call check_block3_values(a)
         call block2_from_csc(a, [1, 4, n + 1], b, stat)
         call checks%check(stat == STAT_BAD_INPUT, 'block2: a group of 3 dofs is refused')
     end subroutine test_block2
+
+    !> block3_csc_values gives back a's values bitwise (groups of one to three dofs).
+    subroutine check_block3_values(a)
+        type(csc_t), intent(in) :: a        !! symmetric matrix
+        type(block3_t) :: b3
+        integer, allocatable :: first(:)
+        real(dp), allocatable :: val(:)
+        integer :: g, stat
+        allocate (first(a%n + 1), val(a%nnz))
+        first(1) = 1
+        g = 1
+        do while (first(g) <= a%n)          ! groups of 3, 1, 2, 3, 1, 2, ... (the last cut at n)
+            first(g + 1) = min(a%n + 1, first(g) + 1 + mod(g + 1, 3))
+            g = g + 1
+        end do
+        call block3_from_csc(a, first(1:g), b3, stat)
+        call checks%check(stat == STAT_OK .and. .not. b3%triples, 'block3: build (mixed groups)')
+        call block3_csc_values(a, b3, val)
+        call checks%check(all(val == a%val), 'block3: CSC values read back bitwise')
+    end subroutine check_block3_values
 
     !> The fused node-block products (K x with one or two M products) against dense
     !> products, on random symmetric K and M sharing one pattern; K x must be bitwise
