@@ -707,8 +707,12 @@ contains
                 it = it + 1
             end if
             if (this%rank > 0) then
+                ! (a facet's terms are consecutive and on its cell's dofs: listed once)
                 nk = 0
                 do q = 1, this%rank
+                    if (q > 1) then
+                        if (this%tfac(q) == this%tfac(q - 1)) cycle
+                    end if
                     do l = 1, mdl%ndof_e
                         if (this%qloc(l, q) <= 0) cycle
                         nk = nk + 1
