@@ -1,7 +1,7 @@
 """The implicit schemes keep the LU factors of the Woodbury system I + c VᵀWU of the
-contact correction with a copy of the tangent (U, V and their dofs) they come from, and
-solve with them again, across Newton iterations and steps, while the tangent is that copy
-bit for bit, and forms the system from X = MᵀW M_θ over the facets with active points,
+contact correction with a copy of what they are formed from (the terms' facets and their
+coefficients in the facets' M_θ and M), and solve with them again, across Newton
+iterations and steps, while these are that copy bit for bit, and forms the system from X = MᵀW M_θ over the facets with active points,
 kept while those facets are the same (fortran/schemes/implicit_schemes.f90).
 DYNCONTACT_WOODBURY_FRESH=1 forms X and the system and factorizes it at every Newton
 iteration: the reference. The traces with and

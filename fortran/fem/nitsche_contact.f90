@@ -122,13 +122,11 @@ contains
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: sn, pnode(MAX_FN), xs(MAX_Q), ws(MAX_Q), a, b, xi_star
         real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
-        real(dp) :: g(MAX_FN, MAX_FN)
-        integer :: np, q, j, i
+        real(dp) :: g(MAX_FN, MAX_FN), pq(MAX_Q)
+        integer :: np, q, j, i, na
+        logical :: compress
         sn = dot_product(s, ue)
-        pnode = 0.0_dp
-        do j = 1, nfn
-            pnode(j) = sn - gamma * (dot_product(ue, nvec(:, j)) - gap(j))
-        end do
+        pnode = facet_pnode(ndof_e, nfn, ue, sn, nvec, gap, gamma)
         r = 0.0_dp
         energy = 0.0_dp
         active = 0
@@ -161,9 +159,17 @@ contains
             shp(:, 1) = facet_shape(2, xs(1))
             shp(:, 2) = facet_shape(2, xs(2))
         end if
+        ! P at the points first: with more than nfn of them active (and nterm, qa present)
+        ! the tangent is compressed and the points' own qa, qb, ca, cb are not formed
+        na = 0
+        do q = 1, np
+            pq(q) = dot_product(shp(1:nfn, q), pnode(1:nfn))
+            if (pq(q) < 0.0_dp) na = na + 1
+        end do
+        compress = present(nterm) .and. present(qa) .and. na > nfn
         do q = 1, np
             nsh = shp(:, q)
-            pv = dot_product(nsh(1:nfn), pnode(1:nfn))
+            pv = pq(q)
             if (.not. (pv < 0.0_dp)) cycle
             active = active + 1
             do j = 1, ndof_e
@@ -173,14 +179,15 @@ contains
             r = r + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
             if (present(rg)) rg(1:nfn) = rg(1:nfn) + ((ws(q) / gamma) * pv) * nsh(1:nfn)
             energy = energy + (0.5_dp * ws(q) / gamma) * pv**2
-            if (present(qa)) then
-                qa(:, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
-                qb(:, active) = s - gamma * nn(1:ndof_e)
-            end if
-            if (present(nterm)) then
+            if (compress) then
                 do j = 1, nfn
                     g(1:nfn, j) = g(1:nfn, j) + ((ws(q) / gamma) * nsh(j)) * nsh(1:nfn)
                 end do
+                cycle
+            end if
+            if (present(qa)) then
+                qa(:, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
+                qb(:, active) = s - gamma * nn(1:ndof_e)
             end if
             if (present(ca)) then
                 ca(1:nfn, active) = (ws(q) / gamma) * nsh(1:nfn)
@@ -189,7 +196,7 @@ contains
         end do
         if (.not. present(nterm)) return
         nterm = active
-        if (active <= nfn .or. .not. present(qa)) return
+        if (.not. compress) return
         nterm = nfn
         do j = 1, nfn
             qa(:, j) = 0.0_dp
@@ -204,6 +211,24 @@ contains
             end if
         end do
     end subroutine nitsche_facet
+
+    !> P = P_1(u) + gamma g at the facet's nodes (sn = sigma_n(u) = s . ue): P is linear
+    !> on the facet, so no point of any rule is active where all of them are >= 0.
+    pure function facet_pnode(ndof_e, nfn, ue, sn, nvec, gap, gamma) result(pnode)
+        integer, intent(in) :: ndof_e          !! owner cell dofs
+        integer, intent(in) :: nfn             !! facet nodes
+        real(dp), intent(in) :: ue(ndof_e)     !! owner cell displacement
+        real(dp), intent(in) :: sn             !! sigma_n(u)
+        real(dp), intent(in) :: nvec(ndof_e, nfn) !! normal-displacement rows at facet nodes
+        real(dp), intent(in) :: gap(nfn)       !! initial gap at facet nodes
+        real(dp), intent(in) :: gamma          !! gamma_N > 0
+        real(dp) :: pnode(MAX_FN)              !! the first nfn entries (the rest 0)
+        integer :: j
+        pnode = 0.0_dp
+        do j = 1, nfn
+            pnode(j) = sn - gamma * (dot_product(ue, nvec(:, j)) - gap(j))
+        end do
+    end function facet_pnode
 
     !> The exact rule of a triangle facet for the integrands of nitsche_facet: the part
     !> {P < 0} of the triangle (P linear, nodal values pnode) is a triangle or a
@@ -479,7 +504,7 @@ contains
         real(dp), intent(inout), optional :: tca(:, :)      !! (nfn, >= rank) its coefficients in Mt
         real(dp), intent(inout), optional :: tcb(:, :)      !! (nfn, >= rank) and in M
         real(dp), intent(inout), optional :: rg(:, :)       !! (nfn, n_facets) residual in Mt
-        real(dp) :: ue(MAX_E), rf(MAX_E), ef, sn   ! fixed sizes: no heap array a call
+        real(dp) :: ue(MAX_E), rf(MAX_E), ef, sn, pnode(MAX_FN)   ! fixed sizes: no heap array a call
         integer :: f, i, af, nr, nt
         active = 0
         e_pen = 0.0_dp
@@ -492,6 +517,13 @@ contains
             end do
             sn = dot_product(ct%s(:, f), ue(1:ct%ndof_e))
             e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
+            ! a facet with P >= 0 at its nodes has no active point (nothing to add)
+            pnode = facet_pnode(ct%ndof_e, ct%nfn, ue, sn, ct%nvec(:, :, f), ct%gap(:, f), &
+                                ct%gamma(f))
+            if (all(pnode(1:ct%nfn) >= 0.0_dp)) then
+                if (present(rg)) rg(1:ct%nfn, f) = 0.0_dp
+                cycle
+            end if
             if (present(rg)) then
                 call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
                                    ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &

@@ -38,10 +38,12 @@
 !> The environment variable DYNCONTACT_CONTACT_COLUMNS = 'all' computes every column at
 !> set-up for the Nitsche schemes too (the reference the lazy columns are tested
 !> against); a number sets the cache's budget in MB (0: keep only the current step's).
-!> The LU factors of the Woodbury system I + c V^T W U are kept with a copy of the
-!> tangent (U, V and their dofs) they were formed from, and used again, across Newton
-!> iterations and steps, while the tangent is that copy bit for bit (W depends on J0
-!> alone): the same system, so the same factors and the same Newton step to the bit. A
+!> The LU factors of the Woodbury system I + c V^T W U are kept with a copy of what
+!> they were formed from (the terms' facets and their coefficients tca, tcb: the
+!> system is formed from those alone, woodbury_factor and node_factor), and used again,
+!> across Newton iterations and steps, while these are that copy bit for bit (W depends
+!> on J0 alone): the same system, so the same factors and the same Newton step to the
+!> bit. A
 !> 'gauss' rule gives the same tangent whenever the same points are active; 'exact' as
 !> long as no active facet is cut. The system is formed from X = M^T W Mt over the
 !> facets with active points (woodbury_factor), which depends on those facets alone and
@@ -708,8 +710,12 @@ contains
                 it = it + 1
             end if
             if (this%rank > 0) then
+                ! (a facet's terms are consecutive and on its cell's dofs: listed once)
                 nk = 0
                 do q = 1, this%rank
+                    if (q > 1) then
+                        if (this%tfac(q) == this%tfac(q - 1)) cycle
+                    end if
                     do l = 1, mdl%ndof_e
                         if (this%qloc(l, q) <= 0) cycle
                         nk = nk + 1
@@ -888,7 +894,7 @@ contains
             call node_basis(this, mdl)
             nodes = this%nq < r
         end if
-        if (.not. same_tangent(this, mdl%ndof_e, nodes)) then
+        if (.not. same_tangent(this, nodes)) then
             if (nodes) then
                 call node_factor(this, mdl, info)
             else
@@ -929,23 +935,24 @@ contains
     end subroutine woodbury
 
     !> Whether the factors held are those of the current tangent: the same basis, rank,
-    !> U, V and dofs, terms' facets and coefficients, bit for bit (never with fresh set).
-    pure logical function same_tangent(this, ndof_e, nodes) result(same)
+    !> terms' facets and coefficients tca, tcb, bit for bit (never with fresh set). The
+    !> system is formed from these alone (woodbury_factor: X of the terms' facets and
+    !> the coefficients; node_factor: Y of the basis the facets give and the
+    !> coefficients), so the same ones give the same factors to the bit; U, V and their
+    !> dofs need no comparison (each term's are its facet's Mt ca, M cb).
+    pure logical function same_tangent(this, nodes) result(same)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
-        integer, intent(in) :: ndof_e                       !! dofs of a contact cell
         logical, intent(in) :: nodes                        !! the system on the node basis
-        integer :: j, k
+        integer :: j, i, nfn
         same = .false.
         if (this%fresh .or. this%fac_rank /= this%rank) return
         if (this%fac_nodes .neqv. nodes) return
+        nfn = size(this%tca, 1)
         do j = 1, this%rank
             if (this%tfac(j) /= this%fac_tfac(j)) return
-            if (any(this%tca(:, j) /= this%fac_tca(:, j))) return
-            if (any(this%tcb(:, j) /= this%fac_tcb(:, j))) return
-            do k = 1, ndof_e
-                if (this%qloc(k, j) /= this%fac_qloc(k, j)) return
-                if (this%ua(k, j) /= this%fac_ua(k, j)) return
-                if (this%vb(k, j) /= this%fac_vb(k, j)) return
+            do i = 1, nfn
+                if (this%tca(i, j) /= this%fac_tca(i, j)) return
+                if (this%tcb(i, j) /= this%fac_tcb(i, j)) return
             end do
         end do
         same = .true.
@@ -1001,9 +1008,6 @@ contains
         r = this%rank
         this%fac_rank = r
         this%fac_nodes = nodes
-        this%fac_ua(:, 1:r) = this%ua(:, 1:r)
-        this%fac_vb(:, 1:r) = this%vb(:, 1:r)
-        this%fac_qloc(:, 1:r) = this%qloc(:, 1:r)
         this%fac_tfac(1:r) = this%tfac(1:r)
         this%fac_tca(:, 1:r) = this%tca(:, 1:r)
         this%fac_tcb(:, 1:r) = this%tcb(:, 1:r)
