@@ -135,9 +135,6 @@ module implicit_schemes
         integer, allocatable :: piv(:)            !! (cap) pivots
         logical :: fresh = .false.                !! never reuse the factors (FRESH_VAR)
         integer :: fac_rank = -1                  !! rank of the factorized system, -1: none
-        real(dp), allocatable :: fac_ua(:, :)     !! (ndof_e, rmax) U of the factorized system
-        real(dp), allocatable :: fac_vb(:, :)     !! (ndof_e, rmax) its V
-        integer, allocatable :: fac_qloc(:, :)    !! (ndof_e, rmax) their dofs
         integer, allocatable :: tfac(:)           !! (rmax) each term's facet
         real(dp), allocatable :: tca(:, :)        !! (nfn, rmax) its coefficients in the facet's Mt
         real(dp), allocatable :: tcb(:, :)        !! (nfn, rmax) and in its M
@@ -278,8 +275,7 @@ contains
         if (mdl%has_contact) rmax = contact_max_rank(mdl%ct)
         allocate (this%need(max(this%m, mdl%ndof_e * rmax)), this%ua(mdl%ndof_e, rmax), &
                   this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), &
-                  this%fac_ua(mdl%ndof_e, rmax), this%fac_vb(mdl%ndof_e, rmax), &
-                  this%fac_qloc(mdl%ndof_e, rmax), this%tfac(rmax), this%fac_tfac(rmax), &
+                  this%tfac(rmax), this%fac_tfac(rmax), &
                   this%fac_tca(max(1, mdl%ct%nfn), rmax), this%fac_tcb(max(1, mdl%ct%nfn), rmax), &
                   this%yfac(mdl%ct%n_facets), this%qnode(0:max(1, mdl%ct%nfn), mdl%ct%n_facets), &
                   this%bnode(0), this%nrow(max(1, mdl%ct%nfn), 0), &
