@@ -179,8 +179,9 @@ static double h_lnz(const cholmod_factor *L)
  * of columns that share a pattern) is used when the factor's columns hold at least this
  * many entries on average (D included; from the simplicial symbolic analysis). Its
  * numerical factorization, measured against the simplicial LDL' on the same ordering
- * (docs/performance.md, "One copy of the factor, the supernodal factorization, and the set-up's peak"): slower at 42.5 entries a column
- * (2D strip, 129 600 dofs: 0.51 s against 0.44 s) and 77 (3D box, 3 000 dofs), 1.5x
+ * (docs/performance.md, "One copy of the factor, the supernodal factorization, and the
+ * set-up's peak"): slower at 42.5 entries a column (2D strip, 129 600 dofs: 0.51 s
+ * against 0.44 s) and 77 (3D box, 3 000 dofs), 1.5x
  * faster at 249 (3D box, 19 440 dofs: 0.61 s against 0.93 s); the factor's columns
  * grow with the mesh in 3D, and so does the gain. Either way the factor is then solved
  * by the same node-block kernels (dc_cholmod_take_blocks turns LL' into LDL'). */
