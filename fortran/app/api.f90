@@ -401,7 +401,7 @@ subroutine dc_ls_auto_kind(kind, dim, matrix_nnz, factor_nnz, threads, resolved,
     integer(c_int), intent(in) :: threads           !! threads of the direct solve (1, 2)
     character(len=8), intent(out) :: resolved       !! 'direct' or 'cg'
     integer(c_int), intent(out) :: auto_its(3)      !! AUTO_CG_ITS by dimension
-    real(c_double), intent(out) :: margin           !! AUTO_CG_MARGIN
+    real(c_double), intent(out) :: margin(3)        !! AUTO_CG_MARGIN by dimension
     real(c_double), intent(out) :: speedup          !! AUTO_PAR_SPEEDUP
     resolved = ls_auto_kind(kind, dim, int(matrix_nnz, i8), int(factor_nnz, i8), threads)
     auto_its = AUTO_CG_ITS
