@@ -71,9 +71,9 @@ module linear_solver
     !> its estimate is divided by AUTO_PAR_SPEEDUP, the measured two-thread speedup of
     !> the solve (CG runs on one thread): CG runs when AUTO_CG_ITS(dim) nnz(J0) <
     !> AUTO_CG_MARGIN(dim) F / AUTO_PAR_SPEEDUP. Measured at the sizes near the crossover
-    !> that solve on two threads (docs/scaling/solvers/scaling.md, "CG against the direct
-    !> solver on two threads"; two runs, order reversed, 2 shared cores at load average
-    !> 2.2-3.9): one solve 1.41x and 0.63x (disk 47 392 dofs), 0.96x and 0.97x (box
+    !> that solve on two threads (the section "CG against the direct solver on two
+    !> threads" of docs/scaling/solvers/scaling.md; two runs, order reversed, 2 shared
+    !> cores at load average 2.2-3.9): one solve 1.41x and 0.63x (disk 47 392 dofs), 0.96x and 0.97x (box
     !> 36 300), geometric mean 0.95; the step 1.30x, 0.88x, 1.01x, 1.04x, mean 1.05;
     !> repeats of one same one-thread configuration differed by up to 1.4x there. That
     !> is 1 within the noise, hence 1. It is not the idle machine's 2.1x of the solve
