@@ -15,7 +15,8 @@
   (tests/data/contact_h0.01/README.md).
 - summary.json's matrix_nnz is the stored entries of the assembled matrices, and
   factor_nnz at least those of their upper triangle.
-- study.scaling writes its table on a small size, for every geometry and both solvers.
+- study.scaling writes its table on a small size, for every geometry and both solvers,
+  and a row for each threads setting of the direct solver.
 """
 
 from __future__ import annotations
@@ -235,6 +236,26 @@ def test_scaling_sweep_of_every_geometry_and_solver(tmp_path):
     scaling.run_scaling(str(tmp_path / "cap"), sizes=[0.05], steps=2, repeats=1,
                         log=lambda *_: None, geometries=("box",), max_dofs=100, floors=False)
     assert "Skipped: box h = 0.05" in (tmp_path / "cap" / "scaling.md").read_text()
+
+
+def test_scaling_sweep_with_thread_settings(tmp_path, monkeypatch):
+    """--threads 1,2: the direct solver's row for each setting at each size (CG's once,
+    with the last), each with the threads its solves used (summary.json solve_threads;
+    two from 0 dofs with the test-only DYNCONTACT_THREADS_MIN_DOFS) and its wall time a
+    step; the table names the setting."""
+    monkeypatch.setenv("DYNCONTACT_THREADS_MIN_DOFS", "0")
+    rows = scaling.run_scaling(str(tmp_path), sizes=[0.05], steps=2, repeats=1,
+                               log=lambda *_: None, geometries=("box",),
+                               solvers=("direct", "cg"), floors=False, threads=("1", "2"))
+    assert [(r["solver_kind"], r["threads"], r["solve_threads"]) for r in rows] == [
+        ("direct", "1", 1), ("direct", "2", 2), ("cg", "2", 1)]
+    assert all(r["wall_ms_per_step"] > 0 for r in rows)
+    assert rows[0]["dofs"] == rows[1]["dofs"] == rows[2]["dofs"]
+    with open(tmp_path / "scaling.csv", encoding="utf-8") as f:
+        table = list(csv.DictReader(f))
+    assert [t["threads"] for t in table] == ["1", "2", "2"]
+    md = (tmp_path / "scaling.md").read_text()
+    assert "| box | direct 1t |" in md and "| box | direct 2t |" in md
 
 
 def test_long_factor_columns_choose_the_supernodal_factorization(tmp_path, monkeypatch):

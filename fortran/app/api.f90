@@ -388,21 +388,25 @@ end subroutine dc_pcg_products
 !> The solver kind that runs for a requested kind ('direct', 'cg', 'auto'), a mesh of
 !> dimension dim, a matrix of matrix_nnz entries whose LDL^T factor has factor_nnz (the
 !> symbolic analysis'), and the constants of 'auto''s cost model.
-subroutine dc_ls_auto_kind(kind, dim, matrix_nnz, factor_nnz, resolved, auto_its, margin)
+subroutine dc_ls_auto_kind(kind, dim, matrix_nnz, factor_nnz, threads, resolved, auto_its, &
+                           margin, speedup)
     use iso_c_binding, only: c_int, c_int64_t, c_double
     use kinds, only: i8
-    use linear_solver, only: ls_auto_kind, AUTO_CG_ITS, AUTO_CG_MARGIN
+    use linear_solver, only: ls_auto_kind, AUTO_CG_ITS, AUTO_CG_MARGIN, AUTO_PAR_SPEEDUP
     implicit none
     character(len=*), intent(in) :: kind            !! requested kind
     integer(c_int), intent(in) :: dim               !! mesh dimension
     integer(c_int64_t), intent(in) :: matrix_nnz  !! entries of the matrix
     integer(c_int64_t), intent(in) :: factor_nnz  !! entries of its factor (D and L)
+    integer(c_int), intent(in) :: threads           !! threads of the direct solve (1, 2)
     character(len=8), intent(out) :: resolved       !! 'direct' or 'cg'
     integer(c_int), intent(out) :: auto_its(3)      !! AUTO_CG_ITS by dimension
-    real(c_double), intent(out) :: margin           !! AUTO_CG_MARGIN
-    resolved = ls_auto_kind(kind, dim, int(matrix_nnz, i8), int(factor_nnz, i8))
+    real(c_double), intent(out) :: margin(3)        !! AUTO_CG_MARGIN by dimension
+    real(c_double), intent(out) :: speedup          !! AUTO_PAR_SPEEDUP
+    resolved = ls_auto_kind(kind, dim, int(matrix_nnz, i8), int(factor_nnz, i8), threads)
     auto_its = AUTO_CG_ITS
     margin = AUTO_CG_MARGIN
+    speedup = AUTO_PAR_SPEEDUP
 end subroutine dc_ls_auto_kind
 
 !> 'auto' on a matrix given as 1-based COO triplets and a mesh dimension: the kind it

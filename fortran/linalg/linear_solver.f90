@@ -24,7 +24,8 @@ module linear_solver
     use cholmod, only: cholmod_t, chol_factor, chol_analyse, chol_solve, chol_solve_many, &
                        chol_free, chol_kernel, chol_ordering
     use pcg, only: pcg_t, pcg_setup, pcg_solve, pcg_solve_many, pcg_free
-    use ldl_solves, only: pair_ldl_threads, triple_ldl_threads
+    use ldl_solves, only: pair_ldl_threads, triple_ldl_threads, ldl_threads_env, &
+                          ldl_threads_choice, ldl_cpus
     implicit none
     private
 
@@ -44,21 +45,42 @@ module linear_solver
     !> entries, D and L); a CG iteration is one product with J0 and two SSOR sweeps of
     !> about one product's cost, 2 nnz(J0), and the step's solve takes AUTO_CG_ITS(dim)
     !> iterations (SSOR: 7.3-8.1 measured on the strip, 9-10 on the box; nearly constant
-    !> with the size). CG runs when its estimate is below AUTO_CG_MARGIN times the
-    !> direct one: its nnz(J0) < AUTO_CG_MARGIN F. Calibrated on the scaling sweep
-    !> (docs/performance.md, "Direct and CG on the strip, the disk and the 3D box"):
+    !> with the size). CG runs when its estimate is below AUTO_CG_MARGIN(dim) times the
+    !> direct one: its nnz(J0) < AUTO_CG_MARGIN(dim) F. 2D, calibrated on the scaling
+    !> sweep (docs/performance.md, "Direct and CG on the strip, the disk and the 3D box"):
     !> every measured point where CG's step was faster has its nnz / F <= 1.66 (disk
-    !> 47 392 dofs; box 19 440: 1.59), every one where it was slower >= 2.10 (disk 12 036,
-    !> CG 0.91x there: near even) or 2.19 (strip 515 200, CG 2.8x slower); 1.9 lies
-    !> between (geometric middle of 1.66 and 2.19). The margin is above 1 because a
-    !> factor entry costs more than a J0 entry once the factor leaves the caches, and the
-    !> contact correction's columns are solved by CG on their small supports (the disk).
-    !> By the model (log-linear between measured sizes) the box crosses near 13 000 dofs
-    !> (the step's measured ratio crossed 1 near 14 000), the disk near 22 000 (measured:
-    !> near 11 000), the strip not up to 515 200 (near 1.6 million by extrapolation).
-    !> 1D: direct (not measured; small).
+    !> 47 392 dofs), every one where it was slower >= 2.10 (disk 12 036, CG 0.91x there:
+    !> near even; 1.2x and 1.6x slower in scaling_threads.csv) or 2.19 (strip 515 200, CG
+    !> 2.8x slower); 1.9 lies between (geometric middle of 1.66 and 2.19). The margin is
+    !> above 1 because a factor entry costs more than a J0 entry once the factor leaves
+    !> the caches, and the contact correction's columns are solved by CG on their small
+    !> supports (the disk). 3D (node triples), on the box swept again since its direct
+    !> step became 2.8x faster (docs/scaling/solvers/scaling_box.csv, two runs in
+    !> alternation at load average 2.0-2.7): CG's step 1.47x and 1.55x slower at
+    !> 19 440 dofs (ratio 1.59), 0.63x and 0.59x at 36 300 (1.23); 1.4 is their geometric
+    !> middle (the first sweep's box rows, CG 0.64x at 19 440, predate the faster direct
+    !> step). By the model (log-linear between measured sizes) the box crosses
+    !> near 26 000 dofs (the steps' measured ratio crossed 1 near 26 000), the disk near
+    !> 22 000 (measured: near 11 000 in the first sweep, between 12 036 and 47 392 in
+    !> scaling_threads.csv), the strip not up to 515 200 (near 1.6 million by
+    !> extrapolation). 1D: direct (not measured; small).
     integer, parameter, public :: AUTO_CG_ITS(3) = [0, 8, 10]
-    real(dp), parameter, public :: AUTO_CG_MARGIN = 1.9_dp
+    real(dp), parameter, public :: AUTO_CG_MARGIN(3) = [0.0_dp, 1.9_dp, 1.4_dp]
+    !> When the direct solve will run on two threads (&solver threads, DYNCONTACT_THREADS,
+    !> the CPUs and PAR_MIN_DOFS, as ldl_threads_choice decides for the matrix's size),
+    !> its estimate is divided by AUTO_PAR_SPEEDUP, the measured two-thread speedup of
+    !> the solve (CG runs on one thread): CG runs when AUTO_CG_ITS(dim) nnz(J0) <
+    !> AUTO_CG_MARGIN(dim) F / AUTO_PAR_SPEEDUP. Measured at the sizes near the crossover
+    !> that solve on two threads (the section "CG against the direct solver on two
+    !> threads" of docs/scaling/solvers/scaling.md; two runs, order reversed, 2 shared
+    !> cores at load average 2.2-3.9): one solve 1.41x and 0.63x (disk 47 392 dofs), 0.96x and 0.97x (box
+    !> 36 300), geometric mean 0.95; the step 1.30x, 0.88x, 1.01x, 1.04x, mean 1.05;
+    !> repeats of one same one-thread configuration differed by up to 1.4x there. That
+    !> is 1 within the noise, hence 1. It is not the idle machine's 2.1x of the solve
+    !> alone (strip 129 600 dofs, 10.4 against 4.97 ms): the disk at 47 392 dofs (ratio
+    !> 1.66, margin 1.9) and the box at 36 300 (1.23, margin 1.4) bound it below 1.14,
+    !> where CG's step was 1.7x-2.9x and 1.9x-2.1x faster than the two-thread direct one.
+    real(dp), parameter, public :: AUTO_PAR_SPEEDUP = 1.0_dp
 
     !> Factors of one matrix and the backend that computed them.
     type, public :: factor_t
@@ -79,6 +101,7 @@ module linear_solver
         integer(i8) :: auto_nnz = 0             !! 'auto': nnz(J0) of the last decision
         integer(i8) :: auto_factor_nnz = 0      !! 'auto': the analysis' factor entries
         character(len=8) :: auto_kind = ''      !! 'auto': what it chose ('' before any)
+        integer :: auto_threads = 1             !! 'auto': the direct solve's threads it assumed
         integer :: threads = 0                  !! &solver threads: 0 automatic, 1, 2
         integer :: threads_used = 1             !! threads of the triangular solves of the factors
     end type factor_t
@@ -163,17 +186,20 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer(c_long) :: entries
+        integer :: env, min_dofs
         stat = STAT_OK
         if (f%auto_n == a%n .and. f%auto_nnz == int(a%nnz, i8) .and. f%auto_kind /= '') return
         f%auto_n = a%n
         f%auto_nnz = int(a%nnz, i8)
         f%auto_factor_nnz = 0
         f%auto_kind = 'direct'
+        call ldl_threads_env(env, min_dofs)
+        f%auto_threads = ldl_threads_choice(f%threads, env, ldl_cpus(), a%n, min_dofs)
         if (.not. f%symmetric .or. f%dim < 2 .or. f%dim > 3) return
         call chol_analyse(f%ch, a, entries, stat, errmsg)
         if (stat /= STAT_OK) return
         f%auto_factor_nnz = int(entries, i8)
-        f%auto_kind = ls_auto_kind('auto', f%dim, f%auto_nnz, f%auto_factor_nnz)
+        f%auto_kind = ls_auto_kind('auto', f%dim, f%auto_nnz, f%auto_factor_nnz, f%auto_threads)
         if (f%auto_kind == 'cg') call chol_free(f%ch)
     end subroutine auto_decide
 
@@ -196,30 +222,46 @@ contains
 
     !> The kind that runs for a requested kind, a mesh of dimension dim, a matrix with
     !> matrix_nnz entries and a factor of factor_nnz entries (D and L, from the symbolic
-    !> analysis; <= 0: unknown): 'cg' or 'direct'. 'auto' is 'cg' when
-    !> AUTO_CG_ITS(dim) matrix_nnz < AUTO_CG_MARGIN factor_nnz (2D, 3D), else 'direct'.
-    pure function ls_auto_kind(kind, dim, matrix_nnz, factor_nnz) result(k)
+    !> analysis; <= 0: unknown) whose direct solve runs on `threads` threads (default 1):
+    !> 'cg' or 'direct'. 'auto' is 'cg' when AUTO_CG_ITS(dim) matrix_nnz <
+    !> AUTO_CG_MARGIN(dim) factor_nnz / s (2D, 3D; s = AUTO_PAR_SPEEDUP with two threads,
+    !> else 1), else 'direct'.
+    pure function ls_auto_kind(kind, dim, matrix_nnz, factor_nnz, threads) result(k)
         character(len=*), intent(in) :: kind                !! 'direct', 'cg' or 'auto'
         integer, intent(in) :: dim                          !! mesh dimension (0: unknown)
         integer(i8), intent(in) :: matrix_nnz               !! entries (both triangles)
         integer(i8), intent(in) :: factor_nnz               !! entries of its LDL^T factor
+        integer, intent(in), optional :: threads            !! the direct solve's (1, 2)
         character(len=:), allocatable :: k
         k = 'direct'
         if (trim(kind) == 'cg') then
             k = 'cg'
         else if (trim(kind) == 'auto' .and. dim >= 2 .and. dim <= 3 .and. factor_nnz > 0) then
             if (real(AUTO_CG_ITS(dim), dp) * real(matrix_nnz, dp) &
-                < AUTO_CG_MARGIN * real(factor_nnz, dp)) k = 'cg'
+                < AUTO_CG_MARGIN(dim) * real(factor_nnz, dp) / direct_speedup(threads)) k = 'cg'
         end if
     end function ls_auto_kind
 
+    !> The cost model's speedup of a direct solve on `threads` threads: AUTO_PAR_SPEEDUP
+    !> for two, 1 for one (or not given).
+    pure real(dp) function direct_speedup(threads) result(s)
+        integer, intent(in), optional :: threads            !! 1 or 2
+        s = 1.0_dp
+        if (present(threads)) then
+            if (threads >= 2) s = AUTO_PAR_SPEEDUP
+        end if
+    end function direct_speedup
+
     !> 'auto''s decision and its inputs, for the run's summary: e.g. "cg: 8 x nnz(J0)
-    !> 659432 < 1.9 x factor entries 3166928 (ratio 1.67)"; '' when the kind is not 'auto'
-    !> or before the first ls_factor.
+    !> 659432 < 1.9 x factor entries 3166928 (ratio 1.67)"; with a two-thread direct solve
+    !> "cg: 8 x nnz(J0) 659432 < 1.9 x factor entries 3173896 / 1.00, the direct solve
+    !> on 2 threads (ratio 1.66)"; '' when the kind is not 'auto' or before the
+    !> first ls_factor.
     function ls_auto_reason(f) result(text)
         type(factor_t), intent(in) :: f      !! solver
         character(len=:), allocatable :: text
         character(len=160) :: buf
+        character(len=60) :: par
         character(len=3) :: rel
         text = ''
         if (trim(f%kind) /= 'auto' .or. f%auto_kind == '') return
@@ -233,9 +275,12 @@ contains
             end if
             return
         end if
-        write (buf, '(a, a, i0, a, i0, a, f3.1, a, i0, a, f0.3, a)') trim(f%auto_kind), ': ', &
+        par = ''
+        if (f%auto_threads >= 2) write (par, '(a, f4.2, a)') ' / ', AUTO_PAR_SPEEDUP, &
+            ', the direct solve on 2 threads'
+        write (buf, '(a, a, i0, a, i0, a, f3.1, a, i0, a, a, f0.3, a)') trim(f%auto_kind), ': ', &
             AUTO_CG_ITS(f%dim), ' x nnz(J0) ', f%auto_nnz, trim(rel)//' ', &
-            AUTO_CG_MARGIN, ' x factor entries ', f%auto_factor_nnz, ' (ratio ', &
+            AUTO_CG_MARGIN(f%dim), ' x factor entries ', f%auto_factor_nnz, trim(par), ' (ratio ', &
             real(AUTO_CG_ITS(f%dim), dp) * real(f%auto_nnz, dp) &
             / real(f%auto_factor_nnz, dp), ')'
         text = trim(buf)

@@ -30,8 +30,16 @@ memory that grows with the problem against the model. ``peak_over_model`` is kep
 The rows also give the CG iterations per solve (the timed run's mean), so the chart shows
 where CG's step time crosses the direct solver's.
 
+Threads (``--threads``, comma-separated settings: ``auto``, ``1``, ``2``): each setting of
+the direct solver's triangular solves is run as DYNCONTACT_THREADS (``auto`` leaves the
+environment as it is; scripts/bench sets OMP_NUM_THREADS=1, under which ``auto`` is one
+thread); CG runs once, with the last setting (it solves on one thread). The CPU time counts
+every thread, so each row also has the wall time a step of the same stretches
+(``wall_ms_per_step``), the threads the solves used (summary.json ``solve_threads``) and the
+setting (``threads``); the floors are wall times of one solve and one SpMV.
+
     python -m dyncontact.study.scaling --out out/scaling [--geometry strip,disk,box]
-        [--solvers direct,cg] [--max-dofs N] [--large] [--steps N]
+        [--solvers direct,cg] [--max-dofs N] [--large] [--steps N] [--threads 1,2]
 """
 
 from __future__ import annotations
@@ -70,7 +78,8 @@ DISK_GEO = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.
 COLUMNS = ["geometry", "solver_kind", "h", "contact", "dofs", "matrix_nnz", "factor_nnz", "solver", "solve_kernel",
            "ordering", "setup_s", "loop_ms_per_step", "solve_ms", "spmv_ms", "step_over_floor",
            "peak_mb", "setup_peak_mb", "model_mb", "peak_over_model", "base_mb",
-           "peak_over_model_above_base", "steps", "cg_its_per_solve"]
+           "peak_over_model_above_base", "steps", "cg_its_per_solve", "threads",
+           "solve_threads", "wall_ms_per_step"]
 
 
 def estimate_dofs(geometry: str, h: float) -> int:
@@ -188,15 +197,19 @@ def measure_base(exe: str, work: str, env: dict[str, str] | None = None, repeats
 def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
                 floors: bool = True, env: dict[str, str] | None = None, repeats: int = 2,
                 geometry: str = "strip", solver: str = "direct",
-                base_mb: float | None = None) -> dict[str, Any]:
+                base_mb: float | None = None, threads: str = "") -> dict[str, Any]:
     """One row of the table (see the module docstring). Each run is repeated ``repeats``
     times: the smallest CPU time is kept (the machine is shared), and the largest peak.
     Small meshes take more steps (up to 2000), so that the loop is not lost in the
     start-up's noise. ``base_mb`` (:func:`measure_base`, None: not measured) gives the
-    row's ``base_mb`` and ``peak_over_model_above_base``."""
+    row's ``base_mb`` and ``peak_over_model_above_base``. ``threads`` ('1', '2': the
+    direct solves' DYNCONTACT_THREADS; '' or 'auto': ``env`` as it is) is the row's
+    ``threads``."""
     from ..core import read_summary
 
-    tag = f"{geometry}_h{h:g}_{'c' if contact else 'nc'}_{solver}"
+    if threads in ("1", "2"):
+        env = dict(os.environ if env is None else env, DYNCONTACT_THREADS=threads)
+    tag = f"{geometry}_h{h:g}_{'c' if contact else 'nc'}_{solver}_t{threads or 'auto'}"
     rows: dict[int, tuple[float, float, int]] = {}
     sums: dict[int, dict[str, Any]] = {}
     if geometry == "strip":
@@ -218,7 +231,7 @@ def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
         sums[n] = read_summary(out)
     summary = sums[steps]
     (w0, m0, _), (_w1, m1, _) = rows[0], rows[steps]
-    loop_ms, fl = _loop_and_floors(os.path.join(work, f"{tag}_{steps}.nml"),
+    loop_ms, wall_ms, fl = _loop_and_floors(os.path.join(work, f"{tag}_{steps}.nml"),
                                    os.path.join(work, f"{tag}_stepper"), steps, repeats,
                                    int(summary.get("dofs", 1)), floors, env)
     mnnz = summary.get("matrix_nnz")
@@ -245,29 +258,33 @@ def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
         if model and base_mb is not None else None,
         "steps": steps,
         "cg_its_per_solve": (d_its / d_solves) if d_solves > 0 else None,
+        "threads": threads or "auto", "solve_threads": summary.get("solve_threads"),
+        "wall_ms_per_step": wall_ms,
     }
 
 
 def _loop_and_floors(scene: str, out: str, steps: int, repeats: int, dofs: int,
                      floors: bool, env: dict[str, str] | None):
-    """(ms per step, floors) on one open run: the CPU time of ``repeats`` stretches of
-    steps // repeats steps (the smallest kept: the set-up is not in it, and a stretch
-    slowed down by the other processes on the machine is dropped), then the floors
-    measured on the same run's factors (:meth:`dyncontact.core.Stepper.floors`)."""
+    """(CPU ms per step, wall ms per step, floors) on one open run: the CPU and wall
+    times of ``repeats`` stretches of steps // repeats steps (the smallest of each kept:
+    the set-up is not in it, and a stretch slowed down by the other processes on the
+    machine is dropped), then the floors measured on the same run's factors
+    (:meth:`dyncontact.core.Stepper.floors`)."""
     from ..core import Stepper
 
     with environment(env), Stepper(scene, out) as st:
         per = max(1, steps // max(1, repeats))
-        best = float("inf")
+        best = wall = float("inf")
         for _ in range(max(1, repeats)):
-            t0 = time.process_time()
+            t0, w0 = time.process_time(), time.perf_counter()
             done = st.advance(per)
             if done < 1:
                 break
             best = min(best, (time.process_time() - t0) / done * 1e3)
+            wall = min(wall, (time.perf_counter() - w0) / done * 1e3)
         n_rep = max(20, int(2.0e6 / max(1, dofs)))
         fl = st.floors(n_rep=n_rep, batches=5) if floors else None
-    return best, fl
+    return best, wall, fl
 
 
 def _fmt(x: Any, nd: int = 3) -> str:
@@ -282,11 +299,13 @@ def run_scaling(out: str, sizes: Sequence[float] | None = None, steps: int = 20,
                 exe: str | None = None, no_contact: bool = True, floors: bool = True,
                 env: dict[str, str] | None = None, repeats: int = 2, log=print,
                 geometries: Sequence[str] = ("strip",), solvers: Sequence[str] = ("direct",),
-                max_dofs: int | None = None, large: bool = False) -> list[dict[str, Any]]:
+                max_dofs: int | None = None, large: bool = False,
+                threads: Sequence[str] = ("auto",)) -> list[dict[str, Any]]:
     """The sweep; writes scaling.csv, scaling.md and scaling.png into ``out``. ``sizes``
     replaces every geometry's own (GEOMETRY_SIZES); runs without contact are made for the
     strip only (``no_contact``); sizes above ``max_dofs`` (estimated) are skipped and
-    listed in scaling.md."""
+    listed in scaling.md. ``threads``: the settings of the direct solves measured at each
+    size, one after another ('auto', '1', '2'); CG runs with the last one only."""
     os.makedirs(out, exist_ok=True)
     if exe is None:
         root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(
@@ -315,24 +334,43 @@ def run_scaling(out: str, sizes: Sequence[float] | None = None, steps: int = 20,
                             f"{BASE_H[geometry]:g}) {_fmt(bases[(geometry, solver)])} MB")
                     contacts = (True, False) if (no_contact and geometry == "strip"
                                                  and solver == solvers[0]) else (True,)
-                    for contact in contacts:
+                    settings = list(threads) if solver != "cg" else list(threads)[-1:]
+                    for contact, t in ((c, t) for c in contacts for t in settings):
                         r = measure_one(exe, h, contact, steps, work, floors=floors, env=env,
                                         repeats=repeats, geometry=geometry, solver=solver,
-                                        base_mb=bases[(geometry, solver)])
+                                        base_mb=bases[(geometry, solver)], threads=t)
                         rows.append(r)
-                        log(f"{geometry} h = {h:g} {solver} contact = {int(contact)}: dofs "
+                        log(f"{geometry} h = {h:g} {solver} threads {t} ({r['solve_threads']} "
+                            f"used) contact = {int(contact)}: dofs "
                             f"{r['dofs']}, set-up {_fmt(r['setup_s'])} s, loop "
                             f"{_fmt(r['loop_ms_per_step'])} ms/step, solve {_fmt(r['solve_ms'])} "
                             f"ms, SpMV {_fmt(r['spmv_ms'])} ms, peak {_fmt(r['peak_mb'])} MB, "
                             f"model {_fmt(r['model_mb'])} MB, above base / model "
                             f"{_fmt(r['peak_over_model_above_base'])}, CG its "
-                            f"{_fmt(r['cg_its_per_solve'])}")
+                            f"{_fmt(r['cg_its_per_solve'])}, wall {_fmt(r['wall_ms_per_step'])} "
+                            f"ms/step, load average {_load()}")
                         # each row as it comes: a long sweep stopped halfway keeps its rows
                         write_csv(os.path.join(out, "scaling.csv"), rows, COLUMNS)
     write_csv(os.path.join(out, "scaling.csv"), rows, COLUMNS)
     _write_md(out, rows, skipped, max_dofs)
     _plot(out, rows)
     return rows
+
+
+def _load() -> str:
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "?"
+
+
+def _label(r) -> str:
+    """The row's solver kind, with its threads setting when one was given."""
+    kind = r.get("solver_kind", "direct")
+    t = r.get("threads")
+    if t not in (None, "", "auto") and kind != "cg":
+        return f"{kind} {int(float(t))}t"
+    return kind
 
 
 def _slopes(rows, key):
@@ -345,21 +383,23 @@ def _series(rows):
     out: dict[tuple[str, str], list] = {}
     for r in rows:
         if r["contact"]:
-            out.setdefault((r.get("geometry", "strip"), r.get("solver_kind", "direct")), []).append(r)
+            out.setdefault((r.get("geometry", "strip"), _label(r)), []).append(r)
     return {k: sorted(v, key=lambda r: r["dofs"]) for k, v in out.items()}
 
 
 def _write_md(out: str, rows, skipped=(), max_dofs=None) -> None:
     head = ["geometry", "solver", "h", "contact", "dofs", "set-up s", "loop ms/step",
             "solve ms", "SpMV ms", "CG its/solve", "peak MB", "model MB", "peak/model",
-            "base MB", "(peak − base)/model", "factor nnz", "ordering", "kernel"]
-    body = [[r.get("geometry", "strip"), r.get("solver_kind", "direct"), _fmt(r["h"]),
+            "base MB", "(peak − base)/model", "factor nnz", "ordering", "kernel",
+            "solve threads", "wall ms/step"]
+    body = [[r.get("geometry", "strip"), _label(r), _fmt(r["h"]),
              r["contact"], r["dofs"], _fmt(r["setup_s"]),
              _fmt(r["loop_ms_per_step"]), _fmt(r["solve_ms"]), _fmt(r["spmv_ms"]),
              _fmt(r.get("cg_its_per_solve")),
              _fmt(r["peak_mb"]), _fmt(r["model_mb"]), _fmt(r["peak_over_model"]),
              _fmt(r.get("base_mb")), _fmt(r.get("peak_over_model_above_base")),
-             _fmt(r["factor_nnz"]), _fmt(r["ordering"]), _fmt(r["solve_kernel"])]
+             _fmt(r["factor_nnz"]), _fmt(r["ordering"]), _fmt(r["solve_kernel"]),
+             _fmt(r.get("solve_threads")), _fmt(r.get("wall_ms_per_step"))]
             for r in rows]
     lines = md_table(head, body)
     lines.append("")
@@ -395,10 +435,10 @@ def _plot(out: str, rows) -> None:
         for (g, solver), c in series.items():
             if g != geometry:
                 continue
-            style = "-" if solver == "direct" else "--"
+            style = "--" if solver == "cg" else "-"
             keys = (("loop_ms_per_step", "step (ms)", ax_t), ("solve_ms", "one solve (ms)", ax_t),
                     ("setup_s", "set-up (s)", ax_t), ("peak_mb", "peak RSS (MB)", ax_m))
-            if solver == "direct":
+            if solver.startswith("direct"):
                 keys += (("spmv_ms", "one SpMV (ms)", ax_t),
                          ("model_mb", "matrices + factor (MB)", ax_m))
             for key, label, ax in keys:
@@ -447,8 +487,11 @@ def replot(out: str, csv_paths: Sequence[str]) -> list[dict[str, Any]]:
                         row[k] = None
                         continue
                     try:
+                        if k == "threads":
+                            row[k] = v
+                            continue
                         row[k] = int(v) if k in ("contact", "dofs", "steps", "matrix_nnz",
-                                                 "factor_nnz") else float(v)
+                                                 "factor_nnz", "solve_threads") else float(v)
                     except ValueError:
                         row[k] = v
                 rows.append(row)
@@ -475,6 +518,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="comma-separated &solver kinds: direct, cg, auto (default direct)")
     ap.add_argument("--max-dofs", type=int, default=None,
                     help="skip the sizes estimated above this many dofs")
+    ap.add_argument("--threads", default="auto",
+                    help="comma-separated settings of the direct solves' threads, each run at "
+                         "every size: auto (the environment's), 1, 2 (DYNCONTACT_THREADS); "
+                         "CG runs with the last (default auto)")
     ap.add_argument("--replot", nargs="+", default=None, metavar="CSV",
                     help="no runs: table and chart in --out from these scaling.csv files")
     a = ap.parse_args(argv)
@@ -491,9 +538,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     for k in solvers:
         if k not in ("direct", "cg", "auto"):
             ap.error(f"--solvers: unknown solver kind {k!r} (expected direct, cg or auto)")
+    threads = [t.strip() for t in a.threads.split(",") if t.strip()]
+    if not threads or any(t not in ("auto", "1", "2") for t in threads):
+        ap.error(f"--threads: a comma-separated list of auto, 1, 2: {a.threads!r}")
+    print(f"scaling: load average {_load()} at the start, {os.cpu_count()} cores", flush=True)
     rows = run_scaling(a.out, sizes, a.steps, a.exe, no_contact=not a.contact_only,
                        floors=not a.no_floors, repeats=a.repeats, geometries=geometries,
-                       solvers=solvers, max_dofs=a.max_dofs, large=a.large)
+                       solvers=solvers, max_dofs=a.max_dofs, large=a.large, threads=threads)
     print(json.dumps({"rows": len(rows), "out": a.out}))
     return 0
 
