@@ -68,18 +68,17 @@ module linear_solver
     real(dp), parameter, public :: AUTO_CG_MARGIN(3) = [0.0_dp, 1.9_dp, 1.4_dp]
     !> When the direct solve will run on two threads (&solver threads, DYNCONTACT_THREADS,
     !> the CPUs and PAR_MIN_DOFS, as ldl_threads_choice decides for the matrix's size),
-    !> its estimate is divided by AUTO_PAR_SPEEDUP, the measured two-thread speedup of
-    !> the solve (CG runs on one thread): CG runs when AUTO_CG_ITS(dim) nnz(J0) <
-    !> AUTO_CG_MARGIN(dim) F / AUTO_PAR_SPEEDUP. Measured at the sizes near the crossover
-    !> that solve on two threads (the section "CG against the direct solver on two
-    !> threads" of docs/scaling/solvers/scaling.md; two runs, order reversed, 2 shared
-    !> cores at load average 2.2-3.9): one solve 1.41x and 0.63x (disk 47 392 dofs), 0.96x and 0.97x (box
-    !> 36 300), geometric mean 0.95; the step 1.30x, 0.88x, 1.01x, 1.04x, mean 1.05;
-    !> repeats of one same one-thread configuration differed by up to 1.4x there. That
-    !> is 1 within the noise, hence 1. It is not the idle machine's 2.1x of the solve
-    !> alone (strip 129 600 dofs, 10.4 against 4.97 ms): the disk at 47 392 dofs (ratio
-    !> 1.66, margin 1.9) and the box at 36 300 (1.23, margin 1.4) bound it below 1.14,
-    !> where CG's step was 1.7x-2.9x and 1.9x-2.1x faster than the two-thread direct one.
+    !> its estimate is divided by AUTO_PAR_SPEEDUP (CG runs on one thread): CG runs when
+    !> AUTO_CG_ITS(dim) nnz(J0) < AUTO_CG_MARGIN(dim) F / AUTO_PAR_SPEEDUP. The step's gain
+    !> from the second thread depends on the J0 solve's share of the step (docs/performance.md,
+    !> "Direct and CG on the strip, the disk and the 3D box"): on an idle machine 1.36x on
+    !> the disk at 47 392 dofs (a step mostly the contact correction), 2.9x on the box at
+    !> 36 300; on the shared machine (load average 2.2-3.9) about 1 for both (the step
+    !> 0.88x-1.30x). Any value above 1.14 sends the disk at 47 392 dofs (ratio 1.66, margin
+    !> 1.9) to direct, where CG's step is faster even against two idle threads (15.4
+    !> against 20.1 ms); 2 would send the box at 36 300 to direct, right only with a free
+    !> core. 1 is the value right on a shared machine; a model that counts the contact
+    !> correction's share of the step would tell the two apart.
     real(dp), parameter, public :: AUTO_PAR_SPEEDUP = 1.0_dp
 
     !> Factors of one matrix and the backend that computed them.
