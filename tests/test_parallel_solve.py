@@ -34,27 +34,37 @@ KAPPA = 27.0
 RTOL = 4.0 * KAPPA * np.sqrt(2 * SIDE**2) * np.finfo(float).eps
 
 
-def grid_pairs(side):
-    """kron(L + I, B) with L the 5-point Laplacian of a side x side grid (Dirichlet-like
-    diagonal 4) and B = [2 1; 1 2]: two dofs a node, numbered by nodes, 1-based COO."""
-    n = side * side
-    idx = np.arange(n).reshape(side, side)
+def grid_blocks(side, dim, blk):
+    """kron(L + I, blk) with L the (2 dim + 1)-point Laplacian of a side^dim grid
+    (Dirichlet-like diagonal 2 dim): blk.shape[0] dofs a node, numbered by nodes,
+    1-based COO (rows, cols, vals) and the size."""
+    n = side**dim
+    idx = np.arange(n).reshape((side,) * dim)
     r = [idx.ravel()]
     c = [idx.ravel()]
-    v = [np.full(n, 5.0)]
-    for a, b in ((idx[:, :-1], idx[:, 1:]), (idx[:-1, :], idx[1:, :])):
+    v = [np.full(n, 2.0 * dim + 1.0)]
+    for ax in range(dim):
+        lo = tuple(slice(None, -1) if a == ax else slice(None) for a in range(dim))
+        hi = tuple(slice(1, None) if a == ax else slice(None) for a in range(dim))
+        a, b = idx[lo], idx[hi]
         r += [a.ravel(), b.ravel()]
         c += [b.ravel(), a.ravel()]
         v += [np.full(a.size, -1.0)] * 2
     r, c, v = np.concatenate(r), np.concatenate(c), np.concatenate(v)
-    blk = np.array([[2.0, 1.0], [1.0, 2.0]])
+    k = blk.shape[0]
     rows, cols, vals = [], [], []
-    for i in range(2):
-        for j in range(2):
-            rows.append(2 * r + i)
-            cols.append(2 * c + j)
+    for i in range(k):
+        for j in range(k):
+            rows.append(k * r + i)
+            cols.append(k * c + j)
             vals.append(v * blk[i, j])
-    return (np.concatenate(rows) + 1, np.concatenate(cols) + 1, np.concatenate(vals), 2 * n)
+    return (np.concatenate(rows) + 1, np.concatenate(cols) + 1, np.concatenate(vals), k * n)
+
+
+def grid_pairs(side):
+    """kron(L + I, B) with L the 5-point Laplacian of a side x side grid and B = [2 1;
+    1 2]: two dofs a node (grid_blocks)."""
+    return grid_blocks(side, 2, np.array([[2.0, 1.0], [1.0, 2.0]]))
 
 
 #: Nodes per side of the 3D test grid: 3 * 16^3 = 12 288 dofs.
@@ -67,27 +77,9 @@ RTOL3 = 4.0 * KAPPA3 * (3 * SIDE3**3) ** (2.0 / 3.0) * np.finfo(float).eps
 
 
 def grid_triples(side):
-    """kron(L + I, B3) with L the 7-point Laplacian of a side^3 grid (Dirichlet-like
-    diagonal 6) and B3 = [3 1 1; 1 3 1; 1 1 3]: three dofs a node, 1-based COO."""
-    n = side**3
-    idx = np.arange(n).reshape(side, side, side)
-    r = [idx.ravel()]
-    c = [idx.ravel()]
-    v = [np.full(n, 7.0)]
-    for a, b in ((idx[:, :, :-1], idx[:, :, 1:]), (idx[:, :-1, :], idx[:, 1:, :]),
-                 (idx[:-1, :, :], idx[1:, :, :])):
-        r += [a.ravel(), b.ravel()]
-        c += [b.ravel(), a.ravel()]
-        v += [np.full(a.size, -1.0)] * 2
-    r, c, v = np.concatenate(r), np.concatenate(c), np.concatenate(v)
-    blk = np.ones((3, 3)) + 2.0 * np.eye(3)
-    rows, cols, vals = [], [], []
-    for i in range(3):
-        for j in range(3):
-            rows.append(3 * r + i)
-            cols.append(3 * c + j)
-            vals.append(v * blk[i, j])
-    return (np.concatenate(rows) + 1, np.concatenate(cols) + 1, np.concatenate(vals), 3 * n)
+    """kron(L + I, B3) with L the 7-point Laplacian of a side^3 grid and B3 = [3 1 1;
+    1 3 1; 1 1 3]: three dofs a node (grid_blocks)."""
+    return grid_blocks(side, 3, np.ones((3, 3)) + 2.0 * np.eye(3))
 
 
 def compare(b, grid=None):

@@ -457,6 +457,17 @@ static void sort_column(int n, int *ri, double *rx)
     }
 }
 
+/* The end (exclusive) of the range of rows that starts at k0: rows are added while their
+ * entries cnt[] keep the range's total within target (one row at least); *sum gets the
+ * range's total. factor_by_ranges sizes its buffers and fills its ranges by it. */
+static int range_end(const int *cnt, int n, int k0, long target, long *sum)
+{
+    int k1;
+    *sum = 0;
+    for (k1 = k0; k1 < n && (k1 == k0 || *sum + cnt[k1] <= target); k1++) *sum += cnt[k1];
+    return k1;
+}
+
 /* The simplicial LDL' of P A P' (h->L simplicial, A's upper triangle read) as
  * cholmod_factorize makes it, with less memory. cholmod_factorize hands cholmod_rowfac
  * triu(P A P') whole (two transposes of A's upper triangle: 12 bytes an entry, alive
@@ -497,8 +508,7 @@ static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
     for (k = 0; k < n; k++) total += cnt[k];
     target = total / ranges + 1;
     for (k0 = 0; k0 < n; k0 = k1) {
-        for (sum = 0, k1 = k0; k1 < n && (k1 == k0 || sum + cnt[k1] <= target); k1++)
-            sum += cnt[k1];
+        k1 = range_end(cnt, n, k0, target, &sum);
         if (sum > cap) cap = sum;
     }
     si = malloc(sizeof(int) * (size_t) (cap > 0 ? cap : 1));
@@ -524,8 +534,7 @@ static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
         for (k = 0; k < n; k++) lnz[k] = 1;
     }
     for (k0 = 0; k0 < n && ok; k0 = k1) {
-        for (sum = 0, k1 = k0; k1 < n && (k1 == k0 || sum + cnt[k1] <= target); k1++)
-            sum += cnt[k1];
+        k1 = range_end(cnt, n, k0, target, &sum);
         /* sp[k + 1] is column k's next free place while the range is filled, its end after */
         sp[k0] = 0;
         sp[k0 + 1] = 0;
