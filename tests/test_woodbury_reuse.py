@@ -91,6 +91,22 @@ def run_with_env(monkeypatch, var: str, value: str | None, s: Scene, out: Path):
     return dyncontact.run(s, out=out, progress=False)
 
 
+def assert_traces_agree(name: str, new, ref, tol: float, used: bool = True) -> None:
+    """Two runs of one scene by two paths of the same Newton step: the same active counts
+    and iterations at every row, every column within tol of its largest value, and not
+    bit for bit the same (the new path was used) or, used False, bit for bit the same."""
+    assert ref.trace["active"].max() > 0 and ref.trace["newton_its"].max() >= 2, name
+    np.testing.assert_array_equal(new.trace["active"], ref.trace["active"])
+    np.testing.assert_array_equal(new.trace["newton_its"], ref.trace["newton_its"])
+    differ = False
+    for col in ref.trace:
+        a, b = np.asarray(new.trace[col]), np.asarray(ref.trace[col])
+        scale = np.max(np.abs(b)) if b.size else 0.0
+        np.testing.assert_allclose(a, b, rtol=0, atol=tol * scale, err_msg=f"{name}: {col}")
+        differ = differ or not np.array_equal(a, b)
+    assert differ == used, f"{name}: the path under test changed the trace: {differ}"
+
+
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_reused_woodbury_factors_give_the_fresh_traces(monkeypatch, tmp_path, name):
     s = SCENES[name]()

@@ -33,26 +33,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from test_woodbury_reuse import IMPLICIT, ball, bar2d, bar3d, box, run_with_env
+from test_woodbury_reuse import (IMPLICIT, assert_traces_agree, ball, bar2d, bar3d, box,
+                                 run_with_env)
 
 ENV = "DYNCONTACT_ZT_BASIS"
 #: the Newton test's relative tolerance (see the module docstring)
 TOL = 1e-10
-
-
-def compare(name: str, basis, dofs, used: bool = True) -> None:
-    """Same active counts and iterations, every column within TOL of its scale, and not
-    bit for bit the same (the basis was used), or, used False, bit for bit the same."""
-    assert dofs.trace["active"].max() > 0 and dofs.trace["newton_its"].max() >= 2, name
-    np.testing.assert_array_equal(basis.trace["active"], dofs.trace["active"])
-    np.testing.assert_array_equal(basis.trace["newton_its"], dofs.trace["newton_its"])
-    differ = False
-    for col in dofs.trace:
-        a, b = np.asarray(basis.trace[col]), np.asarray(dofs.trace[col])
-        scale = np.max(np.abs(b)) if b.size else 0.0
-        np.testing.assert_allclose(a, b, rtol=0, atol=TOL * scale, err_msg=f"{name}: {col}")
-        differ = differ or not np.array_equal(a, b)
-    assert differ == used, f"{name}: Z T applied on the node basis: {differ}"
 
 
 def bar2d_method(theta: int | None = None, method: str | None = None):
@@ -75,7 +61,7 @@ def test_zt_on_the_basis_gives_the_dofs_traces_for_every_implicit_scheme(
     s.set("scheme.t_end", 1.6)
     basis = run_with_env(monkeypatch, ENV, None, s, tmp_path / "basis")
     dofs = run_with_env(monkeypatch, ENV, "dofs", s, tmp_path / "dofs")
-    compare(f"{scheme} {dim}D {mass}", basis, dofs)
+    assert_traces_agree(f"{scheme} {dim}D {mass}", basis, dofs, TOL)
 
 
 def tilted(s, dim: int = 3):
@@ -110,7 +96,7 @@ def test_zt_on_the_basis_gives_the_dofs_traces(monkeypatch, tmp_path, name):
     s.set("scheme.t_end", min(float(s.get("scheme.t_end")), 1.6))
     basis = run_with_env(monkeypatch, ENV, None, s, tmp_path / "basis")
     dofs = run_with_env(monkeypatch, ENV, "dofs", s, tmp_path / "dofs")
-    compare(name, basis, dofs, used=name in SCENES)
+    assert_traces_agree(name, basis, dofs, TOL, used=name in SCENES)
 
 
 @pytest.mark.parametrize("dim", [2, 3])
