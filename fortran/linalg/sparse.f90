@@ -241,20 +241,12 @@ contains
         type(csc_t), intent(in) :: a   !! matrix
         real(dp), intent(in) :: x(:)   !! (n)
         real(dp), intent(out) :: y(:)  !! (n)
-        integer :: j, k
-        real(dp) :: acc
-        do j = 1, a%n
-            acc = 0.0_dp
-            do k = a%colptr(j) + 1, a%colptr(j + 1)
-                acc = acc + a%val(k) * x(a%rowind(k) + 1)
-            end do
-            y(j) = acc
-        end do
+        call csc_matvec_t_values(a, a%val, x, y)
     end subroutine csc_matvec_t
 
     !> y = B^T x for the matrix B with a's pattern and the values val (a%val is not
-    !> read): matrices that share one pattern keep their values only. The loop of
-    !> csc_matvec_t (bitwise equal to it on a matrix holding val).
+    !> read): matrices that share one pattern keep their values only. csc_matvec_t is
+    !> this with a's own values.
     pure subroutine csc_matvec_t_values(a, val, x, y)
         type(csc_t), intent(in) :: a   !! the pattern
         real(dp), intent(in) :: val(:) !! (a%nnz) values on it
