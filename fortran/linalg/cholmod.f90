@@ -184,26 +184,37 @@ module cholmod
 contains
 
     !> What chol_analyse and chol_factor do first: release the factors, check the csc_t
-    !> (STAT_BAD_INPUT when empty or inconsistent) and create CHOLMOD's handle
-    !> (STAT_INTERNAL when out of memory); `who` names the caller in the message.
-    subroutine chol_prepare(ch, a, who, stat, errmsg)
+    !> and the values read (`val` when given, else a%val; STAT_BAD_INPUT when empty or
+    !> inconsistent) and create CHOLMOD's handle (STAT_INTERNAL when out of memory);
+    !> `who` names the caller in the message.
+    subroutine chol_prepare(ch, a, who, stat, errmsg, val)
         type(cholmod_t), intent(inout) :: ch                !! factors (released)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         character(len=*), intent(in) :: who                !! caller, for the message
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! values on a's pattern (for a%val)
+        logical :: has_val
+        integer :: nval
         stat = STAT_OK
         ch%n = 0
         ch%supernodal = .false.
         call pair_ldl_free(ch%pairs)
         call triple_ldl_free(ch%triples)
-        if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
-                                allocated(a%val))) then
+        if (present(val)) then
+            has_val = .true.
+            nval = size(val)
+        else
+            has_val = allocated(a%val)
+            nval = 0
+            if (has_val) nval = size(a%val)
+        end if
+        if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. has_val)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, who//': matrix is empty or not allocated')
             return
         end if
         if (size(a%colptr) < a%n + 1 .or. a%colptr(1) /= 0 .or. a%colptr(a%n + 1) /= a%nnz &
-            .or. size(a%rowind) < a%nnz .or. size(a%val) < a%nnz) then
+            .or. size(a%rowind) < a%nnz .or. nval < a%nnz) then
             call raise(stat, errmsg, STAT_BAD_INPUT, who//': inconsistent CSC arrays')
             return
         end if
@@ -219,19 +230,27 @@ contains
     !> chol_factor then reports as factor_nnz). The analysis is kept in ch, so the next
     !> chol_factor of the same pattern does not redo it; ch holds no factors after this.
     !> CHOLMOD errors give STAT_INTERNAL; an inconsistent csc_t gives STAT_BAD_INPUT.
-    subroutine chol_analyse(ch, a, entries, stat, errmsg)
+    !> The analysis reads a's pattern alone: a matrix on a's pattern with other values
+    !> (`val`, see chol_factor) has the same.
+    subroutine chol_analyse(ch, a, entries, stat, errmsg, val)
         type(cholmod_t), intent(inout) :: ch                !! analysis (factors released)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         integer(c_long), intent(out) :: entries             !! the factor's entries
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! values on a's pattern (for a%val)
         integer(c_int) :: status, analysed
         real(c_double) :: e
         entries = 0
-        call chol_prepare(ch, a, 'chol_analyse', stat, errmsg)
+        call chol_prepare(ch, a, 'chol_analyse', stat, errmsg, val)
         if (stat /= STAT_OK) return
-        status = dc_cholmod_analyse(ch%handle, int(a%n, c_int), a%colptr, a%rowind, a%val, &
-                                    analysed, e)
+        if (present(val)) then
+            status = dc_cholmod_analyse(ch%handle, int(a%n, c_int), a%colptr, a%rowind, val, &
+                                        analysed, e)
+        else
+            status = dc_cholmod_analyse(ch%handle, int(a%n, c_int), a%colptr, a%rowind, a%val, &
+                                        analysed, e)
+        end if
         if (status /= DC_OK) then
             call raise(stat, errmsg, STAT_INTERNAL, 'chol_analyse: CHOLMOD failed')
             return
@@ -244,20 +263,28 @@ contains
     !> Factorize the symmetric matrix a (its upper triangle is read): P A P^T = L D L^T,
     !> simplicial. The analysis is redone only when n or the pattern changed. A zero,
     !> negative or non-finite pivot gives STAT_NUMERIC (no factors kept); CHOLMOD
-    !> errors give STAT_INTERNAL; an inconsistent csc_t gives STAT_BAD_INPUT.
-    subroutine chol_factor(ch, a, stat, errmsg)
+    !> errors give STAT_INTERNAL; an inconsistent csc_t gives STAT_BAD_INPUT. With `val`,
+    !> the matrix factorized has a's pattern and the values val (a%val is not read): a
+    !> matrix kept as values on another's pattern (J0 on the model's) needs no copy of it.
+    subroutine chol_factor(ch, a, stat, errmsg, val)
         type(cholmod_t), intent(inout) :: ch                !! factors (created or replaced)
-        type(csc_t), intent(in) :: a                        !! symmetric matrix
+        type(csc_t), intent(in) :: a                        !! symmetric matrix (its pattern)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
         integer(c_int) :: status, analysed, minor, paired
         integer(c_long) :: lnz
         character(len=160) :: buf
 
-        call chol_prepare(ch, a, 'chol_factor', stat, errmsg)
+        call chol_prepare(ch, a, 'chol_factor', stat, errmsg, val)
         if (stat /= STAT_OK) return
-        status = dc_cholmod_factor(ch%handle, int(a%n, c_int), a%colptr, a%rowind, a%val, &
-                                   analysed, lnz, minor, paired)
+        if (present(val)) then
+            status = dc_cholmod_factor(ch%handle, int(a%n, c_int), a%colptr, a%rowind, val, &
+                                       analysed, lnz, minor, paired)
+        else
+            status = dc_cholmod_factor(ch%handle, int(a%n, c_int), a%colptr, a%rowind, a%val, &
+                                       analysed, lnz, minor, paired)
+        end if
         if (analysed /= 0) ch%analyses = ch%analyses + 1
         ch%factorizations = ch%factorizations + 1
         select case (status)

@@ -15,6 +15,11 @@
 !> matrix directly then and solves again. Either way f%note says so, and f%backend
 !> records which one holds the factors. A factor_t owns C pointers: never copy one by
 !> assignment.
+!>
+!> A matrix kept as values on another's pattern (J0 = M + c K_theta on the model's, which
+!> M, K and K_theta share) is passed as that csc_t and `val`: ls_factor, ls_solve and
+!> ls_solve_many then read a's pattern and val, never a%val, and hold no copy of either
+!> (pass the same val to the solves as to ls_factor).
 module linear_solver
     use iso_c_binding, only: c_long
     use kinds, only: dp, i8
@@ -116,20 +121,28 @@ contains
     !> diagonal, set up conjugate gradients instead (no factors; f%backend BACKEND_PCG).
     !> Errors are those of the LU (STAT_NUMERIC 'singular matrix', STAT_BAD_INPUT for
     !> inconsistent arrays, STAT_INTERNAL); an LDL^T error other than a bad pivot is
-    !> returned as is.
-    subroutine ls_factor(f, a, stat, errmsg)
+    !> returned as is. With `val`, the matrix is a's pattern with the values val (module
+    !> header).
+    subroutine ls_factor(f, a, stat, errmsg, val)
         type(factor_t), intent(inout) :: f                  !! factors (created or replaced)
-        type(csc_t), intent(in) :: a                        !! matrix
+        type(csc_t), intent(in) :: a                        !! matrix (its pattern)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
         character(len=:), allocatable :: kind
         f%backend = ''
         f%n = 0
         f%fell_back = .false.
         f%note = ''
-        f%symmetric = csc_is_symmetric(a)
+        if (present(val)) then
+            if (size(val) /= a%nnz) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, 'ls_factor: val does not have nnz entries')
+                return
+            end if
+        end if
+        f%symmetric = csc_is_symmetric(a, val)
         if (trim(f%kind) == 'auto') then
-            call auto_decide(f, a, stat, errmsg)
+            call auto_decide(f, a, stat, errmsg, val)
             if (stat /= STAT_OK) return
             kind = trim(f%auto_kind)
         else
@@ -141,7 +154,7 @@ contains
                 f%note = 'the matrix is not symmetric: conjugate gradients do not apply; '// &
                          'it was factorized directly'
             else
-                call pcg_setup(f%cg, a, f%cg_rtol, f%cg_max_iter, stat)
+                call pcg_setup(f%cg, a, f%cg_rtol, f%cg_max_iter, stat, val=val)
                 if (stat == STAT_OK) then
                     call chol_free(f%ch)
                     call lu_free(f%lu)
@@ -153,7 +166,7 @@ contains
                          'conjugate gradients do not apply; it was factorized directly'
             end if
         end if
-        call direct_factor(f, a, stat, errmsg)
+        call direct_factor(f, a, stat, errmsg, val)
     end subroutine ls_factor
 
     !> Set the threads of the triangular solves of the next factorizations (&solver
@@ -179,11 +192,12 @@ contains
     !> the symbolic analysis of a (chol_analyse, kept for the factorization that follows
     !> when the direct solver is chosen, released when CG is). Not symmetric, or 1D: the
     !> direct solver, without an analysis.
-    subroutine auto_decide(f, a, stat, errmsg)
+    subroutine auto_decide(f, a, stat, errmsg, val)
         type(factor_t), intent(inout) :: f                  !! solver
         type(csc_t), intent(in) :: a                        !! matrix
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! values on a's pattern (for a%val)
         integer(c_long) :: entries
         integer :: env, min_dofs
         stat = STAT_OK
@@ -195,7 +209,7 @@ contains
         call ldl_threads_env(env, min_dofs)
         f%auto_threads = ldl_threads_choice(f%threads, env, ldl_cpus(), a%n, min_dofs)
         if (.not. f%symmetric .or. f%dim < 2 .or. f%dim > 3) return
-        call chol_analyse(f%ch, a, entries, stat, errmsg)
+        call chol_analyse(f%ch, a, entries, stat, errmsg, val)
         if (stat /= STAT_OK) return
         f%auto_factor_nnz = int(entries, i8)
         f%auto_kind = ls_auto_kind('auto', f%dim, f%auto_nnz, f%auto_factor_nnz, f%auto_threads)
@@ -296,14 +310,15 @@ contains
     end subroutine ls_cg_counts
 
     !> The direct factorization of ls_factor (LDL^T, else LU).
-    subroutine direct_factor(f, a, stat, errmsg)
+    subroutine direct_factor(f, a, stat, errmsg, val)
         type(factor_t), intent(inout) :: f                  !! factors (created or replaced)
         type(csc_t), intent(in) :: a                        !! matrix
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! values on a's pattern (for a%val)
         call pcg_free(f%cg)
         if (f%symmetric) then
-            call chol_factor(f%ch, a, stat, errmsg)
+            call chol_factor(f%ch, a, stat, errmsg, val)
             if (stat == STAT_OK) then
                 call lu_free(f%lu)
                 f%backend = BACKEND_CHOLMOD
@@ -319,7 +334,7 @@ contains
             f%fell_back = .true.
         end if
         call chol_free(f%ch)
-        call lu_factor(f%lu, a, stat, errmsg)
+        call lu_factor(f%lu, a, stat, errmsg, val)
         if (stat /= STAT_OK) return
         f%backend = BACKEND_UMFPACK
         f%n = a%n
@@ -328,20 +343,21 @@ contains
 
     !> After a CG solve that proved a not positive definite: factorize it directly (for
     !> the rest of the run) and say so in f%note.
-    subroutine cg_fall_back(f, a, stat, errmsg)
+    subroutine cg_fall_back(f, a, stat, errmsg, val)
         type(factor_t), intent(inout) :: f                  !! solver
         type(csc_t), intent(in) :: a                        !! matrix
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! values on a's pattern (for a%val)
         f%note = 'conjugate gradients met a curvature <= 0 (the matrix is not positive '// &
                  'definite): it was factorized directly'
-        call direct_factor(f, a, stat, errmsg)
+        call direct_factor(f, a, stat, errmsg, val)
     end subroutine cg_fall_back
 
     !> Solve A x = b with the factors of a (no allocation). b and x must have n entries.
     !> With `guess` true, x holds a first guess, which CG starts from (the direct solves
-    !> ignore it).
-    subroutine ls_solve(f, a, b, x, stat, errmsg, guess)
+    !> ignore it). `val`: as given to ls_factor.
+    subroutine ls_solve(f, a, b, x, stat, errmsg, guess, val)
         type(factor_t), intent(inout) :: f                  !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
@@ -349,14 +365,15 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: guess              !! x holds a first guess (CG)
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
         if (f%n /= a%n .or. f%n < 1) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'ls_solve: no factors of this matrix')
             return
         end if
         if (f%backend == BACKEND_PCG) then
-            call pcg_solve(f%cg, a, b, x, stat, errmsg, guess)
+            call pcg_solve(f%cg, a, b, x, stat, errmsg, guess, val)
             if (stat == STAT_OK .or. .not. f%cg%indefinite) return
-            call cg_fall_back(f, a, stat, errmsg)
+            call cg_fall_back(f, a, stat, errmsg, val)
             if (stat /= STAT_OK) return
         end if
         if (f%backend == BACKEND_CHOLMOD) then
@@ -368,13 +385,15 @@ contains
 
     !> Solve A X = B for the columns of B (CHOLMOD: one blocked solve, or column after
     !> column with the factor by node blocks; UMFPACK: one column after the other).
-    subroutine ls_solve_many(f, a, b, x, stat, errmsg)
+    !> `val`: as given to ls_factor.
+    subroutine ls_solve_many(f, a, b, x, stat, errmsg, val)
         type(factor_t), intent(inout) :: f                  !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)
         real(dp), intent(out) :: x(:, :)                    !! solutions (n, m)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
         if (size(b, 2) /= size(x, 2)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, &
                        'ls_solve_many: b and x have different numbers of columns')
@@ -385,9 +404,9 @@ contains
             return
         end if
         if (f%backend == BACKEND_PCG) then
-            call pcg_solve_many(f%cg, a, b, x, stat, errmsg)
+            call pcg_solve_many(f%cg, a, b, x, stat, errmsg, val)
             if (stat == STAT_OK .or. .not. f%cg%indefinite) return
-            call cg_fall_back(f, a, stat, errmsg)
+            call cg_fall_back(f, a, stat, errmsg, val)
             if (stat /= STAT_OK) return
         end if
         if (f%backend == BACKEND_CHOLMOD) then
@@ -457,27 +476,40 @@ contains
 
     !> a has a symmetric pattern (entries stored without a partner must be zero) and
     !> values symmetric to SYM_RTOL (n >= 1, CSC arrays allocated; .false. otherwise).
-    pure function csc_is_symmetric(a) result(sym)
-        type(csc_t), intent(in) :: a   !! matrix
+    !> With `val`, the matrix with a's pattern and those values.
+    pure function csc_is_symmetric(a, val) result(sym)
+        type(csc_t), intent(in) :: a                !! matrix (its pattern)
+        real(dp), intent(in), optional :: val(:)    !! (a%nnz) values on a's pattern
+        logical :: sym
+        sym = .false.
+        if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind))) return
+        if (size(a%colptr) < a%n + 1) return
+        if (a%colptr(a%n + 1) /= a%nnz .or. size(a%rowind) < a%nnz) return
+        if (present(val)) then
+            if (size(val) >= a%nnz) sym = symmetric_values(a, val)
+        else if (allocated(a%val)) then
+            if (size(a%val) >= a%nnz) sym = symmetric_values(a, a%val)
+        end if
+    end function csc_is_symmetric
+
+    !> csc_is_symmetric for the values v on a's pattern (both checked).
+    pure function symmetric_values(a, v) result(sym)
+        type(csc_t), intent(in) :: a                !! the pattern
+        real(dp), intent(in) :: v(:)                !! (a%nnz) the values
         logical :: sym
         integer :: i, j, k, p
         real(dp) :: s
         sym = .false.
-        if (a%n < 1 .or. .not. (allocated(a%colptr) .and. allocated(a%rowind) .and. &
-                                allocated(a%val))) return
-        if (size(a%colptr) < a%n + 1) return
-        if (a%colptr(a%n + 1) /= a%nnz .or. size(a%rowind) < a%nnz .or. size(a%val) < a%nnz) &
-            return
         do j = 1, a%n
             do k = a%colptr(j) + 1, a%colptr(j + 1)
                 i = a%rowind(k) + 1
                 if (i == j) cycle
                 p = csc_find(a, j, i)
                 if (p == 0) then
-                    if (a%val(k) /= 0.0_dp) return
+                    if (v(k) /= 0.0_dp) return
                 else if (i < j) then
-                    s = max(abs(a%val(k)) + abs(a%val(p)), sqrt(abs(diag(i) * diag(j))))
-                    if (abs(a%val(k) - a%val(p)) > SYM_RTOL * s) return
+                    s = max(abs(v(k)) + abs(v(p)), sqrt(abs(diag(i) * diag(j))))
+                    if (abs(v(k) - v(p)) > SYM_RTOL * s) return
                 end if
             end do
         end do
@@ -489,7 +521,7 @@ contains
             integer :: q
             q = csc_find(a, ii, ii)
             diag = 0.0_dp
-            if (q > 0) diag = a%val(q)
+            if (q > 0) diag = v(q)
         end function diag
-    end function csc_is_symmetric
+    end function symmetric_values
 end module linear_solver

@@ -38,8 +38,8 @@ module pcg
     use vector_ops, only: dot, lane_sum, LANES
     use text, only: int_text, real_text
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
-    use sparse, only: csc_t, csc_find, csc_matvec_t, block2_t, block2_from_csc, block2_matvec, &
-                      block3_t, block3_from_csc, block3_matvec
+    use sparse, only: csc_t, csc_find, csc_matvec_t, csc_matvec_t_values, block2_t, &
+                      block2_from_csc, block2_matvec, block3_t, block3_from_csc, block3_matvec
     implicit none
     private
 
@@ -81,13 +81,16 @@ contains
     !> Set up for the symmetric matrix a: node groups, block copy, inverse diagonal blocks
     !> and work vectors. A diagonal block that is not positive definite (a diagonal entry
     !> <= 0 or missing among them) means a is not: STAT_NUMERIC, `indefinite` set.
-    subroutine pcg_setup(p, a, rtol, max_iter, stat, errmsg)
+    !> With `val`, the matrix is the one with a's pattern and those values (a%val is not
+    !> read; pass the same val to the solves).
+    subroutine pcg_setup(p, a, rtol, max_iter, stat, errmsg, val)
         type(pcg_t), intent(inout) :: p                     !! solver (replaced)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         real(dp), intent(in) :: rtol                        !! relative residual tolerance (> 0)
         integer, intent(in) :: max_iter                     !! iteration limit (> 0)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
         integer :: g, i0, sz, r, c, k
         real(dp) :: blk(3, 3), inv(3, 3)
         logical :: ok
@@ -96,6 +99,12 @@ contains
         if (a%n < 1 .or. .not. (rtol > 0.0_dp) .or. max_iter < 1) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'pcg_setup: empty matrix or bad tolerances')
             return
+        end if
+        if (present(val)) then
+            if (size(val) < a%nnz) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, 'pcg_setup: fewer values than entries')
+                return
+            end if
         end if
         call node_groups(a, p%bs, p%ng, p%first)
         allocate (p%gof(a%n), p%binv(p%bs * p%bs, p%ng))
@@ -108,7 +117,13 @@ contains
             do c = 1, sz
                 do r = 1, sz
                     k = csc_find(a, i0 + r - 1, i0 + c - 1)
-                    if (k > 0) blk(r, c) = a%val(k)
+                    if (k > 0) then
+                        if (present(val)) then
+                            blk(r, c) = val(k)
+                        else
+                            blk(r, c) = a%val(k)
+                        end if
+                    end if
                 end do
             end do
             call spd_inverse(sz, blk, inv, ok)
@@ -132,8 +147,8 @@ contains
             end do
         end do
         stat = STAT_OK
-        if (p%bs == 2) call block2_from_csc(a, p%first, p%b2, stat, errmsg)
-        if (p%bs == 3) call block3_from_csc(a, p%first, p%b3, stat, errmsg)
+        if (p%bs == 2) call block2_from_csc(a, p%first, p%b2, stat, errmsg, val)
+        if (p%bs == 3) call block3_from_csc(a, p%first, p%b3, stat, errmsg, val)
         if (stat /= STAT_OK) then
             call pcg_free(p)
             return
@@ -240,30 +255,37 @@ contains
     end subroutine spd_inverse
 
     !> y = A x with p's block copy of a (csc_matvec_t when bs = 1): bitwise equal to
-    !> csc_matvec_t (module sparse). x and y have n entries and must not alias.
-    subroutine pcg_product(p, a, x, y)
+    !> csc_matvec_t (module sparse). x and y have n entries and must not alias. `val`:
+    !> as given to pcg_setup.
+    subroutine pcg_product(p, a, x, y, val)
         type(pcg_t), intent(in) :: p                        !! solver set up for a
         type(csc_t), intent(in) :: a                        !! the matrix
         real(dp), intent(in), contiguous :: x(:)            !! (n)
         real(dp), intent(out), contiguous :: y(:)           !! (n)
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
         select case (p%bs)
         case (2)
             call block2_matvec(p%b2, x, y)
         case (3)
             call block3_matvec(p%b3, x, y)
         case default
-            call csc_matvec_t(a, x, y)
+            if (present(val)) then
+                call csc_matvec_t_values(a, val, x, y)
+            else
+                call csc_matvec_t(a, x, y)
+            end if
         end select
     end subroutine pcg_product
 
     !> Y = A X for the k columns of X stored as rows of v (k, n): one pass over p's block
     !> copy of a for all of them; each column's sums in the order of pcg_product.
-    subroutine pcg_product_many(p, a, k, v, y)
+    subroutine pcg_product_many(p, a, k, v, y, val)
         type(pcg_t), intent(in) :: p                        !! solver set up for a
         type(csc_t), intent(in) :: a                        !! the matrix
         integer, intent(in) :: k                            !! columns
         real(dp), intent(in) :: v(k, p%n)                   !! vectors, one a row
         real(dp), intent(out) :: y(k, p%n)                  !! products, one a row
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
         select case (p%bs)
         case (2)
             call many2(k, p%n, p%ng, size(p%b2%col1), p%b2%row_ptr, p%b2%col1, p%b2%col2, &
@@ -272,7 +294,11 @@ contains
             call many3(k, p%n, p%ng, size(p%b3%col1), p%b3%row_ptr, p%b3%col1, p%b3%col2, &
                        p%b3%col3, p%b3%triples, p%first, p%b3%val, v, y)
         case default
-            call many1(k, p%n, a%nnz, a%colptr, a%rowind, a%val, v, y)
+            if (present(val)) then
+                call many1(k, p%n, a%nnz, a%colptr, a%rowind, val, v, y)
+            else
+                call many1(k, p%n, a%nnz, a%colptr, a%rowind, a%val, v, y)
+            end if
         end select
     end subroutine pcg_product_many
 
@@ -366,8 +392,8 @@ contains
 
     !> Solve A x = b from x = 0, or from the x given when `guess` is true. STAT_NUMERIC
     !> when the residual does not reach rtol |b| within max_iter iterations, or A shows
-    !> it is not positive definite.
-    subroutine pcg_solve(p, a, b, x, stat, errmsg, guess)
+    !> it is not positive definite. `val`: as given to pcg_setup.
+    subroutine pcg_solve(p, a, b, x, stat, errmsg, guess, val)
         type(pcg_t), intent(inout) :: p                     !! solver set up for a
         type(csc_t), intent(in) :: a                        !! the matrix
         real(dp), intent(in), contiguous :: b(:)            !! right-hand side (n)
@@ -375,6 +401,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: guess              !! x holds a first guess
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
         real(dp) :: bnorm, tol2, rz, rz_new, pq, alpha, beta, rr
         integer :: it, n
         logical :: warm
@@ -401,7 +428,7 @@ contains
         end if
         tol2 = (p%rtol * bnorm)**2
         if (warm) then
-            call pcg_product(p, a, x, p%q)
+            call pcg_product(p, a, x, p%q, val)
             p%r = b(1:n) - p%q
         else
             p%r = b(1:n)
@@ -414,7 +441,7 @@ contains
         do
             if (rr <= tol2) then
                 ! the formed residual must pass too (the recurrence drifts by round-off)
-                call pcg_product(p, a, x, p%q)
+                call pcg_product(p, a, x, p%q, val)
                 p%r = b(1:n) - p%q
                 rr = dot(p%r, p%r)
                 if (rr <= tol2) exit
@@ -426,7 +453,7 @@ contains
                 call fail(sqrt(rr) / bnorm)
                 return
             end if
-            call pcg_product(p, a, p%p, p%q)
+            call pcg_product(p, a, p%p, p%q, val)
             pq = dot(p%p, p%q)
             if (.not. (pq > 0.0_dp)) then
                 call indefinite(pq)
@@ -897,13 +924,15 @@ contains
     end subroutine cg_update_groups
 
     !> Solve A X = B, PCG_COLUMNS columns at a time (module header). Errors as pcg_solve's.
-    subroutine pcg_solve_many(p, a, b, x, stat, errmsg)
+    !> `val`: as given to pcg_setup.
+    subroutine pcg_solve_many(p, a, b, x, stat, errmsg, val)
         type(pcg_t), intent(inout) :: p                     !! solver set up for a
         type(csc_t), intent(in) :: a                        !! the matrix
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)
         real(dp), intent(out) :: x(:, :)                    !! solutions (n, m)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
         integer :: j, j2
         stat = STAT_OK
         if (p%n < 1 .or. a%n /= p%n .or. size(b, 1) < p%n .or. size(x, 1) < p%n .or. &
@@ -913,7 +942,11 @@ contains
         end if
         do j = 1, size(b, 2), PCG_COLUMNS
             j2 = min(j + PCG_COLUMNS - 1, size(b, 2))
-            call solve_columns(p, a, b(:, j:j2), x(:, j:j2), stat, errmsg)
+            if (present(val)) then
+                call solve_columns(p, a, val, b(:, j:j2), x(:, j:j2), stat, errmsg)
+            else
+                call solve_columns(p, a, a%val, b(:, j:j2), x(:, j:j2), stat, errmsg)
+            end if
             if (stat /= STAT_OK) return
         end do
     end subroutine pcg_solve_many
@@ -928,9 +961,10 @@ contains
     !> (frozen); when none is left iterating, one product forms the waiting columns'
     !> residuals: those that pass are done, the others start again from their formed
     !> residual, as pcg_solve does.
-    subroutine solve_columns(p, a, b, x, stat, errmsg)
+    subroutine solve_columns(p, a, val, b, x, stat, errmsg)
         type(pcg_t), intent(inout) :: p                     !! solver
-        type(csc_t), intent(in) :: a                        !! the matrix
+        type(csc_t), intent(in) :: a                        !! the matrix's pattern
+        real(dp), intent(in) :: val(:)                      !! (a%nnz) its values
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, k)
         real(dp), intent(out) :: x(:, :)                    !! solutions (n, k)
         integer, intent(out) :: stat                        !! status
@@ -1110,9 +1144,9 @@ contains
             integer :: nd0, e
             if (full) then
                 if (of_x) then
-                    call pcg_product_many(p, a, k, xs, qs)
+                    call pcg_product_many(p, a, k, xs, qs, val)
                 else
-                    call pcg_product_many(p, a, k, ps, qs)
+                    call pcg_product_many(p, a, k, ps, qs, val)
                 end if
                 return
             end if
@@ -1130,9 +1164,9 @@ contains
                 end do
             end do
             if (of_x) then
-                call scatter(k, n, nd0, nd, sd, p%loc, a%nnz, a%colptr, a%rowind, a%val, xs, qs)
+                call scatter(k, n, nd0, nd, sd, p%loc, a%nnz, a%colptr, a%rowind, val, xs, qs)
             else
-                call scatter(k, n, nd0, nd, sd, p%loc, a%nnz, a%colptr, a%rowind, a%val, ps, qs)
+                call scatter(k, n, nd0, nd, sd, p%loc, a%nnz, a%colptr, a%rowind, val, ps, qs)
             end if
         end subroutine product
         !> xs += alpha ps, rs -= alpha qs over the set; rzn = r.z and rrn = r.r, z the

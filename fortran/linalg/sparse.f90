@@ -275,13 +275,16 @@ contains
     end subroutine csc_swap_values
 
     !> Block copy of a symmetric CSC matrix; `first` (n_groups + 1) gives the first dof
-    !> of each group of 1 or 2 consecutive dofs (first(n_groups + 1) = n + 1).
-    subroutine block2_from_csc(a, first, b, stat, errmsg)
+    !> of each group of 1 or 2 consecutive dofs (first(n_groups + 1) = n + 1). With
+    !> `val`, the copy is of the matrix with a's pattern and those values.
+    subroutine block2_from_csc(a, first, b, stat, errmsg, val)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         integer, intent(in) :: first(:)                     !! group starts
         type(block2_t), intent(out) :: b                    !! block copy
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern, read
+                                                            !! in place of a%val
         integer :: ng, g, h, j, k, i, r, c, nb, slot
         integer, allocatable :: group(:), mark(:)
         stat = STAT_OK
@@ -335,7 +338,11 @@ contains
                     slot = mark(h)
                     c = i - first(h)
                     ! row r of group g, column c of group h (A(j, i) = A(i, j))
-                    b%val(1 + r + 2 * c, slot) = a%val(k)
+                    if (present(val)) then
+                        b%val(1 + r + 2 * c, slot) = val(k)
+                    else
+                        b%val(1 + r + 2 * c, slot) = a%val(k)
+                    end if
                 end do
             end do
         end do
@@ -537,13 +544,16 @@ contains
     end subroutine ks3_rows
 
     !> Block copy of a symmetric CSC matrix by node triples; `first` (n_groups + 1) gives
-    !> the first dof of each group of 1 to 3 consecutive dofs (first(n_groups + 1) = n + 1).
-    subroutine block3_from_csc(a, first, b, stat, errmsg)
+    !> the first dof of each group of 1 to 3 consecutive dofs (first(n_groups + 1) = n + 1),
+    !> of the matrix with a's pattern and the values `val` when given.
+    subroutine block3_from_csc(a, first, b, stat, errmsg, val)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         integer, intent(in) :: first(:)                     !! group starts
         type(block3_t), intent(out) :: b                    !! block copy
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern, read
+                                                            !! in place of a%val
         integer :: ng, g, h, j, k, i, r, c, nb, slot, sz
         integer, allocatable :: group(:), mark(:)
         stat = STAT_OK
@@ -605,7 +615,11 @@ contains
                     slot = mark(h)
                     c = i - first(h)
                     ! row r of group g, column c of group h (A(j, i) = A(i, j))
-                    b%val(1 + r + 3 * c, slot) = a%val(k)
+                    if (present(val)) then
+                        b%val(1 + r + 3 * c, slot) = val(k)
+                    else
+                        b%val(1 + r + 3 * c, slot) = a%val(k)
+                    end if
                 end do
             end do
         end do

@@ -154,9 +154,28 @@ contains
     !> (UMFPACK status +1) gives STAT_NUMERIC "singular matrix" (the numeric object is
     !> freed, the analysis kept); other nonzero statuses give STAT_INTERNAL with
     !> UMFPACK's status number and meaning; an inconsistent csc_t gives STAT_BAD_INPUT.
-    subroutine lu_factor(lu, a, stat, errmsg)
+    !> With `val`, the matrix factorized has a's pattern and the values val (a%val is not
+    !> read).
+    subroutine lu_factor(lu, a, stat, errmsg, val)
         type(lu_t), intent(inout) :: lu                    !! factors (created or replaced)
-        type(csc_t), intent(in) :: a                        !! matrix
+        type(csc_t), intent(in) :: a                        !! matrix (its pattern)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
+        if (present(val)) then
+            call factor_values(lu, a, val, stat, errmsg)
+        else if (allocated(a%val)) then
+            call factor_values(lu, a, a%val, stat, errmsg)
+        else
+            call factor_values(lu, a, [real(dp) ::], stat, errmsg)
+        end if
+    end subroutine lu_factor
+
+    !> lu_factor of the matrix with a's pattern and the values v.
+    subroutine factor_values(lu, a, v, stat, errmsg)
+        type(lu_t), intent(inout) :: lu                    !! factors (created or replaced)
+        type(csc_t), intent(in) :: a                        !! the pattern
+        real(dp), intent(in) :: v(:)                        !! (a%nnz) the values
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer(c_int) :: status
@@ -165,7 +184,7 @@ contains
 
         if (c_associated(lu%numeric)) call umfpack_di_free_numeric(lu%numeric)
         lu%numeric = c_null_ptr
-        if (.not. csc_consistent(a)) then
+        if (.not. csc_consistent(a, size(v))) then
             call raise(stat, errmsg, STAT_BAD_INPUT, &
                        'lu_factor: matrix is empty or its CSC arrays are inconsistent')
             return
@@ -180,7 +199,7 @@ contains
             call umfpack_di_defaults(lu%control)
             lu%control(UMFPACK_IRSTEP + 1) = 0.0_dp
             status = umfpack_di_symbolic(int(a%n, c_int), int(a%n, c_int), a%colptr, &
-                                         a%rowind, a%val, lu%symbolic, lu%control, lu%info)
+                                         a%rowind, v, lu%symbolic, lu%control, lu%info)
             if (status /= UMFPACK_OK) then
                 if (c_associated(lu%symbolic)) call umfpack_di_free_symbolic(lu%symbolic)
                 lu%symbolic = c_null_ptr
@@ -200,7 +219,7 @@ contains
             lu%n = a%n
         end if
 
-        status = umfpack_di_numeric(a%colptr, a%rowind, a%val, lu%symbolic, lu%numeric, &
+        status = umfpack_di_numeric(a%colptr, a%rowind, v, lu%symbolic, lu%numeric, &
                                     lu%control, lu%info)
         lu%factorizations = lu%factorizations + 1
         if (status == UMFPACK_OK) then
@@ -215,7 +234,7 @@ contains
                            'lu_factor (numeric): '//umfpack_status_text(int(status)))
             end if
         end if
-    end subroutine lu_factor
+    end subroutine factor_values
 
     !> Solve A x = b with the factors of A (no allocation, no iterative refinement).
     !> May be called any number of times per factorization. b and x must have n
@@ -427,14 +446,16 @@ contains
         text = 'UMFPACK status '//trim(num)//' ('//meaning//')'
     end function umfpack_status_text
 
-    !> The CSC arrays of a are allocated, sized and closed consistently (n >= 1).
-    pure function csc_consistent(a) result(ok)
-        type(csc_t), intent(in) :: a   !! matrix
+    !> The pattern arrays of a are allocated, sized and closed consistently (n >= 1), and
+    !> the nval values read with them are enough.
+    pure function csc_consistent(a, nval) result(ok)
+        type(csc_t), intent(in) :: a   !! matrix (its pattern)
+        integer, intent(in) :: nval    !! values read on it
         logical :: ok
         ok = .false.
         if (a%n < 1 .or. a%nnz < 0) return
-        if (.not. (allocated(a%colptr) .and. allocated(a%rowind) .and. allocated(a%val))) return
-        if (size(a%colptr) < a%n + 1 .or. size(a%rowind) < a%nnz .or. size(a%val) < a%nnz) return
+        if (.not. (allocated(a%colptr) .and. allocated(a%rowind))) return
+        if (size(a%colptr) < a%n + 1 .or. size(a%rowind) < a%nnz .or. nval < a%nnz) return
         if (a%colptr(1) /= 0 .or. a%colptr(a%n + 1) /= a%nnz) return
         ok = .true.
     end function csc_consistent

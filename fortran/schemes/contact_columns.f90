@@ -133,10 +133,11 @@ contains
     !> Make Z b_k = sum_e coef(e) Z(:, cols(e)) (e in order, cols(e) > 0 only) available
     !> and mark it used at the current step, solving the columns of Z it needs if they are
     !> not held; then drop what the budget asks for (see the module header).
-    subroutine zcache_basis_ensure(zc, lu, a, cdofs, k, cols, coef, stat, errmsg)
+    subroutine zcache_basis_ensure(zc, lu, a, val, cdofs, k, cols, coef, stat, errmsg)
         type(zcache_t), intent(inout) :: zc          !! cache (zcache_basis_init done)
         type(factor_t), intent(inout) :: lu          !! factors of J0
-        type(csc_t), intent(in) :: a                 !! J0
+        type(csc_t), intent(in) :: a                 !! the pattern of J0 (the model's)
+        real(dp), intent(in) :: val(:)               !! (a%nnz) J0's values on it
         integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
         integer, intent(in) :: k                     !! basis vector
         integer, intent(in) :: cols(:)               !! its contact-cell dofs (<= 0: none)
@@ -150,7 +151,7 @@ contains
         stat = STAT_OK
         zc%blast(k) = zc%step
         if (zc%bslot(k) > 0) return
-        call zcache_ensure(zc, lu, a, cdofs, cols, stat, errmsg)
+        call zcache_ensure(zc, lu, a, val, cdofs, cols, stat, errmsg)
         if (stat /= STAT_OK) return
         cap = size(zc%bowner)
         s = findloc(zc%bowner, 0, dim=1)
@@ -245,10 +246,11 @@ contains
     !> Make the columns need(:) (entries <= 0 ignored, repeats allowed) available, solving
     !> the groups not held, and mark their groups used at the current step; then drop the
     !> least recently used groups of earlier steps while the cache exceeds its budget.
-    subroutine zcache_ensure(zc, lu, a, cdofs, need, stat, errmsg)
+    subroutine zcache_ensure(zc, lu, a, val, cdofs, need, stat, errmsg)
         type(zcache_t), intent(inout) :: zc          !! cache
         type(factor_t), intent(inout) :: lu          !! factors of J0
-        type(csc_t), intent(in) :: a                 !! J0
+        type(csc_t), intent(in) :: a                 !! the pattern of J0 (the model's)
+        real(dp), intent(in) :: val(:)               !! (a%nnz) J0's values on it
         integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
         integer, intent(in) :: need(:)               !! columns needed
         integer, intent(out) :: stat                 !! status (of the solves)
@@ -269,7 +271,7 @@ contains
             end if
         end do
         do q = 1, np
-            call solve_group(zc, lu, a, cdofs, zc%pending(q), stat, errmsg)
+            call solve_group(zc, lu, a, val, cdofs, zc%pending(q), stat, errmsg)
             if (stat /= STAT_OK) then
                 where (zc%slot < 0) zc%slot = 0
                 return
@@ -281,10 +283,11 @@ contains
     !> Every column, group after group, without a budget: the full precomputation (the
     !> augmented Lagrangian's Newton uses all of W). On an empty cache slot l then holds
     !> column l, so w(:, 1:m) is W.
-    subroutine zcache_ensure_all(zc, lu, a, cdofs, stat, errmsg)
+    subroutine zcache_ensure_all(zc, lu, a, val, cdofs, stat, errmsg)
         type(zcache_t), intent(inout) :: zc          !! cache (empty)
         type(factor_t), intent(inout) :: lu          !! factors of J0
-        type(csc_t), intent(in) :: a                 !! J0
+        type(csc_t), intent(in) :: a                 !! the pattern of J0 (the model's)
+        real(dp), intent(in) :: val(:)               !! (a%nnz) J0's values on it
         integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
         integer, intent(out) :: stat                 !! status
         character(len=*), intent(inout), optional :: errmsg !! message
@@ -292,14 +295,15 @@ contains
         stat = STAT_OK
         if (zc%m == 0) return
         zc%budget = huge(zc%budget)
-        call zcache_ensure(zc, lu, a, cdofs, [(l, l = 1, zc%m)], stat, errmsg)
+        call zcache_ensure(zc, lu, a, val, cdofs, [(l, l = 1, zc%m)], stat, errmsg)
     end subroutine zcache_ensure_all
 
     !> Solve the columns of group g (not held) in one call and store them.
-    subroutine solve_group(zc, lu, a, cdofs, g, stat, errmsg)
+    subroutine solve_group(zc, lu, a, val, cdofs, g, stat, errmsg)
         type(zcache_t), intent(inout) :: zc          !! cache
         type(factor_t), intent(inout) :: lu          !! factors of J0
-        type(csc_t), intent(in) :: a                 !! J0
+        type(csc_t), intent(in) :: a                 !! the pattern of J0 (the model's)
+        real(dp), intent(in) :: val(:)               !! (a%nnz) J0's values on it
         integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
         integer, intent(in) :: g                     !! group
         integer, intent(out) :: stat                 !! status
@@ -315,7 +319,7 @@ contains
         do j = 1, nb
             e(cdofs(j0 + j), j) = 1.0_dp
         end do
-        call ls_solve_many(lu, a, e, zb, stat, errmsg)
+        call ls_solve_many(lu, a, e, zb, stat, errmsg, val)
         if (stat /= STAT_OK) return
         deallocate (e)
         do j = 1, nb

@@ -75,7 +75,6 @@ module implicit_schemes
     use vector_ops, only: dot, lane_sum, LANES
     use text, only: int_text, real_text, env_text
     use errors, only: STAT_OK, STAT_NUMERIC, raise
-    use sparse, only: csc_t
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, &
                              ls_factor_info, ls_configure, ls_cg_counts, BACKEND_PCG
     use dense_lu, only: dense_lu_factor, dense_lu_solve
@@ -120,7 +119,8 @@ module implicit_schemes
         real(dp) :: c = 0.0_dp                    !! coefficient of B in R
         real(dp) :: tol = 1.0e-10_dp              !! relative residual tolerance
         integer :: maxit = 50                     !! Newton iteration limit
-        type(csc_t) :: jac0                       !! J0 = M + c K_theta
+        real(dp), allocatable :: jac0(:)          !! (nnz) J0 = M + c K_theta: its values on the
+                                                  !! model's pattern (mdl%stiff's), no copy of it
         type(factor_t) :: lu0                     !! its factors
         integer :: m = 0                          !! contact-cell dofs
         type(zcache_t) :: zc                      !! columns of Z = J0^{-1} P^T and W = P Z
@@ -259,11 +259,11 @@ contains
         call form_predictor(this, st%u, st%v, st%a)
         call model_mass_apply(mdl, this%dvec, this%md)
 
-        this%jac0 = mdl%stiff      ! on the model's pattern (M's, K's and K_theta's)
-        call model_stiff_theta_values(mdl, this%jac0%val)   ! K_theta's values, in place
-        this%jac0%val = mdl%mass_val + this%c * this%jac0%val
+        allocate (this%jac0(mdl%stiff%nnz))   ! on the model's pattern (M's, K's and K_theta's)
+        call model_stiff_theta_values(mdl, this%jac0)   ! K_theta's values, in place
+        this%jac0 = mdl%mass_val + this%c * this%jac0
         call ls_configure(this%lu0, prm%solver_kind, mdl%dim, prm%cg_rtol, prm%cg_max_iter)
-        call ls_factor(this%lu0, this%jac0, stat, errmsg)
+        call ls_factor(this%lu0, mdl%stiff, stat, errmsg, val=this%jac0)
         if (stat /= STAT_OK) return
         if (this%lu0%backend /= BACKEND_PCG) this%factorizations = this%factorizations + 1
         ! the step's vectors, allocated after J0's factorization: not held at its peak
@@ -301,7 +301,8 @@ contains
         call columns_env(this%all_columns, this%zc%budget)
         call zt_basis_init(this, mdl, budget)
         if (this%all_columns .and. this%m > 0) then
-            call zcache_ensure_all(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, stat, errmsg)
+            call zcache_ensure_all(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
+                                   stat, errmsg)
             if (stat /= STAT_OK) return
         end if
         ! zcache_ensure_all on an empty cache: slot l holds column l, w(:, 1:m) is W
@@ -363,7 +364,7 @@ contains
         character(len=:), allocatable :: ordering
         integer(i8) :: fnnz
         call ls_factor_info(this%lu0, ordering, fnnz)
-        budget = max(BUDGET_MIN, 6_i8 * (4_i8 * this%jac0%nnz + fnnz))
+        budget = max(BUDGET_MIN, 6_i8 * (4_i8 * size(this%jac0, kind=i8) + fnnz))
     end function default_budget
 
     !> DYNCONTACT_CONTACT_COLUMNS: 'all' sets every (every column at set-up), a number
@@ -562,8 +563,8 @@ contains
                 cycle
             end if
             if (k <= nf) then
-                call zcache_basis_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, k, &
-                                         mdl%ct%cloc(:, k), mdl%ct%s(:, k), stat, errmsg)
+                call zcache_basis_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
+                                         k, mdl%ct%cloc(:, k), mdl%ct%s(:, k), stat, errmsg)
             else
                 f = this%cnf(1, k - nf)
                 i = this%cnf(2, k - nf)
@@ -571,8 +572,8 @@ contains
                     cols(kk) = mdl%ct%cloc(kk, f)
                     if (mdl%ct%nvec(kk, i, f) == 0.0_dp) cols(kk) = 0
                 end do
-                call zcache_basis_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, k, &
-                                         cols, mdl%ct%nvec(:, i, f), stat, errmsg)
+                call zcache_basis_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
+                                         k, cols, mdl%ct%nvec(:, i, f), stat, errmsg)
             end if
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed for the contact correction')
@@ -680,7 +681,8 @@ contains
                 ! CG starts from the step the predictor with a' = a takes (see first_guess)
                 warm = this%lu0%backend == BACKEND_PCG
                 if (warm) call first_guess(this, st%a)
-                call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat, why, guess=warm)
+                call ls_solve(this%lu0, mdl%stiff, this%r, this%dx, stat, why, guess=warm, &
+                              val=this%jac0)
                 if (stat /= STAT_OK) then
                     call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
                                //real_text(st%t + dt, 6)//': '//trim(why))
@@ -801,8 +803,8 @@ contains
         integer, intent(in) :: nk                           !! columns in need(1:nk)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        call zcache_ensure(this%zc, this%lu0, this%jac0, mdl%ct%cdofs, this%need(1:nk), &
-                           stat, errmsg)
+        call zcache_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
+                           this%need(1:nk), stat, errmsg)
         if (stat /= STAT_OK) call raise(stat, errmsg, STAT_NUMERIC, &
                                         'linear solve failed for the contact correction')
     end subroutine need_columns
@@ -1359,7 +1361,7 @@ contains
         call rhs_coefficients(this, cb, kb)
         call newton_rhs(size(st%u), cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
         why = ''
-        call ls_solve(this%lu0, this%jac0, this%r, this%dx, stat, why)
+        call ls_solve(this%lu0, mdl%stiff, this%r, this%dx, stat, why, val=this%jac0)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
                        //real_text(st%t + this%dt, 6)//': '//trim(why))

@@ -3,7 +3,9 @@
 !> blocked solves, bad pivots, the solver choice (symmetric positive definite ->
 !> CHOLMOD, indefinite or non-symmetric -> UMFPACK, exact either way), singular
 !> matrices, the symmetry test, the solve by 2x2 node blocks (ldl_solves) against
-!> cholmod_solve2 and known solutions. Exit status 1 (error stop) on any failure.
+!> cholmod_solve2 and known solutions; a matrix given as values on another's pattern
+!> (`val`) against the same matrix with its own values, bit for bit. Exit status 1
+!> (error stop) on any failure.
 program test_cholmod
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, MSG_LEN
@@ -12,7 +14,8 @@ program test_cholmod
                        chol_kernel, chol_solve_cholmod, chol_ordering, KERNEL_PAIRS, KERNEL_CHOLMOD
     use ldl_solves, only: pair_ldl_t, pair_ldl_build
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, &
-                             csc_is_symmetric, BACKEND_CHOLMOD, BACKEND_UMFPACK, SYM_RTOL
+                             csc_is_symmetric, ls_configure, BACKEND_CHOLMOD, BACKEND_UMFPACK, &
+                             BACKEND_PCG, SYM_RTOL
     use unit_checks, only: checks_t, seed
     implicit none
 
@@ -33,6 +36,7 @@ program test_cholmod
     call test_node_pairs()
     call test_node_pairs_refused()
     call test_pair_layout_checked()
+    call test_values_on_pattern()
 
     call checks%finish('test_cholmod')
 
@@ -549,4 +553,88 @@ contains
                              1.0_dp], ok)
         call checks%check(.not. ok .and. f%n == 0, 'layout: half a block')
     end subroutine test_pair_layout_checked
+
+    !> A matrix given as its values on another matrix's pattern (ls_factor, ls_solve,
+    !> ls_solve_many and chol_factor with `val`; the other's values differ, so reading
+    !> them would show): the same backend, factor and solutions, bit for bit, as the
+    !> matrix with its own values; for the direct kind (CHOLMOD by pairs and simplicial,
+    !> UMFPACK for an indefinite and a non-symmetric matrix), CG (node pairs and single
+    !> dofs: the block copy, the products, the solves on the right-hand sides' supports)
+    !> and 'auto'.
+    subroutine test_values_on_pattern()
+        character(len=*), parameter :: kinds(3) = [character(len=6) :: 'direct', 'cg', 'auto']
+        character(len=*), parameter :: mats(4) = [character(len=12) :: 'pairs', 'spd', &
+                                                  'indefinite', 'nonsymmetric']
+        type(csc_t) :: a, other
+        type(factor_t) :: f1, f2
+        type(cholmod_t) :: c1, c2
+        real(dp), allocatable :: val(:), b(:, :), x1(:, :), x2(:, :)
+        integer :: ik, im, stat1, stat2, n, j
+        character(len=40) :: what
+        do im = 1, size(mats)
+            call seed(20 + im)
+            select case (im)
+            case (1)
+                call pair_matrix(150, a)
+            case (2)
+                call sym_matrix(300, 1.0_dp, 1.0_dp, a)
+            case (3)
+                call sym_matrix(300, 1.0_dp, 1.0_dp, a, indefinite=.true.)
+            case default
+                call sym_matrix(300, 1.0_dp, 1.0_dp, a)
+                call perturb_off_diagonal(a)
+            end select
+            n = a%n
+            allocate (val, source=a%val)
+            other = a
+            other%val = 3.0_dp * a%val + 1.0_dp        ! the pattern's own values: not read
+            allocate (b(n, 20), x1(n, 20), x2(n, 20))
+            b = 0.0_dp
+            call random_number(b(:, 1:3))
+            do j = 4, 20                               ! columns of the identity (CG: supports)
+                b(1 + mod(7 * j, n), j) = 1.0_dp
+            end do
+            do ik = 1, size(kinds)
+                what = trim(mats(im))//' '//trim(kinds(ik))
+                call ls_configure(f1, trim(kinds(ik)), 2, 1.0e-12_dp, 500)
+                call ls_configure(f2, trim(kinds(ik)), 2, 1.0e-12_dp, 500)
+                call ls_factor(f1, a, stat1)
+                call ls_factor(f2, other, stat2, val=val)
+                call checks%check(stat1 == STAT_OK .and. stat2 == STAT_OK .and. &
+                                  f1%backend == f2%backend .and. (f1%fell_back .eqv. f2%fell_back), &
+                                  trim(what)//': the same backend')
+                if (im == 1 .and. ik == 1) call checks%check(f2%backend == BACKEND_CHOLMOD, &
+                                                             trim(what)//': CHOLMOD')
+                if (im >= 3 .and. ik == 1) call checks%check(f2%backend == BACKEND_UMFPACK, &
+                                                             trim(what)//': UMFPACK')
+                if (im <= 2 .and. ik == 2) call checks%check(f2%backend == BACKEND_PCG, &
+                                                             trim(what)//': CG')
+                call ls_solve(f1, a, b(:, 1), x1(:, 1), stat1)
+                call ls_solve(f2, other, b(:, 1), x2(:, 1), stat2, val=val)
+                call checks%check(stat1 == STAT_OK .and. stat2 == STAT_OK .and. &
+                                  all(x1(:, 1) == x2(:, 1)), trim(what)//': ls_solve bit for bit')
+                call ls_solve_many(f1, a, b, x1, stat1)
+                call ls_solve_many(f2, other, b, x2, stat2, val=val)
+                call checks%check(stat1 == STAT_OK .and. stat2 == STAT_OK .and. all(x1 == x2), &
+                                  trim(what)//': ls_solve_many bit for bit')
+                call ls_free(f1)
+                call ls_free(f2)
+            end do
+            if (im <= 2) then
+                call chol_factor(c1, a, stat1)
+                call chol_factor(c2, other, stat2, val=val)
+                call chol_solve(c1, b(:, 1), x1(:, 1), stat1)
+                call chol_solve(c2, b(:, 1), x2(:, 1), stat2)
+                call checks%check(stat1 == STAT_OK .and. stat2 == STAT_OK .and. &
+                                  c1%factor_nnz == c2%factor_nnz .and. all(x1(:, 1) == x2(:, 1)), &
+                                  trim(mats(im))//': chol_factor with val bit for bit')
+                call chol_free(c1)
+                call chol_free(c2)
+            end if
+            call ls_factor(f2, other, stat2, val=val(1:a%nnz - 1))
+            call checks%check(stat2 == STAT_BAD_INPUT, trim(mats(im))//': too few values refused')
+            call ls_free(f2)
+            deallocate (val, b, x1, x2)
+        end do
+    end subroutine test_values_on_pattern
 end program test_cholmod
