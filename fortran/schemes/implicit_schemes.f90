@@ -1228,6 +1228,17 @@ contains
             fb = this%qnode(0, f)
             call term_coefficients(real(mdl%ct%theta, dp), mdl%ct%gamma(f), this%tca(1:nfn, t), &
                                    this%tcb(1:nfn, t), a0, ai, b0, bi)
+            if (nfn == 3) then      ! (one pass over the rows: see term_columns3)
+                associate (y => this%ybas, sm => this%small, qn => this%qnode)
+                    call term_columns3(q, y(:, fb), y(:, qn(1, f)), y(:, qn(2, f)), &
+                                       y(:, qn(3, f)), [a0, ai(1:3)], &
+                                       [this%c * b0, this%c * bi(1), this%c * bi(2), &
+                                        this%c * bi(3)], &
+                                       sm(:, fb), sm(:, qn(1, f)), sm(:, qn(2, f)), &
+                                       sm(:, qn(3, f)))
+                end associate
+                cycle
+            end if
             this%qa(1:q) = a0 * this%ybas(1:q, fb)
             do i = 1, nfn
                 this%qa(1:q) = this%qa(1:q) + ai(i) * this%ybas(1:q, this%qnode(i, f))
@@ -1245,6 +1256,32 @@ contains
         if (info /= 0) return
         call keep_tangent(this, .true.)
     end subroutine node_factor
+
+    !> One term's part of c Y H on a triangle facet (node_factor): qa = a(1) y1 + a(2) y2
+    !> + a(3) y3 + a(4) y4 (Y alpha_t: the columns of the facet and its three nodes),
+    !> then s_k <- s_k + b(k) qa on the same four columns of the system, row by row in
+    !> one pass: each entry the same operations in the same order as the column loops of
+    !> the general case (qa formed, then added to each column), without storing qa and
+    !> reading it four times.
+    pure subroutine term_columns3(q, y1, y2, y3, y4, a, b, s1, s2, s3, s4)
+        integer, intent(in) :: q                            !! order of the system
+        real(dp), intent(in) :: y1(q), y2(q), y3(q), y4(q)  !! columns of Y
+        real(dp), intent(in) :: a(4)                        !! alpha_t
+        real(dp), intent(in) :: b(4)                        !! c beta_t
+        real(dp), intent(inout) :: s1(q), s2(q), s3(q), s4(q) !! columns of the system
+        real(dp) :: x
+        integer :: r
+        do r = 1, q
+            x = a(1) * y1(r)
+            x = x + a(2) * y2(r)
+            x = x + a(3) * y3(r)
+            x = x + a(4) * y4(r)
+            s1(r) = s1(r) + b(1) * x
+            s2(r) = s2(r) + b(2) * x
+            s3(r) = s3(r) + b(3) * x
+            s4(r) = s4(r) + b(4) * x
+        end do
+    end subroutine term_columns3
 
     !> The Woodbury step on the node basis: s = (I + c Y H)^{-1} c B^T yc, then
     !> tk <- tk - B (H s).
