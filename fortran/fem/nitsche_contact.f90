@@ -155,7 +155,7 @@ contains
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: xs(MAX_Q), ws(MAX_Q), a, b, xi_star
         real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
-        real(dp) :: g(MAX_FN, MAX_FN), pq(MAX_Q)
+        real(dp) :: g(MAX_FN, MAX_FN), pq(MAX_Q), mt(MAX_E, MAX_FN)
         integer :: np, q, j, i, na
         logical :: compress
         r = 0.0_dp
@@ -234,10 +234,13 @@ contains
         nterm = active
         if (.not. compress) return
         nterm = nfn
+        do i = 1, nfn      ! the columns of Mt, formed once
+            mt(1:ndof_e, i) = theta * s - gamma * nvec(:, i)
+        end do
         do j = 1, nfn
             qa(:, j) = 0.0_dp
             do i = 1, nfn
-                qa(:, j) = qa(:, j) + g(i, j) * (theta * s - gamma * nvec(:, i))
+                qa(:, j) = qa(:, j) + g(i, j) * mt(1:ndof_e, i)
             end do
             qb(:, j) = s - gamma * nvec(:, j)
             if (present(ca)) then
