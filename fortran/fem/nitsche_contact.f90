@@ -141,7 +141,7 @@ contains
         real(dp), intent(in) :: measure        !! facet length (2D), area (3D), 1 in 1D
         integer, intent(in) :: quad            !! QUAD_EXACT or QUAD_GAUSS
         integer, intent(in) :: nq              !! Gauss points (QUAD_GAUSS)
-        real(dp), intent(in) :: qs(:, :)       !! (MAX_FN, nq) facet shape values at the Gauss points
+        real(dp), intent(in) :: qs(:, :)       !! (MAX_FN, nq) shape values at the Gauss points
         real(dp), intent(in) :: qw(:)          !! Gauss weights (sum 1)
         real(dp), intent(out) :: r(ndof_e)     !! residual contribution
         real(dp), intent(out) :: energy        !! int [P]_-^2 / (2 gamma)

@@ -1315,8 +1315,8 @@ contains
         do t = 1, this%rank
             f = this%tfac(t)
             fb = this%qnode(0, f)
-            call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), this%tca(1:nfn, t), &
-                                   this%tcb(1:nfn, t), a0, ai, b0, bi)
+            call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), &
+                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), a0, ai, b0, bi)
             if (nfn == 3) then      ! (one pass over the rows: see term_columns3)
                 associate (y => this%ybas, sm => this%small, qn => this%qnode)
                     call term_columns3(q, y(:, fb), y(:, qn(1, f)), y(:, qn(2, f)), &
@@ -1404,8 +1404,8 @@ contains
         do t = 1, this%rank
             f = this%tfac(t)
             fb = this%qnode(0, f)
-            call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), this%tca(1:nfn, t), &
-                                   this%tcb(1:nfn, t), a0, ai, b0, bi)
+            call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), &
+                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), a0, ai, b0, bi)
             acc = b0 * this%zs(fb)
             do i = 1, nfn
                 acc = acc + bi(i) * this%zs(this%qnode(i, f))
