@@ -513,6 +513,7 @@ contains
             end if
             this%tsum = 0.0_dp
             if (this%zt_basis) this%tau = 0.0_dp
+            this%rhog_due = .false.
             call gather(st%u, mdl%ct%cdofs, this%xc)
         end if
         call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
