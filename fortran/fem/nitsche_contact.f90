@@ -119,14 +119,45 @@ contains
         real(dp), intent(out), optional :: ca(:, :) !! (>= nfn, >= nterm) coefficients of qa in Mt
         real(dp), intent(out), optional :: cb(:, :) !! (>= nfn, >= nterm) coefficients of qb in M
         real(dp), intent(out), optional :: rg(:)    !! (>= nfn) coefficients of r in Mt
-        real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
-        real(dp) :: sn, pnode(MAX_FN), xs(MAX_Q), ws(MAX_Q), a, b, xi_star
-        real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
-        real(dp) :: g(MAX_FN, MAX_FN), pq(MAX_Q)
-        integer :: np, q, j, i, na
-        logical :: compress
+        real(dp) :: sn, pnode(MAX_FN)
         sn = dot_product(s, ue)
         pnode = facet_pnode(ndof_e, nfn, ue, sn, nvec, gap, gamma)
+        call facet_terms(ndof_e, nfn, pnode, s, nvec, gamma, theta, measure, quad, nq, qs, qw, &
+                         r, energy, active, qa, qb, nterm, ca, cb, rg)
+    end subroutine nitsche_facet
+
+    !> nitsche_facet given P at the facet's nodes (facet_pnode; the displacement enters
+    !> through it alone): contact_eval has formed it to skip inactive facets, and passes
+    !> it on rather than having it formed again.
+    pure subroutine facet_terms(ndof_e, nfn, pnode, s, nvec, gamma, theta, measure, quad, nq, &
+                                qs, qw, r, energy, active, qa, qb, nterm, ca, cb, rg)
+        integer, intent(in) :: ndof_e          !! owner cell dofs
+        integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D, 3 in 3D)
+        real(dp), intent(in) :: pnode(MAX_FN)  !! P at the facet's nodes (the first nfn)
+        real(dp), intent(in) :: s(ndof_e)      !! sigma_n row
+        real(dp), intent(in) :: nvec(ndof_e, nfn) !! normal-displacement rows at facet nodes
+        real(dp), intent(in) :: gamma          !! gamma_N > 0
+        integer, intent(in) :: theta           !! -1, 0, 1
+        real(dp), intent(in) :: measure        !! facet length (2D), area (3D), 1 in 1D
+        integer, intent(in) :: quad            !! QUAD_EXACT or QUAD_GAUSS
+        integer, intent(in) :: nq              !! Gauss points (QUAD_GAUSS)
+        real(dp), intent(in) :: qs(:, :)       !! (MAX_FN, nq) shape values at the Gauss points
+        real(dp), intent(in) :: qw(:)          !! Gauss weights (sum 1)
+        real(dp), intent(out) :: r(ndof_e)     !! residual contribution
+        real(dp), intent(out) :: energy        !! int [P]_-^2 / (2 gamma)
+        integer, intent(out) :: active         !! active quadrature points
+        real(dp), intent(out), optional :: qa(:, :) !! as nitsche_facet's
+        real(dp), intent(out), optional :: qb(:, :) !! as nitsche_facet's
+        integer, intent(out), optional :: nterm     !! as nitsche_facet's
+        real(dp), intent(out), optional :: ca(:, :) !! as nitsche_facet's
+        real(dp), intent(out), optional :: cb(:, :) !! as nitsche_facet's
+        real(dp), intent(out), optional :: rg(:)    !! as nitsche_facet's
+        real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
+        real(dp) :: xs(MAX_Q), ws(MAX_Q), a, b, xi_star
+        real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
+        real(dp) :: g(MAX_FN, MAX_FN), pq(MAX_Q), mt(MAX_E, MAX_FN)
+        integer :: np, q, j, i, na
+        logical :: compress
         r = 0.0_dp
         energy = 0.0_dp
         active = 0
@@ -172,8 +203,13 @@ contains
             pv = pq(q)
             if (.not. (pv < 0.0_dp)) cycle
             active = active + 1
-            do j = 1, ndof_e
-                nn(j) = dot_product(nvec(j, :), nsh(1:nfn))
+            ! nn = nvec nsh column by column (each entry's sum in the order of
+            ! dot_product(nvec(j, :), nsh), from 0; the rows of nvec are strided)
+            nn(1:ndof_e) = 0.0_dp
+            do i = 1, nfn
+                do j = 1, ndof_e
+                    nn(j) = nn(j) + nvec(j, i) * nsh(i)
+                end do
             end do
             ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
             r = r + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
@@ -198,10 +234,13 @@ contains
         nterm = active
         if (.not. compress) return
         nterm = nfn
+        do i = 1, nfn      ! the columns of Mt, formed once
+            mt(1:ndof_e, i) = theta * s - gamma * nvec(:, i)
+        end do
         do j = 1, nfn
             qa(:, j) = 0.0_dp
             do i = 1, nfn
-                qa(:, j) = qa(:, j) + g(i, j) * (theta * s - gamma * nvec(:, i))
+                qa(:, j) = qa(:, j) + g(i, j) * mt(1:ndof_e, i)
             end do
             qb(:, j) = s - gamma * nvec(:, j)
             if (present(ca)) then
@@ -210,7 +249,7 @@ contains
                 cb(j, j) = 1.0_dp
             end if
         end do
-    end subroutine nitsche_facet
+    end subroutine facet_terms
 
     !> P = P_1(u) + gamma g at the facet's nodes (sn = sigma_n(u) = s . ue): P is linear
     !> on the facet, so no point of any rule is active where all of them are >= 0.
@@ -525,38 +564,38 @@ contains
                 cycle
             end if
             if (present(rg)) then
-                call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
-                                   ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
-                                   nt, tca(:, nr + 1:), tcb(:, nr + 1:), rg(:, f))
+                call facet_terms(ct%ndof_e, ct%nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), &
+                                 ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
+                                 ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
+                                 nt, tca(:, nr + 1:), tcb(:, nr + 1:), rg(:, f))
                 do i = nr + 1, nr + nt
                     qloc(:, i) = ct%cloc(:, f)
                     tfac(i) = f
                 end do
                 nr = nr + nt
             else if (present(tfac)) then
-                call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
-                                   ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
-                                   nt, tca(:, nr + 1:), tcb(:, nr + 1:))
+                call facet_terms(ct%ndof_e, ct%nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), &
+                                 ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
+                                 ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
+                                 nt, tca(:, nr + 1:), tcb(:, nr + 1:))
                 do i = nr + 1, nr + nt
                     qloc(:, i) = ct%cloc(:, f)
                     tfac(i) = f
                 end do
                 nr = nr + nt
             else if (present(ua)) then
-                call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
-                                   ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
-                                   nt)
+                call facet_terms(ct%ndof_e, ct%nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), &
+                                 ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
+                                 ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
+                                 nt)
                 do i = nr + 1, nr + nt
                     qloc(:, i) = ct%cloc(:, f)
                 end do
                 nr = nr + nt
             else
-                call nitsche_facet(ct%ndof_e, ct%nfn, ue, ct%s(:, f), ct%nvec(:, :, f), &
-                                   ct%gap(:, f), ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                   ct%nq, ct%qs, ct%qw, rf, ef, af)
+                call facet_terms(ct%ndof_e, ct%nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), &
+                                 ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
+                                 ct%nq, ct%qs, ct%qw, rf, ef, af)
             end if
             if (af == 0) cycle
             active = active + af

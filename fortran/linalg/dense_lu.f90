@@ -55,20 +55,34 @@ contains
 
     !> Column j (right of the panel kb..ke) gets the panel's updates: rows kb+1..ke
     !> pivot after pivot (the triangle: each row's u(k, j) is needed by the next
-    !> pivot), then rows ke+1..n all ke-kb+1 updates in one pass, in pivot order.
+    !> pivot; written out for a full panel, where loops of 1 to 3 rows cost more than
+    !> their work, and kept in scalars for the next pass), then rows ke+1..n all ke-kb+1
+    !> updates in one pass, in pivot order.
     pure subroutine panel_update(n, kb, ke, a, j)
         integer, intent(in) :: n, kb, ke, j   !! order, panel, column
         real(dp), intent(inout), contiguous :: a(:, :)  !! factors so far
+        real(dp) :: u1, u2, u3, u4
         integer :: i, k
-        do k = kb, ke - 1
-            a(k + 1:ke, j) = a(k + 1:ke, j) - a(k + 1:ke, k) * a(k, j)
-        end do
         if (ke - kb == 3) then
+            ! (u(k, j) in scalars: the pass below then reads no entry of column j it writes)
+            u1 = a(kb, j)
+            u2 = a(kb + 1, j) - a(kb + 1, kb) * u1
+            u3 = a(kb + 2, j) - a(kb + 2, kb) * u1
+            u4 = a(kb + 3, j) - a(kb + 3, kb) * u1
+            u3 = u3 - a(kb + 2, kb + 1) * u2
+            u4 = u4 - a(kb + 3, kb + 1) * u2
+            u4 = u4 - a(kb + 3, kb + 2) * u3
+            a(kb + 1, j) = u2
+            a(kb + 2, j) = u3
+            a(kb + 3, j) = u4
             do i = ke + 1, n
-                a(i, j) = (((a(i, j) - a(i, kb) * a(kb, j)) - a(i, kb + 1) * a(kb + 1, j)) &
-                           - a(i, kb + 2) * a(kb + 2, j)) - a(i, kb + 3) * a(kb + 3, j)
+                a(i, j) = (((a(i, j) - a(i, kb) * u1) - a(i, kb + 1) * u2) &
+                           - a(i, kb + 2) * u3) - a(i, kb + 3) * u4
             end do
         else
+            do k = kb, ke - 1
+                a(k + 1:ke, j) = a(k + 1:ke, j) - a(k + 1:ke, k) * a(k, j)
+            end do
             do k = kb, ke
                 a(ke + 1:n, j) = a(ke + 1:n, j) - a(ke + 1:n, k) * a(k, j)
             end do

@@ -222,20 +222,94 @@ contains
 
     !> y <- y + sum_k t(k) Z b_k over the k with t(k) /= 0, in the order of k (each
     !> entry's additions in that order), each on its range of rows. Every such b_k must
-    !> be held.
+    !> be held. Four columns a pass over y (add_group), so y is read and written once
+    !> for four columns instead of once a column.
     pure subroutine zcache_add_basis(zc, t, y)
         type(zcache_t), intent(in) :: zc             !! cache
         real(dp), intent(in) :: t(:)                 !! (basis vectors) coefficients
         real(dp), intent(inout) :: y(:)              !! (n) updated
-        integer :: k, s, lo, hi
+        integer :: k, s, nc, ss(4), lo(4), hi(4)
+        real(dp) :: tt(4)
+        nc = 0
         do k = 1, size(t)
             if (t(k) == 0.0_dp) cycle
             s = zc%bslot(k)
-            lo = zc%brange(1, s)
-            hi = zc%brange(2, s)
-            if (hi >= lo) call add1(hi - lo + 1, zc%zb(lo:hi, s), t(k), y(lo:hi))
+            if (zc%brange(2, s) < zc%brange(1, s)) cycle
+            nc = nc + 1
+            ss(nc) = s
+            tt(nc) = t(k)
+            lo(nc) = zc%brange(1, s)
+            hi(nc) = zc%brange(2, s)
+            if (nc == 4) then
+                call add_group(zc, nc, ss, tt, lo, hi, y)
+                nc = 0
+            end if
         end do
+        if (nc > 0) call add_group(zc, nc, ss, tt, lo, hi, y)
     end subroutine zcache_add_basis
+
+    !> y <- y + sum_i tt(i) Z b (column ss(i) of zb) on its rows lo(i)..hi(i), i = 1..nc
+    !> (nc <= 4) in that order: the rows are cut where a range starts or ends, and each
+    !> piece gets the columns whose ranges cover it in one pass (add1 to add4), so
+    !> every entry receives the same additions in the same order as column after column.
+    pure subroutine add_group(zc, nc, ss, tt, lo, hi, y)
+        type(zcache_t), intent(in) :: zc             !! cache
+        integer, intent(in) :: nc                    !! columns (1 to 4)
+        integer, intent(in) :: ss(4), lo(4), hi(4)   !! their slots and ranges (lo <= hi)
+        real(dp), intent(in) :: tt(4)                !! their coefficients
+        real(dp), intent(inout) :: y(:)              !! (n) updated
+        integer :: cut(8), nb, i, j, a, b, na, sa(4)
+        real(dp) :: ta(4)
+        ! the cuts: every range's first row and the row after its last, ascending
+        nb = 0
+        do i = 1, nc
+            call insert_cut(cut, nb, lo(i))
+            call insert_cut(cut, nb, hi(i) + 1)
+        end do
+        do j = 1, nb - 1
+            a = cut(j)
+            b = cut(j + 1) - 1
+            na = 0
+            do i = 1, nc
+                if (lo(i) <= a .and. hi(i) >= b) then
+                    na = na + 1
+                    sa(na) = ss(i)
+                    ta(na) = tt(i)
+                end if
+            end do
+            select case (na)
+            case (4)
+                call add4(b - a + 1, zc%zb(a:b, sa(1)), zc%zb(a:b, sa(2)), zc%zb(a:b, sa(3)), &
+                          zc%zb(a:b, sa(4)), ta(1), ta(2), ta(3), ta(4), y(a:b))
+            case (3)
+                call add3(b - a + 1, zc%zb(a:b, sa(1)), zc%zb(a:b, sa(2)), zc%zb(a:b, sa(3)), &
+                          ta(1), ta(2), ta(3), y(a:b))
+            case (2)
+                call add2(b - a + 1, zc%zb(a:b, sa(1)), zc%zb(a:b, sa(2)), ta(1), ta(2), y(a:b))
+            case (1)
+                call add1(b - a + 1, zc%zb(a:b, sa(1)), ta(1), y(a:b))
+            end select
+        end do
+    end subroutine add_group
+
+    !> c put into the ascending list cut(1:nb) unless it is there.
+    pure subroutine insert_cut(cut, nb, c)
+        integer, intent(inout) :: cut(:)             !! the list
+        integer, intent(inout) :: nb                 !! its length
+        integer, intent(in) :: c                     !! the value
+        integer :: p
+        do p = 1, nb
+            if (cut(p) == c) return
+        end do
+        nb = nb + 1
+        p = nb
+        do while (p > 1)
+            if (cut(p - 1) < c) exit
+            cut(p) = cut(p - 1)
+            p = p - 1
+        end do
+        cut(p) = c
+    end subroutine insert_cut
 
     !> A new step: the columns needed from now on are the current step's.
     pure subroutine zcache_new_step(zc)
@@ -513,6 +587,30 @@ contains
             y(i) = (((y(i) + t1 * a1(i)) + t2 * a2(i)) + t3 * a3(i)) + t4 * a4(i)
         end do
     end subroutine add4
+
+    !> y <- ((y + t1 a1) + t2 a2) + t3 a3, one pass.
+    pure subroutine add3(k, a1, a2, a3, t1, t2, t3, y)
+        integer, intent(in) :: k                     !! rows
+        real(dp), intent(in) :: a1(k), a2(k), a3(k)  !! columns
+        real(dp), intent(in) :: t1, t2, t3           !! coefficients
+        real(dp), intent(inout) :: y(k)              !! updated
+        integer :: i
+        do i = 1, k
+            y(i) = ((y(i) + t1 * a1(i)) + t2 * a2(i)) + t3 * a3(i)
+        end do
+    end subroutine add3
+
+    !> y <- (y + t1 a1) + t2 a2, one pass.
+    pure subroutine add2(k, a1, a2, t1, t2, y)
+        integer, intent(in) :: k                     !! rows
+        real(dp), intent(in) :: a1(k), a2(k)         !! columns
+        real(dp), intent(in) :: t1, t2               !! coefficients
+        real(dp), intent(inout) :: y(k)              !! updated
+        integer :: i
+        do i = 1, k
+            y(i) = (y(i) + t1 * a1(i)) + t2 * a2(i)
+        end do
+    end subroutine add2
 
     !> y <- y + t a.
     pure subroutine add1(k, a, t, y)

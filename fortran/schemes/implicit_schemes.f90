@@ -79,7 +79,7 @@ module implicit_schemes
                              ls_factor_info, ls_configure, ls_cg_counts, BACKEND_PCG
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
-    use nitsche_contact, only: contact_eval, contact_max_rank
+    use nitsche_contact, only: contact_eval, contact_max_rank, MAX_E, MAX_FN
     use alm_contact, only: ALM_OFF
     use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use contact_columns, only: zcache_t, zcache_init, zcache_new_step, zcache_ensure, &
@@ -180,6 +180,8 @@ module implicit_schemes
         real(dp), allocatable :: gold(:, :)       !! (nfn, n_facets) the same for cold
         real(dp), allocatable :: rhog(:, :)       !! (nfn, n_facets) the same for rho
         real(dp), allocatable :: pdx(:)           !! (m) P dx = y0c + W T at the last iterate
+        logical :: rhog_due = .false.             !! rhog holds the tangent part only (see
+                                                  !! contact_residual, rhog_finish)
         logical :: cached = .false.               !! cx, the tangent and st%active/e_pen/e_theta
                                                   !! are C at xc (kept from the last step)
         real(dp) :: kga = 0.0_dp                  !! beta dt^2 am/(1-am) (generalized-alpha)
@@ -512,6 +514,7 @@ contains
             end if
             this%tsum = 0.0_dp
             if (this%zt_basis) this%tau = 0.0_dp
+            this%rhog_due = .false.
             call gather(st%u, mdl%ct%cdofs, this%xc)
         end if
         call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
@@ -704,7 +707,10 @@ contains
                 if (stat /= STAT_OK) return
                 call zcache_w_times(this%zc, this%rho, this%yc)
                 this%tk = this%rho
-                if (this%zt_basis) call tau_add_g(this, mdl, 1.0_dp, this%rhog)
+                if (this%zt_basis) then
+                    if (this%rhog_due) call rhog_finish(this)
+                    call tau_add_g(this, mdl, 1.0_dp, this%rhog)
+                end if
                 it = it + 1
             end if
             if (this%rank > 0) then
@@ -761,8 +767,8 @@ contains
         integer, intent(out) :: active                      !! contact state at x'
         real(dp), intent(out) :: e_pen, e_theta             !! contact energies at x'
         real(dp), intent(out) :: rnorm                      !! |R'|
-        real(dp) :: acc
-        integer :: i, q
+        real(dp) :: acc, at(MAX_FN)
+        integer :: i, q, nt
         this%dxc = this%y0c
         call zcache_add_w(this%zc, this%tsum, this%dxc)
         if (this%zt_basis) this%pdx = this%dxc
@@ -773,27 +779,103 @@ contains
             this%x(mdl%ct%cdofs(i)) = acc
         end do
         this%tvec = 0.0_dp
-        if (this%zt_basis) this%rhog = 0.0_dp
-        do q = 1, this%rank
-            acc = 0.0_dp
-            do i = 1, mdl%ndof_e
-                if (this%qloc(i, q) > 0) acc = acc + this%vb(i, q) * this%dxc(this%qloc(i, q))
+        if (this%zt_basis) this%rhog(:, :) = 0.0_dp
+        ! the terms facet by facet (a facet's terms are consecutive, on its cell's dofs):
+        ! each term's acc = v . P dx, then each dof's tvec += u acc over the facet's terms
+        ! in their order (the same additions in the same order as term after term)
+        q = 1
+        do while (q <= this%rank)
+            nt = 1
+            do while (q + nt <= this%rank .and. nt < MAX_FN)
+                if (this%tfac(q + nt) /= this%tfac(q)) exit
+                nt = nt + 1
             end do
-            do i = 1, mdl%ndof_e
-                if (this%qloc(i, q) > 0) this%tvec(this%qloc(i, q)) = &
-                    this%tvec(this%qloc(i, q)) + this%ua(i, q) * acc
-            end do
+            call facet_tangent(mdl%ndof_e, nt, this%m, this%qloc(:, q), this%vb(:, q:q + nt - 1), &
+                               this%ua(:, q:q + nt - 1), this%dxc, this%tvec, at)
             ! (the term's U column is Mt tca on its facet: tvec's coefficients in rhog)
-            if (this%zt_basis) this%rhog(:, this%tfac(q)) = this%rhog(:, this%tfac(q)) &
-                                                          + acc * this%tca(:, q)
+            if (this%zt_basis) call facet_rhog(size(this%tca, 1), nt, at, &
+                                               this%tca(:, q:q + nt - 1), &
+                                               this%rhog(:, this%tfac(q)))
+            q = q + nt
         end do
         this%cold = this%cx
-        if (this%zt_basis) this%gold = this%gx
+        ! (C's coefficients at x kept in gold: gx and gold exchanged, then gx formed anew)
+        if (this%zt_basis) call swap_g(this)
         call contact_part(this, mdl, this%x, this%cx, active, e_pen, e_theta)
         this%rho = this%c * (this%cx - this%cold + this%tvec)
-        if (this%zt_basis) this%rhog = this%c * (this%gx - this%gold + this%rhog)
+        ! rhog = c (gx - gold + rhog) is formed when a next iteration reads it (rhog_finish)
+        this%rhog_due = this%zt_basis
         rnorm = sqrt(sum(this%rho**2))
     end subroutine contact_residual
+
+    !> One facet's nt terms of D P dx: at(t) = v_t . dx on the facet's dofs loc (> 0;
+    !> v_t . dx summed in the order of the dofs), then tvec(loc(i)) += u_t(i) at(t) for
+    !> t = 1..nt in that order (the additions of term after term, in the same order).
+    pure subroutine facet_tangent(ne, nt, m, loc, vb, ua, dxc, tvec, at)
+        integer, intent(in) :: ne, nt, m                    !! cell dofs, terms, contact-cell dofs
+        integer, intent(in) :: loc(ne)                      !! the terms' contact-cell dofs
+        real(dp), intent(in) :: vb(ne, nt), ua(ne, nt)      !! their V and U columns
+        real(dp), intent(in) :: dxc(m)                      !! P dx
+        real(dp), intent(inout) :: tvec(m)                  !! D P dx (added to)
+        real(dp), intent(out) :: at(nt)                     !! v_t . dx
+        real(dp) :: xe(ne), acc
+        integer :: i, t, l
+        do i = 1, ne
+            xe(i) = 0.0_dp
+            if (loc(i) > 0) xe(i) = dxc(loc(i))
+        end do
+        do t = 1, nt
+            acc = 0.0_dp
+            do i = 1, ne
+                if (loc(i) > 0) acc = acc + vb(i, t) * xe(i)
+            end do
+            at(t) = acc
+        end do
+        do i = 1, ne
+            l = loc(i)
+            if (l <= 0) cycle
+            acc = tvec(l)
+            do t = 1, nt
+                acc = acc + ua(i, t) * at(t)
+            end do
+            tvec(l) = acc
+        end do
+    end subroutine facet_tangent
+
+    !> rg <- rg + sum_t at(t) ca(:, t), t in order: the facet's tangent part of R in its Mt.
+    pure subroutine facet_rhog(nfn, nt, at, ca, rg)
+        integer, intent(in) :: nfn, nt                      !! facet nodes, terms
+        real(dp), intent(in) :: at(nt)                      !! v_t . dx
+        real(dp), intent(in) :: ca(nfn, nt)                 !! the terms' coefficients in Mt
+        real(dp), intent(inout) :: rg(nfn)                  !! the facet's coefficients
+        integer :: t
+        do t = 1, nt
+            rg = rg + at(t) * ca(:, t)
+        end do
+    end subroutine facet_rhog
+
+    !> Exchange gx and gold (their allocations: no copy).
+    subroutine swap_g(this)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        real(dp), allocatable :: tmp(:, :)
+        call move_alloc(this%gold, tmp)
+        call move_alloc(this%gx, this%gold)
+        call move_alloc(tmp, this%gx)
+    end subroutine swap_g
+
+    !> rhog = c (gx - gold + rhog): R's coefficients on the node basis at the iterate of
+    !> the last contact_residual (whose tangent part it left in rhog), formed only by
+    !> the iteration that uses it (none after the last).
+    pure subroutine rhog_finish(this)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        integer :: f, j
+        do f = 1, size(this%rhog, 2)
+            do j = 1, size(this%rhog, 1)
+                this%rhog(j, f) = this%c * (this%gx(j, f) - this%gold(j, f) + this%rhog(j, f))
+            end do
+        end do
+        this%rhog_due = .false.
+    end subroutine rhog_finish
 
     !> The columns need(1:nk) of Z and W made available for this step (solved
     !> if not held); a failed solve stops the run (STAT_NUMERIC).
@@ -1198,11 +1280,19 @@ contains
     !> A term's coefficients in the node basis: u_t = B alpha, v_t = B beta, with alpha
     !> = theta (sum ca) at the facet and -gamma_f ca(i) at its node i (beta the same
     !> from cb, with 1 for theta).
-    pure subroutine term_coefficients(ct_theta, gamma, ca, cb, a0, ai, b0, bi)
+    pure subroutine term_coefficients(nfn, ct_theta, gamma, ca, cb, a0, ai, b0, bi)
+        integer, intent(in) :: nfn                          !! facet nodes
         real(dp), intent(in) :: ct_theta, gamma             !! theta, gamma_f
-        real(dp), intent(in) :: ca(:), cb(:)                !! (nfn) the term's coefficients
+        real(dp), intent(in) :: ca(nfn), cb(nfn)            !! the term's coefficients
         real(dp), intent(out) :: a0, b0                     !! at the facet
-        real(dp), intent(out) :: ai(:), bi(:)               !! (nfn) at its nodes
+        real(dp), intent(out) :: ai(nfn), bi(nfn)           !! at its nodes
+        if (nfn == 3) then      ! (written out: sum's additions from 0, in order)
+            a0 = ct_theta * (((0.0_dp + ca(1)) + ca(2)) + ca(3))
+            b0 = ((0.0_dp + cb(1)) + cb(2)) + cb(3)
+            ai(1) = -gamma * ca(1); ai(2) = -gamma * ca(2); ai(3) = -gamma * ca(3)
+            bi(1) = -gamma * cb(1); bi(2) = -gamma * cb(2); bi(3) = -gamma * cb(3)
+            return
+        end if
         a0 = ct_theta * sum(ca)
         b0 = sum(cb)
         ai = -gamma * ca
@@ -1228,8 +1318,19 @@ contains
         do t = 1, this%rank
             f = this%tfac(t)
             fb = this%qnode(0, f)
-            call term_coefficients(real(mdl%ct%theta, dp), mdl%ct%gamma(f), this%tca(1:nfn, t), &
-                                   this%tcb(1:nfn, t), a0, ai, b0, bi)
+            call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), &
+                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), a0, ai, b0, bi)
+            if (nfn == 3) then      ! (one pass over the rows: see term_columns3)
+                associate (y => this%ybas, sm => this%small, qn => this%qnode)
+                    call term_columns3(q, y(:, fb), y(:, qn(1, f)), y(:, qn(2, f)), &
+                                       y(:, qn(3, f)), [a0, ai(1:3)], &
+                                       [this%c * b0, this%c * bi(1), this%c * bi(2), &
+                                        this%c * bi(3)], &
+                                       sm(:, fb), sm(:, qn(1, f)), sm(:, qn(2, f)), &
+                                       sm(:, qn(3, f)))
+                end associate
+                cycle
+            end if
             this%qa(1:q) = a0 * this%ybas(1:q, fb)
             do i = 1, nfn
                 this%qa(1:q) = this%qa(1:q) + ai(i) * this%ybas(1:q, this%qnode(i, f))
@@ -1247,6 +1348,32 @@ contains
         if (info /= 0) return
         call keep_tangent(this, .true.)
     end subroutine node_factor
+
+    !> One term's part of c Y H on a triangle facet (node_factor): qa = a(1) y1 + a(2) y2
+    !> + a(3) y3 + a(4) y4 (Y alpha_t: the columns of the facet and its three nodes),
+    !> then s_k <- s_k + b(k) qa on the same four columns of the system, row by row in
+    !> one pass: each entry the same operations in the same order as the column loops of
+    !> the general case (qa formed, then added to each column), without storing qa and
+    !> reading it four times.
+    pure subroutine term_columns3(q, y1, y2, y3, y4, a, b, s1, s2, s3, s4)
+        integer, intent(in) :: q                            !! order of the system
+        real(dp), intent(in) :: y1(q), y2(q), y3(q), y4(q)  !! columns of Y
+        real(dp), intent(in) :: a(4)                        !! alpha_t
+        real(dp), intent(in) :: b(4)                        !! c beta_t
+        real(dp), intent(inout) :: s1(q), s2(q), s3(q), s4(q) !! columns of the system
+        real(dp) :: x
+        integer :: r
+        do r = 1, q
+            x = a(1) * y1(r)
+            x = x + a(2) * y2(r)
+            x = x + a(3) * y3(r)
+            x = x + a(4) * y4(r)
+            s1(r) = s1(r) + b(1) * x
+            s2(r) = s2(r) + b(2) * x
+            s3(r) = s3(r) + b(3) * x
+            s4(r) = s4(r) + b(4) * x
+        end do
+    end subroutine term_columns3
 
     !> The Woodbury step on the node basis: s = (I + c Y H)^{-1} c B^T yc, then
     !> tk <- tk - B (H s).
@@ -1280,8 +1407,8 @@ contains
         do t = 1, this%rank
             f = this%tfac(t)
             fb = this%qnode(0, f)
-            call term_coefficients(real(mdl%ct%theta, dp), mdl%ct%gamma(f), this%tca(1:nfn, t), &
-                                   this%tcb(1:nfn, t), a0, ai, b0, bi)
+            call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), &
+                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), a0, ai, b0, bi)
             acc = b0 * this%zs(fb)
             do i = 1, nfn
                 acc = acc + bi(i) * this%zs(this%qnode(i, f))

@@ -1,4 +1,4 @@
-!> dense_lu_factor (by panels of 4 columns, the columns right of a full panel two at a
+!> dense_lu_factor (by panels of 4 columns, the columns right of a full panel one at a
 !> time) against the textbook right-looking LU written out here (per pivot: the pivot
 !> search, the interchange of whole rows, the scaling, then a(i, j) - l(i, k) u(k, j) on
 !> every later column): the same operations on the same numbers, so the factors and the
