@@ -364,15 +364,19 @@ def test_bench_rows_and_table():
     assert names == ["seed_h0.05", "seed_h0.02", "seed_h0.01", "seed_free_h0.01",
                      "pc_h0.05_consistent", "pc_h0.05_lumped", "pc_h0.02_consistent",
                      "pc_h0.02_lumped", "pc_h0.01_consistent", "pc_h0.01_lumped",
-                     "box3d_h0.05", "box3d_h0.025"]
+                     "box3d_h0.05", "box3d_free_h0.05", "box3d_h0.025", "box3d_free_h0.025"]
     assert [s.name for s in bench_specs(quick=True)] == [
         "seed_h0.05", "seed_free_h0.05", "pc_h0.05_consistent", "pc_h0.05_lumped",
-        "box3d_h0.05"]
+        "box3d_h0.05", "box3d_free_h0.05"]
     box = bench_specs(only=["box3d_h0.025"])[0].settings
     assert list(box)[0] == "mesh.dim" and box["mesh.dim"] == 3   # first: 3D vectors
     assert box["scheme.dt"] == pytest.approx(0.00125) and box["scheme.t_end"] == 3.0
     free = bench_specs(only=["seed_free_h0.01"])[0].settings
     assert free["boundary.contact"] == "" and free["scheme.dt"] == pytest.approx(0.0005)
+    free3 = bench_specs(only=["box3d_free_h0.025"])[0].settings
+    assert list(free3)[0] == "mesh.dim" and free3["boundary.contact"] == ""
+    assert {k: v for k, v in free3.items() if k != "boundary.contact"} == \
+        {k: v for k, v in box.items() if k != "boundary.contact"}
     assert [s.name for s in bench_specs(only=["pc_h0.02*"])] == [
         "pc_h0.02_consistent", "pc_h0.02_lumped"]
     seed = bench_specs(only=["seed_h0.01"])[0].settings

@@ -42,7 +42,8 @@ def floor_api_available() -> bool:
 def bench_specs(quick: bool = False, only: Iterable[str] | None = None) -> list[RunSpec]:
     """The benchmark's rows: the seed scene (hht α = 0, Δt = h/20, T = 15) at h = 0.05,
     0.02, 0.01, pc (Δt = h/100, consistent and lumped mass) at the same meshes and the 3D
-    box (hht α = 0, Δt = h/20) at h = 0.05 and 0.025, with
+    box (hht α = 0, Δt = h/20) at h = 0.05 and 0.025, each also without its contact
+    boundary (``box3d_free_h*``), with
     the scene's default output (every = 1). ``only``: row names to keep (fnmatch
     patterns allowed)."""
     import fnmatch
@@ -65,12 +66,16 @@ def bench_specs(quick: bool = False, only: Iterable[str] | None = None) -> list[
             s.name = f"pc_h{num(h)}_{mass}"
             specs.append(s)
     # the 3D box (P1 tetrahedra, GetFEM's 3D settings: hht alpha = 0, dt = h/20), T = 15 at
-    # h = 0.05 and the first contact (T = 3) at h = 0.025
+    # h = 0.05 and the first contact (T = 3) at h = 0.025; each followed by the same box with
+    # no contact boundary (every step in flight: the 3D step against its floor)
     for h, t_end in ((0.05, 15.0),) if quick else ((0.05, 15.0), (0.025, 3.0)):
-        s = seed_spec("hht", h, h / 20, t_end, max_rows=None, alpha=0.0)
-        s.settings = {"mesh.dim": 3, **s.settings}     # first: the vectors become 3D
-        s.name = f"box3d_h{num(h)}"
-        specs.append(s)
+        for free in (False, True):
+            s = seed_spec("hht", h, h / 20, t_end, max_rows=None, alpha=0.0)
+            s.settings = {"mesh.dim": 3, **s.settings}     # first: the vectors become 3D
+            if free:
+                s.settings["boundary.contact"] = ""
+            s.name = f"box3d_free_h{num(h)}" if free else f"box3d_h{num(h)}"
+            specs.append(s)
     if only:
         pats = [p for item in only for p in item.split(",") if p]
         specs = [s for s in specs if any(fnmatch.fnmatchcase(s.name, p) for p in pats)]
