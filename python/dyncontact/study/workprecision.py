@@ -19,8 +19,9 @@ reference; its trace is interpolated linearly to each run's times:
   and its time error at dt = h/20 is small against its space error (checked by the
   study: the coarsest level against the same run at dt/2);
 - u_n, v_n and p_n against generalized-alpha (rho_inf = 0.5) with the consistent mass at
-  dt = h, the finest h = 0.00078125. With small steps the contact nodes chatter during
-  contact (the active set of the contact quadrature points switches from step to step)
+  dt = h, the finest h = 0.000390625 (shipped with the package: SHIPPED). With small
+  steps the contact nodes chatter during contact (the active set of the contact
+  quadrature points switches from step to step)
   and pointwise v_n and p_n at the probe do not converge, neither as h -> 0 nor as
   dt -> 0 (the study shows it: the consistent reference's level differences barely
   decrease in v_n and grow in p_n). At dt = h the scheme damps that mesh-scale oscillation
@@ -42,6 +43,8 @@ crosses at the top of each panel, never dropped.
 
 from __future__ import annotations
 
+import gzip
+import json
 import math
 import os
 import time
@@ -53,7 +56,7 @@ from . import analyses  # noqa: F401 - registers the analyses
 from .analyses import rms_in_time
 from .common import (SCHEMES, fmt, md_table, new_figure, step_ratio, write_base_scenes,
                      write_csv, write_markdown)
-from .sweep import make_task, sweep
+from .sweep import Task, make_task, sweep
 
 __all__ = ["run_work_precision", "QUANTITIES", "DEFAULT_SERIES", "REFERENCES",
            "NORMS", "RMS_TOO", "richardson", "mean_abs_in_time", "is_resolved",
@@ -98,9 +101,20 @@ REFERENCES = {
     # generalized-alpha (rho_inf = 0.5) at dt = h: damps the contact chatter of the
     # consistent mass (a mesh-scale oscillation, omega dt >~ 1), second order below it
     "filtered": ("galpha0.5", 1.0, ("u_n", "v_n", "p_n"),
-                 {"full": (0.00625, 0.003125, 0.0015625, 0.00078125),
+                 {"full": (0.00625, 0.003125, 0.0015625, 0.00078125, 0.000390625),
                   "quick": (0.025, 0.0125, 0.00625)}),
 }
+#: Reference levels too costly to run inside the study (about 19 minutes of two cores
+#: and 2 GB for the finest filtered level: 1.3 million dofs, 7 680 steps), shipped with
+#: the package instead: (reference name, h) -> file in SHIPPED_DIR. Each file holds the
+#: trace and, on its first line, the scene the core parsed, the code version and the
+#: cost; the study uses it only when that scene is the one it would run (else the level
+#: is an error naming the file and how to write it again: write_shipped_reference).
+SHIPPED = {("filtered", 0.000390625): "ref_filtered_h0.000390625.csv.gz"}
+SHIPPED_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data")
+#: Scene keys a shipped level may differ in: they change neither the numbers (the
+#: solve's threads give the same bits) nor the trace's rows.
+SHIPPED_FREE_KEYS = (("solver", "threads"), ("mesh", "max_elements"))
 #: The time-step check: each reference is run again at its coarsest level with dt
 #: halved; the difference is its time error at dt, reported beside its space error. At
 #: a fixed dt/h the time error shrinks at least as fast as the space error, so the
@@ -199,7 +213,7 @@ def _reference_tasks(base: str, size: str, t_end: float):
             # steps longer than OUTPUT_DT / 4: a row per step, so that the levels'
             # rows nest (dt halving) and no level is compared through an interpolation
             # of a coarser sampling than its own step
-            every = 1 if dt > OUTPUT_DT / 4 else _every(dt)
+            every = 1 if dt > OUTPUT_DT / 4 else _nested_every(dt)
             settings.update({"mesh.h": h, "scheme.dt": dt, "scheme.t_end": t_end,
                              "output.every": every, "output.fields_every": 0})
             out.append((make_task(base, settings, "trace", {"columns": COLUMNS},
@@ -207,6 +221,91 @@ def _reference_tasks(base: str, size: str, t_end: float):
                                         "dt": dt}),
                         (name, i, h, dt)))
     return out
+
+
+def _nested_every(dt: float) -> int:
+    """Rows every 2^k steps, the fewest k with rows at least OUTPUT_DT / 4 apart: the
+    rows of a level at dt fall on those of the level at 2 dt (whose every is 1 or half
+    this one), so successive levels are compared at common times."""
+    k = max(0, math.ceil(math.log2(OUTPUT_DT / 4 / dt) - 1e-12))
+    return 2 ** k
+
+
+def _shipped_dump(task) -> dict[str, Any]:
+    """The scene of a task as the core parses it, without SHIPPED_FREE_KEYS."""
+    import tempfile
+
+    from .sweep import _parsed
+
+    with tempfile.TemporaryDirectory(prefix="dyncontact-ref-") as tmp:
+        dump = _parsed(task, tmp)
+    for group, key in SHIPPED_FREE_KEYS:
+        if isinstance(dump.get(group), dict):
+            dump[group].pop(key, None)
+    return json.loads(json.dumps(dump, sort_keys=True, default=str))
+
+
+def read_shipped(path: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """(header, arrays) of a shipped reference level (write_shipped_reference)."""
+    with gzip.open(path, "rt", encoding="utf-8") as f:
+        header = json.loads(f.readline()[1:])
+        names = f.readline().strip().split(",")
+        data = np.loadtxt(f, delimiter=",", ndmin=2)
+    return header, {n: data[:, i] for i, n in enumerate(names)}
+
+
+def _shipped_record(task, name: str, h: float) -> dict[str, Any]:
+    """The record of a shipped level: its arrays when the file's scene is the task's,
+    else status 'error' with the reason."""
+    path = os.path.join(SHIPPED_DIR, SHIPPED[(name, h)])
+    rec: dict[str, Any] = {"task": task, "cached": True, "shipped": path}
+    try:
+        header, arrays = read_shipped(path)
+    except (OSError, ValueError) as exc:
+        return {**rec, "status": "error", "message": f"{path}: cannot be read ({exc})"}
+    if header.get("scene") != _shipped_dump(task):
+        return {**rec, "status": "error",
+                "message": f"{path}: computed for another scene than the study's level "
+                           f"h = {h:g}; write it again with "
+                           f"dyncontact.study.workprecision.write_shipped_reference()"}
+    return {**rec, "status": "ok", "arrays": arrays, "cpu_s": header.get("cpu_s"),
+            "wall_s": header.get("wall_s")}
+
+
+def write_shipped_reference(cache: str | None = None, log=print) -> list[str]:
+    """Run every SHIPPED level (two threads, its own cache folder) and write its file
+    into SHIPPED_DIR: the header line (the parsed scene, the code version, CPU and wall
+    seconds), then the trace's columns COLUMNS. Returns the paths written."""
+    import tempfile
+
+    from .sweep import code_version
+
+    bases = write_base_scenes(tempfile.mkdtemp(prefix="dyncontact-ref-scenes-"))
+    written = []
+    for task, (name, _i, h, _dt) in _reference_tasks(bases["seed2d"], "full", T_END["full"]):
+        if (name, h) not in SHIPPED or _i == "dt":
+            continue
+        run = Task(task.base, task.settings + (("solver.threads", 2),), task.analysis,
+                   task.params, task.tags)
+        rec = sweep([run], cache or tempfile.mkdtemp(prefix="dyncontact-ref-cache-"),
+                    workers=1, progress=False, desc="shipped reference", log=log)[0]
+        if rec["status"] != "ok":
+            raise RuntimeError(f"shipped reference h = {h:g}: {rec['status']}: "
+                               f"{rec.get('message')}")
+        header = {"reference": name, "h": h, "scene": _shipped_dump(task),
+                  "code": code_version(), "cpu_s": rec.get("cpu_s"),
+                  "wall_s": rec.get("wall_s")}
+        path = os.path.join(SHIPPED_DIR, SHIPPED[(name, h)])
+        os.makedirs(SHIPPED_DIR, exist_ok=True)
+        cols = COLUMNS.split(",")
+        with gzip.open(path, "wt", encoding="utf-8") as f:
+            f.write("#" + json.dumps(header, sort_keys=True, default=str) + "\n")
+            f.write(",".join(cols) + "\n")
+            for row in zip(*(rec["arrays"][c] for c in cols)):
+                f.write(",".join(repr(float(v)) for v in row) + "\n")
+        written.append(path)
+        log(f"shipped reference: wrote {path}")
+    return written
 
 
 def _reference_estimates(recs, keys, size: str, references=None) -> dict[str, Any]:
@@ -303,9 +402,16 @@ def run_work_precision(out: str, *, quick: bool = False, c_implicit: float = 20.
                                              "scheme": s.key, "h": h, "dt": h / c,
                                              "c": c}))
     refs = _reference_tasks(bases["seed2d"], size, t_end)
-    recs = sweep(tasks + [t for t, _ in refs], cache, workers=workers, scheduler=scheduler,
-                 progress=progress, desc="work-precision", log=log)
-    run_recs, ref_recs = recs[:len(tasks)], recs[len(tasks):]
+    shipped = [(k[0], k[2]) in SHIPPED and k[1] != "dt" for _t, k in refs]
+    recs = sweep(tasks + [t for (t, _), sh in zip(refs, shipped) if not sh], cache,
+                 workers=workers, scheduler=scheduler, progress=progress,
+                 desc="work-precision", log=log)
+    run_recs, ran = recs[:len(tasks)], iter(recs[len(tasks):])
+    ref_recs = [_shipped_record(t, k[0], k[2]) if sh else next(ran)
+                for (t, k), sh in zip(refs, shipped)]
+    for r in ref_recs:
+        if r.get("shipped") and r["status"] != "ok":
+            log(f"work-precision: {r['message']}")
     ref_info = _reference_estimates(ref_recs, [k for _, k in refs], size)
     truth = ref_info.pop("truth")
     rows = []
