@@ -93,6 +93,19 @@ def compare(b, grid=None):
     return xs, xt, split, kernel.strip()
 
 
+def assert_solves_agree(b, xs, xt, grid, rtol, kappa):
+    """Every column of the two-thread solution xt equals the serial xs to rtol of its
+    largest entry, and xt solves the grid's system (A x = b for the first column) to the
+    serial solve's own accuracy, rtol times the condition bound kappa."""
+    for j in range(b.shape[1]):
+        diff = np.abs(xt[:, j] - xs[:, j]).max() / np.abs(xs[:, j]).max()
+        assert diff <= rtol, (j, diff, rtol)
+    rows, cols, vals, n = grid
+    ax = np.zeros(n)
+    np.add.at(ax, rows - 1, vals * xt[cols - 1, 0])
+    assert np.abs(ax - b[:, 0]).max() <= rtol * np.abs(b[:, 0]).max() * kappa
+
+
 def test_two_threads_equal_serial_to_round_off():
     rng = np.random.default_rng(7)
     n = 2 * SIDE**2
@@ -102,14 +115,7 @@ def test_two_threads_equal_serial_to_round_off():
     nn, sa, ss = split
     # the two-thread path ran: two ranges of block columns and the separator after them
     assert nn == SIDE**2 and 0 < sa < ss - 1 and ss <= nn + 1, split
-    for j in range(b.shape[1]):
-        diff = np.abs(xt[:, j] - xs[:, j]).max() / np.abs(xs[:, j]).max()
-        assert diff <= RTOL, (j, diff, RTOL)
-    # and both solve the system (the serial solve's own accuracy, same bound)
-    rows, cols, vals, _ = grid_pairs(SIDE)
-    ax = np.zeros(n)
-    np.add.at(ax, rows - 1, vals * xt[cols - 1, 0])
-    assert np.abs(ax - b[:, 0]).max() <= RTOL * np.abs(b[:, 0]).max() * KAPPA
+    assert_solves_agree(b, xs, xt, grid_pairs(SIDE), RTOL, KAPPA)
 
 
 def test_two_threads_same_run_to_run():
@@ -156,19 +162,14 @@ def test_scene_trace_does_not_depend_on_threads(tmp_path):
 def test_two_threads_equal_serial_to_round_off_3d():
     """The 3x3 node-block solve (ldl_node_triples) on two threads."""
     grid = grid_triples(SIDE3)
-    rows, cols, vals, n = grid
+    n = grid[3]
     rng = np.random.default_rng(9)
     b = rng.standard_normal((n, 3))
     xs, xt, split, kernel = compare(b, grid)
     assert kernel == "ldl_node_triples"
     nt, sa, ss = split
     assert nt == SIDE3**3 and 0 < sa < ss - 1 and ss <= nt + 1, split
-    for j in range(b.shape[1]):
-        diff = np.abs(xt[:, j] - xs[:, j]).max() / np.abs(xs[:, j]).max()
-        assert diff <= RTOL3, (j, diff, RTOL3)
-    ax = np.zeros(n)
-    np.add.at(ax, rows - 1, vals * xt[cols - 1, 0])
-    assert np.abs(ax - b[:, 0]).max() <= RTOL3 * np.abs(b[:, 0]).max() * KAPPA3
+    assert_solves_agree(b, xs, xt, grid, RTOL3, KAPPA3)
     # run to run: the same bits
     _, xt2, _, _ = compare(b, grid)
     assert np.array_equal(xt, xt2)
