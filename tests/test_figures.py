@@ -392,11 +392,16 @@ def test_bench_rows_and_table():
     assert table[0].split()[:3] == ["scene", "dofs", "steps"]
     seed_cells, pc_cells = table[2].split(), table[3].split()
     # floors: n/a when not measured, '-' where they do not apply to the scheme
-    assert seed_cells[-8:] == ["n/a", "-", "2.00", "n/a", "n/a", "-", "n/a", "ok"]
-    assert pc_cells[-8:] == ["-", "n/a", "n/a", "n/a", "n/a", "-", "-", "ok"]
+    # (the last three columns before the status: the flight / contact split, '-' unless
+    # measured)
+    assert seed_cells[-11:] == ["n/a", "-", "2.00", "n/a", "n/a", "-", "n/a",
+                                "-", "-", "-", "ok"]
+    assert pc_cells[-11:] == ["-", "n/a", "n/a", "n/a", "n/a", "-", "-", "-", "-", "-", "ok"]
     ranged = bench_table([dict(rows[0], floor_ratio=1.2, floor_ratio_min=1.1,
-                               floor_ratio_max=1.5)]).splitlines()[2].split()
-    assert ranged[-4:] == ["1.20", "1.10-1.50", "n/a", "ok"]
+                               floor_ratio_max=1.5, contact_share=0.25,
+                               flight_ratio=1.437, contact_ratio=2.442)]
+                         ).splitlines()[2].split()
+    assert ranged[-7:] == ["1.20", "1.10-1.50", "n/a", "0.25", "1.44", "2.44", "ok"]
     # the floor of a step (one solve + one SpMV for the implicit rows) and the ratio to it
     from dyncontact.study.bench import step_floor
     assert step_floor({"scene": "seed_h0.01", "floor_solve_us": 50.0,
@@ -419,7 +424,7 @@ def test_bench_rows_and_table():
                               "wall_s": 0.2, "status": "ok", "floor_solve_us": 11.0,
                               "floor_cholmod_solve_us": 13.0, "floor_spmv_us": 4.0}]
                             ).splitlines()[2].split()
-    assert box_cells[-9:-5] == ["11.00", "13.00", "-", "4.00"]
+    assert box_cells[-12:-8] == ["11.00", "13.00", "-", "4.00"]
 
 
 def test_floors_between_steps_leave_the_run_unchanged(tmp_path):
@@ -465,3 +470,67 @@ def test_interleaved_run_ratio_is_time_over_floors(tmp_path):
     assert rec["floor_cholmod_ratio"] == pytest.approx(
         rec["us_per_step"] / step_floor(rec, cholmod=True), rel=1e-12)
     assert (tmp_path / "run" / "summary.json").is_file()
+
+
+def test_contact_steps_flags_each_step_from_its_trace_rows():
+    """A step did contact work when its Newton took more than one iteration or contact
+    was active at its start (the row before) or at its end (its row); row 0 is the
+    initial state, not a step."""
+    from dyncontact.study.bench import contact_steps
+
+    trace = {"newton_its": [0, 1, 1, 2, 1, 1, 1, 3],
+             "active": [0, 0, 0, 0, 4, 0, 0, 0]}
+    assert contact_steps(trace) == [False, False, True, True, True, False, True]
+
+
+def test_split_flight_contact_is_the_least_squares_fit():
+    """split_flight_contact recovers a flight and a contact cost that make the stretches'
+    times exactly; on noisy times its residual is orthogonal to both regressors (the
+    normal equations of least squares); one kind of step alone gives that kind's ratio;
+    contact fractions that hardly differ give no split."""
+    import random
+
+    from dyncontact.study.bench import SPLIT_MIN_SPREAD, split_flight_contact
+
+    steps = [100, 100, 100, 100, 80]
+    contact = [0, 40, 100, 10, 80]
+    a, b = 1.27, 2.9
+    ratios = [(a * (d - c) + b * c) / d for d, c in zip(steps, contact)]
+    fa, fb = split_flight_contact(steps, contact, ratios)
+    assert fa == pytest.approx(a, rel=1e-12) and fb == pytest.approx(b, rel=1e-12)
+
+    rng = random.Random(7)
+    noisy = [r * (1 + 0.05 * rng.uniform(-1, 1)) for r in ratios]
+    fa, fb = split_flight_contact(steps, contact, noisy)
+    res = [r * d - fa * (d - c) - fb * c for r, d, c in zip(noisy, steps, contact)]
+    assert abs(sum(x * (d - c) for x, d, c in zip(res, steps, contact))) < 1e-9
+    assert abs(sum(x * c for x, c in zip(res, contact))) < 1e-9
+
+    assert split_flight_contact([10, 20], [0, 0], [1.2, 1.5]) == (
+        pytest.approx((12 + 30) / 30, rel=1e-14), None)
+    assert split_flight_contact([10, 20], [10, 20], [2.0, 2.6]) == (
+        None, pytest.approx((20 + 52) / 30, rel=1e-14))
+    close = [40, 40 + int(100 * SPLIT_MIN_SPREAD) - 1]
+    assert split_flight_contact([100, 100], close, [1.5, 1.6]) == (None, None)
+
+
+def test_interleaved_run_splits_flight_and_contact_steps(tmp_path):
+    """On a run through an impact, interleaved_run's contact share is the trace's
+    contact steps over its steps, and its two costs are split_flight_contact of its
+    stretches (the stretches' contact counts read back from the trace)."""
+    from dyncontact.core import read_trace
+    from dyncontact.study.bench import (bench_specs, contact_steps, interleaved_run,
+                                        split_flight_contact)
+
+    spec = bench_specs(quick=True, only=["seed_h0.05"])[0]
+    spec.settings["scheme.t_end"] = 3.0
+    rec = interleaved_run(spec, str(tmp_path / "run"), chunks=6, n_rep=20, batches=2)
+    assert rec["status"] == "ok" and rec["steps"] == 1200
+    flags = contact_steps(read_trace(tmp_path / "run"))
+    assert len(flags) == 1200 and 0 < sum(flags) < 1200
+    assert rec["contact_share"] == pytest.approx(sum(flags) / 1200, rel=1e-14)
+    contact = [sum(flags[k * 200:(k + 1) * 200]) for k in range(6)]
+    fa, fb = split_flight_contact([200] * 6, contact, rec["chunk_ratios"])
+    assert fa is not None and fb is not None
+    assert rec["flight_ratio"] == pytest.approx(fa, rel=1e-14)
+    assert rec["contact_ratio"] == pytest.approx(fb, rel=1e-14)

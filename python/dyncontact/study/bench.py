@@ -24,7 +24,8 @@ from .common import RunSpec, fmt, loadavg, num, package_version, scheme_text, se
 from .sweep import ERROR, REFUSED, run_uncached
 
 __all__ = ["bench_specs", "bench_row", "interleaved_run", "bench_table", "bench_main",
-           "step_floor", "floor_api_available", "FLOOR_API"]
+           "step_floor", "floor_api_available", "FLOOR_API", "contact_steps",
+           "split_flight_contact"]
 
 
 #: The core's timing helper of the floors (bench prints 'n/a' when it is missing; it is
@@ -92,13 +93,17 @@ def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 
     taken seconds apart (these machines' speed drifts by tens of percent within a
     minute). Returns us_per_step (all stretches), the floors (step-weighted means of
     the stretches' floors), floor_us, floor_ratio = Σ time / Σ steps × floor (=
-    us_per_step / floor_us), chunk_ratios, steps and status. Never raises."""
+    us_per_step / floor_us), chunk_ratios, steps and status, and from the run's trace the
+    share of contact steps and the cost of a step in flight and of a contact step in
+    floors (contact_share, flight_ratio, contact_ratio: :func:`split_flight_contact`).
+    Never raises."""
     from ..core import NumericalError, Stepper
 
     rec: dict[str, Any] = {"scene": spec.name, "status": "error", "message": "",
                            "steps": 0, "us_per_step": None, "floor_us": None,
                            "floor_ratio": None, "floor_cholmod_ratio": None,
-                           "chunk_ratios": []}
+                           "chunk_ratios": [], "contact_share": None,
+                           "flight_ratio": None, "contact_ratio": None}
     keys = ("floor_solve_us", "floor_spmv_us", "floor_mass_solve_us",
             "floor_cholmod_solve_us")
     names = ("solve_us", "spmv_us", "mass_solve_us", "cholmod_solve_us")
@@ -153,7 +158,77 @@ def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 
     rec["floor_us"] = spent / steps
     rec["floor_ratio"] = 1e6 * seconds / spent
     rec["chunk_ratios"] = [1e6 * t / (d * f) for (d, t), f in zip(stretches, step_floors)]
+    rec.update(_split(out_dir, [d for d, _ in stretches], rec["chunk_ratios"]))
     return rec
+
+
+def _split(out_dir: str, steps: Sequence[int], ratios: Sequence[float]) -> dict[str, Any]:
+    """contact_share (the run's contact steps ÷ its steps), flight_ratio and
+    contact_ratio (:func:`split_flight_contact`) from the run's trace; None where the
+    trace has no row every step."""
+    from ..core import read_trace
+
+    out: dict[str, Any] = {"contact_share": None, "flight_ratio": None,
+                           "contact_ratio": None}
+    try:
+        flags = contact_steps(read_trace(out_dir))
+    except (OSError, KeyError, ValueError):
+        return out
+    if len(flags) != sum(steps):
+        return out
+    contact, start = [], 0
+    for d in steps:
+        contact.append(sum(flags[start:start + d]))
+        start += d
+    out["contact_share"] = sum(contact) / len(flags) if flags else None
+    out["flight_ratio"], out["contact_ratio"] = split_flight_contact(steps, contact, ratios)
+    return out
+
+
+def contact_steps(trace: Mapping[str, Any]) -> list[bool]:
+    """For a trace with a row every step (row 0 the initial state, row k the end of step
+    k), whether each step k = 1, 2, ... did contact work: its Newton took more than one
+    iteration, or contact was active at its start or at its end. A step in flight (one
+    iteration, no active point before or after) is False."""
+    its = [float(x) for x in trace["newton_its"]]
+    act = [float(x) for x in trace["active"]]
+    return [its[k] > 1 or act[k] > 0 or act[k - 1] > 0 for k in range(1, len(its))]
+
+
+#: The least spread of the stretches' contact-step fractions for which
+#: :func:`split_flight_contact` separates the two costs.
+SPLIT_MIN_SPREAD = 0.25
+
+
+def split_flight_contact(steps: Sequence[int], contact: Sequence[int],
+                         ratios: Sequence[float]) -> tuple[float | None, float | None]:
+    """The cost of a step in flight and of a contact step, each in floors, from stretches
+    of steps: stretch k has steps[k] steps, contact[k] of them contact steps, and took
+    ratios[k] × steps[k] floors. Least squares of ratios[k] steps[k] = a (steps[k] −
+    contact[k]) + b contact[k] over the stretches; returns (a, b). With no contact step
+    (every step in flight) a is the stretches' ratio and b None, and the other way round;
+    (None, None) when the stretches' contact fractions spread by less than
+    SPLIT_MIN_SPREAD (the two costs cannot be told apart)."""
+    d = [float(x) for x in steps]
+    c = [float(x) for x in contact]
+    y = [r * n for r, n in zip(ratios, d)]
+    if not d or sum(d) <= 0:
+        return None, None
+    if sum(c) == 0:
+        return sum(y) / sum(d), None
+    if sum(c) == sum(d):
+        return None, sum(y) / sum(d)
+    frac = [ck / dk for ck, dk in zip(c, d) if dk > 0]
+    if max(frac) - min(frac) < SPLIT_MIN_SPREAD:
+        return None, None
+    f = [dk - ck for dk, ck in zip(d, c)]      # steps in flight
+    sff = sum(x * x for x in f)
+    sfc = sum(x * z for x, z in zip(f, c))
+    scc = sum(z * z for z in c)
+    sfy = sum(x * v for x, v in zip(f, y))
+    scy = sum(z * v for z, v in zip(c, y))
+    det = sff * scc - sfc * sfc
+    return (scc * sfy - sfc * scy) / det, (sff * scy - sfc * sfy) / det
 
 
 def _timed_run(spec: RunSpec, out_dir: str) -> dict[str, Any]:
@@ -261,6 +336,9 @@ _BENCH_COLUMNS = (  # (header, key, format)
     ("µs/floor", "floor_ratio", ".2f"),
     ("range", "floor_ratio_range", "s"),
     ("µs/CHOLMOD floor", "floor_cholmod_ratio", ".2f"),
+    ("contact steps", "contact_share", ".2f"),
+    ("in flight /floor", "flight_ratio", ".2f"),
+    ("contact step /floor", "contact_ratio", ".2f"),
     ("status", "status", "s"),
 )
 
@@ -364,7 +442,12 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
           "compared with the floors measured next to it (µs/floor = time of the steps ÷ "
           "Σ steps × floor); the table shows the run of the median ratio, range = the "
           "ratios of all those runs; µs/CHOLMOD floor = the same run's ratio with "
-          "CHOLMOD µs in place of solve µs in the floor.")
+          "CHOLMOD µs in place of solve µs in the floor; contact steps = the share of "
+          "steps that did contact work (more than one Newton iteration, or contact "
+          "active at the step's start or end); in flight /floor and contact step /floor "
+          "= the cost of one such step in floors, least squares over the same run's "
+          "stretches (- where the stretches' contact shares do not differ enough to "
+          "tell them apart).")
     isas = sorted({str(r.get("isa")) for r in rows if r.get("isa")})
     if isas:
         print(f"core built for: {', '.join(isas)} (meson option simd; see meson.options)")
