@@ -15,7 +15,7 @@ The scene is the seed bar at h = 0.05 (120 dofs) with gravity on (so the load L 
 the balance), run past the first impact (contact starts at t ~ 1.15); and, for every
 scheme with the consistent mass, the 3D box at h = 0.05 (540 dofs; contact from t ~ 0.98),
 whose products pass (K_theta u', M v', M (u' - u~') by node triples, M one scalar a block)
-is a kernel of its own (fortran/fem/block_products.c).
+is a kernel of its own (block3_matvec_ks3 in fortran/linalg/sparse.f90).
 """
 
 from __future__ import annotations
