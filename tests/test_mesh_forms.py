@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import callers_gmsh_session
 from dyncontact import core, mesh_io
 from dyncontact.core import BadInputError
 
@@ -288,14 +289,7 @@ def test_reading_leaves_gmsh_finalized(core_ext):
 def test_reading_keeps_callers_gmsh_session(core_ext):
     """Inside a caller's gmsh session: its model, options and variables survive a read of
     a .geo and of a .msh by the core, and nothing is printed."""
-    import gmsh
-
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("mine")
-        gmsh.model.occ.addPoint(0, 0, 0)
-        gmsh.model.occ.synchronize()
+    with callers_gmsh_session() as gmsh:
         gmsh.parser.setNumber("mine", [3.0])
         size_max = gmsh.option.getNumber("Mesh.MeshSizeMax")
         m = mesh_io.read_mesh(ROOT / "meshes" / "disk.geo", h=0.05)
@@ -306,8 +300,6 @@ def test_reading_keeps_callers_gmsh_session(core_ext):
         assert gmsh.option.getNumber("Mesh.MeshSizeMax") == size_max
         assert gmsh.option.getNumber("General.Terminal") == 0
         assert set(gmsh.parser.getNames()) == {"mine"}
-    finally:
-        gmsh.finalize()
     assert m.dim == 2 and len(m.cells) > 0
 
 
