@@ -153,3 +153,19 @@ def write_msh41(gmsh, path) -> None:
     gmsh.option.setNumber("Mesh.Binary", 0)
     gmsh.write(str(path))
 
+
+def occ_disk(gmsh, radius: float, h: float):
+    """A disk of the given radius centred at (0, radius) in gmsh's current model (OCC: four
+    quarter arcs, counter-clockwise from (radius, radius)), synchronized, with mesh size at
+    most h; returns (surface tag, [arc tags])."""
+    import numpy as np
+
+    occ = gmsh.model.occ
+    c = occ.addPoint(0, radius, 0)
+    p = [occ.addPoint(radius * np.cos(a), radius + radius * np.sin(a), 0)
+         for a in (0.0, np.pi / 2, np.pi, 1.5 * np.pi)]
+    arcs = [occ.addCircleArc(p[i], c, p[(i + 1) % 4]) for i in range(4)]
+    s = occ.addPlaneSurface([occ.addCurveLoop(arcs)])
+    occ.synchronize()
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    return s, arcs
