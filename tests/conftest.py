@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -117,3 +118,54 @@ def sampled_steps(run, n_steps: int, samples, extra=None) -> dict:
             step += run.advance(min(n_steps - step, min(s for s in set(samples) | {n_steps}
                                                         if s > step) - step))
     return states
+
+
+@contextmanager
+def gmsh_session(model: str):
+    """A gmsh session of the test's own, opened as a caller of the package would: gmsh
+    initialized without config files, terminal output off, `model` added (the current
+    one); finalized on leaving. Tests set up with it, not with mesh_io._gmsh_session,
+    which is what some of them check."""
+    import gmsh
+
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(model)
+        yield gmsh
+    finally:
+        gmsh.finalize()
+
+
+@contextmanager
+def callers_gmsh_session():
+    """gmsh_session("mine") holding one point (entities [(0, 1)]): the caller's session
+    that a read or a generation by the package must leave as it found it."""
+    with gmsh_session("mine") as gmsh:
+        gmsh.model.occ.addPoint(0, 0, 0)
+        gmsh.model.occ.synchronize()
+        yield gmsh
+
+
+def write_msh41(gmsh, path) -> None:
+    """Write gmsh's current model to path as MSH 4.1, ASCII."""
+    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+    gmsh.option.setNumber("Mesh.Binary", 0)
+    gmsh.write(str(path))
+
+
+def occ_disk(gmsh, radius: float, h: float):
+    """A disk of the given radius centred at (0, radius) in gmsh's current model (OCC: four
+    quarter arcs, counter-clockwise from (radius, radius)), synchronized, with mesh size at
+    most h; returns (surface tag, [arc tags])."""
+    import numpy as np
+
+    occ = gmsh.model.occ
+    c = occ.addPoint(0, radius, 0)
+    p = [occ.addPoint(radius * np.cos(a), radius + radius * np.sin(a), 0)
+         for a in (0.0, np.pi / 2, np.pi, 1.5 * np.pi)]
+    arcs = [occ.addCircleArc(p[i], c, p[(i + 1) % 4]) for i in range(4)]
+    s = occ.addPlaneSurface([occ.addCurveLoop(arcs)])
+    occ.synchronize()
+    gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    return s, arcs

@@ -66,30 +66,27 @@ def read_fields(out_dir):
     return snaps
 
 
-@pytest.fixture(scope="module")
-def newmark_runs(tmp_path_factory):
-    """{h: RunResult} of Newmark (1/4, 1/2), dt = h/20, with snapshots every 0.25."""
-    out = tmp_path_factory.mktemp("newmark")
+def run_each_h(out, scene_of_h) -> dict:
+    """{h: RunResult} of scene_of_h(h) for every h of HS, each run into OUT/h<h>; every
+    run must end "ok"."""
     runs = {}
     for h in HS:
-        every = int(round(SNAPSHOT_DT / (h / 20)))
-        res = dyncontact.run(scene(h, output__fields_every=every), out=out / f"h{h:.4f}",
-                             progress=False)
+        res = dyncontact.run(scene_of_h(h), out=out / f"h{h:.4f}", progress=False)
         assert res.status == "ok"
         runs[h] = res
     return runs
+
+
+@pytest.fixture(scope="module")
+def newmark_runs(tmp_path_factory):
+    """{h: RunResult} of Newmark (1/4, 1/2), dt = h/20, with snapshots every 0.25."""
+    return run_each_h(tmp_path_factory.mktemp("newmark"), lambda h: scene(
+        h, output__fields_every=int(round(SNAPSHOT_DT / (h / 20)))))
 
 
 @pytest.fixture(scope="module")
 def pc_runs(tmp_path_factory):
-    out = tmp_path_factory.mktemp("pc")
-    runs = {}
-    for h in HS:
-        res = dyncontact.run(scene(h, "pc", dt_factor=100), out=out / f"h{h:.4f}",
-                             progress=False)
-        assert res.status == "ok"
-        runs[h] = res
-    return runs
+    return run_each_h(tmp_path_factory.mktemp("pc"), lambda h: scene(h, "pc", dt_factor=100))
 
 
 def u_n_error(res) -> float:

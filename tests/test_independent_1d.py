@@ -66,6 +66,10 @@ class Bar1D:
     def B(self, u):
         return self.Kt @ u + min(self.dP @ u, 0.0) / self.gam * self.dPt
 
+    def active(self, u):
+        """Is the contact point active (P_1(u) < 0)? The argument of dB."""
+        return self.dP @ u < 0
+
     def dB(self, active):
         return self.Kt + (np.outer(self.dPt, self.dP) / self.gam if active else 0.0)
 
@@ -79,8 +83,20 @@ class Bar1D:
                 (pm * pm - self.theta * sn * sn) / (2.0 * self.gam))
 
 
+def semismooth_newton(bar, w, residual, jacobian):
+    """The root of residual from w by semi-smooth Newton, jacobian(bar.active(w)) its
+    Jacobian: exact once the active set repeats (at most 50 iterations)."""
+    for _ in range(50):
+        act = bar.active(w)
+        w = w - np.linalg.solve(jacobian(act), residual(w))
+        if bar.active(w) == act:
+            return w
+    raise RuntimeError("reference Newton did not converge")
+
+
 def run_implicit(bar, dt, t_end, alpha=0.0, beta=None, gamma=None):
-    """HHT (alpha; beta, gamma default to (1-alpha)^2/4, 1/2-alpha) or Newmark (alpha=0)."""
+    """HHT (alpha; beta, gamma default to (1-alpha)^2/4, 1/2-alpha) or Newmark (alpha=0),
+    for any bar with u0, row, M, B, active and dB (the 2D one of test_slip_bar.py too)."""
     beta = (1 - alpha) ** 2 / 4 if beta is None else beta
     gamma = 0.5 - alpha if gamma is None else gamma
     u = bar.u0()
@@ -91,15 +107,10 @@ def run_implicit(bar, dt, t_end, alpha=0.0, beta=None, gamma=None):
     for _ in range(int(round(t_end / dt))):
         u_pred = u + dt * v + dt * dt / 2 * (1 - 2 * beta) * a
         b_old = bar.B(u)
-        w = u.copy()
-        for _ in range(50):   # semi-smooth Newton; exact once the active set repeats
-            act = bar.dP @ w < 0
-            res = c * bar.M @ (w - u_pred) + (1 + alpha) * bar.B(w) - alpha * b_old
-            w = w - np.linalg.solve(c * bar.M + (1 + alpha) * bar.dB(act), res)
-            if (bar.dP @ w < 0) == act:
-                break
-        else:
-            raise RuntimeError("reference Newton did not converge")
+        w = semismooth_newton(
+            bar, u.copy(),
+            lambda w: c * bar.M @ (w - u_pred) + (1 + alpha) * bar.B(w) - alpha * b_old,
+            lambda act: c * bar.M + (1 + alpha) * bar.dB(act))
         a_new = c * (w - u_pred)
         v = v + dt * ((1 - gamma) * a + gamma * a_new)
         u, a = w, a_new
@@ -213,15 +224,10 @@ def run_theta(bar, dt, t_end, theta):
     c = 1.0 / (theta * theta * dt * dt)
     for _ in range(int(round(t_end / dt))):
         b_old = bar.B(u)
-        w = u.copy()
-        for _ in range(50):
-            act = bar.dP @ w < 0
-            res = c * bar.M @ (w - u - dt * v) + bar.B(w) + (1 - theta) / theta * b_old
-            w = w - np.linalg.solve(c * bar.M + bar.dB(act), res)
-            if (bar.dP @ w < 0) == act:
-                break
-        else:
-            raise RuntimeError("reference Newton did not converge")
+        w = semismooth_newton(
+            bar, u.copy(),
+            lambda w: c * bar.M @ (w - u - dt * v) + bar.B(w) + (1 - theta) / theta * b_old,
+            lambda act: c * bar.M + bar.dB(act))
         v = (w - u - dt * (1 - theta) * v) / (theta * dt)
         u = w
         rows.append(bar.row(u, v))

@@ -36,6 +36,28 @@ def umf_solve_1based(rows, cols, vals, b):
     return x, int(stat), _msg(errmsg)
 
 
+def assert_matches_dense(x, dense, b, rtol=RTOL_SOLVE, err_msg=""):
+    """x agrees with numpy's dense solve of dense x = b to rtol times its largest entry
+    (an absolute bound, the same for every entry)."""
+    x_ref = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x, x_ref, rtol=0, atol=rtol * np.abs(x_ref).max(),
+                               err_msg=err_msg)
+
+
+def assert_umf_solves(rows, cols, vals, b, dense, err_msg=""):
+    """dc_umf_solve of the 1-based COO system succeeds and matches the dense solve."""
+    x, stat, msg = umf_solve_1based(rows, cols, vals, b)
+    assert stat == STAT_OK, msg
+    assert_matches_dense(x, dense, b, err_msg=err_msg)
+
+
+def every_size_and_density(test):
+    """Parametrize test over n in (1, 2, 17, 100, 400) and density in (0.01, 0.05, 0.3),
+    every pair (ids 'density-n')."""
+    test = pytest.mark.parametrize("density", [0.01, 0.05, 0.3])(test)
+    return pytest.mark.parametrize("n", [1, 2, 17, 100, 400])(test)
+
+
 def random_coo(rng, n, density, dominance=1.0):
     """Non-symmetric sparse n x n system as shuffled 1-based COO with duplicates.
 
@@ -70,18 +92,13 @@ def random_coo(rng, n, density, dominance=1.0):
     return r[perm] + 1, c[perm] + 1, v[perm], dense
 
 
-@pytest.mark.parametrize("n", [1, 2, 17, 100, 400])
-@pytest.mark.parametrize("density", [0.01, 0.05, 0.3])
+@every_size_and_density
 def test_umf_solve_matches_dense(n, density):
     rng = np.random.default_rng(1000 * n + int(100 * density))
     rows, cols, vals, dense = random_coo(rng, n, density)
     for _ in range(2):                     # two right-hand sides
         b = rng.standard_normal(n)
-        x, stat, msg = umf_solve_1based(rows, cols, vals, b)
-        assert stat == STAT_OK, msg
-        x_ref = np.linalg.solve(dense, b)
-        np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max(),
-                                   err_msg=f"n={n} density={density}")
+        assert_umf_solves(rows, cols, vals, b, dense, err_msg=f"n={n} density={density}")
 
 
 def test_umf_solve_weak_diagonal():
@@ -96,10 +113,7 @@ def test_umf_solve_weak_diagonal():
     rows = inv[rows - 1] + 1
     dense = dense[p]
     b = rng.standard_normal(n)
-    x, stat, msg = umf_solve_1based(rows, cols, vals, b)
-    assert stat == STAT_OK, msg
-    x_ref = np.linalg.solve(dense, b)
-    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+    assert_umf_solves(rows, cols, vals, b, dense)
 
 
 def test_grid_operator_2d():
@@ -119,10 +133,7 @@ def test_grid_operator_2d():
     dense = np.zeros((n, n))
     np.add.at(dense, (r, c), v)
     b = np.random.default_rng(3).standard_normal(n)
-    x, stat, msg = umf_solve_1based(r + 1, c + 1, v, b)
-    assert stat == STAT_OK, msg
-    x_ref = np.linalg.solve(dense, b)
-    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+    assert_umf_solves(r + 1, c + 1, v, b, dense)
 
 
 def test_singular_matrix_reported():
@@ -155,9 +166,7 @@ def test_python_wrapper_0based_and_exceptions():
     rng = np.random.default_rng(11)
     rows, cols, vals, dense = random_coo(rng, 50, 0.1)
     b = rng.standard_normal(50)
-    x = core.umf_solve(rows - 1, cols - 1, vals, b)
-    x_ref = np.linalg.solve(dense, b)
-    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+    assert_matches_dense(core.umf_solve(rows - 1, cols - 1, vals, b), dense, b)
     with pytest.raises(core.NumericalError, match="singular"):
         core.umf_solve([0, 1], [0, 0], [1.0, 1.0], np.ones(2))
     with pytest.raises(core.BadInputError, match="out of range"):
@@ -178,6 +187,15 @@ def ls_solve_1based(rows, cols, vals, b):
     return x, _msg(backend), int(stat), _msg(errmsg)
 
 
+def assert_ls_solves(rows, cols, vals, b, dense, backend, rtol=RTOL_SOLVE):
+    """dc_ls_solve of the 1-based COO system succeeds on `backend` and matches the dense
+    solve to rtol (see assert_matches_dense)."""
+    x, got, stat, msg = ls_solve_1based(rows, cols, vals, b)
+    assert stat == STAT_OK, msg
+    assert got == backend
+    assert_matches_dense(x, dense, b, rtol)
+
+
 def symmetric_coo(rng, n, density, shift):
     """Symmetric sparse n x n matrix S + Sᵀ + shift I (diagonal always stored) as shuffled
     1-based COO with duplicates; shift > Gershgorin radius: positive definite, shift <
@@ -195,8 +213,7 @@ def symmetric_coo(rng, n, density, shift):
     return r[perm] + 1, c[perm] + 1, v[perm], dense
 
 
-@pytest.mark.parametrize("n", [1, 2, 17, 100, 400])
-@pytest.mark.parametrize("density", [0.01, 0.05, 0.3])
+@every_size_and_density
 def test_ls_solve_spd_uses_cholmod(n, density):
     rng = np.random.default_rng(2000 * n + int(100 * density))
     rows, cols, vals, dense = symmetric_coo(rng, n, density, shift=0.0)
@@ -206,11 +223,7 @@ def test_ls_solve_spd_uses_cholmod(n, density):
     vals = np.concatenate([vals, np.full(n, shift)])
     dense = dense + shift * np.eye(n)
     b = rng.standard_normal(n)
-    x, backend, stat, msg = ls_solve_1based(rows, cols, vals, b)
-    assert stat == STAT_OK, msg
-    assert backend == "cholmod_ldlt"
-    x_ref = np.linalg.solve(dense, b)
-    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+    assert_ls_solves(rows, cols, vals, b, dense, "cholmod_ldlt")
 
 
 def test_ls_solve_indefinite_symmetric_falls_back_exactly():
@@ -224,12 +237,8 @@ def test_ls_solve_indefinite_symmetric_falls_back_exactly():
     cond = np.linalg.cond(dense)
     assert cond < 1e6
     b = rng.standard_normal(n)
-    x, backend, stat, msg = ls_solve_1based(rows, cols, vals, b)
-    assert stat == STAT_OK, msg
-    assert backend == "umfpack_lu"
-    x_ref = np.linalg.solve(dense, b)
-    np.testing.assert_allclose(x, x_ref, rtol=0,
-                               atol=cond * np.finfo(float).eps * 10 * np.abs(x_ref).max())
+    assert_ls_solves(rows, cols, vals, b, dense, "umfpack_lu",
+                     rtol=cond * np.finfo(float).eps * 10)
 
 
 def test_ls_solve_negative_definite_falls_back():
@@ -238,11 +247,7 @@ def test_ls_solve_negative_definite_falls_back():
     rows, cols, vals, dense = symmetric_coo(rng, 60, 0.1, shift=-30.0)
     assert np.linalg.eigvalsh(dense).max() < 0
     b = rng.standard_normal(60)
-    x, backend, stat, msg = ls_solve_1based(rows, cols, vals, b)
-    assert stat == STAT_OK, msg
-    assert backend == "umfpack_lu"
-    x_ref = np.linalg.solve(dense, b)
-    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+    assert_ls_solves(rows, cols, vals, b, dense, "umfpack_lu")
 
 
 def test_ls_solve_nonsymmetric_uses_umfpack():
@@ -250,11 +255,7 @@ def test_ls_solve_nonsymmetric_uses_umfpack():
     rows, cols, vals, dense = random_coo(rng, 200, 0.05)
     assert not np.allclose(dense, dense.T)
     b = rng.standard_normal(200)
-    x, backend, stat, msg = ls_solve_1based(rows, cols, vals, b)
-    assert stat == STAT_OK, msg
-    assert backend == "umfpack_lu"
-    x_ref = np.linalg.solve(dense, b)
-    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+    assert_ls_solves(rows, cols, vals, b, dense, "umfpack_lu")
 
 
 def test_ls_solve_slightly_nonsymmetric_uses_umfpack():
@@ -287,8 +288,7 @@ def test_linear_solve_python_wrapper():
     b = rng.standard_normal(40)
     x, backend = core.linear_solve(rows - 1, cols - 1, vals, b)
     assert backend == "cholmod_ldlt"
-    x_ref = np.linalg.solve(dense, b)
-    np.testing.assert_allclose(x, x_ref, rtol=0, atol=RTOL_SOLVE * np.abs(x_ref).max())
+    assert_matches_dense(x, dense, b)
     with pytest.raises(core.NumericalError, match="singular"):
         core.linear_solve([0, 1, 0, 1], [0, 1, 1, 0], [1.0, 1.0, 1.0, 1.0], np.ones(2))
 

@@ -17,6 +17,7 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 
+from conftest import callers_gmsh_session, gmsh_session, write_msh41
 from dyncontact import mesh_io
 from dyncontact.core import BadInputError
 
@@ -176,12 +177,7 @@ def assert_same_up_to_numbering(a: Form, b: Form) -> None:
 
 def write_line_mesh(path: Path, n: int, split: bool, extra_groups: bool) -> Path:
     """A 1D gmsh mesh of [0, 1] (n segments per line), points bottom/top, line body."""
-    import gmsh
-
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("line")
+    with gmsh_session("line") as gmsh:
         geo = gmsh.model.geo
         p1 = geo.addPoint(0, 0, 0, 1 / n)
         p2 = geo.addPoint(1, 0, 0, 1 / n)
@@ -199,23 +195,14 @@ def write_line_mesh(path: Path, n: int, split: bool, extra_groups: bool) -> Path
             gmsh.model.addPhysicalGroup(0, [p1, p2], 7)          # unnamed
             gmsh.model.addPhysicalGroup(1, lines[:1], 8, "left_part")
         gmsh.model.mesh.generate(1)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+        write_msh41(gmsh, path)
     return path
 
 
 def write_multi_group_mesh(path: Path) -> Path:
     """An unstructured 2D rectangle whose boundary curves are in several groups
     (named and unnamed), with a corner point group and two cell groups."""
-    import gmsh
-
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("multi")
+    with gmsh_session("multi") as gmsh:
         r = gmsh.model.occ.addRectangle(0, 0, 0, 1, 0.5)
         gmsh.model.occ.synchronize()
         gmsh.option.setNumber("Mesh.MeshSizeMax", 0.2)
@@ -227,11 +214,7 @@ def write_multi_group_mesh(path: Path) -> Path:
         gmsh.model.addPhysicalGroup(2, [r], 15, "body")
         gmsh.model.addPhysicalGroup(2, [r], 16, "body2")
         gmsh.model.mesh.generate(2)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.option.setNumber("Mesh.Binary", 0)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+        write_msh41(gmsh, path)
     return path
 
 
@@ -595,14 +578,7 @@ def test_gmsh_left_finalized(tmp_path):
 
 def test_gmsh_session_of_caller_kept(core_ext, tmp_path):
     """Inside a caller's gmsh session: its model, options and variables survive."""
-    import gmsh
-
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("mine")
-        gmsh.model.occ.addPoint(0, 0, 0)
-        gmsh.model.occ.synchronize()
+    with callers_gmsh_session() as gmsh:
         binary = gmsh.option.getNumber("Mesh.Binary")
         mesh_io.generate_bar(0.1, tmp_path / "b.msh")
         m = mesh_io.read_msh_fortran(tmp_path / "b.msh")
@@ -611,8 +587,6 @@ def test_gmsh_session_of_caller_kept(core_ext, tmp_path):
         assert gmsh.model.list() == ["", "mine"]
         assert gmsh.option.getNumber("Mesh.Binary") == binary
         assert "h" not in gmsh.parser.getNames()
-    finally:
-        gmsh.finalize()
     assert len(m.cells) == 2 * 1 * 10
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import callers_gmsh_session
 from dyncontact import core, mesh_io
 from dyncontact.core import BadInputError
 
@@ -182,11 +183,31 @@ def _exe_error(run_exe, tmp_path, mesh_file, **keys):
     return lines[0]
 
 
-def test_unknown_extension(run_exe, tmp_path):
-    p = tmp_path / "mesh.vtk"
-    p.write_text("# vtk DataFile Version 2.0\n")
+#: Mesh files a run refuses: id -> (file name, its text, what the message says after
+#: 'PATH: ').
+REFUSED_FILES = {
+    "unknown_extension": ("mesh.vtk", "# vtk DataFile Version 2.0\n",
+                          "unknown mesh file extension '.vtk'"),
+    "geo_without_cells": ("points.geo", "Point(1) = {0, 0, 0};\nPoint(2) = {1, 0, 0};\n",
+                          "no segments, triangles or tetrahedra"),
+    "quadrangles": ("quads.geo", (ROOT / "meshes" / "bar2d.geo").read_text()
+                            + "\nRecombine Surface{1};\n",
+                            "element type 3 (dimension 2) is not a linear simplex"),
+    # triangles off the z = 0 plane with no tetrahedra: a 3D geometry saved as 2D
+    "mixed_dimensions": ("tilted.geo",
+                         "Point(1) = {0, 0, 0}; Point(2) = {1, 0, 0}; Point(3) = {0, 1, 1};\n"
+                         "Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 1};\n"
+                         "Curve Loop(1) = {1, 2, 3}; Plane Surface(1) = {1};\n",
+                         "the mesh is 2D but its z coordinates are not constant"),
+}
+
+
+@pytest.mark.parametrize("name, text, what", REFUSED_FILES.values(), ids=list(REFUSED_FILES))
+def test_mesh_file_refused(run_exe, tmp_path, name, text, what):
+    p = tmp_path / name
+    p.write_text(text)
     msg = _exe_error(run_exe, tmp_path, p)
-    assert f"{p}: unknown mesh file extension '.vtk'" in msg
+    assert f"{p}: {what}" in msg
 
 
 def test_missing_file(run_exe, tmp_path):
@@ -203,35 +224,10 @@ def test_geo_gmsh_cannot_read(run_exe, tmp_path):
         mesh_io.read_mesh(p)
 
 
-def test_geo_without_cells(run_exe, tmp_path):
-    p = tmp_path / "points.geo"
-    p.write_text("Point(1) = {0, 0, 0};\nPoint(2) = {1, 0, 0};\n")
-    msg = _exe_error(run_exe, tmp_path, p)
-    assert f"{p}: no segments, triangles or tetrahedra" in msg
-
-
-def test_quadrangles_refused(run_exe, tmp_path):
-    p = tmp_path / "quads.geo"
-    p.write_text((ROOT / "meshes" / "bar2d.geo").read_text()
-                 + "\nRecombine Surface{1};\n")
-    msg = _exe_error(run_exe, tmp_path, p)
-    assert f"{p}: element type 3 (dimension 2) is not a linear simplex" in msg
-
-
 def test_named_group_missing(run_exe, tmp_path):
     msg = _exe_error(run_exe, tmp_path, ROOT / "meshes" / "disk.geo",
                      boundary="clamped = 'top', contact = 'left'")
     assert "&boundary contact: group 'left' not in mesh" in msg and "disk.geo" in msg
-
-
-def test_mixed_dimensions(run_exe, tmp_path):
-    """Triangles off the z = 0 plane with no tetrahedra: a 3D geometry saved as 2D."""
-    p = tmp_path / "tilted.geo"
-    p.write_text("Point(1) = {0, 0, 0}; Point(2) = {1, 0, 0}; Point(3) = {0, 1, 1};\n"
-                 "Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 1};\n"
-                 "Curve Loop(1) = {1, 2, 3}; Plane Surface(1) = {1};\n")
-    msg = _exe_error(run_exe, tmp_path, p)
-    assert f"{p}: the mesh is 2D but its z coordinates are not constant" in msg
 
 
 def test_no_gmsh(exe, tmp_path):
@@ -288,14 +284,7 @@ def test_reading_leaves_gmsh_finalized(core_ext):
 def test_reading_keeps_callers_gmsh_session(core_ext):
     """Inside a caller's gmsh session: its model, options and variables survive a read of
     a .geo and of a .msh by the core, and nothing is printed."""
-    import gmsh
-
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("mine")
-        gmsh.model.occ.addPoint(0, 0, 0)
-        gmsh.model.occ.synchronize()
+    with callers_gmsh_session() as gmsh:
         gmsh.parser.setNumber("mine", [3.0])
         size_max = gmsh.option.getNumber("Mesh.MeshSizeMax")
         m = mesh_io.read_mesh(ROOT / "meshes" / "disk.geo", h=0.05)
@@ -306,8 +295,6 @@ def test_reading_keeps_callers_gmsh_session(core_ext):
         assert gmsh.option.getNumber("Mesh.MeshSizeMax") == size_max
         assert gmsh.option.getNumber("General.Terminal") == 0
         assert set(gmsh.parser.getNames()) == {"mine"}
-    finally:
-        gmsh.finalize()
     assert m.dim == 2 and len(m.cells) > 0
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import gmsh_session, occ_disk, write_msh41
 from test_reliability import (ENTRIES, EXIT_BAD_INPUT, EXIT_OK, one_line, run,
                               write_scene)
 
@@ -24,19 +25,9 @@ def disk_mesh(path: Path, h: float = 0.02, invert_every: int = 0) -> Path:
     its whole outline as the physical group 'outline' and the surface as 'body'. With
     invert_every = k, every k-th triangle is written with its nodes in clockwise order
     (negative Jacobian), as some mesh tools write them."""
-    gmsh = pytest.importorskip("gmsh")
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("disk")
-        occ = gmsh.model.occ
-        c = occ.addPoint(0, RADIUS, 0)
-        p = [occ.addPoint(RADIUS * np.cos(a), RADIUS + RADIUS * np.sin(a), 0)
-             for a in (0.0, np.pi / 2, np.pi, 1.5 * np.pi)]
-        arcs = [occ.addCircleArc(p[i], c, p[(i + 1) % 4]) for i in range(4)]
-        s = occ.addPlaneSurface([occ.addCurveLoop(arcs)])
-        occ.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    pytest.importorskip("gmsh")
+    with gmsh_session("disk") as gmsh:
+        s, arcs = occ_disk(gmsh, RADIUS, h)
         gmsh.model.addPhysicalGroup(1, arcs, 1, "outline")
         gmsh.model.addPhysicalGroup(2, [s], 2, "body")
         gmsh.model.mesh.generate(2)
@@ -46,10 +37,7 @@ def disk_mesh(path: Path, h: float = 0.02, invert_every: int = 0) -> Path:
             tri[::invert_every] = tri[::invert_every, ::-1]
             gmsh.model.mesh.removeElements(2, s)
             gmsh.model.mesh.addElements(2, s, [types[0]], [tags[0]], [tri.ravel()])
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+        write_msh41(gmsh, path)
     return path
 
 

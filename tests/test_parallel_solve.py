@@ -126,6 +126,15 @@ def test_two_threads_same_run_to_run():
     assert np.array_equal(x1, x2)
 
 
+def assert_traces_agree(a, b):
+    """Traces a and b of one run on one and on two threads: the same times (more than
+    one), every column equal to 1e-12 of max(1, its largest magnitude)."""
+    assert a["t"].shape == b["t"].shape and a["t"].size > 1
+    for col in a:
+        scale = max(1.0, np.abs(a[col]).max())
+        assert np.abs(a[col] - b[col]).max() <= 1e-12 * scale, col
+
+
 TRACE_SCRIPT = """
 import sys
 from pathlib import Path
@@ -152,11 +161,7 @@ def test_scene_trace_does_not_depend_on_threads(tmp_path):
                              env=env, capture_output=True, text=True, timeout=600)
         assert res.returncode == 0, res.stderr
         traces[threads] = dyncontact.core.read_trace(out)
-    a, b = traces["1"], traces["2"]
-    assert a["t"].shape == b["t"].shape and a["t"].size > 1
-    for col in a:
-        scale = max(1.0, np.abs(a[col]).max())
-        assert np.abs(a[col] - b[col]).max() <= 1e-12 * scale, col
+    assert_traces_agree(traces["1"], traces["2"])
 
 
 def test_two_threads_equal_serial_to_round_off_3d():
@@ -196,8 +201,4 @@ def test_scene_trace_does_not_depend_on_threads_3d(tmp_path):
         assert summary["solve_kernel"] == "ldl_node_triples"
         assert summary["solve_threads"] == int(threads)
         traces[threads] = dyncontact.core.read_trace(out)
-    a, b = traces["1"], traces["2"]
-    assert a["t"].shape == b["t"].shape and a["t"].size > 1
-    for col in a:
-        scale = max(1.0, np.abs(a[col]).max())
-        assert np.abs(a[col] - b[col]).max() <= 1e-12 * scale, col
+    assert_traces_agree(traces["1"], traces["2"])

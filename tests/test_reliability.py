@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import EXE, ROOT
+from conftest import EXE, ROOT, gmsh_session, occ_disk, write_msh41
 
 #: Exit statuses (docs/scenes.md).
 EXIT_OK, EXIT_BAD_INPUT, EXIT_WRITE, EXIT_SIGNAL = 0, 2, 4, 130
@@ -507,28 +507,15 @@ def test_newton_failure_lists_the_causes(tmp_path):
 # ------------------------------------------------------------------ 9. probe on a gmsh disk
 
 def _disk_mesh(path: Path, h=0.02):
-    gmsh = pytest.importorskip("gmsh")
-    gmsh.initialize(readConfigFiles=False, interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("disk")
-        occ = gmsh.model.occ
-        c = occ.addPoint(0, 0.1, 0)
-        p = [occ.addPoint(0.1 * np.cos(a), 0.1 + 0.1 * np.sin(a), 0)
-             for a in (0.0, np.pi / 2, np.pi, 1.5 * np.pi)]
-        arcs = [occ.addCircleArc(p[i], c, p[(i + 1) % 4]) for i in range(4)]
-        loop = occ.addCurveLoop(arcs)
-        s = occ.addPlaneSurface([loop])
-        occ.synchronize()
-        gmsh.option.setNumber("Mesh.MeshSizeMax", h)
+    """The disk of radius 0.1 centred at (0, 0.1): upper arcs 'top', lower 'bottom'."""
+    pytest.importorskip("gmsh")
+    with gmsh_session("disk") as gmsh:
+        s, arcs = occ_disk(gmsh, 0.1, h)
         gmsh.model.addPhysicalGroup(1, arcs[0:2], 1, "top")
         gmsh.model.addPhysicalGroup(1, arcs[2:4], 2, "bottom")
         gmsh.model.addPhysicalGroup(2, [s], 3, "body")
         gmsh.model.mesh.generate(2)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+        write_msh41(gmsh, path)
     return path
 
 

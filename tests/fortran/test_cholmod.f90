@@ -27,9 +27,8 @@ program test_cholmod
     call test_refactor()
     call test_many_rhs()
     call test_bad_pivot()
-    call test_choice_spd()
+    call test_choice_spd_nonsymmetric()
     call test_choice_indefinite()
-    call test_choice_nonsymmetric()
     call test_singular()
     call test_symmetry_test()
     call test_bad_use()
@@ -233,24 +232,53 @@ contains
         call chol_free(ch)
     end subroutine test_bad_pivot
 
-    subroutine test_choice_spd()
-        integer, parameter :: n = 400
-        type(csc_t) :: a
-        type(factor_t) :: f
-        real(dp) :: xe(n), b(n), x(n)
+    !> The solver choice for a: xe drawn from the random stream, b = A xe; ls_factor
+    !> must succeed on `backend` with f%symmetric = symmetric (and f%fell_back =
+    !> fell_back when given), checked as name//': '//choice; then ls_solve must give
+    !> x = xe to thr relative to max|xe|, checked as name//': x = xe'.
+    subroutine check_choice(f, a, xe, backend, symmetric, name, choice, fell_back)
+        type(factor_t), intent(inout) :: f          !! factor (left factorized)
+        type(csc_t), intent(in) :: a                !! matrix
+        real(dp), intent(out) :: xe(:)              !! the drawn solution (size a%n)
+        character(len=*), intent(in) :: backend     !! backend the choice must make
+        logical, intent(in) :: symmetric            !! f%symmetric expected
+        character(len=*), intent(in) :: name        !! the checks' prefix
+        character(len=*), intent(in) :: choice      !! the choice check's description
+        logical, intent(in), optional :: fell_back  !! f%fell_back expected
+        real(dp) :: b(size(xe)), x(size(xe))
+        logical :: fell_back_ok
         integer :: stat
-        call seed(4)
-        call sym_matrix(n, 1.0_dp, 1.0_dp, a)
         call random_number(xe)
         call csc_matvec(a, xe, b)
         call ls_factor(f, a, stat)
-        call checks%check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD .and. f%symmetric &
-                   .and. .not. f%fell_back, 'spd: CHOLMOD LDL^T')
+        fell_back_ok = .true.
+        if (present(fell_back)) fell_back_ok = f%fell_back .eqv. fell_back
+        call checks%check(stat == STAT_OK .and. f%backend == backend .and. &
+                          (f%symmetric .eqv. symmetric) .and. fell_back_ok, name//': '//choice)
         call ls_solve(f, a, b, x, stat)
         call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
-                   'spd: x = xe')
-        call ls_free(f)
-    end subroutine test_choice_spd
+                          name//': x = xe')
+    end subroutine check_choice
+
+    !> SPD (n = 400): CHOLMOD LDL^T; non-symmetric (n = 200, one strictly-upper entry
+    !> scaled): UMFPACK.
+    subroutine test_choice_spd_nonsymmetric()
+        type(csc_t) :: spd, nonsym
+        type(factor_t) :: f_spd, f_nonsym
+        real(dp) :: xe_spd(400), xe_nonsym(200)
+        call seed(4)
+        call sym_matrix(400, 1.0_dp, 1.0_dp, spd)
+        call check_choice(f_spd, spd, xe_spd, BACKEND_CHOLMOD, .true., 'spd', 'CHOLMOD LDL^T', &
+                          fell_back=.false.)
+        call ls_free(f_spd)
+        call seed(7)
+        call sym_matrix(200, 1.0_dp, 1.0_dp, nonsym)
+        call perturb_off_diagonal(nonsym)
+        call checks%check(.not. csc_is_symmetric(nonsym), 'nonsymmetric: detected')
+        call check_choice(f_nonsym, nonsym, xe_nonsym, BACKEND_UMFPACK, .false., 'nonsymmetric', &
+                          'UMFPACK')
+        call ls_free(f_nonsym)
+    end subroutine test_choice_spd_nonsymmetric
 
     !> Symmetric indefinite (diagonal of alternating sign): LDL^T meets a negative pivot,
     !> UMFPACK solves it exactly; refactorizing an SPD matrix afterwards goes back to CHOLMOD.
@@ -262,14 +290,8 @@ contains
         integer :: stat
         call seed(6)
         call sym_matrix(n, 1.0_dp, 1.0_dp, a, indefinite=.true.)
-        call random_number(xe)
-        call csc_matvec(a, xe, b)
-        call ls_factor(f, a, stat)
-        call checks%check(stat == STAT_OK .and. f%backend == BACKEND_UMFPACK .and. f%symmetric &
-                   .and. f%fell_back, 'indefinite: fell back to UMFPACK')
-        call ls_solve(f, a, b, x, stat)
-        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
-                   'indefinite: x = xe')
+        call check_choice(f, a, xe, BACKEND_UMFPACK, .true., 'indefinite', &
+                          'fell back to UMFPACK', fell_back=.true.)
         call sym_matrix(n, 1.0_dp, 1.0_dp, spd)
         call ls_factor(f, spd, stat)
         call checks%check(stat == STAT_OK .and. f%backend == BACKEND_CHOLMOD, 'indefinite: back to CHOLMOD')
@@ -279,27 +301,6 @@ contains
         call checks%check(f%factorizations == 2, 'indefinite: two factorizations counted')
         call ls_free(f)
     end subroutine test_choice_indefinite
-
-    subroutine test_choice_nonsymmetric()
-        integer, parameter :: n = 200
-        type(csc_t) :: a
-        type(factor_t) :: f
-        real(dp) :: xe(n), b(n), x(n)
-        integer :: stat
-        call seed(7)
-        call sym_matrix(n, 1.0_dp, 1.0_dp, a)
-        call perturb_off_diagonal(a)
-        call checks%check(.not. csc_is_symmetric(a), 'nonsymmetric: detected')
-        call random_number(xe)
-        call csc_matvec(a, xe, b)
-        call ls_factor(f, a, stat)
-        call checks%check(stat == STAT_OK .and. f%backend == BACKEND_UMFPACK .and. .not. f%symmetric, &
-                   'nonsymmetric: UMFPACK')
-        call ls_solve(f, a, b, x, stat)
-        call checks%check(stat == STAT_OK .and. maxval(abs(x - xe)) <= thr * maxval(abs(xe)), &
-                   'nonsymmetric: x = xe')
-        call ls_free(f)
-    end subroutine test_choice_nonsymmetric
 
     !> Multiply the first strictly-upper entry by 1.5 (its lower partner unchanged).
     subroutine perturb_off_diagonal(a)
