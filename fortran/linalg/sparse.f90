@@ -285,67 +285,25 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern, read
                                                             !! in place of a%val
-        integer :: ng, g, h, j, k, i, r, c, nb, slot
-        integer, allocatable :: group(:), mark(:)
-        stat = STAT_OK
+        integer, allocatable :: width(:), place(:)
+        integer :: ng, nb
+        call check_groups(a, first, 2, 'block2_from_csc', stat, errmsg)
+        if (stat /= STAT_OK) return
         ng = size(first) - 1
-        if (ng < 1 .or. first(1) /= 1 .or. first(ng + 1) /= a%n + 1 .or. &
-            any(first(2:) - first(:ng) < 1) .or. any(first(2:) - first(:ng) > 2)) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'block2_from_csc: bad groups')
-            return
-        end if
-        allocate (group(a%n), mark(ng))
-        do g = 1, ng
-            group(first(g):first(g + 1) - 1) = g
-        end do
+        call block_layout(a, first, 2, b%row_ptr, b%col1, width, place)
+        nb = size(b%col1)
         b%n = a%n
         b%n_groups = ng
         b%first = first
         b%pairs = all(first(2:) - first(:ng) == 2)
-        allocate (b%row_ptr(ng + 1))
-        ! count blocks per row group (A symmetric: column j of A is row j)
-        mark = 0
-        nb = 0
-        b%row_ptr(1) = 1
-        do g = 1, ng
-            do j = first(g), first(g + 1) - 1
-                do k = a%colptr(j) + 1, a%colptr(j + 1)
-                    h = group(a%rowind(k) + 1)
-                    if (mark(h) /= g) then
-                        mark(h) = g
-                        nb = nb + 1
-                    end if
-                end do
-            end do
-            b%row_ptr(g + 1) = nb + 1
-        end do
-        allocate (b%col1(nb), b%col2(merge(0, nb, b%pairs)), b%val(4, nb))
+        if (b%pairs) then
+            allocate (b%col2(0))
+        else
+            b%col2 = b%col1 + width - 1
+        end if
+        allocate (b%val(4, nb))
         b%val = 0.0_dp
-        mark = 0
-        nb = 0
-        do g = 1, ng
-            do j = first(g), first(g + 1) - 1
-                r = j - first(g)
-                do k = a%colptr(j) + 1, a%colptr(j + 1)
-                    i = a%rowind(k) + 1
-                    h = group(i)
-                    if (mark(h) < b%row_ptr(g)) then
-                        nb = nb + 1
-                        mark(h) = nb
-                        b%col1(nb) = first(h)
-                        if (.not. b%pairs) b%col2(nb) = first(h + 1) - 1
-                    end if
-                    slot = mark(h)
-                    c = i - first(h)
-                    ! row r of group g, column c of group h (A(j, i) = A(i, j))
-                    if (present(val)) then
-                        b%val(1 + r + 2 * c, slot) = val(k)
-                    else
-                        b%val(1 + r + 2 * c, slot) = a%val(k)
-                    end if
-                end do
-            end do
-        end do
+        call scatter_values(a, place, size(b%val), b%val, val)
     end subroutine block2_from_csc
 
     !> y = B x for a block2_t matrix (rows of a block summed as a 2-vector, see block2_t).
@@ -554,31 +512,72 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern, read
                                                             !! in place of a%val
-        integer :: ng, g, h, j, k, i, r, c, nb, slot, sz
-        integer, allocatable :: group(:), mark(:)
-        stat = STAT_OK
+        integer, allocatable :: width(:), place(:)
+        integer :: ng, nb
+        call check_groups(a, first, 3, 'block3_from_csc', stat, errmsg)
+        if (stat /= STAT_OK) return
         ng = size(first) - 1
-        if (ng < 1) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'block3_from_csc: bad groups')
-            return
-        end if
-        if (first(1) /= 1 .or. first(ng + 1) /= a%n + 1 .or. &
-            any(first(2:) - first(:ng) < 1) .or. any(first(2:) - first(:ng) > 3)) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'block3_from_csc: bad groups')
-            return
-        end if
-        allocate (group(a%n), mark(ng))
-        do g = 1, ng
-            group(first(g):first(g + 1) - 1) = g
-        end do
+        call block_layout(a, first, 3, b%row_ptr, b%col1, width, place)
+        nb = size(b%col1)
         b%n = a%n
         b%n_groups = ng
         b%first = first
         b%triples = all(first(2:) - first(:ng) == 3)
-        allocate (b%row_ptr(ng + 1))
+        if (b%triples) then
+            allocate (b%col2(0), b%col3(0))
+        else
+            b%col2 = b%col1 + merge(1, 0, width >= 2)
+            b%col3 = b%col1 + merge(2, 0, width >= 3)
+        end if
+        allocate (b%val(9, nb + 1))
+        b%val = 0.0_dp
+        call scatter_values(a, place, size(b%val), b%val, val)
+    end subroutine block3_from_csc
+
+    !> STAT_BAD_INPUT (message `who`: bad groups) unless `first` splits a's n dofs into
+    !> groups of 1 to w consecutive dofs: first(1) = 1, first(n_groups + 1) = n + 1.
+    subroutine check_groups(a, first, w, who, stat, errmsg)
+        type(csc_t), intent(in) :: a                        !! matrix
+        integer, intent(in) :: first(:)                     !! group starts
+        integer, intent(in) :: w                            !! most dofs of a group
+        character(len=*), intent(in) :: who                 !! caller, for the message
+        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: ng
+        stat = STAT_OK
+        ng = size(first) - 1
+        if (ng >= 1) then
+            if (first(1) == 1 .and. first(ng + 1) == a%n + 1 .and. &
+                all(first(2:) - first(:ng) >= 1) .and. all(first(2:) - first(:ng) <= w)) return
+        end if
+        call raise(stat, errmsg, STAT_BAD_INPUT, who//': bad groups')
+    end subroutine check_groups
+
+    !> The node-block layout of the symmetric pattern of a for the groups `first` (checked,
+    !> at most w dofs each), the walk the block copies and blocks_to_csc share: a's columns
+    !> by row groups, a row group's blocks numbered as their column groups are met. Block
+    !> k holds rows of its row group and columns col1(k) .. col1(k) + width(k) - 1; entry e
+    !> of a (column j, row i: A(j, i) = A(i, j)) is entry place(e) of the blocks' values
+    !> stored block after block, each w x w by columns.
+    pure subroutine block_layout(a, first, w, row_ptr, col1, width, place)
+        type(csc_t), intent(in) :: a                        !! symmetric pattern
+        integer, intent(in) :: first(:)                     !! (n_groups + 1) group starts
+        integer, intent(in) :: w                            !! block width (2 or 3)
+        integer, allocatable, intent(out) :: row_ptr(:)     !! (n_groups + 1) block range of each row group
+        integer, allocatable, intent(out) :: col1(:)        !! (n_blocks) first dof of the column group
+        integer, allocatable, intent(out) :: width(:)       !! (n_blocks) dofs of the column group
+        integer, allocatable, intent(out) :: place(:)       !! (a%nnz) each entry's place in the blocks
+        integer, allocatable :: group(:), mark(:)
+        integer :: ng, g, h, j, k, i, r, nb
+        ng = size(first) - 1
+        allocate (group(a%n), mark(ng), row_ptr(ng + 1), place(a%nnz))
+        do g = 1, ng
+            group(first(g):first(g + 1) - 1) = g
+        end do
+        ! count blocks per row group (A symmetric: column j of A is row j)
         mark = 0
         nb = 0
-        b%row_ptr(1) = 1
+        row_ptr(1) = 1
         do g = 1, ng
             do j = first(g), first(g + 1) - 1
                 do k = a%colptr(j) + 1, a%colptr(j + 1)
@@ -589,76 +588,9 @@ contains
                     end if
                 end do
             end do
-            b%row_ptr(g + 1) = nb + 1
+            row_ptr(g + 1) = nb + 1
         end do
-        allocate (b%col1(nb), b%col2(merge(0, nb, b%triples)), b%col3(merge(0, nb, b%triples)), &
-                  b%val(9, nb + 1))
-        b%val = 0.0_dp
-        mark = 0
-        nb = 0
-        do g = 1, ng
-            do j = first(g), first(g + 1) - 1
-                r = j - first(g)
-                do k = a%colptr(j) + 1, a%colptr(j + 1)
-                    i = a%rowind(k) + 1
-                    h = group(i)
-                    if (mark(h) < b%row_ptr(g)) then
-                        nb = nb + 1
-                        mark(h) = nb
-                        sz = first(h + 1) - first(h)
-                        b%col1(nb) = first(h)
-                        if (.not. b%triples) then
-                            b%col2(nb) = first(h) + merge(1, 0, sz >= 2)
-                            b%col3(nb) = first(h) + merge(2, 0, sz >= 3)
-                        end if
-                    end if
-                    slot = mark(h)
-                    c = i - first(h)
-                    ! row r of group g, column c of group h (A(j, i) = A(i, j))
-                    if (present(val)) then
-                        b%val(1 + r + 3 * c, slot) = val(k)
-                    else
-                        b%val(1 + r + 3 * c, slot) = a%val(k)
-                    end if
-                end do
-            end do
-        end do
-    end subroutine block3_from_csc
-
-    !> The values on a's pattern of the matrix whose node-block copy is b (block2_from_csc
-    !> of a matrix with a's pattern): the copy read back entry by entry, the same numbers.
-    !> A matrix kept in blocks needs no CSC values of its own. O(nnz).
-    subroutine block2_csc_values(a, b, val)
-        type(csc_t), intent(in) :: a        !! the pattern b was copied from
-        type(block2_t), intent(in) :: b     !! the block copy
-        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
-        call blocks_to_csc(a, b%first, b%row_ptr, b%val, 2, val)
-    end subroutine block2_csc_values
-
-    !> block2_csc_values for a 3x3 node-block copy (block3_from_csc).
-    subroutine block3_csc_values(a, b, val)
-        type(csc_t), intent(in) :: a        !! the pattern b was copied from
-        type(block3_t), intent(in) :: b     !! the block copy
-        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
-        call blocks_to_csc(a, b%first, b%row_ptr, b%val, 3, val)
-    end subroutine block3_csc_values
-
-    !> The inverse of the copies' second pass: the same walk (a's columns by row groups,
-    !> the blocks of a row group numbered as they are met), each entry read from its slot.
-    subroutine blocks_to_csc(a, first, row_ptr, bval, w, val)
-        type(csc_t), intent(in) :: a            !! pattern
-        integer, intent(in) :: first(:)         !! (n_groups + 1) group starts
-        integer, intent(in) :: row_ptr(:)       !! (n_groups + 1) block range of each row group
-        real(dp), intent(in) :: bval(:, :)      !! (w * w, n_blocks) block values by columns
-        integer, intent(in) :: w                !! block width (2 or 3)
-        real(dp), intent(out) :: val(:)         !! (a%nnz) values
-        integer, allocatable :: group(:), mark(:)
-        integer :: ng, g, j, k, i, h, r, nb
-        ng = size(first) - 1
-        allocate (group(a%n), mark(ng))
-        do g = 1, ng
-            group(first(g):first(g + 1) - 1) = g
-        end do
+        allocate (col1(nb), width(nb))
         mark = 0
         nb = 0
         do g = 1, ng
@@ -670,11 +602,60 @@ contains
                     if (mark(h) < row_ptr(g)) then
                         nb = nb + 1
                         mark(h) = nb
+                        col1(nb) = first(h)
+                        width(nb) = first(h + 1) - first(h)
                     end if
-                    val(k) = bval(1 + r + w * (i - first(h)), mark(h))
+                    ! row r of group g, column i - first(h) of group h
+                    place(k) = w * w * (mark(h) - 1) + 1 + r + w * (i - first(h))
                 end do
             end do
         end do
+    end subroutine block_layout
+
+    !> bval(place(e)) = entry e of the values on a's pattern: val when given, else a%val.
+    pure subroutine scatter_values(a, place, nv, bval, val)
+        type(csc_t), intent(in) :: a                        !! the pattern (and its values)
+        integer, intent(in) :: place(:)                     !! (a%nnz) places (block_layout)
+        integer, intent(in) :: nv                           !! size of bval
+        real(dp), intent(inout) :: bval(nv)                 !! blocks' values, block after block
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values read in place of a%val
+        if (present(val)) then
+            bval(place) = val(1:a%nnz)
+        else
+            bval(place) = a%val(1:a%nnz)
+        end if
+    end subroutine scatter_values
+
+    !> The values on a's pattern of the matrix whose node-block copy is b (block2_from_csc
+    !> of a matrix with a's pattern): the copy read back entry by entry, the same numbers.
+    !> A matrix kept in blocks needs no CSC values of its own. O(nnz).
+    subroutine block2_csc_values(a, b, val)
+        type(csc_t), intent(in) :: a        !! the pattern b was copied from
+        type(block2_t), intent(in) :: b     !! the block copy
+        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
+        call blocks_to_csc(a, b%first, size(b%val), b%val, 2, val)
+    end subroutine block2_csc_values
+
+    !> block2_csc_values for a 3x3 node-block copy (block3_from_csc).
+    subroutine block3_csc_values(a, b, val)
+        type(csc_t), intent(in) :: a        !! the pattern b was copied from
+        type(block3_t), intent(in) :: b     !! the block copy
+        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
+        call blocks_to_csc(a, b%first, size(b%val), b%val, 3, val)
+    end subroutine block3_csc_values
+
+    !> The inverse of the copies' scatter: each entry of a read from its place in the
+    !> blocks (block_layout's walk).
+    subroutine blocks_to_csc(a, first, nv, bval, w, val)
+        type(csc_t), intent(in) :: a            !! pattern
+        integer, intent(in) :: first(:)         !! (n_groups + 1) group starts
+        integer, intent(in) :: nv               !! size of bval
+        real(dp), intent(in) :: bval(nv)        !! (w * w, n_blocks) block values by columns
+        integer, intent(in) :: w                !! block width (2 or 3)
+        real(dp), intent(out) :: val(:)         !! (a%nnz) values
+        integer, allocatable :: row_ptr(:), col1(:), width(:), place(:)
+        call block_layout(a, first, w, row_ptr, col1, width, place)
+        val(1:a%nnz) = bval(place)
     end subroutine blocks_to_csc
 
     !> y = B x for a block3_t matrix (rows of a block summed as a 3-vector, see block3_t).
