@@ -406,13 +406,7 @@ contains
         real(dp), allocatable, intent(out) :: s(:)       !! (n_blocks) the scalars
         logical, intent(out) :: ok                       !! b has that form
         ok = b%n_groups > 0 .and. b%pairs
-        if (ok) ok = all(b%val(2, :) == 0.0_dp) .and. all(b%val(3, :) == 0.0_dp) .and. &
-                     all(b%val(1, :) == b%val(4, :))
-        if (ok) then
-            s = b%val(1, :)
-        else
-            allocate (s(0))
-        end if
+        call scalar_blocks(2, size(b%col1), b%val, s, ok)
     end subroutine block2_scalar_blocks
 
     !> kx = K x and mv = M v in one pass, M = blocks ms(k) I on the block pattern of kb
@@ -752,17 +746,34 @@ contains
         type(block3_t), intent(in) :: b                  !! matrix
         real(dp), allocatable, intent(out) :: s(:)       !! (n_blocks) the scalars
         logical, intent(out) :: ok                       !! b has that form
-        integer :: nb
         ok = b%n_groups > 0 .and. b%triples
-        nb = size(b%col1)
-        if (ok) ok = all(b%val(2:4, :nb) == 0.0_dp) .and. all(b%val(6:8, :nb) == 0.0_dp) .and. &
-                     all(b%val(1, :nb) == b%val(5, :nb)) .and. all(b%val(1, :nb) == b%val(9, :nb))
+        call scalar_blocks(3, size(b%col1), b%val, s, ok)
+    end subroutine block3_scalar_blocks
+
+    !> The scalars s of the first nb w x w blocks of bval when `ok` on entry and every
+    !> one of them is s I (entries off the diagonal zero, diagonal entries equal); else
+    !> ok false and s empty. block2_scalar_blocks and block3_scalar_blocks.
+    pure subroutine scalar_blocks(w, nb, bval, s, ok)
+        integer, intent(in) :: w                         !! block width (2 or 3)
+        integer, intent(in) :: nb                        !! blocks
+        real(dp), intent(in) :: bval(:, :)               !! (w * w, >= nb) blocks by columns
+        real(dp), allocatable, intent(out) :: s(:)       !! (nb) the scalars
+        logical, intent(inout) :: ok                     !! the form's other conditions hold; then all
+        integer :: e
+        do e = 2, w * w
+            if (.not. ok) exit
+            if (mod(e - 1, w + 1) == 0) then   ! a diagonal entry (row = column)
+                ok = all(bval(e, :nb) == bval(1, :nb))
+            else
+                ok = all(bval(e, :nb) == 0.0_dp)
+            end if
+        end do
         if (ok) then
-            s = b%val(1, :nb)
+            s = bval(1, :nb)
         else
             allocate (s(0))
         end if
-    end subroutine block3_scalar_blocks
+    end subroutine scalar_blocks
 
     !> kx = K x and mv = M v in one pass, M = blocks ms(k) I on the block pattern of kb
     !> (see block3_scalar_blocks). kx is bitwise equal to block3_matvec's.
