@@ -285,25 +285,9 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern, read
                                                             !! in place of a%val
-        integer, allocatable :: width(:), place(:)
-        integer :: ng, nb
-        call check_groups(a, first, 2, 'block2_from_csc', stat, errmsg)
-        if (stat /= STAT_OK) return
-        ng = size(first) - 1
-        call block_layout(a, first, 2, b%row_ptr, b%col1, width, place)
-        nb = size(b%col1)
-        b%n = a%n
-        b%n_groups = ng
-        b%first = first
-        b%pairs = all(first(2:) - first(:ng) == 2)
-        if (b%pairs) then
-            allocate (b%col2(0))
-        else
-            b%col2 = b%col1 + width - 1
-        end if
-        allocate (b%val(4, nb))
-        b%val = 0.0_dp
-        call scatter_values(a, place, size(b%val), b%val, val)
+        integer, allocatable :: unused_col3(:)
+        call blocks_from_csc(a, first, 2, 'block2_from_csc', b%n, b%n_groups, b%first, b%row_ptr, &
+                             b%col1, b%col2, unused_col3, b%pairs, b%val, stat, errmsg, val)
     end subroutine block2_from_csc
 
     !> y = B x for a block2_t matrix (rows of a block summed as a 2-vector, see block2_t).
@@ -506,46 +490,66 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern, read
                                                             !! in place of a%val
-        integer, allocatable :: width(:), place(:)
-        integer :: ng, nb
-        call check_groups(a, first, 3, 'block3_from_csc', stat, errmsg)
-        if (stat /= STAT_OK) return
-        ng = size(first) - 1
-        call block_layout(a, first, 3, b%row_ptr, b%col1, width, place)
-        nb = size(b%col1)
-        b%n = a%n
-        b%n_groups = ng
-        b%first = first
-        b%triples = all(first(2:) - first(:ng) == 3)
-        if (b%triples) then
-            allocate (b%col2(0), b%col3(0))
-        else
-            b%col2 = b%col1 + merge(1, 0, width >= 2)
-            b%col3 = b%col1 + merge(2, 0, width >= 3)
-        end if
-        allocate (b%val(9, nb + 1))
-        b%val = 0.0_dp
-        call scatter_values(a, place, size(b%val), b%val, val)
+        call blocks_from_csc(a, first, 3, 'block3_from_csc', b%n, b%n_groups, b%first, b%row_ptr, &
+                             b%col1, b%col2, b%col3, b%triples, b%val, stat, errmsg, val)
     end subroutine block3_from_csc
 
-    !> STAT_BAD_INPUT (message `who`: bad groups) unless `first` splits a's n dofs into
-    !> groups of 1 to w consecutive dofs: first(1) = 1, first(n_groups + 1) = n + 1.
-    subroutine check_groups(a, first, w, who, stat, errmsg)
-        type(csc_t), intent(in) :: a                        !! matrix
+    !> block2_from_csc (w = 2) and block3_from_csc (w = 3) on the components of the copy:
+    !> check that `first` splits a's n dofs into groups of 1 to w consecutive dofs
+    !> (first(1) = 1, first(n_groups + 1) = n + 1; else STAT_BAD_INPUT, message `who`: bad
+    !> groups), lay out the blocks (block_layout) and scatter the values into them. A
+    !> group of fewer than w dofs repeats its first column index (col2, col3; col3 = col1
+    !> when w = 2); both are empty when every group has w dofs. For w = 3 the values end
+    !> with a zero block (block3_t).
+    subroutine blocks_from_csc(a, first, w, who, n, n_groups, bfirst, row_ptr, col1, col2, col3, &
+                               full, bval, stat, errmsg, val)
+        type(csc_t), intent(in) :: a                        !! symmetric matrix
         integer, intent(in) :: first(:)                     !! group starts
-        integer, intent(in) :: w                            !! most dofs of a group
+        integer, intent(in) :: w                            !! most dofs of a group (block width)
         character(len=*), intent(in) :: who                 !! caller, for the message
+        integer, intent(out) :: n                           !! the copy's size
+        integer, intent(out) :: n_groups                    !! its groups
+        integer, allocatable, intent(out) :: bfirst(:)      !! its group starts (= first)
+        integer, allocatable, intent(out) :: row_ptr(:)     !! block range of each row group
+        integer, allocatable, intent(out) :: col1(:)        !! first dof of the column group
+        integer, allocatable, intent(out) :: col2(:)        !! second dof (= col1 if none)
+        integer, allocatable, intent(out) :: col3(:)        !! third dof (= col1 if none)
+        logical, intent(out) :: full                        !! every group has w dofs
+        real(dp), allocatable, intent(out) :: bval(:, :)    !! (w * w, n_blocks [+ 1]) block values
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values read in place of a%val
+        integer, allocatable :: width(:), place(:)
         integer :: ng
         stat = STAT_OK
+        n = 0
+        n_groups = 0
+        full = .false.
         ng = size(first) - 1
-        if (ng >= 1) then
-            if (first(1) == 1 .and. first(ng + 1) == a%n + 1 .and. &
-                all(first(2:) - first(:ng) >= 1) .and. all(first(2:) - first(:ng) <= w)) return
+        if (ng < 1) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, who//': bad groups')
+            return
         end if
-        call raise(stat, errmsg, STAT_BAD_INPUT, who//': bad groups')
-    end subroutine check_groups
+        if (first(1) /= 1 .or. first(ng + 1) /= a%n + 1 .or. any(first(2:) - first(:ng) < 1) &
+            .or. any(first(2:) - first(:ng) > w)) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, who//': bad groups')
+            return
+        end if
+        n = a%n
+        n_groups = ng
+        bfirst = first
+        full = all(first(2:) - first(:ng) == w)
+        call block_layout(a, first, w, row_ptr, col1, width, place)
+        if (full) then
+            allocate (col2(0), col3(0))
+        else
+            col2 = col1 + merge(1, 0, width >= 2)
+            col3 = col1 + merge(2, 0, width >= 3)
+        end if
+        allocate (bval(w * w, size(col1) + merge(1, 0, w == 3)))
+        bval = 0.0_dp
+        call scatter_values(a, place, size(bval), bval, val)
+    end subroutine blocks_from_csc
 
     !> The node-block layout of the symmetric pattern of a for the groups `first` (checked,
     !> at most w dofs each), the walk the block copies and blocks_to_csc share: a's columns
@@ -557,10 +561,10 @@ contains
         type(csc_t), intent(in) :: a                        !! symmetric pattern
         integer, intent(in) :: first(:)                     !! (n_groups + 1) group starts
         integer, intent(in) :: w                            !! block width (2 or 3)
-        integer, allocatable, intent(out) :: row_ptr(:)     !! (n_groups + 1) block range of each row group
-        integer, allocatable, intent(out) :: col1(:)        !! (n_blocks) first dof of the column group
+        integer, allocatable, intent(out) :: row_ptr(:)     !! (n_groups + 1) row groups' blocks
+        integer, allocatable, intent(out) :: col1(:)        !! (n_blocks) column group's first dof
         integer, allocatable, intent(out) :: width(:)       !! (n_blocks) dofs of the column group
-        integer, allocatable, intent(out) :: place(:)       !! (a%nnz) each entry's place in the blocks
+        integer, allocatable, intent(out) :: place(:)       !! (a%nnz) entries' places in the blocks
         integer, allocatable :: group(:), mark(:)
         integer :: ng, g, h, j, k, i, r, nb
         ng = size(first) - 1
@@ -758,7 +762,7 @@ contains
         integer, intent(in) :: nb                        !! blocks
         real(dp), intent(in) :: bval(:, :)               !! (w * w, >= nb) blocks by columns
         real(dp), allocatable, intent(out) :: s(:)       !! (nb) the scalars
-        logical, intent(inout) :: ok                     !! the form's other conditions hold; then all
+        logical, intent(inout) :: ok                     !! in: the other conditions; out: all
         integer :: e
         do e = 2, w * w
             if (.not. ok) exit
