@@ -468,6 +468,36 @@ static int range_end(const int *cnt, int n, int k0, long target, long *sum)
     return k1;
 }
 
+/* Each entry a(r, c), r <= c, of A's upper triangle goes to column k = max(pinv r, pinv c)
+ * of triu(P A P'), row min(pinv r, pinv c). For the columns k0 <= k < k1: without si,
+ * counted in at[k]; with si and sx, stored at place at[k]++ (si the row, sx the value).
+ * A's columns in order, so each column of triu(P A P') gets its entries in one order
+ * for the count and the fill. */
+static void triu_columns(const cholmod_sparse *a, const int *pinv, int k0, int k1, int *at,
+                         int *si, double *sx)
+{
+    const int *ap = a->p, *ai = a->i;
+    const double *ax = a->x;
+    int n = (int) a->ncol, c, k, p, r, pr, pc, q;
+    for (c = 0; c < n; c++) {
+        pc = pinv[c];
+        for (p = ap[c]; p < ap[c + 1]; p++) {
+            r = ai[p];
+            if (r > c) continue;
+            pr = pinv[r];
+            k = pr > pc ? pr : pc;
+            if (k < k0 || k >= k1) continue;
+            if (si == NULL) {
+                at[k]++;
+                continue;
+            }
+            q = at[k]++;
+            si[q] = pr < pc ? pr : pc;
+            sx[q] = ax[p];
+        }
+    }
+}
+
 /* The simplicial LDL' of P A P' (h->L simplicial, A's upper triangle read) as
  * cholmod_factorize makes it, with less memory. cholmod_factorize hands cholmod_rowfac
  * triu(P A P') whole (two transposes of A's upper triangle: 12 bytes an entry, alive
@@ -483,9 +513,8 @@ static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
 {
     cholmod_factor *L = h->L;
     cholmod_sparse s = *a;
-    const int *ap = a->p, *ai = a->i, *perm = L->Perm;
-    const double *ax = a->x;
-    int n = (int) L->n, c, k, k0, k1, p, r, pr, pc, q, status = CHOLMOD_OK, ok = 1;
+    const int *perm = L->Perm;
+    int n = (int) L->n, k, k0, k1, status = CHOLMOD_OK, ok = 1;
     long total = 0, target, cap = 0, sum;
     int *pinv = malloc(sizeof(int) * (size_t) n);
     int *cnt = calloc((size_t) n, sizeof(int));
@@ -496,15 +525,7 @@ static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
     if (pinv == NULL || cnt == NULL || sp == NULL) goto oom;
     for (k = 0; k < n; k++) pinv[perm[k]] = k;
     /* the entries of each column of triu(P A P') */
-    for (c = 0; c < n; c++) {
-        pc = pinv[c];
-        for (p = ap[c]; p < ap[c + 1]; p++) {
-            r = ai[p];
-            if (r > c) continue;
-            pr = pinv[r];
-            cnt[pr > pc ? pr : pc]++;
-        }
-    }
+    triu_columns(a, pinv, 0, n, cnt, NULL, NULL);
     for (k = 0; k < n; k++) total += cnt[k];
     target = total / ranges + 1;
     for (k0 = 0; k0 < n; k0 = k1) {
@@ -539,19 +560,7 @@ static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
         sp[k0] = 0;
         sp[k0 + 1] = 0;
         for (k = k0 + 1; k < k1; k++) sp[k + 1] = sp[k] + cnt[k - 1];
-        for (c = 0; c < n; c++) {
-            pc = pinv[c];
-            for (p = ap[c]; p < ap[c + 1]; p++) {
-                r = ai[p];
-                if (r > c) continue;
-                pr = pinv[r];
-                k = pr > pc ? pr : pc;
-                if (k < k0 || k >= k1) continue;
-                q = sp[k + 1]++;
-                si[q] = pr < pc ? pr : pc;
-                sx[q] = ax[p];
-            }
-        }
+        triu_columns(a, pinv, k0, k1, sp + 1, si, sx);
         for (k = k0; k < k1; k++) sort_column(sp[k + 1] - sp[k], si + sp[k], sx + sp[k]);
         ok = cholmod_rowfac(&s, NULL, beta, (size_t) k0, (size_t) k1, L, &h->c);
         h->c.grow2 = grow2;
@@ -562,6 +571,11 @@ static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
             status = h->c.status;    /* a warning (not positive definite): kept */
         }
     }
+    goto done;
+oom:
+    ok = 0;
+    h->c.status = CHOLMOD_OUT_OF_MEMORY;
+done:
     free(si);
     free(sx);
     free(sp);
@@ -574,14 +588,6 @@ static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
         return 0;
     if (status > h->c.status) h->c.status = status;
     return 1;
-oom:
-    free(si);
-    free(sx);
-    free(sp);
-    free(cnt);
-    free(pinv);
-    h->c.status = CHOLMOD_OUT_OF_MEMORY;
-    return 0;
 }
 
 /* The symbolic analysis alone (see analyse; kept for the next dc_cholmod_factor of the

@@ -341,17 +341,22 @@ contains
         f%factorizations = f%factorizations + 1
     end subroutine direct_factor
 
-    !> After a CG solve that proved a not positive definite: factorize it directly (for
-    !> the rest of the run) and say so in f%note.
-    subroutine cg_fall_back(f, a, stat, errmsg, val)
+    !> After a CG solve that returned stat: `done` unless the solve proved a not positive
+    !> definite; then a is factorized directly (for the rest of the run, said in f%note)
+    !> and `done` only when that failed (stat), else the caller solves with the factors.
+    subroutine cg_fall_back(f, a, stat, errmsg, done, val)
         type(factor_t), intent(inout) :: f                  !! solver
         type(csc_t), intent(in) :: a                        !! matrix
-        integer, intent(out) :: stat                        !! status
+        integer, intent(inout) :: stat                      !! CG's status, then the factorization's
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical, intent(out) :: done                        !! the caller returns stat
         real(dp), intent(in), optional :: val(:)            !! values on a's pattern (for a%val)
+        done = stat == STAT_OK .or. .not. f%cg%indefinite
+        if (done) return
         f%note = 'conjugate gradients met a curvature <= 0 (the matrix is not positive '// &
                  'definite): it was factorized directly'
         call direct_factor(f, a, stat, errmsg, val)
+        done = stat /= STAT_OK
     end subroutine cg_fall_back
 
     !> Solve A x = b with the factors of a (no allocation). b and x must have n entries.
@@ -366,15 +371,15 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: guess              !! x holds a first guess (CG)
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
+        logical :: done
         if (f%n /= a%n .or. f%n < 1) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'ls_solve: no factors of this matrix')
             return
         end if
         if (f%backend == BACKEND_PCG) then
             call pcg_solve(f%cg, a, b, x, stat, errmsg, guess, val)
-            if (stat == STAT_OK .or. .not. f%cg%indefinite) return
-            call cg_fall_back(f, a, stat, errmsg, val)
-            if (stat /= STAT_OK) return
+            call cg_fall_back(f, a, stat, errmsg, done, val)
+            if (done) return
         end if
         if (f%backend == BACKEND_CHOLMOD) then
             call chol_solve(f%ch, b, x, stat, errmsg)
@@ -394,6 +399,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
+        logical :: done
         if (size(b, 2) /= size(x, 2)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, &
                        'ls_solve_many: b and x have different numbers of columns')
@@ -405,9 +411,8 @@ contains
         end if
         if (f%backend == BACKEND_PCG) then
             call pcg_solve_many(f%cg, a, b, x, stat, errmsg, val)
-            if (stat == STAT_OK .or. .not. f%cg%indefinite) return
-            call cg_fall_back(f, a, stat, errmsg, val)
-            if (stat /= STAT_OK) return
+            call cg_fall_back(f, a, stat, errmsg, done, val)
+            if (done) return
         end if
         if (f%backend == BACKEND_CHOLMOD) then
             call chol_solve_many(f%ch, b, x, stat, errmsg)

@@ -91,9 +91,6 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern
-        integer :: g, i0, sz, r, c, k
-        real(dp) :: blk(3, 3), inv(3, 3)
-        logical :: ok
         call pcg_free(p)
         p%indefinite = .false.
         if (a%n < 1 .or. .not. (rtol > 0.0_dp) .or. max_iter < 1) then
@@ -101,10 +98,27 @@ contains
             return
         end if
         if (present(val)) then
-            if (size(val) < a%nnz) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, 'pcg_setup: fewer values than entries')
-                return
-            end if
+            call setup_values(p, a, val, rtol, max_iter, stat, errmsg)
+        else
+            call setup_values(p, a, a%val, rtol, max_iter, stat, errmsg)
+        end if
+    end subroutine pcg_setup
+
+    !> pcg_setup (its arguments checked) for the matrix with a's pattern and the values v.
+    subroutine setup_values(p, a, v, rtol, max_iter, stat, errmsg)
+        type(pcg_t), intent(inout) :: p                     !! solver (freed)
+        type(csc_t), intent(in) :: a                        !! the pattern
+        real(dp), intent(in) :: v(:)                        !! (a%nnz) the values
+        real(dp), intent(in) :: rtol                        !! relative residual tolerance (> 0)
+        integer, intent(in) :: max_iter                     !! iteration limit (> 0)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: g, i0, sz, r, c, k
+        real(dp) :: blk(3, 3), inv(3, 3)
+        logical :: ok
+        if (size(v) < a%nnz) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, 'pcg_setup: fewer values than entries')
+            return
         end if
         call node_groups(a, p%bs, p%ng, p%first)
         allocate (p%gof(a%n), p%binv(p%bs * p%bs, p%ng))
@@ -117,13 +131,7 @@ contains
             do c = 1, sz
                 do r = 1, sz
                     k = csc_find(a, i0 + r - 1, i0 + c - 1)
-                    if (k > 0) then
-                        if (present(val)) then
-                            blk(r, c) = val(k)
-                        else
-                            blk(r, c) = a%val(k)
-                        end if
-                    end if
+                    if (k > 0) blk(r, c) = v(k)
                 end do
             end do
             call spd_inverse(sz, blk, inv, ok)
@@ -147,8 +155,8 @@ contains
             end do
         end do
         stat = STAT_OK
-        if (p%bs == 2) call block2_from_csc(a, p%first, p%b2, stat, errmsg, val)
-        if (p%bs == 3) call block3_from_csc(a, p%first, p%b3, stat, errmsg, val)
+        if (p%bs == 2) call block2_from_csc(a, p%first, p%b2, stat, errmsg, v)
+        if (p%bs == 3) call block3_from_csc(a, p%first, p%b3, stat, errmsg, v)
         if (stat /= STAT_OK) then
             call pcg_free(p)
             return
@@ -161,7 +169,7 @@ contains
         p%loc = 0
         p%rtol = rtol
         p%max_iter = max_iter
-    end subroutine pcg_setup
+    end subroutine setup_values
 
     !> The node groups of a's pattern (module header): maximal runs of consecutive
     !> columns with the same rows, bs = the commonest run length (1 to 3; ties to the

@@ -285,67 +285,9 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern, read
                                                             !! in place of a%val
-        integer :: ng, g, h, j, k, i, r, c, nb, slot
-        integer, allocatable :: group(:), mark(:)
-        stat = STAT_OK
-        ng = size(first) - 1
-        if (ng < 1 .or. first(1) /= 1 .or. first(ng + 1) /= a%n + 1 .or. &
-            any(first(2:) - first(:ng) < 1) .or. any(first(2:) - first(:ng) > 2)) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'block2_from_csc: bad groups')
-            return
-        end if
-        allocate (group(a%n), mark(ng))
-        do g = 1, ng
-            group(first(g):first(g + 1) - 1) = g
-        end do
-        b%n = a%n
-        b%n_groups = ng
-        b%first = first
-        b%pairs = all(first(2:) - first(:ng) == 2)
-        allocate (b%row_ptr(ng + 1))
-        ! count blocks per row group (A symmetric: column j of A is row j)
-        mark = 0
-        nb = 0
-        b%row_ptr(1) = 1
-        do g = 1, ng
-            do j = first(g), first(g + 1) - 1
-                do k = a%colptr(j) + 1, a%colptr(j + 1)
-                    h = group(a%rowind(k) + 1)
-                    if (mark(h) /= g) then
-                        mark(h) = g
-                        nb = nb + 1
-                    end if
-                end do
-            end do
-            b%row_ptr(g + 1) = nb + 1
-        end do
-        allocate (b%col1(nb), b%col2(merge(0, nb, b%pairs)), b%val(4, nb))
-        b%val = 0.0_dp
-        mark = 0
-        nb = 0
-        do g = 1, ng
-            do j = first(g), first(g + 1) - 1
-                r = j - first(g)
-                do k = a%colptr(j) + 1, a%colptr(j + 1)
-                    i = a%rowind(k) + 1
-                    h = group(i)
-                    if (mark(h) < b%row_ptr(g)) then
-                        nb = nb + 1
-                        mark(h) = nb
-                        b%col1(nb) = first(h)
-                        if (.not. b%pairs) b%col2(nb) = first(h + 1) - 1
-                    end if
-                    slot = mark(h)
-                    c = i - first(h)
-                    ! row r of group g, column c of group h (A(j, i) = A(i, j))
-                    if (present(val)) then
-                        b%val(1 + r + 2 * c, slot) = val(k)
-                    else
-                        b%val(1 + r + 2 * c, slot) = a%val(k)
-                    end if
-                end do
-            end do
-        end do
+        integer, allocatable :: unused_col3(:)
+        call blocks_from_csc(a, first, 2, 'block2_from_csc', b%n, b%n_groups, b%first, b%row_ptr, &
+                             b%col1, b%col2, unused_col3, b%pairs, b%val, stat, errmsg, val)
     end subroutine block2_from_csc
 
     !> y = B x for a block2_t matrix (rows of a block summed as a 2-vector, see block2_t).
@@ -448,13 +390,7 @@ contains
         real(dp), allocatable, intent(out) :: s(:)       !! (n_blocks) the scalars
         logical, intent(out) :: ok                       !! b has that form
         ok = b%n_groups > 0 .and. b%pairs
-        if (ok) ok = all(b%val(2, :) == 0.0_dp) .and. all(b%val(3, :) == 0.0_dp) .and. &
-                     all(b%val(1, :) == b%val(4, :))
-        if (ok) then
-            s = b%val(1, :)
-        else
-            allocate (s(0))
-        end if
+        call scalar_blocks(2, size(b%col1), b%val, s, ok)
     end subroutine block2_scalar_blocks
 
     !> kx = K x and mv = M v in one pass, M = blocks ms(k) I on the block pattern of kb
@@ -554,31 +490,92 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values on a's pattern, read
                                                             !! in place of a%val
-        integer :: ng, g, h, j, k, i, r, c, nb, slot, sz
-        integer, allocatable :: group(:), mark(:)
+        call blocks_from_csc(a, first, 3, 'block3_from_csc', b%n, b%n_groups, b%first, b%row_ptr, &
+                             b%col1, b%col2, b%col3, b%triples, b%val, stat, errmsg, val)
+    end subroutine block3_from_csc
+
+    !> block2_from_csc (w = 2) and block3_from_csc (w = 3) on the components of the copy:
+    !> check that `first` splits a's n dofs into groups of 1 to w consecutive dofs
+    !> (first(1) = 1, first(n_groups + 1) = n + 1; else STAT_BAD_INPUT, message `who`: bad
+    !> groups), lay out the blocks (block_layout) and scatter the values into them. A
+    !> group of fewer than w dofs repeats its first column index (col2, col3; col3 = col1
+    !> when w = 2); both are empty when every group has w dofs. For w = 3 the values end
+    !> with a zero block (block3_t).
+    subroutine blocks_from_csc(a, first, w, who, n, n_groups, bfirst, row_ptr, col1, col2, col3, &
+                               full, bval, stat, errmsg, val)
+        type(csc_t), intent(in) :: a                        !! symmetric matrix
+        integer, intent(in) :: first(:)                     !! group starts
+        integer, intent(in) :: w                            !! most dofs of a group (block width)
+        character(len=*), intent(in) :: who                 !! caller, for the message
+        integer, intent(out) :: n                           !! the copy's size
+        integer, intent(out) :: n_groups                    !! its groups
+        integer, allocatable, intent(out) :: bfirst(:)      !! its group starts (= first)
+        integer, allocatable, intent(out) :: row_ptr(:)     !! block range of each row group
+        integer, allocatable, intent(out) :: col1(:)        !! first dof of the column group
+        integer, allocatable, intent(out) :: col2(:)        !! second dof (= col1 if none)
+        integer, allocatable, intent(out) :: col3(:)        !! third dof (= col1 if none)
+        logical, intent(out) :: full                        !! every group has w dofs
+        real(dp), allocatable, intent(out) :: bval(:, :)    !! (w * w, n_blocks [+ 1]) block values
+        integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values read in place of a%val
+        integer, allocatable :: width(:), place(:)
+        integer :: ng
         stat = STAT_OK
+        n = 0
+        n_groups = 0
+        full = .false.
         ng = size(first) - 1
         if (ng < 1) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'block3_from_csc: bad groups')
+            call raise(stat, errmsg, STAT_BAD_INPUT, who//': bad groups')
             return
         end if
-        if (first(1) /= 1 .or. first(ng + 1) /= a%n + 1 .or. &
-            any(first(2:) - first(:ng) < 1) .or. any(first(2:) - first(:ng) > 3)) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, 'block3_from_csc: bad groups')
+        if (first(1) /= 1 .or. first(ng + 1) /= a%n + 1 .or. any(first(2:) - first(:ng) < 1) &
+            .or. any(first(2:) - first(:ng) > w)) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, who//': bad groups')
             return
         end if
-        allocate (group(a%n), mark(ng))
+        n = a%n
+        n_groups = ng
+        bfirst = first
+        full = all(first(2:) - first(:ng) == w)
+        call block_layout(a, first, w, row_ptr, col1, width, place)
+        if (full) then
+            allocate (col2(0), col3(0))
+        else
+            col2 = col1 + merge(1, 0, width >= 2)
+            col3 = col1 + merge(2, 0, width >= 3)
+        end if
+        allocate (bval(w * w, size(col1) + merge(1, 0, w == 3)))
+        bval = 0.0_dp
+        call scatter_values(a, place, size(bval), bval, val)
+    end subroutine blocks_from_csc
+
+    !> The node-block layout of the symmetric pattern of a for the groups `first` (checked,
+    !> at most w dofs each), the walk the block copies and blocks_to_csc share: a's columns
+    !> by row groups, a row group's blocks numbered as their column groups are met. Block
+    !> k holds rows of its row group and columns col1(k) .. col1(k) + width(k) - 1; entry e
+    !> of a (column j, row i: A(j, i) = A(i, j)) is entry place(e) of the blocks' values
+    !> stored block after block, each w x w by columns.
+    pure subroutine block_layout(a, first, w, row_ptr, col1, width, place)
+        type(csc_t), intent(in) :: a                        !! symmetric pattern
+        integer, intent(in) :: first(:)                     !! (n_groups + 1) group starts
+        integer, intent(in) :: w                            !! block width (2 or 3)
+        integer, allocatable, intent(out) :: row_ptr(:)     !! (n_groups + 1) row groups' blocks
+        integer, allocatable, intent(out) :: col1(:)        !! (n_blocks) column group's first dof
+        integer, allocatable, intent(out) :: width(:)       !! (n_blocks) dofs of the column group
+        integer, allocatable, intent(out) :: place(:)       !! (a%nnz) entries' places in the blocks
+        integer, allocatable :: group(:), mark(:)
+        integer :: ng, g, h, j, k, i, r, nb
+        ng = size(first) - 1
+        allocate (group(a%n), mark(ng), row_ptr(ng + 1), place(a%nnz))
         do g = 1, ng
             group(first(g):first(g + 1) - 1) = g
         end do
-        b%n = a%n
-        b%n_groups = ng
-        b%first = first
-        b%triples = all(first(2:) - first(:ng) == 3)
-        allocate (b%row_ptr(ng + 1))
+        ! count blocks per row group (A symmetric: column j of A is row j)
         mark = 0
         nb = 0
-        b%row_ptr(1) = 1
+        row_ptr(1) = 1
         do g = 1, ng
             do j = first(g), first(g + 1) - 1
                 do k = a%colptr(j) + 1, a%colptr(j + 1)
@@ -589,76 +586,9 @@ contains
                     end if
                 end do
             end do
-            b%row_ptr(g + 1) = nb + 1
+            row_ptr(g + 1) = nb + 1
         end do
-        allocate (b%col1(nb), b%col2(merge(0, nb, b%triples)), b%col3(merge(0, nb, b%triples)), &
-                  b%val(9, nb + 1))
-        b%val = 0.0_dp
-        mark = 0
-        nb = 0
-        do g = 1, ng
-            do j = first(g), first(g + 1) - 1
-                r = j - first(g)
-                do k = a%colptr(j) + 1, a%colptr(j + 1)
-                    i = a%rowind(k) + 1
-                    h = group(i)
-                    if (mark(h) < b%row_ptr(g)) then
-                        nb = nb + 1
-                        mark(h) = nb
-                        sz = first(h + 1) - first(h)
-                        b%col1(nb) = first(h)
-                        if (.not. b%triples) then
-                            b%col2(nb) = first(h) + merge(1, 0, sz >= 2)
-                            b%col3(nb) = first(h) + merge(2, 0, sz >= 3)
-                        end if
-                    end if
-                    slot = mark(h)
-                    c = i - first(h)
-                    ! row r of group g, column c of group h (A(j, i) = A(i, j))
-                    if (present(val)) then
-                        b%val(1 + r + 3 * c, slot) = val(k)
-                    else
-                        b%val(1 + r + 3 * c, slot) = a%val(k)
-                    end if
-                end do
-            end do
-        end do
-    end subroutine block3_from_csc
-
-    !> The values on a's pattern of the matrix whose node-block copy is b (block2_from_csc
-    !> of a matrix with a's pattern): the copy read back entry by entry, the same numbers.
-    !> A matrix kept in blocks needs no CSC values of its own. O(nnz).
-    subroutine block2_csc_values(a, b, val)
-        type(csc_t), intent(in) :: a        !! the pattern b was copied from
-        type(block2_t), intent(in) :: b     !! the block copy
-        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
-        call blocks_to_csc(a, b%first, b%row_ptr, b%val, 2, val)
-    end subroutine block2_csc_values
-
-    !> block2_csc_values for a 3x3 node-block copy (block3_from_csc).
-    subroutine block3_csc_values(a, b, val)
-        type(csc_t), intent(in) :: a        !! the pattern b was copied from
-        type(block3_t), intent(in) :: b     !! the block copy
-        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
-        call blocks_to_csc(a, b%first, b%row_ptr, b%val, 3, val)
-    end subroutine block3_csc_values
-
-    !> The inverse of the copies' second pass: the same walk (a's columns by row groups,
-    !> the blocks of a row group numbered as they are met), each entry read from its slot.
-    subroutine blocks_to_csc(a, first, row_ptr, bval, w, val)
-        type(csc_t), intent(in) :: a            !! pattern
-        integer, intent(in) :: first(:)         !! (n_groups + 1) group starts
-        integer, intent(in) :: row_ptr(:)       !! (n_groups + 1) block range of each row group
-        real(dp), intent(in) :: bval(:, :)      !! (w * w, n_blocks) block values by columns
-        integer, intent(in) :: w                !! block width (2 or 3)
-        real(dp), intent(out) :: val(:)         !! (a%nnz) values
-        integer, allocatable :: group(:), mark(:)
-        integer :: ng, g, j, k, i, h, r, nb
-        ng = size(first) - 1
-        allocate (group(a%n), mark(ng))
-        do g = 1, ng
-            group(first(g):first(g + 1) - 1) = g
-        end do
+        allocate (col1(nb), width(nb))
         mark = 0
         nb = 0
         do g = 1, ng
@@ -670,11 +600,60 @@ contains
                     if (mark(h) < row_ptr(g)) then
                         nb = nb + 1
                         mark(h) = nb
+                        col1(nb) = first(h)
+                        width(nb) = first(h + 1) - first(h)
                     end if
-                    val(k) = bval(1 + r + w * (i - first(h)), mark(h))
+                    ! row r of group g, column i - first(h) of group h
+                    place(k) = w * w * (mark(h) - 1) + 1 + r + w * (i - first(h))
                 end do
             end do
         end do
+    end subroutine block_layout
+
+    !> bval(place(e)) = entry e of the values on a's pattern: val when given, else a%val.
+    pure subroutine scatter_values(a, place, nv, bval, val)
+        type(csc_t), intent(in) :: a                        !! the pattern (and its values)
+        integer, intent(in) :: place(:)                     !! (a%nnz) places (block_layout)
+        integer, intent(in) :: nv                           !! size of bval
+        real(dp), intent(inout) :: bval(nv)                 !! blocks' values, block after block
+        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values read in place of a%val
+        if (present(val)) then
+            bval(place) = val(1:a%nnz)
+        else
+            bval(place) = a%val(1:a%nnz)
+        end if
+    end subroutine scatter_values
+
+    !> The values on a's pattern of the matrix whose node-block copy is b (block2_from_csc
+    !> of a matrix with a's pattern): the copy read back entry by entry, the same numbers.
+    !> A matrix kept in blocks needs no CSC values of its own. O(nnz).
+    subroutine block2_csc_values(a, b, val)
+        type(csc_t), intent(in) :: a        !! the pattern b was copied from
+        type(block2_t), intent(in) :: b     !! the block copy
+        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
+        call blocks_to_csc(a, b%first, size(b%val), b%val, 2, val)
+    end subroutine block2_csc_values
+
+    !> block2_csc_values for a 3x3 node-block copy (block3_from_csc).
+    subroutine block3_csc_values(a, b, val)
+        type(csc_t), intent(in) :: a        !! the pattern b was copied from
+        type(block3_t), intent(in) :: b     !! the block copy
+        real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
+        call blocks_to_csc(a, b%first, size(b%val), b%val, 3, val)
+    end subroutine block3_csc_values
+
+    !> The inverse of the copies' scatter: each entry of a read from its place in the
+    !> blocks (block_layout's walk).
+    subroutine blocks_to_csc(a, first, nv, bval, w, val)
+        type(csc_t), intent(in) :: a            !! pattern
+        integer, intent(in) :: first(:)         !! (n_groups + 1) group starts
+        integer, intent(in) :: nv               !! size of bval
+        real(dp), intent(in) :: bval(nv)        !! (w * w, n_blocks) block values by columns
+        integer, intent(in) :: w                !! block width (2 or 3)
+        real(dp), intent(out) :: val(:)         !! (a%nnz) values
+        integer, allocatable :: row_ptr(:), col1(:), width(:), place(:)
+        call block_layout(a, first, w, row_ptr, col1, width, place)
+        val(1:a%nnz) = bval(place)
     end subroutine blocks_to_csc
 
     !> y = B x for a block3_t matrix (rows of a block summed as a 3-vector, see block3_t).
@@ -771,17 +750,34 @@ contains
         type(block3_t), intent(in) :: b                  !! matrix
         real(dp), allocatable, intent(out) :: s(:)       !! (n_blocks) the scalars
         logical, intent(out) :: ok                       !! b has that form
-        integer :: nb
         ok = b%n_groups > 0 .and. b%triples
-        nb = size(b%col1)
-        if (ok) ok = all(b%val(2:4, :nb) == 0.0_dp) .and. all(b%val(6:8, :nb) == 0.0_dp) .and. &
-                     all(b%val(1, :nb) == b%val(5, :nb)) .and. all(b%val(1, :nb) == b%val(9, :nb))
+        call scalar_blocks(3, size(b%col1), b%val, s, ok)
+    end subroutine block3_scalar_blocks
+
+    !> The scalars s of the first nb w x w blocks of bval when `ok` on entry and every
+    !> one of them is s I (entries off the diagonal zero, diagonal entries equal); else
+    !> ok false and s empty. block2_scalar_blocks and block3_scalar_blocks.
+    pure subroutine scalar_blocks(w, nb, bval, s, ok)
+        integer, intent(in) :: w                         !! block width (2 or 3)
+        integer, intent(in) :: nb                        !! blocks
+        real(dp), intent(in) :: bval(:, :)               !! (w * w, >= nb) blocks by columns
+        real(dp), allocatable, intent(out) :: s(:)       !! (nb) the scalars
+        logical, intent(inout) :: ok                     !! in: the other conditions; out: all
+        integer :: e
+        do e = 2, w * w
+            if (.not. ok) exit
+            if (mod(e - 1, w + 1) == 0) then   ! a diagonal entry (row = column)
+                ok = all(bval(e, :nb) == bval(1, :nb))
+            else
+                ok = all(bval(e, :nb) == 0.0_dp)
+            end if
+        end do
         if (ok) then
-            s = b%val(1, :nb)
+            s = bval(1, :nb)
         else
             allocate (s(0))
         end if
-    end subroutine block3_scalar_blocks
+    end subroutine scalar_blocks
 
     !> kx = K x and mv = M v in one pass, M = blocks ms(k) I on the block pattern of kb
     !> (see block3_scalar_blocks). kx is bitwise equal to block3_matvec's.

@@ -8,7 +8,8 @@ program test_sparse
     use sparse, only: csc_t, csc_from_coo, csc_find, csc_matvec, csc_matvec_t, &
                       csc_drop_zeros, block2_t, block2_from_csc, block2_matvec, &
                       block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, block2_matvec_ks3, &
-                      block2_csc_values, block3_t, block3_from_csc, block3_csc_values
+                      block2_csc_values, block3_t, block3_from_csc, block3_csc_values, &
+                      block3_scalar_blocks
     use unit_checks, only: checks_t, seed
     implicit none
 
@@ -22,6 +23,8 @@ program test_sparse
     call test_drop_zeros()
     call test_block2()
     call test_block2_fused()
+    call test_scalar_blocks(2)
+    call test_scalar_blocks(3)
 
     call checks%finish('test_sparse')
 
@@ -212,6 +215,61 @@ contains
         call block2_from_csc(a, [1, 4, n + 1], b, stat)
         call checks%check(stat == STAT_BAD_INPUT, 'block2: a group of 3 dofs is refused')
     end subroutine test_block2
+
+    !> block2_scalar_blocks / block3_scalar_blocks (w = 2, 3) on S (x) I_w, two nodes, S a
+    !> symmetric 2 x 2 of nonzero entries: scalar blocks found, the scalars S's entries in
+    !> block order; then a value off the diagonal of a block, or one diagonal entry
+    !> changed, makes the form fail.
+    subroutine test_scalar_blocks(w)
+        integer, intent(in) :: w                     !! node block width
+        real(dp), parameter :: sm(2, 2) = reshape([4.0_dp, -1.0_dp, -1.0_dp, 3.0_dp], [2, 2])
+        integer :: r(4 * w * w), c(4 * w * w), n, k, i, j, p, q, stat, variant
+        real(dp) :: v(4 * w * w)
+        real(dp), allocatable :: s(:)
+        type(csc_t) :: a
+        type(block2_t) :: b2
+        type(block3_t) :: b3
+        character(len=16) :: what
+        logical :: ok
+        n = 2 * w
+        write (what, '(a, i0, a)') 'scalar blocks ', w, ':'
+        do variant = 0, 2
+            k = 0
+            do j = 1, n
+                do i = 1, n
+                    k = k + 1
+                    p = (i - 1) / w + 1
+                    q = (j - 1) / w + 1
+                    r(k) = i
+                    c(k) = j
+                    v(k) = 0.0_dp
+                    if (mod(i - 1, w) == mod(j - 1, w)) v(k) = sm(p, q)
+                    ! variant 1: a12 = a21 = 0.5 in the first diagonal block
+                    if (variant == 1 .and. ((i == 1 .and. j == 2) .or. (i == 2 .and. j == 1))) &
+                        v(k) = 0.5_dp
+                    ! variant 2: the last diagonal entry of the first block changed
+                    if (variant == 2 .and. i == w .and. j == w) v(k) = 5.0_dp
+                end do
+            end do
+            call csc_from_coo(n, r, c, v, a, stat)
+            if (w == 2) then
+                call block2_from_csc(a, [1, 3, 5], b2, stat)
+                call block2_scalar_blocks(b2, s, ok)
+            else
+                call block3_from_csc(a, [1, 4, 7], b3, stat)
+                call block3_scalar_blocks(b3, s, ok)
+            end if
+            call checks%check(stat == STAT_OK, trim(what)//' build')
+            if (variant == 0) then
+                call checks%check(ok .and. size(s) == 4, trim(what)//' S (x) I found')
+                if (ok .and. size(s) == 4) &
+                    call checks%check(all(s == [sm(1, 1), sm(2, 1), sm(1, 2), sm(2, 2)]), &
+                                      trim(what)//' the scalars are S''s entries')
+            else
+                call checks%check(.not. ok .and. size(s) == 0, trim(what)//' a non-scalar block refused')
+            end if
+        end do
+    end subroutine test_scalar_blocks
 
     !> block3_csc_values gives back a's values bitwise (groups of one to three dofs).
     subroutine check_block3_values(a)
