@@ -377,7 +377,7 @@ contains
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message naming the missing group
         integer, allocatable :: groups(:)
-        integer :: k, g, f, c
+        integer :: k, g
         logical :: found
 
         call parse_group_list(this, names, groups, stat, errmsg)
@@ -390,18 +390,8 @@ contains
         do k = 1, size(groups)
             g = groups(k)
             found = .false.
-            do f = 1, this%n_facets
-                if (this%facet_group(f) == g) then
-                    mask(this%facets(:, f)) = .true.
-                    found = .true.
-                end if
-            end do
-            do c = 1, this%n_cells
-                if (this%cell_group(c) == g) then
-                    mask(this%cells(:, c)) = .true.
-                    found = .true.
-                end if
-            end do
+            call mark_group_nodes(this%facets, this%facet_group, g, mask, found)
+            call mark_group_nodes(this%cells, this%cell_group, g, mask, found)
             if (.not. found) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, &
                            "group '"//trim(this%group_name(g))// &
@@ -410,6 +400,23 @@ contains
             end if
         end do
     end subroutine mesh_group_nodes
+
+    !> mask = .true. on the nodes of the elements (facets or cells) of group g; found
+    !> becomes .true. if there is one.
+    pure subroutine mark_group_nodes(elements, element_group, g, mask, found)
+        integer, intent(in) :: elements(:, :)       !! (nodes per element, elements) node numbers
+        integer, intent(in) :: element_group(:)     !! (elements) group of each
+        integer, intent(in) :: g                    !! the group
+        logical, intent(inout) :: mask(:)           !! (n_nodes) marked nodes
+        logical, intent(inout) :: found             !! set when group g has an element here
+        integer :: e
+        do e = 1, size(elements, 2)
+            if (element_group(e) == g) then
+                mask(elements(:, e)) = .true.
+                found = .true.
+            end if
+        end do
+    end subroutine mark_group_nodes
 
     !> Indices (into facets(:, :)) of the facets of the comma-separated groups `names`,
     !> each facet once. Errors as mesh_group_nodes. A facet stored for several of
