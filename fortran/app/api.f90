@@ -71,9 +71,10 @@ end subroutine dc_scene_text
 !> ('' = the scene's &output dir) unless build_only /= 0.
 subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, elements, &
                        contact_facets, stat, errmsg)
-    use iso_c_binding, only: c_int, c_int64_t, c_loc
+    use iso_c_binding, only: c_int, c_int64_t
     use errors, only: STAT_OK
-    use simulation, only: simulation_t, sim_open
+    use simulation, only: simulation_t
+    use api_handles, only: sim_open_handle
     implicit none
     character(len=*), intent(in) :: path         !! scene file
     character(len=*), intent(in) :: out_dir      !! output folder override
@@ -88,20 +89,14 @@ subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, element
     type(simulation_t), pointer :: sim
     integer :: st
     errmsg = ''
-    handle = 0
     n_steps = 0; dofs = 0; elements = 0; contact_facets = 0
-    allocate (sim)
-    call sim_open(sim, path, out_dir, build_only == 0, st, errmsg)
+    call sim_open_handle(path, out_dir, build_only == 0, handle, sim, st, errmsg)
     stat = st
-    if (st /= STAT_OK) then
-        deallocate (sim)
-        return
-    end if
+    if (st /= STAT_OK) return
     n_steps = int(min(sim%n_steps, int(huge(n_steps), kind(sim%n_steps))), c_int)  ! full count: dc_sim_info
     dofs = sim%n_dofs
     elements = sim%n_cells
     contact_facets = sim%n_contact
-    handle = transfer(c_loc(sim), handle)
 end subroutine dc_sim_open
 
 !> Advance a run by at most max_steps steps.
@@ -536,15 +531,14 @@ end subroutine dc_mesh_sizes
 
 !> Release a mesh of dc_mesh_sizes without copying it (0 is ignored).
 subroutine dc_mesh_free(handle)
-    use iso_c_binding, only: c_int64_t, c_ptr, c_f_pointer
+    use iso_c_binding, only: c_int64_t
     use mesh, only: mesh_t
+    use api_handles, only: mesh_from_handle
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! from dc_mesh_sizes
     type(mesh_t), pointer :: msh
-    type(c_ptr) :: p
     if (handle == 0) return
-    p = transfer(handle, p)
-    call c_f_pointer(p, msh)
+    call mesh_from_handle(handle, msh)
     deallocate (msh)
 end subroutine dc_mesh_free
 
@@ -552,8 +546,9 @@ end subroutine dc_mesh_free
 !> are joined by ','.
 subroutine dc_mesh_arrays(handle, dim, n_nodes, n_cells, n_facets, n_groups, x, cells, &
                           cell_group, facets, facet_group, group_dim, group_names, stat, errmsg)
-    use iso_c_binding, only: c_int, c_int64_t, c_double, c_ptr, c_f_pointer
+    use iso_c_binding, only: c_int, c_int64_t, c_double
     use mesh, only: mesh_t
+    use api_handles, only: mesh_from_handle
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! from dc_mesh_sizes
     integer(c_int), intent(in) :: dim            !! mesh dimension
@@ -571,7 +566,6 @@ subroutine dc_mesh_arrays(handle, dim, n_nodes, n_cells, n_facets, n_groups, x, 
     integer(c_int), intent(out) :: stat          !! status
     character(len=512), intent(out) :: errmsg    !! message
     type(mesh_t), pointer :: msh
-    type(c_ptr) :: p
     integer :: g
     errmsg = ''
     group_names = ''
@@ -582,8 +576,7 @@ subroutine dc_mesh_arrays(handle, dim, n_nodes, n_cells, n_facets, n_groups, x, 
         errmsg = 'dc_mesh_arrays: no mesh (handle 0)'
         return
     end if
-    p = transfer(handle, p)
-    call c_f_pointer(p, msh)
+    call mesh_from_handle(handle, msh)
     if (msh%dim /= dim .or. msh%n_nodes /= n_nodes .or. msh%n_cells /= n_cells .or. &
         msh%n_facets /= n_facets .or. msh%n_groups /= n_groups) then
         stat = 4
@@ -725,9 +718,10 @@ end subroutine dc_sim_info
 !> Open a run that continues from the checkpoint in restart_dir (its output folder):
 !> as dc_sim_open with outputs, and the step it restarts at.
 subroutine dc_sim_open_restart(path, restart_dir, handle, n_steps, step, stat, errmsg)
-    use iso_c_binding, only: c_int, c_int64_t, c_loc
+    use iso_c_binding, only: c_int, c_int64_t
     use errors, only: STAT_OK
-    use simulation, only: simulation_t, sim_open
+    use simulation, only: simulation_t
+    use api_handles, only: sim_open_handle
     implicit none
     character(len=*), intent(in) :: path         !! scene file
     character(len=*), intent(in) :: restart_dir  !! folder holding checkpoint.bin
@@ -739,18 +733,12 @@ subroutine dc_sim_open_restart(path, restart_dir, handle, n_steps, step, stat, e
     type(simulation_t), pointer :: sim
     integer :: st
     errmsg = ''
-    handle = 0
     n_steps = 0; step = 0
-    allocate (sim)
-    call sim_open(sim, path, '', .true., st, errmsg, restart=restart_dir)
+    call sim_open_handle(path, '', .true., handle, sim, st, errmsg, restart=restart_dir)
     stat = st
-    if (st /= STAT_OK) then
-        deallocate (sim)
-        return
-    end if
+    if (st /= STAT_OK) return
     n_steps = sim%n_steps
     step = sim%step
-    handle = transfer(c_loc(sim), handle)
 end subroutine dc_sim_open_restart
 
 !> Save the state of an open run (and its counters) to a checkpoint file.

@@ -1,8 +1,8 @@
-!> Helpers of the flat API (api.f90): handle <-> simulation pointer, and the hooks the
+!> Helpers of the flat API (api.f90): handle <-> simulation or mesh pointer, and the hooks the
 !> tests and the benchmark use on an open run (B(u), B'(u) du, the static solution,
 !> the dof map, the cost floors of a step). The run itself is in module simulation.
 module api_handles
-    use iso_c_binding, only: c_int64_t, c_ptr, c_f_pointer
+    use iso_c_binding, only: c_int64_t, c_ptr, c_f_pointer, c_loc
     use kinds, only: dp, i8
     use errors, only: STAT_OK
     use model, only: model_eval_b, model_apply_jacobian, model_stiff_apply
@@ -12,11 +12,12 @@ module api_handles
     use mass_solver, only: mass_solver_t, mass_solver_apply
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, BACKEND_CHOLMOD
     use cholmod, only: cholmod_t, chol_factor, chol_solve_cholmod, chol_free
-    use simulation, only: simulation_t
+    use simulation, only: simulation_t, sim_open
+    use mesh, only: mesh_t
     implicit none
     private
-    public :: sim_from_handle, sim_bench_floor, sim_eval_b, sim_apply_jacobian, sim_static, &
-              sim_dof_map
+    public :: sim_from_handle, sim_open_handle, mesh_from_handle, sim_bench_floor, sim_eval_b, &
+              sim_apply_jacobian, sim_static, sim_dof_map
 
 contains
 
@@ -28,6 +29,36 @@ contains
         p = transfer(handle, p)
         call c_f_pointer(p, sim)
     end subroutine sim_from_handle
+
+    !> Open a run on the heap (sim_open with these arguments) behind an opaque handle
+    !> for sim_from_handle; on failure the run is freed and the handle is 0.
+    subroutine sim_open_handle(path, out_dir, write_output, handle, sim, stat, errmsg, restart)
+        character(len=*), intent(in) :: path                !! scene file
+        character(len=*), intent(in) :: out_dir             !! output folder override ('' = scene's)
+        logical, intent(in) :: write_output                 !! .false.: build the model only
+        integer(c_int64_t), intent(out) :: handle           !! the run's handle (0 on error)
+        type(simulation_t), pointer, intent(out) :: sim     !! the run (null on error)
+        integer, intent(out) :: stat                        !! sim_open's status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=*), intent(in), optional :: restart   !! checkpoint folder (sim_open)
+        handle = 0
+        allocate (sim)
+        call sim_open(sim, path, out_dir, write_output, stat, errmsg, restart=restart)
+        if (stat /= STAT_OK) then
+            deallocate (sim)
+            return
+        end if
+        handle = transfer(c_loc(sim), handle)
+    end subroutine sim_open_handle
+
+    !> The mesh behind an opaque handle made by dc_mesh_sizes.
+    subroutine mesh_from_handle(handle, msh)
+        integer(c_int64_t), intent(in) :: handle          !! handle (not 0)
+        type(mesh_t), pointer, intent(out) :: msh         !! the mesh
+        type(c_ptr) :: p
+        p = transfer(handle, p)
+        call c_f_pointer(p, msh)
+    end subroutine mesh_from_handle
 
     !> Cost floors of a run's step, in microseconds (mean over n_rep repetitions):
     !> one triangular solve with the cached factors of the iteration matrix (implicit
@@ -53,7 +84,7 @@ contains
             call model_stiff_apply(sim%mdl, b, x)
         end do
         call system_clock(c1)
-        t_spmv = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        t_spmv = us_per_rep()
         if (.not. allocated(sim%scheme)) return
         select type (s => sim%scheme)
         type is (implicit_scheme_t)
@@ -62,7 +93,7 @@ contains
                 call ls_solve(s%lu0, sim%mdl%stiff, b, x, st, val=s%jac0)
             end do
             call system_clock(c1)
-            t_solve = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+            t_solve = us_per_rep()
             ! cholmod_solve2 on the same factor: CHOLMOD's copy is released when the run
             ! solves on the block copy, so the floor factorizes J0 once more, keeping it
             ! (the same analysis and ordering: the same factor)
@@ -77,7 +108,7 @@ contains
                             call chol_solve_cholmod(ch, b, x, st)
                         end do
                         call system_clock(c1)
-                        t_cholmod = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+                        t_cholmod = us_per_rep()
                     end if
                     call chol_free(ch)
                 end block
@@ -99,8 +130,13 @@ contains
                 call mass_solver_apply(ms, b, x, st)
             end do
             call system_clock(c1)
-            t = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+            t = us_per_rep()
         end function mass_apply_us
+
+        !> us per repetition between the clock readings c0 and c1.
+        real(dp) function us_per_rep()
+            us_per_rep = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
+        end function us_per_rep
     end subroutine sim_bench_floor
 
     !> b = B(u) on the free dofs; active = active contact quadrature points.

@@ -42,17 +42,9 @@ program main
             write (*, '(a)') 'dyncontact '//DYNCONTACT_VERSION
             call c_exit(0_c_int)
         case ('--out')
-            if (i == nargs) call fail(STAT_BAD_INPUT, '--out needs a folder ('//USAGE//')')
-            i = i + 1
-            arg = argument(i)
-            if (len(arg) == 0) call fail(STAT_BAD_INPUT, '--out: empty folder name')
-            out_dir = arg
+            call folder_argument('--out', i, out_dir)
         case ('--restart')
-            if (i == nargs) call fail(STAT_BAD_INPUT, '--restart needs a folder ('//USAGE//')')
-            i = i + 1
-            arg = argument(i)
-            if (len(arg) == 0) call fail(STAT_BAD_INPUT, '--restart: empty folder name')
-            restart_dir = arg
+            call folder_argument('--restart', i, restart_dir)
         case default
             if (len(arg) > 1) then
                 if (arg(1:1) == '-') call fail(STAT_BAD_INPUT, 'unknown option '//arg//' ('//USAGE//')')
@@ -111,6 +103,20 @@ contains
         allocate (character(len=n) :: a)
         if (n > 0) call get_command_argument(k, a)
     end function argument
+
+    !> The folder named after `option` (argument k): k moves on to it. A missing or empty
+    !> folder name stops the program.
+    subroutine folder_argument(option, k, dir)
+        character(len=*), intent(in) :: option   !! '--out' or '--restart'
+        integer, intent(inout) :: k              !! the option's argument number, then the folder's
+        character(len=*), intent(out) :: dir     !! the folder
+        character(len=:), allocatable :: a
+        if (k == nargs) call fail(STAT_BAD_INPUT, option//' needs a folder ('//USAGE//')')
+        k = k + 1
+        a = argument(k)
+        if (len(a) == 0) call fail(STAT_BAD_INPUT, option//': empty folder name')
+        dir = a
+    end subroutine folder_argument
 
     !> Print the model's warnings and notes, one line each, on stderr.
     subroutine print_warnings(notes)

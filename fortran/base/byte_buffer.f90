@@ -63,22 +63,18 @@ contains
         if (.not. can_read) b%bad = .true.
     end function can_read
 
-    !> Append a 64-bit integer.
+    !> Append a 64-bit integer (its 8 bytes).
     subroutine put_i8(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer(i8), intent(in) :: x              !! value
-        character(len=8) :: s
-        s = transfer(x, s)
-        call put_bytes(b, s)
+        call put_bytes(b, transfer(x, repeat(' ', 8)))
     end subroutine put_i8
 
-    !> Append a real.
+    !> Append a real (its 8 bytes).
     subroutine put_real(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(in) :: x                 !! value
-        character(len=8) :: s
-        s = transfer(x, s)
-        call put_bytes(b, s)
+        call put_bytes(b, transfer(x, repeat(' ', 8)))
     end subroutine put_real
 
     !> Append an integer array (its count first).

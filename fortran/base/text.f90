@@ -12,7 +12,7 @@ module text
         module procedure int_text_default, int_text_i8
     end interface int_text
 
-    public :: int_text, real_text, utf8_len, lower, env_text
+    public :: int_text, real_text, utf8_len, lower, env_text, json_string
 
 contains
 
@@ -86,6 +86,43 @@ contains
             lo = 128; hi = 191
         end do
     end function utf8_len
+
+    !> JSON string literal of s: " and \ escaped, UTF-8 as it is, a byte that is not
+    !> UTF-8 (e.g. of a path given on the command line) as \udcXX, the lone surrogate by
+    !> which Python decodes such a byte of a file name, so that the text stays UTF-8 and
+    !> the name round-trips. Control characters (and DEL) are escaped as \u00XX, or with
+    !> blank_controls written as blanks (DEL kept), the form of summary.json's messages.
+    pure function json_string(s, blank_controls) result(js)
+        character(len=*), intent(in) :: s              !! text (trailing blanks kept)
+        logical, intent(in), optional :: blank_controls !! controls as blanks (default: escaped)
+        character(len=:), allocatable :: js
+        character(len=6) :: u
+        logical :: blank
+        integer :: i, n, c
+        blank = .false.
+        if (present(blank_controls)) blank = blank_controls
+        js = '"'
+        i = 1
+        do while (i <= len(s))
+            n = utf8_len(s, i)
+            c = iachar(s(i:i))
+            if (s(i:i) == '"' .or. s(i:i) == '\') then
+                js = js//'\'//s(i:i)
+            else if (c < 32 .and. blank) then
+                js = js//' '
+            else if ((c < 32 .or. c == 127) .and. .not. blank) then
+                write (u, '(a, z4.4)') '\u', c
+                js = js//u
+            else if (n == 0) then
+                write (u, '(a, z2.2)') '\udc', c
+                js = js//u
+            else
+                js = js//s(i:i + n - 1)
+            end if
+            i = i + max(n, 1)
+        end do
+        js = js//'"'
+    end function json_string
 
     !> `s` in lower case (ASCII letters; other bytes as they are).
     pure function lower(s) result(r)

@@ -217,40 +217,24 @@ contains
         dim = mdl%dim
         allocate (fixed(dim, mdl%msh%n_nodes), mask(mdl%msh%n_nodes))
         fixed = .false.
-        mask = .false.
-        call mesh_group_nodes(mdl%msh, prm%clamped, mask, st, m)
-        if (st /= STAT_OK) then
-            m = 'clamped: '//trim(m)
-            return
-        end if
+        call group_mask('clamped', prm%clamped)
+        if (st /= STAT_OK) return
         do k = 1, dim
             fixed(k, :) = mask
         end do
-        mask = .false.
-        call mesh_group_nodes(mdl%msh, prm%slip_x, mask, st, m)
-        if (st /= STAT_OK) then
-            m = 'slip_x: '//trim(m)
-            return
-        end if
+        call group_mask('slip_x', prm%slip_x)
+        if (st /= STAT_OK) return
         fixed(1, :) = fixed(1, :) .or. mask
-        mask = .false.
-        call mesh_group_nodes(mdl%msh, prm%slip_y, mask, st, m)
-        if (st /= STAT_OK) then
-            m = 'slip_y: '//trim(m)
-            return
-        end if
+        call group_mask('slip_y', prm%slip_y)
+        if (st /= STAT_OK) return
         if (dim == 1 .and. any(mask)) then
             st = STAT_BAD_INPUT
             m = 'slip_y: a 1D model has no y component'
             return
         end if
         if (dim >= 2) fixed(2, :) = fixed(2, :) .or. mask
-        mask = .false.
-        call mesh_group_nodes(mdl%msh, prm%slip_z, mask, st, m)
-        if (st /= STAT_OK) then
-            m = 'slip_z: '//trim(m)
-            return
-        end if
+        call group_mask('slip_z', prm%slip_z)
+        if (st /= STAT_OK) return
         if (dim < 3 .and. any(mask)) then
             st = STAT_BAD_INPUT
             m = 'slip_z: a '//merge('1D', '2D', dim == 1)//' model has no z component'
@@ -279,6 +263,18 @@ contains
                 end if
             end do
         end do
+
+    contains
+
+        !> mask = the nodes of the boundary groups `groups` (the &boundary key `key`);
+        !> a failure's message starts with the key.
+        subroutine group_mask(key, groups)
+            character(len=*), intent(in) :: key      !! &boundary key, for the message
+            character(len=*), intent(in) :: groups   !! its group names
+            mask = .false.
+            call mesh_group_nodes(mdl%msh, groups, mask, st, m)
+            if (st /= STAT_OK) m = key//': '//trim(m)
+        end subroutine group_mask
     end subroutine number_dofs
 
     !> Pattern, cell positions, M, K, K_theta (= K for now) and L.

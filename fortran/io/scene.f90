@@ -17,7 +17,7 @@
 !> converted by one list-directed internal read.
 module scene
     use kinds, only: dp, i8
-    use text, only: int_text, real_text, utf8_len, lower
+    use text, only: int_text, real_text, utf8_len, lower, json_string
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
     implicit none
     private
@@ -1003,33 +1003,4 @@ contains
         read (s(1:p - 1), *) number
         number = number / den
     end function number
-
-    !> JSON string literal (", \ and control characters escaped; UTF-8 as it is; a byte
-    !> that is not UTF-8, e.g. of a path given on the command line, as \udcXX, the lone
-    !> surrogate by which Python decodes such a byte of a file name, so that the text
-    !> stays UTF-8 and the name round-trips).
-    function json_string(s) result(js)
-        character(len=*), intent(in) :: s   !! text
-        character(len=:), allocatable :: js
-        character(len=6) :: u
-        integer :: i, n
-        js = '"'
-        i = 1
-        do while (i <= len(s))
-            n = utf8_len(s, i)
-            if (s(i:i) == '"' .or. s(i:i) == '\') then
-                js = js//'\'//s(i:i)
-            else if (iachar(s(i:i)) < 32 .or. iachar(s(i:i)) == 127) then
-                write (u, '(a, z4.4)') '\u', iachar(s(i:i))
-                js = js//u
-            else if (n == 0) then
-                write (u, '(a, z2.2)') '\udc', iachar(s(i:i))
-                js = js//u
-            else
-                js = js//s(i:i + n - 1)
-            end if
-            i = i + max(n, 1)
-        end do
-        js = js//'"'
-    end function json_string
 end module scene

@@ -1,7 +1,7 @@
 !> Run outputs: trace.csv (buffered, written in whole rows), JSON helpers, output folders.
 module trace_output
     use iso_c_binding, only: c_int, c_char, c_null_char, c_double
-    use text, only: utf8_len
+    use text, only: text_json_string => json_string
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_INTERNAL, raise
     use os_files, only: fd_open, fd_write, fd_close, fd_reopen, fd_sync
@@ -217,33 +217,11 @@ contains
         end if
     end function json_real
 
-    !> A string as a JSON string (quotes and backslashes escaped, control characters as
-    !> blanks, UTF-8 as it is, a byte that is not UTF-8 as \udcXX: see scene's
-    !> json_string).
-    function json_string(x) result(s)
+    !> A string (trailing blanks dropped) as a JSON string in summary.json's form:
+    !> text's json_string with control characters as blanks.
+    pure function json_string(x) result(s)
         character(len=*), intent(in) :: x    !! value
         character(len=:), allocatable :: s
-        character(len=6) :: u
-        integer :: i, n
-        s = '"'
-        i = 1
-        do while (i <= len_trim(x))
-            n = utf8_len(x, i)
-            select case (x(i:i))
-            case ('"', '\')
-                s = s//'\'//x(i:i)
-            case default
-                if (iachar(x(i:i)) < 32) then
-                    s = s//' '
-                else if (n == 0) then
-                    write (u, '(a, z2.2)') '\udc', iachar(x(i:i))
-                    s = s//u
-                else
-                    s = s//x(i:i + n - 1)
-                end if
-            end select
-            i = i + max(n, 1)
-        end do
-        s = s//'"'
+        s = text_json_string(trim(x), blank_controls=.true.)
     end function json_string
 end module trace_output

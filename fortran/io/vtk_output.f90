@@ -54,18 +54,8 @@ contains
         sname = 'scalar'
         if (present(scalar_name)) sname = xml_escape(trim(scalar_name))
 
-        open (newunit=unit, file=path, status='replace', action='write', form='formatted', &
-              access='stream', iostat=ios, iomsg=iomsg)
-        if (ios /= 0) then
-            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_vtu: cannot open '//trim(path) &
-                       //': '//trim(iomsg))
-            return
-        end if
-
-        write (unit, '(a)', iostat=ios, iomsg=iomsg) '<?xml version="1.0"?>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
-            '<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian">'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  <UnstructuredGrid>'
+        call open_vtk(path, 'UnstructuredGrid', 'vtk_write_vtu', unit, ios, iomsg, stat, errmsg)
+        if (stat /= STAT_OK) return
         if (ios == 0 .and. present(time)) then
             write (unit, '(a)', iostat=ios, iomsg=iomsg) '    <FieldData>'
             if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
@@ -99,9 +89,7 @@ contains
 
         if (ios == 0) call write_cells(unit, cells, ctype, ios, iomsg)
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '    </Piece>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </UnstructuredGrid>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
-        call close_checked(unit, path, ios, iomsg, 'vtk_write_vtu', stat, errmsg)
+        call close_vtk(unit, path, 'UnstructuredGrid', 'vtk_write_vtu', ios, iomsg, stat, errmsg)
     end subroutine vtk_write_vtu
 
     !> The shapes of vtk_write_vtu's arrays: x, u, v (dim, n), cells (dim+1, nc) with node
@@ -147,32 +135,36 @@ contains
         integer, intent(in) :: ctype                        !! VTK cell type
         integer, intent(out) :: ios                         !! iostat
         character(len=*), intent(inout) :: iomsg            !! iomsg
-        integer :: k, nv
-        nv = size(cells, 1)
+        integer :: k, nc
+        nc = size(cells, 2)
         write (unit, '(a)', iostat=ios, iomsg=iomsg) '      <Cells>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
-            '        <DataArray type="Int32" Name="connectivity" format="ascii">'
-        do k = 1, size(cells, 2)
-            if (ios /= 0) exit
-            write (unit, '(4(1x,i0))', iostat=ios, iomsg=iomsg) cells(:, k) - 1
-        end do
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
-            '        <DataArray type="Int32" Name="offsets" format="ascii">'
-        do k = 1, size(cells, 2)
-            if (ios /= 0) exit
-            write (unit, '(1x,i0)', iostat=ios, iomsg=iomsg) nv * k
-        end do
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
-            '        <DataArray type="UInt8" Name="types" format="ascii">'
-        do k = 1, size(cells, 2)
-            if (ios /= 0) exit
-            write (unit, '(1x,i0)', iostat=ios, iomsg=iomsg) ctype
-        end do
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+        if (ios == 0) call write_int_rows(unit, 'Int32', 'connectivity', cells - 1, ios, iomsg)
+        if (ios == 0) call write_int_rows(unit, 'Int32', 'offsets', &
+                                          reshape([(size(cells, 1) * k, k = 1, nc)], [1, nc]), &
+                                          ios, iomsg)
+        if (ios == 0) call write_int_rows(unit, 'UInt8', 'types', spread([ctype], 2, nc), &
+                                          ios, iomsg)
         if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '      </Cells>'
     end subroutine write_cells
+
+    !> One integer DataArray of the given VTK type: a line per column of `rows` (at
+    !> most 4 values a line).
+    subroutine write_int_rows(unit, vtk_type, name, rows, ios, iomsg)
+        integer, intent(in) :: unit                         !! open formatted stream
+        character(len=*), intent(in) :: vtk_type            !! 'Int32', 'UInt8'
+        character(len=*), intent(in) :: name                !! array name
+        integer, intent(in) :: rows(:, :)                   !! (1..4, lines) values
+        integer, intent(out) :: ios                         !! iostat
+        character(len=*), intent(inout) :: iomsg            !! iomsg
+        integer :: k
+        write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '        <DataArray type="'//vtk_type//'" Name="'//name//'" format="ascii">'
+        do k = 1, size(rows, 2)
+            if (ios /= 0) exit
+            write (unit, '(4(1x,i0))', iostat=ios, iomsg=iomsg) rows(:, k)
+        end do
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '        </DataArray>'
+    end subroutine write_int_rows
 
     !> Write the ParaView collection index (.pvd) listing files(k) at times(k); file
     !> names are written as given (trimmed), so give them relative to the .pvd's folder.
@@ -192,17 +184,8 @@ contains
                        'vtk_write_pvd: times and files differ in length')
             return
         end if
-        open (newunit=unit, file=path, status='replace', action='write', form='formatted', &
-              access='stream', iostat=ios, iomsg=iomsg)
-        if (ios /= 0) then
-            call raise(stat, errmsg, STAT_INTERNAL, 'vtk_write_pvd: cannot open '//trim(path) &
-                       //': '//trim(iomsg))
-            return
-        end if
-        write (unit, '(a)', iostat=ios, iomsg=iomsg) '<?xml version="1.0"?>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
-            '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  <Collection>'
+        call open_vtk(path, 'Collection', 'vtk_write_pvd', unit, ios, iomsg, stat, errmsg)
+        if (stat /= STAT_OK) return
         do k = 1, size(times)
             if (ios /= 0) exit
             write (tbuf, '(es24.16e3)') times(k)
@@ -210,10 +193,51 @@ contains
                 //trim(adjustl(tbuf))//'" group="" part="0" file="' &
                 //xml_escape(trim(files(k)))//'"/>'
         end do
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </Collection>'
-        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
-        call close_checked(unit, path, ios, iomsg, 'vtk_write_pvd', stat, errmsg)
+        call close_vtk(unit, path, 'Collection', 'vtk_write_pvd', ios, iomsg, stat, errmsg)
     end subroutine vtk_write_pvd
+
+    !> Open `path` (replaced) as a formatted stream and write the XML declaration and
+    !> the opening tags <VTKFile type="kind" ...> and <kind>. A failed open is
+    !> STAT_INTERNAL "<who>: cannot open <path>: <reason>"; a failed write is left in
+    !> ios/iomsg for close_vtk to report.
+    subroutine open_vtk(path, kind, who, unit, ios, iomsg, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file to write
+        character(len=*), intent(in) :: kind                !! 'UnstructuredGrid' or 'Collection'
+        character(len=*), intent(in) :: who                 !! procedure name (message)
+        integer, intent(out) :: unit                        !! the open unit
+        integer, intent(out) :: ios                         !! iostat of the writes
+        character(len=*), intent(inout) :: iomsg            !! iomsg
+        integer, intent(out) :: stat                        !! STAT_OK or STAT_INTERNAL
+        character(len=*), intent(inout), optional :: errmsg !! message
+        stat = STAT_OK
+        open (newunit=unit, file=path, status='replace', action='write', form='formatted', &
+              access='stream', iostat=ios, iomsg=iomsg)
+        if (ios /= 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, who//': cannot open '//trim(path) &
+                       //': '//trim(iomsg))
+            return
+        end if
+        write (unit, '(a)', iostat=ios, iomsg=iomsg) '<?xml version="1.0"?>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) &
+            '<VTKFile type="'//kind//'" version="0.1" byte_order="LittleEndian">'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  <'//kind//'>'
+    end subroutine open_vtk
+
+    !> Write the closing tags </kind> and </VTKFile> of a file of open_vtk and close it
+    !> through close_checked (which reports a write that failed before).
+    subroutine close_vtk(unit, path, kind, who, ios, iomsg, stat, errmsg)
+        integer, intent(in) :: unit                         !! unit of open_vtk
+        character(len=*), intent(in) :: path                !! its file
+        character(len=*), intent(in) :: kind                !! as given to open_vtk
+        character(len=*), intent(in) :: who                 !! procedure name (message)
+        integer, intent(inout) :: ios                       !! status of the writes so far
+        character(len=*), intent(inout) :: iomsg            !! message of the failed write
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '  </'//kind//'>'
+        if (ios == 0) write (unit, '(a)', iostat=ios, iomsg=iomsg) '</VTKFile>'
+        call close_checked(unit, path, ios, iomsg, who, stat, errmsg)
+    end subroutine close_vtk
 
     !> Closes a file written through `unit` and reports any failure: a write error
     !> already met (ios /= 0), a failed close, or a closed file whose size differs from

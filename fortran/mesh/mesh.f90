@@ -63,15 +63,12 @@ contains
         end if
         do c = 1, this%n_cells
             if (any(this%cells(:, c) < 1 .or. this%cells(:, c) > this%n_nodes)) then
-                write (buf, '(a, i0, a, i0)') 'mesh check: cell ', c, &
-                    ' has a node number outside 1..', this%n_nodes
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                call refuse_item(stat, errmsg, 'cell', c, ' has a node number outside 1..', &
+                                 this%n_nodes)
                 return
             end if
             if (this%cell_group(c) < 0 .or. this%cell_group(c) > this%n_groups) then
-                write (buf, '(a, i0, a, i0)') 'mesh check: cell ', c, &
-                    ' has group index ', this%cell_group(c)
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                call refuse_item(stat, errmsg, 'cell', c, ' has group index ', this%cell_group(c))
                 return
             end if
             call mesh_cell_size(this, c, meas, hmax)
@@ -85,9 +82,8 @@ contains
         end do
         do f = 1, this%n_facets
             if (any(this%facets(:, f) < 1 .or. this%facets(:, f) > this%n_nodes)) then
-                write (buf, '(a, i0, a, i0)') 'mesh check: facet ', f, &
-                    ' has a node number outside 1..', this%n_nodes
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                call refuse_item(stat, errmsg, 'facet', f, ' has a node number outside 1..', &
+                                 this%n_nodes)
                 return
             end if
             do k = 2, this%dim
@@ -98,9 +94,7 @@ contains
                 end if
             end do
             if (this%facet_group(f) < 1 .or. this%facet_group(f) > this%n_groups) then
-                write (buf, '(a, i0, a, i0)') 'mesh check: facet ', f, &
-                    ' has group index ', this%facet_group(f)
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                call refuse_item(stat, errmsg, 'facet', f, ' has group index ', this%facet_group(f))
                 return
             end if
         end do
@@ -108,6 +102,20 @@ contains
         if (stat /= STAT_OK) return
         call check_nodes_used(this, stat, errmsg)
     end subroutine mesh_check
+
+    !> Refuse item i of a mesh_check (`what` = 'cell' or 'facet') with the message
+    !> 'mesh check: <what> <i><problem><value>', e.g. 'mesh check: cell 7 has group index -1'.
+    pure subroutine refuse_item(stat, errmsg, what, i, problem, value)
+        integer, intent(out) :: stat                        !! STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! the message
+        character(len=*), intent(in) :: what                !! 'cell' or 'facet'
+        integer, intent(in) :: i                            !! its index
+        character(len=*), intent(in) :: problem             !! what is wrong, up to the value
+        integer, intent(in) :: value                        !! the number the message ends with
+        character(len=320) :: buf
+        write (buf, '(a, i0, a, i0)') 'mesh check: '//what//' ', i, problem, value
+        call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+    end subroutine refuse_item
 
     !> Every node belongs to a cell (a free node would make the stiffness singular).
     subroutine check_nodes_used(this, stat, errmsg)
@@ -272,30 +280,38 @@ contains
         type(mesh_t), intent(in) :: this            !! mesh (node numbers in range)
         integer, allocatable, intent(out) :: first(:) !! (n_nodes+1) offsets
         integer, allocatable, intent(out) :: list(:)  !! (nv*n_cells) cell numbers
-        integer, allocatable :: fill(:)
-        integer :: c, j, i
-        allocate (first(this%n_nodes + 1), fill(this%n_nodes))
-        allocate (list(size(this%cells)))
+        allocate (first(this%n_nodes + 1), list(size(this%cells)))
+        ! the entries of cells(:, :) in storage order, bucketed by node: entry e is in cell
+        ! (e - 1) / nv + 1, in increasing order within each node's range
+        call buckets(reshape(this%cells, [size(this%cells)]), first, list)
+        list = (list - 1) / size(this%cells, 1) + 1
+    end subroutine node_cells
+
+    !> Counting sort of entries by bucket: the entries e with key(e) = i are
+    !> list(first(i) : first(i+1)-1), in increasing order of e; entries with key 0 are
+    !> left out (list's tail past first(size(first)) - 1 is then not set).
+    pure subroutine buckets(key, first, list)
+        integer, intent(in) :: key(:)       !! bucket of each entry, 0..size(first)-1 (0: none)
+        integer, intent(out) :: first(:)    !! (buckets + 1) offsets into list
+        integer, intent(inout) :: list(:)   !! (>= entries with a bucket) entry numbers
+        integer :: fill(size(first) - 1)
+        integer :: e, i
         fill = 0
-        do c = 1, this%n_cells
-            do j = 1, size(this%cells, 1)
-                i = this%cells(j, c)
-                fill(i) = fill(i) + 1
-            end do
+        do e = 1, size(key)
+            if (key(e) > 0) fill(key(e)) = fill(key(e)) + 1
         end do
         first(1) = 1
-        do i = 1, this%n_nodes
+        do i = 1, size(fill)
             first(i + 1) = first(i) + fill(i)
         end do
         fill = 0
-        do c = 1, this%n_cells
-            do j = 1, size(this%cells, 1)
-                i = this%cells(j, c)
-                list(first(i) + fill(i)) = c
-                fill(i) = fill(i) + 1
-            end do
+        do e = 1, size(key)
+            i = key(e)
+            if (i == 0) cycle
+            list(first(i) + fill(i)) = e
+            fill(i) = fill(i) + 1
         end do
-    end subroutine node_cells
+    end subroutine buckets
 
     !> Index of the group called `name` (case-sensitive, blanks trimmed), 0 if absent.
     pure function mesh_find_group(this, name) result(idx)
@@ -361,7 +377,7 @@ contains
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message naming the missing group
         integer, allocatable :: groups(:)
-        integer :: k, g, f, c
+        integer :: k, g
         logical :: found
 
         call parse_group_list(this, names, groups, stat, errmsg)
@@ -374,18 +390,8 @@ contains
         do k = 1, size(groups)
             g = groups(k)
             found = .false.
-            do f = 1, this%n_facets
-                if (this%facet_group(f) == g) then
-                    mask(this%facets(:, f)) = .true.
-                    found = .true.
-                end if
-            end do
-            do c = 1, this%n_cells
-                if (this%cell_group(c) == g) then
-                    mask(this%cells(:, c)) = .true.
-                    found = .true.
-                end if
-            end do
+            call mark_group_nodes(this%facets, this%facet_group, g, mask, found)
+            call mark_group_nodes(this%cells, this%cell_group, g, mask, found)
             if (.not. found) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, &
                            "group '"//trim(this%group_name(g))// &
@@ -394,6 +400,23 @@ contains
             end if
         end do
     end subroutine mesh_group_nodes
+
+    !> mask = .true. on the nodes of the elements (facets or cells) of group g; found
+    !> becomes .true. if there is one.
+    pure subroutine mark_group_nodes(elements, element_group, g, mask, found)
+        integer, intent(in) :: elements(:, :)       !! (nodes per element, elements) node numbers
+        integer, intent(in) :: element_group(:)     !! (elements) group of each
+        integer, intent(in) :: g                    !! the group
+        logical, intent(inout) :: mask(:)           !! (n_nodes) marked nodes
+        logical, intent(inout) :: found             !! set when group g has an element here
+        integer :: e
+        do e = 1, size(elements, 2)
+            if (element_group(e) == g) then
+                mask(elements(:, e)) = .true.
+                found = .true.
+            end if
+        end do
+    end subroutine mark_group_nodes
 
     !> Indices (into facets(:, :)) of the facets of the comma-separated groups `names`,
     !> each facet once. Errors as mesh_group_nodes. A facet stored for several of
@@ -454,26 +477,14 @@ contains
     pure subroutine drop_duplicate_facets(this, take)
         type(mesh_t), intent(in) :: this        !! mesh
         logical, intent(inout) :: take(:)       !! (n_facets) selection to thin out
-        integer, allocatable :: first(:), fill(:), list(:)
+        integer, allocatable :: first(:), key(:), list(:)
         integer :: f, i, a, b, k
-        allocate (first(this%n_nodes + 1), fill(this%n_nodes), list(this%n_facets))
-        fill = 0
+        allocate (first(this%n_nodes + 1), key(this%n_facets), list(this%n_facets))
         do f = 1, this%n_facets
-            if (.not. take(f)) cycle
-            i = minval(this%facets(:, f))
-            fill(i) = fill(i) + 1
+            key(f) = 0
+            if (take(f)) key(f) = minval(this%facets(:, f))
         end do
-        first(1) = 1
-        do i = 1, this%n_nodes
-            first(i + 1) = first(i) + fill(i)
-        end do
-        fill = 0
-        do f = 1, this%n_facets   ! increasing f: the first index comes first in each bucket
-            if (.not. take(f)) cycle
-            i = minval(this%facets(:, f))
-            list(first(i) + fill(i)) = f
-            fill(i) = fill(i) + 1
-        end do
+        call buckets(key, first, list)   ! increasing f: the first index comes first in each bucket
         do i = 1, this%n_nodes
             do a = first(i), first(i + 1) - 1
                 f = list(a)

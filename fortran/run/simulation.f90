@@ -264,11 +264,7 @@ contains
         dir = trim(sim%scn%out_dir)
         call make_dirs(dir, st, msg)
         if (st /= STAT_OK) return
-        call lock_take(dir, st, msg)
-        if (st /= STAT_OK) return
-        sim%locked = .true.
-        call check_writable(dir//'/trace.csv', st, msg)
-        if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
+        call take_folder(sim, dir, st, msg)
         if (st == STAT_OK .and. sim%scn%fields_every > 0) &
             call check_writable(dir//'/fields.pvd', st, msg)
         if (st == STAT_OK) call check_space(sim, dir, st, msg)
@@ -302,6 +298,21 @@ contains
             call snapshot(sim, st, msg)
         end if
     end subroutine open_outputs
+
+    !> Take the output folder's lock (sim%locked) and check that trace.csv and
+    !> summary.json can be written there: the opening of a new run's outputs and of a
+    !> restarted one's.
+    subroutine take_folder(sim, dir, st, msg)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        character(len=*), intent(in) :: dir                 !! output folder (exists)
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
+        call lock_take(dir, st, msg)
+        if (st /= STAT_OK) return
+        sim%locked = .true.
+        call check_writable(dir//'/trace.csv', st, msg)
+        if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
+    end subroutine take_folder
 
     !> With field snapshots (fields_every > 0), refuse a run whose outputs cannot fit in
     !> the output folder's file system, before anything is written: the trace
@@ -380,11 +391,7 @@ contains
                        ' file; &output checkpoint_every writes one)')
             return
         end if
-        call lock_take(dir, st, msg)
-        if (st /= STAT_OK) return
-        sim%locked = .true.
-        call check_writable(dir//'/trace.csv', st, msg)
-        if (st == STAT_OK) call check_writable(dir//'/summary.json', st, msg)
+        call take_folder(sim, dir, st, msg)
         if (st /= STAT_OK) return
         if (sim%scn%fields_every > 0) allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
                                                 sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))

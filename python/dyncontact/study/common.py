@@ -11,7 +11,7 @@ import os
 from typing import Any, Iterable, Iterator, Mapping, Sequence
 
 __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0",
-           "CENTRAL_C", "write_base_scenes", "write_csv",
+           "CENTRAL_C", "write_base_scenes", "study_folder", "write_csv",
            "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS",
            "RunSpec", "seed_spec", "every_for", "scheme_text", "num", "loadavg",
            "package_version", "add_runner_options", "MAX_ROWS"]
@@ -55,6 +55,15 @@ def write_base_scenes(folder: str) -> dict[str, str]:
                 f.write(text)
         paths[name] = p
     return paths
+
+
+def study_folder(out: str, cache: str | None) -> tuple[str, str, dict[str, str]]:
+    """A study's output folder ``out`` made absolute and created, its run cache
+    (``cache``, else out/cache) and its base scenes (written into out/scenes by
+    :func:`write_base_scenes`)."""
+    out = os.path.abspath(out)
+    os.makedirs(out, exist_ok=True)
+    return out, cache or os.path.join(out, "cache"), write_base_scenes(os.path.join(out, "scenes"))
 
 
 # --------------------------------------------------------------------------- named runs

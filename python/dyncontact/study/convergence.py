@@ -33,7 +33,7 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .common import (fmt, md_table, new_figure, save_figure, scheme_list, slope,
-                     step_ratio, write_base_scenes, write_csv, write_markdown,
+                     step_ratio, study_folder, write_csv, write_markdown,
                      PENALTY_GAMMA0)
 from .analyses import FIELD_NORMS, REL_NORMS
 from .sweep import make_task, sweep
@@ -93,10 +93,8 @@ def run_convergence(out: str, *, quick: bool = False, schemes: str | None = None
     """Run the study, write convergence.csv, orders.csv, convergence.png and summary.md
     into ``out``; returns the report (rows, orders, paths, n_runs, wall_s)."""
     t0 = time.perf_counter()
-    out = os.path.abspath(out)
-    os.makedirs(out, exist_ok=True)
-    cache = cache or os.path.join(out, "cache")
-    base = write_base_scenes(os.path.join(out, "scenes"))["exact1d"]
+    out, cache, bases = study_folder(out, cache)
+    base = bases["exact1d"]
     sch = scheme_list(schemes or DEFAULT_SCHEMES)
     ns = tuple(ns or (QUICK_NS if quick else FULL_NS))
     tasks = convergence_tasks(base, sch, ns, c_implicit, c_explicit, t_end)
@@ -301,6 +299,17 @@ def _plot(rows, schemes, path):
     return save_figure(fig, path)
 
 
+def _finest_table(rows, schemes, n, norms) -> list[str]:
+    """Markdown table of the given norms of each scheme's run on the mesh h = 1/n
+    (schemes without that run left out)."""
+    table = []
+    for s in schemes:
+        r = next((r for r in rows if r["scheme"] == s.key and r["n"] == n), None)
+        if r is not None:
+            table.append([s.label, r["status"]] + [fmt(r[k]) for k in norms])
+    return md_table(["scheme", "status", *norms], table)
+
+
 def _summary(report, schemes, path) -> str:
     rows, orders = report["rows"], report["orders"]
     ns = report["ns"]
@@ -331,12 +340,7 @@ def _summary(report, schemes, path) -> str:
         table.append(cells)
     lines += md_table(header, table)
     lines += ["", f"## Errors at the finest mesh (h = 1/{ns[-1]})", ""]
-    table = []
-    for s in schemes:
-        r = next((r for r in rows if r["scheme"] == s.key and r["n"] == ns[-1]), None)
-        if r is not None:
-            table.append([s.label, r["status"]] + [fmt(r[n]) for n in FIELD_NORMS])
-    lines += md_table(["scheme", "status", *FIELD_NORMS], table)
+    lines += _finest_table(rows, schemes, ns[-1], FIELD_NORMS)
     lines += ["", f"## Relative errors at the finest mesh (h = 1/{ns[-1]}), as the literature "
               "reports them", "",
               "GetFEM's 1D dynamic-contact demo and the papers it comes from: the error "
@@ -346,12 +350,7 @@ def _summary(report, schemes, path) -> str:
               "rectangle rule (Σ_k Δt ‖·‖², Δt cancels), every step t_k = kΔt from "
               "k = 0 (the initial state) to N, fields and stress alike. docs/numerics.md "
               "gives both definitions.", ""]
-    table = []
-    for s in schemes:
-        r = next((r for r in rows if r["scheme"] == s.key and r["n"] == ns[-1]), None)
-        if r is not None:
-            table.append([s.label, r["status"]] + [fmt(r[n]) for n in REL_NORMS])
-    lines += md_table(["scheme", "status", *REL_NORMS], table)
+    lines += _finest_table(rows, schemes, ns[-1], REL_NORMS)
     if report.get("box3d"):
         lines += _box3d_summary(report["box3d"])
     return write_markdown(path, lines)

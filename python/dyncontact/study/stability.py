@@ -41,7 +41,7 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .common import (STATUS_COLORS, fmt, md_table, new_figure, save_figure,
-                     scheme_list, write_base_scenes, write_csv, write_markdown)
+                     scheme_list, study_folder, write_csv, write_markdown)
 from .analyses import impacts  # noqa: F401 - part of this module's API
 from .sweep import ERROR, REFUSED, Task, make_task, sweep
 
@@ -284,10 +284,8 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
     t0 = time.perf_counter()
     g = dict(GRIDS["quick" if quick else "full"])
     g.update(grid or {})
-    out = os.path.abspath(out)
-    os.makedirs(out, exist_ok=True)
-    cache = cache or os.path.join(out, "cache")
-    base = write_base_scenes(os.path.join(out, "scenes"))["seed2d"]
+    out, cache, bases = study_folder(out, cache)
+    base = bases["seed2d"]
     schemes = scheme_list(g["schemes"])
     crit = critical_dt(base, schemes, g, out, cache, keep_rows=KEEP_ROWS,
                        workers=workers, scheduler=scheduler, progress=progress, log=log,

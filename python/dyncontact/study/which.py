@@ -40,7 +40,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
-from .common import (SCHEMES, fmt, md_table, scheme_list, step_ratio, write_base_scenes,
+from .common import (SCHEMES, fmt, md_table, scheme_list, step_ratio, study_folder,
                      write_csv, write_markdown)
 from .stability import thetas
 from .claims import SIGNIFICANT_GAIN
@@ -208,10 +208,7 @@ def run_which(out: str, wp: Mapping[str, Any], stab: Mapping[str, Any], *,
     which.csv and summary.md into ``out``."""
     t0 = time.perf_counter()
     size = "quick" if quick else "full"
-    out = os.path.abspath(out)
-    os.makedirs(out, exist_ok=True)
-    cache = cache or os.path.join(out, "cache")
-    bases = write_base_scenes(os.path.join(out, "scenes"))
+    out, cache, bases = study_folder(out, cache)
     grid = stab["grid"]
     ratios = common_ratios(grid)
     osc_tasks = _osc_tasks(bases, size, c_implicit, c_explicit)

@@ -54,8 +54,8 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .analyses import rms_in_time
-from .common import (SCHEMES, fmt, md_table, new_figure, step_ratio, write_base_scenes,
-                     write_csv, write_markdown)
+from .common import (SCHEMES, fmt, md_table, new_figure, step_ratio, study_folder,
+                     write_base_scenes, write_csv, write_markdown)
 from .sweep import Task, make_task, sweep
 
 __all__ = ["run_work_precision", "QUANTITIES", "DEFAULT_SERIES", "REFERENCES",
@@ -382,10 +382,7 @@ def run_work_precision(out: str, *, quick: bool = False, c_implicit: float = 20.
     """Run the study; writes work_precision.csv, work_precision.png, summary.md."""
     t0 = time.perf_counter()
     size = "quick" if quick else "full"
-    out = os.path.abspath(out)
-    os.makedirs(out, exist_ok=True)
-    cache = cache or os.path.join(out, "cache")
-    bases = write_base_scenes(os.path.join(out, "scenes"))
+    out, cache, bases = study_folder(out, cache)
     t_end = T_END[size]
     series = _series(c_implicit, c_explicit)
     tasks = []
