@@ -519,8 +519,8 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), intent(in), optional :: val(:)            !! (a%nnz) values read in place of a%val
-        integer, allocatable :: width(:), place(:)
-        integer :: ng
+        integer, allocatable :: width(:), group(:), mark(:), place(:)
+        integer :: ng, g, k0, m
         stat = STAT_OK
         n = 0
         n_groups = 0
@@ -539,7 +539,7 @@ contains
         n_groups = ng
         bfirst = first
         full = all(first(2:) - first(:ng) == w)
-        call block_layout(a, first, w, row_ptr, col1, width, place)
+        call block_layout(a, first, row_ptr, col1, width)
         if (full) then
             allocate (col2(0), col3(0))
         else
@@ -548,30 +548,43 @@ contains
         end if
         allocate (bval(w * w, size(col1) + merge(1, 0, w == 3)))
         bval = 0.0_dp
-        call scatter_values(a, place, size(bval), bval, val)
+        ! the values row group by row group: a group's columns are consecutive entries of a
+        call group_work(a, first, group, mark, place)
+        do g = 1, ng
+            call group_places(a, first, w, group, row_ptr, col1, g, mark, place, m)
+            k0 = a%colptr(first(g))
+            if (present(val)) then
+                call put_places(size(bval), bval, place(1:m), val(k0 + 1:k0 + m))
+            else
+                call put_places(size(bval), bval, place(1:m), a%val(k0 + 1:k0 + m))
+            end if
+        end do
     end subroutine blocks_from_csc
 
-    !> The node-block layout of the symmetric pattern of a for the groups `first` (checked,
-    !> at most w dofs each), the walk the block copies and blocks_to_csc share: a's columns
-    !> by row groups, a row group's blocks numbered as their column groups are met. Block
-    !> k holds rows of its row group and columns col1(k) .. col1(k) + width(k) - 1; entry e
-    !> of a (column j, row i: A(j, i) = A(i, j)) is entry place(e) of the blocks' values
-    !> stored block after block, each w x w by columns.
-    pure subroutine block_layout(a, first, w, row_ptr, col1, width, place)
+    !> bv(pl(e)) = v(e): values put at their places in the blocks' values.
+    pure subroutine put_places(nv, bv, pl, v)
+        integer, intent(in) :: nv                           !! size of bv
+        real(dp), intent(inout) :: bv(nv)                   !! blocks' values, block after block
+        integer, intent(in) :: pl(:)                        !! places
+        real(dp), intent(in) :: v(size(pl))                 !! values
+        bv(pl) = v
+    end subroutine put_places
+
+    !> The node-block layout of the symmetric pattern of a for the groups `first`
+    !> (checked): a's columns by row groups, a row group's blocks numbered as their column
+    !> groups are met. Block k holds rows of its row group and columns col1(k) ..
+    !> col1(k) + width(k) - 1.
+    pure subroutine block_layout(a, first, row_ptr, col1, width)
         type(csc_t), intent(in) :: a                        !! symmetric pattern
         integer, intent(in) :: first(:)                     !! (n_groups + 1) group starts
-        integer, intent(in) :: w                            !! block width (2 or 3)
         integer, allocatable, intent(out) :: row_ptr(:)     !! (n_groups + 1) row groups' blocks
         integer, allocatable, intent(out) :: col1(:)        !! (n_blocks) column group's first dof
         integer, allocatable, intent(out) :: width(:)       !! (n_blocks) dofs of the column group
-        integer, allocatable, intent(out) :: place(:)       !! (a%nnz) entries' places in the blocks
-        integer, allocatable :: group(:), mark(:)
-        integer :: ng, g, h, j, k, i, r, nb
+        integer, allocatable :: group(:), mark(:), place(:)
+        integer :: ng, g, j, k, h, nb
         ng = size(first) - 1
-        allocate (group(a%n), mark(ng), row_ptr(ng + 1), place(a%nnz))
-        do g = 1, ng
-            group(first(g):first(g + 1) - 1) = g
-        end do
+        call group_work(a, first, group, mark, place)
+        allocate (row_ptr(ng + 1))
         ! count blocks per row group (A symmetric: column j of A is row j)
         mark = 0
         nb = 0
@@ -593,36 +606,68 @@ contains
         nb = 0
         do g = 1, ng
             do j = first(g), first(g + 1) - 1
-                r = j - first(g)
                 do k = a%colptr(j) + 1, a%colptr(j + 1)
-                    i = a%rowind(k) + 1
-                    h = group(i)
+                    h = group(a%rowind(k) + 1)
                     if (mark(h) < row_ptr(g)) then
                         nb = nb + 1
                         mark(h) = nb
                         col1(nb) = first(h)
                         width(nb) = first(h + 1) - first(h)
                     end if
-                    ! row r of group g, column i - first(h) of group h
-                    place(k) = w * w * (mark(h) - 1) + 1 + r + w * (i - first(h))
                 end do
             end do
         end do
     end subroutine block_layout
 
-    !> bval(place(e)) = entry e of the values on a's pattern: val when given, else a%val.
-    pure subroutine scatter_values(a, place, nv, bval, val)
-        type(csc_t), intent(in) :: a                        !! the pattern (and its values)
-        integer, intent(in) :: place(:)                     !! (a%nnz) places (block_layout)
-        integer, intent(in) :: nv                           !! size of bval
-        real(dp), intent(inout) :: bval(nv)                 !! blocks' values, block after block
-        real(dp), intent(in), optional :: val(:)            !! (a%nnz) values read in place of a%val
-        if (present(val)) then
-            bval(place) = val(1:a%nnz)
-        else
-            bval(place) = a%val(1:a%nnz)
-        end if
-    end subroutine scatter_values
+    !> Work arrays of the walks by row groups: each dof's group, a mark a group, and room
+    !> for the places of one row group's entries (the most entries of a row group).
+    pure subroutine group_work(a, first, group, mark, place)
+        type(csc_t), intent(in) :: a                        !! pattern
+        integer, intent(in) :: first(:)                     !! (n_groups + 1) group starts
+        integer, allocatable, intent(out) :: group(:)       !! (n) each dof's group
+        integer, allocatable, intent(out) :: mark(:)        !! (n_groups) work
+        integer, allocatable, intent(out) :: place(:)       !! room for one row group's places
+        integer :: ng, g, most
+        ng = size(first) - 1
+        allocate (group(a%n), mark(ng))
+        most = 0
+        do g = 1, ng
+            group(first(g):first(g + 1) - 1) = g
+            most = max(most, a%colptr(first(g + 1)) - a%colptr(first(g)))
+        end do
+        allocate (place(most))
+    end subroutine group_work
+
+    !> The places, in the blocks' values stored block after block (each w x w by columns),
+    !> of the m entries of row group g's columns of a (entries colptr(first(g)) + 1 ..
+    !> colptr(first(g + 1)), in order): entry (row i, column j) is row j - first(g), column
+    !> i - first(h) of the block of row group g whose column group h holds i (A(j, i) =
+    !> A(i, j)).
+    pure subroutine group_places(a, first, w, group, row_ptr, col1, g, mark, place, m)
+        type(csc_t), intent(in) :: a                        !! pattern
+        integer, intent(in) :: first(:)                     !! (n_groups + 1) group starts
+        integer, intent(in) :: w                            !! block width (2 or 3)
+        integer, intent(in) :: group(:)                     !! (n) each dof's group
+        integer, intent(in) :: row_ptr(:)                   !! (n_groups + 1) row groups' blocks
+        integer, intent(in) :: col1(:)                      !! (n_blocks) column group's first dof
+        integer, intent(in) :: g                            !! row group
+        integer, intent(inout) :: mark(:)                   !! (n_groups) work
+        integer, intent(inout) :: place(:)                  !! (>= m) the places
+        integer, intent(out) :: m                           !! entries of the row group
+        integer :: b, j, k, i, h
+        do b = row_ptr(g), row_ptr(g + 1) - 1
+            mark(group(col1(b))) = b
+        end do
+        m = 0
+        do j = first(g), first(g + 1) - 1
+            do k = a%colptr(j) + 1, a%colptr(j + 1)
+                i = a%rowind(k) + 1
+                h = group(i)
+                m = m + 1
+                place(m) = w * w * (mark(h) - 1) + 1 + (j - first(g)) + w * (i - first(h))
+            end do
+        end do
+    end subroutine group_places
 
     !> The values on a's pattern of the matrix whose node-block copy is b (block2_from_csc
     !> of a matrix with a's pattern): the copy read back entry by entry, the same numbers.
@@ -631,7 +676,7 @@ contains
         type(csc_t), intent(in) :: a        !! the pattern b was copied from
         type(block2_t), intent(in) :: b     !! the block copy
         real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
-        call blocks_to_csc(a, b%first, size(b%val), b%val, 2, val)
+        call blocks_to_csc(a, b%first, b%row_ptr, b%col1, size(b%val), b%val, 2, val)
     end subroutine block2_csc_values
 
     !> block2_csc_values for a 3x3 node-block copy (block3_from_csc).
@@ -639,21 +684,28 @@ contains
         type(csc_t), intent(in) :: a        !! the pattern b was copied from
         type(block3_t), intent(in) :: b     !! the block copy
         real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
-        call blocks_to_csc(a, b%first, size(b%val), b%val, 3, val)
+        call blocks_to_csc(a, b%first, b%row_ptr, b%col1, size(b%val), b%val, 3, val)
     end subroutine block3_csc_values
 
     !> The inverse of the copies' scatter: each entry of a read from its place in the
-    !> blocks (block_layout's walk).
-    subroutine blocks_to_csc(a, first, nv, bval, w, val)
+    !> blocks (group_places), row group by row group.
+    subroutine blocks_to_csc(a, first, row_ptr, col1, nv, bval, w, val)
         type(csc_t), intent(in) :: a            !! pattern
         integer, intent(in) :: first(:)         !! (n_groups + 1) group starts
+        integer, intent(in) :: row_ptr(:)       !! (n_groups + 1) row groups' blocks
+        integer, intent(in) :: col1(:)          !! (n_blocks) column group's first dof
         integer, intent(in) :: nv               !! size of bval
         real(dp), intent(in) :: bval(nv)        !! (w * w, n_blocks) block values by columns
         integer, intent(in) :: w                !! block width (2 or 3)
         real(dp), intent(out) :: val(:)         !! (a%nnz) values
-        integer, allocatable :: row_ptr(:), col1(:), width(:), place(:)
-        call block_layout(a, first, w, row_ptr, col1, width, place)
-        val(1:a%nnz) = bval(place)
+        integer, allocatable :: group(:), mark(:), place(:)
+        integer :: g, k0, m
+        call group_work(a, first, group, mark, place)
+        do g = 1, size(first) - 1
+            call group_places(a, first, w, group, row_ptr, col1, g, mark, place, m)
+            k0 = a%colptr(first(g))
+            val(k0 + 1:k0 + m) = bval(place(1:m))
+        end do
     end subroutine blocks_to_csc
 
     !> y = B x for a block3_t matrix (rows of a block summed as a 3-vector, see block3_t).
