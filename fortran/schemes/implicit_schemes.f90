@@ -79,7 +79,7 @@ module implicit_schemes
                              ls_factor_info, ls_configure, ls_cg_counts, BACKEND_PCG
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
-    use nitsche_contact, only: contact_eval, contact_max_rank, MAX_E, MAX_FN
+    use nitsche_contact, only: contact_eval, contact_clear, contact_max_rank, MAX_E, MAX_FN
     use alm_contact, only: ALM_OFF
     use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use contact_columns, only: zcache_t, zcache_init, zcache_new_step, zcache_ensure, &
@@ -492,6 +492,8 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: e_pen, e_theta, cb, kb
         integer :: it, active
+        logical :: flight
+        st%clear = .false.
         if (mdl%alm%kind /= ALM_OFF) then
             call implicit_step_alm(this, mdl, st, stat, errmsg)
             return
@@ -517,7 +519,8 @@ contains
             this%rhog_due = .false.
             call gather(st%u, mdl%ct%cdofs, this%xc)
         end if
-        call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
+        call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, flight, stat, &
+                            errmsg)
         st%newton_its = it
         this%newton_total = this%newton_total + it
         if (stat /= STAT_OK) return
@@ -536,6 +539,7 @@ contains
         end if
         call update_state(this, mdl, st)
         st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
+        st%clear = flight       ! (u' = x on the contact-cell dofs: the probe reads it)
         st%t = st%t + this%dt
     end subroutine implicit_step
 
@@ -641,8 +645,10 @@ contains
     !> at the new iterate. A zero residual passes any scale (a step in flight: no
     !> contact point active at either iterate, rho = 0 exactly), so the scale's three
     !> sums over the dofs are formed only at a step where the contact part moved R, once
-    !> a step. On return dx holds y0 and tsum the coefficients T; `it` iterations.
-    subroutine newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
+    !> a step. On return dx holds y0 and tsum the coefficients T; `it` iterations;
+    !> flight: the step ended in flight (contact_clear true at the iterate).
+    subroutine newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, flight, stat, &
+                              errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(state_t), intent(in) :: st                     !! state at t^n
@@ -650,12 +656,14 @@ contains
         integer, intent(out) :: it                          !! iterations done
         integer, intent(inout) :: active                    !! contact state at the iterate
         real(dp), intent(inout) :: e_pen, e_theta           !! contact energies at the iterate
+        logical, intent(out) :: flight                      !! ended in flight (see above)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: rnorm, scale, dt
         character(len=256) :: why
         logical :: warm
         integer :: l, q, nk
+        flight = .false.
         stat = STAT_OK
         dt = this%dt
         scale = -1.0_dp
@@ -693,6 +701,25 @@ contains
                 end if
                 it = 1
                 if (this%m == 0) exit
+                ! in flight: with no contact term at u^n (rank 0: C and its coefficients
+                ! are zero there) and P >= 0 at every facet's nodes at x = u^n - y0
+                ! (contact_clear), C(x) is zero too and so is R at x (rho = 0): the step
+                ! is done, without the passes over the contact-cell dofs (P y0, T, R')
+                ! that contact_residual makes to find it. x there is the same, and so are
+                ! e_theta and what a later step reads (C, its coefficients, rank 0); the
+                ! rest contact_residual sets is written before it is read. x = u' on the
+                ! contact-cell dofs (update_state's u - dx): the probe skips [P]_- there.
+                if (this%rank == 0) then
+                    do l = 1, this%m
+                        this%x(mdl%ct%cdofs(l)) = st%u(mdl%ct%cdofs(l)) - this%dx(mdl%ct%cdofs(l))
+                    end do
+                    call contact_clear(mdl%ct, this%x, flight, e_theta)
+                    if (flight) then
+                        active = 0
+                        e_pen = 0.0_dp
+                        exit
+                    end if
+                end if
                 call gather(this%dx, mdl%ct%cdofs, this%yc)
                 this%y0c = this%yc
                 this%tk = 0.0_dp
