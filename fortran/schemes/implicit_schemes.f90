@@ -492,7 +492,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: e_pen, e_theta, cb, kb
         integer :: it, active
-        logical :: flight
+        logical :: flight, moved
         st%clear = .false.
         if (mdl%alm%kind /= ALM_OFF) then
             call implicit_step_alm(this, mdl, st, stat, errmsg)
@@ -509,15 +509,14 @@ contains
         active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
         if (this%m > 0) then
             call zcache_new_step(this%zc)
-            if (.not. this%cached) then
-                call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
-            else if (moved(st%u, mdl%ct%cdofs, this%xc)) then
+            ! xc <- u^n there, and whether that moved it (one pass)
+            call gather_moved(st%u, mdl%ct%cdofs, this%xc, moved)
+            if (.not. this%cached .or. moved) then
                 call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
             end if
             this%tsum = 0.0_dp
             if (this%zt_basis) this%tau = 0.0_dp
             this%rhog_due = .false.
-            call gather(st%u, mdl%ct%cdofs, this%xc)
         end if
         call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, flight, stat, &
                             errmsg)
@@ -527,7 +526,7 @@ contains
         ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction), on the node
         ! basis when it has fewer columns to read (see the module header)
         if (it == 0) this%dx = 0.0_dp
-        if (this%m > 0) then
+        if (this%m > 0 .and. .not. flight) then     ! (in flight T = 0: no Newton correction)
             if (any(this%tsum /= 0.0_dp)) then
                 if (basis_pays(this)) then
                     call apply_zt_basis(this, mdl, stat, errmsg)
@@ -1536,20 +1535,19 @@ contains
         st%t = st%t + this%dt
     end subroutine implicit_step_alm
 
-    !> Whether u on the dofs idx differs from xc (no temporary array).
-    pure logical function moved(u, idx, xc)
+    !> xc <- u on the dofs idx, and whether that changed a value of xc (no temporary array).
+    pure subroutine gather_moved(u, idx, xc, moved)
         real(dp), intent(in) :: u(:)                        !! vector
         integer, intent(in) :: idx(:)                       !! dofs
-        real(dp), intent(in) :: xc(:)                       !! (size(idx)) values to compare
+        real(dp), intent(inout) :: xc(:)                    !! (size(idx)) values compared, then u's
+        logical, intent(out) :: moved                       !! some u(idx(i)) /= xc(i)
         integer :: i
         moved = .false.
         do i = 1, size(idx)
-            if (u(idx(i)) /= xc(i)) then
-                moved = .true.
-                return
-            end if
+            if (u(idx(i)) /= xc(i)) moved = .true.
+            xc(i) = u(idx(i))
         end do
-    end function moved
+    end subroutine gather_moved
 
     !> The Newton initial residual: r = md + c bu - b with b = newton_b(cb, kb, load, bu),
     !> in one pass (b itself is formed only for the test's scale).
