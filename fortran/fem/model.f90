@@ -90,6 +90,7 @@ module model
         integer :: n_probe = 0                    !! facets holding the probe (0, 1, or those sharing its edge or node)
         integer :: probe_facet(MAX_PROBE) = 0     !! their indices in ct
         real(dp) :: probe_shape(MAX_FN, MAX_PROBE) = 0.0_dp !! facet shape values at the probe on each
+        integer :: probe_node(MAX_PROBE) = 0      !! the facet node at the probe (shape value 1, the others 0), or 0
         character(len=4096) :: notes = ''          !! warnings and notes for the user, one per line
         real(dp) :: gamma0_min = 0.0_dp           !! smallest gamma0 keeping K_theta PSD (element bound, theta = 1)
     end type model_t
@@ -882,6 +883,9 @@ contains
         mdl%n_probe = mdl%n_probe + 1
         mdl%probe_facet(mdl%n_probe) = f
         mdl%probe_shape(:, mdl%n_probe) = nsh
+        mdl%probe_node(mdl%n_probe) = 0
+        if (count(nsh == 1.0_dp) == 1 .and. count(nsh == 0.0_dp) == size(nsh) - 1) &
+            mdl%probe_node(mdl%n_probe) = findloc(nsh, 1.0_dp, dim=1)
     end subroutine add_probe_facet
 
     !> The point of triangle (a, b, c) nearest to p, as barycentric coordinates
@@ -1007,7 +1011,9 @@ contains
 
     !> Probe values: u_n, v_n interpolated; p_n = Nitsche pressure (mean over the
     !> facets when the probe is on a shared node or edge). Zero without contact boundary.
-    subroutine model_probe(mdl, u, v, un, vn, pn, lam)
+    !> With clear true (contact_clear's at u), a facet's pressure at its node is
+    !> [P]_- = +-0 exactly: not formed (adding +-0 to the sum, from +0, changes nothing).
+    subroutine model_probe(mdl, u, v, un, vn, pn, lam, clear)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: u(:)          !! displacement
         real(dp), intent(in) :: v(:)          !! velocity
@@ -1015,26 +1021,33 @@ contains
         real(dp), intent(out) :: vn           !! v . n at the probe
         real(dp), intent(out) :: pn           !! contact pressure (<= 0)
         real(dp), intent(in), optional :: lam(:) !! augmented Lagrangian multipliers (p_n from them)
+        logical, intent(in), optional :: clear   !! contact_clear found P finite, >= 0 at u (Nitsche)
         integer :: q, f, ne, nf, j
         real(dp) :: ue(MAX_E), ve(MAX_E), nsh(MAX_FN), nu(MAX_FN), nv(MAX_FN)
+        logical :: at_clear_node
         un = 0.0_dp; vn = 0.0_dp; pn = 0.0_dp
         if (mdl%n_probe == 0) return
         ne = mdl%ndof_e
         nf = mdl%ct%nfn
         do q = 1, mdl%n_probe
+            at_clear_node = .false.
+            if (present(clear) .and. mdl%alm%kind == ALM_OFF) then
+                at_clear_node = clear .and. mdl%probe_node(q) > 0
+            end if
+            if (at_clear_node .and. q > 1) cycle      ! (u_n and v_n come from the first facet)
             f = mdl%probe_facet(q)
             call gather(f, u, ue(1:ne))
-            call gather(f, v, ve(1:ne))
             nsh = mdl%probe_shape(:, q)
             if (mdl%alm%kind /= ALM_OFF .and. present(lam)) then
                 pn = pn + alm_probe(mdl%alm, mdl%ct, lam, f, nsh)
-            else
+            else if (.not. at_clear_node) then
                 pn = pn + facet_pressure(ne, nf, ue(1:ne), mdl%ct%s(:, f), &
                                          mdl%ct%nvec(:, :, f), mdl%ct%gap(:, f), mdl%ct%gamma(f), nsh)
             end if
             if (q == 1) then
                 ! the normal components at the facet's nodes, then their interpolation
-                ! (fixed-size locals: no heap in a trace row)
+                ! (fixed-size locals: no heap in a trace row); v enters only here
+                call gather(f, v, ve(1:ne))
                 do j = 1, nf
                     nu(j) = dot_product(ue(1:ne), mdl%ct%nvec(1:ne, j, f))
                     nv(j) = dot_product(ve(1:ne), mdl%ct%nvec(1:ne, j, f))

@@ -61,8 +61,8 @@ module nitsche_contact
         integer, allocatable :: cloc(:, :)    !! (ndof_e, n_facets) index into cdofs, 0 = constrained
     end type contact_t
 
-    public :: contact_init, contact_eval, contact_max_rank, nitsche_facet, facet_pressure, facet_shape, &
-              triangle_rule, triangle_active_rule
+    public :: contact_init, contact_eval, contact_clear, contact_max_rank, nitsche_facet, &
+              facet_pressure, facet_shape, triangle_rule, triangle_active_rule
 
 contains
 
@@ -543,22 +543,16 @@ contains
         real(dp), intent(inout), optional :: tca(:, :)      !! (nfn, >= rank) its coefficients in Mt
         real(dp), intent(inout), optional :: tcb(:, :)      !! (nfn, >= rank) and in M
         real(dp), intent(inout), optional :: rg(:, :)       !! (nfn, n_facets) residual in Mt
-        real(dp) :: ue(MAX_E), rf(MAX_E), ef, sn, pnode(MAX_FN)   ! fixed sizes: no heap array a call
+        real(dp) :: rf(MAX_E), ef, sn, pnode(MAX_FN)   ! fixed sizes: no heap array a call
         integer :: f, i, af, nr, nt
         active = 0
         e_pen = 0.0_dp
         e_theta = 0.0_dp
         nr = 0
         do f = 1, ct%n_facets
-            do i = 1, ct%ndof_e
-                ue(i) = 0.0_dp
-                if (ct%dofs(i, f) > 0) ue(i) = u(ct%dofs(i, f))
-            end do
-            sn = dot_product(ct%s(:, f), ue(1:ct%ndof_e))
+            call facet_sn_pnode(ct, f, u, sn, pnode)
             e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
             ! a facet with P >= 0 at its nodes has no active point (nothing to add)
-            pnode = facet_pnode(ct%ndof_e, ct%nfn, ue, sn, ct%nvec(:, :, f), ct%gap(:, f), &
-                                ct%gamma(f))
             if (all(pnode(1:ct%nfn) >= 0.0_dp)) then
                 if (present(rg)) rg(1:ct%nfn, f) = 0.0_dp
                 cycle
@@ -606,6 +600,69 @@ contains
         end do
         if (present(rank)) rank = nr
     end subroutine contact_eval
+
+    !> Whether no contact point can be active at u: P finite and >= 0 at the nodes of
+    !> every facet (P is linear on a facet; >= 0 is contact_eval's test to skip a facet).
+    !> Then contact_eval adds nothing to r and returns active = 0, e_pen = 0, rank = 0,
+    !> rg = 0, and the e_theta returned here (the same sums in the same order); and
+    !> facet_pressure at a facet's node is that node's P (its other shape values are 0,
+    !> the other terms +-0 as they are finite), so [P]_- = 0 there to the bit. Stops at
+    !> the first facet that fails the test (e_theta is then partial).
+    pure subroutine contact_clear(ct, u, clear, e_theta)
+        type(contact_t), intent(in) :: ct      !! contact data
+        real(dp), intent(in) :: u(:)           !! free-dof displacement
+        logical, intent(out) :: clear          !! P finite and >= 0 at every facet's nodes
+        real(dp), intent(out) :: e_theta       !! theta sigma_n^2 energy term (when clear)
+        real(dp) :: sn, pnode(MAX_FN)
+        integer :: f, j
+        clear = .false.
+        e_theta = 0.0_dp
+        do f = 1, ct%n_facets
+            call facet_sn_pnode(ct, f, u, sn, pnode)
+            e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
+            do j = 1, ct%nfn
+                if (.not. (pnode(j) >= 0.0_dp .and. pnode(j) <= huge(1.0_dp))) return
+            end do
+        end do
+        clear = .true.
+    end subroutine contact_clear
+
+    !> sigma_n(u) and P at the nodes of facet f (facet_pnode) from the free-dof vector u,
+    !> the owner cell's values gathered (0 at constrained dofs).
+    pure subroutine facet_sn_pnode(ct, f, u, sn, pnode)
+        type(contact_t), intent(in) :: ct      !! contact data
+        integer, intent(in) :: f               !! facet
+        real(dp), intent(in) :: u(:)           !! free-dof displacement
+        real(dp), intent(out) :: sn            !! sigma_n(u) = s . ue
+        real(dp), intent(out) :: pnode(MAX_FN) !! P at the facet's nodes (the rest 0)
+        real(dp) :: ue(MAX_E)                  ! fixed size: no heap array a call
+        real(dp) :: x, d1, d2, d3
+        integer :: i, d
+        if (ct%nfn == 3) then
+            ! a triangle facet: the four sums in one pass over the dofs, each in their
+            ! order from 0 as dot_product's in the general case (the same values)
+            sn = 0.0_dp; d1 = 0.0_dp; d2 = 0.0_dp; d3 = 0.0_dp
+            do i = 1, ct%ndof_e
+                d = ct%dofs(i, f)
+                x = merge(u(max(d, 1)), 0.0_dp, d > 0)
+                sn = sn + ct%s(i, f) * x
+                d1 = d1 + x * ct%nvec(i, 1, f)
+                d2 = d2 + x * ct%nvec(i, 2, f)
+                d3 = d3 + x * ct%nvec(i, 3, f)
+            end do
+            pnode(1) = sn - ct%gamma(f) * (d1 - ct%gap(1, f))
+            pnode(2) = sn - ct%gamma(f) * (d2 - ct%gap(2, f))
+            pnode(3) = sn - ct%gamma(f) * (d3 - ct%gap(3, f))
+            return
+        end if
+        do i = 1, ct%ndof_e       ! (a select, not a branch and a zeroing pass: no arithmetic)
+            d = ct%dofs(i, f)
+            ue(i) = merge(u(max(d, 1)), 0.0_dp, d > 0)
+        end do
+        sn = dot_product(ct%s(:, f), ue(1:ct%ndof_e))
+        pnode = facet_pnode(ct%ndof_e, ct%nfn, ue, sn, ct%nvec(:, :, f), ct%gap(:, f), &
+                            ct%gamma(f))
+    end subroutine facet_sn_pnode
 
     !> Largest rank contact_eval can return: active points per facet times facets.
     pure function contact_max_rank(ct) result(rmax)

@@ -787,6 +787,7 @@ contains
         call buf_get(buf, act)
         call buf_get(buf, sim%st%e_pen)
         call buf_get(buf, sim%st%e_theta)
+        sim%st%clear = .false.      ! (not in the checkpoint: not known at the loaded u)
         call buf_get(buf, nits)
         call buf_get(buf, nsnap)
         if (nsnap < 0) buf%bad = .true.
@@ -892,7 +893,7 @@ contains
         end if
         e_load = 0.0_dp
         if (sim%has_load) e_load = 0.0_dp - dot(sim%st%u, sim%mdl%load)   ! +0, not -0
-        call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn, sim%st%lam)
+        call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn, sim%st%lam, sim%st%clear)
         call trace_row(sim%trace, sim%st%t, un, vn, pn, e_kin, e_el, e_contact, e_total, &
                        sim%st%newton_its, sim%st%active, e_load, stat, errmsg)
     end subroutine record

@@ -79,7 +79,7 @@ module implicit_schemes
                              ls_factor_info, ls_configure, ls_cg_counts, BACKEND_PCG
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
-    use nitsche_contact, only: contact_eval, contact_max_rank, MAX_E, MAX_FN
+    use nitsche_contact, only: contact_eval, contact_clear, contact_max_rank, MAX_E, MAX_FN
     use alm_contact, only: ALM_OFF
     use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use contact_columns, only: zcache_t, zcache_init, zcache_new_step, zcache_ensure, &
@@ -492,6 +492,8 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: e_pen, e_theta, cb, kb
         integer :: it, active
+        logical :: flight, moved
+        st%clear = .false.
         if (mdl%alm%kind /= ALM_OFF) then
             call implicit_step_alm(this, mdl, st, stat, errmsg)
             return
@@ -507,24 +509,24 @@ contains
         active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
         if (this%m > 0) then
             call zcache_new_step(this%zc)
-            if (.not. this%cached) then
-                call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
-            else if (moved(st%u, mdl%ct%cdofs, this%xc)) then
+            ! xc <- u^n there, and whether that moved it (one pass)
+            call gather_moved(st%u, mdl%ct%cdofs, this%xc, moved)
+            if (.not. this%cached .or. moved) then
                 call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
             end if
             this%tsum = 0.0_dp
             if (this%zt_basis) this%tau = 0.0_dp
             this%rhog_due = .false.
-            call gather(st%u, mdl%ct%cdofs, this%xc)
         end if
-        call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
+        call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, flight, stat, &
+                            errmsg)
         st%newton_its = it
         this%newton_total = this%newton_total + it
         if (stat /= STAT_OK) return
         ! dx = y0 + Z T on the rows of Z (J0^{-1} of the contact correction), on the node
         ! basis when it has fewer columns to read (see the module header)
         if (it == 0) this%dx = 0.0_dp
-        if (this%m > 0) then
+        if (this%m > 0 .and. .not. flight) then     ! (in flight T = 0: no Newton correction)
             if (any(this%tsum /= 0.0_dp)) then
                 if (basis_pays(this)) then
                     call apply_zt_basis(this, mdl, stat, errmsg)
@@ -536,6 +538,7 @@ contains
         end if
         call update_state(this, mdl, st)
         st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
+        st%clear = flight       ! (u' = x on the contact-cell dofs: the probe reads it)
         st%t = st%t + this%dt
     end subroutine implicit_step
 
@@ -641,8 +644,10 @@ contains
     !> at the new iterate. A zero residual passes any scale (a step in flight: no
     !> contact point active at either iterate, rho = 0 exactly), so the scale's three
     !> sums over the dofs are formed only at a step where the contact part moved R, once
-    !> a step. On return dx holds y0 and tsum the coefficients T; `it` iterations.
-    subroutine newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, stat, errmsg)
+    !> a step. On return dx holds y0 and tsum the coefficients T; `it` iterations;
+    !> flight: the step ended in flight (contact_clear true at the iterate).
+    subroutine newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, flight, stat, &
+                              errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(state_t), intent(in) :: st                     !! state at t^n
@@ -650,12 +655,14 @@ contains
         integer, intent(out) :: it                          !! iterations done
         integer, intent(inout) :: active                    !! contact state at the iterate
         real(dp), intent(inout) :: e_pen, e_theta           !! contact energies at the iterate
+        logical, intent(out) :: flight                      !! ended in flight (see above)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: rnorm, scale, dt
         character(len=256) :: why
         logical :: warm
         integer :: l, q, nk
+        flight = .false.
         stat = STAT_OK
         dt = this%dt
         scale = -1.0_dp
@@ -693,6 +700,25 @@ contains
                 end if
                 it = 1
                 if (this%m == 0) exit
+                ! in flight: with no contact term at u^n (rank 0: C and its coefficients
+                ! are zero there) and P >= 0 at every facet's nodes at x = u^n - y0
+                ! (contact_clear), C(x) is zero too and so is R at x (rho = 0): the step
+                ! is done, without the passes over the contact-cell dofs (P y0, T, R')
+                ! that contact_residual makes to find it. x there is the same, and so are
+                ! e_theta and what a later step reads (C, its coefficients, rank 0); the
+                ! rest contact_residual sets is written before it is read. x = u' on the
+                ! contact-cell dofs (update_state's u - dx): the probe skips [P]_- there.
+                if (this%rank == 0) then
+                    do l = 1, this%m
+                        this%x(mdl%ct%cdofs(l)) = st%u(mdl%ct%cdofs(l)) - this%dx(mdl%ct%cdofs(l))
+                    end do
+                    call contact_clear(mdl%ct, this%x, flight, e_theta)
+                    if (flight) then
+                        active = 0
+                        e_pen = 0.0_dp
+                        exit
+                    end if
+                end if
                 call gather(this%dx, mdl%ct%cdofs, this%yc)
                 this%y0c = this%yc
                 this%tk = 0.0_dp
@@ -1509,20 +1535,19 @@ contains
         st%t = st%t + this%dt
     end subroutine implicit_step_alm
 
-    !> Whether u on the dofs idx differs from xc (no temporary array).
-    pure logical function moved(u, idx, xc)
+    !> xc <- u on the dofs idx, and whether that changed a value of xc (no temporary array).
+    pure subroutine gather_moved(u, idx, xc, moved)
         real(dp), intent(in) :: u(:)                        !! vector
         integer, intent(in) :: idx(:)                       !! dofs
-        real(dp), intent(in) :: xc(:)                       !! (size(idx)) values to compare
+        real(dp), intent(inout) :: xc(:)                    !! (size(idx)) values compared, then u's
+        logical, intent(out) :: moved                       !! some u(idx(i)) /= xc(i)
         integer :: i
         moved = .false.
         do i = 1, size(idx)
-            if (u(idx(i)) /= xc(i)) then
-                moved = .true.
-                return
-            end if
+            if (u(idx(i)) /= xc(i)) moved = .true.
+            xc(i) = u(idx(i))
         end do
-    end function moved
+    end subroutine gather_moved
 
     !> The Newton initial residual: r = md + c bu - b with b = newton_b(cb, kb, load, bu),
     !> in one pass (b itself is formed only for the test's scale).

@@ -47,6 +47,9 @@ module time_scheme
         real(dp) :: e_pen = 0.0_dp              !! int [P]_-^2 / (2 gamma) at u
         real(dp) :: e_theta = 0.0_dp            !! sum theta |F| sigma_n^2 / (2 gamma) at u
         integer :: newton_its = 0               !! Newton iterations of the last step
+        logical :: clear = .false.              !! the last step found P finite and >= 0 at
+                                                !! every contact facet's node at u (contact_clear;
+                                                !! .false.: not known)
     end type state_t
 
     !> A time-integration scheme: init (coefficients, factorizations, initial
