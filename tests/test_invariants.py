@@ -3,6 +3,8 @@ at sampled steps through an impact, recompute from the state (u, v, a through
 dyncontact.core.Stepper) and the assembled matrices:
 
 - the product M v that e_kin uses equals M v formed from v (no carried copy drifts);
+- the flag `clear` an implicit step carries (no contact point possible at u, so the
+  trace's p_n skips the probe's facets at a node) holds wherever it is set;
 - B(u) as the scheme carries it into the next step (K_theta u formed by a product, and
   the contact part, which the implicit schemes keep from the step's last Newton
   iterate) equals B(u) evaluated afresh from u;
@@ -123,7 +125,8 @@ def check_invariants(label, mass, scene_path, gravity, t_end, t_contact, tmp_pat
     with Stepper(scene, out) as run:
         M, K = run.matrix("M"), run.matrix("K")
         states = sampled_steps(run, n_steps, samples,
-                               lambda s0, s1: (run.eval_b(s0["u"])[0], run.eval_b(s1["u"])[0]))
+                               lambda s0, s1: (run.eval_b(s0["u"])[0], run.eval_b(s1["u"])[0],
+                                               run.contact_clear(s1["u"])))
     trace = read_trace(out)
     assert len(trace["t"]) == n_steps + 1
     assert np.all(trace["e_kin"] >= 0.0), "e_kin < 0 in the trace"
@@ -131,7 +134,18 @@ def check_invariants(label, mass, scene_path, gravity, t_end, t_contact, tmp_pat
     in_contact = sum(1 for step in states if trace["active"][step + 1] > 0)
     assert in_contact >= 3, f"only {in_contact} sampled steps in contact"
 
-    for step, (s0, s1, b0, b1) in states.items():
+    # the carried flag clear (the step ended with no contact point possible at u', so the
+    # trace's p_n skips the probe's facets at a node) is never set where it does not hold;
+    # the implicit schemes set it in flight, the explicit ones never
+    clears = [s1["clear"] for s0, s1, b0, b1, fresh in states.values()]
+    for step, (s0, s1, b0, b1, fresh) in states.items():
+        assert fresh or not s1["clear"], f"{label} {mass} step {step + 1}: clear, P < 0"
+    if family in ("central",) or keys["name"].startswith("pc"):
+        assert not any(clears), f"{label}: an explicit scheme set clear"
+    else:
+        assert any(clears) and not all(clears), f"{label} {mass}: clear {sum(clears)}"
+
+    for step, (s0, s1, b0, b1, fresh) in states.items():
         u0, v0, a0, u1, v1, a1 = s0["u"], s0["v"], s0["a"], s1["u"], s1["v"], s1["a"]
         load = s1["load"]
         where = f"{label} {mass} step {step + 1} (t = {s1['t']:.4f})"

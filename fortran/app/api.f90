@@ -159,6 +159,27 @@ subroutine dc_sim_eval_b(handle, n, u, b, active)
     active = act
 end subroutine dc_sim_eval_b
 
+!> Whether no contact point can be active at u (contact_clear: P finite and >= 0 at
+!> every contact facet's nodes) on an open run: 1 or 0.
+subroutine dc_sim_contact_clear(handle, n, u, clear)
+    use iso_c_binding, only: c_int, c_int64_t, c_double
+    use kinds, only: dp
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle
+    use nitsche_contact, only: contact_clear
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    integer(c_int), intent(in) :: n              !! free dofs
+    real(c_double), intent(in) :: u(n)           !! displacement
+    integer(c_int), intent(out) :: clear         !! 1: clear, 0: not
+    type(simulation_t), pointer :: sim
+    logical :: ok
+    real(dp) :: e_theta
+    call sim_from_handle(handle, sim)
+    call contact_clear(sim%mdl%ct, u, ok, e_theta)
+    clear = merge(1, 0, ok)
+end subroutine dc_sim_contact_clear
+
 !> B'(u) du (generalized derivative) on the free dofs of an open run.
 subroutine dc_sim_jacobian_apply(handle, n, u, du, jdu)
     use iso_c_binding, only: c_int, c_int64_t, c_double
@@ -616,7 +637,7 @@ end subroutine dc_bench_floor
 !> The state of an open run (after dc_sim_open with outputs, and each dc_sim_advance):
 !> time, displacement, velocity, acceleration (0 for the theta scheme, which has none),
 !> the product M v the run's energies use, and the load L, on the free dofs.
-subroutine dc_sim_state(handle, n, t, u, v, a, mv, load, bu)
+subroutine dc_sim_state(handle, n, t, u, v, a, mv, load, bu, clear)
     use iso_c_binding, only: c_int, c_int64_t, c_double
     use simulation, only: simulation_t
     use api_handles, only: sim_from_handle
@@ -630,8 +651,11 @@ subroutine dc_sim_state(handle, n, t, u, v, a, mv, load, bu)
     real(c_double), intent(out) :: mv(n)         !! M v as used for e_kin
     real(c_double), intent(out) :: load(n)       !! L
     real(c_double), intent(out) :: bu(n)         !! B(u) as the scheme carries it
+    integer(c_int), intent(out) :: clear         !! 1: the last step found no contact point
+                                                 !! possible at u (state_t's clear), else 0
     type(simulation_t), pointer :: sim
     call sim_from_handle(handle, sim)
+    clear = merge(1, 0, sim%st%clear)
     t = sim%st%t
     u = sim%st%u
     v = sim%st%v

@@ -509,6 +509,12 @@ class Model:
         b, active = _core().dc_sim_eval_b(self.handle, _f64(u, (self.dofs,)), self.dofs)
         return b, int(active)
 
+    def contact_clear(self, u) -> bool:
+        """Whether no contact point can be active at u: P finite and >= 0 at the nodes of
+        every contact facet (what an implicit step carries as the state's ``clear``)."""
+        self._need()
+        return bool(_core().dc_sim_contact_clear(self.handle, _f64(u, (self.dofs,)), self.dofs))
+
     def jacobian_apply(self, u, du) -> np.ndarray:
         """B'(u) du (generalized derivative) on the free dofs."""
         self._need()
@@ -609,9 +615,12 @@ class Stepper(Model):
 
     def state(self) -> dict[str, Any]:
         """t, u, v, a, mv (the product M v the energies use), load and bu (B(u) as the
-        scheme carries it into the next step), free dofs."""
-        t, u, v, a, mv, load, bu = _core().dc_sim_state(self.handle, self.dofs)
-        return {"t": float(t), "u": u, "v": v, "a": a, "mv": mv, "load": load, "bu": bu}
+        scheme carries it into the next step), free dofs; clear: the last step found no
+        contact point possible at u (:meth:`contact_clear`), so the trace's p_n skips the
+        probe's facets at a node (False: not known)."""
+        t, u, v, a, mv, load, bu, clear = _core().dc_sim_state(self.handle, self.dofs)
+        return {"t": float(t), "u": u, "v": v, "a": a, "mv": mv, "load": load, "bu": bu,
+                "clear": bool(clear)}
 
     def matrix(self, which: str) -> np.ndarray:
         """The assembled 'M', 'K' or 'K_theta' on the free dofs, as a dense array."""
