@@ -64,27 +64,28 @@ contains
         logical, intent(out) :: massless(:)                 !! (n_dofs) dofs of contact nodes
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: dim, k, e, ne, p, info, piv(size(x, 1) + 1)
-        integer, allocatable :: entry(:, :)
+        integer :: dim, k, j, p, i, info, piv(size(x, 1) + 1)
         real(dp) :: g(size(x, 1) + 1, size(x, 1) + 1), rhs(size(x, 1) + 1), phi(size(x, 1) + 1)
         logical :: removed, receiving
         stat = STAT_OK
         dim = size(x, 1)
         massless = contact_node(dof_node)
-        allocate (entry(3, mass%colptr(mass%n + 1)))
         do k = 1, dim
-            call component_entries(k)
             g = 0.0_dp
             rhs = 0.0_dp
-            do e = 1, ne
-                p = entry(1, e)
-                call classify(entry(2, e), entry(3, e), removed, receiving)
-                if (removed) then
-                    rhs = rhs + mass%val(p) * phi
-                    mass%val(p) = 0.0_dp
-                else if (receiving) then
-                    g = g + spread(phi, 2, dim + 1) * spread(phi, 1, dim + 1)
-                end if
+            do j = 1, mass%n
+                if (dof_comp(j) /= k) cycle
+                do p = mass%colptr(j) + 1, mass%colptr(j + 1)
+                    i = mass%rowind(p) + 1
+                    if (dof_comp(i) /= k) cycle
+                    call classify(i, j, removed, receiving)
+                    if (removed) then
+                        rhs = rhs + mass%val(p) * phi
+                        mass%val(p) = 0.0_dp
+                    else if (receiving) then
+                        g = g + spread(phi, 2, dim + 1) * spread(phi, 1, dim + 1)
+                    end if
+                end do
             end do
             if (all(rhs == 0.0_dp)) cycle
             call dense_lu_factor(dim + 1, g, piv, info)
@@ -94,32 +95,18 @@ contains
                 return
             end if
             call dense_lu_solve(dim + 1, g, piv, rhs)
-            do e = 1, ne
-                p = entry(1, e)
-                call classify(entry(2, e), entry(3, e), removed, receiving)
-                if (receiving) mass%val(p) = mass%val(p) + dot_product(phi, rhs)
+            do j = 1, mass%n
+                if (dof_comp(j) /= k) cycle
+                do p = mass%colptr(j) + 1, mass%colptr(j + 1)
+                    i = mass%rowind(p) + 1
+                    if (dof_comp(i) /= k) cycle
+                    call classify(i, j, removed, receiving)
+                    if (receiving) mass%val(p) = mass%val(p) + dot_product(phi, rhs)
+                end do
             end do
         end do
 
     contains
-
-        !> The stored entries of M coupling component kk with itself, column by column:
-        !> entry(:, 1:ne) = (position in mass%val, row dof, column dof). Both passes of a
-        !> component visit them in this order.
-        subroutine component_entries(kk)
-            integer, intent(in) :: kk
-            integer :: i, j, q
-            ne = 0
-            do j = 1, mass%n
-                if (dof_comp(j) /= kk) cycle
-                do q = mass%colptr(j) + 1, mass%colptr(j + 1)
-                    i = mass%rowind(q) + 1
-                    if (dof_comp(i) /= kk) cycle
-                    ne = ne + 1
-                    entry(:, ne) = [q, i, j]
-                end do
-            end do
-        end subroutine component_entries
 
         !> Entry (ii, jj): removed (touches a contact node) or receiving (both in the
         !> region); phi = (1, (x_ii + x_jj)/2).
