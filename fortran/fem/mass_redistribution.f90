@@ -64,7 +64,7 @@ contains
         logical, intent(out) :: massless(:)                 !! (n_dofs) dofs of contact nodes
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: dim, k, j, p, i, info, piv(size(x, 1) + 1)
+        integer :: dim, k, j, p, i, info, pass, piv(size(x, 1) + 1)
         real(dp) :: g(size(x, 1) + 1, size(x, 1) + 1), rhs(size(x, 1) + 1), phi(size(x, 1) + 1)
         logical :: removed, receiving
         stat = STAT_OK
@@ -73,36 +73,35 @@ contains
         do k = 1, dim
             g = 0.0_dp
             rhs = 0.0_dp
-            do j = 1, mass%n
-                if (dof_comp(j) /= k) cycle
-                do p = mass%colptr(j) + 1, mass%colptr(j + 1)
-                    i = mass%rowind(p) + 1
-                    if (dof_comp(i) /= k) cycle
-                    call classify(i, j, removed, receiving)
-                    if (removed) then
-                        rhs = rhs + mass%val(p) * phi
-                        mass%val(p) = 0.0_dp
-                    else if (receiving) then
-                        g = g + spread(phi, 2, dim + 1) * spread(phi, 1, dim + 1)
-                    end if
+            ! two walks over the entries coupling component k with itself: the first takes
+            ! the removed entries' mass and moments (rhs) and forms the receiving entries'
+            ! system g; the second adds the solution's share to each receiving entry
+            do pass = 1, 2
+                do j = 1, mass%n
+                    if (dof_comp(j) /= k) cycle
+                    do p = mass%colptr(j) + 1, mass%colptr(j + 1)
+                        i = mass%rowind(p) + 1
+                        if (dof_comp(i) /= k) cycle
+                        call classify(i, j, removed, receiving)
+                        if (pass == 2) then
+                            if (receiving) mass%val(p) = mass%val(p) + dot_product(phi, rhs)
+                        else if (removed) then
+                            rhs = rhs + mass%val(p) * phi
+                            mass%val(p) = 0.0_dp
+                        else if (receiving) then
+                            g = g + spread(phi, 2, dim + 1) * spread(phi, 1, dim + 1)
+                        end if
+                    end do
                 end do
-            end do
-            if (all(rhs == 0.0_dp)) cycle
-            call dense_lu_factor(dim + 1, g, piv, info)
-            if (info /= 0) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, 'mass redistribution: the nodes next '// &
-                           'to the contact boundary cannot carry its mass and first moments')
-                return
-            end if
-            call dense_lu_solve(dim + 1, g, piv, rhs)
-            do j = 1, mass%n
-                if (dof_comp(j) /= k) cycle
-                do p = mass%colptr(j) + 1, mass%colptr(j + 1)
-                    i = mass%rowind(p) + 1
-                    if (dof_comp(i) /= k) cycle
-                    call classify(i, j, removed, receiving)
-                    if (receiving) mass%val(p) = mass%val(p) + dot_product(phi, rhs)
-                end do
+                if (pass == 2) exit
+                if (all(rhs == 0.0_dp)) exit
+                call dense_lu_factor(dim + 1, g, piv, info)
+                if (info /= 0) then
+                    call raise(stat, errmsg, STAT_BAD_INPUT, 'mass redistribution: the nodes '// &
+                               'next to the contact boundary cannot carry its mass and first moments')
+                    return
+                end if
+                call dense_lu_solve(dim + 1, g, piv, rhs)
             end do
         end do
 
