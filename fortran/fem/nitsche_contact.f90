@@ -551,7 +551,7 @@ contains
         nr = 0
         do f = 1, ct%n_facets
             call facet_sn_pnode(ct, f, u, sn, pnode)
-            e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
+            e_theta = e_theta + facet_e_theta(ct, f, sn)
             ! a facet with P >= 0 at its nodes has no active point (nothing to add)
             if (all(pnode(1:ct%nfn) >= 0.0_dp)) then
                 if (present(rg)) rg(1:ct%nfn, f) = 0.0_dp
@@ -619,13 +619,22 @@ contains
         e_theta = 0.0_dp
         do f = 1, ct%n_facets
             call facet_sn_pnode(ct, f, u, sn, pnode)
-            e_theta = e_theta + ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
+            e_theta = e_theta + facet_e_theta(ct, f, sn)
             do j = 1, ct%nfn
                 if (.not. (pnode(j) >= 0.0_dp .and. pnode(j) <= huge(1.0_dp))) return
             end do
         end do
         clear = .true.
     end subroutine contact_clear
+
+    !> Facet f's term of the theta sigma_n^2 energy, theta |F| sn^2 / (2 gamma): the one
+    !> expression contact_eval and contact_clear sum (so their e_theta agree to the bit).
+    pure real(dp) function facet_e_theta(ct, f, sn)
+        type(contact_t), intent(in) :: ct      !! contact data
+        integer, intent(in) :: f               !! facet
+        real(dp), intent(in) :: sn             !! sigma_n(u) on it
+        facet_e_theta = ct%theta * ct%measure(f) * sn**2 / (2.0_dp * ct%gamma(f))
+    end function facet_e_theta
 
     !> sigma_n(u) and P at the nodes of facet f (facet_pnode) from the free-dof vector u,
     !> the owner cell's values gathered (0 at constrained dofs).
