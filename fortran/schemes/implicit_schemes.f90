@@ -559,7 +559,7 @@ contains
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: k, nf, f, i, kk, cols(mdl%ndof_e)
+        integer :: k, nf, f, i, kk, cols(MAX_E)     ! (fixed size: no heap array a call)
         nf = mdl%ct%n_facets
         stat = STAT_OK
         do k = 1, size(this%tau)
@@ -579,7 +579,7 @@ contains
                     if (mdl%ct%nvec(kk, i, f) == 0.0_dp) cols(kk) = 0
                 end do
                 call zcache_basis_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
-                                         k, cols, mdl%ct%nvec(:, i, f), stat, errmsg)
+                                         k, cols(1:mdl%ndof_e), mdl%ct%nvec(:, i, f), stat, errmsg)
             end if
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed for the contact correction')
@@ -844,11 +844,11 @@ contains
         real(dp), intent(in) :: dxc(m)                      !! P dx
         real(dp), intent(inout) :: tvec(m)                  !! D P dx (added to)
         real(dp), intent(out) :: at(nt)                     !! v_t . dx
-        real(dp) :: xe(ne), acc
+        real(dp) :: xe(MAX_E), acc     ! (fixed size: no heap array a call)
         integer :: i, t, l
-        do i = 1, ne
-            xe(i) = 0.0_dp
-            if (loc(i) > 0) xe(i) = dxc(loc(i))
+        do i = 1, ne      ! (a select, not a zeroing pass and a branch: no memset call)
+            l = loc(i)
+            xe(i) = merge(dxc(max(l, 1)), 0.0_dp, l > 0)
         end do
         do t = 1, nt
             acc = 0.0_dp
@@ -1335,7 +1335,7 @@ contains
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: info                        !! 0 or the first zero pivot
         integer :: q, t, f, i, nfn, fb
-        real(dp) :: a0, b0, ai(mdl%ct%nfn), bi(mdl%ct%nfn)
+        real(dp) :: a0, b0, ai(MAX_FN), bi(MAX_FN)   ! (fixed size: no heap array a call)
         this%fac_rank = -1
         if (.not. this%ybas_ok .or. this%fresh) call form_y(this, mdl)
         q = this%nq
@@ -1407,7 +1407,7 @@ contains
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer :: q, nf, b, f, kk, e, l, t, i, nfn, fb
-        real(dp) :: acc, a0, b0, ai(mdl%ct%nfn), bi(mdl%ct%nfn)
+        real(dp) :: acc, a0, b0, ai(MAX_FN), bi(MAX_FN)   ! (fixed size: no heap array a call)
         q = this%nq
         nf = this%nyf
         nfn = mdl%ct%nfn
