@@ -150,6 +150,9 @@ module implicit_schemes
         integer, allocatable :: fac_tfac(:)       !! (rmax) the factorized terms' facets
         real(dp), allocatable :: fac_tca(:, :)    !! (nfn, rmax) and their coefficients
         real(dp), allocatable :: fac_tcb(:, :)    !! (nfn, rmax)
+        real(dp), allocatable :: halpha(:, :)     !! (0:nfn, rmax) the factorized terms' alpha_t
+        real(dp), allocatable :: hbeta(:, :)      !! (0:nfn, rmax) and beta_t on the node basis
+                                                  !! (term_coefficients; node_factor, node_solve)
         integer :: nq = 0                         !! size of the node basis of the terms
         logical :: ybas_ok = .false.              !! ybas is Y of the basis held
         integer :: nyf = -1                       !! facets of Y (-1: none formed)
@@ -279,6 +282,7 @@ contains
                   this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), &
                   this%tfac(rmax), this%fac_tfac(rmax), &
                   this%fac_tca(max(1, mdl%ct%nfn), rmax), this%fac_tcb(max(1, mdl%ct%nfn), rmax), &
+                  this%halpha(0:max(1, mdl%ct%nfn), rmax), this%hbeta(0:max(1, mdl%ct%nfn), rmax), &
                   this%yfac(mdl%ct%n_facets), this%qnode(0:max(1, mdl%ct%nfn), mdl%ct%n_facets), &
                   this%bnode(0), this%nrow(max(1, mdl%ct%nfn), 0), &
                   this%nval(max(1, mdl%ct%nfn), 0), this%wb(this%m, 0), this%ybas(0, 0), &
@@ -1115,9 +1119,19 @@ contains
         this%fac_rank = r
         this%fac_nodes = nodes
         this%fac_tfac(1:r) = this%tfac(1:r)
-        this%fac_tca(:, 1:r) = this%tca(:, 1:r)
-        this%fac_tcb(:, 1:r) = this%tcb(:, 1:r)
+        ! (the leading columns as one run of nfn r values: tca and fac_tca have the same
+        ! leading dimension)
+        call copy_values(size(this%tca, 1) * r, this%tca, this%fac_tca)
+        call copy_values(size(this%tcb, 1) * r, this%tcb, this%fac_tcb)
     end subroutine keep_tangent
+
+    !> b(1:k) = a(1:k): a plain copy of the first k values of two arrays.
+    pure subroutine copy_values(k, a, b)
+        integer, intent(in) :: k                            !! values
+        real(dp), intent(in) :: a(k)                        !! source
+        real(dp), intent(inout) :: b(k)                     !! copy
+        b = a
+    end subroutine copy_values
 
     !> The facets of the current terms (in order; a facet's terms are consecutive) in
     !> flist, and X = M^T W Mt over them (blocks of nfn x nfn, facet by facet: M(:, j) =
@@ -1304,32 +1318,34 @@ contains
     end subroutine form_y
 
     !> A term's coefficients in the node basis: u_t = B alpha, v_t = B beta, with alpha
-    !> = theta (sum ca) at the facet and -gamma_f ca(i) at its node i (beta the same
-    !> from cb, with 1 for theta).
-    pure subroutine term_coefficients(nfn, ct_theta, gamma, ca, cb, a0, ai, b0, bi)
+    !> = theta (sum ca) at the facet (alpha(0)) and -gamma_f ca(i) at its node i
+    !> (alpha(i)); beta the same from cb, with 1 for theta.
+    pure subroutine term_coefficients(nfn, ct_theta, gamma, ca, cb, alpha, beta)
         integer, intent(in) :: nfn                          !! facet nodes
         real(dp), intent(in) :: ct_theta, gamma             !! theta, gamma_f
         real(dp), intent(in) :: ca(nfn), cb(nfn)            !! the term's coefficients
-        real(dp), intent(out) :: a0, b0                     !! at the facet
-        real(dp), intent(out) :: ai(nfn), bi(nfn)           !! at its nodes
+        real(dp), intent(out) :: alpha(0:nfn), beta(0:nfn)  !! at the facet, then its nodes
         if (nfn == 3) then      ! (written out: sum's additions from 0, in order)
-            a0 = ct_theta * (((0.0_dp + ca(1)) + ca(2)) + ca(3))
-            b0 = ((0.0_dp + cb(1)) + cb(2)) + cb(3)
-            ai(1) = -gamma * ca(1); ai(2) = -gamma * ca(2); ai(3) = -gamma * ca(3)
-            bi(1) = -gamma * cb(1); bi(2) = -gamma * cb(2); bi(3) = -gamma * cb(3)
+            alpha(0) = ct_theta * (((0.0_dp + ca(1)) + ca(2)) + ca(3))
+            beta(0) = ((0.0_dp + cb(1)) + cb(2)) + cb(3)
+            alpha(1) = -gamma * ca(1); alpha(2) = -gamma * ca(2); alpha(3) = -gamma * ca(3)
+            beta(1) = -gamma * cb(1); beta(2) = -gamma * cb(2); beta(3) = -gamma * cb(3)
             return
         end if
-        a0 = ct_theta * sum(ca)
-        b0 = sum(cb)
-        ai = -gamma * ca
-        bi = -gamma * cb
+        alpha(0) = ct_theta * sum(ca)
+        beta(0) = sum(cb)
+        alpha(1:nfn) = -gamma * ca
+        beta(1:nfn) = -gamma * cb
     end subroutine term_coefficients
 
     !> The Woodbury system on the node basis, I + c Y H with H = sum_t alpha_t beta_t^T
     !> (J^{-1} = J0^{-1} - Z B H (I + c Y H)^{-1} c B^T P J0^{-1}: the Woodbury identity
     !> with U = B H, V = B), factorized (info as dense_lu_factor's); Y is formed when
     !> the basis changed. The columns of c Y H are sums over the terms of
-    !> c (Y alpha_t) beta_t^T, 2 (nfn + 1) columns of Y read a term.
+    !> c (Y alpha_t) beta_t^T, 2 (nfn + 1) columns of Y read a term. The terms' alpha_t,
+    !> beta_t are kept with the factors (halpha, hbeta): node_solve, which runs with the
+    !> factors of the current tangent only (the same tfac, tca, tcb bit for bit), reads
+    !> them instead of forming them again.
     subroutine node_factor(this, mdl, info)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
@@ -1345,18 +1361,21 @@ contains
             f = this%tfac(t)
             fb = this%qnode(0, f)
             call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), &
-                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), a0, ai, b0, bi)
+                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), &
+                                   this%halpha(0:nfn, t), this%hbeta(0:nfn, t))
             if (nfn == 3) then      ! (one pass over the rows: see term_columns3)
                 associate (y => this%ybas, sm => this%small, qn => this%qnode)
                     call term_columns3(q, y(:, fb), y(:, qn(1, f)), y(:, qn(2, f)), &
-                                       y(:, qn(3, f)), [a0, ai(1:3)], &
-                                       [this%c * b0, this%c * bi(1), this%c * bi(2), &
-                                        this%c * bi(3)], &
-                                       sm(:, fb), sm(:, qn(1, f)), sm(:, qn(2, f)), &
-                                       sm(:, qn(3, f)))
+                                       y(:, qn(3, f)), this%halpha(0:3, t), this%c, &
+                                       this%hbeta(0:3, t), sm(:, fb), sm(:, qn(1, f)), &
+                                       sm(:, qn(2, f)), sm(:, qn(3, f)))
                 end associate
                 cycle
             end if
+            a0 = this%halpha(0, t)
+            ai(1:nfn) = this%halpha(1:nfn, t)
+            b0 = this%hbeta(0, t)
+            bi(1:nfn) = this%hbeta(1:nfn, t)
             this%qa(1:q) = a0 * this%ybas(1:q, fb)
             do i = 1, nfn
                 this%qa(1:q) = this%qa(1:q) + ai(i) * this%ybas(1:q, this%qnode(i, f))
@@ -1375,29 +1394,31 @@ contains
         call keep_tangent(this, .true.)
     end subroutine node_factor
 
-    !> One term's part of c Y H on a triangle facet (node_factor): qa = a(1) y1 + a(2) y2
-    !> + a(3) y3 + a(4) y4 (Y alpha_t: the columns of the facet and its three nodes),
-    !> then s_k <- s_k + b(k) qa on the same four columns of the system, row by row in
-    !> one pass: each entry the same operations in the same order as the column loops of
-    !> the general case (qa formed, then added to each column), without storing qa and
-    !> reading it four times.
-    pure subroutine term_columns3(q, y1, y2, y3, y4, a, b, s1, s2, s3, s4)
+    !> One term's part of c Y H on a triangle facet (node_factor): qa = a(0) y1 + a(1) y2
+    !> + a(2) y3 + a(3) y4 (Y alpha_t: the columns of the facet and its three nodes),
+    !> then s_k <- s_k + (c b(k - 1)) qa on the same four columns of the system, row by
+    !> row in one pass: each entry the same operations in the same order as the column
+    !> loops of the general case (qa formed, then added to each column), without storing
+    !> qa and reading it four times.
+    pure subroutine term_columns3(q, y1, y2, y3, y4, a, c, b, s1, s2, s3, s4)
         integer, intent(in) :: q                            !! order of the system
         real(dp), intent(in) :: y1(q), y2(q), y3(q), y4(q)  !! columns of Y
-        real(dp), intent(in) :: a(4)                        !! alpha_t
-        real(dp), intent(in) :: b(4)                        !! c beta_t
+        real(dp), intent(in) :: a(0:3)                      !! alpha_t
+        real(dp), intent(in) :: c                           !! the coefficient c
+        real(dp), intent(in) :: b(0:3)                      !! beta_t
         real(dp), intent(inout) :: s1(q), s2(q), s3(q), s4(q) !! columns of the system
-        real(dp) :: x
+        real(dp) :: x, b1, b2, b3, b4
         integer :: r
+        b1 = c * b(0); b2 = c * b(1); b3 = c * b(2); b4 = c * b(3)
         do r = 1, q
-            x = a(1) * y1(r)
-            x = x + a(2) * y2(r)
-            x = x + a(3) * y3(r)
-            x = x + a(4) * y4(r)
-            s1(r) = s1(r) + b(1) * x
-            s2(r) = s2(r) + b(2) * x
-            s3(r) = s3(r) + b(3) * x
-            s4(r) = s4(r) + b(4) * x
+            x = a(0) * y1(r)
+            x = x + a(1) * y2(r)
+            x = x + a(2) * y3(r)
+            x = x + a(3) * y4(r)
+            s1(r) = s1(r) + b1 * x
+            s2(r) = s2(r) + b2 * x
+            s3(r) = s3(r) + b3 * x
+            s4(r) = s4(r) + b4 * x
         end do
     end subroutine term_columns3
 
@@ -1407,7 +1428,7 @@ contains
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer :: q, nf, b, f, kk, e, l, t, i, nfn, fb
-        real(dp) :: acc, a0, b0, ai(MAX_FN), bi(MAX_FN)   ! (fixed size: no heap array a call)
+        real(dp) :: acc
         q = this%nq
         nf = this%nyf
         nfn = mdl%ct%nfn
@@ -1428,20 +1449,18 @@ contains
             this%zs(b) = this%c * acc
         end do
         call dense_lu_solve(q, this%small, this%piv, this%zs)
-        ! qs = H s = sum_t alpha_t (beta_t . s)
+        ! qs = H s = sum_t alpha_t (beta_t . s), alpha_t and beta_t kept by node_factor
         this%qs(1:q) = 0.0_dp
         do t = 1, this%rank
             f = this%tfac(t)
             fb = this%qnode(0, f)
-            call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), &
-                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), a0, ai, b0, bi)
-            acc = b0 * this%zs(fb)
+            acc = this%hbeta(0, t) * this%zs(fb)
             do i = 1, nfn
-                acc = acc + bi(i) * this%zs(this%qnode(i, f))
+                acc = acc + this%hbeta(i, t) * this%zs(this%qnode(i, f))
             end do
-            this%qs(fb) = this%qs(fb) + a0 * acc
+            this%qs(fb) = this%qs(fb) + this%halpha(0, t) * acc
             do i = 1, nfn
-                this%qs(this%qnode(i, f)) = this%qs(this%qnode(i, f)) + ai(i) * acc
+                this%qs(this%qnode(i, f)) = this%qs(this%qnode(i, f)) + this%halpha(i, t) * acc
             end do
         end do
         ! tk = tk - B qs
