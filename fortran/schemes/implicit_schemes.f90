@@ -841,6 +841,8 @@ contains
     !> One facet's nt terms of D P dx: at(t) = v_t . dx on the facet's dofs loc (> 0;
     !> v_t . dx summed in the order of the dofs), then tvec(loc(i)) += u_t(i) at(t) for
     !> t = 1..nt in that order (the additions of term after term, in the same order).
+    !> Three terms (a compressed facet, a triangle piece) take one pass over the dofs
+    !> for their three sums, each summed in its own order, and one for tvec.
     pure subroutine facet_tangent(ne, nt, m, loc, vb, ua, dxc, tvec, at)
         integer, intent(in) :: ne, nt, m                    !! cell dofs, terms, contact-cell dofs
         integer, intent(in) :: loc(ne)                      !! the terms' contact-cell dofs
@@ -848,8 +850,29 @@ contains
         real(dp), intent(in) :: dxc(m)                      !! P dx
         real(dp), intent(inout) :: tvec(m)                  !! D P dx (added to)
         real(dp), intent(out) :: at(nt)                     !! v_t . dx
-        real(dp) :: xe(MAX_E), acc     ! (fixed size: no heap array a call)
+        real(dp) :: xe(MAX_E), acc, a1, a2, a3     ! (fixed size: no heap array a call)
         integer :: i, t, l
+        if (nt == 3) then
+            a1 = 0.0_dp; a2 = 0.0_dp; a3 = 0.0_dp
+            do i = 1, ne
+                l = loc(i)
+                if (l <= 0) cycle
+                acc = dxc(l)
+                a1 = a1 + vb(i, 1) * acc
+                a2 = a2 + vb(i, 2) * acc
+                a3 = a3 + vb(i, 3) * acc
+            end do
+            at(1) = a1; at(2) = a2; at(3) = a3
+            do i = 1, ne
+                l = loc(i)
+                if (l <= 0) cycle
+                acc = tvec(l)
+                acc = acc + ua(i, 1) * a1
+                acc = acc + ua(i, 2) * a2
+                tvec(l) = acc + ua(i, 3) * a3
+            end do
+            return
+        end if
         do i = 1, ne      ! (a select, not a zeroing pass and a branch: no memset call)
             l = loc(i)
             xe(i) = merge(dxc(max(l, 1)), 0.0_dp, l > 0)
