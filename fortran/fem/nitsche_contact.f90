@@ -228,13 +228,21 @@ contains
             if (.not. (pv < 0.0_dp)) cycle
             active = active + 1
             ! nn = nvec nsh column by column (each entry's sum in the order of
-            ! dot_product(nvec(j, :), nsh), from 0; the rows of nvec are strided)
-            nn = 0.0_dp
-            do i = 1, nfn
+            ! dot_product(nvec(j, :), nsh), from 0; the rows of nvec are strided); on a
+            ! triangle the three products of an entry written out, in that order
+            if (nfn == 3) then
                 do j = 1, ndof_e
-                    nn(j) = nn(j) + nvec(j, i) * nsh(i)
+                    nn(j) = ((0.0_dp + nvec(j, 1) * nsh(1)) + nvec(j, 2) * nsh(2)) &
+                            + nvec(j, 3) * nsh(3)
                 end do
-            end do
+            else
+                nn = 0.0_dp
+                do i = 1, nfn
+                    do j = 1, ndof_e
+                        nn(j) = nn(j) + nvec(j, i) * nsh(i)
+                    end do
+                end do
+            end if
             ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
             r(1:ndof_e) = r(1:ndof_e) + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
             if (terms) rg(1:nfn) = rg(1:nfn) + ((ws(q) / gamma) * pv) * nsh(1:nfn)
