@@ -126,6 +126,8 @@ module implicit_schemes
         type(zcache_t) :: zc                      !! columns of Z = J0^{-1} P^T and W = P Z
         logical :: all_columns = .false.          !! every column computed at set-up
         integer, allocatable :: need(:)           !! (max(m, ndof_e rmax)) columns a step needs
+        integer, allocatable :: fneed(:)          !! (n_facets) the cache's step at which a
+                                                  !! facet's columns were last made available
         integer :: rank = 0                       !! rank of the contact tangent D = U V^T
         real(dp), allocatable :: ua(:, :)         !! (ndof_e, rmax) columns of U (on qloc)
         real(dp), allocatable :: vb(:, :)         !! (ndof_e, rmax) columns of V (on qloc)
@@ -280,7 +282,7 @@ contains
         if (mdl%has_contact) rmax = contact_max_rank(mdl%ct)
         allocate (this%need(max(this%m, mdl%ndof_e * rmax)), this%ua(mdl%ndof_e, rmax), &
                   this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), &
-                  this%tfac(rmax), this%fac_tfac(rmax), &
+                  this%tfac(rmax), this%fac_tfac(rmax), this%fneed(mdl%ct%n_facets), &
                   this%fac_tca(max(1, mdl%ct%nfn), rmax), this%fac_tcb(max(1, mdl%ct%nfn), rmax), &
                   this%halpha(0:max(1, mdl%ct%nfn), rmax), this%hbeta(0:max(1, mdl%ct%nfn), rmax), &
                   this%yfac(mdl%ct%n_facets), this%qnode(0:max(1, mdl%ct%nfn), mdl%ct%n_facets), &
@@ -296,6 +298,7 @@ contains
                   this%xc(this%m), this%dxc(this%m), this%yc(this%m), this%tk(this%m), &
                   this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)))
         this%scratch = 0.0_dp
+        this%fneed = -1
         this%fac_rank = -1
         this%nxf = -1
         this%nyf = -1
@@ -665,7 +668,7 @@ contains
         real(dp) :: rnorm, scale, dt
         character(len=256) :: why
         logical :: warm
-        integer :: l, q, nk
+        integer :: l, q, nk, f
         flight = .false.
         stat = STAT_OK
         dt = this%dt
@@ -744,19 +747,24 @@ contains
                 it = it + 1
             end if
             if (this%rank > 0) then
-                ! (a facet's terms are consecutive and on its cell's dofs: listed once)
+                ! (a facet's terms are consecutive and on its cell's dofs: listed once; and
+                ! once a step, as the columns made available at a step are held to its
+                ! end: the cache drops only columns of earlier steps)
                 nk = 0
                 do q = 1, this%rank
                     if (q > 1) then
                         if (this%tfac(q) == this%tfac(q - 1)) cycle
                     end if
+                    f = this%tfac(q)
+                    if (this%fneed(f) == this%zc%step) cycle
+                    this%fneed(f) = this%zc%step
                     do l = 1, mdl%ndof_e
                         if (this%qloc(l, q) <= 0) cycle
                         nk = nk + 1
                         this%need(nk) = this%qloc(l, q)
                     end do
                 end do
-                call need_columns(this, mdl, nk, stat, errmsg)
+                if (nk > 0) call need_columns(this, mdl, nk, stat, errmsg)
                 if (stat /= STAT_OK) return
                 call woodbury(this, mdl, stat)
                 if (stat /= STAT_OK) then
