@@ -301,18 +301,18 @@ contains
     !> {P < 0} of the triangle (P linear, nodal values pnode) is a triangle or a
     !> quadrilateral (two triangles) cut off by the zero line of P; each piece gets the
     !> symmetric 3-point rule of degree 2 (points inside the piece, where P < 0).
+    !> (Explicit-shape outputs and the vertices a constant: nothing to set up a call.)
     pure subroutine triangle_active_rule(pnode, measure, np, shp, ws)
         real(dp), intent(in) :: pnode(3)          !! P at the facet's nodes
         real(dp), intent(in) :: measure           !! facet area
         integer, intent(out) :: np                !! points (0, 3 or 6)
-        real(dp), intent(out) :: shp(:, :)        !! (MAX_FN, >= 6) shape values at the points
-        real(dp), intent(out) :: ws(:)            !! (>= 6) weights (area x rule weight)
-        real(dp) :: e(3, 3), z1(3), z2(3)
+        real(dp), intent(out) :: shp(MAX_FN, *)   !! (MAX_FN, >= 6) shape values at the points
+        real(dp), intent(out) :: ws(*)            !! (>= 6) weights (area x rule weight)
+        !> the triangle's vertices in barycentric coordinates
+        real(dp), parameter :: e(3, 3) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, &
+                                                  0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+        real(dp) :: z1(3), z2(3)
         integer :: neg, i, j, k
-        e = 0.0_dp
-        do i = 1, 3
-            e(i, i) = 1.0_dp
-        end do
         neg = count(pnode < 0.0_dp)
         np = 0
         select case (neg)
@@ -344,8 +344,8 @@ contains
         real(dp), intent(in) :: v1(3), v2(3), v3(3)   !! vertices (barycentric)
         real(dp), intent(in) :: measure               !! facet area
         integer, intent(inout) :: np                  !! points so far
-        real(dp), intent(inout) :: shp(:, :)          !! shape values at the points
-        real(dp), intent(inout) :: ws(:)              !! weights
+        real(dp), intent(inout) :: shp(MAX_FN, *)     !! shape values at the points
+        real(dp), intent(inout) :: ws(*)              !! weights
         real(dp), parameter :: P_MAJ = 2.0_dp / 3.0_dp, P_MIN = 1.0_dp / 6.0_dp
         real(dp) :: frac
         frac = abs((v2(2) - v1(2)) * (v3(3) - v1(3)) - (v2(3) - v1(3)) * (v3(2) - v1(2)))
