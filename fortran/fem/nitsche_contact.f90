@@ -218,7 +218,12 @@ contains
         ! the tangent is compressed and the points' own qa, qb, ca, cb are not formed
         na = 0
         do q = 1, np
-            pq(q) = dot_product(shp(1:nfn, q), pnode(1:nfn))
+            if (nfn == 3) then     ! (dot_product's sum from 0, written out)
+                pq(q) = ((0.0_dp + shp(1, q) * pnode(1)) + shp(2, q) * pnode(2)) &
+                        + shp(3, q) * pnode(3)
+            else
+                pq(q) = dot_product(shp(1:nfn, q), pnode(1:nfn))
+            end if
             if (pq(q) < 0.0_dp) na = na + 1
         end do
         compress = terms .and. compress_ok .and. na > nfn
@@ -245,11 +250,13 @@ contains
             end if
             ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
             r(1:ndof_e) = r(1:ndof_e) + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
-            if (terms) rg(1:nfn) = rg(1:nfn) + ((ws(q) / gamma) * pv) * nsh(1:nfn)
+            ! (rg and g on all MAX_FN rows, a length known when compiled: the rows past
+            ! nfn, shape values 0, are never read)
+            if (terms) rg = rg + ((ws(q) / gamma) * pv) * nsh
             energy = energy + (0.5_dp * ws(q) / gamma) * pv**2
             if (compress) then
                 do j = 1, nfn
-                    g(1:nfn, j) = g(1:nfn, j) + ((ws(q) / gamma) * nsh(j)) * nsh(1:nfn)
+                    g(:, j) = g(:, j) + ((ws(q) / gamma) * nsh(j)) * nsh
                 end do
                 cycle
             end if
