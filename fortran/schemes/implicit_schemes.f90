@@ -1332,10 +1332,8 @@ contains
                 acc = 0.0_dp
                 if (a <= nf) then
                     f = this%yfac(a)
-                    do kk = 1, mdl%ndof_e
-                        l = mdl%ct%cloc(kk, f)
-                        if (l > 0) acc = acc + mdl%ct%s(kk, f) * this%wb(l, b)
-                    end do
+                    acc = cell_dot(mdl%ndof_e, mdl%ct%cloc(:, f), mdl%ct%s(:, f), this%m, &
+                                   this%wb(:, b))
                 else
                     do e = 1, mdl%ct%nfn
                         l = this%nrow(e, a - nf)
@@ -1467,10 +1465,7 @@ contains
             acc = 0.0_dp
             if (b <= nf) then
                 f = this%yfac(b)
-                do kk = 1, mdl%ndof_e
-                    l = mdl%ct%cloc(kk, f)
-                    if (l > 0) acc = acc + mdl%ct%s(kk, f) * this%yc(l)
-                end do
+                acc = cell_dot(mdl%ndof_e, mdl%ct%cloc(:, f), mdl%ct%s(:, f), this%m, this%yc)
             else
                 do e = 1, nfn
                     l = this%nrow(e, b - nf)
@@ -1498,10 +1493,8 @@ contains
         do b = 1, q
             if (b <= nf) then
                 f = this%yfac(b)
-                do kk = 1, mdl%ndof_e
-                    l = mdl%ct%cloc(kk, f)
-                    if (l > 0) this%tk(l) = this%tk(l) - mdl%ct%s(kk, f) * this%qs(b)
-                end do
+                call cell_sub(mdl%ndof_e, mdl%ct%cloc(:, f), mdl%ct%s(:, f), this%qs(b), &
+                              this%m, this%tk)
             else
                 do e = 1, nfn
                     l = this%nrow(e, b - nf)
@@ -1521,6 +1514,39 @@ contains
             end do
         end if
     end subroutine node_solve
+
+    !> sum over the cell's dofs with loc(k) > 0 of s(k) y(loc(k)), from 0 in the order of
+    !> the dofs (a facet's sigma_n row against a vector on the contact-cell dofs; explicit
+    !> shapes: a tight loop where the type's components were indexed at each dof).
+    pure real(dp) function cell_dot(ne, loc, s, m, y) result(acc)
+        integer, intent(in) :: ne                           !! cell dofs
+        integer, intent(in) :: loc(ne)                      !! their contact-cell dofs (0: none)
+        real(dp), intent(in) :: s(ne)                       !! the row
+        integer, intent(in) :: m                            !! contact-cell dofs
+        real(dp), intent(in) :: y(m)                        !! the vector
+        integer :: k, l
+        acc = 0.0_dp
+        do k = 1, ne
+            l = loc(k)
+            if (l > 0) acc = acc + s(k) * y(l)
+        end do
+    end function cell_dot
+
+    !> y(loc(k)) <- y(loc(k)) - s(k) alpha over the cell's dofs with loc(k) > 0, in their
+    !> order.
+    pure subroutine cell_sub(ne, loc, s, alpha, m, y)
+        integer, intent(in) :: ne                           !! cell dofs
+        integer, intent(in) :: loc(ne)                      !! their contact-cell dofs (0: none)
+        real(dp), intent(in) :: s(ne)                       !! the row
+        real(dp), intent(in) :: alpha                       !! its coefficient
+        integer, intent(in) :: m                            !! contact-cell dofs
+        real(dp), intent(inout) :: y(m)                     !! the vector (updated)
+        integer :: k, l
+        do k = 1, ne
+            l = loc(k)
+            if (l > 0) y(l) = y(l) - s(k) * alpha
+        end do
+    end subroutine cell_sub
 
     !> The Woodbury work arrays for rank r: their size follows the largest rank met (at
     !> least doubled when it grows: few reallocations, and the pages beyond the leading
