@@ -566,7 +566,7 @@ contains
                             tcb, rg)
         type(contact_t), intent(in) :: ct                   !! contact data
         real(dp), intent(in) :: u(:)                        !! free-dof displacement
-        real(dp), intent(inout) :: r(:)                     !! residual (added to)
+        real(dp), intent(inout), contiguous :: r(:)         !! residual (added to)
         integer, intent(out) :: active                      !! active quadrature points
         real(dp), intent(out) :: e_pen                      !! penalty-like energy
         real(dp), intent(out) :: e_theta                    !! theta sigma_n^2 energy term
@@ -635,12 +635,25 @@ contains
             if (af == 0) cycle
             active = active + af
             e_pen = e_pen + ef
-            do i = 1, ne
-                if (ct%dofs(i, f) > 0) r(ct%dofs(i, f)) = r(ct%dofs(i, f)) + rf(i)
-            end do
+            call cell_add(ne, ct%dofs(:, f), rf, size(r), r)
         end do
         if (present(rank)) rank = nr
     end subroutine contact_eval
+
+    !> r(dofs(i)) <- r(dofs(i)) + rf(i) over the cell's free dofs (dofs(i) > 0), in their
+    !> order (explicit shapes: a tight loop).
+    pure subroutine cell_add(ne, dofs, rf, n, r)
+        integer, intent(in) :: ne                           !! cell dofs
+        integer, intent(in) :: dofs(ne)                     !! their free dofs (0: constrained)
+        real(dp), intent(in) :: rf(ne)                      !! the cell's values
+        integer, intent(in) :: n                            !! free dofs
+        real(dp), intent(inout) :: r(n)                     !! the vector (added to)
+        integer :: i, d
+        do i = 1, ne
+            d = dofs(i)
+            if (d > 0) r(d) = r(d) + rf(i)
+        end do
+    end subroutine cell_add
 
     !> Whether no contact point can be active at u: P finite and >= 0 at the nodes of
     !> every facet (P is linear on a facet; >= 0 is contact_eval's test to skip a facet).
