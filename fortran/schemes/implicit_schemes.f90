@@ -836,8 +836,9 @@ contains
                                                this%rhog(:, this%tfac(q)))
             q = q + nt
         end do
-        this%cold = this%cx
-        ! (C's coefficients at x kept in gold: gx and gold exchanged, then gx formed anew)
+        ! (C at x kept in cold, its coefficients in gold: cx and cold, gx and gold
+        ! exchanged, then cx and gx formed anew, every entry)
+        call swap_c(this)
         if (this%zt_basis) call swap_g(this)
         call contact_part(this, mdl, this%x, this%cx, active, e_pen, e_theta)
         this%rho = this%c * (this%cx - this%cold + this%tvec)
@@ -914,6 +915,15 @@ contains
             rg = rg + at(t) * ca(:, t)
         end do
     end subroutine facet_rhog
+
+    !> Exchange cx and cold (their allocations: no copy).
+    subroutine swap_c(this)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        real(dp), allocatable :: tmp(:)
+        call move_alloc(this%cold, tmp)
+        call move_alloc(this%cx, this%cold)
+        call move_alloc(tmp, this%cx)
+    end subroutine swap_c
 
     !> Exchange gx and gold (their allocations: no copy).
     subroutine swap_g(this)
