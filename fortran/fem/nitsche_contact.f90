@@ -119,18 +119,39 @@ contains
         real(dp), intent(out), optional :: ca(:, :) !! (>= nfn, >= nterm) coefficients of qa in Mt
         real(dp), intent(out), optional :: cb(:, :) !! (>= nfn, >= nterm) coefficients of qb in M
         real(dp), intent(out), optional :: rg(:)    !! (>= nfn) coefficients of r in Mt
-        real(dp) :: sn, pnode(MAX_FN)
+        real(dp) :: sn, pnode(MAX_FN), rl(MAX_E), rgl(MAX_FN)
+        real(dp) :: qal(MAX_E, MAX_Q), qbl(MAX_E, MAX_Q), cal(MAX_FN, MAX_Q), cbl(MAX_FN, MAX_Q)
+        integer :: nt
         sn = dot_product(s, ue)
         pnode = facet_pnode(ndof_e, nfn, ue, sn, nvec, gap, gamma)
         call facet_terms(ndof_e, nfn, pnode, s, nvec, gamma, theta, measure, quad, nq, qs, qw, &
-                         r, energy, active, qa, qb, nterm, ca, cb, rg)
+                         present(qa) .or. present(ca) .or. present(rg), &
+                         present(nterm) .and. present(qa), rl, energy, active, nt, qal, qbl, &
+                         cal, cbl, rgl)
+        r = rl(1:ndof_e)
+        if (present(nterm)) nterm = nt
+        if (present(qa)) then
+            qa(:, 1:nt) = qal(1:ndof_e, 1:nt)
+            qb(:, 1:nt) = qbl(1:ndof_e, 1:nt)
+        end if
+        if (present(ca)) then
+            ca(1:nfn, 1:nt) = cal(1:nfn, 1:nt)
+            cb(1:nfn, 1:nt) = cbl(1:nfn, 1:nt)
+        end if
+        if (present(rg)) rg(1:nfn) = rgl(1:nfn)
     end subroutine nitsche_facet
 
     !> nitsche_facet given P at the facet's nodes (facet_pnode; the displacement enters
     !> through it alone): contact_eval has formed it to skip inactive facets, and passes
-    !> it on rather than having it formed again.
+    !> it on rather than having it formed again. Its outputs are fixed-size arrays (the
+    !> callers' locals: no array descriptor a call, no optional argument to test at each
+    !> point), the terms in their first nterm columns, the rows 1..ndof_e (1..nfn).
+    !> With terms false only r, energy and active are formed (nterm = active; qa, qb, ca,
+    !> cb, rg are left undefined but for rg = 0); with compress the terms are compressed to
+    !> nfn when more than nfn points are active (nitsche_facet with nterm present).
     pure subroutine facet_terms(ndof_e, nfn, pnode, s, nvec, gamma, theta, measure, quad, nq, &
-                                qs, qw, r, energy, active, qa, qb, nterm, ca, cb, rg)
+                                qs, qw, terms, compress_ok, r, energy, active, nterm, qa, qb, &
+                                ca, cb, rg)
         integer, intent(in) :: ndof_e          !! owner cell dofs
         integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D, 3 in 3D)
         real(dp), intent(in) :: pnode(MAX_FN)  !! P at the facet's nodes (the first nfn)
@@ -141,28 +162,31 @@ contains
         real(dp), intent(in) :: measure        !! facet length (2D), area (3D), 1 in 1D
         integer, intent(in) :: quad            !! QUAD_EXACT or QUAD_GAUSS
         integer, intent(in) :: nq              !! Gauss points (QUAD_GAUSS)
-        real(dp), intent(in) :: qs(:, :)       !! (MAX_FN, nq) shape values at the Gauss points
-        real(dp), intent(in) :: qw(:)          !! Gauss weights (sum 1)
-        real(dp), intent(out) :: r(ndof_e)     !! residual contribution
+        real(dp), intent(in) :: qs(MAX_FN, *)  !! (MAX_FN, nq) shape values at the Gauss points
+        real(dp), intent(in) :: qw(*)          !! (nq) Gauss weights (sum 1)
+        logical, intent(in) :: terms           !! form the terms: qa, qb, ca, cb and rg
+        logical, intent(in) :: compress_ok     !! (with terms) compress as nitsche_facet
+        real(dp), intent(out) :: r(MAX_E)      !! residual contribution (rows 1..ndof_e)
         real(dp), intent(out) :: energy        !! int [P]_-^2 / (2 gamma)
         integer, intent(out) :: active         !! active quadrature points
-        real(dp), intent(out), optional :: qa(:, :) !! as nitsche_facet's
-        real(dp), intent(out), optional :: qb(:, :) !! as nitsche_facet's
-        integer, intent(out), optional :: nterm     !! as nitsche_facet's
-        real(dp), intent(out), optional :: ca(:, :) !! as nitsche_facet's
-        real(dp), intent(out), optional :: cb(:, :) !! as nitsche_facet's
-        real(dp), intent(out), optional :: rg(:)    !! as nitsche_facet's
+        integer, intent(out) :: nterm          !! terms in qa, qb (as nitsche_facet's)
+        real(dp), intent(out) :: qa(MAX_E, MAX_Q) !! as nitsche_facet's
+        real(dp), intent(out) :: qb(MAX_E, MAX_Q) !! as nitsche_facet's
+        real(dp), intent(out) :: ca(MAX_FN, MAX_Q) !! as nitsche_facet's
+        real(dp), intent(out) :: cb(MAX_FN, MAX_Q) !! as nitsche_facet's
+        real(dp), intent(out) :: rg(MAX_FN)    !! as nitsche_facet's
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: xs(MAX_Q), ws(MAX_Q), a, b, xi_star
         real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
         real(dp) :: g(MAX_FN, MAX_FN), pq(MAX_Q), mt(MAX_E, MAX_FN)
         integer :: np, q, j, i, na
         logical :: compress
+        ! (whole fixed-size arrays zeroed: a few stores, no memset call)
         r = 0.0_dp
         energy = 0.0_dp
         active = 0
-        if (present(rg)) rg(1:nfn) = 0.0_dp
-        if (present(nterm)) nterm = 0
+        rg = 0.0_dp
+        nterm = 0
         g = 0.0_dp
         if (nfn == 1) then
             np = 1; ws(1) = measure
@@ -190,47 +214,60 @@ contains
             shp(:, 1) = facet_shape(2, xs(1))
             shp(:, 2) = facet_shape(2, xs(2))
         end if
-        ! P at the points first: with more than nfn of them active (and nterm, qa present)
+        ! P at the points first: with more than nfn of them active (and compress_ok)
         ! the tangent is compressed and the points' own qa, qb, ca, cb are not formed
         na = 0
         do q = 1, np
-            pq(q) = dot_product(shp(1:nfn, q), pnode(1:nfn))
+            if (nfn == 3) then     ! (dot_product's sum from 0, written out)
+                pq(q) = ((0.0_dp + shp(1, q) * pnode(1)) + shp(2, q) * pnode(2)) &
+                        + shp(3, q) * pnode(3)
+            else
+                pq(q) = dot_product(shp(1:nfn, q), pnode(1:nfn))
+            end if
             if (pq(q) < 0.0_dp) na = na + 1
         end do
-        compress = present(nterm) .and. present(qa) .and. na > nfn
+        compress = terms .and. compress_ok .and. na > nfn
         do q = 1, np
             nsh = shp(:, q)
             pv = pq(q)
             if (.not. (pv < 0.0_dp)) cycle
             active = active + 1
             ! nn = nvec nsh column by column (each entry's sum in the order of
-            ! dot_product(nvec(j, :), nsh), from 0; the rows of nvec are strided)
-            nn(1:ndof_e) = 0.0_dp
-            do i = 1, nfn
+            ! dot_product(nvec(j, :), nsh), from 0; the rows of nvec are strided); on a
+            ! triangle the three products of an entry written out, in that order
+            if (nfn == 3) then
                 do j = 1, ndof_e
-                    nn(j) = nn(j) + nvec(j, i) * nsh(i)
+                    nn(j) = ((0.0_dp + nvec(j, 1) * nsh(1)) + nvec(j, 2) * nsh(2)) &
+                            + nvec(j, 3) * nsh(3)
                 end do
-            end do
+            else
+                nn = 0.0_dp
+                do i = 1, nfn
+                    do j = 1, ndof_e
+                        nn(j) = nn(j) + nvec(j, i) * nsh(i)
+                    end do
+                end do
+            end if
             ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
-            r = r + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
-            if (present(rg)) rg(1:nfn) = rg(1:nfn) + ((ws(q) / gamma) * pv) * nsh(1:nfn)
+            r(1:ndof_e) = r(1:ndof_e) + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
+            ! (rg and g on all MAX_FN rows, a length known when compiled: the rows past
+            ! nfn, shape values 0, are never read)
+            if (terms) rg = rg + ((ws(q) / gamma) * pv) * nsh
             energy = energy + (0.5_dp * ws(q) / gamma) * pv**2
             if (compress) then
                 do j = 1, nfn
-                    g(1:nfn, j) = g(1:nfn, j) + ((ws(q) / gamma) * nsh(j)) * nsh(1:nfn)
+                    g(:, j) = g(:, j) + ((ws(q) / gamma) * nsh(j)) * nsh
                 end do
                 cycle
             end if
-            if (present(qa)) then
-                qa(:, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
-                qb(:, active) = s - gamma * nn(1:ndof_e)
-            end if
-            if (present(ca)) then
-                ca(1:nfn, active) = (ws(q) / gamma) * nsh(1:nfn)
-                cb(1:nfn, active) = nsh(1:nfn)
+            if (terms) then
+                qa(1:ndof_e, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
+                qb(1:ndof_e, active) = s - gamma * nn(1:ndof_e)
+                ! (whole columns: shp is defined on all MAX_FN rows; rows 1..nfn are read)
+                ca(:, active) = (ws(q) / gamma) * nsh
+                cb(:, active) = nsh
             end if
         end do
-        if (.not. present(nterm)) return
         nterm = active
         if (.not. compress) return
         nterm = nfn
@@ -240,14 +277,12 @@ contains
         do j = 1, nfn
             qa(:, j) = 0.0_dp
             do i = 1, nfn
-                qa(:, j) = qa(:, j) + g(i, j) * mt(1:ndof_e, i)
+                qa(1:ndof_e, j) = qa(1:ndof_e, j) + g(i, j) * mt(1:ndof_e, i)
             end do
-            qb(:, j) = s - gamma * nvec(:, j)
-            if (present(ca)) then
-                ca(1:nfn, j) = g(1:nfn, j)
-                cb(1:nfn, j) = 0.0_dp
-                cb(j, j) = 1.0_dp
-            end if
+            qb(1:ndof_e, j) = s - gamma * nvec(:, j)
+            ca(:, j) = g(:, j)
+            cb(:, j) = 0.0_dp
+            cb(j, j) = 1.0_dp
         end do
     end subroutine facet_terms
 
@@ -273,18 +308,18 @@ contains
     !> {P < 0} of the triangle (P linear, nodal values pnode) is a triangle or a
     !> quadrilateral (two triangles) cut off by the zero line of P; each piece gets the
     !> symmetric 3-point rule of degree 2 (points inside the piece, where P < 0).
+    !> (Explicit-shape outputs and the vertices a constant: nothing to set up a call.)
     pure subroutine triangle_active_rule(pnode, measure, np, shp, ws)
         real(dp), intent(in) :: pnode(3)          !! P at the facet's nodes
         real(dp), intent(in) :: measure           !! facet area
         integer, intent(out) :: np                !! points (0, 3 or 6)
-        real(dp), intent(out) :: shp(:, :)        !! (MAX_FN, >= 6) shape values at the points
-        real(dp), intent(out) :: ws(:)            !! (>= 6) weights (area x rule weight)
-        real(dp) :: e(3, 3), z1(3), z2(3)
+        real(dp), intent(out) :: shp(MAX_FN, *)   !! (MAX_FN, >= 6) shape values at the points
+        real(dp), intent(out) :: ws(*)            !! (>= 6) weights (area x rule weight)
+        !> the triangle's vertices in barycentric coordinates
+        real(dp), parameter :: e(3, 3) = reshape([1.0_dp, 0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp, &
+                                                  0.0_dp, 0.0_dp, 0.0_dp, 1.0_dp], [3, 3])
+        real(dp) :: z1(3), z2(3)
         integer :: neg, i, j, k
-        e = 0.0_dp
-        do i = 1, 3
-            e(i, i) = 1.0_dp
-        end do
         neg = count(pnode < 0.0_dp)
         np = 0
         select case (neg)
@@ -316,8 +351,8 @@ contains
         real(dp), intent(in) :: v1(3), v2(3), v3(3)   !! vertices (barycentric)
         real(dp), intent(in) :: measure               !! facet area
         integer, intent(inout) :: np                  !! points so far
-        real(dp), intent(inout) :: shp(:, :)          !! shape values at the points
-        real(dp), intent(inout) :: ws(:)              !! weights
+        real(dp), intent(inout) :: shp(MAX_FN, *)     !! shape values at the points
+        real(dp), intent(inout) :: ws(*)              !! weights
         real(dp), parameter :: P_MAJ = 2.0_dp / 3.0_dp, P_MIN = 1.0_dp / 6.0_dp
         real(dp) :: frac
         frac = abs((v2(2) - v1(2)) * (v3(3) - v1(3)) - (v2(3) - v1(3)) * (v3(2) - v1(2)))
@@ -531,75 +566,94 @@ contains
                             tcb, rg)
         type(contact_t), intent(in) :: ct                   !! contact data
         real(dp), intent(in) :: u(:)                        !! free-dof displacement
-        real(dp), intent(inout) :: r(:)                     !! residual (added to)
+        real(dp), intent(inout), contiguous :: r(:)         !! residual (added to)
         integer, intent(out) :: active                      !! active quadrature points
         real(dp), intent(out) :: e_pen                      !! penalty-like energy
         real(dp), intent(out) :: e_theta                    !! theta sigma_n^2 energy term
         integer, intent(out), optional :: rank              !! number of rank-one terms
-        real(dp), intent(inout), optional :: ua(:, :)       !! (ndof_e, >= rank) left factors
-        real(dp), intent(inout), optional :: vb(:, :)       !! (ndof_e, >= rank) right factors
-        integer, intent(inout), optional :: qloc(:, :)      !! (ndof_e, >= rank) their cdofs
-        integer, intent(inout), optional :: tfac(:)         !! (>= rank) each term's facet
-        real(dp), intent(inout), optional :: tca(:, :)      !! (nfn, >= rank) its coefficients in Mt
-        real(dp), intent(inout), optional :: tcb(:, :)      !! (nfn, >= rank) and in M
-        real(dp), intent(inout), optional :: rg(:, :)       !! (nfn, n_facets) residual in Mt
-        real(dp) :: rf(MAX_E), ef, sn, pnode(MAX_FN)   ! fixed sizes: no heap array a call
-        integer :: f, i, af, nr, nt
+        ! (contiguous: the columns are written with unit stride)
+        real(dp), intent(inout), optional, contiguous :: ua(:, :)   !! (ndof_e, >= rank) left factors
+        real(dp), intent(inout), optional, contiguous :: vb(:, :)   !! (ndof_e, >= rank) right factors
+        integer, intent(inout), optional, contiguous :: qloc(:, :)  !! (ndof_e, >= rank) their cdofs
+        integer, intent(inout), optional :: tfac(:)                 !! (>= rank) each term's facet
+        real(dp), intent(inout), optional, contiguous :: tca(:, :)  !! (nfn, >= rank) its coefficients in Mt
+        real(dp), intent(inout), optional, contiguous :: tcb(:, :)  !! (nfn, >= rank) and in M
+        real(dp), intent(inout), optional, contiguous :: rg(:, :)   !! (nfn, n_facets) residual in Mt
+        ! fixed sizes: no heap array a call; the facet kernel writes its terms here and
+        ! they are copied to the outputs present (one call of the kernel for every set of
+        ! outputs, with no array descriptor or optional argument to pass)
+        real(dp) :: rf(MAX_E), ef, sn, pnode(MAX_FN), rgf(MAX_FN)
+        real(dp) :: qa(MAX_E, MAX_Q), qb(MAX_E, MAX_Q), ca(MAX_FN, MAX_Q), cb(MAX_FN, MAX_Q)
+        integer :: f, i, af, nr, nt, t, ne, nfn
+        logical :: terms
         active = 0
         e_pen = 0.0_dp
         e_theta = 0.0_dp
         nr = 0
+        ne = ct%ndof_e
+        nfn = ct%nfn
+        terms = present(ua)
         do f = 1, ct%n_facets
             call facet_sn_pnode(ct, f, u, sn, pnode)
             e_theta = e_theta + facet_e_theta(ct, f, sn)
             ! a facet with P >= 0 at its nodes has no active point (nothing to add)
-            if (all(pnode(1:ct%nfn) >= 0.0_dp)) then
-                if (present(rg)) rg(1:ct%nfn, f) = 0.0_dp
+            if (all(pnode(1:nfn) >= 0.0_dp)) then
+                if (present(rg)) rg(1:nfn, f) = 0.0_dp
                 cycle
             end if
+            call facet_terms(ne, nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), ct%gamma(f), &
+                             ct%theta, ct%measure(f), ct%quad, ct%nq, ct%qs, ct%qw, terms, &
+                             terms, rf, ef, af, nt, qa, qb, ca, cb, rgf)
             if (present(rg)) then
-                call facet_terms(ct%ndof_e, ct%nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), &
-                                 ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                 ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
-                                 nt, tca(:, nr + 1:), tcb(:, nr + 1:), rg(:, f))
-                do i = nr + 1, nr + nt
-                    qloc(:, i) = ct%cloc(:, f)
-                    tfac(i) = f
+                do i = 1, nfn
+                    rg(i, f) = rgf(i)
+                end do
+            end if
+            if (terms) then
+                do t = 1, nt
+                    if (ne == MAX_E) then   ! (3D: copies of a length known when compiled)
+                        ua(1:MAX_E, nr + t) = qa(:, t)
+                        vb(1:MAX_E, nr + t) = qb(:, t)
+                        qloc(1:MAX_E, nr + t) = ct%cloc(1:MAX_E, f)
+                    else
+                        ua(1:ne, nr + t) = qa(1:ne, t)
+                        vb(1:ne, nr + t) = qb(1:ne, t)
+                        qloc(1:ne, nr + t) = ct%cloc(1:ne, f)
+                    end if
+                    if (present(tfac)) tfac(nr + t) = f
+                    if (.not. present(tca)) cycle
+                    if (nfn == MAX_FN) then
+                        tca(1:MAX_FN, nr + t) = ca(:, t)
+                        tcb(1:MAX_FN, nr + t) = cb(:, t)
+                    else
+                        tca(1:nfn, nr + t) = ca(1:nfn, t)
+                        tcb(1:nfn, nr + t) = cb(1:nfn, t)
+                    end if
                 end do
                 nr = nr + nt
-            else if (present(tfac)) then
-                call facet_terms(ct%ndof_e, ct%nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), &
-                                 ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                 ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
-                                 nt, tca(:, nr + 1:), tcb(:, nr + 1:))
-                do i = nr + 1, nr + nt
-                    qloc(:, i) = ct%cloc(:, f)
-                    tfac(i) = f
-                end do
-                nr = nr + nt
-            else if (present(ua)) then
-                call facet_terms(ct%ndof_e, ct%nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), &
-                                 ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                 ct%nq, ct%qs, ct%qw, rf, ef, af, ua(:, nr + 1:), vb(:, nr + 1:), &
-                                 nt)
-                do i = nr + 1, nr + nt
-                    qloc(:, i) = ct%cloc(:, f)
-                end do
-                nr = nr + nt
-            else
-                call facet_terms(ct%ndof_e, ct%nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), &
-                                 ct%gamma(f), ct%theta, ct%measure(f), ct%quad, &
-                                 ct%nq, ct%qs, ct%qw, rf, ef, af)
             end if
             if (af == 0) cycle
             active = active + af
             e_pen = e_pen + ef
-            do i = 1, ct%ndof_e
-                if (ct%dofs(i, f) > 0) r(ct%dofs(i, f)) = r(ct%dofs(i, f)) + rf(i)
-            end do
+            call cell_add(ne, ct%dofs(:, f), rf, size(r), r)
         end do
         if (present(rank)) rank = nr
     end subroutine contact_eval
+
+    !> r(dofs(i)) <- r(dofs(i)) + rf(i) over the cell's free dofs (dofs(i) > 0), in their
+    !> order (explicit shapes: a tight loop).
+    pure subroutine cell_add(ne, dofs, rf, n, r)
+        integer, intent(in) :: ne                           !! cell dofs
+        integer, intent(in) :: dofs(ne)                     !! their free dofs (0: constrained)
+        real(dp), intent(in) :: rf(ne)                      !! the cell's values
+        integer, intent(in) :: n                            !! free dofs
+        real(dp), intent(inout) :: r(n)                     !! the vector (added to)
+        integer :: i, d
+        do i = 1, ne
+            d = dofs(i)
+            if (d > 0) r(d) = r(d) + rf(i)
+        end do
+    end subroutine cell_add
 
     !> Whether no contact point can be active at u: P finite and >= 0 at the nodes of
     !> every facet (P is linear on a facet; >= 0 is contact_eval's test to skip a facet).

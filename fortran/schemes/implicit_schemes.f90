@@ -126,6 +126,8 @@ module implicit_schemes
         type(zcache_t) :: zc                      !! columns of Z = J0^{-1} P^T and W = P Z
         logical :: all_columns = .false.          !! every column computed at set-up
         integer, allocatable :: need(:)           !! (max(m, ndof_e rmax)) columns a step needs
+        integer, allocatable :: fneed(:)          !! (n_facets) the cache's step at which a
+                                                  !! facet's columns were last made available
         integer :: rank = 0                       !! rank of the contact tangent D = U V^T
         real(dp), allocatable :: ua(:, :)         !! (ndof_e, rmax) columns of U (on qloc)
         real(dp), allocatable :: vb(:, :)         !! (ndof_e, rmax) columns of V (on qloc)
@@ -150,6 +152,9 @@ module implicit_schemes
         integer, allocatable :: fac_tfac(:)       !! (rmax) the factorized terms' facets
         real(dp), allocatable :: fac_tca(:, :)    !! (nfn, rmax) and their coefficients
         real(dp), allocatable :: fac_tcb(:, :)    !! (nfn, rmax)
+        real(dp), allocatable :: halpha(:, :)     !! (0:nfn, rmax) the factorized terms' alpha_t
+        real(dp), allocatable :: hbeta(:, :)      !! (0:nfn, rmax) and beta_t on the node basis
+                                                  !! (term_coefficients; node_factor, node_solve)
         integer :: nq = 0                         !! size of the node basis of the terms
         logical :: ybas_ok = .false.              !! ybas is Y of the basis held
         integer :: nyf = -1                       !! facets of Y (-1: none formed)
@@ -277,8 +282,9 @@ contains
         if (mdl%has_contact) rmax = contact_max_rank(mdl%ct)
         allocate (this%need(max(this%m, mdl%ndof_e * rmax)), this%ua(mdl%ndof_e, rmax), &
                   this%vb(mdl%ndof_e, rmax), this%qloc(mdl%ndof_e, rmax), &
-                  this%tfac(rmax), this%fac_tfac(rmax), &
+                  this%tfac(rmax), this%fac_tfac(rmax), this%fneed(mdl%ct%n_facets), &
                   this%fac_tca(max(1, mdl%ct%nfn), rmax), this%fac_tcb(max(1, mdl%ct%nfn), rmax), &
+                  this%halpha(0:max(1, mdl%ct%nfn), rmax), this%hbeta(0:max(1, mdl%ct%nfn), rmax), &
                   this%yfac(mdl%ct%n_facets), this%qnode(0:max(1, mdl%ct%nfn), mdl%ct%n_facets), &
                   this%bnode(0), this%nrow(max(1, mdl%ct%nfn), 0), &
                   this%nval(max(1, mdl%ct%nfn), 0), this%wb(this%m, 0), this%ybas(0, 0), &
@@ -292,6 +298,7 @@ contains
                   this%xc(this%m), this%dxc(this%m), this%yc(this%m), this%tk(this%m), &
                   this%tsum(this%m), this%y0c(this%m), this%vq(size(mdl%massless_dofs)))
         this%scratch = 0.0_dp
+        this%fneed = -1
         this%fac_rank = -1
         this%nxf = -1
         this%nyf = -1
@@ -559,7 +566,7 @@ contains
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: k, nf, f, i, kk, cols(mdl%ndof_e)
+        integer :: k, nf, f, i, kk, cols(MAX_E)     ! (fixed size: no heap array a call)
         nf = mdl%ct%n_facets
         stat = STAT_OK
         do k = 1, size(this%tau)
@@ -579,7 +586,7 @@ contains
                     if (mdl%ct%nvec(kk, i, f) == 0.0_dp) cols(kk) = 0
                 end do
                 call zcache_basis_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
-                                         k, cols, mdl%ct%nvec(:, i, f), stat, errmsg)
+                                         k, cols(1:mdl%ndof_e), mdl%ct%nvec(:, i, f), stat, errmsg)
             end if
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed for the contact correction')
@@ -661,7 +668,7 @@ contains
         real(dp) :: rnorm, scale, dt
         character(len=256) :: why
         logical :: warm
-        integer :: l, q, nk
+        integer :: l, q, nk, f
         flight = .false.
         stat = STAT_OK
         dt = this%dt
@@ -740,19 +747,24 @@ contains
                 it = it + 1
             end if
             if (this%rank > 0) then
-                ! (a facet's terms are consecutive and on its cell's dofs: listed once)
+                ! (a facet's terms are consecutive and on its cell's dofs: listed once; and
+                ! once a step, as the columns made available at a step are held to its
+                ! end: the cache drops only columns of earlier steps)
                 nk = 0
                 do q = 1, this%rank
                     if (q > 1) then
                         if (this%tfac(q) == this%tfac(q - 1)) cycle
                     end if
+                    f = this%tfac(q)
+                    if (this%fneed(f) == this%zc%step) cycle
+                    this%fneed(f) = this%zc%step
                     do l = 1, mdl%ndof_e
                         if (this%qloc(l, q) <= 0) cycle
                         nk = nk + 1
                         this%need(nk) = this%qloc(l, q)
                     end do
                 end do
-                call need_columns(this, mdl, nk, stat, errmsg)
+                if (nk > 0) call need_columns(this, mdl, nk, stat, errmsg)
                 if (stat /= STAT_OK) return
                 call woodbury(this, mdl, stat)
                 if (stat /= STAT_OK) then
@@ -824,8 +836,9 @@ contains
                                                this%rhog(:, this%tfac(q)))
             q = q + nt
         end do
-        this%cold = this%cx
-        ! (C's coefficients at x kept in gold: gx and gold exchanged, then gx formed anew)
+        ! (C at x kept in cold, its coefficients in gold: cx and cold, gx and gold
+        ! exchanged, then cx and gx formed anew, every entry)
+        call swap_c(this)
         if (this%zt_basis) call swap_g(this)
         call contact_part(this, mdl, this%x, this%cx, active, e_pen, e_theta)
         this%rho = this%c * (this%cx - this%cold + this%tvec)
@@ -837,6 +850,8 @@ contains
     !> One facet's nt terms of D P dx: at(t) = v_t . dx on the facet's dofs loc (> 0;
     !> v_t . dx summed in the order of the dofs), then tvec(loc(i)) += u_t(i) at(t) for
     !> t = 1..nt in that order (the additions of term after term, in the same order).
+    !> Three terms (a compressed facet, a triangle piece) take one pass over the dofs
+    !> for their three sums, each summed in its own order, and one for tvec.
     pure subroutine facet_tangent(ne, nt, m, loc, vb, ua, dxc, tvec, at)
         integer, intent(in) :: ne, nt, m                    !! cell dofs, terms, contact-cell dofs
         integer, intent(in) :: loc(ne)                      !! the terms' contact-cell dofs
@@ -844,11 +859,32 @@ contains
         real(dp), intent(in) :: dxc(m)                      !! P dx
         real(dp), intent(inout) :: tvec(m)                  !! D P dx (added to)
         real(dp), intent(out) :: at(nt)                     !! v_t . dx
-        real(dp) :: xe(ne), acc
+        real(dp) :: xe(MAX_E), acc, a1, a2, a3     ! (fixed size: no heap array a call)
         integer :: i, t, l
-        do i = 1, ne
-            xe(i) = 0.0_dp
-            if (loc(i) > 0) xe(i) = dxc(loc(i))
+        if (nt == 3) then
+            a1 = 0.0_dp; a2 = 0.0_dp; a3 = 0.0_dp
+            do i = 1, ne
+                l = loc(i)
+                if (l <= 0) cycle
+                acc = dxc(l)
+                a1 = a1 + vb(i, 1) * acc
+                a2 = a2 + vb(i, 2) * acc
+                a3 = a3 + vb(i, 3) * acc
+            end do
+            at(1) = a1; at(2) = a2; at(3) = a3
+            do i = 1, ne
+                l = loc(i)
+                if (l <= 0) cycle
+                acc = tvec(l)
+                acc = acc + ua(i, 1) * a1
+                acc = acc + ua(i, 2) * a2
+                tvec(l) = acc + ua(i, 3) * a3
+            end do
+            return
+        end if
+        do i = 1, ne      ! (a select, not a zeroing pass and a branch: no memset call)
+            l = loc(i)
+            xe(i) = merge(dxc(max(l, 1)), 0.0_dp, l > 0)
         end do
         do t = 1, nt
             acc = 0.0_dp
@@ -879,6 +915,15 @@ contains
             rg = rg + at(t) * ca(:, t)
         end do
     end subroutine facet_rhog
+
+    !> Exchange cx and cold (their allocations: no copy).
+    subroutine swap_c(this)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        real(dp), allocatable :: tmp(:)
+        call move_alloc(this%cold, tmp)
+        call move_alloc(this%cx, this%cold)
+        call move_alloc(tmp, this%cx)
+    end subroutine swap_c
 
     !> Exchange gx and gold (their allocations: no copy).
     subroutine swap_g(this)
@@ -1115,9 +1160,19 @@ contains
         this%fac_rank = r
         this%fac_nodes = nodes
         this%fac_tfac(1:r) = this%tfac(1:r)
-        this%fac_tca(:, 1:r) = this%tca(:, 1:r)
-        this%fac_tcb(:, 1:r) = this%tcb(:, 1:r)
+        ! (the leading columns as one run of nfn r values: tca and fac_tca have the same
+        ! leading dimension)
+        call copy_values(size(this%tca, 1) * r, this%tca, this%fac_tca)
+        call copy_values(size(this%tcb, 1) * r, this%tcb, this%fac_tcb)
     end subroutine keep_tangent
+
+    !> b(1:k) = a(1:k): a plain copy of the first k values of two arrays.
+    pure subroutine copy_values(k, a, b)
+        integer, intent(in) :: k                            !! values
+        real(dp), intent(in) :: a(k)                        !! source
+        real(dp), intent(inout) :: b(k)                     !! copy
+        b = a
+    end subroutine copy_values
 
     !> The facets of the current terms (in order; a facet's terms are consecutive) in
     !> flist, and X = M^T W Mt over them (blocks of nfn x nfn, facet by facet: M(:, j) =
@@ -1287,10 +1342,8 @@ contains
                 acc = 0.0_dp
                 if (a <= nf) then
                     f = this%yfac(a)
-                    do kk = 1, mdl%ndof_e
-                        l = mdl%ct%cloc(kk, f)
-                        if (l > 0) acc = acc + mdl%ct%s(kk, f) * this%wb(l, b)
-                    end do
+                    acc = cell_dot(mdl%ndof_e, mdl%ct%cloc(:, f), mdl%ct%s(:, f), this%m, &
+                                   this%wb(:, b))
                 else
                     do e = 1, mdl%ct%nfn
                         l = this%nrow(e, a - nf)
@@ -1304,38 +1357,40 @@ contains
     end subroutine form_y
 
     !> A term's coefficients in the node basis: u_t = B alpha, v_t = B beta, with alpha
-    !> = theta (sum ca) at the facet and -gamma_f ca(i) at its node i (beta the same
-    !> from cb, with 1 for theta).
-    pure subroutine term_coefficients(nfn, ct_theta, gamma, ca, cb, a0, ai, b0, bi)
+    !> = theta (sum ca) at the facet (alpha(0)) and -gamma_f ca(i) at its node i
+    !> (alpha(i)); beta the same from cb, with 1 for theta.
+    pure subroutine term_coefficients(nfn, ct_theta, gamma, ca, cb, alpha, beta)
         integer, intent(in) :: nfn                          !! facet nodes
         real(dp), intent(in) :: ct_theta, gamma             !! theta, gamma_f
         real(dp), intent(in) :: ca(nfn), cb(nfn)            !! the term's coefficients
-        real(dp), intent(out) :: a0, b0                     !! at the facet
-        real(dp), intent(out) :: ai(nfn), bi(nfn)           !! at its nodes
+        real(dp), intent(out) :: alpha(0:nfn), beta(0:nfn)  !! at the facet, then its nodes
         if (nfn == 3) then      ! (written out: sum's additions from 0, in order)
-            a0 = ct_theta * (((0.0_dp + ca(1)) + ca(2)) + ca(3))
-            b0 = ((0.0_dp + cb(1)) + cb(2)) + cb(3)
-            ai(1) = -gamma * ca(1); ai(2) = -gamma * ca(2); ai(3) = -gamma * ca(3)
-            bi(1) = -gamma * cb(1); bi(2) = -gamma * cb(2); bi(3) = -gamma * cb(3)
+            alpha(0) = ct_theta * (((0.0_dp + ca(1)) + ca(2)) + ca(3))
+            beta(0) = ((0.0_dp + cb(1)) + cb(2)) + cb(3)
+            alpha(1) = -gamma * ca(1); alpha(2) = -gamma * ca(2); alpha(3) = -gamma * ca(3)
+            beta(1) = -gamma * cb(1); beta(2) = -gamma * cb(2); beta(3) = -gamma * cb(3)
             return
         end if
-        a0 = ct_theta * sum(ca)
-        b0 = sum(cb)
-        ai = -gamma * ca
-        bi = -gamma * cb
+        alpha(0) = ct_theta * sum(ca)
+        beta(0) = sum(cb)
+        alpha(1:nfn) = -gamma * ca
+        beta(1:nfn) = -gamma * cb
     end subroutine term_coefficients
 
     !> The Woodbury system on the node basis, I + c Y H with H = sum_t alpha_t beta_t^T
     !> (J^{-1} = J0^{-1} - Z B H (I + c Y H)^{-1} c B^T P J0^{-1}: the Woodbury identity
     !> with U = B H, V = B), factorized (info as dense_lu_factor's); Y is formed when
     !> the basis changed. The columns of c Y H are sums over the terms of
-    !> c (Y alpha_t) beta_t^T, 2 (nfn + 1) columns of Y read a term.
+    !> c (Y alpha_t) beta_t^T, 2 (nfn + 1) columns of Y read a term. The terms' alpha_t,
+    !> beta_t are kept with the factors (halpha, hbeta): node_solve, which runs with the
+    !> factors of the current tangent only (the same tfac, tca, tcb bit for bit), reads
+    !> them instead of forming them again.
     subroutine node_factor(this, mdl, info)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: info                        !! 0 or the first zero pivot
         integer :: q, t, f, i, nfn, fb
-        real(dp) :: a0, b0, ai(mdl%ct%nfn), bi(mdl%ct%nfn)
+        real(dp) :: a0, b0, ai(MAX_FN), bi(MAX_FN)   ! (fixed size: no heap array a call)
         this%fac_rank = -1
         if (.not. this%ybas_ok .or. this%fresh) call form_y(this, mdl)
         q = this%nq
@@ -1345,18 +1400,21 @@ contains
             f = this%tfac(t)
             fb = this%qnode(0, f)
             call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), &
-                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), a0, ai, b0, bi)
+                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), &
+                                   this%halpha(0:nfn, t), this%hbeta(0:nfn, t))
             if (nfn == 3) then      ! (one pass over the rows: see term_columns3)
                 associate (y => this%ybas, sm => this%small, qn => this%qnode)
                     call term_columns3(q, y(:, fb), y(:, qn(1, f)), y(:, qn(2, f)), &
-                                       y(:, qn(3, f)), [a0, ai(1:3)], &
-                                       [this%c * b0, this%c * bi(1), this%c * bi(2), &
-                                        this%c * bi(3)], &
-                                       sm(:, fb), sm(:, qn(1, f)), sm(:, qn(2, f)), &
-                                       sm(:, qn(3, f)))
+                                       y(:, qn(3, f)), this%halpha(0:3, t), this%c, &
+                                       this%hbeta(0:3, t), sm(:, fb), sm(:, qn(1, f)), &
+                                       sm(:, qn(2, f)), sm(:, qn(3, f)))
                 end associate
                 cycle
             end if
+            a0 = this%halpha(0, t)
+            ai(1:nfn) = this%halpha(1:nfn, t)
+            b0 = this%hbeta(0, t)
+            bi(1:nfn) = this%hbeta(1:nfn, t)
             this%qa(1:q) = a0 * this%ybas(1:q, fb)
             do i = 1, nfn
                 this%qa(1:q) = this%qa(1:q) + ai(i) * this%ybas(1:q, this%qnode(i, f))
@@ -1375,29 +1433,31 @@ contains
         call keep_tangent(this, .true.)
     end subroutine node_factor
 
-    !> One term's part of c Y H on a triangle facet (node_factor): qa = a(1) y1 + a(2) y2
-    !> + a(3) y3 + a(4) y4 (Y alpha_t: the columns of the facet and its three nodes),
-    !> then s_k <- s_k + b(k) qa on the same four columns of the system, row by row in
-    !> one pass: each entry the same operations in the same order as the column loops of
-    !> the general case (qa formed, then added to each column), without storing qa and
-    !> reading it four times.
-    pure subroutine term_columns3(q, y1, y2, y3, y4, a, b, s1, s2, s3, s4)
+    !> One term's part of c Y H on a triangle facet (node_factor): qa = a(0) y1 + a(1) y2
+    !> + a(2) y3 + a(3) y4 (Y alpha_t: the columns of the facet and its three nodes),
+    !> then s_k <- s_k + (c b(k - 1)) qa on the same four columns of the system, row by
+    !> row in one pass: each entry the same operations in the same order as the column
+    !> loops of the general case (qa formed, then added to each column), without storing
+    !> qa and reading it four times.
+    pure subroutine term_columns3(q, y1, y2, y3, y4, a, c, b, s1, s2, s3, s4)
         integer, intent(in) :: q                            !! order of the system
         real(dp), intent(in) :: y1(q), y2(q), y3(q), y4(q)  !! columns of Y
-        real(dp), intent(in) :: a(4)                        !! alpha_t
-        real(dp), intent(in) :: b(4)                        !! c beta_t
+        real(dp), intent(in) :: a(0:3)                      !! alpha_t
+        real(dp), intent(in) :: c                           !! the coefficient c
+        real(dp), intent(in) :: b(0:3)                      !! beta_t
         real(dp), intent(inout) :: s1(q), s2(q), s3(q), s4(q) !! columns of the system
-        real(dp) :: x
+        real(dp) :: x, b1, b2, b3, b4
         integer :: r
+        b1 = c * b(0); b2 = c * b(1); b3 = c * b(2); b4 = c * b(3)
         do r = 1, q
-            x = a(1) * y1(r)
-            x = x + a(2) * y2(r)
-            x = x + a(3) * y3(r)
-            x = x + a(4) * y4(r)
-            s1(r) = s1(r) + b(1) * x
-            s2(r) = s2(r) + b(2) * x
-            s3(r) = s3(r) + b(3) * x
-            s4(r) = s4(r) + b(4) * x
+            x = a(0) * y1(r)
+            x = x + a(1) * y2(r)
+            x = x + a(2) * y3(r)
+            x = x + a(3) * y4(r)
+            s1(r) = s1(r) + b1 * x
+            s2(r) = s2(r) + b2 * x
+            s3(r) = s3(r) + b3 * x
+            s4(r) = s4(r) + b4 * x
         end do
     end subroutine term_columns3
 
@@ -1407,7 +1467,7 @@ contains
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer :: q, nf, b, f, kk, e, l, t, i, nfn, fb
-        real(dp) :: acc, a0, b0, ai(mdl%ct%nfn), bi(mdl%ct%nfn)
+        real(dp) :: acc
         q = this%nq
         nf = this%nyf
         nfn = mdl%ct%nfn
@@ -1415,10 +1475,7 @@ contains
             acc = 0.0_dp
             if (b <= nf) then
                 f = this%yfac(b)
-                do kk = 1, mdl%ndof_e
-                    l = mdl%ct%cloc(kk, f)
-                    if (l > 0) acc = acc + mdl%ct%s(kk, f) * this%yc(l)
-                end do
+                acc = cell_dot(mdl%ndof_e, mdl%ct%cloc(:, f), mdl%ct%s(:, f), this%m, this%yc)
             else
                 do e = 1, nfn
                     l = this%nrow(e, b - nf)
@@ -1428,30 +1485,26 @@ contains
             this%zs(b) = this%c * acc
         end do
         call dense_lu_solve(q, this%small, this%piv, this%zs)
-        ! qs = H s = sum_t alpha_t (beta_t . s)
+        ! qs = H s = sum_t alpha_t (beta_t . s), alpha_t and beta_t kept by node_factor
         this%qs(1:q) = 0.0_dp
         do t = 1, this%rank
             f = this%tfac(t)
             fb = this%qnode(0, f)
-            call term_coefficients(nfn, real(mdl%ct%theta, dp), mdl%ct%gamma(f), &
-                                   this%tca(1:nfn, t), this%tcb(1:nfn, t), a0, ai, b0, bi)
-            acc = b0 * this%zs(fb)
+            acc = this%hbeta(0, t) * this%zs(fb)
             do i = 1, nfn
-                acc = acc + bi(i) * this%zs(this%qnode(i, f))
+                acc = acc + this%hbeta(i, t) * this%zs(this%qnode(i, f))
             end do
-            this%qs(fb) = this%qs(fb) + a0 * acc
+            this%qs(fb) = this%qs(fb) + this%halpha(0, t) * acc
             do i = 1, nfn
-                this%qs(this%qnode(i, f)) = this%qs(this%qnode(i, f)) + ai(i) * acc
+                this%qs(this%qnode(i, f)) = this%qs(this%qnode(i, f)) + this%halpha(i, t) * acc
             end do
         end do
         ! tk = tk - B qs
         do b = 1, q
             if (b <= nf) then
                 f = this%yfac(b)
-                do kk = 1, mdl%ndof_e
-                    l = mdl%ct%cloc(kk, f)
-                    if (l > 0) this%tk(l) = this%tk(l) - mdl%ct%s(kk, f) * this%qs(b)
-                end do
+                call cell_sub(mdl%ndof_e, mdl%ct%cloc(:, f), mdl%ct%s(:, f), this%qs(b), &
+                              this%m, this%tk)
             else
                 do e = 1, nfn
                     l = this%nrow(e, b - nf)
@@ -1471,6 +1524,39 @@ contains
             end do
         end if
     end subroutine node_solve
+
+    !> sum over the cell's dofs with loc(k) > 0 of s(k) y(loc(k)), from 0 in the order of
+    !> the dofs (a facet's sigma_n row against a vector on the contact-cell dofs; explicit
+    !> shapes: a tight loop where the type's components were indexed at each dof).
+    pure real(dp) function cell_dot(ne, loc, s, m, y) result(acc)
+        integer, intent(in) :: ne                           !! cell dofs
+        integer, intent(in) :: loc(ne)                      !! their contact-cell dofs (0: none)
+        real(dp), intent(in) :: s(ne)                       !! the row
+        integer, intent(in) :: m                            !! contact-cell dofs
+        real(dp), intent(in) :: y(m)                        !! the vector
+        integer :: k, l
+        acc = 0.0_dp
+        do k = 1, ne
+            l = loc(k)
+            if (l > 0) acc = acc + s(k) * y(l)
+        end do
+    end function cell_dot
+
+    !> y(loc(k)) <- y(loc(k)) - s(k) alpha over the cell's dofs with loc(k) > 0, in their
+    !> order.
+    pure subroutine cell_sub(ne, loc, s, alpha, m, y)
+        integer, intent(in) :: ne                           !! cell dofs
+        integer, intent(in) :: loc(ne)                      !! their contact-cell dofs (0: none)
+        real(dp), intent(in) :: s(ne)                       !! the row
+        real(dp), intent(in) :: alpha                       !! its coefficient
+        integer, intent(in) :: m                            !! contact-cell dofs
+        real(dp), intent(inout) :: y(m)                     !! the vector (updated)
+        integer :: k, l
+        do k = 1, ne
+            l = loc(k)
+            if (l > 0) y(l) = y(l) - s(k) * alpha
+        end do
+    end subroutine cell_sub
 
     !> The Woodbury work arrays for rank r: their size follows the largest rank met (at
     !> least doubled when it grows: few reallocations, and the pages beyond the leading
