@@ -718,6 +718,22 @@ contains
             pnode(3) = sn - ct%gamma(f) * (d3 - ct%gap(3, f))
             return
         end if
+        if (ct%nfn == 2) then
+            ! a segment facet: the three sums in one pass, as the triangle's (the rest of
+            ! pnode 0, as facet_pnode's)
+            sn = 0.0_dp; d1 = 0.0_dp; d2 = 0.0_dp
+            do i = 1, ct%ndof_e
+                d = ct%dofs(i, f)
+                x = merge(u(max(d, 1)), 0.0_dp, d > 0)
+                sn = sn + ct%s(i, f) * x
+                d1 = d1 + x * ct%nvec(i, 1, f)
+                d2 = d2 + x * ct%nvec(i, 2, f)
+            end do
+            pnode(1) = sn - ct%gamma(f) * (d1 - ct%gap(1, f))
+            pnode(2) = sn - ct%gamma(f) * (d2 - ct%gap(2, f))
+            pnode(3) = 0.0_dp
+            return
+        end if
         do i = 1, ct%ndof_e       ! (a select, not a branch and a zeroing pass: no arithmetic)
             d = ct%dofs(i, f)
             ue(i) = merge(u(max(d, 1)), 0.0_dp, d > 0)
