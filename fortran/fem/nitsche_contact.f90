@@ -221,6 +221,8 @@ contains
             if (nfn == 3) then     ! (dot_product's sum from 0, written out)
                 pq(q) = ((0.0_dp + shp(1, q) * pnode(1)) + shp(2, q) * pnode(2)) &
                         + shp(3, q) * pnode(3)
+            else if (nfn == 2) then
+                pq(q) = (0.0_dp + shp(1, q) * pnode(1)) + shp(2, q) * pnode(2)
             else
                 pq(q) = dot_product(shp(1:nfn, q), pnode(1:nfn))
             end if
@@ -234,11 +236,15 @@ contains
             active = active + 1
             ! nn = nvec nsh column by column (each entry's sum in the order of
             ! dot_product(nvec(j, :), nsh), from 0; the rows of nvec are strided); on a
-            ! triangle the three products of an entry written out, in that order
+            ! triangle or a segment the products of an entry written out, in that order
             if (nfn == 3) then
                 do j = 1, ndof_e
                     nn(j) = ((0.0_dp + nvec(j, 1) * nsh(1)) + nvec(j, 2) * nsh(2)) &
                             + nvec(j, 3) * nsh(3)
+                end do
+            else if (nfn == 2) then
+                do j = 1, ndof_e
+                    nn(j) = (0.0_dp + nvec(j, 1) * nsh(1)) + nvec(j, 2) * nsh(2)
                 end do
             else
                 nn = 0.0_dp
@@ -703,7 +709,8 @@ contains
         integer :: i, d
         if (ct%nfn == 3) then
             ! a triangle facet: the four sums in one pass over the dofs, each in their
-            ! order from 0 as dot_product's in the general case (the same values)
+            ! order from 0 as dot_product's in the general case (the same values; ue's
+            ! x and nvec's entry multiplied in either order: the same product)
             sn = 0.0_dp; d1 = 0.0_dp; d2 = 0.0_dp; d3 = 0.0_dp
             do i = 1, ct%ndof_e
                 d = ct%dofs(i, f)
