@@ -1120,8 +1120,7 @@ contains
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: info                        !! 0 or the first zero pivot
-        integer :: r, i, j, k, l, nfn, i0, j0
-        real(dp) :: acc
+        integer :: r, k, nfn
         r = this%rank
         this%fac_rank = -1
         ! V^T W U from X = M^T W Mt over the facets with terms (each term is
@@ -1129,6 +1128,23 @@ contains
         call facets_x(this, mdl)
         nfn = mdl%ct%nfn
         k = nfn * this%nxf
+        if (nfn == 2) then      ! (segments: the sums of two written out, the same order)
+            call segment_system(r, k, this%c, this%tfac, this%fblk, this%tca, this%tcb, &
+                                this%xt, this%yrow, this%small)
+        else
+            call facet_system(this, r, nfn, k)
+        end if
+        call dense_lu_factor(r, this%small, this%piv, info)
+        if (info /= 0) return
+        call keep_tangent(this, .false.)
+    end subroutine woodbury_factor
+
+    !> woodbury_factor's system I + c V^T W U for any nfn (X of the terms' facets in xt).
+    pure subroutine facet_system(this, r, nfn, k)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (small, yrow set)
+        integer, intent(in) :: r, nfn, k                    !! terms, facet nodes, rows of X
+        integer :: i, j, l, i0, j0
+        real(dp) :: acc
         do i = 1, r
             ! yrow = cb_i^T (rows of X of the facet of term i)
             i0 = nfn * (this%fblk(this%tfac(i)) - 1)
@@ -1146,10 +1162,40 @@ contains
             end do
             this%small(i, i) = this%small(i, i) + 1.0_dp
         end do
-        call dense_lu_factor(r, this%small, this%piv, info)
-        if (info /= 0) return
-        call keep_tangent(this, .false.)
-    end subroutine woodbury_factor
+    end subroutine facet_system
+
+    !> woodbury_factor's system I + c V^T W U on segment facets (nfn = 2): row i is
+    !> yrow = cb_i^T X(f_i, :) (two columns of xt: 0 + cb_1 x_1, then + cb_2 x_2), entry
+    !> (i, j) c (yrow(j0 + 1) ca_1j + yrow(j0 + 2) ca_2j) summed from 0, j0 the block of
+    !> term j's facet: woodbury_factor's loops over nfn written out (the same operations
+    !> in the same order; explicit shapes, no zeroing pass).
+    pure subroutine segment_system(r, k, c, tfac, fblk, tca, tcb, xt, yrow, small)
+        integer, intent(in) :: r                            !! terms
+        integer, intent(in) :: k                            !! rows of X in use (2 a facet)
+        real(dp), intent(in) :: c                           !! the scheme's c
+        integer, intent(in) :: tfac(:)                      !! (>= r) each term's facet
+        integer, intent(in) :: fblk(:)                      !! (facets) block of a facet in X
+        real(dp), intent(in) :: tca(:, :), tcb(:, :)        !! (2, >= r) the coefficients
+        real(dp), intent(in) :: xt(:, :)                    !! (>= k, >= k) X transposed
+        real(dp), intent(inout) :: yrow(:)                  !! (>= k) scratch
+        real(dp), intent(inout) :: small(:, :)              !! (>= r, >= r) the system
+        integer :: i, j, i0, j0, l
+        real(dp) :: b1, b2
+        do i = 1, r
+            i0 = 2 * (fblk(tfac(i)) - 1)
+            b1 = tcb(1, i)
+            b2 = tcb(2, i)
+            do l = 1, k
+                yrow(l) = (0.0_dp + b1 * xt(l, i0 + 1)) + b2 * xt(l, i0 + 2)
+            end do
+            do j = 1, r
+                j0 = 2 * (fblk(tfac(j)) - 1)
+                small(i, j) = c * ((0.0_dp + yrow(j0 + 1) * tca(1, j)) &
+                                   + yrow(j0 + 2) * tca(2, j))
+            end do
+            small(i, i) = small(i, i) + 1.0_dp
+        end do
+    end subroutine segment_system
 
     !> The tangent of the factors just formed, kept to recognize it (same_tangent).
     subroutine keep_tangent(this, nodes)
