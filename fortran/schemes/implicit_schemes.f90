@@ -1034,8 +1034,7 @@ contains
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
-        integer :: r, i, j, k, info, l
-        real(dp) :: acc2
+        integer :: r, i, j, info
         logical :: nodes
         st2 = STAT_OK
         r = this%rank
@@ -1060,22 +1059,17 @@ contains
             call node_solve(this, mdl)
             return
         end if
-        ! zs = c V^T yc
+        ! zs = c V^T yc (each term's sum in the order of its dofs, by the explicit-shape
+        ! kernels: no indexing of the scheme's components at each dof)
         do i = 1, r
-            acc2 = 0.0_dp
-            do k = 1, mdl%ndof_e
-                l = this%qloc(k, i)
-                if (l > 0) acc2 = acc2 + this%vb(k, i) * this%yc(l)
-            end do
-            this%zs(i) = this%c * acc2
+            this%zs(i) = this%c * cell_dot(mdl%ndof_e, this%qloc(:, i), this%vb(:, i), &
+                                           this%m, this%yc)
         end do
         call dense_lu_solve(r, this%small, this%piv, this%zs)
         ! tk = tk - U s
         do j = 1, r
-            do k = 1, mdl%ndof_e
-                l = this%qloc(k, j)
-                if (l > 0) this%tk(l) = this%tk(l) - this%ua(k, j) * this%zs(j)
-            end do
+            call cell_sub(mdl%ndof_e, this%qloc(:, j), this%ua(:, j), this%zs(j), this%m, &
+                          this%tk)
         end do
         ! and on the node basis (U's column j is Mt tca(:, j) on its facet)
         if (this%zt_basis) then
