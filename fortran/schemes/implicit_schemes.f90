@@ -850,8 +850,9 @@ contains
     !> One facet's nt terms of D P dx: at(t) = v_t . dx on the facet's dofs loc (> 0;
     !> v_t . dx summed in the order of the dofs), then tvec(loc(i)) += u_t(i) at(t) for
     !> t = 1..nt in that order (the additions of term after term, in the same order).
-    !> Three terms (a compressed facet, a triangle piece) take one pass over the dofs
-    !> for their three sums, each summed in its own order, and one for tvec.
+    !> Three terms (a compressed facet, a triangle piece) or two (a segment's points)
+    !> take one pass over the dofs for their sums, each summed in its own order, and one
+    !> for tvec.
     pure subroutine facet_tangent(ne, nt, m, loc, vb, ua, dxc, tvec, at)
         integer, intent(in) :: ne, nt, m                    !! cell dofs, terms, contact-cell dofs
         integer, intent(in) :: loc(ne)                      !! the terms' contact-cell dofs
@@ -879,6 +880,25 @@ contains
                 acc = acc + ua(i, 1) * a1
                 acc = acc + ua(i, 2) * a2
                 tvec(l) = acc + ua(i, 3) * a3
+            end do
+            return
+        end if
+        if (nt == 2) then       ! (a segment's two points: the same, for two sums)
+            a1 = 0.0_dp; a2 = 0.0_dp
+            do i = 1, ne
+                l = loc(i)
+                if (l <= 0) cycle
+                acc = dxc(l)
+                a1 = a1 + vb(i, 1) * acc
+                a2 = a2 + vb(i, 2) * acc
+            end do
+            at(1) = a1; at(2) = a2
+            do i = 1, ne
+                l = loc(i)
+                if (l <= 0) cycle
+                acc = tvec(l)
+                acc = acc + ua(i, 1) * a1
+                tvec(l) = acc + ua(i, 2) * a2
             end do
             return
         end if
