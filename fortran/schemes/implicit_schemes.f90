@@ -931,6 +931,11 @@ contains
         real(dp), intent(in) :: ca(nfn, nt)                 !! the terms' coefficients in Mt
         real(dp), intent(inout) :: rg(nfn)                  !! the facet's coefficients
         integer :: t
+        if (nfn == 2 .and. nt == 2) then    ! (a segment's two points, written out)
+            rg(1) = (rg(1) + at(1) * ca(1, 1)) + at(2) * ca(1, 2)
+            rg(2) = (rg(2) + at(1) * ca(2, 1)) + at(2) * ca(2, 2)
+            return
+        end if
         do t = 1, nt
             rg = rg + at(t) * ca(:, t)
         end do
