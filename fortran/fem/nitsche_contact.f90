@@ -36,6 +36,8 @@ module nitsche_contact
     integer, parameter, public :: MAX_E = 12
     integer, parameter, public :: MAX_FN = 3
     integer, parameter, public :: MAX_Q = 7
+    !> Dofs of a 2D owner cell (a P1 triangle): copies of that length known when compiled
+    integer, parameter :: E_2D = 6
 
     !> Contact facets with everything constant precomputed.
     type, public :: contact_t
@@ -621,6 +623,10 @@ contains
                         ua(1:MAX_E, nr + t) = qa(:, t)
                         vb(1:MAX_E, nr + t) = qb(:, t)
                         qloc(1:MAX_E, nr + t) = ct%cloc(1:MAX_E, f)
+                    else if (ne == E_2D) then   ! (2D: the same, not a memcpy call each)
+                        ua(1:E_2D, nr + t) = qa(1:E_2D, t)
+                        vb(1:E_2D, nr + t) = qb(1:E_2D, t)
+                        qloc(1:E_2D, nr + t) = ct%cloc(1:E_2D, f)
                     else
                         ua(1:ne, nr + t) = qa(1:ne, t)
                         vb(1:ne, nr + t) = qb(1:ne, t)
