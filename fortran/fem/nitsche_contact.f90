@@ -213,8 +213,11 @@ contains
             np = 2
             xs(1:2) = a + (b - a) * [0.5_dp - g2, 0.5_dp + g2]
             ws(1:2) = 0.5_dp * measure * (b - a)
-            shp(:, 1) = facet_shape(2, xs(1))
-            shp(:, 2) = facet_shape(2, xs(2))
+            do q = 1, 2         ! (facet_shape(2, xs(q)), written here: no call a point)
+                shp(1, q) = 1.0_dp - xs(q)
+                shp(2, q) = xs(q)
+                shp(3, q) = 0.0_dp
+            end do
         end if
         ! P at the points first: with more than nfn of them active (and compress_ok)
         ! the tangent is compressed and the points' own qa, qb, ca, cb are not formed
