@@ -626,7 +626,8 @@ contains
                         ua(1:MAX_E, nr + t) = qa(:, t)
                         vb(1:MAX_E, nr + t) = qb(:, t)
                         qloc(1:MAX_E, nr + t) = ct%cloc(1:MAX_E, f)
-                    else if (ne == E_2D) then   ! (2D: the same, not a memcpy call each)
+                    else if (ne == E_2D) then   ! (2D: the same, not a memcpy call each,
+                        ! and below for tca, tcb)
                         ua(1:E_2D, nr + t) = qa(1:E_2D, t)
                         vb(1:E_2D, nr + t) = qb(1:E_2D, t)
                         qloc(1:E_2D, nr + t) = ct%cloc(1:E_2D, f)
@@ -640,6 +641,9 @@ contains
                     if (nfn == MAX_FN) then
                         tca(1:MAX_FN, nr + t) = ca(:, t)
                         tcb(1:MAX_FN, nr + t) = cb(:, t)
+                    else if (nfn == 2) then
+                        tca(1:2, nr + t) = ca(1:2, t)
+                        tcb(1:2, nr + t) = cb(1:2, t)
                     else
                         tca(1:nfn, nr + t) = ca(1:nfn, t)
                         tcb(1:nfn, nr + t) = cb(1:nfn, t)
