@@ -36,7 +36,8 @@ module nitsche_contact
     integer, parameter, public :: MAX_E = 12
     integer, parameter, public :: MAX_FN = 3
     integer, parameter, public :: MAX_Q = 7
-    !> Dofs of a 2D owner cell (a P1 triangle): copies of that length known when compiled
+    !> Dofs of a 2D owner cell (a P1 triangle): ndof_e whenever nfn = 2 (contact_init
+    !> sets ndof_e = dim (dim + 1), nfn = dim), a length known when compiled
     integer, parameter :: E_2D = 6
 
     !> Contact facets with everything constant precomputed.
@@ -740,9 +741,10 @@ contains
         end if
         if (ct%nfn == 2) then
             ! a segment facet: the three sums in one pass, as the triangle's (the rest of
-            ! pnode 0, as facet_pnode's)
+            ! pnode 0, as facet_pnode's), over the 2D cell's E_2D dofs (a trip count known
+            ! when compiled)
             sn = 0.0_dp; d1 = 0.0_dp; d2 = 0.0_dp
-            do i = 1, ct%ndof_e
+            do i = 1, E_2D
                 d = ct%dofs(i, f)
                 x = merge(u(max(d, 1)), 0.0_dp, d > 0)
                 sn = sn + ct%s(i, f) * x
