@@ -249,7 +249,7 @@ contains
                             + nvec(j, 3) * nsh(3)
                 end do
             else if (nfn == 2) then
-                do j = 1, ndof_e
+                do j = 1, E_2D          ! (ndof_e: a trip count known when compiled)
                     nn(j) = (0.0_dp + nvec(j, 1) * nsh(1)) + nvec(j, 2) * nsh(2)
                 end do
             else
@@ -260,8 +260,13 @@ contains
                     end do
                 end do
             end if
-            ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
-            r(1:ndof_e) = r(1:ndof_e) + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
+            if (nfn == 2) then      ! (the same at E_2D = ndof_e rows, a length known)
+                ptheta(1:E_2D) = theta * s(1:E_2D) - gamma * nn(1:E_2D)
+                r(1:E_2D) = r(1:E_2D) + (ws(q) / gamma) * pv * ptheta(1:E_2D)
+            else
+                ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
+                r(1:ndof_e) = r(1:ndof_e) + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
+            end if
             ! (rg and g on all MAX_FN rows, a length known when compiled: the rows past
             ! nfn, shape values 0, are never read)
             if (terms) rg = rg + ((ws(q) / gamma) * pv) * nsh
@@ -272,9 +277,14 @@ contains
                 end do
                 cycle
             end if
-            if (terms) then
+            if (terms .and. nfn == 2) then
+                qa(1:E_2D, active) = (ws(q) / gamma) * ptheta(1:E_2D)
+                qb(1:E_2D, active) = s(1:E_2D) - gamma * nn(1:E_2D)
+            else if (terms) then
                 qa(1:ndof_e, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
                 qb(1:ndof_e, active) = s - gamma * nn(1:ndof_e)
+            end if
+            if (terms) then
                 ! (whole columns: shp is defined on all MAX_FN rows; rows 1..nfn are read)
                 ca(:, active) = (ws(q) / gamma) * nsh
                 cb(:, active) = nsh
