@@ -38,7 +38,7 @@ module nitsche_contact
     integer, parameter, public :: MAX_Q = 7
     !> Dofs of a 2D owner cell (a P1 triangle): ndof_e whenever nfn = 2 (contact_init
     !> sets ndof_e = dim (dim + 1), nfn = dim), a length known when compiled
-    integer, parameter :: E_2D = 6
+    integer, parameter, public :: E_2D = 6
 
     !> Contact facets with everything constant precomputed.
     type, public :: contact_t

@@ -79,7 +79,8 @@ module implicit_schemes
                              ls_factor_info, ls_configure, ls_cg_counts, BACKEND_PCG
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
-    use nitsche_contact, only: contact_eval, contact_clear, contact_max_rank, MAX_E, MAX_FN
+    use nitsche_contact, only: contact_eval, contact_clear, contact_max_rank, MAX_E, MAX_FN, &
+                               E_2D
     use alm_contact, only: ALM_OFF
     use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use contact_columns, only: zcache_t, zcache_init, zcache_new_step, zcache_ensure, &
@@ -1086,15 +1087,26 @@ contains
         end if
         ! zs = c V^T yc (each term's sum in the order of its dofs, by the explicit-shape
         ! kernels: no indexing of the scheme's components at each dof)
+        ! (a 2D cell's E_2D dofs given as the constant: the kernels' loops unrolled)
         do i = 1, r
-            this%zs(i) = this%c * cell_dot(mdl%ndof_e, this%qloc(:, i), this%vb(:, i), &
-                                           this%m, this%yc)
+            if (mdl%ndof_e == E_2D) then
+                this%zs(i) = this%c * cell_dot(E_2D, this%qloc(:, i), this%vb(:, i), &
+                                               this%m, this%yc)
+            else
+                this%zs(i) = this%c * cell_dot(mdl%ndof_e, this%qloc(:, i), this%vb(:, i), &
+                                               this%m, this%yc)
+            end if
         end do
         call dense_lu_solve(r, this%small, this%piv, this%zs)
         ! tk = tk - U s
         do j = 1, r
-            call cell_sub(mdl%ndof_e, this%qloc(:, j), this%ua(:, j), this%zs(j), this%m, &
-                          this%tk)
+            if (mdl%ndof_e == E_2D) then
+                call cell_sub(E_2D, this%qloc(:, j), this%ua(:, j), this%zs(j), this%m, &
+                              this%tk)
+            else
+                call cell_sub(mdl%ndof_e, this%qloc(:, j), this%ua(:, j), this%zs(j), &
+                              this%m, this%tk)
+            end if
         end do
         ! and on the node basis (U's column j is Mt tca(:, j) on its facet)
         if (this%zt_basis) then
