@@ -36,6 +36,9 @@ module nitsche_contact
     integer, parameter, public :: MAX_E = 12
     integer, parameter, public :: MAX_FN = 3
     integer, parameter, public :: MAX_Q = 7
+    !> Dofs of a 2D owner cell (a P1 triangle): ndof_e whenever nfn = 2 (contact_init
+    !> sets ndof_e = dim (dim + 1), nfn = dim), a length known when compiled
+    integer, parameter, public :: E_2D = 6
 
     !> Contact facets with everything constant precomputed.
     type, public :: contact_t
@@ -211,8 +214,11 @@ contains
             np = 2
             xs(1:2) = a + (b - a) * [0.5_dp - g2, 0.5_dp + g2]
             ws(1:2) = 0.5_dp * measure * (b - a)
-            shp(:, 1) = facet_shape(2, xs(1))
-            shp(:, 2) = facet_shape(2, xs(2))
+            do q = 1, 2         ! (facet_shape(2, xs(q)), written here: no call a point)
+                shp(1, q) = 1.0_dp - xs(q)
+                shp(2, q) = xs(q)
+                shp(3, q) = 0.0_dp
+            end do
         end if
         ! P at the points first: with more than nfn of them active (and compress_ok)
         ! the tangent is compressed and the points' own qa, qb, ca, cb are not formed
@@ -221,6 +227,8 @@ contains
             if (nfn == 3) then     ! (dot_product's sum from 0, written out)
                 pq(q) = ((0.0_dp + shp(1, q) * pnode(1)) + shp(2, q) * pnode(2)) &
                         + shp(3, q) * pnode(3)
+            else if (nfn == 2) then
+                pq(q) = (0.0_dp + shp(1, q) * pnode(1)) + shp(2, q) * pnode(2)
             else
                 pq(q) = dot_product(shp(1:nfn, q), pnode(1:nfn))
             end if
@@ -234,11 +242,15 @@ contains
             active = active + 1
             ! nn = nvec nsh column by column (each entry's sum in the order of
             ! dot_product(nvec(j, :), nsh), from 0; the rows of nvec are strided); on a
-            ! triangle the three products of an entry written out, in that order
+            ! triangle or a segment the products of an entry written out, in that order
             if (nfn == 3) then
                 do j = 1, ndof_e
                     nn(j) = ((0.0_dp + nvec(j, 1) * nsh(1)) + nvec(j, 2) * nsh(2)) &
                             + nvec(j, 3) * nsh(3)
+                end do
+            else if (nfn == 2) then
+                do j = 1, E_2D          ! (ndof_e: a trip count known when compiled)
+                    nn(j) = (0.0_dp + nvec(j, 1) * nsh(1)) + nvec(j, 2) * nsh(2)
                 end do
             else
                 nn = 0.0_dp
@@ -248,8 +260,13 @@ contains
                     end do
                 end do
             end if
-            ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
-            r(1:ndof_e) = r(1:ndof_e) + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
+            if (nfn == 2) then      ! (the same at E_2D = ndof_e rows, a length known)
+                ptheta(1:E_2D) = theta * s(1:E_2D) - gamma * nn(1:E_2D)
+                r(1:E_2D) = r(1:E_2D) + (ws(q) / gamma) * pv * ptheta(1:E_2D)
+            else
+                ptheta(1:ndof_e) = theta * s - gamma * nn(1:ndof_e)
+                r(1:ndof_e) = r(1:ndof_e) + (ws(q) / gamma) * pv * ptheta(1:ndof_e)
+            end if
             ! (rg and g on all MAX_FN rows, a length known when compiled: the rows past
             ! nfn, shape values 0, are never read)
             if (terms) rg = rg + ((ws(q) / gamma) * pv) * nsh
@@ -260,9 +277,14 @@ contains
                 end do
                 cycle
             end if
-            if (terms) then
+            if (terms .and. nfn == 2) then
+                qa(1:E_2D, active) = (ws(q) / gamma) * ptheta(1:E_2D)
+                qb(1:E_2D, active) = s(1:E_2D) - gamma * nn(1:E_2D)
+            else if (terms) then
                 qa(1:ndof_e, active) = (ws(q) / gamma) * ptheta(1:ndof_e)
                 qb(1:ndof_e, active) = s - gamma * nn(1:ndof_e)
+            end if
+            if (terms) then
                 ! (whole columns: shp is defined on all MAX_FN rows; rows 1..nfn are read)
                 ca(:, active) = (ws(q) / gamma) * nsh
                 cb(:, active) = nsh
@@ -615,6 +637,11 @@ contains
                         ua(1:MAX_E, nr + t) = qa(:, t)
                         vb(1:MAX_E, nr + t) = qb(:, t)
                         qloc(1:MAX_E, nr + t) = ct%cloc(1:MAX_E, f)
+                    else if (ne == E_2D) then   ! (2D: the same, not a memcpy call each,
+                        ! and below for tca, tcb)
+                        ua(1:E_2D, nr + t) = qa(1:E_2D, t)
+                        vb(1:E_2D, nr + t) = qb(1:E_2D, t)
+                        qloc(1:E_2D, nr + t) = ct%cloc(1:E_2D, f)
                     else
                         ua(1:ne, nr + t) = qa(1:ne, t)
                         vb(1:ne, nr + t) = qb(1:ne, t)
@@ -625,6 +652,9 @@ contains
                     if (nfn == MAX_FN) then
                         tca(1:MAX_FN, nr + t) = ca(:, t)
                         tcb(1:MAX_FN, nr + t) = cb(:, t)
+                    else if (nfn == 2) then
+                        tca(1:2, nr + t) = ca(1:2, t)
+                        tcb(1:2, nr + t) = cb(1:2, t)
                     else
                         tca(1:nfn, nr + t) = ca(1:nfn, t)
                         tcb(1:nfn, nr + t) = cb(1:nfn, t)
@@ -703,7 +733,8 @@ contains
         integer :: i, d
         if (ct%nfn == 3) then
             ! a triangle facet: the four sums in one pass over the dofs, each in their
-            ! order from 0 as dot_product's in the general case (the same values)
+            ! order from 0 as dot_product's in the general case (the same values; ue's
+            ! x and nvec's entry multiplied in either order: the same product)
             sn = 0.0_dp; d1 = 0.0_dp; d2 = 0.0_dp; d3 = 0.0_dp
             do i = 1, ct%ndof_e
                 d = ct%dofs(i, f)
@@ -716,6 +747,23 @@ contains
             pnode(1) = sn - ct%gamma(f) * (d1 - ct%gap(1, f))
             pnode(2) = sn - ct%gamma(f) * (d2 - ct%gap(2, f))
             pnode(3) = sn - ct%gamma(f) * (d3 - ct%gap(3, f))
+            return
+        end if
+        if (ct%nfn == 2) then
+            ! a segment facet: the three sums in one pass, as the triangle's (the rest of
+            ! pnode 0, as facet_pnode's), over the 2D cell's E_2D dofs (a trip count known
+            ! when compiled)
+            sn = 0.0_dp; d1 = 0.0_dp; d2 = 0.0_dp
+            do i = 1, E_2D
+                d = ct%dofs(i, f)
+                x = merge(u(max(d, 1)), 0.0_dp, d > 0)
+                sn = sn + ct%s(i, f) * x
+                d1 = d1 + x * ct%nvec(i, 1, f)
+                d2 = d2 + x * ct%nvec(i, 2, f)
+            end do
+            pnode(1) = sn - ct%gamma(f) * (d1 - ct%gap(1, f))
+            pnode(2) = sn - ct%gamma(f) * (d2 - ct%gap(2, f))
+            pnode(3) = 0.0_dp
             return
         end if
         do i = 1, ct%ndof_e       ! (a select, not a branch and a zeroing pass: no arithmetic)

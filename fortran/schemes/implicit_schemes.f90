@@ -79,7 +79,8 @@ module implicit_schemes
                              ls_factor_info, ls_configure, ls_cg_counts, BACKEND_PCG
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
-    use nitsche_contact, only: contact_eval, contact_clear, contact_max_rank, MAX_E, MAX_FN
+    use nitsche_contact, only: contact_eval, contact_clear, contact_max_rank, MAX_E, MAX_FN, &
+                               E_2D
     use alm_contact, only: ALM_OFF
     use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use contact_columns, only: zcache_t, zcache_init, zcache_new_step, zcache_ensure, &
@@ -850,8 +851,9 @@ contains
     !> One facet's nt terms of D P dx: at(t) = v_t . dx on the facet's dofs loc (> 0;
     !> v_t . dx summed in the order of the dofs), then tvec(loc(i)) += u_t(i) at(t) for
     !> t = 1..nt in that order (the additions of term after term, in the same order).
-    !> Three terms (a compressed facet, a triangle piece) take one pass over the dofs
-    !> for their three sums, each summed in its own order, and one for tvec.
+    !> Three terms (a compressed facet, a triangle piece) or two (a segment's points)
+    !> take one pass over the dofs for their sums, each summed in its own order, and one
+    !> for tvec.
     pure subroutine facet_tangent(ne, nt, m, loc, vb, ua, dxc, tvec, at)
         integer, intent(in) :: ne, nt, m                    !! cell dofs, terms, contact-cell dofs
         integer, intent(in) :: loc(ne)                      !! the terms' contact-cell dofs
@@ -879,6 +881,25 @@ contains
                 acc = acc + ua(i, 1) * a1
                 acc = acc + ua(i, 2) * a2
                 tvec(l) = acc + ua(i, 3) * a3
+            end do
+            return
+        end if
+        if (nt == 2) then       ! (a segment's two points: the same, for two sums)
+            a1 = 0.0_dp; a2 = 0.0_dp
+            do i = 1, ne
+                l = loc(i)
+                if (l <= 0) cycle
+                acc = dxc(l)
+                a1 = a1 + vb(i, 1) * acc
+                a2 = a2 + vb(i, 2) * acc
+            end do
+            at(1) = a1; at(2) = a2
+            do i = 1, ne
+                l = loc(i)
+                if (l <= 0) cycle
+                acc = tvec(l)
+                acc = acc + ua(i, 1) * a1
+                tvec(l) = acc + ua(i, 2) * a2
             end do
             return
         end if
@@ -911,6 +932,11 @@ contains
         real(dp), intent(in) :: ca(nfn, nt)                 !! the terms' coefficients in Mt
         real(dp), intent(inout) :: rg(nfn)                  !! the facet's coefficients
         integer :: t
+        if (nfn == 2 .and. nt == 2) then    ! (a segment's two points, written out)
+            rg(1) = (rg(1) + at(1) * ca(1, 1)) + at(2) * ca(1, 2)
+            rg(2) = (rg(2) + at(1) * ca(2, 1)) + at(2) * ca(2, 2)
+            return
+        end if
         do t = 1, nt
             rg = rg + at(t) * ca(:, t)
         end do
@@ -1034,8 +1060,7 @@ contains
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
-        integer :: r, i, j, k, info, l
-        real(dp) :: acc2
+        integer :: r, i, j, info
         logical :: nodes
         st2 = STAT_OK
         r = this%rank
@@ -1060,22 +1085,28 @@ contains
             call node_solve(this, mdl)
             return
         end if
-        ! zs = c V^T yc
+        ! zs = c V^T yc (each term's sum in the order of its dofs, by the explicit-shape
+        ! kernels: no indexing of the scheme's components at each dof)
+        ! (a 2D cell's E_2D dofs given as the constant: the kernels' loops unrolled)
         do i = 1, r
-            acc2 = 0.0_dp
-            do k = 1, mdl%ndof_e
-                l = this%qloc(k, i)
-                if (l > 0) acc2 = acc2 + this%vb(k, i) * this%yc(l)
-            end do
-            this%zs(i) = this%c * acc2
+            if (mdl%ndof_e == E_2D) then
+                this%zs(i) = this%c * cell_dot(E_2D, this%qloc(:, i), this%vb(:, i), &
+                                               this%m, this%yc)
+            else
+                this%zs(i) = this%c * cell_dot(mdl%ndof_e, this%qloc(:, i), this%vb(:, i), &
+                                               this%m, this%yc)
+            end if
         end do
         call dense_lu_solve(r, this%small, this%piv, this%zs)
         ! tk = tk - U s
         do j = 1, r
-            do k = 1, mdl%ndof_e
-                l = this%qloc(k, j)
-                if (l > 0) this%tk(l) = this%tk(l) - this%ua(k, j) * this%zs(j)
-            end do
+            if (mdl%ndof_e == E_2D) then
+                call cell_sub(E_2D, this%qloc(:, j), this%ua(:, j), this%zs(j), this%m, &
+                              this%tk)
+            else
+                call cell_sub(mdl%ndof_e, this%qloc(:, j), this%ua(:, j), this%zs(j), &
+                              this%m, this%tk)
+            end if
         end do
         ! and on the node basis (U's column j is Mt tca(:, j) on its facet)
         if (this%zt_basis) then
@@ -1120,8 +1151,7 @@ contains
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: info                        !! 0 or the first zero pivot
-        integer :: r, i, j, k, l, nfn, i0, j0
-        real(dp) :: acc
+        integer :: r, k, nfn
         r = this%rank
         this%fac_rank = -1
         ! V^T W U from X = M^T W Mt over the facets with terms (each term is
@@ -1129,6 +1159,23 @@ contains
         call facets_x(this, mdl)
         nfn = mdl%ct%nfn
         k = nfn * this%nxf
+        if (nfn == 2) then      ! (segments: the sums of two written out, the same order)
+            call segment_system(r, k, this%c, this%tfac, this%fblk, this%tca, this%tcb, &
+                                this%xt, this%yrow, this%small)
+        else
+            call facet_system(this, r, nfn, k)
+        end if
+        call dense_lu_factor(r, this%small, this%piv, info)
+        if (info /= 0) return
+        call keep_tangent(this, .false.)
+    end subroutine woodbury_factor
+
+    !> woodbury_factor's system I + c V^T W U for any nfn (X of the terms' facets in xt).
+    pure subroutine facet_system(this, r, nfn, k)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (small, yrow set)
+        integer, intent(in) :: r, nfn, k                    !! terms, facet nodes, rows of X
+        integer :: i, j, l, i0, j0
+        real(dp) :: acc
         do i = 1, r
             ! yrow = cb_i^T (rows of X of the facet of term i)
             i0 = nfn * (this%fblk(this%tfac(i)) - 1)
@@ -1146,10 +1193,40 @@ contains
             end do
             this%small(i, i) = this%small(i, i) + 1.0_dp
         end do
-        call dense_lu_factor(r, this%small, this%piv, info)
-        if (info /= 0) return
-        call keep_tangent(this, .false.)
-    end subroutine woodbury_factor
+    end subroutine facet_system
+
+    !> woodbury_factor's system I + c V^T W U on segment facets (nfn = 2): row i is
+    !> yrow = cb_i^T X(f_i, :) (two columns of xt: 0 + cb_1 x_1, then + cb_2 x_2), entry
+    !> (i, j) c (yrow(j0 + 1) ca_1j + yrow(j0 + 2) ca_2j) summed from 0, j0 the block of
+    !> term j's facet: woodbury_factor's loops over nfn written out (the same operations
+    !> in the same order; explicit shapes, no zeroing pass).
+    pure subroutine segment_system(r, k, c, tfac, fblk, tca, tcb, xt, yrow, small)
+        integer, intent(in) :: r                            !! terms
+        integer, intent(in) :: k                            !! rows of X in use (2 a facet)
+        real(dp), intent(in) :: c                           !! the scheme's c
+        integer, intent(in) :: tfac(:)                      !! (>= r) each term's facet
+        integer, intent(in) :: fblk(:)                      !! (facets) block of a facet in X
+        real(dp), intent(in) :: tca(:, :), tcb(:, :)        !! (2, >= r) the coefficients
+        real(dp), intent(in) :: xt(:, :)                    !! (>= k, >= k) X transposed
+        real(dp), intent(inout) :: yrow(:)                  !! (>= k) scratch
+        real(dp), intent(inout) :: small(:, :)              !! (>= r, >= r) the system
+        integer :: i, j, i0, j0, l
+        real(dp) :: b1, b2
+        do i = 1, r
+            i0 = 2 * (fblk(tfac(i)) - 1)
+            b1 = tcb(1, i)
+            b2 = tcb(2, i)
+            do l = 1, k
+                yrow(l) = (0.0_dp + b1 * xt(l, i0 + 1)) + b2 * xt(l, i0 + 2)
+            end do
+            do j = 1, r
+                j0 = 2 * (fblk(tfac(j)) - 1)
+                small(i, j) = c * ((0.0_dp + yrow(j0 + 1) * tca(1, j)) &
+                                   + yrow(j0 + 2) * tca(2, j))
+            end do
+            small(i, i) = small(i, i) + 1.0_dp
+        end do
+    end subroutine segment_system
 
     !> The tangent of the factors just formed, kept to recognize it (same_tangent).
     subroutine keep_tangent(this, nodes)
