@@ -2,7 +2,10 @@
 contact correction with a copy of what they are formed from (the terms' facets and their
 coefficients in the facets' M_θ and M), and solve with them again, across Newton
 iterations and steps, while these are that copy bit for bit, and forms the system from X = MᵀW M_θ over the facets with active points,
-kept while those facets are the same (fortran/schemes/implicit_schemes.f90).
+kept while those facets are the same (fortran/schemes/implicit_schemes.f90). On the
+node basis (3D) the factors carry the terms' coefficients α_t, β_t (`halpha`, `hbeta`),
+which `node_solve` reads instead of forming them again: reused factors bring their
+kept coefficients, fresh ones new coefficients, so this comparison checks them too.
 DYNCONTACT_WOODBURY_FRESH=1 forms X and the system and factorizes it at every Newton
 iteration: the reference. The traces with and
 without reuse must be equal on 2D and 3D scenes, with 'exact' quadrature (cut facets move
