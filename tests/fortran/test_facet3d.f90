@@ -1,12 +1,13 @@
 !> The contact quadrature of a triangle facet (3D): 'exact' (the facet cut along the zero
 !> line of the linear P, each piece integrated with a degree-2 rule) against a fine
 !> composite rule (N^2 sub-triangles, 7-point degree-5 rule on each) on random cuts with
-!> one and two active nodes: the residual, the tangent and the energy agree to the fine
-!> rule's error (only the sub-triangles the zero line crosses are not integrated exactly:
-!> O(N^-2) for the residual and the energy, whose integrands have a kink there, O(N^-1)
-!> for the tangent, whose integrand jumps). A fully active facet is integrated exactly by every rule of
-!> degree >= 2; an inactive one gives nothing. The symmetric rules integrate monomials
-!> up to their degree. Exit status 1 (error stop) on any failure.
+!> one and two active nodes: the residual and the energy agree to the fine rule's error
+!> (only the sub-triangles the zero line crosses are not integrated exactly: O(N^-2), their
+!> integrands having a kink there), and the tangent is the residual's derivative (central
+!> differences). The tangent's fine-rule difference, O(N^-1) but not monotone in N (its
+!> integrand jumps on the zero line), is printed. A fully active facet is integrated
+!> exactly by every rule of degree >= 2; an inactive one gives nothing. The symmetric
+!> rules integrate monomials up to their degree. Exit status 1 (error stop) on any failure.
 program test_facet3d
     use kinds, only: dp
     use nitsche_contact, only: nitsche_facet, triangle_rule, QUAD_EXACT, QUAD_GAUSS, MAX_FN, MAX_Q
@@ -16,12 +17,12 @@ program test_facet3d
     type(checks_t) :: checks
     real(dp) :: ue(NE), s(NE), nvec(NE, NF), gap(NF), gamma, pnode(NF), measure
     real(dp) :: r(NE), e, qa(NE, MAX_Q), qb(NE, MAX_Q), d(NE, NE)
-    real(dp) :: rf(NE), ef, df(NE, NE), err(2), errd(2), rs(NE), es, ds(NE, NE)
+    real(dp) :: rf(NE), ef, df(NE, NE), err(2), errd(2), rs(NE), es, fd_err
     real(dp) :: qs(MAX_FN, MAX_Q), qw(MAX_Q)
     integer :: trial, act, k, neg, i, n
     character(len=160) :: what
 
-    call seed(20261125)
+    call seed(1125)
     call check_rules()
     do trial = 1, 12
         neg = 1 + mod(trial, 2)          ! one, then two active nodes
@@ -39,12 +40,17 @@ program test_facet3d
         write (what, '(a, i0, a, 4es9.2)') 'trial ', trial, &
             ': residual and energy, tangent: fine-rule differences at N = 64, 512 ', err, errd
         ! the residual and the energy integrands are continuous with a kink: the fine
-        ! rule's error is O(N^-2); the tangent's jumps on the zero line: O(N^-1)
+        ! rule's error is O(N^-2)
         call checks%check(err(2) < 1.0e-6_dp .and. err(2) < err(1) / 16.0_dp, &
                           'exact = fine rule (residual, energy): '//trim(what))
-        call checks%check(errd(2) < 1.0e-3_dp .and. errd(2) < errd(1) / 2.0_dp, &
-                          'exact = fine rule (tangent): '//trim(what))
-        print '(a)', trim(what)
+        ! the tangent's fine-rule difference is O(N^-1) but not monotone: a jump's error
+        ! depends on where the zero line crosses the sub-triangles, and it fell by only
+        ! 1.85x from N = 64 to 512 on some draws. So it is printed, and the tangent is
+        ! checked as the derivative of the residual (above: equal to the fine rule's):
+        fd_err = tangent_fd_error()
+        call checks%check(fd_err < 1.0e-4_dp, &
+                          'exact tangent = central difference of the residual: '//trim(what))
+        print '(a, es9.2)', trim(what)//'; tangent against differences', fd_err
     end do
     ! all nodes active: every rule of degree >= 2 is exact; none active: nothing
     call random_facet(3)
@@ -66,6 +72,29 @@ program test_facet3d
     call checks%finish('test_facet3d')
 
 contains
+
+    !> max |(r(ue + eps w) - r(ue - eps w)) / (2 eps) - d w| / max |d w| over random
+    !> directions w: the 'exact' tangent d is the derivative of the residual (the boundary
+    !> term of the moving zero line vanishes, [P]_- being 0 there). r' is Lipschitz (the
+    !> kink moves with ue), so the difference's error is O(eps) times r''/r', which grows
+    !> where the zero line moves fast with ue, plus round-off ~1e-16 |r| / (eps |d w|):
+    !> 1e-8 to 6e-7 over 288 draws (six seeds). A tangent with a wrong or missing term is
+    !> off by O(1) of |d w|; the tolerance 1e-4 lies between.
+    real(dp) function tangent_fd_error() result(worst)
+        real(dp), parameter :: eps = 1.0e-8_dp
+        real(dp) :: w(NE), rp(NE), rm(NE), dw(NE), ep, em
+        integer :: j, ap, am
+        worst = 0.0_dp
+        do j = 1, 4
+            call random_number(w); w = w - 0.5_dp
+            call nitsche_facet(NE, NF, ue + eps * w, s, nvec, gap, gamma, 1, measure, &
+                               QUAD_EXACT, 0, qs, qw, rp, ep, ap)
+            call nitsche_facet(NE, NF, ue - eps * w, s, nvec, gap, gamma, 1, measure, &
+                               QUAD_EXACT, 0, qs, qw, rm, em, am)
+            dw = matmul(d, w)
+            worst = max(worst, maxval(abs((rp - rm) / (2.0_dp * eps) - dw)) / maxval(abs(dw)))
+        end do
+    end function tangent_fd_error
 
     !> Random owner-cell data with P < 0 at exactly `neg` facet nodes.
     subroutine random_facet(neg)
