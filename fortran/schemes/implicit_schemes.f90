@@ -1604,7 +1604,7 @@ contains
 
     !> sum over the cell's dofs with loc(k) > 0 of s(k) y(loc(k)), from 0 in the order of
     !> the dofs (a facet's sigma_n row against a vector on the contact-cell dofs; explicit
-    !> shapes: a tight loop where the type's components were indexed at each dof).
+    !> shapes: a tight loop, not the contact type's components indexed at each dof).
     pure real(dp) function cell_dot(ne, loc, s, m, y) result(acc)
         integer, intent(in) :: ne                           !! cell dofs
         integer, intent(in) :: loc(ne)                      !! their contact-cell dofs (0: none)
