@@ -311,3 +311,102 @@ def test_redistributed_mass_needs_gamma0_above_the_bound(tmp_path):
         dyncontact.run(s, out=tmp_path / "r", progress=False)
     s.set("contact.gamma0", 1.5)
     assert dyncontact.run(s, out=tmp_path / "r2", progress=False).status == "ok"
+
+
+def redistributed_mass(M, node, comp, x, cells, contact_nodes, layers=4):
+    """The redistributed mass written from its definition (Khenous, Laborde and Renard
+    2008, as docs/numerics.md states it), independently of the core: per component k,
+    the entries of M touching a contact node are removed, and their mass and first
+    moments are put back, by the correction of least Frobenius norm, on the entries
+    between dofs of the nodes within `layers` cell layers of the contact nodes (contact
+    nodes excluded). M on the free dofs; node, comp of each dof; x (n_nodes, dim).
+    Returns M' and whether the receiving entries' midpoints span fewer than dim
+    dimensions (their first moments cannot all be matched: numpy's rank of the centred
+    midpoints)."""
+    M = M.copy()
+    reached = np.zeros(len(x), bool)
+    reached[list(contact_nodes)] = True
+    for _ in range(layers):
+        hit = reached[cells].any(axis=1)
+        nxt = reached.copy()
+        nxt[cells[hit].ravel()] = True
+        reached = nxt
+    contact = np.zeros(len(x), bool)
+    contact[list(contact_nodes)] = True
+    region = reached & ~contact
+    for k in np.unique(comp):
+        idx = np.flatnonzero(comp == k)
+        rhs = np.zeros(x.shape[1] + 1)
+        g = np.zeros((x.shape[1] + 1,) * 2)
+        recv = []
+        for i in idx:
+            for j in idx:
+                if M[i, j] == 0.0:
+                    continue
+                phi = np.r_[1.0, 0.5 * (x[node[i]] + x[node[j]])]
+                if contact[node[i]] or contact[node[j]]:
+                    rhs += M[i, j] * phi
+                    M[i, j] = 0.0
+                elif region[node[i]] and region[node[j]]:
+                    g += np.outer(phi, phi)
+                    recv.append((i, j, phi))
+        mid = np.array([phi[1:] for _, _, phi in recv])
+        if np.linalg.matrix_rank(mid - mid.mean(axis=0)) < x.shape[1]:
+            return M, True
+        lam = np.linalg.solve(g, rhs)
+        for i, j, phi in recv:
+            M[i, j] += phi @ lam
+    return M, False
+
+
+@pytest.mark.parametrize("case", [
+    # (dim, length, width, h, contact): the 1D bar at 3, 4 and 6 elements; the 2D strip
+    # with contact on its two long sides (two cells across: the receiving nodes on one
+    # line); the 3D box of two cubes' height
+    (1, 0.15, 0.1, 0.05, "bottom"), (1, 0.2, 0.1, 0.05, "bottom"),
+    (1, 0.3, 0.1, 0.05, "bottom"), (2, 1.0, 0.1, 0.05, "left,right"),
+    (2, 0.15, 0.1, 0.05, "bottom"), (2, 0.3, 0.1, 0.05, "bottom"),
+    (3, 0.1, 0.1, 0.05, "bottom"), (3, 0.15, 0.1, 0.05, "bottom")])
+def test_redistributed_mass_refused_exactly_where_it_is_indefinite(case, tmp_path):
+    """Where too few cell layers stand behind the contact nodes the redistributed mass is
+    indefinite (a negative kinetic energy: a run of it grows without bound), or not
+    defined (the receiving entries' midpoints on a plane: the first moments cannot be
+    matched). The scene is refused, naming &scheme mass, exactly where the mass written
+    from its definition (redistributed_mass, from the consistent mass the core
+    assembles) is not defined or has a negative eigenvalue on the dofs that keep
+    inertia, and runs where it has none."""
+    dim, length, width, h, contact = case
+    s = Scene.read(SCENE_1D if dim == 1 else SCENE_2D)
+    s.set("mesh.dim", dim)
+    for key, val in (("mesh.length", length), ("mesh.h", h), ("boundary.contact", contact),
+                     ("scheme.t_end", 0.01), ("scheme.dt", 0.001)):
+        s.set(key, val)
+    if dim > 1:
+        s.set("mesh.width", width)
+    if contact == "left,right":
+        s.set("contact.probe", [0.0, 0.5])
+    with Stepper(s, tmp_path / "consistent") as run:
+        M = run.matrix("M")
+    with dyncontact.core.Model(s) as m:
+        node, comp = m.dof_map()        # 0-based
+    mesh = dyncontact.core.load_mesh(dim=dim, length=length, width=width, h=h)
+    groups = [mesh["group_names"].index(g) for g in contact.split(",")]
+    cnodes = set(mesh["facets"][np.isin(mesh["facet_group"], groups)].ravel())
+    R, flat = redistributed_mass(M, node, comp, mesh["x"], mesh["cells"], cnodes)
+    s.set("scheme.mass", "redistributed")
+    if flat:
+        with pytest.raises(dyncontact.BadInputError,
+                           match=r"&scheme mass: .*cannot carry its mass and first moments"):
+            dyncontact.run(s, out=tmp_path / "r", progress=False)
+        return
+    inner = ~np.isin(node, list(cnodes))
+    lowest = np.min(np.linalg.eigvalsh(R[np.ix_(inner, inner)]))
+    lowest_m = np.min(np.linalg.eigvalsh(M[np.ix_(inner, inner)]))
+    if lowest < 0.0:
+        assert lowest < -1e-3 * lowest_m        # indefinite, not a round-off verdict
+        with pytest.raises(dyncontact.BadInputError,
+                           match=r"&scheme mass: .*not positive definite"):
+            dyncontact.run(s, out=tmp_path / "r", progress=False)
+    else:
+        assert lowest > 1e-3 * lowest_m
+        assert dyncontact.run(s, out=tmp_path / "r", progress=False).status == "ok"

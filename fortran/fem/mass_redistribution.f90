@@ -18,8 +18,10 @@
 !>   sum_P E_ij (x_i + x_j)/2 = dX is E_ij = phi_ij . lambda, phi_ij = (1, (x_i + x_j)/2),
 !>   G lambda = (dT, dX), G = sum_P phi_ij phi_ij^T ((d+1) x (d+1), symmetric E).
 !> So M' keeps 1.M.1 and 1.M.x per component exactly, is symmetric, and has zero rows and
-!> columns on the contact dofs. Whether M' stays positive definite on the other dofs is
-!> checked where it is factorized (the initial acceleration).
+!> columns on the contact dofs. Whether M' stays positive definite on the other dofs
+!> depends on the cell layers behind the contact nodes (a short body, or contact on two
+!> opposite sides, can leave too few): the model checks it with one LDL^T factorization
+!> and refuses the scene when it is not (model's check_mass_definite).
 module mass_redistribution
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
@@ -95,7 +97,9 @@ contains
                 end do
                 if (pass == 2) exit
                 if (all(rhs == 0.0_dp)) exit
-                call dense_lu_factor(dim + 1, g, piv, info)
+                info = 0
+                if (moments_degenerate(dim + 1, g)) info = 1
+                if (info == 0) call dense_lu_factor(dim + 1, g, piv, info)
                 if (info /= 0) then
                     call raise(stat, errmsg, STAT_BAD_INPUT, 'mass redistribution: the nodes '// &
                                'next to the contact boundary cannot carry its mass and first moments')
@@ -118,4 +122,45 @@ contains
             phi(2:) = 0.5_dp * (x(:, dof_node(ii)) + x(:, dof_node(jj)))
         end subroutine classify
     end subroutine mass_redistribute
+
+    !> Whether the moment system g = sum phi phi^T (phi = (1, x), n = dim + 1) is singular
+    !> in exact arithmetic: the receiving entries' midpoints lie on a point, a line or a
+    !> plane, so that the first moments cannot all be matched (its LU meets a pivot of
+    !> round-off size, not an exact zero, and the solve gives a round-off answer). Tested
+    !> on the midpoints' covariance, centred and normalised, so that neither where the
+    !> mesh lies nor its units matter: degenerate when a coordinate's variance is below
+    !> VAR_RTOL of its mean square (constant up to round-off), or when a pivot of the
+    !> correlation matrix (the share of a coordinate's variance the others leave
+    !> unexplained) is below CORR_RTOL.
+    pure logical function moments_degenerate(n, g) result(degenerate)
+        integer, intent(in) :: n                     !! dim + 1
+        real(dp), intent(in) :: g(n, n)              !! sum of phi phi^T over the entries
+        !> Round-off of a variance formed as mean square - mean^2 is ~1e-16 of the mean
+        !> square; a coordinate that varies is far above 1e-13 of it on any mesh whose
+        !> extent is not below 1e-6 of its distance from the origin.
+        real(dp), parameter :: VAR_RTOL = 1.0e-13_dp
+        !> A flat set gives a pivot of round-off size; a mesh's receiving set, O(0.1-1).
+        real(dp), parameter :: CORR_RTOL = 1.0e-8_dp
+        real(dp) :: cov(n - 1, n - 1), c(n - 1), s(n - 1)
+        integer :: piv(n - 1), info, i, j
+        c = g(2:, 1) / g(1, 1)
+        do j = 1, n - 1
+            do i = 1, n - 1
+                cov(i, j) = g(1 + i, 1 + j) / g(1, 1) - c(i) * c(j)
+            end do
+        end do
+        degenerate = .true.
+        do i = 1, n - 1
+            if (.not. cov(i, i) > VAR_RTOL * g(1 + i, 1 + i) / g(1, 1)) return
+            s(i) = 1.0_dp / sqrt(cov(i, i))
+        end do
+        do j = 1, n - 1
+            do i = 1, n - 1
+                cov(i, j) = cov(i, j) * s(i) * s(j)
+            end do
+        end do
+        call dense_lu_factor(n - 1, cov, piv, info)
+        if (info /= 0) return
+        degenerate = any([(abs(cov(i, i)) < CORR_RTOL, i = 1, n - 1)])
+    end function moments_degenerate
 end module mass_redistribution

@@ -3,7 +3,7 @@
 !> CSC pattern), contact facets and the probe.
 module model
     use kinds, only: dp
-    use errors, only: STAT_OK, STAT_BAD_INPUT, raise
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use dense_lu, only: dense_lu_factor, dense_lu_solve
@@ -13,6 +13,7 @@ module model
                       block2_matvec_ks3, block3_t, block3_from_csc, block3_matvec, block3_matvec_km, &
                       block3_scalar_blocks, block3_matvec_ks2, block3_matvec_ks3
     use mass_redistribution, only: mass_region, mass_redistribute
+    use cholmod, only: cholmod_t, chol_factor, chol_free
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
                                facet_shape, MAX_E, MAX_FN, QUAD_EXACT, QUAD_GAUSS
@@ -490,7 +491,36 @@ contains
         call mass_redistribute(mdl%stiff, mdl%dof_node, mdl%dof_comp, mdl%msh%x, contact_node, &
                                region, mdl%massless, st, m)
         call csc_swap_values(mdl%stiff, mdl%mass_val)
+        if (st == STAT_OK) call check_mass_definite(mdl, st, m)
     end subroutine redistribute
+
+    !> Whether the redistributed M is positive definite on the dofs that keep inertia
+    !> (e_kin = v.M v / 2 >= 0): the correction that keeps the mass and first moments can
+    !> make it indefinite where few cell layers stand behind the contact nodes (a short
+    !> body, contact on opposite sides). One LDL^T factorization of M with a unit
+    !> diagonal on the massless dofs, released at once: a pivot <= 0 means indefinite.
+    subroutine check_mass_definite(mdl, st, m)
+        type(model_t), intent(in) :: mdl             !! model with its redistributed M
+        integer, intent(out) :: st                   !! status
+        character(len=*), intent(inout) :: m         !! message
+        real(dp), allocatable :: val(:)
+        type(cholmod_t) :: ch
+        integer :: j, p
+        allocate (val, source=mdl%mass_val)
+        do j = 1, mdl%stiff%n
+            if (.not. mdl%massless(j)) cycle
+            do p = mdl%stiff%colptr(j) + 1, mdl%stiff%colptr(j + 1)
+                if (mdl%stiff%rowind(p) + 1 == j) val(p) = 1.0_dp
+            end do
+        end do
+        call chol_factor(ch, mdl%stiff, st, m, val)
+        call chol_free(ch)
+        if (st == STAT_NUMERIC) then
+            call raise(st, m, STAT_BAD_INPUT, 'mass redistribution: the mass matrix it gives '// &
+                       'is not positive definite on this mesh (too few cell layers behind the '// &
+                       'contact nodes); use a finer mesh, or mass = ''consistent'' or ''lumped''')
+        end if
+    end subroutine check_mass_definite
 
     !> Node-block copy of K_theta and M, built once: 2x2 blocks in 2D, 3x3 in 3D (the
     !> free dofs of a node are consecutive), and the scalars of M's blocks when each is m I.
