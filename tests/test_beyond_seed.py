@@ -9,6 +9,7 @@ the conservation laws the redistributed mass must keep.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -294,23 +295,47 @@ def test_redistributed_mass_keeps_mass_and_first_moments(scene_path, mesh_args, 
     assert np.min(np.linalg.eigvalsh(R[np.ix_(inner, inner)])) > 0.0
 
 
-def test_redistributed_mass_needs_gamma0_above_the_bound(tmp_path):
-    """1D bar, Nitsche theta = 1, gamma0 = E: the element bound exactly, where K_theta is
-    singular on the contact cell. The consistent mass still gives a definite J0 = M + c
-    K_theta (the run goes on); the redistributed mass has no inertia there, so the scene is
-    refused naming &contact gamma0 instead of failing later with a singular matrix."""
+def test_gamma0_at_the_bound_is_refused_with_theta_1(tmp_path):
+    """1D bar, Nitsche theta = 1: the element bound gamma0_min = E is exact in 1D, so at it
+    K_theta is singular (the contact node has no stiffness left: checked on the dense
+    K_theta(gamma0) = K - (gamma0_ref / gamma0) D, D = K - K_theta(gamma0_ref), from the
+    core's Jacobians at theta = 0 and 1) and the run would let that node drift. The scene
+    is refused at the bound for every mass, naming &contact gamma0; just above it, it runs
+    with a warning (below twice the bound the contact cell is soft); at twice the bound,
+    without one."""
+    k = {}
+    for theta in (0, 1):
+        s = Scene.read(SCENE_1D)
+        s.set("mesh.h", 0.05)
+        s.set("contact.theta", theta)
+        with dyncontact.core.Model(s) as m:
+            eye = np.eye(m.dofs)
+            k[theta] = np.column_stack([m.jacobian_apply(np.zeros(m.dofs), e) for e in eye])
+    assert s.get("material.young") == 1.0 and s.get("contact.gamma0") == 10.0
+    d = k[0] - k[1]
+    lam = np.linalg.eigvalsh(k[0] - (10.0 / 1.0) * d)       # gamma0 = E = 1: the bound
+    assert abs(lam.min()) < 1e-12 * lam.max()               # singular
+    assert np.linalg.eigvalsh(k[0] - (10.0 / 0.99) * d).min() < 0   # indefinite below
     s = Scene.read(SCENE_1D)
     s.set("mesh.h", 0.05)
     s.set("scheme.dt", 0.0025)
     s.set("scheme.t_end", 0.1)
-    s.set("contact.gamma0", 1.0)
-    res = dyncontact.run(s, out=tmp_path / "c", progress=False)
-    assert res.summary["steps"] > 0
-    s.set("scheme.mass", "redistributed")
-    with pytest.raises(dyncontact.BadInputError, match="&contact gamma0.*redistributed mass"):
-        dyncontact.run(s, out=tmp_path / "r", progress=False)
-    s.set("contact.gamma0", 1.5)
-    assert dyncontact.run(s, out=tmp_path / "r2", progress=False).status == "ok"
+    for mass in ("consistent", "lumped", "redistributed"):
+        s.set("scheme.mass", mass)
+        s.set("contact.gamma0", 1.0)
+        with pytest.raises(dyncontact.BadInputError, match="&contact gamma0.*singular at it"):
+            dyncontact.run(s, out=tmp_path / mass, progress=False)
+        s.set("contact.gamma0", 1.5)
+        with pytest.warns(dyncontact.core.DyncontactWarning,
+                          match="less than twice the element bound"):
+            res = dyncontact.run(s, out=tmp_path / f"{mass}_1.5", progress=False)
+        assert res.status == "ok"
+        s.set("contact.gamma0", 2.0)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = dyncontact.run(s, out=tmp_path / f"{mass}_2", progress=False)
+        assert res.status == "ok"
+        assert not [w for w in caught if "element bound" in str(w.message)]
 
 
 def redistributed_mass(M, node, comp, x, cells, contact_nodes, layers=4):

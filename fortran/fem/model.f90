@@ -732,26 +732,36 @@ contains
         ratio_max = maxval(ratio)
         g_min = prm%gamma0 * ratio_max
         mdl%gamma0_min = g_min
-        ! at the bound K_theta is singular on a contact cell: fine while M gives J0 =
-        ! M + c K_theta its definiteness, not with the redistributed mass (no inertia on
-        ! the contact nodes), which needs gamma0 above the bound (to round-off)
-        if (prm%mass == MASS_REDISTRIBUTED .and. prm%nitsche_theta == 1) then
-            if (prm%gamma0 > g_min * (1.0_dp + BOUND_RTOL)) return
-        else if (prm%gamma0 >= g_min) then
-            return
-        end if
+        ! at the bound K_theta is singular on a contact cell: with theta = 1 the run
+        ! needs gamma0 above it (to round-off). J0 = M + c K_theta stays definite there, but
+        ! the dynamics has a mode of zero stiffness (1D, where the bound is exact: the
+        ! contact node, which drifts; with the redistributed mass, no inertia either), and
+        ! just above the bound a very soft one (a note below SUGGEST x the bound)
         stiff = prm%young
         if (mdl%dim >= 2) stiff = lambda + 2.0_dp * mu
         g_sug = round_up(SUGGEST * g_min)
         if (prm%nitsche_theta == 1) then
+            if (prm%gamma0 > g_min * (1.0_dp + BOUND_RTOL)) then
+                if (prm%gamma0 < SUGGEST * g_min) then
+                    write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
+                        'warning: &contact gamma0 = ', prm%gamma0, ' is less than twice the '// &
+                        'element bound ', g_min, ' (theta = 1): the contact cells are left '// &
+                        'soft and their slow mode pollutes u_n, v_n and p_n (in 1D the bound '// &
+                        'is exact); consider gamma0 = ', g_sug, ' (docs/scenes.md)'
+                    call note(mdl, trim(buf))
+                end if
+                return
+            end if
+        else if (prm%gamma0 >= g_min) then
+            return
+        end if
+        if (prm%nitsche_theta == 1) then
             st = STAT_BAD_INPUT
             write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a, es10.3e3, a)') '', prm%gamma0, &
                 ' is too small for the material: with theta = 1, K_theta is indefinite below ' &
-                //'gamma0 = ', g_min, ' (element bound); use gamma0 = ', g_sug, &
-                ' (the stiffness E or lambda + 2 mu is ', stiff, '; docs/scenes.md)'
+                //'gamma0 = ', g_min, ' (element bound) and singular at it; use gamma0 = ', &
+                g_sug, ' (the stiffness E or lambda + 2 mu is ', stiff, '; docs/scenes.md)'
             m = trim(adjustl(buf))
-            if (prm%mass == MASS_REDISTRIBUTED) m = trim(m)//' [the redistributed mass '// &
-                'needs gamma0 above the bound: K_theta is singular at it]'
         else
             write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
                 'warning: &contact gamma0 = ', prm%gamma0, &
