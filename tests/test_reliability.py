@@ -607,8 +607,9 @@ def test_obstacle_normal_into_the_body_warns(kind, tmp_path):
 
 @pytest.mark.parametrize("kind", ENTRIES)
 def test_central_auto_step_warns_where_the_estimate_is_not_a_bound(kind, tmp_path):
-    """dt = 0 with Nitsche theta = -1 or 0: the estimate of the critical step is not a safe
-    bound there (numerics.md, "Central differences"): the run says so; theta = 1 does not."""
+    """dt = 0 with Nitsche theta = -1 or 0, or in 1D: the estimate of the critical step is
+    not a safe bound there (numerics.md, "Central differences"): the run says so; theta = 1
+    in 2D does not."""
     base = dict(scheme__name="'central'", scheme__mass="'lumped'", scheme__dt="0.0",
                 scheme__t_end="0.05")
     for theta, warned in [("-1", True), ("0", True), ("1", False)]:
@@ -620,6 +621,20 @@ def test_central_auto_step_warns_where_the_estimate_is_not_a_bound(kind, tmp_pat
                         **{**base, "scheme__dt": "0.001"})
     res = run(kind, scene, "--out", tmp_path / "given", cwd=tmp_path)
     assert res.returncode == EXIT_OK and "not a safe bound" not in res.stderr
+    # 1D: not a safe bound with theta = 1 either (nor with penalty); a given dt is not
+    # warned about
+    from dyncontact import Scene
+    for method, dt, warned in [("nitsche", 0.0, True), ("penalty", 0.0, True),
+                               ("nitsche", 0.001, False)]:
+        s = Scene.read(ROOT / "scripts" / "scenes" / "bar1d.nml")
+        for key, val in (("scheme.name", "central"), ("scheme.dt", dt),
+                         ("scheme.t_end", 0.05), ("contact.method", method)):
+            s.set(key, val)
+        path = tmp_path / f"bar1d_{method}_{dt}.nml"
+        s.write(path)
+        res = run(kind, path, "--out", tmp_path / path.stem, cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        assert ("not a safe bound in 1D" in res.stderr) == warned
 
 
 def test_plot_out_says_what_it_wrote(tmp_path):
