@@ -70,12 +70,24 @@ def test_plot_traces_api_labels(tmp_path):
     assert (tmp_path / "x.png").stat().st_size > 0
     assert len(fig.axes) == 4
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
-    assert labels[0] == "hht α=-0.1, Δt=0.0025, h=0.05"
-    assert labels[1].startswith("hht α=-0.1, Δt=0.0025, h=0.05 (unstable at t=1.2")
+    # the same settings: told apart by their folders
+    assert labels[0] == "hht α=-0.1, Δt=0.0025, h=0.05 [a]"
+    assert labels[1].startswith("hht α=-0.1, Δt=0.0025, h=0.05 [b] (unstable at t=1.2")
     summary = json.loads((a / "summary.json").read_text())
+    assert run_label(summary) == "hht α=-0.1, Δt=0.0025, h=0.05"
     summary["scene"]["scheme"] = {"name": "newmark", "beta": 0.3025, "gamma": 0.6,
                                   "dt": 0.001, "mass": "lumped"}
     assert run_label(summary) == "newmark β=0.3025, γ=0.6, Δt=0.001, h=0.05, lumped"
+    # what else tells runs apart: the built-in bar's dimension out of the plane, the
+    # redistributed mass, a contact method other than Nitsche's
+    summary["scene"]["scheme"]["mass"] = "redistributed"
+    summary["scene"]["mesh"]["dim"] = 3
+    summary["scene"]["contact"] = {"method": "alm", "multiplier": "nodal"}
+    assert run_label(summary) == ("newmark β=0.3025, γ=0.6, Δt=0.001, h=0.05, 3D, "
+                                  "redistributed, ALM nodal")
+    summary["scene"]["contact"] = {"method": "penalty"}
+    summary["scene"]["mesh"]["dim"] = 2
+    assert run_label(summary).endswith("h=0.05, redistributed, penalty")
     # e_total + e_contact is drawn dashed when e_contact is not all zero.
     energy_lines = fig.axes[3].get_lines()
     assert any(line.get_linestyle() == "--" for line in energy_lines)

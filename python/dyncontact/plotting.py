@@ -54,7 +54,10 @@ def _get(d: Any, *keys, default=None):
 
 
 def run_label(summary: dict, fallback: str = "") -> str:
-    """'hht α=-0.1, Δt=0.0025, h=0.05' from a summary.json (fallback if it says nothing)."""
+    """'hht α=-0.1, Δt=0.0025, h=0.05' from a summary.json (fallback if it says nothing):
+    the scheme and its parameters, Δt, the mesh (its file's name, or h and '1D' / '3D'
+    for the built-in bar out of the plane), a mass other than the consistent one, and a
+    contact method other than Nitsche's."""
     scene = summary.get("scene") if isinstance(summary.get("scene"), dict) else {}
     scheme = _get(scene, "scheme", default={}) or {}
     name = scheme.get("name") or (summary.get("scheme") if isinstance(summary.get("scheme"),
@@ -71,8 +74,15 @@ def run_label(summary: dict, fallback: str = "") -> str:
         params.append(os.path.basename(str(mesh["file"])))
     elif "h" in mesh:
         params.append(f"h={_num(mesh['h'])}")
-    if scheme.get("mass") == "lumped":
-        params.append("lumped")
+        if mesh.get("dim") in (1, 3):
+            params.append(f"{mesh['dim']}D")
+    if scheme.get("mass") in ("lumped", "redistributed"):
+        params.append(scheme["mass"])
+    contact = _get(scene, "contact", default={}) or {}
+    if contact.get("method") == "penalty":
+        params.append("penalty")
+    elif contact.get("method") == "alm":
+        params.append(f"ALM {contact.get('multiplier', '')}".strip())
     parts.append(name + (" " + ", ".join(params) if params else ""))
     return parts[0]
 
@@ -134,7 +144,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         :class:`dyncontact.RunResult` objects; one colour per run.
     out_png : file to write (None: do not save).
     labels : legend labels (default: scheme and parameters from summary.json, e.g.
-        'hht α=-0.1, Δt=0.0025, h=0.05'). A run whose status is not 'ok' is drawn up to
+        'hht α=-0.1, Δt=0.0025, h=0.05' (:func:`run_label`), followed by the run's folder
+        where two runs would read alike). A run whose status is not 'ok' is drawn up to
         where it stopped, marked with an 'x', and labelled '(unstable at t=...)'.
     title : figure title.
 
@@ -165,9 +176,16 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     ok_values: list[list[np.ndarray]] = [[] for _ in axes]
     stopped_values: list[list[np.ndarray]] = [[] for _ in axes]
     stops = []   # (t_stop, colour, [(ax index, y_last)])
-    for i, item in enumerate(items):
-        trace, summary, default_name = _load(item)
-        label = labels[i] if labels is not None else run_label(summary, default_name)
+    loaded = [_load(item) for item in items]
+    names = labels if labels is not None else [run_label(summary, default_name)
+                                               for _, summary, default_name in loaded]
+    if labels is None:
+        # runs whose settings read alike (the label does not list every key) are told
+        # apart by their folders
+        names = [f"{name} [{loaded[i][2]}]" if names.count(name) > 1 else name
+                 for i, name in enumerate(names)]
+    for i, (trace, summary, _name) in enumerate(loaded):
+        label = names[i]
         t = np.asarray(trace.get("t", np.empty(0)), dtype=float)
         status = str(summary.get("status", "ok"))
         stopped = status != "ok"
