@@ -6,6 +6,13 @@ The Fortran core (``fortran/io/scene.f90``) is the only reader: :meth:`Scene.rea
 ``PATH: &group key: what is wrong (got 'VALUE')`` are the executable's. A bad scene raises
 :class:`dyncontact.BadInputError` (``SceneError`` is the same class).
 
+A vector key the scene does not give (``material.gravity``, ``contact.obstacle_point``,
+``contact.obstacle_normal``, ``contact.probe``, ``initial.velocity``) takes the default of
+the mesh's dimension (1D, 2D or 3D; docs/scenes.md), which for a mesh file with
+``&mesh dim = 0`` is known only from the file. The scene keeps such a key omitted: it is
+never written back (so the run derives it from the mesh, as the executable does), and
+:meth:`Scene.get` returns the default of the dimension, reading the mesh file if it must.
+
 >>> scn = Scene()
 >>> scn.set('scheme.dt', '0.001')
 >>> scn.get('scheme.dt')
@@ -26,6 +33,22 @@ __all__ = ["Scene", "SceneError"]
 
 #: The exception of a bad scene (the same class as BadInputError).
 SceneError = BadInputError
+
+#: The defaults of the vector keys by mesh dimension, as the core's (scene_keys in
+#: fortran/io/scene.f90; tests/test_scene_vectors.py checks them against summary.json).
+#: Vectors have 2 components in 1D and 2D (the second one 0 in 1D), 3 in 3D.
+VECTOR_DEFAULTS: dict[int, dict[tuple[str, str], list[float]]] = {
+    1: {("material", "gravity"): [0.0, 0.0], ("contact", "obstacle_point"): [0.0, 0.0],
+        ("contact", "obstacle_normal"): [-1.0, 0.0], ("contact", "probe"): [0.0, 0.0],
+        ("initial", "velocity"): [0.0, 0.0]},
+    2: {("material", "gravity"): [0.0, 0.0], ("contact", "obstacle_point"): [0.0, 0.0],
+        ("contact", "obstacle_normal"): [0.0, -1.0], ("contact", "probe"): [0.05, 0.0],
+        ("initial", "velocity"): [0.0, 0.0]},
+    3: {("material", "gravity"): [0.0, 0.0, 0.0],
+        ("contact", "obstacle_point"): [0.0, 0.0, 0.0],
+        ("contact", "obstacle_normal"): [0.0, 0.0, -1.0],
+        ("contact", "probe"): [0.05, 0.05, 0.0], ("initial", "velocity"): [0.0, 0.0, 0.0]},
+}
 
 
 def _quote(s: str) -> str:
@@ -62,6 +85,8 @@ def _number_text(x: Any) -> str:
 class Scene:
     """A scene: every key with its value (defaults filled in), addressed as
     ``'group.key'`` (``'scheme.dt'``, ``'contact.theta'``, ``'scheme.theta'``...).
+    A vector key not given keeps the default of the mesh's dimension (see the module's
+    documentation).
 
     >>> Scene().get('contact.obstacle_normal')
     [0.0, -1.0]
@@ -70,7 +95,10 @@ class Scene:
     def __init__(self) -> None:
         #: The scene file read ('' if built in code); used in messages.
         self.path = ""
+        #: The core's scene JSON; None: a vector key not given.
         self._values: dict[str, dict[str, Any]] = core.scene_parse("", "<scene>")
+        #: (mesh file, its mtime and size) -> its dimension, read once.
+        self._mesh_dims: dict[tuple[str, int, int], int] = {}
 
     @classmethod
     def read(cls, path: str | os.PathLike) -> "Scene":
@@ -99,29 +127,64 @@ class Scene:
                          f"{', '.join(self._values[group])})")
 
     def get(self, name: str) -> Any:
-        """Value of ``'group.key'`` (a list of 2 floats for vectors, 3 in 3D)."""
+        """Value of ``'group.key'`` (a list of 2 floats for vectors, 3 in 3D): the value the
+        run will use. A vector key the scene does not give is the default of the mesh's
+        dimension; with a mesh file and ``&mesh dim = 0`` the file is read (through the
+        core, as the run reads it) to know it, which raises :class:`BadInputError` when it
+        cannot be read.
+        """
         group, key = self._check_name(name)
-        return copy.copy(self._values[group][key])
+        value = self._values[group][key]
+        if value is None:
+            return list(VECTOR_DEFAULTS[self.dimension()][(group, key)])
+        return copy.copy(value)
+
+    def given(self, name: str) -> bool:
+        """Whether ``'group.key'`` has a value of its own: False only for a vector key that
+        takes the default of the mesh's dimension (it is not written by :meth:`to_text`)."""
+        group, key = self._check_name(name)
+        return self._values[group][key] is not None
+
+    def dimension(self) -> int:
+        """The mesh's dimension (1, 2 or 3): ``&mesh dim``, 2 for the built-in bar with
+        dim = 0, and for a mesh file with dim = 0 the file's (read through the core, as
+        the run reads it; :class:`BadInputError` if it cannot be read)."""
+        mesh = self._values["mesh"]
+        if mesh["dim"] != 0 or not mesh["file"]:
+            return mesh["dim"] or 2
+        path = mesh["file"]
+        try:
+            st = os.stat(path)
+            tag = (path, st.st_mtime_ns, st.st_size)
+        except OSError:
+            tag = (path, -1, -1)
+        if tag not in self._mesh_dims:
+            lib = core._core()
+            handle, dim, *_, stat, errmsg = lib.dc_mesh_sizes(
+                core._fpath(path, "mesh file"), 2, float(mesh["length"]),
+                float(mesh["width"]), float(mesh["h"]), 0)
+            core._check(stat, errmsg, "reading the mesh")
+            lib.dc_mesh_free(handle)
+            self._mesh_dims[tag] = int(dim)
+        return self._mesh_dims[tag]
 
     def set(self, name: str, value: Any) -> None:
         """Set ``'group.key'``; the core converts ``value`` to the key's type.
 
         ``value`` may be a Python or numpy value or a command-line string: ``'0.001'``,
         ``"'lumped'"`` or ``'lumped'``, ``'0.0,-1.0'``. A single number for a vector sets
-        component 1 and zeroes component 2. Ranges are checked by :meth:`validate`.
+        component 1 and zeroes component 2. Ranges, and the count of a vector's components
+        against the mesh's dimension, are checked by :meth:`validate` (and by the run).
 
-        Setting ``'mesh.dim'`` gives the vector keys still at the old dimension's defaults
-        those of the new one (3 components in 3D).
+        Setting ``'mesh.dim'`` (or ``'mesh.file'``) changes the defaults of the vector keys
+        not given (3 components in 3D); the vectors given are kept as they are, so a
+        vector with a count of components of the old dimension makes :meth:`validate`
+        fail naming it, until it is set too.
         """
         group, key = self._check_name(name)
-        text = _value_text(value, self._values[group][key])
-        omit = set()
-        if (group, key) == ("mesh", "dim") and self._values["mesh"]["dim"] in (0, 1, 2, 3):
-            old = core.scene_parse(f"&mesh dim = {self._values['mesh']['dim']} /", "<defaults>")
-            omit = {(g, k) for g, keys in old.items() for k, v in keys.items()
-                    if isinstance(v, list) and self._values[g][k] == v}
-        self._values = core.scene_parse(self.to_text({(group, key): text}, omit=omit),
-                                        self._name())
+        current = self._values[group][key]
+        text = _value_text(value, [] if current is None else current)
+        self._values = core.scene_parse(self.to_text({(group, key): text}), self._name())
 
     def __getitem__(self, name: str) -> Any:
         return self.get(name)
@@ -134,14 +197,29 @@ class Scene:
         other = Scene.__new__(Scene)
         other.path = self.path
         other._values = copy.deepcopy(self._values)
+        other._mesh_dims = dict(self._mesh_dims)
         return other
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
-        """``{group: {key: value}}`` for every key, as the Fortran scene JSON."""
+        """``{group: {key: value}}`` for every key, as the Fortran scene JSON: a vector
+        key not given is None (the default of the mesh's dimension, which :meth:`get`
+        gives)."""
         return copy.deepcopy(self._values)
 
+    def _resolved(self) -> dict[str, dict[str, Any]]:
+        values = copy.deepcopy(self._values)
+        for group, keys in values.items():
+            for key, value in keys.items():
+                if value is None:
+                    keys[key] = self.get(f"{group}.{key}")
+        return values
+
     def __eq__(self, other: object) -> bool:
-        return isinstance(other, Scene) and self._values == other._values
+        """Scenes are equal when every key has the same value for the run (a vector key
+        given with its default equals the key not given)."""
+        if not isinstance(other, Scene):
+            return False
+        return self._values == other._values or self._resolved() == other._resolved()
 
     def __repr__(self) -> str:
         return f"Scene(path={self.path!r})"
@@ -159,7 +237,8 @@ class Scene:
                 absolute_mesh: bool = False, omit: set[tuple[str, str]] | None = None) -> str:
         """The scene as namelist text, one key a line (`replace`: value texts to use
         instead of the stored values; `absolute_mesh`: write the mesh file absolute;
-        `omit`: keys left out, so that they take their defaults)."""
+        `omit`: keys left out, so that they take their defaults). A vector key not given
+        is left out (it takes the default of the mesh's dimension)."""
         lines = ["! dyncontact scene (written by dyncontact.Scene)"]
         for group, keys in self._values.items():
             lines.append(f"&{group}")
@@ -171,6 +250,8 @@ class Scene:
                     value = os.path.abspath(value)
                 if replace and (group, key) in replace:
                     text = replace[(group, key)]
+                elif value is None:                        # the dimension's default
+                    continue
                 elif isinstance(value, str):
                     text = _quote(value)
                 else:
