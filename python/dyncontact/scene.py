@@ -219,7 +219,12 @@ class Scene:
         given with its default equals the key not given)."""
         if not isinstance(other, Scene):
             return False
-        return self._values == other._values or self._resolved() == other._resolved()
+        if self._values == other._values:
+            return True
+        try:
+            return self._resolved() == other._resolved()
+        except BadInputError:        # a mesh file that cannot be read: not the same scene
+            return False
 
     def __repr__(self) -> str:
         return f"Scene(path={self.path!r})"
