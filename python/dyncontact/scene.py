@@ -159,13 +159,9 @@ class Scene:
         except OSError:
             tag = (path, -1, -1)
         if tag not in self._mesh_dims:
-            lib = core._core()
-            handle, dim, *_, stat, errmsg = lib.dc_mesh_sizes(
-                core._fpath(path, "mesh file"), 2, float(mesh["length"]),
-                float(mesh["width"]), float(mesh["h"]), 0)
-            core._check(stat, errmsg, "reading the mesh")
-            lib.dc_mesh_free(handle)
-            self._mesh_dims[tag] = int(dim)
+            self._mesh_dims[tag] = int(core.load_mesh(
+                path, length=float(mesh["length"]), width=float(mesh["width"]),
+                h=float(mesh["h"]), check=False)["dim"])
         return self._mesh_dims[tag]
 
     def set(self, name: str, value: Any) -> None:
