@@ -128,8 +128,8 @@ def test_1d_bar_runs_with_the_defaults(run_exe, tmp_path):
 
 def test_changing_dim_keeps_the_vectors_given():
     """bar3d_hht.nml gives every vector with 3 components: set('mesh.dim', 0) keeps them
-    (validate then names the first that does not fit 2D), and the vectors not given follow
-    the new dimension."""
+    (validate then names the first that does not fit 2D), the vectors not given and those
+    given with the old 2D default follow the new dimension."""
     scn = Scene.read(ROOT / "scripts" / "scenes" / "bar3d_hht.nml")
     scn.set("mesh.dim", 0)
     assert scn.get("contact.probe") == [0.05, 0.05, 0.0]
@@ -140,6 +140,22 @@ def test_changing_dim_keeps_the_vectors_given():
         scn.validate()
     scn.set("mesh.dim", 3)
     scn.validate()
+    # a scene that spells out the 2D defaults (bar2d_hht.nml) follows a new dimension; a
+    # vector of its own is kept, and validate names it
+    seed = Scene.read(ROOT / "scripts" / "scenes" / "bar2d_hht.nml")
+    assert seed.given("contact.probe")
+    seed.set("mesh.dim", 3)
+    assert seed.get("contact.probe") == [0.05, 0.05, 0.0]
+    assert seed.get("contact.obstacle_normal") == [0.0, 0.0, -1.0]
+    seed.validate()
+    seed.set("mesh.dim", 2)
+    assert seed.get("contact.probe") == [0.05, 0.0]
+    seed.set("contact.probe", "0.02, 0.0")
+    seed.set("mesh.dim", 3)
+    assert seed.get("contact.probe") == [0.02, 0.0]
+    with pytest.raises(BadInputError, match=r"&contact probe: expected 3 values in 3D "
+                                            r"\(got '0.02, 0.0'\)"):
+        seed.validate()
     fresh = Scene()
     fresh.set("mesh.dim", 3)
     assert fresh.get("contact.probe") == [0.05, 0.05, 0.0]
@@ -168,3 +184,19 @@ def test_too_many_values_are_quoted_whole(run_exe, tmp_path):
     assert res.returncode == 2
     assert res.stderr.strip() == (f"dyncontact: {path}: &contact probe: expected 3 values "
                                   "in 3D (got '0.0, 1e-2')")
+
+
+def test_dumps_fill_the_vectors_of_a_known_dimension(tmp_path):
+    """core.scene_dump and scene_parse (the study's cache keys and shipped references)
+    fill a vector key not given with the default of the dimension known before the mesh is
+    read; None only for a mesh file with dim = 0 (the core's JSON has null for every key
+    not given, keep_omitted=True)."""
+    bar = write(tmp_path, "&mesh dim = 3 /\n")
+    assert dyncontact.core.scene_dump(bar)["contact"]["probe"] == [0.05, 0.05, 0.0]
+    assert dyncontact.core.scene_dump(bar, keep_omitted=True)["contact"]["probe"] is None
+    assert dyncontact.core.scene_parse("", "s")["contact"]["obstacle_normal"] == [0.0, -1.0]
+    assert dyncontact.core.scene_parse("&mesh dim = 1 /", "s")["contact"]["probe"] == [0.0, 0.0]
+    box = write(tmp_path, BOX_FILE, "box.nml")
+    dump = dyncontact.core.scene_dump(box)
+    assert dump["material"]["gravity"] is None
+    assert dump["contact"]["probe"] == [0.05, 0.05, 0.0]

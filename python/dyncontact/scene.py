@@ -34,21 +34,8 @@ __all__ = ["Scene", "SceneError"]
 #: The exception of a bad scene (the same class as BadInputError).
 SceneError = BadInputError
 
-#: The defaults of the vector keys by mesh dimension, as the core's (scene_keys in
-#: fortran/io/scene.f90; tests/test_scene_vectors.py checks them against summary.json).
-#: Vectors have 2 components in 1D and 2D (the second one 0 in 1D), 3 in 3D.
-VECTOR_DEFAULTS: dict[int, dict[tuple[str, str], list[float]]] = {
-    1: {("material", "gravity"): [0.0, 0.0], ("contact", "obstacle_point"): [0.0, 0.0],
-        ("contact", "obstacle_normal"): [-1.0, 0.0], ("contact", "probe"): [0.0, 0.0],
-        ("initial", "velocity"): [0.0, 0.0]},
-    2: {("material", "gravity"): [0.0, 0.0], ("contact", "obstacle_point"): [0.0, 0.0],
-        ("contact", "obstacle_normal"): [0.0, -1.0], ("contact", "probe"): [0.05, 0.0],
-        ("initial", "velocity"): [0.0, 0.0]},
-    3: {("material", "gravity"): [0.0, 0.0, 0.0],
-        ("contact", "obstacle_point"): [0.0, 0.0, 0.0],
-        ("contact", "obstacle_normal"): [0.0, 0.0, -1.0],
-        ("contact", "probe"): [0.05, 0.05, 0.0], ("initial", "velocity"): [0.0, 0.0, 0.0]},
-}
+#: The defaults of the vector keys by mesh dimension (1D, 2D, 3D), as the core's.
+VECTOR_DEFAULTS = core.VECTOR_DEFAULTS
 
 
 def _quote(s: str) -> str:
@@ -96,7 +83,8 @@ class Scene:
         #: The scene file read ('' if built in code); used in messages.
         self.path = ""
         #: The core's scene JSON; None: a vector key not given.
-        self._values: dict[str, dict[str, Any]] = core.scene_parse("", "<scene>")
+        self._values: dict[str, dict[str, Any]] = core.scene_parse("", "<scene>",
+                                                                   keep_omitted=True)
         #: (mesh file, its mtime and size) -> its dimension, read once.
         self._mesh_dims: dict[tuple[str, int, int], int] = {}
 
@@ -108,7 +96,7 @@ class Scene:
         """
         scn = cls()
         scn.path = os.fspath(path)
-        scn._values = core.scene_dump(scn.path)
+        scn._values = core.scene_dump(scn.path, keep_omitted=True)
         return scn
 
     # -- access
@@ -173,14 +161,42 @@ class Scene:
         against the mesh's dimension, are checked by :meth:`validate` (and by the run).
 
         Setting ``'mesh.dim'`` (or ``'mesh.file'``) changes the defaults of the vector keys
-        not given (3 components in 3D); the vectors given are kept as they are, so a
+        not given (3 components in 3D). A vector given with exactly the old dimension's
+        default of 1 or 2 components (a scene that spells out the 2D defaults) takes the
+        new dimension's default; any other vector is kept as given, never shortened, so a
         vector with a count of components of the old dimension makes :meth:`validate`
         fail naming it, until it is set too.
         """
         group, key = self._check_name(name)
         current = self._values[group][key]
         text = _value_text(value, [] if current is None else current)
-        self._values = core.scene_parse(self.to_text({(group, key): text}), self._name())
+        replace = {(group, key): text}
+        values = core.scene_parse(self.to_text(replace), self._name(), keep_omitted=True)
+        if (group, key) in (("mesh", "dim"), ("mesh", "file")):
+            values = self._follow_dimension(values, replace)
+        self._values = values
+
+    def _follow_dimension(self, values: dict[str, dict[str, Any]],
+                          replace: dict[tuple[str, str], str]) -> dict[str, dict[str, Any]]:
+        """`values` (self with `replace` applied) where the dimension changed: a vector
+        given with exactly the old dimension's default of 1 or 2 components becomes the key
+        left out (the new dimension's default), as if the scene had not spelled out the
+        default; a vector of 3 components is kept as given (never shortened)."""
+        other = self.copy()
+        other._values = values
+        try:
+            old, new = self.dimension(), other.dimension()
+        except BadInputError:          # a mesh file that cannot be read: the run says so
+            return values
+        self._mesh_dims.update(other._mesh_dims)
+        if old == new or old == 3:
+            return values
+        omit = {gk for gk, default in VECTOR_DEFAULTS[old].items()
+                if values[gk[0]][gk[1]] == default}
+        if not omit:
+            return values
+        return core.scene_parse(self.to_text(replace, omit=omit), self._name(),
+                                keep_omitted=True)
 
     def __getitem__(self, name: str) -> Any:
         return self.get(name)
@@ -231,7 +247,8 @@ class Scene:
         Normalizes ``contact.obstacle_normal``. A relative mesh file counts from the
         current folder here (``read`` has resolved it against the scene file's folder).
         """
-        self._values = core.scene_parse(self.to_text(), self._name(), full=True)
+        self._values = core.scene_parse(self.to_text(), self._name(), full=True,
+                                        keep_omitted=True)
 
     # -- writing
     def to_text(self, replace: dict[tuple[str, str], str] | None = None,
