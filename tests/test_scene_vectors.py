@@ -200,3 +200,11 @@ def test_dumps_fill_the_vectors_of_a_known_dimension(tmp_path):
     dump = dyncontact.core.scene_dump(box)
     assert dump["material"]["gravity"] is None
     assert dump["contact"]["probe"] == [0.05, 0.05, 0.0]
+
+
+def test_get_with_a_dimension_out_of_range_says_so():
+    """A vector left out has no default for a dim that set took but validate refuses."""
+    scn = Scene()
+    scn.set("mesh.dim", 4)
+    with pytest.raises(BadInputError, match=r"^<scene>: &mesh dim: must be 0, 1, 2 or 3"):
+        scn.get("contact.probe")

@@ -138,6 +138,8 @@ class Scene:
         dim = 0, and for a mesh file with dim = 0 the file's (read through the core, as
         the run reads it; :class:`BadInputError` if it cannot be read)."""
         mesh = self._values["mesh"]
+        if mesh["dim"] not in (0, 1, 2, 3):     # set, not validated yet: the core's message
+            core.scene_parse(f"&mesh dim = {mesh['dim']} /", self._name(), full=True)
         if mesh["dim"] != 0 or not mesh["file"]:
             return mesh["dim"] or 2
         path = mesh["file"]
