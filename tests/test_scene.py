@@ -131,7 +131,7 @@ BAD_CASES = [
     BadCase("too_many_values", "&contact probe = 0.05, 0.0, 0.0 /\n", "&contact probe",
             "expected 1 or 2 values in 2D"),
     BadCase("many_values", "&scheme dt = " + "1, " * 300_000 + "1 /\n", "&scheme dt",
-            "expected 1 value (got '1, 1, 1')"),
+            "expected 1 value (got '1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1,"),
     BadCase("two_values_for_scalar", "&scheme dt = 1e-3, 2e-3 /\n", "&scheme dt",
             "expected 1 value"),
     # files named in the scene
@@ -149,7 +149,13 @@ BAD_CASES = [
     BadCase("vector_3_in_2d", "&initial velocity = 0.0, 0.0, 1.0 /\n", "&initial velocity",
             "expected 1 or 2 values in 2D"),
     BadCase("vector_4_values", "&mesh dim = 3 /\n&initial velocity = 0, 0, 1, 2 /\n",
-            "&initial velocity", "expected 1, 2 or 3 values"),
+            "&initial velocity", "expected 3 values in 3D (got '0, 0, 1, 2')"),
+    BadCase("vector_4_values_2d", "&material gravity = 0, -9.81, 0, 0 /\n",
+            "&material gravity", "expected 1 or 2 values in 2D (got '0, -9.81, 0, 0')"),
+    BadCase("vector_4_values_dim_unknown",
+            f"&mesh file = '{ROOT / 'meshes' / 'bar3d_getfem_h0.05.msh'}' /\n"
+            "&material gravity = 0, 0, 0, 0 /\n",
+            "&material gravity", "expected 1, 2 or 3 values (got '0, 0, 0, 0')"),
     BadCase("quad_points_7_in_2d", "&contact quadrature = 'gauss', quad_points = 7 /\n",
             "&contact quad_points", "must be in 1..6 in 2D"),
     BadCase("quad_points_4_in_3d",
@@ -341,7 +347,10 @@ def test_defaults_values():
     assert d["material"]["young"] == 2 / 3 and d["material"]["poisson"] == 1 / 3
     assert d["scheme"]["name"] == "hht" and d["scheme"]["dt"] == 0.0025
     assert d["scheme"]["max_steps"] == 100_000_000 and d["mesh"]["max_elements"] == 2_000_000
-    assert d["contact"]["obstacle_normal"] == [0.0, -1.0]
+    # a vector key not given is None in the dump (the default of the mesh's dimension),
+    # and get gives that default
+    assert d["contact"]["obstacle_normal"] is None
+    assert Scene().get("contact.obstacle_normal") == [0.0, -1.0]
 
 
 @pytest.mark.parametrize("content", ["! nothing but a comment\n\n", "\n  \t\n", "\n",
@@ -485,7 +494,7 @@ def test_dim_given_with_a_mesh_file_must_be_the_files(tmp_path):
     mesh = ROOT / "meshes" / "bar2d_getfem_h0.05.msh"
     path = scene_text(tmp_path, f"&mesh file = '{mesh}', dim = 1 /\n")
     scn = Scene.read(path)
-    assert scn.get("contact.obstacle_normal") == [0.0, -1.0]
+    assert scn.get("contact.obstacle_normal") == [-1.0, 0.0]    # the default of dim = 1
     with pytest.raises(BadInputError, match=f"&mesh dim: 1 given, but the mesh file "
                                             f"'{mesh}' is 2D"):
         dyncontact.core.Model(path)
@@ -494,7 +503,8 @@ def test_dim_given_with_a_mesh_file_must_be_the_files(tmp_path):
         assert Scene.read(ok).get("mesh.dim") == (2 if keys else 0)
         with dyncontact.core.Model(ok) as m:
             assert m.elements == 80    # the file's triangles
-    no_file = scene_text(tmp_path, "&mesh dim = 1 /\n", "nofile.nml")
+    no_file = scene_text(tmp_path, "&mesh dim = 1 /\n&contact obstacle_normal = 0, -1 /\n",
+                         "nofile.nml")
     with pytest.raises(BadInputError, match="&contact obstacle_normal: component 1"):
         Scene.read(no_file)
 
@@ -610,7 +620,7 @@ def test_set_coerces(name, value, expected):
     ("scheme.dt", True, "&scheme dt"),
     ("scheme.newton_maxit", "1.5", "&scheme newton_maxit"),
     ("scheme.newton_maxit", 2.0, "&scheme newton_maxit"),
-    ("contact.probe", "1,2,3", "&contact probe"),
+    ("contact.probe", "1,2,3,4", "&contact probe: expected 1 or 2 values in 2D"),
     ("scheme.mass", 3, "&scheme mass"),
     ("output.dir", "a\nb", "&output dir"),
     ("scheme.dt", "1 / &mesh h = 2", "&mesh"),
@@ -635,6 +645,14 @@ def test_validate_after_set():
     with pytest.raises(BadInputError, match=r"&scheme alpha: must be in \[-1/3, 0\]"):
         scn.validate()
     scn.set("scheme.name", "hht_seed")   # the seed's variant takes any alpha
+    scn.validate()
+    # the count of a vector's components against the dimension: checked by validate, so
+    # that a scene can change &mesh dim and its vectors one after the other
+    scn.set("contact.probe", "0.05, 0.05, 0.0")
+    with pytest.raises(BadInputError, match=r"^<scene>: &contact probe: expected 1 or 2 "
+                                            r"values in 2D \(got '0.05, 0.05, 0.0'\)"):
+        scn.validate()
+    scn.set("mesh.dim", 3)
     scn.validate()
 
 

@@ -24,6 +24,7 @@ module scene
 
     integer, parameter, public :: PATH_LEN = 1024  !! length of path strings
     integer, parameter, public :: NAME_LEN = 256   !! length of name strings
+    integer, parameter :: VALUE_LEN = 200           !! characters of a value quoted in messages
 
     !> A scene with every default filled in; the defaults are in `scene_keys`.
     type, public :: scene_t
@@ -58,6 +59,13 @@ module scene
         !> Components given for each vector key, in table order (gravity, obstacle_point,
         !> obstacle_normal, probe, velocity); 0 = not given (the default of the dimension).
         integer :: vector_count(5) = 0
+        !> The vector keys' values as written (tokens joined by ', '), quoted in the messages
+        !> of scene_check_dim; '' = not given.
+        character(len=VALUE_LEN) :: vector_written(5) = ''
+        !> Whether scene_check_dim has resolved the vector keys against the mesh's dimension.
+        !> Before, a vector key not given is dumped as null: its default is the dimension's
+        !> (1D, 2D or 3D), known for a mesh file once the file is read.
+        logical :: dim_checked = .false.
         character(len=NAME_LEN) :: scheme_name     !! newmark|hht|hht_seed|theta|pc|pc_hht|..._seed
         real(dp) :: alpha                          !! HHT alpha
         real(dp) :: beta                           !! Newmark / pc beta
@@ -101,12 +109,13 @@ module scene
         logical :: quoted = .false.               !! the first token is a quoted string
         logical :: given = .false.                !! the key appears in the scene
         integer, pointer :: count => null()       !! vector: components given (0 = default)
+        character(len=:), pointer :: written => null()  !! vector: its text as written
+        character(len=40) :: default1 = ''        !! vector: default in 1D
         character(len=40) :: default3 = ''        !! vector: default in 3D
     end type key_t
 
     integer, parameter :: MAX_FILE_BYTES = 1048576  !! larger scene files are rejected
     integer, parameter :: EXCERPT_LEN = 40          !! characters of scene text quoted in messages
-    integer, parameter :: VALUE_LEN = 200           !! characters of a value quoted in messages
     character(len=*), parameter :: BLANKS = ' '//achar(9)//achar(10)//achar(13)
 
 contains
@@ -133,25 +142,27 @@ contains
             row('material', 'poisson', '0.3333333333333333', 'in (-1, 1/2)', r=scn%poisson), &
             row('material', 'density', '1.0', '> 0', r=scn%density), &
             row('material', 'gravity', '0.0, 0.0', '', v=scn%gravity, n=scn%vector_count(1), &
-                default3='0.0, 0.0, 0.0'), &
+                w=scn%vector_written(1), default1='0.0', default3='0.0, 0.0, 0.0'), &
             row('contact', 'method', "'nitsche'", "one of 'nitsche', 'penalty', 'alm'", &
                 s=scn%contact_method), &
             row('contact', 'multiplier', "'integral'", "'integral' or 'nodal'", s=scn%multiplier), &
             row('contact', 'theta', '1', '-1, 0 or 1', i=scn%nitsche_theta), &
             row('contact', 'gamma0', '10.0', '> 0', r=scn%gamma0), &
             row('contact', 'obstacle_point', '0.0, 0.0', '', v=scn%obstacle_point, &
-                n=scn%vector_count(2), default3='0.0, 0.0, 0.0'), &
+                n=scn%vector_count(2), w=scn%vector_written(2), default1='0.0', &
+                default3='0.0, 0.0, 0.0'), &
             row('contact', 'obstacle_normal', '0.0, -1.0', '', v=scn%obstacle_normal, &
-                n=scn%vector_count(3), default3='0.0, 0.0, -1.0'), &
+                n=scn%vector_count(3), w=scn%vector_written(3), default1='-1.0', &
+                default3='0.0, 0.0, -1.0'), &
             row('contact', 'probe', '0.05, 0.0', '', v=scn%probe, n=scn%vector_count(4), &
-                default3='0.05, 0.05, 0.0'), &
+                w=scn%vector_written(4), default1='0.0', default3='0.05, 0.05, 0.0'), &
             row('contact', 'quadrature', "'exact'", "'exact' or 'gauss'", s=scn%quadrature), &
             row('contact', 'quad_points', '3', 'in 1..7', i=scn%quad_points), &
             row('initial', 'kind', "'compressed_bar'", &
                 "one of 'rest', 'velocity', 'compressed_bar'", s=scn%initial_kind), &
             row('initial', 'amplitude', '0.5', '', r=scn%amplitude), &
             row('initial', 'velocity', '0.0, 0.0', '', v=scn%velocity, n=scn%vector_count(5), &
-                default3='0.0, 0.0, 0.0'), &
+                w=scn%vector_written(5), default1='0.0', default3='0.0, 0.0, 0.0'), &
             row('scheme', 'name', "'hht'", "one of 'newmark', 'hht', 'hht_seed', 'theta', "// &
                 "'galpha', 'pc', 'pc_hht', 'pc_hht_seed', 'central'", s=scn%scheme_name), &
             row('scheme', 'alpha', '0.0', 'in [-1/3, 0]', r=scn%alpha, when='hht pc_hht'), &
@@ -179,9 +190,10 @@ contains
             row('solver', 'threads', '0', '0, 1 or 2', i=scn%solver_threads)]
     end subroutine scene_keys
 
-    !> One row of the key table (exactly one of i, r, v, s is given; n and default3
-    !> with v).
-    function row(group, name, default, check, i, r, v, s, when, hint, n, default3) result(k)
+    !> One row of the key table (exactly one of i, r, v, s is given; n, w, default1 and
+    !> default3 with v: the default is the 2D one).
+    function row(group, name, default, check, i, r, v, s, when, hint, n, w, default1, &
+                 default3) result(k)
         character(len=*), intent(in) :: group, name         !! group and key
         character(len=*), intent(in) :: default             !! default, namelist text
         character(len=*), intent(in) :: check               !! see scene_keys
@@ -189,6 +201,8 @@ contains
         real(dp), target, intent(inout), optional :: r      !! real component
         real(dp), target, intent(inout), optional :: v(3)   !! vector component
         integer, target, intent(inout), optional :: n       !! its count of components given
+        character(len=*), target, intent(inout), optional :: w  !! its text as written
+        character(len=*), intent(in), optional :: default1  !! its default in 1D
         character(len=*), intent(in), optional :: default3  !! its default in 3D
         character(len=*), target, intent(inout), optional :: s  !! string component
         character(len=*), intent(in), optional :: when      !! schemes the check is for
@@ -202,6 +216,8 @@ contains
         if (present(when)) k%when = when
         if (present(hint)) k%hint = hint
         if (present(n)) k%count => n
+        if (present(w)) k%written => w
+        if (present(default1)) k%default1 = default1
         if (present(default3)) k%default3 = default3
     end function row
 
@@ -264,7 +280,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         type(key_t), allocatable :: keys(:)
         character(len=:), allocatable :: msg
-        integer :: k, pos
+        integer :: k, pos, dim
 
         scn%path = name
         call scene_keys(scn, keys)
@@ -276,11 +292,20 @@ contains
         end do
         if (len(msg) == 0) call tokenize(text, name, keys, msg)
         do k = 1, size(keys)
-            if (keys(k)%given) call convert(keys(k), key_ctx(name, keys(k)), msg)
-            if (associated(keys(k)%count)) keys(k)%count = merge(keys(k)%nval, 0, keys(k)%given)
+            ! the dimension as far as it is known (&mesh comes first in the table): the
+            ! built-in bar's, or a mesh file's dim if given (0: known once the file is read)
+            dim = merge(scene_bar_dim(scn%mesh_dim), scn%mesh_dim, len_trim(scn%mesh_file) == 0)
+            if (scn%mesh_dim < 0 .or. scn%mesh_dim > 3) dim = 0
+            if (keys(k)%given) call convert(keys(k), key_ctx(name, keys(k)), msg, dim)
+            if (associated(keys(k)%count)) then
+                keys(k)%count = merge(keys(k)%nval, 0, keys(k)%given)
+                if (keys(k)%given) keys(k)%written = shown(keys(k)%text, VALUE_LEN - 3)
+            end if
         end do
-        ! the built-in bar's dimension is known now (a mesh file's once it is read)
-        if (len(msg) == 0 .and. len_trim(scn%mesh_file) == 0 .and. &
+        ! the built-in bar's dimension is known now (a mesh file's once it is read): the
+        ! vector keys' counts and defaults. Not in a syntax-only parse (Scene.set), so that a
+        ! scene can change &mesh dim and its vectors one after the other.
+        if (full .and. len(msg) == 0 .and. len_trim(scn%mesh_file) == 0 .and. &
             scn%mesh_dim >= 0 .and. scn%mesh_dim <= 3) &
             call vector_dims(keys, name, scene_bar_dim(scn%mesh_dim), msg)
         if (full .and. len(msg) == 0) call validate(keys, name, msg)
@@ -289,7 +314,9 @@ contains
         if (len(msg) > 0) call raise(stat, errmsg, STAT_BAD_INPUT, msg)
     end subroutine scene_parse
 
-    !> The scene as JSON: {"group": {"key": value, ...}, ...} in table order.
+    !> The scene as JSON: {"group": {"key": value, ...}, ...} in table order. Vectors have
+    !> 2 components (1D: the second is 0), 3 in 3D; before scene_check_dim a vector key not
+    !> given is null (its default depends on the mesh's dimension).
     function scene_to_json(scn) result(json)
         type(scene_t), intent(in) :: scn    !! the scene
         character(len=:), allocatable :: json
@@ -309,7 +336,9 @@ contains
             json = json//'"'//trim(keys(k)%name)//'": '
             if (associated(keys(k)%i)) json = json//int_text(keys(k)%i)
             if (associated(keys(k)%r)) json = json//real_text(keys(k)%r)
-            if (associated(keys(k)%v)) then
+            if (associated(keys(k)%v) .and. keys(k)%count == 0 .and. .not. scn%dim_checked) then
+                json = json//'null'    ! not given: the default of the mesh's dimension
+            else if (associated(keys(k)%v)) then
                 json = json//'['//real_text(keys(k)%v(1))//', '//real_text(keys(k)%v(2))
                 if (keys(k)%count == 3) json = json//', '//real_text(keys(k)%v(3))
                 json = json//']'
@@ -457,7 +486,7 @@ contains
                     end if
                 end if
             end if
-            if (key%nval < 3) then    ! more is too many for any key: not kept
+            if (len(key%text) <= VALUE_LEN) then    ! what a message quotes, then '...'
                 if (key%nval > 0) key%text = key%text//', '
                 key%text = key%text//text(i:j - 1)
             end if
@@ -469,10 +498,11 @@ contains
     end subroutine read_values
 
     !> Convert key%text into the key's component: count, type, range of the type.
-    subroutine convert(key, ctx, msg)
+    subroutine convert(key, ctx, msg, dim)
         type(key_t), intent(inout) :: key                    !! the key
         character(len=*), intent(in) :: ctx                  !! 'NAME: &group key'
         character(len=:), allocatable, intent(inout) :: msg  !! error ('' = none)
+        integer, intent(in), optional :: dim                 !! mesh dimension, 0 = not known
         character(len=len(key%text)) :: buf
         character(len=:), allocatable :: what
         integer(i8) :: big
@@ -485,6 +515,10 @@ contains
         ios = 1
         if (associated(key%v) .and. key%nval > 3) then
             what = 'expected 1, 2 or 3 values'
+            if (present(dim)) then
+                if (dim == 3) what = 'expected 3 values in 3D'
+                if (dim == 1 .or. dim == 2) what = 'expected 1 or 2 values in '//int_text(dim)//'D'
+            end if
         else if (.not. associated(key%v) .and. key%nval /= 1) then
             what = 'expected 1 value'
         else if (associated(key%i)) then
@@ -760,8 +794,8 @@ contains
         scene_bar_dim = merge(2, d, d == 0)
     end function scene_bar_dim
 
-    !> The keys that depend on the mesh dimension: the vector keys take 3 components in 3D
-    !> (a key not given takes its 3D default), 1 or 2 in 1D and 2D; &contact quad_points
+    !> The keys that depend on the mesh dimension: the vector keys take 3 components in 3D,
+    !> 1 or 2 in 1D and 2D (a key not given takes the dimension's default); &contact quad_points
     !> (with 'gauss') is 1..6 in 2D, 1, 3, 6 or 7 in 3D. For a mesh read from a file, once its
     !> dimension is known; with a mesh file, &mesh dim must be 0 or the file's dimension.
     !> Errors: STAT_BAD_INPUT, "PATH: &group key: ..." naming the dimension.
@@ -780,7 +814,7 @@ contains
             if (.not. associated(keys(k)%v)) cycle
             keys(k)%given = keys(k)%count > 0
             keys(k)%nval = keys(k)%count
-            keys(k)%text = vector_text(keys(k)%v(1:max(1, keys(k)%count)))
+            keys(k)%text = trim(keys(k)%written)
         end do
         msg = ''
         if (len_trim(scn%mesh_file) > 0 .and. scn%mesh_dim /= 0 .and. scn%mesh_dim /= dim) then
@@ -795,6 +829,9 @@ contains
         if (len(msg) > 0) then
             call raise(stat, errmsg, STAT_BAD_INPUT, msg)
         else
+            ! the dump shows the defaults now, 3 components in 3D
+            where (copy%vector_count == 0 .and. dim == 3) copy%vector_count = 3
+            copy%dim_checked = .true.
             scn = copy
         end if
     end subroutine scene_check_dim
@@ -821,13 +858,13 @@ contains
         end if
         do k = 1, size(keys)
             if (.not. associated(keys(k)%count)) cycle
-            if (dim == 3 .and. .not. keys(k)%given) then
+            if ((dim == 1 .or. dim == 3) .and. .not. keys(k)%given) then
                 pos = 1
                 keys(k)%text = ''
                 keys(k)%nval = 0
-                call read_values(trim(keys(k)%default3), pos, keys(k), 'default', msg)
+                call read_values(trim(merge(keys(k)%default1, keys(k)%default3, dim == 1)), &
+                                 pos, keys(k), 'default', msg)
                 call convert(keys(k), 'default of '//trim(keys(k)%name), msg)
-                keys(k)%count = 3
             else if (dim == 3 .and. keys(k)%nval /= 3) then
                 msg = key_ctx(name, keys(k))//': expected 3 values in 3D (got '''// &
                       shown(keys(k)%text, VALUE_LEN)//''')'
@@ -839,17 +876,6 @@ contains
             end if
         end do
     end subroutine vector_dims
-
-    !> Components as namelist text 'a, b, c'.
-    function vector_text(v) result(s)
-        real(dp), intent(in) :: v(:)     !! components
-        character(len=:), allocatable :: s
-        integer :: i
-        s = real_text(v(1))
-        do i = 2, size(v)
-            s = s//', '//real_text(v(i))
-        end do
-    end function vector_text
 
     ! ---------------------------------------------------------------- helpers
 

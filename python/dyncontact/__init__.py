@@ -12,8 +12,8 @@ try:
 except ImportError:  # pragma: no cover - source tree without a build
     __version__ = "0+unknown"
 
-from .core import BadInputError, DyncontactError, NumericalError, RunResult, run
+from .core import BadInputError, DyncontactError, NumericalError, RunResult, Stepper, run
 from .scene import Scene, SceneError
 
-__all__ = ["Scene", "SceneError", "run", "RunResult", "DyncontactError", "BadInputError",
-           "NumericalError", "__version__"]
+__all__ = ["Scene", "SceneError", "run", "RunResult", "Stepper", "DyncontactError",
+           "BadInputError", "NumericalError", "__version__"]

@@ -214,8 +214,47 @@ def fortran_version() -> str:
     return _str(_core().dc_version())
 
 
-def scene_dump(path: str | os.PathLike) -> dict[str, Any]:
+#: The defaults of the vector keys by mesh dimension, as the core's (scene_keys in
+#: fortran/io/scene.f90; tests/test_scene_vectors.py checks them against summary.json).
+#: Vectors have 2 components in 1D and 2D (the second one 0 in 1D), 3 in 3D.
+VECTOR_DEFAULTS: dict[int, dict[tuple[str, str], list[float]]] = {
+    1: {("material", "gravity"): [0.0, 0.0], ("contact", "obstacle_point"): [0.0, 0.0],
+        ("contact", "obstacle_normal"): [-1.0, 0.0], ("contact", "probe"): [0.0, 0.0],
+        ("initial", "velocity"): [0.0, 0.0]},
+    2: {("material", "gravity"): [0.0, 0.0], ("contact", "obstacle_point"): [0.0, 0.0],
+        ("contact", "obstacle_normal"): [0.0, -1.0], ("contact", "probe"): [0.05, 0.0],
+        ("initial", "velocity"): [0.0, 0.0]},
+    3: {("material", "gravity"): [0.0, 0.0, 0.0],
+        ("contact", "obstacle_point"): [0.0, 0.0, 0.0],
+        ("contact", "obstacle_normal"): [0.0, 0.0, -1.0],
+        ("contact", "probe"): [0.05, 0.05, 0.0], ("initial", "velocity"): [0.0, 0.0, 0.0]},
+}
+
+
+def _fill_vectors(scene: dict[str, Any]) -> dict[str, Any]:
+    """The core's JSON with each vector key not given (null) filled with the default of
+    the dimension known before the mesh is read: the built-in bar's (dim 0: 2), or the
+    &mesh dim given with a mesh file. With a mesh file and dim = 0 it stays None."""
+    mesh = scene.get("mesh", {})
+    dim = mesh.get("dim")
+    if mesh.get("file"):
+        dim = dim or None
+    else:
+        dim = dim or 2
+    if dim in VECTOR_DEFAULTS:
+        for (group, key), value in VECTOR_DEFAULTS[dim].items():
+            if group in scene and scene[group].get(key, 0) is None:
+                scene[group][key] = list(value)
+    return scene
+
+
+def scene_dump(path: str | os.PathLike, keep_omitted: bool = False) -> dict[str, Any]:
     """The scene file as the Fortran core reads it (all keys, defaults filled in).
+
+    A vector key the file does not give takes the default of the mesh's dimension
+    (docs/scenes.md, "Vector keys"); with ``keep_omitted`` it is None (as in the core's
+    JSON), and it is None anyway for a mesh file with ``&mesh dim = 0``, whose dimension is
+    known once the file is read.
 
     Raises :class:`BadInputError` with the core's one-line message on a bad scene.
     """
@@ -225,14 +264,17 @@ def scene_dump(path: str | os.PathLike) -> dict[str, Any]:
                                              _fpath(json_path, "temporary file"))
         _check(stat, errmsg, "reading the scene")
         with open(json_path, encoding="utf-8", errors="surrogateescape") as f:
-            return json.load(f)
+            scene = json.load(f)
+    return scene if keep_omitted else _fill_vectors(scene)
 
 
-def scene_parse(text: str, name: str, full: bool = False) -> dict[str, Any]:
+def scene_parse(text: str, name: str, full: bool = False,
+                keep_omitted: bool = False) -> dict[str, Any]:
     """A scene given as namelist text, as the Fortran core reads it (all keys, defaults
-    filled in). ``full=False`` checks only the syntax and the types of the values;
-    ``full=True`` also the ranges and the cross-checks, as for a file. ``name`` stands
-    for the scene in messages; a relative mesh file counts from the current folder.
+    filled in; ``keep_omitted``: as in :func:`scene_dump`). ``full=False`` checks only the
+    syntax and the types of the values; ``full=True`` also the ranges and the cross-checks,
+    as for a file. ``name`` stands for the scene in messages; a relative mesh file counts
+    from the current folder.
 
     Raises :class:`BadInputError` with the core's one-line message on a bad scene.
     """
@@ -241,7 +283,8 @@ def scene_parse(text: str, name: str, full: bool = False) -> dict[str, Any]:
     _check(stat, errmsg, "reading the scene")
     if isinstance(js, bytes):
         js = js.decode(*enc)
-    return json.loads(js.rstrip(" \x00"))
+    scene = json.loads(js.rstrip(" \x00"))
+    return scene if keep_omitted else _fill_vectors(scene)
 
 
 def _scene_output_dir(scene_json: Mapping[str, Any]) -> str | None:

@@ -6,6 +6,13 @@ The Fortran core (``fortran/io/scene.f90``) is the only reader: :meth:`Scene.rea
 ``PATH: &group key: what is wrong (got 'VALUE')`` are the executable's. A bad scene raises
 :class:`dyncontact.BadInputError` (``SceneError`` is the same class).
 
+A vector key the scene does not give (``material.gravity``, ``contact.obstacle_point``,
+``contact.obstacle_normal``, ``contact.probe``, ``initial.velocity``) takes the default of
+the mesh's dimension (1D, 2D or 3D; docs/scenes.md), which for a mesh file with
+``&mesh dim = 0`` is known only from the file. The scene keeps such a key omitted: it is
+never written back (so the run derives it from the mesh, as the executable does), and
+:meth:`Scene.get` returns the default of the dimension, reading the mesh file if it must.
+
 >>> scn = Scene()
 >>> scn.set('scheme.dt', '0.001')
 >>> scn.get('scheme.dt')
@@ -26,6 +33,9 @@ __all__ = ["Scene", "SceneError"]
 
 #: The exception of a bad scene (the same class as BadInputError).
 SceneError = BadInputError
+
+#: The defaults of the vector keys by mesh dimension (1D, 2D, 3D), as the core's.
+VECTOR_DEFAULTS = core.VECTOR_DEFAULTS
 
 
 def _quote(s: str) -> str:
@@ -62,6 +72,8 @@ def _number_text(x: Any) -> str:
 class Scene:
     """A scene: every key with its value (defaults filled in), addressed as
     ``'group.key'`` (``'scheme.dt'``, ``'contact.theta'``, ``'scheme.theta'``...).
+    A vector key not given keeps the default of the mesh's dimension (see the module's
+    documentation).
 
     >>> Scene().get('contact.obstacle_normal')
     [0.0, -1.0]
@@ -70,7 +82,11 @@ class Scene:
     def __init__(self) -> None:
         #: The scene file read ('' if built in code); used in messages.
         self.path = ""
-        self._values: dict[str, dict[str, Any]] = core.scene_parse("", "<scene>")
+        #: The core's scene JSON; None: a vector key not given.
+        self._values: dict[str, dict[str, Any]] = core.scene_parse("", "<scene>",
+                                                                   keep_omitted=True)
+        #: (mesh file, its mtime and size) -> its dimension, read once.
+        self._mesh_dims: dict[tuple[str, int, int], int] = {}
 
     @classmethod
     def read(cls, path: str | os.PathLike) -> "Scene":
@@ -80,7 +96,7 @@ class Scene:
         """
         scn = cls()
         scn.path = os.fspath(path)
-        scn._values = core.scene_dump(scn.path)
+        scn._values = core.scene_dump(scn.path, keep_omitted=True)
         return scn
 
     # -- access
@@ -99,29 +115,90 @@ class Scene:
                          f"{', '.join(self._values[group])})")
 
     def get(self, name: str) -> Any:
-        """Value of ``'group.key'`` (a list of 2 floats for vectors, 3 in 3D)."""
+        """Value of ``'group.key'`` (a list of 2 floats for vectors, 3 in 3D): the value the
+        run will use. A vector key the scene does not give is the default of the mesh's
+        dimension; with a mesh file and ``&mesh dim = 0`` the file is read (through the
+        core, as the run reads it) to know it, which raises :class:`BadInputError` when it
+        cannot be read.
+        """
         group, key = self._check_name(name)
-        return copy.copy(self._values[group][key])
+        value = self._values[group][key]
+        if value is None:
+            return list(VECTOR_DEFAULTS[self.dimension()][(group, key)])
+        return copy.copy(value)
+
+    def given(self, name: str) -> bool:
+        """Whether ``'group.key'`` has a value of its own: False only for a vector key that
+        takes the default of the mesh's dimension (it is not written by :meth:`to_text`)."""
+        group, key = self._check_name(name)
+        return self._values[group][key] is not None
+
+    def dimension(self) -> int:
+        """The mesh's dimension (1, 2 or 3): ``&mesh dim``, 2 for the built-in bar with
+        dim = 0, and for a mesh file with dim = 0 the file's (read through the core, as
+        the run reads it; :class:`BadInputError` if it cannot be read)."""
+        mesh = self._values["mesh"]
+        if mesh["dim"] not in (0, 1, 2, 3):     # set, not validated yet: the core's message
+            core.scene_parse(f"&mesh dim = {mesh['dim']} /", self._name(), full=True)
+        if mesh["dim"] != 0 or not mesh["file"]:
+            return mesh["dim"] or 2
+        path = mesh["file"]
+        try:
+            st = os.stat(path)
+            tag = (path, st.st_mtime_ns, st.st_size)
+        except OSError:
+            tag = (path, -1, -1)
+        if tag not in self._mesh_dims:
+            self._mesh_dims[tag] = int(core.load_mesh(
+                path, length=float(mesh["length"]), width=float(mesh["width"]),
+                h=float(mesh["h"]), check=False)["dim"])
+        return self._mesh_dims[tag]
 
     def set(self, name: str, value: Any) -> None:
         """Set ``'group.key'``; the core converts ``value`` to the key's type.
 
         ``value`` may be a Python or numpy value or a command-line string: ``'0.001'``,
         ``"'lumped'"`` or ``'lumped'``, ``'0.0,-1.0'``. A single number for a vector sets
-        component 1 and zeroes component 2. Ranges are checked by :meth:`validate`.
+        component 1 and zeroes component 2. Ranges, and the count of a vector's components
+        against the mesh's dimension, are checked by :meth:`validate` (and by the run).
 
-        Setting ``'mesh.dim'`` gives the vector keys still at the old dimension's defaults
-        those of the new one (3 components in 3D).
+        Setting ``'mesh.dim'`` (or ``'mesh.file'``) changes the defaults of the vector keys
+        not given (3 components in 3D). A vector given with exactly the old dimension's
+        default of 1 or 2 components (a scene that spells out the 2D defaults) takes the
+        new dimension's default; any other vector is kept as given, never shortened, so a
+        vector with a count of components of the old dimension makes :meth:`validate`
+        fail naming it, until it is set too.
         """
         group, key = self._check_name(name)
-        text = _value_text(value, self._values[group][key])
-        omit = set()
-        if (group, key) == ("mesh", "dim") and self._values["mesh"]["dim"] in (0, 1, 2, 3):
-            old = core.scene_parse(f"&mesh dim = {self._values['mesh']['dim']} /", "<defaults>")
-            omit = {(g, k) for g, keys in old.items() for k, v in keys.items()
-                    if isinstance(v, list) and self._values[g][k] == v}
-        self._values = core.scene_parse(self.to_text({(group, key): text}, omit=omit),
-                                        self._name())
+        current = self._values[group][key]
+        text = _value_text(value, [] if current is None else current)
+        replace = {(group, key): text}
+        values = core.scene_parse(self.to_text(replace), self._name(), keep_omitted=True)
+        if (group, key) in (("mesh", "dim"), ("mesh", "file")):
+            values = self._follow_dimension(values, replace)
+        self._values = values
+
+    def _follow_dimension(self, values: dict[str, dict[str, Any]],
+                          replace: dict[tuple[str, str], str]) -> dict[str, dict[str, Any]]:
+        """`values` (self with `replace` applied) where the dimension changed: a vector
+        given with exactly the old dimension's default of 1 or 2 components becomes the key
+        left out (the new dimension's default), as if the scene had not spelled out the
+        default; a vector of 3 components is kept as given (never shortened)."""
+        other = self.copy()
+        other._values = values
+        try:
+            old, new = self.dimension(), other.dimension()
+        except BadInputError:          # a mesh file that cannot be read: the run says so
+            return values
+        self._mesh_dims.update(other._mesh_dims)
+        if old == new or old == 3:
+            return values
+        omit = {gk for gk, default in VECTOR_DEFAULTS[old].items()
+                if values[gk[0]][gk[1]] == default}
+        if not omit:
+            return values
+        return core.scene_parse(self.to_text(replace, omit=omit), self._name(),
+                                keep_omitted=True)
 
     def __getitem__(self, name: str) -> Any:
         return self.get(name)
@@ -134,14 +211,34 @@ class Scene:
         other = Scene.__new__(Scene)
         other.path = self.path
         other._values = copy.deepcopy(self._values)
+        other._mesh_dims = dict(self._mesh_dims)
         return other
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
-        """``{group: {key: value}}`` for every key, as the Fortran scene JSON."""
+        """``{group: {key: value}}`` for every key, as the Fortran scene JSON: a vector
+        key not given is None (the default of the mesh's dimension, which :meth:`get`
+        gives)."""
         return copy.deepcopy(self._values)
 
+    def _resolved(self) -> dict[str, dict[str, Any]]:
+        values = copy.deepcopy(self._values)
+        for group, keys in values.items():
+            for key, value in keys.items():
+                if value is None:
+                    keys[key] = self.get(f"{group}.{key}")
+        return values
+
     def __eq__(self, other: object) -> bool:
-        return isinstance(other, Scene) and self._values == other._values
+        """Scenes are equal when every key has the same value for the run (a vector key
+        given with its default equals the key not given)."""
+        if not isinstance(other, Scene):
+            return False
+        if self._values == other._values:
+            return True
+        try:
+            return self._resolved() == other._resolved()
+        except BadInputError:        # a mesh file that cannot be read: not the same scene
+            return False
 
     def __repr__(self) -> str:
         return f"Scene(path={self.path!r})"
@@ -152,14 +249,16 @@ class Scene:
         Normalizes ``contact.obstacle_normal``. A relative mesh file counts from the
         current folder here (``read`` has resolved it against the scene file's folder).
         """
-        self._values = core.scene_parse(self.to_text(), self._name(), full=True)
+        self._values = core.scene_parse(self.to_text(), self._name(), full=True,
+                                        keep_omitted=True)
 
     # -- writing
     def to_text(self, replace: dict[tuple[str, str], str] | None = None,
                 absolute_mesh: bool = False, omit: set[tuple[str, str]] | None = None) -> str:
         """The scene as namelist text, one key a line (`replace`: value texts to use
         instead of the stored values; `absolute_mesh`: write the mesh file absolute;
-        `omit`: keys left out, so that they take their defaults)."""
+        `omit`: keys left out, so that they take their defaults). A vector key not given
+        is left out (it takes the default of the mesh's dimension)."""
         lines = ["! dyncontact scene (written by dyncontact.Scene)"]
         for group, keys in self._values.items():
             lines.append(f"&{group}")
@@ -171,6 +270,8 @@ class Scene:
                     value = os.path.abspath(value)
                 if replace and (group, key) in replace:
                     text = replace[(group, key)]
+                elif value is None:                        # the dimension's default
+                    continue
                 elif isinstance(value, str):
                     text = _quote(value)
                 else:
