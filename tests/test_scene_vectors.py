@@ -208,3 +208,20 @@ def test_get_with_a_dimension_out_of_range_says_so():
     scn.set("mesh.dim", 4)
     with pytest.raises(BadInputError, match=r"^<scene>: &mesh dim: must be 0, 1, 2 or 3"):
         scn.get("contact.probe")
+
+
+def test_a_scene_run_from_python_is_named_by_its_file_in_errors(run_cli, tmp_path):
+    """A Scene is run through a temporary file; an error the core finds only once the mesh
+    is read (a 2-component probe on a 3D mesh file) names the scene's own file, from
+    dyncontact.run and from `python -m dyncontact run --set`, never the temporary one."""
+    path = write(tmp_path, BOX_FILE)
+    scn = Scene.read(path)
+    scn.set("contact.probe", [0.05, 0.0])
+    with pytest.raises(dyncontact.BadInputError) as err:
+        dyncontact.run(scn, out=tmp_path / "o", progress=False)
+    assert str(err.value).startswith(f"{path}: &contact probe: expected 3 values in 3D")
+    assert "dyncontact-" not in str(err.value)
+    res = run_cli("run", path, "--set", "contact.probe=0.05,0.0", "--out", tmp_path / "o2")
+    assert res.returncode == 2
+    assert res.stderr.strip() == (f"dyncontact: {path}: &contact probe: expected 3 values in "
+                                  "3D (got '0.05, 0.0')")

@@ -360,6 +360,7 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     if restart is not None and out is None:
         out = restart
     tmp = tempfile.mkdtemp(prefix="dyncontact-")
+    written = None    # the temporary file a Scene is written to (its messages name the Scene)
     try:
         if isinstance(scene, (str, bytes, os.PathLike)):
             path = os.fsdecode(scene)
@@ -368,7 +369,7 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
             if out is None:   # the folder the core will use (a bad scene raises here)
                 out = _scene_output_dir(scene_dump(path)) or "out"
         else:
-            path = _write_scene(scene, tmp)
+            path = written = _write_scene(scene, tmp)
             if out is None:
                 out = _scene_attr_output_dir(scene) or "out"
         # Relative output folders count from the current folder, for both entry points.
@@ -417,6 +418,11 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         if message and summary.get("status", "ok") == "ok":
             summary = dict(summary, status="unstable")
         return RunResult(trace=trace, summary=summary, out_dir=out_dir, message=message)
+    except BadInputError as exc:
+        # the core names the file it read: for a Scene, name the Scene (its file) instead
+        if written is not None and written in str(exc):
+            raise BadInputError(str(exc).replace(written, scene._name())) from None
+        raise
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
