@@ -25,9 +25,10 @@ module simulation
     use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
                             trace_sync, trace_close, json_real, json_string, TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
-                        write_text_atomic, signal_caught, free_space
+                        write_text_atomic, signal_caught, free_space, remove_matching, &
+                        same_folder
     use sparse, only: csc_t
-    use vtk_output, only: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
+    use vtk_output, only: vtk_write_vtu, vtk_vtu_bytes, vtk_pvd_line, vtk_pvd_text
     use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get, buf_put_text, buf_get_text, buf_from
     use checkpoint_file, only: CHECKPOINT_NAME, checkpoint_scene_hash, checkpoint_write, &
@@ -67,6 +68,7 @@ module simulation
         integer :: n_snap = 0                      !! field snapshots written
         real(dp), allocatable :: snap_t(:)         !! their times
         character(len=64), allocatable :: snap_file(:) !! their file names
+        character(len=:), allocatable :: pvd_lines !! fields.pvd's DataSet lines of those snapshots
         integer(i8) :: scene_hash = 0              !! hash of the parsed scene (checkpoints)
         integer(i8) :: restart_step = -1           !! the step the run restarted from (-1: none)
     end type simulation_t
@@ -124,6 +126,7 @@ contains
         if (present(restart)) again = restart
         call system_clock(sim%clock0, sim%clock_rate)
         sim%scn = scn
+        sim%pvd_lines = ''
         sim%scene_hash = checkpoint_scene_hash(scn)
         call build_model(sim, stat, errmsg)
         if (stat /= STAT_OK) return
@@ -284,6 +287,8 @@ contains
         sim%trace%path = dir//'/trace.csv'
         call system_clock(sim%clock_flush)
         sim%clock_summary = sim%clock_flush
+        call remove_old_fields(dir, st, msg)
+        if (st /= STAT_OK) return
         if (sim%scn%fields_every > 0) then
             call make_dirs(dir//'/fields', st, msg)
             if (st /= STAT_OK) return
@@ -295,9 +300,24 @@ contains
                            int_text(sim%n_steps / sim%scn%fields_every + 1)//' snapshots')
                 return
             end if
+            sim%pvd_lines = ''
             call snapshot(sim, st, msg)
         end if
     end subroutine open_outputs
+
+    !> A new run's folder holds no earlier run's field snapshots: fields/step_*.vtu (and
+    !> the temporary .vtu.tmp of a killed run) and fields.pvd are removed once the new
+    !> trace has replaced the old one, so that old snapshots are neither listed nor left
+    !> beside the new trace (a restart keeps them: they are its own).
+    subroutine remove_old_fields(dir, st, msg)
+        character(len=*), intent(in) :: dir                 !! output folder
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
+        call file_remove(dir//'/fields.pvd')
+        call file_remove(dir//'/fields.pvd.tmp')
+        call remove_matching(dir//'/fields', 'step_', '.vtu', st, msg)
+        if (st == STAT_OK) call remove_matching(dir//'/fields', 'step_', '.vtu.tmp', st, msg)
+    end subroutine remove_old_fields
 
     !> Take the output folder's lock (sim%locked) and check that trace.csv and
     !> summary.json can be written there: the opening of a new run's outputs and of a
@@ -412,7 +432,12 @@ contains
         if (st /= STAT_OK) return
         call system_clock(sim%clock_flush)
         sim%clock_summary = sim%clock_flush
-        if (sim%scn%fields_every > 0) call make_dirs(dir//'/fields', st, msg)
+        if (sim%scn%fields_every > 0) then
+            call make_dirs(dir//'/fields', st, msg)
+            ! the snapshots up to the checkpoint (a killed run may have listed later ones)
+            if (st == STAT_OK) call write_text_atomic(dir//'/fields.pvd', &
+                                                      vtk_pvd_text(sim%pvd_lines), st, msg)
+        end if
     end subroutine reopen_outputs
 
     !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
@@ -678,9 +703,6 @@ contains
             end if
             call write_summary(sim, st2, msg2, last=.true.)
             if (stat == STAT_OK .and. st2 /= STAT_OK) call raise(stat, errmsg, st2, msg2)
-            if (stat == STAT_OK .and. sim%n_snap > 0) &
-                call vtk_write_pvd(trim(sim%scn%out_dir)//'/fields.pvd', sim%snap_t(1:sim%n_snap), &
-                                   sim%snap_file(1:sim%n_snap), stat, errmsg)
             sim%outputs = .false.
         end if
         if (sim%locked) call lock_release(sim%scn%out_dir)
@@ -800,9 +822,11 @@ contains
         end if
         if (.not. buf%bad) then
             sim%n_snap = int(nsnap)
+            sim%pvd_lines = ''
             do k = 1, sim%n_snap
                 call buf_get(buf, sim%snap_t(k))
                 call buf_get_text(buf, sim%snap_file(k))
+                sim%pvd_lines = sim%pvd_lines//vtk_pvd_line(sim%snap_t(k), sim%snap_file(k))
             end do
         end if
         if (.not. buf%bad) call sim%scheme%load(buf)
@@ -898,23 +922,35 @@ contains
                        sim%st%newton_its, sim%st%active, e_load, stat, errmsg)
     end subroutine record
 
-    !> Write a VTU snapshot of the current displacement and velocity.
+    !> Write a VTU snapshot of the current displacement and velocity and list it in
+    !> fields.pvd. Both are written under a temporary name and renamed, so the folder
+    !> never holds part of a VTU file, and fields.pvd always lists the snapshots written
+    !> so far (also after a kill or a failed write).
     subroutine snapshot(sim, stat, errmsg)
         type(simulation_t), intent(inout) :: sim            !! the run
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), allocatable :: uf(:, :), vf(:, :)
         character(len=64) :: name
+        character(len=:), allocatable :: path
         allocate (uf(sim%mdl%dim, sim%mdl%msh%n_nodes), vf(sim%mdl%dim, sim%mdl%msh%n_nodes))
         call model_full_field(sim%mdl, sim%st%u, uf)
         call model_full_field(sim%mdl, sim%st%v, vf)
         write (name, '(a, i0.7, a)') 'fields/step_', sim%step, '.vtu'  ! 7 digits or more
-        call vtk_write_vtu(trim(sim%scn%out_dir)//'/'//trim(name), sim%mdl%dim, sim%mdl%msh%x, &
-                           sim%mdl%msh%cells, uf, vf, stat, errmsg)
-        if (stat /= STAT_OK) return
+        path = trim(sim%scn%out_dir)//'/'//trim(name)
+        call vtk_write_vtu(path//'.tmp', sim%mdl%dim, sim%mdl%msh%x, sim%mdl%msh%cells, uf, vf, &
+                           stat, errmsg)
+        if (stat == STAT_OK) call file_rename(path//'.tmp', path, stat, errmsg)
+        if (stat /= STAT_OK) then
+            call file_remove(path//'.tmp')
+            return
+        end if
         sim%n_snap = sim%n_snap + 1
         sim%snap_t(sim%n_snap) = sim%st%t
         sim%snap_file(sim%n_snap) = name
+        sim%pvd_lines = sim%pvd_lines//vtk_pvd_line(sim%st%t, name)
+        call write_text_atomic(trim(sim%scn%out_dir)//'/fields.pvd', vtk_pvd_text(sim%pvd_lines), &
+                               stat, errmsg)
     end subroutine snapshot
 
     !> summary.json (SPEC section 4), written atomically (temporary file + rename).
