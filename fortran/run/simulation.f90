@@ -728,7 +728,8 @@ contains
     !> factorizations so far, u, v, a, M v, B(u), K_theta u, the augmented Lagrangian's
     !> multipliers lambda (none without them), the contact state
     !> (active points, e_pen, e_theta), the last step's Newton iterations, the snapshots
-    !> written (times, names), then what the scheme carries (time_scheme_t%save).
+    !> written (times, names), what the scheme carries (time_scheme_t%save), then the CG
+    !> counters (cg_counters_get).
     subroutine sim_checkpoint_save(sim, path, stat, errmsg)
         type(simulation_t), intent(in) :: sim               !! an open run (scheme set up)
         character(len=*), intent(in) :: path                !! checkpoint file
@@ -736,6 +737,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         type(byte_buffer_t) :: buf
         integer :: k
+        integer(i8) :: cg(3)
         if (.not. allocated(sim%scheme)) then
             call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
             return
@@ -764,6 +766,10 @@ contains
             call buf_put_text(buf, trim(sim%snap_file(k)))
         end do
         call sim%scheme%save(buf)
+        call cg_counters_get(sim, cg)
+        do k = 1, size(cg)
+            call buf_put(buf, cg(k))
+        end do
         call checkpoint_write(path, sim%scene_hash, int(sim%n_dofs, i8), sim%step, buf, stat, errmsg)
     end subroutine sim_checkpoint_save
 
@@ -778,7 +784,7 @@ contains
         integer(i8), intent(out), optional :: trace_bytes   !! the trace's bytes at the checkpoint
         type(byte_buffer_t) :: buf
         character(len=:), allocatable :: payload
-        integer(i8) :: step, k8, tb, its, facts, act, nits, nsnap
+        integer(i8) :: step, k8, tb, its, facts, act, nits, nsnap, cg(3)
         integer :: k
         if (.not. allocated(sim%scheme)) then
             call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
@@ -830,6 +836,10 @@ contains
             end do
         end if
         if (.not. buf%bad) call sim%scheme%load(buf)
+        do k = 1, size(cg)
+            call buf_get(buf, cg(k))
+        end do
+        if (any(cg < 0)) buf%bad = .true.
         if (buf%bad .or. buf%pos /= buf%n) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': corrupt checkpoint (its'// &
                        ' contents do not fit this run); refused')
@@ -837,11 +847,37 @@ contains
         end if
         sim%scheme%newton_total = int(its)
         sim%scheme%factorizations = int(facts)
+        call cg_counters_set(sim, cg)
         sim%st%active = int(act)
         sim%st%newton_its = int(nits)
         sim%finished = sim%step >= sim%n_steps
         if (present(trace_bytes)) trace_bytes = tb
     end subroutine sim_checkpoint_load
+
+    !> The CG counters of the implicit schemes' J0 solver (solves, iterations over them,
+    !> the most of one solve; zeros for the other schemes and without CG): summary.json's
+    !> cg_* numbers, which count the whole run, so they are carried in the checkpoint.
+    subroutine cg_counters_get(sim, cg)
+        type(simulation_t), intent(in) :: sim   !! the run (scheme set up)
+        integer(i8), intent(out) :: cg(3)       !! solves, iterations, max iterations
+        cg = 0
+        select type (s => sim%scheme)
+        type is (implicit_scheme_t)
+            cg = [s%lu0%cg%solves, s%lu0%cg%iterations, int(s%lu0%cg%max_its, i8)]
+        end select
+    end subroutine cg_counters_get
+
+    !> Set the counters cg_counters_get returned (a run continued from a checkpoint).
+    subroutine cg_counters_set(sim, cg)
+        type(simulation_t), intent(inout) :: sim   !! the run (scheme set up)
+        integer(i8), intent(in) :: cg(3)           !! solves, iterations, max iterations
+        select type (s => sim%scheme)
+        type is (implicit_scheme_t)
+            s%lu0%cg%solves = cg(1)
+            s%lu0%cg%iterations = cg(2)
+            s%lu0%cg%max_its = int(cg(3))
+        end select
+    end subroutine cg_counters_set
 
     !> The model's parameters from a validated scene (the one place they are read).
     function model_params(scn) result(p)
