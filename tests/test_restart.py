@@ -434,6 +434,21 @@ def test_restart_with_another_out_folder_is_refused(stopped, tmp_path):
         dyncontact.run(scene, out=tmp_path / "elsewhere", restart=part, progress=False)
 
 
+@pytest.mark.parametrize("entry,spelling", [
+    (e, s) for e in ("exe", "cli") for s in ("part/", "./part", "absolute")] + [("exe", "link")])
+def test_restart_with_out_naming_the_same_folder_otherwise(entry, spelling, stopped, tmp_path):
+    """--out may name the --restart folder in another spelling: a trailing slash, ./,
+    its absolute path; in the executable also a symbolic link to it (the same folder,
+    not the same text; Python compares absolute paths)."""
+    scene, part = stopped
+    (tmp_path / "link").symlink_to(part)
+    out = {"absolute": str(part), "link": "link"}.get(spelling, spelling)
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    res = run(cmd(scene, "--restart", "part", "--out", out), tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert json.loads((part / "summary.json").read_text())["status"] == "ok"
+
+
 def test_restart_refuses_a_trace_shorter_than_the_checkpoint(stopped, tmp_path):
     scene, part = stopped
     (part / "trace.csv").write_text("t,u_n\n")

@@ -94,10 +94,12 @@ contains
         character(len=:), allocatable :: rdir
         rdir = ''
         if (present(restart)) rdir = trim(restart)
-        if (len(rdir) > 0 .and. len_trim(out_dir) > 0 .and. trim(out_dir) /= rdir) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, '--restart '//rdir//' continues the run in'// &
-                       ' that folder: --out must be the same folder or left out')
-            return
+        if (len(rdir) > 0 .and. len_trim(out_dir) > 0) then
+            if (.not. same_folder(out_dir, rdir)) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, '--restart '//rdir//' continues the run'// &
+                           ' in that folder: --out must be the same folder or left out')
+                return
+            end if
         end if
         if (max(len_trim(out_dir), len(rdir)) > len(scn%out_dir)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'output folder: the path is longer than ' &
