@@ -334,6 +334,25 @@ def test_stepper_save_and_load(tmp_path):
         assert c.advance(10) == 0     # a failed load leaves the Stepper finished
 
 
+def test_stepper_load_cuts_the_trace_back_as_restart_does(tmp_path):
+    """advance, save, advance further, load, advance to the end: trace.csv, fields.pvd and
+    the snapshots are those of the run never taken back (t never goes backwards)."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="2.0", fields=100))
+    full = dyncontact.run(scene, out=tmp_path / "full", progress=False)
+    assert full.ok
+    with Stepper(scene, tmp_path / "b") as b:
+        b.advance(100)
+        b.save(tmp_path / "state.bin")
+        b.advance(450)            # rows (and snapshots 200..500) the load drops
+        assert b.load(tmp_path / "state.bin") == 100
+        b.advance(10**6)
+    t = np.loadtxt(tmp_path / "b" / "trace.csv", delimiter=",", skiprows=1)[:, 0]
+    assert np.all(np.diff(t) > 0)
+    assert (tmp_path / "b" / "trace.csv").read_bytes() == (tmp_path / "full" / "trace.csv").read_bytes()
+    assert (tmp_path / "b" / "fields.pvd").read_bytes() == (tmp_path / "full" / "fields.pvd").read_bytes()
+
+
 # ------------------------------------------------------------------ refusals
 
 @pytest.fixture

@@ -74,7 +74,7 @@ module simulation
     end type simulation_t
 
     public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes, &
-              sim_checkpoint_save, sim_checkpoint_load
+              sim_checkpoint_save, sim_checkpoint_load, sim_save, sim_load
 
 contains
 
@@ -774,6 +774,47 @@ contains
         end do
         call checkpoint_write(path, sim%scene_hash, int(sim%n_dofs, i8), sim%step, buf, stat, errmsg)
     end subroutine sim_checkpoint_save
+
+    !> Save a checkpoint of an open run to `path` (Stepper.save): as the run's own
+    !> checkpoints, the trace rows so far are written and synced first, so that the
+    !> trace length it records counts every row up to its step (the one sim_load and
+    !> --restart cut the trace back to).
+    subroutine sim_save(sim, path, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! an open run (scheme set up)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        stat = STAT_OK
+        if (sim%outputs) call trace_sync(sim%trace, stat, errmsg)
+        if (stat == STAT_OK) call sim_checkpoint_save(sim, path, stat, errmsg)
+    end subroutine sim_save
+
+    !> Load a checkpoint into an open run (Stepper.load): sim_checkpoint_load, then, as
+    !> --restart does, trace.csv cut back to the rows up to the checkpoint's step (the rows
+    !> written after the state was saved are dropped, so t never goes backwards in the
+    !> trace) and fields.pvd rewritten to list the snapshots the checkpoint counts. A
+    !> state from beyond the rows this run has written (another run's checkpoint, further
+    !> on) cannot be cut back to: the trace is then left as it is.
+    subroutine sim_load(sim, path, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! an open run (scheme set up)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(i8) :: trace_bytes
+        character(len=:), allocatable :: trace_path
+        call sim_checkpoint_load(sim, path, stat, errmsg, trace_bytes)
+        if (stat /= STAT_OK .or. .not. sim%outputs) return
+        call trace_flush(sim%trace, stat, errmsg)       ! every row so far in the file
+        if (stat /= STAT_OK) return
+        if (sim%trace%bytes < trace_bytes) return
+        trace_path = sim%trace%path
+        call trace_close(sim%trace, stat, errmsg)
+        if (stat == STAT_OK) call trace_reopen(trace_path, trace_bytes, sim%trace, stat, errmsg)
+        if (stat /= STAT_OK) return
+        if (sim%scn%fields_every > 0) &
+            call write_text_atomic(trim(sim%scn%out_dir)//'/fields.pvd', &
+                                   vtk_pvd_text(sim%pvd_lines), stat, errmsg)
+    end subroutine sim_load
 
     !> Load the state and counters saved by sim_checkpoint_save into an open run of the
     !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
