@@ -96,8 +96,8 @@ contains
         if (present(restart)) rdir = trim(restart)
         if (len(rdir) > 0 .and. len_trim(out_dir) > 0) then
             if (.not. same_folder(out_dir, rdir)) then
-                call raise(stat, errmsg, STAT_BAD_INPUT, '--restart '//rdir//' continues the run'// &
-                           ' in that folder: --out must be the same folder or left out')
+                call raise(stat, errmsg, STAT_BAD_INPUT, '--restart '//rdir//' continues the'// &
+                           ' run in that folder: --out must be the same folder or left out')
                 return
             end if
         end if
