@@ -30,6 +30,8 @@ EXIT_OK, EXIT_BAD_INPUT, EXIT_SIGNAL = 0, 2, 130
 CKPT = "checkpoint.bin"
 #: Bytes of the checkpoint header (docs/scenes.md): 7 fields of 8 bytes, a 96-byte build id.
 HEADER = 7 * 8 + 96
+#: The checkpoint format version this build writes (docs/scenes.md).
+FORMAT_VERSION = 2
 #: Steps between checkpoints: more than the ~280 rows of the trace's write buffer, so that
 #: a killed run sometimes leaves rows after its checkpoint in trace.csv (cut at restart).
 EVERY = 300
@@ -130,6 +132,43 @@ def test_kill_9_then_restart_with_the_augmented_lagrangian_is_bit_identical(name
     kill_9_then_restart(tmp_path, scene_text(name, mass, extra=extra, fields=1000,
                                              contact=contact, every=500),
                         f"{name}/{mass}/alm {multiplier}", every=500)
+
+
+#: Columns of J0^-1 solved together as one group by the contact correction's cache
+#: (ZCHUNK, fortran/schemes/contact_columns.f90).
+COLUMN_GROUP = 16
+
+
+def test_kill_9_then_restart_with_cg_counts_the_whole_runs_cg_solves(monkeypatch, tmp_path):
+    """&solver kind = 'cg': summary.json's cg_solves, cg_iterations and cg_max_iterations
+    after a restart are the whole run's (carried in the checkpoint). With every column of
+    the contact correction solved at set-up (DYNCONTACT_CONTACT_COLUMNS=all) the restarted
+    run does the same solves as the whole one: every number is equal."""
+    monkeypatch.setenv("DYNCONTACT_CONTACT_COLUMNS", "all")
+    text = scene_text("hht", extra=", alpha = -0.1") + "&solver kind = 'cg' /\n"
+    kill_9_then_restart(tmp_path, text, "hht/cg")
+    summary = json.loads((tmp_path / "part" / "summary.json").read_text())
+    assert summary["solver_kind"] == "cg" and summary["cg_solves"] > summary["steps"] > 0
+
+
+def test_restart_with_cg_counts_the_solves_that_refill_the_column_cache(tmp_path):
+    """Columns computed when first needed (the default) are not in the checkpoint: the
+    restarted run solves them again, once, and counts those solves (at most one group of
+    COLUMN_GROUP on this bar's 2 contact facets); every other number is the whole run's."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1") + "&solver kind = 'cg' /\n")
+    assert run(exe_cmd(scene, "--out", "full"), tmp_path).returncode == EXIT_OK
+    shutil.copytree(tmp_path / "full", tmp_path / "again")
+    res = run(exe_cmd(scene, "--restart", "again"), tmp_path)    # from step 5700 of 6000
+    assert res.returncode == EXIT_OK, res.stderr
+    full, again = summary_numbers(tmp_path / "full"), summary_numbers(tmp_path / "again")
+    trace = [(tmp_path / d / "trace.csv").read_bytes() for d in ("again", "full")]
+    assert trace[0] == trace[1]
+    extra_solves = again.pop("cg_solves") - full.pop("cg_solves")
+    assert 0 <= extra_solves <= COLUMN_GROUP
+    assert again.pop("cg_iterations") >= full.pop("cg_iterations")
+    assert again == full
+    assert full["cg_max_iterations"] > 0
 
 
 def checkpoint_multipliers(path: Path) -> np.ndarray:
@@ -296,6 +335,25 @@ def test_stepper_save_and_load(tmp_path):
         assert c.advance(10) == 0     # a failed load leaves the Stepper finished
 
 
+def test_stepper_load_cuts_the_trace_back_as_restart_does(tmp_path):
+    """advance, save, advance further, load, advance to the end: trace.csv, fields.pvd and
+    the snapshots are those of the run never taken back (t never goes backwards)."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="2.0", fields=100))
+    full = dyncontact.run(scene, out=tmp_path / "full", progress=False)
+    assert full.ok
+    with Stepper(scene, tmp_path / "b") as b:
+        b.advance(100)
+        b.save(tmp_path / "state.bin")
+        b.advance(450)            # rows (and snapshots 200..500) the load drops
+        assert b.load(tmp_path / "state.bin") == 100
+        b.advance(10**6)
+    t = np.loadtxt(tmp_path / "b" / "trace.csv", delimiter=",", skiprows=1)[:, 0]
+    assert np.all(np.diff(t) > 0)
+    for name in ("trace.csv", "fields.pvd"):
+        assert (tmp_path / "b" / name).read_bytes() == (tmp_path / "full" / name).read_bytes()
+
+
 # ------------------------------------------------------------------ refusals
 
 @pytest.fixture
@@ -328,6 +386,12 @@ def _bad_magic(path: Path) -> None:
     _flip(path, 0)
 
 
+def _old_format(path: Path) -> None:
+    data = bytearray(path.read_bytes())
+    data[8:16] = np.array([FORMAT_VERSION - 1], dtype="<i8").tobytes()
+    path.write_bytes(bytes(data))
+
+
 DAMAGE = {
     "corrupt_payload_byte": (lambda p: _flip(p, HEADER + 1000), "corrupt checkpoint"),
     "corrupt_last_byte": (lambda p: _flip(p, p.stat().st_size - 1), "corrupt checkpoint"),
@@ -336,6 +400,7 @@ DAMAGE = {
                                 "truncated"),
     "empty": (lambda p: p.write_bytes(b""), "truncated"),
     "other_build": (_other_build, "another build"),
+    "old_format": (_old_format, f"checkpoint format {FORMAT_VERSION - 1}, this build reads"),
     "not_a_checkpoint": (_bad_magic, "not a dyncontact checkpoint"),
 }
 
@@ -389,6 +454,21 @@ def test_restart_with_another_out_folder_is_refused(stopped, tmp_path):
         dyncontact.run(scene, out=tmp_path / "elsewhere", restart=part, progress=False)
 
 
+@pytest.mark.parametrize("entry,spelling", [
+    (e, s) for e in ("exe", "cli") for s in ("part/", "./part", "absolute")] + [("exe", "link")])
+def test_restart_with_out_naming_the_same_folder_otherwise(entry, spelling, stopped, tmp_path):
+    """--out may name the --restart folder in another spelling: a trailing slash, ./,
+    its absolute path; in the executable also a symbolic link to it (the same folder,
+    not the same text; Python compares absolute paths)."""
+    scene, part = stopped
+    (tmp_path / "link").symlink_to(part)
+    out = {"absolute": str(part), "link": "link"}.get(spelling, spelling)
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    res = run(cmd(scene, "--restart", "part", "--out", out), tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert json.loads((part / "summary.json").read_text())["status"] == "ok"
+
+
 def test_restart_refuses_a_trace_shorter_than_the_checkpoint(stopped, tmp_path):
     scene, part = stopped
     (part / "trace.csv").write_text("t,u_n\n")
@@ -418,7 +498,7 @@ def test_checkpoint_file_holds_the_state_it_stands_for(tmp_path):
     data = (tmp_path / "c.bin").read_bytes()
     assert data[:8] == b"DYNCKPT\0"
     version, _hash, plen, checksum, n, step = np.frombuffer(data[8:56], dtype="<i8")
-    assert (version, n, step) == (1, dofs, 123)
+    assert (version, n, step) == (FORMAT_VERSION, dofs, 123)
     payload = data[HEADER:]
     assert plen == len(payload)
     h = 0xcbf29ce484222325

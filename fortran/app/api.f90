@@ -765,10 +765,11 @@ subroutine dc_sim_open_restart(path, restart_dir, handle, n_steps, step, stat, e
     step = sim%step
 end subroutine dc_sim_open_restart
 
-!> Save the state of an open run (and its counters) to a checkpoint file.
+!> Save the state of an open run (and its counters) to a checkpoint file (the trace
+!> rows so far written and synced first, as the run's own checkpoints do).
 subroutine dc_sim_save(handle, path, stat, errmsg)
     use iso_c_binding, only: c_int, c_int64_t
-    use simulation, only: simulation_t, sim_checkpoint_save
+    use simulation, only: simulation_t, sim_save
     use api_handles, only: sim_from_handle
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! run handle
@@ -779,15 +780,16 @@ subroutine dc_sim_save(handle, path, stat, errmsg)
     integer :: st
     errmsg = ''
     call sim_from_handle(handle, sim)
-    call sim_checkpoint_save(sim, path, st, errmsg)
+    call sim_save(sim, path, st, errmsg)
     stat = st
 end subroutine dc_sim_save
 
 !> Load a state saved by dc_sim_save (or a run's checkpoint) of the same scene into an
-!> open run; its trace continues from there. step: the step loaded.
+!> open run; its trace is cut back to the rows up to that step, as --restart does
+!> (simulation's sim_load), and continues from there. step: the step loaded.
 subroutine dc_sim_load(handle, path, step, stat, errmsg)
     use iso_c_binding, only: c_int, c_int64_t
-    use simulation, only: simulation_t, sim_checkpoint_load
+    use simulation, only: simulation_t, sim_load
     use api_handles, only: sim_from_handle
     implicit none
     integer(c_int64_t), intent(in) :: handle     !! run handle
@@ -799,7 +801,7 @@ subroutine dc_sim_load(handle, path, step, stat, errmsg)
     integer :: st
     errmsg = ''
     call sim_from_handle(handle, sim)
-    call sim_checkpoint_load(sim, path, st, errmsg)
+    call sim_load(sim, path, st, errmsg)
     step = sim%step
     stat = st
 end subroutine dc_sim_load

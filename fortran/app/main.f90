@@ -7,7 +7,8 @@ program main
     use scene, only: PATH_LEN
     use os_files, only: signals_install
     use version_info, only: DYNCONTACT_VERSION
-    use text, only: int_text
+    use text, only: int_text, real_text
+    use kinds, only: i8
     implicit none
     interface
         !> C exit(): ends the program with a status and no extra output.
@@ -63,12 +64,12 @@ program main
     if (stat /= STAT_OK) call fail(stat, errmsg)
     call sim_open(sim, scene_path, out_dir, .true., stat, errmsg, restart=restart_dir)
     if (stat /= STAT_OK) call fail(stat, errmsg)
-    if (sim%restart_step >= 0) write (*, '(a, i0, a, g0.6)') 'dyncontact: restart at step ', &
-        sim%restart_step, ', t=', sim%st%t
-    write (*, '(a, i0, a, i0, a, i0, a, i0, a)') 'dyncontact: '//trim(scene_path)//': ', &
-        sim%n_dofs, ' dofs, ', sim%n_cells, ' elements, ', sim%n_contact, &
-        ' contact facets; '//trim(sim%scn%scheme_name)//', ', sim%n_steps, &
-        ' steps -> '//trim(sim%scn%out_dir)
+    if (sim%restart_step >= 0) write (*, '(a)') 'dyncontact: restart at step '// &
+        int_text(sim%restart_step)//', t='//real_text(sim%st%t, 6)
+    write (*, '(a)') 'dyncontact: '//trim(scene_path)//': '//counted(int(sim%n_dofs, i8), 'dof')// &
+        ', '//counted(int(sim%n_cells, i8), 'element')//', '// &
+        counted(int(sim%n_contact, i8), 'contact facet')//'; '//trim(sim%scn%scheme_name)//', '// &
+        counted(sim%n_steps, 'step')//' -> '//trim(sim%scn%out_dir)
     call print_warnings(sim%mdl%notes)
     flush (6)
     do while (.not. sim%finished)
@@ -85,8 +86,8 @@ program main
         end if
     end block
     if (stat /= STAT_OK) call fail(stat, errmsg)
-    write (*, '(a, i0, a, g0.6, a)') 'dyncontact: ok, ', sim%step, ' steps to t=', sim%st%t, &
-        ' -> '//trim(sim%scn%out_dir)
+    write (*, '(a)') 'dyncontact: ok, '//counted(sim%step, 'step')//' to t='// &
+        real_text(sim%st%t, 6)//' -> '//trim(sim%scn%out_dir)
 
 contains
 
@@ -117,6 +118,15 @@ contains
         if (len(a) == 0) call fail(STAT_BAD_INPUT, option//': empty folder name')
         dir = a
     end subroutine folder_argument
+
+    !> "n noun" with the noun in the plural unless n = 1 ('1 contact facet', '2 steps').
+    function counted(n, noun) result(s)
+        integer(i8), intent(in) :: n            !! the count
+        character(len=*), intent(in) :: noun    !! the noun, singular
+        character(len=:), allocatable :: s
+        s = int_text(n)//' '//noun
+        if (n /= 1_i8) s = s//'s'
+    end function counted
 
     !> Print the model's warnings and notes, one line each, on stderr.
     subroutine print_warnings(notes)

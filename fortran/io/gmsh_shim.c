@@ -21,8 +21,16 @@
  * dc_gmsh_free(). gmsh state: initialized and finalized around the read; if the process
  * already runs gmsh (the Python gmsh module), a model is added and removed and the options
  * and parser variables set here are restored. Terminal output is off (General.Terminal 0).
+ * Signals: loading libgmsh and gmsh's initialization and finalization install or reset
+ * handlers (seen with gmsh 4.15: SIGHUP, SIGQUIT, SIGBUS, SIGFPE, SIGSEGV, SIGPIPE and
+ * SIGTERM are no longer caught after a read), which would take SIGTERM away from the run's
+ * own handler (run_guard.c) or Python's. Every call that enters gmsh therefore saves the
+ * dispositions of all signals and restores them afterwards, and holds the stop signals
+ * (SIGINT, SIGTERM, SIGHUP, SIGQUIT) blocked meanwhile, so that one sent during the read is
+ * delivered, to the caller's handler, once the read is over.
  * Status: 0 ok, 2 bad input (message in msg), 4 out of memory. */
 #include <dlfcn.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -52,6 +60,37 @@ typedef struct {
     "(scripts/setup does) and rebuild, or set DYNCONTACT_GMSH_LIB to the path of libgmsh.so"
 #define NO_GMSH_BUILD_MSG "mesh files need gmsh, and this build has none: install it with " \
     "`pip install gmsh` (scripts/setup does), then rebuild (meson finds it in the venv)"
+
+/* The dispositions of every signal and the calling thread's signal mask, saved before a
+ * call into gmsh and restored after it (see the header). */
+typedef struct {
+    struct sigaction action[NSIG];
+    unsigned char saved[NSIG];
+    sigset_t mask;
+} signal_state_t;
+
+static void signals_save(signal_state_t *s)
+{
+    sigset_t stop;
+    int sig;
+    for (sig = 1; sig < NSIG; sig++)
+        s->saved[sig] = sig != SIGKILL && sig != SIGSTOP
+                        && sigaction(sig, NULL, &s->action[sig]) == 0;
+    sigemptyset(&stop);
+    sigaddset(&stop, SIGINT);
+    sigaddset(&stop, SIGTERM);
+    sigaddset(&stop, SIGHUP);
+    sigaddset(&stop, SIGQUIT);
+    pthread_sigmask(SIG_BLOCK, &stop, &s->mask);
+}
+
+static void signals_restore(const signal_state_t *s)
+{
+    int sig;
+    for (sig = 1; sig < NSIG; sig++)
+        if (s->saved[sig]) sigaction(sig, &s->action[sig], NULL);
+    pthread_sigmask(SIG_SETMASK, &s->mask, NULL);
+}
 
 static void set_msg(char *msg, int len, const char *a, const char *b, const char *c)
 {
@@ -160,7 +199,12 @@ static int gmsh_load(void)
 /* 1 if libgmsh can be loaded; otherwise 0 and why in msg. */
 int dc_gmsh_available(char *msg, int msglen)
 {
-    if (gmsh_load()) { set_msg(msg, msglen, "", 0, 0); return 1; }
+    signal_state_t sigs;
+    int loaded;
+    signals_save(&sigs);
+    loaded = gmsh_load();
+    signals_restore(&sigs);
+    if (loaded) { set_msg(msg, msglen, "", 0, 0); return 1; }
     set_msg(msg, msglen, NO_GMSH_MSG, *load_error ? " (" : "", *load_error ? load_error : "");
     if (*load_error && msglen > 2 && strlen(msg) + 2 < (size_t)msglen) strcat(msg, ")");
     return 0;
@@ -564,8 +608,23 @@ void dc_gmsh_free(void *p);
 /* Read path into *out (free with dc_gmsh_free). params = (h, length, width) for a .geo:
  * they are set as the file's parser variables of those names; if the file uses no h, h is
  * the largest mesh size (Mesh.MeshSizeMax). */
+static int gmsh_read(const char *path, const double *params, int is_geo, void **out,
+                     char *msg, int msglen);
+
 int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
                  char *msg, int msglen)
+{
+    signal_state_t sigs;
+    int st;
+    signals_save(&sigs);
+    st = gmsh_read(path, params, is_geo, out, msg, msglen);
+    signals_restore(&sigs);
+    return st;
+}
+
+/* dc_gmsh_read without the signal guard. */
+static int gmsh_read(const char *path, const double *params, int is_geo, void **out,
+                     char *msg, int msglen)
 {
     session_t s;
     int ierr = 0, st = 0, i;

@@ -85,6 +85,17 @@ module os_files
             integer(c_int64_t), intent(out) :: bytes, files
             integer(c_int) :: r
         end function c_free_space
+        function c_remove_matching(dir, prefix, suffix) bind(C, name='dc_remove_matching') &
+            result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: dir(*), prefix(*), suffix(*)
+            integer(c_int) :: r
+        end function c_remove_matching
+        function c_same_file(a, b) bind(C, name='dc_same_file') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: a(*), b(*)
+            integer(c_int) :: r
+        end function c_same_file
         function c_lock_release(path) bind(C, name='dc_lock_release') result(r)
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: path(*)
@@ -94,7 +105,7 @@ module os_files
 
     public :: signals_install, signal_caught, fd_open, fd_write, fd_close, file_rename, &
               file_remove, check_writable, lock_take, lock_release, write_text_atomic, sys_error, &
-              free_space, fd_sync, fd_reopen, bytes_hash
+              free_space, fd_sync, fd_reopen, bytes_hash, remove_matching, same_folder
 
 contains
 
@@ -244,6 +255,30 @@ contains
         integer :: r
         r = c_unlink(trim(path)//c_null_char)
     end subroutine file_remove
+
+    !> Remove the files of folder `dir` named `prefix`*`suffix` (none if the folder does
+    !> not exist); STAT_INTERNAL naming the folder if one cannot be removed.
+    subroutine remove_matching(dir, prefix, suffix, stat, errmsg)
+        character(len=*), intent(in) :: dir                 !! folder
+        character(len=*), intent(in) :: prefix              !! start of the names
+        character(len=*), intent(in) :: suffix              !! end of the names
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: r
+        r = c_remove_matching(trim(dir)//c_null_char, prefix//c_null_char, suffix//c_null_char)
+        call check_errno(r, trim(dir)//'/'//prefix//'*'//suffix, 'cannot remove', stat, errmsg)
+    end subroutine remove_matching
+
+    !> Whether paths a and b name the same folder: the same device and inode when both
+    !> exist ('k', 'k/', './k', its absolute path, a link to it), else the same text.
+    function same_folder(a, b) result(same)
+        character(len=*), intent(in) :: a   !! a folder
+        character(len=*), intent(in) :: b   !! another (or the same) folder
+        logical :: same
+        integer :: r
+        r = c_same_file(trim(a)//c_null_char, trim(b)//c_null_char)
+        same = r == 1 .or. (r < 0 .and. trim(a) == trim(b))
+    end function same_folder
 
     !> STAT_INTERNAL if `path` exists and cannot be written by us.
     subroutine check_writable(path, stat, errmsg)

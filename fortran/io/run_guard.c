@@ -9,8 +9,11 @@
  *   - the free bytes and file slots of a folder's file system (statvfs), to refuse a run
  *     whose outputs cannot fit before it starts;
  *   - fsync, reopening a file cut back to a given size (a trace continued from a
- *     checkpoint), and a 64-bit FNV-1a hash of a byte buffer (checkpoint checksums).
+ *     checkpoint), and a 64-bit FNV-1a hash of a byte buffer (checkpoint checksums);
+ *   - the removal of a previous run's snapshots (files of a folder by prefix and suffix)
+ *     and whether two paths name the same folder (device and inode).
  * Every function returns 0 on success and errno (> 0) on failure unless said otherwise. */
+#include <dirent.h>
 #include <errno.h>
 #include <math.h>
 #include <fcntl.h>
@@ -139,6 +142,41 @@ int dc_free_space(const char *path, int64_t *bytes, int64_t *files)
 }
 
 int dc_unlink(const char *path) { return unlink(path) == 0 || errno == ENOENT ? 0 : errno; }
+
+/* Remove the files of folder dir whose names start with prefix and end with suffix (a
+ * missing folder holds none). Returns 0 or the first errno met (the others are still
+ * tried). */
+int dc_remove_matching(const char *dir, const char *prefix, const char *suffix)
+{
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    size_t lp = strlen(prefix), ls = strlen(suffix), ld = strlen(dir);
+    int err = 0;
+    if (d == NULL) return errno == ENOENT || errno == ENOTDIR ? 0 : errno;
+    while ((e = readdir(d)) != NULL) {
+        size_t n = strlen(e->d_name);
+        if (n < lp + ls || strncmp(e->d_name, prefix, lp) != 0
+            || strcmp(e->d_name + n - ls, suffix) != 0)
+            continue;
+        char *path = malloc(ld + n + 2);
+        if (path == NULL) { err = err ? err : ENOMEM; continue; }
+        snprintf(path, ld + n + 2, "%s/%s", dir, e->d_name);
+        if (unlink(path) != 0 && errno != ENOENT && err == 0) err = errno;
+        free(path);
+    }
+    closedir(d);
+    return err;
+}
+
+/* 1 if paths a and b name the same existing folder or file (same device and inode:
+ * "k", "k/", "./k", its absolute path or a symbolic link to it), 0 if they name two
+ * existing ones, -1 if either does not exist (the caller compares the names then). */
+int dc_same_file(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (stat(a, &sa) != 0 || stat(b, &sb) != 0) return -1;
+    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
 
 /* 0 if path does not exist or is writable by us, else errno of access(W_OK). */
 int dc_check_writable(const char *path)

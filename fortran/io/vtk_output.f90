@@ -13,7 +13,7 @@ module vtk_output
 
     character(len=*), parameter :: REAL_FMT = '(3(1x,es24.16e3))'   ! round-trips doubles
 
-    public :: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
+    public :: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes, vtk_pvd_line, vtk_pvd_text
 
 contains
 
@@ -177,7 +177,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: unit, ios, k
         character(len=256) :: iomsg
-        character(len=32) :: tbuf
+        character(len=:), allocatable :: line
 
         if (size(times) /= size(files)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, &
@@ -188,13 +188,34 @@ contains
         if (stat /= STAT_OK) return
         do k = 1, size(times)
             if (ios /= 0) exit
-            write (tbuf, '(es24.16e3)') times(k)
-            write (unit, '(a)', iostat=ios, iomsg=iomsg) '    <DataSet timestep="' &
-                //trim(adjustl(tbuf))//'" group="" part="0" file="' &
-                //xml_escape(trim(files(k)))//'"/>'
+            line = vtk_pvd_line(times(k), files(k))
+            write (unit, '(a)', iostat=ios, iomsg=iomsg) line(1:len(line) - 1)
         end do
         call close_vtk(unit, path, 'Collection', 'vtk_write_pvd', ios, iomsg, stat, errmsg)
     end subroutine vtk_write_pvd
+
+    !> The line (with its line feed) of a .pvd collection that lists `file` at `time`, as
+    !> vtk_write_pvd writes it.
+    function vtk_pvd_line(time, file) result(line)
+        real(dp), intent(in) :: time            !! the snapshot's time
+        character(len=*), intent(in) :: file    !! its file name, relative to the .pvd's folder
+        character(len=:), allocatable :: line
+        character(len=32) :: tbuf
+        write (tbuf, '(es24.16e3)') time
+        line = '    <DataSet timestep="'//trim(adjustl(tbuf))//'" group="" part="0" file="' &
+               //xml_escape(trim(file))//'"/>'//new_line('a')
+    end function vtk_pvd_line
+
+    !> The whole text of a .pvd collection whose DataSet lines (vtk_pvd_line) are `lines`:
+    !> the bytes vtk_write_pvd writes, for a caller that writes the file itself (atomically).
+    function vtk_pvd_text(lines) result(text)
+        character(len=*), intent(in) :: lines   !! concatenated vtk_pvd_line results
+        character(len=:), allocatable :: text
+        character(len=1), parameter :: nl = new_line('a')
+        text = '<?xml version="1.0"?>'//nl// &
+               '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">'//nl// &
+               '  <Collection>'//nl//lines//'  </Collection>'//nl//'</VTKFile>'//nl
+    end function vtk_pvd_text
 
     !> Open `path` (replaced) as a formatted stream and write the XML declaration and
     !> the opening tags <VTKFile type="kind" ...> and <kind>. A failed open is

@@ -25,9 +25,10 @@ module simulation
     use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
                             trace_sync, trace_close, json_real, json_string, TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
-                        write_text_atomic, signal_caught, free_space
+                        write_text_atomic, signal_caught, free_space, remove_matching, &
+                        same_folder
     use sparse, only: csc_t
-    use vtk_output, only: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
+    use vtk_output, only: vtk_write_vtu, vtk_vtu_bytes, vtk_pvd_line, vtk_pvd_text
     use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get, buf_put_text, buf_get_text, buf_from
     use checkpoint_file, only: CHECKPOINT_NAME, checkpoint_scene_hash, checkpoint_write, &
@@ -67,12 +68,14 @@ module simulation
         integer :: n_snap = 0                      !! field snapshots written
         real(dp), allocatable :: snap_t(:)         !! their times
         character(len=64), allocatable :: snap_file(:) !! their file names
+        logical :: pvd_due = .false.               !! snapshots written since fields.pvd was
+        integer(i8) :: clock_pvd = 0               !! clock of the last fields.pvd write
         integer(i8) :: scene_hash = 0              !! hash of the parsed scene (checkpoints)
         integer(i8) :: restart_step = -1           !! the step the run restarted from (-1: none)
     end type simulation_t
 
     public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes, &
-              sim_checkpoint_save, sim_checkpoint_load
+              sim_checkpoint_save, sim_checkpoint_load, sim_save, sim_load
 
 contains
 
@@ -92,10 +95,12 @@ contains
         character(len=:), allocatable :: rdir
         rdir = ''
         if (present(restart)) rdir = trim(restart)
-        if (len(rdir) > 0 .and. len_trim(out_dir) > 0 .and. trim(out_dir) /= rdir) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, '--restart '//rdir//' continues the run in'// &
-                       ' that folder: --out must be the same folder or left out')
-            return
+        if (len(rdir) > 0 .and. len_trim(out_dir) > 0) then
+            if (.not. same_folder(out_dir, rdir)) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, '--restart '//rdir//' continues the'// &
+                           ' run in that folder: --out must be the same folder or left out')
+                return
+            end if
         end if
         if (max(len_trim(out_dir), len(rdir)) > len(scn%out_dir)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'output folder: the path is longer than ' &
@@ -124,6 +129,7 @@ contains
         if (present(restart)) again = restart
         call system_clock(sim%clock0, sim%clock_rate)
         sim%scn = scn
+        sim%pvd_due = .false.
         sim%scene_hash = checkpoint_scene_hash(scn)
         call build_model(sim, stat, errmsg)
         if (stat /= STAT_OK) return
@@ -293,6 +299,8 @@ contains
         sim%trace%path = dir//'/trace.csv'
         call system_clock(sim%clock_flush)
         sim%clock_summary = sim%clock_flush
+        call remove_old_fields(dir, st, msg)
+        if (st /= STAT_OK) return
         if (sim%scn%fields_every > 0) then
             call make_dirs(dir//'/fields', st, msg)
             if (st /= STAT_OK) return
@@ -307,6 +315,20 @@ contains
             call snapshot(sim, st, msg)
         end if
     end subroutine open_outputs
+
+    !> A new run's folder holds no earlier run's field snapshots: fields/step_*.vtu (and
+    !> the temporary .vtu.tmp of a killed run) and fields.pvd are removed once the new
+    !> trace has replaced the old one, so that old snapshots are neither listed nor left
+    !> beside the new trace (a restart keeps them: they are its own).
+    subroutine remove_old_fields(dir, st, msg)
+        character(len=*), intent(in) :: dir                 !! output folder
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
+        call file_remove(dir//'/fields.pvd')
+        call file_remove(dir//'/fields.pvd.tmp')
+        call remove_matching(dir//'/fields', 'step_', '.vtu', st, msg)
+        if (st == STAT_OK) call remove_matching(dir//'/fields', 'step_', '.vtu.tmp', st, msg)
+    end subroutine remove_old_fields
 
     !> Take the output folder's lock (sim%locked) and check that trace.csv and
     !> summary.json can be written there: the opening of a new run's outputs and of a
@@ -421,7 +443,11 @@ contains
         if (st /= STAT_OK) return
         call system_clock(sim%clock_flush)
         sim%clock_summary = sim%clock_flush
-        if (sim%scn%fields_every > 0) call make_dirs(dir//'/fields', st, msg)
+        if (sim%scn%fields_every > 0) then
+            call make_dirs(dir//'/fields', st, msg)
+            ! the snapshots up to the checkpoint (a killed run may have listed later ones)
+            if (st == STAT_OK) call write_pvd(sim, st, msg)
+        end if
     end subroutine reopen_outputs
 
     !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
@@ -590,6 +616,7 @@ contains
             if (real(clock - sim%clock_flush, dp) > FLUSH_S * sim%clock_rate) then
                 sim%clock_flush = clock
                 call trace_flush(sim%trace, stat, wmsg)
+                if (stat == STAT_OK .and. sim%pvd_due) call write_pvd(sim, stat, wmsg)
                 if (stat == STAT_OK .and. real(clock - sim%clock_summary, dp) > SUMMARY_S * sim%clock_rate) then
                     sim%clock_summary = clock
                     call write_summary(sim, stat, wmsg)
@@ -681,15 +708,19 @@ contains
             else
                 call trace_close(sim%trace, st2, msg2)
             end if
+            if (sim%pvd_due) then       ! the snapshots not listed yet (also after a failure)
+                if (stat == STAT_OK) then
+                    call write_pvd(sim, stat, errmsg)
+                else
+                    call write_pvd(sim, st2, msg2)
+                end if
+            end if
             if (stat /= STAT_OK .and. sim%status /= 'write_failed') then
                 sim%status = 'write_failed'
                 if (present(errmsg)) sim%message = errmsg
             end if
             call write_summary(sim, st2, msg2, last=.true.)
             if (stat == STAT_OK .and. st2 /= STAT_OK) call raise(stat, errmsg, st2, msg2)
-            if (stat == STAT_OK .and. sim%n_snap > 0) &
-                call vtk_write_pvd(trim(sim%scn%out_dir)//'/fields.pvd', sim%snap_t(1:sim%n_snap), &
-                                   sim%snap_file(1:sim%n_snap), stat, errmsg)
             sim%outputs = .false.
         end if
         if (sim%locked) call lock_release(sim%scn%out_dir)
@@ -706,6 +737,8 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         call trace_sync(sim%trace, stat, errmsg)
         if (stat /= STAT_OK) return
+        if (sim%pvd_due) call write_pvd(sim, stat, errmsg)
+        if (stat /= STAT_OK) return
         call sim_checkpoint_save(sim, trim(sim%scn%out_dir)//'/'//CHECKPOINT_NAME, stat, errmsg)
     end subroutine write_checkpoint
 
@@ -715,7 +748,8 @@ contains
     !> factorizations so far, u, v, a, M v, B(u), K_theta u, the augmented Lagrangian's
     !> multipliers lambda (none without them), the contact state
     !> (active points, e_pen, e_theta), the last step's Newton iterations, the snapshots
-    !> written (times, names), then what the scheme carries (time_scheme_t%save).
+    !> written (times, names), what the scheme carries (time_scheme_t%save), then the CG
+    !> counters (cg_counters_get).
     subroutine sim_checkpoint_save(sim, path, stat, errmsg)
         type(simulation_t), intent(in) :: sim               !! an open run (scheme set up)
         character(len=*), intent(in) :: path                !! checkpoint file
@@ -723,6 +757,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         type(byte_buffer_t) :: buf
         integer :: k
+        integer(i8) :: cg(3)
         if (.not. allocated(sim%scheme)) then
             call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
             return
@@ -751,8 +786,51 @@ contains
             call buf_put_text(buf, trim(sim%snap_file(k)))
         end do
         call sim%scheme%save(buf)
+        call cg_counters_get(sim, cg)
+        do k = 1, size(cg)
+            call buf_put(buf, cg(k))
+        end do
         call checkpoint_write(path, sim%scene_hash, int(sim%n_dofs, i8), sim%step, buf, stat, errmsg)
     end subroutine sim_checkpoint_save
+
+    !> Save a checkpoint of an open run to `path` (Stepper.save): as the run's own
+    !> checkpoints, the trace rows so far are written and synced first, so that the
+    !> trace length it records counts every row up to its step (the one sim_load and
+    !> --restart cut the trace back to).
+    subroutine sim_save(sim, path, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! an open run (scheme set up)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        stat = STAT_OK
+        if (sim%outputs) call trace_sync(sim%trace, stat, errmsg)
+        if (stat == STAT_OK) call sim_checkpoint_save(sim, path, stat, errmsg)
+    end subroutine sim_save
+
+    !> Load a checkpoint into an open run (Stepper.load): sim_checkpoint_load, then, as
+    !> --restart does, trace.csv cut back to the rows up to the checkpoint's step (the rows
+    !> written after the state was saved are dropped, so t never goes backwards in the
+    !> trace) and fields.pvd rewritten to list the snapshots the checkpoint counts. A
+    !> state from beyond the rows this run has written (another run's checkpoint, further
+    !> on) cannot be cut back to: the trace is then left as it is.
+    subroutine sim_load(sim, path, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! an open run (scheme set up)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(i8) :: trace_bytes
+        character(len=:), allocatable :: trace_path
+        call sim_checkpoint_load(sim, path, stat, errmsg, trace_bytes)
+        if (stat /= STAT_OK .or. .not. sim%outputs) return
+        call trace_flush(sim%trace, stat, errmsg)       ! every row so far in the file
+        if (stat /= STAT_OK) return
+        if (sim%trace%bytes < trace_bytes) return
+        trace_path = sim%trace%path
+        call trace_close(sim%trace, stat, errmsg)
+        if (stat == STAT_OK) call trace_reopen(trace_path, trace_bytes, sim%trace, stat, errmsg)
+        if (stat /= STAT_OK) return
+        if (sim%scn%fields_every > 0) call write_pvd(sim, stat, errmsg)
+    end subroutine sim_load
 
     !> Load the state and counters saved by sim_checkpoint_save into an open run of the
     !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
@@ -765,7 +843,7 @@ contains
         integer(i8), intent(out), optional :: trace_bytes   !! the trace's bytes at the checkpoint
         type(byte_buffer_t) :: buf
         character(len=:), allocatable :: payload
-        integer(i8) :: step, k8, tb, its, facts, act, nits, nsnap
+        integer(i8) :: step, k8, tb, its, facts, act, nits, nsnap, cg(3)
         integer :: k
         if (.not. allocated(sim%scheme)) then
             call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
@@ -815,6 +893,10 @@ contains
             end do
         end if
         if (.not. buf%bad) call sim%scheme%load(buf)
+        do k = 1, size(cg)
+            call buf_get(buf, cg(k))
+        end do
+        if (any(cg < 0)) buf%bad = .true.
         if (buf%bad .or. buf%pos /= buf%n) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': corrupt checkpoint (its'// &
                        ' contents do not fit this run); refused')
@@ -822,11 +904,37 @@ contains
         end if
         sim%scheme%newton_total = int(its)
         sim%scheme%factorizations = int(facts)
+        call cg_counters_set(sim, cg)
         sim%st%active = int(act)
         sim%st%newton_its = int(nits)
         sim%finished = sim%step >= sim%n_steps
         if (present(trace_bytes)) trace_bytes = tb
     end subroutine sim_checkpoint_load
+
+    !> The CG counters of the implicit schemes' J0 solver (solves, iterations over them,
+    !> the most of one solve; zeros for the other schemes and without CG): summary.json's
+    !> cg_* numbers, which count the whole run, so they are carried in the checkpoint.
+    subroutine cg_counters_get(sim, cg)
+        type(simulation_t), intent(in) :: sim   !! the run (scheme set up)
+        integer(i8), intent(out) :: cg(3)       !! solves, iterations, max iterations
+        cg = 0
+        select type (s => sim%scheme)
+        type is (implicit_scheme_t)
+            cg = [s%lu0%cg%solves, s%lu0%cg%iterations, int(s%lu0%cg%max_its, i8)]
+        end select
+    end subroutine cg_counters_get
+
+    !> Set the counters cg_counters_get returned (a run continued from a checkpoint).
+    subroutine cg_counters_set(sim, cg)
+        type(simulation_t), intent(inout) :: sim   !! the run (scheme set up)
+        integer(i8), intent(in) :: cg(3)           !! solves, iterations, max iterations
+        select type (s => sim%scheme)
+        type is (implicit_scheme_t)
+            s%lu0%cg%solves = cg(1)
+            s%lu0%cg%iterations = cg(2)
+            s%lu0%cg%max_its = int(cg(3))
+        end select
+    end subroutine cg_counters_set
 
     !> The model's parameters from a validated scene (the one place they are read).
     function model_params(scn) result(p)
@@ -907,24 +1015,68 @@ contains
                        sim%st%newton_its, sim%st%active, e_load, stat, errmsg)
     end subroutine record
 
-    !> Write a VTU snapshot of the current displacement and velocity.
+    !> Write a VTU snapshot of the current displacement and velocity (under a temporary
+    !> name, then renamed: the folder never holds part of a VTU file) and list it in
+    !> fields.pvd: at once when the last fields.pvd write is FLUSH_S old or more, else at
+    !> the run's next flush (as the trace rows), checkpoint or close (write_pvd).
     subroutine snapshot(sim, stat, errmsg)
         type(simulation_t), intent(inout) :: sim            !! the run
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), allocatable :: uf(:, :), vf(:, :)
         character(len=64) :: name
+        character(len=:), allocatable :: path
+        integer(i8) :: clock
         allocate (uf(sim%mdl%dim, sim%mdl%msh%n_nodes), vf(sim%mdl%dim, sim%mdl%msh%n_nodes))
         call model_full_field(sim%mdl, sim%st%u, uf)
         call model_full_field(sim%mdl, sim%st%v, vf)
         write (name, '(a, i0.7, a)') 'fields/step_', sim%step, '.vtu'  ! 7 digits or more
-        call vtk_write_vtu(trim(sim%scn%out_dir)//'/'//trim(name), sim%mdl%dim, sim%mdl%msh%x, &
-                           sim%mdl%msh%cells, uf, vf, stat, errmsg)
-        if (stat /= STAT_OK) return
+        path = trim(sim%scn%out_dir)//'/'//trim(name)
+        call vtk_write_vtu(path//'.tmp', sim%mdl%dim, sim%mdl%msh%x, sim%mdl%msh%cells, uf, vf, &
+                           stat, errmsg)
+        if (stat == STAT_OK) call file_rename(path//'.tmp', path, stat, errmsg)
+        if (stat /= STAT_OK) then
+            call file_remove(path//'.tmp')
+            return
+        end if
         sim%n_snap = sim%n_snap + 1
         sim%snap_t(sim%n_snap) = sim%st%t
         sim%snap_file(sim%n_snap) = name
+        sim%pvd_due = .true.
+        call system_clock(clock)
+        if (sim%n_snap == 1 .or. real(clock - sim%clock_pvd, dp) > FLUSH_S * sim%clock_rate) &
+            call write_pvd(sim, stat, errmsg)
     end subroutine snapshot
+
+    !> fields.pvd listing the snapshots written so far (sim%snap_t, snap_file), written
+    !> atomically (temporary file + rename). Rewriting the whole list at every snapshot
+    !> would cost the square of their number (fields_every = 1 on 6 000 steps: 10 s
+    !> against 2.5 s), so snapshot calls it at most every FLUSH_S and the flushes,
+    !> checkpoints and the close catch up (pvd_due): after a kill the list is at most
+    !> FLUSH_S behind the VTU files, as the trace's rows are.
+    subroutine write_pvd(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=:), allocatable :: lines, line
+        integer :: k, n, pos
+        n = 0
+        do k = 1, sim%n_snap
+            line = vtk_pvd_line(sim%snap_t(k), sim%snap_file(k))
+            n = n + len(line)
+        end do
+        allocate (character(len=n) :: lines)
+        pos = 0
+        do k = 1, sim%n_snap
+            line = vtk_pvd_line(sim%snap_t(k), sim%snap_file(k))
+            lines(pos + 1:pos + len(line)) = line
+            pos = pos + len(line)
+        end do
+        call write_text_atomic(trim(sim%scn%out_dir)//'/fields.pvd', vtk_pvd_text(lines), &
+                               stat, errmsg)
+        call system_clock(sim%clock_pvd)
+        if (stat == STAT_OK) sim%pvd_due = .false.
+    end subroutine write_pvd
 
     !> summary.json (SPEC section 4), written atomically (temporary file + rename).
     subroutine write_summary(sim, stat, errmsg, last)

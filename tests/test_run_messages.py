@@ -1,0 +1,47 @@
+"""The executable's run lines (docs/scenes.md: numbers in messages use a full exponent,
+as `2.225E-307`): the opening line counts in the singular for one ('1 contact facet'),
+and the restart and final lines give t with its full exponent, not Fortran's G form
+(`0.100000E-1`)."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from conftest import EXE
+
+#: t in a message: d.ddddd, the letter E, the exponent's sign and three digits.
+FULL_EXPONENT = r"-?\d\.\d{5}E[+-]\d{3}"
+
+
+def run(*args, cwd: Path) -> subprocess.CompletedProcess:
+    if not EXE.is_file():
+        pytest.skip(f"{EXE} is not built; run scripts/setup")
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    return subprocess.run([str(EXE), *map(str, args)], cwd=cwd, env=env, capture_output=True,
+                          text=True, timeout=120)
+
+
+def test_run_lines_count_in_the_singular_and_give_t_with_a_full_exponent(tmp_path):
+    scene = tmp_path / "one.nml"     # a 1D bar: its contact boundary is one point
+    scene.write_text("&mesh file = '', dim = 1, length = 1.0, h = 0.05 /\n"
+                     "&contact obstacle_point = 0.0, obstacle_normal = -1.0, probe = 0.0 /\n"
+                     "&initial kind = 'compressed_bar', amplitude = 0.5 /\n"
+                     "&scheme name = 'hht', dt = 0.0025, t_end = 0.01 /\n"
+                     "&output dir = 'out', checkpoint_every = 3 /\n")
+    res = run("one.nml", "--out", "o", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    first, last = res.stdout.splitlines()
+    assert first == "dyncontact: one.nml: 20 dofs, 20 elements, 1 contact facet; hht, 4 steps -> o"
+    assert last == "dyncontact: ok, 4 steps to t=1.00000E-002 -> o"
+    res = run("one.nml", "--restart", "o", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    restart = res.stdout.splitlines()[0]
+    assert restart == "dyncontact: restart at step 3, t=7.50000E-003"
+    for line in (last, restart):
+        assert re.search(r"t=" + FULL_EXPONENT + r"( |$)", line), line

@@ -1,0 +1,127 @@
+"""Signals in runs on a mesh file: reading a .msh or .geo through gmsh leaves the
+process's signal dispositions as they were (gmsh's initialization and finalization reset
+some, SIGTERM among them), so SIGTERM stops such a run as documented (docs/scenes.md, exit
+codes): exit 130, summary status "interrupted", the trace kept, a checkpoint written at the
+signal's step and the lock released, in the executable and in `python -m dyncontact run`."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import struct
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import EXE, ROOT
+
+EXIT_SIGNAL = 130
+#: Seconds to wait for a run to write its first rows.
+START_TIMEOUT = 60
+#: The checkpoint's step: the 7th 8-byte field of its header (docs/scenes.md).
+CKPT_STEP_OFFSET = 6 * 8
+
+MSH = ROOT / "meshes" / "bar2d_getfem_h0.05.msh"
+GEO = ROOT / "meshes" / "bar2d.geo"
+
+#: Signals whose handlers a caller may have installed; all of them must survive a read.
+WATCHED = ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT", "SIGUSR1", "SIGFPE", "SIGSEGV",
+           "SIGBUS", "SIGPIPE", "SIGALRM", "SIGCHLD")
+
+PROBE = """
+import signal, sys
+import dyncontact.core as core
+
+def caught():
+    for line in open('/proc/self/status'):
+        if line.startswith(('SigCgt', 'SigIgn')):
+            print(line.strip())
+
+for name in sys.argv[2].split(','):
+    signal.signal(getattr(signal, name), lambda *a: None)
+caught()
+core.load_mesh(sys.argv[1])
+caught()
+"""
+
+
+def _env() -> dict:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    return env
+
+
+@pytest.mark.parametrize("mesh", [MSH, GEO], ids=["msh", "geo"])
+def test_reading_a_mesh_file_keeps_the_signal_dispositions(mesh):
+    res = subprocess.run([sys.executable, "-c", PROBE, str(mesh), ",".join(WATCHED)],
+                         env=_env(), capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    lines = res.stdout.split("\n")
+    before, after = lines[0:2], lines[2:4]
+    assert before == after, (before, after)
+
+
+def _scene(folder: Path) -> Path:
+    """A 2D run on a .msh file long enough to be stopped (500 000 steps)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "s.nml"
+    path.write_text(f"&mesh file = '{MSH}' /\n"
+                    "&boundary clamped = 'top', contact = 'bottom' /\n"
+                    "&contact theta = 1, gamma0 = 10.0, probe = 0.05, 0.0 /\n"
+                    "&initial kind = 'compressed_bar', amplitude = 0.5 /\n"
+                    "&scheme name = 'hht', dt = 1e-4, t_end = 50.0 /\n"
+                    "&output dir = 'out', every = 10, checkpoint_every = 997 /\n",
+                    encoding="utf-8")
+    return path
+
+
+def _command(kind: str, scene: Path, out: Path) -> list[str]:
+    if kind == "exe":
+        if not EXE.is_file():
+            pytest.skip(f"{EXE} is not built; run scripts/setup")
+        return [str(EXE), str(scene), "--out", str(out)]
+    return [sys.executable, "-m", "dyncontact", "run", str(scene), "--out", str(out),
+            "--quiet"]
+
+
+def _wait_for_rows(out: Path, n: int) -> None:
+    t0 = time.time()
+    while time.time() - t0 < START_TIMEOUT:
+        trace = out / "trace.csv"
+        if trace.exists() and trace.stat().st_size > n * 200:
+            return
+        time.sleep(0.05)
+    raise AssertionError("the run did not start")
+
+
+@pytest.mark.parametrize("kind", ["exe", "cli"])
+def test_sigterm_stops_a_run_on_a_mesh_file(kind, tmp_path):
+    out = tmp_path / "o"
+    proc = subprocess.Popen(_command(kind, _scene(tmp_path), out), cwd=tmp_path, env=_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_for_rows(out, 300)
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == EXIT_SIGNAL, (proc.returncode, stdout, stderr)
+    assert "interrupted" in stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    steps = summary["steps"]
+    assert steps > 0
+    # the trace is kept, up to the step the run stopped on (a row every 10 steps)
+    rows = (out / "trace.csv").read_text().splitlines()[1:]
+    assert steps * 1e-4 - 10e-4 < float(rows[-1].split(",")[0]) <= steps * 1e-4 * (1 + 1e-12)
+    # the checkpoint was written at that step (not only at the last multiple of 997)
+    header = (out / "checkpoint.bin").read_bytes()[:7 * 8]
+    (ckpt_step,) = struct.unpack_from("<q", header, CKPT_STEP_OFFSET)
+    assert ckpt_step == steps
+    assert not (out / ".dyncontact.lock").exists()
