@@ -1,7 +1,7 @@
-"""The executable's run lines (docs/scenes.md: numbers in messages use a full exponent,
-as `2.225E-307`): the opening line counts in the singular for one ('1 contact facet'),
-and the restart and final lines give t with its full exponent, not Fortran's G form
-(`0.100000E-1`)."""
+"""The run lines of the executable and of `python -m dyncontact run` (docs/scenes.md:
+numbers in messages use a full exponent, as `2.225E-307`): the opening line counts in the
+singular for one ('1 contact facet'), and the restart and final lines give t with its
+full exponent, not Fortran's G form (`0.100000E-1`)."""
 
 from __future__ import annotations
 
@@ -45,3 +45,20 @@ def test_run_lines_count_in_the_singular_and_give_t_with_a_full_exponent(tmp_pat
     assert restart == "dyncontact: restart at step 3, t=7.50000E-003"
     for line in (last, restart):
         assert re.search(r"t=" + FULL_EXPONENT + r"( |$)", line), line
+
+
+def test_python_cli_run_lines_read_as_the_executables(tmp_path):
+    import sys
+
+    scene = tmp_path / "one.nml"
+    scene.write_text("&mesh file = '', dim = 1, length = 1.0, h = 0.05 /\n"
+                     "&contact obstacle_point = 0.0, obstacle_normal = -1.0, probe = 0.0 /\n"
+                     "&scheme name = 'hht', dt = 0.0025, t_end = 0.01 /\n")
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    res = subprocess.run([sys.executable, "-m", "dyncontact", "run", "one.nml", "--out", "o"],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    first, last = res.stdout.splitlines()
+    assert first == "dyncontact: one.nml: 20 dofs, 20 elements, 1 contact facet; hht, 4 steps"
+    assert re.fullmatch(r"dyncontact: ok, 4 steps to t=1\.00000E-002, [0-9.]+ s -> .*o", last)

@@ -121,13 +121,14 @@ def cmd_run(args) -> int:
         return _fail(f"{result.status} at t={t_stop:.6g}: {msg} (trace kept in "
                      f"{result.out_dir})", EXIT_NUMERIC)
     if not args.quiet:
-        print(f"{PROG}: {args.scene}: {s.get('dofs', '?')} dofs, {s.get('elements', '?')} "
-              f"elements, {s.get('contact_facets', '?')} contact facets; "
-              f"{s.get('scheme', '?')}, {s.get('steps', '?')} steps")
+        print(f"{PROG}: {args.scene}: {_counted(s.get('dofs'), 'dof')}, "
+              f"{_counted(s.get('elements'), 'element')}, "
+              f"{_counted(s.get('contact_facets'), 'contact facet')}; "
+              f"{s.get('scheme', '?')}, {_counted(s.get('steps'), 'step')}")
         wall = s.get("wall_s")
         wall_txt = f", {float(wall):.2f} s" if isinstance(wall, (int, float)) else ""
-        print(f"{PROG}: ok, {s.get('steps', '?')} steps to t={s.get('t_end_reached', '?')}"
-              f"{wall_txt} -> {result.out_dir}")
+        print(f"{PROG}: ok, {_counted(s.get('steps'), 'step')} to "
+              f"t={_full_exponent(s.get('t_end_reached'))}{wall_txt} -> {result.out_dir}")
     return EXIT_OK
 
 
@@ -216,6 +217,21 @@ def _version() -> str:
     from . import __version__
 
     return __version__
+
+
+def _full_exponent(x) -> str:
+    """x as the executable writes numbers in messages: 1.00000E-002 (docs/scenes.md)."""
+    if not isinstance(x, (int, float)):
+        return "?"
+    mant, exp = f"{float(x):.5E}".split("E")
+    return f"{mant}E{int(exp):+04d}"
+
+
+def _counted(n, noun: str) -> str:
+    """'n noun' with the noun in the plural unless n = 1 (as the executable's lines)."""
+    if n is None:
+        return f"? {noun}s"
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -377,7 +377,7 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         start = 0
         if restart is not None:
             restart_dir = os.path.abspath(os.fspath(restart))
-            if explicit_out and restart_dir != out_dir:
+            if explicit_out and not _same_folder(restart_dir, out_dir):
                 raise BadInputError(f"restart={os.fspath(restart)!r} continues the run in that "
                                     "folder: out must be the same folder or None")
             out_dir = restart_dir
@@ -425,6 +425,15 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         raise
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _same_folder(a: str, b: str) -> bool:
+    """Whether two paths name the same folder (a link to it included, as the executable
+    compares them); by name where either does not exist."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.abspath(a) == os.path.abspath(b)
 
 
 def _scene_attr_output_dir(scene) -> str | None:
