@@ -354,3 +354,37 @@ def test_alm_3d_every_mass_runs_through_an_impact(multiplier, quadrature, mass, 
     if mass == "redistributed":
         assert tr["u_n"].max() < (1e-14 if multiplier == "nodal" else 1e-3)
         assert np.abs(tr["e_total"][1:] / tr["e_total"][1] - 1).max() < 1e-4
+
+
+def test_alm_integral_with_one_point_a_facet_is_refused(tmp_path):
+    """With one Gauss point a facet the integral multipliers' mass matrix
+    sum_f |F| psi(x_f) psi(x_f)^T has rank at most one a facet, fewer than the multipliers (the
+    nodes of Gamma_C): the multiplier system is singular (checked on the seed's bottom,
+    2 segments and 3 nodes, and on the box's, 8 triangles and 9 nodes). The scene is
+    refused naming &contact quad_points in 2D and 3D; the smallest rule that is not
+    singular (2 points a segment, 3 a triangle) runs."""
+    seg = np.array([[psi, 1 - psi] for psi in (0.5,)])                 # midpoint of a segment
+    m2 = np.zeros((3, 3))
+    for f in range(2):
+        for row in seg:
+            m2[f:f + 2, f:f + 2] += np.outer(row, row)
+    assert np.linalg.matrix_rank(m2) <= 2 < 3
+    centroid = np.full(3, 1.0 / 3.0)
+    m3 = np.zeros((9, 9))
+    tris = [(0, 1, 4), (0, 3, 4), (1, 2, 5), (1, 4, 5), (3, 4, 7), (3, 6, 7), (4, 5, 8),
+            (4, 7, 8)]                                                   # a 3 x 3 node grid
+    for t in tris:
+        m3[np.ix_(t, t)] += np.outer(centroid, centroid)
+    assert np.linalg.matrix_rank(m3) <= 8 < 9
+    seed = Scene.read(ROOT / "scripts" / "scenes" / "bar2d_alm_consistent.nml")
+    seed.set("scheme.t_end", 0.05)
+    seed.set("contact.quadrature", "gauss")
+    for scene, points, enough in ((seed, 1, 2), (box_alm(scheme__t_end=0.05,
+                                                         contact__quadrature="gauss"), 1, 3)):
+        scene.set("contact.quad_points", points)
+        with pytest.raises(dyncontact.BadInputError,
+                           match=r"&contact quad_points: must be at least \d with &contact "
+                                 r"method = 'alm' and multiplier = 'integral'"):
+            dyncontact.run(scene, out=tmp_path / "refused", progress=False)
+        scene.set("contact.quad_points", enough)
+        assert dyncontact.run(scene, out=tmp_path / f"ok{enough}", progress=False).status == "ok"

@@ -497,6 +497,29 @@ def test_cg_non_convergence_is_a_numerical_failure(run_exe, tmp_path):
     assert s["status"] != "ok" and "conjugate gradients did not converge" in s["message"]
 
 
+def test_cg_failure_in_the_contact_correction_says_why(run_exe, tmp_path):
+    """CG that stops at cg_max_iter while solving the contact correction's columns (they
+    need more iterations than the step's solve, which passes in flight): the message
+    keeps CG's reason and the &solver limits, gives t once, and points to &solver, not to
+    dt and gamma0."""
+    scn = Scene.read(ROOT / "scripts" / "scenes" / "bar2d_hht.nml")
+    scn.set("scheme.t_end", 1.5)
+    scn.set("solver.kind", "cg")
+    scn.set("solver.cg_max_iter", 8)
+    scn.set("output.dir", str(tmp_path / "out"))
+    scn.write(tmp_path / "s.nml")
+    res = run_exe(tmp_path / "s.nml")
+    assert res.returncode == 3, (res.returncode, res.stderr)
+    msg = dyncontact.core.read_summary(tmp_path / "out")["message"]
+    assert msg.startswith("linear solve failed for the contact correction: conjugate "
+                          "gradients did not converge"), msg
+    assert "cg_max_iter = 8" in msg and msg.count("at t = ") == 1, msg
+    assert msg.endswith("check &solver cg_max_iter and cg_rtol, or use &solver kind = "
+                        "'direct'"), msg
+    trace = dyncontact.core.read_trace(tmp_path / "out")
+    assert 1.0 < trace["t"][-1] < 1.5         # it ran to the first contact
+
+
 @pytest.mark.parametrize("name", ["bar2d_hht", "bar2d_theta"])
 def test_cg_run_loaded_from_a_checkpoint_is_bit_identical(name, tmp_path):
     """CG keeps nothing between solves and starts each step's solve from a guess formed

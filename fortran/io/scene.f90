@@ -855,6 +855,15 @@ contains
             msg = key_ctx(name, keys(k))//': must be 1, 3, 6 or 7 in 3D (symmetric rules on '// &
                   'a triangle facet; got '''//int_text(nq)//''')'
             return
+        else if (gauss .and. dim >= 2 .and. nq == 1 .and. &
+                 keys(key_index(keys, 'contact', 'method'))%s == 'alm' .and. &
+                 keys(key_index(keys, 'contact', 'multiplier'))%s == 'integral') then
+            ! one point a facet gives the multipliers' mass matrix rank 1 a facet, fewer
+            ! than its dim multipliers: the multiplier system is singular
+            msg = key_ctx(name, keys(k))//': must be at least '//int_text(dim)// &
+                  ' with &contact method = ''alm'' and multiplier = ''integral'' in '// &
+                  int_text(dim)//'D (one point a facet leaves the multiplier system singular)'
+            return
         end if
         do k = 1, size(keys)
             if (.not. associated(keys(k)%count)) cycle

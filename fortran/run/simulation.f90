@@ -563,9 +563,18 @@ contains
             call sim%scheme%step(sim%mdl, sim%st, stat, msg)
             if (stat /= STAT_OK) then
                 sim%status = 'newton_failed'
-                sim%message = trim(msg)//' at t = '//real_text(sim%st%t + sim%scn%dt, 6)// &
-                              '; check &scheme dt (smaller), &contact gamma0 (of the order of'// &
-                              ' the material stiffness, docs/scenes.md), &scheme newton_tol'
+                sim%message = trim(msg)
+                ! (the schemes' messages mostly give t already)
+                if (index(msg, 'at t = ') == 0) sim%message = trim(sim%message)//' at t = '// &
+                    real_text(sim%st%t + sim%scn%dt, 6)
+                if (index(msg, 'conjugate gradients') > 0) then
+                    sim%message = trim(sim%message)//'; check &solver cg_max_iter and '// &
+                                  'cg_rtol, or use &solver kind = ''direct'''
+                else
+                    sim%message = trim(sim%message)//'; check &scheme dt (smaller), &contact'// &
+                                  ' gamma0 (of the order of the material stiffness, '// &
+                                  'docs/scenes.md), &scheme newton_tol'
+                end if
                 sim%finished = .true.
                 call raise(stat, errmsg, STAT_NUMERIC, trim(sim%message))
                 return

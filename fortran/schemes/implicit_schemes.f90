@@ -590,7 +590,7 @@ contains
                                          k, cols(1:mdl%ndof_e), mdl%ct%nvec(:, i, f), stat, errmsg)
             end if
             if (stat /= STAT_OK) then
-                call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed for the contact correction')
+                call correction_failed(stat, errmsg)
                 return
             end if
         end do
@@ -984,9 +984,22 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         call zcache_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
                            this%need(1:nk), stat, errmsg)
-        if (stat /= STAT_OK) call raise(stat, errmsg, STAT_NUMERIC, &
-                                        'linear solve failed for the contact correction')
+        if (stat /= STAT_OK) call correction_failed(stat, errmsg)
     end subroutine need_columns
+
+    !> A failed solve of the contact correction's columns of J0^{-1}: STAT_NUMERIC, with
+    !> the solver's own reason (conjugate gradients: the residual reached and the &solver
+    !> limits) kept after the scheme's words.
+    pure subroutine correction_failed(stat, errmsg)
+        integer, intent(out) :: stat                        !! STAT_NUMERIC
+        character(len=*), intent(inout), optional :: errmsg !! the solver's message in, ours out
+        character(len=:), allocatable :: why
+        why = ''
+        if (present(errmsg)) why = trim(errmsg)
+        if (len(why) > 0) why = ': '//why
+        call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed for the contact correction' &
+                   //why)
+    end subroutine correction_failed
 
     !> The scheme's update of u, v, a from x = u - dx and the next predictor u~' in one
     !> pass; then K_theta u', M v', M (u' - u~') in one pass; B(u') = K_theta u' + C(u').
