@@ -610,3 +610,59 @@ def test_mesh_command_help(run_cli, tmp_path):
     assert r.returncode == 0, r.stderr
     assert r.stdout.startswith("usage: dyncontact mesh") and "--out FILE.msh" in r.stdout
     assert list(tmp_path.iterdir()) == []
+
+
+#: Two squares' four triangles on [0, 1]^2 (MSH 2.2): 'bottom' and 'top' on the boundary,
+#: 'mid' the edge y = 0.5 between the two squares, a face of two triangles.
+TWO_SQUARES_MSH = """$MeshFormat
+2.2 0 8
+$EndMeshFormat
+$PhysicalNames
+4
+1 1 "bottom"
+1 2 "mid"
+1 3 "top"
+2 4 "body"
+$EndPhysicalNames
+$Nodes
+6
+1 0 0 0
+2 1 0 0
+3 0 0.5 0
+4 1 0.5 0
+5 0 1 0
+6 1 1 0
+$EndNodes
+$Elements
+7
+1 1 2 1 1 1 2
+2 1 2 2 2 3 4
+3 1 2 3 3 5 6
+4 2 2 4 1 1 2 4
+5 2 2 4 1 1 4 3
+6 2 2 4 1 3 4 6
+7 2 2 4 1 3 6 5
+$EndElements
+"""
+
+
+def test_a_contact_group_inside_the_body_is_refused(tmp_path):
+    """A contact facet that is a face of two cells lies inside the body and cannot touch
+    the obstacle: the scene is refused naming &boundary contact (the same mesh's boundary
+    group runs)."""
+    import dyncontact
+    from dyncontact import Scene
+
+    (tmp_path / "m.msh").write_text(TWO_SQUARES_MSH)
+    (tmp_path / "s.nml").write_text(
+        "&mesh file = 'm.msh' /\n&boundary clamped = 'top', contact = 'mid' /\n"
+        "&contact obstacle_point = 0.0, 0.4, probe = 0.5, 0.5 /\n"
+        "&scheme t_end = 0.01, dt = 0.005 /\n")
+    with pytest.raises(dyncontact.BadInputError,
+                       match=r"&boundary contact: a contact facet lies inside the body"):
+        dyncontact.run(tmp_path / "s.nml", out=tmp_path / "o", progress=False)
+    s = Scene.read(tmp_path / "s.nml")
+    s.set("boundary.contact", "bottom")
+    s.set("contact.probe", [0.5, 0.0])
+    s.set("contact.obstacle_point", [0.0, 0.0])
+    assert dyncontact.run(s, out=tmp_path / "o2", progress=False).status == "ok"

@@ -468,6 +468,16 @@ contains
                 call raise(stat, errmsg, STAT_BAD_INPUT, 'a contact facet belongs to no cell')
                 return
             end if
+            ! a facet of two cells lies inside the body: it cannot touch the obstacle
+            do i = i + 1, first(ct%nodes(1, f) + 1) - 1
+                c = adj(i)
+                if (all([(any(msh%cells(:, c) == ct%nodes(j, f)), j=1, dim)])) then
+                    call raise(stat, errmsg, STAT_BAD_INPUT, 'a contact facet lies inside '// &
+                               'the body (it is a face of two cells): the contact boundary '// &
+                               'must be on the body''s boundary')
+                    return
+                end if
+            end do
             c = ct%cell(f)
             xe = msh%x(:, msh%cells(:, c))
             call p1_gradients(dim, xe, grad)
