@@ -79,3 +79,25 @@ def test_stepper_is_exported(tmp_path):
         assert st.load(tmp_path / "five.bin") == 5
         st.advance(3)
         assert np.array_equal(st.state()["u"], u8)    # bit for bit (docs/scenes.md)
+
+
+def test_a_closed_stepper_raises_instead_of_crashing(tmp_path):
+    """After its `with` block a Stepper is closed: advance, state and matrix raise
+    DyncontactError (they passed a null handle to the core, which crashed the
+    interpreter); bad arguments are Python errors naming the argument."""
+    import dyncontact
+
+    scene = dyncontact.Scene.read(ROOT / "scripts" / "scenes" / "bar2d_hht.nml")
+    with dyncontact.Stepper(scene, tmp_path / "run") as st:
+        assert st.advance(3) == 3
+        with pytest.raises(ValueError, match="steps must be >= 0"):
+            st.advance(-5)
+        with pytest.raises(TypeError, match="steps must be an int"):
+            st.advance(2.5)
+        with pytest.raises(ValueError, match="which must be one of M, K, K_theta"):
+            st.matrix("X")
+    for call in (lambda: st.advance(1), st.state, lambda: st.matrix("M")):
+        with pytest.raises(dyncontact.DyncontactError, match="closed"):
+            call()
+    with pytest.raises(TypeError, match="out must be the output folder"):
+        dyncontact.Stepper(scene, None)

@@ -627,13 +627,22 @@ class Stepper(Model):
     _WHICH = {"M": 1, "K": 2, "K_theta": 3}
 
     def __init__(self, scene, out: str | os.PathLike):
+        if not isinstance(out, (str, bytes, os.PathLike)):
+            raise TypeError("Stepper(): out must be the output folder (a path), not "
+                            f"{type(out).__name__}")
         super().__init__(scene, _out=out)
         self.finished = False
 
     def advance(self, steps: int = 1) -> int:
-        """Advance by at most ``steps`` steps; returns the steps done. A numerical
-        failure (unstable, Newton) raises :class:`NumericalError`."""
-        done, _step, finished, stat, errmsg = _core().dc_sim_advance(self.handle, steps)
+        """Advance by at most ``steps`` steps (an int >= 0); returns the steps done. A
+        numerical failure (unstable, Newton) raises :class:`NumericalError`; a closed
+        Stepper, :class:`DyncontactError`."""
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
+            raise TypeError(f"advance(): steps must be an int, not {type(steps).__name__}")
+        if steps < 0:
+            raise ValueError(f"advance(): steps must be >= 0 (got {steps})")
+        self._need()
+        done, _step, finished, stat, errmsg = _core().dc_sim_advance(self.handle, int(steps))
         self.finished = bool(finished)
         if stat == STAT_NUMERIC:
             raise NumericalError(_str(errmsg))
@@ -676,12 +685,17 @@ class Stepper(Model):
         scheme carries it into the next step), free dofs; clear: the last step found no
         contact point possible at u (:meth:`contact_clear`), so the trace's p_n skips the
         probe's facets at a node (False: not known)."""
+        self._need()
         t, u, v, a, mv, load, bu, clear = _core().dc_sim_state(self.handle, self.dofs)
         return {"t": float(t), "u": u, "v": v, "a": a, "mv": mv, "load": load, "bu": bu,
                 "clear": bool(clear)}
 
     def matrix(self, which: str) -> np.ndarray:
         """The assembled 'M', 'K' or 'K_theta' on the free dofs, as a dense array."""
+        if which not in self._WHICH:
+            raise ValueError(f"matrix(): which must be one of {', '.join(self._WHICH)} "
+                             f"(got {which!r})")
+        self._need()
         nnz = int(_core().dc_sim_matrix_nnz(self.handle))
         colptr, rowind, val, stat, errmsg = _core().dc_sim_matrix(
             self.handle, self._WHICH[which], self.dofs, nnz)
