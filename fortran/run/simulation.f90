@@ -148,13 +148,17 @@ contains
         sim%st%a = 0.0_dp
         if (.not. write_output) return
         call start_scheme(sim, stat, errmsg)
-        if (stat /= STAT_OK) return
+        if (stat /= STAT_OK) then
+            call release_scheme(sim)
+            return
+        end if
         if (again) then
             call reopen_outputs(sim, stat, errmsg)
         else
             call open_outputs(sim, stat, errmsg)
         end if
         if (stat /= STAT_OK) then
+            call release_scheme(sim)
             if (sim%status == 'running' .and. stat == STAT_INTERNAL) &
                 call open_write_failed(sim, errmsg)
             if (sim%trace%fd >= 0) then    ! ours: remove it (never another run's)
@@ -168,6 +172,15 @@ contains
         end if
         sim%finished = sim%step >= sim%n_steps
     end subroutine sim_open_scene
+
+    !> The scheme of a run that failed to open: its factors are C memory, which the
+    !> deallocation of the run would not release.
+    subroutine release_scheme(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        if (.not. allocated(sim%scheme)) return
+        call sim%scheme%free()
+        deallocate (sim%scheme)
+    end subroutine release_scheme
 
     !> The mesh and the model of the run's scene, and the run's sizes (a mesh file above
     !> &mesh max_elements is refused).
