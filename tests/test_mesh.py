@@ -666,3 +666,30 @@ def test_a_contact_group_inside_the_body_is_refused(tmp_path):
     s.set("contact.probe", [0.5, 0.0])
     s.set("contact.obstacle_point", [0.0, 0.0])
     assert dyncontact.run(s, out=tmp_path / "o2", progress=False).status == "ok"
+
+
+def test_a_mesh_in_parts_that_share_no_node_is_warned_about(tmp_path):
+    """The two squares with the upper one's lower nodes duplicated (coincident, not
+    merged: what a mesh of two volumes not made conforming gives) are two parts, each
+    moving on its own: the run says so. The merged mesh runs without the warning."""
+    import warnings
+
+    import dyncontact
+
+    split = (TWO_SQUARES_MSH.replace("$Nodes\n6\n", "$Nodes\n8\n")
+             .replace("6 1 1 0\n$EndNodes", "6 1 1 0\n7 0 0.5 0\n8 1 0.5 0\n$EndNodes")
+             .replace("6 2 2 4 1 3 4 6", "6 2 2 4 1 7 8 6")
+             .replace("7 2 2 4 1 3 6 5", "7 2 2 4 1 7 6 5"))
+    for name, text, parts in (("merged", TWO_SQUARES_MSH, 1), ("split", split, 2)):
+        (tmp_path / f"{name}.msh").write_text(text)
+        (tmp_path / f"{name}.nml").write_text(
+            f"&mesh file = '{name}.msh' /\n&boundary clamped = 'top', contact = 'bottom' /\n"
+            "&contact probe = 0.5, 0.0 /\n&scheme t_end = 0.01, dt = 0.005 /\n")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = dyncontact.run(tmp_path / f"{name}.nml", out=tmp_path / name, progress=False)
+        assert res.status == "ok"
+        said = [str(w.message) for w in caught if "share no node" in str(w.message)]
+        assert len(said) == (parts > 1)
+        if said:
+            assert f"has {parts} parts that share no node" in said[0]

@@ -4,7 +4,7 @@
 module model
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
-    use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets
+    use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets, mesh_parts
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_find, csc_matvec_t_values, csc_swap_values, block2_csc_values, &
@@ -13,6 +13,7 @@ module model
                       block2_matvec_ks3, block3_t, block3_from_csc, block3_matvec, block3_matvec_km, &
                       block3_scalar_blocks, block3_matvec_ks2, block3_matvec_ks3
     use mass_redistribution, only: mass_region, mass_redistribute
+    use text, only: int_text
     use cholmod, only: cholmod_t, chol_factor, chol_free
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
@@ -114,7 +115,7 @@ contains
         character(len=1024) :: msg
         real(dp) :: lambda, mu
         integer, allocatable :: facets(:)
-        integer :: dim, j
+        integer :: dim, j, parts
         stat = STAT_OK
         msg = ''
         mdl%msh = msh
@@ -125,6 +126,10 @@ contains
         end if
         dim = mdl%msh%dim
         mdl%dim = dim
+        parts = mesh_parts(mdl%msh)
+        if (parts > 1) call note(mdl, 'warning: '//trim(prm%mesh_name)//' has '// &
+                                 int_text(parts)//' parts that share no node, each moving on '// &
+                                 'its own (coincident nodes that were not merged?)')
         mdl%ndof_e = dim * (dim + 1)
         mdl%normal = 0.0_dp
         mdl%normal(1:dim) = prm%obstacle_normal(1:dim) / norm2(prm%obstacle_normal(1:dim))

@@ -30,7 +30,7 @@ module mesh
     end type mesh_t
 
     public :: mesh_free, mesh_check, mesh_find_group, mesh_group_nodes, mesh_group_facets
-    public :: mesh_facet_owner, mesh_cell_size
+    public :: mesh_facet_owner, mesh_cell_size, mesh_parts
 
 contains
 
@@ -102,6 +102,37 @@ contains
         if (stat /= STAT_OK) return
         call check_nodes_used(this, stat, errmsg)
     end subroutine mesh_check
+
+    !> The number of parts of the mesh that share no node (connected components of the
+    !> cells through their nodes; nodes in no cell do not count): 1 for one body. Two
+    !> parts that touch through coincident but distinct nodes (a mesh whose duplicate
+    !> nodes were not merged) count as two.
+    integer function mesh_parts(msh) result(parts)
+        type(mesh_t), intent(in) :: msh          !! mesh
+        integer :: parent(msh%n_nodes), c, k, a, b
+        logical :: used(msh%n_nodes)
+        parent = [(k, k = 1, msh%n_nodes)]
+        used = .false.
+        do c = 1, msh%n_cells
+            used(msh%cells(:, c)) = .true.
+            a = root(msh%cells(1, c))
+            do k = 2, size(msh%cells, 1)
+                b = root(msh%cells(k, c))
+                if (a /= b) parent(b) = a
+            end do
+        end do
+        parts = count([(used(k) .and. root(k) == k, k = 1, msh%n_nodes)])
+    contains
+        !> The representative of node n's part (path halving on the way up).
+        integer function root(n) result(r)
+            integer, intent(in) :: n
+            r = n
+            do while (parent(r) /= r)
+                parent(r) = parent(parent(r))
+                r = parent(r)
+            end do
+        end function root
+    end function mesh_parts
 
     !> Refuse item i of a mesh_check (`what` = 'cell' or 'facet') with the message
     !> 'mesh check: <what> <i><problem><value>', e.g. 'mesh check: cell 7 has group index -1'.
