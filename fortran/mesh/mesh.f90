@@ -109,8 +109,10 @@ contains
     !> nodes were not merged) count as two.
     integer function mesh_parts(msh) result(parts)
         type(mesh_t), intent(in) :: msh          !! mesh
-        integer :: parent(msh%n_nodes), c, k, a, b
-        logical :: used(msh%n_nodes)
+        integer, allocatable :: parent(:)        ! (heap: a large mesh's would not fit the stack)
+        logical, allocatable :: used(:)
+        integer :: c, k, a, b
+        allocate (parent(msh%n_nodes), used(msh%n_nodes))
         parent = [(k, k = 1, msh%n_nodes)]
         used = .false.
         do c = 1, msh%n_cells
@@ -121,7 +123,10 @@ contains
                 if (a /= b) parent(b) = a
             end do
         end do
-        parts = count([(used(k) .and. root(k) == k, k = 1, msh%n_nodes)])
+        parts = 0
+        do k = 1, msh%n_nodes
+            if (used(k) .and. root(k) == k) parts = parts + 1
+        end do
     contains
         !> The representative of node n's part (path halving on the way up).
         integer function root(n) result(r)
