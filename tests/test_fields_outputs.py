@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 from conftest import EXE
+from test_reliability import fill
 
 EXIT_OK, EXIT_WRITE = 0, 4
 #: Seconds to wait for a run to write its first snapshots.
@@ -118,14 +119,7 @@ def test_disk_full_while_writing_fields_keeps_a_pvd_and_no_partial_vtu(kind, tmp
             time.sleep(0.01)
         proc.send_signal(signal.SIGSTOP)
         try:
-            fd = os.open(disk / "filler", os.O_WRONLY | os.O_CREAT)
-            try:
-                while os.write(fd, b"x" * 4096) > 0:
-                    pass
-            except OSError:
-                pass
-            finally:
-                os.close(fd)
+            fill(disk)
         finally:
             proc.send_signal(signal.SIGCONT)
         _, stderr = proc.communicate(timeout=120)
