@@ -2,7 +2,8 @@
 
 Exit status: 0 when every run could be done (unstable runs are results, not failures),
 1 when some runs failed to run (each is reported, the study still completes), 2 bad
-command line, 130 interrupted.
+command line, 130 interrupted (Ctrl-C or SIGTERM: the pool's workers are stopped, the
+finished runs stay cached and the same command resumes).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import time
 from typing import Any, Sequence
 
 from .common import add_runner_options
+from .sweep import sigterm_as_interrupt
 
 __all__ = ["main", "write_index"]
 
@@ -129,25 +131,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     t0 = time.perf_counter()
     out = os.path.abspath(args.out)
     try:
-        if args.study == "all":
-            if args.cache is None:
-                args.cache = os.path.join(out, "cache")
-            reports = {name: run_one(name, os.path.join(out, name), args) for name in STUDIES}
-            from .which import run_which
-
-            reports["which"] = run_which(os.path.join(out, "which"), reports["work-precision"],
-                                         reports["stability"], quick=args.quick,
-                                         c_implicit=args.c_implicit,
-                                         c_explicit=args.c_explicit, **_common(args))
-            wall = time.perf_counter() - t0
-            index = write_index(out, reports, wall, args.quick)
-            n = sum(r["n_runs"] for r in reports.values())
-            print(f"dyncontact study: {n} runs in {wall:.1f} s -> {index}")
-        else:
-            reports = {args.study: run_one(args.study, out, args)}
-            rep = reports[args.study]
-            print(f"dyncontact study {args.study}: {rep['n_runs']} runs in "
-                  f"{time.perf_counter() - t0:.1f} s -> {rep['summary']}")
+        with sigterm_as_interrupt():
+            reports = _run_study(args, out, t0)
     except KeyboardInterrupt:
         print("dyncontact study: interrupted (finished runs are cached; run the same "
               "command again to resume)", file=sys.stderr)
@@ -161,3 +146,27 @@ def main(argv: Sequence[str] | None = None) -> int:
               file=sys.stderr)
         return 1
     return 0
+
+
+def _run_study(args, out: str, t0: float) -> dict[str, dict[str, Any]]:
+    """Run the study (or all of them) the command line asks for; the reports by name."""
+    if args.study != "all":
+        reports = {args.study: run_one(args.study, out, args)}
+        rep = reports[args.study]
+        print(f"dyncontact study {args.study}: {rep['n_runs']} runs in "
+              f"{time.perf_counter() - t0:.1f} s -> {rep['summary']}")
+        return reports
+    if args.cache is None:
+        args.cache = os.path.join(out, "cache")
+    reports = {name: run_one(name, os.path.join(out, name), args) for name in STUDIES}
+    from .which import run_which
+
+    reports["which"] = run_which(os.path.join(out, "which"), reports["work-precision"],
+                                 reports["stability"], quick=args.quick,
+                                 c_implicit=args.c_implicit,
+                                 c_explicit=args.c_explicit, **_common(args))
+    wall = time.perf_counter() - t0
+    index = write_index(out, reports, wall, args.quick)
+    n = sum(r["n_runs"] for r in reports.values())
+    print(f"dyncontact study: {n} runs in {wall:.1f} s -> {index}")
+    return reports
