@@ -318,9 +318,12 @@ def step_ratio(s: SchemeSpec, c_implicit: float, c_explicit: float) -> float:
 
 
 def scheme_list(keys: str | Sequence[str]) -> list[SchemeSpec]:
-    """Schemes from a comma-separated list of keys (ValueError names a bad key)."""
+    """Schemes from a comma-separated list of keys (ValueError names a bad key, and
+    refuses an empty list: a study of no scheme is a mistake, not a request for all)."""
     if isinstance(keys, str):
         keys = [k.strip() for k in keys.split(",") if k.strip()]
+    if not keys:
+        raise ValueError(f"no scheme key given; known: {', '.join(SCHEMES)}")
     bad = [k for k in keys if k not in SCHEMES]
     if bad:
         raise ValueError(f"unknown scheme key(s) {', '.join(bad)}; known: "

@@ -493,6 +493,7 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
             if on_done is not None:
                 on_done(i, rec)
 
+        hits = 0
         for i, task in enumerate(tasks):
             try:
                 keys[i] = task_key(task)
@@ -501,13 +502,15 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
                 continue
             hit = lookup(cache, keys[i])
             if hit is not None:
+                hits += 1
                 done(i, hit)
             else:
                 todo.append(i)
         todo.sort(key=lambda i: -_cost(tasks[i]))
         if log:
-            log(f"{desc}: {len(tasks)} runs, {len(tasks) - len(todo)} from the cache, "
-                f"{len(todo)} to do")
+            unkeyed = len(tasks) - hits - len(todo)   # no scene: an error record each
+            log(f"{desc}: {len(tasks)} runs, {hits} from the cache, {len(todo)} to do"
+                + (f", {unkeyed} whose scene could not be built" if unkeyed else ""))
 
         if todo and scheduler is not None:
             _sweep_dask(tasks, keys, todo, cache, scheduler, done)

@@ -1,0 +1,84 @@
+"""Option values the command lines refuse up front: one line naming the option, exit 2,
+nothing written (`dyncontact study`, scripts/studies, `dyncontact mesh`, scripts/bench),
+and the study sweep's progress line (what it counts as taken from the cache)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+
+import pytest
+
+from conftest import ROOT, SUBPROCESS_TIMEOUT
+
+
+def _script(name: str, *args, cwd) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    return subprocess.run([str(ROOT / "scripts" / name), *map(str, args)], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=SUBPROCESS_TIMEOUT)
+
+
+def _one_line(res, code: int, prefix: str) -> str:
+    assert res.returncode == code, (res.returncode, res.stdout[-2000:], res.stderr[-2000:])
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert lines[0].startswith(prefix), res.stderr
+    assert "Traceback" not in res.stderr
+    return lines[0]
+
+
+# --------------------------------------------------------------------------- study
+
+@pytest.mark.parametrize("study, option, value", [
+    ("convergence", "--c-explicit", "0"),       # was ZeroDivisionError
+    ("convergence", "--c-implicit", "0"),
+    ("convergence", "--c-implicit", "-20"),     # was one "run failed" line per run
+    ("work-precision", "--c-explicit", "-1"),
+    ("convergence", "--t-end", "-1"),
+    ("convergence", "--t-end", "0"),
+    ("convergence", "--t-end", "nan"),
+    ("convergence", "--t-end", "abc"),
+    ("convergence", "--schemes", ""),           # was every scheme
+    ("convergence", "--schemes", ","),
+    ("convergence", "--out", ""),               # was the current folder
+    ("convergence", "--workers", "0"),
+])
+def test_study_refuses_bad_values_naming_the_option(run_cli, tmp_path, study, option,
+                                                   value):
+    args = ["study", study, "--quick", "--no-progress"]
+    if option != "--out":
+        args += ["--out", str(tmp_path / "s")]
+    line = _one_line(run_cli(*args, option, value), 2, "dyncontact study: ")
+    assert option in line
+    assert sorted(os.listdir(tmp_path)) == []   # nothing written, here or in --out
+
+
+@pytest.mark.parametrize("args", [["--out"], ["--out="], ["--out", ""]])
+def test_studies_script_out_needs_a_folder(tmp_path, args):
+    line = _one_line(_script("studies", *args, cwd=tmp_path), 2, "studies: ")
+    assert "--out" in line and "unbound" not in line
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+def test_sweep_counts_only_real_cache_hits(tmp_path):
+    """A task whose scene cannot be built (a bad key value) is an error record, not a run
+    taken from the cache."""
+    from dyncontact.study.common import write_base_scenes
+    from dyncontact.study.sweep import make_task, sweep
+
+    base = write_base_scenes(str(tmp_path / "scenes"))["exact1d"]
+    good = make_task(base, {"mesh.h": 0.1, "scheme.dt": 0.005, "scheme.t_end": 0.5},
+                     "trace", {"columns": "t,u_n"})
+    bad = make_task(base, {"mesh.h": 0.1, "scheme.dt": -1.0}, "trace")
+    cache = str(tmp_path / "cache")
+    lines: list[str] = []
+    recs = sweep([bad, good], cache, workers=1, progress=False, log=lines.append)
+    assert [r["status"] for r in recs] == ["error", "ok"]
+    assert ("runs: 2 runs, 0 from the cache, 1 to do, 1 whose scene could not be built"
+            in lines), lines
+    lines.clear()
+    recs = sweep([bad, good], cache, workers=1, progress=False, log=lines.append)
+    assert [r["cached"] for r in recs] == [False, True]
+    assert ("runs: 2 runs, 1 from the cache, 0 to do, 1 whose scene could not be built"
+            in lines), lines
