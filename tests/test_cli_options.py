@@ -82,3 +82,19 @@ def test_sweep_counts_only_real_cache_hits(tmp_path):
     assert [r["cached"] for r in recs] == [False, True]
     assert ("runs: 2 runs, 1 from the cache, 0 to do, 1 whose scene could not be built"
             in lines), lines
+
+
+# --------------------------------------------------------------------------- mesh
+
+@pytest.mark.parametrize("out, words", [
+    ("/proc/m.msh", ("/proc/m.msh", "cannot write")),      # was a gmsh traceback, exit 1
+    ("m.txt", ("--out", ".msh")),                           # was a gmsh traceback, exit 1
+    ("missing/m.msh", ("--out", "no folder missing")),      # was created silently
+    ("./", ("--out", ".msh")),
+])
+def test_mesh_out_is_refused_in_one_line(run_cli, tmp_path, out, words):
+    line = _one_line(run_cli("mesh", "--h", "0.1", "--out", out, cwd=tmp_path), 2,
+                     "dyncontact mesh: ")
+    for w in words:
+        assert w in line, line
+    assert sorted(os.listdir(tmp_path)) == []
