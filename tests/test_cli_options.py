@@ -98,3 +98,60 @@ def test_mesh_out_is_refused_in_one_line(run_cli, tmp_path, out, words):
     for w in words:
         assert w in line, line
     assert sorted(os.listdir(tmp_path)) == []
+
+
+# --------------------------------------------------------------------------- bench
+
+@pytest.mark.parametrize("args, words", [
+    (["--repeat", "0"], ("--repeat", ">= 1")),          # ran once, said "ran 0 more times"
+    (["--repeat", "-3"], ("--repeat", ">= 1")),
+    (["--quick", "--only", "seed_h0.02"],               # listed seed_h0.02 as available
+     ("seed_h0.02", "--quick", "without --quick")),
+    (["--only", "seed_h0.05,nope"], ("--only nope",)),  # nope was ignored
+    (["--only", "seed_h0.05", "--only", "pc_h9*"], ("--only pc_h9*",)),
+    (["--out", "missing/dir/x.json"], ("--out", "no folder missing/dir")),   # was created
+    (["--out", "./"], ("--out", "folder")),
+])
+def test_bench_refuses_bad_options_before_running(tmp_path, monkeypatch, capsys, args,
+                                                  words):
+    from dyncontact.study.bench import bench_main
+
+    monkeypatch.chdir(tmp_path)
+    assert bench_main(args, root=str(tmp_path)) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bench: "), err
+    for w in words:
+        assert w in err[0], err
+    assert sorted(os.listdir(tmp_path)) == []       # no run, no folder
+
+
+def test_bench_only_rows_of_the_quick_mode_pass_the_check():
+    from dyncontact.study.bench import bench_specs, unmatched_only
+
+    assert unmatched_only(True, ["seed_h0.05,pc_*"]) is None
+    assert unmatched_only(False, ["seed_h0.02"]) is None
+    assert [s.name for s in bench_specs(quick=True, only=["pc_*"])] == [
+        "pc_h0.05_consistent", "pc_h0.05_lumped"]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--sizes", "abc"], ("--sizes", "abc")),          # were tracebacks
+    (["--sizes", "0"], ("--sizes", "h = 0")),
+    (["--sizes", "-0.01"], ("--sizes", "h = -0.01")),
+    (["--sizes", "0.01,nan"], ("--sizes", "nan")),
+    (["--steps", "0"], ("--steps", ">= 1")),           # wrote inf
+    (["--repeats", "0"], ("--repeats", ">= 1")),
+    (["--replot", "missing.csv"], ("--replot", "missing.csv")),
+])
+def test_scaling_refuses_bad_options_in_one_line(tmp_path, monkeypatch, capsys, args, words):
+    from dyncontact.study import scaling
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        scaling.main([*args, "--out", str(tmp_path / "sc")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("scripts/bench --scaling: "), err
+    for w in words:
+        assert w in err[0], err
+    assert sorted(os.listdir(tmp_path)) == []
