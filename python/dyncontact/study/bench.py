@@ -287,7 +287,7 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100,
     ratios = [r["floor_ratio"] for r in runs if r["floor_ratio"] is not None]
     row = {
         "scene": spec.name,
-        "scheme": scheme_text(spec.settings),
+        "scheme": scheme_text(spec.settings, spec.base),
         "h": spec.settings.get("mesh.h"),
         "dt": spec.settings.get("scheme.dt"),
         "status": full["status"],

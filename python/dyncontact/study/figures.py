@@ -553,7 +553,7 @@ def _figure_record(spec: RunSpec, rec: Mapping[str, Any], out_dir: str) -> dict[
            "newton_its_total": rec.get("newton_its_total"),
            "factorizations": m.get("factorizations"), "dofs": m.get("dofs"),
            "elements": m.get("elements"), "rows": m.get("rows", 0),
-           "settings": dict(spec.settings)}
+           "settings": dict(spec.settings), "base": spec.base}
     if m:
         out.update(isa=m.get("isa"), solve_kernel=m.get("solve_kernel"))
     out["cached"] = bool(rec.get("cached"))
@@ -724,7 +724,7 @@ def write_index(out_root: str, report: Mapping[str, Any]) -> str:
             st = f"{r['status']}: {r['message']}" if r["status"] in (ERROR, REFUSED) \
                 else r["status"]
             lines.append(
-                f"| {name} | {scheme_text(r['settings'])} | "
+                f"| {name} | {scheme_text(r['settings'], r.get('base'))} | "
                 f"{num(r['settings'].get('scheme.dt', 0))} | {st} | {r.get('steps') or 0} | "
                 f"{fmt(r.get('t_end_reached'), '.4g')} | {fmt(r.get('wall_s'), '.2f')} | "
                 f"{fmt(r.get('wall_measured_s'), '.2f')} | "
