@@ -66,8 +66,8 @@ import os
 import shutil
 import signal
 import sys
-import threading
 import tempfile
+import threading
 import time
 import traceback
 import uuid
