@@ -116,6 +116,34 @@ def test_plot_needs_out(run_cli, tmp_path):
     _one_error_line(run_cli("plot", a), 2)
 
 
+@pytest.mark.parametrize("out, written", [
+    ("cmp_dt0.001", "cmp_dt0.001.png"),          # dots in a name are not an extension
+    ("run.v2", "run.v2.png"),
+    ("newdir2/", "newdir2/traces.png"),          # a trailing slash names a folder
+    ("fig.PDF", "fig.PDF"),
+    ("fig.svg", "fig.svg"),
+    ("fig.png", "fig.png"),
+])
+def test_plot_out_names_the_file_docs_promise(run_cli, tmp_path, out, written):
+    """docs/scenes.md: OUT.png when OUT has no extension, OUT/traces.png for a folder."""
+    a = _write_run(tmp_path / "a")
+    res = run_cli("plot", a, "--out", out)
+    assert res.returncode == 0, res.stderr
+    path = tmp_path / written
+    assert path.is_file() and path.stat().st_size > 1000
+    assert res.stdout.strip() == f"dyncontact: wrote {written}"
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == \
+        ([] if "/" in written else [written])
+
+
+@pytest.mark.parametrize("out", ["x.xyz", "x.jpg"])
+def test_plot_unsupported_format_is_one_line(run_cli, tmp_path, out):
+    a = _write_run(tmp_path / "a")
+    line = _one_error_line(run_cli("plot", a, "--out", out), 2)
+    assert "--out" in line and "unsupported format" in line and ".png" in line
+    assert not (tmp_path / out).exists()
+
+
 # --------------------------------------------------------------------------- run: bad input
 
 def test_run_missing_scene_file(run_cli, tmp_path):

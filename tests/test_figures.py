@@ -70,6 +70,8 @@ def test_quick_index_lists_every_run_with_its_status(quick_figures):
             summary = read_summary(out / "runs" / run.name)
             status, steps = rows[run.name][3], int(rows[run.name][4])
             assert status == summary["status"]
+            # the scheme column names the scheme the run ran (Fig. 9's ball: its scene's)
+            assert rows[run.name][1].split()[0].rstrip(",") == summary["scheme"], run.name
             assert steps == summary["steps"]
             assert (out / "runs" / run.name / "trace.csv").is_file()
     for fig in report["figures"]:
@@ -355,6 +357,39 @@ def test_write_index_shows_unstable_runs(tmp_path):
     assert "error: boom" in text
     assert json.loads((tmp_path / "index.json").read_text())["runs"][0]["status"] == \
         "unstable"
+
+
+def test_write_index_gives_the_scheme_of_the_base_scene(tmp_path):
+    """Fig. 9's ball runs set no scheme key: their scheme is their scene file's
+    (newmark), not the built-in default scene's (hht)."""
+    from dyncontact.study.figures import BALL_SCENE, ball_trace_spec, write_index
+
+    ball = ball_trace_spec(0.1, 0.01, 1.6)
+    assert "scheme.name" not in ball.settings
+    recs = [dict(name=ball.name, settings=ball.settings, base=ball.base, status="ok",
+                 message="", steps=160, t_end_reached=1.6, wall_s=0.05, wall_measured_s=0.1,
+                 newton_its_total=160, dofs=99)]
+    report = {"quick": True, "started": "now", "wall_s": 1.0, "jobs": 2, "cpu_count": 2,
+              "runs_wall_sum_s": 0.1, "plots_wall_sum_s": 0.5, "version": "x",
+              "runs": recs,
+              "figures": [{"key": "fig9", "png": "fig9.png", "title": "Fig. 9: ball",
+                           "kind": "traces", "note": "", "runs": [ball.name],
+                           "plot": {"ok": True, "wall_s": 0.5}}]}
+    text = open(write_index(str(tmp_path), report), encoding="utf-8").read()
+    assert ball.base == BALL_SCENE
+    assert f"| {ball.name} | newmark | 0.01 | ok | 160 |" in text
+
+
+def test_scheme_text_takes_what_settings_leave_from_the_base_scene(tmp_path):
+    from dyncontact.study.common import scheme_text
+
+    base = tmp_path / "b.nml"
+    base.write_text("&scheme name = 'pc', mass = 'lumped', dt = 0.001 /\n")
+    assert scheme_text({}, str(base)) == "pc, lumped mass"
+    assert scheme_text({"scheme.name": "newmark", "scheme.mass": "consistent"},
+                       str(base)) == "newmark"
+    assert scheme_text({"scheme.beta": 0.3}, str(base)) == "pc β=0.3, lumped mass"
+    assert scheme_text({}) == "hht"                 # the built-in default scene's
 
 
 def test_bench_rows_and_table():

@@ -591,7 +591,7 @@ def test_gmsh_session_of_caller_kept(core_ext, tmp_path):
 
 
 def test_mesh_command(tmp_path, capsys):
-    out = tmp_path / "sub" / "bar2d_h0.05.msh"
+    out = tmp_path / "bar2d_h0.05.msh"   # in an existing folder (tests/test_cli_options.py)
     assert mesh_io.main(["--h", "0.05", "--out", str(out)]) == 0
     assert out.read_text().startswith("$MeshFormat\n4.1 0 8\n")
     assert "63 nodes, 80 triangles" in capsys.readouterr().out

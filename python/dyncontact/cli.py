@@ -148,14 +148,27 @@ def cmd_plot(args) -> int:
     return EXIT_OK
 
 
+#: The image formats `plot --out` writes (matplotlib's back-ends for them are always there).
+PLOT_FORMATS = (".png", ".pdf", ".svg")
+
+
 def _png_path(out: str) -> str:
-    """The file `plot --out OUT` really writes: OUT/traces.png for an existing folder,
-    OUT.png when OUT has no extension (as matplotlib would), else OUT."""
-    if os.path.isdir(out):
+    """The file `plot --out OUT` really writes (docs/scenes.md): OUT/traces.png when OUT
+    is an existing folder or ends with a slash (a folder, created if needed); OUT itself
+    when it ends with one of :data:`PLOT_FORMATS` (any case); OUT.png otherwise, so that a
+    dotted name (`cmp_dt0.001`) keeps its dots. A suffix of letters only that is not a
+    format (`x.xyz`, `x.jpg`) is taken for a mistyped format and refused (UsageError)."""
+    if not out:
+        raise UsageError("--out: empty file name")
+    if out.endswith(("/", os.sep)) or os.path.isdir(out):
         return os.path.join(out, "traces.png")
-    if not os.path.splitext(out)[1]:
-        return out + ".png"
-    return out
+    ext = os.path.splitext(out)[1]
+    if ext.lower() in PLOT_FORMATS:
+        return out
+    if ext[1:].isalpha() and ext[1:].isascii():
+        raise UsageError(f"--out {out}: unsupported format {ext!r} (use "
+                         f"{', '.join(PLOT_FORMATS)}, or no extension for .png)")
+    return out + ".png"
 
 
 def cmd_study(argv: Sequence[str]) -> int:
@@ -199,8 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "runs (folders holding trace.csv and summary.json).")
     pl.add_argument("dirs", nargs="+", metavar="DIR")
     pl.add_argument("--out", required=True, metavar="FILE.png",
-                    help="PNG to write (an existing folder: FOLDER/traces.png; no extension: "
-                    ".png added)")
+                    help="image to write: FILE.png, .pdf or .svg; a name without one of "
+                    "these extensions gets .png added (cmp_dt0.001 -> cmp_dt0.001.png); "
+                    "an existing folder or a name ending with '/': FOLDER/traces.png")
     pl.add_argument("--title", metavar="T")
     pl.add_argument("--labels", metavar="L1,L2,...", help="legend labels (default: scheme "
                     "and parameters from summary.json)")

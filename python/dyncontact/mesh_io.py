@@ -254,7 +254,10 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float 
             raise BadInputError(f"{geo}: gmsh cannot mesh it: {exc}") from None
         gmsh.option.setNumber("Mesh.MshFileVersion", float(version))
         gmsh.option.setNumber("Mesh.Binary", int(bool(binary)))
-        gmsh.write(str(out))
+        try:
+            gmsh.write(str(out))
+        except Exception as exc:   # gmsh raises a bare Exception with its last error
+            raise BadInputError(f"{out}: gmsh cannot write it: {exc}") from None
     return out
 
 
@@ -303,6 +306,17 @@ def _summary(m: MeshData) -> str:
     return f"{len(m.x)} nodes, {len(m.cells)} {kind}; groups {groups}"
 
 
+def _check_out(out: str) -> None:
+    """BadInputError naming ``--out`` unless it is a .msh file in an existing folder."""
+    if not out.lower().endswith(".msh") or out.endswith(("/", os.sep)):
+        raise BadInputError(f"--out {out}: the mesh file's name must end in .msh")
+    folder = os.path.dirname(out) or "."
+    if not os.path.isdir(folder):
+        raise BadInputError(f"--out {out}: no folder {folder} (create it first)")
+    if os.path.isdir(out):
+        raise BadInputError(f"--out {out}: is a folder")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m dyncontact mesh``."""
     p = argparse.ArgumentParser(
@@ -312,7 +326,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "width are set as the file's parameters of those names; where the file "
                     "uses no h, h is the largest mesh size.")
     p.add_argument("--h", type=float, default=0.05, help="mesh size (default 0.05)")
-    p.add_argument("--out", required=True, metavar="FILE.msh", help="mesh file to write")
+    p.add_argument("--out", required=True, metavar="FILE.msh",
+                   help="mesh file to write (.msh, in an existing folder)")
     p.add_argument("--length", type=float, default=1.0,
                    help="parameter length (the bar's length, y; default 1)")
     p.add_argument("--width", type=float, default=0.1,
@@ -328,13 +343,16 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m dyncontact mesh --h 0.02 --out meshes/bar2d_h0.02.msh``.
 
-    Returns the exit status: 0, or 2 on bad input (message on stderr).
+    Returns the exit status: 0, or 2 on bad input (message on stderr). ``--out`` must
+    end in ``.msh`` and its folder must exist: a command that writes one file does not
+    create folders a typo named (the API's :func:`generate` does create them).
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "mesh":
         argv = argv[1:]
     args = build_parser().parse_args(argv)
     try:
+        _check_out(args.out)
         fmt = dict(binary=args.binary, version=args.msh_version)
         if args.geo is None:
             out = generate_bar(args.h, args.out, length=args.length, width=args.width, **fmt)
@@ -342,8 +360,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             out = generate(args.geo, args.out, h=args.h, length=args.length,
                            width=args.width, **fmt)
         mesh = read_mesh(out, check=False)
-    except (BadInputError, FileNotFoundError) as exc:
-        print(f"dyncontact mesh: {exc}", file=sys.stderr)
+    except (BadInputError, OSError) as exc:
+        print(f"dyncontact mesh: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     if not args.quiet:
         print(f"dyncontact mesh: wrote {out}: {_summary(mesh)}")

@@ -266,9 +266,12 @@ def read_pvd(path: str | os.PathLike) -> list[tuple[float, str]]:
 
 
 def _pick(n: int, k: int) -> list[int]:
-    """k indices spread evenly over range(n), first and last included."""
+    """k >= 1 indices spread evenly over range(n), first and last included (k = 1: the
+    last alone)."""
     if n <= k:
         return list(range(n))
+    if k == 1:
+        return [n - 1]
     return sorted({int(round(i * (n - 1) / (k - 1))) for i in range(k)})
 
 
@@ -282,7 +285,8 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     run_dir : folder of a run with ``fields_every > 0`` (holding fields.pvd and fields/).
     out_png : file to write (None: do not save).
     title : figure title.
-    max_snapshots : at most this many snapshots, spread evenly over the run.
+    max_snapshots : at most this many snapshots (>= 1, else ValueError), spread evenly
+        over the run, the first and the last included; 1: the last alone.
     field : the point field that deforms the mesh and colours it.
 
     Each snapshot is drawn at its true deformation (scale 1) on the nodes x + u, shifted
@@ -300,6 +304,10 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
 
     from .core import read_summary
 
+    if isinstance(max_snapshots, bool) or int(max_snapshots) != max_snapshots \
+            or max_snapshots < 1:
+        raise ValueError(f"max_snapshots = {max_snapshots!r} (must be an integer >= 1)")
+    max_snapshots = int(max_snapshots)
     run_dir = os.fspath(run_dir)
     pvd = os.path.join(run_dir, "fields.pvd")
     if not os.path.isfile(pvd):
@@ -307,7 +315,7 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     sets = read_pvd(pvd)
     if not sets:
         raise ValueError(f"{pvd}: no snapshots")
-    sets = [sets[i] for i in _pick(len(sets), max(2, max_snapshots))]
+    sets = [sets[i] for i in _pick(len(sets), max_snapshots)]
     snaps = []
     for t, vtu in sets:
         m = meshio.read(vtu)

@@ -78,9 +78,33 @@ def bench_specs(quick: bool = False, only: Iterable[str] | None = None) -> list[
             s.name = f"box3d_free_h{num(h)}" if free else f"box3d_h{num(h)}"
             specs.append(s)
     if only:
-        pats = [p for item in only for p in item.split(",") if p]
+        pats = only_patterns(only)
         specs = [s for s in specs if any(fnmatch.fnmatchcase(s.name, p) for p in pats)]
     return specs
+
+
+def only_patterns(only: Iterable[str]) -> list[str]:
+    """The fnmatch patterns of repeated, comma-separated ``--only`` values."""
+    return [p.strip() for item in only for p in item.split(",") if p.strip()]
+
+
+def unmatched_only(quick: bool, only: Iterable[str]) -> str | None:
+    """The message refusing ``--only`` when one of its patterns matches no row of the
+    mode (a typo would otherwise drop a row silently), or None when each matches."""
+    import fnmatch
+
+    pats = only_patterns(only)
+    names = [s.name for s in bench_specs(quick=quick)]
+    bad = [p for p in pats if not any(fnmatch.fnmatchcase(n, p) for n in names)]
+    if pats and not bad:
+        return None
+    what = ", ".join(bad) if bad else "(empty)"
+    msg = (f"--only {what}: no such row{' with --quick' if quick else ''} "
+           f"(rows{' of --quick' if quick else ''}: {', '.join(names)})")
+    full = [p for p in bad if any(fnmatch.fnmatchcase(s.name, p) for s in bench_specs())]
+    if quick and full:
+        msg += f"; {', '.join(full)}: row(s) of the full bench, run without --quick"
+    return msg
 
 
 def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 400,
@@ -263,7 +287,7 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100,
     ratios = [r["floor_ratio"] for r in runs if r["floor_ratio"] is not None]
     row = {
         "scene": spec.name,
-        "scheme": scheme_text(spec.settings),
+        "scheme": scheme_text(spec.settings, spec.base),
         "h": spec.settings.get("mesh.h"),
         "dt": spec.settings.get("scheme.dt"),
         "status": full["status"],
@@ -383,6 +407,20 @@ def bench_table(rows: Sequence[Mapping[str, Any]]) -> str:
     return "\n".join(out)
 
 
+def _bad_out_file(path: str) -> str | None:
+    """Why ``path`` cannot be the file a command writes (None when it can): empty, a
+    folder, or in a folder that does not exist (a command that writes one file does not
+    create folders a typo named)."""
+    if not path.strip():
+        return "empty file name"
+    if path.endswith(("/", os.sep)) or os.path.isdir(path):
+        return "is a folder (give a file name)"
+    folder = os.path.dirname(path) or "."
+    if not os.path.isdir(folder):
+        return f"no folder {folder} (create it first)"
+    return None
+
+
 def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     """``scripts/bench [--quick] [--only NAME[,NAME]] [--out FILE.json]``: runs one after
     another, prints the table, writes the JSON. Exit 0 unless a run could not run at all
@@ -394,19 +432,33 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     p.add_argument("--quick", action="store_true", help="only the h = 0.05 rows")
     p.add_argument("--only", action="append", metavar="NAME",
                    help="rows to run (names as in the table; fnmatch patterns, "
-                   "comma-separated; repeatable)")
-    p.add_argument("--out", default=None, help="JSON file (default: ROOT/out/bench.json)")
+                   "comma-separated; repeatable); a pattern that matches no row of the "
+                   "mode (--quick has only the h = 0.05 rows) is refused, exit 2")
+    p.add_argument("--out", default=None, help="JSON file, in an existing folder "
+                   "(default: ROOT/out/bench.json)")
     p.add_argument("--runs", default=None,
                    help="folder of the runs' outputs (default: ROOT/out/bench)")
     p.add_argument("--repeat", type=int, default=3, metavar="N",
                    help="interleaved runs of each row (floors measured between "
-                   "stretches of its steps); the table shows the median ratio (default 3)")
+                   "stretches of its steps); the table shows the median ratio (>= 1, "
+                   "default 3)")
     args = p.parse_args(argv)
-    specs = bench_specs(quick=args.quick, only=args.only)
-    if not specs:
-        names = ", ".join(s.name for s in bench_specs())
-        print(f"bench: no row matches --only {args.only} (rows: {names})", file=sys.stderr)
+
+    def refuse(message: str) -> int:
+        print(f"bench: {message}", file=sys.stderr)
         return 2
+
+    if args.repeat < 1:
+        return refuse(f"--repeat must be >= 1, got {args.repeat}")
+    if args.only is not None:
+        bad = unmatched_only(args.quick, args.only)
+        if bad:
+            return refuse(bad)
+    if args.out is not None:
+        bad = _bad_out_file(args.out)
+        if bad:
+            return refuse(f"--out {args.out}: {bad}")
+    specs = bench_specs(quick=args.quick, only=args.only)
     out_json = args.out or os.path.join(root, "out", "bench.json")
     runs_root = args.runs or os.path.join(root, "out", "bench")
     from ..core import fortran_version

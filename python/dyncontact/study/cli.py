@@ -2,31 +2,66 @@
 
 Exit status: 0 when every run could be done (unstable runs are results, not failures),
 1 when some runs failed to run (each is reported, the study still completes), 2 bad
-command line, 130 interrupted.
+command line, 130 interrupted (Ctrl-C or SIGTERM: the pool's workers are stopped, the
+finished runs stay cached and the same command resumes).
 """
 
 from __future__ import annotations
 
 import argparse
 import datetime
+import math
 import os
 import sys
 import time
 from typing import Any, Sequence
 
-from .common import add_runner_options
+from .common import add_runner_options, scheme_list
+from .sweep import sigterm_as_interrupt
 
 __all__ = ["main", "write_index"]
 
 STUDIES = ("convergence", "work-precision", "stability")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors naming the option: 'dyncontact study: MESSAGE',
+    exit 2 (as `dyncontact run` reports a bad command line)."""
+
+    def error(self, message):  # noqa: D102 - argparse API
+        print(f"dyncontact study: {message} (see `{self.prog} --help`)", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def _positive(kind):
+    """argparse type: a finite number > 0 of ``kind`` (float or int)."""
+
+    def convert(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+        return value
+
+    convert.__name__ = kind.__name__   # argparse names the type in its messages
+    return convert
+
+
+def _nonempty(text: str) -> str:
+    """argparse type: a non-blank string (`--out ""` would name the current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must not be empty")
+    return text
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="dyncontact study",
         description="Convergence, work-precision and stability studies; each writes CSV, "
         "PNG and summary.md into --out.")
-    sub = p.add_subparsers(dest="study", metavar="STUDY", required=True)
+    sub = p.add_subparsers(dest="study", metavar="STUDY", required=True, parser_class=_Parser)
     helps = {"convergence": "errors against the 1D closed form, observed orders",
              "work-precision": "error against CPU time per scheme (1D exact, 2D seed bar)",
              "stability": "stability maps and critical dt on the 2D seed bar, with the "
@@ -40,18 +75,21 @@ def _parser() -> argparse.ArgumentParser:
     for name in (*STUDIES, "methods", "all"):
         s = sub.add_parser(name, help=helps[name], description=helps[name])
         s.add_argument("--quick", action="store_true", help="small sizes (seconds)")
-        s.add_argument("--out", required=True, metavar="DIR", help="output folder")
+        s.add_argument("--out", required=True, metavar="DIR", type=_nonempty,
+                       help="output folder")
         add_runner_options(s)
         s.add_argument("--no-progress", action="store_true", help="no progress bar")
         if name in ("convergence", "work-precision", "all"):
-            s.add_argument("--c-implicit", type=float, default=20.0,
-                           help="dt = h/c for implicit schemes (default 20)")
-            s.add_argument("--c-explicit", type=float, default=100.0,
-                           help="dt = h/c for predictor-corrector schemes (default 100)")
+            s.add_argument("--c-implicit", type=_positive(float), default=20.0,
+                           help="dt = h/c for implicit schemes (> 0, default 20)")
+            s.add_argument("--c-explicit", type=_positive(float), default=100.0,
+                           help="dt = h/c for predictor-corrector schemes (> 0, "
+                           "default 100)")
         if name == "convergence":
-            s.add_argument("--schemes", default=None,
+            s.add_argument("--schemes", default=None, type=_nonempty,
                            help="comma-separated scheme keys (default: the study's list)")
-            s.add_argument("--t-end", type=float, default=3.0, help="T (default 3)")
+            s.add_argument("--t-end", type=_positive(float), default=3.0,
+                           help="T (> 0, default 3)")
     return p
 
 
@@ -122,32 +160,27 @@ def write_index(out: str, reports: dict[str, dict[str, Any]], wall_s: float,
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    try:
+        args = _parser().parse_args(argv)
+    except SystemExit as exc:   # --help (0) or a bad command line (2, reported)
+        return int(exc.code or 0)
     if args.workers is not None and args.workers < 1:
         print("dyncontact study: --workers must be >= 1", file=sys.stderr)
         return 2
+    if args.cache is not None and not args.cache.strip():
+        print("dyncontact study: --cache: must not be empty", file=sys.stderr)
+        return 2
+    if getattr(args, "schemes", None) is not None:
+        try:
+            scheme_list(args.schemes)   # before anything is written
+        except ValueError as exc:
+            print(f"dyncontact study: --schemes: {exc}", file=sys.stderr)
+            return 2
     t0 = time.perf_counter()
     out = os.path.abspath(args.out)
     try:
-        if args.study == "all":
-            if args.cache is None:
-                args.cache = os.path.join(out, "cache")
-            reports = {name: run_one(name, os.path.join(out, name), args) for name in STUDIES}
-            from .which import run_which
-
-            reports["which"] = run_which(os.path.join(out, "which"), reports["work-precision"],
-                                         reports["stability"], quick=args.quick,
-                                         c_implicit=args.c_implicit,
-                                         c_explicit=args.c_explicit, **_common(args))
-            wall = time.perf_counter() - t0
-            index = write_index(out, reports, wall, args.quick)
-            n = sum(r["n_runs"] for r in reports.values())
-            print(f"dyncontact study: {n} runs in {wall:.1f} s -> {index}")
-        else:
-            reports = {args.study: run_one(args.study, out, args)}
-            rep = reports[args.study]
-            print(f"dyncontact study {args.study}: {rep['n_runs']} runs in "
-                  f"{time.perf_counter() - t0:.1f} s -> {rep['summary']}")
+        with sigterm_as_interrupt():
+            reports = _run_study(args, out, t0)
     except KeyboardInterrupt:
         print("dyncontact study: interrupted (finished runs are cached; run the same "
               "command again to resume)", file=sys.stderr)
@@ -161,3 +194,27 @@ def main(argv: Sequence[str] | None = None) -> int:
               file=sys.stderr)
         return 1
     return 0
+
+
+def _run_study(args, out: str, t0: float) -> dict[str, dict[str, Any]]:
+    """Run the study (or all of them) the command line asks for; the reports by name."""
+    if args.study != "all":
+        reports = {args.study: run_one(args.study, out, args)}
+        rep = reports[args.study]
+        print(f"dyncontact study {args.study}: {rep['n_runs']} runs in "
+              f"{time.perf_counter() - t0:.1f} s -> {rep['summary']}")
+        return reports
+    if args.cache is None:
+        args.cache = os.path.join(out, "cache")
+    reports = {name: run_one(name, os.path.join(out, name), args) for name in STUDIES}
+    from .which import run_which
+
+    reports["which"] = run_which(os.path.join(out, "which"), reports["work-precision"],
+                                 reports["stability"], quick=args.quick,
+                                 c_implicit=args.c_implicit,
+                                 c_explicit=args.c_explicit, **_common(args))
+    wall = time.perf_counter() - t0
+    index = write_index(out, reports, wall, args.quick)
+    n = sum(r["n_runs"] for r in reports.values())
+    print(f"dyncontact study: {n} runs in {wall:.1f} s -> {index}")
+    return reports

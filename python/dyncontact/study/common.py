@@ -154,15 +154,27 @@ def seed_spec(scheme: str, h: float, dt: float, t_end: float, *, mass: str = "co
     return RunSpec(name=prefix + name, settings=settings)
 
 
-def scheme_text(settings: Mapping[str, Any]) -> str:
-    """A run's scheme as a report shows it: 'pc β=0.25, γ=0.5, lumped mass'."""
-    name = settings.get("scheme.name", "hht")
+def scheme_text(settings: Mapping[str, Any], base: str | None = None) -> str:
+    """A run's scheme as a report shows it: 'pc β=0.25, γ=0.5, lumped mass'.
+
+    ``settings`` and ``base`` as a :class:`RunSpec`'s: the scheme and mass a key of
+    ``settings`` does not set are those of the scene file ``base`` (the built-in
+    default scene's, hht and consistent, when there is none), the scene the run ran.
+    The parameters shown are those ``settings`` sets."""
+    name, mass = settings.get("scheme.name"), settings.get("scheme.mass")
+    if (name is None or mass is None) and base:
+        from ..scene import Scene
+
+        scn = Scene.read(base)
+        name = scn.get("scheme.name") if name is None else name
+        mass = scn.get("scheme.mass") if mass is None else mass
+    name = "hht" if name is None else name
     params = [f"{sym}={num(settings[f'scheme.{k}'])}"
               for k, sym in (("alpha", "α"), ("beta", "β"), ("gamma", "γ"), ("theta", "θ"))
               if f"scheme.{k}" in settings]
     text = name + (" " + ", ".join(params) if params else "")
-    if settings.get("scheme.mass", "consistent") != "consistent":
-        text += f", {settings['scheme.mass']} mass"
+    if (mass or "consistent") != "consistent":
+        text += f", {mass} mass"
     return text
 
 
@@ -318,9 +330,12 @@ def step_ratio(s: SchemeSpec, c_implicit: float, c_explicit: float) -> float:
 
 
 def scheme_list(keys: str | Sequence[str]) -> list[SchemeSpec]:
-    """Schemes from a comma-separated list of keys (ValueError names a bad key)."""
+    """Schemes from a comma-separated list of keys (ValueError names a bad key, and
+    refuses an empty list: a study of no scheme is a mistake, not a request for all)."""
     if isinstance(keys, str):
         keys = [k.strip() for k in keys.split(",") if k.strip()]
+    if not keys:
+        raise ValueError(f"no scheme key given; known: {', '.join(SCHEMES)}")
     bad = [k for k in keys if k not in SCHEMES]
     if bad:
         raise ValueError(f"unknown scheme key(s) {', '.join(bad)}; known: "

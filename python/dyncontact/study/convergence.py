@@ -95,7 +95,7 @@ def run_convergence(out: str, *, quick: bool = False, schemes: str | None = None
     t0 = time.perf_counter()
     out, cache, bases = study_folder(out, cache)
     base = bases["exact1d"]
-    sch = scheme_list(schemes or DEFAULT_SCHEMES)
+    sch = scheme_list(DEFAULT_SCHEMES if schemes is None else schemes)
     ns = tuple(ns or (QUICK_NS if quick else FULL_NS))
     tasks = convergence_tasks(base, sch, ns, c_implicit, c_explicit, t_end)
     recs = sweep(tasks, cache, workers=workers, scheduler=scheduler, progress=progress,

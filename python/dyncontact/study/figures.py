@@ -44,7 +44,7 @@ import numpy as np
 
 from .common import (MAX_ROWS, RunSpec, add_runner_options, fmt, loadavg, new_figure, num,
                      package_version, save_figure, scheme_text, seed_spec)
-from .sweep import ERROR, REFUSED, sweep
+from .sweep import ERROR, REFUSED, sigterm_as_interrupt, sweep
 
 __all__ = ["FigureSpec", "figure_plan", "make_figures", "plot_figure", "write_index",
            "figures_main", "MAX_ROWS", "HHT_FAMILY", "PC_FAMILY", "BALL_SCENE",
@@ -553,7 +553,7 @@ def _figure_record(spec: RunSpec, rec: Mapping[str, Any], out_dir: str) -> dict[
            "newton_its_total": rec.get("newton_its_total"),
            "factorizations": m.get("factorizations"), "dofs": m.get("dofs"),
            "elements": m.get("elements"), "rows": m.get("rows", 0),
-           "settings": dict(spec.settings)}
+           "settings": dict(spec.settings), "base": spec.base}
     if m:
         out.update(isa=m.get("isa"), solve_kernel=m.get("solve_kernel"))
     out["cached"] = bool(rec.get("cached"))
@@ -724,7 +724,7 @@ def write_index(out_root: str, report: Mapping[str, Any]) -> str:
             st = f"{r['status']}: {r['message']}" if r["status"] in (ERROR, REFUSED) \
                 else r["status"]
             lines.append(
-                f"| {name} | {scheme_text(r['settings'])} | "
+                f"| {name} | {scheme_text(r['settings'], r.get('base'))} | "
                 f"{num(r['settings'].get('scheme.dt', 0))} | {st} | {r.get('steps') or 0} | "
                 f"{fmt(r.get('t_end_reached'), '.4g')} | {fmt(r.get('wall_s'), '.2f')} | "
                 f"{fmt(r.get('wall_measured_s'), '.2f')} | "
@@ -772,7 +772,8 @@ def _where(report: Mapping[str, Any]) -> str:
 def figures_main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     """``scripts/figures [--quick] [--workers N] [--scheduler ADDRESS] [--cache DIR]
     [--out DIR]`` (the runner's options as ``dyncontact study`` takes them): 0 when every figure was drawn (unstable runs are results, not
-    failures), 1 otherwise, 2 on a bad command line, 130 on Ctrl-C."""
+    failures), 1 otherwise, 2 on a bad command line, 130 on Ctrl-C or SIGTERM (the pool's
+    workers stopped, the finished runs cached)."""
     root = root or os.getcwd()
     p = argparse.ArgumentParser(prog="scripts/figures", description="Regenerate the "
                                 "seed's Figures 1-7, the 3D Figures 8-9 (runs in parallel) "
@@ -785,9 +786,10 @@ def figures_main(argv: Sequence[str] | None = None, root: str | None = None) -> 
         p.error("--workers must be >= 1")
     out = args.out or os.path.join(root, "out", "figures")
     try:
-        report = make_figures(out, quick=args.quick, workers=args.workers,
-                              scheduler=args.scheduler, cache=args.cache,
-                              log=lambda s: print(s, flush=True))
+        with sigterm_as_interrupt():
+            report = make_figures(out, quick=args.quick, workers=args.workers,
+                                  scheduler=args.scheduler, cache=args.cache,
+                                  log=lambda s: print(s, flush=True))
     except KeyboardInterrupt:
         print("figures: interrupted (finished runs are cached; run the same command "
               "again to resume)", file=sys.stderr)

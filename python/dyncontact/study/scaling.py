@@ -502,21 +502,61 @@ def replot(out: str, csv_paths: Sequence[str]) -> list[dict[str, Any]]:
     return rows
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors naming the option, exit 2."""
+
+    def error(self, message):  # noqa: D102 - argparse API
+        print(f"{self.prog}: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def _at_least_one(text: str) -> int:
+    """argparse type: an integer >= 1 (0 steps would time nothing: inf per step)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    return value
+
+
+def _sizes(text: str) -> list[float]:
+    """argparse type: comma-separated mesh sizes, each finite and > 0."""
+    sizes = []
+    for item in (t.strip() for t in text.split(",")):
+        if not item:
+            continue
+        try:
+            h = float(item)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{item!r} is not a number") from None
+        if not (h > 0 and h != float("inf")):
+            raise argparse.ArgumentTypeError(f"h = {item} (each size must be finite and > 0)")
+        sizes.append(h)
+    if not sizes:
+        raise argparse.ArgumentTypeError(f"no size given in {text!r}")
+    return sizes
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="scripts/bench --scaling", description=__doc__.split("\n")[0])
+    ap = _Parser(prog="scripts/bench --scaling", description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="out/scaling", help="output folder")
-    ap.add_argument("--steps", type=int, default=20, help="steps of the timed runs")
+    ap.add_argument("--steps", type=_at_least_one, default=20,
+                    help="steps of the timed runs (>= 1)")
     ap.add_argument("--large", action="store_true", help=f"add h = {LARGE} (~520k dofs)")
-    ap.add_argument("--sizes", default="", help="comma-separated h values instead of the default")
+    ap.add_argument("--sizes", type=_sizes, default=None,
+                    help="comma-separated h values (each > 0) instead of the default")
     ap.add_argument("--no-floors", action="store_true", help="skip the floors")
     ap.add_argument("--contact-only", action="store_true", help="skip the runs without contact")
-    ap.add_argument("--repeats", type=int, default=2, help="runs of each (fastest kept)")
+    ap.add_argument("--repeats", type=_at_least_one, default=2,
+                    help="runs of each (fastest kept; >= 1)")
     ap.add_argument("--exe", default=None, help="the dyncontact executable")
     ap.add_argument("--geometry", default="strip",
                     help="comma-separated: strip, disk, box (default strip)")
     ap.add_argument("--solvers", default="direct",
                     help="comma-separated &solver kinds: direct, cg, auto (default direct)")
-    ap.add_argument("--max-dofs", type=int, default=None,
+    ap.add_argument("--max-dofs", type=_at_least_one, default=None,
                     help="skip the sizes estimated above this many dofs")
     ap.add_argument("--threads", default="auto",
                     help="comma-separated settings of the direct solves' threads, each run at "
@@ -525,11 +565,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--replot", nargs="+", default=None, metavar="CSV",
                     help="no runs: table and chart in --out from these scaling.csv files")
     a = ap.parse_args(argv)
+    if not a.out.strip():
+        ap.error("--out: must not be empty")
     if a.replot:
+        missing = [c for c in a.replot if not os.path.isfile(c)]
+        if missing:
+            ap.error(f"--replot: no such file {', '.join(missing)}")
         rows = replot(a.out, a.replot)
         print(json.dumps({"rows": len(rows), "out": a.out}))
         return 0
-    sizes = [float(s) for s in a.sizes.split(",") if s] if a.sizes else None
+    sizes = a.sizes
     geometries = [g for g in a.geometry.split(",") if g]
     for g in geometries:
         if g not in GEOMETRY_SIZES:

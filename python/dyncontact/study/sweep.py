@@ -37,7 +37,10 @@ default; with ``scheduler`` (an address such as ``tcp://host:8786``, or a
 ``distributed.Client``) the tasks go to a ``dask.distributed`` cluster (the workers must
 see the cache folder: a shared file system, or the same machine). A run that fails
 (bad input, an exception in the analysis, a worker that died) becomes a record with
-``status = 'error'`` and its message; the sweep goes on. Runs that share a machine
+``status = 'error'`` and its message; the sweep goes on. A sweep stopped by Ctrl-C (or
+by SIGTERM inside :func:`sigterm_as_interrupt`, as the command lines run) terminates the
+pool's workers before the ``KeyboardInterrupt`` goes on, and a worker whose parent dies
+(even by ``kill -9``) ends too: no worker outlives the sweep. Runs that share a machine
 with other runs (the pool's workers, and every Dask task) run their solves on one thread
 (``&solver threads = 1``, :data:`PARALLEL_THREADS`, unless the task sets the key; the
 environment's ``DYNCONTACT_THREADS`` still overrides it): two threads for each of several
@@ -53,14 +56,18 @@ kept in the record (``warnings``), not printed by the workers.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
+import ctypes
 import dataclasses
 import functools
 import hashlib
 import json
 import os
 import shutil
+import signal
 import sys
 import tempfile
+import threading
 import time
 import traceback
 import uuid
@@ -70,7 +77,8 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 __all__ = ["Task", "make_task", "sweep", "task_key", "code_version", "lookup", "execute",
-           "run_uncached", "register_analysis", "ERROR", "REFUSED", "PARALLEL_THREADS"]
+           "run_uncached", "register_analysis", "sigterm_as_interrupt", "ERROR", "REFUSED",
+           "PARALLEL_THREADS"]
 
 #: Status of a record whose run could not be done (not a numerical verdict).
 ERROR = "error"
@@ -82,6 +90,10 @@ PARALLEL_THREADS = 1
 CACHE_LAYOUT = 1
 #: A temporary entry folder older than this (s) is left over from an interrupted sweep.
 STALE_S = 6 * 3600
+#: Seconds the workers of a stopped pool get to end after SIGTERM before SIGKILL.
+WORKER_TERM_S = 5.0
+#: Linux prctl option: the signal a process gets when its parent ends (linux/prctl.h).
+PR_SET_PDEATHSIG = 1
 
 _ANALYSES: dict[str, Callable[..., dict[str, Any]]] = {}
 
@@ -481,6 +493,7 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
             if on_done is not None:
                 on_done(i, rec)
 
+        hits = 0
         for i, task in enumerate(tasks):
             try:
                 keys[i] = task_key(task)
@@ -489,13 +502,15 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
                 continue
             hit = lookup(cache, keys[i])
             if hit is not None:
+                hits += 1
                 done(i, hit)
             else:
                 todo.append(i)
         todo.sort(key=lambda i: -_cost(tasks[i]))
         if log:
-            log(f"{desc}: {len(tasks)} runs, {len(tasks) - len(todo)} from the cache, "
-                f"{len(todo)} to do")
+            unkeyed = len(tasks) - hits - len(todo)   # no scene: an error record each
+            log(f"{desc}: {len(tasks)} runs, {hits} from the cache, {len(todo)} to do"
+                + (f", {unkeyed} whose scene could not be built" if unkeyed else ""))
 
         if todo and scheduler is not None:
             _sweep_dask(tasks, keys, todo, cache, scheduler, done)
@@ -520,10 +535,63 @@ def _describe(task: Task) -> str:
     return tags or ", ".join(f"{k}={v}" for k, v in task.settings)
 
 
-def _warm_worker() -> None:
-    """Pool initializer: import what a run needs and run a tiny scene once, so that the
-    first run of each worker is not charged for lazy imports and first calls (the CPU
-    time of a run is a result of the work-precision study)."""
+def _sigterm_raises(signum, frame):  # noqa: ARG001 - signal handler signature
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt():
+    """Within the block, SIGTERM raises ``KeyboardInterrupt`` in the main thread as
+    Ctrl-C does, so that ``kill PID`` of a study, the figures or the bench stops its
+    pool and its workers and exits 130, as ``python -m dyncontact run`` does
+    (docs/scenes.md, *Exit codes*). The previous handler is restored at the end. Outside
+    the main thread (where Python cannot set handlers) it does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _sigterm_raises)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _end_with_parent(parent: int) -> None:
+    """In a pool worker: end when the parent process ends, and take SIGINT and SIGTERM
+    as the default process does.
+
+    A forked worker inherits the parent's Python handlers (SIGTERM raising
+    KeyboardInterrupt inside :func:`sigterm_as_interrupt`), under which the parent's
+    ``terminate()`` would only interrupt the run in progress and leave the worker waiting
+    for work: SIGTERM gets its default action back. The pool forks its workers with
+    SIGINT and SIGTERM blocked (:func:`_sweep_pool`) and they are unblocked only here,
+    after that: a signal that reaches a worker still starting waits for it instead of
+    raising in the middle of its start-up. SIGINT is ignored: Ctrl-C in a
+    terminal reaches the whole process group, and the parent stops the workers itself.
+    A worker whose parent was killed outright would wait forever on the task queue (it
+    holds both ends of the pipe, so it never sees an end of file): on Linux the kernel
+    sends it SIGKILL when the parent ends (``prctl(PR_SET_PDEATHSIG)``), and a parent
+    already gone when that is set (the race of a kill during the start) ends it here."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)   # blocked by the fork
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):  # pragma: no cover - no prctl: no guard
+            pass
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+def _warm_worker(parent: int | None = None) -> None:
+    """Pool initializer: tie the worker to its parent (:func:`_end_with_parent`), then
+    import what a run needs and run a tiny scene once, so that the first run of each
+    worker is not charged for lazy imports and first calls (the CPU time of a run is a
+    result of the work-precision study)."""
+    if parent is not None:
+        _end_with_parent(parent)
     try:
         from .. import core
         from ..scene import Scene
@@ -541,21 +609,51 @@ def _warm_worker() -> None:
         pass
 
 
+def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
+    """Cancel the pool's pending tasks and end its workers now (SIGTERM, then SIGKILL
+    after :data:`WORKER_TERM_S`): ``shutdown`` alone would wait for the runs in progress,
+    however long. A run cut short leaves only a temporary entry, never a finished one."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    deadline = time.monotonic() + WORKER_TERM_S
+    for p in procs:
+        p.join(max(0.0, deadline - time.monotonic()))
+        if p.is_alive():  # pragma: no cover - a worker stuck in uninterruptible I/O
+            p.kill()
+            p.join()
+
+
+#: The signals a worker is started with blocked (:func:`_end_with_parent`).
+_STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
 def _sweep_pool(tasks, keys, todo, cache, workers, done) -> None:
-    with cf.ProcessPoolExecutor(max_workers=workers, initializer=_warm_worker) as pool:
-        futs = {pool.submit(execute, tasks[i], cache, keys[i], PARALLEL_THREADS): i
-                for i in todo}
+    pool = cf.ProcessPoolExecutor(max_workers=workers, initializer=_warm_worker,
+                                  initargs=(os.getpid(),))
+    try:
+        # the pool forks all its workers at the first submit (fork start method), which
+        # inherit this mask; a SIGTERM to this process meanwhile waits until the end of
+        # the block and then raises here, where the pool is stopped
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
         try:
-            for fut in cf.as_completed(futs):
-                i = futs[fut]
-                try:
-                    rec = fut.result()
-                except Exception as exc:  # noqa: BLE001 - e.g. a worker that died
-                    rec = _error_record(tasks[i], keys[i], f"{type(exc).__name__}: {exc}")
-                done(i, rec)
-        except BaseException:
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
+            futs = {pool.submit(execute, tasks[i], cache, keys[i], PARALLEL_THREADS): i
+                    for i in todo}
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        for fut in cf.as_completed(futs):
+            i = futs[fut]
+            try:
+                rec = fut.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. a worker that died
+                rec = _error_record(tasks[i], keys[i], f"{type(exc).__name__}: {exc}")
+            done(i, rec)
+    except BaseException:
+        _stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
 
 
 def _sweep_dask(tasks, keys, todo, cache, scheduler, done) -> None:

@@ -1,0 +1,157 @@
+"""Option values the command lines refuse up front: one line naming the option, exit 2,
+nothing written (`dyncontact study`, scripts/studies, `dyncontact mesh`, scripts/bench),
+and the study sweep's progress line (what it counts as taken from the cache)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+
+import pytest
+
+from conftest import ROOT, SUBPROCESS_TIMEOUT
+
+
+def _script(name: str, *args, cwd) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    return subprocess.run([str(ROOT / "scripts" / name), *map(str, args)], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=SUBPROCESS_TIMEOUT)
+
+
+def _one_line(res, code: int, prefix: str) -> str:
+    assert res.returncode == code, (res.returncode, res.stdout[-2000:], res.stderr[-2000:])
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert lines[0].startswith(prefix), res.stderr
+    assert "Traceback" not in res.stderr
+    return lines[0]
+
+
+# --------------------------------------------------------------------------- study
+
+@pytest.mark.parametrize("study, option, value", [
+    ("convergence", "--c-explicit", "0"),       # was ZeroDivisionError
+    ("convergence", "--c-implicit", "0"),
+    ("convergence", "--c-implicit", "-20"),     # was one "run failed" line per run
+    ("work-precision", "--c-explicit", "-1"),
+    ("convergence", "--t-end", "-1"),
+    ("convergence", "--t-end", "0"),
+    ("convergence", "--t-end", "nan"),
+    ("convergence", "--t-end", "abc"),
+    ("convergence", "--schemes", ""),           # was every scheme
+    ("convergence", "--schemes", ","),
+    ("convergence", "--out", ""),               # was the current folder
+    ("convergence", "--workers", "0"),
+])
+def test_study_refuses_bad_values_naming_the_option(run_cli, tmp_path, study, option,
+                                                   value):
+    args = ["study", study, "--quick", "--no-progress"]
+    if option != "--out":
+        args += ["--out", str(tmp_path / "s")]
+    line = _one_line(run_cli(*args, option, value), 2, "dyncontact study: ")
+    assert option in line
+    assert sorted(os.listdir(tmp_path)) == []   # nothing written, here or in --out
+
+
+@pytest.mark.parametrize("args", [["--out"], ["--out="], ["--out", ""]])
+def test_studies_script_out_needs_a_folder(tmp_path, args):
+    line = _one_line(_script("studies", *args, cwd=tmp_path), 2, "studies: ")
+    assert "--out" in line and "unbound" not in line
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+def test_sweep_counts_only_real_cache_hits(tmp_path):
+    """A task whose scene cannot be built (a bad key value) is an error record, not a run
+    taken from the cache."""
+    from dyncontact.study.common import write_base_scenes
+    from dyncontact.study.sweep import make_task, sweep
+
+    base = write_base_scenes(str(tmp_path / "scenes"))["exact1d"]
+    good = make_task(base, {"mesh.h": 0.1, "scheme.dt": 0.005, "scheme.t_end": 0.5},
+                     "trace", {"columns": "t,u_n"})
+    bad = make_task(base, {"mesh.h": 0.1, "scheme.dt": -1.0}, "trace")
+    cache = str(tmp_path / "cache")
+    lines: list[str] = []
+    recs = sweep([bad, good], cache, workers=1, progress=False, log=lines.append)
+    assert [r["status"] for r in recs] == ["error", "ok"]
+    assert ("runs: 2 runs, 0 from the cache, 1 to do, 1 whose scene could not be built"
+            in lines), lines
+    lines.clear()
+    recs = sweep([bad, good], cache, workers=1, progress=False, log=lines.append)
+    assert [r["cached"] for r in recs] == [False, True]
+    assert ("runs: 2 runs, 1 from the cache, 0 to do, 1 whose scene could not be built"
+            in lines), lines
+
+
+# --------------------------------------------------------------------------- mesh
+
+@pytest.mark.parametrize("out, words", [
+    ("/proc/m.msh", ("/proc/m.msh", "cannot write")),      # was a gmsh traceback, exit 1
+    ("m.txt", ("--out", ".msh")),                           # was a gmsh traceback, exit 1
+    ("missing/m.msh", ("--out", "no folder missing")),      # was created silently
+    ("./", ("--out", ".msh")),
+])
+def test_mesh_out_is_refused_in_one_line(run_cli, tmp_path, out, words):
+    line = _one_line(run_cli("mesh", "--h", "0.1", "--out", out, cwd=tmp_path), 2,
+                     "dyncontact mesh: ")
+    for w in words:
+        assert w in line, line
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+# --------------------------------------------------------------------------- bench
+
+@pytest.mark.parametrize("args, words", [
+    (["--repeat", "0"], ("--repeat", ">= 1")),          # ran once, said "ran 0 more times"
+    (["--repeat", "-3"], ("--repeat", ">= 1")),
+    (["--quick", "--only", "seed_h0.02"],               # listed seed_h0.02 as available
+     ("seed_h0.02", "--quick", "without --quick")),
+    (["--only", "seed_h0.05,nope"], ("--only nope",)),  # nope was ignored
+    (["--only", "seed_h0.05", "--only", "pc_h9*"], ("--only pc_h9*",)),
+    (["--out", "missing/dir/x.json"], ("--out", "no folder missing/dir")),   # was created
+    (["--out", "./"], ("--out", "folder")),
+])
+def test_bench_refuses_bad_options_before_running(tmp_path, monkeypatch, capsys, args,
+                                                  words):
+    from dyncontact.study.bench import bench_main
+
+    monkeypatch.chdir(tmp_path)
+    assert bench_main(args, root=str(tmp_path)) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bench: "), err
+    for w in words:
+        assert w in err[0], err
+    assert sorted(os.listdir(tmp_path)) == []       # no run, no folder
+
+
+def test_bench_only_rows_of_the_quick_mode_pass_the_check():
+    from dyncontact.study.bench import bench_specs, unmatched_only
+
+    assert unmatched_only(True, ["seed_h0.05,pc_*"]) is None
+    assert unmatched_only(False, ["seed_h0.02"]) is None
+    assert [s.name for s in bench_specs(quick=True, only=["pc_*"])] == [
+        "pc_h0.05_consistent", "pc_h0.05_lumped"]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--sizes", "abc"], ("--sizes", "abc")),          # were tracebacks
+    (["--sizes", "0"], ("--sizes", "h = 0")),
+    (["--sizes", "-0.01"], ("--sizes", "h = -0.01")),
+    (["--sizes", "0.01,nan"], ("--sizes", "nan")),
+    (["--steps", "0"], ("--steps", ">= 1")),           # wrote inf
+    (["--repeats", "0"], ("--repeats", ">= 1")),
+    (["--replot", "missing.csv"], ("--replot", "missing.csv")),
+])
+def test_scaling_refuses_bad_options_in_one_line(tmp_path, monkeypatch, capsys, args, words):
+    from dyncontact.study import scaling
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        scaling.main([*args, "--out", str(tmp_path / "sc")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("scripts/bench --scaling: "), err
+    for w in words:
+        assert w in err[0], err
+    assert sorted(os.listdir(tmp_path)) == []

@@ -1,0 +1,153 @@
+"""Signals to the command lines that run a pool of workers (`dyncontact study`,
+scripts/figures): SIGTERM stops them as Ctrl-C does (exit 130, docs/scenes.md *Exit
+codes*) and no worker outlives its parent, even one killed with SIGKILL.
+
+Each command runs in its own session, so that every process it starts is in one process
+group: the test finds them in /proc by that group (psutil is not a dependency) and kills
+what is left when it ends, whatever happened.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from conftest import ROOT
+
+#: Workers of the pool the commands are started with.
+WORKERS = 2
+#: Seconds to wait for the pool's workers to appear (the quick runs take seconds; a busy
+#: machine is slower to fork and import).
+START_TIMEOUT_S = 60.0
+#: Seconds a stopped command and its workers may take to end: the parent terminates the
+#: workers and waits for them (SIGKILL after 5 s, sweep.WORKER_TERM_S), plus room for a
+#: busy machine. Before the fix the workers never ended.
+END_TIMEOUT_S = 20.0
+POLL_S = 0.05
+
+
+def _group_members(pgid: int) -> list[int]:
+    """Live (not zombie) processes of the process group pgid, from /proc/PID/stat."""
+    pids = []
+    for name in os.listdir("/proc"):
+        if not name.isdigit():
+            continue
+        try:
+            with open(f"/proc/{name}/stat", encoding="ascii", errors="replace") as f:
+                stat = f.read()
+        except OSError:   # ended in between
+            continue
+        # pid (comm) state ppid pgrp ...; comm may hold blanks: split after its ')'
+        fields = stat[stat.rindex(")") + 2:].split()
+        if fields[0] != "Z" and int(fields[2]) == pgid:
+            pids.append(int(name))
+    return pids
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        with open(f"/proc/{pid}/task/{pid}/children", encoding="ascii") as f:
+            return [int(x) for x in f.read().split()]
+    except OSError:
+        return []
+
+
+def _start(cmd: list[str], cwd) -> subprocess.Popen:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    return subprocess.Popen(cmd, cwd=cwd, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def _wait_for_workers(proc: subprocess.Popen) -> list[int]:
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while time.monotonic() < deadline:
+        kids = _children(proc.pid)
+        if len(kids) >= WORKERS:
+            return kids
+        if proc.poll() is not None:
+            break
+        time.sleep(POLL_S)
+    out, err = proc.communicate(timeout=END_TIMEOUT_S)
+    pytest.fail(f"no pool of {WORKERS} workers appeared (exit {proc.returncode}): "
+                f"{out[-1000:]} {err[-1000:]}")
+
+
+def _wait_group_gone(pgid: int) -> list[int]:
+    deadline = time.monotonic() + END_TIMEOUT_S
+    left = _group_members(pgid)
+    while left and time.monotonic() < deadline:
+        time.sleep(POLL_S)
+        left = _group_members(pgid)
+    return left
+
+
+def _commands(tmp_path):
+    study = [sys.executable, "-m", "dyncontact", "study", "convergence", "--quick",
+             "--out", str(tmp_path / "study"), "--workers", str(WORKERS), "--no-progress"]
+    figures = [str(ROOT / "scripts" / "figures"), "--quick", "--out",
+               str(tmp_path / "figures"), "--workers", str(WORKERS)]
+    return {"study": study, "figures": figures}
+
+
+@pytest.fixture
+def started(tmp_path):
+    """started(name) -> Popen of that command; its process group is killed at the end."""
+    procs = []
+
+    def start(name: str) -> subprocess.Popen:
+        proc = _start(_commands(tmp_path)[name], tmp_path)
+        procs.append(proc)
+        return proc
+
+    yield start
+    for proc in procs:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        try:
+            proc.communicate(timeout=END_TIMEOUT_S)
+        except subprocess.TimeoutExpired:  # pragma: no cover - cannot happen after SIGKILL
+            pass
+
+
+@pytest.mark.parametrize("name", ["study", "figures"])
+def test_sigterm_stops_the_pool_like_ctrl_c(started, name):
+    proc = started(name)
+    workers = _wait_for_workers(proc)
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=END_TIMEOUT_S)
+    assert proc.returncode == 130, (proc.returncode, err[-2000:])
+    assert time.monotonic() - t0 < END_TIMEOUT_S
+    assert "interrupted" in err and "Traceback" not in err, err[-2000:]
+    left = _wait_group_gone(proc.pid)
+    assert not left, f"processes left after SIGTERM: {left} (workers were {workers})"
+
+
+def test_workers_end_when_their_parent_is_killed(started):
+    """SIGKILL leaves the parent no chance to stop its pool: the workers must notice the
+    parent's end themselves (instead of waiting on the task queue forever)."""
+    proc = started("study")
+    workers = _wait_for_workers(proc)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate(timeout=END_TIMEOUT_S)
+    left = _wait_group_gone(proc.pid)
+    assert not left, f"workers left after the parent's SIGKILL: {left} (were {workers})"
+
+
+def test_the_study_resumes_after_sigterm(started, run_cli, tmp_path):
+    """The runs finished before SIGTERM are cached; the same command completes (exit 0)."""
+    proc = started("study")
+    _wait_for_workers(proc)
+    proc.send_signal(signal.SIGTERM)
+    proc.communicate(timeout=END_TIMEOUT_S)
+    assert proc.returncode == 130
+    r = run_cli(*_commands(tmp_path)["study"][3:])
+    assert r.returncode == 0, r.stderr[-2000:]
