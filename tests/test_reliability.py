@@ -172,6 +172,15 @@ def test_disk_full_while_writing_fields_exits_4(kind, tmp_path):
                         EXIT_WRITE)
         assert ".vtu" in line
         assert json.loads((out / "summary.json").read_text())["status"] == "write_failed"
+        # fields.pvd lists the first snapshots (those of its last rewrite: the close's needs
+        # room the disk no longer has), every VTU on disk is whole, no temporary file is left
+        import xml.etree.ElementTree as ET
+        vtus = sorted(f"fields/{p.name}" for p in (out / "fields").glob("step_*.vtu"))
+        listed = [d.get("file") for d in ET.parse(out / "fields.pvd").getroot().iter("DataSet")]
+        assert listed and listed == vtus[:len(listed)] and len(vtus) >= 3
+        for f in vtus:
+            assert ET.parse(out / f).getroot().tag == "VTKFile", f
+        assert not list((out / "fields").glob("*.tmp")) and not (out / "fields.pvd.tmp").exists()
     finally:
         subprocess.run(["umount", "-l", str(disk)], capture_output=True)
 
