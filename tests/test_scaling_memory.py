@@ -49,8 +49,13 @@ def test_memory_columns_are_computed_as_documented(tmp_path, monkeypatch):
         assert r["peak_over_model"] == pytest.approx(r["peak_mb"] / r["model_mb"], rel=1e-15)
         assert r["peak_over_model_above_base"] == pytest.approx(
             (r["peak_mb"] - r["base_mb"]) / r["model_mb"], rel=1e-15)
-        # the trivial scene is the smaller run of the same executable
-        assert 0.0 < r["base_mb"] <= r["peak_mb"]
+        # the trivial scene (the strip with contact, coarsest mesh, 0 steps; the smallest
+        # of its runs) is below a run of the same scene on a finer mesh (the largest of
+        # its runs); a run without a contact boundary can hold less than it (16 kB less
+        # on a clean clone at h = 0.05), within the peaks' page-level noise
+        assert 0.0 < r["base_mb"]
+        if r["contact"]:
+            assert r["base_mb"] <= r["peak_mb"]
     with open(tmp_path / "scaling.csv", encoding="utf-8") as f:
         table = list(csv.DictReader(f))
     assert list(table[0]) == scaling.COLUMNS
