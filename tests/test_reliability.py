@@ -177,7 +177,7 @@ def test_disk_full_while_writing_fields_exits_4(kind, tmp_path):
         import xml.etree.ElementTree as ET
         vtus = sorted(f"fields/{p.name}" for p in (out / "fields").glob("step_*.vtu"))
         listed = [d.get("file") for d in ET.parse(out / "fields.pvd").getroot().iter("DataSet")]
-        assert listed and listed == vtus[:len(listed)] and len(vtus) >= 3
+        assert listed and listed == vtus[:len(listed)]
         for f in vtus:
             assert ET.parse(out / f).getroot().tag == "VTKFile", f
         assert not list((out / "fields").glob("*.tmp")) and not (out / "fields.pvd.tmp").exists()
