@@ -7,17 +7,15 @@ earlier run's snapshots removes them (a restart keeps them, see test_restart.py)
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
-import sys
 import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 
-from conftest import EXE
+from test_reliability import child_env, entry
 
 EXIT_OK, EXIT_WRITE = 0, 4
 #: Seconds to wait for a run to write its first snapshots.
@@ -37,18 +35,8 @@ def scene(path: Path, t_end: str, fields_every: int, dt: str = "0.0025") -> Path
 
 
 def command(kind: str, scene_path: Path, out: Path) -> list[str]:
-    if kind == "exe":
-        if not EXE.is_file():
-            pytest.skip(f"{EXE} is not built; run scripts/setup")
-        return [str(EXE), str(scene_path), "--out", str(out)]
-    return [sys.executable, "-m", "dyncontact", "run", str(scene_path), "--out", str(out),
-            "--quiet"]
-
-
-def env() -> dict:
-    e = dict(os.environ)
-    e.pop("PYTHONPATH", None)
-    return e
+    args = entry(kind) + [str(scene_path), "--out", str(out)]
+    return args + ["--quiet"] if kind == "cli" else args
 
 
 def listed(out: Path) -> list[str]:
@@ -75,7 +63,7 @@ def test_kill_9_leaves_a_pvd_listing_the_snapshots(tmp_path):
     every one written more than a second (FLUSH_S) before the kill, and only whole VTUs."""
     out = tmp_path / "o"
     s = scene(tmp_path / "s.nml", t_end="400.0", fields_every=4000, dt="1e-4")
-    proc = subprocess.Popen(command("exe", s, out), cwd=tmp_path, env=env(),
+    proc = subprocess.Popen(command("exe", s, out), cwd=tmp_path, env=child_env(),
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         t0 = time.time()
@@ -98,20 +86,20 @@ def test_kill_9_leaves_a_pvd_listing_the_snapshots(tmp_path):
 def test_new_run_removes_the_previous_runs_snapshots(kind, tmp_path):
     out = tmp_path / "o"
     s1 = scene(tmp_path / "s1.nml", t_end="1.0", fields_every=100)
-    res = subprocess.run(command(kind, s1, out), cwd=tmp_path, env=env(), capture_output=True,
+    res = subprocess.run(command(kind, s1, out), cwd=tmp_path, env=child_env(), capture_output=True,
                          text=True, timeout=120)
     assert res.returncode == EXIT_OK, res.stderr
     assert len(assert_whole_snapshots(out)) == 5           # steps 0, 100, ..., 400
     (out / "fields" / "notes.txt").write_text("mine")      # not a snapshot: kept
 
     s2 = scene(tmp_path / "s2.nml", t_end="0.5", fields_every=150)
-    res = subprocess.run(command(kind, s2, out), cwd=tmp_path, env=env(), capture_output=True,
+    res = subprocess.run(command(kind, s2, out), cwd=tmp_path, env=child_env(), capture_output=True,
                          text=True, timeout=120)
     assert res.returncode == EXIT_OK, res.stderr
     assert assert_whole_snapshots(out) == ["fields/step_0000000.vtu", "fields/step_0000150.vtu"]
 
     s3 = scene(tmp_path / "s3.nml", t_end="0.5", fields_every=0)
-    res = subprocess.run(command(kind, s3, out), cwd=tmp_path, env=env(), capture_output=True,
+    res = subprocess.run(command(kind, s3, out), cwd=tmp_path, env=child_env(), capture_output=True,
                          text=True, timeout=120)
     assert res.returncode == EXIT_OK, res.stderr
     assert not (out / "fields.pvd").exists()

@@ -65,9 +65,16 @@ def entry(kind: str) -> list[str]:
     return [sys.executable, "-m", "dyncontact", "run"]
 
 
-def run(kind, *args, cwd, timeout=120):
+def child_env() -> dict:
+    """The environment of a child run: this one without PYTHONPATH (the package is the
+    venv's editable install, as a user's run finds it)."""
     env = dict(os.environ)
     env.pop("PYTHONPATH", None)
+    return env
+
+
+def run(kind, *args, cwd, timeout=120):
+    env = child_env()
     return subprocess.run(entry(kind) + [str(a) for a in args], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=timeout)
 
@@ -153,8 +160,7 @@ def test_disk_full_while_writing_fields_exits_4(kind, tmp_path):
         scene = write_scene(tmp_path / "s.nml", scheme__t_end="150.0", output__every="1000",
                             output__fields_every="100")
         out = disk / "o"
-        env = dict(os.environ)
-        env.pop("PYTHONPATH", None)
+        env = child_env()
         proc = subprocess.Popen(entry(kind) + [str(scene), "--out", str(out)], cwd=tmp_path,
                                 env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                 text=True)
@@ -245,8 +251,7 @@ def test_cli_wait_waits_for_the_lock(tmp_path):
         out.mkdir()
         (out / ".dyncontact.lock").write_text(f"{holder.pid}\n")
         scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.1")
-        env = dict(os.environ)
-        env.pop("PYTHONPATH", None)
+        env = child_env()
         proc = subprocess.Popen(entry("cli") + [str(scene), "--out", str(out), "--wait"],
                                 cwd=tmp_path, env=env, stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
@@ -267,7 +272,7 @@ def test_two_runs_into_one_folder(tmp_path):
     first run's trace intact (the first is started, seen running, then stopped)."""
     first = _start_long("exe", tmp_path)
     try:
-        _wait_for_rows(tmp_path / "o", 10)
+        wait_for_rows(tmp_path / "o", 10)
         scene = write_scene(tmp_path / "s.nml", scheme__t_end="3.0")
         second = subprocess.run(entry("exe") + [str(scene), "--out", str(tmp_path / "o")],
                                 cwd=tmp_path, capture_output=True, text=True, timeout=120)
@@ -300,8 +305,7 @@ def _start_long(kind, tmp_path, every="1", t_end="50.0"):
                         contact__obstacle_point="0.0", contact__obstacle_normal="-1.0",
                         contact__probe="0.0", scheme__dt="1e-4", scheme__t_end=t_end,
                         output__every=every)
-    env = dict(os.environ)
-    env.pop("PYTHONPATH", None)
+    env = child_env()
     args = entry(kind) + [str(scene), "--out", str(tmp_path / "o")]
     if kind == "cli":
         args.append("--quiet")
@@ -309,7 +313,8 @@ def _start_long(kind, tmp_path, every="1", t_end="50.0"):
                             stderr=subprocess.PIPE, text=True)
 
 
-def _wait_for_rows(folder: Path, n: int):
+def wait_for_rows(folder: Path, n: int) -> None:
+    """Wait until trace.csv in folder holds about n rows (200 bytes a row)."""
     t0 = time.time()
     while time.time() - t0 < START_TIMEOUT:
         p = folder / "trace.csv"
@@ -323,7 +328,7 @@ def _wait_for_rows(folder: Path, n: int):
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_signal_stops_at_end_of_step(kind, sig, tmp_path):
     proc = _start_long(kind, tmp_path)
-    _wait_for_rows(tmp_path / "o", 2000)
+    wait_for_rows(tmp_path / "o", 2000)
     proc.send_signal(sig)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == EXIT_SIGNAL, (out, err)
@@ -340,7 +345,7 @@ def test_signal_stops_at_end_of_step(kind, sig, tmp_path):
 
 def test_summary_kept_current_so_kill_9_leaves_last_state(tmp_path):
     proc = _start_long("exe", tmp_path, every="100", t_end="5000.0")
-    _wait_for_rows(tmp_path / "o", 2)
+    wait_for_rows(tmp_path / "o", 2)
     time.sleep(6.5)     # summary.json is rewritten every 5 s of wall time
     proc.kill()
     proc.communicate(timeout=60)
@@ -649,8 +654,7 @@ def test_central_auto_step_warns_where_the_estimate_is_not_a_bound(kind, tmp_pat
 def test_plot_out_says_what_it_wrote(tmp_path):
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.05")
     assert run("exe", scene, "--out", tmp_path / "o", cwd=tmp_path).returncode == 0
-    env = dict(os.environ)
-    env.pop("PYTHONPATH", None)
+    env = child_env()
     for out, written in [("fig", "fig.png"), ("figs", "figs/traces.png")]:
         if out == "figs":
             (tmp_path / "figs").mkdir()

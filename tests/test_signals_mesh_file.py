@@ -7,21 +7,18 @@ signal's step and the lock released, in the executable and in `python -m dyncont
 from __future__ import annotations
 
 import json
-import os
 import signal
 import struct
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
-from conftest import EXE, ROOT
+from conftest import ROOT
+from test_reliability import child_env, entry, wait_for_rows
 
 EXIT_SIGNAL = 130
-#: Seconds to wait for a run to write its first rows.
-START_TIMEOUT = 60
 #: The checkpoint's step: the 7th 8-byte field of its header (docs/scenes.md).
 CKPT_STEP_OFFSET = 6 * 8
 
@@ -49,16 +46,10 @@ caught()
 """
 
 
-def _env() -> dict:
-    env = dict(os.environ)
-    env.pop("PYTHONPATH", None)
-    return env
-
-
 @pytest.mark.parametrize("mesh", [MSH, GEO], ids=["msh", "geo"])
 def test_reading_a_mesh_file_keeps_the_signal_dispositions(mesh):
     res = subprocess.run([sys.executable, "-c", PROBE, str(mesh), ",".join(WATCHED)],
-                         env=_env(), capture_output=True, text=True, timeout=120)
+                         env=child_env(), capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     lines = res.stdout.split("\n")
     before, after = lines[0:2], lines[2:4]
@@ -79,32 +70,16 @@ def _scene(folder: Path) -> Path:
     return path
 
 
-def _command(kind: str, scene: Path, out: Path) -> list[str]:
-    if kind == "exe":
-        if not EXE.is_file():
-            pytest.skip(f"{EXE} is not built; run scripts/setup")
-        return [str(EXE), str(scene), "--out", str(out)]
-    return [sys.executable, "-m", "dyncontact", "run", str(scene), "--out", str(out),
-            "--quiet"]
-
-
-def _wait_for_rows(out: Path, n: int) -> None:
-    t0 = time.time()
-    while time.time() - t0 < START_TIMEOUT:
-        trace = out / "trace.csv"
-        if trace.exists() and trace.stat().st_size > n * 200:
-            return
-        time.sleep(0.05)
-    raise AssertionError("the run did not start")
-
-
 @pytest.mark.parametrize("kind", ["exe", "cli"])
 def test_sigterm_stops_a_run_on_a_mesh_file(kind, tmp_path):
     out = tmp_path / "o"
-    proc = subprocess.Popen(_command(kind, _scene(tmp_path), out), cwd=tmp_path, env=_env(),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    args = entry(kind) + [str(_scene(tmp_path)), "--out", str(out)]
+    if kind == "cli":
+        args.append("--quiet")
+    proc = subprocess.Popen(args, cwd=tmp_path, env=child_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
     try:
-        _wait_for_rows(out, 300)
+        wait_for_rows(out, 300)
         proc.send_signal(signal.SIGTERM)
         stdout, stderr = proc.communicate(timeout=120)
     finally:

@@ -2,9 +2,9 @@
 scripts/figures): SIGTERM stops them as Ctrl-C does (exit 130, docs/scenes.md *Exit
 codes*) and no worker outlives its parent, even one killed with SIGKILL.
 
-Each command runs in its own session, so that every process it starts is in one process
-group: the test finds them in /proc by that group (psutil is not a dependency) and kills
-what is left when it ends, whatever happened.
+Each command is started with setsid (start_new_session), so that every process it starts
+is in one process group: the test finds them in /proc by that group (psutil is not a
+dependency) and kills what is left when it ends, whatever happened.
 """
 
 from __future__ import annotations
