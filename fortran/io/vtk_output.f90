@@ -4,6 +4,7 @@
 module vtk_output
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
+    use os_files, only: write_text_atomic
     implicit none
     private
 
@@ -13,7 +14,7 @@ module vtk_output
 
     character(len=*), parameter :: REAL_FMT = '(3(1x,es24.16e3))'   ! round-trips doubles
 
-    public :: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes, vtk_pvd_line, vtk_pvd_text
+    public :: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
 
 contains
 
@@ -168,35 +169,44 @@ contains
 
     !> Write the ParaView collection index (.pvd) listing files(k) at times(k); file
     !> names are written as given (trimmed), so give them relative to the .pvd's folder.
-    !> The index is replaced if it exists (rewrite it after each new snapshot).
+    !> The index is replaced atomically (written as path.tmp and renamed over it), so that
+    !> a reader, or a run killed while writing it, never leaves part of one.
     subroutine vtk_write_pvd(path, times, files, stat, errmsg)
         character(len=*), intent(in) :: path                !! file to write (.pvd)
         real(dp), intent(in) :: times(:)                    !! time of each snapshot
         character(len=*), intent(in) :: files(:)            !! snapshot file names (.vtu)
         integer, intent(out) :: stat                        !! STAT_OK, _BAD_INPUT, _INTERNAL
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: unit, ios, k
-        character(len=256) :: iomsg
-        character(len=:), allocatable :: line
+        character(len=1), parameter :: nl = new_line('a')
+        character(len=:), allocatable :: lines, line
+        integer :: k, n, pos
 
         if (size(times) /= size(files)) then
             call raise(stat, errmsg, STAT_BAD_INPUT, &
                        'vtk_write_pvd: times and files differ in length')
             return
         end if
-        call open_vtk(path, 'Collection', 'vtk_write_pvd', unit, ios, iomsg, stat, errmsg)
-        if (stat /= STAT_OK) return
+        ! the DataSet lines in one string: their length first (no copy a line)
+        n = 0
         do k = 1, size(times)
-            if (ios /= 0) exit
-            line = vtk_pvd_line(times(k), files(k))
-            write (unit, '(a)', iostat=ios, iomsg=iomsg) line(1:len(line) - 1)
+            line = pvd_line(times(k), files(k))
+            n = n + len(line)
         end do
-        call close_vtk(unit, path, 'Collection', 'vtk_write_pvd', ios, iomsg, stat, errmsg)
+        allocate (character(len=n) :: lines)
+        pos = 0
+        do k = 1, size(times)
+            line = pvd_line(times(k), files(k))
+            lines(pos + 1:pos + len(line)) = line
+            pos = pos + len(line)
+        end do
+        call write_text_atomic(path, '<?xml version="1.0"?>'//nl// &
+                               '<VTKFile type="Collection" version="0.1" '// &
+                               'byte_order="LittleEndian">'//nl//'  <Collection>'//nl// &
+                               lines//'  </Collection>'//nl//'</VTKFile>'//nl, stat, errmsg)
     end subroutine vtk_write_pvd
 
-    !> The line (with its line feed) of a .pvd collection that lists `file` at `time`, as
-    !> vtk_write_pvd writes it.
-    function vtk_pvd_line(time, file) result(line)
+    !> The line (with its line feed) of a .pvd collection that lists `file` at `time`.
+    function pvd_line(time, file) result(line)
         real(dp), intent(in) :: time            !! the snapshot's time
         character(len=*), intent(in) :: file    !! its file name, relative to the .pvd's folder
         character(len=:), allocatable :: line
@@ -204,18 +214,7 @@ contains
         write (tbuf, '(es24.16e3)') time
         line = '    <DataSet timestep="'//trim(adjustl(tbuf))//'" group="" part="0" file="' &
                //xml_escape(trim(file))//'"/>'//new_line('a')
-    end function vtk_pvd_line
-
-    !> The whole text of a .pvd collection whose DataSet lines (vtk_pvd_line) are `lines`:
-    !> the bytes vtk_write_pvd writes, for a caller that writes the file itself (atomically).
-    function vtk_pvd_text(lines) result(text)
-        character(len=*), intent(in) :: lines   !! concatenated vtk_pvd_line results
-        character(len=:), allocatable :: text
-        character(len=1), parameter :: nl = new_line('a')
-        text = '<?xml version="1.0"?>'//nl// &
-               '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">'//nl// &
-               '  <Collection>'//nl//lines//'  </Collection>'//nl//'</VTKFile>'//nl
-    end function vtk_pvd_text
+    end function pvd_line
 
     !> Open `path` (replaced) as a formatted stream and write the XML declaration and
     !> the opening tags <VTKFile type="kind" ...> and <kind>. A failed open is

@@ -28,7 +28,7 @@ module simulation
                         write_text_atomic, signal_caught, free_space, remove_matching, &
                         same_folder
     use sparse, only: csc_t
-    use vtk_output, only: vtk_write_vtu, vtk_vtu_bytes, vtk_pvd_line, vtk_pvd_text
+    use vtk_output, only: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
     use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get, buf_put_text, buf_get_text, buf_from
     use checkpoint_file, only: CHECKPOINT_NAME, checkpoint_scene_hash, checkpoint_write, &
@@ -1080,22 +1080,8 @@ contains
         type(simulation_t), intent(inout) :: sim            !! the run
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        character(len=:), allocatable :: lines, line
-        integer :: k, n, pos
-        n = 0
-        do k = 1, sim%n_snap
-            line = vtk_pvd_line(sim%snap_t(k), sim%snap_file(k))
-            n = n + len(line)
-        end do
-        allocate (character(len=n) :: lines)
-        pos = 0
-        do k = 1, sim%n_snap
-            line = vtk_pvd_line(sim%snap_t(k), sim%snap_file(k))
-            lines(pos + 1:pos + len(line)) = line
-            pos = pos + len(line)
-        end do
-        call write_text_atomic(trim(sim%scn%out_dir)//'/fields.pvd', vtk_pvd_text(lines), &
-                               stat, errmsg)
+        call vtk_write_pvd(trim(sim%scn%out_dir)//'/fields.pvd', sim%snap_t(1:sim%n_snap), &
+                           sim%snap_file(1:sim%n_snap), stat, errmsg)
         call system_clock(sim%clock_pvd)
         if (stat == STAT_OK) sim%pvd_due = .false.
     end subroutine write_pvd
