@@ -1,0 +1,379 @@
+"""Every quantity a run carries from step to step instead of recomputing it, checked at
+EVERY step of a short run against its definition, recomputed here in numpy from the
+fields (dyncontact.core.Stepper's state), the assembled matrices and the mesh:
+
+- M v (state mv; e_kin uses it) against M @ v;
+- B(u) as the scheme carries it into the next step (state bu: K_theta u by a product, and
+  the contact part, which the implicit schemes keep from the step's last Newton iterate)
+  against B evaluated afresh at u, and against K_theta @ u off the contact cells;
+- M (u - u~) (+ k a) of the next step's predictor, which the implicit schemes carry: it
+  enters the balance equation of the step, recomputed here from u, v, a, M and B;
+- the trace row's e_kin = 1/2 v.M v, e_el = 1/2 u.K u, e_total = e_kin + e_el,
+  e_load = -u.L, and e_contact = e_pen - e_theta (e_pen = int [P]_-^2 / (2 gamma_N) over
+  the contact facets, integrated in closed form from the nodal values of the linear P,
+  e_theta = sum theta |F| sigma_n^2 / (2 gamma_N) from the P1 gradients of each facet's
+  owner cell: the mesh, not the core's kernels), which the schemes carry from the
+  contact evaluation of the step's last iterate;
+- the trace's active count (carried from the same evaluation) against a fresh evaluation
+  at u;
+- the time t (a running sum of dt) against n dt;
+- summary.json's counters: newton_its_total against the sum of the trace's per-step
+  newton_its, factorizations against the factorizations each scheme makes (J0 once, M
+  once when not lumped), steps and t_end_reached against the run.
+
+The runs: a short bar (1D, 2D, 3D) thrown with velocity 1 and gravity onto a plane
+obstacle, tilted in 2D and 3D so the contact starts at a corner, spreads, cuts facets
+(the 'exact' quadrature splits them) and is released within t = 0.3; for every scheme of
+tests/test_invariants.py's list, every mass, and the contact variants Nitsche theta = 1,
+0, -1, penalty and the augmented Lagrangian (integral and nodal multipliers).
+tests/test_invariants.py checks the same kind of identities at sampled steps of long
+runs of the seed's scenes; here every step is checked, on every dimension and contact
+method.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import dyncontact
+from dyncontact.core import Stepper, load_mesh, read_trace
+
+from conftest import ROOT, lame
+from test_invariants import SCHEMES, coefficients
+
+EPS = np.finfo(float).eps
+#: Relative round-off bound for an identity evaluated in double precision: each side is
+#: a sum of O(10-100) terms (products with M, K, a P1 gradient, a closed-form integral),
+#: whose round-off is a few hundred eps at most relative to the sum of the terms'
+#: magnitudes (the scale each check names); 1e-12 is ~4500 eps, with room for the
+#: carried contact part being evaluated at the Newton iterate x, which differs from u'
+#: by round-off of u' (see the module header of fortran/schemes/implicit_schemes.f90).
+THR = 1e-12
+#: The Newton tolerance of the runs: below round-off of the residual's scale, so a
+#: converged step is exact and the balance equation holds to round-off.
+NEWTON_TOL = 1e-14
+T_END = 0.3
+
+#: (scene file, mesh keys, obstacle normal (into the obstacle), obstacle point, velocity)
+GEOMETRY = {
+    1: ("bar1d.nml", {"length": 0.2, "h": 0.02}, [-1.0, 0.0], [-0.004, 0.0], [-1.0, 0.0]),
+    2: ("bar2d_hht.nml", {"length": 0.2, "width": 0.1, "h": 0.025}, [0.3, -1.0],
+        [0.1, -0.004], [0.0, -1.0]),
+    3: ("bar3d_hht.nml", {"length": 0.2, "width": 0.1, "h": 0.05}, [0.3, 0.2, -1.0],
+        [0.1, 0.1, -0.004], [0.0, 0.0, -1.0]),
+}
+#: contact variants: (&contact keys)
+CONTACT = {
+    "nitsche1": {"method": "nitsche", "theta": 1},
+    "nitsche0": {"method": "nitsche", "theta": 0},
+    "nitsche-1": {"method": "nitsche", "theta": -1},
+    "penalty": {"method": "penalty"},
+    "alm_integral": {"method": "alm", "multiplier": "integral"},
+    "alm_nodal": {"method": "alm", "multiplier": "nodal"},
+}
+IMPLICIT = ("newmark", "hht", "hht_seed", "theta", "galpha")
+MASSES = ("consistent", "lumped", "redistributed")
+
+
+def takes(label, mass, contact):
+    """Whether the scheme takes that mass and contact method (redistributed mass and the
+    augmented Lagrangian: implicit schemes only)."""
+    implicit = SCHEMES[label][0]["name"] in IMPLICIT
+    return implicit or (mass != "redistributed" and not contact.startswith("alm"))
+
+
+CASES = (
+    # 2D: every scheme, every mass, every contact variant
+    [(2, label, mass, contact) for label in SCHEMES for mass in MASSES for contact in CONTACT
+     if takes(label, mass, contact)
+     and (mass == "consistent" or contact in ("nitsche1", "penalty", "alm_integral"))]
+    # 1D and 3D: every scheme, Nitsche theta = 1 and penalty (every mass in 1D), the
+    # augmented Lagrangian with the consistent mass
+    + [(dim, label, mass, contact) for dim in (1, 3) for label in SCHEMES
+       for mass in (MASSES if dim == 1 else ("consistent",))
+       for contact in ("nitsche1", "penalty", "alm_nodal")
+       if takes(label, mass, contact) and (mass == "consistent" or contact == "nitsche1")]
+)
+
+
+def case_id(case):
+    return "-".join(str(c) for c in case)
+
+
+# ------------------------------------------------------------------ the reference
+
+class ContactReference:
+    """The contact facets of a built-in bar and what the carried contact quantities
+    stand for, from the mesh alone: sigma_n(u) = s_f . u on facet f's owner cell (P1
+    gradients, plane strain in 2D, sigma = E u' in 1D), u_n at its nodes, the gap,
+    gamma_N = gamma0 / h_T (h_T: the owner cell's longest edge), |F|."""
+
+    def __init__(self, dim, mesh_keys, young, poisson, gamma0, normal, point, dof_map,
+                 n_dofs):
+        m = load_mesh(dim=dim, **mesh_keys)
+        x, cells = m["x"], m["cells"]
+        bottom = m["group_names"].index("bottom")
+        facets = m["facets"][m["facet_group"] == bottom]
+        normal = np.asarray(normal[:dim], dtype=float)
+        normal = normal / np.linalg.norm(normal)
+        point = np.asarray(point[:dim], dtype=float)
+        lam, mu = lame(young, poisson)
+        free = {(int(nd), int(c)): k for k, (nd, c) in enumerate(zip(*dof_map))}
+        cell_sets = [set(c.tolist()) for c in cells]
+        nf = len(facets)
+        self.dim = dim
+        self.s = np.zeros((nf, n_dofs))             # sigma_n(u) = s[f] . u
+        self.un = np.zeros((nf, dim, n_dofs))       # u_n at facet node j = un[f, j] . u
+        self.gap = np.zeros((nf, dim))
+        self.gamma = np.zeros(nf)
+        self.measure = np.zeros(nf)
+        self.cells = np.zeros(nf, dtype=int)
+        for f, fac in enumerate(facets):
+            owner = [c for c, cs in enumerate(cell_sets) if set(fac.tolist()) <= cs]
+            assert len(owner) == 1, "a contact facet with no single owner cell"
+            cell = cells[owner[0]]
+            self.cells[f] = owner[0]
+            xc = x[cell]
+            grads = np.linalg.inv(np.column_stack([np.ones(dim + 1), xc]))[1:, :]  # (dim, dim+1)
+            h_t = max(np.linalg.norm(xc[i] - xc[j]) for i in range(dim + 1) for j in range(i))
+            self.gamma[f] = gamma0 / h_t
+            # d sigma_n / d u(node i, comp a): strain of that unit field, then n.sigma.n
+            for i, node in enumerate(cell):
+                for a in range(dim):
+                    k = free.get((int(node), a))
+                    if k is None:
+                        continue
+                    g = np.zeros((dim, dim))
+                    g[a, :] = grads[:, i]
+                    eps_ = 0.5 * (g + g.T)
+                    if dim == 1:
+                        sig = young * eps_
+                    else:
+                        sig = lam * np.trace(eps_) * np.eye(dim) + 2 * mu * eps_
+                    self.s[f, k] = normal @ sig @ normal
+            for j, node in enumerate(fac):
+                for a in range(dim):
+                    k = free.get((int(node), a))
+                    if k is not None:
+                        self.un[f, j, k] = normal[a]
+                self.gap[f, j] = (point - x[node]) @ normal
+            xf = x[fac]
+            if dim == 1:
+                self.measure[f] = 1.0
+            elif dim == 2:
+                self.measure[f] = np.linalg.norm(xf[1] - xf[0])
+            else:
+                self.measure[f] = 0.5 * np.linalg.norm(np.cross(xf[1] - xf[0], xf[2] - xf[0]))
+        # the dofs of the owner cells (where the contact part of B lives)
+        self.cell_dofs = np.zeros(n_dofs, dtype=bool)
+        for c in self.cells:
+            for node in cells[c]:
+                for a in range(dim):
+                    k = free.get((int(node), a))
+                    if k is not None:
+                        self.cell_dofs[k] = True
+
+    def energies(self, u, theta, penalty):
+        """(e_pen, e_theta, e_scale, b_scale): e_pen = sum_f int_F [P]_-^2 / (2 gamma_f),
+        exact for the linear P; e_theta = sum_f theta |F| sigma_n^2 / (2 gamma_f).
+        P = sigma_n - gamma (u_n - g) is formed from terms of magnitude pmag =
+        |s| |u| + gamma (|u_n| + |g|), so its round-off is a few eps pmag (and the
+        carried value, taken at the Newton iterate, differs by the round-off of u, which
+        pmag covers too). e_scale bounds the round-off of the energies:
+        |F| / gamma (pmag max|[P]_-| + |theta| (|s| |u|)^2) summed over the facets;
+        b_scale that of the contact residual's entries, |F| / gamma pmag (|s| + gamma)
+        summed over the facets (a dof is on a few of them)."""
+        sn = self.s @ u
+        un = self.un @ u
+        ws = 0.0 if penalty else 1.0
+        p = ws * sn[:, None] - self.gamma[:, None] * (un - self.gap)
+        smag = np.abs(self.s) @ np.abs(u)
+        pmag = ws * smag + self.gamma * (np.max(np.abs(self.un) @ np.abs(u), axis=1)
+                                         + np.max(np.abs(self.gap), axis=1))
+        pneg = np.max(np.maximum(-p, 0.0), axis=1)
+        e_pen = sum(self.integral(p[f], self.measure[f]) / (2 * self.gamma[f])
+                    for f in range(len(p)))
+        e_theta = 0.0 if penalty else float(np.sum(theta * self.measure * sn**2
+                                                   / (2 * self.gamma)))
+        w = self.measure / self.gamma
+        e_scale = float(np.sum(w * (pmag * pneg + abs(theta) * smag**2)))
+        b_scale = float(np.sum(w * pmag * (ws * np.max(np.abs(self.s), axis=1) + self.gamma)))
+        return e_pen, e_theta, e_scale, b_scale
+
+    def integral(self, p, measure):
+        """int_F min(P, 0)^2 for P linear on the facet with nodal values p (a point, a
+        segment or a triangle of measure `measure`), in closed form: the part where
+        P < 0 is the facet, a sub-segment / sub-triangle at a negative node, or the facet
+        less the sub-triangle at its one node where P >= 0."""
+        p = np.asarray(p, dtype=float)
+        neg = p < 0
+        if not neg.any():
+            return 0.0
+        if self.dim == 1:
+            return float(p[0] ** 2)
+        full = measure / (self.dim * (self.dim + 1) / 2) * (
+            np.sum(p**2) + sum(p[i] * p[j] for i in range(len(p)) for j in range(i)))
+        if neg.all():
+            return float(full)
+        if self.dim == 2:   # one node negative: the sub-segment from it to the zero
+            i = int(np.flatnonzero(neg)[0])
+            t = p[i] / (p[i] - p[1 - i])
+            return float(t * measure * p[i] ** 2 / 3)
+        if neg.sum() == 1:  # the sub-triangle at the negative node
+            i = int(np.flatnonzero(neg)[0])
+            t = [p[i] / (p[i] - p[k]) for k in range(3) if k != i]
+            return float(measure * t[0] * t[1] * p[i] ** 2 / 6)
+        i = int(np.flatnonzero(~neg)[0])   # the facet less the sub-triangle where P >= 0
+        t = [p[i] / (p[i] - p[k]) for k in range(3) if k != i]
+        return float(full - measure * t[0] * t[1] * p[i] ** 2 / 6)
+
+
+def scene_for(dim, label, mass, contact):
+    f, mesh_keys, normal, point, velocity = GEOMETRY[dim]
+    keys, dt = SCHEMES[label]
+    scene = dyncontact.Scene.read(ROOT / "scripts" / "scenes" / f)
+    for k, v in mesh_keys.items():
+        scene.set(f"mesh.{k}", v)
+    for k, v in keys.items():
+        scene.set(f"scheme.{k}", v)
+    scene.set("scheme.dt", 0.0 if keys["name"] == "central" else dt)
+    scene.set("scheme.t_end", T_END)
+    scene.set("scheme.mass", mass)
+    scene.set("scheme.newton_tol", NEWTON_TOL)
+    scene.set("scheme.blowup", 1e6)
+    for k, v in CONTACT[contact].items():
+        scene.set(f"contact.{k}", v)
+    scene.set("contact.quadrature", "exact")
+    scene.set("contact.obstacle_normal", normal)
+    scene.set("contact.obstacle_point", point)
+    scene.set("contact.probe", [point[0], *([0.0] * (len(point) - 1))] if dim == 1
+              else [0.1, *([0.05] * (dim - 2)), 0.0])
+    scene.set("initial.kind", "velocity")
+    scene.set("initial.velocity", velocity)
+    scene.set("material.gravity", [0.5 * c for c in velocity])
+    return scene, mesh_keys, normal, point
+
+
+def rel(x, scale):
+    return float(np.max(np.abs(x)) / max(scale, np.finfo(float).tiny))
+
+
+@pytest.mark.parametrize("case", CASES, ids=case_id)
+def test_carried_quantities_every_step(case, tmp_path):
+    dim, label, mass, contact = case
+    keys = SCHEMES[label][0]
+    family, am, af, beta, gamma, theta_s = coefficients(keys)
+    alm = contact.startswith("alm")
+    penalty = contact == "penalty"
+    theta = CONTACT[contact].get("theta", 0)
+    scene, mesh_keys, normal, point = scene_for(dim, label, mass, contact)
+    out = tmp_path / "run"
+    states, fresh = [], []
+    with Stepper(scene, out) as run:
+        M, K, Kt = run.matrix("M"), run.matrix("K"), run.matrix("K_theta")
+        ref = ContactReference(dim, mesh_keys, scene.get("material.young"),
+                               scene.get("material.poisson"), scene.get("contact.gamma0"),
+                               normal, point, run.dof_map(), run.dofs)
+        n_steps = run.n_steps
+        states.append(run.state())
+        fresh.append(run.eval_b(states[0]["u"]))
+        for _ in range(n_steps):
+            assert run.advance(1) == 1
+            states.append(run.state())
+            fresh.append(run.eval_b(states[-1]["u"]))
+    trace = read_trace(out)
+    summary = json.loads((out / "summary.json").read_text())
+    assert len(trace["t"]) == n_steps + 1
+    assert np.any(trace["active"] > 0), "the run never reached contact"
+    if not alm:
+        assert np.any(trace["active"][1:] < np.maximum.accumulate(trace["active"])[1:]), \
+            "the contact was never (partly) released"
+
+    inert = np.any(M != 0.0, axis=0)
+    absM, absK, absKt = np.abs(M), np.abs(K), np.abs(Kt)
+    dt = states[1]["t"]
+    for n, (s, (b, active)) in enumerate(zip(states, fresh)):
+        u, v, mv, bu, load = s["u"], s["v"], s["mv"], s["bu"], s["load"]
+        where = f"{case_id(case)} step {n} (t = {s['t']:.4f})"
+        # t: a running sum of dt, each addition rounded by at most eps/2 of the sum
+        assert abs(s["t"] - n * dt) <= n * EPS * s["t"], (where, "t")
+        assert trace["t"][n] == s["t"], (where, "trace t")
+        # M v, carried for e_kin: each entry a sum of products, scaled by |M| |v|
+        assert rel(mv - M @ v, np.max(absM @ np.abs(v))) <= THR, (where, "M v")
+        # B(u): the linear part is K_theta u everywhere; the contact part (Nitsche and
+        # penalty) against the core's evaluation afresh at u
+        kmag = np.max(absKt @ np.abs(u))
+        e_pen, e_theta, cscale, bterm = ref.energies(u, theta, penalty)
+        off = ~ref.cell_dofs
+        assert rel((bu - Kt @ u)[off], kmag) <= THR, (where, "B(u) off the contact cells")
+        if not alm:
+            bscale = kmag + bterm
+            assert rel(bu - b, bscale) <= THR, (where, "B(u)", rel(bu - b, bscale))
+        # the trace row: energies of this state, from their definitions
+        e_kin = 0.5 * v @ M @ v
+        e_el = 0.5 * u @ K @ u
+        escale = 0.5 * np.abs(v) @ absM @ np.abs(v) + 0.5 * np.abs(u) @ absK @ np.abs(u)
+        assert abs(trace["e_kin"][n] - e_kin) <= THR * escale, (where, "e_kin")
+        assert abs(trace["e_el"][n] - e_el) <= THR * (escale + cscale), (where, "e_el")
+        assert abs(trace["e_total"][n] - (e_kin + e_el)) <= THR * (escale + cscale), \
+            (where, "e_total")
+        assert abs(trace["e_load"][n] + u @ load) <= THR * (np.abs(u) @ np.abs(load)), \
+            (where, "e_load")
+        if alm:
+            assert trace["e_contact"][n] == 0.0, (where, "e_contact (alm)")
+        else:
+            # the reference's sigma_n rows against the matrices: e_theta = 1/2 u.(K - K_theta) u
+            assert abs(e_theta - 0.5 * u @ (K - Kt) @ u) <= THR * (escale + cscale), \
+                (where, "reference e_theta")
+            assert abs(trace["e_contact"][n] - (e_pen - e_theta)) <= THR * (escale + cscale), \
+                (where, "e_contact", trace["e_contact"][n], e_pen - e_theta)
+            assert trace["active"][n] == active, (where, "active")
+        if n == 0:
+            assert trace["newton_its"][0] == 0
+            continue
+        # the step's balance equation, from the state before and after it: it holds to
+        # round-off only if what the step carried (M (u - u~) + k a of its predictor,
+        # B(u^n)) is what it stands for. B is the fresh one (the carried one with the
+        # augmented Lagrangian, whose multipliers are the scheme's).
+        s0 = states[n - 1]
+        b0, b1 = (s0["bu"], bu) if alm else (fresh[n - 1][0], b)
+        u0, v0, a0, a1 = s0["u"], s0["v"], s0["a"], s["a"]
+        if family in ("newmark", "hht", "galpha"):
+            bal = (1 - am) * M @ a1 + am * M @ a0 + (1 - af) * b1 + af * b0 - load
+            bal_scale = (np.max(absM @ np.abs(a1)) + np.max(absM @ np.abs(a0))
+                         + np.max(np.abs(b1)) + np.max(np.abs(b0)) + np.max(np.abs(load))
+                         + (1 - am) * np.max(absM @ np.abs(u)) / (beta * dt * dt))
+        elif family == "theta":
+            bal = M @ (v - v0) - dt * (load - theta_s * b1 - (1 - theta_s) * b0)
+            bal_scale = (np.max(absM @ np.abs(v - v0)) + np.max(absM @ np.abs(u)) / theta_s
+                         + dt * (np.max(np.abs(b1)) + np.max(np.abs(b0))
+                                 + np.max(np.abs(load))))
+        elif family == "central":
+            bal = M @ a1 - (load - b1)
+            bal_scale = np.max(absM @ np.abs(a1)) + np.max(np.abs(b1)) + np.max(np.abs(load))
+        else:   # predictor-correctors: the acceleration of the written state
+            bal = M @ a1 - (load - af * b0 - (1 - af) * b1)
+            bal_scale = (np.max(absM @ np.abs(a1)) + (1 + abs(af)) * np.max(np.abs(b1))
+                         + abs(af) * np.max(np.abs(b0)) + np.max(np.abs(load)))
+        bal_scale += bterm
+        assert rel(bal, bal_scale) <= THR, (where, "balance", rel(bal, bal_scale))
+        if not inert.all():   # dofs without inertia: v = (u' - u)/dt, a = 0
+            assert rel((v - (u - u0) / dt)[~inert], np.max(np.abs(v)) + 1e-300) <= THR
+            assert np.all(a1[~inert] == 0.0)
+
+    # the run's counters
+    explicit = keys["name"] not in IMPLICIT
+    assert summary["steps"] == n_steps and summary["t_end_reached"] == states[-1]["t"]
+    assert summary["newton_its_total"] == int(np.sum(trace["newton_its"][1:]))
+    if explicit:
+        assert np.all(trace["newton_its"] == 0)
+    else:
+        assert np.all(trace["newton_its"][1:] >= 1)
+    # factorizations: J0 once (implicit, direct solver), M once unless lumped (explicit
+    # schemes, and the Newmark family's initial acceleration)
+    expected = (0 if explicit else 1) + (
+        0 if mass == "lumped" or family == "theta" else 1)
+    assert summary["factorizations"] == expected, (summary["factorizations"], expected)
