@@ -87,16 +87,24 @@ def takes(label, mass, contact):
 
 CASES = (
     # 2D: every scheme, every mass, every contact variant
-    [(2, label, mass, contact) for label in SCHEMES for mass in MASSES for contact in CONTACT
-     if takes(label, mass, contact)
+    [(2, label, mass, contact, "direct") for label in SCHEMES for mass in MASSES
+     for contact in CONTACT if takes(label, mass, contact)
      and (mass == "consistent" or contact in ("nitsche1", "penalty", "alm_integral"))]
     # 1D and 3D: every scheme, Nitsche theta = 1 and penalty (every mass in 1D), the
     # augmented Lagrangian with the consistent mass
-    + [(dim, label, mass, contact) for dim in (1, 3) for label in SCHEMES
+    + [(dim, label, mass, contact, "direct") for dim in (1, 3) for label in SCHEMES
        for mass in (MASSES if dim == 1 else ("consistent",))
        for contact in ("nitsche1", "penalty", "alm_nodal")
        if takes(label, mass, contact) and (mass == "consistent" or contact == "nitsche1")]
+    # conjugate gradients for J0 (its solves and the contact correction's columns): the
+    # implicit schemes in 2D and 3D (1D stays direct)
+    + [(dim, label, "consistent", "nitsche1", "cg") for dim in (2, 3) for label in SCHEMES
+       if SCHEMES[label][0]["name"] in IMPLICIT]
 )
+#: CG's relative residual: at most the Newton tolerance (docs/scenes.md, &solver
+#: cg_rtol), which the balance check then meets to round-off as with the direct solver
+#: (these matrices have ~100 rows: CG reaches round-off in fewer iterations than that).
+CG_RTOL = NEWTON_TOL
 
 
 def case_id(case):
@@ -231,7 +239,7 @@ class ContactReference:
         return float(full - measure * t[0] * t[1] * p[i] ** 2 / 6)
 
 
-def scene_for(dim, label, mass, contact):
+def scene_for(dim, label, mass, contact, solver="direct"):
     f, mesh_keys, normal, point, velocity = GEOMETRY[dim]
     keys, dt = SCHEMES[label]
     scene = dyncontact.Scene.read(ROOT / "scripts" / "scenes" / f)
@@ -254,6 +262,9 @@ def scene_for(dim, label, mass, contact):
     scene.set("initial.kind", "velocity")
     scene.set("initial.velocity", velocity)
     scene.set("material.gravity", [0.5 * c for c in velocity])
+    scene.set("solver.kind", solver)
+    if solver == "cg":
+        scene.set("solver.cg_rtol", CG_RTOL)
     return scene, mesh_keys, normal, point
 
 
@@ -263,13 +274,13 @@ def rel(x, scale):
 
 @pytest.mark.parametrize("case", CASES, ids=case_id)
 def test_carried_quantities_every_step(case, tmp_path):
-    dim, label, mass, contact = case
+    dim, label, mass, contact, solver = case
     keys = SCHEMES[label][0]
     family, am, af, beta, gamma, theta_s = coefficients(keys)
     alm = contact.startswith("alm")
     penalty = contact == "penalty"
     theta = CONTACT[contact].get("theta", 0)
-    scene, mesh_keys, normal, point = scene_for(dim, label, mass, contact)
+    scene, mesh_keys, normal, point = scene_for(dim, label, mass, contact, solver)
     out = tmp_path / "run"
     states, fresh = [], []
     with Stepper(scene, out) as run:
@@ -280,10 +291,23 @@ def test_carried_quantities_every_step(case, tmp_path):
         n_steps = run.n_steps
         states.append(run.state())
         fresh.append(run.eval_b(states[0]["u"]))
-        for _ in range(n_steps):
+        saved = n_steps // 2
+        for step in range(n_steps):
+            if step == saved:
+                run.save(tmp_path / "state.bin")
             assert run.advance(1) == 1
             states.append(run.state())
             fresh.append(run.eval_b(states[-1]["u"]))
+        # a restart from the checkpoint in the middle of the run (in contact) carries
+        # what the step after it needs: every state after it the same, bit for bit (so
+        # the checks below hold for the restarted run too)
+        assert run.load(tmp_path / "state.bin") == saved
+        for step in range(saved, n_steps):
+            assert run.advance(1) == 1
+            again = run.state()
+            for key in ("t", "u", "v", "a", "mv", "bu"):
+                assert np.array_equal(again[key], states[step + 1][key]), \
+                    (case_id(case), "restarted at", saved, "step", step + 1, key)
     trace = read_trace(out)
     summary = json.loads((out / "summary.json").read_text())
     assert len(trace["t"]) == n_steps + 1
@@ -374,6 +398,14 @@ def test_carried_quantities_every_step(case, tmp_path):
         assert np.all(trace["newton_its"][1:] >= 1)
     # factorizations: J0 once (implicit, direct solver), M once unless lumped (explicit
     # schemes, and the Newmark family's initial acceleration)
-    expected = (0 if explicit else 1) + (
+    expected = (0 if explicit or solver == "cg" else 1) + (
         0 if mass == "lumped" or family == "theta" else 1)
     assert summary["factorizations"] == expected, (summary["factorizations"], expected)
+    if solver == "cg":
+        # one J0 solve a step at least (y0), each of at least one iteration
+        assert summary["solver"] == "pcg" and summary["cg_solves"] >= n_steps
+        assert summary["cg_iterations"] >= summary["cg_solves"]
+        assert (summary["cg_iterations"] / summary["cg_solves"] <= summary["cg_max_iterations"]
+                <= scene.get("solver.cg_max_iter"))
+    else:
+        assert summary["cg_solves"] == summary["cg_iterations"] == 0
