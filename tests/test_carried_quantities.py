@@ -139,6 +139,10 @@ class ContactReference:
         self.gamma = np.zeros(nf)
         self.measure = np.zeros(nf)
         self.cells = np.zeros(nf, dtype=int)
+        self.facets = facets
+        self.normal = normal
+        self.gamma0 = gamma0
+        self.free = free
         for f, fac in enumerate(facets):
             owner = [c for c, cs in enumerate(cell_sets) if set(fac.tolist()) <= cs]
             assert len(owner) == 1, "a contact facet with no single owner cell"
@@ -210,6 +214,73 @@ class ContactReference:
         e_scale = float(np.sum(w * (pmag * pneg + abs(theta) * smag**2)))
         b_scale = float(np.sum(w * pmag * (ws * np.max(np.abs(self.s), axis=1) + self.gamma)))
         return e_pen, e_theta, e_scale, b_scale
+
+    def alm(self, u, f, kind, kmag):
+        """The multipliers lambda the carried contact force f = B(u) - K_theta u stands
+        for, and the complementarity G(u, lambda) = 0 they must meet (fem/alm_contact.f90's
+        header): returns (errors, active) with errors a list of (name, |error| / scale)
+        and active the points where lambda - r (u_n - g) < 0. 'nodal': f = -lambda_i n at
+        contact node i, zero elsewhere; G_i = u_n - g if active, lambda_i / r_i if not
+        (r_i: mean gamma0 / h_T of its facets). 'integral' (a segment or a point):
+        f = -N lambda, N(dof (K, a), J) = sum_F n_a int_F psi_K psi_J (lambda found by
+        least squares, f must lie in N's range), G_J = int psi_J (u_n - g) where P < 0,
+        int psi_J lambda / r where not, P = lambda - r (u_n - g) linear on each facet
+        (2 Gauss points on each side of its zero: exact for these quadratics). Scales:
+        kmag + |f| for f (the products K_theta u and N lambda it is formed from),
+        |u| + |g| + |lambda| / r for G."""
+        kmag = max(kmag + np.max(np.abs(f)), np.finfo(float).tiny)
+        nodes = sorted({int(k) for k in self.facets.ravel()})
+        where = {k: i for i, k in enumerate(nodes)}
+        dofs = [[self.free[(k, a)] for a in range(self.dim)] for k in nodes]
+        gap = np.zeros(len(nodes))
+        rsum, nfac = np.zeros(len(nodes)), np.zeros(len(nodes))
+        for fi, fac in enumerate(self.facets):
+            for j, k in enumerate(fac):
+                gap[where[int(k)]] = self.gap[fi, j]
+                rsum[where[int(k)]] += self.gamma[fi]
+                nfac[where[int(k)]] += 1
+        un = np.array([self.normal @ u[d] for d in dofs]) - gap
+        umag = np.max(np.abs(u)) + np.abs(gap)
+        on = np.zeros(len(u), dtype=bool)
+        on[np.ravel(dofs)] = True
+        errors = [("f off the contact nodes", np.max(np.abs(f[~on]), initial=0.0) / kmag)]
+        if kind == "nodal" or self.dim == 1:
+            lam = np.array([-(self.normal @ f[d]) for d in dofs])
+            tang = np.array([f[d] + lam[i] * self.normal for i, d in enumerate(dofs)])
+            errors.append(("f along the normal", np.max(np.abs(tang)) / kmag))
+            r = rsum / nfac
+            act = lam - r * un < 0
+            g = np.where(act, un, lam / r)
+            scale = np.where(act, umag, (umag * r + kmag) / r)
+            errors.append(("G", np.max(np.abs(g) / scale)))
+            return errors, int(np.count_nonzero(act))
+        n_mat = np.zeros((len(u), len(nodes)))
+        for fi, fac in enumerate(self.facets):
+            mf = self.measure[fi] / 6 * np.array([[2.0, 1.0], [1.0, 2.0]])
+            for j, kj in enumerate(fac):
+                for k, kk in enumerate(fac):
+                    n_mat[dofs[where[int(kk)]], where[int(kj)]] += self.normal * mf[k, j]
+        lam = np.linalg.lstsq(n_mat[on], -f[on], rcond=None)[0]
+        errors.append(("f in the range of N", np.max(np.abs(f + n_mat @ lam)) / kmag))
+        g = np.zeros(len(nodes))
+        gscale = np.zeros(len(nodes))
+        active = 0
+        gauss = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)
+        for fi, fac in enumerate(self.facets):
+            idx = [where[int(k)] for k in fac]
+            r, meas = self.gamma[fi], self.measure[fi]
+            p = lam[idx] - r * un[idx]
+            cut = [0.0, 1.0] if (p[0] < 0) == (p[1] < 0) else [0.0, p[0] / (p[0] - p[1]), 1.0]
+            active += 2 * bool(np.any(p < 0))
+            for a, b in zip(cut[:-1], cut[1:]):
+                for xi in a + (b - a) * gauss:
+                    psi = np.array([1.0 - xi, xi])
+                    w = 0.5 * (b - a) * meas
+                    value = un[idx] @ psi if psi @ p < 0 else (lam[idx] @ psi) / r
+                    g[idx] += w * psi * value
+            gscale[idx] += meas * (np.max(umag[idx]) + np.max(np.abs(lam[idx])) / r)
+        errors.append(("G", np.max(np.abs(g) / gscale)))
+        return errors, active
 
     def integral(self, p, measure):
         """int_F min(P, 0)^2 for P linear on the facet with nodal values p (a point, a
@@ -348,6 +419,13 @@ def test_carried_quantities_every_step(case, tmp_path):
             (where, "e_load")
         if alm:
             assert trace["e_contact"][n] == 0.0, (where, "e_contact (alm)")
+            # the multipliers the carried contact force stands for meet the complementarity
+            # at u, and the trace's active count is theirs
+            errors, act = ref.alm(u, bu - Kt @ u, CONTACT[contact]["multiplier"], kmag)
+            for name, err in errors:
+                assert err <= THR, (where, name, err)
+            if n > 0:
+                assert trace["active"][n] == act, (where, "active (alm)", act)
         else:
             # the reference's sigma_n rows against the matrices: e_theta = 1/2 u.(K - K_theta) u
             assert abs(e_theta - 0.5 * u @ (K - Kt) @ u) <= THR * (escale + cscale), \
