@@ -56,6 +56,10 @@ THR = 1e-12
 #: converged step is exact and the balance equation holds to round-off.
 NEWTON_TOL = 1e-14
 T_END = 0.3
+#: time steps other than test_invariants.py's: the predictor-correctors at twice theirs
+#: (300 steps; stable on these meshes, whose smallest cells are the 2D ones at h = 0.025),
+#: central at the step it chooses (0.9 of its estimate of the critical step)
+DT = {"pc": 0.001, "pc_hht": 0.001, "pc_hht_seed": 0.001, "central": 0.0}
 
 #: (scene file, mesh keys, obstacle normal (into the obstacle), obstacle point, velocity)
 GEOMETRY = {
@@ -313,12 +317,13 @@ class ContactReference:
 def scene_for(dim, label, mass, contact, solver="direct"):
     f, mesh_keys, normal, point, velocity = GEOMETRY[dim]
     keys, dt = SCHEMES[label]
+    dt = DT.get(keys["name"], dt)
     scene = dyncontact.Scene.read(ROOT / "scripts" / "scenes" / f)
     for k, v in mesh_keys.items():
         scene.set(f"mesh.{k}", v)
     for k, v in keys.items():
         scene.set(f"scheme.{k}", v)
-    scene.set("scheme.dt", 0.0 if keys["name"] == "central" else dt)
+    scene.set("scheme.dt", dt)
     scene.set("scheme.t_end", T_END)
     scene.set("scheme.mass", mass)
     scene.set("scheme.newton_tol", NEWTON_TOL)
@@ -328,8 +333,7 @@ def scene_for(dim, label, mass, contact, solver="direct"):
     scene.set("contact.quadrature", "exact")
     scene.set("contact.obstacle_normal", normal)
     scene.set("contact.obstacle_point", point)
-    scene.set("contact.probe", [point[0], *([0.0] * (len(point) - 1))] if dim == 1
-              else [0.1, *([0.05] * (dim - 2)), 0.0])
+    scene.set("contact.probe", [0.0, 0.0] if dim == 1 else [0.1, *([0.05] * (dim - 2)), 0.0])
     scene.set("initial.kind", "velocity")
     scene.set("initial.velocity", velocity)
     scene.set("material.gravity", [0.5 * c for c in velocity])
@@ -487,3 +491,55 @@ def test_carried_quantities_every_step(case, tmp_path):
                 <= scene.get("solver.cg_max_iter"))
     else:
         assert summary["cg_solves"] == summary["cg_iterations"] == 0
+
+
+# ------------------------------------------------- the kept factors and columns
+
+#: The implicit schemes' caches of the contact correction and the environment variables
+#: that replace each by its reference (fortran/schemes/implicit_schemes.f90's header):
+#: the Woodbury factors reused while the tangent is the same (fresh: formed and
+#: factorized at every iteration), the lazily solved, bounded cache of the columns of
+#: Z = J0^{-1} P^T (all: every column at set-up; 0 MB: every column not needed at the
+#: current step dropped and solved again when needed). Both give the same numbers by
+#: the same operations: the traces equal to the bit.
+SAME_BITS = {"DYNCONTACT_WOODBURY_FRESH": "1", "DYNCONTACT_CONTACT_COLUMNS": "all"}
+EVICTING = {"DYNCONTACT_CONTACT_COLUMNS": "0"}
+#: The Woodbury system on the node basis and Z T on the node basis, against the system
+#: on the terms and Z T on the dofs: equal in exact arithmetic, so the runs differ by
+#: round-off (each step's THR, over the 120 steps of a run, within what the Newton test
+#: at NEWTON_TOL leaves free: TOL, as in tests/test_zt_basis.py), with the same active
+#: counts and Newton iterations at every row.
+ON_TERMS = {"DYNCONTACT_WOODBURY_BASIS": "terms", "DYNCONTACT_ZT_BASIS": "dofs"}
+TOL = 1e-10
+#: one scheme of each implicit family
+REF_LABELS = [next(lb for lb in SCHEMES if SCHEMES[lb][0]["name"] == name) for name in IMPLICIT]
+REF_CASES = [(dim, label, contact) for dim in (1, 2, 3) for label in REF_LABELS
+             for contact in ("nitsche1", "nitsche0", "nitsche-1", "penalty")]
+
+
+def run_env(monkeypatch, env, scene, out):
+    for var in (*SAME_BITS, *ON_TERMS):
+        monkeypatch.delenv(var, raising=False)
+    for var, value in env.items():
+        monkeypatch.setenv(var, value)
+    res = dyncontact.run(scene, out=out, progress=False)
+    assert res.ok, res.message
+    return res.trace
+
+
+@pytest.mark.parametrize("case", REF_CASES, ids=case_id)
+def test_kept_factors_and_columns_equal_their_references(case, monkeypatch, tmp_path):
+    dim, label, contact = case
+    scene = scene_for(dim, label, "consistent", contact)[0]
+    kept = run_env(monkeypatch, {}, scene, tmp_path / "kept")
+    assert kept["active"].max() > 0 and kept["newton_its"].max() >= 2
+    for name, env in (("fresh, all columns", SAME_BITS), ("evicting", EVICTING)):
+        ref = run_env(monkeypatch, env, scene, tmp_path / name.replace(" ", "_"))
+        for col in kept:
+            np.testing.assert_array_equal(kept[col], ref[col], err_msg=f"{name}: {col}")
+    ref = run_env(monkeypatch, {**SAME_BITS, **ON_TERMS}, scene, tmp_path / "terms")
+    np.testing.assert_array_equal(kept["active"], ref["active"])
+    np.testing.assert_array_equal(kept["newton_its"], ref["newton_its"])
+    for col in kept:
+        scale = np.max(np.abs(ref[col]))
+        np.testing.assert_allclose(kept[col], ref[col], rtol=0, atol=TOL * scale, err_msg=col)
