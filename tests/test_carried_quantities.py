@@ -15,8 +15,12 @@ fields (dyncontact.core.Stepper's state), the assembled matrices and the mesh:
   owner cell: the mesh, not the core's kernels), which the schemes carry from the
   contact evaluation of the step's last iterate;
 - the trace's active count (carried from the same evaluation) against a fresh evaluation
-  at u;
+  at u, and the flag clear (no contact point possible at u) against contact_clear at u;
+- with the augmented Lagrangian, the multipliers the carried contact force stands for
+  (f = -N lambda, recovered from B(u) - K_theta u) against the complementarity at u;
 - the time t (a running sum of dt) against n dt;
+- a restart from a checkpoint in the middle of each run: the same states after it, bit
+  for bit;
 - summary.json's counters: newton_its_total against the sum of the trace's per-step
   newton_its, factorizations against the factorizations each scheme makes (J0 once, M
   once when not lumped), steps and t_end_reached against the run.
@@ -26,6 +30,9 @@ obstacle, tilted in 2D and 3D so the contact starts at a corner, spreads, cuts f
 (the 'exact' quadrature splits them) and is released within t = 0.3; for every scheme of
 tests/test_invariants.py's list, every mass, and the contact variants Nitsche theta = 1,
 0, -1, penalty and the augmented Lagrangian (integral and nodal multipliers).
+The implicit schemes' kept Woodbury factors and cache of columns of J0^{-1} are checked
+against their references (the environment variables that form them afresh) in 1D, 2D
+and 3D, for each implicit family and Nitsche theta = 1, 0, -1 and penalty.
 tests/test_invariants.py checks the same kind of identities at sampled steps of long
 runs of the seed's scenes; here every step is checked, on every dimension and contact
 method.
@@ -211,7 +218,7 @@ class ContactReference:
                                          + np.max(np.abs(self.gap), axis=1))
         pneg = np.max(np.maximum(-p, 0.0), axis=1)
         e_pen = sum(self.integral(p[f], self.measure[f]) / (2 * self.gamma[f])
-                    for f in range(len(p)))
+                    for f in np.flatnonzero(np.any(p < 0, axis=1)))
         e_theta = 0.0 if penalty else float(np.sum(theta * self.measure * sn**2
                                                    / (2 * self.gamma)))
         w = self.measure / self.gamma
@@ -366,6 +373,7 @@ def test_carried_quantities_every_step(case, tmp_path):
         n_steps = run.n_steps
         states.append(run.state())
         fresh.append(run.eval_b(states[0]["u"]))
+        clear = [run.contact_clear(states[0]["u"])]
         saved = n_steps // 2
         for step in range(n_steps):
             if step == saved:
@@ -373,6 +381,7 @@ def test_carried_quantities_every_step(case, tmp_path):
             assert run.advance(1) == 1
             states.append(run.state())
             fresh.append(run.eval_b(states[-1]["u"]))
+            clear.append(run.contact_clear(states[-1]["u"]))
         # a restart from the checkpoint in the middle of the run (in contact) carries
         # what the step after it needs: every state after it the same, bit for bit (so
         # the checks below hold for the restarted run too)
@@ -411,6 +420,10 @@ def test_carried_quantities_every_step(case, tmp_path):
         if not alm:
             bscale = kmag + bterm
             assert rel(bu - b, bscale) <= THR, (where, "B(u)", rel(bu - b, bscale))
+        # the flag clear (the step found no contact point possible at u, so the probe
+        # skips [P]_- there): set only where it holds; never by the explicit schemes
+        assert clear[n] or not s["clear"], (where, "clear")
+        assert not (s["clear"] and keys["name"] not in IMPLICIT), (where, "clear (explicit)")
         # the trace row: energies of this state, from their definitions
         e_kin = 0.5 * v @ M @ v
         e_el = 0.5 * u @ K @ u
