@@ -369,7 +369,7 @@ def rel(x, scale):
 def test_carried_quantities_every_step(case, tmp_path):
     dim, label, mass, contact, solver = case
     keys = SCHEMES[label][0]
-    family, am, af, beta, gamma, theta_s = coefficients(keys)
+    family, am, af, beta, _, theta_s = coefficients(keys)
     alm = contact.startswith("alm")
     penalty = contact == "penalty"
     theta = CONTACT[contact].get("theta", 0)
