@@ -9,6 +9,7 @@ dependency) and kills what is left when it ends, whatever happened.
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -192,6 +193,21 @@ def _wait_pids_gone(pids: list[int]) -> list[int]:
     return left
 
 
+def _kill_all(proc: subprocess.Popen) -> None:
+    """SIGKILL to proc's descendants (in their own process groups or not) and its group,
+    whatever the test saw; proc is reaped."""
+    for pid in _descendants(proc.pid):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait()
+
+
 @pytest.mark.skipif(not os.access("/usr/bin/time", os.X_OK), reason="no /usr/bin/time")
 def test_child_group_ends_the_program_under_time():
     """The benchmarks run the executable under /usr/bin/time for its peak memory; time
@@ -214,11 +230,7 @@ def test_child_group_ends_the_program_under_time():
         assert proc.returncode is not None            # reaped
         assert not _wait_pids_gone(sleeper), "the program under time outlived the group"
     finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        proc.wait()
+        _kill_all(proc)
 
 
 def test_sigterm_to_the_scaling_sweep_ends_its_run(tmp_path):
@@ -242,12 +254,7 @@ def test_sigterm_to_the_scaling_sweep_ends_its_run(tmp_path):
         assert "interrupted" in err and "Traceback" not in err, err[-2000:]
         assert not _wait_pids_gone(runs), "the run outlived the sweep"
     finally:
-        for pid in _descendants(proc.pid) + [proc.pid]:
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-        proc.wait()
+        _kill_all(proc)
 
 
 def test_sigterm_to_the_bench_writes_what_it_has_and_exits_130(tmp_path):
@@ -269,12 +276,7 @@ def test_sigterm_to_the_bench_writes_what_it_has_and_exits_130(tmp_path):
         out, err = proc.communicate(timeout=END_TIMEOUT_S)
         assert proc.returncode == 130, (proc.returncode, err[-2000:])
         assert "interrupted" in err and "Traceback" not in err, err[-2000:]
-        import json
         doc = json.loads(out_json.read_text(encoding="utf-8"))
         assert isinstance(doc["rows"], list)
     finally:
-        try:
-            os.killpg(proc.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        proc.wait()
+        _kill_all(proc)
