@@ -132,8 +132,9 @@ contains
 
     !> A failed step: STAT_NUMERIC with the message 'WHAT at t = T: REASON' (': REASON'
     !> only when the failing routine gave one), t the time the step was to reach; the
-    !> cause is kept in this%failure for the run's advice. The failures of a step go
-    !> through here, so that each message gives t once and the run need not read it.
+    !> cause is kept in this%failure for the run's advice. A step's failures go through
+    !> here, or (Newton did not converge, whose message gives t mid-sentence) set the
+    !> cause themselves: each message gives t once, and the run need not read it.
     subroutine step_failed(this, cause, what, t, reason, stat, errmsg)
         class(time_scheme_t), intent(inout) :: this         !! scheme
         integer, intent(in) :: cause                        !! FAILURE_STEP or FAILURE_CG
