@@ -269,3 +269,29 @@ def test_readme_and_docs_exist():
     for text in ("scripts/demo", "scripts/test", "build/dyncontact", "docs/scenes.md"):
         assert text in readme
     assert (ROOT / "docs" / "scenes.md").is_file()
+
+
+def test_both_entry_points_record_the_output_folder_as_given(run_cli, run_exe, tmp_path,
+                                                             monkeypatch):
+    """summary.json's scene.output.dir is the folder as the user gave it, relative or not,
+    from the executable, the Python CLI, run() and Stepper alike (the Python side recorded
+    the absolute path, the executable the path given)."""
+    import dyncontact
+
+    src = (ROOT / "scripts" / "scenes" / "bar1d.nml").read_text(encoding="utf-8")
+    (tmp_path / "s.nml").write_text(src.replace("t_end = 6.0", "t_end = 0.01"),
+                                    encoding="utf-8")
+    assert run_exe("s.nml", "--out", "a").returncode == 0
+    assert run_cli("run", "s.nml", "--out", "b", "--quiet").returncode == 0
+    monkeypatch.chdir(tmp_path)
+    dyncontact.run("s.nml", out="c", progress=False)
+    with dyncontact.Stepper("s.nml", "d") as st:
+        st.advance(2)
+    with pytest.raises(dyncontact.BadInputError, match="out: empty folder name"):
+        dyncontact.run("s.nml", out="", progress=False)
+    for name in "abcd":
+        summary = json.loads((tmp_path / name / "summary.json").read_text(encoding="utf-8"))
+        assert summary["scene"]["output"]["dir"] == name, (name, summary["scene"]["output"])
+    assert run_exe("s.nml", "--out", str(tmp_path / "e")).returncode == 0
+    summary = json.loads((tmp_path / "e" / "summary.json").read_text(encoding="utf-8"))
+    assert summary["scene"]["output"]["dir"] == str(tmp_path / "e")

@@ -155,3 +155,32 @@ def test_scaling_refuses_bad_options_in_one_line(tmp_path, monkeypatch, capsys, 
     for w in words:
         assert w in err[0], err
     assert sorted(os.listdir(tmp_path)) == []
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--steps", "0"], ("--steps", ">= 1")),            # timed nothing
+    (["--repeats", "0"], ("--repeats", ">= 1")),        # kept no round
+    (["--sizes", "abc"], ("--sizes", "abc")),           # argparse's usage, two lines
+    (["--sizes", "0.01,-1"], ("--sizes", "h = -1")),
+])
+def test_getfem_compare_refuses_bad_options_in_one_line(tmp_path, capsys, args, words):
+    from dyncontact.study import getfem_compare
+
+    with pytest.raises(SystemExit) as exc:
+        getfem_compare.main([*args, "--out", str(tmp_path / "gf")], root=str(tmp_path))
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bench --getfem: "), err
+    for w in words:
+        assert w in err[0], err
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+def test_figures_refuses_an_unknown_option_in_one_line(tmp_path, capsys):
+    from dyncontact.study.figures import figures_main
+
+    with pytest.raises(SystemExit) as exc:
+        figures_main(["--bogus"], root=str(tmp_path))
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("figures: ") and "--bogus" in err[0], err

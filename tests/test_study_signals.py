@@ -9,6 +9,7 @@ dependency) and kills what is left when it ends, whatever happened.
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -151,3 +152,131 @@ def test_the_study_resumes_after_sigterm(started, run_cli, tmp_path):
     assert proc.returncode == 130
     r = run_cli(*_commands(tmp_path)["study"][3:])
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+# ------------------------------------------------------------- programs run as children
+
+def _descendants(pid: int) -> list[int]:
+    """Every live descendant of pid (children first), from /proc/PID/task/PID/children."""
+    out, todo = [], [pid]
+    while todo:
+        for kid in _children(todo.pop()):
+            out.append(kid)
+            todo.append(kid)
+    return out
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as f:
+            return f.read().replace(b"\0", b" ").decode("utf-8", "replace")
+    except OSError:
+        return ""
+
+
+def _alive(pid: int) -> bool:
+    """pid exists and is not a zombie."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as f:
+            stat = f.read()
+    except OSError:
+        return False
+    return stat[stat.rindex(")") + 2:].split()[0] != "Z"
+
+
+def _wait_pids_gone(pids: list[int]) -> list[int]:
+    deadline = time.monotonic() + END_TIMEOUT_S
+    left = [p for p in pids if _alive(p)]
+    while left and time.monotonic() < deadline:
+        time.sleep(POLL_S)
+        left = [p for p in left if _alive(p)]
+    return left
+
+
+def _kill_all(proc: subprocess.Popen) -> None:
+    """SIGKILL to proc's descendants (in their own process groups or not) and its group,
+    whatever the test saw; proc is reaped."""
+    for pid in _descendants(proc.pid):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait()
+
+
+@pytest.mark.skipif(not os.access("/usr/bin/time", os.X_OK), reason="no /usr/bin/time")
+def test_child_group_ends_the_program_under_time():
+    """The benchmarks run the executable under /usr/bin/time for its peak memory; time
+    does not pass SIGTERM on, so stopping time alone left the run going as an orphan.
+    child_group ends the child's whole process group."""
+    from dyncontact.study.sweep import child_group
+
+    proc = subprocess.Popen(["/usr/bin/time", "-f", "%M", "sleep", "60"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    try:
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while not _children(proc.pid) and time.monotonic() < deadline:
+            time.sleep(POLL_S)
+        sleeper = _children(proc.pid)
+        assert sleeper, "time started no child"
+        with pytest.raises(KeyboardInterrupt):
+            with child_group(proc):
+                raise KeyboardInterrupt
+        assert proc.returncode is not None            # reaped
+        assert not _wait_pids_gone(sleeper), "the program under time outlived the group"
+    finally:
+        _kill_all(proc)
+
+
+def test_sigterm_to_the_scaling_sweep_ends_its_run(tmp_path):
+    """`scripts/bench --scaling` runs each size as a child (the executable under
+    /usr/bin/time). SIGTERM to the sweep stops it with exit 130 and the run in progress
+    with it; before, that run went on alone after the sweep had died (exit 143)."""
+    cmd = [str(ROOT / "scripts" / "bench"), "--scaling", "--sizes", "0.0025",
+           "--steps", "20000", "--repeats", "1", "--no-floors", "--contact-only",
+           "--out", str(tmp_path / "sc")]
+    proc = _start(cmd, tmp_path)
+    try:
+        runs: list[int] = []
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while not runs and time.monotonic() < deadline and proc.poll() is None:
+            runs = [p for p in _descendants(proc.pid) if "_c_direct_" in _cmdline(p)]
+            time.sleep(POLL_S)
+        assert runs, f"no timed run appeared (exit {proc.poll()})"
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=END_TIMEOUT_S)
+        assert proc.returncode == 130, (proc.returncode, err[-2000:])
+        assert "interrupted" in err and "Traceback" not in err, err[-2000:]
+        assert not _wait_pids_gone(runs), "the run outlived the sweep"
+    finally:
+        _kill_all(proc)
+
+
+def test_sigterm_to_the_bench_writes_what_it_has_and_exits_130(tmp_path):
+    """SIGTERM to scripts/bench ends it as Ctrl-C does: the table and the JSON of the
+    rows done, exit 130 (before: killed at once, exit 143, nothing written)."""
+    out_json = tmp_path / "bench.json"
+    cmd = [str(ROOT / "scripts" / "bench"), "--only", "seed_h0.01", "--repeat", "5",
+           "--out", str(out_json), "--runs", str(tmp_path / "runs")]
+    proc = _start(cmd, tmp_path)
+    try:
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while time.monotonic() < deadline and proc.poll() is None:
+            if (tmp_path / "runs").is_dir():     # the first run has started
+                break
+            time.sleep(POLL_S)
+        time.sleep(1.0)
+        assert proc.poll() is None, "the bench ended before the signal"
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=END_TIMEOUT_S)
+        assert proc.returncode == 130, (proc.returncode, err[-2000:])
+        assert "interrupted" in err and "Traceback" not in err, err[-2000:]
+        doc = json.loads(out_json.read_text(encoding="utf-8"))
+        assert isinstance(doc["rows"], list)
+    finally:
+        _kill_all(proc)

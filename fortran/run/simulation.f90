@@ -16,7 +16,8 @@ module simulation
                      model_mass_apply, model_full_field, MASS_CONSISTENT, MASS_LUMPED, &
                      MASS_REDISTRIBUTED, INITIAL_REST, INITIAL_VELOCITY, INITIAL_COMPRESSED_BAR
     use time_scheme, only: time_scheme_t, state_t, state_eval, scheme_params_t, scheme_kind, &
-                           SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED, SCHEME_CENTRAL
+                           SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED, SCHEME_CENTRAL, &
+                           FAILURE_CG
     use implicit_schemes, only: implicit_scheme_t, implicit_solver_report
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
@@ -576,11 +577,8 @@ contains
             call sim%scheme%step(sim%mdl, sim%st, stat, msg)
             if (stat /= STAT_OK) then
                 sim%status = 'newton_failed'
-                sim%message = trim(msg)
-                ! (the schemes' messages mostly give t already)
-                if (index(msg, 'at t = ') == 0) sim%message = trim(sim%message)//' at t = '// &
-                    real_text(sim%st%t + sim%scn%dt, 6)
-                if (index(msg, 'conjugate gradients') > 0) then
+                sim%message = trim(msg)       ! (it gives t: the schemes' step_failed)
+                if (sim%scheme%failure == FAILURE_CG) then
                     sim%message = trim(sim%message)//'; check &solver cg_max_iter and '// &
                                   'cg_rtol, or use &solver kind = ''direct'''
                 else

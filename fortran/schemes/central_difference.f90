@@ -22,7 +22,7 @@ module central_difference
     use nitsche_contact, only: contact_eval
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
                            mass_solver_name, mass_solver_kernel
-    use time_scheme, only: time_scheme_t, state_t, scheme_params_t
+    use time_scheme, only: time_scheme_t, state_t, scheme_params_t, step_solve_failed
     implicit none
     private
 
@@ -131,7 +131,11 @@ contains
         else
             this%rhs = mdl%load - st%bu
             call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
-            if (stat /= STAT_OK) return
+            if (stat /= STAT_OK) then
+                call step_solve_failed(this, .false., 'linear solve failed for the mass '// &
+                                       'matrix', st%t + dt, stat, errmsg)
+                return
+            end if
             st%v = st%v + 0.5_dp * dt * st%a
             call model_mass_apply(mdl, st%v, st%mv)      ! M v', formed from v'
         end if

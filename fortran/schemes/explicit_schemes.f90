@@ -15,7 +15,8 @@ module explicit_schemes
     use nitsche_contact, only: contact_eval
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
                            mass_solver_name, mass_solver_kernel
-    use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_PC, SCHEME_PC_HHT
+    use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_PC, SCHEME_PC_HHT, &
+                           step_solve_failed
     implicit none
     private
 
@@ -116,7 +117,11 @@ contains
             this%rhs(i) = this%base(i) - (1.0_dp + al) * this%bp(i)
         end do
         call mass_solver_apply(this%ms, this%rhs, this%ap, stat, errmsg)
-        if (stat /= STAT_OK) return
+        if (stat /= STAT_OK) then
+            call step_solve_failed(this, .false., 'linear solve failed for the mass matrix', &
+                                   st%t + dt, stat, errmsg)
+            return
+        end if
         ! u' = u + dt v + dt^2/2 ((1 - 2 beta) a + 2 beta a^p), v' = v + dt ((1 - gamma) a
         ! + gamma a^p)
         c1 = 1.0_dp - 2.0_dp * this%beta
@@ -138,6 +143,11 @@ contains
             this%rhs(i) = this%base(i) - (1.0_dp + al) * st%bu(i)
         end do
         call mass_solver_apply(this%ms, this%rhs, st%a, stat, errmsg)
+        if (stat /= STAT_OK) then
+            call step_solve_failed(this, .false., 'linear solve failed for the mass matrix', &
+                                   st%t + dt, stat, errmsg)
+            return
+        end if
         st%newton_its = 0
         st%t = st%t + dt
     end subroutine pc_step

@@ -90,7 +90,8 @@ module implicit_schemes
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
-                           SCHEME_HHT_SEED, SCHEME_GALPHA
+                           SCHEME_HHT_SEED, SCHEME_GALPHA, FAILURE_STEP, FAILURE_CG, &
+                           step_failed, step_solve_failed
     implicit none
     private
 
@@ -537,7 +538,7 @@ contains
         if (this%m > 0 .and. .not. flight) then     ! (in flight T = 0: no Newton correction)
             if (any(this%tsum /= 0.0_dp)) then
                 if (basis_pays(this)) then
-                    call apply_zt_basis(this, mdl, stat, errmsg)
+                    call apply_zt_basis(this, mdl, st%t + this%dt, stat, errmsg)
                     if (stat /= STAT_OK) return
                 else
                     call zcache_add_z(this%zc, this%tsum, this%dx)
@@ -562,9 +563,10 @@ contains
     !> dx <- dx + sum_k tau_k Z b_k over the vectors b_k = s_f (k = f) and n_j (k =
     !> n_facets + j) with tau_k /= 0, their columns formed first if not held (and marked
     !> used at this step); then dx = pdx (the Newton's P dx) on the contact-cell dofs.
-    subroutine apply_zt_basis(this, mdl, stat, errmsg)
+    subroutine apply_zt_basis(this, mdl, t, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
+        real(dp), intent(in) :: t                           !! time the step is to reach
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: k, nf, f, i, kk, cols(MAX_E)     ! (fixed size: no heap array a call)
@@ -590,7 +592,7 @@ contains
                                          k, cols(1:mdl%ndof_e), mdl%ct%nvec(:, i, f), stat, errmsg)
             end if
             if (stat /= STAT_OK) then
-                call correction_failed(stat, errmsg)
+                call correction_failed(this, t, stat, errmsg)
                 return
             end if
         end do
@@ -685,6 +687,7 @@ contains
                 if (rnorm <= this%tol * scale) exit
             end if
             if (.not. (rnorm == rnorm) .or. it >= this%maxit) then
+                this%failure = FAILURE_STEP
                 call raise(stat, errmsg, STAT_NUMERIC, 'Newton did not converge at t = ' &
                            //real_text(st%t + dt, 6)//' after '//int_text(it) &
                            //' iterations (relative residual ' &
@@ -702,8 +705,9 @@ contains
                 call ls_solve(this%lu0, mdl%stiff, this%r, this%dx, stat, why, guess=warm, &
                               val=this%jac0)
                 if (stat /= STAT_OK) then
-                    call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
-                               //real_text(st%t + dt, 6)//': '//trim(why))
+                    call step_failed(this, merge(FAILURE_CG, FAILURE_STEP, this%lu0%backend == &
+                                     BACKEND_PCG), 'linear solve failed in Newton', st%t + dt, &
+                                     why, stat, errmsg)
                     return
                 end if
                 it = 1
@@ -737,7 +741,7 @@ contains
                     nk = nk + 1
                     this%need(nk) = l
                 end do
-                call need_columns(this, mdl, nk, stat, errmsg)
+                call need_columns(this, mdl, nk, st%t + dt, stat, errmsg)
                 if (stat /= STAT_OK) return
                 call zcache_w_times(this%zc, this%rho, this%yc)
                 this%tk = this%rho
@@ -765,12 +769,12 @@ contains
                         this%need(nk) = this%qloc(l, q)
                     end do
                 end do
-                if (nk > 0) call need_columns(this, mdl, nk, stat, errmsg)
+                if (nk > 0) call need_columns(this, mdl, nk, st%t + dt, stat, errmsg)
                 if (stat /= STAT_OK) return
                 call woodbury(this, mdl, stat)
                 if (stat /= STAT_OK) then
-                    call raise(stat, errmsg, STAT_NUMERIC, 'singular contact correction in ' &
-                               //'Newton at t = '//real_text(st%t + dt, 6))
+                    call step_failed(this, FAILURE_STEP, 'singular contact correction in ' &
+                                     //'Newton', st%t + dt, '', stat, errmsg)
                     return
                 end if
             end if
@@ -976,29 +980,28 @@ contains
 
     !> The columns need(1:nk) of Z and W made available for this step (solved
     !> if not held); a failed solve stops the run (STAT_NUMERIC).
-    subroutine need_columns(this, mdl, nk, stat, errmsg)
+    subroutine need_columns(this, mdl, nk, t, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(in) :: nk                           !! columns in need(1:nk)
+        real(dp), intent(in) :: t                           !! time the step is to reach
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         call zcache_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
                            this%need(1:nk), stat, errmsg)
-        if (stat /= STAT_OK) call correction_failed(stat, errmsg)
+        if (stat /= STAT_OK) call correction_failed(this, t, stat, errmsg)
     end subroutine need_columns
 
     !> A failed solve of the contact correction's columns of J0^{-1}: STAT_NUMERIC, with
     !> the solver's own reason (conjugate gradients: the residual reached and the &solver
-    !> limits) kept after the scheme's words.
-    pure subroutine correction_failed(stat, errmsg)
+    !> limits) kept after the scheme's words and t.
+    subroutine correction_failed(this, t, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        real(dp), intent(in) :: t                           !! time the step is to reach
         integer, intent(out) :: stat                        !! STAT_NUMERIC
         character(len=*), intent(inout), optional :: errmsg !! the solver's message in, ours out
-        character(len=:), allocatable :: why
-        why = ''
-        if (present(errmsg)) why = trim(errmsg)
-        if (len(why) > 0) why = ': '//why
-        call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed for the contact correction' &
-                   //why)
+        call step_solve_failed(this, this%lu0%backend == BACKEND_PCG, 'linear solve failed '// &
+                               'for the contact correction', t, stat, errmsg)
     end subroutine correction_failed
 
     !> The scheme's update of u, v, a from x = u - dx and the next predictor u~' in one
@@ -1692,8 +1695,9 @@ contains
         why = ''
         call ls_solve(this%lu0, mdl%stiff, this%r, this%dx, stat, why, val=this%jac0)
         if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_NUMERIC, 'linear solve failed in Newton at t = ' &
-                       //real_text(st%t + this%dt, 6)//': '//trim(why))
+            call step_failed(this, merge(FAILURE_CG, FAILURE_STEP, this%lu0%backend == &
+                             BACKEND_PCG), 'linear solve failed in Newton', st%t + this%dt, &
+                             why, stat, errmsg)
             st%newton_its = 1
             return
         end if
@@ -1704,7 +1708,10 @@ contains
                               stat, errmsg)
         st%newton_its = it
         this%newton_total = this%newton_total + it
-        if (stat /= STAT_OK) return
+        if (stat /= STAT_OK) then     ! (alm_newton_solve's message gives t)
+            this%failure = FAILURE_STEP
+            return
+        end if
         if (any(this%tsum /= 0.0_dp)) call zcache_add_z(this%zc, this%tsum, this%dx)
         call update_state(this, mdl, st)
         st%active = active; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp

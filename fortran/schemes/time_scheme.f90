@@ -3,6 +3,8 @@ module time_scheme
     use kinds, only: dp, i8
     use model, only: model_t, model_eval_b
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
+    use errors, only: STAT_NUMERIC, raise
+    use text, only: real_text
     implicit none
     private
 
@@ -10,6 +12,10 @@ module time_scheme
     integer, parameter, public :: SCHEME_NEWMARK = 1, SCHEME_HHT = 2, SCHEME_HHT_SEED = 3, &
                                   SCHEME_THETA = 4, SCHEME_GALPHA = 5, SCHEME_PC = 6, &
                                   SCHEME_PC_HHT = 7, SCHEME_PC_HHT_SEED = 8, SCHEME_CENTRAL = 9
+    !> Causes of a failed step (time_scheme_t%failure), which the run's advice follows: the
+    !> step itself (Newton did not converge, a singular contact system, a direct solve),
+    !> or conjugate gradients (their limits are &solver keys).
+    integer, parameter, public :: FAILURE_NONE = 0, FAILURE_STEP = 1, FAILURE_CG = 2
     !> Their names (&scheme name), in the order of the kinds.
     character(len=*), parameter :: SCHEME_NAMES(9) = [character(len=11) :: 'newmark', 'hht', &
         'hht_seed', 'theta', 'galpha', 'pc', 'pc_hht', 'pc_hht_seed', 'central']
@@ -60,6 +66,7 @@ module time_scheme
         real(dp) :: dt = 0.0_dp                 !! time step
         integer :: factorizations = 0           !! sparse numeric factorizations done
         integer :: newton_total = 0             !! Newton iterations over the run
+        integer :: failure = FAILURE_NONE       !! cause of the failed step (FAILURE_*)
     contains
         procedure(scheme_init), deferred :: init
         procedure(scheme_step), deferred :: step
@@ -119,9 +126,50 @@ module time_scheme
         end subroutine scheme_factor_info
     end interface
 
-    public :: state_eval, scheme_kind
+    public :: state_eval, scheme_kind, step_failed, step_solve_failed
 
 contains
+
+    !> A failed step: STAT_NUMERIC with the message 'WHAT at t = T: REASON' (': REASON'
+    !> only when the failing routine gave one), t the time the step was to reach; the
+    !> cause is kept in this%failure for the run's advice. A step's failures go through
+    !> here, or (Newton did not converge, whose message gives t mid-sentence) set the
+    !> cause themselves: each message gives t once, and the run need not read it.
+    subroutine step_failed(this, cause, what, t, reason, stat, errmsg)
+        class(time_scheme_t), intent(inout) :: this         !! scheme
+        integer, intent(in) :: cause                        !! FAILURE_STEP or FAILURE_CG
+        character(len=*), intent(in) :: what                !! what failed
+        real(dp), intent(in) :: t                           !! time the step was to reach
+        character(len=*), intent(in) :: reason              !! the failing routine's reason
+        integer, intent(out) :: stat                        !! STAT_NUMERIC
+        character(len=*), intent(inout), optional :: errmsg !! message
+        this%failure = cause
+        if (len_trim(reason) > 0) then
+            call raise(stat, errmsg, STAT_NUMERIC, what//' at t = '//real_text(t, 6)//': '// &
+                       trim(reason))
+        else
+            call raise(stat, errmsg, STAT_NUMERIC, what//' at t = '//real_text(t, 6))
+        end if
+    end subroutine step_failed
+
+    !> A failed linear solve in a step: step_failed with the solver's reason, which it
+    !> left in errmsg; the cause is FAILURE_CG when the solve was by conjugate gradients.
+    subroutine step_solve_failed(this, cg, what, t, stat, errmsg)
+        class(time_scheme_t), intent(inout) :: this         !! scheme
+        logical, intent(in) :: cg                           !! the solve was by CG
+        character(len=*), intent(in) :: what                !! what failed
+        real(dp), intent(in) :: t                           !! time the step was to reach
+        integer, intent(out) :: stat                        !! STAT_NUMERIC
+        character(len=*), intent(inout), optional :: errmsg !! the solver's reason in, ours out
+        character(len=:), allocatable :: why
+        why = ''
+        if (present(errmsg)) why = trim(errmsg)
+        if (cg) then
+            call step_failed(this, FAILURE_CG, what, t, why, stat, errmsg)
+        else
+            call step_failed(this, FAILURE_STEP, what, t, why, stat, errmsg)
+        end if
+    end subroutine step_solve_failed
 
     !> The time step only: the explicit schemes carry nothing between steps besides
     !> the state.

@@ -372,20 +372,28 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
             path = written = _write_scene(scene, tmp)
             if out is None:
                 out = _scene_attr_output_dir(scene) or "out"
-        # Relative output folders count from the current folder, for both entry points.
-        out_dir = os.path.abspath(os.fspath(out))
+        # Relative output folders count from the current folder, for both entry points;
+        # the core gets the folder as given, so that summary.json records it as the
+        # executable does.
+        given = os.fsdecode(out)
+        if not given.strip():
+            raise BadInputError(f"{'out' if explicit_out else 'restart'}: empty folder name")
+        out_dir = os.path.abspath(given)
         start = 0
         if restart is not None:
-            restart_dir = os.path.abspath(os.fspath(restart))
+            given = os.fsdecode(restart)
+            if not given.strip():
+                raise BadInputError("restart: empty folder name")
+            restart_dir = os.path.abspath(given)
             if explicit_out and not _same_folder(restart_dir, out_dir):
                 raise BadInputError(f"restart={os.fspath(restart)!r} continues the run in that "
                                     "folder: out must be the same folder or None")
             out_dir = restart_dir
             handle, _n, start, stat, errmsg = core.dc_sim_open_restart(
-                _fpath(path, "scene file"), _fpath(out_dir, "restart folder"))
+                _fpath(path, "scene file"), _fpath(given, "restart folder"))
         else:
             handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
-                _fpath(path, "scene file"), _fpath(out_dir, "output folder"), 0)
+                _fpath(path, "scene file"), _fpath(given, "output folder"), 0)
         _check(stat, errmsg, "opening the run")
         message = ""
         try:
@@ -535,6 +543,10 @@ class Model:
 
         with Model("scene.nml") as m:
             b, active = m.eval_b(np.zeros(m.dofs))
+
+    Attributes: ``dofs`` (free dofs), ``elements``, ``contact_facets`` and ``n_steps``
+    (steps to t_end). A model alone starts no scheme, so ``n_steps`` is 0 where the scheme
+    chooses the step (``central`` with ``dt = 0``); a :class:`Stepper` has the count.
     """
 
     def __init__(self, scene, _out: str | os.PathLike | None = None):
@@ -546,8 +558,11 @@ class Model:
                 path = os.fsdecode(scene)
             else:
                 path = _write_scene(scene, self._tmp)
-            out = b"" if _out is None else _fpath(os.path.abspath(os.fspath(_out)),
-                                                    "output folder")
+            out = b""
+            if _out is not None:   # as given, as the executable records it in summary.json
+                if not os.fsdecode(_out).strip():
+                    raise BadInputError("out: empty folder name")
+                out = _fpath(os.fsdecode(_out), "output folder")
             (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
              errmsg) = _core().dc_sim_open(_fpath(path, "scene file"), out,
                                            1 if _out is None else 0)

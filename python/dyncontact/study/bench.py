@@ -9,7 +9,6 @@ every time in the table was measured by this benchmark.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import datetime
 import json
@@ -20,8 +19,9 @@ import sys
 import time
 from typing import Any, Iterable, Mapping, Sequence
 
-from .common import RunSpec, fmt, loadavg, num, package_version, scheme_text, seed_spec
-from .sweep import ERROR, REFUSED, run_uncached
+from .common import (OneLineParser, RunSpec, fmt, loadavg, num, package_version, scheme_text,
+                     seed_spec)
+from .sweep import ERROR, REFUSED, run_uncached, sigterm_as_interrupt
 
 __all__ = ["bench_specs", "bench_row", "interleaved_run", "bench_table", "bench_main",
            "step_floor", "floor_api_available", "FLOOR_API", "contact_steps",
@@ -424,9 +424,10 @@ def _bad_out_file(path: str) -> str | None:
 def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     """``scripts/bench [--quick] [--only NAME[,NAME]] [--out FILE.json]``: runs one after
     another, prints the table, writes the JSON. Exit 0 unless a run could not run at all
-    (a benchmark never fails on time)."""
+    (a benchmark never fails on time), 2 on a bad command line, 130 on Ctrl-C or SIGTERM
+    (after the table and the JSON of the rows done)."""
     root = root or os.getcwd()
-    p = argparse.ArgumentParser(prog="scripts/bench", description="Benchmark the seed "
+    p = OneLineParser(prog="scripts/bench", label="bench", description="Benchmark the seed "
                                 "scene and the predictor-corrector runs; prints a table "
                                 "and writes it as JSON.")
     p.add_argument("--quick", action="store_true", help="only the h = 0.05 rows")
@@ -473,14 +474,17 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
         print("bench: warning: the machine is busy, timings are inflated", flush=True)
     rows = []
     t0 = time.perf_counter()
+    interrupted = False
     try:
-        for spec in specs:
-            row = bench_row(spec, runs_root, repeat=args.repeat)
-            rows.append(row)
-            print(f"bench: {row['scene']}: {row['status']}, {row['steps']} steps, "
-                  f"{fmt(row['wall_s'], '.3f')} s ({fmt(row['wall_s_sparse'], '.3f')} s "
-                  f"with every=100)", flush=True)
+        with sigterm_as_interrupt():
+            for spec in specs:
+                row = bench_row(spec, runs_root, repeat=args.repeat)
+                rows.append(row)
+                print(f"bench: {row['scene']}: {row['status']}, {row['steps']} steps, "
+                      f"{fmt(row['wall_s'], '.3f')} s ({fmt(row['wall_s_sparse'], '.3f')} "
+                      "s with every=100)", flush=True)
     except KeyboardInterrupt:
+        interrupted = True
         print("bench: interrupted; partial results follow", file=sys.stderr)
     print()
     print(bench_table(rows))
@@ -520,4 +524,6 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     with open(out_json, "w", encoding="utf-8") as f:
         json.dump(doc, f, indent=1)
     print(f"bench: wrote {out_json}")
+    if interrupted:
+        return 130
     return 0 if all(r["status"] not in (ERROR, REFUSED) for r in rows) else 1

@@ -10,43 +10,17 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import math
 import os
 import sys
 import time
 from typing import Any, Sequence
 
-from .common import add_runner_options, scheme_list
+from .common import OneLineParser, add_runner_options, positive, scheme_list
 from .sweep import sigterm_as_interrupt
 
 __all__ = ["main", "write_index"]
 
 STUDIES = ("convergence", "work-precision", "stability")
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors naming the option: 'dyncontact study: MESSAGE',
-    exit 2 (as `dyncontact run` reports a bad command line)."""
-
-    def error(self, message):  # noqa: D102 - argparse API
-        print(f"dyncontact study: {message} (see `{self.prog} --help`)", file=sys.stderr)
-        raise SystemExit(2)
-
-
-def _positive(kind):
-    """argparse type: a finite number > 0 of ``kind`` (float or int)."""
-
-    def convert(text: str):
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
-        if not (math.isfinite(value) and value > 0):
-            raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-        return value
-
-    convert.__name__ = kind.__name__   # argparse names the type in its messages
-    return convert
 
 
 def _nonempty(text: str) -> str:
@@ -57,11 +31,11 @@ def _nonempty(text: str) -> str:
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = OneLineParser(
         prog="dyncontact study",
         description="Convergence, work-precision and stability studies; each writes CSV, "
         "PNG and summary.md into --out.")
-    sub = p.add_subparsers(dest="study", metavar="STUDY", required=True, parser_class=_Parser)
+    sub = p.add_subparsers(dest="study", metavar="STUDY", required=True)
     helps = {"convergence": "errors against the 1D closed form, observed orders",
              "work-precision": "error against CPU time per scheme (1D exact, 2D seed bar)",
              "stability": "stability maps and critical dt on the 2D seed bar, with the "
@@ -80,15 +54,15 @@ def _parser() -> argparse.ArgumentParser:
         add_runner_options(s)
         s.add_argument("--no-progress", action="store_true", help="no progress bar")
         if name in ("convergence", "work-precision", "all"):
-            s.add_argument("--c-implicit", type=_positive(float), default=20.0,
+            s.add_argument("--c-implicit", type=positive(float), default=20.0,
                            help="dt = h/c for implicit schemes (> 0, default 20)")
-            s.add_argument("--c-explicit", type=_positive(float), default=100.0,
+            s.add_argument("--c-explicit", type=positive(float), default=100.0,
                            help="dt = h/c for predictor-corrector schemes (> 0, "
                            "default 100)")
         if name == "convergence":
             s.add_argument("--schemes", default=None, type=_nonempty,
                            help="comma-separated scheme keys (default: the study's list)")
-            s.add_argument("--t-end", type=_positive(float), default=3.0,
+            s.add_argument("--t-end", type=positive(float), default=3.0,
                            help="T (> 0, default 3)")
     return p
 

@@ -3,18 +3,22 @@ of the seed's bar, the scheme catalogue, CSV/markdown/plots."""
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import csv
 import dataclasses
+import functools
 import math
 import os
+import sys
 from typing import Any, Iterable, Iterator, Mapping, Sequence
 
 __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0",
            "CENTRAL_C", "write_base_scenes", "study_folder", "write_csv",
            "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS",
            "RunSpec", "seed_spec", "every_for", "scheme_text", "num", "loadavg",
-           "package_version", "add_runner_options", "MAX_ROWS"]
+           "package_version", "add_runner_options", "MAX_ROWS", "OneLineParser",
+           "positive", "mesh_sizes"]
 
 #: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016).
 EXACT_1D = """\
@@ -206,6 +210,62 @@ def package_version() -> str:
     from .. import __version__
 
     return __version__
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse whose errors are one line on stderr, ``LABEL: MESSAGE (see `PROG --help`)``,
+    and exit status 2, as every command of the project reports a bad command line
+    (docs/scenes.md, *Exit codes*). ``label`` is the command's name as its other messages
+    give it (default: ``prog``); the sub-parsers of :meth:`add_subparsers` keep it."""
+
+    def __init__(self, *args, label: str | None = None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.label = label or self.prog
+
+    def add_subparsers(self, **kwargs):  # noqa: D102 - argparse API
+        kwargs.setdefault("parser_class", functools.partial(OneLineParser, label=self.label))
+        return super().add_subparsers(**kwargs)
+
+    def error(self, message):  # noqa: D102 - argparse API
+        one = " ".join(str(message).split())
+        print(f"{self.label}: {one} (see `{self.prog} --help`)", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def positive(kind: type) -> Any:
+    """argparse type: a finite number > 0 of ``kind``, float or int (an int >= 1)."""
+    what = "an integer >= 1" if kind is int else "a number > 0"
+
+    def convert(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(
+                f"must be {'>= 1' if kind is int else 'a finite number > 0'}, got {text!r}")
+        return value
+
+    convert.__name__ = kind.__name__   # argparse names the type in its messages
+    return convert
+
+
+def mesh_sizes(text: str) -> list[float]:
+    """argparse type: comma-separated mesh sizes, each finite and > 0."""
+    sizes = []
+    for item in (t.strip() for t in text.split(",")):
+        if not item:
+            continue
+        try:
+            h = float(item)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{item!r} is not a number") from None
+        if not (h > 0 and h != float("inf")):
+            raise argparse.ArgumentTypeError(f"h = {item} (each size must be finite and > 0)")
+        sizes.append(h)
+    if not sizes:
+        raise argparse.ArgumentTypeError(f"no size given in {text!r}")
+    return sizes
 
 
 def add_runner_options(parser, *worker_aliases: str) -> None:

@@ -28,7 +28,6 @@ patch from below. The values each figure draws are kept in index.json (``plot.da
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import datetime
 import json
@@ -42,8 +41,8 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from .common import (MAX_ROWS, RunSpec, add_runner_options, fmt, loadavg, new_figure, num,
-                     package_version, save_figure, scheme_text, seed_spec)
+from .common import (MAX_ROWS, OneLineParser, RunSpec, add_runner_options, fmt, loadavg,
+                     new_figure, num, package_version, save_figure, scheme_text, seed_spec)
 from .sweep import ERROR, REFUSED, sigterm_as_interrupt, sweep
 
 __all__ = ["FigureSpec", "figure_plan", "make_figures", "plot_figure", "write_index",
@@ -775,7 +774,7 @@ def figures_main(argv: Sequence[str] | None = None, root: str | None = None) -> 
     failures), 1 otherwise, 2 on a bad command line, 130 on Ctrl-C or SIGTERM (the pool's
     workers stopped, the finished runs cached)."""
     root = root or os.getcwd()
-    p = argparse.ArgumentParser(prog="scripts/figures", description="Regenerate the "
+    p = OneLineParser(prog="scripts/figures", label="figures", description="Regenerate the "
                                 "seed's Figures 1-7, the 3D Figures 8-9 (runs in parallel) "
                                 "and index.md.")
     p.add_argument("--quick", action="store_true", help="h = 0.1 and 0.05, T = 3 (tests)")

@@ -42,7 +42,6 @@ process's environment decides, docs/scenes.md) or ``--threads 1``/``2``
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shutil
@@ -52,7 +51,9 @@ import tempfile
 import time
 from typing import Any, Mapping, Sequence
 
-from .common import environment, loadavg, md_table, write_csv
+from .common import (OneLineParser, environment, loadavg, md_table, mesh_sizes, positive,
+                     write_csv)
+from .sweep import child_group, sigterm_as_interrupt
 
 __all__ = ["SIZES", "DT", "STEPS", "MAX_STEPS", "MODEL_STEPS", "find_getfem_python", "scene_text",
            "steps_for", "ratio", "rows_table", "parse_time_v", "measure_getfem",
@@ -155,15 +156,18 @@ def measure_getfem(py: str, h: float, steps: int, loop: str = "scipy",
     timer = "/usr/bin/time"
     if os.access(timer, os.X_OK):
         cmd = [timer, "-v"] + cmd
-    r = subprocess.run(cmd, capture_output=True, text=True, env=dict(env) if env else None)
-    if r.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} exited with status {r.returncode}: "
-                           f"{r.stderr.strip()[-500:]}")
-    lines = [ln for ln in r.stdout.splitlines() if ln.startswith("{")]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=dict(env) if env else None, start_new_session=True)
+    with child_group(proc):
+        out, err = proc.communicate()
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} exited with status {proc.returncode}: "
+                           f"{err.strip()[-500:]}")
+    lines = [ln for ln in out.splitlines() if ln.startswith("{")]
     if not lines:
         raise RuntimeError(f"{' '.join(cmd)} printed no record")
     rec = json.loads(lines[-1])
-    rec["peak_mb"] = parse_time_v(r.stderr)
+    rec["peak_mb"] = parse_time_v(err)
     return rec
 
 
@@ -296,13 +300,14 @@ def main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     """``scripts/bench --getfem``: exit 0 when done or when GetFEM is absent (a benchmark
     never fails on time); 1 when a run could not run."""
     root = root or os.path.dirname(os.path.dirname(SCRIPT))
-    ap = argparse.ArgumentParser(prog="scripts/bench --getfem",
-                                 description=__doc__.split("\n")[0])
-    ap.add_argument("--sizes", default=",".join(repr(h) for h in SIZES),
+    ap = OneLineParser(prog="scripts/bench --getfem", label="bench --getfem",
+                       description=__doc__.split("\n")[0])
+    ap.add_argument("--sizes", type=mesh_sizes, default=",".join(repr(h) for h in SIZES),
                     help="comma-separated mesh sizes h (default %(default)s)")
-    ap.add_argument("--steps", type=int, default=None,
+    ap.add_argument("--steps", type=positive(int), default=None,
                     help="steps of every size (default: STEPS, by size)")
-    ap.add_argument("--repeats", type=int, default=2, help="interleaved rounds (best kept)")
+    ap.add_argument("--repeats", type=positive(int), default=2,
+                    help="interleaved rounds (best kept; >= 1)")
     ap.add_argument("--model", action="store_true",
                     help="also GetFEM's own Model.solve (MUMPS at every iteration)")
     ap.add_argument("--threads", default="auto",
@@ -314,10 +319,7 @@ def main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     ap.add_argument("--getfem-python", default=None,
                     help="a Python with GetFEM's interface (default: see the module)")
     a = ap.parse_args(argv)
-    try:
-        sizes = [float(s) for s in a.sizes.split(",") if s.strip()]
-    except ValueError:
-        ap.error(f"--sizes: not a list of numbers: {a.sizes!r}")
+    sizes = a.sizes
     py, tried = find_getfem_python(a.getfem_python)
     if py is None:
         print("bench --getfem: GetFEM's Python interface is not available (tried "
@@ -340,11 +342,16 @@ def main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     print(f"bench --getfem: GetFEM through {py}; sizes {sizes}; dyncontact threads "
           f"{a.threads}; load average {load0}, {os.cpu_count()} cores", flush=True)
     try:
-        rows = compare(py, a.exe, sizes, a.steps, a.repeats, a.model, env=env,
-                       settings=settings)
+        with sigterm_as_interrupt():
+            rows = compare(py, a.exe, sizes, a.steps, a.repeats, a.model, env=env,
+                           settings=settings)
     except RuntimeError as exc:
         print(f"bench --getfem: a run failed: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print("bench --getfem: interrupted (the run in progress was stopped)",
+              file=sys.stderr)
+        return 130
     load1 = loadavg()
     os.makedirs(a.out, exist_ok=True)
     write_csv(os.path.join(a.out, "getfem.csv"), rows, COLUMNS)

@@ -44,7 +44,6 @@ setting (``threads``); the floors are wall times of one solve and one SpMV.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
@@ -53,7 +52,9 @@ import tempfile
 import time
 from typing import Any, Sequence
 
-from .common import environment, md_table, new_figure, save_figure, slope, write_csv
+from .common import (OneLineParser, environment, md_table, mesh_sizes, new_figure,
+                     positive, save_figure, slope, write_csv)
+from .sweep import child_group, sigterm_as_interrupt
 
 __all__ = ["SIZES", "LARGE", "GEOMETRY_SIZES", "BASE_H", "strip_scene", "scene_text",
            "estimate_dofs", "measure_base", "measure_one", "run_scaling", "main"]
@@ -161,8 +162,9 @@ def _run_child(exe: str, scene: str, env: dict[str, str] | None) -> tuple[float,
         if os.access(timer, os.X_OK):
             cmd = [timer, "-f", "%M %U %S", "-o", rss.name] + cmd
         p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                             env=env)
-        _pid, status, ru = os.wait4(p.pid, 0)
+                             env=env, start_new_session=True)
+        with child_group(p):
+            _pid, status, ru = os.wait4(p.pid, 0)
         p.returncode = os.waitstatus_to_exitcode(status)
         cpu = ru.ru_utime + ru.ru_stime
         peak = ru.ru_maxrss / 1024.0
@@ -502,61 +504,24 @@ def replot(out: str, csv_paths: Sequence[str]) -> list[dict[str, Any]]:
     return rows
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors naming the option, exit 2."""
-
-    def error(self, message):  # noqa: D102 - argparse API
-        print(f"{self.prog}: {message}", file=sys.stderr)
-        raise SystemExit(2)
-
-
-def _at_least_one(text: str) -> int:
-    """argparse type: an integer >= 1 (0 steps would time nothing: inf per step)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
-    return value
-
-
-def _sizes(text: str) -> list[float]:
-    """argparse type: comma-separated mesh sizes, each finite and > 0."""
-    sizes = []
-    for item in (t.strip() for t in text.split(",")):
-        if not item:
-            continue
-        try:
-            h = float(item)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{item!r} is not a number") from None
-        if not (h > 0 and h != float("inf")):
-            raise argparse.ArgumentTypeError(f"h = {item} (each size must be finite and > 0)")
-        sizes.append(h)
-    if not sizes:
-        raise argparse.ArgumentTypeError(f"no size given in {text!r}")
-    return sizes
-
-
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = _Parser(prog="scripts/bench --scaling", description=__doc__.split("\n")[0])
+    ap = OneLineParser(prog="scripts/bench --scaling", description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="out/scaling", help="output folder")
-    ap.add_argument("--steps", type=_at_least_one, default=20,
+    ap.add_argument("--steps", type=positive(int), default=20,
                     help="steps of the timed runs (>= 1)")
     ap.add_argument("--large", action="store_true", help=f"add h = {LARGE} (~520k dofs)")
-    ap.add_argument("--sizes", type=_sizes, default=None,
+    ap.add_argument("--sizes", type=mesh_sizes, default=None,
                     help="comma-separated h values (each > 0) instead of the default")
     ap.add_argument("--no-floors", action="store_true", help="skip the floors")
     ap.add_argument("--contact-only", action="store_true", help="skip the runs without contact")
-    ap.add_argument("--repeats", type=_at_least_one, default=2,
+    ap.add_argument("--repeats", type=positive(int), default=2,
                     help="runs of each (fastest kept; >= 1)")
     ap.add_argument("--exe", default=None, help="the dyncontact executable")
     ap.add_argument("--geometry", default="strip",
                     help="comma-separated: strip, disk, box (default strip)")
     ap.add_argument("--solvers", default="direct",
                     help="comma-separated &solver kinds: direct, cg, auto (default direct)")
-    ap.add_argument("--max-dofs", type=_at_least_one, default=None,
+    ap.add_argument("--max-dofs", type=positive(int), default=None,
                     help="skip the sizes estimated above this many dofs")
     ap.add_argument("--threads", default="auto",
                     help="comma-separated settings of the direct solves' threads, each run at "
@@ -587,9 +552,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not threads or any(t not in ("auto", "1", "2") for t in threads):
         ap.error(f"--threads: a comma-separated list of auto, 1, 2: {a.threads!r}")
     print(f"scaling: load average {_load()} at the start, {os.cpu_count()} cores", flush=True)
-    rows = run_scaling(a.out, sizes, a.steps, a.exe, no_contact=not a.contact_only,
-                       floors=not a.no_floors, repeats=a.repeats, geometries=geometries,
-                       solvers=solvers, max_dofs=a.max_dofs, large=a.large, threads=threads)
+    try:
+        with sigterm_as_interrupt():
+            rows = run_scaling(a.out, sizes, a.steps, a.exe, no_contact=not a.contact_only,
+                               floors=not a.no_floors, repeats=a.repeats,
+                               geometries=geometries, solvers=solvers, max_dofs=a.max_dofs,
+                               large=a.large, threads=threads)
+    except KeyboardInterrupt:
+        print(f"{ap.prog}: interrupted (the run in progress was stopped)", file=sys.stderr)
+        return 130
     print(json.dumps({"rows": len(rows), "out": a.out}))
     return 0
 

@@ -65,6 +65,7 @@ import json
 import os
 import shutil
 import signal
+import subprocess
 import sys
 import tempfile
 import threading
@@ -77,8 +78,8 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 __all__ = ["Task", "make_task", "sweep", "task_key", "code_version", "lookup", "execute",
-           "run_uncached", "register_analysis", "sigterm_as_interrupt", "ERROR", "REFUSED",
-           "PARALLEL_THREADS"]
+           "run_uncached", "register_analysis", "sigterm_as_interrupt", "child_group",
+           "ERROR", "REFUSED", "PARALLEL_THREADS"]
 
 #: Status of a record whose run could not be done (not a numerical verdict).
 ERROR = "error"
@@ -554,6 +555,50 @@ def sigterm_as_interrupt():
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+@contextlib.contextmanager
+def child_group(proc: subprocess.Popen):
+    """Within the block, ``proc`` is a child started with ``start_new_session=True``
+    (the leader of its own process group, with whatever it starts itself, such as the
+    program under ``/usr/bin/time``). Any exception out of the block, a
+    ``KeyboardInterrupt`` from Ctrl-C or from SIGTERM under :func:`sigterm_as_interrupt`
+    included, first ends that whole group: SIGTERM (a dyncontact run stops at the end of
+    its step, exit 130), then SIGKILL after :data:`WORKER_TERM_S`. Without it, a program
+    under ``/usr/bin/time`` outlives a parent stopped by SIGTERM: time dies, the run goes
+    on as an orphan."""
+    try:
+        yield proc
+    except BaseException:
+        _end_group(proc)
+        raise
+
+
+def _end_group(proc: subprocess.Popen) -> None:
+    """SIGTERM to the process group led by ``proc``, SIGKILL to what is left of it after
+    :data:`WORKER_TERM_S`; ``proc`` is reaped."""
+    pgid = proc.pid
+
+    def signal_group(sig: int) -> bool:
+        try:
+            os.killpg(pgid, sig)
+            return True
+        except ProcessLookupError:   # the group has ended
+            return False
+
+    signal_group(signal.SIGTERM)
+    deadline = time.monotonic() + WORKER_TERM_S
+    while time.monotonic() < deadline:
+        proc.poll()   # reap the leader, so that it does not keep the group alive
+        if not signal_group(0):
+            break
+        time.sleep(0.02)
+    else:
+        signal_group(signal.SIGKILL)
+    try:
+        proc.wait(WORKER_TERM_S)
+    except subprocess.TimeoutExpired:   # pragma: no cover - stuck in uninterruptible I/O
+        pass
 
 
 def _end_with_parent(parent: int) -> None:
