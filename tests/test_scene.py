@@ -764,3 +764,13 @@ def test_fuzzed_scenes(tmp_path):
             assert stat == STAT_BAD_INPUT, (path, stat, f)
             assert f.startswith(path + ": ") and "\n" not in f, (path, f)
     assert 0 < n_ok < len(rows)
+
+
+def test_every_example_scene_is_documented():
+    """docs/scenes.md, "Example scenes", names every scene of scripts/scenes/ (and no other)."""
+    doc = (ROOT / "docs" / "scenes.md").read_text()
+    section = doc.split("## Example scenes", 1)[1].split("\n## ", 1)[0]
+    named = set(re.findall(r"`(\w+)`", section))
+    shipped = {p.stem for p in SCENES_DIR.glob("*.nml")}
+    assert shipped <= named, shipped - named
+    assert {n for n in named if n.startswith(("bar", "ball"))} <= shipped
