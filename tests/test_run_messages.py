@@ -62,3 +62,26 @@ def test_python_cli_run_lines_read_as_the_executables(tmp_path):
     first, last = res.stdout.splitlines()
     assert first == "dyncontact: one.nml: 20 dofs, 20 elements, 1 contact facet; hht, 4 steps"
     assert re.fullmatch(r"dyncontact: ok, 4 steps to t=1\.00000E-002, [0-9.]+ s -> .*o", last)
+
+
+def test_trace_size_note_gives_the_size_with_its_unit(tmp_path):
+    """docs/scenes.md, "Limits": a trace over 100 MB is announced before the run as
+    'the trace will take about 116.0 MB (500001 rows; ...)', a number with a digit before
+    its point (the note wrote '.1 GB', Fortran's f0.1 dropping the zero). The run is
+    stopped by SIGINT as soon as the note is read."""
+    import signal
+
+    if not EXE.is_file():
+        pytest.skip(f"{EXE} is not built; run scripts/setup")
+    (tmp_path / "big.nml").write_text("&scheme t_end = 1250.0, dt = 0.0025 /\n")
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    proc = subprocess.Popen([str(EXE), "big.nml", "--out", "o"], cwd=tmp_path, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        note = proc.stderr.readline()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=60)
+    assert re.fullmatch(r"dyncontact: note: the trace will take about \d+\.\d (MB|GB) "
+                        r"\(500001 rows; &output every thins it\)\n", note), note

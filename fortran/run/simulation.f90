@@ -494,7 +494,6 @@ contains
         integer, intent(out) :: st                          !! status
         character(len=*), intent(inout), optional :: em     !! message
         real(dp) :: ratio
-        character(len=256) :: msg
         st = STAT_OK
         ratio = sim%scn%t_end / sim%scn%dt
         if (.not. ratio - 1.0e-9_dp <= real(sim%scn%max_steps, dp)) then
@@ -505,10 +504,10 @@ contains
         end if
         sim%n_steps = max(0_i8, ceiling(ratio - 1.0e-9_dp, i8))
         if (write_output .and. sim_trace_bytes(sim) > BIG_TRACE_BYTES) then
-            write (msg, '(a, f0.1, a, i0, a)') 'note: the trace will take about ', &
-                real(sim_trace_bytes(sim), dp) / 1.0e9_dp, ' GB (', &
-                sim%n_steps / sim%scn%every + 1_i8, ' rows; &output every thins it)'
-            sim%mdl%notes = trim(sim%mdl%notes)//trim(msg)//new_line('a')
+            sim%mdl%notes = trim(sim%mdl%notes)//'note: the trace will take about '// &
+                bytes_text(sim_trace_bytes(sim))//' ('// &
+                int_text(sim%n_steps / sim%scn%every + 1_i8)//' rows; &output every thins it)'// &
+                new_line('a')
         end if
     end subroutine count_steps
 
