@@ -85,3 +85,23 @@ def test_trace_size_note_gives_the_size_with_its_unit(tmp_path):
         proc.communicate(timeout=60)
     assert re.fullmatch(r"dyncontact: note: the trace will take about \d+\.\d (MB|GB) "
                         r"\(500001 rows; &output every thins it\)\n", note), note
+
+
+def test_unstable_message_tells_the_energy_from_the_limit(tmp_path):
+    """The blow-up message writes the energy and the limit with the digits that tell them
+    apart: the seed's literal pc_hht variant passes 10 e_total(0) = 0.125 by 3e-5, which 4
+    digits wrote as '1.250E-001 exceeds ... 1.250E-001'. The numbers read back as the trace's
+    last e_total and 10 e_total(0) to the digits written."""
+    import dyncontact
+    from conftest import ROOT
+
+    res = dyncontact.run(ROOT / "scripts" / "scenes" / "bar2d_pc_hht_seed.nml",
+                         out=tmp_path / "o", progress=False)
+    assert res.status == "unstable"
+    m = re.search(r"e_total = (\S+) exceeds blowup x e_total\(0\) = (\S+) ", res.message)
+    assert m, res.message
+    energy, limit = m.group(1), m.group(2)
+    assert energy != limit and float(energy) > float(limit)
+    digits = len(energy.split("E")[0].replace(".", "").lstrip("-"))
+    assert float(energy) == pytest.approx(res.trace["e_total"][-1], rel=10.0 ** (1 - digits))
+    assert float(limit) == pytest.approx(10 * res.trace["e_total"][0], rel=10.0 ** (1 - digits))
