@@ -295,3 +295,23 @@ def test_both_entry_points_record_the_output_folder_as_given(run_cli, run_exe, t
     assert run_exe("s.nml", "--out", str(tmp_path / "e")).returncode == 0
     summary = json.loads((tmp_path / "e" / "summary.json").read_text(encoding="utf-8"))
     assert summary["scene"]["output"]["dir"] == str(tmp_path / "e")
+
+
+@pytest.mark.parametrize("script, words", [
+    ("demo", ["--quick"]), ("setup", ["DYNCONTACT_PYTHON"]),
+    ("bench", ["--quick", "--scaling", "--getfem"]), ("figures", ["--workers"]),
+    ("studies", ["out/studies", "--workers"]), ("convergence_1d", ["--schemes"])])
+def test_every_script_answers_help(script, words):
+    """`scripts/NAME --help` prints its usage and exits 0, without running anything (setup
+    used to install and build instead, demo to exit 2, studies to print --out as required);
+    bench's help names the modes its wrapper dispatches (--scaling, --getfem)."""
+    import subprocess
+
+    from conftest import SUBPROCESS_TIMEOUT
+    res = subprocess.run([str(ROOT / "scripts" / script), "--help"], capture_output=True,
+                         text=True, timeout=SUBPROCESS_TIMEOUT)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("usage: scripts/"), res.stdout[:200]
+    for word in words:
+        assert word in res.stdout, (script, word)
+    assert "wall time" not in res.stdout + res.stderr

@@ -1,7 +1,7 @@
 """README.md's examples run as written: every ```python block, then every command
-`python -m dyncontact run|plot ...` quoted in the text without placeholders, in the order of
-the README, from a folder that has the repository's scripts/ (the examples name
-scripts/scenes/...) and writes out/ there. The shell commands that install or build
+`python -m dyncontact run|plot|mesh ...` and `build/dyncontact ...` quoted in the text without
+placeholders, in the order of the README, from a folder that has the repository's scripts/
+and meshes/ (the examples name scripts/scenes/... and meshes/...) and writes out/ there. The shell commands that install or build
 (scripts/setup, meson, pip) are run by scripts/setup itself, not here."""
 
 from __future__ import annotations
@@ -27,9 +27,11 @@ def python_blocks() -> list[str]:
 
 
 def cli_examples() -> list[str]:
-    """`python -m dyncontact run|plot ...` spans of the text (line breaks inside a span are
-    blanks) without placeholders (upper-case names such as SCENE.nml, DIR, or [options])."""
-    spans = re.findall(r"`(python -m dyncontact (?:run|plot) [^`]+)`", README)
+    """`python -m dyncontact run|plot|mesh ...` and `build/dyncontact ...` spans of the text
+    (line breaks inside a span are blanks) without placeholders (upper-case names such as
+    SCENE.nml, DIR, or [options])."""
+    spans = re.findall(r"`((?:python -m dyncontact (?:run|plot|mesh)|build/dyncontact) [^`]+)`",
+                       README)
     spans = [" ".join(s.split()) for s in spans]
     return [s for s in spans if not re.search(r"\[|\b[A-Z][A-Z0-9_.]{2,}\b", s)]
 
@@ -39,10 +41,13 @@ def test_readme_has_the_examples():
     examples = cli_examples()
     assert any(" run " in e for e in examples) and any(" plot " in e and "--labels" in e
                                                        for e in examples), examples
+    assert any(" mesh " in e for e in examples), examples
+    assert any(e.startswith("build/dyncontact ") for e in examples), examples
 
 
 def test_readme_examples_run_as_written(tmp_path, monkeypatch):
     (tmp_path / "scripts").symlink_to(ROOT / "scripts")
+    (tmp_path / "meshes").symlink_to(ROOT / "meshes")
     monkeypatch.chdir(tmp_path)
     for block in python_blocks():
         exec(compile(block, "README.md", "exec"), {"__name__": "readme_example"})
@@ -55,13 +60,19 @@ def test_readme_examples_run_as_written(tmp_path, monkeypatch):
     env.pop("PYTHONPATH", None)
     for example in cli_examples():
         args = shlex.split(example)
-        assert args[0] == "python"
-        res = subprocess.run([sys.executable, *args[1:]], cwd=tmp_path, env=env,
+        if args[0] == "build/dyncontact":
+            args = [str(ROOT / "build" / "dyncontact"), *args[1:]]
+        else:
+            assert args[0] == "python"
+            args = [sys.executable, *args[1:]]
+        res = subprocess.run(args, cwd=tmp_path, env=env,
                              capture_output=True, text=True, timeout=SUBPROCESS_TIMEOUT)
         assert res.returncode == 0, (example, res.stderr)
     a01 = dyncontact.core.read_trace("out/hht_a01")
     assert np.all(np.isfinite(a01["e_total"]))
     assert (tmp_path / "out" / "hht_alpha.png").is_file()
+    assert dyncontact.core.read_trace("out/bar1d")["t"][-1] == pytest.approx(6.0)
+    assert (tmp_path / "out" / "disk.msh").read_text().startswith("$MeshFormat\n4.1 0 8")
 
 
 def test_stepper_is_exported(tmp_path):

@@ -62,3 +62,46 @@ def test_python_cli_run_lines_read_as_the_executables(tmp_path):
     first, last = res.stdout.splitlines()
     assert first == "dyncontact: one.nml: 20 dofs, 20 elements, 1 contact facet; hht, 4 steps"
     assert re.fullmatch(r"dyncontact: ok, 4 steps to t=1\.00000E-002, [0-9.]+ s -> .*o", last)
+
+
+def test_trace_size_note_gives_the_size_with_its_unit(tmp_path):
+    """docs/scenes.md, "Limits": a trace over 100 MB is announced before the run as
+    'the trace will take about 116.0 MB (500001 rows; ...)', a number with a digit before
+    its point (the note wrote '.1 GB', Fortran's f0.1 dropping the zero). The run is
+    stopped by SIGINT as soon as the note is read."""
+    import signal
+
+    if not EXE.is_file():
+        pytest.skip(f"{EXE} is not built; run scripts/setup")
+    (tmp_path / "big.nml").write_text("&scheme t_end = 1250.0, dt = 0.0025 /\n")
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    proc = subprocess.Popen([str(EXE), "big.nml", "--out", "o"], cwd=tmp_path, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        note = proc.stderr.readline()
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=60)
+    assert re.fullmatch(r"dyncontact: note: the trace will take about \d+\.\d (MB|GB) "
+                        r"\(500001 rows; &output every thins it\)\n", note), note
+
+
+def test_unstable_message_tells_the_energy_from_the_limit(tmp_path):
+    """The blow-up message writes the energy and the limit with the digits that tell them
+    apart: the seed's literal pc_hht variant passes 10 e_total(0) = 0.125 by 3e-5, which 4
+    digits wrote as '1.250E-001 exceeds ... 1.250E-001'. The numbers read back as the trace's
+    last e_total and 10 e_total(0) to the digits written."""
+    import dyncontact
+    from conftest import ROOT
+
+    res = dyncontact.run(ROOT / "scripts" / "scenes" / "bar2d_pc_hht_seed.nml",
+                         out=tmp_path / "o", progress=False)
+    assert res.status == "unstable"
+    m = re.search(r"e_total = (\S+) exceeds blowup x e_total\(0\) = (\S+) ", res.message)
+    assert m, res.message
+    energy, limit = m.group(1), m.group(2)
+    assert energy != limit and float(energy) > float(limit)
+    digits = len(energy.split("E")[0].replace(".", "").lstrip("-"))
+    assert float(energy) == pytest.approx(res.trace["e_total"][-1], rel=10.0 ** (1 - digits))
+    assert float(limit) == pytest.approx(10 * res.trace["e_total"][0], rel=10.0 ** (1 - digits))

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import re
 import subprocess
 import sys
 from collections import namedtuple
@@ -336,6 +337,13 @@ def test_defaults_are_the_documented_ones(tmp_path):
     doc = (ROOT / "docs" / "scenes.md").read_text()
     block = doc.split("```fortran\n", 1)[1].split("```", 1)[0]
     assert Scene.read(scene_text(tmp_path, block)) == Scene()
+    # every key is written in the block, in its group (a key left out would read to its
+    # default too, so the equality above cannot see a missing one)
+    groups = dict(re.findall(r"&(\w+)\s+(.*?)/\n", block, flags=re.S))
+    for group, keys in Scene().to_dict().items():
+        assert group in groups, group
+        written = set(re.findall(r"\b(\w+) =", re.sub(r"!.*", "", groups[group])))
+        assert written == set(keys), (group, set(keys) ^ written)
     for group, keys in Scene().to_dict().items():
         section = doc.split(f"### `&{group}`", 1)[1].split("\n### ", 1)[0]
         for key in keys:
@@ -756,3 +764,13 @@ def test_fuzzed_scenes(tmp_path):
             assert stat == STAT_BAD_INPUT, (path, stat, f)
             assert f.startswith(path + ": ") and "\n" not in f, (path, f)
     assert 0 < n_ok < len(rows)
+
+
+def test_every_example_scene_is_documented():
+    """docs/scenes.md, "Example scenes", names every scene of scripts/scenes/ (and no other)."""
+    doc = (ROOT / "docs" / "scenes.md").read_text()
+    section = doc.split("## Example scenes", 1)[1].split("\n## ", 1)[0]
+    named = set(re.findall(r"`(\w+)`", section))
+    shipped = {p.stem for p in SCENES_DIR.glob("*.nml")}
+    assert shipped <= named, shipped - named
+    assert {n for n in named if n.startswith(("bar", "ball"))} <= shipped

@@ -12,7 +12,7 @@ module text
         module procedure int_text_default, int_text_i8
     end interface int_text
 
-    public :: int_text, real_text, utf8_len, lower, env_text, json_string
+    public :: int_text, real_text, fixed_text, utf8_len, lower, env_text, json_string
 
 contains
 
@@ -55,6 +55,23 @@ contains
         end do
         s = trim(adjustl(buf))
     end function real_text
+
+    !> A real in fixed-point form with `decimals` decimals and at least one digit before
+    !> the point ('0.850', '-0.5'; the f0.d edit descriptor writes '.850').
+    pure function fixed_text(x, decimals) result(s)
+        real(dp), intent(in) :: x          !! value
+        integer, intent(in) :: decimals    !! digits after the point
+        character(len=:), allocatable :: s
+        character(len=64) :: buf, fmt
+        write (fmt, '(a, i0, a)') '(f0.', decimals, ')'
+        write (buf, fmt) x
+        s = trim(adjustl(buf))
+        if (s(1:1) == '.') then
+            s = '0'//s
+        else if (len(s) >= 2) then
+            if (s(1:2) == '-.') s = '-0'//s(2:)
+        end if
+    end function fixed_text
 
     !> Length (1 to 4) of the well-formed UTF-8 sequence that starts at s(i:i), 0 if none
     !> does (the Unicode standard's table 3-7: no overlong forms, no surrogates, at most

@@ -24,6 +24,7 @@ module linear_solver
     use iso_c_binding, only: c_long
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
+    use text, only: fixed_text
     use sparse, only: csc_t, csc_find
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
     use cholmod, only: cholmod_t, chol_factor, chol_analyse, chol_solve, chol_solve_many, &
@@ -266,9 +267,9 @@ contains
     end function direct_speedup
 
     !> 'auto''s decision and its inputs, for the run's summary: e.g. "cg: 8 x nnz(J0)
-    !> 659432 < 1.9 x factor entries 3166928 (ratio 1.67)"; with a two-thread direct solve
+    !> 659432 < 1.9 x factor entries 3166928 (ratio 1.666)"; with a two-thread direct solve
     !> "cg: 8 x nnz(J0) 659432 < 1.9 x factor entries 3173896 / 1.00, the direct solve
-    !> on 2 threads (ratio 1.66)"; '' when the kind is not 'auto' or before the
+    !> on 2 threads (ratio 1.662)"; '' when the kind is not 'auto' or before the
     !> first ls_factor.
     function ls_auto_reason(f) result(text)
         type(factor_t), intent(in) :: f      !! solver
@@ -291,12 +292,13 @@ contains
         par = ''
         if (f%auto_threads >= 2) write (par, '(a, f4.2, a)') ' / ', AUTO_PAR_SPEEDUP, &
             ', the direct solve on 2 threads'
-        write (buf, '(a, a, i0, a, i0, a, f3.1, a, i0, a, a, f0.3, a)') trim(f%auto_kind), ': ', &
+        write (buf, '(a, a, i0, a, i0, a, f3.1, a, i0, a)') trim(f%auto_kind), ': ', &
             AUTO_CG_ITS(f%dim), ' x nnz(J0) ', f%auto_nnz, trim(rel)//' ', &
-            AUTO_CG_MARGIN(f%dim), ' x factor entries ', f%auto_factor_nnz, trim(par), ' (ratio ', &
-            real(AUTO_CG_ITS(f%dim), dp) * real(f%auto_nnz, dp) &
-            / real(f%auto_factor_nnz, dp), ')'
-        text = trim(buf)
+            AUTO_CG_MARGIN(f%dim), ' x factor entries ', f%auto_factor_nnz, trim(par)
+        ! the ratio can be below 1 (a factor of more than 8 entries per J0 entry), where the
+        ! f0.3 edit descriptor would write '.850'
+        text = trim(buf)//' (ratio '//fixed_text(real(AUTO_CG_ITS(f%dim), dp) &
+            * real(f%auto_nnz, dp) / real(f%auto_factor_nnz, dp), 3)//')'
     end function ls_auto_reason
 
     !> CG counters: solves, iterations over them, the most of one solve (0 without CG).

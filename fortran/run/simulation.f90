@@ -495,7 +495,6 @@ contains
         integer, intent(out) :: st                          !! status
         character(len=*), intent(inout), optional :: em     !! message
         real(dp) :: ratio
-        character(len=256) :: msg
         st = STAT_OK
         ratio = sim%scn%t_end / sim%scn%dt
         if (.not. ratio - 1.0e-9_dp <= real(sim%scn%max_steps, dp)) then
@@ -506,10 +505,10 @@ contains
         end if
         sim%n_steps = max(0_i8, ceiling(ratio - 1.0e-9_dp, i8))
         if (write_output .and. sim_trace_bytes(sim) > BIG_TRACE_BYTES) then
-            write (msg, '(a, f0.1, a, i0, a)') 'note: the trace will take about ', &
-                real(sim_trace_bytes(sim), dp) / 1.0e9_dp, ' GB (', &
-                sim%n_steps / sim%scn%every + 1_i8, ' rows; &output every thins it)'
-            sim%mdl%notes = trim(sim%mdl%notes)//trim(msg)//new_line('a')
+            sim%mdl%notes = trim(sim%mdl%notes)//'note: the trace will take about '// &
+                bytes_text(sim_trace_bytes(sim))//' ('// &
+                int_text(sim%n_steps / sim%scn%every + 1_i8)//' rows; &output every thins it)'// &
+                new_line('a')
         end if
     end subroutine count_steps
 
@@ -680,26 +679,47 @@ contains
         end if
     end subroutine stop_interrupted
 
-    !> The message of a run stopped by the blow-up test (docs/scenes.md).
+    !> The message of a run stopped by the blow-up test (docs/scenes.md). The energy and
+    !> the limit are written with the digits that tell them apart (the first step past the
+    !> limit is often past it by less than a 4-digit form shows: '1.250E-001 exceeds
+    !> 1.250E-001').
     function unstable_message(sim, e_total, e_test) result(msg)
         type(simulation_t), intent(in) :: sim               !! the run
         real(dp), intent(in) :: e_total                     !! e_kin + e_el
         real(dp), intent(in) :: e_test                      !! the tested energy
-        character(len=256) :: msg
+        character(len=:), allocatable :: msg
+        character(len=:), allocatable :: what, scale
+        real(dp) :: e
         if (sim%has_load) then
-            write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
-                sim%st%t, ': e_total + e_load = ', e_test, ' exceeds blowup x energy scale = ', &
-                sim%e_limit, ' (run stopped, trace kept)'
+            what = 'e_total + e_load'
+            scale = 'blowup x energy scale'
+            e = e_test
         else if (sim%e0 > 0.0_dp) then
-            write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
-                sim%st%t, ': e_total = ', e_total, ' exceeds blowup x e_total(0) = ', &
-                sim%e_limit, ' (run stopped, trace kept)'
+            what = 'e_total'
+            scale = 'blowup x e_total(0)'
+            e = e_total
         else
-            write (msg, '(a, es12.5e3, a, es10.3e3, a, es10.3e3, a)') 'unstable at t = ', &
-                sim%st%t, ': e_total = ', e_total, ' exceeds blowup x energy scale = ', &
-                sim%e_limit, ' (run stopped, trace kept)'
+            what = 'e_total'
+            scale = 'blowup x energy scale'
+            e = e_total
         end if
+        msg = 'unstable at t = '//real_text(sim%st%t, 6)//': '//what//' = '// &
+              distinct_text(e, sim%e_limit)//' exceeds '//scale//' = '// &
+              distinct_text(sim%e_limit, e)//' (run stopped, trace kept)'
     end function unstable_message
+
+    !> x with 4 significant digits, or with as many more as tell it apart from y (up to
+    !> the 17 that identify a double).
+    function distinct_text(x, y) result(s)
+        real(dp), intent(in) :: x   !! the value written
+        real(dp), intent(in) :: y   !! the value it is compared with
+        character(len=:), allocatable :: s
+        integer :: d
+        do d = 4, 17
+            s = real_text(x, d)
+            if (s /= real_text(y, d)) return
+        end do
+    end function distinct_text
 
     !> Write the last rows and summary.json (when outputs are open), release the
     !> output folder's lock and everything else. A write error is returned (the

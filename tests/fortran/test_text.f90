@@ -1,9 +1,10 @@
 !> Unit tests of module text: integers of both kinds, reals in ES form with a 3-digit
 !> exponent (the E kept for |exponent| >= 100), given digits, the shortest form that
-!> reads back. Exit status 1 (error stop) on any failure.
+!> reads back; fixed-point text with its leading zero. Exit status 1 (error stop) on any
+!> failure.
 program test_text
     use kinds, only: dp, i8
-    use text, only: int_text, real_text
+    use text, only: int_text, real_text, fixed_text
     use unit_checks, only: checks_t
     implicit none
     type(checks_t) :: checks
@@ -20,5 +21,10 @@ program test_text
     third = real_text(1.0_dp / 3.0_dp)
     read (third, *) y
     call checks%check(y == 1.0_dp / 3.0_dp, 'the shortest form reads back exactly')
+    call checks%check(fixed_text(0.85_dp, 3) == '0.850', 'fixed: leading zero below 1')
+    call checks%check(fixed_text(-0.5_dp, 1) == '-0.5', 'fixed: negative below 1')
+    call checks%check(fixed_text(1.666_dp, 3) == '1.666', 'fixed: above 1')
+    call checks%check(fixed_text(125.04_dp, 1) == '125.0', 'fixed: rounded')
+    call checks%check(fixed_text(0.0_dp, 2) == '0.00', 'fixed: zero')
     call checks%finish('test_text')
 end program test_text

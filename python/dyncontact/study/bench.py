@@ -429,7 +429,10 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     root = root or os.getcwd()
     p = OneLineParser(prog="scripts/bench", label="bench", description="Benchmark the seed "
                                 "scene and the predictor-corrector runs; prints a table "
-                                "and writes it as JSON.")
+                                "and writes it as JSON.",
+                                epilog="scripts/bench --scaling runs the scaling sweep "
+                                "instead, scripts/bench --getfem the comparison with the "
+                                "GetFEM script; each has its own --help.")
     p.add_argument("--quick", action="store_true", help="only the h = 0.05 rows")
     p.add_argument("--only", action="append", metavar="NAME",
                    help="rows to run (names as in the table; fnmatch patterns, "

@@ -301,11 +301,13 @@ def main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     never fails on time); 1 when a run could not run."""
     root = root or os.path.dirname(os.path.dirname(SCRIPT))
     ap = OneLineParser(prog="scripts/bench --getfem", label="bench --getfem",
-                       description=__doc__.split("\n")[0])
+                       description=" ".join(__doc__.split("\n\n")[0].split()))
     ap.add_argument("--sizes", type=mesh_sizes, default=",".join(repr(h) for h in SIZES),
                     help="comma-separated mesh sizes h (default %(default)s)")
     ap.add_argument("--steps", type=positive(int), default=None,
-                    help="steps of every size (default: STEPS, by size)")
+                    help="steps of every size (default: "
+                         + ", ".join(f"{n} at h = {h}" for h, n in STEPS.items())
+                         + f"; other sizes scaled as 1/h² from the nearest, at most {MAX_STEPS})")
     ap.add_argument("--repeats", type=positive(int), default=2,
                     help="interleaved rounds (best kept; >= 1)")
     ap.add_argument("--model", action="store_true",
