@@ -315,3 +315,28 @@ def test_every_script_answers_help(script, words):
     for word in words:
         assert word in res.stdout, (script, word)
     assert "wall time" not in res.stdout + res.stderr
+
+
+@pytest.mark.parametrize("failure", ["newton", "unstable"])
+def test_both_entry_points_print_the_same_failure_line(run_cli, run_exe, tmp_path, failure):
+    """A numerical failure (exit 3) is the same one line from the executable and the
+    Python CLI: the core's message, which gives t and what to check (the Python line
+    repeated the status and t before it, and the trace's folder after it)."""
+    from dyncontact import Scene
+
+    scn = Scene.read(ROOT / "scripts" / "scenes" / "bar1d.nml")
+    if failure == "newton":
+        scn.set("scheme.newton_maxit", 1)
+        scn.set("scheme.t_end", 3.0)
+    else:
+        scn.set("scheme.blowup", 1.01)     # any contact error in the energy trips it
+        scn.set("scheme.dt", 0.01)
+    scn.set("output.dir", "o")
+    scn.write(tmp_path / "s.nml")
+    exe = run_exe("s.nml")
+    cli = run_cli("run", "s.nml", "--out", "o2", "--quiet")
+    assert exe.returncode == cli.returncode == 3, (exe.stderr, cli.stderr)
+    lines = exe.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dyncontact: "), exe.stderr
+    assert cli.stderr.strip().splitlines() == lines
+    assert lines[0].count("at t = ") == 1, lines[0]

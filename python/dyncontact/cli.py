@@ -115,11 +115,13 @@ def cmd_run(args) -> int:
                 time.sleep(WAIT_POLL_S)
     s = result.summary
     if result.status != "ok":
-        t_stop = result.trace["t"][-1] if result.trace.get("t") is not None and \
-            len(result.trace["t"]) else float("nan")
-        msg = result.message or result.status
-        return _fail(f"{result.status} at t={t_stop:.6g}: {msg} (trace kept in "
-                     f"{result.out_dir})", EXIT_NUMERIC)
+        # the core's message, as the executable prints it (it gives t and what to check)
+        msg = result.message
+        if not msg:
+            t_stop = result.trace["t"][-1] if result.trace.get("t") is not None and \
+                len(result.trace["t"]) else float("nan")
+            msg = f"{result.status} at t = {t_stop:.6g} (trace kept)"
+        return _fail(msg, EXIT_NUMERIC)
     if not args.quiet:
         print(f"{PROG}: {args.scene}: {_counted(s.get('dofs'), 'dof')}, "
               f"{_counted(s.get('elements'), 'element')}, "
