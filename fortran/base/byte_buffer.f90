@@ -30,7 +30,7 @@ module byte_buffer
 contains
 
     !> A buffer to read `bytes` from.
-    function buf_from(bytes) result(b)
+    pure function buf_from(bytes) result(b)
         character(len=*), intent(in) :: bytes   !! the bytes
         type(byte_buffer_t) :: b
         b%data = bytes
@@ -39,7 +39,7 @@ contains
     end function buf_from
 
     !> Append raw bytes (the buffer doubles when full).
-    subroutine put_bytes(b, s)
+    pure subroutine put_bytes(b, s)
         type(byte_buffer_t), intent(inout) :: b
         character(len=*), intent(in) :: s
         character(len=:), allocatable :: grown
@@ -64,21 +64,21 @@ contains
     end function can_read
 
     !> Append a 64-bit integer (its 8 bytes).
-    subroutine put_i8(b, x)
+    pure subroutine put_i8(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer(i8), intent(in) :: x              !! value
         call put_bytes(b, transfer(x, repeat(' ', 8)))
     end subroutine put_i8
 
     !> Append a real (its 8 bytes).
-    subroutine put_real(b, x)
+    pure subroutine put_real(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(in) :: x                 !! value
         call put_bytes(b, transfer(x, repeat(' ', 8)))
     end subroutine put_real
 
     !> Append an integer array (its count first).
-    subroutine put_ints(b, x)
+    pure subroutine put_ints(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer, intent(in) :: x(:)               !! values
         call put_i8(b, size(x, kind=i8))
@@ -86,7 +86,7 @@ contains
     end subroutine put_ints
 
     !> Append a real array (its count first).
-    subroutine put_reals(b, x)
+    pure subroutine put_reals(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(in) :: x(:)              !! values
         call put_i8(b, size(x, kind=i8))
@@ -94,21 +94,21 @@ contains
     end subroutine put_reals
 
     !> Append a 2D integer array (column order, its count first).
-    subroutine put_ints2(b, x)
+    pure subroutine put_ints2(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer, intent(in) :: x(:, :)            !! values
         call put_ints(b, reshape(x, [size(x)]))
     end subroutine put_ints2
 
     !> Append a 2D real array (column order, its count first).
-    subroutine put_reals2(b, x)
+    pure subroutine put_reals2(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(in) :: x(:, :)           !! values
         call put_reals(b, reshape(x, [size(x)]))
     end subroutine put_reals2
 
     !> Append a text (its length first).
-    subroutine buf_put_text(b, s)
+    pure subroutine buf_put_text(b, s)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         character(len=*), intent(in) :: s         !! text
         call put_i8(b, len(s, i8))

@@ -46,7 +46,7 @@ contains
 
     !> Number the contact nodes (in the order the facets first name them), their shares of
     !> Gamma_C, nodal r and gaps, and N.
-    subroutine alm_init(alm, ct, kind)
+    pure subroutine alm_init(alm, ct, kind)
         type(alm_t), intent(out) :: alm          !! multipliers
         type(contact_t), intent(in) :: ct        !! contact facets
         integer, intent(in) :: kind              !! ALM_INTEGRAL or ALM_NODAL

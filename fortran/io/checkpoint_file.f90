@@ -40,7 +40,7 @@ contains
     end function checkpoint_scene_hash
 
     !> The build's numerics: version, instruction set and compiler.
-    function checkpoint_build_id() result(id)
+    pure function checkpoint_build_id() result(id)
         character(len=BUILD_LEN) :: id
         id = DYNCONTACT_VERSION//' '//DYNCONTACT_ISA//' '//compiler_version()
     end function checkpoint_build_id
@@ -148,7 +148,7 @@ contains
     contains
 
         !> The k-th 8-byte integer of the header.
-        integer(i8) function field(k)
+        pure integer(i8) function field(k)
             integer, intent(in) :: k
             field = transfer(h(8 * k - 7:8 * k), field)
         end function field

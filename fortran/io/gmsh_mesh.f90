@@ -176,7 +176,7 @@ contains
     end subroutine read_mesh_file
 
     !> Group names from the shim's newline-terminated list; no comma (Python joins with ',').
-    subroutine set_names(path, names, msh, stat, errmsg)
+    pure subroutine set_names(path, names, msh, stat, errmsg)
         character(len=*), intent(in) :: path                !! file (messages)
         character(kind=c_char), intent(in) :: names(:)      !! names, each ended by newline
         type(mesh_t), intent(inout) :: msh                  !! gets group_name
@@ -209,7 +209,7 @@ contains
 
     !> x = the first dim coordinates; the others must be constant (a 2D mesh in a plane
     !> z = const, a 1D mesh on a line y = const, z = const).
-    subroutine set_coordinates(path, xyz, msh, stat, errmsg)
+    pure subroutine set_coordinates(path, xyz, msh, stat, errmsg)
         character(len=*), intent(in) :: path                !! file (messages)
         real(dp), intent(in) :: xyz(:, :)                   !! (3, n_nodes)
         type(mesh_t), intent(inout) :: msh                  !! gets x

@@ -205,7 +205,7 @@ contains
     end subroutine trace_close
 
     !> A real as a JSON number (non-finite values as null).
-    function json_real(x) result(s)
+    pure function json_real(x) result(s)
         real(dp), intent(in) :: x    !! value
         character(len=:), allocatable :: s
         character(len=40) :: buf

@@ -239,7 +239,7 @@ contains
     !> Solve A x = b with the factors of A (no allocation, no iterative refinement).
     !> May be called any number of times per factorization. b and x must have n
     !> entries (STAT_BAD_INPUT otherwise, or if lu holds no factors of an n x n matrix).
-    subroutine lu_solve(lu, a, b, x, stat, errmsg)
+    pure subroutine lu_solve(lu, a, b, x, stat, errmsg)
         type(lu_t), intent(inout) :: lu                     !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
@@ -371,7 +371,7 @@ contains
     end subroutine extract_factors
 
     !> Solve A X = B for the columns of B, one after the other (no allocation).
-    subroutine lu_solve_many(lu, a, b, x, stat, errmsg)
+    pure subroutine lu_solve_many(lu, a, b, x, stat, errmsg)
         type(lu_t), intent(inout) :: lu                     !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)
@@ -479,7 +479,7 @@ contains
     end function same_pattern
 
     !> Keep a copy of the pattern of a in lu (for the reuse test).
-    subroutine store_pattern(lu, a, ierr)
+    pure subroutine store_pattern(lu, a, ierr)
         type(lu_t), intent(inout) :: lu   !! factors
         type(csc_t), intent(in) :: a      !! analysed matrix
         integer, intent(out) :: ierr      !! allocation status
@@ -499,7 +499,7 @@ contains
     end subroutine store_pattern
 
     !> The lu_solve workspace w(n).
-    subroutine ensure_workspace(lu, n, ierr)
+    pure subroutine ensure_workspace(lu, n, ierr)
         type(lu_t), intent(inout) :: lu   !! factors
         integer, intent(in) :: n          !! matrix size
         integer, intent(out) :: ierr      !! allocation status

@@ -174,7 +174,7 @@ contains
     end subroutine mass_solver_free
 
     !> The backend that applies M^{-1}: 'diagonal' (lumped mass) or the factors'.
-    function mass_solver_name(ms) result(name)
+    pure function mass_solver_name(ms) result(name)
         type(mass_solver_t), intent(in) :: ms   !! solver
         character(len=:), allocatable :: name
         if (ms%lumped) then
@@ -186,7 +186,7 @@ contains
 
     !> The triangular solve of the M^{-1} applications (ls_kernel; 'diagonal' for
     !> lumped mass).
-    function mass_solver_kernel(ms) result(name)
+    pure function mass_solver_kernel(ms) result(name)
         type(mass_solver_t), intent(in) :: ms   !! solver
         character(len=:), allocatable :: name
         if (ms%lumped) then
