@@ -123,7 +123,7 @@ contains
 
         !> us per M^{-1} application with the scheme's mass solver.
         function mass_apply_us(ms) result(t)
-            type(mass_solver_t), intent(inout) :: ms
+            type(mass_solver_t), intent(inout) :: ms   !! the scheme's mass solver
             real(dp) :: t
             call system_clock(c0)
             do i = 1, n_rep

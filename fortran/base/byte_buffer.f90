@@ -40,8 +40,8 @@ contains
 
     !> Append raw bytes (the buffer doubles when full).
     pure subroutine put_bytes(b, s)
-        type(byte_buffer_t), intent(inout) :: b
-        character(len=*), intent(in) :: s
+        type(byte_buffer_t), intent(inout) :: b   !! buffer
+        character(len=*), intent(in) :: s         !! bytes to append
         character(len=:), allocatable :: grown
         integer(i8) :: need
         if (.not. allocated(b%data)) allocate (character(len=4096) :: b%data)
@@ -57,8 +57,8 @@ contains
 
     !> Whether nb more bytes can be read (marks the buffer bad otherwise).
     logical function can_read(b, nb)
-        type(byte_buffer_t), intent(inout) :: b
-        integer(i8), intent(in) :: nb
+        type(byte_buffer_t), intent(inout) :: b   !! buffer
+        integer(i8), intent(in) :: nb             !! bytes to read
         can_read = .not. b%bad .and. nb >= 0 .and. b%pos + nb <= b%n
         if (.not. can_read) b%bad = .true.
     end function can_read
@@ -137,8 +137,8 @@ contains
 
     !> Read the count of an array and check it against `expected`.
     subroutine get_count(b, expected)
-        type(byte_buffer_t), intent(inout) :: b
-        integer, intent(in) :: expected
+        type(byte_buffer_t), intent(inout) :: b   !! buffer
+        integer, intent(in) :: expected           !! count the reader expects
         integer(i8) :: k
         call get_i8(b, k)
         if (k /= expected) b%bad = .true.

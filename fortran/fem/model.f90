@@ -425,7 +425,7 @@ contains
 
         !> Sort a few integers ascending (insertion: a column holds some tens of rows).
         pure subroutine sort_ints(v)
-            integer, intent(inout) :: v(:)
+            integer, intent(inout) :: v(:)   !! sorted in place
             integer :: ii, jj, key
             do ii = 2, size(v)
                 key = v(ii)
@@ -664,7 +664,7 @@ contains
     !> Append one line to the model's notes.
     pure subroutine note(mdl, line)
         type(model_t), intent(inout) :: mdl          !! model being built
-        character(len=*), intent(in) :: line
+        character(len=*), intent(in) :: line         !! line to append
         mdl%notes = trim(mdl%notes)//trim(line)//new_line('a')
     end subroutine note
 
@@ -846,7 +846,7 @@ contains
 
     !> The smallest of 1, 2, 5 x 10^k that is >= v (v > 0).
     pure function round_up(v) result(r)
-        real(dp), intent(in) :: v
+        real(dp), intent(in) :: v   !! value (> 0)
         real(dp) :: r
         real(dp), parameter :: STEPS(4) = [1.0_dp, 2.0_dp, 5.0_dp, 10.0_dp]
         real(dp) :: p
@@ -875,7 +875,7 @@ contains
 
     !> A real as short text.
     pure function real_str(x) result(t)
-        real(dp), intent(in) :: x
+        real(dp), intent(in) :: x   !! value
         character(len=:), allocatable :: t
         character(len=32) :: b
         write (b, '(g0.3)') x
@@ -1109,9 +1109,9 @@ contains
 
         !> Owner-cell values of a free-dof vector on contact facet ff (0 if constrained).
         pure subroutine gather(ff, w, we)
-            integer, intent(in) :: ff
-            real(dp), intent(in) :: w(:)
-            real(dp), intent(out) :: we(:)
+            integer, intent(in) :: ff       !! contact facet
+            real(dp), intent(in) :: w(:)    !! free-dof vector
+            real(dp), intent(out) :: we(:)  !! its owner-cell values
             integer :: i
             do i = 1, size(we)
                 we(i) = 0.0_dp

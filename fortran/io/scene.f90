@@ -606,7 +606,7 @@ contains
     contains
         !> Moves i past a '+' or '-' at text(i).
         pure subroutine skip_sign(i)
-            integer, intent(inout) :: i
+            integer, intent(inout) :: i   !! position in text
             if (i <= n) then
                 if (scan(text(i:i), '+-') == 1) i = i + 1
             end if
@@ -614,8 +614,8 @@ contains
 
         !> Moves i past the digits from text(i); count: how many there were.
         pure subroutine skip_digits(i, count)
-            integer, intent(inout) :: i
-            integer, intent(out) :: count
+            integer, intent(inout) :: i    !! position in text
+            integer, intent(out) :: count  !! digits skipped
             count = 0
             do while (i <= n)
                 if (scan(text(i:i), '0123456789') /= 1) exit

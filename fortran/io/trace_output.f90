@@ -146,7 +146,7 @@ contains
 
         !> Append x as es24.16e3 and a comma.
         subroutine put_real(x)
-            real(dp), intent(in) :: x
+            real(dp), intent(in) :: x   !! value
             if (c_format_es(x, row(n + 1:n + 24)) == 0) write (row(n + 1:n + 24), '(es24.16e3)') x
             row(n + 25:n + 25) = ','
             n = n + 25
@@ -154,7 +154,7 @@ contains
 
         !> Append k as i0 and a comma.
         subroutine put_int(k)
-            integer, intent(in) :: k
+            integer, intent(in) :: k   !! value
             character(len=12) :: d
             integer :: m, j
             m = abs(k)

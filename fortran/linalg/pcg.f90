@@ -212,7 +212,7 @@ contains
     contains
         !> Columns i and j store the same rows.
         pure logical function same_rows(i, jj)
-            integer, intent(in) :: i, jj
+            integer, intent(in) :: i, jj   !! the two columns
             integer :: ki, kj, len
             ki = a%colptr(i)
             kj = a%colptr(jj)
@@ -685,6 +685,8 @@ contains
         logical, intent(in) :: forward                      !! forward (lower) sweep
         integer, intent(in) :: n, ng, nb                    !! size, groups, blocks
         integer, intent(in) :: row_ptr(ng + 1), col1(nb), first(ng + 1), kd(ng)
+            !! row_ptr: each group's blocks (CSR); col1: each block's first column;
+            !! first: each group's first dof; kd: each group's diagonal block
         integer, intent(in) :: col2(*)                      !! (nb) not read when pairs
         logical, intent(in) :: pairs                        !! every group a pair: col1 + 1
         real(dp), intent(in) :: val(4, nb)                  !! blocks
@@ -743,6 +745,8 @@ contains
         logical, intent(in) :: forward                      !! forward (lower) sweep
         integer, intent(in) :: n, ng, nb                    !! size, groups, blocks
         integer, intent(in) :: row_ptr(ng + 1), col1(nb), first(ng + 1), kd(ng)
+            !! row_ptr: each group's blocks (CSR); col1: each block's first column;
+            !! first: each group's first dof; kd: each group's diagonal block
         integer, intent(in) :: col2(*), col3(*)             !! (nb) not read when triples
         logical, intent(in) :: triples                      !! every group a triple: col1 + 1, + 2
         real(dp), intent(in) :: val(9, nb + 1)              !! blocks (and the zero block)
@@ -1100,7 +1104,7 @@ contains
         end subroutine add_group
         !> A work block with cap columns, its first nd kept.
         pure subroutine grow(v)
-            real(dp), allocatable, intent(inout) :: v(:, :)
+            real(dp), allocatable, intent(inout) :: v(:, :)   !! work block
             real(dp), allocatable :: t(:, :)
             allocate (t(k, cap))
             t(:, 1:nd) = v(:, 1:nd)
@@ -1108,7 +1112,7 @@ contains
         end subroutine grow
         !> An index list with room for cap entries, its entries kept.
         pure subroutine grow_int(v)
-            integer, allocatable, intent(inout) :: v(:)
+            integer, allocatable, intent(inout) :: v(:)   !! index list
             integer, allocatable :: t(:)
             allocate (t(max(cap, 2 * size(v), 16)))
             t(1:size(v)) = v
@@ -1136,7 +1140,7 @@ contains
         end subroutine go_full
         !> A work block of the set as a (k, n) block of every dof.
         pure subroutine to_full(v)
-            real(dp), allocatable, intent(inout) :: v(:, :)
+            real(dp), allocatable, intent(inout) :: v(:, :)   !! work block
             real(dp), allocatable :: t(:, :)
             integer :: ll
             allocate (t(k, n))

@@ -130,7 +130,7 @@ contains
     contains
         !> The representative of node n's part (path halving on the way up).
         integer function root(n) result(r)
-            integer, intent(in) :: n
+            integer, intent(in) :: n   !! node
             r = n
             do while (parent(r) /= r)
                 parent(r) = parent(parent(r))

@@ -83,7 +83,7 @@ contains
         !> S from the node blocks of M (block k of row group g of K_theta's block pattern
         !> holds mass_s(k) I).
         subroutine scalar_mass(st)
-            integer, intent(out) :: st
+            integer, intent(out) :: st   !! status
             integer, allocatable :: grp(:), rows(:), cols(:), bfirst(:), row_ptr(:), col1(:)
             integer :: g, k, ng, nc
             ! (M's blocks are mass_s on K_theta's block pattern; model's block_copy)
