@@ -284,7 +284,7 @@ contains
         end subroutine group_mask
     end subroutine number_dofs
 
-    !> Pattern, cell positions, M, K, K_theta (= K for now) and L.
+    !> Pattern, cell positions, M, K, K_theta (= K until add_theta_term) and L.
     pure subroutine assemble(mdl, prm, lambda, mu, st, m)
         type(model_t), intent(inout) :: mdl          !! model being built
         type(model_params_t), intent(in) :: prm      !! parameters

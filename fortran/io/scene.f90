@@ -829,7 +829,7 @@ contains
         if (len(msg) > 0) then
             call raise(stat, errmsg, STAT_BAD_INPUT, msg)
         else
-            ! the dump shows the defaults now, 3 components in 3D
+            ! from here on the dump shows the defaults: 3 components in 3D
             where (copy%vector_count == 0 .and. dim == 3) copy%vector_count = 3
             copy%dim_checked = .true.
             scn = copy
