@@ -27,15 +27,15 @@ module trace_output
         !> int mkdir(const char *path, mode_t mode) from the C library.
         function c_mkdir(path, mode) bind(C, name='mkdir') result(r)
             import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
-            integer(c_int), value :: mode
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
+            integer(c_int), value :: mode                  !! permissions (masked by umask)
             integer(c_int) :: r
         end function c_mkdir
         !> es24.16e3 formatting in C (run_guard.c); 0 when the value is left to Fortran.
         function c_format_es(x, out) bind(C, name='dc_format_es') result(r)
             import :: c_int, c_char, c_double
-            real(c_double), value :: x
-            character(kind=c_char), intent(out) :: out(24)
+            real(c_double), value :: x                      !! value
+            character(kind=c_char), intent(out) :: out(24)  !! its text
             integer(c_int) :: r
         end function c_format_es
     end interface

@@ -102,8 +102,8 @@ module ldl_solves
         !> item 1 is done, else here too (two_threads.c); 2 when the helper ran it.
         function dc_two_items(fn, ctx) bind(C, name='dc_two_items') result(by)
             import :: c_int, c_ptr, c_funptr
-            type(c_funptr), value :: fn
-            type(c_ptr), value :: ctx
+            type(c_funptr), value :: fn  !! work item: fn(ctx, item)
+            type(c_ptr), value :: ctx    !! its data
             integer(c_int) :: by
         end function dc_two_items
     end interface

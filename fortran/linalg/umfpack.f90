@@ -81,7 +81,8 @@ module umfpack
             bind(C, name='umfpack_di_get_lunz') result(status)
             import :: c_int, c_ptr
             integer(c_int), intent(out) :: lnz, unz, n_row, n_col, nz_udiag
-            type(c_ptr), value :: numeric
+                !! entries of L and U, sizes, nonzeros on U's diagonal
+            type(c_ptr), value :: numeric  !! Numeric object
             integer(c_int) :: status
         end function umfpack_di_get_lunz
 
@@ -90,9 +91,11 @@ module umfpack
             bind(C, name='umfpack_di_get_numeric') result(status)
             import :: c_int, c_double, c_ptr
             integer(c_int), intent(out) :: lp(*), lj(*), up(*), ui(*), p(*), q(*)
+                !! L by rows, U by columns, P, Q
             real(c_double), intent(out) :: lx(*), ux(*), dx(*), rs(*)
-            integer(c_int), intent(out) :: do_recip
-            type(c_ptr), value :: numeric
+                !! L, U, diag(U), scale factors
+            integer(c_int), intent(out) :: do_recip  !! 1: rs holds reciprocals
+            type(c_ptr), value :: numeric            !! Numeric object
             integer(c_int) :: status
         end function umfpack_di_get_numeric
 
