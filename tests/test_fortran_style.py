@@ -187,18 +187,17 @@ def violations(root: Path, names: list[str]) -> list[str]:
                 if a == "*" or "intent" in attrs or (p.bind_c and "value" in attrs):
                     continue
                 found.append(f"{name}:{k}: explicit intent: {p.name}: {a}")
-            if not p.interface:
-                for a in p.args:
-                    if a not in p.decls:
-                        continue
-                    k = p.decls[a][1]
-                    last = k
-                    while _code(raw[last - 1]).rstrip().endswith("&"):
-                        last += 1
-                    nxt = raw[last].strip() if last < len(raw) else ""
-                    if "!!" not in raw[k - 1] and "!!" not in raw[last - 1] \
-                            and not nxt.startswith("!!"):
-                        found.append(f"{name}:{k}: !! on every dummy: {p.name}: {a}")
+            for a in p.args:
+                if a not in p.decls:
+                    continue
+                k = p.decls[a][1]
+                last = k
+                while _code(raw[last - 1]).rstrip().endswith("&"):
+                    last += 1
+                nxt = raw[last].strip() if last < len(raw) else ""
+                if "!!" not in raw[k - 1] and "!!" not in raw[last - 1] \
+                        and not nxt.startswith("!!"):
+                    found.append(f"{name}:{k}: !! on every dummy: {p.name}: {a}")
             if p.public and not is_program:
                 above = raw[p.line - 2].strip() if p.line >= 2 else ""
                 last = p.line
@@ -239,7 +238,7 @@ module planted
     interface
         function c_call(fd) bind(C, name='c_call') result(r)
             import :: c_int
-            integer(c_int), value :: fd
+            integer(c_int), value :: fd             !! a value dummy of bind(C): fine
             integer(c_int) :: r
         end function c_call
     end interface
