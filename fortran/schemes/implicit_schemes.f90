@@ -427,7 +427,7 @@ contains
     end subroutine implicit_save
 
     !> Read back what implicit_save wrote (buf%bad on any mismatch of sizes).
-    subroutine implicit_load(this, buf)
+    pure subroutine implicit_load(this, buf)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme (set up by init)
         type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
         integer(kind(buf%n)) :: k

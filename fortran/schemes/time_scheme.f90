@@ -132,7 +132,7 @@ contains
     end subroutine scheme_save_none
 
     !> Read back scheme_save_none's time step: bad unless it is this scheme's, bit for bit.
-    subroutine scheme_load_none(this, buf)
+    pure subroutine scheme_load_none(this, buf)
         class(time_scheme_t), intent(inout) :: this         !! scheme (set up by init)
         type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
         real(dp) :: dt
