@@ -31,17 +31,17 @@ def _one_line(res, code: int, prefix: str) -> str:
 # --------------------------------------------------------------------------- study
 
 @pytest.mark.parametrize("study, option, value", [
-    ("convergence", "--c-explicit", "0"),       # was ZeroDivisionError
+    ("convergence", "--c-explicit", "0"),       # not a ZeroDivisionError
     ("convergence", "--c-implicit", "0"),
-    ("convergence", "--c-implicit", "-20"),     # was one "run failed" line per run
+    ("convergence", "--c-implicit", "-20"),     # one message, not a "run failed" line per run
     ("work-precision", "--c-explicit", "-1"),
     ("convergence", "--t-end", "-1"),
     ("convergence", "--t-end", "0"),
     ("convergence", "--t-end", "nan"),
     ("convergence", "--t-end", "abc"),
-    ("convergence", "--schemes", ""),           # was every scheme
+    ("convergence", "--schemes", ""),           # not taken as every scheme
     ("convergence", "--schemes", ","),
-    ("convergence", "--out", ""),               # was the current folder
+    ("convergence", "--out", ""),               # not taken as the current folder
     ("convergence", "--workers", "0"),
 ])
 def test_study_refuses_bad_values_naming_the_option(run_cli, tmp_path, study, option,
@@ -87,9 +87,9 @@ def test_sweep_counts_only_real_cache_hits(tmp_path):
 # --------------------------------------------------------------------------- mesh
 
 @pytest.mark.parametrize("out, words", [
-    ("/proc/m.msh", ("/proc/m.msh", "cannot write")),      # was a gmsh traceback, exit 1
-    ("m.txt", ("--out", ".msh")),                           # was a gmsh traceback, exit 1
-    ("missing/m.msh", ("--out", "no folder missing")),      # was created silently
+    ("/proc/m.msh", ("/proc/m.msh", "cannot write")),      # not a gmsh traceback (exit 1)
+    ("m.txt", ("--out", ".msh")),                           # not a gmsh traceback (exit 1)
+    ("missing/m.msh", ("--out", "no folder missing")),      # not created silently
     ("./", ("--out", ".msh")),
 ])
 def test_mesh_out_is_refused_in_one_line(run_cli, tmp_path, out, words):
@@ -103,13 +103,13 @@ def test_mesh_out_is_refused_in_one_line(run_cli, tmp_path, out, words):
 # --------------------------------------------------------------------------- bench
 
 @pytest.mark.parametrize("args, words", [
-    (["--repeat", "0"], ("--repeat", ">= 1")),          # ran once, said "ran 0 more times"
+    (["--repeat", "0"], ("--repeat", ">= 1")),          # not one run and "ran 0 more times"
     (["--repeat", "-3"], ("--repeat", ">= 1")),
-    (["--quick", "--only", "seed_h0.02"],               # listed seed_h0.02 as available
+    (["--quick", "--only", "seed_h0.02"],               # not listed as available
      ("seed_h0.02", "--quick", "without --quick")),
-    (["--only", "seed_h0.05,nope"], ("--only nope",)),  # nope was ignored
+    (["--only", "seed_h0.05,nope"], ("--only nope",)),  # nope is not ignored
     (["--only", "seed_h0.05", "--only", "pc_h9*"], ("--only pc_h9*",)),
-    (["--out", "missing/dir/x.json"], ("--out", "no folder missing/dir")),   # was created
+    (["--out", "missing/dir/x.json"], ("--out", "no folder missing/dir")),   # not created
     (["--out", "./"], ("--out", "folder")),
 ])
 def test_bench_refuses_bad_options_before_running(tmp_path, monkeypatch, capsys, args,
@@ -135,7 +135,7 @@ def test_bench_only_rows_of_the_quick_mode_pass_the_check():
 
 
 @pytest.mark.parametrize("args, words", [
-    (["--sizes", "abc"], ("--sizes", "abc")),          # were tracebacks
+    (["--sizes", "abc"], ("--sizes", "abc")),          # not a traceback
     (["--sizes", "0"], ("--sizes", "h = 0")),
     (["--sizes", "-0.01"], ("--sizes", "h = -0.01")),
     (["--sizes", "0.01,nan"], ("--sizes", "nan")),

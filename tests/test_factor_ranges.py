@@ -3,9 +3,9 @@ factor_by_ranges) gives the factor cholmod_factorize gives, bit for bit.
 
 cholmod_factorize hands cholmod_rowfac the whole of triu(P A P') (two transposes of A's
 upper triangle, alive next to the factor while it is made: the set-up's peak); the shim
-now builds the columns of one range of rows at a time (16 ranges by default). The test-only
+builds the columns of one range of rows at a time (16 ranges by default). The test-only
 switch DYNCONTACT_FACTOR_RANGES sets the number of ranges, 0 giving cholmod_factorize
-whole (the previous code). The traces must be equal exactly (not to round-off: the same
+whole (the reference). The traces must be equal exactly (not to round-off: the same
 products in the same order), through contact (the contact correction's column solves),
 for M's factor (pc: one dof a node, solved by CHOLMOD) and in 3D without node triples
 (CHOLMOD's solves of its own factor); one range, and a thousand (a row or two each on these meshes), are the
@@ -28,7 +28,7 @@ from dyncontact import Scene
 
 CONTACT = ROOT / "tests" / "data" / "contact_h0.01"
 VAR = "DYNCONTACT_FACTOR_RANGES"
-#: cholmod_factorize whole (the previous code), one range, ranges of a row or two
+#: cholmod_factorize whole (the reference), one range, ranges of a row or two
 RANGES = ("0", "1", "1000")
 
 

@@ -9,7 +9,7 @@ from test_plotting import _write_snapshots
 
 
 @pytest.mark.parametrize("k, times", [
-    (1, ["t=2"]),                        # was 2 snapshots
+    (1, ["t=2"]),                        # one snapshot, not 2
     (2, ["t=0", "t=2"]),
     (4, ["t=0", "t=0.5", "t=1.5", "t=2"]),
     (9, ["t=0", "t=0.5", "t=1", "t=1.5", "t=2"]),

@@ -391,9 +391,9 @@ def test_out_path_over_the_limit_is_an_error(kind, tmp_path):
 
 def test_body_at_rest_under_gravity_runs_and_conserves_energy_with_e_load(tmp_path):
     """A clamped bar at rest under a body force (pulling away from the obstacle, so no
-    contact): e_total(0) = 0, which the old test stopped at once. The trapezoidal rule
-    conserves e_total + e_contact + e_load (e_contact: the Nitsche theta term, see
-    docs/scenes.md) exactly for this linear problem: that checks e_load = -u.L."""
+    contact): e_total(0) = 0, where a limit on e_total alone would stop it at once. The
+    trapezoidal rule conserves e_total + e_contact + e_load (e_contact: the Nitsche theta
+    term, see docs/scenes.md) exactly for this linear problem: that checks e_load = -u.L."""
     import dyncontact
 
     scene = write_scene(tmp_path / "s.nml", material__gravity="0.0, 1.0",
@@ -413,7 +413,7 @@ def test_block_sliding_under_gravity_is_not_called_unstable(tmp_path):
     """A free block (nothing clamped) on a frictionless obstacle, gravity (1, -1): it
     slides with the horizontal acceleration g_x, so e_kin(T) >= 1/2 m (g_x T)^2 (the
     vertical vibration only adds to it) while e_total + e_load stays near 0 (HHT dissipates
-    a little). e_total alone grows without bound: the old test called it unstable."""
+    a little). e_total alone grows without bound: a test on it alone would call it unstable."""
     import dyncontact
 
     g_x, t_end, mass = 1.0, 3.0, 1.0 * 0.1      # rho x area of the 1 x 0.1 bar
@@ -431,9 +431,9 @@ def test_block_sliding_under_gravity_is_not_called_unstable(tmp_path):
 
 def test_body_starting_in_the_obstacle_runs(tmp_path):
     """At rest with its contact nodes 0.01 inside the obstacle and no load: e_total(0) = 0
-    (the old limit was blowup x tiny). The stored penalty energy (e_contact(0) here, where
-    sigma_n(u0) = 0) is the scale; the body is pushed out and e_total + e_contact stays at
-    its initial value (energy-conserving Nitsche, theta = 1)."""
+    (a limit of blowup x e_total(0) alone would be 0). The stored penalty energy
+    (e_contact(0) here, where sigma_n(u0) = 0) is the scale; the body is pushed out and
+    e_total + e_contact stays at its initial value (energy-conserving Nitsche, theta = 1)."""
     import dyncontact
 
     scene = write_scene(tmp_path / "s.nml", initial__kind="'rest'",

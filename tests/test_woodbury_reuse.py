@@ -97,7 +97,7 @@ def run_with_env(monkeypatch, var: str, value: str | None, s: Scene, out: Path):
 def assert_traces_agree(name: str, new, ref, tol: float, used: bool = True) -> None:
     """Two runs of one scene by two paths of the same Newton step: the same active counts
     and iterations at every row, every column within tol of its largest value, and not
-    bit for bit the same (the new path was used) or, used False, bit for bit the same."""
+    bit for bit the same (the path under test was used) or, used False, bit for bit the same."""
     assert ref.trace["active"].max() > 0 and ref.trace["newton_its"].max() >= 2, name
     np.testing.assert_array_equal(new.trace["active"], ref.trace["active"])
     np.testing.assert_array_equal(new.trace["newton_its"], ref.trace["newton_its"])

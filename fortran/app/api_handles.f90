@@ -123,7 +123,7 @@ contains
 
         !> us per M^{-1} application with the scheme's mass solver.
         function mass_apply_us(ms) result(t)
-            type(mass_solver_t), intent(inout) :: ms
+            type(mass_solver_t), intent(inout) :: ms   !! the scheme's mass solver
             real(dp) :: t
             call system_clock(c0)
             do i = 1, n_rep
@@ -134,13 +134,13 @@ contains
         end function mass_apply_us
 
         !> us per repetition between the clock readings c0 and c1.
-        real(dp) function us_per_rep()
+        pure real(dp) function us_per_rep()
             us_per_rep = 1.0e6_dp * real(c1 - c0, dp) / sim%clock_rate / n_rep
         end function us_per_rep
     end subroutine sim_bench_floor
 
     !> b = B(u) on the free dofs; active = active contact quadrature points.
-    subroutine sim_eval_b(sim, u, b, active)
+    pure subroutine sim_eval_b(sim, u, b, active)
         type(simulation_t), intent(in) :: sim      !! the run (model used)
         real(dp), intent(in) :: u(:)               !! displacement (free dofs)
         real(dp), intent(out) :: b(:)              !! B(u)
@@ -152,7 +152,7 @@ contains
     end subroutine sim_eval_b
 
     !> jdu = B'(u) du, the generalized (semi-smooth Newton) derivative.
-    subroutine sim_apply_jacobian(sim, u, du, jdu)
+    pure subroutine sim_apply_jacobian(sim, u, du, jdu)
         type(simulation_t), intent(inout) :: sim   !! the run
         real(dp), intent(in) :: u(:)               !! point of linearization
         real(dp), intent(in) :: du(:)              !! direction
@@ -173,7 +173,7 @@ contains
     end subroutine sim_static
 
     !> Node (1-based) and component (1..dim) of each free dof.
-    subroutine sim_dof_map(sim, node, comp)
+    pure subroutine sim_dof_map(sim, node, comp)
         type(simulation_t), intent(in) :: sim   !! the run
         integer, intent(out) :: node(:)         !! (n_dofs) node of each free dof
         integer, intent(out) :: comp(:)         !! (n_dofs) component of each free dof

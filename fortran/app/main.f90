@@ -14,7 +14,7 @@ program main
         !> C exit(): ends the program with a status and no extra output.
         subroutine c_exit(status) bind(C, name='exit')
             import :: c_int
-            integer(c_int), value :: status
+            integer(c_int), value :: status  !! exit status
         end subroutine c_exit
     end interface
     character(len=*), parameter :: USAGE = &

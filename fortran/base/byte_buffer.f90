@@ -30,7 +30,7 @@ module byte_buffer
 contains
 
     !> A buffer to read `bytes` from.
-    function buf_from(bytes) result(b)
+    pure function buf_from(bytes) result(b)
         character(len=*), intent(in) :: bytes   !! the bytes
         type(byte_buffer_t) :: b
         b%data = bytes
@@ -39,9 +39,9 @@ contains
     end function buf_from
 
     !> Append raw bytes (the buffer doubles when full).
-    subroutine put_bytes(b, s)
-        type(byte_buffer_t), intent(inout) :: b
-        character(len=*), intent(in) :: s
+    pure subroutine put_bytes(b, s)
+        type(byte_buffer_t), intent(inout) :: b   !! buffer
+        character(len=*), intent(in) :: s         !! bytes to append
         character(len=:), allocatable :: grown
         integer(i8) :: need
         if (.not. allocated(b%data)) allocate (character(len=4096) :: b%data)
@@ -55,30 +55,32 @@ contains
         b%n = need
     end subroutine put_bytes
 
-    !> Whether nb more bytes can be read (marks the buffer bad otherwise).
-    logical function can_read(b, nb)
-        type(byte_buffer_t), intent(inout) :: b
-        integer(i8), intent(in) :: nb
-        can_read = .not. b%bad .and. nb >= 0 .and. b%pos + nb <= b%n
-        if (.not. can_read) b%bad = .true.
-    end function can_read
+    !> Whether nb more bytes can be read; marks the buffer bad otherwise (a subroutine,
+    !> not a function: it changes b).
+    pure subroutine check_readable(b, nb, ok)
+        type(byte_buffer_t), intent(inout) :: b   !! buffer
+        integer(i8), intent(in) :: nb             !! bytes to read
+        logical, intent(out) :: ok                !! they can be read
+        ok = .not. b%bad .and. nb >= 0 .and. b%pos + nb <= b%n
+        if (.not. ok) b%bad = .true.
+    end subroutine check_readable
 
     !> Append a 64-bit integer (its 8 bytes).
-    subroutine put_i8(b, x)
+    pure subroutine put_i8(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer(i8), intent(in) :: x              !! value
         call put_bytes(b, transfer(x, repeat(' ', 8)))
     end subroutine put_i8
 
     !> Append a real (its 8 bytes).
-    subroutine put_real(b, x)
+    pure subroutine put_real(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(in) :: x                 !! value
         call put_bytes(b, transfer(x, repeat(' ', 8)))
     end subroutine put_real
 
     !> Append an integer array (its count first).
-    subroutine put_ints(b, x)
+    pure subroutine put_ints(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer, intent(in) :: x(:)               !! values
         call put_i8(b, size(x, kind=i8))
@@ -86,7 +88,7 @@ contains
     end subroutine put_ints
 
     !> Append a real array (its count first).
-    subroutine put_reals(b, x)
+    pure subroutine put_reals(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(in) :: x(:)              !! values
         call put_i8(b, size(x, kind=i8))
@@ -94,21 +96,21 @@ contains
     end subroutine put_reals
 
     !> Append a 2D integer array (column order, its count first).
-    subroutine put_ints2(b, x)
+    pure subroutine put_ints2(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer, intent(in) :: x(:, :)            !! values
         call put_ints(b, reshape(x, [size(x)]))
     end subroutine put_ints2
 
     !> Append a 2D real array (column order, its count first).
-    subroutine put_reals2(b, x)
+    pure subroutine put_reals2(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(in) :: x(:, :)           !! values
         call put_reals(b, reshape(x, [size(x)]))
     end subroutine put_reals2
 
     !> Append a text (its length first).
-    subroutine buf_put_text(b, s)
+    pure subroutine buf_put_text(b, s)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         character(len=*), intent(in) :: s         !! text
         call put_i8(b, len(s, i8))
@@ -116,37 +118,42 @@ contains
     end subroutine buf_put_text
 
     !> Read a 64-bit integer (0 when the buffer is bad).
-    subroutine get_i8(b, x)
+    pure subroutine get_i8(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer(i8), intent(out) :: x             !! value
+        logical :: ok
         x = 0
-        if (.not. can_read(b, 8_i8)) return
+        call check_readable(b, 8_i8, ok)
+        if (.not. ok) return
         x = transfer(b%data(b%pos + 1:b%pos + 8), x)
         b%pos = b%pos + 8
     end subroutine get_i8
 
     !> Read a real (0 when the buffer is bad).
-    subroutine get_real(b, x)
+    pure subroutine get_real(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(out) :: x                !! value
+        logical :: ok
         x = 0.0_dp
-        if (.not. can_read(b, 8_i8)) return
+        call check_readable(b, 8_i8, ok)
+        if (.not. ok) return
         x = transfer(b%data(b%pos + 1:b%pos + 8), x)
         b%pos = b%pos + 8
     end subroutine get_real
 
     !> Read the count of an array and check it against `expected`.
-    subroutine get_count(b, expected)
-        type(byte_buffer_t), intent(inout) :: b
-        integer, intent(in) :: expected
+    pure subroutine get_count(b, expected)
+        type(byte_buffer_t), intent(inout) :: b   !! buffer
+        integer, intent(in) :: expected           !! count the reader expects
         integer(i8) :: k
+        logical :: ok
         call get_i8(b, k)
         if (k /= expected) b%bad = .true.
-        if (.not. b%bad) b%bad = .not. can_read(b, 8_i8 * k)
+        if (.not. b%bad) call check_readable(b, 8_i8 * k, ok)
     end subroutine get_count
 
     !> Read an integer array of the size written.
-    subroutine get_ints(b, x)
+    pure subroutine get_ints(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer, intent(out) :: x(:)              !! values
         integer(i8) :: nb
@@ -159,7 +166,7 @@ contains
     end subroutine get_ints
 
     !> Read a real array of the size written.
-    subroutine get_reals(b, x)
+    pure subroutine get_reals(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(out) :: x(:)             !! values
         integer(i8) :: nb
@@ -172,7 +179,7 @@ contains
     end subroutine get_reals
 
     !> Read a 2D integer array of the shape written.
-    subroutine get_ints2(b, x)
+    pure subroutine get_ints2(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         integer, intent(out) :: x(:, :)           !! values
         integer :: flat(size(x))
@@ -181,7 +188,7 @@ contains
     end subroutine get_ints2
 
     !> Read a 2D real array of the shape written.
-    subroutine get_reals2(b, x)
+    pure subroutine get_reals2(b, x)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         real(dp), intent(out) :: x(:, :)          !! values
         real(dp) :: flat(size(x))
@@ -190,14 +197,16 @@ contains
     end subroutine get_reals2
 
     !> Read a text into s (blank-padded; bad if it is longer than s).
-    subroutine buf_get_text(b, s)
+    pure subroutine buf_get_text(b, s)
         type(byte_buffer_t), intent(inout) :: b   !! buffer
         character(len=*), intent(out) :: s        !! text
         integer(i8) :: k
+        logical :: ok
         s = ''
         call get_i8(b, k)
         if (k > len(s, i8)) b%bad = .true.
-        if (.not. can_read(b, k)) return
+        call check_readable(b, k, ok)
+        if (.not. ok) return
         s = b%data(b%pos + 1:b%pos + k)
         b%pos = b%pos + k
     end subroutine buf_get_text

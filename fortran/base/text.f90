@@ -36,7 +36,7 @@ contains
 
     !> A real in ES format with a 3-digit exponent: `digits` significant digits, or (by
     !> default) the fewest that read back to x.
-    function real_text(x, digits) result(s)
+    pure function real_text(x, digits) result(s)
         real(dp), intent(in) :: x                !! value
         integer, intent(in), optional :: digits  !! significant digits
         character(len=:), allocatable :: s

@@ -46,7 +46,7 @@ contains
 
     !> Number the contact nodes (in the order the facets first name them), their shares of
     !> Gamma_C, nodal r and gaps, and N.
-    subroutine alm_init(alm, ct, kind)
+    pure subroutine alm_init(alm, ct, kind)
         type(alm_t), intent(out) :: alm          !! multipliers
         type(contact_t), intent(in) :: ct        !! contact facets
         integer, intent(in) :: kind              !! ALM_INTEGRAL or ALM_NODAL
@@ -237,8 +237,8 @@ contains
         !> 2 Gauss points on [a, b] of a segment facet of length meas: shape values and
         !> weights (times meas).
         pure subroutine piece(a, b, meas, shp2, w2)
-            real(dp), intent(in) :: a, b, meas
-            real(dp), intent(out) :: shp2(:, :), w2(:)
+            real(dp), intent(in) :: a, b, meas          !! piece [a, b] of the facet; its length
+            real(dp), intent(out) :: shp2(:, :), w2(:)  !! shape values (node, point); weights
             real(dp) :: x2(2)
             x2 = a + (b - a) * (0.5_dp + [-0.5_dp, 0.5_dp] / sqrt(3.0_dp))
             shp2(:, 1) = facet_shape(2, x2(1))

@@ -114,8 +114,8 @@ contains
         !> Entry (ii, jj): removed (touches a contact node) or receiving (both in the
         !> region); phi = (1, (x_ii + x_jj)/2).
         subroutine classify(ii, jj, rem, rec)
-            integer, intent(in) :: ii, jj
-            logical, intent(out) :: rem, rec
+            integer, intent(in) :: ii, jj     !! row and column dof of the entry
+            logical, intent(out) :: rem, rec  !! removed; receiving
             rem = contact_node(dof_node(ii)) .or. contact_node(dof_node(jj))
             rec = region(dof_node(ii)) .and. region(dof_node(jj))
             phi(1) = 1.0_dp

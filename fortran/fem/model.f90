@@ -284,8 +284,8 @@ contains
         end subroutine group_mask
     end subroutine number_dofs
 
-    !> Pattern, cell positions, M, K, K_theta (= K for now) and L.
-    subroutine assemble(mdl, prm, lambda, mu, st, m)
+    !> Pattern, cell positions, M, K, K_theta (= K until add_theta_term) and L.
+    pure subroutine assemble(mdl, prm, lambda, mu, st, m)
         type(model_t), intent(inout) :: mdl          !! model being built
         type(model_params_t), intent(in) :: prm      !! parameters
         real(dp), intent(in) :: lambda, mu           !! Lame parameters
@@ -351,7 +351,7 @@ contains
     !> (n + (dim + 1) n_cells integers of work, where the triplets took 36 bytes for each
     !> of the ndof_e^2 entries of every cell: 160 MB for the 3D box at 19 440 dofs, the
     !> set-up's peak there).
-    subroutine cell_pattern(mdl, a)
+    pure subroutine cell_pattern(mdl, a)
         type(model_t), intent(in) :: mdl             !! model (dofs numbered)
         type(csc_t), intent(out) :: a                !! pattern
         integer, allocatable :: first(:), cells(:), mark(:), buf(:)
@@ -425,7 +425,7 @@ contains
 
         !> Sort a few integers ascending (insertion: a column holds some tens of rows).
         pure subroutine sort_ints(v)
-            integer, intent(inout) :: v(:)
+            integer, intent(inout) :: v(:)   !! sorted in place
             integer :: ii, jj, key
             do ii = 2, size(v)
                 key = v(ii)
@@ -459,7 +459,7 @@ contains
     end subroutine cell_positions
 
     !> K_theta = K - sum_f theta |F| / gamma_N s_f s_f^T.
-    subroutine add_theta_term(mdl)
+    pure subroutine add_theta_term(mdl)
         type(model_t), intent(inout) :: mdl          !! model being built
         integer :: f, a, b, i, cd(MAX_E), pos(MAX_E, MAX_E)
         real(dp) :: coef
@@ -529,7 +529,7 @@ contains
 
     !> Node-block copy of K_theta and M, built once: 2x2 blocks in 2D, 3x3 in 3D (the
     !> free dofs of a node are consecutive), and the scalars of M's blocks when each is m I.
-    subroutine block_copy(mdl, st, m)
+    pure subroutine block_copy(mdl, st, m)
         type(model_t), intent(inout) :: mdl          !! model being built
         integer, intent(out) :: st                   !! status
         character(len=*), intent(inout) :: m         !! message
@@ -591,7 +591,7 @@ contains
     !> Snap the probe to the nearest point of Gamma_C when it lies within
     !> PROBE_SNAP x the local facet length (a note reports the point used);
     !> farther, an error gives the distance and the nearest point.
-    subroutine snap_probe(mdl, prm, st, m)
+    pure subroutine snap_probe(mdl, prm, st, m)
         type(model_t), intent(inout) :: mdl          !! model being built
         type(model_params_t), intent(in) :: prm      !! parameters
         integer, intent(out) :: st                   !! status
@@ -662,9 +662,9 @@ contains
     end function facet_size
 
     !> Append one line to the model's notes.
-    subroutine note(mdl, line)
+    pure subroutine note(mdl, line)
         type(model_t), intent(inout) :: mdl          !! model being built
-        character(len=*), intent(in) :: line
+        character(len=*), intent(in) :: line         !! line to append
         mdl%notes = trim(mdl%notes)//trim(line)//new_line('a')
     end subroutine note
 
@@ -675,7 +675,7 @@ contains
     !> outline) it is 0 whatever the normal, and part of the facets always face the
     !> obstacle, so a closed boundary never warns; an open one (the bar's bottom)
     !> warns when all its facets face away from the obstacle or are parallel to it.
-    subroutine check_normal(mdl)
+    pure subroutine check_normal(mdl)
         type(model_t), intent(inout) :: mdl          !! model being built
         real(dp), parameter :: FACING = 1.0e-9_dp   ! cosine counted as facing
         integer :: f, dim
@@ -715,7 +715,7 @@ contains
     !> sum_f (|F| / gamma_N) s^T K_e^+ s <= 1 (Cauchy-Schwarz in the K_e norm; s is
     !> orthogonal to the rigid modes). This gives gamma0_min; below it theta = 1 is an
     !> error, theta = 0 / -1 a warning (weakly enforced contact).
-    subroutine check_gamma0(mdl, prm, lambda, mu, st, m)
+    pure subroutine check_gamma0(mdl, prm, lambda, mu, st, m)
         type(model_t), intent(inout) :: mdl          !! model being built
         type(model_params_t), intent(in) :: prm      !! parameters
         real(dp), intent(in) :: lambda, mu           !! Lame parameters
@@ -780,7 +780,7 @@ contains
     end subroutine check_gamma0
 
     !> s^T K_e^+ s for contact facet f (owner cell stiffness, rigid modes removed).
-    function facet_compliance(mdl, young, lambda, mu, f) result(c)
+    pure function facet_compliance(mdl, young, lambda, mu, f) result(c)
         type(model_t), intent(in) :: mdl             !! model
         real(dp), intent(in) :: young                !! E (1D)
         real(dp), intent(in) :: lambda, mu           !! Lame parameters
@@ -846,7 +846,7 @@ contains
 
     !> The smallest of 1, 2, 5 x 10^k that is >= v (v > 0).
     pure function round_up(v) result(r)
-        real(dp), intent(in) :: v
+        real(dp), intent(in) :: v   !! value (> 0)
         real(dp) :: r
         real(dp), parameter :: STEPS(4) = [1.0_dp, 2.0_dp, 5.0_dp, 10.0_dp]
         real(dp) :: p
@@ -875,7 +875,7 @@ contains
 
     !> A real as short text.
     pure function real_str(x) result(t)
-        real(dp), intent(in) :: x
+        real(dp), intent(in) :: x   !! value
         character(len=:), allocatable :: t
         character(len=32) :: b
         write (b, '(g0.3)') x
@@ -883,7 +883,7 @@ contains
     end function real_str
 
     !> Facets holding the probe point p (two when it is a shared node).
-    subroutine locate_probe(mdl, p, st)
+    pure subroutine locate_probe(mdl, p, st)
         type(model_t), intent(inout) :: mdl          !! model being built
         real(dp), intent(in) :: p(:)                 !! the point (on Gamma_C)
         integer, intent(out) :: st                   !! status
@@ -922,7 +922,7 @@ contains
     end subroutine locate_probe
 
     !> Record facet f (its shape values nsh at the probe) as holding the probe.
-    subroutine add_probe_facet(mdl, f, nsh)
+    pure subroutine add_probe_facet(mdl, f, nsh)
         type(model_t), intent(inout) :: mdl          !! model being built
         integer, intent(in) :: f                     !! contact facet
         real(dp), intent(in) :: nsh(:)               !! (MAX_FN) its shape values at the probe
@@ -988,7 +988,7 @@ contains
 
     !> b = B(u) = K_theta u + contact part; ktu = K_theta u; active points and the
     !> contact energy parts (see contact_eval).
-    subroutine model_eval_b(mdl, u, b, ktu, active, e_pen, e_theta)
+    pure subroutine model_eval_b(mdl, u, b, ktu, active, e_pen, e_theta)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: u(:)          !! free-dof displacement
         real(dp), intent(out) :: b(:)         !! B(u)
@@ -1005,7 +1005,7 @@ contains
     end subroutine model_eval_b
 
     !> jdu = B'(u) du (generalized derivative).
-    subroutine model_apply_jacobian(mdl, u, du, jdu)
+    pure subroutine model_apply_jacobian(mdl, u, du, jdu)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: u(:)          !! linearization point
         real(dp), intent(in) :: du(:)         !! direction
@@ -1033,7 +1033,7 @@ contains
     end subroutine model_apply_jacobian
 
     !> Initial displacement and velocity (SPEC section 3, &initial).
-    subroutine model_initial(mdl, prm, u0, v0)
+    pure subroutine model_initial(mdl, prm, u0, v0)
         type(model_t), intent(in) :: mdl            !! model
         type(model_params_t), intent(in) :: prm     !! its parameters (initial condition)
         real(dp), intent(out) :: u0(:)        !! (n_dofs)
@@ -1060,7 +1060,7 @@ contains
     !> facets when the probe is on a shared node or edge). Zero without contact boundary.
     !> With clear true (contact_clear's at u), a facet's pressure at its node is
     !> [P]_- = +-0 exactly: not formed (adding +-0 to the sum, from +0, changes nothing).
-    subroutine model_probe(mdl, u, v, un, vn, pn, lam, clear)
+    pure subroutine model_probe(mdl, u, v, un, vn, pn, lam, clear)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: u(:)          !! displacement
         real(dp), intent(in) :: v(:)          !! velocity
@@ -1109,9 +1109,9 @@ contains
 
         !> Owner-cell values of a free-dof vector on contact facet ff (0 if constrained).
         pure subroutine gather(ff, w, we)
-            integer, intent(in) :: ff
-            real(dp), intent(in) :: w(:)
-            real(dp), intent(out) :: we(:)
+            integer, intent(in) :: ff       !! contact facet
+            real(dp), intent(in) :: w(:)    !! free-dof vector
+            real(dp), intent(out) :: we(:)  !! its owner-cell values
             integer :: i
             do i = 1, size(we)
                 we(i) = 0.0_dp
@@ -1122,7 +1122,7 @@ contains
 
     !> K_theta's values on K's pattern (mdl%stiff): its CSC values, or when it is held in
     !> node blocks only, read back from them (the same numbers).
-    subroutine model_stiff_theta_values(mdl, val)
+    pure subroutine model_stiff_theta_values(mdl, val)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(out) :: val(:)       !! (mdl%stiff%nnz) values
         if (allocated(mdl%stiff_theta_val)) then
@@ -1135,7 +1135,7 @@ contains
     end subroutine model_stiff_theta_values
 
     !> y = K_theta x (node blocks in 2D and 3D, gather-form CSC product otherwise).
-    subroutine model_stiff_apply(mdl, x, y)
+    pure subroutine model_stiff_apply(mdl, x, y)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: x(:)          !! vector
         real(dp), intent(out) :: y(:)         !! K_theta x
@@ -1150,7 +1150,7 @@ contains
 
     !> y = M x (by 3x3 node blocks in 3D when M has its block copy, the gather-form CSC
     !> product otherwise: the same numbers).
-    subroutine model_mass_apply(mdl, x, y)
+    pure subroutine model_mass_apply(mdl, x, y)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: x(:)          !! vector
         real(dp), intent(out) :: y(:)         !! M x
@@ -1167,7 +1167,7 @@ contains
     !> kx = K_theta x, mv = M v, md = M d; one pass over the shared node blocks in 2D and 3D,
     !> which also stores K_theta x in bx (the caller's B(x) before its contact part: a
     !> second store a row instead of a copy pass).
-    subroutine model_step_products(mdl, x, v, d, kx, mv, md, bx)
+    pure subroutine model_step_products(mdl, x, v, d, kx, mv, md, bx)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: x(:)          !! displacement
         real(dp), intent(in) :: v(:)          !! velocity
@@ -1200,7 +1200,7 @@ contains
 
     !> kx = K_theta x and mv = M v, in one pass over the node blocks when M's blocks are
     !> scalar (the predictor-correctors end their step with these two).
-    subroutine model_stiff_mass_apply(mdl, x, v, kx, mv)
+    pure subroutine model_stiff_mass_apply(mdl, x, v, kx, mv)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: x(:)          !! displacement
         real(dp), intent(in) :: v(:)          !! velocity

@@ -410,7 +410,7 @@ contains
     !> sigma_n rows, normal rows, gaps, gamma_N = gamma0 / diameter(owner).
     !> Contact data of the facets: owner cells, sigma_n rows s, normal rows, gaps, gamma_N.
     !> With penalty, s = 0 and theta = 0 (penalty contact, see the module header).
-    subroutine contact_init(ct, msh, facets, dof, young, lambda, mu, normal, point, gamma0, &
+    pure subroutine contact_init(ct, msh, facets, dof, young, lambda, mu, normal, point, gamma0, &
                             theta, quad, nq, stat, errmsg, penalty)
         type(contact_t), intent(out) :: ct                  !! contact data
         type(mesh_t), intent(in) :: msh                     !! mesh
@@ -594,7 +594,7 @@ contains
     !> tca, tcb in the facet's Mt and M (nitsche_facet's ca, cb), and with rg present (and
     !> tfac) each facet's residual coefficients in its Mt (nitsche_facet's rg; zero on a
     !> facet without active points): the contact part is sum_f Mt_f rg(:, f).
-    subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc, tfac, tca, &
+    pure subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc, tfac, tca, &
                             tcb, rg)
         type(contact_t), intent(in) :: ct                   !! contact data
         real(dp), intent(in) :: u(:)                        !! free-dof displacement

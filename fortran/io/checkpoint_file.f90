@@ -40,15 +40,15 @@ contains
     end function checkpoint_scene_hash
 
     !> The build's numerics: version, instruction set and compiler.
-    function checkpoint_build_id() result(id)
+    pure function checkpoint_build_id() result(id)
         character(len=BUILD_LEN) :: id
         id = DYNCONTACT_VERSION//' '//DYNCONTACT_ISA//' '//compiler_version()
     end function checkpoint_build_id
 
     !> The header's fields as bytes.
     function header(scene_hash, n_dofs, step, payload) result(h)
-        integer(i8), intent(in) :: scene_hash, n_dofs, step
-        character(len=*), intent(in) :: payload
+        integer(i8), intent(in) :: scene_hash, n_dofs, step   !! scene's hash, free dofs, step saved
+        character(len=*), intent(in) :: payload               !! the state's bytes
         character(len=HEADER_BYTES) :: h
         h = MAGIC//transfer(FORMAT_VERSION, 'abcdefgh')//transfer(scene_hash, 'abcdefgh') &
             //transfer(len(payload, i8), 'abcdefgh')//transfer(bytes_hash(payload, 0_i8), 'abcdefgh') &
@@ -148,14 +148,14 @@ contains
     contains
 
         !> The k-th 8-byte integer of the header.
-        integer(i8) function field(k)
-            integer, intent(in) :: k
+        pure integer(i8) function field(k)
+            integer, intent(in) :: k   !! field number (1-based)
             field = transfer(h(8 * k - 7:8 * k), field)
         end function field
 
         !> STAT_BAD_INPUT naming the file.
         subroutine bad(why)
-            character(len=*), intent(in) :: why
+            character(len=*), intent(in) :: why   !! what is wrong with the file
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': '//why//'; refused')
         end subroutine bad
     end subroutine checkpoint_read

@@ -27,42 +27,49 @@ module gmsh_mesh
     real(dp), parameter :: PLANE_TOL = 1.0e-10_dp
 
     interface
+        !> 1 if libgmsh can be loaded; otherwise 0 and why in msg (gmsh_shim.c).
         function c_gmsh_available(msg, msglen) result(ok) bind(C, name='dc_gmsh_available')
             import :: c_int, c_char
-            character(kind=c_char), intent(out) :: msg(*)
-            integer(c_int), value :: msglen
+            character(kind=c_char), intent(out) :: msg(*)  !! why not (when 0)
+            integer(c_int), value :: msglen                !! length of msg
             integer(c_int) :: ok
         end function c_gmsh_available
+        !> Read path into out with gmsh: 0, else 2 for bad input (another value: internal), and msg.
         function c_gmsh_read(path, params, is_geo, out, msg, msglen) result(st) &
             bind(C, name='dc_gmsh_read')
             import :: c_int, c_char, c_double, c_ptr
-            character(kind=c_char), intent(in) :: path(*)
-            real(c_double), intent(in) :: params(3)
-            integer(c_int), value :: is_geo
-            type(c_ptr), intent(out) :: out
-            character(kind=c_char), intent(out) :: msg(*)
-            integer(c_int), value :: msglen
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated mesh or .geo file
+            real(c_double), intent(in) :: params(3)        !! h, length, width (a .geo's variables)
+            integer(c_int), value :: is_geo                !! 1: mesh a .geo in-process
+            type(c_ptr), intent(out) :: out                !! the mesh read (free with c_gmsh_free)
+            character(kind=c_char), intent(out) :: msg(*)  !! why it failed
+            integer(c_int), value :: msglen                !! length of msg
             integer(c_int) :: st
         end function c_gmsh_read
+        !> Sizes of a mesh read by c_gmsh_read.
         subroutine c_gmsh_sizes(p, dim, n_nodes, n_cells, n_facets, n_groups, names_len) &
             bind(C, name='dc_gmsh_sizes')
             import :: c_int, c_ptr, c_long_long
-            type(c_ptr), value :: p
+            type(c_ptr), value :: p  !! mesh from c_gmsh_read
             integer(c_int), intent(out) :: dim, n_groups, names_len
-            integer(c_long_long), intent(out) :: n_nodes, n_cells, n_facets
+                !! dimension, groups, length of the names
+            integer(c_long_long), intent(out) :: n_nodes, n_cells, n_facets  !! nodes, cells, facets
         end subroutine c_gmsh_sizes
+        !> Copy the arrays of a mesh read by c_gmsh_read (sizes from c_gmsh_sizes).
         subroutine c_gmsh_arrays(p, xyz, cells, cell_group, facets, facet_group, group_dim, &
                                  names) bind(C, name='dc_gmsh_arrays')
             import :: c_int, c_ptr, c_double, c_char
-            type(c_ptr), value :: p
-            real(c_double), intent(out) :: xyz(*)
+            type(c_ptr), value :: p                          !! mesh from c_gmsh_read
+            real(c_double), intent(out) :: xyz(*)            !! (3, n_nodes) coordinates
             integer(c_int), intent(out) :: cells(*), cell_group(*), facets(*), facet_group(*)
-            integer(c_int), intent(out) :: group_dim(*)
-            character(kind=c_char), intent(out) :: names(*)
+                !! 1-based connectivity and groups
+            integer(c_int), intent(out) :: group_dim(*)      !! (n_groups) each group's dimension
+            character(kind=c_char), intent(out) :: names(*)  !! (names_len) the groups' names
         end subroutine c_gmsh_arrays
+        !> Free a mesh read by c_gmsh_read.
         subroutine c_gmsh_free(p) bind(C, name='dc_gmsh_free')
             import :: c_ptr
-            type(c_ptr), value :: p
+            type(c_ptr), value :: p  !! mesh from c_gmsh_read
         end subroutine c_gmsh_free
     end interface
 
@@ -176,7 +183,7 @@ contains
     end subroutine read_mesh_file
 
     !> Group names from the shim's newline-terminated list; no comma (Python joins with ',').
-    subroutine set_names(path, names, msh, stat, errmsg)
+    pure subroutine set_names(path, names, msh, stat, errmsg)
         character(len=*), intent(in) :: path                !! file (messages)
         character(kind=c_char), intent(in) :: names(:)      !! names, each ended by newline
         type(mesh_t), intent(inout) :: msh                  !! gets group_name
@@ -209,7 +216,7 @@ contains
 
     !> x = the first dim coordinates; the others must be constant (a 2D mesh in a plane
     !> z = const, a 1D mesh on a line y = const, z = const).
-    subroutine set_coordinates(path, xyz, msh, stat, errmsg)
+    pure subroutine set_coordinates(path, xyz, msh, stat, errmsg)
         character(len=*), intent(in) :: path                !! file (messages)
         real(dp), intent(in) :: xyz(:, :)                   !! (3, n_nodes)
         type(mesh_t), intent(inout) :: msh                  !! gets x

@@ -32,7 +32,7 @@ contains
     end subroutine mesh_load
 
     !> How messages name the mesh mesh_load(path, ...) gives.
-    function mesh_label(path) result(label)
+    pure function mesh_label(path) result(label)
         character(len=*), intent(in) :: path   !! mesh file or ''
         character(len=:), allocatable :: label
         if (len_trim(path) > 0) then

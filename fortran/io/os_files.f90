@@ -15,90 +15,107 @@ module os_files
             import :: c_int
             integer(c_int) :: r
         end function c_signals_install
+        !> The signal caught since the handlers were installed (0 = none; run_guard.c).
         function c_signal_caught() bind(C, name='dc_signal_caught') result(r)
             import :: c_int
             integer(c_int) :: r
         end function c_signal_caught
+        !> Open path for writing (created or truncated): fd >= 0 or -errno.
         function c_fd_open(path) bind(C, name='dc_fd_open') result(r)
             import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
             integer(c_int) :: r
         end function c_fd_open
+        !> Write all n bytes of buf; on failure the file is cut back to its last newline.
         function c_fd_write(fd, buf, n) bind(C, name='dc_fd_write') result(r)
             import :: c_int, c_char, c_long
-            integer(c_int), value :: fd
-            character(kind=c_char), intent(in) :: buf(*)
-            integer(c_long), value :: n
+            integer(c_int), value :: fd                   !! descriptor
+            character(kind=c_char), intent(in) :: buf(*)  !! bytes
+            integer(c_long), value :: n                   !! how many
             integer(c_int) :: r
         end function c_fd_write
+        !> Close a descriptor: 0 or errno.
         function c_fd_close(fd) bind(C, name='dc_fd_close') result(r)
             import :: c_int
-            integer(c_int), value :: fd
+            integer(c_int), value :: fd  !! descriptor
             integer(c_int) :: r
         end function c_fd_close
+        !> Flush a descriptor's data to the device: 0 or errno.
         function c_fsync(fd) bind(C, name='dc_fsync') result(r)
             import :: c_int
-            integer(c_int), value :: fd
+            integer(c_int), value :: fd  !! descriptor
             integer(c_int) :: r
         end function c_fsync
+        !> Open an existing file for writing, cut back to size, offset at its end: fd or -errno.
         function c_fd_reopen(path, size) bind(C, name='dc_fd_reopen') result(r)
             import :: c_int, c_char, c_long_long
-            character(kind=c_char), intent(in) :: path(*)
-            integer(c_long_long), value :: size
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
+            integer(c_long_long), value :: size            !! bytes kept
             integer(c_int) :: r
         end function c_fd_reopen
+        !> 64-bit FNV-1a hash of n bytes, continuing from h.
         function c_hash64(buf, n, h) bind(C, name='dc_hash64') result(r)
             import :: c_char, c_long_long
-            character(kind=c_char), intent(in) :: buf(*)
-            integer(c_long_long), value :: n, h
+            character(kind=c_char), intent(in) :: buf(*)  !! bytes
+            integer(c_long_long), value :: n, h  !! how many; hash to continue from (0: start)
             integer(c_long_long) :: r
         end function c_hash64
+        !> rename(2): 0 or errno.
         function c_rename(from, to) bind(C, name='dc_rename') result(r)
             import :: c_int, c_char
-            character(kind=c_char), intent(in) :: from(*), to(*)
+            character(kind=c_char), intent(in) :: from(*), to(*)  !! NUL-terminated paths
             integer(c_int) :: r
         end function c_rename
+        !> Remove a file (a missing one is no error): 0 or errno.
         function c_unlink(path) bind(C, name='dc_unlink') result(r)
             import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
             integer(c_int) :: r
         end function c_unlink
+        !> 0 if path does not exist or is writable by us, else errno of access(W_OK).
         function c_check_writable(path) bind(C, name='dc_check_writable') result(r)
             import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
             integer(c_int) :: r
         end function c_check_writable
+        !> Short text of an errno value.
         subroutine c_strerror(err, msg, n) bind(C, name='dc_strerror')
             import :: c_int, c_char
-            integer(c_int), value :: err
-            character(kind=c_char), intent(out) :: msg(*)
-            integer(c_int), value :: n
+            integer(c_int), value :: err                   !! errno value
+            character(kind=c_char), intent(out) :: msg(*)  !! its text, blank-padded
+            integer(c_int), value :: n                     !! length of msg
         end subroutine c_strerror
+        !> Take the lock file: 0 (taken), -pid (held by the live process pid) or errno.
         function c_lock_take(path) bind(C, name='dc_lock_take') result(r)
             import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated lock file path
             integer(c_int) :: r
         end function c_lock_take
+        !> Bytes and inodes an unprivileged user may still create on path's file system.
         function c_free_space(path, bytes, files) bind(C, name='dc_free_space') result(r)
             import :: c_int, c_char, c_int64_t
-            character(kind=c_char), intent(in) :: path(*)
-            integer(c_int64_t), intent(out) :: bytes, files
+            character(kind=c_char), intent(in) :: path(*)    !! NUL-terminated path
+            integer(c_int64_t), intent(out) :: bytes, files  !! bytes and inodes left (-1: not told)
             integer(c_int) :: r
         end function c_free_space
+        !> Remove the files of dir named prefix*suffix: 0 or the first errno met.
         function c_remove_matching(dir, prefix, suffix) bind(C, name='dc_remove_matching') &
             result(r)
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: dir(*), prefix(*), suffix(*)
+                !! NUL-terminated folder, name prefix, suffix
             integer(c_int) :: r
         end function c_remove_matching
+        !> 1 if a and b name the same existing file, 0 if two, -1 if either does not exist.
         function c_same_file(a, b) bind(C, name='dc_same_file') result(r)
             import :: c_int, c_char
-            character(kind=c_char), intent(in) :: a(*), b(*)
+            character(kind=c_char), intent(in) :: a(*), b(*)  !! NUL-terminated paths
             integer(c_int) :: r
         end function c_same_file
+        !> Remove the lock file if it holds our pid.
         function c_lock_release(path) bind(C, name='dc_lock_release') result(r)
             import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated lock file path
             integer(c_int) :: r
         end function c_lock_release
     end interface

@@ -351,7 +351,7 @@ contains
     ! ---------------------------------------------------------------- scanning
 
     !> Split `text` into groups and `key = values`, marking the keys given.
-    subroutine tokenize(text, name, keys, msg)
+    pure subroutine tokenize(text, name, keys, msg)
         character(len=*), intent(in) :: text                 !! scene text
         character(len=*), intent(in) :: name                 !! scene name (messages)
         type(key_t), intent(inout) :: keys(:)                !! the table
@@ -432,7 +432,7 @@ contains
 
     !> The values of one key, from just after its '=' up to the next key, '/' or '&':
     !> sets key%text (tokens joined by ', '), key%nval and key%quoted.
-    subroutine read_values(text, i, key, ctx, msg)
+    pure subroutine read_values(text, i, key, ctx, msg)
         character(len=*), intent(in) :: text                 !! scene text
         integer, intent(inout) :: i                          !! position
         type(key_t), intent(inout) :: key                    !! the key
@@ -498,7 +498,7 @@ contains
     end subroutine read_values
 
     !> Convert key%text into the key's component: count, type, range of the type.
-    subroutine convert(key, ctx, msg, dim)
+    pure subroutine convert(key, ctx, msg, dim)
         type(key_t), intent(inout) :: key                    !! the key
         character(len=*), intent(in) :: ctx                  !! 'NAME: &group key'
         character(len=:), allocatable, intent(inout) :: msg  !! error ('' = none)
@@ -606,7 +606,7 @@ contains
     contains
         !> Moves i past a '+' or '-' at text(i).
         pure subroutine skip_sign(i)
-            integer, intent(inout) :: i
+            integer, intent(inout) :: i   !! position in text
             if (i <= n) then
                 if (scan(text(i:i), '+-') == 1) i = i + 1
             end if
@@ -614,8 +614,8 @@ contains
 
         !> Moves i past the digits from text(i); count: how many there were.
         pure subroutine skip_digits(i, count)
-            integer, intent(inout) :: i
-            integer, intent(out) :: count
+            integer, intent(inout) :: i    !! position in text
+            integer, intent(out) :: count  !! digits skipped
             count = 0
             do while (i <= n)
                 if (scan(text(i:i), '0123456789') /= 1) exit
@@ -644,7 +644,7 @@ contains
     ! ---------------------------------------------------------------- checks
 
     !> The checks of the key table, in table order.
-    subroutine validate(keys, name, msg)
+    pure subroutine validate(keys, name, msg)
         type(key_t), intent(in) :: keys(:)                   !! the table, values read
         character(len=*), intent(in) :: name                 !! scene name (messages)
         character(len=:), allocatable, intent(inout) :: msg  !! error ('' = none)
@@ -829,7 +829,7 @@ contains
         if (len(msg) > 0) then
             call raise(stat, errmsg, STAT_BAD_INPUT, msg)
         else
-            ! the dump shows the defaults now, 3 components in 3D
+            ! from here on the dump shows the defaults: 3 components in 3D
             where (copy%vector_count == 0 .and. dim == 3) copy%vector_count = 3
             copy%dim_checked = .true.
             scn = copy
@@ -837,7 +837,7 @@ contains
     end subroutine scene_check_dim
 
     !> See scene_check_dim (on the key table, values read).
-    subroutine vector_dims(keys, name, dim, msg)
+    pure subroutine vector_dims(keys, name, dim, msg)
         type(key_t), intent(inout) :: keys(:)                !! the table, values read
         character(len=*), intent(in) :: name                 !! scene name (messages)
         integer, intent(in) :: dim                           !! mesh dimension
@@ -889,7 +889,7 @@ contains
     ! ---------------------------------------------------------------- helpers
 
     !> 'NAME: &group key: what (got 'VALUE')', VALUE as written (a string unquoted).
-    function bad(keys, name, group, key, what) result(s)
+    pure function bad(keys, name, group, key, what) result(s)
         type(key_t), intent(in) :: keys(:)        !! the table
         character(len=*), intent(in) :: name      !! scene name
         character(len=*), intent(in) :: group     !! group of the key
@@ -904,7 +904,7 @@ contains
     end function bad
 
     !> 'NAME: &group key'
-    function key_ctx(name, key) result(s)
+    pure function key_ctx(name, key) result(s)
         character(len=*), intent(in) :: name   !! scene name
         type(key_t), intent(in) :: key         !! the key
         character(len=:), allocatable :: s
@@ -927,7 +927,7 @@ contains
     end function key_index
 
     !> The keys of `group`, or ('') the groups, comma-separated.
-    function names(keys, group) result(s)
+    pure function names(keys, group) result(s)
         type(key_t), intent(in) :: keys(:)     !! the table
         character(len=*), intent(in) :: group  !! group name, '' = list the groups
         character(len=:), allocatable :: s
@@ -1002,7 +1002,7 @@ contains
     end function line_of
 
     !> " (got 'TEXT')", TEXT = the scene text from i to the end of its line, shortened.
-    function got(text, i) result(s)
+    pure function got(text, i) result(s)
         character(len=*), intent(in) :: text   !! scene text
         integer, intent(in) :: i               !! start
         character(len=:), allocatable :: s
@@ -1028,7 +1028,7 @@ contains
     end function shown
 
     !> The number written in a check: a real or a fraction 'a/b'.
-    real(dp) function number(s)
+    pure real(dp) function number(s)
         character(len=*), intent(in) :: s   !! text
         real(dp) :: den
         integer :: p

@@ -27,15 +27,15 @@ module trace_output
         !> int mkdir(const char *path, mode_t mode) from the C library.
         function c_mkdir(path, mode) bind(C, name='mkdir') result(r)
             import :: c_int, c_char
-            character(kind=c_char), intent(in) :: path(*)
-            integer(c_int), value :: mode
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
+            integer(c_int), value :: mode                  !! permissions (masked by umask)
             integer(c_int) :: r
         end function c_mkdir
         !> es24.16e3 formatting in C (run_guard.c); 0 when the value is left to Fortran.
         function c_format_es(x, out) bind(C, name='dc_format_es') result(r)
             import :: c_int, c_char, c_double
-            real(c_double), value :: x
-            character(kind=c_char), intent(out) :: out(24)
+            real(c_double), value :: x                      !! value
+            character(kind=c_char), intent(out) :: out(24)  !! its text
             integer(c_int) :: r
         end function c_format_es
     end interface
@@ -146,7 +146,7 @@ contains
 
         !> Append x as es24.16e3 and a comma.
         subroutine put_real(x)
-            real(dp), intent(in) :: x
+            real(dp), intent(in) :: x   !! value
             if (c_format_es(x, row(n + 1:n + 24)) == 0) write (row(n + 1:n + 24), '(es24.16e3)') x
             row(n + 25:n + 25) = ','
             n = n + 25
@@ -154,7 +154,7 @@ contains
 
         !> Append k as i0 and a comma.
         subroutine put_int(k)
-            integer, intent(in) :: k
+            integer, intent(in) :: k   !! value
             character(len=12) :: d
             integer :: m, j
             m = abs(k)
@@ -205,7 +205,7 @@ contains
     end subroutine trace_close
 
     !> A real as a JSON number (non-finite values as null).
-    function json_real(x) result(s)
+    pure function json_real(x) result(s)
         real(dp), intent(in) :: x    !! value
         character(len=:), allocatable :: s
         character(len=40) :: buf

@@ -95,7 +95,7 @@ contains
 
     !> The shapes of vtk_write_vtu's arrays: x, u, v (dim, n), cells (dim+1, nc) with node
     !> numbers in 1..n, scalar (n).
-    subroutine check_arrays(dim, x, cells, u, v, stat, errmsg, scalar)
+    pure subroutine check_arrays(dim, x, cells, u, v, stat, errmsg, scalar)
         integer, intent(in) :: dim                          !! space dimension
         real(dp), intent(in) :: x(:, :)                     !! (dim, n) node coordinates
         integer, intent(in) :: cells(:, :)                  !! (dim+1, nc) node numbers
@@ -206,7 +206,7 @@ contains
     end subroutine vtk_write_pvd
 
     !> The line (with its line feed) of a .pvd collection that lists `file` at `time`.
-    function pvd_line(time, file) result(line)
+    pure function pvd_line(time, file) result(line)
         real(dp), intent(in) :: time            !! the snapshot's time
         character(len=*), intent(in) :: file    !! its file name, relative to the .pvd's folder
         character(len=:), allocatable :: line

@@ -41,7 +41,9 @@ module ldl_solves
         real(dp), allocatable :: l21(:)           !! (nn) L's entry in each diagonal block
         real(dp), allocatable :: d(:)             !! (n) D
         real(dp), allocatable :: y(:)             !! (n) work vector of the solves
-        integer :: sa = -1                        !! two-thread split: block columns cols(1:sa) and cols(sa+1:ss-1) have no L entries between them (-1: not yet looked for; 0: none)
+        integer :: sa = -1                        !! two-thread split: block columns cols(1:sa) and
+                                                  !! cols(sa+1:ss-1) have no L entries between them
+                                                  !! (-1: not yet looked for; 0: none)
         integer :: ss = 0                         !! first block column of the separator (ss..nn, after both)
         integer, allocatable :: cols(:)           !! (nn) the two groups' block columns, each ascending, then ss..nn
         real(dp), allocatable :: ys(:, :)         !! (n - 2 ss + 2, 2) each subtree's updates of the separator's rows
@@ -57,7 +59,9 @@ module ldl_solves
         integer, allocatable :: perm(:)           !! (n) row k of P A P^T is row perm(k) of A
         integer, allocatable :: bp(:)             !! (nt + 1) blocks of each block column
         integer, pointer, contiguous :: bi(:) => null()     !! (n_blocks) block row (triple I: rows 3I-2 .. 3I)
-        real(dp), pointer, contiguous :: bx(:, :) => null() !! (9, n_blocks + 1) by columns: l11, l21, l31, l12, ..., l33; a last zero block (the fourth lane's read)
+        real(dp), pointer, contiguous :: bx(:, :) => null() !! (9, n_blocks + 1) by columns: l11,
+                                                            !! l21, l31, l12, ..., l33; a last zero block (the
+                                                            !! fourth lane's read)
         logical :: borrowed = .false.             !! bi, bx are CHOLMOD's memory (not freed here)
         real(dp), allocatable :: ld(:, :)         !! (3, nt) L's entries l21, l31, l32 in each diagonal block
         real(dp), allocatable :: d(:)             !! (n) D
@@ -98,8 +102,8 @@ module ldl_solves
         !> item 1 is done, else here too (two_threads.c); 2 when the helper ran it.
         function dc_two_items(fn, ctx) bind(C, name='dc_two_items') result(by)
             import :: c_int, c_ptr, c_funptr
-            type(c_funptr), value :: fn
-            type(c_ptr), value :: ctx
+            type(c_funptr), value :: fn  !! work item: fn(ctx, item)
+            type(c_ptr), value :: ctx    !! its data
             integer(c_int) :: by
         end function dc_two_items
     end interface

@@ -220,7 +220,7 @@ contains
     !> Set the solver kind of the next ls_factor calls: 'direct', 'cg' or 'auto' (the
     !> cost model of ls_auto_kind, on the symbolic analysis of the matrix), with the CG
     !> tolerance and iteration limit.
-    subroutine ls_configure(f, kind, dim, cg_rtol, cg_max_iter)
+    pure subroutine ls_configure(f, kind, dim, cg_rtol, cg_max_iter)
         type(factor_t), intent(inout) :: f                  !! solver (before ls_factor)
         character(len=*), intent(in) :: kind                !! 'direct', 'cg' or 'auto'
         integer, intent(in) :: dim                          !! mesh dimension (1 to 3)
@@ -271,7 +271,7 @@ contains
     !> "cg: 8 x nnz(J0) 659432 < 1.9 x factor entries 3173896 / 1.00, the direct solve
     !> on 2 threads (ratio 1.662)"; '' when the kind is not 'auto' or before the
     !> first ls_factor.
-    function ls_auto_reason(f) result(text)
+    pure function ls_auto_reason(f) result(text)
         type(factor_t), intent(in) :: f      !! solver
         character(len=:), allocatable :: text
         character(len=160) :: buf
@@ -302,7 +302,7 @@ contains
     end function ls_auto_reason
 
     !> CG counters: solves, iterations over them, the most of one solve (0 without CG).
-    subroutine ls_cg_counts(f, solves, iterations, max_its)
+    pure subroutine ls_cg_counts(f, solves, iterations, max_its)
         type(factor_t), intent(in) :: f                     !! solver
         integer(i8), intent(out) :: solves, iterations      !! solves, iterations
         integer, intent(out) :: max_its                     !! most iterations of one solve
@@ -443,7 +443,7 @@ contains
     !> 'cholmod'; 'umfpack' for the LU, whose ordering is UMFPACK's own; '' without
     !> factors or with CG) and the entries stored in the LDL^T factor (D and L; 0 for the
     !> LU and CG).
-    subroutine ls_factor_info(f, ordering, nnz)
+    pure subroutine ls_factor_info(f, ordering, nnz)
         type(factor_t), intent(in) :: f                      !! factors
         character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
         integer(i8), intent(out) :: nnz                      !! stored entries

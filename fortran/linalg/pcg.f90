@@ -83,7 +83,7 @@ contains
     !> <= 0 or missing among them) means a is not: STAT_NUMERIC, `indefinite` set.
     !> With `val`, the matrix is the one with a's pattern and those values (a%val is not
     !> read; pass the same val to the solves).
-    subroutine pcg_setup(p, a, rtol, max_iter, stat, errmsg, val)
+    pure subroutine pcg_setup(p, a, rtol, max_iter, stat, errmsg, val)
         type(pcg_t), intent(inout) :: p                     !! solver (replaced)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         real(dp), intent(in) :: rtol                        !! relative residual tolerance (> 0)
@@ -105,7 +105,7 @@ contains
     end subroutine pcg_setup
 
     !> pcg_setup (its arguments checked) for the matrix with a's pattern and the values v.
-    subroutine setup_values(p, a, v, rtol, max_iter, stat, errmsg)
+    pure subroutine setup_values(p, a, v, rtol, max_iter, stat, errmsg)
         type(pcg_t), intent(inout) :: p                     !! solver (freed)
         type(csc_t), intent(in) :: a                        !! the pattern
         real(dp), intent(in) :: v(:)                        !! (a%nnz) the values
@@ -174,7 +174,7 @@ contains
     !> The node groups of a's pattern (module header): maximal runs of consecutive
     !> columns with the same rows, bs = the commonest run length (1 to 3; ties to the
     !> larger), each run split into groups of bs dofs (its last group may be smaller).
-    subroutine node_groups(a, bs, ng, first)
+    pure subroutine node_groups(a, bs, ng, first)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         integer, intent(out) :: bs                          !! block size
         integer, intent(out) :: ng                          !! groups
@@ -211,8 +211,8 @@ contains
         first = first(1:ng + 1)
     contains
         !> Columns i and j store the same rows.
-        logical function same_rows(i, jj)
-            integer, intent(in) :: i, jj
+        pure logical function same_rows(i, jj)
+            integer, intent(in) :: i, jj   !! the two columns
             integer :: ki, kj, len
             ki = a%colptr(i)
             kj = a%colptr(jj)
@@ -265,7 +265,7 @@ contains
     !> y = A x with p's block copy of a (csc_matvec_t when bs = 1): bitwise equal to
     !> csc_matvec_t (module sparse). x and y have n entries and must not alias. `val`:
     !> as given to pcg_setup.
-    subroutine pcg_product(p, a, x, y, val)
+    pure subroutine pcg_product(p, a, x, y, val)
         type(pcg_t), intent(in) :: p                        !! solver set up for a
         type(csc_t), intent(in) :: a                        !! the matrix
         real(dp), intent(in), contiguous :: x(:)            !! (n)
@@ -287,7 +287,7 @@ contains
 
     !> Y = A X for the k columns of X stored as rows of v (k, n): one pass over p's block
     !> copy of a for all of them; each column's sums in the order of pcg_product.
-    subroutine pcg_product_many(p, a, k, v, y, val)
+    pure subroutine pcg_product_many(p, a, k, v, y, val)
         type(pcg_t), intent(in) :: p                        !! solver set up for a
         type(csc_t), intent(in) :: a                        !! the matrix
         integer, intent(in) :: k                            !! columns
@@ -520,7 +520,7 @@ contains
     end subroutine tally
 
     !> The diagonal's blocks in the block copy and D, D^{1/2} for ssor_solve.
-    subroutine ssor_setup(p)
+    pure subroutine ssor_setup(p)
         type(pcg_t), intent(inout) :: p                     !! solver (bs >= 2, block copy built)
         integer :: g, k, i0, sz, r
         allocate (p%kd(p%ng), p%dg(p%n), p%sd(p%n))
@@ -639,7 +639,7 @@ contains
             htol2 = tol2 * (rh / rr)
         end subroutine restart
         !> y = F^{-1} y (forward) or F^{-T} y (backward), in place.
-        subroutine sweep(forward, y)
+        pure subroutine sweep(forward, y)
             logical, intent(in) :: forward                  !! forward (lower) sweep
             real(dp), intent(inout) :: y(:)                 !! right-hand side, solution
             if (p%bs == 2) then
@@ -685,6 +685,8 @@ contains
         logical, intent(in) :: forward                      !! forward (lower) sweep
         integer, intent(in) :: n, ng, nb                    !! size, groups, blocks
         integer, intent(in) :: row_ptr(ng + 1), col1(nb), first(ng + 1), kd(ng)
+            !! row_ptr: each group's blocks (CSR); col1: each block's first column;
+            !! first: each group's first dof; kd: each group's diagonal block
         integer, intent(in) :: col2(*)                      !! (nb) not read when pairs
         logical, intent(in) :: pairs                        !! every group a pair: col1 + 1
         real(dp), intent(in) :: val(4, nb)                  !! blocks
@@ -743,6 +745,8 @@ contains
         logical, intent(in) :: forward                      !! forward (lower) sweep
         integer, intent(in) :: n, ng, nb                    !! size, groups, blocks
         integer, intent(in) :: row_ptr(ng + 1), col1(nb), first(ng + 1), kd(ng)
+            !! row_ptr: each group's blocks (CSR); col1: each block's first column;
+            !! first: each group's first dof; kd: each group's diagonal block
         integer, intent(in) :: col2(*), col3(*)             !! (nb) not read when triples
         logical, intent(in) :: triples                      !! every group a triple: col1 + 1, + 2
         real(dp), intent(in) :: val(9, nb + 1)              !! blocks (and the zero block)
@@ -1099,16 +1103,16 @@ contains
             end do
         end subroutine add_group
         !> A work block with cap columns, its first nd kept.
-        subroutine grow(v)
-            real(dp), allocatable, intent(inout) :: v(:, :)
+        pure subroutine grow(v)
+            real(dp), allocatable, intent(inout) :: v(:, :)   !! work block
             real(dp), allocatable :: t(:, :)
             allocate (t(k, cap))
             t(:, 1:nd) = v(:, 1:nd)
             call move_alloc(t, v)
         end subroutine grow
         !> An index list with room for cap entries, its entries kept.
-        subroutine grow_int(v)
-            integer, allocatable, intent(inout) :: v(:)
+        pure subroutine grow_int(v)
+            integer, allocatable, intent(inout) :: v(:)   !! index list
             integer, allocatable :: t(:)
             allocate (t(max(cap, 2 * size(v), 16)))
             t(1:size(v)) = v
@@ -1135,8 +1139,8 @@ contains
             full = .true.
         end subroutine go_full
         !> A work block of the set as a (k, n) block of every dof.
-        subroutine to_full(v)
-            real(dp), allocatable, intent(inout) :: v(:, :)
+        pure subroutine to_full(v)
+            real(dp), allocatable, intent(inout) :: v(:, :)   !! work block
             real(dp), allocatable :: t(:, :)
             integer :: ll
             allocate (t(k, n))
@@ -1316,7 +1320,7 @@ contains
     end subroutine directions_many
 
     !> Release the work vectors, the block copy and the preconditioner (counters kept).
-    subroutine pcg_free(p)
+    pure subroutine pcg_free(p)
         type(pcg_t), intent(inout) :: p      !! solver
         type(block2_t) :: e2
         type(block3_t) :: e3

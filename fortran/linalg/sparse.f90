@@ -83,7 +83,7 @@ contains
     !> Build an n x n CSC matrix from 1-based COO triplets (rows(k), cols(k), vals(k)),
     !> k = 1..size(rows); duplicates are summed, explicit zeros kept (they fix a pattern).
     !> Row indices come out sorted within each column. O(nnz + n) (two counting sorts).
-    subroutine csc_from_coo(n, rows, cols, vals, a, stat, errmsg)
+    pure subroutine csc_from_coo(n, rows, cols, vals, a, stat, errmsg)
         integer, intent(in) :: n                            !! matrix size (>= 0)
         integer, intent(in) :: rows(:)                      !! 1-based row indices
         integer, intent(in) :: cols(:)                      !! 1-based column indices
@@ -265,7 +265,7 @@ contains
 
     !> Exchange a%val with val (same size, values on a's pattern), without a copy: a
     !> routine that takes a csc_t then reads the other matrix; a second call restores.
-    subroutine csc_swap_values(a, val)
+    pure subroutine csc_swap_values(a, val)
         type(csc_t), intent(inout) :: a               !! the pattern and its values
         real(dp), allocatable, intent(inout) :: val(:) !! (a%nnz) the other values
         real(dp), allocatable :: keep(:)
@@ -277,7 +277,7 @@ contains
     !> Block copy of a symmetric CSC matrix; `first` (n_groups + 1) gives the first dof
     !> of each group of 1 or 2 consecutive dofs (first(n_groups + 1) = n + 1). With
     !> `val`, the copy is of the matrix with a's pattern and those values.
-    subroutine block2_from_csc(a, first, b, stat, errmsg, val)
+    pure subroutine block2_from_csc(a, first, b, stat, errmsg, val)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         integer, intent(in) :: first(:)                     !! group starts
         type(block2_t), intent(out) :: b                    !! block copy
@@ -385,7 +385,7 @@ contains
 
     !> When every block of b is s I (a21 = a12 = 0, a11 = a22, every group a pair of
     !> dofs), as the P1 mass of 2D elasticity is, the scalars s of its blocks.
-    subroutine block2_scalar_blocks(b, s, ok)
+    pure subroutine block2_scalar_blocks(b, s, ok)
         type(block2_t), intent(in) :: b                  !! matrix
         real(dp), allocatable, intent(out) :: s(:)       !! (n_blocks) the scalars
         logical, intent(out) :: ok                       !! b has that form
@@ -482,7 +482,7 @@ contains
     !> Block copy of a symmetric CSC matrix by node triples; `first` (n_groups + 1) gives
     !> the first dof of each group of 1 to 3 consecutive dofs (first(n_groups + 1) = n + 1),
     !> of the matrix with a's pattern and the values `val` when given.
-    subroutine block3_from_csc(a, first, b, stat, errmsg, val)
+    pure subroutine block3_from_csc(a, first, b, stat, errmsg, val)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         integer, intent(in) :: first(:)                     !! group starts
         type(block3_t), intent(out) :: b                    !! block copy
@@ -501,7 +501,7 @@ contains
     !> group of fewer than w dofs repeats its first column index (col2, col3; col3 = col1
     !> when w = 2); both are empty when every group has w dofs. For w = 3 the values end
     !> with a zero block (block3_t).
-    subroutine blocks_from_csc(a, first, w, who, n, n_groups, bfirst, row_ptr, col1, col2, col3, &
+    pure subroutine blocks_from_csc(a, first, w, who, n, n_groups, bfirst, row_ptr, col1, col2, col3, &
                                full, bval, stat, errmsg, val)
         type(csc_t), intent(in) :: a                        !! symmetric matrix
         integer, intent(in) :: first(:)                     !! group starts
@@ -672,7 +672,7 @@ contains
     !> The values on a's pattern of the matrix whose node-block copy is b (block2_from_csc
     !> of a matrix with a's pattern): the copy read back entry by entry, the same numbers.
     !> A matrix kept in blocks needs no CSC values of its own. O(nnz).
-    subroutine block2_csc_values(a, b, val)
+    pure subroutine block2_csc_values(a, b, val)
         type(csc_t), intent(in) :: a        !! the pattern b was copied from
         type(block2_t), intent(in) :: b     !! the block copy
         real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
@@ -680,7 +680,7 @@ contains
     end subroutine block2_csc_values
 
     !> block2_csc_values for a 3x3 node-block copy (block3_from_csc).
-    subroutine block3_csc_values(a, b, val)
+    pure subroutine block3_csc_values(a, b, val)
         type(csc_t), intent(in) :: a        !! the pattern b was copied from
         type(block3_t), intent(in) :: b     !! the block copy
         real(dp), intent(out) :: val(:)     !! (a%nnz) the values on a's pattern
@@ -689,7 +689,7 @@ contains
 
     !> The inverse of the copies' scatter: each entry of a read from its place in the
     !> blocks (group_places), row group by row group.
-    subroutine blocks_to_csc(a, first, row_ptr, col1, nv, bval, w, val)
+    pure subroutine blocks_to_csc(a, first, row_ptr, col1, nv, bval, w, val)
         type(csc_t), intent(in) :: a            !! pattern
         integer, intent(in) :: first(:)         !! (n_groups + 1) group starts
         integer, intent(in) :: row_ptr(:)       !! (n_groups + 1) row groups' blocks
@@ -798,7 +798,7 @@ contains
     !> When every block of b is s I (off-diagonal entries zero, equal diagonal entries,
     !> every group a triple of dofs), as the P1 mass of 3D elasticity is, the scalars s of
     !> its blocks.
-    subroutine block3_scalar_blocks(b, s, ok)
+    pure subroutine block3_scalar_blocks(b, s, ok)
         type(block3_t), intent(in) :: b                  !! matrix
         real(dp), allocatable, intent(out) :: s(:)       !! (n_blocks) the scalars
         logical, intent(out) :: ok                       !! b has that form
@@ -924,7 +924,7 @@ contains
 
     !> b = a without its stored zeros (|a_ij| == 0). Optional stat reports an
     !> allocation failure (STAT_INTERNAL); b is then empty.
-    subroutine csc_drop_zeros(a, b, stat, errmsg)
+    pure subroutine csc_drop_zeros(a, b, stat, errmsg)
         type(csc_t), intent(in) :: a                        !! matrix
         type(csc_t), intent(out) :: b                       !! compacted copy
         integer, intent(out), optional :: stat              !! status (STAT_OK, STAT_INTERNAL)

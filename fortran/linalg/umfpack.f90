@@ -81,7 +81,8 @@ module umfpack
             bind(C, name='umfpack_di_get_lunz') result(status)
             import :: c_int, c_ptr
             integer(c_int), intent(out) :: lnz, unz, n_row, n_col, nz_udiag
-            type(c_ptr), value :: numeric
+                !! entries of L and U, sizes, nonzeros on U's diagonal
+            type(c_ptr), value :: numeric  !! Numeric object
             integer(c_int) :: status
         end function umfpack_di_get_lunz
 
@@ -90,9 +91,11 @@ module umfpack
             bind(C, name='umfpack_di_get_numeric') result(status)
             import :: c_int, c_double, c_ptr
             integer(c_int), intent(out) :: lp(*), lj(*), up(*), ui(*), p(*), q(*)
+                !! L by rows, U by columns, P, Q
             real(c_double), intent(out) :: lx(*), ux(*), dx(*), rs(*)
-            integer(c_int), intent(out) :: do_recip
-            type(c_ptr), value :: numeric
+                !! L, U, diag(U), scale factors
+            integer(c_int), intent(out) :: do_recip  !! 1: rs holds reciprocals
+            type(c_ptr), value :: numeric            !! Numeric object
             integer(c_int) :: status
         end function umfpack_di_get_numeric
 
@@ -239,7 +242,7 @@ contains
     !> Solve A x = b with the factors of A (no allocation, no iterative refinement).
     !> May be called any number of times per factorization. b and x must have n
     !> entries (STAT_BAD_INPUT otherwise, or if lu holds no factors of an n x n matrix).
-    subroutine lu_solve(lu, a, b, x, stat, errmsg)
+    pure subroutine lu_solve(lu, a, b, x, stat, errmsg)
         type(lu_t), intent(inout) :: lu                     !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
         real(dp), intent(in) :: b(:)                        !! right-hand side (n)
@@ -371,7 +374,7 @@ contains
     end subroutine extract_factors
 
     !> Solve A X = B for the columns of B, one after the other (no allocation).
-    subroutine lu_solve_many(lu, a, b, x, stat, errmsg)
+    pure subroutine lu_solve_many(lu, a, b, x, stat, errmsg)
         type(lu_t), intent(inout) :: lu                     !! factors of a
         type(csc_t), intent(in) :: a                        !! the factorized matrix
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, m)
@@ -479,7 +482,7 @@ contains
     end function same_pattern
 
     !> Keep a copy of the pattern of a in lu (for the reuse test).
-    subroutine store_pattern(lu, a, ierr)
+    pure subroutine store_pattern(lu, a, ierr)
         type(lu_t), intent(inout) :: lu   !! factors
         type(csc_t), intent(in) :: a      !! analysed matrix
         integer, intent(out) :: ierr      !! allocation status
@@ -499,7 +502,7 @@ contains
     end subroutine store_pattern
 
     !> The lu_solve workspace w(n).
-    subroutine ensure_workspace(lu, n, ierr)
+    pure subroutine ensure_workspace(lu, n, ierr)
         type(lu_t), intent(inout) :: lu   !! factors
         integer, intent(in) :: n          !! matrix size
         integer, intent(out) :: ierr      !! allocation status

@@ -95,7 +95,7 @@ contains
     end function cell_count
 
     !> Allocate the arrays of `msh` for its counts.
-    subroutine allocate_mesh(msh, stat, errmsg)
+    pure subroutine allocate_mesh(msh, stat, errmsg)
         type(mesh_t), intent(inout) :: msh                  !! mesh with counts set
         integer, intent(out) :: stat                        !! STAT_OK or STAT_INTERNAL
         character(len=*), intent(inout), optional :: errmsg !! message
@@ -109,7 +109,7 @@ contains
     end subroutine allocate_mesh
 
     !> 1D bar: n segments on [0, length].
-    subroutine build_1d(length, h, msh, stat, errmsg)
+    pure subroutine build_1d(length, h, msh, stat, errmsg)
         real(dp), intent(in) :: length                      !! bar length
         real(dp), intent(in) :: h                           !! mesh size
         type(mesh_t), intent(inout) :: msh                  !! the mesh

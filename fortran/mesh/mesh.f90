@@ -35,7 +35,7 @@ module mesh
 contains
 
     !> Release all arrays and reset the sizes.
-    subroutine mesh_free(this)
+    pure subroutine mesh_free(this)
         type(mesh_t), intent(inout) :: this   !! mesh to reset
         this = mesh_t()
     end subroutine mesh_free
@@ -44,7 +44,7 @@ contains
     !> (|measure| <= 1e-12 * h^dim with h the cell's longest edge), facet nodes in range.
     !> Also: finite coordinates, group indices in range, distinct facet nodes,
     !> every facet a face of some cell (see mesh_facet_owner), every node in a cell.
-    subroutine mesh_check(this, stat, errmsg)
+    pure subroutine mesh_check(this, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh to check
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! what is wrong (cell number, ...)
@@ -130,7 +130,7 @@ contains
     contains
         !> The representative of node n's part (path halving on the way up).
         integer function root(n) result(r)
-            integer, intent(in) :: n
+            integer, intent(in) :: n   !! node
             r = n
             do while (parent(r) /= r)
                 parent(r) = parent(parent(r))
@@ -154,7 +154,7 @@ contains
     end subroutine refuse_item
 
     !> Every node belongs to a cell (a free node would make the stiffness singular).
-    subroutine check_nodes_used(this, stat, errmsg)
+    pure subroutine check_nodes_used(this, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh (node numbers in range)
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! message naming the node
@@ -176,7 +176,7 @@ contains
     end subroutine check_nodes_used
 
     !> Shapes and sizes of the arrays of `this` agree with its counters.
-    subroutine check_sizes(this, stat, errmsg)
+    pure subroutine check_sizes(this, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh to check
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! what is wrong
@@ -258,7 +258,7 @@ contains
     !> For every facet, a cell that has it as a face and the local number
     !> (1..dim+1) of the cell's node opposite to it. A facet that is no face of any
     !> cell gives STAT_BAD_INPUT.
-    subroutine mesh_facet_owner(this, owner, stat, errmsg, opposite)
+    pure subroutine mesh_facet_owner(this, owner, stat, errmsg, opposite)
         type(mesh_t), intent(in) :: this                  !! mesh (node numbers in range)
         integer, allocatable, intent(out) :: owner(:)     !! (n_facets) owning cell of each facet
         integer, intent(out) :: stat                      !! STAT_OK or STAT_BAD_INPUT
@@ -367,7 +367,7 @@ contains
 
     !> Group indices of the comma-separated list `names` (blank entries ignored).
     !> An unknown name gives STAT_BAD_INPUT "group 'NAME' not in mesh".
-    subroutine parse_group_list(this, names, groups, stat, errmsg)
+    pure subroutine parse_group_list(this, names, groups, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh
         character(len=*), intent(in) :: names             !! e.g. 'left,right'
         integer, allocatable, intent(out) :: groups(:)    !! group indices, in list order
@@ -406,7 +406,7 @@ contains
     !> `names` (blank entries ignored; '' marks nothing). An unknown name gives
     !> STAT_BAD_INPUT with errmsg = "group 'NAME' not in mesh"; a group with no
     !> facet and no cell (e.g. a point group of a 2D mesh) gives STAT_BAD_INPUT too.
-    subroutine mesh_group_nodes(this, names, mask, stat, errmsg)
+    pure subroutine mesh_group_nodes(this, names, mask, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh
         character(len=*), intent(in) :: names             !! e.g. 'left,right'
         logical, intent(inout) :: mask(:)                 !! (n_nodes) set .true. on group nodes
@@ -458,7 +458,7 @@ contains
     !> each facet once. Errors as mesh_group_nodes. A facet stored for several of
     !> the groups (same nodes) is listed once, by its first index; the list is sorted.
     !> A group without facets (e.g. the cell group 'body') gives STAT_BAD_INPUT.
-    subroutine mesh_group_facets(this, names, list, stat, errmsg)
+    pure subroutine mesh_group_facets(this, names, list, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh
         character(len=*), intent(in) :: names             !! e.g. 'bottom'
         integer, allocatable, intent(out) :: list(:)      !! facet indices (size 0 if names = '')

@@ -651,7 +651,7 @@ contains
 
         !> Stop the run after a failed write (sim_close still tries summary.json).
         subroutine write_failed(m)
-            character(len=*), intent(in) :: m
+            character(len=*), intent(in) :: m   !! the run's message
             sim%status = 'write_failed'
             sim%message = m
             sim%finished = .true.

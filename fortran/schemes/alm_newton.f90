@@ -47,7 +47,7 @@ module alm_newton
 contains
 
     !> W N and the work arrays (w = P J0^{-1} P^T from the scheme).
-    subroutine alm_newton_init(an, mdl, w)
+    pure subroutine alm_newton_init(an, mdl, w)
         type(alm_newton_t), intent(out) :: an    !! Newton data
         type(model_t), intent(in) :: mdl         !! model (mdl%alm set)
         real(dp), intent(in) :: w(:, :)          !! (m, m) W
@@ -129,7 +129,7 @@ contains
     contains
 
         !> | |A_u| |P x| | + | |A_l| |lambda| |: the norms of G's two terms at the iterate.
-        real(dp) function term_scale()
+        pure real(dp) function term_scale()
             real(dp) :: s1, s2
             integer :: i
             s1 = 0.0_dp; s2 = 0.0_dp

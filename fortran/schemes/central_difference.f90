@@ -82,21 +82,21 @@ contains
     end subroutine central_free
 
     !> The backend of the M^{-1} applications.
-    function central_solver(this) result(name)
+    pure function central_solver(this) result(name)
         class(central_scheme_t), intent(in) :: this      !! scheme
         character(len=:), allocatable :: name
         name = mass_solver_name(this%ms)
     end function central_solver
 
     !> The triangular solve of the M^{-1} applications.
-    function central_kernel(this) result(name)
+    pure function central_kernel(this) result(name)
         class(central_scheme_t), intent(in) :: this   !! scheme
         character(len=:), allocatable :: name
         name = mass_solver_kernel(this%ms)
     end function central_kernel
 
     !> The ordering and the stored entries of the M factors ('' and 0 when lumped).
-    subroutine central_factor_info(this, ordering, nnz)
+    pure subroutine central_factor_info(this, ordering, nnz)
         class(central_scheme_t), intent(in) :: this              !! scheme
         character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
         integer(i8), intent(out) :: nnz                         !! stored entries

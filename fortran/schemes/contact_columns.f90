@@ -88,7 +88,7 @@ contains
 
     !> An empty cache for n dofs and m contact-cell dofs, with a budget in bytes; Z's
     !> tiny entries are dropped when 8 n m bytes exceed drop_above (see the module header).
-    subroutine zcache_init(zc, n, m, budget, drop_above)
+    pure subroutine zcache_init(zc, n, m, budget, drop_above)
         type(zcache_t), intent(out) :: zc            !! cache
         integer, intent(in) :: n, m                  !! dofs, contact-cell dofs
         integer(i8), intent(in) :: budget            !! bytes (see the module header)
@@ -104,7 +104,7 @@ contains
     end subroutine zcache_init
 
     !> Release every column (the counters are kept).
-    subroutine zcache_free(zc)
+    pure subroutine zcache_free(zc)
         type(zcache_t), intent(inout) :: zc          !! cache
         if (allocated(zc%slot)) zc%slot = 0
         if (allocated(zc%glast)) zc%glast = -1
@@ -121,7 +121,7 @@ contains
     end subroutine zcache_free
 
     !> Room for nb combined columns Z b_k (none held); Z must be kept whole (not drop).
-    subroutine zcache_basis_init(zc, nb)
+    pure subroutine zcache_basis_init(zc, nb)
         type(zcache_t), intent(inout) :: zc          !! cache
         integer, intent(in) :: nb                    !! basis vectors
         if (allocated(zc%bslot)) deallocate (zc%bslot, zc%zb, zc%brange, zc%bowner, zc%blast)
@@ -196,7 +196,7 @@ contains
 
     !> Drop the basis column least recently used before the current step (dropped:
     !> .false. when there is none).
-    subroutine drop_basis(zc, dropped)
+    pure subroutine drop_basis(zc, dropped)
         type(zcache_t), intent(inout) :: zc          !! cache
         logical, intent(out) :: dropped              !! one was dropped
         integer :: s, k, old
@@ -477,7 +477,7 @@ contains
 
     !> Drop the least recently used groups of earlier steps while bytes > budget, then
     !> the least recently used basis columns of earlier steps.
-    subroutine evict(zc)
+    pure subroutine evict(zc)
         type(zcache_t), intent(inout) :: zc          !! cache
         integer :: g, old, l, s
         logical :: dropped

@@ -70,21 +70,21 @@ contains
     end subroutine pc_free
 
     !> The backend of the M^{-1} applications.
-    function pc_solver(this) result(name)
+    pure function pc_solver(this) result(name)
         class(pc_scheme_t), intent(in) :: this           !! scheme
         character(len=:), allocatable :: name
         name = mass_solver_name(this%ms)
     end function pc_solver
 
     !> The triangular solve of the M^{-1} applications.
-    function pc_kernel(this) result(name)
+    pure function pc_kernel(this) result(name)
         class(pc_scheme_t), intent(in) :: this        !! scheme
         character(len=:), allocatable :: name
         name = mass_solver_kernel(this%ms)
     end function pc_kernel
 
     !> The ordering and the stored entries of the M factors ('' and 0 when lumped).
-    subroutine pc_factor_info(this, ordering, nnz)
+    pure subroutine pc_factor_info(this, ordering, nnz)
         class(pc_scheme_t), intent(in) :: this              !! scheme
         character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
         integer(i8), intent(out) :: nnz                         !! stored entries

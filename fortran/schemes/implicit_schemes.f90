@@ -369,7 +369,7 @@ contains
 
     !> The column cache's budget in bytes: half the bytes of the matrices and the factor
     !> (12 per stored entry), at least BUDGET_MIN.
-    function default_budget(this) result(budget)
+    pure function default_budget(this) result(budget)
         class(implicit_scheme_t), intent(in) :: this        !! scheme (J0 factorized)
         integer(i8) :: budget
         character(len=:), allocatable :: ordering
@@ -403,7 +403,7 @@ contains
     end subroutine implicit_free
 
     !> The backend of the J0 factors.
-    function implicit_solver(this) result(name)
+    pure function implicit_solver(this) result(name)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
         character(len=:), allocatable :: name
         name = trim(this%lu0%backend)
@@ -412,7 +412,7 @@ contains
     !> The time step, and what a step carries into the next besides the state: M (u - u~) and u - u~ of the
     !> next step's predictor, and the contact part C on the contact-cell dofs with its
     !> tangent and the vector it was evaluated at (reused when u has not moved there).
-    subroutine implicit_save(this, buf)
+    pure subroutine implicit_save(this, buf)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
         type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
         call buf_put(buf, this%dt)
@@ -428,7 +428,7 @@ contains
     end subroutine implicit_save
 
     !> Read back what implicit_save wrote (buf%bad on any mismatch of sizes).
-    subroutine implicit_load(this, buf)
+    pure subroutine implicit_load(this, buf)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme (set up by init)
         type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
         integer(kind(buf%n)) :: k
@@ -458,14 +458,14 @@ contains
     end subroutine implicit_load
 
     !> The triangular solve used with the J0 factors.
-    function implicit_kernel(this) result(name)
+    pure function implicit_kernel(this) result(name)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
         character(len=:), allocatable :: name
         name = ls_kernel(this%lu0)
     end function implicit_kernel
 
     !> The &solver kind applied to J0, the CG counters and the fallback note.
-    subroutine implicit_solver_report(this, kind, solves, iterations, max_its, note)
+    pure subroutine implicit_solver_report(this, kind, solves, iterations, max_its, note)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
         character(len=:), allocatable, intent(out) :: kind  !! kind requested
         integer(i8), intent(out) :: solves, iterations      !! CG solves and iterations
@@ -477,7 +477,7 @@ contains
     end subroutine implicit_solver_report
 
     !> The ordering and the stored entries of the J0 factors.
-    subroutine implicit_factor_info(this, ordering, nnz)
+    pure subroutine implicit_factor_info(this, ordering, nnz)
         class(implicit_scheme_t), intent(in) :: this        !! scheme
         character(len=:), allocatable, intent(out) :: ordering  !! ordering's name
         integer(i8), intent(out) :: nnz                     !! stored entries of the factor
@@ -605,7 +605,7 @@ contains
     !> tau <- tau + w g on the node basis, g in the facets' Mt (a vector sum_f Mt_f g(:, f),
     !> Mt_f(:, j) = theta s_f - gamma_f n_j): theta sum_j g(j, f) at s_f, -gamma_f g(j, f)
     !> at n_j.
-    subroutine tau_add_g(this, mdl, w, g)
+    pure subroutine tau_add_g(this, mdl, w, g)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         real(dp), intent(in) :: w                           !! weight
@@ -788,7 +788,7 @@ contains
     !> a' = a (Newmark family: x = u~ + beta dt^2 a, so dx = dvec - (k + beta dt^2) a with
     !> dvec = u - u~ + k a) or v' = v (theta: x = u~, dx = dvec). It misses y0 by
     !> beta dt^2 (a' - a), small against y0 ~ dt v for the modes the step resolves.
-    subroutine first_guess(this, a)
+    pure subroutine first_guess(this, a)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme (dx set)
         real(dp), intent(in) :: a(:)                        !! acceleration a^n
         if (this%kind == KIND_NEWMARK) then
@@ -803,7 +803,7 @@ contains
     !> then R' = c (C(x') - C(x) + D dx) on the contact-cell dofs (zero elsewhere: the
     !> step solved the linearization exactly), tvec = D P dx with D = U V^T at x; the
     !> contact part and its tangent are left at x'. rnorm = |R'|.
-    subroutine contact_residual(this, mdl, u, active, e_pen, e_theta, rnorm)
+    pure subroutine contact_residual(this, mdl, u, active, e_pen, e_theta, rnorm)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         real(dp), intent(in) :: u(:)                        !! u^n
@@ -947,7 +947,7 @@ contains
     end subroutine facet_rhog
 
     !> Exchange cx and cold (their allocations: no copy).
-    subroutine swap_c(this)
+    pure subroutine swap_c(this)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         real(dp), allocatable :: tmp(:)
         call move_alloc(this%cold, tmp)
@@ -956,7 +956,7 @@ contains
     end subroutine swap_c
 
     !> Exchange gx and gold (their allocations: no copy).
-    subroutine swap_g(this)
+    pure subroutine swap_g(this)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         real(dp), allocatable :: tmp(:, :)
         call move_alloc(this%gold, tmp)
@@ -1010,7 +1010,7 @@ contains
     !> enter the dynamics (zero rows of M), and are reported as v = (u' - u)/dt, a = 0.
     !> The contact part is kept for the next step, with the vector it was evaluated at
     !> (u' on the contact-cell dofs).
-    subroutine update_state(this, mdl, st)
+    pure subroutine update_state(this, mdl, st)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(state_t), intent(inout) :: st                  !! state (u, v, a and products)
@@ -1050,7 +1050,7 @@ contains
 
     !> Contact part C(xx) of B on the contact-cell dofs, its tangent in low-rank
     !> form (rank, ua, vb, qloc) and the contact energy parts.
-    subroutine contact_part(this, mdl, xx, cvec, act, ep, et)
+    pure subroutine contact_part(this, mdl, xx, cvec, act, ep, et)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme (tangent, scratch)
         type(model_t), intent(in) :: mdl                    !! model
         real(dp), intent(in) :: xx(:)                       !! displacement
@@ -1072,7 +1072,7 @@ contains
     !> J^{-1} R = J0^{-1} R - Z U (I + c V^T W U)^{-1} c V^T yc, so tk <- tk - U s,
     !> s = (I + c V^T W U)^{-1} c V^T yc. The system is formed and factorized only when
     !> the tangent differs from the one of the factors held (see the module header).
-    subroutine woodbury(this, mdl, st2)
+    pure subroutine woodbury(this, mdl, st2)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: st2                         !! STAT_NUMERIC: singular system
@@ -1163,7 +1163,7 @@ contains
     !> facets (facets_x): r^2 nfn + r k nfn operations instead of r^2 ndof_e + m r ndof_e
     !> with U, V themselves. The same system to round-off (the facet shape values sum to
     !> 1), used with the U and V of the terms for the rest of the Newton step.
-    subroutine woodbury_factor(this, mdl, info)
+    pure subroutine woodbury_factor(this, mdl, info)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: info                        !! 0 or the first zero pivot
@@ -1245,7 +1245,7 @@ contains
     end subroutine segment_system
 
     !> The tangent of the factors just formed, kept to recognize it (same_tangent).
-    subroutine keep_tangent(this, nodes)
+    pure subroutine keep_tangent(this, nodes)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         logical, intent(in) :: nodes                        !! the node basis' factors
         integer :: r
@@ -1272,7 +1272,7 @@ contains
     !> s - gamma nvec(:, j), Mt(:, j) = theta s - gamma nvec(:, j) on the facet's cell
     !> dofs) in xt (transposed), formed when the facets differ from those of the X held
     !> (X depends on them alone) or with fresh set; fblk(f) = the block of facet f.
-    subroutine facets_x(this, mdl)
+    pure subroutine facets_x(this, mdl)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer :: nf, f, b, i, j, k, kk, l, col, row, nfn, ne, kc
@@ -1324,7 +1324,7 @@ contains
 
     !> The facets of the current terms, in order (a facet's terms are consecutive), in
     !> flist(1:nf).
-    subroutine term_facets(this, nf)
+    pure subroutine term_facets(this, nf)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         integer, intent(out) :: nf                          !! facets
         integer :: t, f
@@ -1348,7 +1348,7 @@ contains
     !> nodes). qnode(0, f) is the basis index of facet f, qnode(i, f) that of its node
     !> i; formed when the facets differ from those of the basis held (or with fresh
     !> set), and Y = B^T W B is then formed again (node_factor).
-    subroutine node_basis(this, mdl)
+    pure subroutine node_basis(this, mdl)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer :: nf, nfn, ne, b, f, i, j, g, nk, kk, e, cap
@@ -1401,7 +1401,7 @@ contains
     end subroutine node_basis
 
     !> Y = B^T W B over the node basis (node_basis), in ybas.
-    subroutine form_y(this, mdl)
+    pure subroutine form_y(this, mdl)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer :: q, nf, a, b, f, kk, e, l, cap
@@ -1478,7 +1478,7 @@ contains
     !> beta_t are kept with the factors (halpha, hbeta): node_solve, which runs with the
     !> factors of the current tangent only (the same tfac, tca, tcb bit for bit), reads
     !> them instead of forming them again.
-    subroutine node_factor(this, mdl, info)
+    pure subroutine node_factor(this, mdl, info)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: info                        !! 0 or the first zero pivot
@@ -1556,7 +1556,7 @@ contains
 
     !> The Woodbury step on the node basis: s = (I + c Y H)^{-1} c B^T yc, then
     !> tk <- tk - B (H s).
-    subroutine node_solve(this, mdl)
+    pure subroutine node_solve(this, mdl)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         integer :: q, nf, b, f, kk, e, l, t, i, nfn, fb
@@ -1655,7 +1655,7 @@ contains
     !> least doubled when it grows: few reallocations, and the pages beyond the leading
     !> r x r block are never touched), not the number of contact quadrature points of
     !> Gamma_C (rmax^2 reals for the system alone: 128 MB on the ball's 4 000 points).
-    subroutine grow_woodbury(this, r)
+    pure subroutine grow_woodbury(this, r)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         integer, intent(in) :: r                            !! rank needed
         integer :: cap

@@ -83,7 +83,7 @@ contains
         !> S from the node blocks of M (block k of row group g of K_theta's block pattern
         !> holds mass_s(k) I).
         subroutine scalar_mass(st)
-            integer, intent(out) :: st
+            integer, intent(out) :: st   !! status
             integer, allocatable :: grp(:), rows(:), cols(:), bfirst(:), row_ptr(:), col1(:)
             integer :: g, k, ng, nc
             ! (M's blocks are mass_s on K_theta's block pattern; model's block_copy)
@@ -174,7 +174,7 @@ contains
     end subroutine mass_solver_free
 
     !> The backend that applies M^{-1}: 'diagonal' (lumped mass) or the factors'.
-    function mass_solver_name(ms) result(name)
+    pure function mass_solver_name(ms) result(name)
         type(mass_solver_t), intent(in) :: ms   !! solver
         character(len=:), allocatable :: name
         if (ms%lumped) then
@@ -186,7 +186,7 @@ contains
 
     !> The triangular solve of the M^{-1} applications (ls_kernel; 'diagonal' for
     !> lumped mass).
-    function mass_solver_kernel(ms) result(name)
+    pure function mass_solver_kernel(ms) result(name)
         type(mass_solver_t), intent(in) :: ms   !! solver
         character(len=:), allocatable :: name
         if (ms%lumped) then

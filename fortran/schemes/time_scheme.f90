@@ -173,14 +173,14 @@ contains
 
     !> The time step only: the explicit schemes carry nothing between steps besides
     !> the state.
-    subroutine scheme_save_none(this, buf)
+    pure subroutine scheme_save_none(this, buf)
         class(time_scheme_t), intent(in) :: this            !! scheme
         type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
         call buf_put(buf, this%dt)
     end subroutine scheme_save_none
 
     !> Read back scheme_save_none's time step: bad unless it is this scheme's, bit for bit.
-    subroutine scheme_load_none(this, buf)
+    pure subroutine scheme_load_none(this, buf)
         class(time_scheme_t), intent(inout) :: this         !! scheme (set up by init)
         type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
         real(dp) :: dt
@@ -199,7 +199,7 @@ contains
     end function scheme_kind
 
     !> Recompute the cached B(u) parts of a state from st%u.
-    subroutine state_eval(mdl, st)
+    pure subroutine state_eval(mdl, st)
         type(model_t), intent(in) :: mdl       !! model
         type(state_t), intent(inout) :: st     !! state
         call model_eval_b(mdl, st%u, st%bu, st%ktu, st%active, st%e_pen, st%e_theta)

@@ -1,5 +1,5 @@
 !> zcache_add_basis (Z T on the node basis, four columns a pass with the rows cut where a
-!> column's range starts or ends) against the plain loop it replaced, one column after
+!> column's range starts or ends) against a plain loop, one column after
 !> another on its own range: every entry must receive the same additions in the same
 !> order, so y must be equal bit for bit. Columns 0 to 11 with random coefficients (some
 !> zero: skipped), ranges random, nested, disjoint, equal, touching, one row and empty,
