@@ -995,7 +995,7 @@ contains
     !> A failed solve of the contact correction's columns of J0^{-1}: STAT_NUMERIC, with
     !> the solver's own reason (conjugate gradients: the residual reached and the &solver
     !> limits) kept after the scheme's words and t.
-    subroutine correction_failed(this, t, stat, errmsg)
+    pure subroutine correction_failed(this, t, stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         real(dp), intent(in) :: t                           !! time the step is to reach
         integer, intent(out) :: stat                        !! STAT_NUMERIC

@@ -135,7 +135,7 @@ contains
     !> cause is kept in this%failure for the run's advice. A step's failures go through
     !> here, or (Newton did not converge, whose message gives t mid-sentence) set the
     !> cause themselves: each message gives t once, and the run need not read it.
-    subroutine step_failed(this, cause, what, t, reason, stat, errmsg)
+    pure subroutine step_failed(this, cause, what, t, reason, stat, errmsg)
         class(time_scheme_t), intent(inout) :: this         !! scheme
         integer, intent(in) :: cause                        !! FAILURE_STEP or FAILURE_CG
         character(len=*), intent(in) :: what                !! what failed
@@ -154,7 +154,7 @@ contains
 
     !> A failed linear solve in a step: step_failed with the solver's reason, which it
     !> left in errmsg; the cause is FAILURE_CG when the solve was by conjugate gradients.
-    subroutine step_solve_failed(this, cg, what, t, stat, errmsg)
+    pure subroutine step_solve_failed(this, cg, what, t, stat, errmsg)
         class(time_scheme_t), intent(inout) :: this         !! scheme
         logical, intent(in) :: cg                           !! the solve was by CG
         character(len=*), intent(in) :: what                !! what failed
