@@ -131,6 +131,42 @@ def fill(disk: Path) -> None:
         os.close(fd)
 
 
+#: File-size limit (bytes) of the test below: the trace of the run passes it within a
+#: few hundred steps, summary.json (about 2 kB) stays under it.
+FSIZE_LIMIT = 8192
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_file_size_limit_is_a_failed_write_not_a_crash(kind, tmp_path):
+    """A write past RLIMIT_FSIZE (``ulimit -f``, set by some batch systems) raises
+    SIGXFSZ, whose default action kills the process: the run must fail as on a full
+    disk instead (EFBIG: exit 4, one line naming the file, summary "write_failed").
+    The Python CLI sets the limit after its import (the editable install's rebuild
+    check writes the build log)."""
+    import resource
+
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0")
+    out = tmp_path / "o"
+    args = [str(scene), "--out", str(out)]
+    if kind == "exe":
+        cmd = entry(kind) + args
+
+        def limit():
+            resource.setrlimit(resource.RLIMIT_FSIZE, (FSIZE_LIMIT, FSIZE_LIMIT))
+    else:
+        cmd = [sys.executable, "-c",
+               "import resource, sys\nfrom dyncontact.cli import main\n"
+               f"resource.setrlimit(resource.RLIMIT_FSIZE, ({FSIZE_LIMIT}, {FSIZE_LIMIT}))\n"
+               f"sys.exit(main(['run', *{args!r}]))"]
+        limit = None
+    res = subprocess.run(cmd, cwd=tmp_path, env=child_env(), capture_output=True, text=True,
+                         timeout=120, preexec_fn=limit)
+    line = one_line(res, EXIT_WRITE)
+    assert "trace.csv" in line and "File too large" in line, line
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "write_failed"
+
+
 @pytest.mark.parametrize("kind", ENTRIES)
 def test_disk_full_during_run_exits_4_and_says_so(kind, small_disk, tmp_path):
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0")
