@@ -2,7 +2,8 @@
 
 Exit status: 0 when every run could be done (unstable runs are results, not failures),
 1 when some runs failed to run (each is reported, the study still completes), 2 bad
-command line, 130 interrupted (Ctrl-C or SIGTERM: the pool's workers are stopped, the
+command line, 4 an output file that cannot be written (full disk, file-size limit: one
+line naming it), 130 interrupted (Ctrl-C or SIGTERM: the pool's workers are stopped, the
 finished runs stay cached and the same command resumes).
 """
 
