@@ -134,6 +134,9 @@ contains
         sim%scene_hash = checkpoint_scene_hash(scn)
         call build_model(sim, stat, errmsg)
         if (stat /= STAT_OK) return
+        ! a property of the model, set for a new run and a restart alike (e_load and the
+        ! blow-up test energy e_total - u.L use it)
+        sim%has_load = any(sim%mdl%load /= 0.0_dp)
         ! dt = 0 (central): the step count is known once the scheme has chosen dt
         if (sim%scn%dt > 0.0_dp) then
             call count_steps(sim, write_output, stat, errmsg)
@@ -474,7 +477,6 @@ contains
     subroutine energy_limit(sim)
         type(simulation_t), intent(inout) :: sim            !! the run at its initial state
         real(dp) :: e_tot, e_scale
-        sim%has_load = any(sim%mdl%load /= 0.0_dp)
         e_tot = 0.5_dp * dot_product(sim%st%v, sim%st%mv) &
                 + 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
         e_scale = e_tot
