@@ -650,6 +650,12 @@ def test_obstacle_normal_into_the_body_warns(kind, tmp_path):
                         contact__obstacle_point="0.0, -1.0", scheme__t_end="0.05")
     res = run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path)
     assert "obstacle_normal points into the body" in res.stderr
+    assert "outward normals -1.000);" in res.stderr
+    # a normal along the bottom (cosine 0 with every facet): the number without padding
+    scene = write_scene(tmp_path / "u.nml", contact__obstacle_normal="1.0, 0.0",
+                        scheme__t_end="0.05")
+    res = run(kind, scene, "--out", tmp_path / "o3", cwd=tmp_path)
+    assert "outward normals 0.000);" in res.stderr, res.stderr
     res = run(kind, write_scene(tmp_path / "t.nml", scheme__t_end="0.05"), "--out",
               tmp_path / "o2", cwd=tmp_path)
     assert "obstacle_normal" not in res.stderr
