@@ -761,3 +761,23 @@ def test_redistributed_mass_with_a_half_weight_warns_and_the_warning_is_true(kin
         v = np.array([float(r[2]) for r in trace_rows(out) if float(r[0]) > 0.5])
         flips = np.all(np.sign(v[1:]) != np.sign(v[:-1]))
         assert flips == warned, (name, value, v[:6])
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_blow_up_from_no_energy_says_why(kind, tmp_path):
+    """The augmented Lagrangian stores no contact energy: a bar at rest 0.02 inside the
+    obstacle has no energy at all at t = 0, the blow-up limit is the floor tiny(1.0)
+    and the first step, which pushes the bar out, trips it. The message says that the
+    initial state holds no energy instead of giving the bare 2.225E-307 alone."""
+    scene = write_scene(tmp_path / "s.nml", contact__method="'alm'",
+                        contact__obstacle_point="0.0, 0.02", initial__kind="'rest'",
+                        scheme__name="'newmark'", scheme__alpha="0.0", scheme__dt="0.0005",
+                        scheme__t_end="0.01")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), 3)
+    assert "exceeds blowup x energy scale = 2.225E-307" in line, line
+    assert "the initial state holds no energy" in line, line
+    # a run with energy at t = 0 (the seed's) that blows up does not say it
+    scene = write_scene(tmp_path / "t.nml", scheme__name="'central'", scheme__alpha="0.0",
+                        scheme__mass="'lumped'", scheme__dt="0.05")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o2", cwd=tmp_path), 3)
+    assert "unstable" in line and "holds no energy" not in line, line

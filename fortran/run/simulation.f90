@@ -740,6 +740,13 @@ contains
         msg = 'unstable at t = '//real_text(sim%st%t, 6)//': '//what//' = '// &
               distinct_text(e, sim%e_limit)//' exceeds '//scale//' = '// &
               distinct_text(sim%e_limit, e)//' (run stopped, trace kept)'
+        ! no energy at all at t = 0 (no motion, no load, nothing stored in the contact):
+        ! the limit is the floor tiny(1.0) and the bare number would not say why
+        if (.not. sim%has_load .and. sim%e_limit <= sim%scn%blowup * tiny(1.0_dp)) &
+            msg = msg//'; the initial state holds no energy (at rest, no contact energy'// &
+                  ' stored: a body at rest inside the obstacle with &contact method = '// &
+                  '''alm'', whose multipliers store none, is pushed out with energy made'// &
+                  ' from nothing)'
     end function unstable_message
 
     !> x with 4 significant digits, or with as many more as tell it apart from y (up to
