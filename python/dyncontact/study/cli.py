@@ -145,6 +145,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.cache is not None and not args.cache.strip():
         print("dyncontact study: --cache: must not be empty", file=sys.stderr)
         return 2
+    for option, folder in (("--out", args.out), ("--cache", args.cache)):
+        if folder is not None and os.path.exists(folder) and not os.path.isdir(folder):
+            print(f"dyncontact study: {option} {folder}: a file, not a folder", file=sys.stderr)
+            return 2
     if getattr(args, "schemes", None) is not None:
         try:
             scheme_list(args.schemes)   # before anything is written
