@@ -54,6 +54,21 @@ def test_study_refuses_bad_values_naming_the_option(run_cli, tmp_path, study, op
     assert sorted(os.listdir(tmp_path)) == []   # nothing written, here or in --out
 
 
+@pytest.mark.parametrize("option", ["--out", "--cache"])
+def test_study_refuses_a_file_for_a_folder(run_cli, tmp_path, option):
+    """--out or --cache naming an existing file: one line naming the option, not the
+    'File exists' of the folder's creation."""
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    args = {"--out": str(tmp_path / "s"), "--cache": str(tmp_path / "c")}
+    args[option] = str(afile)
+    line = _one_line(run_cli("study", "convergence", "--quick", "--no-progress",
+                             "--out", args["--out"], "--cache", args["--cache"]),
+                     2, "dyncontact study: ")
+    assert option in line and "not a folder" in line, line
+    assert sorted(os.listdir(tmp_path)) == ["afile"]
+
+
 @pytest.mark.parametrize("args", [["--out"], ["--out="], ["--out", ""]])
 def test_studies_script_out_needs_a_folder(tmp_path, args):
     line = _one_line(_script("studies", *args, cwd=tmp_path), 2, "studies: ")

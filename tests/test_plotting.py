@@ -192,3 +192,28 @@ def test_field_snapshots_need_fields(tmp_path):
 
     with pytest.raises(FileNotFoundError, match="fields_every"):
         plot_field_snapshots(_write_run(tmp_path / "a"))
+
+
+#: File-size limit (bytes) of the test below: the four-panel PNG is tens of kB.
+PNG_FSIZE_LIMIT = 4096
+
+
+def test_plot_that_cannot_be_written_exits_4_naming_the_file(tmp_path):
+    """An image that cannot be written for want of room (here a file-size limit, as a
+    full disk) is an output that cannot be written: exit 4, as a run's trace
+    (docs/scenes.md, *Exit codes*), one line naming the image; not exit 2 (bad input)."""
+    import subprocess
+    import sys
+
+    _write_run(tmp_path / "a")
+    png = tmp_path / "p.png"
+    code = ("import resource, sys\nfrom dyncontact.cli import main\n"
+            f"resource.setrlimit(resource.RLIMIT_FSIZE, ({PNG_FSIZE_LIMIT}, "
+            f"{PNG_FSIZE_LIMIT}))\n"
+            f"sys.exit(main(['plot', {str(tmp_path / 'a')!r}, '--out', {str(png)!r}]))")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert res.returncode == 4, (res.returncode, res.stderr)
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dyncontact: "), res.stderr
+    assert str(png) in lines[0] and "File too large" in lines[0], lines[0]

@@ -131,6 +131,42 @@ def fill(disk: Path) -> None:
         os.close(fd)
 
 
+#: File-size limit (bytes) of the test below: the trace of the run passes it within a
+#: few hundred steps, summary.json (about 2 kB) stays under it.
+FSIZE_LIMIT = 8192
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_file_size_limit_is_a_failed_write_not_a_crash(kind, tmp_path):
+    """A write past RLIMIT_FSIZE (``ulimit -f``, set by some batch systems) raises
+    SIGXFSZ, whose default action kills the process: the run must fail as on a full
+    disk instead (EFBIG: exit 4, one line naming the file, summary "write_failed").
+    The Python CLI sets the limit after its import (the editable install's rebuild
+    check writes the build log)."""
+    import resource
+
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0")
+    out = tmp_path / "o"
+    args = [str(scene), "--out", str(out)]
+    if kind == "exe":
+        cmd = entry(kind) + args
+
+        def limit():
+            resource.setrlimit(resource.RLIMIT_FSIZE, (FSIZE_LIMIT, FSIZE_LIMIT))
+    else:
+        cmd = [sys.executable, "-c",
+               "import resource, sys\nfrom dyncontact.cli import main\n"
+               f"resource.setrlimit(resource.RLIMIT_FSIZE, ({FSIZE_LIMIT}, {FSIZE_LIMIT}))\n"
+               f"sys.exit(main(['run', *{args!r}]))"]
+        limit = None
+    res = subprocess.run(cmd, cwd=tmp_path, env=child_env(), capture_output=True, text=True,
+                         timeout=120, preexec_fn=limit)
+    line = one_line(res, EXIT_WRITE)
+    assert "trace.csv" in line and "File too large" in line, line
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "write_failed"
+
+
 @pytest.mark.parametrize("kind", ENTRIES)
 def test_disk_full_during_run_exits_4_and_says_so(kind, small_disk, tmp_path):
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0")
@@ -614,6 +650,12 @@ def test_obstacle_normal_into_the_body_warns(kind, tmp_path):
                         contact__obstacle_point="0.0, -1.0", scheme__t_end="0.05")
     res = run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path)
     assert "obstacle_normal points into the body" in res.stderr
+    assert "outward normals -1.000);" in res.stderr
+    # a normal along the bottom (cosine 0 with every facet): the number without padding
+    scene = write_scene(tmp_path / "u.nml", contact__obstacle_normal="1.0, 0.0",
+                        scheme__t_end="0.05")
+    res = run(kind, scene, "--out", tmp_path / "o3", cwd=tmp_path)
+    assert "outward normals 0.000);" in res.stderr, res.stderr
     res = run(kind, write_scene(tmp_path / "t.nml", scheme__t_end="0.05"), "--out",
               tmp_path / "o2", cwd=tmp_path)
     assert "obstacle_normal" not in res.stderr
@@ -695,3 +737,47 @@ def test_runs_that_fail_to_open_release_their_factors(tmp_path):
         fail_to_open()
     gc.collect()
     assert rss_kb() - before < 2048, "failed opens keep their memory"
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_redistributed_mass_with_a_half_weight_warns_and_the_warning_is_true(kind, tmp_path):
+    """galpha rho_inf = 1 and theta theta = 1/2 weigh the internal force half at each end
+    of the step: the massless contact dofs of the redistributed mass then flip about
+    their quasi-static position at every step (factor -1), which the run says before it
+    starts; rho_inf = 0.8 (factor -0.8) neither warns nor keeps flipping."""
+    cases = [("galpha", "rho_inf", "1.0", True), ("theta", "theta", "0.5", True),
+             ("galpha", "rho_inf", "0.8", False), ("hht", "alpha", "-0.1", False)]
+    for name, key, value, warned in cases:
+        keys = {"scheme__alpha": "0.0", f"scheme__{key}": value}
+        scene = write_scene(tmp_path / f"{name}{value}.nml", scheme__name=f"'{name}'",
+                            scheme__mass="'redistributed'", scheme__t_end="1.0", **keys)
+        out = tmp_path / f"o_{name}{value}"
+        res = run(kind, scene, "--out", out, cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        assert ("never decays" in res.stderr) == warned, (name, value, res.stderr)
+        # v_n at the probe (a contact node) in flight, t in (0.5, 1.0]: the bar falls at
+        # about 0.45; a flip of the quasi-static snap of the first step (~0.05 in one
+        # step of 0.0025) shows as |v_n| ~ 20 with alternating signs
+        v = np.array([float(r[2]) for r in trace_rows(out) if float(r[0]) > 0.5])
+        flips = np.all(np.sign(v[1:]) != np.sign(v[:-1]))
+        assert flips == warned, (name, value, v[:6])
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_blow_up_from_no_energy_says_why(kind, tmp_path):
+    """The augmented Lagrangian stores no contact energy: a bar at rest 0.02 inside the
+    obstacle has no energy at all at t = 0, the blow-up limit is the floor tiny(1.0)
+    and the first step, which pushes the bar out, trips it. The message says that the
+    initial state holds no energy instead of giving the bare 2.225E-307 alone."""
+    scene = write_scene(tmp_path / "s.nml", contact__method="'alm'",
+                        contact__obstacle_point="0.0, 0.02", initial__kind="'rest'",
+                        scheme__name="'newmark'", scheme__alpha="0.0", scheme__dt="0.0005",
+                        scheme__t_end="0.01")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), 3)
+    assert "exceeds blowup x energy scale = 2.225E-307" in line, line
+    assert "the initial state holds no energy" in line, line
+    # a run with energy at t = 0 (the seed's) that blows up does not say it
+    scene = write_scene(tmp_path / "t.nml", scheme__name="'central'", scheme__alpha="0.0",
+                        scheme__mass="'lumped'", scheme__dt="0.05")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o2", cwd=tmp_path), 3)
+    assert "unstable" in line and "holds no energy" not in line, line

@@ -234,6 +234,33 @@ def kill_9_then_restart(tmp_path: Path, text: str, label: str, every: int = EVER
     assert_same_results(tmp_path / "part", tmp_path / "full", what)
 
 
+#: A free bar under gravity on slip walls, landing on the obstacle 0.05 below it: e_load
+#: (= -u.L) is not 0 in any row after the first.
+GRAVITY_SCENE = ("&mesh dim = 2, length = 1.0, width = 0.1, h = 0.05 /\n"
+                 "&boundary clamped = '', slip_x = 'left,right', contact = 'bottom' /\n"
+                 "&material gravity = 0.0, -1.0 /\n"
+                 "&contact obstacle_point = 0.0, -0.05 /\n"
+                 "&initial kind = 'rest' /\n"
+                 "&scheme name = 'newmark', dt = 0.0025, t_end = 3.0 /\n"
+                 "&output dir = 'out', checkpoint_every = 400 /\n")
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+def test_restart_under_gravity_keeps_e_load(entry, tmp_path):
+    """The load L = rho g is the model's, not the checkpoint's: a restarted run reports
+    e_load = -u.L (and tests e_total + e_load for a blow-up) as the run never stopped."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(GRAVITY_SCENE)
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    assert run(cmd(scene, "--out", "full"), tmp_path).returncode == EXIT_OK
+    rows = np.genfromtxt(tmp_path / "full" / "trace.csv", delimiter=",", names=True)
+    assert np.all(rows["e_load"][1:] != 0.0)
+    shutil.copytree(tmp_path / "full", tmp_path / "again")
+    res = run(cmd(scene, "--restart", "again"), tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert_same_results(tmp_path / "again", tmp_path / "full", "restart under gravity")
+
+
 def test_restart_twice_and_from_the_last_checkpoint_of_a_finished_run(tmp_path):
     """A checkpoint is kept after the run ends: a restart from it redoes the tail and
     writes the same files again; so does a restart of that restarted run."""

@@ -1023,3 +1023,28 @@ def test_skew_claim_counts_refused_settings_apart():
     assert "at least as often stable as the other θ for 2 of 2" in row["verdict"]
     assert "newmark: stable θ=-1 3/3, θ=+1 0/0 (3 refused)" in row["evidence"]
     assert "theta1: stable θ=-1 2/3, θ=+1 0/0 (3 refused)" in row["evidence"]
+
+
+def test_stale_cleaning_spares_a_long_run_of_another_sweep(tmp_path):
+    """A temporary entry is stale when nothing in it has changed for STALE_S: the entry
+    folder's own time stops changing once its run sub-folder exists, so a run of another
+    sweep on the same cache lasting longer than STALE_S (its trace written every second)
+    must not be removed under it; an entry whose files are all that old is."""
+    import time
+
+    from dyncontact.study import sweep as sw
+
+    old = time.time() - sw.STALE_S - 60
+    entries = {}
+    for label in ("running", "left"):
+        tmp = tmp_path / "ab" / f"ab{label}.tmp-1-0000"
+        (tmp / "run").mkdir(parents=True)
+        (tmp / "run" / "trace.csv").write_text("t\n0\n")
+        for p in (tmp / "run" / "trace.csv", tmp / "run", tmp):
+            os.utime(p, (old, old))
+        entries[label] = tmp
+    now = time.time()
+    os.utime(entries["running"] / "run" / "trace.csv", (now, now))   # written just now
+    sw._clean_stale(str(tmp_path))
+    assert entries["running"].is_dir()
+    assert not entries["left"].exists()

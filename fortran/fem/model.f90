@@ -682,6 +682,7 @@ contains
         real(dp) :: xa(mdl%dim), xb(mdl%dim), xc(mdl%dim), nf(mdl%dim), c_max
         real(dp) :: ta(3), tb(3), tc(3)
         character(len=200) :: buf
+        character(len=8) :: cbuf
         dim = mdl%dim
         c_max = -huge(1.0_dp)
         do f = 1, mdl%ct%n_facets
@@ -703,9 +704,10 @@ contains
             c_max = max(c_max, dot_product(nf, mdl%normal(1:dim)) / norm2(nf))
         end do
         if (mdl%ct%n_facets > 0 .and. c_max <= FACING) then
-            write (buf, '(a, f6.3, a)') 'warning: &contact obstacle_normal points into the body ' &
-                //'(no contact facet faces the obstacle: largest cosine with their outward '// &
-                'normals ', c_max, '); it should point from the body into the obstacle'
+            write (cbuf, '(f6.3)') c_max
+            buf = 'warning: &contact obstacle_normal points into the body (no contact facet '// &
+                  'faces the obstacle: largest cosine with their outward normals '// &
+                  trim(adjustl(cbuf))//'); it should point from the body into the obstacle'
             call note(mdl, trim(buf))
         end if
     end subroutine check_normal

@@ -149,7 +149,8 @@ contains
         bytes = int(b, i8); files = int(f, i8)
     end subroutine free_space
 
-    !> Install the SIGINT / SIGTERM handlers (they only set a flag; see signal_caught).
+    !> Install the SIGINT / SIGTERM handlers (they only set a flag; see signal_caught) and
+    !> ignore SIGXFSZ (a write past the file-size limit fails as on a full disk).
     subroutine signals_install(stat, errmsg)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message

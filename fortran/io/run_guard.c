@@ -31,7 +31,10 @@ static volatile sig_atomic_t dc_signal_flag = 0;
 
 static void dc_on_signal(int sig) { dc_signal_flag = sig; }
 
-/* Install the SIGINT and SIGTERM handlers (executable only). */
+/* Install the SIGINT and SIGTERM handlers (executable only), and ignore SIGXFSZ: a write
+ * past the file-size limit (ulimit -f, a batch system's RLIMIT_FSIZE) then fails with
+ * EFBIG and is reported as any other failed write (summary status "write_failed", exit
+ * 4), as under Python, which ignores SIGXFSZ, instead of killing the process. */
 int dc_signals_install(void)
 {
     struct sigaction sa;
@@ -41,6 +44,9 @@ int dc_signals_install(void)
     sa.sa_flags = SA_RESTART;
     if (sigaction(SIGINT, &sa, NULL) != 0) return errno;
     if (sigaction(SIGTERM, &sa, NULL) != 0) return errno;
+#ifdef SIGXFSZ
+    if (signal(SIGXFSZ, SIG_IGN) == SIG_ERR) return errno;
+#endif
     return 0;
 }
 

@@ -134,6 +134,9 @@ contains
         sim%scene_hash = checkpoint_scene_hash(scn)
         call build_model(sim, stat, errmsg)
         if (stat /= STAT_OK) return
+        ! a property of the model, set for a new run and a restart alike (e_load and the
+        ! blow-up test energy e_total - u.L use it)
+        sim%has_load = any(sim%mdl%load /= 0.0_dp)
         ! dt = 0 (central): the step count is known once the scheme has chosen dt
         if (sim%scn%dt > 0.0_dp) then
             call count_steps(sim, write_output, stat, errmsg)
@@ -243,6 +246,7 @@ contains
         end select
         call sim%scheme%init(sim%mdl, sprm, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
+        call check_massless_weight(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
             ! the estimate is the linear limit at full contact: measured, it is not a safe
@@ -266,6 +270,37 @@ contains
             if (stat /= STAT_OK) return
         end if
     end subroutine start_scheme
+
+    !> A warning for the redistributed mass on a scheme that weighs the internal force
+    !> half at t_n and half at t_n+1 (galpha rho_inf = 1, theta theta = 1/2). The massless
+    !> contact dofs then solve B(kb u^n + (1 - kb) u^n+1) = L with kb = 1/2, so their
+    !> distance to the quasi-static position is multiplied by -kb/(1 - kb) = -1 at every
+    !> step: the snap of the first step never settles and their velocity (v_n at the
+    !> probe) alternates in sign from step to step for the whole run (docs/numerics.md,
+    !> "Mass"). Any other weight damps it (kb = alpha_f = rho_inf/(rho_inf + 1), 1 - theta,
+    !> -alpha for hht; 0 for newmark).
+    subroutine check_massless_weight(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run (scheme set up)
+        character(len=:), allocatable :: what, fix
+        if (.not. sim%mdl%has_contact .or. trim(sim%scn%mass) /= 'redistributed') return
+        select case (trim(sim%scn%scheme_name))
+        case ('galpha')
+            if (sim%scn%rho_inf < 1.0_dp) return
+            what = 'galpha rho_inf = 1'
+            fix = 'a rho_inf < 1 (0.8 damps it by 0.8 a step)'
+        case ('theta')
+            if (sim%scn%time_theta > 0.5_dp) return
+            what = 'theta theta = 0.5'
+            fix = 'a theta > 0.5 (0.6 damps it by 0.67 a step)'
+        case default
+            return
+        end select
+        sim%mdl%notes = trim(sim%mdl%notes)// &
+            'warning: &scheme mass = ''redistributed'' with '//what//' weighs the massless'// &
+            ' contact dofs half at each end of the step: their distance to the quasi-static'// &
+            ' position changes sign at every step and never decays (v_n alternates); use '// &
+            fix//' or newmark (docs/numerics.md)'//new_line('a')
+    end subroutine check_massless_weight
 
     !> The outputs were opened (trace.csv and the first summary.json replaced the
     !> previous run's) but a later write of the opening failed (the t = 0 snapshot on a
@@ -474,7 +509,6 @@ contains
     subroutine energy_limit(sim)
         type(simulation_t), intent(inout) :: sim            !! the run at its initial state
         real(dp) :: e_tot, e_scale
-        sim%has_load = any(sim%mdl%load /= 0.0_dp)
         e_tot = 0.5_dp * dot_product(sim%st%v, sim%st%mv) &
                 + 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
         e_scale = e_tot
@@ -706,6 +740,13 @@ contains
         msg = 'unstable at t = '//real_text(sim%st%t, 6)//': '//what//' = '// &
               distinct_text(e, sim%e_limit)//' exceeds '//scale//' = '// &
               distinct_text(sim%e_limit, e)//' (run stopped, trace kept)'
+        ! no energy at all at t = 0 (no motion, no load, nothing stored in the contact):
+        ! the limit is the floor tiny(1.0) and the bare number would not say why
+        if (.not. sim%has_load .and. sim%e_limit <= sim%scn%blowup * tiny(1.0_dp)) &
+            msg = msg//'; the initial state holds no energy (at rest, no contact energy'// &
+                  ' stored: a body at rest inside the obstacle with &contact method = '// &
+                  '''alm'', whose multipliers store none, is pushed out with energy made'// &
+                  ' from nothing)'
     end function unstable_message
 
     !> x with 4 significant digits, or with as many more as tell it apart from y (up to

@@ -8,6 +8,7 @@ traceback), 3 numerical failure (unstable / newton_failed; the trace is kept),
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import signal
 import sys
@@ -24,6 +25,8 @@ LOCK_HELD = "is writing into this output folder"
 #: Seconds between two attempts of `run --wait`.
 WAIT_POLL_S = 0.5
 EXIT_OK, EXIT_BAD_INPUT, EXIT_NUMERIC, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
+#: errno values of a write that failed for want of room or of a writable file system.
+WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS})
 
 
 class UsageError(Exception):
@@ -276,7 +279,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_OK
     except OSError as exc:
         name = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-        return _fail(f"{name}{exc.strerror or exc}", EXIT_BAD_INPUT)
+        # a file that cannot be written for want of room (full disk, quota, file-size
+        # limit) or a read-only file system is exit 4 as in a run (docs/scenes.md, *Exit
+        # codes*); an unreadable or missing input stays bad input
+        code = EXIT_INTERNAL if exc.errno in WRITE_ERRNOS else EXIT_BAD_INPUT
+        return _fail(f"{name}{exc.strerror or exc}", code)
 
 
 if __name__ == "__main__":  # pragma: no cover

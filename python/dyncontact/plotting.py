@@ -246,7 +246,10 @@ def _save(fig, out_png) -> None:
     folder = os.path.dirname(out_png)
     if folder:
         os.makedirs(folder, exist_ok=True)
-    fig.savefig(out_png, dpi=120)
+    try:
+        fig.savefig(out_png, dpi=120)
+    except OSError as exc:   # the image writer's errors do not name the file
+        raise OSError(exc.errno, exc.strerror or str(exc), out_png) from exc
 
 
 # --------------------------------------------------------------------------- fields

@@ -2,7 +2,8 @@
 
 Exit status: 0 when every run could be done (unstable runs are results, not failures),
 1 when some runs failed to run (each is reported, the study still completes), 2 bad
-command line, 130 interrupted (Ctrl-C or SIGTERM: the pool's workers are stopped, the
+command line, 4 an output file that cannot be written (full disk, file-size limit: one
+line naming it), 130 interrupted (Ctrl-C or SIGTERM: the pool's workers are stopped, the
 finished runs stay cached and the same command resumes).
 """
 
@@ -144,6 +145,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.cache is not None and not args.cache.strip():
         print("dyncontact study: --cache: must not be empty", file=sys.stderr)
         return 2
+    for option, folder in (("--out", args.out), ("--cache", args.cache)):
+        if folder is not None and os.path.exists(folder) and not os.path.isdir(folder):
+            print(f"dyncontact study: {option} {folder}: a file, not a folder", file=sys.stderr)
+            return 2
     if getattr(args, "schemes", None) is not None:
         try:
             scheme_list(args.schemes)   # before anything is written

@@ -486,6 +486,10 @@ def save_figure(fig, path: str, top: float = 1.0) -> str:
     import matplotlib.pyplot as plt
 
     fig.tight_layout(rect=(0, 0, 1, top))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        fig.savefig(path, dpi=110)
+    except OSError as exc:   # the image writer's errors do not name the file
+        raise OSError(exc.errno, exc.strerror or str(exc), path) from exc
+    finally:
+        plt.close(fig)
     return path

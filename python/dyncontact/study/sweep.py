@@ -422,8 +422,25 @@ def _json_default(x):
     return str(x)
 
 
+def _last_change(folder: str) -> float:
+    """The newest modification time of folder and of everything below it (0 if it is
+    gone meanwhile)."""
+    newest = 0.0
+    for d, _, names in os.walk(folder):
+        for p in (d, *(os.path.join(d, n) for n in names)):
+            try:
+                newest = max(newest, os.path.getmtime(p))
+            except OSError:   # removed meanwhile
+                pass
+    return newest
+
+
 def _clean_stale(cache: str) -> None:
-    """Remove the temporary folders that an interrupted sweep left behind."""
+    """Remove the temporary folders that an interrupted sweep left behind: those in
+    which nothing has changed for :data:`STALE_S`. The age is that of the newest file
+    inside, not of the folder itself, whose time stops changing once its ``run``
+    sub-folder exists: a run of another sweep on the same cache that lasts longer than
+    :data:`STALE_S` writes its trace at least every second and is left alone."""
     if not os.path.isdir(cache):
         return
     now = time.time()
@@ -433,7 +450,7 @@ def _clean_stale(cache: str) -> None:
             continue
         for name in os.listdir(d):
             p = os.path.join(d, name)
-            if ".tmp-" in name and now - os.path.getmtime(p) > STALE_S:
+            if ".tmp-" in name and now - _last_change(p) > STALE_S:
                 shutil.rmtree(p, ignore_errors=True)
 
 

@@ -533,8 +533,12 @@ def _plot(rows, series, ref_info, path):
     fig.legend(list(seen.values()), list(seen.keys()), loc="center right", fontsize=7,
                title="open circle: not resolved by the reference", title_fontsize=7)
     fig.tight_layout(rect=(0, 0, 0.82, 1))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        fig.savefig(path, dpi=110)
+    except OSError as exc:   # the image writer's errors do not name the file
+        raise OSError(exc.errno, exc.strerror or str(exc), path) from exc
+    finally:
+        plt.close(fig)
     return path
 
 
