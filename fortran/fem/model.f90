@@ -82,6 +82,8 @@ module model
         real(dp), allocatable :: mass_s(:)        !! then the m of each block, on K_theta's block pattern
         logical :: lumped = .false.               !! M is diagonal
         real(dp), allocatable :: mass_diag(:)     !! (n_dofs) diagonal of M when lumped
+        logical :: redistributed = .false.        !! mass = 'redistributed': checked definite when
+                                                  !! a run starts (model_mass_definite)
         logical, allocatable :: massless(:)       !! (n_dofs) no inertia (redistributed mass)
         integer, allocatable :: massless_dofs(:)  !! those dofs
         real(dp), allocatable :: load(:)          !! (n_dofs) L = int rho g . v
@@ -94,12 +96,15 @@ module model
         real(dp) :: probe_shape(MAX_FN, MAX_PROBE) = 0.0_dp !! facet shape values at the probe on each
         integer :: probe_node(MAX_PROBE) = 0      !! the facet node at the probe (shape value 1, the others 0), or 0
         character(len=4096) :: notes = ''          !! warnings and notes for the user, one per line
+        character(len=1024) :: name = ''          !! what messages start with (model_params_t's)
+        character(len=1100) :: mesh_name = ''     !! how messages name the mesh (model_params_t's)
         real(dp) :: gamma0_min = 0.0_dp           !! smallest gamma0 keeping K_theta PSD (element bound, theta = 1)
     end type model_t
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
               model_probe, model_mass_apply, model_stiff_apply, model_full_field, &
-              model_step_products, model_stiff_mass_apply, model_stiff_theta_values
+              model_step_products, model_stiff_mass_apply, model_stiff_theta_values, &
+              model_mass_definite
 
 contains
 
@@ -118,6 +123,8 @@ contains
         integer :: dim, j, parts
         stat = STAT_OK
         msg = ''
+        mdl%name = prm%name
+        mdl%mesh_name = prm%mesh_name
         mdl%msh = msh
         call mesh_check(mdl%msh, stat, msg)
         if (stat /= STAT_OK) then
@@ -163,6 +170,7 @@ contains
         allocate (mdl%massless(mdl%n_dofs))
         mdl%massless = .false.
         if (prm%mass == MASS_REDISTRIBUTED) then
+            mdl%redistributed = .true.
             call redistribute(mdl, facets, stat, msg)
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &scheme mass: ' &
@@ -496,21 +504,29 @@ contains
         call mass_redistribute(mdl%stiff, mdl%dof_node, mdl%dof_comp, mdl%msh%x, contact_node, &
                                region, mdl%massless, st, m)
         call csc_swap_values(mdl%stiff, mdl%mass_val)
-        if (st == STAT_OK) call check_mass_definite(mdl, st, m)
     end subroutine redistribute
 
     !> Whether the redistributed M is positive definite on the dofs that keep inertia
     !> (e_kin = v.M v / 2 >= 0): the correction that keeps the mass and first moments can
     !> make it indefinite where few cell layers stand behind the contact nodes (a short
-    !> body, contact on opposite sides). One LDL^T factorization of M with a unit
-    !> diagonal on the massless dofs, released at once: a pivot <= 0 means indefinite.
-    subroutine check_mass_definite(mdl, st, m)
-        type(model_t), intent(in) :: mdl             !! model with its redistributed M
-        integer, intent(out) :: st                   !! status
-        character(len=*), intent(inout) :: m         !! message
+    !> body, contact on opposite sides). Refused (STAT_BAD_INPUT, the message naming
+    !> &scheme mass) when it is not. One LDL^T factorization of M with a unit diagonal on
+    !> the massless dofs, released at once: a pivot <= 0 means indefinite. Called when a
+    !> run starts, where M is not factorized anyway (the theta-scheme), or where its
+    !> factorization did not settle it (mass_solver: an LDL^T of M that succeeds proves
+    !> it definite, so the Newmark family pays no second factorization); the model alone
+    !> (model_build) does not check. STAT_OK at once for a mass that is not redistributed.
+    subroutine model_mass_definite(mdl, stat, errmsg)
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), allocatable :: val(:)
         type(cholmod_t) :: ch
-        integer :: j, p
+        integer :: j, p, st
+        character(len=1024) :: m
+        stat = STAT_OK
+        if (.not. mdl%redistributed) return
+        m = ''
         allocate (val, source=mdl%mass_val)
         do j = 1, mdl%stiff%n
             if (.not. mdl%massless(j)) cycle
@@ -521,11 +537,15 @@ contains
         call chol_factor(ch, mdl%stiff, st, m, val)
         call chol_free(ch)
         if (st == STAT_NUMERIC) then
-            call raise(st, m, STAT_BAD_INPUT, 'mass redistribution: the mass matrix it gives '// &
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(mdl%name)//': &scheme mass: '// &
+                       'mass redistribution: the mass matrix it gives '// &
                        'is not positive definite on this mesh (too few cell layers behind the '// &
-                       'contact nodes); use a finer mesh, or mass = ''consistent'' or ''lumped''')
+                       'contact nodes); use a finer mesh, or mass = ''consistent'' or '// &
+                       '''lumped'' ('//trim(mdl%mesh_name)//')')
+        else if (st /= STAT_OK) then
+            call raise(stat, errmsg, st, trim(m))
         end if
-    end subroutine check_mass_definite
+    end subroutine model_mass_definite
 
     !> Node-block copy of K_theta and M, built once: 2x2 blocks in 2D, 3x3 in 3D (the
     !> free dofs of a node are consecutive), and the scalars of M's blocks when each is m I.

@@ -215,7 +215,7 @@ contains
     !> Coefficients from the parameters, J0 factorization, Woodbury blocks, and the
     !> initial acceleration M a0 = L - B(u0) for the Newmark family.
     subroutine implicit_init(this, mdl, prm, st, stat, errmsg)
-        use model, only: model_stiff_theta_values
+        use model, only: model_stiff_theta_values, model_mass_definite
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(scheme_params_t), intent(in) :: prm            !! parameters (kind: an implicit one)
@@ -262,6 +262,9 @@ contains
             call mass_solver_free(ms)
             if (stat /= STAT_OK) return
         else
+            ! M is not factorized: its definiteness (redistributed mass) is checked alone
+            call model_mass_definite(mdl, stat, errmsg)
+            if (stat /= STAT_OK) return
             st%a = 0.0_dp
         end if
         ! the first step's predictor u~ and M (u0 - u~)

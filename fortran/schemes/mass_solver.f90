@@ -8,8 +8,9 @@ module mass_solver
     use kinds, only: dp
     use errors, only: STAT_OK
     use sparse, only: csc_t, csc_drop_zeros, csc_from_coo
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel
-    use model, only: model_t
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, &
+                             BACKEND_CHOLMOD
+    use model, only: model_t, model_mass_definite
     implicit none
     private
 
@@ -33,7 +34,11 @@ contains
 
     !> Prepare M^{-1}: factorizes a consistent M (one factorization). Dofs without
     !> inertia (redistributed mass: zero rows and columns) get a unit diagonal, so the
-    !> rest is solved exactly and x = 0 there.
+    !> rest is solved exactly and x = 0 there. A redistributed M is refused here when it
+    !> is not positive definite (model_mass_definite's STAT_BAD_INPUT): an LDL^T of it
+    !> that succeeds proves it definite (every pivot > 0); where the LDL^T did not run or
+    !> did not succeed (LU instead: not symmetric, or a pivot <= 0), model_mass_definite
+    !> decides.
     subroutine mass_solver_init(ms, mdl, stat, errmsg)
         type(mass_solver_t), intent(inout) :: ms            !! solver
         type(model_t), intent(in) :: mdl                    !! model
@@ -76,9 +81,19 @@ contains
             else
                 call ls_factor(ms%lu, ms%mass, stat, errmsg)
             end if
+            if (mdl%redistributed) call settle_definite()
         end if
 
     contains
+
+        !> A redistributed M whose LDL^T did not run or did not succeed: model_mass_definite
+        !> decides (its refusal replaces the factorization's status).
+        subroutine settle_definite()
+            integer :: st
+            if (stat == STAT_OK .and. ms%lu%backend == BACKEND_CHOLMOD) return
+            call model_mass_definite(mdl, st, errmsg)
+            if (st /= STAT_OK) stat = st
+        end subroutine settle_definite
 
         !> S from the node blocks of M (block k of row group g of K_theta's block pattern
         !> holds mass_s(k) I).
