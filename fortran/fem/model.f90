@@ -516,10 +516,14 @@ contains
     !> factorization did not settle it (mass_solver: an LDL^T of M that succeeds proves
     !> it definite, so the Newmark family pays no second factorization); the model alone
     !> (model_build) does not check. STAT_OK at once for a mass that is not redistributed.
-    subroutine model_mass_definite(mdl, stat, errmsg)
+    !> With `keep`, the factorization is made in it and left there: its symbolic analysis
+    !> (the orderings tried, most of the cost) is that of every matrix on the model's
+    !> pattern, which the next chol_factor of J0 = M + c K_theta with it then reuses.
+    subroutine model_mass_definite(mdl, stat, errmsg, keep)
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        type(cholmod_t), intent(inout), optional :: keep    !! factors (replaced; kept)
         real(dp), allocatable :: val(:)
         type(cholmod_t) :: ch
         integer :: j, p, st
@@ -534,8 +538,12 @@ contains
                 if (mdl%stiff%rowind(p) + 1 == j) val(p) = 1.0_dp
             end do
         end do
-        call chol_factor(ch, mdl%stiff, st, m, val)
-        call chol_free(ch)
+        if (present(keep)) then
+            call chol_factor(keep, mdl%stiff, st, m, val)
+        else
+            call chol_factor(ch, mdl%stiff, st, m, val)
+            call chol_free(ch)
+        end if
         if (st == STAT_NUMERIC) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(mdl%name)//': &scheme mass: '// &
                        'mass redistribution: the mass matrix it gives '// &

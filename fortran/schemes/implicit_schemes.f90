@@ -262,8 +262,10 @@ contains
             call mass_solver_free(ms)
             if (stat /= STAT_OK) return
         else
-            ! M is not factorized: its definiteness (redistributed mass) is checked alone
-            call model_mass_definite(mdl, stat, errmsg)
+            ! M is not factorized: its definiteness (redistributed mass) is checked alone,
+            ! in J0's factors, whose factorization then reuses the check's analysis (the
+            ! same pattern: the model's)
+            call model_mass_definite(mdl, stat, errmsg, this%lu0%ch)
             if (stat /= STAT_OK) return
             st%a = 0.0_dp
         end if
