@@ -511,11 +511,11 @@ contains
     !> make it indefinite where few cell layers stand behind the contact nodes (a short
     !> body, contact on opposite sides). Refused (STAT_BAD_INPUT, the message naming
     !> &scheme mass) when it is not. One LDL^T factorization of M with a unit diagonal on
-    !> the massless dofs, released at once: a pivot <= 0 means indefinite. Called when a
-    !> run starts, where M is not factorized anyway (the theta-scheme), or where its
-    !> factorization did not settle it (mass_solver: an LDL^T of M that succeeds proves
-    !> it definite, so the Newmark family pays no second factorization); the model alone
-    !> (model_build) does not check. STAT_OK at once for a mass that is not redistributed.
+    !> the massless dofs, released at once (but see `keep`): a pivot <= 0 means
+    !> indefinite. Called when a run starts, where M is not factorized anyway (the
+    !> theta-scheme), or where its factorization did not settle it (mass_solver: an
+    !> LDL^T of M that succeeds proves it definite, so the Newmark family pays no second
+    !> factorization); the model alone (model_build) does not check. STAT_OK at once for a mass that is not redistributed.
     !> With `keep`, the factorization is made in it and left there: its symbolic analysis
     !> (the orderings tried, most of the cost) is that of every matrix on the model's
     !> pattern, which the next chol_factor of J0 = M + c K_theta with it then reuses.
