@@ -457,9 +457,9 @@ def test_indefinite_redistributed_mass_refused_when_the_run_starts(dim, scheme, 
     the model is built: by the Newmark family's own LDL^T of M for a0 (every pivot > 0
     proves M definite; otherwise the standalone check decides), by the standalone check
     for the theta-scheme, which never factorizes M. Every implicit scheme refuses an
-    indefinite M (the 3-cell 1D bar, the strip and the box of 0.15: indefinite in the
-    reference test above, 1D, 2D and 3D) with the same message (scene, key, mesh) and exit 2,
-    before anything is written; the model alone (dyncontact.core.Model) builds."""
+    indefinite M (the 3-cell 1D bar, the strip and the box of length 0.15: indefinite in
+    the reference test above) with the same message (scene, key, mesh) and exit 2, before
+    anything is written; the model alone (dyncontact.core.Model) builds."""
     s = Scene.read(SCENE_1D if dim == 1 else SCENE_2D)
     s.set("mesh.dim", dim)
     for key, val in (("mesh.length", 0.15), ("mesh.h", 0.05), ("boundary.contact", "bottom"),
