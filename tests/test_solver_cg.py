@@ -31,12 +31,15 @@ from dyncontact import _core
 STAT_OK, STAT_NUMERIC = 0, 3
 
 
-def solve_kind(rows, cols, vals, b, kind="cg", rtol=1e-12, max_iter=500):
-    """dc_ls_solve_kind with 1-based COO; b of shape (n,) or (n, m)."""
+def solve_kind(rows, cols, vals, b, kind="cg", rtol=1e-12, max_iter=500, counts=None):
+    """dc_ls_solve_kind with 1-based COO; b of shape (n,) or (n, m). counts: a dict that
+    receives the factors' "factorizations"."""
     b2 = np.asfortranarray(b.reshape(b.shape[0], -1), dtype=np.float64)
-    x, backend, note, its, stat, msg = _core.dc_ls_solve_kind(
+    x, backend, note, its, facts, stat, msg = _core.dc_ls_solve_kind(
         np.ascontiguousarray(rows, dtype=np.int32), np.ascontiguousarray(cols, dtype=np.int32),
         np.ascontiguousarray(vals, dtype=np.float64), b2, kind, rtol, max_iter)
+    if counts is not None:
+        counts["factorizations"] = int(facts)
     dec = lambda s: (s.tobytes() if hasattr(s, "tobytes") else bytes(s)).decode().strip()
     return x.reshape(b.shape), dec(backend), dec(note), int(its), int(stat), dec(msg)
 
@@ -125,10 +128,14 @@ def test_cg_on_an_indefinite_matrix_solves_directly():
     np.add.at(dense, (rows - 1, cols - 1), vals)
     assert np.linalg.eigvalsh(dense).min() < 0 < np.diag(dense).min()
     b = rng.standard_normal(n)
-    x, backend, note, _, stat, msg = solve_kind(rows, cols, vals, b)
+    counts = {}
+    x, backend, note, _, stat, msg = solve_kind(rows, cols, vals, b, counts=counts)
     assert stat == STAT_OK, msg
     assert backend in ("cholmod_ldlt", "umfpack_lu")
     assert "not positive definite" in note
+    # CG set up (no factorization), then the fallback's direct factorization: one, which
+    # the implicit schemes add to their summary's count (implicit_schemes' count_lu0)
+    assert counts["factorizations"] == 1
     np.testing.assert_allclose(dense @ x, b, rtol=0, atol=1e-8 * np.abs(b).max())
 
 

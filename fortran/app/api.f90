@@ -297,9 +297,10 @@ end subroutine dc_ls_solve
 !> Solve A X = B (m columns) with linear_solver configured to `kind` ('direct', 'cg',
 !> 'auto' with dimension 2), A as 1-based COO triplets: one column through ls_solve,
 !> several through ls_solve_many. backend is the one that solved ('pcg' for CG),
-!> note why CG did not run where asked, cg_its the CG iterations over all columns.
+!> note why CG did not run where asked, cg_its the CG iterations over all columns,
+!> factorizations the factors' count (the direct factorization of a CG fallback included).
 subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_max_iter, x, &
-                            backend, note, cg_its, stat, errmsg)
+                            backend, note, cg_its, factorizations, stat, errmsg)
     use iso_c_binding, only: c_int, c_double
     use kinds, only: i8
     use errors, only: STAT_OK
@@ -321,6 +322,7 @@ subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_ma
     character(len=16), intent(out) :: backend    !! solver that ran
     character(len=200), intent(out) :: note      !! why CG did not run ('' if it did)
     integer(c_int), intent(out) :: cg_its        !! CG iterations
+    integer(c_int), intent(out) :: factorizations !! numeric factorizations done
     integer(c_int), intent(out) :: stat          !! status (3: singular, CG failure)
     character(len=512), intent(out) :: errmsg    !! message
     type(csc_t) :: a
@@ -344,6 +346,7 @@ subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_ma
     note = f%note
     call ls_cg_counts(f, solves, its, mx)
     cg_its = int(its, c_int)
+    factorizations = int(f%factorizations, c_int)
     call ls_free(f)
     stat = st
 end subroutine dc_ls_solve_kind

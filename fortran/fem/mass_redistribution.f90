@@ -20,8 +20,8 @@
 !> So M' keeps 1.M.1 and 1.M.x per component exactly, is symmetric, and has zero rows and
 !> columns on the contact dofs. Whether M' stays positive definite on the other dofs
 !> depends on the cell layers behind the contact nodes (a short body, or contact on two
-!> opposite sides, can leave too few): the model checks it with one LDL^T factorization
-!> and refuses the scene when it is not (model's check_mass_definite).
+!> opposite sides, can leave too few): a run checks it with one LDL^T factorization
+!> when it starts, and refuses the scene when it is not (model's model_mass_definite).
 module mass_redistribution
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise

@@ -8,6 +8,7 @@ module model
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_find, csc_matvec_t_values, csc_swap_values, block2_csc_values, &
+                      csc_from_coo, &
                       block3_csc_values, block2_t, block2_from_csc, &
                       block2_matvec, block2_matvec_km, block2_scalar_blocks, block2_matvec_ks2, &
                       block2_matvec_ks3, block3_t, block3_from_csc, block3_matvec, block3_matvec_km, &
@@ -82,6 +83,8 @@ module model
         real(dp), allocatable :: mass_s(:)        !! then the m of each block, on K_theta's block pattern
         logical :: lumped = .false.               !! M is diagonal
         real(dp), allocatable :: mass_diag(:)     !! (n_dofs) diagonal of M when lumped
+        logical :: redistributed = .false.        !! mass = 'redistributed': checked definite when
+                                                  !! a run starts (model_mass_definite)
         logical, allocatable :: massless(:)       !! (n_dofs) no inertia (redistributed mass)
         integer, allocatable :: massless_dofs(:)  !! those dofs
         real(dp), allocatable :: load(:)          !! (n_dofs) L = int rho g . v
@@ -94,12 +97,15 @@ module model
         real(dp) :: probe_shape(MAX_FN, MAX_PROBE) = 0.0_dp !! facet shape values at the probe on each
         integer :: probe_node(MAX_PROBE) = 0      !! the facet node at the probe (shape value 1, the others 0), or 0
         character(len=4096) :: notes = ''          !! warnings and notes for the user, one per line
+        character(len=1024) :: name = ''          !! what messages start with (model_params_t's)
+        character(len=1100) :: mesh_name = ''     !! how messages name the mesh (model_params_t's)
         real(dp) :: gamma0_min = 0.0_dp           !! smallest gamma0 keeping K_theta PSD (element bound, theta = 1)
     end type model_t
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
               model_probe, model_mass_apply, model_stiff_apply, model_full_field, &
-              model_step_products, model_stiff_mass_apply, model_stiff_theta_values
+              model_step_products, model_stiff_mass_apply, model_stiff_theta_values, &
+              model_mass_definite, model_scalar_mass
 
 contains
 
@@ -118,6 +124,8 @@ contains
         integer :: dim, j, parts
         stat = STAT_OK
         msg = ''
+        mdl%name = prm%name
+        mdl%mesh_name = prm%mesh_name
         mdl%msh = msh
         call mesh_check(mdl%msh, stat, msg)
         if (stat /= STAT_OK) then
@@ -163,6 +171,7 @@ contains
         allocate (mdl%massless(mdl%n_dofs))
         mdl%massless = .false.
         if (prm%mass == MASS_REDISTRIBUTED) then
+            mdl%redistributed = .true.
             call redistribute(mdl, facets, stat, msg)
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &scheme mass: ' &
@@ -496,36 +505,120 @@ contains
         call mass_redistribute(mdl%stiff, mdl%dof_node, mdl%dof_comp, mdl%msh%x, contact_node, &
                                region, mdl%massless, st, m)
         call csc_swap_values(mdl%stiff, mdl%mass_val)
-        if (st == STAT_OK) call check_mass_definite(mdl, st, m)
     end subroutine redistribute
 
     !> Whether the redistributed M is positive definite on the dofs that keep inertia
     !> (e_kin = v.M v / 2 >= 0): the correction that keeps the mass and first moments can
     !> make it indefinite where few cell layers stand behind the contact nodes (a short
-    !> body, contact on opposite sides). One LDL^T factorization of M with a unit
-    !> diagonal on the massless dofs, released at once: a pivot <= 0 means indefinite.
-    subroutine check_mass_definite(mdl, st, m)
-        type(model_t), intent(in) :: mdl             !! model with its redistributed M
-        integer, intent(out) :: st                   !! status
-        character(len=*), intent(inout) :: m         !! message
+    !> body, contact on opposite sides). Refused (STAT_BAD_INPUT, the message naming
+    !> &scheme mass) when it is not. One LDL^T factorization of M with a unit diagonal on
+    !> the massless dofs, released at once (but see `keep`): a pivot <= 0 means
+    !> indefinite. Called when a run starts, where M is not factorized anyway (the
+    !> theta-scheme), or where its factorization did not settle it (mass_solver: an
+    !> LDL^T of M that succeeds proves it definite, so the Newmark family pays no second
+    !> factorization); the model alone (model_build) does not check. STAT_OK at once for a mass that is not redistributed.
+    !> When every node block of M is m I (mass_scalar: M = S (x) I_d, the massless nodes'
+    !> blocks 0 I), M with a unit diagonal on the massless dofs is S with a unit diagonal
+    !> on the massless nodes, (x) I_d: the same eigenvalues, each d times, so S is
+    !> factorized instead (1/d the size, about 1/d^3 of the flops). Otherwise, with
+    !> `keep`, M's factorization is made in it and left there: its symbolic analysis (the
+    !> orderings tried, most of the cost in 2D) is that of every matrix on the model's
+    !> pattern, which the next chol_factor of J0 = M + c K_theta with it then reuses.
+    subroutine model_mass_definite(mdl, stat, errmsg, keep)
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        type(cholmod_t), intent(inout), optional :: keep    !! factors (replaced; kept)
         real(dp), allocatable :: val(:)
         type(cholmod_t) :: ch
-        integer :: j, p
-        allocate (val, source=mdl%mass_val)
-        do j = 1, mdl%stiff%n
-            if (.not. mdl%massless(j)) cycle
-            do p = mdl%stiff%colptr(j) + 1, mdl%stiff%colptr(j + 1)
-                if (mdl%stiff%rowind(p) + 1 == j) val(p) = 1.0_dp
+        type(csc_t) :: sm
+        integer, allocatable :: first(:)
+        integer :: j, p, st
+        logical :: scalar
+        character(len=1024) :: m
+        stat = STAT_OK
+        if (.not. mdl%redistributed) return
+        m = ''
+        scalar = mdl%mass_scalar
+        if (scalar) then
+            call model_scalar_mass(mdl, sm, first, st, m)
+            if (st /= STAT_OK) then
+                call raise(stat, errmsg, st, trim(m))
+                return
+            end if
+            ! S's unit diagonal on the massless nodes (every dof of a node massless, or
+            ! none: else M is factorized itself)
+            do j = 1, sm%n
+                if (any(mdl%massless(first(j):first(j) + mdl%dim - 1) .neqv. &
+                        mdl%massless(first(j)))) scalar = .false.
+                if (.not. mdl%massless(first(j))) cycle
+                do p = sm%colptr(j) + 1, sm%colptr(j + 1)
+                    if (sm%rowind(p) + 1 == j) sm%val(p) = 1.0_dp
+                end do
+            end do
+        end if
+        if (scalar) then
+            call chol_factor(ch, sm, st, m)
+            call chol_free(ch)
+        else
+            allocate (val, source=mdl%mass_val)
+            do j = 1, mdl%stiff%n
+                if (.not. mdl%massless(j)) cycle
+                do p = mdl%stiff%colptr(j) + 1, mdl%stiff%colptr(j + 1)
+                    if (mdl%stiff%rowind(p) + 1 == j) val(p) = 1.0_dp
+                end do
+            end do
+            if (present(keep)) then
+                call chol_factor(keep, mdl%stiff, st, m, val)
+            else
+                call chol_factor(ch, mdl%stiff, st, m, val)
+                call chol_free(ch)
+            end if
+        end if
+        if (st == STAT_NUMERIC) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(mdl%name)//': &scheme mass: '// &
+                       'mass redistribution: the mass matrix it gives '// &
+                       'is not positive definite on this mesh (too few cell layers behind the '// &
+                       'contact nodes); use a finer mesh, or mass = ''consistent'' or '// &
+                       '''lumped'' ('//trim(mdl%mesh_name)//')')
+        else if (st /= STAT_OK) then
+            call raise(stat, errmsg, st, trim(m))
+        end if
+    end subroutine model_mass_definite
+
+    !> S, the node matrix of M = S (x) I_d when mass_scalar (one row and column a node
+    !> with free dofs, the m of M's node blocks: mass_s on K_theta's block pattern), and
+    !> first(g), the first of node g's d consecutive dofs.
+    subroutine model_scalar_mass(mdl, s, first, stat, errmsg)
+        type(model_t), intent(in) :: mdl                    !! model (mass_scalar)
+        type(csc_t), intent(out) :: s                       !! S
+        integer, allocatable, intent(out) :: first(:)       !! (nodes) first dof of each
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer, allocatable :: grp(:), rows(:), cols(:), bfirst(:), row_ptr(:), col1(:)
+        integer :: g, k, ng
+        if (mdl%dim == 3) then
+            bfirst = mdl%stiff_theta_b3%first
+            row_ptr = mdl%stiff_theta_b3%row_ptr
+            col1 = mdl%stiff_theta_b3%col1
+        else
+            bfirst = mdl%stiff_theta_b%first
+            row_ptr = mdl%stiff_theta_b%row_ptr
+            col1 = mdl%stiff_theta_b%col1
+        end if
+        ng = size(bfirst) - 1
+        first = bfirst(1:ng)
+        allocate (grp(mdl%n_dofs), rows(size(mdl%mass_s)), cols(size(mdl%mass_s)))
+        grp = 0
+        grp(first) = [(g, g = 1, ng)]
+        do g = 1, ng
+            do k = row_ptr(g), row_ptr(g + 1) - 1
+                rows(k) = g
+                cols(k) = grp(col1(k))
             end do
         end do
-        call chol_factor(ch, mdl%stiff, st, m, val)
-        call chol_free(ch)
-        if (st == STAT_NUMERIC) then
-            call raise(st, m, STAT_BAD_INPUT, 'mass redistribution: the mass matrix it gives '// &
-                       'is not positive definite on this mesh (too few cell layers behind the '// &
-                       'contact nodes); use a finer mesh, or mass = ''consistent'' or ''lumped''')
-        end if
-    end subroutine check_mass_definite
+        call csc_from_coo(ng, rows, cols, mdl%mass_s, s, stat, errmsg)
+    end subroutine model_scalar_mass
 
     !> Node-block copy of K_theta and M, built once: 2x2 blocks in 2D, 3x3 in 3D (the
     !> free dofs of a node are consecutive), and the scalars of M's blocks when each is m I.

@@ -193,6 +193,7 @@ module implicit_schemes
                                                   !! are C at xc (kept from the last step)
         real(dp) :: kga = 0.0_dp                  !! beta dt^2 am/(1-am) (generalized-alpha)
         real(dp), allocatable :: vq(:)            !! (massless dofs) their v' = (u' - u)/dt
+        integer :: lu0_counted = 0                !! lu0%factorizations already in factorizations
         real(dp), allocatable :: md(:)            !! (n) M (u - u~) of the next step
         real(dp), allocatable :: dvec(:)          !! (n) u - u~ (the vector multiplied by M)
         real(dp), allocatable :: r(:), dx(:), x(:), scratch(:)  !! (n) work vectors
@@ -215,7 +216,7 @@ contains
     !> Coefficients from the parameters, J0 factorization, Woodbury blocks, and the
     !> initial acceleration M a0 = L - B(u0) for the Newmark family.
     subroutine implicit_init(this, mdl, prm, st, stat, errmsg)
-        use model, only: model_stiff_theta_values
+        use model, only: model_stiff_theta_values, model_mass_definite
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(scheme_params_t), intent(in) :: prm            !! parameters (kind: an implicit one)
@@ -262,6 +263,11 @@ contains
             call mass_solver_free(ms)
             if (stat /= STAT_OK) return
         else
+            ! M is not factorized: its definiteness (redistributed mass) is checked alone,
+            ! in J0's factors, whose factorization then reuses the check's analysis (the
+            ! same pattern: the model's)
+            call model_mass_definite(mdl, stat, errmsg, this%lu0%ch)
+            if (stat /= STAT_OK) return
             st%a = 0.0_dp
         end if
         ! the first step's predictor u~ and M (u0 - u~)
@@ -274,7 +280,7 @@ contains
         call ls_configure(this%lu0, prm%solver_kind, mdl%dim, prm%cg_rtol, prm%cg_max_iter)
         call ls_factor(this%lu0, mdl%stiff, stat, errmsg, val=this%jac0)
         if (stat /= STAT_OK) return
-        if (this%lu0%backend /= BACKEND_PCG) this%factorizations = this%factorizations + 1
+        call count_lu0(this)      ! 1, or 0 when CG runs
         ! the step's vectors, allocated after J0's factorization: not held at its peak
         allocate (this%r(n), this%dx(n), this%x(n), this%scratch(n))
 
@@ -314,6 +320,7 @@ contains
         if (this%all_columns .and. this%m > 0) then
             call zcache_ensure_all(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
                                    stat, errmsg)
+            call count_lu0(this)
             if (stat /= STAT_OK) return
         end if
         ! zcache_ensure_all on an empty cache: slot l holds column l, w(:, 1:m) is W
@@ -499,6 +506,27 @@ contains
         type(state_t), intent(inout) :: st                  !! state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        call step_solves(this, mdl, st, stat, errmsg)
+        call count_lu0(this)
+    end subroutine implicit_step
+
+    !> Add to the scheme's factorizations those of J0's factors not counted yet: the
+    !> direct factorization when CG meets a curvature <= 0 and falls back to it
+    !> (linear_solver's cg_fall_back, in any solve with lu0: the step's, the contact
+    !> columns') is counted by the factors alone.
+    pure subroutine count_lu0(this)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        this%factorizations = this%factorizations + this%lu0%factorizations - this%lu0_counted
+        this%lu0_counted = this%lu0%factorizations
+    end subroutine count_lu0
+
+    !> The step of implicit_step (its solves with lu0 counted there).
+    subroutine step_solves(this, mdl, st, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        type(state_t), intent(inout) :: st                  !! state
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: e_pen, e_theta, cb, kb
         integer :: it, active
         logical :: flight, moved
@@ -549,7 +577,7 @@ contains
         st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
         st%clear = flight       ! (u' = x on the contact-cell dofs: the probe reads it)
         st%t = st%t + this%dt
-    end subroutine implicit_step
+    end subroutine step_solves
 
     !> Whether Z T goes on the node basis at this step: zt_basis and fewer nonzero
     !> coefficients in tau than in T.

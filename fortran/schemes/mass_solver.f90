@@ -7,9 +7,10 @@
 module mass_solver
     use kinds, only: dp
     use errors, only: STAT_OK
-    use sparse, only: csc_t, csc_drop_zeros, csc_from_coo
-    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel
-    use model, only: model_t
+    use sparse, only: csc_t, csc_drop_zeros
+    use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, &
+                             BACKEND_CHOLMOD
+    use model, only: model_t, model_mass_definite, model_scalar_mass
     implicit none
     private
 
@@ -33,7 +34,11 @@ contains
 
     !> Prepare M^{-1}: factorizes a consistent M (one factorization). Dofs without
     !> inertia (redistributed mass: zero rows and columns) get a unit diagonal, so the
-    !> rest is solved exactly and x = 0 there.
+    !> rest is solved exactly and x = 0 there. A redistributed M is refused here when it
+    !> is not positive definite (model_mass_definite's STAT_BAD_INPUT): an LDL^T of it
+    !> that succeeds proves it definite (every pivot > 0); where the LDL^T did not run or
+    !> did not succeed (LU instead: not symmetric, or a pivot <= 0), model_mass_definite
+    !> decides.
     subroutine mass_solver_init(ms, mdl, stat, errmsg)
         type(mass_solver_t), intent(inout) :: ms            !! solver
         type(model_t), intent(in) :: mdl                    !! model
@@ -76,41 +81,27 @@ contains
             else
                 call ls_factor(ms%lu, ms%mass, stat, errmsg)
             end if
+            if (mdl%redistributed) call settle_definite()
         end if
 
     contains
 
-        !> S from the node blocks of M (block k of row group g of K_theta's block pattern
-        !> holds mass_s(k) I).
+        !> A redistributed M whose LDL^T did not run or did not succeed: model_mass_definite
+        !> decides (its refusal replaces the factorization's status).
+        subroutine settle_definite()
+            integer :: st
+            if (stat == STAT_OK .and. ms%lu%backend == BACKEND_CHOLMOD) return
+            call model_mass_definite(mdl, st, errmsg)
+            if (st /= STAT_OK) stat = st
+        end subroutine settle_definite
+
+        !> S from the node blocks of M (model_scalar_mass), and the right-hand sides' and
+        !> solutions' arrays.
         subroutine scalar_mass(st)
             integer, intent(out) :: st   !! status
-            integer, allocatable :: grp(:), rows(:), cols(:), bfirst(:), row_ptr(:), col1(:)
-            integer :: g, k, ng, nc
-            ! (M's blocks are mass_s on K_theta's block pattern; model's block_copy)
-            if (mdl%dim == 3) then
-                bfirst = mdl%stiff_theta_b3%first
-                row_ptr = mdl%stiff_theta_b3%row_ptr
-                col1 = mdl%stiff_theta_b3%col1
-                nc = 3
-            else
-                bfirst = mdl%stiff_theta_b%first
-                row_ptr = mdl%stiff_theta_b%row_ptr
-                col1 = mdl%stiff_theta_b%col1
-                nc = 2
-            end if
-            ng = size(bfirst) - 1
-            ms%first = bfirst(1:ng)
-            allocate (grp(mdl%n_dofs), rows(size(mdl%mass_s)), cols(size(mdl%mass_s)), &
-                      ms%bs(ng, nc), ms%xs(ng, nc))
-            grp = 0
-            grp(ms%first) = [(g, g = 1, ng)]
-            do g = 1, ng
-                do k = row_ptr(g), row_ptr(g + 1) - 1
-                    rows(k) = g
-                    cols(k) = grp(col1(k))
-                end do
-            end do
-            call csc_from_coo(ng, rows, cols, mdl%mass_s, ms%s, st, errmsg)
+            call model_scalar_mass(mdl, ms%s, ms%first, st, errmsg)
+            if (st /= STAT_OK) return
+            allocate (ms%bs(size(ms%first), mdl%dim), ms%xs(size(ms%first), mdl%dim))
         end subroutine scalar_mass
     end subroutine mass_solver_init
 
