@@ -481,11 +481,14 @@ def new_figure(nrows: int, ncols: int, width: float = 4.0, height: float = 3.2):
     return fig, axes
 
 
-def save_figure(fig, path: str, top: float = 1.0) -> str:
-    """Save and close; ``top`` < 1 leaves room for a suptitle."""
+def save_figure(fig, path: str, top: float = 1.0,
+                rect: tuple[float, float, float, float] | None = None) -> str:
+    """Save and close; ``top`` < 1 leaves room for a suptitle, ``rect`` (the axes' box in
+    figure fractions, in place of ``top``) for a legend beside them. An error names the
+    file (the image writer's own do not)."""
     import matplotlib.pyplot as plt
 
-    fig.tight_layout(rect=(0, 0, 1, top))
+    fig.tight_layout(rect=rect or (0, 0, 1, top))
     try:
         fig.savefig(path, dpi=110)
     except OSError as exc:   # the image writer's errors do not name the file

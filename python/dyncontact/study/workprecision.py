@@ -54,8 +54,8 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .analyses import rms_in_time
-from .common import (SCHEMES, fmt, md_table, new_figure, step_ratio, study_folder,
-                     write_base_scenes, write_csv, write_markdown)
+from .common import (SCHEMES, fmt, md_table, new_figure, save_figure, step_ratio,
+                     study_folder, write_base_scenes, write_csv, write_markdown)
 from .sweep import Task, make_task, sweep
 
 __all__ = ["run_work_precision", "QUANTITIES", "DEFAULT_SERIES", "REFERENCES",
@@ -532,14 +532,7 @@ def _plot(rows, series, ref_info, path):
     seen.update({a: b for a, b in zip(lab2, h2) if a not in seen})
     fig.legend(list(seen.values()), list(seen.keys()), loc="center right", fontsize=7,
                title="open circle: not resolved by the reference", title_fontsize=7)
-    fig.tight_layout(rect=(0, 0, 0.82, 1))
-    try:
-        fig.savefig(path, dpi=110)
-    except OSError as exc:   # the image writer's errors do not name the file
-        raise OSError(exc.errno, exc.strerror or str(exc), path) from exc
-    finally:
-        plt.close(fig)
-    return path
+    return save_figure(fig, path, rect=(0, 0, 0.82, 1))
 
 
 def _pn_note(ref) -> str:
