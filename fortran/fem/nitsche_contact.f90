@@ -428,7 +428,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: penalty            !! penalty contact (default .false.)
-        integer :: dim, nf, f, c, j, a, kk, nloc, ndof_e, i
+        integer :: dim, nf, f, c, j, a, kk, nloc, ndof_e, i, nown
         integer, allocatable :: first(:), adj(:)
         real(dp) :: grad(msh%dim, msh%dim + 1), xe(msh%dim, msh%dim + 1), gn, xq(6), e1(3), e2(3)
         stat = STAT_OK
@@ -456,28 +456,26 @@ contains
         call node_cells(msh, first, adj)
         do f = 1, nf
             ct%nodes(:, f) = msh%facets(:, facets(f))
+            ! the cells that have the facet as a face: exactly one (its owner); a facet of
+            ! two cells lies inside the body, where it cannot touch the obstacle
             ct%cell(f) = 0
+            nown = 0
             do i = first(ct%nodes(1, f)), first(ct%nodes(1, f) + 1) - 1
                 c = adj(i)
                 if (all([(any(msh%cells(:, c) == ct%nodes(j, f)), j=1, dim)])) then
-                    ct%cell(f) = c
-                    exit
+                    if (nown == 0) ct%cell(f) = c
+                    nown = nown + 1
                 end if
             end do
-            if (ct%cell(f) == 0) then
+            if (nown == 0) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, 'a contact facet belongs to no cell')
                 return
+            else if (nown > 1) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, 'a contact facet lies inside '// &
+                           'the body (it is a face of two cells): the contact boundary '// &
+                           'must be on the body''s boundary')
+                return
             end if
-            ! a facet of two cells lies inside the body: it cannot touch the obstacle
-            do i = i + 1, first(ct%nodes(1, f) + 1) - 1
-                c = adj(i)
-                if (all([(any(msh%cells(:, c) == ct%nodes(j, f)), j=1, dim)])) then
-                    call raise(stat, errmsg, STAT_BAD_INPUT, 'a contact facet lies inside '// &
-                               'the body (it is a face of two cells): the contact boundary '// &
-                               'must be on the body''s boundary')
-                    return
-                end if
-            end do
             c = ct%cell(f)
             xe = msh%x(:, msh%cells(:, c))
             call p1_gradients(dim, xe, grad)
