@@ -226,6 +226,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         type(scheme_params_t) :: sprm
+        character(len=:), allocatable :: unsafe
         sprm = scheme_params(sim%scn)
         select case (sprm%kind)
         case (SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED)
@@ -252,17 +253,17 @@ contains
             ! the estimate is the linear limit at full contact: measured, it is not a safe
             ! bound with Nitsche theta = -1 or 0, nor in 1D whatever the contact (docs/
             ! numerics.md, "Central differences")
+            unsafe = 'warning: &scheme dt = 0 picks at most 0.9 x the estimated critical '// &
+                     'step, not a safe bound'
             if (sim%mdl%has_contact .and. trim(sim%scn%contact_method) == 'nitsche' .and. &
                 sim%scn%nitsche_theta /= 1) then
-                sim%mdl%notes = trim(sim%mdl%notes)// &
-                'warning: &scheme dt = 0 picks at most 0.9 x the estimated critical step, not'// &
-                ' a safe bound with &contact theta = '//int_text(sim%scn%nitsche_theta)// &
+                sim%mdl%notes = trim(sim%mdl%notes)//unsafe// &
+                ' with &contact theta = '//int_text(sim%scn%nitsche_theta)// &
                 ' (measured up to 1.3x above the limit at gamma0 = 10, far more at small gamma0:'// &
                 ' docs/numerics.md); give dt or use theta = 1'//new_line('a')
             else if (sim%mdl%has_contact .and. sim%mdl%dim == 1) then
-                sim%mdl%notes = trim(sim%mdl%notes)// &
-                'warning: &scheme dt = 0 picks at most 0.9 x the estimated critical step, not'// &
-                ' a safe bound in 1D (on the 1D bar e_total + e_contact grows 7-10x by t = 15'// &
+                sim%mdl%notes = trim(sim%mdl%notes)//unsafe// &
+                ' in 1D (on the 1D bar e_total + e_contact grows 7-10x by t = 15'// &
                 ' and some runs go unstable; up to 3x at 0.8 x, 1.17x at 0.7 x: docs/'// &
                 'numerics.md); give dt'//new_line('a')
             end if
