@@ -375,15 +375,11 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         # Relative output folders count from the current folder, for both entry points;
         # the core gets the folder as given, so that summary.json records it as the
         # executable does.
-        given = os.fsdecode(out)
-        if not given.strip():
-            raise BadInputError(f"{'out' if explicit_out else 'restart'}: empty folder name")
+        given = _folder_arg(out, "out" if explicit_out else "restart")
         out_dir = os.path.abspath(given)
         start = 0
         if restart is not None:
-            given = os.fsdecode(restart)
-            if not given.strip():
-                raise BadInputError("restart: empty folder name")
+            given = _folder_arg(restart, "restart")
             restart_dir = os.path.abspath(given)
             if explicit_out and not _same_folder(restart_dir, out_dir):
                 raise BadInputError(f"restart={os.fspath(restart)!r} continues the run in that "
@@ -433,6 +429,15 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         raise
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _folder_arg(path, what: str) -> str:
+    """A folder argument (str, bytes or path) as text, as the core gets it; an empty one
+    is refused (BadInputError naming ``what``), as the command line refuses --out ''."""
+    text = os.fsdecode(path)
+    if not text.strip():
+        raise BadInputError(f"{what}: empty folder name")
+    return text
 
 
 def _same_folder(a: str, b: str) -> bool:
@@ -560,9 +565,7 @@ class Model:
                 path = _write_scene(scene, self._tmp)
             out = b""
             if _out is not None:   # as given, as the executable records it in summary.json
-                if not os.fsdecode(_out).strip():
-                    raise BadInputError("out: empty folder name")
-                out = _fpath(os.fsdecode(_out), "output folder")
+                out = _fpath(_folder_arg(_out, "out"), "output folder")
             (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
              errmsg) = _core().dc_sim_open(_fpath(path, "scene file"), out,
                                            1 if _out is None else 0)
