@@ -52,8 +52,8 @@ def test_memory_columns_are_computed_as_documented(tmp_path, monkeypatch):
         # the trivial scene (the strip with contact, coarsest mesh, 0 steps; the smallest
         # of its runs) is below a run on a finer mesh (the largest of its runs). The rows
         # are at h = 0.01, whose matrices and factor (model_mb 1.8 MB) put their peaks
-        # ~2 MB above it: at h = 0.05 the difference (tens of kB) was below the peaks'
-        # run-to-run spread (0.35 MB measured), and the comparison failed by chance
+        # ~2 MB above it: at h = 0.05 the difference (tens of kB) is below the peaks'
+        # run-to-run spread (0.35 MB measured), where the comparison would fail by chance
         assert 0.0 < r["base_mb"]
         assert r["base_mb"] <= r["peak_mb"]
     with open(tmp_path / "scaling.csv", encoding="utf-8") as f:
