@@ -3,10 +3,11 @@
 !> (u1x, u1y, u2x, u2y, ...) in 2D, (u1x, u1y, u1z, u2x, ...) in 3D.
 module fe_p1
     use kinds, only: dp
+    use simplex_geometry, only: simplex_measure, simplex_edges, det3, cross
     implicit none
     private
 
-    public :: p1_gradients, p1_measure, p1_diameter, p1_stiffness, p1_mass, p1_lame
+    public :: p1_gradients, p1_stiffness, p1_mass, p1_lame
 
 contains
 
@@ -19,43 +20,6 @@ contains
         lambda = young * poisson / ((1.0_dp + poisson) * (1.0_dp - 2.0_dp * poisson))
         mu = young / (2.0_dp * (1.0_dp + poisson))
     end subroutine p1_lame
-
-    !> Signed measure of the cell: length in 1D, (signed) area in 2D, (signed) volume
-    !> in 3D (positive when the edges from node 1 form a right-handed frame).
-    pure function p1_measure(dim, xe) result(m)
-        integer, intent(in) :: dim          !! 1, 2 or 3
-        real(dp), intent(in) :: xe(:, :)    !! (dim, dim+1) node coordinates
-        real(dp) :: m
-        if (dim == 1) then
-            m = xe(1, 2) - xe(1, 1)
-        else if (dim == 3) then
-            m = det3(edge_matrix(xe)) / 6.0_dp
-        else
-            m = 0.5_dp * ((xe(1, 2) - xe(1, 1)) * (xe(2, 3) - xe(2, 1)) &
-                          - (xe(1, 3) - xe(1, 1)) * (xe(2, 2) - xe(2, 1)))
-        end if
-    end function p1_measure
-
-    !> Diameter (longest edge) of the cell.
-    pure function p1_diameter(dim, xe) result(d)
-        integer, intent(in) :: dim          !! 1, 2 or 3
-        real(dp), intent(in) :: xe(:, :)    !! (dim, dim+1) node coordinates
-        real(dp) :: d
-        integer :: a, b
-        if (dim == 1) then
-            d = abs(xe(1, 2) - xe(1, 1))
-        else if (dim == 3) then
-            d = 0.0_dp
-            do a = 1, 4
-                do b = a + 1, 4
-                    d = max(d, norm2(xe(:, b) - xe(:, a)))
-                end do
-            end do
-        else
-            d = max(norm2(xe(:, 2) - xe(:, 1)), norm2(xe(:, 3) - xe(:, 2)), &
-                    norm2(xe(:, 1) - xe(:, 3)))
-        end if
-    end function p1_diameter
 
     !> Gradients of the dim+1 shape functions (constant on the cell); either
     !> orientation. grad(:, a) = grad phi_a.
@@ -71,14 +35,14 @@ contains
         else if (dim == 3) then
             ! grad phi_{a+1} = row a of J^-1, J = [x2 - x1, x3 - x1, x4 - x1] (columns):
             ! J^-1 = cofactor^T / det J; the rows are cross products of J's columns
-            e = edge_matrix(xe)
+            e = simplex_edges(xe)
             det = det3(e)
             grad(:, 2) = cross(e(:, 2), e(:, 3)) / det
             grad(:, 3) = cross(e(:, 3), e(:, 1)) / det
             grad(:, 4) = cross(e(:, 1), e(:, 2)) / det
             grad(:, 1) = -(grad(:, 2) + grad(:, 3) + grad(:, 4))
         else
-            det = 2.0_dp * p1_measure(2, xe)
+            det = 2.0_dp * simplex_measure(2, xe)
             grad(:, 1) = [xe(2, 2) - xe(2, 3), xe(1, 3) - xe(1, 2)] / det
             grad(:, 2) = [xe(2, 3) - xe(2, 1), xe(1, 1) - xe(1, 3)] / det
             grad(:, 3) = [xe(2, 1) - xe(2, 2), xe(1, 2) - xe(1, 1)] / det
@@ -97,7 +61,7 @@ contains
         real(dp) :: grad(dim, dim + 1), area, bmat(3, 6), dmat(3, 3)
         integer :: a
         call p1_gradients(dim, xe, grad)
-        area = abs(p1_measure(dim, xe))
+        area = abs(simplex_measure(dim, xe))
         if (dim == 1) then
             ke(:, 1) = young * area * grad(1, 1) * grad(1, :)
             ke(:, 2) = young * area * grad(1, 2) * grad(1, :)
@@ -130,7 +94,7 @@ contains
         real(dp) :: m, scalar(dim + 1, dim + 1)
         integer :: a, b, k, nn
         nn = dim + 1
-        m = density * abs(p1_measure(dim, xe))
+        m = density * abs(simplex_measure(dim, xe))
         if (lumped) then
             scalar = 0.0_dp
             do a = 1, nn
@@ -184,28 +148,4 @@ contains
         end do
         ke = vol * matmul(transpose(bmat), matmul(dmat, bmat))
     end subroutine tet_stiffness
-
-    !> Edges from node 1 as columns: [x2 - x1, x3 - x1, x4 - x1].
-    pure function edge_matrix(xe) result(e)
-        real(dp), intent(in) :: xe(:, :)     !! (3, 4) node coordinates
-        real(dp) :: e(3, 3)
-        e(:, 1) = xe(:, 2) - xe(:, 1)
-        e(:, 2) = xe(:, 3) - xe(:, 1)
-        e(:, 3) = xe(:, 4) - xe(:, 1)
-    end function edge_matrix
-
-    !> Determinant of a 3x3 matrix (triple product of its columns).
-    pure function det3(e) result(d)
-        real(dp), intent(in) :: e(3, 3)      !! matrix
-        real(dp) :: d
-        d = dot_product(e(:, 1), cross(e(:, 2), e(:, 3)))
-    end function det3
-
-    !> Cross product a x b.
-    pure function cross(a, b) result(c)
-        real(dp), intent(in) :: a(3)         !! first vector
-        real(dp), intent(in) :: b(3)         !! second vector
-        real(dp) :: c(3)
-        c = [a(2) * b(3) - a(3) * b(2), a(3) * b(1) - a(1) * b(3), a(1) * b(2) - a(2) * b(1)]
-    end function cross
 end module fe_p1

@@ -5,7 +5,8 @@ module model
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets, mesh_parts
-    use fe_p1, only: p1_lame, p1_stiffness, p1_mass, p1_measure
+    use fe_p1, only: p1_lame, p1_stiffness, p1_mass
+    use simplex_geometry, only: simplex_measure
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_find, csc_matvec_t_values, csc_swap_values, block2_csc_values, &
                       csc_from_coo, &
@@ -324,7 +325,7 @@ contains
                     mdl%mass_val(i) = mdl%mass_val(i) + me(a, b)
                 end do
             end do
-            vol = abs(p1_measure(dim, xe(1:dim, 1:dim + 1)))
+            vol = abs(simplex_measure(dim, xe(1:dim, 1:dim + 1)))
             do a = 1, dim + 1
                 do j = 1, dim
                     i = cd(dim * (a - 1) + j)

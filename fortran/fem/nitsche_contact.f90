@@ -24,7 +24,8 @@ module nitsche_contact
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
     use mesh, only: mesh_t
-    use fe_p1, only: p1_gradients, p1_diameter
+    use fe_p1, only: p1_gradients
+    use simplex_geometry, only: simplex_diameter
     implicit none
     private
 
@@ -479,7 +480,7 @@ contains
             c = ct%cell(f)
             xe = msh%x(:, msh%cells(:, c))
             call p1_gradients(dim, xe, grad)
-            ct%gamma(f) = gamma0 / p1_diameter(dim, xe)
+            ct%gamma(f) = gamma0 / simplex_diameter(dim, xe)
             if (dim == 1) then
                 ct%measure(f) = 1.0_dp
             else if (dim == 3) then

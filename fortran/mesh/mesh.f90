@@ -3,6 +3,7 @@
 module mesh
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp
+    use simplex_geometry, only: simplex_measure, simplex_diameter
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
     implicit none
     private
@@ -221,38 +222,17 @@ contains
         end if
     end subroutine check_sizes
 
-    !> Signed measure (length in 1D, area in 2D, volume in 3D) and longest edge of cell `c`.
+    !> Signed measure (length in 1D, area in 2D, volume in 3D) and longest edge of cell `c`,
+    !> the same numbers as the element kernels' (simplex_geometry).
     pure subroutine mesh_cell_size(this, c, meas, hmax)
         type(mesh_t), intent(in) :: this   !! mesh (nodes of cell c must be in range)
         integer, intent(in) :: c           !! cell index
         real(dp), intent(out) :: meas      !! signed length (1D), area (2D, > 0 counter-clockwise), volume (3D)
         real(dp), intent(out) :: hmax      !! longest edge (diameter) of the cell
-        real(dp) :: a(2), b(2), p(2), e(3, 4)
-        integer :: i, j
-        if (this%dim == 1) then
-            meas = this%x(1, this%cells(2, c)) - this%x(1, this%cells(1, c))
-            hmax = abs(meas)
-        else if (this%dim == 3) then
-            do i = 1, 4
-                e(:, i) = this%x(:, this%cells(i, c))
-            end do
-            hmax = 0.0_dp
-            do i = 1, 4
-                do j = i + 1, 4
-                    hmax = max(hmax, norm2(e(:, j) - e(:, i)))
-                end do
-            end do
-            e(:, 2:4) = e(:, 2:4) - spread(e(:, 1), 2, 3)
-            meas = (e(1, 2) * (e(2, 3) * e(3, 4) - e(3, 3) * e(2, 4)) &
-                    - e(2, 2) * (e(1, 3) * e(3, 4) - e(3, 3) * e(1, 4)) &
-                    + e(3, 2) * (e(1, 3) * e(2, 4) - e(2, 3) * e(1, 4))) / 6.0_dp
-        else
-            p = this%x(:, this%cells(1, c))
-            a = this%x(:, this%cells(2, c)) - p
-            b = this%x(:, this%cells(3, c)) - p
-            meas = 0.5_dp * (a(1) * b(2) - a(2) * b(1))
-            hmax = max(norm2(a), norm2(b), norm2(b - a))
-        end if
+        real(dp) :: xe(this%dim, this%dim + 1)
+        xe = this%x(:, this%cells(:, c))
+        meas = simplex_measure(this%dim, xe)
+        hmax = simplex_diameter(this%dim, xe)
     end subroutine mesh_cell_size
 
     !> For every facet, a cell that has it as a face and the local number
