@@ -23,7 +23,9 @@ fields (dyncontact.core.Stepper's state), the assembled matrices and the mesh:
   for bit;
 - summary.json's counters: newton_its_total against the sum of the trace's per-step
   newton_its, factorizations against the factorizations each scheme makes (J0 once, M
-  once when not lumped), steps and t_end_reached against the run.
+  once when not lumped, the θ-scheme's definiteness check of a redistributed mass once;
+  tests/test_factorization_count.py counts the calls to CHOLMOD and UMFPACK), steps and
+  t_end_reached against the run.
 
 The runs: a short bar (1D, 2D, 3D) thrown with velocity 1 and gravity onto a plane
 obstacle, tilted in 2D and 3D so the contact starts at a corner, spreads, cuts facets
@@ -504,14 +506,16 @@ def test_carried_quantities_every_step(case, tmp_path):
     else:
         assert np.all(trace["newton_its"][1:] >= 1)
     # factorizations: J0 once (implicit, direct solver), M once unless lumped (explicit
-    # schemes, and the Newmark family's initial acceleration); a CG that fell back to a
-    # direct factorization would add it (implicit_schemes' count_lu0; the factors' count
+    # schemes, and the Newmark family's initial acceleration), the θ-scheme's check that
+    # a redistributed M is definite once (of S or M, direct whatever the solver); a CG
+    # that fell back to a direct factorization would add it (implicit_schemes' count_lu0; the factors' count
     # of it: test_solver_cg), which J0, positive definite in every accepted scene, never
     # makes here (no note says so)
     if solver == "cg":
         assert summary["solver_note"] == "", summary["solver_note"]
     expected = (0 if explicit or solver == "cg" else 1) + (
-        0 if mass == "lumped" or family == "theta" else 1)
+        0 if mass == "lumped" or family == "theta" else 1) + (
+        1 if family == "theta" and mass == "redistributed" else 0)
     assert summary["factorizations"] == expected, (summary["factorizations"], expected)
     if solver == "cg":
         # one J0 solve a step at least (y0), each of at least one iteration

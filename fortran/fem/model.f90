@@ -525,11 +525,14 @@ contains
     !> `keep`, M's factorization is made in it and left there: its symbolic analysis (the
     !> orderings tried, most of the cost in 2D) is that of every matrix on the model's
     !> pattern, which the next chol_factor of J0 = M + c K_theta with it then reuses.
-    subroutine model_mass_definite(mdl, stat, errmsg, keep)
+    !> With `factorizations`, the check's factorization (of S or M) is added to it when
+    !> it succeeds, as a scheme counts its own.
+    subroutine model_mass_definite(mdl, stat, errmsg, keep, factorizations)
         type(model_t), intent(in) :: mdl                    !! model
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         type(cholmod_t), intent(inout), optional :: keep    !! factors (replaced; kept)
+        integer, intent(inout), optional :: factorizations  !! a scheme's count (+1 if factorized)
         real(dp), allocatable :: val(:)
         type(cholmod_t) :: ch
         type(csc_t) :: sm
@@ -576,6 +579,7 @@ contains
                 call chol_free(ch)
             end if
         end if
+        if (st == STAT_OK .and. present(factorizations)) factorizations = factorizations + 1
         if (st == STAT_NUMERIC) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(mdl%name)//': &scheme mass: '// &
                        'mass redistribution: the mass matrix it gives '// &

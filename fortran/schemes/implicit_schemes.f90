@@ -265,8 +265,8 @@ contains
         else
             ! M is not factorized: its definiteness (redistributed mass) is checked alone,
             ! in J0's factors, whose factorization then reuses the check's analysis (the
-            ! same pattern: the model's)
-            call model_mass_definite(mdl, stat, errmsg, this%lu0%ch)
+            ! same pattern: the model's); the check's factorization (of S or M) is counted
+            call model_mass_definite(mdl, stat, errmsg, this%lu0%ch, this%factorizations)
             if (stat /= STAT_OK) return
             st%a = 0.0_dp
         end if
