@@ -102,7 +102,6 @@ def test_sweep_counts_only_real_cache_hits(tmp_path):
 # --------------------------------------------------------------------------- mesh
 
 @pytest.mark.parametrize("out, words", [
-    ("/proc/m.msh", ("/proc/m.msh", "cannot write")),      # not a gmsh traceback (exit 1)
     ("m.txt", ("--out", ".msh")),                           # not a gmsh traceback (exit 1)
     ("missing/m.msh", ("--out", "no folder missing")),      # not created silently
     ("./", ("--out", ".msh")),
@@ -113,6 +112,56 @@ def test_mesh_out_is_refused_in_one_line(run_cli, tmp_path, out, words):
     for w in words:
         assert w in line, line
     assert sorted(os.listdir(tmp_path)) == []
+
+
+#: File-size limit (bytes) of the test below: the mesh at h = 0.02 (250 nodes, ~1000
+#: lines of ASCII .msh) is some 20 kB; the limit cuts it short.
+MESH_FSIZE_LIMIT = 4096
+
+
+@pytest.mark.parametrize("where", ["unopenable", "size_limit"])
+def test_mesh_that_cannot_be_written_exits_4_naming_the_file(run_cli, tmp_path, where):
+    """A mesh file gmsh cannot write is an output that cannot be written: exit 4, as a
+    run's trace (docs/scenes.md, *Exit codes*), one line naming the file; not exit 2 (bad
+    input). Either gmsh cannot open it (a file under /proc: a folder that exists, where
+    no file can be made) or the write is cut short (a file-size limit, as a full disk:
+    gmsh reports nothing and leaves a truncated file, which is removed). The Python CLI
+    sets the limit after its import (the editable install's rebuild check writes the
+    build log); Python ignores SIGXFSZ, so the write fails with EFBIG."""
+    import sys
+
+    if where == "unopenable":
+        out = "/proc/m.msh"
+        res = run_cli("mesh", "--h", "0.1", "--out", out, cwd=tmp_path)
+        words = (out, "cannot write")
+    else:
+        out = str(tmp_path / "m.msh")
+        code = ("import resource, sys\nfrom dyncontact.cli import main\n"
+                f"resource.setrlimit(resource.RLIMIT_FSIZE, ({MESH_FSIZE_LIMIT}, "
+                f"{MESH_FSIZE_LIMIT}))\n"
+                f"sys.exit(main(['mesh', '--h', '0.02', '--out', {out!r}]))")
+        res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                             text=True, timeout=SUBPROCESS_TIMEOUT)
+        words = (out, "could not write it whole", "File too large")
+    line = _one_line(res, 4, "dyncontact mesh: ")
+    for w in words:
+        assert w in line, line
+    assert sorted(os.listdir(tmp_path)) == []      # no partial mesh left
+
+
+def test_mesh_the_reader_refuses_is_bad_input_and_left_whole(run_cli, tmp_path):
+    """A mesh that gmsh wrote whole but the reader refuses (quadrangles) is bad input,
+    not a write cut short: exit 2, and the file is left byte for byte as gmsh writes it
+    (the check's probe byte removed again)."""
+    from dyncontact import mesh_io
+
+    geo = tmp_path / "quads.geo"
+    geo.write_text((ROOT / "meshes" / "bar2d.geo").read_text() + "\nRecombine Surface{1};\n")
+    line = _one_line(run_cli("mesh", "--geo", geo, "--h", "0.05", "--out", "q.msh",
+                             cwd=tmp_path), 2, "dyncontact mesh: ")
+    assert "not a linear simplex" in line, line
+    ref = mesh_io.generate(geo, tmp_path / "ref" / "q.msh", h=0.05)
+    assert (tmp_path / "q.msh").read_bytes() == ref.read_bytes()
 
 
 # --------------------------------------------------------------------------- bench

@@ -40,7 +40,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .core import BadInputError
+from .core import BadInputError, DyncontactError
 
 __all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
            "generate", "find_geo", "main"]
@@ -225,6 +225,15 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float 
     -------
     Path
         `out_path`.
+
+    Raises
+    ------
+    BadInputError
+        A size not > 0, no such .geo, or gmsh cannot mesh it.
+    DyncontactError
+        gmsh cannot write `out_path` (nothing is left under that name). A write cut
+        short midway gmsh does not report: ``dyncontact mesh`` finds it when it reads
+        the file back.
     """
     _check_sizes("generate", h=h, length=length, width=width)
     geo = Path(geo_path)
@@ -257,8 +266,34 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float 
         try:
             gmsh.write(str(out))
         except Exception as exc:   # gmsh raises a bare Exception with its last error
-            raise BadInputError(f"{out}: gmsh cannot write it: {exc}") from None
+            _discard(out)
+            raise DyncontactError(f"{out}: gmsh cannot write it: {exc}") from None
     return out
+
+
+def _discard(out: Path) -> None:
+    """Remove a partly written output file, if any."""
+    with contextlib.suppress(OSError):
+        out.unlink()
+
+
+def _cut_short(out: Path) -> str | None:
+    """Why the write of `out` was cut short, or None if nothing says it was. gmsh does
+    not report a write that fails midway (a full disk, a file-size limit such as
+    ``ulimit -f``): it leaves a truncated file, which then does not read back. The
+    system's answer to one more byte appended to that file gives the reason; a byte
+    that is written is removed again (the file is the mesh gmsh wrote, whole)."""
+    try:
+        size = out.stat().st_size
+        with open(out, "ab") as f:
+            f.write(b"\n")
+            f.flush()
+            os.fsync(f.fileno())
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    with contextlib.suppress(OSError):
+        os.truncate(out, size)
+    return None
 
 
 def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
@@ -343,9 +378,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m dyncontact mesh --h 0.02 --out meshes/bar2d_h0.02.msh``.
 
-    Returns the exit status: 0, or 2 on bad input (message on stderr). ``--out`` must
-    end in ``.msh`` and its folder must exist: a command that writes one file does not
-    create folders a typo named (the API's :func:`generate` does create them).
+    Returns the exit status: 0, 2 on bad input, or 4 when the mesh file cannot be
+    written (as a run's output: docs/scenes.md, *Exit codes*); one line on stderr naming
+    the file. ``--out`` must end in ``.msh`` and its folder must exist: a command that
+    writes one file does not create folders a typo named (the API's :func:`generate`
+    does create them).
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "mesh":
@@ -359,10 +396,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:
             out = generate(args.geo, args.out, h=args.h, length=args.length,
                            width=args.width, **fmt)
-        mesh = read_mesh(out, check=False)
+        try:
+            mesh = read_mesh(out, check=False)
+        except BadInputError:
+            reason = _cut_short(out)
+            if reason is None:
+                raise
+            _discard(out)
+            raise DyncontactError(f"{out}: gmsh could not write it whole: {reason}") \
+                from None
     except (BadInputError, OSError) as exc:
         print(f"dyncontact mesh: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
+    except DyncontactError as exc:      # the mesh file could not be written
+        print(f"dyncontact mesh: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 4
     if not args.quiet:
         print(f"dyncontact mesh: wrote {out}: {_summary(mesh)}")
     return 0
