@@ -19,8 +19,11 @@
 !>
 !> The cache holds at most `budget` bytes besides the groups used at the current step:
 !> when it exceeds it, the groups least recently used (before the current step) are
-!> dropped, and computed again, to the same numbers, if needed again. Nothing here is
-!> state of the simulation: a restart starts from an empty cache.
+!> dropped, and computed again, to the same numbers, if needed again. A checkpoint keeps
+!> the cache's layout, not its numbers (zcache_save: the groups held and the step each was
+!> last needed, the basis columns' slots, the counters; a few integers a group): a
+!> restarted run solves the groups held again before its first step (zcache_restore, to
+!> the same bits) and then holds, drops and solves what the run never stopped does.
 !>
 !> Besides the columns of Z, the cache can hold combined columns Z b_k = sum_e c_e Z(:, l_e)
 !> of fixed vectors b_k on the contact-cell dofs (the implicit schemes' node basis: a
@@ -38,6 +41,7 @@
 module contact_columns
     use kinds, only: dp, i8
     use errors, only: STAT_OK
+    use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use sparse, only: csc_t
     use linear_solver, only: factor_t, ls_solve_many
     implicit none
@@ -78,11 +82,18 @@ module contact_columns
         integer, allocatable :: brange(:, :)      !! (2, bcap) its rows applied (first, last)
         integer, allocatable :: bowner(:)         !! (bcap) basis vector held in a slot, 0: free
         integer, allocatable :: blast(:)          !! (basis vectors) the step that last needed it
+        logical :: restore_due = .false.          !! a checkpoint's layout waits for zcache_restore
+        integer, allocatable :: restore_glast(:)  !! (groups) its glast
+        integer, allocatable :: restore_bowner(:) !! (its basis slots) its bowner
+        integer :: restore_computed = 0           !! its computed
+        integer :: restore_evicted = 0            !! its evicted
+        integer(i8) :: restore_peak = 0           !! its peak_bytes
     end type zcache_t
 
     public :: zcache_init, zcache_new_step, zcache_ensure, zcache_ensure_all, zcache_w_times, &
               zcache_add_w, zcache_add_z, zcache_free, zcache_basis_init, zcache_basis_ensure, &
-              zcache_add_basis
+              zcache_add_basis, zcache_save, zcache_load, zcache_restore, zcache_basis_reform, &
+              zcache_restore_finish
 
 contains
 
@@ -146,8 +157,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp), allocatable :: tmp(:, :)
         integer, allocatable :: itmp(:, :), otmp(:)
-        real(dp) :: cmax
-        integer :: s, e, cap, ncap, i
+        integer :: s, cap, ncap
         stat = STAT_OK
         zc%blast(k) = zc%step
         if (zc%bslot(k) > 0) return
@@ -168,6 +178,22 @@ contains
             s = cap + 1
         end if
         zc%bowner(s) = k
+        call zcache_basis_form(zc, s, cols, coef)
+        zc%bslot(k) = s
+        zc%bytes = zc%bytes + 8_i8 * zc%n
+        zc%peak_bytes = max(zc%peak_bytes, zc%bytes)
+        call evict(zc)
+    end subroutine zcache_basis_ensure
+
+    !> Form Z b_k = sum_e coef(e) Z(:, cols(e)) (e in order, cols(e) > 0 only) in basis
+    !> slot s and the range of its rows applied; the columns of Z it reads must be held.
+    pure subroutine zcache_basis_form(zc, s, cols, coef)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        integer, intent(in) :: s                     !! basis slot
+        integer, intent(in) :: cols(:)               !! the vector's contact-cell dofs (<= 0: none)
+        real(dp), intent(in) :: coef(:)              !! and its entries there
+        real(dp) :: cmax
+        integer :: e, i
         zc%zb(:, s) = 0.0_dp
         do e = 1, size(cols)
             if (cols(e) <= 0) cycle
@@ -188,11 +214,142 @@ contains
                 exit
             end if
         end do
-        zc%bslot(k) = s
-        zc%bytes = zc%bytes + 8_i8 * zc%n
-        zc%peak_bytes = max(zc%peak_bytes, zc%bytes)
-        call evict(zc)
-    end subroutine zcache_basis_ensure
+    end subroutine zcache_basis_form
+
+    !> Append the cache's layout to a checkpoint (see the module header): the step, the
+    !> counters, glast, and the basis columns' slots and steps.
+    pure subroutine zcache_save(zc, buf)
+        type(zcache_t), intent(in) :: zc             !! cache
+        type(byte_buffer_t), intent(inout) :: buf    !! checkpoint payload
+        call buf_put(buf, int(zc%step, i8))
+        call buf_put(buf, int(zc%computed, i8))
+        call buf_put(buf, int(zc%evicted, i8))
+        call buf_put(buf, zc%peak_bytes)
+        call buf_put(buf, zc%glast)
+        if (allocated(zc%bslot)) then
+            call buf_put(buf, int(size(zc%bowner), i8))
+            call buf_put(buf, zc%bowner)
+            call buf_put(buf, zc%blast)
+        else
+            call buf_put(buf, -1_i8)
+        end if
+    end subroutine zcache_save
+
+    !> Read what zcache_save wrote (buf%bad on a mismatch): the cache is emptied, takes
+    !> the step and counters, and keeps the layout for zcache_restore.
+    pure subroutine zcache_load(zc, buf)
+        type(zcache_t), intent(inout) :: zc          !! cache (zcache_init and basis_init done)
+        type(byte_buffer_t), intent(inout) :: buf    !! checkpoint payload
+        integer(i8) :: k(4), cap
+        integer :: j
+        call zcache_free(zc)
+        zc%restore_due = .false.
+        if (allocated(zc%restore_bowner)) deallocate (zc%restore_bowner)   ! (loaded twice)
+        do j = 1, 4
+            call buf_get(buf, k(j))
+        end do
+        if (any(k < 0) .or. any(k(1:3) > huge(1))) buf%bad = .true.
+        if (.not. allocated(zc%glast)) buf%bad = .true.
+        if (buf%bad) return
+        zc%step = int(k(1))
+        zc%restore_computed = int(k(2))
+        zc%restore_evicted = int(k(3))
+        zc%restore_peak = k(4)
+        zc%restore_glast = zc%glast
+        call buf_get(buf, zc%restore_glast)
+        if (any(zc%restore_glast < -1 .or. zc%restore_glast > zc%step)) buf%bad = .true.
+        call buf_get(buf, cap)
+        if (cap >= 0 .neqv. allocated(zc%bslot)) buf%bad = .true.
+        if (buf%bad) return
+        if (cap >= 0) then
+            if (cap > size(zc%bslot)) then
+                buf%bad = .true.
+                return
+            end if
+            allocate (zc%restore_bowner(cap))
+            call buf_get(buf, zc%restore_bowner)
+            call buf_get(buf, zc%blast)
+            if (any(zc%restore_bowner < 0 .or. zc%restore_bowner > size(zc%bslot))) &
+                buf%bad = .true.
+        end if
+        zc%restore_due = .not. buf%bad
+    end subroutine zcache_load
+
+    !> After zcache_load, before the first step: solve the groups the checkpoint's cache
+    !> held (each whole, as when first solved: the same bits), and make room for its
+    !> basis columns in the same slots. The caller then forms each of them
+    !> (zcache_basis_reform in every slot s with bowner(s) > 0: it knows the vectors) and
+    !> calls zcache_restore_finish. The solves are not counted (the counters are the
+    !> checkpoint's; the caller's solver counts are its to put back).
+    subroutine zcache_restore(zc, lu, a, val, cdofs, stat, errmsg)
+        type(zcache_t), intent(inout) :: zc          !! cache (zcache_load done)
+        type(factor_t), intent(inout) :: lu          !! factors of J0
+        type(csc_t), intent(in) :: a                 !! the pattern of J0 (the model's)
+        real(dp), intent(in) :: val(:)               !! (a%nnz) J0's values on it
+        integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
+        integer, intent(out) :: stat                 !! status (of the solves)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: g, s, cap
+        stat = STAT_OK
+        do g = 1, size(zc%restore_glast)
+            if (zc%restore_glast(g) < 0) cycle
+            call solve_group(zc, lu, a, val, cdofs, g, stat, errmsg)
+            if (stat /= STAT_OK) return
+        end do
+        if (allocated(zc%restore_bowner)) then
+            cap = size(zc%restore_bowner)
+            deallocate (zc%zb, zc%brange, zc%bowner)
+            allocate (zc%zb(zc%n, cap), zc%brange(2, cap))
+            call move_alloc(zc%restore_bowner, zc%bowner)
+            zc%bslot = 0
+            do s = 1, cap
+                if (zc%bowner(s) == 0) cycle
+                zc%bslot(zc%bowner(s)) = s
+                zc%bytes = zc%bytes + 8_i8 * zc%n
+            end do
+        end if
+    end subroutine zcache_restore
+
+    !> Form the basis column of slot s again (zcache_restore): the groups of the columns
+    !> of Z it reads are solved first where not held (the checkpoint's cache may have
+    !> dropped them since; zcache_restore_finish drops them again).
+    subroutine zcache_basis_reform(zc, lu, a, val, cdofs, s, cols, coef, stat, errmsg)
+        type(zcache_t), intent(inout) :: zc          !! cache (zcache_restore done)
+        type(factor_t), intent(inout) :: lu          !! factors of J0
+        type(csc_t), intent(in) :: a                 !! the pattern of J0 (the model's)
+        real(dp), intent(in) :: val(:)               !! (a%nnz) J0's values on it
+        integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
+        integer, intent(in) :: s                     !! basis slot (bowner(s) > 0)
+        integer, intent(in) :: cols(:)               !! its vector's contact-cell dofs (<= 0: none)
+        real(dp), intent(in) :: coef(:)              !! and its entries there
+        integer, intent(out) :: stat                 !! status (of the solves)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer :: e
+        stat = STAT_OK
+        do e = 1, size(cols)
+            if (cols(e) <= 0) cycle
+            if (zc%slot(cols(e)) > 0) cycle
+            call solve_group(zc, lu, a, val, cdofs, (cols(e) - 1) / ZCHUNK + 1, stat, errmsg)
+            if (stat /= STAT_OK) return
+        end do
+        call zcache_basis_form(zc, s, cols, coef)
+    end subroutine zcache_basis_reform
+
+    !> The end of a restore: the groups solved only to form basis columns are dropped,
+    !> and the groups' steps and the counters are the checkpoint's.
+    pure subroutine zcache_restore_finish(zc)
+        type(zcache_t), intent(inout) :: zc          !! cache (zcache_restore done)
+        integer :: g
+        do g = 1, size(zc%glast)
+            if (zc%glast(g) >= 0 .and. zc%restore_glast(g) < 0) call drop_group(zc, g)
+        end do
+        zc%glast = zc%restore_glast
+        zc%computed = zc%restore_computed
+        zc%evicted = zc%restore_evicted
+        zc%peak_bytes = zc%restore_peak
+        zc%restore_due = .false.
+        deallocate (zc%restore_glast)
+    end subroutine zcache_restore_finish
 
     !> Drop the basis column least recently used before the current step (dropped:
     !> .false. when there is none).
@@ -479,7 +636,7 @@ contains
     !> the least recently used basis columns of earlier steps.
     pure subroutine evict(zc)
         type(zcache_t), intent(inout) :: zc          !! cache
-        integer :: g, old, l, s
+        integer :: g, old
         logical :: dropped
         do while (zc%bytes > zc%budget)
             old = 0
@@ -496,19 +653,27 @@ contains
                 if (.not. dropped) return
                 cycle
             end if
-            do l = group_first(old), group_last(zc, old)
-                s = zc%slot(l)
-                zc%bytes = zc%bytes - column_bytes(zc, zc%z(s))
-                zc%slot(l) = 0
-                zc%owner(s) = 0
-                if (allocated(zc%z(s)%rows)) deallocate (zc%z(s)%rows)
-                deallocate (zc%z(s)%val)
-                zc%held = zc%held - 1
-                zc%evicted = zc%evicted + 1
-            end do
-            zc%glast(old) = -1
+            call drop_group(zc, old)
         end do
     end subroutine evict
+
+    !> Drop the columns of group g (held).
+    pure subroutine drop_group(zc, g)
+        type(zcache_t), intent(inout) :: zc          !! cache
+        integer, intent(in) :: g                     !! group
+        integer :: l, s
+        do l = group_first(g), group_last(zc, g)
+            s = zc%slot(l)
+            zc%bytes = zc%bytes - column_bytes(zc, zc%z(s))
+            zc%slot(l) = 0
+            zc%owner(s) = 0
+            if (allocated(zc%z(s)%rows)) deallocate (zc%z(s)%rows)
+            deallocate (zc%z(s)%val)
+            zc%held = zc%held - 1
+            zc%evicted = zc%evicted + 1
+        end do
+        zc%glast(g) = -1
+    end subroutine drop_group
 
     !> y = W t over the columns with t(l) /= 0, in the order of l (the same sums as the
     !> dense product: a zero coefficient adds nothing). Every such column must be held.

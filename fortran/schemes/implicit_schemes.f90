@@ -86,7 +86,8 @@ module implicit_schemes
     use contact_columns, only: zcache_t, zcache_init, zcache_new_step, zcache_ensure, &
                                zcache_ensure_all, zcache_w_times, zcache_add_w, zcache_add_z, &
                                zcache_free, zcache_basis_init, zcache_basis_ensure, &
-                               zcache_add_basis
+                               zcache_add_basis, zcache_save, zcache_load, zcache_restore, &
+                               zcache_basis_reform, zcache_restore_finish
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_free
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, SCHEME_NEWMARK, SCHEME_HHT, &
@@ -432,6 +433,13 @@ contains
         call buf_put(buf, this%ua)
         call buf_put(buf, this%vb)
         call buf_put(buf, this%qloc)
+        ! the layout of the cache of columns (not its numbers: solved again at the restart)
+        if (this%all_columns) then
+            call buf_put(buf, 0_i8)
+        else
+            call buf_put(buf, 1_i8)
+            call zcache_save(this%zc, buf)
+        end if
     end subroutine implicit_save
 
     !> Read back what implicit_save wrote (buf%bad on any mismatch of sizes).
@@ -440,6 +448,7 @@ contains
         type(byte_buffer_t), intent(inout) :: buf           !! checkpoint payload
         integer(kind(buf%n)) :: k
         real(dp) :: dt
+        type(zcache_t) :: skip
         call buf_get(buf, dt)
         if (.not. dt == this%dt) buf%bad = .true.
         call buf_get(buf, this%md)
@@ -454,9 +463,21 @@ contains
         call buf_get(buf, this%ua)
         call buf_get(buf, this%vb)
         call buf_get(buf, this%qloc)
-        ! the cache of columns is derived state: computed again as the steps need them
-        if (.not. this%all_columns) call zcache_free(this%zc)
-        this%fac_rank = -1      ! (so are the Woodbury factors, X and Y)
+        ! the cache of columns: its layout, the columns solved again before the next step
+        ! (restore_columns); every column kept where all were computed at set-up (here:
+        ! the layout read past; there: none saved, the cache starts empty)
+        call buf_get(buf, k)
+        if (k < 0 .or. k > 1) buf%bad = .true.
+        if (.not. buf%bad .and. k == 1) then
+            if (this%all_columns) then
+                call zcache_init(skip, this%zc%n, this%zc%m, 0_i8, 0_i8)
+                if (allocated(this%zc%bslot)) call zcache_basis_init(skip, size(this%zc%bslot))
+                call zcache_load(skip, buf)
+            else
+                call zcache_load(this%zc, buf)
+            end if
+        end if
+        this%fac_rank = -1      ! (the Woodbury factors, X and Y are formed again)
         this%nxf = -1
         this%nyf = -1
         ! the terms' facets and coefficients are not in the checkpoint: the first step
@@ -545,6 +566,10 @@ contains
         ! contact-cell dofs is the vector it was evaluated at
         active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
         if (this%m > 0) then
+            if (this%zc%restore_due) then
+                call restore_columns(this, mdl, stat, errmsg)
+                if (stat /= STAT_OK) return
+            end if
             call zcache_new_step(this%zc)
             ! xc <- u^n there, and whether that moved it (one pass)
             call gather_moved(st%u, mdl%ct%cdofs, this%xc, moved)
@@ -579,6 +604,61 @@ contains
         st%t = st%t + this%dt
     end subroutine step_solves
 
+    !> The basis vector b_k on the contact-cell dofs: s_f (k = f <= n_facets) or the
+    !> normal n_j of contact node j (k = n_facets + j: its facet's nvec at the node, on
+    !> the dofs where it is nonzero), as indices into cdofs (0: none) and entries.
+    pure subroutine basis_vector(this, mdl, k, cols, coef)
+        class(implicit_scheme_t), intent(in) :: this        !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(in) :: k                            !! basis vector
+        integer, intent(out) :: cols(:)                     !! (ndof_e) its contact-cell dofs
+        real(dp), intent(out) :: coef(:)                    !! (ndof_e) its entries there
+        integer :: nf, f, i, kk
+        nf = mdl%ct%n_facets
+        if (k <= nf) then
+            cols = mdl%ct%cloc(:, k)
+            coef = mdl%ct%s(:, k)
+        else
+            f = this%cnf(1, k - nf)
+            i = this%cnf(2, k - nf)
+            do kk = 1, mdl%ndof_e
+                cols(kk) = mdl%ct%cloc(kk, f)
+                if (mdl%ct%nvec(kk, i, f) == 0.0_dp) cols(kk) = 0
+            end do
+            coef = mdl%ct%nvec(:, i, f)
+        end if
+    end subroutine basis_vector
+
+    !> After a restart, before the first step: the column cache as the checkpoint's
+    !> (contact_columns' zcache_restore: its groups solved again, its basis columns formed
+    !> again in their slots), its solves not counted: the CG counters are put back, so
+    !> that summary.json counts the solves of the run never stopped.
+    subroutine restore_columns(this, mdl, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(i8) :: solves, iterations
+        integer :: max_its, s, ne, cols(MAX_E)
+        real(dp) :: coef(MAX_E)
+        call ls_cg_counts(this%lu0, solves, iterations, max_its)
+        call zcache_restore(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, stat, errmsg)
+        if (stat == STAT_OK .and. allocated(this%zc%bslot)) then
+            ne = mdl%ndof_e
+            do s = 1, size(this%zc%bowner)
+                if (this%zc%bowner(s) == 0) cycle
+                call basis_vector(this, mdl, this%zc%bowner(s), cols(1:ne), coef(1:ne))
+                call zcache_basis_reform(this%zc, this%lu0, mdl%stiff, this%jac0, &
+                                         mdl%ct%cdofs, s, cols(1:ne), coef(1:ne), stat, errmsg)
+                if (stat /= STAT_OK) exit
+            end do
+        end if
+        if (stat == STAT_OK) call zcache_restore_finish(this%zc)
+        this%lu0%cg%solves = solves
+        this%lu0%cg%iterations = iterations
+        this%lu0%cg%max_its = max_its
+    end subroutine restore_columns
+
     !> Whether Z T goes on the node basis at this step: zt_basis and fewer nonzero
     !> coefficients in tau than in T.
     pure logical function basis_pays(this)
@@ -597,28 +677,19 @@ contains
         real(dp), intent(in) :: t                           !! time the step is to reach
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: k, nf, f, i, kk, cols(MAX_E)     ! (fixed size: no heap array a call)
-        nf = mdl%ct%n_facets
+        integer :: k, i, ne, cols(MAX_E)           ! (fixed size: no heap array a call)
+        real(dp) :: coef(MAX_E)
         stat = STAT_OK
+        ne = mdl%ndof_e
         do k = 1, size(this%tau)
             if (this%tau(k) == 0.0_dp) cycle
             if (this%zc%bslot(k) > 0) then      ! held: marked used (zcache_basis_ensure's)
                 this%zc%blast(k) = this%zc%step
                 cycle
             end if
-            if (k <= nf) then
-                call zcache_basis_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
-                                         k, mdl%ct%cloc(:, k), mdl%ct%s(:, k), stat, errmsg)
-            else
-                f = this%cnf(1, k - nf)
-                i = this%cnf(2, k - nf)
-                do kk = 1, mdl%ndof_e
-                    cols(kk) = mdl%ct%cloc(kk, f)
-                    if (mdl%ct%nvec(kk, i, f) == 0.0_dp) cols(kk) = 0
-                end do
-                call zcache_basis_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
-                                         k, cols(1:mdl%ndof_e), mdl%ct%nvec(:, i, f), stat, errmsg)
-            end if
+            call basis_vector(this, mdl, k, cols(1:ne), coef(1:ne))
+            call zcache_basis_ensure(this%zc, this%lu0, mdl%stiff, this%jac0, mdl%ct%cdofs, &
+                                     k, cols(1:ne), coef(1:ne), stat, errmsg)
             if (stat /= STAT_OK) then
                 call correction_failed(this, t, stat, errmsg)
                 return
