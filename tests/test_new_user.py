@@ -439,3 +439,31 @@ def test_output_folder_named_in_latin1_bytes(kind, tmp_path):
     assert b"\\udcE9" in raw or b"\\udce9" in raw
     assert os.fsencode(summary["scene"]["output"]["dir"]) == out
     assert summary["status"] == "ok"
+
+
+# ------------------------------------------------------------------ a scene of one's own
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_group_not_in_mesh_lists_the_mesh_groups(kind, tmp_path):
+    """A scene for one's own mesh that keeps the default clamped = 'top' (the bar's group)
+    or names a group the mesh lacks: the one line also lists the mesh's groups, so that
+    it says which names to use; the built-in bar lists its own, a mesh without physical
+    groups says it has none."""
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    scene = disk_scene(tmp_path / "top.nml", mesh, boundary__clamped="'top'")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert ("&boundary clamped: group 'top' not in mesh, whose groups are 'outline', "
+            "'body' (mesh '") in line and line.endswith("disk.msh')"), line
+    scene = write_scene(tmp_path / "bar.nml", boundary__contact="'base'")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert ("&boundary contact: group 'base' not in mesh, whose groups are 'bottom', 'top', "
+            "'left', 'right', 'body' (the built-in bar)") in line, line
+    (tmp_path / "bare.geo").write_text(
+        "Point(1) = {0, 0, 0, 0.05}; Point(2) = {0.1, 0, 0, 0.05};\n"
+        "Point(3) = {0, 0.1, 0, 0.05}; Line(1) = {1, 2}; Line(2) = {2, 3};\n"
+        "Line(3) = {3, 1}; Curve Loop(1) = {1, 2, 3}; Plane Surface(1) = {1};\n")
+    scene = write_scene(tmp_path / "bare.nml", mesh__file="'bare.geo'",
+                        boundary__clamped="''", boundary__contact="'bottom'")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert "group 'bottom' not in mesh, which has no groups (mesh '" in line, line
+    assert line.endswith("bare.geo')"), line
