@@ -467,3 +467,26 @@ def test_group_not_in_mesh_lists_the_mesh_groups(kind, tmp_path):
     line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
     assert "group 'bottom' not in mesh, which has no groups (mesh '" in line, line
     assert line.endswith("bare.geo')"), line
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_velocity_without_kind_velocity_warns(kind, tmp_path):
+    """&initial velocity given while kind keeps its default 'compressed_bar' (or is
+    'rest'): the velocity is not used and the run says so before it starts, naming the
+    state it starts from and the kind that would use it. kind = 'velocity', or a zero
+    velocity, says nothing."""
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    cases = {"default": ("compressed_bar", dict(initial__kind="'compressed_bar'")),
+             "rest": ("rest", dict(initial__kind="'rest'"))}
+    for name, (shown, over) in cases.items():
+        scene = disk_scene(tmp_path / f"{name}.nml", mesh, **over)
+        res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        assert (f"dyncontact: warning: &initial velocity is not used with kind = '{shown}': "
+                "the run starts at rest") in res.stderr, res.stderr
+        assert "kind = 'velocity' starts with that velocity" in res.stderr
+    for name, over in (("velocity", {}),
+                       ("zero", dict(initial__kind="'rest'", initial__velocity="0.0, 0.0"))):
+        scene = disk_scene(tmp_path / f"{name}.nml", mesh, **over)
+        res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
+        assert res.returncode == EXIT_OK and "&initial velocity" not in res.stderr, res.stderr

@@ -248,6 +248,7 @@ contains
         call sim%scheme%init(sim%mdl, sprm, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
         call check_massless_weight(sim)
+        call check_unused_velocity(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
             ! the estimate is the linear limit at full contact: measured, it is not a safe
@@ -302,6 +303,25 @@ contains
             ' position changes sign at every step and never decays (v_n alternates); use '// &
             fix//' or newmark (docs/numerics.md)'//new_line('a')
     end subroutine check_massless_weight
+
+    !> A warning for an &initial velocity that the initial kind does not use: a scene
+    !> that gives a velocity but keeps the default kind = 'compressed_bar' (the seed's
+    !> bar, lifted by amplitude) would otherwise start from that state at rest, silently.
+    !> Only a nonzero velocity counts: the default (zero) changes nothing.
+    subroutine check_unused_velocity(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        character(len=:), allocatable :: start
+        if (trim(sim%scn%initial_kind) == 'velocity' .or. all(sim%scn%velocity == 0.0_dp)) return
+        if (trim(sim%scn%initial_kind) == 'compressed_bar') then
+            start = 'the compressed bar''s u0 = -amplitude (1 - d/length) n'
+        else
+            start = 'u0 = 0'
+        end if
+        sim%mdl%notes = trim(sim%mdl%notes)// &
+            'warning: &initial velocity is not used with kind = '''// &
+            trim(sim%scn%initial_kind)//''': the run starts at rest from '//start// &
+            '; kind = ''velocity'' starts with that velocity'//new_line('a')
+    end subroutine check_unused_velocity
 
     !> The outputs were opened (trace.csv and the first summary.json replaced the
     !> previous run's) but a later write of the opening failed (the t = 0 snapshot on a
