@@ -490,3 +490,34 @@ def test_velocity_without_kind_velocity_warns(kind, tmp_path):
         scene = disk_scene(tmp_path / f"{name}.nml", mesh, **over)
         res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
         assert res.returncode == EXIT_OK and "&initial velocity" not in res.stderr, res.stderr
+
+
+def test_mesh_h_with_a_msh_file_is_noted_as_unused(tmp_path):
+    """&mesh h set with a .msh file (a user refining the mesh by h): the file's mesh is
+    used as it is, and the run says so before it starts, with the command that writes
+    a .msh of that size. The default h, or h with a .geo (which it sizes), says nothing."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning
+
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    geo = tmp_path / "tri.geo"
+    geo.write_text("Point(1) = {-0.1, 0, 0, h}; Point(2) = {0.1, 0, 0, h};\n"
+                   "Point(3) = {0, 0.1, 0, h}; Line(1) = {1, 2}; Line(2) = {2, 3};\n"
+                   "Line(3) = {3, 1}; Curve Loop(1) = {1, 2, 3}; Plane Surface(1) = {1};\n"
+                   'Physical Curve("outline") = {1, 2, 3}; Physical Surface("body") = {1};\n')
+    notes = {}
+    for name, file, h in (("msh_h", mesh, "0.01"), ("msh", mesh, "0.05"),
+                          ("geo_h", geo, "0.02")):
+        scene = disk_scene(tmp_path / f"{name}.nml", file, mesh__h=h, scheme__t_end="0.01")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = dyncontact.run(scene, out=tmp_path / name, progress=False)
+        assert res.status == "ok"
+        notes[name] = [str(w.message) for w in caught if w.category is DyncontactWarning
+                       and "&mesh h" in str(w.message)]
+    assert notes["msh_h"] == ["note: &mesh h = 1.0E-002 is not used: a .msh file is meshed "
+                              "already (h sizes a .geo and the built-in bar; python -m "
+                              "dyncontact mesh --geo FILE.geo --h H writes a .msh of size H)"]
+    assert notes["msh"] == [] and notes["geo_h"] == []

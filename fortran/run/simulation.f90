@@ -4,7 +4,7 @@
 module simulation
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp, i8
-    use text, only: int_text, real_text
+    use text, only: int_text, real_text, lower
     use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
     use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim
@@ -249,6 +249,7 @@ contains
         if (stat /= STAT_OK) return
         call check_massless_weight(sim)
         call check_unused_velocity(sim)
+        call check_unused_mesh_size(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
             ! the estimate is the linear limit at full contact: measured, it is not a safe
@@ -322,6 +323,21 @@ contains
             trim(sim%scn%initial_kind)//''': the run starts at rest from '//start// &
             '; kind = ''velocity'' starts with that velocity'//new_line('a')
     end subroutine check_unused_velocity
+
+    !> A note for an &mesh h other than the default with a .msh file: the file's mesh is
+    !> used as it is (h sizes a .geo or the built-in bar), so a scene that refines a .msh
+    !> by h would otherwise run on the coarse mesh, silently.
+    subroutine check_unused_mesh_size(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        integer :: n
+        n = len_trim(sim%scn%mesh_file)
+        if (n < 4 .or. sim%scn%mesh_h == 0.05_dp) return
+        if (lower(sim%scn%mesh_file(n - 3:n)) /= '.msh') return
+        sim%mdl%notes = trim(sim%mdl%notes)//'note: &mesh h = '//real_text(sim%scn%mesh_h)// &
+            ' is not used: a .msh file is meshed already (h sizes a .geo and the built-in'// &
+            ' bar; python -m dyncontact mesh --geo FILE.geo --h H writes a .msh of size H)'// &
+            new_line('a')
+    end subroutine check_unused_mesh_size
 
     !> The outputs were opened (trace.csv and the first summary.json replaced the
     !> previous run's) but a later write of the opening failed (the t = 0 snapshot on a
