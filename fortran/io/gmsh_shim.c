@@ -148,6 +148,7 @@ static struct {
     __typeof__(&gmshModelGetPhysicalGroupsForEntity) get_physical_groups_for_entity;
     __typeof__(&gmshFree) free;
     __typeof__(&gmshLoggerGetLastError) last_error;
+    __typeof__(&gmshLoggerWrite) logger_write;
 } G;
 
 static char load_error[512];
@@ -192,6 +193,7 @@ static int gmsh_load(void)
     SYM(get_physical_name, "gmshModelGetPhysicalName")
     SYM(get_physical_groups_for_entity, "gmshModelGetPhysicalGroupsForEntity")
     SYM(free, "gmshFree") SYM(last_error, "gmshLoggerGetLastError")
+    SYM(logger_write, "gmshLoggerWrite")
 #undef SYM
     return 1;
 }
@@ -646,14 +648,34 @@ static int gmsh_read(const char *path, const double *params, int is_geo, void **
         return 2;
     }
     if (is_geo) {
-        /* does the file use h? parse it once without h: it then defines h, or fails */
+        /* does the file use h? parse it once without h: it then defines h, or fails.
+         * The parse runs to the end of the file whatever its errors (AbortOnError 0):
+         * a parse stopped at its first error (gmsh's default in the API, an exception)
+         * leaves the rest of the file in gmsh's lexer, which the next parse reads first
+         * (a .geo using h without defining it then failed with "line 0: syntax error").
+         * An error is seen as gmsh's last error replacing PROBE_MARK, written first. */
+        static const char PROBE_MARK[] = "dyncontact: parsing the .geo without h";
         int uses_h = 0;
         char **names = NULL;
+        char *last = NULL;
         size_t n = 0, j;
+        double abort_on_error = 2;
         for (i = 1; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
         G.parser_clear("h", &ierr);
+        G.option_get_number("General.AbortOnError", &abort_on_error, &ierr);
+        G.option_set_number("General.AbortOnError", 0, &ierr);
+        G.logger_write(PROBE_MARK, "error", &ierr);
         ierr = 0;
         G.merge(path, &ierr);
+        if (!ierr) {
+            G.last_error(&last, &ierr);
+            if (ierr || !last || strcmp(last, PROBE_MARK) != 0) ierr = 1;
+            if (last) G.free(last);
+        }
+        {
+            int ierr2 = 0;
+            G.option_set_number("General.AbortOnError", abort_on_error, &ierr2);
+        }
         if (ierr) {
             uses_h = 1;
         } else {
