@@ -653,3 +653,21 @@ def test_contact_impulse_is_the_momentum_change_normal_to_a_tilted_plane(tmp_pat
     np.testing.assert_allclose(impulse, dp, rtol=0, atol=1e-12 * np.linalg.norm(dp))
     assert np.linalg.norm(np.cross(dp, normal)) <= 1e-12 * np.linalg.norm(dp)
     assert dp @ normal < 0            # pushed back out of the obstacle
+
+
+def test_set_mesh_file_counts_from_the_current_folder(run_cli, tmp_path):
+    """--set mesh.file=disk.msh, the very text of the scene's own relative mesh file,
+    run from another folder than the scene's: the value counts from the current folder,
+    unlike the same path in the file, and the message says where it looked; from the
+    scene's folder the same command runs."""
+    folder = tmp_path / "work"
+    folder.mkdir()
+    mesh = disk_mesh(folder / "disk.msh")
+    scene = disk_scene(folder / "s.nml", mesh)        # mesh file = 'disk.msh' in it
+    args = ("run", scene, "--set", "mesh.file=disk.msh", "--out", "o", "--quiet")
+    r = run_cli(*args, cwd=tmp_path)
+    assert r.returncode == EXIT_BAD_INPUT
+    assert ("&mesh file: cannot read mesh file 'disk.msh' in the current folder "
+            "(got 'disk.msh')") in r.stderr, r.stderr
+    r = run_cli(*args, cwd=folder)
+    assert r.returncode == EXIT_OK, r.stderr
