@@ -42,10 +42,12 @@ def disk_mesh(path: Path, h: float = 0.02, invert_every: int = 0) -> Path:
 
 
 def disk_scene(path: Path, mesh: Path, **over) -> Path:
-    """The disk falling onto y = 0 at speed 0.1, nothing clamped, whole outline in contact."""
+    """The disk falling onto y = 0 at speed 0.1, nothing clamped, whole outline in contact
+    (newmark 1/4 1/2: alpha, which BASE sets for hht, back to its default)."""
     settings = dict(mesh__file=f"'{mesh.name}'", boundary__clamped="''",
                     boundary__contact="'outline'", initial__kind="'velocity'",
                     initial__velocity="0.0, -0.1", scheme__name="'newmark'",
+                    scheme__alpha="0.0",
                     scheme__dt="0.001", scheme__t_end="0.1", contact__probe="0.0, 0.0")
     settings.update(over)
     return write_scene(path, **settings)
@@ -291,8 +293,9 @@ def test_lock_whose_pid_was_reused_is_taken_over(kind, tmp_path):
 # ------------------------------------------------------------------ threads, Dask
 
 def _scenes(tmp_path, t_end="2.0"):
-    return [write_scene(tmp_path / f"{name}.nml", scheme__name=f"'{name}'", scheme__t_end=t_end)
-            for name in ("newmark", "hht")]
+    return [write_scene(tmp_path / f"{name}.nml", scheme__name=f"'{name}'", scheme__t_end=t_end,
+                        scheme__alpha=alpha)   # newmark has no alpha: BASE's, for hht, off
+            for name, alpha in (("newmark", "0.0"), ("hht", "-0.1"))]
 
 
 def test_two_python_threads_run_scenes_like_one_after_the_other(tmp_path):
@@ -671,3 +674,30 @@ def test_set_mesh_file_counts_from_the_current_folder(run_cli, tmp_path):
             "(got 'disk.msh')") in r.stderr, r.stderr
     r = run_cli(*args, cwd=folder)
     assert r.returncode == EXIT_OK, r.stderr
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_scheme_keys_the_scheme_does_not_use_warn(kind, tmp_path):
+    """&scheme keys set (to other values than their defaults) for another scheme than the
+    one chosen change nothing: hht takes beta and gamma from alpha, newmark has no alpha,
+    central none of them. The run says which keys it does not use and which it does;
+    the defaults, or the keys of the scheme itself, say nothing."""
+    cases = {
+        "hht": (dict(scheme__beta="0.3025", scheme__gamma="0.6"),
+                "&scheme beta, gamma: not used by scheme 'hht' (it uses alpha;"),
+        "newmark": (dict(scheme__name="'newmark'", scheme__theta="0.7"),
+                    "&scheme alpha, theta: not used by scheme 'newmark' (it uses beta, gamma;"),
+        "central": (dict(scheme__name="'central'", scheme__dt="0", scheme__rho_inf="0.5"),
+                    "&scheme alpha, rho_inf: not used by scheme 'central' (it uses none of them;"),
+        "quiet": (dict(scheme__name="'galpha'", scheme__alpha="0.0", scheme__rho_inf="0.8"),
+                  None),
+    }
+    for name, (over, warning) in cases.items():
+        scene = write_scene(tmp_path / f"{name}.nml", scheme__t_end="0.01", **over)
+        res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        if warning is None:
+            assert "not used by scheme" not in res.stderr, res.stderr
+        else:
+            assert f"dyncontact: warning: {warning} docs/scenes.md, &scheme)" in res.stderr, \
+                res.stderr

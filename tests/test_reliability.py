@@ -433,7 +433,8 @@ def test_body_at_rest_under_gravity_runs_and_conserves_energy_with_e_load(tmp_pa
     import dyncontact
 
     scene = write_scene(tmp_path / "s.nml", material__gravity="0.0, 1.0",
-                        initial__kind="'rest'", scheme__name="'newmark'", scheme__t_end="3.0")
+                        initial__kind="'rest'", scheme__name="'newmark'", scheme__alpha="0.0",
+                        scheme__t_end="3.0")
     res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
     assert res.status == "ok", res.message
     tr = res.trace

@@ -250,6 +250,7 @@ contains
         call check_massless_weight(sim)
         call check_unused_velocity(sim)
         call check_unused_mesh_size(sim)
+        call check_unused_scheme_keys(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
             ! the estimate is the linear limit at full contact: measured, it is not a safe
@@ -338,6 +339,41 @@ contains
             ' bar; python -m dyncontact mesh --geo FILE.geo --h H writes a .msh of size H)'// &
             new_line('a')
     end subroutine check_unused_mesh_size
+
+    !> A warning for the &scheme parameters the chosen scheme does not use, set to other
+    !> values than their defaults (hht with beta or gamma, whose beta and gamma follow from
+    !> alpha; newmark with alpha, ...): they would otherwise change nothing, silently.
+    subroutine check_unused_scheme_keys(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        character(len=:), allocatable :: used, unused
+        used = ''
+        select case (trim(sim%scn%scheme_name))
+        case ('newmark', 'pc')
+            used = 'beta, gamma'
+        case ('hht', 'hht_seed', 'pc_hht', 'pc_hht_seed')
+            used = 'alpha'
+        case ('theta')
+            used = 'theta'
+        case ('galpha')
+            used = 'rho_inf'
+        end select
+        unused = ''
+        if (index(used, 'alpha') == 0 .and. sim%scn%alpha /= 0.0_dp) &
+            unused = unused//', alpha'
+        if (index(used, 'beta') == 0 .and. sim%scn%beta /= 0.25_dp) &
+            unused = unused//', beta'
+        if (index(used, 'gamma') == 0 .and. sim%scn%gamma /= 0.5_dp) &
+            unused = unused//', gamma'
+        if (index(used, 'theta') == 0 .and. sim%scn%time_theta /= 0.5_dp) &
+            unused = unused//', theta'
+        if (index(used, 'rho_inf') == 0 .and. sim%scn%rho_inf /= 1.0_dp) &
+            unused = unused//', rho_inf'
+        if (len(unused) == 0) return
+        if (len(used) == 0) used = 'none of them'
+        sim%mdl%notes = trim(sim%mdl%notes)//'warning: &scheme '//unused(3:)// &
+            ': not used by scheme '''//trim(sim%scn%scheme_name)//''' (it uses '//used// &
+            '; docs/scenes.md, &scheme)'//new_line('a')
+    end subroutine check_unused_scheme_keys
 
     !> The outputs were opened (trace.csv and the first summary.json replaced the
     !> previous run's) but a later write of the opening failed (the t = 0 snapshot on a
