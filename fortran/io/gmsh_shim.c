@@ -322,6 +322,24 @@ static const char *dim_noun(int d)
     return n[d];
 }
 
+/* What to change in the .geo for an element type that is not a linear simplex: "" if
+ * none is known. gmsh's types: higher-order segments, triangles and tetrahedra (8, 9, 11,
+ * 20-31), quadrangles, hexahedra, prisms and pyramids of any order (3, 5-7, 10, 12-14,
+ * 16-19). */
+static const char *element_hint(int type)
+{
+    static const int higher[] = {8, 9, 11, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
+    static const int recombined[] = {3, 5, 6, 7, 10, 12, 13, 14, 16, 17, 18, 19};
+    size_t i;
+    for (i = 0; i < sizeof higher / sizeof *higher; i++)
+        if (type == higher[i])
+            return " (a higher-order element: mesh with Mesh.ElementOrder = 1)";
+    for (i = 0; i < sizeof recombined / sizeof *recombined; i++)
+        if (type == recombined[i])
+            return " (quadrangles, hexahedra, prisms or pyramids: mesh without Recombine)";
+    return "";
+}
+
 /* Elements of entity (d, tag): the P1 simplices (tags, nodes) or an error for others. */
 typedef struct { size_t n; size_t *tags; size_t *nodes; } block_t;
 
@@ -341,10 +359,10 @@ static int entity_elements(int d, int tag, block_t *b, const char *path, char *m
             b->nodes = ntags[i];
             etags[i] = ntags[i] = NULL;
         } else if (etags_n[i] > 0 && st == 0) {
-            char buf[200];
+            char buf[300];
             snprintf(buf, sizeof buf, ": element type %d (dimension %d) is not a linear "
-                     "simplex; only %s are supported in dimension %d", types[i], d,
-                     dim_noun(d), d);
+                     "simplex; only %s are supported in dimension %d%s", types[i], d,
+                     dim_noun(d), d, element_hint(types[i]));
             set_msg(msg, msglen, path, buf, NULL);
             st = 2;
         }
