@@ -701,3 +701,30 @@ def test_scheme_keys_the_scheme_does_not_use_warn(kind, tmp_path):
         else:
             assert f"dyncontact: warning: {warning} docs/scenes.md, &scheme)" in res.stderr, \
                 res.stderr
+
+
+def test_alm_without_the_redistributed_mass_warns(tmp_path):
+    """&contact method = 'alm' keeps the default consistent mass (or takes the lumped
+    one): docs/numerics.md says never to (the multipliers chatter and the energy grows
+    several-fold). The run says so before it starts; with the redistributed mass, or
+    with Nitsche, it says nothing."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning
+
+    def notes(**over):
+        scene = write_scene(tmp_path / "s.nml", scheme__name="'newmark'", scheme__alpha="0.0",
+                            scheme__t_end="0.01", **over)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert dyncontact.run(scene, out=tmp_path / "o", progress=False).ok
+        return [str(w.message) for w in caught if w.category is DyncontactWarning]
+
+    for mass in ("consistent", "lumped"):
+        assert notes(contact__method="'alm'", scheme__mass=f"'{mass}'") == [
+            f"warning: &contact method = 'alm' with &scheme mass = '{mass}': the multipliers "
+            "chatter at the impacts and the energy grows several-fold (most runs blow up); "
+            "use mass = 'redistributed' (docs/numerics.md, \"Which method, with which mass\")"]
+    assert notes(contact__method="'alm'", scheme__mass="'redistributed'") == []
+    assert notes(scheme__mass="'consistent'") == []

@@ -251,6 +251,7 @@ contains
         call check_unused_velocity(sim)
         call check_unused_mesh_size(sim)
         call check_unused_scheme_keys(sim)
+        call check_alm_mass(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
             ! the estimate is the linear limit at full contact: measured, it is not a safe
@@ -374,6 +375,22 @@ contains
             ': not used by scheme '''//trim(sim%scn%scheme_name)//''' (it uses '//used// &
             '; docs/scenes.md, &scheme)'//new_line('a')
     end subroutine check_unused_scheme_keys
+
+    !> A warning for the augmented Lagrangian with a mass that has inertia on the contact
+    !> nodes (consistent, the default, or lumped): the multipliers chatter at every impact
+    !> and their work raises the energy several-fold, and most runs blow up
+    !> (docs/numerics.md, "Which method, with which mass"); the redistributed mass is the
+    !> one it is meant for.
+    subroutine check_alm_mass(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        if (.not. sim%mdl%has_contact .or. trim(sim%scn%contact_method) /= 'alm' .or. &
+            trim(sim%scn%mass) == 'redistributed') return
+        sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact method = ''alm'' with '// &
+            '&scheme mass = '''//trim(sim%scn%mass)//''': the multipliers chatter at the'// &
+            ' impacts and the energy grows several-fold (most runs blow up); use mass ='// &
+            ' ''redistributed'' (docs/numerics.md, "Which method, with which mass")'// &
+            new_line('a')
+    end subroutine check_alm_mass
 
     !> The outputs were opened (trace.csv and the first summary.json replaced the
     !> previous run's) but a later write of the opening failed (the t = 0 snapshot on a
