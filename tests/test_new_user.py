@@ -728,3 +728,34 @@ def test_alm_without_the_redistributed_mass_warns(tmp_path):
             "use mass = 'redistributed' (docs/numerics.md, \"Which method, with which mass\")"]
     assert notes(contact__method="'alm'", scheme__mass="'redistributed'") == []
     assert notes(scheme__mass="'consistent'") == []
+
+
+def test_contact_boundary_starting_inside_the_obstacle_warns(tmp_path):
+    """The obstacle point put 0.01 above the disk's lowest node (a sign slip): the run
+    says the contact boundary starts inside the obstacle, with the deepest gap and its
+    node, before the contact throws the disk out. The disk touching the plane at one
+    node (a gap of 0 to round-off), and the seed bar, say nothing; an obstacle normal
+    into the body gets its own warning alone (the normal is what to fix)."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning
+
+    mesh = disk_mesh(tmp_path / "disk.msh")
+
+    def notes(scene):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            dyncontact.run(scene, out=tmp_path / "o", progress=False)
+        return [str(w.message) for w in caught if w.category is DyncontactWarning]
+
+    inside = notes(disk_scene(tmp_path / "in.nml", mesh, contact__obstacle_point="0.0, 0.01"))
+    assert len(inside) == 1 and re.fullmatch(
+        r"warning: the contact boundary starts inside the obstacle: initial gap -1\.000E-002 "
+        r"at the node -?\d\.\d{5}E-0(17|00) 0\.00000E\+000 \(check &contact obstacle_point "
+        r"and obstacle_normal: the contact pushes it out at the first step\)", inside[0]), inside
+    assert notes(disk_scene(tmp_path / "on.nml", mesh)) == []
+    assert notes(write_scene(tmp_path / "bar.nml", scheme__t_end="0.01")) == []
+    away = notes(write_scene(tmp_path / "away.nml", contact__obstacle_normal="0.0, 1.0",
+                             scheme__t_end="0.01"))
+    assert len(away) == 1 and "obstacle_normal points into the body" in away[0], away
