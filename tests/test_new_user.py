@@ -759,3 +759,18 @@ def test_contact_boundary_starting_inside_the_obstacle_warns(tmp_path):
     away = notes(write_scene(tmp_path / "away.nml", contact__obstacle_normal="0.0, 1.0",
                              scheme__t_end="0.01"))
     assert len(away) == 1 and "obstacle_normal points into the body" in away[0], away
+
+
+def test_docstring_examples_run_as_written(monkeypatch):
+    """The examples of the modules' docstrings that run in a moment (the others write
+    runs into out/ and are marked +SKIP), run from the repository's root as written:
+    mesh_io's once named a mesh file that meshes/ does not have."""
+    import doctest
+
+    from dyncontact import mesh_io, scene
+    from dyncontact.study import figures
+
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    for module in (mesh_io, scene, figures):
+        failed, tried = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
+        assert failed == 0 and tried > 0, module.__name__

@@ -22,9 +22,9 @@ indices here):
   others are dropped;
 - ``x`` holds the first ``dim`` coordinates (the others must be constant).
 
->>> from dyncontact import mesh_io
->>> m = mesh_io.read_msh_fortran("meshes/bar2d_h0.02.msh")  # doctest: +SKIP
->>> m.dim, m.x.shape, m.group_names                        # doctest: +SKIP
+>>> from dyncontact import mesh_io              # from the repository's root folder
+>>> m = mesh_io.read_msh_fortran("meshes/bar2d_getfem_h0.02.msh")
+>>> m.dim, m.x.shape, m.group_names
 (2, (306, 2), ['bottom', 'top', 'left', 'right', 'body'])
 """
 
@@ -185,7 +185,7 @@ def builtin_bar(dim: int = 2, length: float = 1.0, width: float = 0.1,
     """The Fortran built-in bar (``bar_mesh_build``): GetFEM's structured triangles in
     2D, segments in 1D.
 
-    >>> builtin_bar(2, 1.0, 0.1, 0.05).cells.shape                 # doctest: +SKIP
+    >>> builtin_bar(2, 1.0, 0.1, 0.05).cells.shape
     (80, 3)
     """
     from .core import load_mesh
