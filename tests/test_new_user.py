@@ -817,3 +817,32 @@ def test_body_thrown_in_flight_moves_rigidly(scheme, tmp_path):
     np.testing.assert_allclose(tr["e_kin"], tr["e_kin"][0], rtol=1e-13)
     assert np.abs(tr["e_el"]).max() <= 1e-13 * tr["e_kin"][0]
     assert np.all(tr["active"] == 0)
+
+
+def test_contact_keys_the_method_does_not_use_warn(tmp_path):
+    """&contact theta (the Nitsche variant) with 'penalty', multiplier without 'alm',
+    quad_points with the 'exact' quadrature: each changes nothing and the run says so,
+    one line a key; the same keys where they are used say nothing."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning
+
+    def notes(**over):
+        scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.01", **over)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert dyncontact.run(scene, out=tmp_path / "o", progress=False).ok
+        return [str(w.message) for w in caught if w.category is DyncontactWarning]
+
+    assert notes(contact__method="'penalty'", contact__theta="0", contact__multiplier="'nodal'",
+                 contact__quad_points="5") == [
+        "warning: &contact theta: not used by method = 'penalty' (the Nitsche variant; "
+        "docs/scenes.md, &contact)",
+        "warning: &contact multiplier: not used by method = 'penalty' (only 'alm' has "
+        "multipliers; docs/scenes.md, &contact)",
+        "warning: &contact quad_points: not used with quadrature = 'exact' (it splits each "
+        "facet at the kink; quad_points is for quadrature = 'gauss'; docs/scenes.md, "
+        "&contact)"]
+    assert notes(contact__theta="0", contact__gamma0="10.0", contact__quadrature="'gauss'",
+                 contact__quad_points="5") == []

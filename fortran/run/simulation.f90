@@ -251,6 +251,7 @@ contains
         call check_unused_velocity(sim)
         call check_unused_mesh_size(sim)
         call check_unused_scheme_keys(sim)
+        call check_unused_contact_keys(sim)
         call check_alm_mass(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
@@ -375,6 +376,29 @@ contains
             ': not used by scheme '''//trim(sim%scn%scheme_name)//''' (it uses '//used// &
             '; docs/scenes.md, &scheme)'//new_line('a')
     end subroutine check_unused_scheme_keys
+
+    !> A warning for the &contact keys the chosen method or quadrature does not use, set
+    !> to other values than their defaults: the Nitsche theta with 'penalty' or 'alm',
+    !> multiplier without 'alm', quad_points with quadrature = 'exact'.
+    subroutine check_unused_contact_keys(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        character(len=:), allocatable :: method
+        if (.not. sim%mdl%has_contact) return
+        method = trim(sim%scn%contact_method)
+        if (method /= 'nitsche' .and. sim%scn%nitsche_theta /= 1) &
+            sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact theta: not used by '// &
+            'method = '''//method//''' (the Nitsche variant; docs/scenes.md, &contact)'// &
+            new_line('a')
+        if (method /= 'alm' .and. trim(sim%scn%multiplier) /= 'integral') &
+            sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact multiplier: not used by '// &
+            'method = '''//method//''' (only ''alm'' has multipliers; docs/scenes.md, '// &
+            '&contact)'//new_line('a')
+        if (trim(sim%scn%quadrature) == 'exact' .and. sim%scn%quad_points /= 3 .and. &
+            sim%mdl%dim > 1) &
+            sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact quad_points: not used '// &
+            'with quadrature = ''exact'' (it splits each facet at the kink; quad_points is '// &
+            'for quadrature = ''gauss''; docs/scenes.md, &contact)'//new_line('a')
+    end subroutine check_unused_contact_keys
 
     !> A warning for the augmented Lagrangian with a mass that has inertia on the contact
     !> nodes (consistent, the default, or lumped): the multipliers chatter at every impact
