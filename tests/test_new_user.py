@@ -846,3 +846,26 @@ def test_contact_keys_the_method_does_not_use_warn(tmp_path):
         "&contact)"]
     assert notes(contact__theta="0", contact__gamma0="10.0", contact__quadrature="'gauss'",
                  contact__quad_points="5") == []
+
+
+def test_stepper_gives_the_runs_warnings(tmp_path):
+    """A Stepper is a run driven step by step: the warnings and notes run() gives before
+    the run starts are DyncontactWarning warnings there too (it used to say nothing);
+    turned into errors, they leave no run open (the output folder's lock is released)."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning, Stepper
+
+    scene = write_scene(tmp_path / "s.nml", contact__obstacle_normal="0.0, 1.0",
+                        scheme__t_end="0.01")
+    with pytest.warns(DyncontactWarning, match="obstacle_normal points into the body"):
+        with Stepper(scene, tmp_path / "o") as st:
+            st.advance(1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DyncontactWarning)
+        with pytest.raises(DyncontactWarning):
+            Stepper(scene, tmp_path / "o")
+    assert not (tmp_path / "o" / ".dyncontact.lock").exists()
+    with pytest.warns(DyncontactWarning, match="obstacle_normal points into the body"):
+        assert dyncontact.run(scene, out=tmp_path / "o", progress=False).ok
