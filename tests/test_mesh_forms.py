@@ -129,6 +129,40 @@ def test_geo_parameters_and_default_size(core_ext, tmp_path):
     assert len(mesh_io.read_mesh(geo, h=0.05).cells) > 3 * len(mesh_io.read_mesh(geo, h=0.1).cells)
 
 
+#: A triangle whose point sizes use h without defining it (no DefineConstant), as a .geo
+#: written for `gmsh -setnumber h 0.02` does; two statements on the first line, so that
+#: the rest of the line follows the first use of h.
+BARE_H_GEO = ("Point(1) = {-0.1, 0, 0, 2 * h}; Point(2) = {0.1, 0, 0, h};\n"
+              "Point(3) = {0, 0.1, 0, h}; Line(1) = {1, 2}; Line(2) = {2, 3};\n"
+              "Line(3) = {3, 1}; Curve Loop(1) = {1, 2, 3}; Plane Surface(1) = {1};\n"
+              'Physical Curve("outline") = {1, 2, 3}; Physical Surface("body") = {1};\n')
+
+
+def test_geo_using_h_without_defining_it(core_ext, run_cli, tmp_path):
+    """A .geo that uses h as gmsh -setnumber sets it, without DefineConstant: the run's
+    reader, read_mesh and `dyncontact mesh` mesh it with the scene's h, as the same file
+    with h defined in it (DefineConstant, the form of meshes/*.geo). Their first parse
+    without h used to stop at its first 'Unknown variable', leaving the rest of the file
+    in gmsh's lexer, so the parse with h failed ("line 0: syntax error (;)")."""
+    bare = tmp_path / "bare.geo"
+    bare.write_text(BARE_H_GEO)
+    defined = tmp_path / "defined.geo"
+    defined.write_text('DefineConstant[ h = {0.5, Name "Parameters/h"} ];\n' + BARE_H_GEO)
+    ref = mesh_io.read_mesh(defined, h=0.02)
+    assert len(ref.cells) > 20              # h = 0.02 reached the file, not 0.5
+    same_mesh(mesh_io.read_mesh(bare, h=0.02), ref, "read_mesh")
+    r = run_cli("mesh", "--geo", bare, "--h", "0.02", "--out", "bare.msh", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    same_mesh(mesh_io.read_mesh(tmp_path / "bare.msh"), ref, "mesh command")
+    scene = tmp_path / "bare.nml"
+    scene.write_text("&mesh file = 'bare.geo', h = 0.02 /\n"
+                     "&boundary clamped = '', contact = 'outline' /\n"
+                     "&contact probe = 0.0, 0.0 /\n&initial kind = 'rest' /\n"
+                     "&scheme t_end = 0.01 /\n")
+    res = core.run(scene, out=tmp_path / "out", progress=False)
+    assert res.status == "ok" and res.summary["elements"] == len(ref.cells)
+
+
 SCENE = """&mesh file = '{file}', h = {h} /
 &boundary clamped = 'top', contact = 'bottom' /
 &contact probe = {probe} /
@@ -192,7 +226,15 @@ REFUSED_FILES = {
                           "no segments, triangles or tetrahedra"),
     "quadrangles": ("quads.geo", (ROOT / "meshes" / "bar2d.geo").read_text()
                             + "\nRecombine Surface{1};\n",
-                            "element type 3 (dimension 2) is not a linear simplex"),
+                            "element type 3 (dimension 2) is not a linear simplex; only "
+                            "triangles are supported in dimension 2 (quadrangles, hexahedra, "
+                            "prisms or pyramids: mesh without Recombine)"),
+    # a second-order mesh: its 3-node segments come first; the message says what to change
+    "second_order": ("p2.geo", (ROOT / "meshes" / "disk.geo").read_text()
+                     + "\nMesh.ElementOrder = 2;\n",
+                     "element type 8 (dimension 1) is not a linear simplex; only segments are "
+                     "supported in dimension 1 (a higher-order element: mesh with "
+                     "Mesh.ElementOrder = 1)"),
     # triangles off the z = 0 plane with no tetrahedra: a 3D geometry saved as 2D
     "mixed_dimensions": ("tilted.geo",
                          "Point(1) = {0, 0, 0}; Point(2) = {1, 0, 0}; Point(3) = {0, 1, 1};\n"

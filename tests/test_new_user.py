@@ -42,10 +42,12 @@ def disk_mesh(path: Path, h: float = 0.02, invert_every: int = 0) -> Path:
 
 
 def disk_scene(path: Path, mesh: Path, **over) -> Path:
-    """The disk falling onto y = 0 at speed 0.1, nothing clamped, whole outline in contact."""
+    """The disk falling onto y = 0 at speed 0.1, nothing clamped, whole outline in contact
+    (newmark 1/4 1/2: alpha, which BASE sets for hht, back to its default)."""
     settings = dict(mesh__file=f"'{mesh.name}'", boundary__clamped="''",
                     boundary__contact="'outline'", initial__kind="'velocity'",
                     initial__velocity="0.0, -0.1", scheme__name="'newmark'",
+                    scheme__alpha="0.0",
                     scheme__dt="0.001", scheme__t_end="0.1", contact__probe="0.0, 0.0")
     settings.update(over)
     return write_scene(path, **settings)
@@ -291,8 +293,9 @@ def test_lock_whose_pid_was_reused_is_taken_over(kind, tmp_path):
 # ------------------------------------------------------------------ threads, Dask
 
 def _scenes(tmp_path, t_end="2.0"):
-    return [write_scene(tmp_path / f"{name}.nml", scheme__name=f"'{name}'", scheme__t_end=t_end)
-            for name in ("newmark", "hht")]
+    return [write_scene(tmp_path / f"{name}.nml", scheme__name=f"'{name}'", scheme__t_end=t_end,
+                        scheme__alpha=alpha)   # newmark has no alpha: BASE's, for hht, off
+            for name, alpha in (("newmark", "0.0"), ("hht", "-0.1"))]
 
 
 def test_two_python_threads_run_scenes_like_one_after_the_other(tmp_path):
@@ -439,3 +442,430 @@ def test_output_folder_named_in_latin1_bytes(kind, tmp_path):
     assert b"\\udcE9" in raw or b"\\udce9" in raw
     assert os.fsencode(summary["scene"]["output"]["dir"]) == out
     assert summary["status"] == "ok"
+
+
+# ------------------------------------------------------------------ a scene of one's own
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_group_not_in_mesh_lists_the_mesh_groups(kind, tmp_path):
+    """A scene for one's own mesh that keeps the default clamped = 'top' (the bar's group)
+    or names a group the mesh lacks: the one line also lists the mesh's groups, so that
+    it says which names to use; the built-in bar lists its own, a mesh without physical
+    groups says it has none."""
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    scene = disk_scene(tmp_path / "top.nml", mesh, boundary__clamped="'top'")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert ("&boundary clamped: group 'top' not in mesh, whose groups are 'outline', "
+            "'body' (mesh '") in line and line.endswith("disk.msh')"), line
+    scene = write_scene(tmp_path / "bar.nml", boundary__contact="'base'")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert ("&boundary contact: group 'base' not in mesh, whose groups are 'bottom', 'top', "
+            "'left', 'right', 'body' (the built-in bar)") in line, line
+    (tmp_path / "bare.geo").write_text(
+        "Point(1) = {0, 0, 0, 0.05}; Point(2) = {0.1, 0, 0, 0.05};\n"
+        "Point(3) = {0, 0.1, 0, 0.05}; Line(1) = {1, 2}; Line(2) = {2, 3};\n"
+        "Line(3) = {3, 1}; Curve Loop(1) = {1, 2, 3}; Plane Surface(1) = {1};\n")
+    scene = write_scene(tmp_path / "bare.nml", mesh__file="'bare.geo'",
+                        boundary__clamped="''", boundary__contact="'bottom'")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert "group 'bottom' not in mesh, which has no groups (mesh '" in line, line
+    assert line.endswith("bare.geo')"), line
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_velocity_without_kind_velocity_warns(kind, tmp_path):
+    """&initial velocity given while kind keeps its default 'compressed_bar' (or is
+    'rest'): the velocity is not used and the run says so before it starts, naming the
+    state it starts from and the kind that would use it. kind = 'velocity', or a zero
+    velocity, says nothing."""
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    cases = {"default": ("compressed_bar", dict(initial__kind="'compressed_bar'")),
+             "rest": ("rest", dict(initial__kind="'rest'"))}
+    for name, (shown, over) in cases.items():
+        scene = disk_scene(tmp_path / f"{name}.nml", mesh, **over)
+        res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        assert (f"dyncontact: warning: &initial velocity is not used with kind = '{shown}': "
+                "the run starts at rest") in res.stderr, res.stderr
+        assert "kind = 'velocity' starts with that velocity" in res.stderr
+    for name, over in (("velocity", {}),
+                       ("zero", dict(initial__kind="'rest'", initial__velocity="0.0, 0.0"))):
+        scene = disk_scene(tmp_path / f"{name}.nml", mesh, **over)
+        res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
+        assert res.returncode == EXIT_OK and "&initial velocity" not in res.stderr, res.stderr
+
+
+def test_mesh_h_with_a_msh_file_is_noted_as_unused(tmp_path):
+    """&mesh h set with a .msh file (a user refining the mesh by h): the file's mesh is
+    used as it is, and the run says so before it starts, with the command that writes
+    a .msh of that size. The default h, or h with a .geo (which it sizes), says nothing."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning
+
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    geo = tmp_path / "tri.geo"
+    geo.write_text("Point(1) = {-0.1, 0, 0, h}; Point(2) = {0.1, 0, 0, h};\n"
+                   "Point(3) = {0, 0.1, 0, h}; Line(1) = {1, 2}; Line(2) = {2, 3};\n"
+                   "Line(3) = {3, 1}; Curve Loop(1) = {1, 2, 3}; Plane Surface(1) = {1};\n"
+                   'Physical Curve("outline") = {1, 2, 3}; Physical Surface("body") = {1};\n')
+    notes = {}
+    for name, file, h in (("msh_h", mesh, "0.01"), ("msh", mesh, "0.05"),
+                          ("geo_h", geo, "0.02")):
+        scene = disk_scene(tmp_path / f"{name}.nml", file, mesh__h=h, scheme__t_end="0.01")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            res = dyncontact.run(scene, out=tmp_path / name, progress=False)
+        assert res.status == "ok"
+        notes[name] = [str(w.message) for w in caught if w.category is DyncontactWarning
+                       and "&mesh h" in str(w.message)]
+    assert notes["msh_h"] == ["note: &mesh h = 1.0E-002 is not used: a .msh file is meshed "
+                              "already (h sizes a .geo and the built-in bar; python -m "
+                              "dyncontact mesh --geo FILE.geo --h H writes a .msh of size H)"]
+    assert notes["msh"] == [] and notes["geo_h"] == []
+
+
+# ------------------------------------------------------------------ physics a user checks
+
+def test_free_fall_reaches_the_obstacle_when_the_formula_says(tmp_path):
+    """The disk at rest, gravity g = 1 toward the obstacle 0.0201 below its lowest node:
+    the trapezoidal rule integrates the constant acceleration exactly (the consistent
+    mass times the uniform g is the load), so in flight u_n = g t^2 / 2 and v_n = g t at
+    the probe to round-off, the body stays unstrained (e_el = 0) and
+    e_total + e_load = 0; the first step with a contact point is the first one past
+    t = sqrt(2 d / g) = 0.2005 (t = 0.21 at dt = 0.01)."""
+    import dyncontact
+
+    gap, g, dt = 0.0201, 1.0, 0.01
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    scene = disk_scene(tmp_path / "fall.nml", mesh, initial__kind="'rest'",
+                       initial__velocity="0.0, 0.0", material__gravity=f"0.0, {-g}", contact__obstacle_point=f"0.0, {-gap}",
+                       scheme__dt=f"{dt}", scheme__t_end="0.3")
+    tr = dyncontact.run(scene, out=tmp_path / "o", progress=False).trace
+    t = tr["t"]
+    first = int(np.argmax(tr["active"] > 0))
+    assert t[first] == pytest.approx(dt * math.ceil(math.sqrt(2 * gap / g) / dt), abs=1e-12)
+    assert t[first - 1] < math.sqrt(2 * gap / g) < t[first]
+    fly = slice(0, first)
+    # round-off: a few eps of the values (u_n ~ 0.02, v_n ~ 0.2, energies ~ 6e-4)
+    np.testing.assert_allclose(tr["u_n"][fly], 0.5 * g * t[fly] ** 2, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(tr["v_n"][fly], g * t[fly], rtol=0, atol=1e-14)
+    scale = np.abs(tr["e_load"][fly]).max()
+    assert scale > 1e-4
+    assert np.abs(tr["e_el"][fly]).max() <= 1e-12 * scale
+    assert np.abs(tr["e_total"][fly] + tr["e_load"][fly]).max() <= 1e-12 * scale
+    assert np.all(tr["p_n"][fly] == 0) and np.any(tr["p_n"][first:] < 0)
+
+
+def _rotated_disk(path: Path, angle: float) -> Path:
+    """disk_mesh's mesh (h = 0.02) with every node turned by `angle` about the origin."""
+    with gmsh_session("disk") as gmsh:
+        s, arcs = occ_disk(gmsh, RADIUS, 0.02)
+        gmsh.model.addPhysicalGroup(1, arcs, 1, "outline")
+        gmsh.model.addPhysicalGroup(2, [s], 2, "body")
+        gmsh.model.mesh.generate(2)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        c, si = math.cos(angle), math.sin(angle)
+        for tag, (x, y, z) in zip(tags, np.asarray(xyz).reshape(-1, 3)):
+            gmsh.model.mesh.setNode(int(tag), [c * x - si * y, si * x + c * y, z], [])
+        write_msh41(gmsh, path)
+    return path
+
+
+def test_rotated_scene_gives_the_same_trace(tmp_path):
+    """The disk thrown obliquely at the plane under gravity, and the same scene turned by
+    30 degrees (mesh nodes, obstacle point and normal, gravity, velocity, probe): the
+    traces (scalars: normal components and energies) are equal to round-off, through the
+    impact. The built-in meshes are axis-aligned; tests/fortran/test_rotation3d does the
+    same for the 3D kernels."""
+    import dyncontact
+
+    traces = []
+    for angle in (0.0, math.radians(30.0)):
+        rot = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+
+        def vec(v, rot=rot):
+            return ", ".join(repr(float(x)) for x in rot @ np.asarray(v))
+
+        mesh = _rotated_disk(tmp_path / f"disk{angle:.2f}.msh", angle)
+        scene = disk_scene(tmp_path / f"s{angle:.2f}.nml", mesh,
+                           initial__velocity=vec([0.05, -0.2]), material__gravity=vec([0, -1.0]),
+                           contact__obstacle_normal=vec([0, -1.0]),
+                           contact__obstacle_point=vec([0, -0.005]),
+                           contact__probe=vec([0, 0]), scheme__t_end="0.15")
+        traces.append(dyncontact.run(scene, out=tmp_path / f"o{angle:.2f}",
+                                     progress=False).trace)
+    a, b = traces
+    assert np.max(a["active"]) > 0 and np.min(a["p_n"]) < 0    # through an impact
+    np.testing.assert_array_equal(a["active"], b["active"])
+    for col in ("u_n", "v_n", "p_n", "e_kin", "e_el", "e_contact", "e_total", "e_load"):
+        # the rounding of the turned coordinates (an eps each) carried through 150 steps
+        # and their Newton solves: measured at most 5e-13 of the column's largest value
+        # (e_contact, a difference of squares); 1e-11 leaves a factor 20
+        np.testing.assert_allclose(b[col], a[col], rtol=0, atol=1e-11 * np.abs(a[col]).max(),
+                                   err_msg=col)
+
+
+def test_contact_impulse_is_the_momentum_change_normal_to_a_tilted_plane(tmp_path):
+    """A cylinder of one's own .geo (OpenCASCADE, h = 0.06) thrown without gravity at a
+    plane tilted 11 degrees, nothing clamped, the trapezoidal rule: the total momentum
+    sum(M v) changes only through the contact force F (B(u) - K_theta u summed by
+    component; the elastic part sums to zero on a free body), so after the impact
+    Delta P = trapezoidal integral of F dt to round-off, and Delta P is along the
+    obstacle normal (frictionless: the tangential momentum is kept). newton_tol = 1e-14
+    makes the balance of each step exact to round-off."""
+    import dyncontact
+    from dyncontact.core import Stepper
+
+    pytest.importorskip("gmsh")
+    (tmp_path / "cyl.geo").write_text(
+        'SetFactory("OpenCASCADE");\n'
+        "Cylinder(1) = {0, 0, 0.05, 0, 0, 0.2, 0.1};\n"
+        "MeshSize{ PointsOf{ Volume{1}; } } = h;\nMesh.MeshSizeMax = h;\n"
+        'Physical Surface("lateral") = {1};\nPhysical Surface("lid") = {2};\n'
+        'Physical Surface("sole") = {3};\nPhysical Volume("steel") = {1};\n')
+    normal = np.array([0.2, 0.0, -1.0]) / math.hypot(0.2, 1.0)
+    scene = tmp_path / "cyl.nml"
+    scene.write_text(
+        "&mesh file = 'cyl.geo', h = 0.06 /\n&boundary clamped = '', contact = 'sole' /\n"
+        "&material young = 1.0, poisson = 0.3 /\n"
+        "&contact obstacle_point = 0.0, 0.0, 0.0, obstacle_normal = 0.2, 0.0, -1.0,\n"
+        "         probe = 0.1, 0.0, 0.05 /\n"
+        "&initial kind = 'velocity', velocity = 0.05, 0.02, -0.3 /\n"
+        "&scheme name = 'newmark', dt = 0.01, t_end = 0.8, newton_tol = 1e-14 /\n")
+    times, momentum, force = [], [], []
+    with Stepper(dyncontact.Scene.read(scene), tmp_path / "o") as st:
+        _node, comp = st.dof_map()
+        k_theta = st.matrix("K_theta")
+        while True:
+            x = st.state()
+            f = x["bu"] - k_theta @ x["u"]
+            times.append(x["t"])
+            momentum.append([x["mv"][comp == c].sum() for c in range(3)])
+            force.append([-f[comp == c].sum() for c in range(3)])
+            if st.finished:
+                break
+            st.advance(1)
+    tr = dyncontact.core.read_trace(tmp_path / "o")
+    assert tr["active"][0] == 0 and tr["active"][-1] == 0 and tr["active"].max() > 0
+    dp = np.subtract(momentum[-1], momentum[0])
+    impulse = np.trapezoid(np.asarray(force), np.asarray(times), axis=0)
+    # each step's balance holds to newton_tol = 1e-14 (below round-off) and the sums run
+    # over ~250 dofs and 80 steps: measured 1.3e-14 of |Delta P|; 1e-12 leaves room
+    np.testing.assert_allclose(impulse, dp, rtol=0, atol=1e-12 * np.linalg.norm(dp))
+    assert np.linalg.norm(np.cross(dp, normal)) <= 1e-12 * np.linalg.norm(dp)
+    assert dp @ normal < 0            # pushed back out of the obstacle
+
+
+def test_set_mesh_file_counts_from_the_current_folder(run_cli, tmp_path):
+    """--set mesh.file=disk.msh, the very text of the scene's own relative mesh file,
+    run from another folder than the scene's: the value counts from the current folder,
+    unlike the same path in the file, and the message says where it looked; from the
+    scene's folder the same command runs."""
+    folder = tmp_path / "work"
+    folder.mkdir()
+    mesh = disk_mesh(folder / "disk.msh")
+    scene = disk_scene(folder / "s.nml", mesh)        # mesh file = 'disk.msh' in it
+    args = ("run", scene, "--set", "mesh.file=disk.msh", "--out", "o", "--quiet")
+    r = run_cli(*args, cwd=tmp_path)
+    assert r.returncode == EXIT_BAD_INPUT
+    assert ("&mesh file: cannot read mesh file 'disk.msh' in the current folder "
+            "(got 'disk.msh')") in r.stderr, r.stderr
+    r = run_cli(*args, cwd=folder)
+    assert r.returncode == EXIT_OK, r.stderr
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_scheme_keys_the_scheme_does_not_use_warn(kind, tmp_path):
+    """&scheme keys set (to other values than their defaults) for another scheme than the
+    one chosen change nothing: hht takes beta and gamma from alpha, newmark has no alpha,
+    central none of them. The run says which keys it does not use and which it does;
+    the defaults, or the keys of the scheme itself, say nothing."""
+    cases = {
+        "hht": (dict(scheme__beta="0.3025", scheme__gamma="0.6"),
+                "&scheme beta, gamma: not used by scheme 'hht' (it uses alpha;"),
+        "newmark": (dict(scheme__name="'newmark'", scheme__theta="0.7"),
+                    "&scheme alpha, theta: not used by scheme 'newmark' (it uses beta, gamma;"),
+        "central": (dict(scheme__name="'central'", scheme__dt="0", scheme__rho_inf="0.5"),
+                    "&scheme alpha, rho_inf: not used by scheme 'central' (it uses none of them;"),
+        "quiet": (dict(scheme__name="'galpha'", scheme__alpha="0.0", scheme__rho_inf="0.8"),
+                  None),
+    }
+    for name, (over, warning) in cases.items():
+        scene = write_scene(tmp_path / f"{name}.nml", scheme__t_end="0.01", **over)
+        res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        if warning is None:
+            assert "not used by scheme" not in res.stderr, res.stderr
+        else:
+            assert f"dyncontact: warning: {warning} docs/scenes.md, &scheme)" in res.stderr, \
+                res.stderr
+
+
+def test_alm_without_the_redistributed_mass_warns(tmp_path):
+    """&contact method = 'alm' keeps the default consistent mass (or takes the lumped
+    one): docs/numerics.md says never to (the multipliers chatter and the energy grows
+    several-fold). The run says so before it starts; with the redistributed mass, or
+    with Nitsche, it says nothing."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning
+
+    def notes(**over):
+        scene = write_scene(tmp_path / "s.nml", scheme__name="'newmark'", scheme__alpha="0.0",
+                            scheme__t_end="0.01", **over)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert dyncontact.run(scene, out=tmp_path / "o", progress=False).ok
+        return [str(w.message) for w in caught if w.category is DyncontactWarning]
+
+    for mass in ("consistent", "lumped"):
+        assert notes(contact__method="'alm'", scheme__mass=f"'{mass}'") == [
+            f"warning: &contact method = 'alm' with &scheme mass = '{mass}': the multipliers "
+            "chatter at the impacts and the energy grows several-fold (most runs blow up); "
+            "use mass = 'redistributed' (docs/numerics.md, \"Which method, with which mass\")"]
+    assert notes(contact__method="'alm'", scheme__mass="'redistributed'") == []
+    assert notes(scheme__mass="'consistent'") == []
+
+
+def test_contact_boundary_starting_inside_the_obstacle_warns(tmp_path):
+    """The obstacle point put 0.01 above the disk's lowest node (a sign slip): the run
+    says the contact boundary starts inside the obstacle, with the deepest gap and its
+    node, before the contact throws the disk out. The disk touching the plane at one
+    node (a gap of 0 to round-off), and the seed bar, say nothing; an obstacle normal
+    into the body gets its own warning alone (the normal is what to fix)."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning
+
+    mesh = disk_mesh(tmp_path / "disk.msh")
+
+    def notes(scene):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            dyncontact.run(scene, out=tmp_path / "o", progress=False)
+        return [str(w.message) for w in caught if w.category is DyncontactWarning]
+
+    inside = notes(disk_scene(tmp_path / "in.nml", mesh, contact__obstacle_point="0.0, 0.01"))
+    assert len(inside) == 1 and re.fullmatch(
+        r"warning: the contact boundary starts inside the obstacle: initial gap -1\.000E-002 "
+        r"at the node -?\d\.\d{5}E-0(17|00) 0\.00000E\+000 \(check &contact obstacle_point "
+        r"and obstacle_normal: the contact pushes it out at the first step\)", inside[0]), inside
+    assert notes(disk_scene(tmp_path / "on.nml", mesh)) == []
+    assert notes(write_scene(tmp_path / "bar.nml", scheme__t_end="0.01")) == []
+    away = notes(write_scene(tmp_path / "away.nml", contact__obstacle_normal="0.0, 1.0",
+                             scheme__t_end="0.01"))
+    assert len(away) == 1 and "obstacle_normal points into the body" in away[0], away
+
+
+def test_docstring_examples_run_as_written(monkeypatch):
+    """The examples of the modules' docstrings that run in a moment (the others write
+    runs into out/ and are marked +SKIP), run from the repository's root as written:
+    mesh_io's once named a mesh file that meshes/ does not have."""
+    import doctest
+
+    from dyncontact import mesh_io, scene
+    from dyncontact.study import figures
+
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    for module in (mesh_io, scene, figures):
+        failed, tried = doctest.testmod(module, optionflags=doctest.ELLIPSIS)
+        assert failed == 0 and tried > 0, module.__name__
+
+
+#: (scheme keys, dt) of every scheme family, each at a step it is stable at on the disk
+#: (h = 0.02: the predictor-correctors at about h/60, the others at h/2).
+RIGID_SCHEMES = {
+    "newmark": ({"name": "'newmark'"}, 0.01),
+    "hht": ({"name": "'hht'", "alpha": "-0.1"}, 0.01),
+    "hht_seed": ({"name": "'hht_seed'", "alpha": "-0.1"}, 0.01),
+    "theta": ({"name": "'theta'", "theta": "1.0"}, 0.01),
+    "galpha": ({"name": "'galpha'", "rho_inf": "0.5"}, 0.01),
+    "pc": ({"name": "'pc'"}, 0.0003),
+    "pc_hht": ({"name": "'pc_hht'", "alpha": "-0.1"}, 0.0003),
+    "central": ({"name": "'central'", "mass": "'lumped'"}, 0.002),
+}
+
+
+@pytest.mark.parametrize("scheme", RIGID_SCHEMES)
+def test_body_thrown_in_flight_moves_rigidly(scheme, tmp_path):
+    """The disk thrown at (0.3, -0.1), no gravity, nothing clamped, the obstacle far
+    below: every scheme moves it as a rigid body, so u_n = 0.1 t and v_n = 0.1 at the
+    probe, e_kin stays ½ m |v|² and e_el = 0, to round-off (a translation is in the null
+    space of K and the schemes integrate a constant velocity exactly)."""
+    import dyncontact
+
+    keys, dt = RIGID_SCHEMES[scheme]
+    over = {f"scheme__{k}": v for k, v in keys.items()}
+    over.setdefault("scheme__alpha", "0.0")
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    scene = disk_scene(tmp_path / "s.nml", mesh, initial__velocity="0.3, -0.1",
+                       contact__obstacle_point="0.0, -1.0", scheme__dt=f"{dt}",
+                       scheme__t_end="0.3", **over)
+    res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
+    assert res.status == "ok"
+    tr = res.trace
+    mass = math.pi * RADIUS**2            # density 1; the disk's polygon is a bit less
+    e_kin = 0.5 * (0.3**2 + 0.1**2)
+    assert tr["e_kin"][0] == pytest.approx(e_kin * mass, rel=2e-2)
+    # round-off, grown over up to 1000 steps: measured at most 2.5e-14 of each scale
+    np.testing.assert_allclose(tr["u_n"], 0.1 * tr["t"], rtol=0, atol=1e-12 * 0.03)
+    np.testing.assert_allclose(tr["v_n"], 0.1, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(tr["e_kin"], tr["e_kin"][0], rtol=1e-13)
+    assert np.abs(tr["e_el"]).max() <= 1e-13 * tr["e_kin"][0]
+    assert np.all(tr["active"] == 0)
+
+
+def test_contact_keys_the_method_does_not_use_warn(tmp_path):
+    """&contact theta (the Nitsche variant) with 'penalty', multiplier without 'alm',
+    quad_points with the 'exact' quadrature: each changes nothing and the run says so,
+    one line a key; the same keys where they are used say nothing."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning
+
+    def notes(**over):
+        scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.01", **over)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            assert dyncontact.run(scene, out=tmp_path / "o", progress=False).ok
+        return [str(w.message) for w in caught if w.category is DyncontactWarning]
+
+    assert notes(contact__method="'penalty'", contact__theta="0", contact__multiplier="'nodal'",
+                 contact__quad_points="5") == [
+        "warning: &contact theta: not used by method = 'penalty' (the Nitsche variant; "
+        "docs/scenes.md, &contact)",
+        "warning: &contact multiplier: not used by method = 'penalty' (only 'alm' has "
+        "multipliers; docs/scenes.md, &contact)",
+        "warning: &contact quad_points: not used with quadrature = 'exact' (it splits each "
+        "facet at the kink; quad_points is for quadrature = 'gauss'; docs/scenes.md, "
+        "&contact)"]
+    assert notes(contact__theta="0", contact__gamma0="10.0", contact__quadrature="'gauss'",
+                 contact__quad_points="5") == []
+
+
+def test_stepper_gives_the_runs_warnings(tmp_path):
+    """A Stepper is a run driven step by step: the warnings and notes run() gives before
+    the run starts are DyncontactWarning warnings there too (it used to say nothing);
+    turned into errors, they leave no run open (the output folder's lock is released)."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning, Stepper
+
+    scene = write_scene(tmp_path / "s.nml", contact__obstacle_normal="0.0, 1.0",
+                        scheme__t_end="0.01")
+    with pytest.warns(DyncontactWarning, match="obstacle_normal points into the body"):
+        with Stepper(scene, tmp_path / "o") as st:
+            st.advance(1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DyncontactWarning)
+        with pytest.raises(DyncontactWarning):
+            Stepper(scene, tmp_path / "o")
+    assert not (tmp_path / "o" / ".dyncontact.lock").exists()
+    with pytest.warns(DyncontactWarning, match="obstacle_normal points into the body"):
+        assert dyncontact.run(scene, out=tmp_path / "o", progress=False).ok

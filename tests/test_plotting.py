@@ -217,3 +217,32 @@ def test_plot_that_cannot_be_written_exits_4_naming_the_file(tmp_path):
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("dyncontact: "), res.stderr
     assert str(png) in lines[0] and "File too large" in lines[0], lines[0]
+
+
+def test_energy_panel_adds_e_load_under_a_body_force(tmp_path):
+    """A body falling freely under gravity: e_kin grows as e_load falls and their sum
+    stays 0. The energy panel draws e_kin + e_el + e_load (flat) and says so in its
+    label; a run without a load drawn with it is unchanged (e_load = 0)."""
+    from dyncontact.plotting import plot_traces
+
+    header = HEADER + ",e_load"
+    t = np.linspace(0.0, 1.0, 11)
+    v = -t                                  # g = -1, unit mass
+    e_kin = 0.5 * v**2
+    zeros = np.zeros_like(t)
+    rows = np.column_stack([t, 0.5 * t**2, -v, zeros, e_kin, zeros, zeros, e_kin, zeros,
+                            zeros, -e_kin])
+    fall = _write_run(tmp_path / "fall")
+    np.savetxt(fall / "trace.csv", rows, delimiter=",", header=header, comments="",
+               fmt="%.12e")
+    bar = _write_run(tmp_path / "bar")
+    fig = plot_traces([fall, bar], None)
+    ax_e = fig.axes[3]
+    assert "e_{load}" in ax_e.get_ylabel()
+    curves = [ln for ln in ax_e.get_lines() if ln.get_gid() is None]
+    np.testing.assert_array_equal(curves[0].get_ydata(), zeros)
+    e_bar = np.loadtxt(bar / "trace.csv", delimiter=",", skiprows=1)[:, 7]
+    np.testing.assert_array_equal(curves[1].get_ydata(), e_bar)
+    # without a load anywhere, the label and curves are e_kin + e_el
+    fig = plot_traces([bar], None)
+    assert "e_{load}" not in fig.axes[3].get_ylabel()

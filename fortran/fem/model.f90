@@ -123,6 +123,7 @@ contains
         real(dp) :: lambda, mu
         integer, allocatable :: facets(:)
         integer :: dim, j, parts
+        logical :: faces
         stat = STAT_OK
         msg = ''
         mdl%name = prm%name
@@ -194,7 +195,8 @@ contains
         if (mdl%has_contact .and. prm%multiplier /= ALM_OFF) &
             call alm_init(mdl%alm, mdl%ct, prm%multiplier)
         if (mdl%has_contact) then
-            call check_normal(mdl)
+            call check_normal(mdl, faces)
+            if (faces) call check_gap(mdl)      ! else the normal is what to fix
             call check_gamma0(mdl, prm, lambda, mu, stat, msg)
             if (stat /= STAT_OK) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &contact gamma0: '//trim(msg))
@@ -773,8 +775,9 @@ contains
     !> outline) it is 0 whatever the normal, and part of the facets always face the
     !> obstacle, so a closed boundary never warns; an open one (the bar's bottom)
     !> warns when all its facets face away from the obstacle or are parallel to it.
-    pure subroutine check_normal(mdl)
+    pure subroutine check_normal(mdl, faces)
         type(model_t), intent(inout) :: mdl          !! model being built
+        logical, intent(out) :: faces                !! some contact facet faces the obstacle
         real(dp), parameter :: FACING = 1.0e-9_dp   ! cosine counted as facing
         integer :: f, dim
         real(dp) :: xa(mdl%dim), xb(mdl%dim), xc(mdl%dim), nf(mdl%dim), c_max
@@ -801,7 +804,8 @@ contains
             end if
             c_max = max(c_max, dot_product(nf, mdl%normal(1:dim)) / norm2(nf))
         end do
-        if (mdl%ct%n_facets > 0 .and. c_max <= FACING) then
+        faces = .not. (mdl%ct%n_facets > 0 .and. c_max <= FACING)
+        if (.not. faces) then
             write (cbuf, '(f6.3)') c_max
             buf = 'warning: &contact obstacle_normal points into the body (no contact facet '// &
                   'faces the obstacle: largest cosine with their outward normals '// &
@@ -809,6 +813,39 @@ contains
             call note(mdl, trim(buf))
         end if
     end subroutine check_normal
+
+    !> Warn when the contact boundary starts inside the obstacle: an initial gap
+    !> g = (obstacle_point - x).n below -GAP_RTOL times the contact boundary's extent at
+    !> some contact node (an obstacle_point on the wrong side, or a mesh placed across
+    !> the plane). The run then starts with the contact pushing the body out, at once and
+    !> hard, which is rarely meant; the node and its gap are named. The tolerance lets
+    !> nodes on the plane to round-off (a curved outline touching it) pass.
+    pure subroutine check_gap(mdl)
+        type(model_t), intent(inout) :: mdl          !! model being built
+        real(dp), parameter :: GAP_RTOL = 1.0e-9_dp
+        integer :: f, j, jf(2), dim
+        integer, allocatable :: ids(:)
+        real(dp) :: extent, g_min
+        character(len=300) :: buf
+        character(len=80) :: vfmt
+        dim = mdl%dim
+        if (mdl%ct%n_facets == 0) return
+        jf = minloc(mdl%ct%gap(1:dim, 1:mdl%ct%n_facets))
+        g_min = mdl%ct%gap(jf(1), jf(2))
+        ids = reshape(mdl%ct%nodes(1:dim, 1:mdl%ct%n_facets), [dim * mdl%ct%n_facets])
+        extent = 0.0_dp
+        do j = 1, dim
+            extent = max(extent, maxval(mdl%msh%x(j, ids)) - minval(mdl%msh%x(j, ids)))
+        end do
+        f = jf(2)
+        if (g_min >= -GAP_RTOL * max(extent, tiny(1.0_dp))) return
+        write (vfmt, '(a, i0, a)') '(a, es11.3e3, a, ', dim, '(es13.5e3, 1x), a)'
+        write (buf, vfmt) 'warning: the contact boundary starts inside the obstacle: initial '// &
+            'gap ', g_min, ' at the node ', mdl%msh%x(:, mdl%ct%nodes(jf(1), f)), &
+            '(check &contact obstacle_point and obstacle_normal: the contact pushes it out '// &
+            'at the first step)'
+        call note(mdl, single_blanks(buf))
+    end subroutine check_gap
 
     !> gamma0 against the material: with theta = 1, K_theta = K - sum theta |F| /
     !> gamma_N s s^T stays positive semi-definite if on every cell touching Gamma_C

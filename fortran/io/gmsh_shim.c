@@ -148,6 +148,7 @@ static struct {
     __typeof__(&gmshModelGetPhysicalGroupsForEntity) get_physical_groups_for_entity;
     __typeof__(&gmshFree) free;
     __typeof__(&gmshLoggerGetLastError) last_error;
+    __typeof__(&gmshLoggerWrite) logger_write;
 } G;
 
 static char load_error[512];
@@ -192,6 +193,7 @@ static int gmsh_load(void)
     SYM(get_physical_name, "gmshModelGetPhysicalName")
     SYM(get_physical_groups_for_entity, "gmshModelGetPhysicalGroupsForEntity")
     SYM(free, "gmshFree") SYM(last_error, "gmshLoggerGetLastError")
+    SYM(logger_write, "gmshLoggerWrite")
 #undef SYM
     return 1;
 }
@@ -320,6 +322,24 @@ static const char *dim_noun(int d)
     return n[d];
 }
 
+/* What to change in the .geo for an element type that is not a linear simplex: "" if
+ * none is known. gmsh's types: higher-order segments, triangles and tetrahedra (8, 9, 11,
+ * 20-31), quadrangles, hexahedra, prisms and pyramids of any order (3, 5-7, 10, 12-14,
+ * 16-19). */
+static const char *element_hint(int type)
+{
+    static const int higher[] = {8, 9, 11, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
+    static const int recombined[] = {3, 5, 6, 7, 10, 12, 13, 14, 16, 17, 18, 19};
+    size_t i;
+    for (i = 0; i < sizeof higher / sizeof *higher; i++)
+        if (type == higher[i])
+            return " (a higher-order element: mesh with Mesh.ElementOrder = 1)";
+    for (i = 0; i < sizeof recombined / sizeof *recombined; i++)
+        if (type == recombined[i])
+            return " (quadrangles, hexahedra, prisms or pyramids: mesh without Recombine)";
+    return "";
+}
+
 /* Elements of entity (d, tag): the P1 simplices (tags, nodes) or an error for others. */
 typedef struct { size_t n; size_t *tags; size_t *nodes; } block_t;
 
@@ -339,10 +359,10 @@ static int entity_elements(int d, int tag, block_t *b, const char *path, char *m
             b->nodes = ntags[i];
             etags[i] = ntags[i] = NULL;
         } else if (etags_n[i] > 0 && st == 0) {
-            char buf[200];
+            char buf[300];
             snprintf(buf, sizeof buf, ": element type %d (dimension %d) is not a linear "
-                     "simplex; only %s are supported in dimension %d", types[i], d,
-                     dim_noun(d), d);
+                     "simplex; only %s are supported in dimension %d%s", types[i], d,
+                     dim_noun(d), d, element_hint(types[i]));
             set_msg(msg, msglen, path, buf, NULL);
             st = 2;
         }
@@ -646,14 +666,34 @@ static int gmsh_read(const char *path, const double *params, int is_geo, void **
         return 2;
     }
     if (is_geo) {
-        /* does the file use h? parse it once without h: it then defines h, or fails */
+        /* does the file use h? parse it once without h: it then defines h, or fails.
+         * The parse runs to the end of the file whatever its errors (AbortOnError 0):
+         * a parse stopped at its first error (gmsh's default in the API, an exception)
+         * leaves the rest of the file in gmsh's lexer, which the next parse reads first
+         * (a .geo using h without defining it then failed with "line 0: syntax error").
+         * An error is seen as gmsh's last error replacing PROBE_MARK, written first. */
+        static const char PROBE_MARK[] = "dyncontact: parsing the .geo without h";
         int uses_h = 0;
         char **names = NULL;
+        char *last = NULL;
         size_t n = 0, j;
+        double abort_on_error = 2;
         for (i = 1; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
         G.parser_clear("h", &ierr);
+        G.option_get_number("General.AbortOnError", &abort_on_error, &ierr);
+        G.option_set_number("General.AbortOnError", 0, &ierr);
+        G.logger_write(PROBE_MARK, "error", &ierr);
         ierr = 0;
         G.merge(path, &ierr);
+        if (!ierr) {
+            G.last_error(&last, &ierr);
+            if (ierr || !last || strcmp(last, PROBE_MARK) != 0) ierr = 1;
+            if (last) G.free(last);
+        }
+        {
+            int ierr2 = 0;
+            G.option_set_number("General.AbortOnError", abort_on_error, &ierr2);
+        }
         if (ierr) {
             uses_h = 1;
         } else {

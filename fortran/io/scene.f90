@@ -722,8 +722,16 @@ contains
             if (len(file) > PATH_LEN) then
                 msg = bad(keys, name, 'mesh', 'file', 'resolved path too long'); return
             else if (ios /= 0) then
-                msg = bad(keys, name, 'mesh', 'file', 'cannot read mesh file '''// &
-                          shown(file, VALUE_LEN)//''''); return
+                ! a relative path here was given relative to the current folder (a scene
+                ! text or a Python Scene.set / --set value, which has no folder of its own)
+                if (file(1:1) /= '/') then
+                    msg = bad(keys, name, 'mesh', 'file', 'cannot read mesh file '''// &
+                              shown(file, VALUE_LEN)//''' in the current folder')
+                else
+                    msg = bad(keys, name, 'mesh', 'file', 'cannot read mesh file '''// &
+                              shown(file, VALUE_LEN)//'''')
+                end if
+                return
             end if
             scn%mesh_file = file
         else

@@ -346,7 +346,7 @@ contains
     end function mesh_find_group
 
     !> Group indices of the comma-separated list `names` (blank entries ignored).
-    !> An unknown name gives STAT_BAD_INPUT "group 'NAME' not in mesh".
+    !> An unknown name gives STAT_BAD_INPUT "group 'NAME' not in mesh, whose groups are ...".
     pure subroutine parse_group_list(this, names, groups, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh
         character(len=*), intent(in) :: names             !! e.g. 'left,right'
@@ -373,7 +373,8 @@ contains
             g = mesh_find_group(this, item)
             if (g == 0) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, &
-                           "group '"//trim(adjustl(item))//"' not in mesh")
+                           "group '"//trim(adjustl(item))//"' not in mesh"// &
+                           group_names_text(this))
                 return
             end if
             n = n + 1
@@ -381,6 +382,31 @@ contains
         end do
         groups = groups(1:n)
     end subroutine parse_group_list
+
+    !> ", whose groups are 'a', 'b', ..." (the mesh's physical group names, in mesh order,
+    !> cut after about 300 characters with ", ..."), or ", which has no groups": what a
+    !> message about a missing group adds, so that it says which names to use instead.
+    pure function group_names_text(this) result(text)
+        type(mesh_t), intent(in) :: this   !! mesh
+        character(len=:), allocatable :: text
+        integer, parameter :: MAX_LEN = 300
+        integer :: g, n
+        n = 0
+        if (allocated(this%group_name)) n = min(this%n_groups, size(this%group_name))
+        if (n == 0) then
+            text = ', which has no groups'
+            return
+        end if
+        text = ', whose groups are '
+        do g = 1, n
+            if (g > 1) text = text//', '
+            if (len(text) > MAX_LEN) then
+                text = text//'...'
+                return
+            end if
+            text = text//"'"//trim(this%group_name(g))//"'"
+        end do
+    end function group_names_text
 
     !> Mark the nodes of every facet or cell in the comma-separated list of groups
     !> `names` (blank entries ignored; '' marks nothing). An unknown name gives

@@ -4,7 +4,7 @@
 module simulation
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp, i8
-    use text, only: int_text, real_text
+    use text, only: int_text, real_text, lower
     use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
     use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim
@@ -248,6 +248,11 @@ contains
         call sim%scheme%init(sim%mdl, sprm, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
         call check_massless_weight(sim)
+        call check_unused_velocity(sim)
+        call check_unused_mesh_size(sim)
+        call check_unused_scheme_keys(sim)
+        call check_unused_contact_keys(sim)
+        call check_alm_mass(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
             ! the estimate is the linear limit at full contact: measured, it is not a safe
@@ -302,6 +307,114 @@ contains
             ' position changes sign at every step and never decays (v_n alternates); use '// &
             fix//' or newmark (docs/numerics.md)'//new_line('a')
     end subroutine check_massless_weight
+
+    !> A warning for an &initial velocity that the initial kind does not use: a scene
+    !> that gives a velocity but keeps the default kind = 'compressed_bar' (the seed's
+    !> bar, lifted by amplitude) would otherwise start from that state at rest, silently.
+    !> Only a nonzero velocity counts: the default (zero) changes nothing.
+    subroutine check_unused_velocity(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        character(len=:), allocatable :: start
+        if (trim(sim%scn%initial_kind) == 'velocity' .or. all(sim%scn%velocity == 0.0_dp)) return
+        if (trim(sim%scn%initial_kind) == 'compressed_bar') then
+            start = 'the compressed bar''s u0 = -amplitude (1 - d/length) n'
+        else
+            start = 'u0 = 0'
+        end if
+        sim%mdl%notes = trim(sim%mdl%notes)// &
+            'warning: &initial velocity is not used with kind = '''// &
+            trim(sim%scn%initial_kind)//''': the run starts at rest from '//start// &
+            '; kind = ''velocity'' starts with that velocity'//new_line('a')
+    end subroutine check_unused_velocity
+
+    !> A note for an &mesh h other than the default with a .msh file: the file's mesh is
+    !> used as it is (h sizes a .geo or the built-in bar), so a scene that refines a .msh
+    !> by h would otherwise run on the coarse mesh, silently.
+    subroutine check_unused_mesh_size(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        integer :: n
+        n = len_trim(sim%scn%mesh_file)
+        if (n < 4 .or. sim%scn%mesh_h == 0.05_dp) return
+        if (lower(sim%scn%mesh_file(n - 3:n)) /= '.msh') return
+        sim%mdl%notes = trim(sim%mdl%notes)//'note: &mesh h = '//real_text(sim%scn%mesh_h)// &
+            ' is not used: a .msh file is meshed already (h sizes a .geo and the built-in'// &
+            ' bar; python -m dyncontact mesh --geo FILE.geo --h H writes a .msh of size H)'// &
+            new_line('a')
+    end subroutine check_unused_mesh_size
+
+    !> A warning for the &scheme parameters the chosen scheme does not use, set to other
+    !> values than their defaults (hht with beta or gamma, whose beta and gamma follow from
+    !> alpha; newmark with alpha, ...): they would otherwise change nothing, silently.
+    subroutine check_unused_scheme_keys(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        character(len=:), allocatable :: used, unused
+        used = ''
+        select case (trim(sim%scn%scheme_name))
+        case ('newmark', 'pc')
+            used = 'beta, gamma'
+        case ('hht', 'hht_seed', 'pc_hht', 'pc_hht_seed')
+            used = 'alpha'
+        case ('theta')
+            used = 'theta'
+        case ('galpha')
+            used = 'rho_inf'
+        end select
+        unused = ''
+        if (index(used, 'alpha') == 0 .and. sim%scn%alpha /= 0.0_dp) &
+            unused = unused//', alpha'
+        if (index(used, 'beta') == 0 .and. sim%scn%beta /= 0.25_dp) &
+            unused = unused//', beta'
+        if (index(used, 'gamma') == 0 .and. sim%scn%gamma /= 0.5_dp) &
+            unused = unused//', gamma'
+        if (index(used, 'theta') == 0 .and. sim%scn%time_theta /= 0.5_dp) &
+            unused = unused//', theta'
+        if (index(used, 'rho_inf') == 0 .and. sim%scn%rho_inf /= 1.0_dp) &
+            unused = unused//', rho_inf'
+        if (len(unused) == 0) return
+        if (len(used) == 0) used = 'none of them'
+        sim%mdl%notes = trim(sim%mdl%notes)//'warning: &scheme '//unused(3:)// &
+            ': not used by scheme '''//trim(sim%scn%scheme_name)//''' (it uses '//used// &
+            '; docs/scenes.md, &scheme)'//new_line('a')
+    end subroutine check_unused_scheme_keys
+
+    !> A warning for the &contact keys the chosen method or quadrature does not use, set
+    !> to other values than their defaults: the Nitsche theta with 'penalty' or 'alm',
+    !> multiplier without 'alm', quad_points with quadrature = 'exact'.
+    subroutine check_unused_contact_keys(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        character(len=:), allocatable :: method
+        if (.not. sim%mdl%has_contact) return
+        method = trim(sim%scn%contact_method)
+        if (method /= 'nitsche' .and. sim%scn%nitsche_theta /= 1) &
+            sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact theta: not used by '// &
+            'method = '''//method//''' (the Nitsche variant; docs/scenes.md, &contact)'// &
+            new_line('a')
+        if (method /= 'alm' .and. trim(sim%scn%multiplier) /= 'integral') &
+            sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact multiplier: not used by '// &
+            'method = '''//method//''' (only ''alm'' has multipliers; docs/scenes.md, '// &
+            '&contact)'//new_line('a')
+        if (trim(sim%scn%quadrature) == 'exact' .and. sim%scn%quad_points /= 3 .and. &
+            sim%mdl%dim > 1) &
+            sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact quad_points: not used '// &
+            'with quadrature = ''exact'' (it splits each facet at the kink; quad_points is '// &
+            'for quadrature = ''gauss''; docs/scenes.md, &contact)'//new_line('a')
+    end subroutine check_unused_contact_keys
+
+    !> A warning for the augmented Lagrangian with a mass that has inertia on the contact
+    !> nodes (consistent, the default, or lumped): the multipliers chatter at every impact
+    !> and their work raises the energy several-fold, and most runs blow up
+    !> (docs/numerics.md, "Which method, with which mass"); the redistributed mass is the
+    !> one it is meant for.
+    subroutine check_alm_mass(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        if (.not. sim%mdl%has_contact .or. trim(sim%scn%contact_method) /= 'alm' .or. &
+            trim(sim%scn%mass) == 'redistributed') return
+        sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact method = ''alm'' with '// &
+            '&scheme mass = '''//trim(sim%scn%mass)//''': the multipliers chatter at the'// &
+            ' impacts and the energy grows several-fold (most runs blow up); use mass ='// &
+            ' ''redistributed'' (docs/numerics.md, "Which method, with which mass")'// &
+            new_line('a')
+    end subroutine check_alm_mass
 
     !> The outputs were opened (trace.csv and the first summary.json replaced the
     !> previous run's) but a later write of the opening failed (the t = 0 snapshot on a

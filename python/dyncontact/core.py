@@ -633,7 +633,8 @@ class Model:
 class Stepper(Model):
     """A run advanced step by step, whose state can be read between steps (tests,
     invariant checks, scripts that need the fields). Outputs go to ``out`` as for
-    :func:`run`; use it as a context manager so that summary.json is written::
+    :func:`run`, and the run's warnings and notes are :class:`DyncontactWarning` warnings
+    as there; use it as a context manager so that summary.json is written::
 
         with Stepper(scene, out) as s:
             s.advance(10)
@@ -650,6 +651,15 @@ class Stepper(Model):
                             f"{type(out).__name__}")
         super().__init__(scene, _out=out)
         self.finished = False
+        # the warnings and notes a run gives before it starts (docs/scenes.md); warnings
+        # turned into errors leave no run open
+        try:
+            _n_steps, _bytes, notes = _core().dc_sim_info(self.handle)
+            for note in _notes(notes):
+                warnings.warn(note, DyncontactWarning, stacklevel=2)
+        except BaseException:
+            self.close()
+            raise
 
     def advance(self, steps: int = 1) -> int:
         """Advance by at most ``steps`` steps (an int >= 0); returns the steps done. A

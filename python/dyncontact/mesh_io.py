@@ -22,9 +22,9 @@ indices here):
   others are dropped;
 - ``x`` holds the first ``dim`` coordinates (the others must be constant).
 
->>> from dyncontact import mesh_io
->>> m = mesh_io.read_msh_fortran("meshes/bar2d_h0.02.msh")  # doctest: +SKIP
->>> m.dim, m.x.shape, m.group_names                        # doctest: +SKIP
+>>> from dyncontact import mesh_io              # from the repository's root folder
+>>> m = mesh_io.read_msh_fortran("meshes/bar2d_getfem_h0.02.msh")
+>>> m.dim, m.x.shape, m.group_names
 (2, (306, 2), ['bottom', 'top', 'left', 'right', 'body'])
 """
 
@@ -185,7 +185,7 @@ def builtin_bar(dim: int = 2, length: float = 1.0, width: float = 0.1,
     """The Fortran built-in bar (``bar_mesh_build``): GetFEM's structured triangles in
     2D, segments in 1D.
 
-    >>> builtin_bar(2, 1.0, 0.1, 0.05).cells.shape                 # doctest: +SKIP
+    >>> builtin_bar(2, 1.0, 0.1, 0.05).cells.shape
     (80, 3)
     """
     from .core import load_mesh
@@ -210,6 +210,32 @@ def _check_sizes(who: str, **sizes: float) -> None:
     for name, value in sizes.items():
         if not (np.isfinite(value) and value > 0):
             raise BadInputError(f"{who}: {name} = {value} (must be > 0)")
+
+
+#: gmsh's last error before the parse of _uses_h: still the last one after it when the
+#: parse met no error.
+_PROBE_MARK = "dyncontact: parsing the .geo without h"
+
+
+def _uses_h(gmsh, geo: Path) -> bool:
+    """Whether the .geo uses a parameter h: parsed once without it, it defines h or has
+    an error (as the core's reader decides, fortran/io/gmsh_shim.c). The parse runs to the
+    end of the file whatever its errors (General.AbortOnError 0): a parse stopped at its
+    first error leaves the rest of the file in gmsh's lexer, which the next parse would
+    read first ("line 0: syntax error"). An error is seen as gmsh's last error replacing
+    _PROBE_MARK."""
+    abort = gmsh.option.getNumber("General.AbortOnError")
+    gmsh.option.setNumber("General.AbortOnError", 0)
+    try:
+        gmsh.logger.write(_PROBE_MARK, "error")
+        try:
+            gmsh.merge(str(geo))
+        except Exception:   # noqa: BLE001 - any failure: the file needs h (or is bad)
+            return True
+        return (gmsh.logger.getLastError() != _PROBE_MARK
+                or "h" in gmsh.parser.getNames("h"))
+    finally:
+        gmsh.option.setNumber("General.AbortOnError", abort)
 
 
 def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float = 0.05,
@@ -244,12 +270,7 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float 
     with _gmsh_session("dyncontact-generate") as gmsh:
         gmsh.parser.setNumber("length", [float(length)])
         gmsh.parser.setNumber("width", [float(width)])
-        uses_h = True
-        try:                       # does the file use h? parsed once without it
-            gmsh.merge(str(geo))
-            uses_h = "h" in gmsh.parser.getNames("h")
-        except Exception:
-            pass
+        uses_h = _uses_h(gmsh, geo)
         gmsh.model.remove()
         gmsh.model.add("dyncontact-generate")
         for name, value in (("h", h), ("length", length), ("width", width)):

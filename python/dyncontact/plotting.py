@@ -149,6 +149,10 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         where it stopped, marked with an 'x', and labelled '(unstable at t=...)'.
     title : figure title.
 
+    The panels: u_n, v_n and p_n at the probe, and the energy e_kin + e_el (solid) and
+    + e_contact (dashed); when a run has a body force (a nonzero e_load column), e_load is
+    added to both for every run, so that the curves show the mechanical energy.
+
     Returns
     -------
     matplotlib.figure.Figure
@@ -177,6 +181,11 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     stopped_values: list[list[np.ndarray]] = [[] for _ in axes]
     stops = []   # (t_stop, colour, [(ax index, y_last)])
     loaded = [_load(item) for item in items]
+    # Under a body force e_kin + e_el is not what the schemes conserve: the energy panel
+    # then adds e_load = -u.L (the mechanical energy, docs/scenes.md) for every run (0
+    # for the runs without a load), and its label says so.
+    with_load = any(np.any(np.asarray(trace.get("e_load", [])) != 0)
+                    for trace, _summary, _name in loaded)
     names = labels if labels is not None else [run_label(summary, default_name)
                                                for _, summary, default_name in loaded]
     if labels is None:
@@ -195,6 +204,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
             label = f"{label} ({what} at t={t_stop:.4g})"
         colour = colours[i]
         e_total = np.asarray(trace.get("e_total", np.full(t.shape, np.nan)), dtype=float)
+        if with_load and "e_load" in trace:
+            e_total = e_total + np.asarray(trace["e_load"], dtype=float)
         columns = [np.asarray(trace.get(col, np.full(t.shape, np.nan)), dtype=float)
                    for col, _ in _PANELS] + [e_total]
         line = None
@@ -225,7 +236,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
 
     for ax, (_, ylabel) in zip(axes[:3], _PANELS):
         ax.set_ylabel(ylabel)
-    axes[3].set_ylabel("energy: $e_{kin}+e_{el}$ (solid), $+\\,e_{contact}$ (dashed)")
+    axes[3].set_ylabel("energy: $e_{kin}+e_{el}" + ("+e_{load}" if with_load else "")
+                       + "$ (solid), $+\\,e_{contact}$ (dashed)")
     for ax in axes:
         ax.grid(True, lw=0.4, alpha=0.5)
     for ax in axes[2:]:
