@@ -89,7 +89,7 @@ module scene
         integer :: solver_threads                  !! solves' threads: 0 automatic, 1, 2
     end type scene_t
 
-    public :: scene_read, scene_parse, scene_to_json, scene_check_dim, scene_bar_dim
+    public :: scene_read, scene_parse, scene_defaults, scene_to_json, scene_check_dim, scene_bar_dim
 
     !> One key: its table row, the component it fills and its value as read.
     type :: key_t
@@ -267,6 +267,14 @@ contains
                              scn, stat, errmsg)
         end if
     end subroutine scene_read
+
+    !> The scene of an empty file: every key at its default, from the key table (the one
+    !> place the defaults are written), for code that asks whether a key was changed.
+    subroutine scene_defaults(scn)
+        type(scene_t), intent(out) :: scn                   !! the default scene
+        integer :: stat
+        call scene_parse('', 'defaults', '', .false., scn, stat)
+    end subroutine scene_defaults
 
     !> Parse a scene given as text: the defaults, then the values given, then (if full)
     !> the checks of the table and validate_cross.

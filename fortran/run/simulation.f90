@@ -7,7 +7,7 @@ module simulation
     use text, only: int_text, real_text, lower
     use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
-    use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim
+    use scene, only: scene_t, scene_read, scene_defaults, scene_to_json, scene_check_dim, scene_bar_dim
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
@@ -226,6 +226,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         type(scheme_params_t) :: sprm
+        type(scene_t) :: dflt
         character(len=:), allocatable :: unsafe
         sprm = scheme_params(sim%scn)
         select case (sprm%kind)
@@ -249,9 +250,10 @@ contains
         if (stat /= STAT_OK) return
         call check_massless_weight(sim)
         call check_unused_velocity(sim)
-        call check_unused_mesh_size(sim)
-        call check_unused_scheme_keys(sim)
-        call check_unused_contact_keys(sim)
+        call scene_defaults(dflt)
+        call check_unused_mesh_size(sim, dflt)
+        call check_unused_scheme_keys(sim, dflt)
+        call check_unused_contact_keys(sim, dflt)
         call check_alm_mass(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
@@ -330,11 +332,12 @@ contains
     !> A note for an &mesh h other than the default with a .msh file: the file's mesh is
     !> used as it is (h sizes a .geo or the built-in bar), so a scene that refines a .msh
     !> by h would otherwise run on the coarse mesh, silently.
-    subroutine check_unused_mesh_size(sim)
+    subroutine check_unused_mesh_size(sim, dflt)
         type(simulation_t), intent(inout) :: sim            !! the run
+        type(scene_t), intent(in) :: dflt                   !! the scene's defaults
         integer :: n
         n = len_trim(sim%scn%mesh_file)
-        if (n < 4 .or. sim%scn%mesh_h == 0.05_dp) return
+        if (n < 4 .or. sim%scn%mesh_h == dflt%mesh_h) return
         if (lower(sim%scn%mesh_file(n - 3:n)) /= '.msh') return
         sim%mdl%notes = trim(sim%mdl%notes)//'note: &mesh h = '//real_text(sim%scn%mesh_h)// &
             ' is not used: a .msh file is meshed already (h sizes a .geo and the built-in'// &
@@ -345,8 +348,9 @@ contains
     !> A warning for the &scheme parameters the chosen scheme does not use, set to other
     !> values than their defaults (hht with beta or gamma, whose beta and gamma follow from
     !> alpha; newmark with alpha, ...): they would otherwise change nothing, silently.
-    subroutine check_unused_scheme_keys(sim)
+    subroutine check_unused_scheme_keys(sim, dflt)
         type(simulation_t), intent(inout) :: sim            !! the run
+        type(scene_t), intent(in) :: dflt                   !! the scene's defaults
         character(len=:), allocatable :: used, unused
         used = ''
         select case (trim(sim%scn%scheme_name))
@@ -360,15 +364,15 @@ contains
             used = 'rho_inf'
         end select
         unused = ''
-        if (index(used, 'alpha') == 0 .and. sim%scn%alpha /= 0.0_dp) &
+        if (index(used, 'alpha') == 0 .and. sim%scn%alpha /= dflt%alpha) &
             unused = unused//', alpha'
-        if (index(used, 'beta') == 0 .and. sim%scn%beta /= 0.25_dp) &
+        if (index(used, 'beta') == 0 .and. sim%scn%beta /= dflt%beta) &
             unused = unused//', beta'
-        if (index(used, 'gamma') == 0 .and. sim%scn%gamma /= 0.5_dp) &
+        if (index(used, 'gamma') == 0 .and. sim%scn%gamma /= dflt%gamma) &
             unused = unused//', gamma'
-        if (index(used, 'theta') == 0 .and. sim%scn%time_theta /= 0.5_dp) &
+        if (index(used, 'theta') == 0 .and. sim%scn%time_theta /= dflt%time_theta) &
             unused = unused//', theta'
-        if (index(used, 'rho_inf') == 0 .and. sim%scn%rho_inf /= 1.0_dp) &
+        if (index(used, 'rho_inf') == 0 .and. sim%scn%rho_inf /= dflt%rho_inf) &
             unused = unused//', rho_inf'
         if (len(unused) == 0) return
         if (len(used) == 0) used = 'none of them'
@@ -380,20 +384,21 @@ contains
     !> A warning for the &contact keys the chosen method or quadrature does not use, set
     !> to other values than their defaults: the Nitsche theta with 'penalty' or 'alm',
     !> multiplier without 'alm', quad_points with quadrature = 'exact'.
-    subroutine check_unused_contact_keys(sim)
+    subroutine check_unused_contact_keys(sim, dflt)
         type(simulation_t), intent(inout) :: sim            !! the run
+        type(scene_t), intent(in) :: dflt                   !! the scene's defaults
         character(len=:), allocatable :: method
         if (.not. sim%mdl%has_contact) return
         method = trim(sim%scn%contact_method)
-        if (method /= 'nitsche' .and. sim%scn%nitsche_theta /= 1) &
+        if (method /= 'nitsche' .and. sim%scn%nitsche_theta /= dflt%nitsche_theta) &
             sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact theta: not used by '// &
             'method = '''//method//''' (the Nitsche variant; docs/scenes.md, &contact)'// &
             new_line('a')
-        if (method /= 'alm' .and. trim(sim%scn%multiplier) /= 'integral') &
+        if (method /= 'alm' .and. sim%scn%multiplier /= dflt%multiplier) &
             sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact multiplier: not used by '// &
             'method = '''//method//''' (only ''alm'' has multipliers; docs/scenes.md, '// &
             '&contact)'//new_line('a')
-        if (trim(sim%scn%quadrature) == 'exact' .and. sim%scn%quad_points /= 3 .and. &
+        if (trim(sim%scn%quadrature) == 'exact' .and. sim%scn%quad_points /= dflt%quad_points .and. &
             sim%mdl%dim > 1) &
             sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact quad_points: not used '// &
             'with quadrature = ''exact'' (it splits each facet at the kink; quad_points is '// &
