@@ -18,7 +18,8 @@ __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0
            "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS",
            "RunSpec", "seed_spec", "every_for", "scheme_text", "num", "loadavg",
            "package_version", "add_runner_options", "MAX_ROWS", "OneLineParser",
-           "positive", "mesh_sizes", "UserScene", "read_user_scene", "on_scene"]
+           "positive", "mesh_sizes", "UserScene", "read_user_scene", "on_scene",
+           "refusal_on_scene"]
 
 #: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016).
 EXACT_1D = """\
@@ -440,6 +441,22 @@ def on_scene(s: SchemeSpec, scene: UserScene) -> SchemeSpec:
         not k.startswith("contact.") or k == "contact.method" for k, _ in s.settings)
     label = s.label if same else scheme_text(settings)
     return SchemeSpec(s.key, label, tuple(settings.items()), s.explicit, s.c)
+
+
+def refusal_on_scene(s: SchemeSpec, scene: UserScene) -> str | None:
+    """Why the core refuses scheme ``s`` (as :func:`on_scene` gives it) on ``scene``
+    (one line: an explicit scheme with the augmented Lagrangian or the redistributed
+    mass), or None when it takes it. Only the scene is parsed, nothing is run."""
+    from ..scene import Scene
+
+    try:
+        scn = Scene.read(scene.path)
+        for key, value in s.settings:
+            scn.set(key, value)
+        scn.validate()
+    except Exception as exc:  # noqa: BLE001 - the core's reason, whatever its class
+        return " ".join(str(exc).replace(scene.path + ": ", "").split())
+    return None
 
 
 def step_ratio(s: SchemeSpec, c_implicit: float, c_explicit: float) -> float:

@@ -580,7 +580,7 @@ def run_stability_scene(out: str, scene: str, *, quick: bool = False,
     contact (h, γ0, θ) and T as given, by :func:`critical_dt` (the grid, then the
     bisection). Writes runs.csv, stability.csv, the heat maps and summary.md into
     ``out``; ValueError (one line) for a missing or bad scene."""
-    from .common import on_scene, read_user_scene
+    from .common import on_scene, read_user_scene, refusal_on_scene
 
     t0 = time.perf_counter()
     scn = read_user_scene(scene)
@@ -589,7 +589,17 @@ def run_stability_scene(out: str, scene: str, *, quick: bool = False,
     out = os.path.abspath(out)
     os.makedirs(out, exist_ok=True)
     cache = cache or os.path.join(out, "cache")
-    schemes = [on_scene(s, scn) for s in scheme_list(g["schemes"])]
+    schemes, left_out = [], []
+    for s in scheme_list(g["schemes"]):
+        t = on_scene(s, scn)
+        why = refusal_on_scene(t, scn)
+        if why is None:
+            schemes.append(t)
+        else:
+            left_out.append((s.key, why))
+    if not schemes:
+        raise ValueError(f"--scene {scn.path}: the core refuses every scheme of the "
+                         f"study on it (first: {left_out[0][1]})")
     # critical_dt's grid is in Δt/h: the scene's Δt multiples over its own h, γ0, θ
     g.update(h=(scn.h,), gamma0=(scn.gamma0,), theta=(scn.theta,), t_end=scn.t_end,
              dt_over_h={kind: tuple(f * scn.dt / scn.h for f in fs)
@@ -601,7 +611,8 @@ def run_stability_scene(out: str, scene: str, *, quick: bool = False,
     report = {"runs": crit["runs"], "critical": crit["critical"], "csv": crit["csv"],
               "runs_csv": crit["runs_csv"],
               "pngs": _heatmaps(crit["runs"], crit["critical"], schemes, g, out),
-              "grid": g, "scene": scn, "schemes": schemes, "n_runs": len(all_recs),
+              "grid": g, "scene": scn, "schemes": schemes, "left_out": left_out,
+              "n_runs": len(all_recs),
               "n_cached": sum(r["cached"] for r in all_recs),
               "n_errors": sum(r["status"] == ERROR for r in all_recs),
               "n_refused": sum(r["status"] == REFUSED for r in all_recs),
@@ -640,12 +651,16 @@ def _scene_summary(report, path) -> str:
                       fmt(c.get("dt_crit_estimate"), ".4g"), stop,
                       c["first_unstable_reason"] if c["bracket"] == "refused" else ""])
     refused = [c for c in report["critical"] if c["bracket"] == "refused"]
+    left = [f"- {k}: refused by the core on this scene: {why}." for k, why in
+            report["left_out"]]
     lines += md_table(["scheme", "mass", "contact", "critical Δt", "/ scene's Δt",
                        "grid stable", "non-monotone", "own estimate (central)",
                        "first unstable grid run", "why refused"], table)
     if refused:
         lines += ["", "Refused rows: the core does not run that scheme on this scene "
                   "(its reason in the last column)."]
+    if left:
+        lines += ["", "Schemes left out:", ""] + left
     lines += [""] + [f"![{os.path.basename(p)}]({os.path.basename(p)})" for p in
                      report["pngs"]]
     return write_markdown(path, lines)

@@ -735,11 +735,15 @@ def _scene_series(scene: UserScene, c_implicit: float, c_explicit: float, series
     contact (:func:`.common.on_scene`), as :func:`_series` gives them; a second scheme
     that becomes the same run as an earlier one is left out. Returns (series,
     [(key, why left out)])."""
-    from .common import on_scene
+    from .common import on_scene, refusal_on_scene
 
     kept, left_out, seen = [], [], {}
     for s, c, _label, skey in _series(c_implicit, c_explicit, series):
         t = on_scene(s, scene)
+        why = refusal_on_scene(t, scene)
+        if why is not None:
+            left_out.append((skey, f"refused by the core on this scene: {why}"))
+            continue
         same = seen.get((t.settings, c))
         if same is not None:
             left_out.append((skey, f"differs from {same} only in its mass or contact, "
@@ -768,7 +772,6 @@ def run_work_precision_scene(out: str, scene: str, *, quick: bool = False,
     out with the core's reason. Writes work_precision.csv, work_precision.png and
     summary.md into ``out``; ValueError (one line) for a missing or bad scene."""
     from .common import on_scene, read_user_scene
-    from .sweep import REFUSED
 
     t0 = time.perf_counter()
     size = "quick" if quick else "full"
@@ -778,6 +781,9 @@ def run_work_precision_scene(out: str, scene: str, *, quick: bool = False,
     cache = cache or os.path.join(out, "cache")
     factors = tuple(ladder or SCENE_LADDER[size])
     kept, left_out = _scene_series(scn, c_implicit, c_explicit, series)
+    if not kept:
+        raise ValueError(f"--scene {scn.path}: the core refuses every scheme of the "
+                         f"study on it (first: {left_out[-1][1]})")
     h = None if scn.mesh_file else scn.h
     tasks = [_trace_task(scn.path, s, scn.dt * c_implicit / c * f, scn.t_end,
                          {"case": "scene", "series": skey, "label": label, "scheme": s.key,
@@ -794,18 +800,11 @@ def run_work_precision_scene(out: str, scene: str, *, quick: bool = False,
                  scheduler=scheduler, progress=progress, desc="work-precision --scene",
                  log=log)
     run_recs, ref_recs = recs[:len(tasks)], recs[len(tasks):]
-    refused = {}
-    for r in run_recs:
-        if r["status"] == REFUSED:
-            refused.setdefault(r["task"].tag("series"), (r.get("message") or "").splitlines()[0])
-    left_out += [(k, f"refused by the core on this scene: {m}") for k, m in refused.items()]
-    run_recs = [r for r in run_recs if r["task"].tag("series") not in refused]
-    series_kept = [x for x in kept if x[3] not in refused]
     ref_info = _reference_estimates(
         ref_recs, [k for _, k in refs], size,
         {"scene": (SCENE_REFERENCE, None, QUANTITIES, {size: levels})})
     cases = (("scene", os.path.basename(scn.path)),)
-    report = _report(run_recs, recs, series_kept, ref_info, out, cases)
+    report = _report(run_recs, recs, kept, ref_info, out, cases)
     report.update(t_end=scn.t_end, quick=quick, wall_s=time.perf_counter() - t0, size=size,
                   scene=scn, factors=factors, left_out=left_out, ref_levels=levels,
                   ref_label=ref_spec.label, c_implicit=c_implicit)
