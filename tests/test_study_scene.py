@@ -19,6 +19,7 @@ import math
 import os
 
 import pytest
+from test_studies import _cfl_lumped_1d
 
 from dyncontact.study.common import EXACT_1D, SCHEMES
 from dyncontact.study.sweep import sweep, task_key
@@ -157,8 +158,6 @@ CFL_MARGIN = 0.03
 
 
 def test_scene_stability_brackets_the_cfl_limits(tmp_path):
-    import numpy as np
-
     from dyncontact.study.stability import run_stability_scene
 
     h = 1.0 / CFL_N
@@ -170,18 +169,10 @@ def test_scene_stability_brackets_the_cfl_limits(tmp_path):
         "&contact obstacle_point = -1.0, obstacle_normal = -1.0, probe = 0.0 /\n"
         "&initial kind = 'velocity', velocity = 0.1 /\n"
         f"&scheme name = 'pc', dt = {h / 2}, t_end = 20.0, mass = 'lumped' /\n")
-    # ω_max of M_lumped⁻¹ K (node CFL_N clamped), as in tests/test_studies.py
-    n = CFL_N
-    k = np.zeros((n, n))
-    m = np.zeros(n)
-    for e in range(n):
-        for a in (e, e + 1):
-            if a < n:
-                m[a] += h / 2
-        for a, b, v in ((e, e, 1), (e, e + 1, -1), (e + 1, e, -1), (e + 1, e + 1, 1)):
-            if a < n and b < n:
-                k[a, b] += v / h
-    w_max = math.sqrt(np.linalg.eigvalsh(k / np.sqrt(np.outer(m, m))).max())
+    # the CFL limit of pc, √2/ω_max (ω_max of M_lumped⁻¹ K, node CFL_N clamped), and
+    # that of central differences, 2/ω_max
+    pc_limit = _cfl_lumped_1d(CFL_N)
+    w_max = math.sqrt(2.0) / pc_limit
     limits = {"pc": math.sqrt(2.0) / w_max, "central": 2.0 / w_max}
     rounds = 5
     rep = run_stability_scene(str(tmp_path / "out"), str(scene),
