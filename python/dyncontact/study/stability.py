@@ -17,6 +17,10 @@ tetrahedra (&mesh dim = 3) with the seed's material, initial state and contact, 
 main schemes at h = 0.05 on the same dt/h grid, T and bisection; their critical dt is set
 beside the 2D bar's (OUT/box3d/, a section of summary.md).
 
+On a scene of one's own (``--scene``, :func:`run_stability_scene`): the schemes of
+SCENE_GRIDS on the scene's mesh, mass, contact and T, a Δt grid of multiples of the
+scene's Δt, then the same bisection (:func:`critical_dt`); no h, γ0 or θ grid.
+
 Classification (from summary.json, i.e. the core's own verdict, SPEC section 4):
 ``stable`` (ran to T), ``unstable`` (energy of the written state over ``blowup`` x
 e_total(0), or not finite: stop time and the core's message), ``newton_failed``,

@@ -35,6 +35,13 @@ between its last three levels and p = log2(d_1/d_2) (floored at MIN_ORDER), err(
 d_2 / (2^p - 1) (:func:`richardson`); unknown when d_2 >= d_1. Points whose error is less
 than RESOLVED_MARGIN (3) x the estimate are flagged as not resolved, per quantity.
 
+On a scene of one's own (``--scene``, :func:`run_work_precision_scene`): each scheme on
+the scene as given (mesh, material, mass, contact, probe, T) at a ladder of Δt derived
+from the scene's (SCENE_LADDER), against the same scene run with SCENE_REFERENCE at
+SCENE_REF_FRACTIONS of the smallest of those Δt, in the same measures, reference table
+(its three Δt levels in place of mesh sizes, no separate Δt check) and plot: errors of the
+time discretization on the scene's mesh.
+
 CPU time: process CPU time of the worker around :func:`dyncontact.run` (set-up and trace
 reading included), robust to other load on the machine. Every run writes its trace
 rows OUTPUT_DT apart in time (not every step), so that output costs the same for all. Unstable runs are drawn as
