@@ -22,6 +22,27 @@ from .sweep import sigterm_as_interrupt
 __all__ = ["main", "write_index"]
 
 STUDIES = ("convergence", "work-precision", "stability")
+#: --scene of the studies that take it: a scene file of one's own instead of the seed's.
+SCENE_HELP = {
+    "work-precision": "a scene file of one's own: each scheme on it as given (mesh, "
+                      "material, contact, probe, T) at Δt = 2, 1, 1/2, 1/4 × its step "
+                      "(quick: 1, 1/2; the scene's Δt for the implicit schemes, x "
+                      "c-implicit/c for the others), errors against the same scene at a "
+                      "much finer Δt (time-discretization errors on that mesh)",
+    "stability": "a scene file of one's own: the critical Δt of the main schemes on it "
+                 "as given (its h, γ0, θ, T), Δt grid in multiples of its Δt, then "
+                 "bisection"}
+#: Why the other studies refuse --scene (one line each).
+SCENE_REFUSED = {
+    "convergence": "it measures errors against the 1D closed form, which a scene of one's "
+                   "own does not have; use `study work-precision --scene FILE` (errors "
+                   "against the scene run at a much finer Δt)",
+    "methods": "it compares contact methods and masses on the seed bar, which a scene "
+               "study keeps at the scene's own; set `&contact method` or `&scheme mass` "
+               "in the scene and run `study work-precision --scene` or `study stability "
+               "--scene` on each",
+    "all": "its which-scheme table is built from the seed bar's studies; run `study "
+           "work-precision --scene FILE` and `study stability --scene FILE`"}
 
 
 def _nonempty(text: str) -> str:
@@ -38,9 +59,11 @@ def _parser() -> argparse.ArgumentParser:
         "PNG and summary.md into --out.")
     sub = p.add_subparsers(dest="study", metavar="STUDY", required=True)
     helps = {"convergence": "errors against the 1D closed form, observed orders",
-             "work-precision": "error against CPU time per scheme (1D exact, 2D seed bar)",
+             "work-precision": "error against CPU time per scheme (1D exact, 2D seed bar; "
+                               "--scene FILE: on a scene of one's own)",
              "stability": "stability maps and critical dt on the 2D seed bar, with the "
-                          "seed's claims",
+                          "seed's claims (--scene FILE: critical dt on a scene of one's "
+                          "own)",
              "all": "the three studies into OUT/<study>/, the 'which scheme should I use' "
                     "table into OUT/which/ (from their runs and two sweeps of its own) and "
                     "OUT/index.md",
@@ -54,6 +77,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="output folder")
         add_runner_options(s)
         s.add_argument("--no-progress", action="store_true", help="no progress bar")
+        s.add_argument("--scene", metavar="FILE.nml", default=None, type=_nonempty,
+                       help=SCENE_HELP.get(name, "not for this study: "
+                                           + SCENE_REFUSED.get(name, "")))
         if name in ("convergence", "work-precision", "all"):
             s.add_argument("--c-implicit", type=positive(float), default=20.0,
                            help="dt = h/c for implicit schemes (> 0, default 20)")
@@ -83,6 +109,17 @@ def run_one(name: str, out: str, args) -> dict[str, Any]:
                                c_explicit=args.c_explicit,
                                schemes=getattr(args, "schemes", None),
                                t_end=getattr(args, "t_end", 3.0), **kw)
+    scene = getattr(args, "scene", None)
+    if name == "work-precision" and scene is not None:
+        from .workprecision import run_work_precision_scene
+
+        return run_work_precision_scene(out, scene, quick=args.quick,
+                                        c_implicit=args.c_implicit,
+                                        c_explicit=args.c_explicit, **kw)
+    if name == "stability" and scene is not None:
+        from .stability import run_stability_scene
+
+        return run_stability_scene(out, scene, quick=args.quick, **kw)
     if name == "work-precision":
         from .workprecision import run_work_precision
 
@@ -148,6 +185,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     for option, folder in (("--out", args.out), ("--cache", args.cache)):
         if folder is not None and os.path.exists(folder) and not os.path.isdir(folder):
             print(f"dyncontact study: {option} {folder}: a file, not a folder", file=sys.stderr)
+            return 2
+    if args.scene is not None and args.study in SCENE_REFUSED:
+        print(f"dyncontact study {args.study}: --scene: not for this study: "
+              f"{SCENE_REFUSED[args.study]}", file=sys.stderr)
+        return 2
+    if args.scene is not None:
+        from .common import read_user_scene
+
+        try:
+            read_user_scene(args.scene)   # before anything is written
+        except ValueError as exc:
+            print(f"dyncontact study: {exc}", file=sys.stderr)
             return 2
     if getattr(args, "schemes", None) is not None:
         try:

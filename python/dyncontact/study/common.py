@@ -18,7 +18,8 @@ __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0
            "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS",
            "RunSpec", "seed_spec", "every_for", "scheme_text", "num", "loadavg",
            "package_version", "add_runner_options", "MAX_ROWS", "OneLineParser",
-           "positive", "mesh_sizes"]
+           "positive", "mesh_sizes", "UserScene", "read_user_scene", "on_scene",
+           "refusal_on_scene"]
 
 #: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016).
 EXACT_1D = """\
@@ -380,6 +381,82 @@ SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
     _s("hht-0.1_alm_nodal_redist", "hht α=-0.1 ALM nodal redistributed", name="hht",
        alpha=-0.1, mass="redistributed", contact={"method": "alm", "multiplier": "nodal"}),
 )}
+
+
+@dataclasses.dataclass(frozen=True)
+class UserScene:
+    """A scene file of one's own for ``study ... --scene``: its absolute ``path`` and the
+    keys the studies derive their runs from (the scene's own values)."""
+
+    path: str
+    dim: int
+    h: float
+    dt: float
+    t_end: float
+    mass: str
+    method: str
+    gamma0: float
+    theta: int
+    mesh_file: str
+
+
+def read_user_scene(path: str) -> UserScene:
+    """The scene file ``path`` as a :class:`UserScene`; ValueError with one line naming
+    the file when it is missing, refused by the core, or has no time step of its own
+    (dt = 0, the automatic step of central differences: the ladders are multiples of it)."""
+    from ..scene import Scene
+
+    if not os.path.isfile(path):
+        raise ValueError(f"--scene {path}: no such file")
+    try:
+        scn = Scene.read(path)
+        scn.validate()
+        values = {k: scn.get(k) for k in ("mesh.dim", "mesh.h", "scheme.dt", "scheme.t_end",
+                                          "scheme.mass", "contact.method", "contact.gamma0",
+                                          "contact.theta", "mesh.file")}
+    except Exception as exc:  # noqa: BLE001 - any refusal of the scene: one line
+        raise ValueError(f"--scene {path}: {' '.join(str(exc).split())}") from None
+    if not values["scheme.dt"] > 0:
+        raise ValueError(f"--scene {path}: &scheme dt = {values['scheme.dt']:g}: the study "
+                         "derives its time steps from the scene's, give one > 0")
+    return UserScene(os.path.abspath(path), int(values["mesh.dim"]),
+                     float(values["mesh.h"]), float(values["scheme.dt"]),
+                     float(values["scheme.t_end"]), str(values["scheme.mass"]),
+                     str(values["contact.method"]), float(values["contact.gamma0"]),
+                     int(values["contact.theta"]), str(values["mesh.file"] or ""))
+
+
+def on_scene(s: SchemeSpec, scene: UserScene) -> SchemeSpec:
+    """Scheme ``s`` as a time scheme on ``scene``'s space discretization: its ``scheme.*``
+    keys but the scene's mass and contact (method, γ0, multiplier), so that every scheme
+    of a scene study solves the same semi-discrete problem as the scene and its
+    reference. The label is the scheme's own when that changes nothing, else the scheme
+    as :func:`scheme_text` writes it on the scene's mass."""
+    settings = {k: v for k, v in s.settings
+                if k.startswith("scheme.") and k != "scheme.mass"}
+    settings["scheme.mass"] = scene.mass
+    if scene.method != "nitsche":
+        settings["contact.method"] = scene.method
+    same = s.mass == scene.mass and s.method == scene.method and all(
+        not k.startswith("contact.") or k == "contact.method" for k, _ in s.settings)
+    label = s.label if same else scheme_text(settings)
+    return SchemeSpec(s.key, label, tuple(settings.items()), s.explicit, s.c)
+
+
+def refusal_on_scene(s: SchemeSpec, scene: UserScene) -> str | None:
+    """Why the core refuses scheme ``s`` (as :func:`on_scene` gives it) on ``scene``
+    (one line: an explicit scheme with the augmented Lagrangian or the redistributed
+    mass), or None when it takes it. Only the scene is parsed, nothing is run."""
+    from ..scene import Scene
+
+    try:
+        scn = Scene.read(scene.path)
+        for key, value in s.settings:
+            scn.set(key, value)
+        scn.validate()
+    except Exception as exc:  # noqa: BLE001 - the core's reason, whatever its class
+        return " ".join(str(exc).replace(scene.path + ": ", "").split())
+    return None
 
 
 def step_ratio(s: SchemeSpec, c_implicit: float, c_explicit: float) -> float:

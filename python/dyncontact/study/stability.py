@@ -17,6 +17,10 @@ tetrahedra (&mesh dim = 3) with the seed's material, initial state and contact, 
 main schemes at h = 0.05 on the same dt/h grid, T and bisection; their critical dt is set
 beside the 2D bar's (OUT/box3d/, a section of summary.md).
 
+On a scene of one's own (``--scene``, :func:`run_stability_scene`): the schemes of
+SCENE_GRIDS on the scene's mesh, mass, contact and T, a Δt grid of multiples of the
+scene's Δt, then the same bisection (:func:`critical_dt`); no h, γ0 or θ grid.
+
 Classification (from summary.json, i.e. the core's own verdict, SPEC section 4):
 ``stable`` (ran to T), ``unstable`` (energy of the written state over ``blowup`` x
 e_total(0), or not finite: stop time and the core's message), ``newton_failed``,
@@ -47,7 +51,7 @@ from .sweep import ERROR, REFUSED, Task, make_task, sweep
 
 __all__ = ["run_stability", "bisect_critical", "classify", "GRIDS", "impacts",
            "BOX3D_GRIDS", "run_box3d", "critical_groups", "critical_rows", "critical_dt",
-           "RUN_COLUMNS", "CRITICAL_COLUMNS"]
+           "RUN_COLUMNS", "CRITICAL_COLUMNS", "run_stability_scene", "SCENE_GRIDS"]
 
 #: Sweep sizes. 'dt_over_h': {'implicit': (...), 'explicit': (...)}.
 GRIDS = {
@@ -80,6 +84,19 @@ BOX3D_GRIDS = {
     # quick: two schemes over the first two impacts (T = 6)
     "quick": {"schemes": ("hht-0.1", "pc_lumped"), "h": (0.05,), "gamma0": (10.0,),
               "theta": (1,), "t_end": 6.0},
+}
+#: ``--scene``: the main schemes (each on the scene's mass and contact,
+#: :func:`.common.on_scene`), the Δt grid as multiples of the scene's Δt (a factor 4
+#: apart: the bisection narrows a bracket [lo, 4 lo] to a ratio 4^(1/2^rounds), 1.09
+#: after 4 rounds), and the rounds. No h, γ0 or θ grid: the scene's own values.
+SCENE_GRIDS = {
+    "full": {"schemes": ("newmark", "hht-0.1", "theta1", "galpha0.5", "pc", "pc_hht-0.1",
+                         "central"),
+             "dt_factors": {"implicit": (1, 4, 16, 64),
+                            "explicit": (1 / 16, 1 / 4, 1, 4, 16)},
+             "rounds": 4},
+    "quick": {"schemes": ("hht-0.1", "pc", "central"),
+              "dt_factors": {"implicit": (1, 8), "explicit": (1 / 8, 1, 8)}, "rounds": 3},
 }
 #: Trace rows kept per grid run for the claims (u_n over the first period, energies).
 KEEP_ROWS = 1500
@@ -555,4 +572,99 @@ def _summary(report, schemes, path) -> str:
         lines.append("No central-difference run in the sweep.")
     if report.get("box3d"):
         lines += _box3d_summary(report)
+    return write_markdown(path, lines)
+
+
+def run_stability_scene(out: str, scene: str, *, quick: bool = False,
+                        grid: Mapping[str, Any] | None = None, cache: str | None = None,
+                        workers: int | None = None, scheduler: Any = None,
+                        progress: bool | None = None, log=print) -> dict[str, Any]:
+    """``study stability --scene``: the critical Δt of each scheme of SCENE_GRIDS (or
+    ``grid``: schemes, dt_factors, rounds) on a scene file of one's own, its mesh, mass,
+    contact (h, γ0, θ) and T as given, by :func:`critical_dt` (the grid, then the
+    bisection). Writes runs.csv, stability.csv, the heat maps and summary.md into
+    ``out``; ValueError (one line) for a missing or bad scene."""
+    from .common import on_scene, read_user_scene, refusal_on_scene
+
+    t0 = time.perf_counter()
+    scn = read_user_scene(scene)
+    g = dict(SCENE_GRIDS["quick" if quick else "full"])
+    g.update(grid or {})
+    out = os.path.abspath(out)
+    os.makedirs(out, exist_ok=True)
+    cache = cache or os.path.join(out, "cache")
+    schemes, left_out = [], []
+    for s in scheme_list(g["schemes"]):
+        t = on_scene(s, scn)
+        why = refusal_on_scene(t, scn)
+        if why is None:
+            schemes.append(t)
+        else:
+            left_out.append((s.key, why))
+    if not schemes:
+        raise ValueError(f"--scene {scn.path}: the core refuses every scheme of the "
+                         f"study on it (first: {left_out[0][1]})")
+    # critical_dt's grid is in Δt/h: the scene's Δt multiples over its own h, γ0, θ
+    g.update(h=(scn.h,), gamma0=(scn.gamma0,), theta=(scn.theta,), t_end=scn.t_end,
+             dt_over_h={kind: tuple(f * scn.dt / scn.h for f in fs)
+                        for kind, fs in g["dt_factors"].items()})
+    crit = critical_dt(scn.path, schemes, g, out, cache, workers=workers,
+                       scheduler=scheduler, progress=progress, log=log,
+                       desc="stability --scene")
+    all_recs = crit["records"]
+    report = {"runs": crit["runs"], "critical": crit["critical"], "csv": crit["csv"],
+              "runs_csv": crit["runs_csv"],
+              "pngs": _heatmaps(crit["runs"], crit["critical"], schemes, g, out),
+              "grid": g, "scene": scn, "schemes": schemes, "left_out": left_out,
+              "n_runs": len(all_recs),
+              "n_cached": sum(r["cached"] for r in all_recs),
+              "n_errors": sum(r["status"] == ERROR for r in all_recs),
+              "n_refused": sum(r["status"] == REFUSED for r in all_recs),
+              "wall_s": time.perf_counter() - t0, "quick": quick}
+    report["summary"] = _scene_summary(report, os.path.join(out, "summary.md"))
+    return report
+
+
+def _scene_summary(report, path) -> str:
+    scn, g = report["scene"], report["grid"]
+    mesh = f"mesh file {scn.mesh_file}" if scn.mesh_file else f"built-in mesh, h = {scn.h:g}"
+    fac = g["dt_factors"]
+    lines = [
+        f"# Stability on {os.path.basename(scn.path)}", "",
+        f"Scene {scn.path}: {scn.dim}D, {mesh}, {scn.mass} mass, {scn.method} contact "
+        f"(γ0 = {scn.gamma0:g}, θ = {scn.theta:+d}), T = {scn.t_end:g}, Δt = {scn.dt:g}. "
+        "Each scheme runs on the scene as given (only the time scheme and Δt change) at "
+        f"Δt = {{{', '.join(f'{x:.4g}' for x in fac['implicit'])}}} × the scene's Δt "
+        f"(implicit), {{{', '.join(f'{x:.4g}' for x in fac['explicit'])}}} × (explicit), "
+        f"then {g['rounds']} rounds of bisection in log Δt on each bracket. Verdicts are "
+        "the core's: `unstable` = the energy exceeded blowup × e_total(0) before T; a "
+        "run just above the critical Δt may grow too slowly to be caught before T, so "
+        "the bracket is that of this T.", "",
+        f"{report['n_runs']} runs ({report['n_cached']} from the cache, "
+        f"{report['n_errors']} failed to run, {report['n_refused']} refused by the core as "
+        f"bad input), {report['wall_s']:.1f} s.", "",
+        "## Critical Δt (stability.csv)", ""]
+    table = []
+    for c in report["critical"]:
+        mid = c.get("dt_crit")
+        stop = f"{c['first_unstable_status']} at t={fmt(c['first_unstable_stop'], '.4g')}" \
+            if c["first_unstable_status"] else ""
+        table.append([c["scheme"], c["mass"], c["method"], _crit_text(c),
+                      fmt(mid / scn.dt if mid else None, ".3g"), c["grid_stable"],
+                      "yes" if c["non_monotone"] else "",
+                      fmt(c.get("dt_crit_estimate"), ".4g"), stop,
+                      c["first_unstable_reason"] if c["bracket"] == "refused" else ""])
+    refused = [c for c in report["critical"] if c["bracket"] == "refused"]
+    left = [f"- {k}: refused by the core on this scene: {why}." for k, why in
+            report["left_out"]]
+    lines += md_table(["scheme", "mass", "contact", "critical Δt", "/ scene's Δt",
+                       "grid stable", "non-monotone", "own estimate (central)",
+                       "first unstable grid run", "why refused"], table)
+    if refused:
+        lines += ["", "Refused rows: the core does not run that scheme on this scene "
+                  "(its reason in the last column)."]
+    if left:
+        lines += ["", "Schemes left out:", ""] + left
+    lines += [""] + [f"![{os.path.basename(p)}]({os.path.basename(p)})" for p in
+                     report["pngs"]]
     return write_markdown(path, lines)

@@ -35,6 +35,13 @@ between its last three levels and p = log2(d_1/d_2) (floored at MIN_ORDER), err(
 d_2 / (2^p - 1) (:func:`richardson`); unknown when d_2 >= d_1. Points whose error is less
 than RESOLVED_MARGIN (3) x the estimate are flagged as not resolved, per quantity.
 
+On a scene of one's own (``--scene``, :func:`run_work_precision_scene`): each scheme on
+the scene as given (mesh, material, mass, contact, probe, T) at a ladder of Δt derived
+from the scene's (SCENE_LADDER), against the same scene run with SCENE_REFERENCE at
+SCENE_REF_FRACTIONS of the smallest of those Δt, in the same measures, reference table
+(its three Δt levels in place of mesh sizes, no separate Δt check) and plot: errors of the
+time discretization on the scene's mesh.
+
 CPU time: process CPU time of the worker around :func:`dyncontact.run` (set-up and trace
 reading included), robust to other load on the machine. Every run writes its trace
 rows OUTPUT_DT apart in time (not every step), so that output costs the same for all. Unstable runs are drawn as
@@ -54,13 +61,14 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .analyses import rms_in_time
-from .common import (SCHEMES, fmt, md_table, new_figure, save_figure, step_ratio,
+from .common import (SCHEMES, UserScene, fmt, md_table, new_figure, save_figure, step_ratio,
                      study_folder, write_base_scenes, write_csv, write_markdown)
 from .sweep import Task, make_task, sweep
 
 __all__ = ["run_work_precision", "QUANTITIES", "DEFAULT_SERIES", "REFERENCES",
            "NORMS", "RMS_TOO", "richardson", "mean_abs_in_time", "is_resolved",
-           "resolution"]
+           "resolution", "run_work_precision_scene", "SCENE_LADDER", "SCENE_REFERENCE",
+           "SCENE_REF_FRACTIONS"]
 
 QUANTITIES = ("u_n", "v_n", "p_n", "e_total")
 #: The norm in time of each quantity's error (module docstring; docs/numerics.md,
@@ -90,6 +98,18 @@ DEFAULT_SERIES = (("newmark", None), ("hht-0.05", None), ("hht-0.1", None),
 LADDER_1D = {"full": (25, 50, 100, 200, 400), "quick": (25, 50)}
 LADDER_2D = {"full": (0.1, 0.05, 0.025), "quick": (0.1, 0.05)}
 T_END = {"full": 3.0, "quick": 1.5}
+#: The cases of the built-in study: (case, title of its panels).
+CASES = (("1d", "1D exact case"), ("2d", "2D seed bar"))
+#: ``--scene``: the time steps of each scheme, as factors on its step (the scene's Δt for
+#: the implicit schemes, scaled by c_implicit/c for a scheme of another c, as the built-in
+#: study's Δt = h/c), coarse to fine.
+SCENE_LADDER = {"full": (2.0, 1.0, 0.5, 0.25), "quick": (1.0, 0.5)}
+#: ``--scene``: the reference is the trapezoidal rule (second order, energy-conserving)
+#: on the scene's own mesh, mass and contact, at these fractions of the smallest Δt of
+#: the study's runs, coarse to fine: the finest is the reference, the two differences
+#: between the three give its error estimate (:func:`richardson`).
+SCENE_REFERENCE = "newmark"
+SCENE_REF_FRACTIONS = {"full": (1 / 4, 1 / 8, 1 / 16), "quick": (1 / 2, 1 / 4, 1 / 8)}
 #: The 2D references (module docstring): name -> (scheme key, c in dt = h/c, the
 #: quantities it is the reference for, the mesh sizes per study size, coarse to fine:
 #: the finest is the reference, the two before it give its error estimate).
@@ -209,18 +229,32 @@ def _reference_tasks(base: str, size: str, t_end: float):
         runs = [(i, h, h / c) for i, h in enumerate(levels)]
         runs.append(("dt", levels[DT_CHECK_LEVEL], levels[DT_CHECK_LEVEL] / (2 * c)))
         for i, h, dt in runs:
-            settings = dict(SCHEMES[key].settings)
-            # steps longer than OUTPUT_DT / 4: a row per step, so that the levels'
-            # rows nest (dt halving) and no level is compared through an interpolation
-            # of a coarser sampling than its own step
-            every = 1 if dt > OUTPUT_DT / 4 else _nested_every(dt)
-            settings.update({"mesh.h": h, "scheme.dt": dt, "scheme.t_end": t_end,
-                             "output.every": every, "output.fields_every": 0})
-            out.append((make_task(base, settings, "trace", {"columns": COLUMNS},
-                                  tags={"case": "2d-ref", "ref": name, "level": i, "h": h,
-                                        "dt": dt}),
+            out.append((_trace_task(base, SCHEMES[key], dt, t_end,
+                                    {"case": "2d-ref", "ref": name, "level": i, "h": h,
+                                     "dt": dt}, h=h, every=_level_every(dt)),
                         (name, i, h, dt)))
     return out
+
+
+def _level_every(dt: float) -> int:
+    """output.every of a reference level: steps longer than OUTPUT_DT / 4 write a row per
+    step, so that the levels' rows nest (dt halving) and no level is compared through an
+    interpolation of a coarser sampling than its own step; shorter ones
+    :func:`_nested_every`."""
+    return 1 if dt > OUTPUT_DT / 4 else _nested_every(dt)
+
+
+def _trace_task(base: str, s, dt: float, t_end: float, tags, h: float | None = None,
+                every: int | None = None) -> Task:
+    """A run of scheme ``s`` (a SchemeSpec) on the scene file ``base`` at step dt to
+    t_end (with mesh size h, else the scene's mesh), writing the trace COLUMNS every
+    ``every`` steps (default: :func:`_every`) and no fields."""
+    settings = dict(s.settings)
+    if h is not None:
+        settings["mesh.h"] = h
+    settings.update({"scheme.dt": dt, "scheme.t_end": t_end,
+                     "output.every": every or _every(dt), "output.fields_every": 0})
+    return make_task(base, settings, "trace", {"columns": COLUMNS}, tags=tags)
 
 
 def _nested_every(dt: float) -> int:
@@ -323,22 +357,25 @@ def _reference_estimates(recs, keys, size: str, references=None) -> dict[str, An
     for name, (key, c, qs, by_size) in references.items():
         n = len(by_size[size])
         lv = [by[(name, i)] for i in range(n)]
-        chk = by[(name, "dt")]
-        ok = all(r["status"] == "ok" and r.get("arrays") for r in lv + [chk])
+        chk = by.get((name, "dt"))   # None: no time-step check (the levels are Δt's)
+        checks = [chk] if chk is not None else []
+        ok = all(r["status"] == "ok" and r.get("arrays") for r in lv + checks)
         ref: dict[str, Any] = {
             "scheme": key, "label": SCHEMES[key].label, "c": c, "ok": ok,
-            "status": [r["status"] for r in lv + [chk]],
-            "cpu_s": [r.get("cpu_s") for r in lv + [chk]],
+            "status": [r["status"] for r in lv + checks],
+            "cpu_s": [r.get("cpu_s") for r in lv + checks],
             "h": [dict(r["task"].tags)["h"] for r in lv],
             "dt": [dict(r["task"].tags)["dt"] for r in lv], "for": list(qs)}
         if ok:
             arr = [r["arrays"] for r in lv]
             diffs = [_errors(arr[i], arr[i + 1]) for i in range(n - 1)]
-            dt_errs = _errors(by[(name, DT_CHECK_LEVEL)]["arrays"], chk["arrays"])
+            dt_errs = (_errors(by[(name, DT_CHECK_LEVEL)]["arrays"], chk["arrays"])
+                       if chk is not None else {})
             for m, _q, _norm in _measures():
                 d = [x[f"err_{m}"] for x in diffs]
                 p, est = richardson(d[-2], d[-1])
-                ref[m] = {"d": d, "p": p, "est": est, "dt_err": dt_errs[f"err_{m}"]}
+                ref[m] = {"d": d, "p": p, "est": est,
+                          "dt_err": dt_errs.get(f"err_{m}", float("nan"))}
             for q in qs:
                 info["truth"][q] = arr[-1]
         info["references"][name] = ref
@@ -390,14 +427,10 @@ def run_work_precision(out: str, *, quick: bool = False, c_implicit: float = 20.
                                ("2d", bases["seed2d"], list(LADDER_2D[size]))):
         for s, c, label, skey in series:
             for h in ladder:
-                settings = dict(s.settings)
-                settings.update({"mesh.h": h, "scheme.dt": h / c, "scheme.t_end": t_end,
-                                 "output.every": _every(h / c),
-                                 "output.fields_every": 0})
-                tasks.append(make_task(base, settings, "trace", {"columns": COLUMNS},
-                                       tags={"case": case, "series": skey, "label": label,
-                                             "scheme": s.key, "h": h, "dt": h / c,
-                                             "c": c}))
+                tasks.append(_trace_task(base, s, h / c, t_end,
+                                         {"case": case, "series": skey, "label": label,
+                                          "scheme": s.key, "h": h, "dt": h / c, "c": c},
+                                         h=h))
     refs = _reference_tasks(bases["seed2d"], size, t_end)
     shipped = [(k[0], k[2]) in SHIPPED and k[1] != "dt" for _t, k in refs]
     recs = sweep(tasks + [t for (t, _), sh in zip(refs, shipped) if not sh], cache,
@@ -410,27 +443,42 @@ def run_work_precision(out: str, *, quick: bool = False, c_implicit: float = 20.
         if r.get("shipped") and r["status"] != "ok":
             log(f"work-precision: {r['message']}")
     ref_info = _reference_estimates(ref_recs, [k for _, k in refs], size)
+    report = _report(run_recs, recs, series, ref_info, out, CASES)
+    report.update(t_end=t_end, quick=quick, wall_s=time.perf_counter() - t0, size=size)
+    report["summary"] = _summary(report, os.path.join(out, "summary.md"))
+    return report
+
+
+def _row(r, truth) -> dict[str, Any]:
+    """The CSV row of a run's record: its tags, status and cost, and its errors (case
+    '1d' against the closed form, any other case against ``truth``: quantity -> the
+    trace of its reference)."""
+    tg = dict(r["task"].tags)
+    row = {k: tg[k] for k in ("case", "series", "label", "scheme", "h", "dt", "c")}
+    row.update(status=r["status"], t_end_reached=r.get("t_end_reached"),
+               steps=r.get("steps"), cpu_s=r.get("cpu_s"), wall_s=r.get("wall_s"),
+               newton_its_total=r.get("newton_its_total"),
+               message=(r.get("message") or "").splitlines()[0] if r.get("message")
+               else "")
+    tr = r.get("arrays") or {}
+    if tr and len(tr.get("t", ())) > 1:
+        if tg["case"] == "1d":
+            row.update(_errors(tr, _exact_trace(tr["t"])))
+        else:
+            for m, q, _norm in _measures():
+                if truth.get(q):
+                    row[f"err_{m}"] = _errors(tr, truth[q])[f"err_{m}"]
+    return row
+
+
+def _report(run_recs, recs, series, ref_info, out: str, cases) -> dict[str, Any]:
+    """Rows (with the resolved flags of the cases measured against a reference run),
+    work_precision.csv, work_precision.png and the cheapest-scheme table; the report
+    without its summary. ``recs``: every record of the sweep (for the counts)."""
     truth = ref_info.pop("truth")
-    rows = []
-    for r in run_recs:
-        tg = dict(r["task"].tags)
-        row = {k: tg[k] for k in ("case", "series", "label", "scheme", "h", "dt", "c")}
-        row.update(status=r["status"], t_end_reached=r.get("t_end_reached"),
-                   steps=r.get("steps"), cpu_s=r.get("cpu_s"), wall_s=r.get("wall_s"),
-                   newton_its_total=r.get("newton_its_total"),
-                   message=(r.get("message") or "").splitlines()[0] if r.get("message")
-                   else "")
-        tr = r.get("arrays") or {}
-        if tr and len(tr.get("t", ())) > 1:
-            if tg["case"] == "1d":
-                row.update(_errors(tr, _exact_trace(tr["t"])))
-            else:
-                for m, q, _norm in _measures():
-                    if truth.get(q):
-                        row[f"err_{m}"] = _errors(tr, truth[q])[f"err_{m}"]
-        rows.append(row)
+    rows = [_row(r, truth) for r in run_recs]
     for x in rows:
-        if x["case"] == "2d":
+        if x["case"] != "1d":
             for m, _q, _norm in _measures():
                 err = x.get(f"err_{m}")
                 x[f"resolved_{m}"] = err is None or is_resolved(
@@ -440,14 +488,11 @@ def run_work_precision(out: str, *, quick: bool = False, c_implicit: float = 20.
             "cpu_s", "wall_s", "newton_its_total", *(f"err_{m}" for m in measures),
             *(f"resolved_{m}" for m in measures), "message"]
     csv_path = write_csv(os.path.join(out, "work_precision.csv"), rows, cols)
-    png = _plot(rows, series, ref_info, os.path.join(out, "work_precision.png"))
-    cheapest = _cheapest(rows)
-    report = {"rows": rows, "ref": ref_info, "cheapest": cheapest, "csv": csv_path,
-              "png": png, "n_runs": len(recs), "n_cached": sum(r["cached"] for r in recs),
-              "n_errors": sum(r["status"] == "error" for r in recs), "t_end": t_end,
-              "quick": quick, "wall_s": time.perf_counter() - t0, "size": size}
-    report["summary"] = _summary(report, os.path.join(out, "summary.md"))
-    return report
+    png = _plot(rows, series, ref_info, os.path.join(out, "work_precision.png"), cases)
+    return {"rows": rows, "ref": ref_info, "cheapest": _cheapest(rows, cases),
+            "csv": csv_path, "png": png, "n_runs": len(recs),
+            "n_cached": sum(r["cached"] for r in recs),
+            "n_errors": sum(r["status"] == "error" for r in recs)}
 
 
 def _levels(values) -> list[float]:
@@ -462,10 +507,10 @@ def _levels(values) -> list[float]:
     return [c for c in cand if min(v) <= c <= top]
 
 
-def _cheapest(rows) -> list[dict[str, Any]]:
+def _cheapest(rows, cases=CASES) -> list[dict[str, Any]]:
     """For each case, quantity and error level: the cheapest ok run reaching it."""
     out = []
-    for case in ("1d", "2d"):
+    for case, _title in cases:
         for q in QUANTITIES:
             key = f"err_{q}"
             mine = [r for r in rows if r["case"] == case and r["status"] == "ok"
@@ -483,12 +528,13 @@ def _cheapest(rows) -> list[dict[str, Any]]:
     return out
 
 
-def _plot(rows, series, ref_info, path):
+def _plot(rows, series, ref_info, path, cases=CASES):
+    """One row of panels per case (its quantities' errors against CPU time)."""
     import matplotlib.pyplot as plt
 
-    fig, axes = new_figure(2, 4, 3.9, 3.3)
+    fig, axes = new_figure(len(cases), 4, 3.9, 3.3)
     colors = plt.get_cmap("tab20").colors
-    for i, case in enumerate(("1d", "2d")):
+    for i, (case, title) in enumerate(cases):
         for j, q in enumerate(QUANTITIES):
             ax = axes[i, j]
             key = f"err_{q}"
@@ -511,12 +557,11 @@ def _plot(rows, series, ref_info, path):
                     ax.loglog([r["cpu_s"] for r in bad], [top] * len(bad), "x", color=col,
                               ms=8, mew=2, label=f"{label}: {bad[0]['status']}")
             est = (ref_info.get("quantities", {}).get(q, {}).get("est")
-                   if case == "2d" else None)
+                   if case != "1d" else None)
             if est and math.isfinite(est):
                 ax.axhline(est, color="k", ls=":", lw=0.8,
                            label="reference error (est.)" if j == 0 else None)
-            ax.set_title(f"{'1D exact case' if case == '1d' else '2D seed bar'}: "
-                         f"{q}", fontsize=9)
+            ax.set_title(f"{title}: {q}", fontsize=9)
             ax.set_xlabel("CPU s")
             ax.set_ylabel(f"{NORM_NAME[NORMS[q]]} error in time"
                           + (" / e(0)" if q == "e_total" else ""))
@@ -526,10 +571,10 @@ def _plot(rows, series, ref_info, path):
     for ax in axes.flat:
         ax.xaxis.set_minor_formatter(NullFormatter())
         ax.yaxis.set_minor_formatter(NullFormatter())
-    h, lab = axes[0, 0].get_legend_handles_labels()
-    h2, lab2 = axes[1, 0].get_legend_handles_labels()
-    seen = dict(zip(lab, h))
-    seen.update({a: b for a, b in zip(lab2, h2) if a not in seen})
+    seen: dict[str, Any] = {}
+    for ax in axes[:, 0]:
+        h, lab = ax.get_legend_handles_labels()
+        seen.update({a: b for a, b in zip(lab, h) if a not in seen})
     fig.legend(list(seen.values()), list(seen.keys()), loc="center right", fontsize=7,
                title="open circle: not resolved by the reference", title_fontsize=7)
     return save_figure(fig, path, rect=(0, 0, 0.82, 1))
@@ -570,6 +615,51 @@ def _pn_note(ref) -> str:
             "consistent reference's). It is not used for e_total (it dissipates).")
 
 
+def _reference_table(ref, rows, case: str) -> list[str]:
+    """The "converged enough" table: per quantity and norm, each reference's level
+    differences d, observed order p, estimated error (and its Δt error when it was
+    checked), and for the reference in bold the smallest error of the ``case`` runs and
+    whether the reference resolves them all."""
+    with_dt = any(math.isfinite(r[m]["dt_err"]) for r in ref["references"].values()
+                  if r["ok"] for m, _q, _n in _measures())
+    table = []
+    for m, q, norm in _measures():
+        chosen = ref["quantities"][m]["ref"]
+        res = resolution(ref["quantities"][m]["est"],
+                         [r.get(f"err_{m}") for r in rows if r["case"] == case])
+        used = norm == NORMS[q]
+        for name, r in ref["references"].items():
+            if not used and name != chosen:
+                continue
+            x = r[m]
+            est = x["est"]
+            cells = [q, NORM_NAME[norm] + ("" if used else " (not used)"),
+                     f"**{r['label']}**" if name == chosen else r["label"],
+                     ", ".join(fmt(d) for d in x["d"]), fmt(x["p"], ".2f"),
+                     fmt(est) if math.isfinite(est) else "unknown"]
+            cells += [fmt(x["dt_err"])] if with_dt else []
+            if name == chosen:
+                if res["verdict"] == "yes":
+                    verdict = f"yes, all {res['n_all']} runs"
+                elif res["verdict"] == "unknown":
+                    verdict = (f"no: the levels do not converge (d₂ ≥ d₁); all "
+                               f"{res['n_all']} runs flagged")
+                else:
+                    verdict = (f"no for {res['n_unresolved']} of {res['n_all']} runs: "
+                               "flagged")
+                if used and res["verdict"] != "yes":
+                    verdict += (" (open circles), left out of the cheapest-scheme "
+                                "table")
+                cells += [fmt(res["smallest"]), verdict]
+            else:
+                cells += ["", ""]
+            table.append(cells)
+    return md_table(["quantity", "norm in time", "reference", "d (coarse → fine)", "p",
+                     "est. error of ref", *(["Δt error"] if with_dt else []),
+                     "smallest error", f"converged enough ({RESOLVED_MARGIN:g}× margin)"],
+                    table)
+
+
 def _summary(report, path) -> str:
     rows, ref = report["rows"], report["ref"]
     lad1 = LADDER_1D[report["size"]]
@@ -607,40 +697,7 @@ def _summary(report, path) -> str:
             f"is compared with every 2D run's error ({RESOLVED_MARGIN:g}× margin). The "
             "rows 'RMS (not used)' measure v_n and p_n in RMS as well, to show why they "
             "are not measured so.", ""]
-        table = []
-        for m, q, norm in _measures():
-            chosen = ref["quantities"][m]["ref"]
-            res = resolution(ref["quantities"][m]["est"],
-                             [r.get(f"err_{m}") for r in rows if r["case"] == "2d"])
-            used = norm == NORMS[q]
-            for name, r in ref["references"].items():
-                if not used and name != chosen:
-                    continue
-                x = r[m]
-                est = x["est"]
-                cells = [q, NORM_NAME[norm] + ("" if used else " (not used)"),
-                         f"**{r['label']}**" if name == chosen else r["label"],
-                         ", ".join(fmt(d) for d in x["d"]), fmt(x["p"], ".2f"),
-                         fmt(est) if math.isfinite(est) else "unknown", fmt(x["dt_err"])]
-                if name == chosen:
-                    if res["verdict"] == "yes":
-                        verdict = f"yes, all {res['n_all']} runs"
-                    elif res["verdict"] == "unknown":
-                        verdict = (f"no: the levels do not converge (d₂ ≥ d₁); all "
-                                   f"{res['n_all']} runs flagged")
-                    else:
-                        verdict = (f"no for {res['n_unresolved']} of {res['n_all']} runs: "
-                                   "flagged")
-                    if used and res["verdict"] != "yes":
-                        verdict += (" (open circles), left out of the cheapest-scheme "
-                                    "table")
-                    cells += [fmt(res["smallest"]), verdict]
-                else:
-                    cells += ["", ""]
-                table.append(cells)
-        lines += md_table(["quantity", "norm in time", "reference", "d (coarse → fine)", "p",
-                           "est. error of ref", "Δt error", "smallest error",
-                           f"converged enough ({RESOLVED_MARGIN:g}× margin)"], table)
+        lines += _reference_table(ref, rows, "2d")
         between = [(q, NORMS[q], ref["quantities"][q].get("between")) for q in QUANTITIES]
         if all(b is not None for _, _, b in between):
             names = list(ref["references"])
@@ -652,15 +709,21 @@ def _summary(report, path) -> str:
     else:
         lines += ["The reference runs did not finish: " + "; ".join(
             f"{r['label']}: {r['status']}" for r in ref["references"].values()) + "."]
-    lines += ["", "## Cheapest scheme per error level", "",
-              "For each error level, the run of least CPU time whose error is at most the "
-              "level (ok runs only; 2D runs not resolved by the reference are left out).", ""]
+    return write_markdown(path, lines + _cheapest_and_failures(report))
+
+
+def _cheapest_and_failures(report) -> list[str]:
+    """The summary's last sections: the cheapest run per error level, and the runs that
+    did not finish."""
+    lines = ["", "## Cheapest scheme per error level", "",
+             "For each error level, the run of least CPU time whose error is at most the "
+             "level (ok runs only; runs not resolved by their reference are left out).", ""]
     table = [[c["case"], c["quantity"], fmt(c["level"], ".0e"), c["label"], fmt(c["h"], ".4g"),
               fmt(c["dt"], ".3g"), fmt(c["cpu_s"], ".3f"), fmt(c["err"])]
              for c in report["cheapest"]]
     lines += md_table(["case", "quantity", "error ≤", "cheapest scheme", "h", "Δt", "CPU s",
                        "its error"], table)
-    bad = [r for r in rows if r["status"] != "ok"]
+    bad = [r for r in report["rows"] if r["status"] != "ok"]
     lines += ["", "## Runs that did not finish", ""]
     if bad:
         lines += md_table(["case", "scheme", "h", "Δt", "status", "stopped at t", "message"],
@@ -669,4 +732,132 @@ def _summary(report, path) -> str:
                            for r in bad])
     else:
         lines.append("None.")
-    return write_markdown(path, lines)
+    return lines
+
+
+# --------------------------------------------------------------------------- --scene
+
+def _scene_series(scene: UserScene, c_implicit: float, c_explicit: float, series):
+    """The series of a scene study: each scheme of ``series`` on the scene's mass and
+    contact (:func:`.common.on_scene`), as :func:`_series` gives them; a second scheme
+    that becomes the same run as an earlier one is left out. Returns (series,
+    [(key, why left out)])."""
+    from .common import on_scene, refusal_on_scene
+
+    kept, left_out, seen = [], [], {}
+    for s, c, _label, skey in _series(c_implicit, c_explicit, series):
+        t = on_scene(s, scene)
+        why = refusal_on_scene(t, scene)
+        if why is not None:
+            left_out.append((skey, f"refused by the core on this scene: {why}"))
+            continue
+        same = seen.get((t.settings, c))
+        if same is not None:
+            left_out.append((skey, f"differs from {same} only in its mass or contact, "
+                                   f"which the study keeps at the scene's ({scene.mass} "
+                                   f"mass, {scene.method} contact): the same run"))
+            continue
+        seen[(t.settings, c)] = skey
+        family = c_explicit if t.explicit else c_implicit
+        ratio = c_implicit / c
+        kept.append((t, c, t.label + ("" if c == family else ", the scene's Δt" if ratio == 1
+                                      else f", Δt×{ratio:g}"), skey))
+    return kept, left_out
+
+
+def run_work_precision_scene(out: str, scene: str, *, quick: bool = False,
+                             c_implicit: float = 20.0, c_explicit: float = 100.0,
+                             cache: str | None = None, workers: int | None = None,
+                             scheduler: Any = None, progress: bool | None = None, log=print,
+                             ladder=None, series=DEFAULT_SERIES) -> dict[str, Any]:
+    """The work-precision study on a scene file of one's own (``study work-precision
+    --scene``): every scheme of ``series`` on the scene's mesh, mass, contact, probe and
+    T at the Δt of ``ladder`` (factors on its step, default SCENE_LADDER; its step is
+    the scene's Δt × c_implicit/c), against SCENE_REFERENCE at SCENE_REF_FRACTIONS of
+    the smallest of those Δt: time-discretization errors on that mesh. A scheme the core
+    refuses on the scene (an explicit one with the ALM or the redistributed mass) is left
+    out with the core's reason. Writes work_precision.csv, work_precision.png and
+    summary.md into ``out``; ValueError (one line) for a missing or bad scene."""
+    from .common import on_scene, read_user_scene
+
+    t0 = time.perf_counter()
+    size = "quick" if quick else "full"
+    scn = read_user_scene(scene)
+    out = os.path.abspath(out)
+    os.makedirs(out, exist_ok=True)
+    cache = cache or os.path.join(out, "cache")
+    factors = tuple(ladder or SCENE_LADDER[size])
+    kept, left_out = _scene_series(scn, c_implicit, c_explicit, series)
+    if not kept:
+        raise ValueError(f"--scene {scn.path}: the core refuses every scheme of the "
+                         f"study on it (first: {left_out[-1][1]})")
+    h = None if scn.mesh_file else scn.h
+    tasks = [_trace_task(scn.path, s, scn.dt * c_implicit / c * f, scn.t_end,
+                         {"case": "scene", "series": skey, "label": label, "scheme": s.key,
+                          "h": h, "dt": scn.dt * c_implicit / c * f, "c": c, "factor": f})
+             for s, c, label, skey in kept for f in factors]
+    dt_min = min(dict(t.tags)["dt"] for t in tasks)
+    levels = tuple(dt_min * x for x in SCENE_REF_FRACTIONS[size])
+    ref_spec = on_scene(SCHEMES[SCENE_REFERENCE], scn)
+    refs = [(_trace_task(scn.path, ref_spec, dt, scn.t_end,
+                         {"case": "scene-ref", "ref": "scene", "level": i, "h": h, "dt": dt},
+                         every=_level_every(dt)), ("scene", i, h, dt))
+            for i, dt in enumerate(levels)]
+    recs = sweep(tasks + [t for t, _ in refs], cache, workers=workers,
+                 scheduler=scheduler, progress=progress, desc="work-precision --scene",
+                 log=log)
+    run_recs, ref_recs = recs[:len(tasks)], recs[len(tasks):]
+    ref_info = _reference_estimates(
+        ref_recs, [k for _, k in refs], size,
+        {"scene": (SCENE_REFERENCE, None, QUANTITIES, {size: levels})})
+    cases = (("scene", os.path.basename(scn.path)),)
+    report = _report(run_recs, recs, kept, ref_info, out, cases)
+    report.update(t_end=scn.t_end, quick=quick, wall_s=time.perf_counter() - t0, size=size,
+                  scene=scn, factors=factors, left_out=left_out, ref_levels=levels,
+                  ref_label=ref_spec.label, c_implicit=c_implicit)
+    report["summary"] = _scene_summary(report, os.path.join(out, "summary.md"))
+    return report
+
+
+def _scene_summary(report, path) -> str:
+    scn, ref = report["scene"], report["ref"]
+    mesh = f"mesh file {scn.mesh_file}" if scn.mesh_file else f"built-in mesh, h = {scn.h:g}"
+    lines = [
+        f"# Work–precision on {os.path.basename(scn.path)}", "",
+        f"Scene {scn.path}: {scn.dim}D, {mesh}, {scn.mass} mass, {scn.method} contact "
+        f"(γ0 = {scn.gamma0:g}), T = {scn.t_end:g}, Δt = {scn.dt:g}. Each scheme runs on "
+        f"the scene as given (its mesh, material, mass, contact, probe and T; only the "
+        f"time scheme and Δt change) at Δt = "
+        f"{', '.join(f'{f:g}' for f in report['factors'])} × its step: the scene's Δt for "
+        f"the implicit schemes, × {report['c_implicit']:g}/c for a scheme of step h/c "
+        "(as in the built-in study: the predictor-corrector schemes at a fifth of it, "
+        "central differences at 5×). "
+        f"The reference is the same scene with {report['ref_label']} at the much finer "
+        f"Δt = {fmt(report['ref_levels'][-1], '.4g')}. **These are time-discretization "
+        "errors on this mesh**: the reference has the same mesh and contact, so the space "
+        "error (of the mesh against the continuous body) is in neither and is not "
+        "measured. Errors: the probe quantity minus the reference, in time RMS for u_n "
+        "and e_total (e_total relative to e(0)) and mean |·| (L¹ in time / T) for v_n and "
+        "p_n; x axis: CPU seconds of the run. Unstable runs: crosses at the top of the "
+        "panel.", "",
+        f"{report['n_runs']} runs ({report['n_cached']} from the cache, "
+        f"{report['n_errors']} failed to run), {report['wall_s']:.1f} s.", "",
+        "![work-precision](work_precision.png)", "", "## Schemes left out", ""]
+    lines += ([f"- {k}: {why}." for k, why in report["left_out"]]
+              or ["None: every scheme of the series applies to this scene."])
+    lines += ["", "## Is the reference converged enough?", ""]
+    if ref["ok"]:
+        lines += [
+            f"The reference is run at Δt = "
+            f"{', '.join(fmt(d, '.4g') for d in report['ref_levels'])} (the finest is the "
+            "reference). d: the differences between successive levels, coarse to fine, in "
+            "each quantity's norm in time; p = log₂(d₁/d₂); the error of the finest level "
+            f"d₂/(2^p − 1) (p floored at {MIN_ORDER:g}; unknown when d₂ ≥ d₁: the levels do "
+            "not converge). A run whose error is less than "
+            f"{RESOLVED_MARGIN:g}× that estimate is flagged as not resolved.", ""]
+        lines += _reference_table(ref, report["rows"], "scene")
+    else:
+        r = ref["references"]["scene"]
+        lines += [f"The reference runs did not finish ({', '.join(r['status'])}): no "
+                  "errors are measured."]
+    return write_markdown(path, lines + _cheapest_and_failures(report))
