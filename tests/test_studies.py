@@ -758,17 +758,22 @@ def test_resolution_table_on_a_synthetic_case_with_a_known_answer(tmp_path):
     # the table of summary.md says the same, run by run
     rows = [{"case": "2d", "label": f"k{k}", "h": k * delta, "dt": k * delta, "status": "ok",
              **errs[k]} for k in (32, 16, 8)]
-    report = {"rows": rows, "ref": info, "t_end": 3.0, "size": "full", "n_runs": 3,
+    # a run stopped as unstable (errors 0: nothing happened before it stopped) is not
+    # one of the runs the table judges
+    rows.append({"case": "2d", "label": "blown", "h": 64 * delta, "dt": 64 * delta,
+                 "status": "unstable", "message": "unstable at t = 0.1",
+                 **{k: 0.0 for k in errs[8]}})
+    report = {"rows": rows, "ref": info, "t_end": 3.0, "size": "full", "n_runs": 4,
               "n_cached": 0, "n_errors": 0, "wall_s": 0.0, "cheapest": []}
     text = open(wp._summary(report, str(tmp_path / "summary.md")), encoding="utf-8").read()
     table = {tuple(c.strip() for c in line.split(" | ")[:2]): line
              for line in text.splitlines() if line.startswith("| ")}
-    assert table[("| v_n", "mean \\|·\\|")].endswith("| yes, all 3 runs |")
+    assert table[("| v_n", "mean \\|·\\|")].endswith("| yes, all 3 finished runs |")
     # k = 16 is flagged too in RMS: there the estimate (p = 0.49 from ramps whose
     # differences are not a power law) is above the true error, on the safe side
-    assert "| no for 2 of 3 runs: flagged |" in table[("| v_n", "RMS (not used)")]
+    assert "| no for 2 of 3 finished runs: flagged |" in table[("| v_n", "RMS (not used)")]
     assert "no: the levels do not converge" in table[("| p_n", "mean \\|·\\|")]
-    assert table[("| u_n", "RMS")].endswith("| yes, all 3 runs |")
+    assert table[("| u_n", "RMS")].endswith("| yes, all 3 finished runs |")
 
 
 def test_work_precision_quick_has_the_alm_series(work_precision):
