@@ -70,7 +70,7 @@ def test_plot_traces_api_labels(tmp_path):
     b = _write_run(tmp_path / "b", n=50, t_end=1.2, status="unstable")
     fig = plot_traces([a, b], tmp_path / "x.png")
     assert (tmp_path / "x.png").stat().st_size > 0
-    assert len(fig.axes) == 4
+    assert len(fig.axes) == 5      # the four panels and f_n's scale beside p_n's
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     # the same settings: told apart by their folders
     assert labels[0] == "hht α=-0.1, Δt=0.0025, h=0.05 [a]"
