@@ -1,4 +1,6 @@
-"""The trace's f_n column: the total normal contact force (docs/scenes.md, "trace.csv").
+"""The trace's f_n column: the total normal contact force.
+
+Its definition, sign and units: (docs/scenes.md, "Outputs (in `&output dir`)").
 
 f_n = int_GammaC [P]_- ds for Nitsche and penalty (<= 0, p_n's sign), the multipliers'
 resultant for the augmented Lagrangian. Against the rigid translation t along the obstacle
