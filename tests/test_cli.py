@@ -9,9 +9,11 @@ import pytest
 
 from conftest import ROOT
 
-HEADER = "t,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active,e_load"
+HEADER = "t,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active,e_load,f_n"
 #: The header before e_load was appended (traces written by version 0.1.0).
 OLD_HEADER = "t,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active"
+#: The header before f_n was appended (the study caches hold such traces).
+E_LOAD_HEADER = "t,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active,e_load"
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
@@ -26,7 +28,7 @@ def _write_run(folder, n=200, t_end=3.0, status="ok", alpha=-0.1, dt=0.0025, h=0
     e_el = 0.125 - e_kin
     e_contact = np.where(p < 0, 1e-3, 0.0)
     rows = np.column_stack([t, u, v, p, e_kin, e_el, e_contact, e_kin + e_el,
-                            np.ones_like(t), (p < 0) * 3.0, np.zeros_like(t)])
+                            np.ones_like(t), (p < 0) * 3.0, np.zeros_like(t), 0.1 * p])
     np.savetxt(folder / "trace.csv", rows, delimiter=",", header=HEADER, comments="",
                fmt="%.10e")
     summary = {
@@ -68,7 +70,7 @@ def test_plot_traces_api_labels(tmp_path):
     b = _write_run(tmp_path / "b", n=50, t_end=1.2, status="unstable")
     fig = plot_traces([a, b], tmp_path / "x.png")
     assert (tmp_path / "x.png").stat().st_size > 0
-    assert len(fig.axes) == 4
+    assert len(fig.axes) == 5      # the four panels and f_n's scale beside p_n's
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     # the same settings: told apart by their folders
     assert labels[0] == "hht α=-0.1, Δt=0.0025, h=0.05 [a]"
@@ -239,7 +241,7 @@ def test_read_trace_drops_a_partial_last_line(tmp_path):
     from dyncontact.core import TRACE_COLUMNS, read_trace
 
     assert ",".join(TRACE_COLUMNS) == HEADER
-    (tmp_path / "trace.csv").write_text(HEADER + "\n" + ",".join(["1.0"] * 11) + "\n"
+    (tmp_path / "trace.csv").write_text(HEADER + "\n" + ",".join(["1.0"] * 12) + "\n"
                                         + "2.0,3.0,4")
     tr = read_trace(tmp_path)
     assert list(tr) == list(TRACE_COLUMNS)
@@ -247,21 +249,25 @@ def test_read_trace_drops_a_partial_last_line(tmp_path):
     (tmp_path / "trace.csv").write_text(HEADER + "\n")
     assert read_trace(tmp_path)["t"].shape == (0,)
     # A malformed line in the middle: the rows before it (read line by line).
-    (tmp_path / "trace.csv").write_text(HEADER + "\n" + ",".join(["1.0"] * 11) + "\n"
-                                        + ",".join(["x"] * 11) + "\n"
-                                        + ",".join(["2.0"] * 11) + "\n")
+    (tmp_path / "trace.csv").write_text(HEADER + "\n" + ",".join(["1.0"] * 12) + "\n"
+                                        + ",".join(["x"] * 12) + "\n"
+                                        + ",".join(["2.0"] * 12) + "\n")
     assert read_trace(tmp_path)["t"].tolist() == [1.0]
     # Fortran's non-finite values and signed exponents read as such.
     (tmp_path / "trace.csv").write_text(
-        HEADER + "\n" + ",".join(["                     NaN"] * 10 + ["-Infinity"]) + "\n"
-        + ",".join(["-0.1234567890123457E-300"] * 11) + "\n")
+        HEADER + "\n" + ",".join(["                     NaN"] * 10 + ["-Infinity"] * 2) + "\n"
+        + ",".join(["-0.1234567890123457E-300"] * 12) + "\n")
     tr = read_trace(tmp_path)
-    assert np.isnan(tr["t"][0]) and tr["e_load"][0] == -np.inf
+    assert np.isnan(tr["t"][0]) and tr["e_load"][0] == -np.inf and tr["f_n"][0] == -np.inf
     assert tr["t"][1] == -0.1234567890123457e-300
     # A trace without the e_load column (older runs) still reads, column by header.
     (tmp_path / "trace.csv").write_text(OLD_HEADER + "\n" + ",".join(["1.0"] * 10) + "\n")
     tr = read_trace(tmp_path)
     assert "e_load" not in tr and tr["active"].shape == (1,)
+    # Nor does one without f_n (appended after e_load): the old columns read as before.
+    (tmp_path / "trace.csv").write_text(E_LOAD_HEADER + "\n" + ",".join(["1.0"] * 11) + "\n")
+    tr = read_trace(tmp_path)
+    assert "f_n" not in tr and tr["e_load"].tolist() == [1.0]
 
 
 def test_readme_and_docs_exist():

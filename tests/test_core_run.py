@@ -60,7 +60,7 @@ class FakeCore:
 
     def dc_sim_info(self, handle):
         assert handle in self.open_handles
-        return self.n_steps, 232 * self.n_steps, b" " * 4096
+        return self.n_steps, 257 * self.n_steps, b" " * 4096
 
     def dc_sim_advance(self, handle, max_steps):
         assert handle in self.open_handles

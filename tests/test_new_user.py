@@ -151,7 +151,7 @@ def tmpfs(tmp_path):
 
 @pytest.mark.parametrize("kind", ENTRIES)
 def test_fields_every_1_that_cannot_fit_is_refused_before_writing(kind, tmpfs, tmp_path):
-    """The seed run with a snapshot every step: 6001 snapshots of 16.6 kB (101.9 MB with
+    """The seed run with a snapshot every step: 6001 snapshots of 16.6 kB (102.0 MB with
     the trace) on a 1 MB disk. Refused before anything is written, naming the key and
     saying how much; a previous run's results stay as they were."""
     disk = tmpfs("size=1m")
@@ -162,7 +162,7 @@ def test_fields_every_1_that_cannot_fit_is_refused_before_writing(kind, tmpfs, t
     assert len([p for p in before if p.suffix == ".vtu"]) == 5
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0", output__fields_every="1")
     line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), EXIT_BAD_INPUT)
-    assert f"{scene}: &output fields_every: the run would write about 101.9 MB" in line
+    assert f"{scene}: &output fields_every: the run would write about 102.0 MB" in line
     assert "6001 snapshots of 16.6 kB each" in line and f"but {out} has" in line
     after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert after == before

@@ -246,3 +246,88 @@ def test_energy_panel_adds_e_load_under_a_body_force(tmp_path):
     # without a load anywhere, the label and curves are e_kin + e_el
     fig = plot_traces([bar], None)
     assert "e_{load}" not in fig.axes[3].get_ylabel()
+
+
+def _set_contact(folder, **contact):
+    """Put &contact keys into a synthetic run's summary.json (scene.contact)."""
+    path = folder / "summary.json"
+    summary = json.loads(path.read_text())
+    summary["scene"]["contact"].update(contact)
+    path.write_text(json.dumps(summary))
+    return folder
+
+
+def test_p_n_label_is_the_formula_of_the_runs_contact_method(tmp_path):
+    """Nitsche's [P_1(u) + gamma_N g]_- only for Nitsche runs: penalty and ALM runs get
+    their own formula (summary.json's scene.contact), runs of several methods a name."""
+    from dyncontact.plotting import plot_traces
+
+    nitsche = _write_run(tmp_path / "n")
+    penalty = _set_contact(_write_run(tmp_path / "p"), method="penalty")
+    alm = _set_contact(_write_run(tmp_path / "a"), method="alm", multiplier="nodal")
+    alm_int = _set_contact(_write_run(tmp_path / "i"), method="alm", multiplier="integral")
+    label = {}
+    for name, runs in (("n", [nitsche]), ("p", [penalty]), ("a", [alm]), ("i", [alm_int]),
+                       ("mixed", [nitsche, penalty])):
+        label[name] = plot_traces(runs, None).axes[2].get_ylabel()
+    assert label["n"] == r"$p_n = [P_1(u) + \gamma_N g]_-$"
+    assert "varepsilon_N" in label["p"] and "gamma_N" not in label["p"]
+    assert "lambda_i" in label["a"] and "nodal" in label["a"]
+    assert r"p_n = \lambda$" in label["i"] and "integral" in label["i"]
+    assert "gamma_N" not in label["mixed"] and "varepsilon" not in label["mixed"]
+    assert "p_n" in label["mixed"]
+
+
+def test_f_n_is_drawn_on_a_second_scale_of_the_p_n_panel(tmp_path):
+    """A trace with the f_n column: f_n dashed on a twin axis of the p_n panel (a fifth
+    Axes), its values as written; an older trace without it draws the four panels alone,
+    and drawn with a new one it adds no f_n curve."""
+    from dyncontact.plotting import plot_traces
+
+    new = _write_run(tmp_path / "new")
+    rows = np.loadtxt(new / "trace.csv", delimiter=",", skiprows=1)
+    f_n = 0.1 * rows[:, 3]
+    full = np.column_stack([rows, np.zeros(len(rows)), f_n])
+    np.savetxt(new / "trace.csv", full, delimiter=",", header=HEADER + ",e_load,f_n",
+               comments="", fmt="%.12e")
+    old = _write_run(tmp_path / "old")
+    fig = plot_traces([new], None)
+    assert len(fig.axes) == 5
+    twin = fig.axes[4]
+    assert twin.get_shared_x_axes().joined(twin, fig.axes[2])
+    assert "f_n" in twin.get_ylabel()
+    (curve,) = [ln for ln in twin.get_lines() if ln.get_gid() == "f_n"]
+    np.testing.assert_array_equal(curve.get_ydata(), f_n)
+    assert curve.get_linestyle() == "--"
+    assert len(plot_traces([old], None).axes) == 4
+    both = plot_traces([old, new], None)
+    assert len([ln for ln in both.axes[4].get_lines() if ln.get_gid() == "f_n"]) == 1
+
+
+def test_field_snapshots_draw_a_tilted_obstacle(tmp_path):
+    """A plane tilted (normal (0.3, -1)): its trace is drawn under every snapshot,
+    shifted with it, and lies on the plane (x - p) . n = 0 once the shift is taken off;
+    the horizontal plane stays one line under all of them."""
+    from dyncontact.plotting import plot_field_snapshots
+
+    run = _write_snapshots(tmp_path / "run", n=3)
+    normal, point = np.array([0.3, -1.0]), np.array([0.05, 0.25])   # under the bottom (y >= 0.3)
+    (run / "summary.json").write_text(json.dumps(
+        {"scene": {"contact": {"obstacle_normal": list(normal),
+                               "obstacle_point": list(point)}}}))
+    fig = plot_field_snapshots(run, None)
+    ax = fig.axes[0]
+    lines = {ln.get_gid(): ln for ln in ax.get_lines() if str(ln.get_gid()).startswith("obst")}
+    assert sorted(lines) == ["obstacle-0", "obstacle-1", "obstacle-2"]
+    for k, text in enumerate(ax.texts):
+        shift = text.get_position()[0] - 0.05      # the bar's mean x is 0.05, u_x = 0
+        xy = np.column_stack([lines[f"obstacle-{k}"].get_xdata() - shift,
+                              lines[f"obstacle-{k}"].get_ydata()])
+        np.testing.assert_allclose((xy - point) @ normal, 0.0, atol=1e-12)
+        assert np.ptp(xy[:, 0]) > 0.1              # wider than the bar
+    (run / "summary.json").write_text(json.dumps(
+        {"scene": {"contact": {"obstacle_normal": [0.0, -1.0],
+                               "obstacle_point": [0.0, -0.05]}}}))
+    ax = plot_field_snapshots(run, None).axes[0]
+    gids = [ln.get_gid() for ln in ax.get_lines() if str(ln.get_gid()).startswith("obst")]
+    assert gids == ["obstacle"]

@@ -91,7 +91,7 @@ def trace_rows(folder: Path) -> list[list[str]]:
     """Rows of trace.csv (header checked); every row must be complete."""
     lines = (folder / "trace.csv").read_text().splitlines()
     header = lines[0].split(",")
-    assert header[-1] == "e_load"
+    assert header[-2:] == ["e_load", "f_n"]
     rows = [ln.split(",") for ln in lines[1:]]
     for r in rows:
         assert len(r) == len(header), r

@@ -31,7 +31,7 @@ CKPT = "checkpoint.bin"
 #: Bytes of the checkpoint header (docs/scenes.md): 7 fields of 8 bytes, a 96-byte build id.
 HEADER = 7 * 8 + 96
 #: The checkpoint format version this build writes (docs/scenes.md).
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 #: Steps between checkpoints: more than the ~280 rows of the trace's write buffer, so that
 #: a killed run sometimes leaves rows after its checkpoint in trace.csv (cut at restart).
 EVERY = 300
@@ -244,6 +244,25 @@ def kill_9_then_restart(tmp_path: Path, text: str, label: str, every: int = EVER
     assert res.returncode == EXIT_OK, (what, res.stderr)
     assert f"restart at step {step}," in res.stdout, what
     assert_same_results(tmp_path / "part", tmp_path / "full", what)
+    assert_f_n_restarted(tmp_path / "part", step, every, what)
+
+
+def assert_f_n_restarted(folder: Path, step: int, every: int, what: str) -> None:
+    """The restarted trace (byte-identical to the whole run's, assert_same_results) has
+    the f_n column, nonzero through the contacts: every row after the checkpoint with
+    active contact points has f_n /= 0 (so the restart reproduced the force bit for bit,
+    not a column of zeros), and the run has contact rows."""
+    lines = (folder / "trace.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    assert header[-1] == "f_n", what
+    rows = np.loadtxt(lines[1:], delimiter=",", ndmin=2)
+    f_n, active = rows[:, -1], rows[:, header.index("active")]
+    every_row = json.loads((folder / "summary.json").read_text())["scene"]["output"]["every"]
+    after = np.arange(len(rows)) > step // every_row     # rows written after the restart
+    assert f_n.min() < 0.0, what
+    # (nonzero, not < 0: the augmented Lagrangian's integral multipliers on the
+    # chattering consistent mass can sum to a small positive force)
+    assert np.all(f_n[after & (active > 0)] != 0.0), what
 
 
 #: A free bar under gravity on slip walls, landing on the obstacle 0.05 below it: e_load

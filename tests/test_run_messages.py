@@ -66,7 +66,7 @@ def test_python_cli_run_lines_read_as_the_executables(tmp_path):
 
 def test_trace_size_note_gives_the_size_with_its_unit(tmp_path):
     """docs/scenes.md, "Limits": a trace over 100 MB is announced before the run as
-    'the trace will take about 116.0 MB (500001 rows; ...)', a number with a digit before
+    'the trace will take about 128.5 MB (500001 rows; ...)', a number with a digit before
     its point (the note wrote '.1 GB', Fortran's f0.1 dropping the zero). The run is
     stopped by SIGINT as soon as the note is read."""
     import signal

@@ -4,7 +4,9 @@ saying which commit wrote them). Every column is compared to round-off of the sa
 
 A change that moves the numerics on purpose (a new solver, a new formula) regenerates the
 files with `python tests/test_traces_unchanged.py` and says so in its commit and in the
-README; a refactor must leave them unchanged."""
+README; a refactor must leave them unchanged. A column appended to trace.csv (e_load,
+then f_n) regenerates them too, after checking that every old column is byte-identical
+to what the build before it writes (README)."""
 
 from __future__ import annotations
 

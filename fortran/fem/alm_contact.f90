@@ -40,7 +40,7 @@ module alm_contact
         real(dp), allocatable :: nmat(:, :)      !! (m, nl) N; the contact part of B is -N lambda
     end type alm_t
 
-    public :: alm_init, alm_eval, alm_force, alm_probe
+    public :: alm_init, alm_eval, alm_force, alm_probe, alm_resultant
 
 contains
 
@@ -258,6 +258,27 @@ contains
             f = f - lam(l) * alm%nmat(:, l)
         end do
     end subroutine alm_force
+
+    !> The total normal contact force of the multipliers (<= 0, p_n's sign): 'integral'
+    !> int_GammaC lambda = sum_l share_l lambda_l (int psi_l = the node's share, exact for
+    !> P1 lambda); 'nodal' sum_l lambda_l. Against the rigid translation along n the
+    !> contact part -N lambda gives minus it (N's column l against the translation is
+    !> share_l, or 1: n . n = 1 at the node's dofs, when none of them is constrained).
+    pure real(dp) function alm_resultant(alm, lam) result(f_n)
+        type(alm_t), intent(in) :: alm           !! multipliers
+        real(dp), intent(in) :: lam(:)           !! (nl) multipliers
+        integer :: l
+        f_n = 0.0_dp
+        if (alm%kind == ALM_NODAL) then
+            do l = 1, alm%nl
+                f_n = f_n + lam(l)
+            end do
+        else
+            do l = 1, alm%nl
+                f_n = f_n + alm%share(l) * lam(l)
+            end do
+        end if
+    end function alm_resultant
 
     !> The contact stress at a point of facet f (its facet shape values nsh): lambda
     !> interpolated ('integral'), or the nodal force over the node's share of Gamma_C,

@@ -1124,8 +1124,8 @@ contains
     end subroutine facet_triangle
 
     !> b = B(u) = K_theta u + contact part; ktu = K_theta u; active points and the
-    !> contact energy parts (see contact_eval).
-    pure subroutine model_eval_b(mdl, u, b, ktu, active, e_pen, e_theta)
+    !> contact energy parts and the total normal contact force (see contact_eval).
+    pure subroutine model_eval_b(mdl, u, b, ktu, active, e_pen, e_theta, f_n)
         type(model_t), intent(in) :: mdl      !! model
         real(dp), intent(in) :: u(:)          !! free-dof displacement
         real(dp), intent(out) :: b(:)         !! B(u)
@@ -1133,12 +1133,15 @@ contains
         integer, intent(out) :: active        !! active contact quadrature points
         real(dp), intent(out) :: e_pen        !! int [P]_-^2 / (2 gamma)
         real(dp), intent(out) :: e_theta      !! sum theta |F| sigma_n^2 / (2 gamma)
+        real(dp), intent(out), optional :: f_n !! int [P]_- (0 with the augmented Lagrangian)
+        real(dp) :: fn
         call model_stiff_apply(mdl, u, ktu)
         b = ktu
-        active = 0; e_pen = 0.0_dp; e_theta = 0.0_dp
+        active = 0; e_pen = 0.0_dp; e_theta = 0.0_dp; fn = 0.0_dp
         ! the augmented Lagrangian's contact part -N lambda is the scheme's (it holds lambda)
         if (mdl%has_contact .and. mdl%alm%kind == ALM_OFF) &
-            call contact_eval(mdl%ct, u, b, active, e_pen, e_theta)
+            call contact_eval(mdl%ct, u, b, active, e_pen, e_theta, f_n=fn)
+        if (present(f_n)) f_n = fn
     end subroutine model_eval_b
 
     !> jdu = B'(u) du (generalized derivative).

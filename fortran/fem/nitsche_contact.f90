@@ -123,7 +123,7 @@ contains
         real(dp), intent(out), optional :: ca(:, :) !! (>= nfn, >= nterm) coefficients of qa in Mt
         real(dp), intent(out), optional :: cb(:, :) !! (>= nfn, >= nterm) coefficients of qb in M
         real(dp), intent(out), optional :: rg(:)    !! (>= nfn) coefficients of r in Mt
-        real(dp) :: sn, pnode(MAX_FN), rl(MAX_E), rgl(MAX_FN)
+        real(dp) :: sn, pnode(MAX_FN), rl(MAX_E), rgl(MAX_FN), force
         real(dp) :: qal(MAX_E, MAX_Q), qbl(MAX_E, MAX_Q), cal(MAX_FN, MAX_Q), cbl(MAX_FN, MAX_Q)
         integer :: nt
         sn = dot_product(s, ue)
@@ -131,7 +131,7 @@ contains
         call facet_terms(ndof_e, nfn, pnode, s, nvec, gamma, theta, measure, quad, nq, qs, qw, &
                          present(qa) .or. present(ca) .or. present(rg), &
                          present(nterm) .and. present(qa), rl, energy, active, nt, qal, qbl, &
-                         cal, cbl, rgl)
+                         cal, cbl, rgl, force)
         r = rl(1:ndof_e)
         if (present(nterm)) nterm = nt
         if (present(qa)) then
@@ -155,7 +155,7 @@ contains
     !> nfn when more than nfn points are active (nitsche_facet with nterm present).
     pure subroutine facet_terms(ndof_e, nfn, pnode, s, nvec, gamma, theta, measure, quad, nq, &
                                 qs, qw, terms, compress_ok, r, energy, active, nterm, qa, qb, &
-                                ca, cb, rg)
+                                ca, cb, rg, force)
         integer, intent(in) :: ndof_e          !! owner cell dofs
         integer, intent(in) :: nfn             !! facet nodes (1 in 1D, 2 in 2D, 3 in 3D)
         real(dp), intent(in) :: pnode(MAX_FN)  !! P at the facet's nodes (the first nfn)
@@ -179,6 +179,7 @@ contains
         real(dp), intent(out) :: ca(MAX_FN, MAX_Q) !! as nitsche_facet's
         real(dp), intent(out) :: cb(MAX_FN, MAX_Q) !! as nitsche_facet's
         real(dp), intent(out) :: rg(MAX_FN)    !! as nitsche_facet's
+        real(dp), intent(out) :: force         !! int [P]_- (<= 0; the facet's normal force)
         real(dp), parameter :: g2 = 0.5_dp / sqrt(3.0_dp)
         real(dp) :: xs(MAX_Q), ws(MAX_Q), a, b, xi_star
         real(dp) :: shp(MAX_FN, MAX_Q), nsh(MAX_FN), pv, nn(MAX_E), ptheta(MAX_E)
@@ -188,6 +189,7 @@ contains
         ! (whole fixed-size arrays zeroed: a few stores, no memset call)
         r = 0.0_dp
         energy = 0.0_dp
+        force = 0.0_dp
         active = 0
         rg = 0.0_dp
         nterm = 0
@@ -272,6 +274,7 @@ contains
             ! nfn, shape values 0, are never read)
             if (terms) rg = rg + ((ws(q) / gamma) * pv) * nsh
             energy = energy + (0.5_dp * ws(q) / gamma) * pv**2
+            force = force + ws(q) * pv
             if (compress) then
                 do j = 1, nfn
                     g(:, j) = g(:, j) + ((ws(q) / gamma) * nsh(j)) * nsh
@@ -593,8 +596,12 @@ contains
     !> tca, tcb in the facet's Mt and M (nitsche_facet's ca, cb), and with rg present (and
     !> tfac) each facet's residual coefficients in its Mt (nitsche_facet's rg; zero on a
     !> facet without active points): the contact part is sum_f Mt_f rg(:, f).
+    !> With f_n present, also the total normal contact force f_n = int_GammaC [P]_- ds
+    !> (<= 0, the sign of the pressure; per unit thickness in 2D) on the active facets'
+    !> rule: against the rigid translation along n (sigma_n = 0, v_n = 1) the contact
+    !> part added to r is -f_n for any theta (r . t = -sum_q w_q [P]_q to round-off).
     pure subroutine contact_eval(ct, u, r, active, e_pen, e_theta, rank, ua, vb, qloc, tfac, tca, &
-                            tcb, rg)
+                            tcb, rg, f_n)
         type(contact_t), intent(in) :: ct                   !! contact data
         real(dp), intent(in) :: u(:)                        !! free-dof displacement
         real(dp), intent(inout), contiguous :: r(:)         !! residual (added to)
@@ -610,16 +617,18 @@ contains
         real(dp), intent(inout), optional, contiguous :: tca(:, :)  !! (nfn, >= rank) its coefficients in Mt
         real(dp), intent(inout), optional, contiguous :: tcb(:, :)  !! (nfn, >= rank) and in M
         real(dp), intent(inout), optional, contiguous :: rg(:, :)   !! (nfn, n_facets) residual in Mt
+        real(dp), intent(out), optional :: f_n                      !! int [P]_- ds (<= 0)
         ! fixed sizes: no heap array a call; the facet kernel writes its terms here and
         ! they are copied to the outputs present (one call of the kernel for every set of
         ! outputs, with no array descriptor or optional argument to pass)
-        real(dp) :: rf(MAX_E), ef, sn, pnode(MAX_FN), rgf(MAX_FN)
+        real(dp) :: rf(MAX_E), ef, sn, pnode(MAX_FN), rgf(MAX_FN), ff, fsum
         real(dp) :: qa(MAX_E, MAX_Q), qb(MAX_E, MAX_Q), ca(MAX_FN, MAX_Q), cb(MAX_FN, MAX_Q)
         integer :: f, i, af, nr, nt, t, ne, nfn
         logical :: terms
         active = 0
         e_pen = 0.0_dp
         e_theta = 0.0_dp
+        fsum = 0.0_dp
         nr = 0
         ne = ct%ndof_e
         nfn = ct%nfn
@@ -634,7 +643,7 @@ contains
             end if
             call facet_terms(ne, nfn, pnode, ct%s(:, f), ct%nvec(:, :, f), ct%gamma(f), &
                              ct%theta, ct%measure(f), ct%quad, ct%nq, ct%qs, ct%qw, terms, &
-                             terms, rf, ef, af, nt, qa, qb, ca, cb, rgf)
+                             terms, rf, ef, af, nt, qa, qb, ca, cb, rgf, ff)
             if (present(rg)) then
                 do i = 1, nfn
                     rg(i, f) = rgf(i)
@@ -674,9 +683,11 @@ contains
             if (af == 0) cycle
             active = active + af
             e_pen = e_pen + ef
+            fsum = fsum + ff
             call cell_add(ne, ct%dofs(:, f), rf, size(r), r)
         end do
         if (present(rank)) rank = nr
+        if (present(f_n)) f_n = fsum
     end subroutine contact_eval
 
     !> r(dofs(i)) <- r(dofs(i)) + rf(i) over the cell's free dofs (dofs(i) > 0), in their

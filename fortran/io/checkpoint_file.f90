@@ -18,8 +18,9 @@ module checkpoint_file
 
     character(len=*), parameter, public :: CHECKPOINT_NAME = 'checkpoint.bin' !! file in the output folder
     character(len=8), parameter :: MAGIC = 'DYNCKPT'//achar(0)   !! first bytes of the file
-    !> Layout of header and payload (2: the CG counters follow the scheme's data).
-    integer(i8), parameter :: FORMAT_VERSION = 3
+    !> Layout of header and payload (2: the CG counters follow the scheme's data; 3: the
+    !> column cache's layout; 4: f_n, the normal contact force, after e_theta).
+    integer(i8), parameter :: FORMAT_VERSION = 4
     integer, parameter :: BUILD_LEN = 96                          !! bytes of the build identifier
     integer, parameter :: HEADER_BYTES = 7 * 8 + BUILD_LEN        !! header size
 

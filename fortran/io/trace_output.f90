@@ -9,10 +9,10 @@ module trace_output
     private
 
     character(len=*), parameter, public :: TRACE_HEADER = &
-        't,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active,e_load'  !! trace.csv header
+        't,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active,e_load,f_n'  !! trace.csv header
     integer, parameter :: TRACE_BUFFER = 65536   !! bytes of rows kept before a write
-    integer, parameter, public :: TRACE_ROW_BYTES = 232 !! typical row length (9 reals, 2 small integers)
-    integer, parameter :: ROW_MAX = 320          !! longest row (9 x 24 + separators + 2 integers)
+    integer, parameter, public :: TRACE_ROW_BYTES = 257 !! typical row length (10 reals, 2 small integers)
+    integer, parameter :: ROW_MAX = 352          !! longest row (10 x 24 + separators + 2 integers)
 
     !> A trace file being written: rows are buffered and written whole.
     type, public :: trace_t
@@ -107,7 +107,7 @@ contains
 
     !> Append one row (written when the buffer is full or at trace_flush).
     subroutine trace_row(tr, t, un, vn, pn, e_kin, e_el, e_contact, e_total, newton_its, &
-                         active, e_load, stat, errmsg)
+                         active, e_load, f_n, stat, errmsg)
         type(trace_t), intent(inout) :: tr   !! the trace
         real(dp), intent(in) :: t            !! time
         real(dp), intent(in) :: un           !! normal displacement at the probe
@@ -120,18 +120,19 @@ contains
         integer, intent(in) :: newton_its    !! Newton iterations of the step
         integer, intent(in) :: active        !! active contact quadrature points
         real(dp), intent(in) :: e_load       !! potential of the load, -u . L
+        real(dp), intent(in) :: f_n          !! total normal contact force (<= 0, as p_n)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         character(len=ROW_MAX) :: row
         integer :: n
         stat = STAT_OK
-        ! Same text as write (row, '(8(es24.16e3, ","), i0, ",", i0, ",", es24.16e3)'),
+        ! Same text as write (row, '(8(es24.16e3, ","), i0, ",", i0, 2(",", es24.16e3))'),
         ! without libgfortran's formatted I/O (most of the cost of a row).
         n = 0
         call put_real(t); call put_real(un); call put_real(vn); call put_real(pn)
         call put_real(e_kin); call put_real(e_el); call put_real(e_contact); call put_real(e_total)
         call put_int(newton_its); call put_int(active)
-        call put_real(e_load)
+        call put_real(e_load); call put_real(f_n)
         row(n:n) = ' '
         n = n - 1    ! without the last comma
         if (tr%n + n + 1 > len(tr%buf)) then

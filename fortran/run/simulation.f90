@@ -947,7 +947,7 @@ contains
     !> e_total(0), the blow-up limit, the trace's bytes, Newton iterations and
     !> factorizations so far, u, v, a, M v, B(u), K_theta u, the augmented Lagrangian's
     !> multipliers lambda (none without them), the contact state
-    !> (active points, e_pen, e_theta), the last step's Newton iterations, the snapshots
+    !> (active points, e_pen, e_theta, f_n), the last step's Newton iterations, the snapshots
     !> written (times, names), what the scheme carries (time_scheme_t%save), then the CG
     !> counters (cg_counters_get).
     subroutine sim_checkpoint_save(sim, path, stat, errmsg)
@@ -979,6 +979,7 @@ contains
         call buf_put(buf, int(sim%st%active, i8))
         call buf_put(buf, sim%st%e_pen)
         call buf_put(buf, sim%st%e_theta)
+        call buf_put(buf, sim%st%f_n)
         call buf_put(buf, int(sim%st%newton_its, i8))
         call buf_put(buf, int(sim%n_snap, i8))
         do k = 1, sim%n_snap
@@ -1074,6 +1075,7 @@ contains
         call buf_get(buf, act)
         call buf_get(buf, sim%st%e_pen)
         call buf_get(buf, sim%st%e_theta)
+        call buf_get(buf, sim%st%f_n)
         sim%st%clear = .false.      ! (not in the checkpoint: not known at the loaded u)
         call buf_get(buf, nits)
         call buf_get(buf, nsnap)
@@ -1212,7 +1214,7 @@ contains
         if (sim%has_load) e_load = 0.0_dp - dot(sim%st%u, sim%mdl%load)   ! +0, not -0
         call model_probe(sim%mdl, sim%st%u, sim%st%v, un, vn, pn, sim%st%lam, sim%st%clear)
         call trace_row(sim%trace, sim%st%t, un, vn, pn, e_kin, e_el, e_contact, e_total, &
-                       sim%st%newton_its, sim%st%active, e_load, stat, errmsg)
+                       sim%st%newton_its, sim%st%active, e_load, sim%st%f_n, stat, errmsg)
     end subroutine record
 
     !> Write a VTU snapshot of the current displacement and velocity (under a temporary

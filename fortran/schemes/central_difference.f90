@@ -120,9 +120,9 @@ contains
         end do
         call model_stiff_apply(mdl, st%u, st%ktu)
         st%bu = st%ktu
-        st%active = 0; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
+        st%active = 0; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp; st%f_n = 0.0_dp
         if (mdl%has_contact) call contact_eval(mdl%ct, st%u, st%bu, st%active, st%e_pen, &
-                                               st%e_theta)
+                                               st%e_theta, f_n=st%f_n)
         if (this%ms%lumped) then     ! (set from mdl%lumped: mdl%mass_diag is there)
             ! a' = M^{-1}(L - B(u')), v', M v' in one pass (the same operations as below)
             call lumped_tail(this%ms%inv_diag, mdl%mass_diag, mdl%load, st%bu, dt, st%a, st%v, &

@@ -135,9 +135,9 @@ contains
         ! B(u') = K_theta u' + C(u'), with M v' formed in the same pass
         call model_stiff_mass_apply(mdl, st%u, st%v, st%ktu, st%mv)
         st%bu = st%ktu
-        st%active = 0; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
+        st%active = 0; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp; st%f_n = 0.0_dp
         if (mdl%has_contact) call contact_eval(mdl%ct, st%u, st%bu, st%active, st%e_pen, &
-                                               st%e_theta)
+                                               st%e_theta, f_n=st%f_n)
         ! M a' = L + alpha B(u) - (1 + alpha) B(u')
         do i = 1, size(st%u)
             this%rhs(i) = this%base(i) - (1.0_dp + al) * st%bu(i)

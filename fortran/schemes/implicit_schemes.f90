@@ -81,7 +81,7 @@ module implicit_schemes
     use model, only: model_t, model_eval_b, model_mass_apply, model_step_products
     use nitsche_contact, only: contact_eval, contact_clear, contact_max_rank, MAX_E, MAX_FN, &
                                E_2D
-    use alm_contact, only: ALM_OFF
+    use alm_contact, only: ALM_OFF, alm_resultant
     use alm_newton, only: alm_newton_t, alm_newton_init, alm_newton_solve
     use contact_columns, only: zcache_t, zcache_init, zcache_new_step, zcache_ensure, &
                                zcache_ensure_all, zcache_w_times, zcache_add_w, zcache_add_z, &
@@ -548,7 +548,7 @@ contains
         type(state_t), intent(inout) :: st                  !! state
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: e_pen, e_theta, cb, kb
+        real(dp) :: e_pen, e_theta, f_n, cb, kb
         integer :: it, active
         logical :: flight, moved
         st%clear = .false.
@@ -564,7 +564,7 @@ contains
         call newton_rhs(size(st%u), cb, kb, this%c, mdl%load, st%bu, this%md, this%r)
         ! contact part at u^n: kept from the end of the previous step when u^n on the
         ! contact-cell dofs is the vector it was evaluated at
-        active = st%active; e_pen = st%e_pen; e_theta = st%e_theta
+        active = st%active; e_pen = st%e_pen; e_theta = st%e_theta; f_n = st%f_n
         if (this%m > 0) then
             if (this%zc%restore_due) then
                 call restore_columns(this, mdl, stat, errmsg)
@@ -574,14 +574,14 @@ contains
             ! xc <- u^n there, and whether that moved it (one pass)
             call gather_moved(st%u, mdl%ct%cdofs, this%xc, moved)
             if (.not. this%cached .or. moved) then
-                call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta)
+                call contact_part(this, mdl, st%u, this%cx, active, e_pen, e_theta, f_n)
             end if
             this%tsum = 0.0_dp
             if (this%zt_basis) this%tau = 0.0_dp
             this%rhog_due = .false.
         end if
-        call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, flight, stat, &
-                            errmsg)
+        call newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, f_n, flight, &
+                            stat, errmsg)
         st%newton_its = it
         this%newton_total = this%newton_total + it
         if (stat /= STAT_OK) return
@@ -599,7 +599,7 @@ contains
             end if
         end if
         call update_state(this, mdl, st)
-        st%active = active; st%e_pen = e_pen; st%e_theta = e_theta
+        st%active = active; st%e_pen = e_pen; st%e_theta = e_theta; st%f_n = f_n
         st%clear = flight       ! (u' = x on the contact-cell dofs: the probe reads it)
         st%t = st%t + this%dt
     end subroutine step_solves
@@ -755,8 +755,8 @@ contains
     !> sums over the dofs are formed only at a step where the contact part moved R, once
     !> a step. On return dx holds y0 and tsum the coefficients T; `it` iterations;
     !> flight: the step ended in flight (contact_clear true at the iterate).
-    subroutine newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, flight, stat, &
-                              errmsg)
+    subroutine newton_iterate(this, mdl, st, cb, kb, it, active, e_pen, e_theta, f_n, flight, &
+                              stat, errmsg)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         type(state_t), intent(in) :: st                     !! state at t^n
@@ -764,6 +764,7 @@ contains
         integer, intent(out) :: it                          !! iterations done
         integer, intent(inout) :: active                    !! contact state at the iterate
         real(dp), intent(inout) :: e_pen, e_theta           !! contact energies at the iterate
+        real(dp), intent(inout) :: f_n                      !! normal contact force at the iterate
         logical, intent(out) :: flight                      !! ended in flight (see above)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
@@ -827,6 +828,7 @@ contains
                     if (flight) then
                         active = 0
                         e_pen = 0.0_dp
+                        f_n = 0.0_dp
                         exit
                     end if
                 end if
@@ -878,7 +880,7 @@ contains
                 end if
             end if
             this%tsum = this%tsum + this%tk
-            call contact_residual(this, mdl, st%u, active, e_pen, e_theta, rnorm)
+            call contact_residual(this, mdl, st%u, active, e_pen, e_theta, f_n, rnorm)
         end do
     end subroutine newton_iterate
 
@@ -902,12 +904,13 @@ contains
     !> then R' = c (C(x') - C(x) + D dx) on the contact-cell dofs (zero elsewhere: the
     !> step solved the linearization exactly), tvec = D P dx with D = U V^T at x; the
     !> contact part and its tangent are left at x'. rnorm = |R'|.
-    pure subroutine contact_residual(this, mdl, u, active, e_pen, e_theta, rnorm)
+    pure subroutine contact_residual(this, mdl, u, active, e_pen, e_theta, f_n, rnorm)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme
         type(model_t), intent(in) :: mdl                    !! model
         real(dp), intent(in) :: u(:)                        !! u^n
         integer, intent(out) :: active                      !! contact state at x'
         real(dp), intent(out) :: e_pen, e_theta             !! contact energies at x'
+        real(dp), intent(out) :: f_n                        !! normal contact force at x'
         real(dp), intent(out) :: rnorm                      !! |R'|
         real(dp) :: acc, at(MAX_FN)
         integer :: i, q, nt
@@ -944,7 +947,7 @@ contains
         ! exchanged, then cx and gx formed anew, every entry)
         call swap_c(this)
         if (this%zt_basis) call swap_g(this)
-        call contact_part(this, mdl, this%x, this%cx, active, e_pen, e_theta)
+        call contact_part(this, mdl, this%x, this%cx, active, e_pen, e_theta, f_n)
         this%rho = this%c * (this%cx - this%cold + this%tvec)
         ! rhog = c (gx - gold + rhog) is formed when a next iteration reads it (rhog_finish)
         this%rhog_due = this%zt_basis
@@ -1148,20 +1151,21 @@ contains
     end subroutine update_state
 
     !> Contact part C(xx) of B on the contact-cell dofs, its tangent in low-rank
-    !> form (rank, ua, vb, qloc) and the contact energy parts.
-    pure subroutine contact_part(this, mdl, xx, cvec, act, ep, et)
+    !> form (rank, ua, vb, qloc), the contact energy parts and the normal contact force.
+    pure subroutine contact_part(this, mdl, xx, cvec, act, ep, et, fn)
         class(implicit_scheme_t), intent(inout) :: this     !! scheme (tangent, scratch)
         type(model_t), intent(in) :: mdl                    !! model
         real(dp), intent(in) :: xx(:)                       !! displacement
         real(dp), intent(out) :: cvec(:)                    !! (m) C(xx) on the contact-cell dofs
         integer, intent(out) :: act                         !! active contact quadrature points
         real(dp), intent(out) :: ep, et                     !! contact energy parts
+        real(dp), intent(out) :: fn                         !! int [P]_- (contact_eval's f_n)
         integer :: j
         do j = 1, this%m
             this%scratch(mdl%ct%cdofs(j)) = 0.0_dp
         end do
         call contact_eval(mdl%ct, xx, this%scratch, act, ep, et, this%rank, this%ua, this%vb, &
-                          this%qloc, this%tfac, this%tca, this%tcb, this%gx)
+                          this%qloc, this%tfac, this%tca, this%tcb, this%gx, fn)
         do j = 1, this%m
             cvec(j) = this%scratch(mdl%ct%cdofs(j))
         end do
@@ -1814,6 +1818,7 @@ contains
         if (any(this%tsum /= 0.0_dp)) call zcache_add_z(this%zc, this%tsum, this%dx)
         call update_state(this, mdl, st)
         st%active = active; st%e_pen = 0.0_dp; st%e_theta = 0.0_dp
+        st%f_n = alm_resultant(mdl%alm, st%lam)
         st%t = st%t + this%dt
     end subroutine implicit_step_alm
 

@@ -52,6 +52,9 @@ module time_scheme
         integer :: active = 0                   !! active contact quadrature points at u
         real(dp) :: e_pen = 0.0_dp              !! int [P]_-^2 / (2 gamma) at u
         real(dp) :: e_theta = 0.0_dp            !! sum theta |F| sigma_n^2 / (2 gamma) at u
+        real(dp) :: f_n = 0.0_dp                !! total normal contact force at u (<= 0):
+                                                !! int [P]_- (Nitsche, penalty), the
+                                                !! multipliers' resultant (augmented Lagrangian)
         integer :: newton_its = 0               !! Newton iterations of the last step
         logical :: clear = .false.              !! the last step found P finite and >= 0 at
                                                 !! every contact facet's node at u (contact_clear;
@@ -202,6 +205,6 @@ contains
     pure subroutine state_eval(mdl, st)
         type(model_t), intent(in) :: mdl       !! model
         type(state_t), intent(inout) :: st     !! state
-        call model_eval_b(mdl, st%u, st%bu, st%ktu, st%active, st%e_pen, st%e_theta)
+        call model_eval_b(mdl, st%u, st%bu, st%ktu, st%active, st%e_pen, st%e_theta, st%f_n)
     end subroutine state_eval
 end module time_scheme

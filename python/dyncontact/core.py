@@ -44,7 +44,7 @@ __all__ = [
 
 #: Header of trace.csv (SPEC section 4).
 TRACE_COLUMNS = ("t", "u_n", "v_n", "p_n", "e_kin", "e_el", "e_contact", "e_total",
-                 "newton_its", "active", "e_load")
+                 "newton_its", "active", "e_load", "f_n")
 
 STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED = 0, 2, 3, 4, 5
 

@@ -1,4 +1,5 @@
-"""Overlay run traces in the seed's four panels: u_n, v_n, p_n and the energy.
+"""Overlay run traces in the seed's four panels: u_n, v_n, p_n (with the total contact
+force f_n on a second scale, when the traces have it) and the energy.
 
 matplotlib is imported on first use and only through its object-oriented API
 (``Figure`` + the Agg canvas): no pyplot, no global backend switch, nothing shown.
@@ -17,12 +18,23 @@ import numpy as np
 
 __all__ = ["plot_traces", "run_label", "plot_field_snapshots", "read_pvd"]
 
-# (column, y label) of the first three panels; the fourth is the energy.
+# (column, y label) of the first three panels; the fourth is the energy. The p_n label
+# is the formula of the runs' contact method (_P_N_LABELS, _p_n_label).
 _PANELS = (
     ("u_n", r"$u_n$ at the probe"),
     ("v_n", r"$\dot u_n$ at the probe"),
     ("p_n", r"$p_n = [P_1(u) + \gamma_N g]_-$"),
 )
+
+#: p_n at the probe by contact method (docs/scenes.md, &contact method and "trace.csv").
+_P_N_LABELS = {
+    "nitsche": r"$p_n = [P_1(u) + \gamma_N g]_-$",
+    "penalty": r"$p_n = -\varepsilon_N\,[u_n - g]_+$",
+    "alm integral": r"$p_n = \lambda$ (ALM, integral)",
+    "alm nodal": r"$p_n = \lambda_i\,/\,|\Gamma_i|$ (ALM, nodal)",
+}
+#: Label of the second scale of the p_n panel (f_n, dashed).
+_F_N_LABEL = r"$f_n = \int_{\Gamma_C} [P]_-\,ds$ (dashed)"
 
 _SCHEME_PARAMS = {
     "hht": ("alpha",),
@@ -87,6 +99,25 @@ def run_label(summary: dict, fallback: str = "") -> str:
     return parts[0]
 
 
+def _contact_method(summary: dict) -> str:
+    """'nitsche', 'penalty', 'alm integral' or 'alm nodal' from a summary.json (Nitsche
+    when it does not say: the default method)."""
+    contact = _get(summary, "scene", "contact", default={}) or {}
+    method = str(contact.get("method") or "nitsche")
+    if method == "alm":
+        method = f"alm {contact.get('multiplier') or 'integral'}"
+    return method
+
+
+def _p_n_label(summaries: Sequence[dict]) -> str:
+    """The p_n panel's label: the formula of the runs' contact method, or a plain name
+    when the runs use several methods (or one this module does not know)."""
+    methods = {_contact_method(s) for s in summaries}
+    if len(methods) == 1 and next(iter(methods)) in _P_N_LABELS:
+        return _P_N_LABELS[next(iter(methods))]
+    return r"$p_n$ at the probe (contact pressure)"
+
+
 def _load(item) -> tuple[dict[str, np.ndarray], dict, str]:
     """(trace, summary, default label) of a run folder or a RunResult."""
     from .core import read_summary, read_trace
@@ -149,9 +180,13 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         where it stopped, marked with an 'x', and labelled '(unstable at t=...)'.
     title : figure title.
 
-    The panels: u_n, v_n and p_n at the probe, and the energy e_kin + e_el (solid) and
+    The panels: u_n, v_n and p_n at the probe (p_n labelled with the formula of the runs'
+    contact method, from summary.json), and the energy e_kin + e_el (solid) and
     + e_contact (dashed); when a run has a body force (a nonzero e_load column), e_load is
-    added to both for every run, so that the curves show the mechanical energy.
+    added to both for every run, so that the curves show the mechanical energy. When a
+    trace has the f_n column (the total normal contact force), the p_n panel draws it
+    dashed on a second scale at its right (a fifth Axes, ``fig.axes[4]``, twin of the p_n
+    panel); traces written before f_n existed are drawn without it.
 
     Returns
     -------
@@ -168,10 +203,15 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
 
     # A fixed layout (constrained layout costs about half of the drawing time): the
     # legend, one row per two runs, goes under the panels.
+    loaded = [_load(item) for item in items]
+    # f_n (total contact force: other units than p_n) on a second scale of the p_n panel,
+    # its labels between the columns (wider apart for them)
+    with_f_n = any("f_n" in trace for trace, _summary, _name in loaded)
     fig = Figure(figsize=(11.0, 7.5))
     legend_rows = math.ceil(len(items) / 2)
     fig.subplots_adjust(left=0.08, right=0.985, top=0.94 if title else 0.97,
-                        bottom=0.085 + 0.024 * legend_rows, hspace=0.07, wspace=0.24)
+                        bottom=0.085 + 0.024 * legend_rows, hspace=0.07,
+                        wspace=0.42 if with_f_n else 0.24)
     axes = fig.subplots(2, 2, sharex=True).ravel()
     colours = [f"C{i % 10}" for i in range(len(items))]
     handles = []
@@ -180,7 +220,9 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     ok_values: list[list[np.ndarray]] = [[] for _ in axes]
     stopped_values: list[list[np.ndarray]] = [[] for _ in axes]
     stops = []   # (t_stop, colour, [(ax index, y_last)])
-    loaded = [_load(item) for item in items]
+    ax_f = axes[2].twinx() if with_f_n else None
+    f_ok: list[np.ndarray] = []
+    f_stopped: list[np.ndarray] = []
     # Under a body force e_kin + e_el is not what the schemes conserve: the energy panel
     # then adds e_load = -u.L (the mechanical energy, docs/scenes.md) for every run (0
     # for the runs without a load), and its label says so.
@@ -212,6 +254,10 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         for k, (ax, y) in enumerate(zip(axes, columns)):
             (line,) = ax.plot(t, y, color=colour, lw=1.2, label=label)
             (stopped_values if stopped else ok_values)[k].append(y[np.isfinite(y)])
+        if ax_f is not None and "f_n" in trace:
+            y = np.asarray(trace["f_n"], dtype=float)
+            ax_f.plot(t, y, color=colour, lw=1.0, ls="--", gid="f_n")
+            (f_stopped if stopped else f_ok).append(y[np.isfinite(y)])
         e_contact = trace.get("e_contact")
         if e_contact is not None and np.any(np.asarray(e_contact) != 0):
             y = e_total + np.asarray(e_contact, dtype=float)
@@ -223,6 +269,9 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
 
     for k, ax in enumerate(axes):
         _limit_blowups(ax, ok_values[k], stopped_values[k])
+    if ax_f is not None:
+        _limit_blowups(ax_f, f_ok, f_stopped)
+        ax_f.set_ylabel(_F_N_LABEL)
     # The stop of a run that did not finish: an 'x' at its last value (kept inside the
     # panel when the value is off the scale or not finite) and a dotted vertical line.
     for t_stop, colour, lasts in stops:
@@ -234,8 +283,9 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
             ax.axvline(t_stop, color=colour, lw=0.8, ls=":", gid="stop-line")
             ax.set_ylim(lo, hi)
 
-    for ax, (_, ylabel) in zip(axes[:3], _PANELS):
+    for ax, (_, ylabel) in zip(axes[:2], _PANELS):
         ax.set_ylabel(ylabel)
+    axes[2].set_ylabel(_p_n_label([summary for _trace, summary, _name in loaded]))
     axes[3].set_ylabel("energy: $e_{kin}+e_{el}" + ("+e_{load}" if with_load else "")
                        + "$ (solid), $+\\,e_{contact}$ (dashed)")
     for ax in axes:
@@ -280,6 +330,22 @@ def read_pvd(path: str | os.PathLike) -> list[tuple[float, str]]:
     return out
 
 
+def _clip_line(p: np.ndarray, d: np.ndarray, box) -> np.ndarray | None:
+    """The segment of the line p + s d inside box = (x_lo, x_hi, y_lo, y_hi) as a (2, 2)
+    array of its ends (Liang-Barsky), or None when the line misses the box."""
+    s_lo, s_hi = -np.inf, np.inf
+    for k, (lo, hi) in enumerate(((box[0], box[1]), (box[2], box[3]))):
+        if abs(d[k]) < 1e-15:
+            if not lo <= p[k] <= hi:
+                return None
+            continue
+        s1, s2 = sorted(((lo - p[k]) / d[k], (hi - p[k]) / d[k]))
+        s_lo, s_hi = max(s_lo, s1), min(s_hi, s2)
+    if not s_lo < s_hi:
+        return None
+    return np.array([p + s_lo * d, p + s_hi * d])
+
+
 def _pick(n: int, k: int) -> list[int]:
     """k >= 1 indices spread evenly over range(n), first and last included (k = 1: the
     last alone)."""
@@ -306,8 +372,9 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
 
     Each snapshot is drawn at its true deformation (scale 1) on the nodes x + u, shifted
     sideways from the previous one, with its time underneath; the obstacle plane is drawn
-    when it is horizontal (the seed's bar). Needs a 2D (triangle) mesh; reads the files
-    with meshio.
+    with its side hatched: one line under all of them when it is horizontal (the seed's
+    bar), else its trace under each snapshot, shifted with it. Needs a 2D (triangle) mesh;
+    reads the files with meshio.
 
     Returns
     -------
@@ -358,22 +425,42 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
         ax.triplot(tr, color="k", lw=0.15, alpha=0.35)
         ax.text(float(np.mean(xs)), float(y_all.min()) - 0.06 * height, f"t={t:.3g}",
                 ha="center", va="top", fontsize="small")
-    # The obstacle plane, when horizontal (normal ±e_y).
+    # The obstacle plane: horizontal (normal ±e_y), one line under all the snapshots;
+    # tilted, its trace under each snapshot, shifted with it (a sideways shift moves a
+    # tilted line), clipped to the snapshot's box widened by a third of the gap.
     scene = read_summary(run_dir).get("scene") or {}
     contact = scene.get("contact", {}) if isinstance(scene, dict) else {}
-    normal = contact.get("obstacle_normal", [0.0, -1.0])
-    point = contact.get("obstacle_point", [0.0, 0.0])
     try:
-        horizontal = abs(float(normal[0])) < 1e-12 and len(point) >= 2
-    except (TypeError, IndexError, ValueError):
-        horizontal = False
-    if horizontal:
-        y0 = float(point[1])
-        x_lo, x_hi = float(x_all.min()) - 0.5 * gap, float(x_all.max()) + (len(snaps) - 0.5) * gap
-        ax.axhline(y0, color="0.3", lw=1.5)
-        below = -1.0 if float(normal[1]) < 0 else 1.0
-        ax.fill_between([x_lo, x_hi], y0, y0 + below * 0.04 * height, color="0.85",
-                        hatch="///", edgecolor="0.5", lw=0)
+        normal = np.array([float(c) for c in contact.get("obstacle_normal", [0.0, -1.0])[:2]])
+        point = np.array([float(c) for c in contact.get("obstacle_point", [0.0, 0.0])[:2]])
+        ok = normal.shape == (2,) and point.shape == (2,) and np.hypot(*normal) > 0
+    except (TypeError, IndexError, ValueError, AttributeError):
+        ok = False
+    if ok:
+        normal = normal / np.hypot(*normal)
+        depth = 0.04 * height
+        if abs(normal[0]) < 1e-12:
+            y0 = float(point[1])
+            x_lo = float(x_all.min()) - 0.5 * gap
+            x_hi = float(x_all.max()) + (len(snaps) - 0.5) * gap
+            ax.axhline(y0, color="0.3", lw=1.5, gid="obstacle")
+            below = -1.0 if float(normal[1]) < 0 else 1.0
+            ax.fill_between([x_lo, x_hi], y0, y0 + below * depth, color="0.85",
+                            hatch="///", edgecolor="0.5", lw=0)
+        else:
+            margin = gap / 3.0
+            for k, (_t, x, _tri, u) in enumerate(snaps):
+                xd = x + u
+                box = (float(xd[:, 0].min()) - margin, float(xd[:, 0].max()) + margin,
+                       float(y_all.min()) - 0.1 * height, float(y_all.max()) + 0.03 * height)
+                seg = _clip_line(point, np.array([-normal[1], normal[0]]), box)
+                if seg is None:
+                    continue
+                a, b = seg[0] + [k * gap, 0.0], seg[1] + [k * gap, 0.0]
+                ax.plot([a[0], b[0]], [a[1], b[1]], color="0.3", lw=1.5, gid=f"obstacle-{k}")
+                quad = np.array([a, b, b + depth * normal, a + depth * normal])
+                ax.fill(quad[:, 0], quad[:, 1], color="0.85", hatch="///", edgecolor="0.5",
+                        lw=0)
     ax.set_aspect("equal")
     ax.set_xticks([])
     ax.set_ylabel("y (deformed)")

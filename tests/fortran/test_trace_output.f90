@@ -1,8 +1,9 @@
 !> trace_output: a trace row is the same text as the Fortran edit descriptors
-!> '(8(es24.16e3, ","), i0, ",", i0, ",", es24.16e3)' (the C fast path of run_guard.c
+!> '(8(es24.16e3, ","), i0, ",", i0, 2(",", es24.16e3))' (the C fast path of run_guard.c
 !> against libgfortran's formatted output), for random values over the whole range of
 !> exponents, more of them between 1e-30 and 1e-5 (the fast path's two-step scaling),
-!> rounding boundaries, signed zeros and non-finite values.
+!> rounding boundaries, signed zeros and non-finite values (f_n, the last column, is
+!> given -e_load: the same values, the other sign).
 program test_trace_output
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_positive_inf, &
                                              ieee_negative_inf
@@ -67,7 +68,7 @@ program test_trace_output
     do i = 1, size(vals, 2)
         v = vals(:, i)
         call trace_row(tr, v(1), v(2), v(3), v(4), v(5), v(6), v(7), v(8), ints(1, i), ints(2, i), &
-                       v(9), st)
+                       v(9), -v(9), st)
         if (st /= 0) error stop 'trace_row failed'
     end do
     call trace_close(tr, st)
@@ -80,7 +81,8 @@ program test_trace_output
         read (unit, '(a)', iostat=ios) line
         if (ios /= 0) error stop 'trace too short'
         v = vals(:, i)
-        write (expect, '(8(es24.16e3, ","), i0, ",", i0, ",", es24.16e3)') v(1:8), ints(:, i), v(9)
+        write (expect, '(8(es24.16e3, ","), i0, ",", i0, 2(",", es24.16e3))') v(1:8), ints(:, i), &
+            v(9), -v(9)
         if (line /= expect) then
             fails = fails + 1
             if (fails <= 5) then
