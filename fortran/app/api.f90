@@ -639,8 +639,10 @@ end subroutine dc_bench_floor
 
 !> The state of an open run (after dc_sim_open with outputs, and each dc_sim_advance):
 !> time, displacement, velocity, acceleration (0 for the theta scheme, which has none),
-!> the product M v the run's energies use, and the load L, on the free dofs.
-subroutine dc_sim_state(handle, n, t, u, v, a, mv, load, bu, clear)
+!> the product M v the run's energies use, the load L and B(u) as carried, on the free
+!> dofs; whether the last step found contact impossible at u, and the total normal
+!> contact force f_n at u (the value the trace writes for this step).
+subroutine dc_sim_state(handle, n, t, u, v, a, mv, load, bu, clear, f_n)
     use iso_c_binding, only: c_int, c_int64_t, c_double
     use simulation, only: simulation_t
     use api_handles, only: sim_from_handle
@@ -656,9 +658,12 @@ subroutine dc_sim_state(handle, n, t, u, v, a, mv, load, bu, clear)
     real(c_double), intent(out) :: bu(n)         !! B(u) as the scheme carries it
     integer(c_int), intent(out) :: clear         !! 1: the last step found no contact point
                                                  !! possible at u (state_t's clear), else 0
+    real(c_double), intent(out) :: f_n           !! total normal contact force at u (the
+                                                 !! trace's f_n, state_t's f_n)
     type(simulation_t), pointer :: sim
     call sim_from_handle(handle, sim)
     clear = merge(1, 0, sim%st%clear)
+    f_n = sim%st%f_n
     t = sim%st%t
     u = sim%st%u
     v = sim%st%v

@@ -712,11 +712,12 @@ class Stepper(Model):
         """t, u, v, a, mv (the product M v the energies use), load and bu (B(u) as the
         scheme carries it into the next step), free dofs; clear: the last step found no
         contact point possible at u (:meth:`contact_clear`), so the trace's p_n skips the
-        probe's facets at a node (False: not known)."""
+        probe's facets at a node (False: not known); f_n: the total normal contact force at
+        u, the trace's f_n (docs/scenes.md)."""
         self._need()
-        t, u, v, a, mv, load, bu, clear = _core().dc_sim_state(self.handle, self.dofs)
+        t, u, v, a, mv, load, bu, clear, f_n = _core().dc_sim_state(self.handle, self.dofs)
         return {"t": float(t), "u": u, "v": v, "a": a, "mv": mv, "load": load, "bu": bu,
-                "clear": bool(clear)}
+                "clear": bool(clear), "f_n": float(f_n)}
 
     def matrix(self, which: str) -> np.ndarray:
         """The assembled 'M', 'K' or 'K_theta' on the free dofs, as a dense array."""
