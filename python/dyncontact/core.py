@@ -638,7 +638,7 @@ class Stepper(Model):
 
         with Stepper(scene, out) as s:
             s.advance(10)
-            st = s.state()          # t, u, v, a, mv, load on the free dofs
+            st = s.state()          # u, v, a, mv, load, bu on the free dofs; t, f_n, clear
             M = s.matrix("M")       # the assembled matrix, dense
             s.save("state.bin")     # a checkpoint; s.load("state.bin") goes back to it
     """
