@@ -125,6 +125,28 @@ def test_scene_second_call_takes_every_run_from_the_cache(wp):
     assert again["n_runs"] == rep["n_runs"] and again["n_cached"] == again["n_runs"]
 
 
+def test_scene_whose_dt_does_not_divide_t_end_is_compared_up_to_the_reference_end(tmp_path):
+    """T = 0.999, Δt = h/20 = 0.0025: each run and reference level stops at its first
+    step past T (1.0, 0.999375, 0.9990625, ...). The rows past the reference's end are
+    not compared (against its last row held constant they would add an error of about
+    the time past it times |u'|, the same at every level): the reference levels converge
+    at order 2 as for a T that every Δt divides, and the runs' errors fall at order 2."""
+    from dyncontact.study.workprecision import run_work_precision_scene
+
+    scene = _scene_1d(tmp_path / "bar.nml", t_end=0.999)
+    rep = run_work_precision_scene(str(tmp_path / "out"), scene, quick=True,
+                                   ladder=(1.0, 0.5), series=(("newmark", None),),
+                                   workers=1, progress=False, log=None)
+    rows = sorted(rep["rows"], key=lambda r: -r["dt"])
+    assert [r["t_end_reached"] > 0.999 for r in rows] == [True, True]
+    for q in ("u_n", "v_n"):
+        ref = rep["ref"]["references"]["scene"][q]
+        assert ORDER_BAND[0] <= ref["p"] <= ORDER_BAND[1], (q, ref)
+        errs = [r[f"err_{q}"] for r in rows]
+        assert all(r[f"resolved_{q}"] for r in rows), (q, ref, errs)
+        assert ORDER_BAND[0] <= math.log2(errs[0] / errs[1]) <= ORDER_BAND[1], (q, errs)
+
+
 def test_scene_left_out_schemes_are_said_not_crashed_on(tmp_path):
     """The redistributed mass needs an implicit scheme: pc is refused on such a scene,
     left out with the core's reason; newmark_redist is newmark on it."""

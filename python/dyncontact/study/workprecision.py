@@ -191,13 +191,18 @@ def _measures():
 def _errors(tr: dict, ref: dict) -> dict[str, float]:
     """err_<q> (q in its norm in time, NORMS) and err_<q>_rms (RMS_TOO) of the trace tr
     against ref, whose rows are interpolated linearly to tr's times; e_total relative to
-    ref's e_total(0)."""
-    t = tr["t"]
+    ref's e_total(0). Only tr's rows up to ref's last time are compared: where Δt does
+    not divide T, each run stops at its first step past T, and a row after ref's end
+    would be compared with ref's last row held constant (np.interp), an error of about
+    the time past it times the rate of change that no Δt makes smaller."""
+    t_ref = ref["t"]
+    keep = tr["t"] <= t_ref[-1] + 1e-9 * (t_ref[-1] - t_ref[0])
+    t = tr["t"][keep]
     e0 = float(ref["e_total"][0])
     out = {}
     for key, q, norm in _measures():
-        r = np.interp(t, ref["t"], ref[q])
-        d = tr[q] - r
+        r = np.interp(t, t_ref, ref[q])
+        d = tr[q][keep] - r
         out[f"err_{key}"] = _NORM_FN[norm](t, d / e0 if q == "e_total" else d)
     return out
 
