@@ -264,3 +264,28 @@ def test_scene_rows_fall_back_to_the_builtin_rows_for_steps_out_of_ratio():
     every, ref_every = _scene_rows(run_dts, levels, 0.003)
     assert every == [_every(d) for d in run_dts]
     assert ref_every == [_level_every(d) for d in levels]
+
+
+def test_scene_plot_x_axis_has_numbers_when_every_run_takes_the_same_decade(tmp_path,
+                                                                           monkeypatch):
+    """A quick scene study's runs can all take 5-6 ms of CPU: the log x axis then holds
+    no power of 10, and its minor ticks must carry the numbers (they had none)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import dyncontact.study.workprecision as wp
+
+    rows = [{"case": "scene", "series": "newmark@20", "status": "ok", "cpu_s": cpu,
+             **{f"err_{q}": err for q in ("u_n", "v_n", "p_n", "e_total")}}
+            for cpu, err in ((0.0052, 2e-4), (0.0061, 5e-5))]
+    series = [(SCHEMES["newmark"], 20.0, "newmark", "newmark@20")]
+    figs = []
+    monkeypatch.setattr(wp, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
+    wp._plot(rows, series, {}, str(tmp_path / "wp.png"), cases=(("scene", "s.nml"),))
+    fig = figs[0]
+    fig.canvas.draw()
+    for ax in fig.axes[:4]:
+        lo, hi = ax.get_xlim()
+        shown = [t.get_text() for t in ax.xaxis.get_majorticklabels()
+                 + ax.xaxis.get_minorticklabels()
+                 if t.get_text() and lo <= t.get_position()[0] <= hi]
+        assert shown, ax.get_title()
