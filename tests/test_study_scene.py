@@ -212,6 +212,30 @@ def test_scene_stability_brackets_the_cfl_limits(tmp_path):
     assert "## Critical Δt" in text and "| pc | lumped |" in text
 
 
+@pytest.mark.parametrize("contact, said", [
+    ("method = 'nitsche', theta = -1,", "nitsche contact (γ0 = 10, θ = -1)"),
+    ("method = 'penalty',", "penalty contact (γ0 = 10)")])
+def test_scene_stability_summary_gives_theta_only_for_nitsche(tmp_path, contact, said):
+    """The scene line of the summary gives the scene's θ for Nitsche; penalty has none
+    (it said θ = +1, the default the core ignores)."""
+    from dyncontact.study.stability import run_stability_scene
+
+    scene = tmp_path / "bar.nml"
+    scene.write_text(
+        "&mesh dim = 1, length = 1.0, h = 0.1 /\n&boundary clamped = 'top', "
+        "contact = 'bottom' /\n&material young = 1.0, poisson = 0.0, density = 1.0 /\n"
+        f"&contact {contact} gamma0 = 10.0, obstacle_point = -1.0, obstacle_normal = -1.0,"
+        " probe = 0.0 /\n&initial kind = 'velocity', velocity = 0.1 /\n"
+        "&scheme name = 'newmark', dt = 0.01, t_end = 0.1 /\n")
+    rep = run_stability_scene(str(tmp_path / "out"), str(scene),
+                              grid={"schemes": ("newmark",),
+                                    "dt_factors": {"implicit": (1,), "explicit": (1,)},
+                                    "rounds": 1},
+                              workers=1, progress=False, log=None)
+    text = open(rep["summary"], encoding="utf-8").read()
+    assert said + ", T = 0.1" in text
+
+
 # --------------------------------------------------------------------------- bad input
 
 @pytest.mark.parametrize("study,scene_text,message", [

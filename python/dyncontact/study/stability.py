@@ -629,10 +629,12 @@ def _scene_summary(report, path) -> str:
     scn, g = report["scene"], report["grid"]
     mesh = f"mesh file {scn.mesh_file}" if scn.mesh_file else f"built-in mesh, h = {scn.h:g}"
     fac = g["dt_factors"]
+    # penalty and the augmented Lagrangian have no θ (their tables list θ = +1)
+    theta = f", θ = {scn.theta:+d}" if scn.method == "nitsche" else ""
     lines = [
         f"# Stability on {os.path.basename(scn.path)}", "",
         f"Scene {scn.path}: {scn.dim}D, {mesh}, {scn.mass} mass, {scn.method} contact "
-        f"(γ0 = {scn.gamma0:g}, θ = {scn.theta:+d}), T = {scn.t_end:g}, Δt = {scn.dt:g}. "
+        f"(γ0 = {scn.gamma0:g}{theta}), T = {scn.t_end:g}, Δt = {scn.dt:g}. "
         "Each scheme runs on the scene as given (only the time scheme and Δt change) at "
         f"Δt = {{{', '.join(f'{x:.4g}' for x in fac['implicit'])}}} × the scene's Δt "
         f"(implicit), {{{', '.join(f'{x:.4g}' for x in fac['explicit'])}}} × (explicit), "
