@@ -111,6 +111,11 @@ def test_scene_summary_has_the_reference_table_and_says_what_is_measured(wp):
     assert "time-discretization errors on this mesh" in text
     for q in ("u_n", "v_n", "p_n", "e_total"):
         assert f"| {q} |" in text
+    # T = 1 holds no impact for the reference: p_n = 0 at every level, which is not a
+    # reference that fails to converge (the table said "the levels do not converge")
+    p_n_row = next(line for line in text.splitlines() if line.startswith("| p_n | mean"))
+    assert "p_n = 0 at every level: no contact before T" in p_n_row, p_n_row
+    assert "do not converge" not in p_n_row, p_n_row
     assert os.path.getsize(rep["png"]) > 0 and os.path.getsize(rep["csv"]) > 0
     assert rep["ref"]["ok"] and len(rep["ref_levels"]) == 3
 

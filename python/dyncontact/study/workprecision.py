@@ -376,11 +376,12 @@ def _reference_estimates(recs, keys, size: str, references=None) -> dict[str, An
             diffs = [_errors(arr[i], arr[i + 1]) for i in range(n - 1)]
             dt_errs = (_errors(by[(name, DT_CHECK_LEVEL)]["arrays"], chk["arrays"])
                        if chk is not None else {})
-            for m, _q, _norm in _measures():
+            for m, q, _norm in _measures():
                 d = [x[f"err_{m}"] for x in diffs]
                 p, est = richardson(d[-2], d[-1])
                 ref[m] = {"d": d, "p": p, "est": est,
-                          "dt_err": dt_errs.get(f"err_{m}", float("nan"))}
+                          "dt_err": dt_errs.get(f"err_{m}", float("nan")),
+                          "zero": not np.any(arr[-1][q])}
             for q in qs:
                 info["truth"][q] = arr[-1]
         info["references"][name] = ref
@@ -658,6 +659,15 @@ def _reference_table(ref, rows, case: str) -> list[str]:
             if name == chosen:
                 if res["verdict"] == "yes":
                     verdict = f"yes, all {res['n_all']} finished runs"
+                elif all(d == 0 for d in x["d"]):
+                    # not a reference that fails to converge: one that does not move
+                    # (p_n = 0 when the reference has no contact before T)
+                    zero = x.get("zero", False)
+                    verdict = ("no error estimate: the levels agree exactly"
+                               + ((f" ({q} = 0 at every level"
+                                   + (": no contact before T)" if q == "p_n" else ")"))
+                                  if zero else "")
+                               + f"; all {res['n_all']} finished runs flagged")
                 elif res["verdict"] == "unknown":
                     verdict = (f"no: the levels do not converge (d₂ ≥ d₁); all "
                                f"{res['n_all']} finished runs flagged")
