@@ -312,6 +312,24 @@ def test_f_n_label_is_the_formula_of_the_runs_contact_method(tmp_path):
     assert "f_n" in label["mixed"] and "lambda" not in label["mixed"]
 
 
+def test_f_n_label_does_not_overlap_the_energy_panel(tmp_path):
+    """3D magnitudes (f_n near -0.007 N, energies near 0.00125 J) make wide tick labels
+    on both sides of the gap between the columns: f_n's label and ticks must end before
+    the energy panel's label begins (they overlapped)."""
+    from dyncontact.plotting import plot_traces
+
+    run = _with_f_n(_write_run(tmp_path / "r"))
+    rows = np.loadtxt(run / "trace.csv", delimiter=",", skiprows=1)
+    rows[:, 4:8] *= 0.01          # energies 0.00125
+    rows[:, 11] *= 0.1234         # f_n down to -0.0062
+    header = open(run / "trace.csv").readline().strip()
+    np.savetxt(run / "trace.csv", rows, delimiter=",", header=header, comments="",
+               fmt="%.12e")
+    fig = plot_traces([run], None)
+    fig.draw_without_rendering()
+    assert fig.axes[4].get_tightbbox().x1 < fig.axes[3].get_tightbbox().x0
+
+
 def test_f_n_is_drawn_on_a_second_scale_of_the_p_n_panel(tmp_path):
     """A trace with the f_n column: f_n dashed on a twin axis of the p_n panel (a fifth
     Axes), its values as written; an older trace without it draws the four panels alone,
