@@ -109,6 +109,8 @@ def test_scene_summary_has_the_reference_table_and_says_what_is_measured(wp):
     text = open(rep["summary"], encoding="utf-8").read()
     assert "## Is the reference converged enough?" in text
     assert "time-discretization errors on this mesh" in text
+    # the explicit schemes' steps as run (c_explicit = 100: pc at 20/100; central, c = 4)
+    assert "here pc at 0.2×; central at 5×" in text
     for q in ("u_n", "v_n", "p_n", "e_total"):
         assert f"| {q} |" in text
     # T = 1 holds no impact for the reference: p_n = 0 at every level, which is not a
@@ -150,6 +152,20 @@ def test_scene_whose_dt_does_not_divide_t_end_is_compared_up_to_the_reference_en
         errs = [r[f"err_{q}"] for r in rows]
         assert all(r[f"resolved_{q}"] for r in rows), (q, ref, errs)
         assert ORDER_BAND[0] <= math.log2(errs[0] / errs[1]) <= ORDER_BAND[1], (q, errs)
+
+
+def test_scene_summary_gives_the_explicit_steps_of_its_c_explicit(tmp_path):
+    """--c-explicit 50: pc runs at 20/50 = 0.4 × the implicit step, and the summary says
+    so (it said "a fifth of it", the default's, whatever c_explicit was)."""
+    from dyncontact.study.workprecision import run_work_precision_scene
+
+    rep = run_work_precision_scene(str(tmp_path / "out"), _scene_1d(tmp_path / "bar.nml"),
+                                   quick=True, c_explicit=50.0, ladder=(1.0,),
+                                   series=(("newmark", None), ("pc", None)),
+                                   workers=1, progress=False, log=None)
+    assert sorted(r["dt"] for r in rep["rows"]) == pytest.approx([0.4 * H_1D / 20, H_1D / 20])
+    text = open(rep["summary"], encoding="utf-8").read()
+    assert "here pc at 0.4×)" in text and "a fifth" not in text
 
 
 def test_scene_left_out_schemes_are_said_not_crashed_on(tmp_path):
