@@ -33,9 +33,9 @@ _P_N_LABELS = {
     "alm integral": r"$p_n = \lambda$ (ALM, integral)",
     "alm nodal": r"$p_n = \lambda_i\,/\,|\Gamma_i|$ (ALM, nodal)",
 }
-#: f_n, the second scale of the p_n panel (dashed), by contact method (docs/scenes.md,
-#: "trace.csv": Nitsche's and penalty's integral of the pressure, the ALM's multipliers'
-#: resultant).
+#: f_n, the second scale of the p_n panel (dashed), by contact method: Nitsche's and
+#: penalty's integral of the pressure, the ALM's multipliers' resultant (the f_n column
+#: of trace.csv in docs/scenes.md, "Outputs").
 _F_N_LABELS = {
     "nitsche": r"$f_n = \int_{\Gamma_C} [P_1(u) + \gamma_N g]_-\,ds$ (dashed)",
     "penalty": r"$f_n = -\int_{\Gamma_C} \varepsilon_N\,[u_n - g]_+\,ds$ (dashed)",
