@@ -197,8 +197,14 @@ CFL_N = 20
 CFL_MARGIN = 0.03
 
 
-def test_scene_stability_brackets_the_cfl_limits(tmp_path):
+def test_scene_stability_brackets_the_cfl_limits(tmp_path, monkeypatch):
+    import dyncontact.study.stability as stability
     from dyncontact.study.stability import run_stability_scene
+
+    figs = []
+    real_save = stability.save_figure
+    monkeypatch.setattr(stability, "save_figure",
+                        lambda fig, path, **kw: figs.append(fig) or real_save(fig, path, **kw))
 
     h = 1.0 / CFL_N
     # contact-free: the obstacle far below, the bar moving up; lumped mass
@@ -231,6 +237,11 @@ def test_scene_stability_brackets_the_cfl_limits(tmp_path):
         assert c["dt_crit_hi"] / c["dt_crit_lo"] <= 2 ** (1 / 2 ** rounds) * (1 + 1e-12)
     text = open(rep["summary"], encoding="utf-8").read()
     assert "## Critical Δt" in text and "| pc | lumped |" in text
+    # critical_dt.png: central's Δt_crit/h, the largest, is the dark end of the colour
+    # map, written in white; pc's, the light end, in black
+    colour = {t.get_text(): t.get_color() for t in figs[-1].axes[0].texts}
+    assert colour == {f"{crit['central']['dt_crit_over_h']:.3g}": "w",
+                      f"{crit['pc']['dt_crit_over_h']:.3g}": "k"}, colour
 
 
 @pytest.mark.parametrize("contact, said", [

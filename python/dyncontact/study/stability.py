@@ -480,7 +480,11 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
                     txt = "refused"
                 else:
                     txt = f"<{c['dt_crit_hi'] / h:.3g}"
-                ax.text(j, i, txt, ha="center", va="center", fontsize=6)
+                # white on the dark end of the colour map (black was unreadable there)
+                dark = (lims[1] is not None and lims[1] > lims[0] and math.isfinite(z[i, j])
+                        and (math.log10(z[i, j]) - lims[0]) / (lims[1] - lims[0]) > 0.6)
+                ax.text(j, i, txt, ha="center", va="center", fontsize=6,
+                        color="w" if dark else "k")
         im = ax.imshow(np.log10(z), aspect="auto", cmap="YlGnBu", vmin=lims[0],
                        vmax=lims[1])
         ax.set_xticks(range(len(schemes)))
