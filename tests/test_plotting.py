@@ -278,6 +278,58 @@ def test_p_n_label_is_the_formula_of_the_runs_contact_method(tmp_path):
     assert "p_n" in label["mixed"]
 
 
+def _with_f_n(folder):
+    """Append e_load = 0 and f_n = p_n / 10 to a synthetic run's trace."""
+    rows = np.loadtxt(folder / "trace.csv", delimiter=",", skiprows=1)
+    full = np.column_stack([rows, np.zeros(len(rows)), 0.1 * rows[:, 3]])
+    np.savetxt(folder / "trace.csv", full, delimiter=",", header=HEADER + ",e_load,f_n",
+               comments="", fmt="%.12e")
+    return folder
+
+
+def test_f_n_label_is_the_formula_of_the_runs_contact_method(tmp_path):
+    """f_n's scale says what f_n is for the runs' method (Nitsche's integral of [P]_-,
+    penalty's of eps_N [u_n - g]_+, the ALM's multipliers), a name for mixed runs: it
+    gave Nitsche's integral for every run."""
+    from dyncontact.plotting import plot_traces
+
+    nitsche = _with_f_n(_write_run(tmp_path / "n"))
+    penalty = _with_f_n(_set_contact(_write_run(tmp_path / "p"), method="penalty"))
+    alm = _with_f_n(_set_contact(_write_run(tmp_path / "a"), method="alm",
+                                 multiplier="nodal"))
+    alm_int = _with_f_n(_set_contact(_write_run(tmp_path / "i"), method="alm",
+                                     multiplier="integral"))
+    label = {}
+    for name, runs in (("n", [nitsche]), ("p", [penalty]), ("a", [alm]), ("i", [alm_int]),
+                       ("mixed", [nitsche, alm])):
+        label[name] = plot_traces(runs, None).axes[4].get_ylabel()
+    assert "gamma_N g" in label["n"] and label["n"].startswith("$f_n")
+    assert "varepsilon_N" in label["p"] and "gamma_N" not in label["p"]
+    assert r"\sum_i \lambda_i" in label["a"]
+    assert r"\lambda\,ds" in label["i"]
+    for name in ("p", "a", "i", "mixed"):
+        assert "[P" not in label[name], (name, label[name])
+    assert "f_n" in label["mixed"] and "lambda" not in label["mixed"]
+
+
+def test_f_n_label_does_not_overlap_the_energy_panel(tmp_path):
+    """3D magnitudes (f_n near -0.007 N, energies near 0.00125 J) make wide tick labels
+    on both sides of the gap between the columns: f_n's label and ticks must end before
+    the energy panel's label begins (they overlapped)."""
+    from dyncontact.plotting import plot_traces
+
+    run = _with_f_n(_write_run(tmp_path / "r"))
+    rows = np.loadtxt(run / "trace.csv", delimiter=",", skiprows=1)
+    rows[:, 4:8] *= 0.01          # energies 0.00125
+    rows[:, 11] *= 0.1234         # f_n down to -0.0062
+    header = open(run / "trace.csv").readline().strip()
+    np.savetxt(run / "trace.csv", rows, delimiter=",", header=header, comments="",
+               fmt="%.12e")
+    fig = plot_traces([run], None)
+    fig.draw_without_rendering()
+    assert fig.axes[4].get_tightbbox().x1 < fig.axes[3].get_tightbbox().x0
+
+
 def test_f_n_is_drawn_on_a_second_scale_of_the_p_n_panel(tmp_path):
     """A trace with the f_n column: f_n dashed on a twin axis of the p_n panel (a fifth
     Axes), its values as written; an older trace without it draws the four panels alone,

@@ -109,8 +109,15 @@ def test_scene_summary_has_the_reference_table_and_says_what_is_measured(wp):
     text = open(rep["summary"], encoding="utf-8").read()
     assert "## Is the reference converged enough?" in text
     assert "time-discretization errors on this mesh" in text
+    # the explicit schemes' steps as run (c_explicit = 100: pc at 20/100; central, c = 4)
+    assert "here pc at 0.2×; central at 5×" in text
     for q in ("u_n", "v_n", "p_n", "e_total"):
         assert f"| {q} |" in text
+    # T = 1 holds no impact for the reference: p_n = 0 at every level, which is not a
+    # reference that fails to converge (the table said "the levels do not converge")
+    p_n_row = next(line for line in text.splitlines() if line.startswith("| p_n | mean"))
+    assert "p_n = 0 at every level: no contact before T" in p_n_row, p_n_row
+    assert "do not converge" not in p_n_row, p_n_row
     assert os.path.getsize(rep["png"]) > 0 and os.path.getsize(rep["csv"]) > 0
     assert rep["ref"]["ok"] and len(rep["ref_levels"]) == 3
 
@@ -123,6 +130,42 @@ def test_scene_second_call_takes_every_run_from_the_cache(wp):
                                      series=rep["series_asked"],
                                      workers=2, progress=False, log=None)
     assert again["n_runs"] == rep["n_runs"] and again["n_cached"] == again["n_runs"]
+
+
+def test_scene_whose_dt_does_not_divide_t_end_is_compared_up_to_the_reference_end(tmp_path):
+    """T = 0.999, Δt = h/20 = 0.0025: each run and reference level stops at its first
+    step past T (1.0, 0.999375, 0.9990625, ...). The rows past the reference's end are
+    not compared (against its last row held constant they would add an error of about
+    the time past it times |u'|, the same at every level): the reference levels converge
+    at order 2 as for a T that every Δt divides, and the runs' errors fall at order 2."""
+    from dyncontact.study.workprecision import run_work_precision_scene
+
+    scene = _scene_1d(tmp_path / "bar.nml", t_end=0.999)
+    rep = run_work_precision_scene(str(tmp_path / "out"), scene, quick=True,
+                                   ladder=(1.0, 0.5), series=(("newmark", None),),
+                                   workers=1, progress=False, log=None)
+    rows = sorted(rep["rows"], key=lambda r: -r["dt"])
+    assert [r["t_end_reached"] > 0.999 for r in rows] == [True, True]
+    for q in ("u_n", "v_n"):
+        ref = rep["ref"]["references"]["scene"][q]
+        assert ORDER_BAND[0] <= ref["p"] <= ORDER_BAND[1], (q, ref)
+        errs = [r[f"err_{q}"] for r in rows]
+        assert all(r[f"resolved_{q}"] for r in rows), (q, ref, errs)
+        assert ORDER_BAND[0] <= math.log2(errs[0] / errs[1]) <= ORDER_BAND[1], (q, errs)
+
+
+def test_scene_summary_gives_the_explicit_steps_of_its_c_explicit(tmp_path):
+    """--c-explicit 50: pc runs at 20/50 = 0.4 × the implicit step, and the summary says
+    so (it said "a fifth of it", the default's, whatever c_explicit was)."""
+    from dyncontact.study.workprecision import run_work_precision_scene
+
+    rep = run_work_precision_scene(str(tmp_path / "out"), _scene_1d(tmp_path / "bar.nml"),
+                                   quick=True, c_explicit=50.0, ladder=(1.0,),
+                                   series=(("newmark", None), ("pc", None)),
+                                   workers=1, progress=False, log=None)
+    assert sorted(r["dt"] for r in rep["rows"]) == pytest.approx([0.4 * H_1D / 20, H_1D / 20])
+    text = open(rep["summary"], encoding="utf-8").read()
+    assert "here pc at 0.4×)" in text and "a fifth" not in text
 
 
 def test_scene_left_out_schemes_are_said_not_crashed_on(tmp_path):
@@ -154,8 +197,14 @@ CFL_N = 20
 CFL_MARGIN = 0.03
 
 
-def test_scene_stability_brackets_the_cfl_limits(tmp_path):
+def test_scene_stability_brackets_the_cfl_limits(tmp_path, monkeypatch):
+    import dyncontact.study.stability as stability
     from dyncontact.study.stability import run_stability_scene
+
+    figs = []
+    real_save = stability.save_figure
+    monkeypatch.setattr(stability, "save_figure",
+                        lambda fig, path, **kw: figs.append(fig) or real_save(fig, path, **kw))
 
     h = 1.0 / CFL_N
     # contact-free: the obstacle far below, the bar moving up; lumped mass
@@ -188,6 +237,35 @@ def test_scene_stability_brackets_the_cfl_limits(tmp_path):
         assert c["dt_crit_hi"] / c["dt_crit_lo"] <= 2 ** (1 / 2 ** rounds) * (1 + 1e-12)
     text = open(rep["summary"], encoding="utf-8").read()
     assert "## Critical Δt" in text and "| pc | lumped |" in text
+    # critical_dt.png: central's Δt_crit/h, the largest, is the dark end of the colour
+    # map, written in white; pc's, the light end, in black
+    colour = {t.get_text(): t.get_color() for t in figs[-1].axes[0].texts}
+    assert colour == {f"{crit['central']['dt_crit_over_h']:.3g}": "w",
+                      f"{crit['pc']['dt_crit_over_h']:.3g}": "k"}, colour
+
+
+@pytest.mark.parametrize("contact, said", [
+    ("method = 'nitsche', theta = -1,", "nitsche contact (γ0 = 10, θ = -1)"),
+    ("method = 'penalty',", "penalty contact (γ0 = 10)")])
+def test_scene_stability_summary_gives_theta_only_for_nitsche(tmp_path, contact, said):
+    """The scene line of the summary gives the scene's θ for Nitsche; penalty has none
+    (it said θ = +1, the default the core ignores)."""
+    from dyncontact.study.stability import run_stability_scene
+
+    scene = tmp_path / "bar.nml"
+    scene.write_text(
+        "&mesh dim = 1, length = 1.0, h = 0.1 /\n&boundary clamped = 'top', "
+        "contact = 'bottom' /\n&material young = 1.0, poisson = 0.0, density = 1.0 /\n"
+        f"&contact {contact} gamma0 = 10.0, obstacle_point = -1.0, obstacle_normal = -1.0,"
+        " probe = 0.0 /\n&initial kind = 'velocity', velocity = 0.1 /\n"
+        "&scheme name = 'newmark', dt = 0.01, t_end = 0.1 /\n")
+    rep = run_stability_scene(str(tmp_path / "out"), str(scene),
+                              grid={"schemes": ("newmark",),
+                                    "dt_factors": {"implicit": (1,), "explicit": (1,)},
+                                    "rounds": 1},
+                              workers=1, progress=False, log=None)
+    text = open(rep["summary"], encoding="utf-8").read()
+    assert said + ", T = 0.1" in text
 
 
 # --------------------------------------------------------------------------- bad input
@@ -196,6 +274,7 @@ def test_scene_stability_brackets_the_cfl_limits(tmp_path):
     ("work-precision", None, "no such file"),
     ("stability", "&mesh dim = 7 /\n", "&mesh dim"),
     ("work-precision", "&scheme name = 'central', dt = 0.0 /\n", "dt = 0"),
+    ("stability", "&scheme name = 'central', dt = 0.0 /\n", "scene.scheme.dt"),
     ("convergence", "", "1D closed form"),
     ("methods", "", "not for this study"),
     ("all", "", "not for this study"),
@@ -242,3 +321,28 @@ def test_scene_rows_fall_back_to_the_builtin_rows_for_steps_out_of_ratio():
     every, ref_every = _scene_rows(run_dts, levels, 0.003)
     assert every == [_every(d) for d in run_dts]
     assert ref_every == [_level_every(d) for d in levels]
+
+
+def test_scene_plot_x_axis_has_numbers_when_every_run_takes_the_same_decade(tmp_path,
+                                                                           monkeypatch):
+    """A quick scene study's runs can all take 5-6 ms of CPU: the log x axis then holds
+    no power of 10, and its minor ticks must carry the numbers (they had none)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import dyncontact.study.workprecision as wp
+
+    rows = [{"case": "scene", "series": "newmark@20", "status": "ok", "cpu_s": cpu,
+             **{f"err_{q}": err for q in ("u_n", "v_n", "p_n", "e_total")}}
+            for cpu, err in ((0.0052, 2e-4), (0.0061, 5e-5))]
+    series = [(SCHEMES["newmark"], 20.0, "newmark", "newmark@20")]
+    figs = []
+    monkeypatch.setattr(wp, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
+    wp._plot(rows, series, {}, str(tmp_path / "wp.png"), cases=(("scene", "s.nml"),))
+    fig = figs[0]
+    fig.canvas.draw()
+    for ax in fig.axes[:4]:
+        lo, hi = ax.get_xlim()
+        shown = [t.get_text() for t in ax.xaxis.get_majorticklabels()
+                 + ax.xaxis.get_minorticklabels()
+                 if t.get_text() and lo <= t.get_position()[0] <= hi]
+        assert shown, ax.get_title()

@@ -33,8 +33,15 @@ _P_N_LABELS = {
     "alm integral": r"$p_n = \lambda$ (ALM, integral)",
     "alm nodal": r"$p_n = \lambda_i\,/\,|\Gamma_i|$ (ALM, nodal)",
 }
-#: Label of the second scale of the p_n panel (f_n, dashed).
-_F_N_LABEL = r"$f_n = \int_{\Gamma_C} [P]_-\,ds$ (dashed)"
+#: f_n, the second scale of the p_n panel (dashed), by contact method: Nitsche's and
+#: penalty's integral of the pressure, the ALM's multipliers' resultant (the f_n column
+#: of trace.csv in docs/scenes.md, "Outputs").
+_F_N_LABELS = {
+    "nitsche": r"$f_n = \int_{\Gamma_C} [P_1(u) + \gamma_N g]_-\,ds$ (dashed)",
+    "penalty": r"$f_n = -\int_{\Gamma_C} \varepsilon_N\,[u_n - g]_+\,ds$ (dashed)",
+    "alm integral": r"$f_n = \int_{\Gamma_C} \lambda\,ds$ (dashed)",
+    "alm nodal": r"$f_n = \sum_i \lambda_i$ (dashed)",
+}
 
 _SCHEME_PARAMS = {
     "hht": ("alpha",),
@@ -116,6 +123,15 @@ def _p_n_label(summaries: Sequence[dict]) -> str:
     if len(methods) == 1 and next(iter(methods)) in _P_N_LABELS:
         return _P_N_LABELS[next(iter(methods))]
     return r"$p_n$ at the probe (contact pressure)"
+
+
+def _f_n_label(summaries: Sequence[dict]) -> str:
+    """The label of f_n's scale, as :func:`_p_n_label`: the formula of the runs' contact
+    method, or a plain name when they use several."""
+    methods = {_contact_method(s) for s in summaries}
+    if len(methods) == 1 and next(iter(methods)) in _F_N_LABELS:
+        return _F_N_LABELS[next(iter(methods))]
+    return r"$f_n$, total normal contact force (dashed)"
 
 
 def _load(item) -> tuple[dict[str, np.ndarray], dict, str]:
@@ -271,7 +287,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         _limit_blowups(ax, ok_values[k], stopped_values[k])
     if ax_f is not None:
         _limit_blowups(ax_f, f_ok, f_stopped)
-        ax_f.set_ylabel(_F_N_LABEL)
+        ax_f.set_ylabel(_f_n_label([summary for trace, summary, _name in loaded
+                                    if "f_n" in trace]))
     # The stop of a run that did not finish: an 'x' at its last value (kept inside the
     # panel when the value is off the scale or not finite) and a dotted vertical line.
     for t_stop, colour, lasts in stops:
@@ -292,12 +309,30 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         ax.grid(True, lw=0.4, alpha=0.5)
     for ax in axes[2:]:
         ax.set_xlabel("t")
+    if ax_f is not None:
+        _clear_columns(fig, ax_f, axes[3])
     fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.0),
                ncols=min(len(handles), 2), fontsize="small", frameon=False)
     if title:
         fig.suptitle(title)
     _save(fig, out_png)
     return fig
+
+
+def _clear_columns(fig, left_ax, right_ax, pad_px: float = 14.0) -> None:
+    """Widen the space between the two columns until left_ax's right side (f_n's tick
+    labels and label) ends pad_px before right_ax's left side (the energy's label and
+    ticks): with wide tick labels on both (3D: f_n -0.007, energies 0.00125) the fixed
+    wspace let the two labels overlap."""
+    for _ in range(4):
+        overlap = left_ax.get_tightbbox().x1 + pad_px - right_ax.get_tightbbox().x0
+        if overlap <= 0:
+            return
+        sp = fig.subplotpars
+        span = sp.right - sp.left
+        # the gap between the columns is wspace × an axis' width, span / (2 + wspace)
+        gap = sp.wspace * span / (2.0 + sp.wspace) + overlap / fig.bbox.width
+        fig.subplots_adjust(wspace=2.0 * gap / (span - gap))
 
 
 def _save(fig, out_png) -> None:

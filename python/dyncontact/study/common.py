@@ -413,12 +413,15 @@ def read_user_scene(path: str) -> UserScene:
         scn.validate()
         values = {k: scn.get(k) for k in ("mesh.dim", "mesh.h", "scheme.dt", "scheme.t_end",
                                           "scheme.mass", "contact.method", "contact.gamma0",
-                                          "contact.theta", "mesh.file")}
+                                          "contact.theta", "mesh.file", "scheme.name")}
     except Exception as exc:  # noqa: BLE001 - any refusal of the scene: one line
         raise ValueError(f"--scene {path}: {' '.join(str(exc).split())}") from None
     if not values["scheme.dt"] > 0:
+        hint = ("; central's automatic step is chosen when the scene runs: `dyncontact "
+                "run` it once and give the Δt its summary.json records (scene.scheme.dt)"
+                if values["scheme.name"] == "central" else "")
         raise ValueError(f"--scene {path}: &scheme dt = {values['scheme.dt']:g}: the study "
-                         "derives its time steps from the scene's, give one > 0")
+                         f"derives its time steps from the scene's, give one > 0{hint}")
     return UserScene(os.path.abspath(path), int(values["mesh.dim"]),
                      float(values["mesh.h"]), float(values["scheme.dt"]),
                      float(values["scheme.t_end"]), str(values["scheme.mass"]),

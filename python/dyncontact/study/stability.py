@@ -480,7 +480,11 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
                     txt = "refused"
                 else:
                     txt = f"<{c['dt_crit_hi'] / h:.3g}"
-                ax.text(j, i, txt, ha="center", va="center", fontsize=6)
+                # white on the dark end of the colour map (black was unreadable there)
+                dark = (lims[1] is not None and lims[1] > lims[0] and math.isfinite(z[i, j])
+                        and (math.log10(z[i, j]) - lims[0]) / (lims[1] - lims[0]) > 0.6)
+                ax.text(j, i, txt, ha="center", va="center", fontsize=6,
+                        color="w" if dark else "k")
         im = ax.imshow(np.log10(z), aspect="auto", cmap="YlGnBu", vmin=lims[0],
                        vmax=lims[1])
         ax.set_xticks(range(len(schemes)))
@@ -629,10 +633,12 @@ def _scene_summary(report, path) -> str:
     scn, g = report["scene"], report["grid"]
     mesh = f"mesh file {scn.mesh_file}" if scn.mesh_file else f"built-in mesh, h = {scn.h:g}"
     fac = g["dt_factors"]
+    # penalty and the augmented Lagrangian have no θ (their tables list θ = +1)
+    theta = f", θ = {scn.theta:+d}" if scn.method == "nitsche" else ""
     lines = [
         f"# Stability on {os.path.basename(scn.path)}", "",
         f"Scene {scn.path}: {scn.dim}D, {mesh}, {scn.mass} mass, {scn.method} contact "
-        f"(γ0 = {scn.gamma0:g}, θ = {scn.theta:+d}), T = {scn.t_end:g}, Δt = {scn.dt:g}. "
+        f"(γ0 = {scn.gamma0:g}{theta}), T = {scn.t_end:g}, Δt = {scn.dt:g}. "
         "Each scheme runs on the scene as given (only the time scheme and Δt change) at "
         f"Δt = {{{', '.join(f'{x:.4g}' for x in fac['implicit'])}}} × the scene's Δt "
         f"(implicit), {{{', '.join(f'{x:.4g}' for x in fac['explicit'])}}} × (explicit), "
