@@ -1053,3 +1053,19 @@ def test_stale_cleaning_spares_a_long_run_of_another_sweep(tmp_path):
     sw._clean_stale(str(tmp_path))
     assert entries["running"].is_dir()
     assert not entries["left"].exists()
+
+
+def test_summary_says_when_the_cheapest_runs_are_too_short_to_rank(tmp_path):
+    """A cheapest run of a few ms is named with the warning that such times do not rank;
+    runs of a second are not."""
+    from dyncontact.study import workprecision as wp
+
+    def lines(cpu):
+        report = {"rows": [], "cheapest": [
+            {"case": "scene", "quantity": "u_n", "level": 1e-4, "label": "newmark",
+             "h": 0.05, "dt": 0.0025, "cpu_s": cpu, "err": 5e-5}]}
+        return "\n".join(wp._cheapest_and_failures(report))
+
+    short = lines(0.5 * wp.SHORT_CPU_S)
+    assert "less than 20 ms of CPU (newmark)" in short and "not reliable" in short
+    assert "not reliable" not in lines(1.0)
