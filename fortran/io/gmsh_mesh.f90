@@ -21,7 +21,7 @@ module gmsh_mesh
     use text, only: lower
     implicit none
     private
-    public :: read_mesh_file, gmsh_available
+    public :: read_mesh_file, gmsh_available, file_extension
 
     !> Relative tolerance of the test that dropped coordinates are constant.
     real(dp), parameter :: PLANE_TOL = 1.0e-10_dp
@@ -128,7 +128,7 @@ contains
             call raise(stat, errmsg, STAT_BAD_INPUT, p//': file is empty')
             return
         end if
-        ext = lower(extension(p))
+        ext = lower(file_extension(p))
         select case (ext)
         case ('.msh')
             is_geo = 0
@@ -245,8 +245,9 @@ contains
         end do
     end subroutine set_coordinates
 
-    !> The extension of `path` ('.msh'), '' if none.
-    pure function extension(path) result(ext)
+    !> The extension of `path` ('.msh'), '' if none: what decides how a mesh file is read
+    !> (a .geo is meshed at the run's h, a .msh is read as it is).
+    pure function file_extension(path) result(ext)
         character(len=*), intent(in) :: path   !! file name
         character(len=:), allocatable :: ext
         integer :: i
@@ -256,7 +257,7 @@ contains
         else
             ext = path(i:)
         end if
-    end function extension
+    end function file_extension
 
     !> Fortran text of a NUL-terminated C buffer.
     pure function from_c(buf) result(s)

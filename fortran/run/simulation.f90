@@ -10,6 +10,7 @@ module simulation
     use scene, only: scene_t, scene_read, scene_defaults, scene_to_json, scene_check_dim, scene_bar_dim
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
+    use gmsh_mesh, only: file_extension
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
     use alm_contact, only: ALM_OFF, ALM_INTEGRAL, ALM_NODAL
     use model, only: model_t, model_params_t, model_build, model_initial, model_probe, &
@@ -335,10 +336,8 @@ contains
     subroutine check_unused_mesh_size(sim, dflt)
         type(simulation_t), intent(inout) :: sim            !! the run
         type(scene_t), intent(in) :: dflt                   !! the scene's defaults
-        integer :: n
-        n = len_trim(sim%scn%mesh_file)
-        if (n < 4 .or. sim%scn%mesh_h == dflt%mesh_h) return
-        if (lower(sim%scn%mesh_file(n - 3:n)) /= '.msh') return
+        if (sim%scn%mesh_h == dflt%mesh_h) return
+        if (lower(file_extension(trim(sim%scn%mesh_file))) /= '.msh') return
         sim%mdl%notes = trim(sim%mdl%notes)//'note: &mesh h = '//real_text(sim%scn%mesh_h)// &
             ' is not used: a .msh file is meshed already (h sizes a .geo and the built-in'// &
             ' bar; python -m dyncontact mesh --geo FILE.geo --h H writes a .msh of size H)'// &

@@ -117,6 +117,16 @@ def _notes(text) -> list[str]:
     return [line.strip() for line in _str(text).splitlines() if line.strip()]
 
 
+def _warn_notes(handle) -> int:
+    """Give an opened run's warnings and notes (the core's, one a line) as
+    DyncontactWarning warnings at the line that called run() or Stepper(); returns the
+    run's steps."""
+    n_steps, _bytes, notes = _core().dc_sim_info(handle)
+    for note in _notes(notes):
+        warnings.warn(note, DyncontactWarning, stacklevel=3)
+    return int(n_steps)
+
+
 def _f64(a, shape=None) -> np.ndarray:
     a = np.asfortranarray(a, dtype=np.float64)
     if shape is not None and a.shape != shape:
@@ -393,11 +403,9 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         _check(stat, errmsg, "opening the run")
         message = ""
         try:
-            n_steps, _bytes, notes = core.dc_sim_info(handle)
-            for note in _notes(notes):
-                warnings.warn(note, DyncontactWarning, stacklevel=2)
-            chunk = max(100, int(n_steps) // 200)
-            with _progress_bar(progress, int(n_steps), os.path.basename(out_dir)) as bar:
+            n_steps = _warn_notes(handle)
+            chunk = max(100, n_steps // 200)
+            with _progress_bar(progress, n_steps, os.path.basename(out_dir)) as bar:
                 if bar is not None and start:
                     bar.update(int(start))
                 finished = 0
@@ -654,9 +662,7 @@ class Stepper(Model):
         # the warnings and notes a run gives before it starts (docs/scenes.md); warnings
         # turned into errors leave no run open
         try:
-            _n_steps, _bytes, notes = _core().dc_sim_info(self.handle)
-            for note in _notes(notes):
-                warnings.warn(note, DyncontactWarning, stacklevel=2)
+            _warn_notes(self.handle)
         except BaseException:
             self.close()
             raise
