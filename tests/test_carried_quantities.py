@@ -14,6 +14,10 @@ fields (dyncontact.core.Stepper's state), the assembled matrices and the mesh:
   e_theta = sum theta |F| sigma_n^2 / (2 gamma_N) from the P1 gradients of each facet's
   owner cell: the mesh, not the core's kernels), which the schemes carry from the
   contact evaluation of the step's last iterate;
+- f_n, the total normal contact force (state and trace, carried from the same
+  evaluation), against int [P]_- over the contact facets in closed form (the Gauss
+  rule's sum where the scene uses one), and with the augmented Lagrangian against
+  -t.(B(u) - K_theta u), t the rigid translation along n;
 - the trace's active count (carried from the same evaluation) against a fresh evaluation
   at u, and the flag clear (no contact point possible at u) against contact_clear at u;
 - with the augmented Lagrangian, the multipliers the carried contact force stands for
@@ -239,6 +243,24 @@ class ContactReference:
         b_scale = float(np.sum(w * pmag * (ws * np.max(np.abs(self.s), axis=1) + self.gamma)))
         return e_pen, e_theta, e_scale, b_scale
 
+    def force(self, u, penalty, gauss=0):
+        """(f_n, scale): f_n = sum_f int_F [P]_- (<= 0), exact for the linear P (the part
+        where P < 0 in closed form, as :meth:`integral`), or the Gauss rule's sum; scale
+        bounds its round-off, |F| pmag summed over the facets (pmag as in
+        :meth:`energies`)."""
+        ws = 0.0 if penalty else 1.0
+        p = ws * (self.s @ u)[:, None] - self.gamma[:, None] * (self.un @ u - self.gap)
+        pmag = ws * (np.abs(self.s) @ np.abs(u)) + self.gamma * (
+            np.max(np.abs(self.un) @ np.abs(u), axis=1) + np.max(np.abs(self.gap), axis=1))
+        if gauss:   # (a segment: Gauss-Legendre points, weights summing to 1)
+            xi, wq = np.polynomial.legendre.leggauss(gauss)
+            pq = np.outer(p[:, 0], (1 - xi) / 2) + np.outer(p[:, 1], (1 + xi) / 2)
+            f_n = float(np.sum(self.measure * (np.minimum(pq, 0.0) @ (wq / 2))))
+        else:
+            f_n = sum(self.integral(p[f], self.measure[f], power=1)
+                      for f in np.flatnonzero(np.any(p < 0, axis=1)))
+        return f_n, float(np.sum(self.measure * pmag))
+
     def alm(self, u, f, kind, kmag):
         """The multipliers lambda the carried contact force f = B(u) - K_theta u stands
         for, and the complementarity G(u, lambda) = 0 they must meet (fem/alm_contact.f90's
@@ -306,32 +328,40 @@ class ContactReference:
         errors.append(("G", np.max(np.abs(g) / gscale)))
         return errors, active
 
-    def integral(self, p, measure):
-        """int_F min(P, 0)^2 for P linear on the facet with nodal values p (a point, a
-        segment or a triangle of measure `measure`), in closed form: the part where
-        P < 0 is the facet, a sub-segment / sub-triangle at a negative node, or the facet
-        less the sub-triangle at its one node where P >= 0."""
+    def integral(self, p, measure, power=2):
+        """int_F min(P, 0)^power (power 2 or 1) for P linear on the facet with nodal
+        values p (a point, a segment or a triangle of measure `measure`), in closed form:
+        the part where P < 0 is the facet, a sub-segment / sub-triangle at a negative
+        node, or the facet less the sub-triangle at its one node where P >= 0. On a
+        facet simplex (of dimension dim - 1) where P vanishes at all nodes but the one
+        with value q, int P^2 is |part| q^2 2 / (dim (dim + 1)) and int P is
+        |part| q / dim: 1/3 and 1/2 on a segment, 1/6 and 1/3 on a triangle."""
         p = np.asarray(p, dtype=float)
         neg = p < 0
         if not neg.any():
             return 0.0
         if self.dim == 1:
-            return float(p[0] ** 2)
-        full = measure / (self.dim * (self.dim + 1) / 2) * (
-            np.sum(p**2) + sum(p[i] * p[j] for i in range(len(p)) for j in range(i)))
+            return float(p[0] ** power)
+        if power == 1:
+            full = measure * np.mean(p)
+            corner = 1.0 / self.dim
+        else:
+            full = measure / (self.dim * (self.dim + 1) / 2) * (
+                np.sum(p**2) + sum(p[i] * p[j] for i in range(len(p)) for j in range(i)))
+            corner = 2.0 / (self.dim * (self.dim + 1))
         if neg.all():
             return float(full)
         if self.dim == 2:   # one node negative: the sub-segment from it to the zero
             i = int(np.flatnonzero(neg)[0])
             t = p[i] / (p[i] - p[1 - i])
-            return float(t * measure * p[i] ** 2 / 3)
+            return float(t * measure * corner * p[i] ** power)
         if neg.sum() == 1:  # the sub-triangle at the negative node
             i = int(np.flatnonzero(neg)[0])
             t = [p[i] / (p[i] - p[k]) for k in range(3) if k != i]
-            return float(measure * t[0] * t[1] * p[i] ** 2 / 6)
+            return float(measure * t[0] * t[1] * corner * p[i] ** power)
         i = int(np.flatnonzero(~neg)[0])   # the facet less the sub-triangle where P >= 0
         t = [p[i] / (p[i] - p[k]) for k in range(3) if k != i]
-        return float(full - measure * t[0] * t[1] * p[i] ** 2 / 6)
+        return float(full - measure * t[0] * t[1] * corner * p[i] ** power)
 
 
 def scene_for(dim, label, mass, contact, solver="direct"):
@@ -429,6 +459,7 @@ def test_carried_quantities_every_step(case, tmp_path):
         # t: a running sum of dt, each addition rounded by at most eps/2 of the sum
         assert abs(s["t"] - n * dt) <= n * EPS * s["t"], (where, "t")
         assert trace["t"][n] == s["t"], (where, "trace t")
+        assert trace["f_n"][n] == s["f_n"], (where, "trace f_n")
         # M v, carried for e_kin: each entry a sum of products, scaled by |M| |v|
         assert rel(mv - M @ v, np.max(absM @ np.abs(v))) <= THR, (where, "M v")
         # B(u): the linear part is K_theta u everywhere; the contact part (Nitsche and
@@ -464,12 +495,24 @@ def test_carried_quantities_every_step(case, tmp_path):
                 assert err <= THR, (where, name, err)
             if n > 0:
                 assert trace["active"][n] == act, (where, "active (alm)", act)
+            # f_n, the multipliers' resultant: against the rigid translation t along n
+            # (every contact node's dofs free) the contact part of B gives -f_n; the
+            # round-off of B(u) - K_theta u entries is bounded by kmag + |f| each
+            t_n = np.zeros(len(u))
+            for (_node, a), k in ref.free.items():
+                t_n[k] = ref.normal[a]
+            fc = bu - Kt @ u
+            assert abs(s["f_n"] + t_n @ fc) <= THR * (kmag + np.max(np.abs(fc))) \
+                * np.count_nonzero(ref.cell_dofs), (where, "f_n (alm)", s["f_n"], -t_n @ fc)
         else:
             # the reference's sigma_n rows against the matrices: e_theta = 1/2 u.(K - K_theta) u
             assert abs(e_theta - 0.5 * u @ (K - Kt) @ u) <= THR * (escale + cscale), \
                 (where, "reference e_theta")
             assert abs(trace["e_contact"][n] - (e_pen - e_theta)) <= THR * (escale + cscale), \
                 (where, "e_contact", trace["e_contact"][n], e_pen - e_theta)
+            # f_n, carried from the step's contact evaluation: int [P]_- at u
+            f_n, fscale = ref.force(u, penalty, CONTACT[contact].get("quad_points", 0))
+            assert abs(s["f_n"] - f_n) <= THR * fscale, (where, "f_n", s["f_n"], f_n)
             assert trace["active"][n] == active, (where, "active")
         if n == 0:
             assert trace["newton_its"][0] == 0
