@@ -168,6 +168,32 @@ def test_scene_summary_gives_the_explicit_steps_of_its_c_explicit(tmp_path):
     assert "here pc at 0.4×)" in text and "a fifth" not in text
 
 
+@pytest.mark.parametrize("scheme, c0", [("central", 4.0), ("pc", 100.0), ("newmark", 20.0)])
+def test_scene_dt_is_the_step_of_the_scenes_own_scheme(tmp_path, scheme, c0):
+    """The scene's Δt is its own scheme's step: a scene written for central at Δt runs
+    central at that Δt (the scene's own run is among the study's) and newmark at
+    Δt × 4/20; on a pc scene newmark runs at 5 × its Δt; on an implicit scene central
+    runs at 5 × (20/4) and pc at a fifth, as in the built-in study. Before, the scene's
+    Δt was the implicit step whatever its scheme: central at 5 × the step the scene
+    gave it."""
+    from dyncontact.study.workprecision import run_work_precision_scene
+
+    dt = H_1D / 20
+    scene = _scene_1d(tmp_path / "bar.nml", t_end=0.2,
+                      **{"name = 'newmark'": f"name = '{scheme}'",
+                         "mass = 'consistent'": "mass = 'lumped'"})
+    rep = run_work_precision_scene(str(tmp_path / "out"), scene, quick=True, ladder=(1.0,),
+                                   series=(("newmark", None), ("pc", None),
+                                           ("central_lumped", None)),
+                                   workers=1, progress=False, log=None)
+    assert rep["n_errors"] == 0
+    got = {r["series"]: r["dt"] for r in rep["rows"]}
+    assert got == pytest.approx({"newmark@20": dt * c0 / 20, "pc@100": dt * c0 / 100,
+                                 "central_lumped@4": dt * c0 / 4})
+    text = open(rep["summary"], encoding="utf-8").read()
+    assert f"({scheme}: c₀ = {c0:g}," in text
+
+
 def test_scene_left_out_schemes_are_said_not_crashed_on(tmp_path):
     """The redistributed mass needs an implicit scheme: pc is refused on such a scene,
     left out with the core's reason; newmark_redist is newmark on it."""

@@ -26,8 +26,8 @@ STUDIES = ("convergence", "work-precision", "stability")
 SCENE_HELP = {
     "work-precision": "a scene file of one's own: each scheme on it as given (mesh, "
                       "material, contact, probe, T) at Δt = 2, 1, 1/2, 1/4 × its step "
-                      "(quick: 1, 1/2; the scene's Δt for the implicit schemes, x "
-                      "c-implicit/c for the others), errors against the same scene at a "
+                      "(quick: 1, 1/2; the scene's Δt for its own scheme, of step h/c0, "
+                      "x c0/c for a scheme of step h/c), errors against the same scene at a "
                       "much finer Δt (time-discretization errors on that mesh)",
     "stability": "a scene file of one's own: the critical Δt of the main schemes on it "
                  "as given (its h, γ0, θ, T), Δt grid in multiples of its Δt, then "

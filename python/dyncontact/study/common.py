@@ -19,7 +19,7 @@ __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0
            "RunSpec", "seed_spec", "every_for", "scheme_text", "num", "loadavg",
            "package_version", "add_runner_options", "MAX_ROWS", "OneLineParser",
            "positive", "mesh_sizes", "UserScene", "read_user_scene", "on_scene",
-           "refusal_on_scene"]
+           "refusal_on_scene", "scene_step_ratio"]
 
 #: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016).
 EXACT_1D = """\
@@ -398,6 +398,7 @@ class UserScene:
     gamma0: float
     theta: int
     mesh_file: str
+    scheme: str = "hht"
 
 
 def read_user_scene(path: str) -> UserScene:
@@ -426,7 +427,8 @@ def read_user_scene(path: str) -> UserScene:
                      float(values["mesh.h"]), float(values["scheme.dt"]),
                      float(values["scheme.t_end"]), str(values["scheme.mass"]),
                      str(values["contact.method"]), float(values["contact.gamma0"]),
-                     int(values["contact.theta"]), str(values["mesh.file"] or ""))
+                     int(values["contact.theta"]), str(values["mesh.file"] or ""),
+                     str(values["scheme.name"]))
 
 
 def on_scene(s: SchemeSpec, scene: UserScene) -> SchemeSpec:
@@ -467,6 +469,23 @@ def step_ratio(s: SchemeSpec, c_implicit: float, c_explicit: float) -> float:
     if s.c is not None:
         return float(s.c)
     return c_explicit if s.explicit else c_implicit
+
+
+#: The scene's &scheme name that runs explicitly in its contact (the pc family) or
+#: altogether (central), for :func:`scene_step_ratio`.
+EXPLICIT_NAMES = ("pc", "pc_hht", "pc_hht_seed", "central")
+
+
+def scene_step_ratio(scene: UserScene, c_implicit: float, c_explicit: float) -> float:
+    """The c that ``scene``'s own Δt stands for: its scheme is run at Δt = h/c in the
+    studies, so a scheme of ratio c' runs at the scene's Δt × c/c'. central's own
+    CENTRAL_C, the explicit family's c for the pc schemes, the implicit one's else.
+    A scene written for central at its stable step thus runs central at that step
+    (and the implicit schemes at a CENTRAL_C/c_implicit of it), not at
+    c_implicit/CENTRAL_C times it, past its stability limit."""
+    if scene.scheme == "central":
+        return CENTRAL_C
+    return c_explicit if scene.scheme in EXPLICIT_NAMES else c_implicit
 
 
 def scheme_list(keys: str | Sequence[str]) -> list[SchemeSpec]:

@@ -101,8 +101,8 @@ T_END = {"full": 3.0, "quick": 1.5}
 #: The cases of the built-in study: (case, title of its panels).
 CASES = (("1d", "1D exact case"), ("2d", "2D seed bar"))
 #: ``--scene``: the time steps of each scheme, as factors on its step (the scene's Δt for
-#: the implicit schemes, scaled by c_implicit/c for a scheme of another c, as the built-in
-#: study's Δt = h/c), coarse to fine.
+#: the scene's own scheme's family, scaled by c₀/c for a scheme of another c, as the
+#: built-in study's Δt = h/c: :func:`.common.scene_step_ratio`), coarse to fine.
 SCENE_LADDER = {"full": (2.0, 1.0, 0.5, 0.25), "quick": (1.0, 0.5)}
 #: ``--scene``: the reference is the trapezoidal rule (second order, energy-conserving)
 #: on the scene's own mesh, mass and contact, at these fractions of the smallest Δt of
@@ -811,7 +811,7 @@ def _scene_series(scene: UserScene, c_implicit: float, c_explicit: float, series
     contact (:func:`.common.on_scene`), as :func:`_series` gives them; a second scheme
     that becomes the same run as an earlier one is left out. Returns (series,
     [(key, why left out)])."""
-    from .common import on_scene, refusal_on_scene
+    from .common import on_scene, refusal_on_scene, scene_step_ratio
 
     kept, left_out, seen = [], [], {}
     for s, c, _label, skey in _series(c_implicit, c_explicit, series):
@@ -828,7 +828,7 @@ def _scene_series(scene: UserScene, c_implicit: float, c_explicit: float, series
             continue
         seen[(t.settings, c)] = skey
         family = c_explicit if t.explicit else c_implicit
-        ratio = c_implicit / c
+        ratio = scene_step_ratio(scene, c_implicit, c_explicit) / c
         kept.append((t, c, t.label + ("" if c == family else ", the scene's Δt" if ratio == 1
                                       else f", Δt×{ratio:g}"), skey))
     return kept, left_out
@@ -842,16 +842,18 @@ def run_work_precision_scene(out: str, scene: str, *, quick: bool = False,
     """The work-precision study on a scene file of one's own (``study work-precision
     --scene``): every scheme of ``series`` on the scene's mesh, mass, contact, probe and
     T at the Δt of ``ladder`` (factors on its step, default SCENE_LADDER; its step is
-    the scene's Δt × c_implicit/c), against SCENE_REFERENCE at SCENE_REF_FRACTIONS of
+    the scene's Δt × c₀/c, c₀ the ratio of the scene's own scheme,
+    :func:`.common.scene_step_ratio`), against SCENE_REFERENCE at SCENE_REF_FRACTIONS of
     the smallest of those Δt: time-discretization errors on that mesh. A scheme the core
     refuses on the scene (an explicit one with the ALM or the redistributed mass) is left
     out with the core's reason. Writes work_precision.csv, work_precision.png and
     summary.md into ``out``; ValueError (one line) for a missing or bad scene."""
-    from .common import on_scene, read_user_scene
+    from .common import on_scene, read_user_scene, scene_step_ratio
 
     t0 = time.perf_counter()
     size = "quick" if quick else "full"
     scn = read_user_scene(scene)
+    c0 = scene_step_ratio(scn, c_implicit, c_explicit)
     out = os.path.abspath(out)
     os.makedirs(out, exist_ok=True)
     cache = cache or os.path.join(out, "cache")
@@ -861,12 +863,12 @@ def run_work_precision_scene(out: str, scene: str, *, quick: bool = False,
         raise ValueError(f"--scene {scn.path}: the core refuses every scheme of the "
                          f"study on it (first: {left_out[-1][1]})")
     h = None if scn.mesh_file else scn.h
-    runs = [(s, c, label, skey, f, scn.dt * c_implicit / c * f)
+    runs = [(s, c, label, skey, f, scn.dt * c0 / c * f)
             for s, c, label, skey in kept for f in factors]
     dt_min = min(dt for *_, dt in runs)
     levels = tuple(dt_min * x for x in SCENE_REF_FRACTIONS[size])
     run_every, ref_every = _scene_rows([dt for *_, dt in runs], levels,
-                                       scn.dt * max(factors))
+                                       scn.dt * c0 / c_implicit * max(factors))
     tasks = [_trace_task(scn.path, s, dt, scn.t_end,
                          {"case": "scene", "series": skey, "label": label, "scheme": s.key,
                           "h": h, "dt": dt, "c": c, "factor": f}, every=e)
@@ -885,19 +887,19 @@ def run_work_precision_scene(out: str, scene: str, *, quick: bool = False,
         {"scene": (SCENE_REFERENCE, None, QUANTITIES, {size: levels})})
     cases = (("scene", os.path.basename(scn.path)),)
     report = _report(run_recs, recs, kept, ref_info, out, cases)
-    # the schemes of another step than the implicit ones, by their factor on it (it said
-    # "the predictor-corrector schemes at a fifth of it" whatever --c-explicit was)
+    # the schemes of another step than the scene's Δt, by their factor on it (the
+    # factors of the c values run, whatever --c-explicit was)
     other: dict[float, list[str]] = {}
     for s, c, _label, _skey in kept:
         name = dict(s.settings)["scheme.name"]
-        if c != c_implicit and name not in other.setdefault(c_implicit / c, []):
-            other[c_implicit / c].append(name)
+        if c != c0 and name not in other.setdefault(c0 / c, []):
+            other[c0 / c].append(name)
     step_note = ("; ".join(f"{', '.join(keys)} at {ratio:.3g}×"
                            for ratio, keys in sorted(other.items()))
-                 or "every scheme at the implicit step")
+                 or "every scheme at the scene's Δt")
     report.update(t_end=scn.t_end, quick=quick, wall_s=time.perf_counter() - t0, size=size,
                   scene=scn, factors=factors, left_out=left_out, ref_levels=levels,
-                  ref_label=ref_spec.label, c_implicit=c_implicit, step_note=step_note)
+                  ref_label=ref_spec.label, c0=c0, step_note=step_note)
     report["summary"] = _scene_summary(report, os.path.join(out, "summary.md"))
     return report
 
@@ -912,8 +914,9 @@ def _scene_summary(report, path) -> str:
         f"the scene as given (its mesh, material, mass, contact, probe and T; only the "
         f"time scheme and Δt change) at Δt = "
         f"{', '.join(f'{f:g}' for f in report['factors'])} × its step: the scene's Δt for "
-        f"the implicit schemes, × {report['c_implicit']:g}/c for a scheme of step h/c "
-        f"(as in the built-in study; here {report['step_note']}). "
+        f"the schemes of the scene's own scheme's step h/c₀ ({scn.scheme}: c₀ = "
+        f"{report['c0']:g}, as in the built-in study's Δt = h/c), × c₀/c for a scheme of "
+        f"step h/c (here {report['step_note']}). "
         f"The reference is the same scene with {report['ref_label']} at the much finer "
         f"Δt = {fmt(report['ref_levels'][-1], '.4g')}. **These are time-discretization "
         "errors on this mesh**: the reference has the same mesh and contact, so the space "
