@@ -223,12 +223,15 @@ BAD_CASES = [
             "must be one of 'consistent', 'lumped', 'redistributed'"),
     BadCase("mass_redistributed_explicit",
             "&scheme name = 'pc', dt = 0.0005, mass = 'redistributed' /\n", "&scheme mass",
-            "'redistributed' (no inertia on the contact nodes) needs an implicit scheme"),
+            "the redistributed mass (no inertia on the contact nodes) needs an implicit scheme, "
+            "and &scheme name = 'pc' is explicit in its contact (got 'redistributed')"),
     BadCase("alm_explicit", "&contact method = 'alm' /\n&scheme name = 'central', dt = 0.001 /\n",
-            "&contact method", "'alm' (multipliers solved with the displacement by Newton) "
-            "needs an implicit scheme, not 'central'"),
+            "&contact method", "the augmented Lagrangian (multipliers solved with the "
+            "displacement by Newton) needs an implicit scheme, and &scheme name = 'central' "
+            "is explicit (got 'alm')"),
     BadCase("alm_pc", "&contact method = 'alm' /\n&scheme name = 'pc', dt = 0.0005 /\n",
-            "&contact method", "needs an implicit scheme, not 'pc'"),
+            "&contact method", "needs an implicit scheme, and &scheme name = 'pc' is explicit "
+            "in its contact (got 'alm')"),
     BadCase("multiplier_unknown", "&contact method = 'alm', multiplier = 'mortar' /\n",
             "&contact multiplier", "must be 'integral' or 'nodal'"),
     BadCase("dt_zero_implicit", "&scheme dt = 0.0 /\n", "&scheme dt",

@@ -771,14 +771,14 @@ contains
         select case (trim(scn%scheme_name))
         case ('pc', 'pc_hht', 'pc_hht_seed', 'central')
             if (scn%contact_method == 'alm') then
-                msg = bad(keys, name, 'contact', 'method', '''alm'' (multipliers solved with '// &
-                          'the displacement by Newton) needs an implicit scheme, not '''// &
-                          trim(scn%scheme_name)//''''); return
+                msg = bad(keys, name, 'contact', 'method', 'the augmented Lagrangian (multipliers'// &
+                          ' solved with the displacement by Newton) needs an implicit scheme, and '// &
+                          explicit_text(scn%scheme_name)); return
             end if
             if (scn%mass == 'redistributed') then
-                msg = bad(keys, name, 'scheme', 'mass', '''redistributed'' (no inertia on the '// &
-                          'contact nodes) needs an implicit scheme, not '''// &
-                          trim(scn%scheme_name)//''''); return
+                msg = bad(keys, name, 'scheme', 'mass', 'the redistributed mass (no inertia on'// &
+                          ' the contact nodes) needs an implicit scheme, and '// &
+                          explicit_text(scn%scheme_name)); return
             end if
         end select
         ! CG leaves a residual of at most cg_rtol |R(u^n)| that Newton's test does not see
@@ -918,6 +918,15 @@ contains
         if (associated(keys(k)%s)) s = trim(keys(k)%s)
         s = key_ctx(name, keys(k))//': '//what//' (got '''//shown(s, VALUE_LEN)//''')'
     end function bad
+
+    !> "&scheme name = 'pc' is explicit in its contact" ("is explicit" for central): why a
+    !> method or mass that needs an implicit scheme is refused.
+    pure function explicit_text(scheme) result(s)
+        character(len=*), intent(in) :: scheme  !! an explicit scheme's name
+        character(len=:), allocatable :: s
+        s = '&scheme name = '''//trim(scheme)//''' is explicit'
+        if (trim(scheme) /= 'central') s = s//' in its contact'
+    end function explicit_text
 
     !> 'NAME: &group key'
     pure function key_ctx(name, key) result(s)
