@@ -280,7 +280,7 @@ def _text(b) -> str:
 def fortran_read(core, path: Path, tmp_path: Path):
     """(stat, errmsg, dict or None) from the core's dc_scene_dump."""
     json_path = tmp_path / f"{path.name}.json"
-    stat, errmsg = core.dc_scene_dump(str(path), str(json_path))
+    _given, stat, errmsg = core.dc_scene_dump(str(path), str(json_path))
     if int(stat) != 0:
         return int(stat), _text(errmsg), None
     with open(json_path, encoding="utf-8") as fh:
@@ -713,7 +713,7 @@ _FUZZ_SCRIPT = r"""
 import json, sys
 from dyncontact import _core
 for path in sys.argv[1:]:
-    stat, errmsg = _core.dc_scene_dump(path, path + '.json')
+    _given, stat, errmsg = _core.dc_scene_dump(path, path + '.json')
     f = errmsg.decode('utf-8', 'replace').strip() if int(stat) else json.load(open(path + '.json'))
     print(json.dumps([path, int(stat), f]))
 """
