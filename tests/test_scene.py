@@ -632,6 +632,8 @@ def test_set_coerces(name, value, expected):
     ("scheme.mass", 3, "&scheme mass"),
     ("output.dir", "a\nb", "&output dir"),
     ("scheme.dt", "1 / &mesh h = 2", "&mesh"),
+    ("scheme.dt", "1 / &output dir = 'x'", "&output"),
+    ("scheme.dt", "1, t_end = 5", "&scheme dt: expected values only, not another key"),
 ])
 def test_set_rejects(name, value, where):
     scn = Scene()

@@ -21,7 +21,7 @@ MESH3D = ROOT / "meshes" / "bar3d_getfem_h0.05.msh"
 VECTOR_KEYS = [("material", "gravity"), ("contact", "obstacle_point"),
                ("contact", "obstacle_normal"), ("contact", "probe"), ("initial", "velocity")]
 #: The scene of the defect report: a 3D mesh file, &mesh dim left at 0, some vectors given.
-BOX_FILE = (f"&mesh file = '{MESH3D}' /\n"
+BOX_FILE = (f"&mesh file = '{MESH3D}' /\n&initial kind = 'compressed_bar' /\n"
             "&contact obstacle_point = 0.0, 0.0, 0.0, obstacle_normal = 0.0, 0.0, -1.0, "
             "probe = 0.05, 0.05, 0.0 /\n"
             "&scheme t_end = 0.01 /\n")

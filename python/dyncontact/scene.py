@@ -187,6 +187,11 @@ class Scene:
         replace = {(group, key): text}
         parsed = core.scene_parse(self.to_text(replace), self._name(), keep_omitted=True,
                                   with_given=True)
+        # every group is written (so a value cannot open one again), but not every key:
+        # a value that gives another key of its group ('1, t_end = 5') is refused
+        if parsed[1] - self._given - {f"{group}.{key}"}:
+            raise SceneError(f"{self._name()}: &{group} {key}: expected values only, not "
+                             f"another key (got '{text}')")
         if (group, key) in (("mesh", "dim"), ("mesh", "file")):
             parsed = self._follow_dimension(parsed, replace)
         self._values, self._given = parsed
@@ -278,10 +283,11 @@ class Scene:
         of `omit` (left out, so that they take their defaults); `absolute_mesh`: write the
         mesh file absolute. A key not given is left out: it takes its default (a vector
         key, the default of the mesh's dimension), and the scene read back gives the same
-        keys."""
+        keys. Every group is written, even with no key, so that a value cannot open a
+        group again (:meth:`set`)."""
         lines = ["! dyncontact scene (written by dyncontact.Scene)"]
         for group, keys in self._values.items():
-            start = len(lines)
+            lines.append(f"&{group}")
             for key, value in keys.items():
                 if omit and (group, key) in omit:
                     continue
@@ -297,9 +303,7 @@ class Scene:
                 else:
                     text = _value_text(value, value)
                 lines.append(f"    {key} = {text}")
-            if len(lines) > start:                         # a group with keys written
-                lines[start:start] = [f"&{group}"]
-                lines.append("/")
+            lines.append("/")
         return "\n".join(lines) + "\n"
 
     def write(self, path: str | os.PathLike) -> None:
