@@ -312,6 +312,7 @@ def test_builtin_mesh_does_not_load_gmsh(exe, tmp_path):
     assert "libumfpack" in log and "libgmsh" not in log
     scene = tmp_path / "file.nml"
     scene.write_text(f"&mesh file = '{ROOT / 'meshes' / 'bar2d_getfem_h0.05.msh'}' /\n"
+                     "&initial kind = 'compressed_bar' /\n"
                      "&scheme t_end = 0.01 /\n&output dir = 'out2' /\n")
     assert "libgmsh" in _loaded_libraries(exe, scene)
 
