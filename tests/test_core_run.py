@@ -38,13 +38,13 @@ class FakeCore:
     def dc_scene_dump(self, path, json_path):
         from dyncontact import _core   # the real reader, with another output folder
 
-        stat, errmsg = _core.dc_scene_dump(path, json_path)
+        given, stat, errmsg = _core.dc_scene_dump(path, json_path)
         with open(os.fsdecode(json_path)) as f:
             scene = json.load(f)
         scene["output"]["dir"] = "fake_out"
         with open(os.fsdecode(json_path), "w") as f:
             json.dump(scene, f)
-        return stat, errmsg
+        return given, stat, errmsg
 
     def dc_sim_open(self, path, out_dir, build_only):
         self.calls.append(("open", os.fsdecode(path), os.fsdecode(out_dir), build_only))

@@ -657,6 +657,7 @@ def test_a_contact_group_inside_the_body_is_refused(tmp_path):
     (tmp_path / "s.nml").write_text(
         "&mesh file = 'm.msh' /\n&boundary clamped = 'top', contact = 'mid' /\n"
         "&contact obstacle_point = 0.0, 0.4, probe = 0.5, 0.5 /\n"
+        "&initial kind = 'compressed_bar' /\n"
         "&scheme t_end = 0.01, dt = 0.005 /\n")
     with pytest.raises(dyncontact.BadInputError,
                        match=r"&boundary contact: a contact facet lies inside the body"):
@@ -684,7 +685,8 @@ def test_a_mesh_in_parts_that_share_no_node_is_warned_about(tmp_path):
         (tmp_path / f"{name}.msh").write_text(text)
         (tmp_path / f"{name}.nml").write_text(
             f"&mesh file = '{name}.msh' /\n&boundary clamped = 'top', contact = 'bottom' /\n"
-            "&contact probe = 0.5, 0.0 /\n&scheme t_end = 0.01, dt = 0.005 /\n")
+            "&contact probe = 0.5, 0.0 /\n&initial kind = 'compressed_bar' /\n"
+            "&scheme t_end = 0.01, dt = 0.005 /\n")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             res = dyncontact.run(tmp_path / f"{name}.nml", out=tmp_path / name, progress=False)

@@ -312,6 +312,7 @@ def test_builtin_mesh_does_not_load_gmsh(exe, tmp_path):
     assert "libumfpack" in log and "libgmsh" not in log
     scene = tmp_path / "file.nml"
     scene.write_text(f"&mesh file = '{ROOT / 'meshes' / 'bar2d_getfem_h0.05.msh'}' /\n"
+                     "&initial kind = 'compressed_bar' /\n"
                      "&scheme t_end = 0.01 /\n&output dir = 'out2' /\n")
     assert "libgmsh" in _loaded_libraries(exe, scene)
 
@@ -345,7 +346,8 @@ def test_gmsh_prints_nothing(run_exe, tmp_path, capfd, core_ext):
     scene = tmp_path / "s.nml"
     scene.write_text(f"&mesh file = '{ROOT / 'meshes' / 'disk.geo'}' /\n"
                      "&boundary clamped = 'top', contact = 'bottom' /\n"
-                     "&contact probe = 0.0, 0.01 /\n&initial amplitude = 0.05 /\n"
+                     "&contact probe = 0.0, 0.01 /\n"
+                     "&initial kind = 'compressed_bar', amplitude = 0.05 /\n"
                      "&scheme t_end = 0.01 /\n&output dir = 'out' /\n")
     r = run_exe(scene)
     assert r.returncode == 0, r.stderr

@@ -43,11 +43,12 @@ def disk_mesh(path: Path, h: float = 0.02, invert_every: int = 0) -> Path:
 
 def disk_scene(path: Path, mesh: Path, **over) -> Path:
     """The disk falling onto y = 0 at speed 0.1, nothing clamped, whole outline in contact
-    (newmark 1/4 1/2: alpha, which BASE sets for hht, back to its default)."""
-    settings = dict(mesh__file=f"'{mesh.name}'", boundary__clamped="''",
+    (newmark 1/4 1/2; BASE's keys that this scene does not use are left out: alpha, which
+    BASE sets for hht, and h, which a .msh does not use)."""
+    settings = dict(mesh__file=f"'{mesh.name}'", mesh__h=None, boundary__clamped="''",
                     boundary__contact="'outline'", initial__kind="'velocity'",
                     initial__velocity="0.0, -0.1", scheme__name="'newmark'",
-                    scheme__alpha="0.0",
+                    scheme__alpha=None,
                     scheme__dt="0.001", scheme__t_end="0.1", contact__probe="0.0, 0.0")
     settings.update(over)
     return write_scene(path, **settings)
@@ -496,9 +497,10 @@ def test_velocity_without_kind_velocity_warns(kind, tmp_path):
 
 
 def test_mesh_h_with_a_msh_file_is_noted_as_unused(tmp_path):
-    """&mesh h set with a .msh file (a user refining the mesh by h): the file's mesh is
+    """&mesh h given with a .msh file (a user refining the mesh by h): the file's mesh is
     used as it is, and the run says so before it starts, with the command that writes
-    a .msh of that size. The default h, or h with a .geo (which it sizes), says nothing."""
+    a .msh of that size; h written at its default value too (it is what the user wrote).
+    h not given, or h with a .geo (which it sizes), says nothing."""
     import warnings
 
     import dyncontact
@@ -511,8 +513,8 @@ def test_mesh_h_with_a_msh_file_is_noted_as_unused(tmp_path):
                    "Line(3) = {3, 1}; Curve Loop(1) = {1, 2, 3}; Plane Surface(1) = {1};\n"
                    'Physical Curve("outline") = {1, 2, 3}; Physical Surface("body") = {1};\n')
     notes = {}
-    for name, file, h in (("msh_h", mesh, "0.01"), ("msh", mesh, "0.05"),
-                          ("geo_h", geo, "0.02")):
+    for name, file, h in (("msh_h", mesh, "0.01"), ("msh_default", mesh, "0.05"),
+                          ("msh", mesh, None), ("geo_h", geo, "0.02")):
         scene = disk_scene(tmp_path / f"{name}.nml", file, mesh__h=h, scheme__t_end="0.01")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -523,6 +525,7 @@ def test_mesh_h_with_a_msh_file_is_noted_as_unused(tmp_path):
     assert notes["msh_h"] == ["note: &mesh h = 1.0E-002 is not used: a .msh file is meshed "
                               "already (h sizes a .geo and the built-in bar; python -m "
                               "dyncontact mesh --geo FILE.geo --h H writes a .msh of size H)"]
+    assert notes["msh_default"] == [notes["msh_h"][0].replace("1.0E-002", "5.0E-002")]
     assert notes["msh"] == [] and notes["geo_h"] == []
 
 
@@ -678,18 +681,21 @@ def test_set_mesh_file_counts_from_the_current_folder(run_cli, tmp_path):
 
 @pytest.mark.parametrize("kind", ENTRIES)
 def test_scheme_keys_the_scheme_does_not_use_warn(kind, tmp_path):
-    """&scheme keys set (to other values than their defaults) for another scheme than the
-    one chosen change nothing: hht takes beta and gamma from alpha, newmark has no alpha,
-    central none of them. The run says which keys it does not use and which it does;
-    the defaults, or the keys of the scheme itself, say nothing."""
+    """&scheme keys given for another scheme than the one chosen change nothing: hht
+    takes beta and gamma from alpha, newmark has no alpha, central none of them. The run
+    says which keys it does not use and which it does, whatever their values (beta =
+    0.25, its default, with hht included: the user wrote it); the keys of the scheme
+    itself, and the others left out, say nothing."""
     cases = {
+        "default": (dict(scheme__beta="0.25"),
+                    "&scheme beta: not used by scheme 'hht' (it uses alpha;"),
         "hht": (dict(scheme__beta="0.3025", scheme__gamma="0.6"),
                 "&scheme beta, gamma: not used by scheme 'hht' (it uses alpha;"),
         "newmark": (dict(scheme__name="'newmark'", scheme__theta="0.7"),
                     "&scheme alpha, theta: not used by scheme 'newmark' (it uses beta, gamma;"),
         "central": (dict(scheme__name="'central'", scheme__dt="0", scheme__rho_inf="0.5"),
                     "&scheme alpha, rho_inf: not used by scheme 'central' (it uses none of them;"),
-        "quiet": (dict(scheme__name="'galpha'", scheme__alpha="0.0", scheme__rho_inf="0.8"),
+        "quiet": (dict(scheme__name="'galpha'", scheme__alpha=None, scheme__rho_inf="0.8"),
                   None),
     }
     for name, (over, warning) in cases.items():
@@ -714,7 +720,8 @@ def test_alm_without_the_redistributed_mass_warns(tmp_path):
     from dyncontact.core import DyncontactWarning
 
     def notes(**over):
-        scene = write_scene(tmp_path / "s.nml", scheme__name="'newmark'", scheme__alpha="0.0",
+        scene = write_scene(tmp_path / "s.nml", scheme__name="'newmark'", scheme__alpha=None,
+                            contact__theta=None,
                             scheme__t_end="0.01", **over)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -822,7 +829,8 @@ def test_body_thrown_in_flight_moves_rigidly(scheme, tmp_path):
 def test_contact_keys_the_method_does_not_use_warn(tmp_path):
     """&contact theta (the Nitsche variant) with 'penalty', multiplier without 'alm',
     quad_points with the 'exact' quadrature: each changes nothing and the run says so,
-    one line a key; the same keys where they are used say nothing."""
+    one line a key, whatever the value written (the defaults too); the same keys where
+    they are used, or not given, say nothing."""
     import warnings
 
     import dyncontact
@@ -835,8 +843,7 @@ def test_contact_keys_the_method_does_not_use_warn(tmp_path):
             assert dyncontact.run(scene, out=tmp_path / "o", progress=False).ok
         return [str(w.message) for w in caught if w.category is DyncontactWarning]
 
-    assert notes(contact__method="'penalty'", contact__theta="0", contact__multiplier="'nodal'",
-                 contact__quad_points="5") == [
+    unused = [
         "warning: &contact theta: not used by method = 'penalty' (the Nitsche variant; "
         "docs/scenes.md, &contact)",
         "warning: &contact multiplier: not used by method = 'penalty' (only 'alm' has "
@@ -844,8 +851,112 @@ def test_contact_keys_the_method_does_not_use_warn(tmp_path):
         "warning: &contact quad_points: not used with quadrature = 'exact' (it splits each "
         "facet at the kink; quad_points is for quadrature = 'gauss'; docs/scenes.md, "
         "&contact)"]
+    assert notes(contact__method="'penalty'", contact__theta="0", contact__multiplier="'nodal'",
+                 contact__quad_points="5") == unused
     assert notes(contact__theta="0", contact__gamma0="10.0", contact__quadrature="'gauss'",
                  contact__quad_points="5") == []
+    # written at their defaults, they are what the user wrote all the same
+    assert notes(contact__method="'penalty'", contact__theta="1",
+                 contact__multiplier="'integral'", contact__quad_points="3") == unused
+    assert notes(contact__method="'penalty'", contact__theta=None) == []
+
+
+def test_keys_set_from_the_command_line_or_a_scene_count_as_given(run_cli, tmp_path):
+    """A key given by --set (or Scene.set) is a key the user wrote, as one in the file:
+    --set scheme.beta=0.25 (its default) with hht, --set contact.theta=1 with 'penalty',
+    --set initial.kind=... on a mesh file; the same through dyncontact.Scene. Keys only
+    read from the file and not set are not made given by the Scene that runs them."""
+    import warnings
+
+    import dyncontact
+    from dyncontact.core import DyncontactWarning
+
+    scene = write_scene(tmp_path / "s.nml", contact__method="'penalty'", contact__theta=None,
+                        scheme__alpha=None, scheme__t_end="0.01")
+    r = run_cli("run", scene, "--set", "scheme.beta=0.25", "--set", "contact.theta=1",
+                "--out", tmp_path / "o", "--quiet")
+    assert r.returncode == EXIT_OK, r.stderr
+    assert r.stderr.splitlines() == [
+        "dyncontact: warning: &scheme beta: not used by scheme 'hht' (it uses alpha; "
+        "docs/scenes.md, &scheme)",
+        "dyncontact: warning: &contact theta: not used by method = 'penalty' (the Nitsche "
+        "variant; docs/scenes.md, &contact)"]
+    r = run_cli("run", scene, "--set", "scheme.dt=0.005", "--out", tmp_path / "o", "--quiet")
+    assert r.returncode == EXIT_OK and r.stderr == "", r.stderr
+    scn = dyncontact.Scene.read(scene)
+    scn.set("scheme.gamma", 0.5)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert dyncontact.run(scn, out=tmp_path / "o", progress=False).ok
+    assert [str(w.message) for w in caught if w.category is DyncontactWarning] == [
+        "warning: &scheme gamma: not used by scheme 'hht' (it uses alpha; docs/scenes.md, "
+        "&scheme)"]
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    scene = disk_scene(tmp_path / "d.nml", mesh, initial__kind=None, initial__velocity=None)
+    r = run_cli("run", scene, "--out", tmp_path / "o", "--quiet")
+    assert r.returncode == EXIT_OK and "&initial kind is not given" in r.stderr, r.stderr
+    r = run_cli("run", scene, "--set", "initial.kind=compressed_bar", "--out", tmp_path / "o",
+                "--quiet")
+    assert r.returncode == EXIT_OK and r.stderr == "", r.stderr
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_mesh_file_without_initial_kind_warns(kind, tmp_path):
+    """A scene with a mesh file of its own that does not write &initial kind starts from
+    the default 'compressed_bar', the seed bar's u0, which compresses the body by
+    amplitude/length: the run says so, one line, naming the kinds to choose from. A kind
+    written (even 'compressed_bar'), amplitude = 0 (u0 = 0), or the built-in bar (the
+    seed's case, whose default it is) say nothing; a velocity given without kind gets
+    the velocity's warning alone."""
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    cases = {
+        "no_kind": (dict(initial__kind=None, initial__velocity=None),
+                    ["warning: &initial kind is not given: the mesh file's body starts from "
+                     "the default kind = 'compressed_bar', the seed bar's u0 = -amplitude "
+                     "(1 - d/length) n, at rest (compressed by amplitude/length = 2.5E-001 "
+                     "along n); give kind = 'rest' or 'velocity' (with velocity), or "
+                     "'compressed_bar' to keep it (docs/scenes.md, &initial)"]),
+        "kind_given": (dict(initial__kind="'compressed_bar'", initial__velocity=None), []),
+        "rest": (dict(initial__kind="'rest'", initial__velocity=None), []),
+        "no_lift": (dict(initial__kind=None, initial__velocity=None,
+                         initial__amplitude="0.0"), []),
+        "velocity": (dict(initial__kind=None),
+                     ["warning: &initial velocity is not used with kind = 'compressed_bar'"]),
+    }
+    for name, (over, expected) in cases.items():
+        scene = disk_scene(tmp_path / f"{name}.nml", mesh,
+                           **{"initial__amplitude": "0.25", "mesh__length": "1.0", **over})
+        res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        lines = res.stderr.splitlines()
+        assert len(lines) == len(expected), (name, res.stderr)
+        for line, start in zip(lines, expected):
+            assert line.startswith(f"dyncontact: {start}"), (name, line)
+    scene = write_scene(tmp_path / "bar.nml", initial__kind=None, scheme__t_end="0.01")
+    res = run(kind, scene, "--out", tmp_path / "bar", cwd=tmp_path)
+    assert res.returncode == EXIT_OK and res.stderr == "", res.stderr
+
+
+@pytest.mark.parametrize("path", sorted((Path(__file__).resolve().parents[1] / "scripts" /
+                                         "scenes").glob("*.nml")), ids=lambda p: p.stem)
+def test_example_scenes_open_without_warnings(path, tmp_path):
+    """Every scene of scripts/scenes/ opens its run with no warning nor note but the one it
+    shows (bar2d_alm_consistent: the augmented Lagrangian with the consistent mass): the
+    project's own scenes write only keys they use (a kind with a mesh file, no parameter
+    of another scheme), so a warning a user sees there is news."""
+    import warnings
+
+    from dyncontact.core import DyncontactWarning, Stepper
+
+    expected = {"bar2d_alm_consistent": ["warning: &contact method = 'alm' with &scheme "
+                                         "mass = 'consistent': the multipliers chatter"]}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with Stepper(path, tmp_path / "o"):
+            pass
+    got = [str(w.message) for w in caught if w.category is DyncontactWarning]
+    want = expected.get(path.stem, [])
+    assert len(got) == len(want) and all(g.startswith(w) for g, w in zip(got, want)), got
 
 
 def test_stepper_gives_the_runs_warnings(tmp_path):

@@ -44,11 +44,14 @@ BASE = {
 
 
 def write_scene(path: Path, **over) -> Path:
-    """A scene file: BASE with group__key=value overrides (values in namelist syntax)."""
+    """A scene file: BASE with group__key=value overrides (values in namelist syntax;
+    None leaves the key out, so that the scene does not give it)."""
     groups = {g: dict(kv) for g, kv in BASE.items()}
     for k, v in over.items():
         g, key = k.split("__")
         groups[g][key] = v
+        if v is None:
+            del groups[g][key]
     text = "".join(f"&{g} " + ", ".join(f"{k} = {v}" for k, v in kv.items()) + " /\n"
                    for g, kv in groups.items())
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -433,7 +436,7 @@ def test_body_at_rest_under_gravity_runs_and_conserves_energy_with_e_load(tmp_pa
     import dyncontact
 
     scene = write_scene(tmp_path / "s.nml", material__gravity="0.0, 1.0",
-                        initial__kind="'rest'", scheme__name="'newmark'", scheme__alpha="0.0",
+                        initial__kind="'rest'", scheme__name="'newmark'", scheme__alpha=None,
                         scheme__t_end="3.0")
     res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
     assert res.status == "ok", res.message
@@ -770,9 +773,9 @@ def test_blow_up_from_no_energy_says_why(kind, tmp_path):
     obstacle has no energy at all at t = 0, the blow-up limit is the floor tiny(1.0)
     and the first step, which pushes the bar out, trips it. The message says that the
     initial state holds no energy instead of giving the bare 2.225E-307 alone."""
-    scene = write_scene(tmp_path / "s.nml", contact__method="'alm'",
+    scene = write_scene(tmp_path / "s.nml", contact__method="'alm'", contact__theta=None,
                         contact__obstacle_point="0.0, 0.02", initial__kind="'rest'",
-                        scheme__name="'newmark'", scheme__alpha="0.0", scheme__dt="0.0005",
+                        scheme__name="'newmark'", scheme__alpha=None, scheme__dt="0.0005",
                         scheme__t_end="0.01")
     res = run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path)
     # the scene is what two warnings are about (the bar starts inside the obstacle; alm
@@ -785,7 +788,7 @@ def test_blow_up_from_no_energy_says_why(kind, tmp_path):
     assert "exceeds blowup x energy scale = 2.225E-307" in line, line
     assert "the initial state holds no energy" in line, line
     # a run with energy at t = 0 (the seed's) that blows up does not say it
-    scene = write_scene(tmp_path / "t.nml", scheme__name="'central'", scheme__alpha="0.0",
+    scene = write_scene(tmp_path / "t.nml", scheme__name="'central'", scheme__alpha=None,
                         scheme__mass="'lumped'", scheme__dt="0.05")
     line = one_line(run(kind, scene, "--out", tmp_path / "o2", cwd=tmp_path), 3)
     assert "unstable" in line and "holds no energy" not in line, line

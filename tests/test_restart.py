@@ -493,6 +493,24 @@ def test_checkpoint_of_another_scene_is_refused(entry, stopped, tmp_path):
         dyncontact.run(other, restart=part, progress=False)
 
 
+def test_checkpoint_of_the_same_values_with_other_keys_given_is_taken(stopped, tmp_path):
+    """Which keys a scene gives is not part of the checkpoint's scene hash: the stopped
+    run's scene with beta = 0.25 and the Nitsche theta = 1 written (their defaults, so the
+    same numbers) restarts from its checkpoint, the executable's and --set's alike, and
+    warns about beta, which hht does not use. Another value is another scene (above)."""
+    scene, part = stopped
+    trace = (part / "trace.csv").read_bytes()
+    other = tmp_path / "given.nml"
+    other.write_text(scene_text("hht", extra=", alpha = -0.1, beta = 0.25", t_end="3.0"))
+    res = run(exe_cmd(other, "--restart", part), tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert "&scheme beta: not used by scheme 'hht'" in res.stderr, res.stderr
+    res = run(cli_cmd(scene, "--set", "scheme.gamma=0.5", "--restart", part), tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert "&scheme gamma: not used by scheme 'hht'" in res.stderr, res.stderr
+    assert (part / "trace.csv").read_bytes() == trace
+
+
 @pytest.mark.parametrize("entry", ["exe", "cli"])
 def test_missing_restart_folder_is_refused_naming_the_file(entry, stopped, tmp_path):
     scene, _part = stopped

@@ -283,7 +283,7 @@ def _text(b) -> str:
 def fortran_read(core, path: Path, tmp_path: Path):
     """(stat, errmsg, dict or None) from the core's dc_scene_dump."""
     json_path = tmp_path / f"{path.name}.json"
-    stat, errmsg = core.dc_scene_dump(str(path), str(json_path))
+    _given, stat, errmsg = core.dc_scene_dump(str(path), str(json_path))
     if int(stat) != 0:
         return int(stat), _text(errmsg), None
     with open(json_path, encoding="utf-8") as fh:
@@ -539,6 +539,30 @@ def test_large_numbers_in_messages_have_an_exponent(tmp_path):
         Scene.read(path)
 
 
+# --------------------------------------------------------------------------- keys given
+
+def test_the_keys_given_are_those_written(tmp_path):
+    """The core says which keys a scene gives ('group.key'), whatever their values: none for
+    the empty scene, every key for the example of docs/scenes.md that writes them all (the
+    list fits the API's buffer), the file's keys for a file; Scene keeps them through
+    set (a value at its default included) and writes only them."""
+    every = {f"{g}.{k}" for g, kv in Scene().to_dict().items() for k in kv}
+    core = dyncontact.core
+    assert core.scene_parse("", "s", with_given=True)[1] == frozenset()
+    docs = (ROOT / "docs" / "scenes.md").read_text(encoding="utf-8")
+    example = docs.split("```fortran\n", 1)[1].split("```", 1)[0]
+    assert core.scene_parse(example, "s", with_given=True)[1] == every
+    path = scene_text(tmp_path, "&scheme beta = 0.25 /\n&contact theta = 1 /\n")
+    assert core.scene_dump(path, with_given=True)[1] == {"scheme.beta", "contact.theta"}
+    scn = Scene.read(path)
+    scn.set("scheme.dt", 0.0025)                     # the default: given all the same
+    assert {n for n in every if scn.given(n)} == {"scheme.beta", "contact.theta", "scheme.dt"}
+    assert Scene.read(scene_text(tmp_path, scn.to_text(), "again.nml")) == scn
+    assert core.scene_dump(tmp_path / "again.nml", with_given=True)[1] == {
+        "scheme.beta", "contact.theta", "scheme.dt"}
+    assert not Scene().copy().given("scheme.dt") and scn.copy().given("scheme.dt")
+
+
 # --------------------------------------------------------------------------- round trip
 
 @pytest.mark.parametrize("path", SCENE_FILES, ids=lambda p: p.name)
@@ -635,6 +659,8 @@ def test_set_coerces(name, value, expected):
     ("scheme.mass", 3, "&scheme mass"),
     ("output.dir", "a\nb", "&output dir"),
     ("scheme.dt", "1 / &mesh h = 2", "&mesh"),
+    ("scheme.dt", "1 / &output dir = 'x'", "&output"),
+    ("scheme.dt", "1, t_end = 5", "&scheme dt: expected values only, not another key"),
 ])
 def test_set_rejects(name, value, where):
     scn = Scene()
@@ -716,7 +742,7 @@ _FUZZ_SCRIPT = r"""
 import json, sys
 from dyncontact import _core
 for path in sys.argv[1:]:
-    stat, errmsg = _core.dc_scene_dump(path, path + '.json')
+    _given, stat, errmsg = _core.dc_scene_dump(path, path + '.json')
     f = errmsg.decode('utf-8', 'replace').strip() if int(stat) else json.load(open(path + '.json'))
     print(json.dumps([path, int(stat), f]))
 """

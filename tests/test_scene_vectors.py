@@ -21,7 +21,7 @@ MESH3D = ROOT / "meshes" / "bar3d_getfem_h0.05.msh"
 VECTOR_KEYS = [("material", "gravity"), ("contact", "obstacle_point"),
                ("contact", "obstacle_normal"), ("contact", "probe"), ("initial", "velocity")]
 #: The scene of the defect report: a 3D mesh file, &mesh dim left at 0, some vectors given.
-BOX_FILE = (f"&mesh file = '{MESH3D}' /\n"
+BOX_FILE = (f"&mesh file = '{MESH3D}' /\n&initial kind = 'compressed_bar' /\n"
             "&contact obstacle_point = 0.0, 0.0, 0.0, obstacle_normal = 0.0, 0.0, -1.0, "
             "probe = 0.05, 0.05, 0.0 /\n"
             "&scheme t_end = 0.01 /\n")
@@ -87,7 +87,8 @@ def test_both_entry_points_run_a_3d_mesh_file_scene_alike(run_exe, run_cli, tmp_
 
 @pytest.mark.parametrize("dim_text, dim", [("&mesh dim = 1 /\n", 1), ("", 2),
                                            ("&mesh dim = 2 /\n", 2), ("&mesh dim = 3 /\n", 3),
-                                           (f"&mesh file = '{MESH3D}' /\n", 3)])
+                                           (f"&mesh file = '{MESH3D}' /\n"
+                                            "&initial kind = 'compressed_bar' /\n", 3)])
 def test_vector_defaults_are_the_runs(run_exe, tmp_path, dim_text, dim):
     """Scene's defaults of the vector keys (VECTOR_DEFAULTS) are the ones the executable
     runs with: summary.json's scene, every key filled in, of a run to t = 0."""

@@ -13,21 +13,25 @@ subroutine dc_version(version)
 end subroutine dc_version
 
 !> Read and validate a scene file; write the parsed scene (defaults filled) as JSON.
-subroutine dc_scene_dump(path, json_path, stat, errmsg)
+!> given: the keys the file writes, 'group.key' separated by blanks.
+subroutine dc_scene_dump(path, json_path, given, stat, errmsg)
     use iso_c_binding, only: c_int
     use errors, only: STAT_OK, STAT_INTERNAL
-    use scene, only: scene_t, scene_read, scene_to_json
+    use scene, only: scene_t, scene_read, scene_to_json, scene_given_names
     implicit none
     character(len=*), intent(in) :: path        !! scene file
     character(len=*), intent(in) :: json_path   !! JSON file to write
+    character(len=4096), intent(out) :: given   !! keys given, 'group.key' separated by blanks
     integer(c_int), intent(out) :: stat         !! status
     character(len=512), intent(out) :: errmsg   !! message
     type(scene_t) :: scn
     integer :: unit, ios, st
     errmsg = ''
+    given = ''
     call scene_read(path, scn, st, errmsg)
     stat = st
     if (st /= STAT_OK) return
+    given = scene_given_names(scn)    ! every key's 'group.key' fits in 4096 characters
     open (newunit=unit, file=json_path, status='replace', action='write', iostat=ios)
     if (ios /= 0) then
         stat = STAT_INTERNAL
@@ -41,26 +45,29 @@ end subroutine dc_scene_dump
 !> Parse a scene given as text (as dc_scene_dump does a file) and return it as JSON.
 !> full = 0 checks only the syntax and the types of the values (for editing a scene);
 !> full = 1 also the ranges and the cross-checks. A relative mesh file counts from the
-!> current folder.
-subroutine dc_scene_text(text, name, full, json, stat, errmsg)
+!> current folder. given: the keys the text writes, as in dc_scene_dump.
+subroutine dc_scene_text(text, name, full, json, given, stat, errmsg)
     use iso_c_binding, only: c_int
     use errors, only: STAT_OK, STAT_INTERNAL
-    use scene, only: scene_t, scene_parse, scene_to_json
+    use scene, only: scene_t, scene_parse, scene_to_json, scene_given_names
     implicit none
     character(len=*), intent(in) :: text        !! scene text
     character(len=*), intent(in) :: name        !! its name in messages
     integer(c_int), intent(in) :: full          !! 1: full validation, 0: syntax and types
     character(len=32768), intent(out) :: json   !! the scene as JSON
+    character(len=4096), intent(out) :: given   !! keys given, 'group.key' separated by blanks
     integer(c_int), intent(out) :: stat         !! status
     character(len=512), intent(out) :: errmsg   !! message
     type(scene_t) :: scn
     integer :: st
     errmsg = ''
     json = ''
+    given = ''
     call scene_parse(text, name, '', full /= 0, scn, st, errmsg)
     stat = st
     if (st /= STAT_OK) return
     json = scene_to_json(scn)
+    given = scene_given_names(scn)
     if (json(32768:32768) /= ' ') then
         stat = STAT_INTERNAL
         errmsg = 'dc_scene_text: the scene does not fit in 32768 bytes of JSON'

@@ -66,6 +66,11 @@ module scene
         !> Before, a vector key not given is dumped as null: its default is the dimension's
         !> (1D, 2D or 3D), known for a mesh file once the file is read.
         logical :: dim_checked = .false.
+        !> Whether each key appears in the scene text, in table order (scene_given asks
+        !> it by name): the run's warnings about keys that change nothing are about what
+        !> the user wrote, whatever its value. Not in scene_to_json (nor, so, in the
+        !> checkpoint's scene hash): a key written at its default runs the same numbers.
+        logical, allocatable :: given(:)
         character(len=NAME_LEN) :: scheme_name     !! newmark|hht|hht_seed|theta|pc|pc_hht|..._seed
         real(dp) :: alpha                          !! HHT alpha
         real(dp) :: beta                           !! Newmark / pc beta
@@ -89,7 +94,8 @@ module scene
         integer :: solver_threads                  !! solves' threads: 0 automatic, 1, 2
     end type scene_t
 
-    public :: scene_read, scene_parse, scene_defaults, scene_to_json, scene_check_dim, scene_bar_dim
+    public :: scene_read, scene_parse, scene_to_json, scene_check_dim, scene_bar_dim
+    public :: scene_given, scene_given_names
 
     !> One key: its table row, the component it fills and its value as read.
     type :: key_t
@@ -268,14 +274,6 @@ contains
         end if
     end subroutine scene_read
 
-    !> The scene of an empty file: every key at its default, from the key table (the one
-    !> place the defaults are written), for code that asks whether a key was changed.
-    subroutine scene_defaults(scn)
-        type(scene_t), intent(out) :: scn                   !! the default scene
-        integer :: stat
-        call scene_parse('', 'defaults', '', .false., scn, stat)
-    end subroutine scene_defaults
-
     !> Parse a scene given as text: the defaults, then the values given, then (if full)
     !> the checks of the table and validate_cross.
     subroutine scene_parse(text, name, base, full, scn, stat, errmsg)
@@ -316,11 +314,47 @@ contains
         if (full .and. len(msg) == 0 .and. len_trim(scn%mesh_file) == 0 .and. &
             scn%mesh_dim >= 0 .and. scn%mesh_dim <= 3) &
             call vector_dims(keys, name, scene_bar_dim(scn%mesh_dim), msg)
+        scn%given = keys%given
         if (full .and. len(msg) == 0) call validate(keys, name, msg)
         if (full .and. len(msg) == 0) call validate_cross(keys, scn, name, base, msg)
         stat = STAT_OK
         if (len(msg) > 0) call raise(stat, errmsg, STAT_BAD_INPUT, msg)
     end subroutine scene_parse
+
+    !> Whether the scene text gives &group key (whatever its value); .false. for a key not
+    !> in the table.
+    logical function scene_given(scn, group, name)
+        type(scene_t), intent(in) :: scn       !! the scene as read
+        character(len=*), intent(in) :: group  !! group name
+        character(len=*), intent(in) :: name   !! key name
+        type(scene_t), target :: copy
+        type(key_t), allocatable :: keys(:)
+        integer :: k
+        scene_given = .false.
+        if (.not. allocated(scn%given)) return
+        copy = scn
+        call scene_keys(copy, keys)
+        k = key_index(keys, group, name)
+        if (k > 0 .and. name /= '') scene_given = scn%given(k)
+    end function scene_given
+
+    !> The keys the scene text gives, as 'group.key' separated by blanks, in table order
+    !> ('' if none).
+    function scene_given_names(scn) result(s)
+        type(scene_t), intent(in) :: scn    !! the scene as read
+        character(len=:), allocatable :: s
+        type(scene_t), target :: copy
+        type(key_t), allocatable :: keys(:)
+        integer :: k
+        s = ''
+        if (.not. allocated(scn%given)) return
+        copy = scn
+        call scene_keys(copy, keys)
+        do k = 1, size(keys)
+            if (scn%given(k)) s = s//' '//trim(keys(k)%group)//'.'//trim(keys(k)%name)
+        end do
+        if (len(s) > 0) s = s(2:)
+    end function scene_given_names
 
     !> The scene as JSON: {"group": {"key": value, ...}, ...} in table order. Vectors have
     !> 2 components (1D: the second is 0), 3 in 3D; before scene_check_dim a vector key not

@@ -7,7 +7,8 @@ module simulation
     use text, only: int_text, real_text, lower
     use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
-    use scene, only: scene_t, scene_read, scene_defaults, scene_to_json, scene_check_dim, scene_bar_dim
+    use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim, &
+                     scene_given
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
     use gmsh_mesh, only: file_extension
@@ -227,7 +228,6 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         type(scheme_params_t) :: sprm
-        type(scene_t) :: dflt
         character(len=:), allocatable :: unsafe
         sprm = scheme_params(sim%scn)
         select case (sprm%kind)
@@ -250,11 +250,10 @@ contains
         call sim%scheme%init(sim%mdl, sprm, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
         call check_massless_weight(sim)
-        call check_unused_velocity(sim)
-        call scene_defaults(dflt)
-        call check_unused_mesh_size(sim, dflt)
-        call check_unused_scheme_keys(sim, dflt)
-        call check_unused_contact_keys(sim, dflt)
+        call check_initial_state(sim)
+        call check_unused_mesh_size(sim)
+        call check_unused_scheme_keys(sim)
+        call check_unused_contact_keys(sim)
         call check_alm_mass(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
@@ -311,32 +310,48 @@ contains
             fix//' or newmark (docs/numerics.md)'//new_line('a')
     end subroutine check_massless_weight
 
-    !> A warning for an &initial velocity that the initial kind does not use: a scene
-    !> that gives a velocity but keeps the default kind = 'compressed_bar' (the seed's
-    !> bar, lifted by amplitude) would otherwise start from that state at rest, silently.
-    !> Only a nonzero velocity counts: the default (zero) changes nothing.
-    subroutine check_unused_velocity(sim)
+    !> At most one warning about the initial state a scene did not choose:
+    !> - an &initial velocity that the initial kind does not use: a scene that gives a
+    !>   velocity but keeps the default kind = 'compressed_bar' (the seed's bar, lifted by
+    !>   amplitude) would otherwise start from that state at rest, silently. Only a
+    !>   nonzero velocity counts: a zero one is the rest every other kind starts from.
+    !> - else, a mesh file with &initial kind not given: the default 'compressed_bar' is
+    !>   the seed bar's initial state, u0 = -amplitude (1 - d/length) n, which strains the
+    !>   user's body by amplitude/length (50 % with the defaults), silently. Not for the
+    !>   built-in bar (the seed's case, whose default it is), nor for a kind written, even
+    !>   'compressed_bar' (the user's choice), nor with amplitude = 0 (then u0 = 0).
+    subroutine check_initial_state(sim)
         type(simulation_t), intent(inout) :: sim            !! the run
         character(len=:), allocatable :: start
-        if (trim(sim%scn%initial_kind) == 'velocity' .or. all(sim%scn%velocity == 0.0_dp)) return
-        if (trim(sim%scn%initial_kind) == 'compressed_bar') then
-            start = 'the compressed bar''s u0 = -amplitude (1 - d/length) n'
-        else
-            start = 'u0 = 0'
+        if (trim(sim%scn%initial_kind) /= 'velocity' .and. any(sim%scn%velocity /= 0.0_dp) &
+            .and. scene_given(sim%scn, 'initial', 'velocity')) then
+            if (trim(sim%scn%initial_kind) == 'compressed_bar') then
+                start = 'the compressed bar''s u0 = -amplitude (1 - d/length) n'
+            else
+                start = 'u0 = 0'
+            end if
+            sim%mdl%notes = trim(sim%mdl%notes)// &
+                'warning: &initial velocity is not used with kind = '''// &
+                trim(sim%scn%initial_kind)//''': the run starts at rest from '//start// &
+                '; kind = ''velocity'' starts with that velocity'//new_line('a')
+        else if (len_trim(sim%scn%mesh_file) > 0 .and. sim%scn%amplitude /= 0.0_dp .and. &
+                 .not. scene_given(sim%scn, 'initial', 'kind')) then
+            sim%mdl%notes = trim(sim%mdl%notes)// &
+                'warning: &initial kind is not given: the mesh file''s body starts from the'// &
+                ' default kind = ''compressed_bar'', the seed bar''s u0 = -amplitude (1 -'// &
+                ' d/length) n, at rest (compressed by amplitude/length = '// &
+                real_text(sim%scn%amplitude / sim%scn%mesh_length)//' along n); give kind ='// &
+                ' ''rest'' or ''velocity'' (with velocity), or ''compressed_bar'' to keep it'// &
+                ' (docs/scenes.md, &initial)'//new_line('a')
         end if
-        sim%mdl%notes = trim(sim%mdl%notes)// &
-            'warning: &initial velocity is not used with kind = '''// &
-            trim(sim%scn%initial_kind)//''': the run starts at rest from '//start// &
-            '; kind = ''velocity'' starts with that velocity'//new_line('a')
-    end subroutine check_unused_velocity
+    end subroutine check_initial_state
 
-    !> A note for an &mesh h other than the default with a .msh file: the file's mesh is
-    !> used as it is (h sizes a .geo or the built-in bar), so a scene that refines a .msh
-    !> by h would otherwise run on the coarse mesh, silently.
-    subroutine check_unused_mesh_size(sim, dflt)
+    !> A note for an &mesh h given with a .msh file: the file's mesh is used as it is
+    !> (h sizes a .geo or the built-in bar), so a scene that refines a .msh by h would
+    !> otherwise run on the coarse mesh, silently.
+    subroutine check_unused_mesh_size(sim)
         type(simulation_t), intent(inout) :: sim            !! the run
-        type(scene_t), intent(in) :: dflt                   !! the scene's defaults
-        if (sim%scn%mesh_h == dflt%mesh_h) return
+        if (.not. scene_given(sim%scn, 'mesh', 'h')) return
         if (lower(file_extension(trim(sim%scn%mesh_file))) /= '.msh') return
         sim%mdl%notes = trim(sim%mdl%notes)//'note: &mesh h = '//real_text(sim%scn%mesh_h)// &
             ' is not used: a .msh file is meshed already (h sizes a .geo and the built-in'// &
@@ -344,13 +359,16 @@ contains
             new_line('a')
     end subroutine check_unused_mesh_size
 
-    !> A warning for the &scheme parameters the chosen scheme does not use, set to other
-    !> values than their defaults (hht with beta or gamma, whose beta and gamma follow from
-    !> alpha; newmark with alpha, ...): they would otherwise change nothing, silently.
-    subroutine check_unused_scheme_keys(sim, dflt)
+    !> A warning for the &scheme parameters given (whatever their values, the defaults
+    !> included) that the chosen scheme does not use (hht with beta or gamma, whose beta
+    !> and gamma follow from alpha; newmark with alpha, ...): they would otherwise change
+    !> nothing, silently.
+    subroutine check_unused_scheme_keys(sim)
         type(simulation_t), intent(inout) :: sim            !! the run
-        type(scene_t), intent(in) :: dflt                   !! the scene's defaults
         character(len=:), allocatable :: used, unused
+        character(len=8), parameter :: PARAMS(5) = [character(len=8) :: 'alpha', 'beta', &
+                                                     'gamma', 'theta', 'rho_inf']
+        integer :: k
         used = ''
         select case (trim(sim%scn%scheme_name))
         case ('newmark', 'pc')
@@ -363,16 +381,11 @@ contains
             used = 'rho_inf'
         end select
         unused = ''
-        if (index(used, 'alpha') == 0 .and. sim%scn%alpha /= dflt%alpha) &
-            unused = unused//', alpha'
-        if (index(used, 'beta') == 0 .and. sim%scn%beta /= dflt%beta) &
-            unused = unused//', beta'
-        if (index(used, 'gamma') == 0 .and. sim%scn%gamma /= dflt%gamma) &
-            unused = unused//', gamma'
-        if (index(used, 'theta') == 0 .and. sim%scn%time_theta /= dflt%time_theta) &
-            unused = unused//', theta'
-        if (index(used, 'rho_inf') == 0 .and. sim%scn%rho_inf /= dflt%rho_inf) &
-            unused = unused//', rho_inf'
+        do k = 1, size(PARAMS)
+            if (index(used, trim(PARAMS(k))) == 0 .and. &
+                scene_given(sim%scn, 'scheme', trim(PARAMS(k)))) &
+                unused = unused//', '//trim(PARAMS(k))
+        end do
         if (len(unused) == 0) return
         if (len(used) == 0) used = 'none of them'
         sim%mdl%notes = trim(sim%mdl%notes)//'warning: &scheme '//unused(3:)// &
@@ -380,25 +393,24 @@ contains
             '; docs/scenes.md, &scheme)'//new_line('a')
     end subroutine check_unused_scheme_keys
 
-    !> A warning for the &contact keys the chosen method or quadrature does not use, set
-    !> to other values than their defaults: the Nitsche theta with 'penalty' or 'alm',
+    !> A warning for the &contact keys given (whatever their values) that the chosen
+    !> method or quadrature does not use: the Nitsche theta with 'penalty' or 'alm',
     !> multiplier without 'alm', quad_points with quadrature = 'exact'.
-    subroutine check_unused_contact_keys(sim, dflt)
+    subroutine check_unused_contact_keys(sim)
         type(simulation_t), intent(inout) :: sim            !! the run
-        type(scene_t), intent(in) :: dflt                   !! the scene's defaults
         character(len=:), allocatable :: method
         if (.not. sim%mdl%has_contact) return
         method = trim(sim%scn%contact_method)
-        if (method /= 'nitsche' .and. sim%scn%nitsche_theta /= dflt%nitsche_theta) &
+        if (method /= 'nitsche' .and. scene_given(sim%scn, 'contact', 'theta')) &
             sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact theta: not used by '// &
             'method = '''//method//''' (the Nitsche variant; docs/scenes.md, &contact)'// &
             new_line('a')
-        if (method /= 'alm' .and. sim%scn%multiplier /= dflt%multiplier) &
+        if (method /= 'alm' .and. scene_given(sim%scn, 'contact', 'multiplier')) &
             sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact multiplier: not used by '// &
             'method = '''//method//''' (only ''alm'' has multipliers; docs/scenes.md, '// &
             '&contact)'//new_line('a')
-        if (trim(sim%scn%quadrature) == 'exact' .and. sim%scn%quad_points /= dflt%quad_points .and. &
-            sim%mdl%dim > 1) &
+        if (trim(sim%scn%quadrature) == 'exact' .and. sim%mdl%dim > 1 .and. &
+            scene_given(sim%scn, 'contact', 'quad_points')) &
             sim%mdl%notes = trim(sim%mdl%notes)//'warning: &contact quad_points: not used '// &
             'with quadrature = ''exact'' (it splits each facet at the kink; quad_points is '// &
             'for quadrature = ''gauss''; docs/scenes.md, &contact)'//new_line('a')

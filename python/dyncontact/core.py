@@ -258,43 +258,54 @@ def _fill_vectors(scene: dict[str, Any]) -> dict[str, Any]:
     return scene
 
 
-def scene_dump(path: str | os.PathLike, keep_omitted: bool = False) -> dict[str, Any]:
+def _given_names(given: bytes | str) -> frozenset[str]:
+    """The core's list of the keys a scene gives ('group.key' separated by blanks)."""
+    return frozenset(_str(given).split())
+
+
+def scene_dump(path: str | os.PathLike, keep_omitted: bool = False,
+               with_given: bool = False):
     """The scene file as the Fortran core reads it (all keys, defaults filled in).
 
     A vector key the file does not give takes the default of the mesh's dimension
     (docs/scenes.md, "Vector keys"); with ``keep_omitted`` it is None (as in the core's
     JSON), and it is None anyway for a mesh file with ``&mesh dim = 0``, whose dimension is
-    known once the file is read.
+    known once the file is read. ``with_given``: return ``(scene, given)``, ``given`` the
+    frozenset of the keys the file writes, as ``'group.key'`` (whatever their values: the
+    run's warnings about keys that change nothing are about those).
 
     Raises :class:`BadInputError` with the core's one-line message on a bad scene.
     """
     with tempfile.TemporaryDirectory(prefix="dyncontact-") as tmp:
         json_path = os.path.join(tmp, "scene.json")
-        stat, errmsg = _core().dc_scene_dump(_fpath(path, "scene file"),
-                                             _fpath(json_path, "temporary file"))
+        given, stat, errmsg = _core().dc_scene_dump(_fpath(path, "scene file"),
+                                                    _fpath(json_path, "temporary file"))
         _check(stat, errmsg, "reading the scene")
         with open(json_path, encoding="utf-8", errors="surrogateescape") as f:
             scene = json.load(f)
-    return scene if keep_omitted else _fill_vectors(scene)
+    scene = scene if keep_omitted else _fill_vectors(scene)
+    return (scene, _given_names(given)) if with_given else scene
 
 
-def scene_parse(text: str, name: str, full: bool = False,
-                keep_omitted: bool = False) -> dict[str, Any]:
+def scene_parse(text: str, name: str, full: bool = False, keep_omitted: bool = False,
+                with_given: bool = False):
     """A scene given as namelist text, as the Fortran core reads it (all keys, defaults
-    filled in; ``keep_omitted``: as in :func:`scene_dump`). ``full=False`` checks only the
-    syntax and the types of the values; ``full=True`` also the ranges and the cross-checks,
-    as for a file. ``name`` stands for the scene in messages; a relative mesh file counts
-    from the current folder.
+    filled in; ``keep_omitted`` and ``with_given``: as in :func:`scene_dump`).
+    ``full=False`` checks only the syntax and the types of the values; ``full=True`` also
+    the ranges and the cross-checks, as for a file. ``name`` stands for the scene in
+    messages; a relative mesh file counts from the current folder.
 
     Raises :class:`BadInputError` with the core's one-line message on a bad scene.
     """
     enc = ("utf-8", "surrogateescape")
-    js, stat, errmsg = _core().dc_scene_text(text.encode(*enc), name.encode(*enc), int(full))
+    js, given, stat, errmsg = _core().dc_scene_text(text.encode(*enc), name.encode(*enc),
+                                                    int(full))
     _check(stat, errmsg, "reading the scene")
     if isinstance(js, bytes):
         js = js.decode(*enc)
     scene = json.loads(js.rstrip(" \x00"))
-    return scene if keep_omitted else _fill_vectors(scene)
+    scene = scene if keep_omitted else _fill_vectors(scene)
+    return (scene, _given_names(given)) if with_given else scene
 
 
 def _scene_output_dir(scene_json: Mapping[str, Any]) -> str | None:

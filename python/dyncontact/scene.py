@@ -13,6 +13,12 @@ the mesh's dimension (1D, 2D or 3D; docs/scenes.md), which for a mesh file with
 never written back (so the run derives it from the mesh, as the executable does), and
 :meth:`Scene.get` returns the default of the dimension, reading the mesh file if it must.
 
+A scene also keeps which keys it gives: those of the file read and those set since
+(:meth:`Scene.given`). Only those are written (:meth:`Scene.to_text`, :meth:`Scene.write`,
+and so the scene a Scene runs), so that the run's warnings about keys that change nothing
+(a scheme parameter the scheme does not use, the default initial state on a mesh file; see
+docs/scenes.md) are about what the user wrote, as for a scene file.
+
 >>> scn = Scene()
 >>> scn.set('scheme.dt', '0.001')
 >>> scn.get('scheme.dt')
@@ -83,8 +89,11 @@ class Scene:
         #: The scene file read ('' if built in code); used in messages.
         self.path = ""
         #: The core's scene JSON; None: a vector key not given.
-        self._values: dict[str, dict[str, Any]] = core.scene_parse("", "<scene>",
-                                                                   keep_omitted=True)
+        self._values: dict[str, dict[str, Any]]
+        #: The keys the scene gives, 'group.key' (the file's and those set since).
+        self._given: frozenset[str]
+        self._values, self._given = core.scene_parse("", "<scene>", keep_omitted=True,
+                                                     with_given=True)
         #: (mesh file, its mtime and size) -> its dimension, read once.
         self._mesh_dims: dict[tuple[str, int, int], int] = {}
 
@@ -96,7 +105,8 @@ class Scene:
         """
         scn = cls()
         scn.path = os.fspath(path)
-        scn._values = core.scene_dump(scn.path, keep_omitted=True)
+        scn._values, scn._given = core.scene_dump(scn.path, keep_omitted=True,
+                                                  with_given=True)
         return scn
 
     # -- access
@@ -128,10 +138,12 @@ class Scene:
         return copy.copy(value)
 
     def given(self, name: str) -> bool:
-        """Whether ``'group.key'`` has a value of its own: False only for a vector key that
-        takes the default of the mesh's dimension (it is not written by :meth:`to_text`)."""
+        """Whether the scene gives ``'group.key'``: the file read writes it or it was set
+        since, whatever its value (a key not given takes its default, and a vector key the
+        default of the mesh's dimension). Only the keys given are written
+        (:meth:`to_text`)."""
         group, key = self._check_name(name)
-        return self._values[group][key] is not None
+        return f"{group}.{key}" in self._given
 
     def dimension(self) -> int:
         """The mesh's dimension (1, 2 or 3): ``&mesh dim``, 2 for the built-in bar with
@@ -173,32 +185,41 @@ class Scene:
         current = self._values[group][key]
         text = _value_text(value, [] if current is None else current)
         replace = {(group, key): text}
-        values = core.scene_parse(self.to_text(replace), self._name(), keep_omitted=True)
+        parsed = core.scene_parse(self.to_text(replace), self._name(), keep_omitted=True,
+                                  with_given=True)
+        # every group is written (so a value cannot open one again), but not every key:
+        # a value that gives another key of its group ('1, t_end = 5') is refused
+        if parsed[1] - self._given - {f"{group}.{key}"}:
+            raise SceneError(f"{self._name()}: &{group} {key}: expected values only, not "
+                             f"another key (got '{text}')")
         if (group, key) in (("mesh", "dim"), ("mesh", "file")):
-            values = self._follow_dimension(values, replace)
-        self._values = values
+            parsed = self._follow_dimension(parsed, replace)
+        self._values, self._given = parsed
 
-    def _follow_dimension(self, values: dict[str, dict[str, Any]],
-                          replace: dict[tuple[str, str], str]) -> dict[str, dict[str, Any]]:
-        """`values` (self with `replace` applied) where the dimension changed: a vector
-        given with exactly the old dimension's default of 1 or 2 components becomes the key
-        left out (the new dimension's default), as if the scene had not spelled out the
-        default; a vector of 3 components is kept as given (never shortened)."""
+    def _follow_dimension(self, parsed: tuple[dict[str, dict[str, Any]], frozenset[str]],
+                          replace: dict[tuple[str, str], str]
+                          ) -> tuple[dict[str, dict[str, Any]], frozenset[str]]:
+        """`parsed` (self with `replace` applied: values and keys given) where the
+        dimension changed: a vector given with exactly the old dimension's default of 1 or
+        2 components becomes the key left out (the new dimension's default), as if the
+        scene had not spelled out the default; a vector of 3 components is kept as given
+        (never shortened)."""
+        values = parsed[0]
         other = self.copy()
-        other._values = values
+        other._values, other._given = parsed
         try:
             old, new = self.dimension(), other.dimension()
         except BadInputError:          # a mesh file that cannot be read: the run says so
-            return values
+            return parsed
         self._mesh_dims.update(other._mesh_dims)
         if old == new or old == 3:
-            return values
+            return parsed
         omit = {gk for gk, default in VECTOR_DEFAULTS[old].items()
                 if values[gk[0]][gk[1]] == default}
         if not omit:
-            return values
+            return parsed
         return core.scene_parse(self.to_text(replace, omit=omit), self._name(),
-                                keep_omitted=True)
+                                keep_omitted=True, with_given=True)
 
     def __getitem__(self, name: str) -> Any:
         return self.get(name)
@@ -211,6 +232,7 @@ class Scene:
         other = Scene.__new__(Scene)
         other.path = self.path
         other._values = copy.deepcopy(self._values)
+        other._given = self._given
         other._mesh_dims = dict(self._mesh_dims)
         return other
 
@@ -229,8 +251,9 @@ class Scene:
         return values
 
     def __eq__(self, other: object) -> bool:
-        """Scenes are equal when every key has the same value for the run (a vector key
-        given with its default equals the key not given)."""
+        """Scenes are equal when every key has the same value for the run (a key given
+        with its default equals the key not given, though only the first one can draw a
+        warning that it is not used)."""
         if not isinstance(other, Scene):
             return False
         if self._values == other._values:
@@ -249,16 +272,19 @@ class Scene:
         Normalizes ``contact.obstacle_normal``. A relative mesh file counts from the
         current folder here (``read`` has resolved it against the scene file's folder).
         """
-        self._values = core.scene_parse(self.to_text(), self._name(), full=True,
-                                        keep_omitted=True)
+        self._values, self._given = core.scene_parse(self.to_text(), self._name(), full=True,
+                                                     keep_omitted=True, with_given=True)
 
     # -- writing
     def to_text(self, replace: dict[tuple[str, str], str] | None = None,
                 absolute_mesh: bool = False, omit: set[tuple[str, str]] | None = None) -> str:
-        """The scene as namelist text, one key a line (`replace`: value texts to use
-        instead of the stored values; `absolute_mesh`: write the mesh file absolute;
-        `omit`: keys left out, so that they take their defaults). A vector key not given
-        is left out (it takes the default of the mesh's dimension)."""
+        """The scene as namelist text, one key a line: the keys given (:meth:`given`) and
+        those of `replace` (value texts to use instead of the stored values), but not those
+        of `omit` (left out, so that they take their defaults); `absolute_mesh`: write the
+        mesh file absolute. A key not given is left out: it takes its default (a vector
+        key, the default of the mesh's dimension), and the scene read back gives the same
+        keys. Every group is written, even with no key, so that a value cannot open a
+        group again (:meth:`set`)."""
         lines = ["! dyncontact scene (written by dyncontact.Scene)"]
         for group, keys in self._values.items():
             lines.append(f"&{group}")
@@ -270,8 +296,8 @@ class Scene:
                     value = os.path.abspath(value)
                 if replace and (group, key) in replace:
                     text = replace[(group, key)]
-                elif value is None:                        # the dimension's default
-                    continue
+                elif f"{group}.{key}" not in self._given:  # its default (a vector key:
+                    continue                               # the dimension's)
                 elif isinstance(value, str):
                     text = _quote(value)
                 else:

@@ -190,7 +190,7 @@ def box3d_tasks(base_1d: str, schemes, ns, c_implicit: float, t_end: float):
                            "output.every": 1, "output.fields_every": 0})
             box = {"mesh.dim": 3, "mesh.length": 1.0, "mesh.width": BOX3D_WIDTH,
                    "material.young": 1.0, "material.poisson": 0.0, "material.density": 1.0,
-                   "contact.theta": 1, "contact.gamma0": 10.0,
+                   "contact.gamma0": 10.0,
                    "contact.probe": f"{BOX3D_WIDTH / 2!r}, {BOX3D_WIDTH / 2!r}, 0.0",
                    "initial.kind": "compressed_bar", "initial.amplitude": 0.5, **common}
             for model, base, settings in (("3d", None, box), ("1d", base_1d, common)):

@@ -211,7 +211,9 @@ def _grid_tasks(base, schemes, grid, t_end, **task_kw):
 def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0, first=None):
     settings = dict(first or {})        # first: keys that must come first (mesh.dim)
     settings.update(s.settings)
-    settings.update({"mesh.h": h, "contact.gamma0": g0, "contact.theta": int(th),
+    if s.method == "nitsche":           # penalty and ALM have no theta (th = 1, the default)
+        settings["contact.theta"] = int(th)
+    settings.update({"mesh.h": h, "contact.gamma0": g0,
                      "scheme.dt": dt, "scheme.t_end": t_end,
                      "output.every": max(1, int(round(OUTPUT_DT / dt))),
                      "output.fields_every": 0})

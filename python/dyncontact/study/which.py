@@ -93,7 +93,9 @@ def _robust_tasks(base, grid, ratios):
                           for r in ratios):
             dt = h * r
             settings = dict(s.settings)
-            settings.update({"mesh.h": h, "contact.gamma0": g0, "contact.theta": th,
+            if s.method == "nitsche":   # penalty and ALM have no theta (th = 1, the default)
+                settings["contact.theta"] = th
+            settings.update({"mesh.h": h, "contact.gamma0": g0,
                              "scheme.dt": dt, "scheme.t_end": ROBUST_1D["t_end"],
                              "output.every": max(1, int(round(ROBUST_OUTPUT_DT / dt))),
                              "output.fields_every": 0})
