@@ -52,13 +52,14 @@ from typing import Any
 
 import numpy as np
 
+from .analyses import analyse_hertz, centre_approach, contact_time
 from .common import fmt, md_table, new_figure, save_figure, slope, write_csv, write_markdown
-from .sweep import ERROR, make_task, register_analysis, sweep
+from .sweep import ERROR, make_task, sweep
 
-__all__ = ["run_hertz", "hertz_impact", "hertz_time_factor", "hertz_speed", "contact_time",
-           "centre_approach", "hertz_spec", "BALL_POLE_GEO", "BALL_SCENE", "RADIUS", "YOUNG",
-           "POISSON", "DENSITY", "GAMMA0", "STEPS_PER_CONTACT", "T_OVER_TC", "SERIES",
-           "QUICK_SERIES", "ZONE_PATCHES"]
+__all__ = ["run_hertz", "hertz_impact", "hertz_time_factor", "hertz_speed", "hertz_spec",
+           "extrapolated", "BALL_POLE_GEO", "BALL_SCENE", "RADIUS", "YOUNG", "POISSON",
+           "DENSITY", "GAMMA0", "STEPS_PER_CONTACT", "T_OVER_TC", "SERIES", "QUICK_SERIES",
+           "ZONE_PATCHES"]
 
 #: The pole-refined ball (its &mesh length: the radius of the zone of size h).
 BALL_POLE_GEO = str(Path(__file__).resolve().parents[3] / "meshes" / "ball_pole.geo")
@@ -115,54 +116,6 @@ def hertz_speed(a_over_r: float, radius: float = RADIUS, young: float = YOUNG,
     return math.sqrt(delta ** 2.5 * 16.0 * e_star * math.sqrt(radius) / (15.0 * mass))
 
 
-def contact_time(t: np.ndarray, f_n: np.ndarray) -> tuple[float, float, float]:
-    """(t_c, lower, upper) of the first contact phase: t_c from |f_n|^(2/3) extrapolated
-    linearly to 0 at both ends (module docstring); lower/upper from the first and last rows
-    with f_n < 0 (the bracket). NaN when there is no contact or it has not ended."""
-    on = np.nonzero(f_n < 0)[0]
-    if len(on) < 2:
-        return (math.nan,) * 3
-    first = on[0]
-    gaps = np.nonzero(np.diff(on) > 1)[0]
-    last = on[gaps[0]] if len(gaps) else on[-1]
-    if last + 1 >= len(t) or first == 0:
-        return (math.nan,) * 3
-    g = np.abs(f_n) ** (2.0 / 3.0)
-
-    def zero(i: int, j: int) -> float:   # the line through rows i, j at g = 0
-        return float(t[i] - g[i] * (t[j] - t[i]) / (g[j] - g[i]))
-
-    start = zero(first, first + 1) if last > first else float(t[first - 1])
-    end = zero(last, last - 1) if last > first else float(t[last + 1])
-    start = min(max(start, float(t[first - 1])), float(t[first]))
-    end = min(max(end, float(t[last])), float(t[last + 1]))
-    return end - start, float(t[last] - t[first]), float(t[last + 1] - t[first - 1])
-
-
-def centre_approach(t: np.ndarray, f_n: np.ndarray, mass: float, speed: float) -> np.ndarray:
-    """-(z_c(t) - z_c(0)): m z_c'' = -f_n, z_c'(0) = -speed, by the trapezoidal rule twice
-    (Newmark ¼ ½'s own integration of the total momentum; module docstring)."""
-    dt = np.diff(t)
-    vz = -speed - np.concatenate([[0.0], np.cumsum(0.5 * (f_n[1:] + f_n[:-1]) * dt)]) / mass
-    return -np.concatenate([[0.0], np.cumsum(0.5 * (vz[1:] + vz[:-1]) * dt)])
-
-
-@register_analysis("hertz")
-def analyse_hertz(run_dir: str, result, speed: float) -> dict[str, Any]:  # noqa: ARG001
-    """The run's contact time, F_max, δ_max, impulse and energy drift (module docstring)."""
-    tr = result.trace
-    t = np.asarray(tr["t"], dtype=float)
-    f_n = np.asarray(tr["f_n"], dtype=float)
-    mass = 2.0 * float(tr["e_kin"][0]) / speed ** 2
-    tc, lo, hi = contact_time(t, f_n)
-    e = np.asarray(tr["e_total"], dtype=float) + np.asarray(tr["e_contact"], dtype=float)
-    return {"metrics": {
-        "mass": mass, "tc": tc, "tc_lo": lo, "tc_hi": hi, "fmax": float(-np.min(f_n)),
-        "delta_max": float(np.max(centre_approach(t, f_n, mass, speed))),
-        "impulse": float(-np.trapezoid(f_n, t) / (2.0 * mass * speed)),
-        "energy_drift": float(e[-1] / e[0] - 1.0)}}
-
-
 def hertz_spec(a_over_r: float, a_over_h: float) -> tuple[dict[str, Any], float]:
     """The scene keys (on :data:`BALL_SCENE`) of the run at a/R = a_over_r and
     h_c = a / a_over_h, and its speed."""
@@ -217,12 +170,7 @@ def _row(rec: dict[str, Any]) -> dict[str, Any]:
     row = {"a_over_R": task.tag("a_over_R"), "a_over_h": task.tag("a_over_h"),
            "h_c": task.setting("mesh.h"), "speed": speed, "dt": task.setting("scheme.dt"),
            "status": rec["status"], "steps": rec.get("steps"), "cpu_s": rec.get("cpu_s")}
-    run_summary = os.path.join(rec.get("run_dir") or "", "summary.json")
-    if os.path.isfile(run_summary):
-        from ..core import read_summary
-
-        s = read_summary(os.path.dirname(run_summary))
-        row.update(dofs=s.get("dofs"), elements=s.get("elements"))
+    row.update(dofs=m.get("dofs"), elements=m.get("elements"))
     row.update({k: m.get(k, math.nan) for k in ("mass", "tc", "tc_lo", "tc_hi", "fmax",
                                                  "delta_max", "impulse", "energy_drift")})
     if math.isfinite(row["mass"]):
@@ -267,21 +215,69 @@ def _summary(rows: list[dict[str, Any]], quick: bool) -> list[str]:
         parts = [f"{label} {fmt(slope(hs, [abs(r.get(key, math.nan)) for r in rs]), '.2f')}"
                  for key, label in ERRORS]
         lines.append(f"- a/R = {a_over_r:g}: " + ", ".join(parts))
+    ext = extrapolated(rows)
+    if ext:
+        (r1, r2) = sorted(_series(rows), reverse=True)[:2]
+        lines += ["", f"At equal a/h_c, the part first order in a/R (the finite ball: "
+                  f"docs/numerics.md) removed: e_0 = (r e({r2:g}) - e({r1:g}))/(r - 1), "
+                  f"r = {r1 / r2:g}; what is left is the mesh's error at that a/h_c:", ""]
+        lines += md_table(["a/h_c", "t_c err", "F_max err", "δ_max err",
+                           f"t_c: e({r1:g}) - e({r2:g})", f"F_max: e({r1:g}) - e({r2:g})"],
+                          [[fmt(e["a_over_h"], ".3g"), fmt(e["err_tc"], "+.2%"),
+                            fmt(e["err_fmax"], "+.2%"), fmt(e["err_delta"], "+.2%"),
+                            fmt(e["diff_tc"], "+.2%"), fmt(e["diff_fmax"], "+.2%")]
+                           for e in ext])
+        xs = [1.0 / e["a_over_h"] for e in ext]
+        lines += ["", "Fitted slopes of |e_0| against h_c/a: " + ", ".join(
+            f"{label} {fmt(slope(xs, [abs(e[key]) for e in ext]), '.2f')}"
+            for key, label in ERRORS)]
     return lines
 
 
+def extrapolated(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The errors at each a/h_c common to the two largest a/R, with their part first
+    order in a/R removed (Richardson in a/R): e_0 = (r e_2 - e_1)/(r - 1), r = a_1/a_2,
+    and the differences e_1 - e_2; [] with fewer than two series."""
+    series = _series(rows)
+    if len(series) < 2:
+        return []
+    r1, r2 = sorted(series, reverse=True)[:2]
+    by2 = {round(r["a_over_h"], 9): r for r in series[r2]}
+    ratio = r1 / r2
+    out = []
+    for row1 in series[r1]:
+        row2 = by2.get(round(row1["a_over_h"], 9))
+        if row2 is None:
+            continue
+        e = {"a_over_h": row1["a_over_h"]}
+        for key, _ in ERRORS:
+            e1, e2 = row1.get(key, math.nan), row2.get(key, math.nan)
+            e[key] = (ratio * e2 - e1) / (ratio - 1.0)
+        e["diff_tc"] = row1.get("err_tc", math.nan) - row2.get("err_tc", math.nan)
+        e["diff_fmax"] = row1.get("err_fmax", math.nan) - row2.get("err_fmax", math.nan)
+        out.append(e)
+    return out
+
+
 def _chart(rows: list[dict[str, Any]], path: str) -> str:
-    """|error| of t_c, F_max and δ_max against h_c, log-log, one line per a/R with its
-    fitted slope in the legend."""
+    """|error| of t_c, F_max and δ_max against h_c/a, log-log, one line per a/R and one
+    extrapolated to a/R -> 0 (:func:`extrapolated`), each with its fitted slope (the
+    same against h_c/a as against h_c within a series)."""
     fig, axes = new_figure(1, 3, width=4.2)
     for ax, (key, label) in zip(axes.flat, ERRORS):
         for i, (a_over_r, rs) in enumerate(_series(rows).items()):
             hs = np.array([r["h_c"] for r in rs], dtype=float)
             err = np.array([abs(r.get(key, math.nan)) for r in rs], dtype=float)
             p = slope(hs, err)
-            ax.loglog(hs, err, "o-", color=f"C{i}",
+            ax.loglog(hs / (a_over_r * RADIUS), err, "o-", color=f"C{i}",
                       label=f"a/R = {a_over_r:g} (slope {fmt(p, '.2f')})")
-        ax.set_xlabel("h_c (mesh size at the pole)")
+        ext = extrapolated(rows)
+        if ext:
+            xs = np.array([1.0 / e["a_over_h"] for e in ext])
+            err = np.array([abs(e[key]) for e in ext])
+            ax.loglog(xs, err, "k^--", label=f"a/R -> 0, extrapolated (slope "
+                      f"{fmt(slope(xs, err), '.2f')})")
+        ax.set_xlabel("h_c / a (mesh size at the pole / patch radius)")
         ax.set_title(f"|{label} / Hertz - 1|")
         ax.legend(fontsize="small")
     return save_figure(fig, path)
