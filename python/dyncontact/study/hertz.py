@@ -263,7 +263,7 @@ def _chart(rows: list[dict[str, Any]], path: str) -> str:
     """|error| of t_c, F_max and δ_max against h_c/a, log-log, one line per a/R and one
     extrapolated to a/R -> 0 (:func:`extrapolated`), each with its fitted slope (the
     same against h_c/a as against h_c within a series)."""
-    fig, axes = new_figure(1, 3, width=4.2)
+    fig, axes = new_figure(1, 3, width=4.2, height=4.0)
     for ax, (key, label) in zip(axes.flat, ERRORS):
         for i, (a_over_r, rs) in enumerate(_series(rows).items()):
             hs = np.array([r["h_c"] for r in rs], dtype=float)
@@ -279,5 +279,5 @@ def _chart(rows: list[dict[str, Any]], path: str) -> str:
                       f"{fmt(slope(xs, err), '.2f')})")
         ax.set_xlabel("h_c / a (mesh size at the pole / patch radius)")
         ax.set_title(f"|{label} / Hertz - 1|")
-        ax.legend(fontsize="small")
+        ax.legend(fontsize="x-small", loc="upper center", bbox_to_anchor=(0.5, -0.2))
     return save_figure(fig, path)
