@@ -74,7 +74,7 @@ def _parser() -> argparse.ArgumentParser:
                         "scheme on the 2D seed bar: energy drift, p_n, penetration, Newton "
                         "iterations, stability",
              "hertz": "the 3D ball refined under its pole against Hertz's impact (a/R = "
-                      "0.1 and 0.05, v << c): contact time, F_max, approach, impulse"}
+                      "0.2, 0.1, 0.05; v << c): contact time, F_max, approach, impulse"}
     for name in (*STUDIES, "methods", "hertz", "all"):
         s = sub.add_parser(name, help=helps[name], description=helps[name])
         s.add_argument("--quick", action="store_true", help="small sizes (seconds)")
