@@ -13,6 +13,8 @@
   :class:`dyncontact.core.Stepper` and evaluates the fields in memory: the relative norms
   at every step, the absolute field norms at every ``snap_every``-th step; no field is
   written to disk. The probe errors come from the trace.
+- ``hertz``: the contact time, largest force, centre-of-mass approach, impulse and energy
+  drift of a ball's impact (:mod:`.hertz`, the 3D ball against Hertz's theory).
 
 Field norms (1D)
 ----------------
@@ -42,6 +44,7 @@ likewise over every trace row: p_L2_rel = (sum_k (p_n - sigma_n)^2)^(1/2) /
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import xml.etree.ElementTree as ET
 from typing import Any
@@ -55,7 +58,8 @@ from .sweep import register_analysis
 __all__ = ["read_pvd", "read_vtu_1d", "field_errors_1d", "probe_errors_1d", "rms_in_time",
            "impacts", "contact_phases", "pn_oscillation", "FIELD_NORMS", "IMPACT_GAP",
            "PHASE_TRIM", "REL_NORMS", "p1_norms", "relative_in_time",
-           "interpolant_errors_1d", "interpolant_errors_steps", "run_exact1d", "SteppedRun"]
+           "interpolant_errors_1d", "interpolant_errors_steps", "run_exact1d", "SteppedRun",
+           "contact_time", "centre_approach", "analyse_hertz"]
 
 #: Columns of the field/stress norms: L∞(0,T) then L²(0,T) of ‖u‖_L², ‖u‖_H¹ and ‖u̇‖_L²,
 #: then ‖p_n − σ_n‖ in L²(0,T).
@@ -480,3 +484,54 @@ def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any
         idx = np.arange(0, len(t), stride)
         arrays = {"t": t[idx], "u_n": tr["u_n"][idx], "e_total": e[idx]}
     return {"metrics": m, "arrays": arrays}
+
+
+def contact_time(t: np.ndarray, f_n: np.ndarray) -> tuple[float, float, float]:
+    """(t_c, lower, upper) of the first contact phase: t_c from |f_n|^(2/3) extrapolated
+    linearly to 0 at both ends (:mod:`.hertz`'s docstring); lower/upper from the first and
+    last rows with f_n < 0 (the bracket). NaN when there is no contact or it has not
+    ended."""
+    on = np.nonzero(f_n < 0)[0]
+    if len(on) < 2:
+        return (math.nan,) * 3
+    first = on[0]
+    gaps = np.nonzero(np.diff(on) > 1)[0]
+    last = on[gaps[0]] if len(gaps) else on[-1]
+    if last + 1 >= len(t) or first == 0:
+        return (math.nan,) * 3
+    g = np.abs(f_n) ** (2.0 / 3.0)
+
+    def zero(i: int, j: int) -> float:   # the line through rows i, j at g = 0
+        return float(t[i] - g[i] * (t[j] - t[i]) / (g[j] - g[i]))
+
+    start = zero(first, first + 1) if last > first else float(t[first - 1])
+    end = zero(last, last - 1) if last > first else float(t[last + 1])
+    start = min(max(start, float(t[first - 1])), float(t[first]))
+    end = min(max(end, float(t[last])), float(t[last + 1]))
+    return end - start, float(t[last] - t[first]), float(t[last + 1] - t[first - 1])
+
+
+def centre_approach(t: np.ndarray, f_n: np.ndarray, mass: float, speed: float) -> np.ndarray:
+    """-(z_c(t) - z_c(0)): m z_c'' = -f_n, z_c'(0) = -speed, by the trapezoidal rule twice
+    (Newmark ¼ ½'s own integration of the total momentum; :mod:`.hertz`'s docstring)."""
+    dt = np.diff(t)
+    vz = -speed - np.concatenate([[0.0], np.cumsum(0.5 * (f_n[1:] + f_n[:-1]) * dt)]) / mass
+    return -np.concatenate([[0.0], np.cumsum(0.5 * (vz[1:] + vz[:-1]) * dt)])
+
+
+@register_analysis("hertz")
+def analyse_hertz(run_dir: str, result, speed: float) -> dict[str, Any]:  # noqa: ARG001
+    """The run's contact time, F_max, δ_max, impulse and energy drift
+    (:mod:`.hertz`'s docstring), its dofs and elements."""
+    tr = result.trace
+    t = np.asarray(tr["t"], dtype=float)
+    f_n = np.asarray(tr["f_n"], dtype=float)
+    mass = 2.0 * float(tr["e_kin"][0]) / speed ** 2
+    tc, lo, hi = contact_time(t, f_n)
+    e = np.asarray(tr["e_total"], dtype=float) + np.asarray(tr["e_contact"], dtype=float)
+    return {"metrics": {
+        "dofs": result.summary.get("dofs"), "elements": result.summary.get("elements"),
+        "mass": mass, "tc": tc, "tc_lo": lo, "tc_hi": hi, "fmax": float(-np.min(f_n)),
+        "delta_max": float(np.max(centre_approach(t, f_n, mass, speed))),
+        "impulse": float(-np.trapezoid(f_n, t) / (2.0 * mass * speed)),
+        "energy_drift": float(e[-1] / e[0] - 1.0)}}

@@ -1,4 +1,4 @@
-"""``python -m dyncontact study {convergence,work-precision,stability,methods,all} ...``.
+"""``python -m dyncontact study {convergence,work-precision,stability,methods,hertz,all} ...``.
 
 Exit status: 0 when every run could be done (unstable runs are results, not failures),
 1 when some runs failed to run (each is reported, the study still completes), 2 bad
@@ -41,6 +41,9 @@ SCENE_REFUSED = {
                "study keeps at the scene's own; set `&contact method` or `&scheme mass` "
                "in the scene and run `study work-precision --scene` or `study stability "
                "--scene` on each",
+    "hertz": "it drops the pole-refined ball of meshes/ball_pole.geo at the speeds where "
+             "Hertz's impact theory holds; run `study work-precision --scene FILE` on a "
+             "ball scene of one's own",
     "all": "its which-scheme table is built from the seed bar's studies; run `study "
            "work-precision --scene FILE` and `study stability --scene FILE`"}
 
@@ -69,8 +72,10 @@ def _parser() -> argparse.ArgumentParser:
                     "OUT/index.md",
              "methods": "contact method (Nitsche, penalty, augmented Lagrangian) x mass x "
                         "scheme on the 2D seed bar: energy drift, p_n, penetration, Newton "
-                        "iterations, stability"}
-    for name in (*STUDIES, "methods", "all"):
+                        "iterations, stability",
+             "hertz": "the 3D ball refined under its pole against Hertz's impact (a/R = "
+                      "0.2, 0.1, 0.05; v << c): contact time, F_max, approach, impulse"}
+    for name in (*STUDIES, "methods", "hertz", "all"):
         s = sub.add_parser(name, help=helps[name], description=helps[name])
         s.add_argument("--quick", action="store_true", help="small sizes (seconds)")
         s.add_argument("--out", required=True, metavar="DIR", type=_nonempty,
@@ -129,6 +134,10 @@ def run_one(name: str, out: str, args) -> dict[str, Any]:
         from .methods import run_methods
 
         return run_methods(out, quick=args.quick, **kw)
+    if name == "hertz":
+        from .hertz import run_hertz
+
+        return run_hertz(out, quick=args.quick, **kw)
     from .stability import run_stability
 
     return run_stability(out, quick=args.quick, **kw)
