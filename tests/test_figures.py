@@ -507,6 +507,31 @@ def test_interleaved_run_ratio_is_time_over_floors(tmp_path):
     assert (tmp_path / "run" / "summary.json").is_file()
 
 
+def test_interleaved_run_of_a_contact_free_row_gives_no_probe_warning(tmp_path):
+    """The contact-free rows have no contact boundary by design: the core's warning that
+    the probe then reports nothing is kept out of the bench's output (it came once a
+    repeat of each such row); a row with a contact boundary still gives the run's
+    other warnings."""
+    import warnings
+
+    from dyncontact.core import DyncontactWarning
+    from dyncontact.study.bench import bench_specs, interleaved_run
+
+    spec = bench_specs(quick=True, only=["seed_free_h0.05"])[0]
+    spec.settings["scheme.t_end"] = 0.1
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        rec = interleaved_run(spec, str(tmp_path / "free"), chunks=2, n_rep=5, batches=1)
+    assert rec["status"] == "ok"
+    assert [str(w.message) for w in caught if w.category is DyncontactWarning] == []
+    spec.settings["scheme.beta"] = 0.25       # unused by hht: warned, as by any run
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        interleaved_run(spec, str(tmp_path / "beta"), chunks=2, n_rep=5, batches=1)
+    said = [str(w.message) for w in caught if w.category is DyncontactWarning]
+    assert len(said) == 1 and "beta" in said[0], said
+
+
 def test_contact_steps_flags_each_step_from_its_trace_rows():
     """A step did contact work when its Newton took more than one iteration or contact
     was active at its start (the row before) or at its end (its row); row 0 is the
