@@ -493,6 +493,47 @@ def test_checkpoint_of_another_scene_is_refused(entry, stopped, tmp_path):
         dyncontact.run(other, restart=part, progress=False)
 
 
+def _move_one_interior_node(msh: Path) -> None:
+    """Move the first node of a msh 2.2 ASCII file that lies inside the bar by 1e-3 in x:
+    the same nodes, cells and groups, so the same dofs, but another mesh."""
+    lines = msh.read_text().splitlines()
+    first = lines.index("$Nodes") + 2
+    for i in range(first, lines.index("$EndNodes")):
+        tag, x, y, z = lines[i].split()
+        if 0.0 < float(x) < 0.1 and 0.0 < float(y) < 1.0:
+            lines[i] = f"{tag} {float(x) + 1e-3!r} {y} {z}"
+            break
+    else:
+        raise AssertionError("no interior node")
+    msh.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+def test_checkpoint_of_another_mesh_in_the_same_file_is_refused(entry, tmp_path):
+    """The scene names its mesh file, it does not hold it: a mesh file edited between the
+    stop and the restart (here one node moved, the same number of dofs) makes another run,
+    whose restart from the old state would be neither run. It is refused as another
+    scene's checkpoint is; with the mesh put back the restart goes on."""
+    msh = tmp_path / "m.msh"
+    made = run([sys.executable, "-m", "dyncontact", "mesh", "--h", "0.05", "--msh-version",
+                "2.2", "--out", msh], tmp_path)
+    assert made.returncode == EXIT_OK, made.stderr
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0")
+                     .replace("&mesh file = ''", "&mesh file = 'm.msh'")
+                     .replace(", h = 0.05 /", " /"))
+    assert run(exe_cmd(scene, "--out", "part"), tmp_path).returncode == EXIT_OK
+    original = msh.read_bytes()
+    _move_one_interior_node(msh)
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    res = run(cmd(scene, "--restart", "part"), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    assert f"part/{CKPT}" in res.stderr and "another scene or mesh" in res.stderr, res.stderr
+    msh.write_bytes(original)
+    res = run(cmd(scene, "--restart", "part"), tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+
+
 @pytest.mark.parametrize("entry", ["exe", "cli"])
 def test_missing_restart_folder_is_refused_naming_the_file(entry, stopped, tmp_path):
     scene, _part = stopped
