@@ -31,7 +31,7 @@ CKPT = "checkpoint.bin"
 #: Bytes of the checkpoint header (docs/scenes.md): 7 fields of 8 bytes, a 96-byte build id.
 HEADER = 7 * 8 + 96
 #: The checkpoint format version this build writes (docs/scenes.md).
-FORMAT_VERSION = 4
+FORMAT_VERSION = 5
 #: Steps between checkpoints: more than the ~280 rows of the trace's write buffer, so that
 #: a killed run sometimes leaves rows after its checkpoint in trace.csv (cut at restart).
 EVERY = 300

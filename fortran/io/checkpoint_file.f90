@@ -20,8 +20,10 @@ module checkpoint_file
     character(len=*), parameter, public :: CHECKPOINT_NAME = 'checkpoint.bin' !! file in the output folder
     character(len=8), parameter :: MAGIC = 'DYNCKPT'//achar(0)   !! first bytes of the file
     !> Layout of header and payload (2: the CG counters follow the scheme's data; 3: the
-    !> column cache's layout; 4: f_n, the normal contact force, after e_theta).
-    integer(i8), parameter :: FORMAT_VERSION = 4
+    !> column cache's layout; 4: f_n, the normal contact force, after e_theta; 5: the scene
+    !> hash continues over the mesh, so that a file of 4 is refused as of another format
+    !> rather than of another scene).
+    integer(i8), parameter :: FORMAT_VERSION = 5
     integer, parameter :: BUILD_LEN = 96                          !! bytes of the build identifier
     integer, parameter :: HEADER_BYTES = 7 * 8 + BUILD_LEN        !! header size
 
