@@ -268,6 +268,21 @@ def test_scene_stability_summary_gives_theta_only_for_nitsche(tmp_path, contact,
     assert said + ", T = 0.1" in text
 
 
+@pytest.mark.parametrize("mesh, dim", [("dim = 0, h = 0.05", 2), ("dim = 1, h = 0.05", 1),
+                                       ("file = 'MESH3D'", 3)])
+def test_scene_dimension_is_the_meshs_when_dim_is_left_at_0(tmp_path, mesh, dim):
+    """The summaries' scene line gives the mesh's dimension (UserScene.dim): with
+    ``&mesh dim`` left at 0 (the default) that is the file's, or 2 for the built-in bar;
+    the line said "0D"."""
+    from dyncontact.study.common import read_user_scene
+
+    mesh3d = os.path.join(os.path.dirname(__file__), "..", "meshes", "bar3d_getfem_h0.05.msh")
+    scene = tmp_path / "s.nml"
+    scene.write_text(f"&mesh {mesh.replace('MESH3D', os.path.abspath(mesh3d))} /\n"
+                     "&scheme name = 'newmark', dt = 0.01, t_end = 0.1 /\n")
+    assert read_user_scene(str(scene)).dim == dim
+
+
 # --------------------------------------------------------------------------- bad input
 
 @pytest.mark.parametrize("study,scene_text,message", [
