@@ -283,6 +283,22 @@ def test_scene_dimension_is_the_meshs_when_dim_is_left_at_0(tmp_path, mesh, dim)
     assert read_user_scene(str(scene)).dim == dim
 
 
+def test_sweep_runs_write_no_checkpoint_of_the_base_scenes(tmp_path):
+    """A scene of one's own may keep &output checkpoint_every for its long runs; the
+    sweep's runs of it (the studies' --scene, the reference at Δt/16) write none: nothing
+    keeps or uses them, and the fsync of each made a quick work-precision study on a scene
+    with checkpoint_every = 5 take 67 s instead of 5 s. A task that sets the key keeps it."""
+    from dyncontact.study.sweep import make_task, run_uncached
+
+    scene = _scene_1d(tmp_path / "bar.nml", t_end=0.1,
+                      **{"&output": "&output checkpoint_every = 2,"})
+    assert "checkpoint_every = 2" in open(scene).read()
+    rec = run_uncached(make_task(scene, {}), str(tmp_path / "plain"))
+    assert rec["status"] == "ok" and not (tmp_path / "plain" / "checkpoint.bin").exists()
+    rec = run_uncached(make_task(scene, {"output.checkpoint_every": 3}), str(tmp_path / "set"))
+    assert rec["status"] == "ok" and (tmp_path / "set" / "checkpoint.bin").exists()
+
+
 # --------------------------------------------------------------------------- bad input
 
 @pytest.mark.parametrize("study,scene_text,message", [
