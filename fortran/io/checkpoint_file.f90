@@ -27,7 +27,8 @@ module checkpoint_file
     integer, parameter :: BUILD_LEN = 96                          !! bytes of the build identifier
     integer, parameter :: HEADER_BYTES = 7 * 8 + BUILD_LEN        !! header size
 
-    public :: checkpoint_scene_hash, checkpoint_mesh_hash, checkpoint_build_id, checkpoint_write, checkpoint_read
+    public :: checkpoint_scene_hash, checkpoint_mesh_hash, checkpoint_build_id, checkpoint_write, &
+              checkpoint_read
 
 contains
 

@@ -66,8 +66,8 @@ contains
         if (is_folder) return
         inquire (file=trim(path), exist=exists)
         if (exists) then
-            call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder: a file'// &
-                       ' of that name is in the way')
+            call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder: '// &
+                       'a file of that name is in the way')
         else
             call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder: '// &
                        sys_error(r))
