@@ -508,20 +508,27 @@ def _move_one_interior_node(msh: Path) -> None:
     msh.write_text("\n".join(lines) + "\n")
 
 
+def _mesh_file_scene(folder: Path) -> Path:
+    """folder/s.nml on the mesh file folder/m.msh (the built-in bar's, msh 2.2 ASCII),
+    named relatively ('m.msh', from the scene's folder)."""
+    made = run([sys.executable, "-m", "dyncontact", "mesh", "--h", "0.05", "--msh-version",
+                "2.2", "--out", folder / "m.msh"], folder)
+    assert made.returncode == EXIT_OK, made.stderr
+    scene = folder / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0")
+                     .replace("&mesh file = ''", "&mesh file = 'm.msh'")
+                     .replace(", h = 0.05 /", " /"))
+    return scene
+
+
 @pytest.mark.parametrize("entry", ["exe", "cli"])
 def test_checkpoint_of_another_mesh_in_the_same_file_is_refused(entry, tmp_path):
     """The scene names its mesh file, it does not hold it: a mesh file edited between the
     stop and the restart (here one node moved, the same number of dofs) makes another run,
     whose restart from the old state would be neither run. It is refused as another
     scene's checkpoint is; with the mesh put back the restart goes on."""
+    scene = _mesh_file_scene(tmp_path)
     msh = tmp_path / "m.msh"
-    made = run([sys.executable, "-m", "dyncontact", "mesh", "--h", "0.05", "--msh-version",
-                "2.2", "--out", msh], tmp_path)
-    assert made.returncode == EXIT_OK, made.stderr
-    scene = tmp_path / "s.nml"
-    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0")
-                     .replace("&mesh file = ''", "&mesh file = 'm.msh'")
-                     .replace(", h = 0.05 /", " /"))
     assert run(exe_cmd(scene, "--out", "part"), tmp_path).returncode == EXIT_OK
     original = msh.read_bytes()
     _move_one_interior_node(msh)
@@ -532,6 +539,41 @@ def test_checkpoint_of_another_mesh_in_the_same_file_is_refused(entry, tmp_path)
     msh.write_bytes(original)
     res = run(cmd(scene, "--restart", "part"), tmp_path)
     assert res.returncode == EXIT_OK, res.stderr
+
+
+def test_scene_object_restarts_the_checkpoint_of_its_scene_file(tmp_path):
+    """dyncontact.run(Scene.read(f), restart=DIR) continues a run the executable made of
+    the scene file f, and the other way round: the Scene's copy names the mesh file by its
+    absolute path where the executable, given f relatively, has 'm.msh', which made the
+    scene's hash differ ("written by another scene") though the mesh, hashed itself, is
+    the same. The results are the run never stopped's (summary.json but for the spelling
+    of the mesh file's name)."""
+    scene = _mesh_file_scene(tmp_path)
+    rel = Path(scene.name)                   # as a user types it, in its folder
+
+    def numbers(folder: Path) -> dict:
+        s = summary_numbers(folder)
+        s["scene"]["mesh"].pop("file")
+        return s
+
+    assert run(exe_cmd(rel, "--out", "whole"), tmp_path).returncode == EXIT_OK
+    for first, then in (("exe", "api"), ("api", "exe")):
+        part = tmp_path / f"{first}_then_{then}"
+        if first == "exe":
+            assert run(exe_cmd(rel, "--out", part.name), tmp_path).returncode == EXIT_OK
+        else:
+            dyncontact.run(dyncontact.Scene.read(scene), out=part, progress=False)
+        assert checkpoint_step(part / CKPT) == 900       # 1200 steps, EVERY = 300
+        if then == "api":
+            res = dyncontact.run(dyncontact.Scene.read(scene), restart=part, progress=False)
+            assert res.status == "ok"
+        else:
+            res = run(exe_cmd(rel, "--restart", part.name), tmp_path)
+            assert res.returncode == EXIT_OK, res.stderr
+        what = f"{first} then {then}"
+        whole = tmp_path / "whole"
+        assert (part / "trace.csv").read_bytes() == (whole / "trace.csv").read_bytes(), what
+        assert numbers(part) == numbers(whole), what
 
 
 @pytest.mark.parametrize("entry", ["exe", "cli"])

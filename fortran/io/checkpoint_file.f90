@@ -33,7 +33,9 @@ module checkpoint_file
 contains
 
     !> Hash of the parsed scene's canonical text (scene_to_json) without the keys that do
-    !> not change the numbers or the trace: the output folder and checkpoint_every.
+    !> not change the numbers or the trace: the output folder, checkpoint_every and the
+    !> mesh file's name (the same file is 'm.msh' in a scene file and its absolute path in
+    !> the copy dyncontact.Scene writes; the mesh it gives counts, checkpoint_mesh_hash).
     function checkpoint_scene_hash(scn) result(h)
         type(scene_t), intent(in) :: scn    !! the scene as read
         integer(i8) :: h
@@ -41,6 +43,7 @@ contains
         copy = scn
         copy%out_dir = ''
         copy%checkpoint_every = 0
+        copy%mesh_file = ''
         h = bytes_hash(scene_to_json(copy), 0_i8)
     end function checkpoint_scene_hash
 
