@@ -980,3 +980,18 @@ def test_stepper_gives_the_runs_warnings(tmp_path):
     assert not (tmp_path / "o" / ".dyncontact.lock").exists()
     with pytest.warns(DyncontactWarning, match="obstacle_normal points into the body"):
         assert dyncontact.run(scene, out=tmp_path / "o", progress=False).ok
+
+
+# ------------------------------------------------------------------ an --out that is no folder
+
+@pytest.mark.parametrize("kind", ENTRIES)
+@pytest.mark.parametrize("out, why", [("afile", "a file of that name is in the way"),
+                                      ("afile/run", "Not a directory")])
+def test_out_that_cannot_be_a_folder_says_why(kind, out, why, tmp_path):
+    """--out naming a file, or a folder under a file: exit 4 (an output could not be
+    written) and one line that says why; it said only 'cannot create folder'."""
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.01")
+    (tmp_path / "afile").write_text("results of last week\n")
+    line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), 4)
+    assert f"{out}: cannot create folder: {why}" in line, line
+    assert (tmp_path / "afile").read_text() == "results of last week\n"

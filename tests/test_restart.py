@@ -31,7 +31,7 @@ CKPT = "checkpoint.bin"
 #: Bytes of the checkpoint header (docs/scenes.md): 7 fields of 8 bytes, a 96-byte build id.
 HEADER = 7 * 8 + 96
 #: The checkpoint format version this build writes (docs/scenes.md).
-FORMAT_VERSION = 4
+FORMAT_VERSION = 5
 #: Steps between checkpoints: more than the ~280 rows of the trace's write buffer, so that
 #: a killed run sometimes leaves rows after its checkpoint in trace.csv (cut at restart).
 EVERY = 300
@@ -509,6 +509,89 @@ def test_checkpoint_of_the_same_values_with_other_keys_given_is_taken(stopped, t
     assert res.returncode == EXIT_OK, res.stderr
     assert "&scheme gamma: not used by scheme 'hht'" in res.stderr, res.stderr
     assert (part / "trace.csv").read_bytes() == trace
+
+
+def _move_one_interior_node(msh: Path) -> None:
+    """Move the first node of a msh 2.2 ASCII file that lies inside the bar by 1e-3 in x:
+    the same nodes, cells and groups, so the same dofs, but another mesh."""
+    lines = msh.read_text().splitlines()
+    first = lines.index("$Nodes") + 2
+    for i in range(first, lines.index("$EndNodes")):
+        tag, x, y, z = lines[i].split()
+        if 0.0 < float(x) < 0.1 and 0.0 < float(y) < 1.0:
+            lines[i] = f"{tag} {float(x) + 1e-3!r} {y} {z}"
+            break
+    else:
+        raise AssertionError("no interior node")
+    msh.write_text("\n".join(lines) + "\n")
+
+
+def _mesh_file_scene(folder: Path) -> Path:
+    """folder/s.nml on the mesh file folder/m.msh (the built-in bar's, msh 2.2 ASCII),
+    named relatively ('m.msh', from the scene's folder)."""
+    made = run([sys.executable, "-m", "dyncontact", "mesh", "--h", "0.05", "--msh-version",
+                "2.2", "--out", folder / "m.msh"], folder)
+    assert made.returncode == EXIT_OK, made.stderr
+    scene = folder / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0")
+                     .replace("&mesh file = ''", "&mesh file = 'm.msh'")
+                     .replace(", h = 0.05 /", " /"))
+    return scene
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+def test_checkpoint_of_another_mesh_in_the_same_file_is_refused(entry, tmp_path):
+    """The scene names its mesh file, it does not hold it: a mesh file edited between the
+    stop and the restart (here one node moved, the same number of dofs) makes another run,
+    whose restart from the old state would be neither run. It is refused as another
+    scene's checkpoint is; with the mesh put back the restart goes on."""
+    scene = _mesh_file_scene(tmp_path)
+    msh = tmp_path / "m.msh"
+    assert run(exe_cmd(scene, "--out", "part"), tmp_path).returncode == EXIT_OK
+    original = msh.read_bytes()
+    _move_one_interior_node(msh)
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    res = run(cmd(scene, "--restart", "part"), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    assert f"part/{CKPT}" in res.stderr and "another scene or mesh" in res.stderr, res.stderr
+    msh.write_bytes(original)
+    res = run(cmd(scene, "--restart", "part"), tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+
+
+def test_scene_object_restarts_the_checkpoint_of_its_scene_file(tmp_path):
+    """dyncontact.run(Scene.read(f), restart=DIR) continues a run the executable made of
+    the scene file f, and the other way round: the Scene's copy names the mesh file by its
+    absolute path where the executable, given f relatively, has 'm.msh', which made the
+    scene's hash differ ("written by another scene") though the mesh, hashed itself, is
+    the same. The results are the run never stopped's (summary.json but for the spelling
+    of the mesh file's name)."""
+    scene = _mesh_file_scene(tmp_path)
+    rel = Path(scene.name)                   # as a user types it, in its folder
+
+    def numbers(folder: Path) -> dict:
+        s = summary_numbers(folder)
+        s["scene"]["mesh"].pop("file")
+        return s
+
+    assert run(exe_cmd(rel, "--out", "whole"), tmp_path).returncode == EXIT_OK
+    for first, then in (("exe", "api"), ("api", "exe")):
+        part = tmp_path / f"{first}_then_{then}"
+        if first == "exe":
+            assert run(exe_cmd(rel, "--out", part.name), tmp_path).returncode == EXIT_OK
+        else:
+            dyncontact.run(dyncontact.Scene.read(scene), out=part, progress=False)
+        assert checkpoint_step(part / CKPT) == 900       # 1200 steps, EVERY = 300
+        if then == "api":
+            res = dyncontact.run(dyncontact.Scene.read(scene), restart=part, progress=False)
+            assert res.status == "ok"
+        else:
+            res = run(exe_cmd(rel, "--restart", part.name), tmp_path)
+            assert res.returncode == EXIT_OK, res.stderr
+        what = f"{first} then {then}"
+        whole = tmp_path / "whole"
+        assert (part / "trace.csv").read_bytes() == (whole / "trace.csv").read_bytes(), what
+        assert numbers(part) == numbers(whole), what
 
 
 @pytest.mark.parametrize("entry", ["exe", "cli"])

@@ -294,6 +294,37 @@ def test_scene_stability_summary_gives_theta_only_for_nitsche(tmp_path, contact,
     assert said + ", T = 0.1" in text
 
 
+@pytest.mark.parametrize("mesh, dim", [("dim = 0, h = 0.05", 2), ("dim = 1, h = 0.05", 1),
+                                       ("file = 'MESH3D'", 3)])
+def test_scene_dimension_is_the_meshs_when_dim_is_left_at_0(tmp_path, mesh, dim):
+    """The summaries' scene line gives the mesh's dimension (UserScene.dim): with
+    ``&mesh dim`` left at 0 (the default) that is the file's, or 2 for the built-in bar;
+    the line said "0D"."""
+    from dyncontact.study.common import read_user_scene
+
+    mesh3d = os.path.join(os.path.dirname(__file__), "..", "meshes", "bar3d_getfem_h0.05.msh")
+    scene = tmp_path / "s.nml"
+    scene.write_text(f"&mesh {mesh.replace('MESH3D', os.path.abspath(mesh3d))} /\n"
+                     "&scheme name = 'newmark', dt = 0.01, t_end = 0.1 /\n")
+    assert read_user_scene(str(scene)).dim == dim
+
+
+def test_sweep_runs_write_no_checkpoint_of_the_base_scenes(tmp_path):
+    """A scene of one's own may keep &output checkpoint_every for its long runs; the
+    sweep's runs of it (the studies' --scene, the reference at Δt/16) write none: nothing
+    keeps or uses them, and the fsync of each made a quick work-precision study on a scene
+    with checkpoint_every = 5 take 67 s instead of 5 s. A task that sets the key keeps it."""
+    from dyncontact.study.sweep import make_task, run_uncached
+
+    scene = _scene_1d(tmp_path / "bar.nml", t_end=0.1,
+                      **{"&output": "&output checkpoint_every = 2,"})
+    assert "checkpoint_every = 2" in open(scene).read()
+    rec = run_uncached(make_task(scene, {}), str(tmp_path / "plain"))
+    assert rec["status"] == "ok" and not (tmp_path / "plain" / "checkpoint.bin").exists()
+    rec = run_uncached(make_task(scene, {"output.checkpoint_every": 3}), str(tmp_path / "set"))
+    assert rec["status"] == "ok" and (tmp_path / "set" / "checkpoint.bin").exists()
+
+
 # --------------------------------------------------------------------------- bad input
 
 @pytest.mark.parametrize("study,scene_text,message", [

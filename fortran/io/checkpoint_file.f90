@@ -6,11 +6,12 @@
 !> naming the file.
 module checkpoint_file
     use, intrinsic :: iso_fortran_env, only: compiler_version
-    use kinds, only: i8
+    use kinds, only: dp, i8
     use text, only: int_text
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
     use byte_buffer, only: byte_buffer_t
     use scene, only: scene_t, scene_to_json
+    use mesh, only: mesh_t
     use os_files, only: fd_open, fd_write, fd_sync, fd_close, file_rename, file_remove, bytes_hash
     use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
     implicit none
@@ -19,17 +20,22 @@ module checkpoint_file
     character(len=*), parameter, public :: CHECKPOINT_NAME = 'checkpoint.bin' !! file in the output folder
     character(len=8), parameter :: MAGIC = 'DYNCKPT'//achar(0)   !! first bytes of the file
     !> Layout of header and payload (2: the CG counters follow the scheme's data; 3: the
-    !> column cache's layout; 4: f_n, the normal contact force, after e_theta).
-    integer(i8), parameter :: FORMAT_VERSION = 4
+    !> column cache's layout; 4: f_n, the normal contact force, after e_theta; 5: the scene
+    !> hash continues over the mesh, so that a file of 4 is refused as of another format
+    !> rather than of another scene).
+    integer(i8), parameter :: FORMAT_VERSION = 5
     integer, parameter :: BUILD_LEN = 96                          !! bytes of the build identifier
     integer, parameter :: HEADER_BYTES = 7 * 8 + BUILD_LEN        !! header size
 
-    public :: checkpoint_scene_hash, checkpoint_build_id, checkpoint_write, checkpoint_read
+    public :: checkpoint_scene_hash, checkpoint_mesh_hash, checkpoint_build_id, checkpoint_write, &
+              checkpoint_read
 
 contains
 
     !> Hash of the parsed scene's canonical text (scene_to_json) without the keys that do
-    !> not change the numbers or the trace: the output folder and checkpoint_every.
+    !> not change the numbers or the trace: the output folder, checkpoint_every and the
+    !> mesh file's name (the same file is 'm.msh' in a scene file and its absolute path in
+    !> the copy dyncontact.Scene writes; the mesh it gives counts, checkpoint_mesh_hash).
     function checkpoint_scene_hash(scn) result(h)
         type(scene_t), intent(in) :: scn    !! the scene as read
         integer(i8) :: h
@@ -37,8 +43,35 @@ contains
         copy = scn
         copy%out_dir = ''
         copy%checkpoint_every = 0
+        copy%mesh_file = ''
         h = bytes_hash(scene_to_json(copy), 0_i8)
     end function checkpoint_scene_hash
+
+    !> The hash h0 (checkpoint_scene_hash) extended with the mesh the run built: node
+    !> coordinates, cells, tagged facets and the groups' names. A mesh file is named in the
+    !> scene, not held by it: edited between a stop and a restart (nodes moved, the same
+    !> number of dofs) it makes another run, which the scene's hash alone would not see.
+    function checkpoint_mesh_hash(h0, msh) result(h)
+        integer(i8), intent(in) :: h0       !! hash so far (the scene's)
+        type(mesh_t), intent(in) :: msh     !! the run's mesh
+        integer(i8) :: h
+        integer, parameter :: IB = storage_size(0) / 8, RB = storage_size(1.0_dp) / 8  !! bytes
+        integer :: i
+        h = bytes_hash(transfer([msh%dim, msh%n_nodes, msh%n_cells, msh%n_facets, msh%n_groups], &
+                                repeat(' ', 5 * IB)), h0)
+        if (msh%n_nodes > 0) h = bytes_hash(transfer(msh%x, repeat(' ', RB * size(msh%x))), h)
+        if (msh%n_cells > 0) then
+            h = bytes_hash(transfer(msh%cells, repeat(' ', IB * size(msh%cells))), h)
+            h = bytes_hash(transfer(msh%cell_group, repeat(' ', IB * msh%n_cells)), h)
+        end if
+        if (msh%n_facets > 0) then
+            h = bytes_hash(transfer(msh%facets, repeat(' ', IB * size(msh%facets))), h)
+            h = bytes_hash(transfer(msh%facet_group, repeat(' ', IB * msh%n_facets)), h)
+        end if
+        do i = 1, msh%n_groups
+            h = bytes_hash(trim(msh%group_name(i))//achar(0), h)
+        end do
+    end function checkpoint_mesh_hash
 
     !> The build's numerics: version, instruction set and compiler.
     pure function checkpoint_build_id() result(id)
@@ -129,8 +162,8 @@ contains
             call bad('written by another build ('//trim(h(57:))//'; this one is ' &
                      //trim(checkpoint_build_id())//'): its numbers would differ')
         else if (field(3) /= scene_hash) then
-            call bad('written by another scene (the parsed scene differs; restart with the scene'// &
-                     ' that wrote it)')
+            call bad('written by another scene or mesh (the parsed scene or the mesh differs;'// &
+                     ' restart with the scene and the mesh that wrote it)')
         else if (field(6) /= n_dofs) then
             call bad('checkpoint of '//int_text(field(6))//' dofs, the run has '//int_text(n_dofs))
         else

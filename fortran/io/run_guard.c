@@ -5,7 +5,7 @@
  *     Linux, the process's start time and the boot id, so that a pid reused after a
  *     kill -9 or a reboot is not taken for the owner);
  *   - whole-buffer writes to a file descriptor (every error reported, EINTR retried),
- *     close, rename and unlink with their errno, so that a full disk is never silent;
+ *     close, rename, unlink and mkdir with their errno, so that a full disk is never silent;
  *   - the free bytes and file slots of a folder's file system (statvfs), to refuse a run
  *     whose outputs cannot fit before it starts;
  *   - fsync, reopening a file cut back to a given size (a trace continued from a
@@ -94,6 +94,10 @@ int dc_fd_write(int fd, const char *buf, long n)
 
 /* Close a descriptor (its error, e.g. a delayed ENOSPC on a network disk, is returned). */
 int dc_fd_close(int fd) { return close(fd) == 0 ? 0 : errno; }
+
+/* Create one folder (mode 0755 before the umask): 0 or errno (EEXIST when something of
+ * that name is there, a folder or not). */
+int dc_mkdir(const char *path) { return mkdir(path, 0755) == 0 ? 0 : errno; }
 
 /* Flush a descriptor's data to the device. */
 int dc_fsync(int fd)

@@ -4,7 +4,7 @@ module trace_output
     use text, only: text_json_string => json_string
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_INTERNAL, raise
-    use os_files, only: fd_open, fd_write, fd_close, fd_reopen, fd_sync
+    use os_files, only: fd_open, fd_write, fd_close, fd_reopen, fd_sync, sys_error
     implicit none
     private
 
@@ -25,10 +25,10 @@ module trace_output
 
     interface
         !> int mkdir(const char *path, mode_t mode) from the C library.
-        function c_mkdir(path, mode) bind(C, name='mkdir') result(r)
+        !> Create one folder (mode 0755 before the umask): 0 or errno (run_guard.c).
+        function c_mkdir(path) bind(C, name='dc_mkdir') result(r)
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
-            integer(c_int), value :: mode                  !! permissions (masked by umask)
             integer(c_int) :: r
         end function c_mkdir
         !> es24.16e3 formatting in C (run_guard.c); 0 when the value is left to Fortran.
@@ -45,24 +45,33 @@ module trace_output
 
 contains
 
-    !> Create a folder and its parents (like mkdir -p); existing folders are fine.
+    !> Create a folder and its parents (like mkdir -p); existing folders are fine. On
+    !> failure the message says why: a file in the way, or the last mkdir's errno text.
     subroutine make_dirs(path, stat, errmsg)
         character(len=*), intent(in) :: path                !! folder
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: i, r, n
-        logical :: exists
+        logical :: exists, is_folder
         stat = STAT_OK
+        r = 0
         n = len_trim(path)
         do i = 2, n + 1
             if (i <= n) then
                 if (path(i:i) /= '/') cycle
             end if
-            r = c_mkdir(path(1:i - 1)//c_null_char, int(o'755', c_int))
+            r = c_mkdir(path(1:i - 1)//c_null_char)
         end do
-        inquire (file=trim(path)//'/.', exist=exists)
-        if (.not. exists) call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder')
-        if (r < 0) continue
+        inquire (file=trim(path)//'/.', exist=is_folder)
+        if (is_folder) return
+        inquire (file=trim(path), exist=exists)
+        if (exists) then
+            call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder: '// &
+                       'a file of that name is in the way')
+        else
+            call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder: '// &
+                       sys_error(r))
+        end if
     end subroutine make_dirs
 
     !> Open (create or truncate) a trace file and buffer its header; rows are kept in

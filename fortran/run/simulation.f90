@@ -34,8 +34,8 @@ module simulation
     use vtk_output, only: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
     use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get, buf_put_text, buf_get_text, buf_from
-    use checkpoint_file, only: CHECKPOINT_NAME, checkpoint_scene_hash, checkpoint_write, &
-                               checkpoint_read
+    use checkpoint_file, only: CHECKPOINT_NAME, checkpoint_scene_hash, checkpoint_mesh_hash, &
+                               checkpoint_write, checkpoint_read
     implicit none
     private
 
@@ -216,6 +216,7 @@ contains
         end if
         call model_build(msh, model_params(sim%scn), sim%mdl, stat, errmsg)
         if (stat /= STAT_OK) return
+        sim%scene_hash = checkpoint_mesh_hash(sim%scene_hash, sim%mdl%msh)
         sim%n_dofs = sim%mdl%n_dofs
         sim%n_cells = sim%mdl%msh%n_cells
         sim%n_contact = sim%mdl%ct%n_facets

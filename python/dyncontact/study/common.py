@@ -390,7 +390,8 @@ SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
 @dataclasses.dataclass(frozen=True)
 class UserScene:
     """A scene file of one's own for ``study ... --scene``: its absolute ``path`` and the
-    keys the studies derive their runs from (the scene's own values)."""
+    keys the studies derive their runs from (the scene's own values; ``dim``: the mesh's
+    dimension, 1, 2 or 3, also when the scene leaves ``&mesh dim`` at 0)."""
 
     path: str
     dim: int
@@ -416,9 +417,11 @@ def read_user_scene(path: str) -> UserScene:
     try:
         scn = Scene.read(path)
         scn.validate()
-        values = {k: scn.get(k) for k in ("mesh.dim", "mesh.h", "scheme.dt", "scheme.t_end",
+        values = {k: scn.get(k) for k in ("mesh.h", "scheme.dt", "scheme.t_end",
                                           "scheme.mass", "contact.method", "contact.gamma0",
                                           "contact.theta", "mesh.file", "scheme.name")}
+        # the mesh's dimension, not &mesh dim: 0 (the default) means the file's, or 2D
+        values["dim"] = scn.dimension()
     except Exception as exc:  # noqa: BLE001 - any refusal of the scene: one line
         raise ValueError(f"--scene {path}: {' '.join(str(exc).split())}") from None
     if not values["scheme.dt"] > 0:
@@ -427,7 +430,7 @@ def read_user_scene(path: str) -> UserScene:
                 if values["scheme.name"] == "central" else "")
         raise ValueError(f"--scene {path}: &scheme dt = {values['scheme.dt']:g}: the study "
                          f"derives its time steps from the scene's, give one > 0{hint}")
-    return UserScene(os.path.abspath(path), int(values["mesh.dim"]),
+    return UserScene(os.path.abspath(path), int(values["dim"]),
                      float(values["mesh.h"]), float(values["scheme.dt"]),
                      float(values["scheme.t_end"]), str(values["scheme.mass"]),
                      str(values["contact.method"]), float(values["contact.gamma0"]),

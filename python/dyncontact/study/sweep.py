@@ -46,7 +46,9 @@ with other runs (the pool's workers, and every Dask task) run their solves on on
 environment's ``DYNCONTACT_THREADS`` still overrides it): two threads for each of several
 runs at once would be slower than one (docs/performance.md, "Two threads in the
 triangular solve"). The key is applied after the cache key is computed, so it does not
-change the key. A scene the core refuses as bad
+change the key. Likewise a run writes no checkpoint (``&output checkpoint_every = 0``
+unless the task sets the key): nothing would use it, and the fsync of each would cost
+more than the steps between them in a run of a small scene at a fine Δt. A scene the core refuses as bad
 input *at run time* (for example Nitsche θ = 1 with γ0 below the element bound, which
 only the assembled mesh can tell) is a grid point outside the method's domain: status
 ``'refused'``, not cached, counted once per sweep on the log. The core's warnings are
@@ -302,6 +304,11 @@ def _run(task: Task, run_dir: str, key: str | None,
     scene = _scene(task)
     if threads is not None and task.setting("solver.threads") is None:
         scene.set("solver.threads", threads)
+    if task.setting("output.checkpoint_every") is None:
+        # a checkpoint costs an fsync and nothing keeps it (an interrupted run is run
+        # again whole): the base scene's checkpoint_every, set for its own long runs,
+        # would make each run of a sweep at a fine Δt pay one every few steps
+        scene.set("output.checkpoint_every", 0)
     analysis = _analysis(task.analysis)
     runner = getattr(analysis, "runner", None)
     cpu0, wall0 = time.process_time(), time.perf_counter()
