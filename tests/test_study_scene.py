@@ -270,6 +270,38 @@ def test_scene_stability_brackets_the_cfl_limits(tmp_path, monkeypatch):
                       f"{crit['pc']['dt_crit_over_h']:.3g}": "k"}, colour
 
 
+def test_scene_stability_on_a_msh_file_reports_its_own_h(tmp_path):
+    """A .msh file is meshed already: the runs do not set &mesh h (which would only draw
+    the note that it is not used), and the tables and heat maps give the mesh's own h,
+    its shortest edge, h on the built-in mesh the file was written from. They gave the
+    unused &mesh h's default, 0.05, whatever the mesh."""
+    import csv
+    import json
+    import subprocess
+    import sys
+
+    from dyncontact.study.stability import run_stability_scene
+
+    made = subprocess.run([sys.executable, "-m", "dyncontact", "mesh", "--h", "0.1",
+                           "--out", str(tmp_path / "m.msh")], capture_output=True, text=True)
+    assert made.returncode == 0, made.stderr
+    scene = tmp_path / "s.nml"
+    scene.write_text("&mesh file = 'm.msh' /\n&initial kind = 'compressed_bar' /\n"
+                     "&scheme dt = 0.005, t_end = 0.5 /\n")
+    rep = run_stability_scene(str(tmp_path / "out"), str(scene), quick=True,
+                              grid={"schemes": ("hht-0.1",), "rounds": 1},
+                              workers=1, progress=False, log=None)
+    records = [json.loads(p.read_text()) for p in (tmp_path / "out").rglob("record.json")]
+    assert len(records) == rep["n_runs"] > 0
+    assert all(r["status"] != "error" for r in records)
+    assert not [w for r in records for w in r["warnings"] if "&mesh h" in w]
+    assert rep["grid"]["h"] == (pytest.approx(0.1, rel=1e-12),)
+    rows = list(csv.DictReader(open(rep["csv"], encoding="utf-8")))
+    assert rows and all(float(r["h"]) == pytest.approx(0.1, rel=1e-12) for r in rows)
+    assert "stability_h0.1.png" in [os.path.basename(p) for p in rep["pngs"]]
+    assert "(h = its shortest edge, 0.1)" in open(rep["summary"], encoding="utf-8").read()
+
+
 @pytest.mark.parametrize("contact, said", [
     ("method = 'nitsche', theta = -1,", "nitsche contact (γ0 = 10, θ = -1)"),
     ("method = 'penalty',", "penalty contact (γ0 = 10)")])

@@ -51,7 +51,8 @@ from .sweep import ERROR, REFUSED, Task, make_task, sweep
 
 __all__ = ["run_stability", "bisect_critical", "classify", "GRIDS", "impacts",
            "BOX3D_GRIDS", "run_box3d", "critical_groups", "critical_rows", "critical_dt",
-           "RUN_COLUMNS", "CRITICAL_COLUMNS", "run_stability_scene", "SCENE_GRIDS"]
+           "RUN_COLUMNS", "CRITICAL_COLUMNS", "run_stability_scene", "SCENE_GRIDS",
+           "mesh_file_h"]
 
 #: Sweep sizes. 'dt_over_h': {'implicit': (...), 'explicit': (...)}.
 GRIDS = {
@@ -195,7 +196,9 @@ def critical_groups(recs) -> tuple[dict[tuple, dict[str, Any]], dict[tuple, tupl
 
 def _grid_tasks(base, schemes, grid, t_end, **task_kw):
     """The grid's runs: every scheme x h x gamma0 x theta x dt/h of ``grid`` (the ratios
-    of the scheme's kind), in that order; ``task_kw`` goes to :func:`_task`."""
+    of the scheme's kind), in that order; ``task_kw`` goes to :func:`_task`, and so does
+    the grid's ``set_h`` (default True)."""
+    task_kw.setdefault("set_h", grid.get("set_h", True))
     tasks = []
     for s in schemes:
         ratios = grid["dt_over_h"]["explicit" if s.explicit else "implicit"]
@@ -208,12 +211,17 @@ def _grid_tasks(base, schemes, grid, t_end, **task_kw):
     return tasks
 
 
-def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0, first=None):
+def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0, first=None, set_h=True):
+    """One run of the grid or of a bisection. ``set_h``: the run sets &mesh h = h (the
+    built-in bar, a .geo); False for a .msh file, which is meshed already: h is then the
+    mesh's own size (:func:`mesh_file_h`), reported, not set."""
     settings = dict(first or {})        # first: keys that must come first (mesh.dim)
     settings.update(s.settings)
     if s.method == "nitsche":           # penalty and ALM have no theta (th = 1, the default)
         settings["contact.theta"] = int(th)
-    settings.update({"mesh.h": h, "contact.gamma0": g0,
+    if set_h:
+        settings["mesh.h"] = h
+    settings.update({"contact.gamma0": g0,
                      "scheme.dt": dt, "scheme.t_end": t_end,
                      "output.every": max(1, int(round(OUTPUT_DT / dt))),
                      "output.fields_every": 0})
@@ -279,7 +287,8 @@ def critical_dt(base: str, schemes, grid: Mapping[str, Any], folder: str, cache:
     by_key = {s.key: s for s in schemes}
     bis = bisect_critical(
         brackets, lambda key, dt: _task(base, by_key[key[0]], key[1], key[2], key[3], dt,
-                                        t_end, "bisect", first=first),
+                                        t_end, "bisect", first=first,
+                                        set_h=grid.get("set_h", True)),
         int(grid["rounds"]), cache, workers=workers, scheduler=scheduler,
         progress=progress, log=log, desc=f"{desc} bisection")
     for key, st in bis.items():
@@ -610,10 +619,13 @@ def run_stability_scene(out: str, scene: str, *, quick: bool = False,
     if not schemes:
         raise ValueError(f"--scene {scn.path}: the core refuses every scheme of the "
                          f"study on it (first: {left_out[0][1]})")
-    # critical_dt's grid is in Δt/h: the scene's Δt multiples over its own h, γ0, θ
-    g.update(h=(scn.h,), gamma0=(scn.gamma0,), theta=(scn.theta,), t_end=scn.t_end,
-             dt_over_h={kind: tuple(f * scn.dt / scn.h for f in fs)
-                        for kind, fs in g["dt_factors"].items()})
+    # critical_dt's grid is in Δt/h: the scene's Δt multiples over its own h, γ0, θ; a
+    # .msh file's h is its own (&mesh h, which it does not use, would name every row 0.05)
+    msh = os.path.splitext(scn.mesh_file)[1].lower() == ".msh"
+    h = mesh_file_h(scn.mesh_file) if msh else scn.h
+    g.update(h=(h,), gamma0=(scn.gamma0,), theta=(scn.theta,), t_end=scn.t_end,
+             set_h=not msh, dt_over_h={kind: tuple(f * scn.dt / h for f in fs)
+                                       for kind, fs in g["dt_factors"].items()})
     crit = critical_dt(scn.path, schemes, g, out, cache, workers=workers,
                        scheduler=scheduler, progress=progress, log=log,
                        desc="stability --scene")
@@ -631,9 +643,27 @@ def run_stability_scene(out: str, scene: str, *, quick: bool = False,
     return report
 
 
+def mesh_file_h(path: str) -> float:
+    """The size h of the mesh file ``path`` for the stability tables (Δt_crit/h, the
+    heat maps): its shortest edge, which is h on every built-in mesh (the squares' and
+    cubes' sides; the diagonals are longer) and bounds the explicit schemes' steps."""
+    from ..mesh_io import read_mesh
+
+    m = read_mesh(path, check=False)
+    k = m.cells.shape[1]
+    pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
+    edges = np.concatenate([m.x[m.cells[:, i]] - m.x[m.cells[:, j]] for i, j in pairs])
+    return float(np.sqrt((edges ** 2).sum(axis=1)).min())
+
+
 def _scene_summary(report, path) -> str:
     scn, g = report["scene"], report["grid"]
-    mesh = f"mesh file {scn.mesh_file}" if scn.mesh_file else f"built-in mesh, h = {scn.h:g}"
+    if not scn.mesh_file:
+        mesh = f"built-in mesh, h = {scn.h:g}"
+    elif g.get("set_h", True):
+        mesh = f"mesh file {scn.mesh_file} meshed with h = {scn.h:g}"
+    else:
+        mesh = f"mesh file {scn.mesh_file} (h = its shortest edge, {g['h'][0]:.4g})"
     fac = g["dt_factors"]
     # penalty and the augmented Lagrangian have no θ (their tables list θ = +1)
     theta = f", θ = {scn.theta:+d}" if scn.method == "nitsche" else ""
