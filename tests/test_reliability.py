@@ -90,9 +90,16 @@ def one_line(res, code):
     return lines[0]
 
 
-def trace_rows(folder: Path) -> list[list[str]]:
-    """Rows of trace.csv (header checked); every row must be complete."""
-    lines = (folder / "trace.csv").read_text().splitlines()
+def trace_rows(folder: Path, killed: bool = False) -> list[list[str]]:
+    """Rows of trace.csv (header checked); every row must be complete. ``killed``: the
+    run was killed with SIGKILL, which can end a write inside its last row (the kernel
+    cuts it at a page boundary: docs/scenes.md); that row, not ended by a newline, is
+    left out as read_trace and --restart leave it out, and every other row must be
+    complete."""
+    text = (folder / "trace.csv").read_text()
+    lines = text.splitlines()
+    if killed and not text.endswith("\n"):
+        lines = lines[:-1]
     header = lines[0].split(",")
     assert header[-2:] == ["e_load", "f_n"]
     rows = [ln.split(",") for ln in lines[1:]]
@@ -391,7 +398,7 @@ def test_summary_kept_current_so_kill_9_leaves_last_state(tmp_path):
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["status"] == "running"
     assert summary["steps"] > 0 and summary["t_end_reached"] > 0
-    rows = trace_rows(tmp_path / "o")
+    rows = trace_rows(tmp_path / "o", killed=True)
     assert float(rows[-1][0]) >= summary["t_end_reached"] - 1e-12
 
 
