@@ -75,6 +75,7 @@ module simulation
         integer(i8) :: clock_pvd = 0               !! clock of the last fields.pvd write
         integer(i8) :: scene_hash = 0              !! hash of the parsed scene (checkpoints)
         integer(i8) :: restart_step = -1           !! the step the run restarted from (-1: none)
+        logical :: auto_dt = .false.               !! dt chosen by the scheme (&scheme dt = 0)
     end type simulation_t
 
     public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes, &
@@ -258,6 +259,7 @@ contains
         call check_alm_mass(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
+            sim%auto_dt = .true.
             ! the estimate is the linear limit at full contact: measured, it is not a safe
             ! bound with Nitsche theta = -1 or 0, nor in 1D whatever the contact (docs/
             ! numerics.md, "Central differences")
@@ -606,8 +608,16 @@ contains
         if (st /= STAT_OK) return
         if (sim%scn%fields_every > 0) allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
                                                 sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
+        ! the blow-up limit of this scene (its blowup, and its t_end in the load's energy),
+        ! from the initial state as a new run's: a raised blowup continues a run it stopped
+        call energy_limit(sim)
         call sim_checkpoint_load(sim, path, st, msg, trace_bytes)
         if (st /= STAT_OK) return
+        if (sim%step >= sim%n_steps) then    ! nothing to continue: a later t_end is needed
+            sim%finished = .true.
+            call raise(st, msg, STAT_BAD_INPUT, past_end_message(sim, path, sim%step, sim%st%t))
+            return
+        end if
         inquire (file=dir//'/trace.csv', exist=exists, size=size)
         if (.not. exists .or. size < trace_bytes) then
             call raise(st, msg, STAT_BAD_INPUT, dir//'/trace.csv: missing or shorter than the '// &
@@ -955,8 +965,8 @@ contains
     end subroutine write_checkpoint
 
     !> Save the state the next step needs, with the run's counters, to the checkpoint
-    !> file `path` (atomic: see checkpoint_write). The payload, in order: step, t,
-    !> e_total(0), the blow-up limit, the trace's bytes, Newton iterations and
+    !> file `path` (atomic: see checkpoint_write). The payload, in order: step, t, the
+    !> step dt the run takes, e_total(0), the trace's bytes, Newton iterations and
     !> factorizations so far, u, v, a, M v, B(u), K_theta u, the augmented Lagrangian's
     !> multipliers lambda (none without them), the contact state
     !> (active points, e_pen, e_theta, f_n), the last step's Newton iterations, the snapshots
@@ -976,8 +986,8 @@ contains
         end if
         call buf_put(buf, sim%step)
         call buf_put(buf, sim%st%t)
+        call buf_put(buf, sim%scn%dt)
         call buf_put(buf, sim%e0)
-        call buf_put(buf, sim%e_limit)
         call buf_put(buf, sim%trace%bytes)
         call buf_put(buf, int(sim%scheme%newton_total, i8))
         call buf_put(buf, int(sim%scheme%factorizations, i8))
@@ -1057,6 +1067,7 @@ contains
         type(byte_buffer_t) :: buf
         character(len=:), allocatable :: payload
         integer(i8) :: step, k8, tb, its, facts, act, nits, nsnap, cg(3)
+        real(dp) :: t, dt
         integer :: k
         if (.not. allocated(sim%scheme)) then
             call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
@@ -1069,11 +1080,26 @@ contains
         if (stat /= STAT_OK) return
         buf = buf_from(payload)
         call buf_get(buf, k8)
-        if (k8 /= step .or. step < 0 .or. step > sim%n_steps) buf%bad = .true.
+        call buf_get(buf, t)
+        call buf_get(buf, dt)
+        if (k8 /= step .or. step < 0 .or. buf%bad) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': corrupt checkpoint (its'// &
+                       ' contents do not fit this run); refused')
+            return
+        end if
+        ! the scene hash leaves dt out (central's dt = 0 takes a step that divides t_end):
+        ! the step taken must be the same, bit for bit
+        if (dt /= sim%scn%dt) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, other_dt_message(sim, path, dt))
+            return
+        end if
+        if (step > sim%n_steps) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, past_end_message(sim, path, step, t))
+            return
+        end if
         sim%step = k8
-        call buf_get(buf, sim%st%t)
+        sim%st%t = t
         call buf_get(buf, sim%e0)
-        call buf_get(buf, sim%e_limit)
         call buf_get(buf, tb)
         call buf_get(buf, its)
         call buf_get(buf, facts)
@@ -1124,6 +1150,41 @@ contains
         sim%finished = sim%step >= sim%n_steps
         if (present(trace_bytes)) trace_bytes = tb
     end subroutine sim_checkpoint_load
+
+    !> The refusal of a checkpoint whose run stepped with another dt: the scene hash leaves
+    !> dt out so that the step is compared, not the key (with &scheme dt = 0 central takes
+    !> the largest step <= 0.9 dt_crit that divides t_end, so another t_end may give
+    !> another step; giving the checkpoint's step as dt continues the run).
+    function other_dt_message(sim, path, dt) result(msg)
+        type(simulation_t), intent(in) :: sim               !! the run
+        character(len=*), intent(in) :: path                !! checkpoint file
+        real(dp), intent(in) :: dt                          !! the checkpoint's step
+        character(len=:), allocatable :: msg
+        msg = trim(path)//': written by a run with the step dt = '//real_text(dt)// &
+              ', this run''s is '//real_text(sim%scn%dt)
+        if (sim%auto_dt) then
+            msg = msg//' (&scheme dt = 0: central takes a step that divides &scheme t_end = '// &
+                  real_text(sim%scn%t_end)//'; &scheme dt = '//real_text(dt)// &
+                  ' continues with the checkpoint''s step)'
+        else
+            msg = msg//' (&scheme dt)'
+        end if
+        msg = msg//'; refused'
+    end function other_dt_message
+
+    !> The refusal of a checkpoint at or past the end of the run (a restart continues a
+    !> run to a later &scheme t_end; Stepper.load refuses only a state past the end).
+    function past_end_message(sim, path, step, t) result(msg)
+        type(simulation_t), intent(in) :: sim               !! the run (n_steps counted)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer(i8), intent(in) :: step                     !! the checkpoint's step
+        real(dp), intent(in) :: t                           !! its time
+        character(len=:), allocatable :: msg
+        msg = trim(path)//': the checkpoint is at t = '//real_text(t)//' (step '// &
+              int_text(step)//'), this run ends at &scheme t_end = '// &
+              real_text(sim%scn%t_end)//' (step '//int_text(sim%n_steps)// &
+              '): a restart continues to a later t_end; refused'
+    end function past_end_message
 
     !> The CG counters of the implicit schemes' J0 solver (solves, iterations over them,
     !> the most of one solve; zeros for the other schemes and without CG): summary.json's
