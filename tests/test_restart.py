@@ -2,15 +2,17 @@
 Stepper.save/load): a run killed with SIGKILL at a random step, or stopped by SIGTERM
 or Ctrl-C, and continued from its checkpoint gives the files of the run never stopped,
 byte for byte (trace.csv, the numbers of summary.json, the VTU fields), for every scheme
-family and mass kind whose carried data differ; a checkpoint that is missing, of another
-scene or build, truncated or corrupt is refused with exit 2 naming the file and leaves
-the folder as it was."""
+family and mass kind whose carried data differ; a restart with a later t_end or a raised
+blowup gives the files of the run made straight with that scene; a checkpoint that is
+missing, of another scene, step or build, at or past the restart's t_end, truncated or
+corrupt is refused with exit 2 naming the file and leaves the folder as it was."""
 
 from __future__ import annotations
 
 import json
 import os
 import random
+import re
 import shutil
 import signal
 import subprocess
@@ -25,13 +27,13 @@ import dyncontact
 from conftest import EXE
 from dyncontact.core import Stepper
 
-EXIT_OK, EXIT_BAD_INPUT, EXIT_SIGNAL = 0, 2, 130
+EXIT_OK, EXIT_BAD_INPUT, EXIT_NUMERIC, EXIT_SIGNAL = 0, 2, 3, 130
 #: The checkpoint's file name in the output folder (docs/scenes.md).
 CKPT = "checkpoint.bin"
 #: Bytes of the checkpoint header (docs/scenes.md): 7 fields of 8 bytes, a 96-byte build id.
 HEADER = 7 * 8 + 96
 #: The checkpoint format version this build writes (docs/scenes.md).
-FORMAT_VERSION = 5
+FORMAT_VERSION = 6
 #: Steps between checkpoints: more than the ~280 rows of the trace's write buffer, so that
 #: a killed run sometimes leaves rows after its checkpoint in trace.csv (cut at restart).
 EVERY = 300
@@ -412,6 +414,121 @@ def test_stepper_load_cuts_the_trace_back_as_restart_does(tmp_path):
         assert (tmp_path / "b" / name).read_bytes() == (tmp_path / "full" / name).read_bytes()
 
 
+# ------------------------------------------------------ a restart that extends the run
+
+def in_3d(text: str) -> str:
+    """The scene on the built-in 3D box (&mesh dim = 3), the probe at the bottom's centre."""
+    return text.replace("dim = 2", "dim = 3").replace("probe = 0.05, 0.0", "probe = 0.05, 0.05, 0.0")
+
+
+def restart_with(entry: str, scene: Path, folder: Path, cwd: Path) -> None:
+    """Continue the run in `folder` with `scene` through one entry point; it ends ok."""
+    if entry == "api":
+        res = dyncontact.run(scene, restart=folder, progress=False)
+        assert res.status == "ok", res.message
+    else:
+        cmd = exe_cmd if entry == "exe" else cli_cmd
+        res = run(cmd(scene, "--restart", folder), cwd)
+        assert res.returncode == EXIT_OK, res.stderr
+
+
+# (label, scene of the first part, the later t_end): an implicit scheme, pc, central with
+# dt = 0 where the step it takes for the later t_end is the same (15/926 and 30/1851 are
+# not: test_central_automatic_step_of_another_t_end below), and the 3D box. every = 7
+# divides neither part's step count, so the first part's last row is off the rows'
+# grid: the restart cuts it with the rows after the checkpoint.
+EXTEND = [
+    ("hht", scene_text("hht", extra=", alpha = -0.1", t_end="2.0"), "4.0"),
+    ("pc", scene_text("pc", dt="0.0005", t_end="1.0"), "2.0"),
+    ("central-dt0", scene_text("central", dt="0.0", t_end="10.0", every=200), "20.0"),
+    ("hht-3d", in_3d(scene_text("hht", t_end="1.0", every=100)), "2.0"),
+]
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli", "api"])
+@pytest.mark.parametrize("label,text,t_end2", EXTEND, ids=[e[0] for e in EXTEND])
+def test_restart_with_a_later_t_end_continues_the_run(entry, label, text, t_end2, tmp_path):
+    """A run to T1 that ended (its last checkpoint before T1), restarted with t_end = T2 >
+    T1 and another max_steps: the files of the run straight to T2, byte for byte (the steps
+    after the checkpoint are done again, the first part's rows after it cut)."""
+    text = text.replace("&output dir = 'out'", "&output dir = 'out', every = 7")
+    first, second = tmp_path / "t1.nml", tmp_path / "t2.nml"
+    first.write_text(text)
+    t_end1 = text.split("t_end = ")[1].split(",")[0]
+    second.write_text(text.replace(f"t_end = {t_end1}", f"t_end = {t_end2}, max_steps = 50000"))
+    assert run(exe_cmd(second, "--out", "full"), tmp_path).returncode == EXIT_OK
+    assert run(exe_cmd(first, "--out", "part"), tmp_path).returncode == EXIT_OK
+    s1 = json.loads((tmp_path / "part" / "summary.json").read_text())
+    s2 = json.loads((tmp_path / "full" / "summary.json").read_text())
+    assert s1["scene"]["scheme"]["dt"] == s2["scene"]["scheme"]["dt"]   # the same step
+    assert 2 * s1["steps"] in (s2["steps"], s2["steps"] + 1) and s1["steps"] % 7 != 0
+    step = checkpoint_step(tmp_path / "part" / CKPT)
+    assert 0 < step < s1["steps"]
+    restart_with(entry, second, tmp_path / "part", tmp_path)
+    assert_same_results(tmp_path / "part", tmp_path / "full", f"{label} to {t_end2}, {entry}")
+
+
+@pytest.mark.parametrize("entry", ["exe", "api"])
+def test_restart_with_a_raised_blowup_continues_a_run_it_stopped(entry, tmp_path):
+    """A run stopped by the blow-up test (blowup = 1.001: newmark's e_total exceeds it in a
+    contact at t = 1.34), restarted with blowup = 10: the files of the run made with
+    blowup = 10 throughout (the limit is the restarting scene's, not the checkpoint's)."""
+    low, high = tmp_path / "low.nml", tmp_path / "high.nml"
+    text = scene_text("newmark", t_end="3.0", extra=", blowup = 1.001")
+    low.write_text(text)
+    high.write_text(text.replace("blowup = 1.001", "blowup = 10.0"))
+    assert run(exe_cmd(high, "--out", "full"), tmp_path).returncode == EXIT_OK
+    res = run(exe_cmd(low, "--out", "part"), tmp_path)
+    assert res.returncode == EXIT_NUMERIC and "unstable at t = 1.3" in res.stderr, res.stderr
+    assert checkpoint_step(tmp_path / "part" / CKPT) == EVERY
+    restart_with(entry, high, tmp_path / "part", tmp_path)
+    assert_same_results(tmp_path / "part", tmp_path / "full", f"raised blowup, {entry}")
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+@pytest.mark.parametrize("t_end", ["0.5", "0.75"])
+def test_restart_at_or_before_the_checkpoint_is_refused(entry, t_end, stopped, tmp_path):
+    """The stopped run's checkpoint is at step 900, t = 2.25; a restart that ends before
+    it (0.5) or at it (0.75 x 3: nothing would be left to do) is refused in one line
+    naming the file, the checkpoint's t and &scheme t_end, and changes nothing."""
+    _scene, part = stopped
+    assert checkpoint_step(part / CKPT) == 900
+    short = tmp_path / "short.nml"
+    short.write_text(scene_text("hht", extra=", alpha = -0.1", t_end=str(3 * float(t_end))))
+    before = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    res = run(cmd(short, "--restart", part), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    assert f"{part / CKPT}" in lines[0] and "t = 2.25" in lines[0], lines[0]
+    assert "&scheme t_end" in lines[0] and "later t_end" in lines[0], lines[0]
+    assert {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()} == before
+
+
+def test_central_automatic_step_of_another_t_end_is_refused_naming_the_step(tmp_path):
+    """central with dt = 0 takes the largest step <= 0.9 dt_crit that divides t_end: for
+    t_end = 15 and 30 the steps differ (15/926 and 30/1851), so the restart to 30 is
+    refused naming the checkpoint's step; that step given as &scheme dt continues the
+    run, as the run to 30 with that dt throughout."""
+    first, second = tmp_path / "t15.nml", tmp_path / "t30.nml"
+    first.write_text(scene_text("central", dt="0.0", t_end="15.0", every=200))
+    second.write_text(scene_text("central", dt="0.0", t_end="30.0", every=200))
+    assert run(exe_cmd(first, "--out", "part"), tmp_path).returncode == EXIT_OK
+    dt = json.loads((tmp_path / "part" / "summary.json").read_text())["scene"]["scheme"]["dt"]
+    res = run(exe_cmd(second, "--restart", "part"), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    line = res.stderr.strip()
+    assert "part/checkpoint.bin" in line and "&scheme dt = 0" in line, line
+    given = line.split("; &scheme dt = ")[1].split(" ")[0]
+    assert float(given) == dt, line
+    fixed = tmp_path / "t30dt.nml"
+    fixed.write_text(scene_text("central", dt=given, t_end="30.0", every=200))
+    assert run(exe_cmd(fixed, "--out", "full"), tmp_path).returncode == EXIT_OK
+    restart_with("exe", fixed, tmp_path / "part", tmp_path)
+    assert_same_results(tmp_path / "part", tmp_path / "full", "central, the checkpoint's dt")
+
+
 # ------------------------------------------------------------------ refusals
 
 @pytest.fixture
@@ -491,6 +608,27 @@ def test_checkpoint_of_another_scene_is_refused(entry, stopped, tmp_path):
     assert f"{part / CKPT}" in res.stderr and "another scene" in res.stderr, res.stderr
     with pytest.raises(dyncontact.BadInputError, match="another scene"):
         dyncontact.run(other, restart=part, progress=False)
+
+
+@pytest.mark.parametrize("entry", ["exe", "api"])
+def test_checkpoint_of_another_dt_or_every_is_refused(entry, stopped, tmp_path):
+    """dt (the step taken, carried in the payload) and &output every (the trace's rows,
+    in the scene hash) change the run: refused, naming the step or another scene."""
+    _scene, part = stopped
+    for name, text, words in [
+            ("dt.nml", scene_text("hht", extra=", alpha = -0.1", t_end="3.0", dt="0.005"),
+             "the step dt = 2.5E-003, this run's is 5.0E-003 (&scheme dt)"),
+            ("every.nml", scene_text("hht", extra=", alpha = -0.1", t_end="3.0")
+             .replace("&output dir = 'out'", "&output dir = 'out', every = 2"),
+             "another scene")]:
+        other = tmp_path / name
+        other.write_text(text)
+        if entry == "exe":
+            res = run(exe_cmd(other, "--restart", part), tmp_path)
+            assert res.returncode == EXIT_BAD_INPUT and words in res.stderr, res.stderr
+        else:
+            with pytest.raises(dyncontact.BadInputError, match=re.escape(words)):
+                dyncontact.run(other, restart=part, progress=False)
 
 
 def test_checkpoint_of_the_same_values_with_other_keys_given_is_taken(stopped, tmp_path):
@@ -665,7 +803,7 @@ def test_checkpoint_file_holds_the_state_it_stands_for(tmp_path):
     assert np.int64(np.uint64(h)) == checksum
     ints = np.frombuffer(payload[:56], dtype="<i8")
     reals = np.frombuffer(payload[:56], dtype="<f8")
-    assert ints[0] == 123 and reals[1] == st["t"]
+    assert ints[0] == 123 and reals[1] == st["t"] and reals[2] == 0.0025   # step, t, dt
     pos = 56
     for key in ("u", "v", "a", "mv", "bu"):
         count = int(np.frombuffer(payload[pos:pos + 8], dtype="<i8")[0])
