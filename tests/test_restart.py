@@ -241,7 +241,8 @@ def kill_9_then_restart(tmp_path: Path, text: str, label: str, every: int = EVER
     proc.wait(timeout=60)
     what = f"{label}, random seed {seed}"
     step = checkpoint_step(tmp_path / "part" / CKPT)
-    assert step % every == 0 and 0 < step < n_steps, what
+    # (a run that ended before the kill keeps the checkpoint of its last step)
+    assert 0 < step <= n_steps and (step % every == 0 or step == n_steps), what
     res = run(exe_cmd(scene, "--restart", "part"), tmp_path)
     assert res.returncode == EXIT_OK, (what, res.stderr)
     assert f"restart at step {step}," in res.stdout, what
@@ -281,30 +282,38 @@ GRAVITY_SCENE = ("&mesh dim = 2, length = 1.0, width = 0.1, h = 0.05 /\n"
 @pytest.mark.parametrize("entry", ["exe", "cli"])
 def test_restart_under_gravity_keeps_e_load(entry, tmp_path):
     """The load L = rho g is the model's, not the checkpoint's: a restarted run reports
-    e_load = -u.L (and tests e_total + e_load for a blow-up) as the run never stopped."""
-    scene = tmp_path / "s.nml"
+    e_load = -u.L (and tests e_total + e_load for a blow-up, whose scale holds the load's
+    energy over t_end: the restart's t_end) as the run never stopped. The run to 2.5,
+    continued from its last step to 3.0, is the run to 3.0."""
+    scene, short = tmp_path / "s.nml", tmp_path / "short.nml"
     scene.write_text(GRAVITY_SCENE)
+    short.write_text(GRAVITY_SCENE.replace("t_end = 3.0", "t_end = 2.5"))
     cmd = exe_cmd if entry == "exe" else cli_cmd
     assert run(cmd(scene, "--out", "full"), tmp_path).returncode == EXIT_OK
     rows = np.genfromtxt(tmp_path / "full" / "trace.csv", delimiter=",", names=True)
     assert np.all(rows["e_load"][1:] != 0.0)
-    shutil.copytree(tmp_path / "full", tmp_path / "again")
+    assert run(cmd(short, "--out", "again"), tmp_path).returncode == EXIT_OK
+    assert checkpoint_step(tmp_path / "again" / CKPT) == 1000
     res = run(cmd(scene, "--restart", "again"), tmp_path)
     assert res.returncode == EXIT_OK, res.stderr
     assert_same_results(tmp_path / "again", tmp_path / "full", "restart under gravity")
 
 
 def test_restart_twice_and_from_the_last_checkpoint_of_a_finished_run(tmp_path):
-    """A checkpoint is kept after the run ends: a restart from it redoes the tail and
-    writes the same files again; so does a restart of that restarted run."""
+    """A run that ends keeps the checkpoint of its last step: a restart from it (the same
+    t_end) ends at once and leaves the same files, the last row included (2000 steps,
+    every = 7: a row off the rows' grid, which the checkpoint does not count and the
+    restart writes again); so does a restart of that restarted run."""
     scene = tmp_path / "s.nml"
-    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="5.0"))
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="5.0")
+                     .replace("&output dir = 'out'", "&output dir = 'out', every = 7"))
     assert run(exe_cmd(scene, "--out", "full"), tmp_path).returncode == EXIT_OK
+    assert checkpoint_step(tmp_path / "full" / CKPT) == 2000
     shutil.copytree(tmp_path / "full", tmp_path / "again")
     for _ in range(2):
         res = run(exe_cmd(scene, "--restart", "again"), tmp_path)
         assert res.returncode == EXIT_OK, res.stderr
-        assert "restart at step 1800," in res.stdout    # the last multiple of 300 < 2000
+        assert "restart at step 2000," in res.stdout
         assert_same_results(tmp_path / "again", tmp_path / "full", "restart of a finished run")
 
 
@@ -414,6 +423,32 @@ def test_stepper_load_cuts_the_trace_back_as_restart_does(tmp_path):
         assert (tmp_path / "b" / name).read_bytes() == (tmp_path / "full" / name).read_bytes()
 
 
+def test_stepper_save_at_the_last_step_leaves_out_the_last_row_off_the_grid(tmp_path):
+    """800 steps with every = 7: the last row is for the end only. A state saved at the
+    last step counts the rows before it (a longer run continues from it with its own
+    rows): loaded into the same run it cuts that row and writes it again, so the trace
+    is the run's; loaded into the run to a later t_end (through --restart), the files
+    are those of that run."""
+    text = scene_text("hht", extra=", alpha = -0.1", t_end="2.0", every=0) \
+        .replace("&output dir = 'out'", "&output dir = 'out', every = 7")
+    scene, longer = tmp_path / "s.nml", tmp_path / "l.nml"
+    scene.write_text(text)
+    longer.write_text(text.replace("t_end = 2.0", "t_end = 2.5"))
+    assert run(exe_cmd(scene, "--out", "whole"), tmp_path).returncode == EXIT_OK
+    assert run(exe_cmd(longer, "--out", "full"), tmp_path).returncode == EXIT_OK
+    with Stepper(scene, tmp_path / "o") as s:
+        s.advance(10_000)
+        s.save(tmp_path / "o" / CKPT)
+        trace = (tmp_path / "o" / "trace.csv").read_bytes()
+        assert trace == (tmp_path / "whole" / "trace.csv").read_bytes()
+        assert s.load(tmp_path / "o" / CKPT) == 800
+    assert (tmp_path / "o" / "trace.csv").read_bytes() == trace     # the same last row, once
+    assert checkpoint_step(tmp_path / "o" / CKPT) == 800
+    assert run(exe_cmd(longer, "--restart", "o"), tmp_path).returncode == EXIT_OK
+    assert (tmp_path / "o" / "trace.csv").read_bytes() == \
+        (tmp_path / "full" / "trace.csv").read_bytes()
+
+
 # ------------------------------------------------------ a restart that extends the run
 
 def in_3d(text: str) -> str:
@@ -448,9 +483,9 @@ EXTEND = [
 @pytest.mark.parametrize("entry", ["exe", "cli", "api"])
 @pytest.mark.parametrize("label,text,t_end2", EXTEND, ids=[e[0] for e in EXTEND])
 def test_restart_with_a_later_t_end_continues_the_run(entry, label, text, t_end2, tmp_path):
-    """A run to T1 that ended (its last checkpoint before T1), restarted with t_end = T2 >
-    T1 and another max_steps: the files of the run straight to T2, byte for byte (the steps
-    after the checkpoint are done again, the first part's rows after it cut)."""
+    """A run to T1 that ended (with the checkpoint of its last step), restarted with t_end =
+    T2 > T1 and another max_steps: the files of the run straight to T2, byte for byte (the
+    first part's last row, off the rows' grid, is not counted by its checkpoint: cut)."""
     text = text.replace("&output dir = 'out'", "&output dir = 'out', every = 7")
     first, second = tmp_path / "t1.nml", tmp_path / "t2.nml"
     first.write_text(text)
@@ -462,8 +497,7 @@ def test_restart_with_a_later_t_end_continues_the_run(entry, label, text, t_end2
     s2 = json.loads((tmp_path / "full" / "summary.json").read_text())
     assert s1["scene"]["scheme"]["dt"] == s2["scene"]["scheme"]["dt"]   # the same step
     assert 2 * s1["steps"] in (s2["steps"], s2["steps"] + 1) and s1["steps"] % 7 != 0
-    step = checkpoint_step(tmp_path / "part" / CKPT)
-    assert 0 < step < s1["steps"]
+    assert checkpoint_step(tmp_path / "part" / CKPT) == s1["steps"]
     restart_with(entry, second, tmp_path / "part", tmp_path)
     assert_same_results(tmp_path / "part", tmp_path / "full", f"{label} to {t_end2}, {entry}")
 
@@ -486,22 +520,22 @@ def test_restart_with_a_raised_blowup_continues_a_run_it_stopped(entry, tmp_path
 
 
 @pytest.mark.parametrize("entry", ["exe", "cli"])
-@pytest.mark.parametrize("t_end", ["0.5", "0.75"])
-def test_restart_at_or_before_the_checkpoint_is_refused(entry, t_end, stopped, tmp_path):
-    """The stopped run's checkpoint is at step 900, t = 2.25; a restart that ends before
-    it (0.5) or at it (0.75 x 3: nothing would be left to do) is refused in one line
-    naming the file, the checkpoint's t and &scheme t_end, and changes nothing."""
+@pytest.mark.parametrize("t_end", ["1.5", "2.9975"])
+def test_restart_before_the_checkpoint_is_refused(entry, t_end, stopped, tmp_path):
+    """The finished run's checkpoint is at its last step, 1200, t = 3; a restart that
+    ends before it (at 1.5, or one step before) is refused in one line naming the file,
+    the checkpoint's t and &scheme t_end, and changes nothing (a run does not go back)."""
     _scene, part = stopped
-    assert checkpoint_step(part / CKPT) == 900
+    assert checkpoint_step(part / CKPT) == 1200
     short = tmp_path / "short.nml"
-    short.write_text(scene_text("hht", extra=", alpha = -0.1", t_end=str(3 * float(t_end))))
+    short.write_text(scene_text("hht", extra=", alpha = -0.1", t_end=t_end))
     before = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
     cmd = exe_cmd if entry == "exe" else cli_cmd
     res = run(cmd(short, "--restart", part), tmp_path)
     assert res.returncode == EXIT_BAD_INPUT, res.stderr
     lines = res.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
-    assert f"{part / CKPT}" in lines[0] and "t = 2.25" in lines[0], lines[0]
+    assert f"{part / CKPT}" in lines[0] and "t = 3.0" in lines[0], lines[0]
     assert "&scheme t_end" in lines[0] and "later t_end" in lines[0], lines[0]
     assert {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()} == before
 
@@ -533,7 +567,7 @@ def test_central_automatic_step_of_another_t_end_is_refused_naming_the_step(tmp_
 
 @pytest.fixture
 def stopped(tmp_path):
-    """A run stopped after its checkpoints (the folder `part`) and its scene."""
+    """A run that ended (the folder `part`, its checkpoint at its last step) and its scene."""
     scene = tmp_path / "s.nml"
     scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0"))
     assert run(exe_cmd(scene, "--out", "part"), tmp_path).returncode == EXIT_OK
@@ -715,10 +749,17 @@ def test_scene_object_restarts_the_checkpoint_of_its_scene_file(tmp_path):
     assert run(exe_cmd(rel, "--out", "whole"), tmp_path).returncode == EXIT_OK
     for first, then in (("exe", "api"), ("api", "exe")):
         part = tmp_path / f"{first}_then_{then}"
+        # the first part ends at t = 2.25 (its checkpoint at its last step, 900), so that
+        # the restart with the whole scene does steps of its own
         if first == "exe":
-            assert run(exe_cmd(rel, "--out", part.name), tmp_path).returncode == EXIT_OK
+            (tmp_path / "short.nml").write_text(scene.read_text().replace("t_end = 3.0",
+                                                                          "t_end = 2.25"))
+            res = run(exe_cmd(Path("short.nml"), "--out", part.name), tmp_path)
+            assert res.returncode == EXIT_OK, res.stderr
         else:
-            dyncontact.run(dyncontact.Scene.read(scene), out=part, progress=False)
+            short_scene = dyncontact.Scene.read(scene)
+            short_scene.set("scheme.t_end", 2.25)
+            dyncontact.run(short_scene, out=part, progress=False)
         assert checkpoint_step(part / CKPT) == 900       # 1200 steps, EVERY = 300
         if then == "api":
             res = dyncontact.run(dyncontact.Scene.read(scene), restart=part, progress=False)

@@ -76,6 +76,11 @@ module simulation
         integer(i8) :: scene_hash = 0              !! hash of the parsed scene (checkpoints)
         integer(i8) :: restart_step = -1           !! the step the run restarted from (-1: none)
         logical :: auto_dt = .false.               !! dt chosen by the scheme (&scheme dt = 0)
+        !> The trace's bytes before its last row when that row is off the rows' grid (the
+        !> step count not a multiple of &output every: a row for the end only); -1 else.
+        !> A checkpoint at the last step counts only these (sim_checkpoint_save), so that
+        !> a longer run continues from it with its own rows; end_row writes the row again.
+        integer(i8) :: end_bytes = -1
     end type simulation_t
 
     public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes, &
@@ -613,11 +618,6 @@ contains
         call energy_limit(sim)
         call sim_checkpoint_load(sim, path, st, msg, trace_bytes)
         if (st /= STAT_OK) return
-        if (sim%step >= sim%n_steps) then    ! nothing to continue: a later t_end is needed
-            sim%finished = .true.
-            call raise(st, msg, STAT_BAD_INPUT, past_end_message(sim, path, sim%step, sim%st%t))
-            return
-        end if
         inquire (file=dir//'/trace.csv', exist=exists, size=size)
         if (.not. exists .or. size < trace_bytes) then
             call raise(st, msg, STAT_BAD_INPUT, dir//'/trace.csv: missing or shorter than the '// &
@@ -627,6 +627,8 @@ contains
         call trace_reopen(dir//'/trace.csv', trace_bytes, sim%trace, st, msg)
         if (st /= STAT_OK) return
         sim%outputs = .true.
+        call end_row(sim, st, msg)
+        if (st /= STAT_OK) return
         sim%restart_step = sim%step
         sim%status = 'running'
         call write_summary(sim, st, msg)
@@ -726,7 +728,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: e_total, e_test
         logical :: row
-        integer(i8) :: clock
+        integer(i8) :: clock, before
         integer :: sig
         character(len=256) :: msg
         character(len=512) :: wmsg
@@ -767,7 +769,10 @@ contains
             sim%step = sim%step + 1
             steps_done = steps_done + 1
             sim%st%t = real(sim%step, dp) * sim%scn%dt
+            before = sim%trace%bytes + int(sim%trace%n, i8)   ! the rows before this step's
             row = mod(sim%step, int(sim%scn%every, i8)) == 0 .or. sim%step == sim%n_steps
+            if (sim%step == sim%n_steps .and. mod(sim%step, int(sim%scn%every, i8)) /= 0) &
+                sim%end_bytes = before
             call record(sim, e_total, row, stat, wmsg)
             if (stat /= STAT_OK) then
                 call write_failed(wmsg)
@@ -797,13 +802,13 @@ contains
                 end if
             end if
             if (sim%step >= sim%n_steps) sim%finished = .true.
-            if (sim%scn%checkpoint_every > 0 .and. .not. sim%finished) then
-                if (mod(sim%step, int(sim%scn%checkpoint_every, i8)) == 0) then
+            if (sim%scn%checkpoint_every > 0) then
+                ! and at the run's end, from which a restart with a later t_end continues
+                if (sim%finished .or. mod(sim%step, int(sim%scn%checkpoint_every, i8)) == 0) &
                     call write_checkpoint(sim, stat, wmsg)
-                    if (stat /= STAT_OK) then
-                        call write_failed(wmsg)
-                        return
-                    end if
+                if (stat /= STAT_OK) then
+                    call write_failed(wmsg)
+                    return
                 end if
             end if
             call system_clock(clock)
@@ -988,7 +993,12 @@ contains
         call buf_put(buf, sim%st%t)
         call buf_put(buf, sim%scn%dt)
         call buf_put(buf, sim%e0)
-        call buf_put(buf, sim%trace%bytes)
+        ! (at the last step, without a last row off the rows' grid: end_bytes)
+        if (sim%step == sim%n_steps .and. sim%end_bytes >= 0) then
+            call buf_put(buf, sim%end_bytes)
+        else
+            call buf_put(buf, sim%trace%bytes)
+        end if
         call buf_put(buf, int(sim%scheme%newton_total, i8))
         call buf_put(buf, int(sim%scheme%factorizations, i8))
         call buf_put(buf, sim%st%u)
@@ -1051,9 +1061,28 @@ contains
         trace_path = sim%trace%path
         call trace_close(sim%trace, stat, errmsg)
         if (stat == STAT_OK) call trace_reopen(trace_path, trace_bytes, sim%trace, stat, errmsg)
+        if (stat == STAT_OK) call end_row(sim, stat, errmsg)
         if (stat /= STAT_OK) return
         if (sim%scn%fields_every > 0) call write_pvd(sim, stat, errmsg)
     end subroutine sim_load
+
+    !> The last row of a run continued from a checkpoint at its last step (the trace just
+    !> cut back to the checkpoint's rows): a step count that is not a multiple of &output
+    !> every has a row at the end that the checkpoint's rows leave out (a checkpoint at
+    !> the last step does not count it, so that a longer run continues from there:
+    !> end_bytes); written again from the loaded state, as the run wrote it.
+    subroutine end_row(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (state loaded, trace open)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: e_total
+        stat = STAT_OK
+        sim%end_bytes = -1
+        if (sim%step /= sim%n_steps .or. sim%step == 0) return
+        if (mod(sim%step, int(sim%scn%every, i8)) == 0) return
+        sim%end_bytes = sim%trace%bytes + int(sim%trace%n, i8)
+        call record(sim, e_total, stat=stat, errmsg=errmsg)
+    end subroutine end_row
 
     !> Load the state and counters saved by sim_checkpoint_save into an open run of the
     !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
@@ -1172,8 +1201,8 @@ contains
         msg = msg//'; refused'
     end function other_dt_message
 
-    !> The refusal of a checkpoint at or past the end of the run (a restart continues a
-    !> run to a later &scheme t_end; Stepper.load refuses only a state past the end).
+    !> The refusal of a checkpoint past the end of the run (a restart continues a run to
+    !> the same or a later &scheme t_end, never back).
     function past_end_message(sim, path, step, t) result(msg)
         type(simulation_t), intent(in) :: sim               !! the run (n_steps counted)
         character(len=*), intent(in) :: path                !! checkpoint file
@@ -1183,7 +1212,7 @@ contains
         msg = trim(path)//': the checkpoint is at t = '//real_text(t)//' (step '// &
               int_text(step)//'), this run ends at &scheme t_end = '// &
               real_text(sim%scn%t_end)//' (step '//int_text(sim%n_steps)// &
-              '): a restart continues to a later t_end; refused'
+              '): a restart continues to the same or a later t_end; refused'
     end function past_end_message
 
     !> The CG counters of the implicit schemes' J0 solver (solves, iterations over them,

@@ -372,7 +372,7 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     BadInputError
         bad scene, mesh or argument (Fortran stat 2); with ``restart``, a missing,
         foreign (another scene, build or step dt), truncated or corrupt checkpoint, or one
-        at or past the scene's t_end.
+        past the scene's t_end.
     DyncontactError
         internal failure (stat 4).
     """
