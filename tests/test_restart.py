@@ -469,11 +469,12 @@ def restart_with(entry: str, scene: Path, folder: Path, cwd: Path) -> None:
 
 # (label, scene of the first part, the later t_end): an implicit scheme, pc, central with
 # dt = 0 where the step it takes for the later t_end is the same (15/926 and 30/1851 are
-# not: test_central_automatic_step_of_another_t_end below), and the 3D box. every = 7
+# not: test_central_automatic_step_of_another_t_end below), and the 3D box; hht with field
+# snapshots (fields.pvd continued, listing the first part's). every = 7
 # divides neither part's step count, so the first part's last row is off the rows'
 # grid: the restart cuts it with the rows after the checkpoint.
 EXTEND = [
-    ("hht", scene_text("hht", extra=", alpha = -0.1", t_end="2.0"), "4.0"),
+    ("hht", scene_text("hht", extra=", alpha = -0.1", t_end="2.0", fields=100), "4.0"),
     ("pc", scene_text("pc", dt="0.0005", t_end="1.0"), "2.0"),
     ("central-dt0", scene_text("central", dt="0.0", t_end="10.0", every=200), "20.0"),
     ("hht-3d", in_3d(scene_text("hht", t_end="1.0", every=100)), "2.0"),
@@ -561,6 +562,37 @@ def test_central_automatic_step_of_another_t_end_is_refused_naming_the_step(tmp_
     assert run(exe_cmd(fixed, "--out", "full"), tmp_path).returncode == EXIT_OK
     restart_with("exe", fixed, tmp_path / "part", tmp_path)
     assert_same_results(tmp_path / "part", tmp_path / "full", "central, the checkpoint's dt")
+
+
+def test_restart_to_a_later_t_end_checks_the_space_its_snapshots_need(tmp_path):
+    """The free-space check of a run with field snapshots counts, on a restart, what the
+    rest of the run to the restart's t_end will write: on a 2 MB tmpfs, a run to t = 0.5
+    (21 snapshots) restarted to t = 50 (1 980 more) is refused naming &output fields_every
+    and changes nothing; restarted to t = 1 it runs."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    res = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(disk)],
+                         capture_output=True, text=True)
+    if res.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
+    try:
+        text = scene_text("hht", extra=", alpha = -0.1", t_end="0.5", fields=10, every=100)
+        scene, far, near = tmp_path / "s.nml", tmp_path / "far.nml", tmp_path / "near.nml"
+        scene.write_text(text)
+        far.write_text(text.replace("t_end = 0.5", "t_end = 50.0"))
+        near.write_text(text.replace("t_end = 0.5", "t_end = 1.0"))
+        part = disk / "part"
+        assert run(exe_cmd(scene, "--out", part), tmp_path).returncode == EXIT_OK
+        before = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
+        res = run(exe_cmd(far, "--restart", part), tmp_path)
+        assert res.returncode == EXIT_BAD_INPUT, res.stderr
+        assert "&output fields_every" in res.stderr and "1980 snapshots" in res.stderr, \
+            res.stderr
+        assert {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()} == before
+        res = run(exe_cmd(near, "--restart", part), tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], capture_output=True)
 
 
 # ------------------------------------------------------------------ refusals

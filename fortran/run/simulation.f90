@@ -538,7 +538,8 @@ contains
     !> free bytes, the snapshot files against the free file slots. The key named is
     !> the one that thins the larger part. Large field output is announced as a large
     !> trace is. Without fields nothing is refused here: a trace that outgrows the disk
-    !> stops the run as a failed write (exit 4) with whole rows kept.
+    !> stops the run as a failed write (exit 4) with whole rows kept. A restart (at step
+    !> sim%step > 0) counts what it has still to write, to its own t_end.
     subroutine check_space(sim, dir, st, msg)
         type(simulation_t), intent(inout) :: sim            !! the run (model built)
         character(len=*), intent(in) :: dir                 !! output folder
@@ -550,9 +551,14 @@ contains
         st = STAT_OK
         if (sim%scn%fields_every <= 0) return
         n_snap = sim%n_steps / sim%scn%fields_every + 1
+        trace = sim_trace_bytes(sim)
+        if (sim%step > 0) then
+            n_snap = n_snap - (sim%step / sim%scn%fields_every + 1)
+            trace = (sim%n_steps / sim%scn%every - sim%step / sim%scn%every + 1) * &
+                    int(TRACE_ROW_BYTES, i8)
+        end if
         snap = vtk_vtu_bytes(sim%mdl%dim, sim%mdl%msh%n_nodes, sim%mdl%msh%cells)
         fields = n_snap * (snap + 100_i8)    ! and its line in fields.pvd
-        trace = sim_trace_bytes(sim)
         call free_space(dir, free_b, free_f)
         key = merge('fields_every', 'every       ', fields > trace)
         what = 'the run would write about '//bytes_text(trace + fields)//' (the trace '// &
@@ -624,6 +630,8 @@ contains
                        int_text(trace_bytes)//' bytes written up to the checkpoint; cannot continue it')
             return
         end if
+        call check_space(sim, dir, st, msg)     ! the rest of the run, to this t_end
+        if (st /= STAT_OK) return
         call trace_reopen(dir//'/trace.csv', trace_bytes, sim%trace, st, msg)
         if (st /= STAT_OK) return
         sim%outputs = .true.
