@@ -2,15 +2,17 @@
 Stepper.save/load): a run killed with SIGKILL at a random step, or stopped by SIGTERM
 or Ctrl-C, and continued from its checkpoint gives the files of the run never stopped,
 byte for byte (trace.csv, the numbers of summary.json, the VTU fields), for every scheme
-family and mass kind whose carried data differ; a checkpoint that is missing, of another
-scene or build, truncated or corrupt is refused with exit 2 naming the file and leaves
-the folder as it was."""
+family and mass kind whose carried data differ; a restart with a later t_end or a raised
+blowup gives the files of the run made straight with that scene; a checkpoint that is
+missing, of another scene, step or build, at or past the restart's t_end, truncated or
+corrupt is refused with exit 2 naming the file and leaves the folder as it was."""
 
 from __future__ import annotations
 
 import json
 import os
 import random
+import re
 import shutil
 import signal
 import subprocess
@@ -25,13 +27,13 @@ import dyncontact
 from conftest import EXE
 from dyncontact.core import Stepper
 
-EXIT_OK, EXIT_BAD_INPUT, EXIT_SIGNAL = 0, 2, 130
+EXIT_OK, EXIT_BAD_INPUT, EXIT_NUMERIC, EXIT_SIGNAL = 0, 2, 3, 130
 #: The checkpoint's file name in the output folder (docs/scenes.md).
 CKPT = "checkpoint.bin"
 #: Bytes of the checkpoint header (docs/scenes.md): 7 fields of 8 bytes, a 96-byte build id.
 HEADER = 7 * 8 + 96
 #: The checkpoint format version this build writes (docs/scenes.md).
-FORMAT_VERSION = 5
+FORMAT_VERSION = 6
 #: Steps between checkpoints: more than the ~280 rows of the trace's write buffer, so that
 #: a killed run sometimes leaves rows after its checkpoint in trace.csv (cut at restart).
 EVERY = 300
@@ -239,7 +241,8 @@ def kill_9_then_restart(tmp_path: Path, text: str, label: str, every: int = EVER
     proc.wait(timeout=60)
     what = f"{label}, random seed {seed}"
     step = checkpoint_step(tmp_path / "part" / CKPT)
-    assert step % every == 0 and 0 < step < n_steps, what
+    # (a run that ended before the kill keeps the checkpoint of its last step)
+    assert 0 < step <= n_steps and (step % every == 0 or step == n_steps), what
     res = run(exe_cmd(scene, "--restart", "part"), tmp_path)
     assert res.returncode == EXIT_OK, (what, res.stderr)
     assert f"restart at step {step}," in res.stdout, what
@@ -279,30 +282,38 @@ GRAVITY_SCENE = ("&mesh dim = 2, length = 1.0, width = 0.1, h = 0.05 /\n"
 @pytest.mark.parametrize("entry", ["exe", "cli"])
 def test_restart_under_gravity_keeps_e_load(entry, tmp_path):
     """The load L = rho g is the model's, not the checkpoint's: a restarted run reports
-    e_load = -u.L (and tests e_total + e_load for a blow-up) as the run never stopped."""
-    scene = tmp_path / "s.nml"
+    e_load = -u.L (and tests e_total + e_load for a blow-up, whose scale holds the load's
+    energy over t_end: the restart's t_end) as the run never stopped. The run to 2.5,
+    continued from its last step to 3.0, is the run to 3.0."""
+    scene, short = tmp_path / "s.nml", tmp_path / "short.nml"
     scene.write_text(GRAVITY_SCENE)
+    short.write_text(GRAVITY_SCENE.replace("t_end = 3.0", "t_end = 2.5"))
     cmd = exe_cmd if entry == "exe" else cli_cmd
     assert run(cmd(scene, "--out", "full"), tmp_path).returncode == EXIT_OK
     rows = np.genfromtxt(tmp_path / "full" / "trace.csv", delimiter=",", names=True)
     assert np.all(rows["e_load"][1:] != 0.0)
-    shutil.copytree(tmp_path / "full", tmp_path / "again")
+    assert run(cmd(short, "--out", "again"), tmp_path).returncode == EXIT_OK
+    assert checkpoint_step(tmp_path / "again" / CKPT) == 1000
     res = run(cmd(scene, "--restart", "again"), tmp_path)
     assert res.returncode == EXIT_OK, res.stderr
     assert_same_results(tmp_path / "again", tmp_path / "full", "restart under gravity")
 
 
 def test_restart_twice_and_from_the_last_checkpoint_of_a_finished_run(tmp_path):
-    """A checkpoint is kept after the run ends: a restart from it redoes the tail and
-    writes the same files again; so does a restart of that restarted run."""
+    """A run that ends keeps the checkpoint of its last step: a restart from it (the same
+    t_end) ends at once and leaves the same files, the last row included (2000 steps,
+    every = 7: a row off the rows' grid, which the checkpoint does not count and the
+    restart writes again); so does a restart of that restarted run."""
     scene = tmp_path / "s.nml"
-    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="5.0"))
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="5.0")
+                     .replace("&output dir = 'out'", "&output dir = 'out', every = 7"))
     assert run(exe_cmd(scene, "--out", "full"), tmp_path).returncode == EXIT_OK
+    assert checkpoint_step(tmp_path / "full" / CKPT) == 2000
     shutil.copytree(tmp_path / "full", tmp_path / "again")
     for _ in range(2):
         res = run(exe_cmd(scene, "--restart", "again"), tmp_path)
         assert res.returncode == EXIT_OK, res.stderr
-        assert "restart at step 1800," in res.stdout    # the last multiple of 300 < 2000
+        assert "restart at step 2000," in res.stdout
         assert_same_results(tmp_path / "again", tmp_path / "full", "restart of a finished run")
 
 
@@ -412,11 +423,183 @@ def test_stepper_load_cuts_the_trace_back_as_restart_does(tmp_path):
         assert (tmp_path / "b" / name).read_bytes() == (tmp_path / "full" / name).read_bytes()
 
 
+def test_stepper_save_at_the_last_step_leaves_out_the_last_row_off_the_grid(tmp_path):
+    """800 steps with every = 7: the last row is for the end only. A state saved at the
+    last step counts the rows before it (a longer run continues from it with its own
+    rows): loaded into the same run it cuts that row and writes it again, so the trace
+    is the run's; loaded into the run to a later t_end (through --restart), the files
+    are those of that run."""
+    text = scene_text("hht", extra=", alpha = -0.1", t_end="2.0", every=0) \
+        .replace("&output dir = 'out'", "&output dir = 'out', every = 7")
+    scene, longer = tmp_path / "s.nml", tmp_path / "l.nml"
+    scene.write_text(text)
+    longer.write_text(text.replace("t_end = 2.0", "t_end = 2.5"))
+    assert run(exe_cmd(scene, "--out", "whole"), tmp_path).returncode == EXIT_OK
+    assert run(exe_cmd(longer, "--out", "full"), tmp_path).returncode == EXIT_OK
+    with Stepper(scene, tmp_path / "o") as s:
+        s.advance(10_000)
+        s.save(tmp_path / "o" / CKPT)
+        trace = (tmp_path / "o" / "trace.csv").read_bytes()
+        assert trace == (tmp_path / "whole" / "trace.csv").read_bytes()
+        assert s.load(tmp_path / "o" / CKPT) == 800
+    assert (tmp_path / "o" / "trace.csv").read_bytes() == trace     # the same last row, once
+    assert checkpoint_step(tmp_path / "o" / CKPT) == 800
+    assert run(exe_cmd(longer, "--restart", "o"), tmp_path).returncode == EXIT_OK
+    assert (tmp_path / "o" / "trace.csv").read_bytes() == \
+        (tmp_path / "full" / "trace.csv").read_bytes()
+
+
+# ------------------------------------------------------ a restart that extends the run
+
+def in_3d(text: str) -> str:
+    """The scene on the built-in 3D box (&mesh dim = 3), the probe at the bottom's centre."""
+    return text.replace("dim = 2", "dim = 3").replace("probe = 0.05, 0.0", "probe = 0.05, 0.05, 0.0")
+
+
+def restart_with(entry: str, scene: Path, folder: Path, cwd: Path) -> None:
+    """Continue the run in `folder` with `scene` through one entry point; it ends ok."""
+    if entry == "api":
+        res = dyncontact.run(scene, restart=folder, progress=False)
+        assert res.status == "ok", res.message
+    else:
+        cmd = exe_cmd if entry == "exe" else cli_cmd
+        res = run(cmd(scene, "--restart", folder), cwd)
+        assert res.returncode == EXIT_OK, res.stderr
+
+
+# (label, scene of the first part, the later t_end): an implicit scheme, pc, central with
+# dt = 0 where the step it takes for the later t_end is the same (15/926 and 30/1851 are
+# not: test_central_automatic_step_of_another_t_end below), and the 3D box; hht with field
+# snapshots (fields.pvd continued, listing the first part's). every = 7
+# divides neither part's step count, so the first part's last row is off the rows'
+# grid: the restart cuts it with the rows after the checkpoint.
+EXTEND = [
+    ("hht", scene_text("hht", extra=", alpha = -0.1", t_end="2.0", fields=100), "4.0"),
+    ("pc", scene_text("pc", dt="0.0005", t_end="1.0"), "2.0"),
+    ("central-dt0", scene_text("central", dt="0.0", t_end="10.0", every=200), "20.0"),
+    ("hht-3d", in_3d(scene_text("hht", t_end="1.0", every=100)), "2.0"),
+]
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli", "api"])
+@pytest.mark.parametrize("label,text,t_end2", EXTEND, ids=[e[0] for e in EXTEND])
+def test_restart_with_a_later_t_end_continues_the_run(entry, label, text, t_end2, tmp_path):
+    """A run to T1 that ended (with the checkpoint of its last step), restarted with t_end =
+    T2 > T1 and another max_steps: the files of the run straight to T2, byte for byte (the
+    first part's last row, off the rows' grid, is not counted by its checkpoint: cut)."""
+    text = text.replace("&output dir = 'out'", "&output dir = 'out', every = 7")
+    first, second = tmp_path / "t1.nml", tmp_path / "t2.nml"
+    first.write_text(text)
+    t_end1 = text.split("t_end = ")[1].split(",")[0]
+    second.write_text(text.replace(f"t_end = {t_end1}", f"t_end = {t_end2}, max_steps = 50000"))
+    assert run(exe_cmd(second, "--out", "full"), tmp_path).returncode == EXIT_OK
+    assert run(exe_cmd(first, "--out", "part"), tmp_path).returncode == EXIT_OK
+    s1 = json.loads((tmp_path / "part" / "summary.json").read_text())
+    s2 = json.loads((tmp_path / "full" / "summary.json").read_text())
+    assert s1["scene"]["scheme"]["dt"] == s2["scene"]["scheme"]["dt"]   # the same step
+    assert 2 * s1["steps"] in (s2["steps"], s2["steps"] + 1) and s1["steps"] % 7 != 0
+    assert checkpoint_step(tmp_path / "part" / CKPT) == s1["steps"]
+    restart_with(entry, second, tmp_path / "part", tmp_path)
+    assert_same_results(tmp_path / "part", tmp_path / "full", f"{label} to {t_end2}, {entry}")
+
+
+@pytest.mark.parametrize("entry", ["exe", "api"])
+def test_restart_with_a_raised_blowup_continues_a_run_it_stopped(entry, tmp_path):
+    """A run stopped by the blow-up test (blowup = 1.001: newmark's e_total exceeds it in a
+    contact at t = 1.34), restarted with blowup = 10: the files of the run made with
+    blowup = 10 throughout (the limit is the restarting scene's, not the checkpoint's)."""
+    low, high = tmp_path / "low.nml", tmp_path / "high.nml"
+    text = scene_text("newmark", t_end="3.0", extra=", blowup = 1.001")
+    low.write_text(text)
+    high.write_text(text.replace("blowup = 1.001", "blowup = 10.0"))
+    assert run(exe_cmd(high, "--out", "full"), tmp_path).returncode == EXIT_OK
+    res = run(exe_cmd(low, "--out", "part"), tmp_path)
+    assert res.returncode == EXIT_NUMERIC and "unstable at t = 1.3" in res.stderr, res.stderr
+    assert checkpoint_step(tmp_path / "part" / CKPT) == EVERY
+    restart_with(entry, high, tmp_path / "part", tmp_path)
+    assert_same_results(tmp_path / "part", tmp_path / "full", f"raised blowup, {entry}")
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+@pytest.mark.parametrize("t_end", ["1.5", "2.9975"])
+def test_restart_before_the_checkpoint_is_refused(entry, t_end, stopped, tmp_path):
+    """The finished run's checkpoint is at its last step, 1200, t = 3; a restart that
+    ends before it (at 1.5, or one step before) is refused in one line naming the file,
+    the checkpoint's t and &scheme t_end, and changes nothing (a run does not go back)."""
+    _scene, part = stopped
+    assert checkpoint_step(part / CKPT) == 1200
+    short = tmp_path / "short.nml"
+    short.write_text(scene_text("hht", extra=", alpha = -0.1", t_end=t_end))
+    before = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    res = run(cmd(short, "--restart", part), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    assert f"{part / CKPT}" in lines[0] and "t = 3.0" in lines[0], lines[0]
+    assert "&scheme t_end" in lines[0] and "later t_end" in lines[0], lines[0]
+    assert {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()} == before
+
+
+def test_central_automatic_step_of_another_t_end_is_refused_naming_the_step(tmp_path):
+    """central with dt = 0 takes the largest step <= 0.9 dt_crit that divides t_end: for
+    t_end = 15 and 30 the steps differ (15/926 and 30/1851), so the restart to 30 is
+    refused naming the checkpoint's step; that step given as &scheme dt continues the
+    run, as the run to 30 with that dt throughout."""
+    first, second = tmp_path / "t15.nml", tmp_path / "t30.nml"
+    first.write_text(scene_text("central", dt="0.0", t_end="15.0", every=200))
+    second.write_text(scene_text("central", dt="0.0", t_end="30.0", every=200))
+    assert run(exe_cmd(first, "--out", "part"), tmp_path).returncode == EXIT_OK
+    dt = json.loads((tmp_path / "part" / "summary.json").read_text())["scene"]["scheme"]["dt"]
+    res = run(exe_cmd(second, "--restart", "part"), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    line = res.stderr.strip()
+    assert "part/checkpoint.bin" in line and "&scheme dt = 0" in line, line
+    given = line.split("; &scheme dt = ")[1].split(" ")[0]
+    assert float(given) == dt, line
+    fixed = tmp_path / "t30dt.nml"
+    fixed.write_text(scene_text("central", dt=given, t_end="30.0", every=200))
+    assert run(exe_cmd(fixed, "--out", "full"), tmp_path).returncode == EXIT_OK
+    restart_with("exe", fixed, tmp_path / "part", tmp_path)
+    assert_same_results(tmp_path / "part", tmp_path / "full", "central, the checkpoint's dt")
+
+
+def test_restart_to_a_later_t_end_checks_the_space_its_snapshots_need(tmp_path):
+    """The free-space check of a run with field snapshots counts, on a restart, what the
+    rest of the run to the restart's t_end will write: on a 2 MB tmpfs, a run to t = 0.5
+    (21 snapshots) restarted to t = 50 (1 980 more) is refused naming &output fields_every
+    and changes nothing; restarted to t = 1 it runs."""
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    res = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(disk)],
+                         capture_output=True, text=True)
+    if res.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
+    try:
+        text = scene_text("hht", extra=", alpha = -0.1", t_end="0.5", fields=10, every=100)
+        scene, far, near = tmp_path / "s.nml", tmp_path / "far.nml", tmp_path / "near.nml"
+        scene.write_text(text)
+        far.write_text(text.replace("t_end = 0.5", "t_end = 50.0"))
+        near.write_text(text.replace("t_end = 0.5", "t_end = 1.0"))
+        part = disk / "part"
+        assert run(exe_cmd(scene, "--out", part), tmp_path).returncode == EXIT_OK
+        before = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
+        res = run(exe_cmd(far, "--restart", part), tmp_path)
+        assert res.returncode == EXIT_BAD_INPUT, res.stderr
+        assert "&output fields_every" in res.stderr and "1980 snapshots" in res.stderr, \
+            res.stderr
+        assert {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()} == before
+        res = run(exe_cmd(near, "--restart", part), tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], capture_output=True)
+
+
 # ------------------------------------------------------------------ refusals
 
 @pytest.fixture
 def stopped(tmp_path):
-    """A run stopped after its checkpoints (the folder `part`) and its scene."""
+    """A run that ended (the folder `part`, its checkpoint at its last step) and its scene."""
     scene = tmp_path / "s.nml"
     scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0"))
     assert run(exe_cmd(scene, "--out", "part"), tmp_path).returncode == EXIT_OK
@@ -491,6 +674,27 @@ def test_checkpoint_of_another_scene_is_refused(entry, stopped, tmp_path):
     assert f"{part / CKPT}" in res.stderr and "another scene" in res.stderr, res.stderr
     with pytest.raises(dyncontact.BadInputError, match="another scene"):
         dyncontact.run(other, restart=part, progress=False)
+
+
+@pytest.mark.parametrize("entry", ["exe", "api"])
+def test_checkpoint_of_another_dt_or_every_is_refused(entry, stopped, tmp_path):
+    """dt (the step taken, carried in the payload) and &output every (the trace's rows,
+    in the scene hash) change the run: refused, naming the step or another scene."""
+    _scene, part = stopped
+    for name, text, words in [
+            ("dt.nml", scene_text("hht", extra=", alpha = -0.1", t_end="3.0", dt="0.005"),
+             "the step dt = 2.5E-003, this run's is 5.0E-003 (&scheme dt)"),
+            ("every.nml", scene_text("hht", extra=", alpha = -0.1", t_end="3.0")
+             .replace("&output dir = 'out'", "&output dir = 'out', every = 2"),
+             "another scene")]:
+        other = tmp_path / name
+        other.write_text(text)
+        if entry == "exe":
+            res = run(exe_cmd(other, "--restart", part), tmp_path)
+            assert res.returncode == EXIT_BAD_INPUT and words in res.stderr, res.stderr
+        else:
+            with pytest.raises(dyncontact.BadInputError, match=re.escape(words)):
+                dyncontact.run(other, restart=part, progress=False)
 
 
 def test_checkpoint_of_the_same_values_with_other_keys_given_is_taken(stopped, tmp_path):
@@ -577,10 +781,17 @@ def test_scene_object_restarts_the_checkpoint_of_its_scene_file(tmp_path):
     assert run(exe_cmd(rel, "--out", "whole"), tmp_path).returncode == EXIT_OK
     for first, then in (("exe", "api"), ("api", "exe")):
         part = tmp_path / f"{first}_then_{then}"
+        # the first part ends at t = 2.25 (its checkpoint at its last step, 900), so that
+        # the restart with the whole scene does steps of its own
         if first == "exe":
-            assert run(exe_cmd(rel, "--out", part.name), tmp_path).returncode == EXIT_OK
+            (tmp_path / "short.nml").write_text(scene.read_text().replace("t_end = 3.0",
+                                                                          "t_end = 2.25"))
+            res = run(exe_cmd(Path("short.nml"), "--out", part.name), tmp_path)
+            assert res.returncode == EXIT_OK, res.stderr
         else:
-            dyncontact.run(dyncontact.Scene.read(scene), out=part, progress=False)
+            short_scene = dyncontact.Scene.read(scene)
+            short_scene.set("scheme.t_end", 2.25)
+            dyncontact.run(short_scene, out=part, progress=False)
         assert checkpoint_step(part / CKPT) == 900       # 1200 steps, EVERY = 300
         if then == "api":
             res = dyncontact.run(dyncontact.Scene.read(scene), restart=part, progress=False)
@@ -665,7 +876,7 @@ def test_checkpoint_file_holds_the_state_it_stands_for(tmp_path):
     assert np.int64(np.uint64(h)) == checksum
     ints = np.frombuffer(payload[:56], dtype="<i8")
     reals = np.frombuffer(payload[:56], dtype="<f8")
-    assert ints[0] == 123 and reals[1] == st["t"]
+    assert ints[0] == 123 and reals[1] == st["t"] and reals[2] == 0.0025   # step, t, dt
     pos = 56
     for key in ("u", "v", "a", "mv", "bu"):
         count = int(np.frombuffer(payload[pos:pos + 8], dtype="<i8")[0])

@@ -35,7 +35,8 @@ program main
             write (*, '(a)') 'Runs a scene file (Fortran namelist, docs/scenes.md) and writes trace.csv and'
             write (*, '(a)') 'summary.json into the output folder (&output dir, or DIR).'
             write (*, '(a)') '--restart DIR continues a stopped run from DIR/checkpoint.bin (written with'
-            write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv.'
+            write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv; a later'
+            write (*, '(a)') '&scheme t_end or a raised blowup in SCENE.nml extends the run.'
             write (*, '(a)') 'Exit status: 0 ok, 2 bad input, 3 numerical failure, 4 write/internal error,'
             write (*, '(a)') '130 interrupted (SIGINT/SIGTERM).'
             call c_exit(0_c_int)

@@ -22,8 +22,10 @@ module checkpoint_file
     !> Layout of header and payload (2: the CG counters follow the scheme's data; 3: the
     !> column cache's layout; 4: f_n, the normal contact force, after e_theta; 5: the scene
     !> hash continues over the mesh, so that a file of 4 is refused as of another format
-    !> rather than of another scene).
-    integer(i8), parameter :: FORMAT_VERSION = 5
+    !> rather than of another scene; 6: the scene hash leaves out the keys that say when
+    !> to stop and dt, which the payload carries, so that a file of 5 is refused as of
+    !> another format rather than misread as another scene's).
+    integer(i8), parameter :: FORMAT_VERSION = 6
     integer, parameter :: BUILD_LEN = 96                          !! bytes of the build identifier
     integer, parameter :: HEADER_BYTES = 7 * 8 + BUILD_LEN        !! header size
 
@@ -33,9 +35,14 @@ module checkpoint_file
 contains
 
     !> Hash of the parsed scene's canonical text (scene_to_json) without the keys that do
-    !> not change the numbers or the trace: the output folder, checkpoint_every and the
-    !> mesh file's name (the same file is 'm.msh' in a scene file and its absolute path in
-    !> the copy dyncontact.Scene writes; the mesh it gives counts, checkpoint_mesh_hash).
+    !> not change the numbers or the trace's rows: the output folder, checkpoint_every and
+    !> the mesh file's name (the same file is 'm.msh' in a scene file and its absolute path
+    !> in the copy dyncontact.Scene writes; the mesh it gives counts, checkpoint_mesh_hash);
+    !> the keys that only say when to stop, &scheme t_end, max_steps and blowup, so that a
+    !> restart with a later t_end or a raised blowup continues the run; and &scheme dt,
+    !> which the payload carries as the step the run took (central's dt = 0 takes a step
+    !> that divides t_end: the step, not the key, is what must be the same; compared with
+    !> its own message in sim_checkpoint_load).
     function checkpoint_scene_hash(scn) result(h)
         type(scene_t), intent(in) :: scn    !! the scene as read
         integer(i8) :: h
@@ -44,6 +51,10 @@ contains
         copy%out_dir = ''
         copy%checkpoint_every = 0
         copy%mesh_file = ''
+        copy%t_end = 0.0_dp
+        copy%max_steps = 0
+        copy%blowup = 0.0_dp
+        copy%dt = 0.0_dp
         h = bytes_hash(scene_to_json(copy), 0_i8)
     end function checkpoint_scene_hash
 

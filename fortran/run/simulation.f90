@@ -75,6 +75,12 @@ module simulation
         integer(i8) :: clock_pvd = 0               !! clock of the last fields.pvd write
         integer(i8) :: scene_hash = 0              !! hash of the parsed scene (checkpoints)
         integer(i8) :: restart_step = -1           !! the step the run restarted from (-1: none)
+        logical :: auto_dt = .false.               !! dt chosen by the scheme (&scheme dt = 0)
+        !> The trace's bytes before its last row when that row is off the rows' grid (the
+        !> step count not a multiple of &output every: a row for the end only); -1 else.
+        !> A checkpoint at the last step counts only these (sim_checkpoint_save), so that
+        !> a longer run continues from it with its own rows; end_row writes the row again.
+        integer(i8) :: end_bytes = -1
     end type simulation_t
 
     public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes, &
@@ -258,6 +264,7 @@ contains
         call check_alm_mass(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
+            sim%auto_dt = .true.
             ! the estimate is the linear limit at full contact: measured, it is not a safe
             ! bound with Nitsche theta = -1 or 0, nor in 1D whatever the contact (docs/
             ! numerics.md, "Central differences")
@@ -531,7 +538,8 @@ contains
     !> free bytes, the snapshot files against the free file slots. The key named is
     !> the one that thins the larger part. Large field output is announced as a large
     !> trace is. Without fields nothing is refused here: a trace that outgrows the disk
-    !> stops the run as a failed write (exit 4) with whole rows kept.
+    !> stops the run as a failed write (exit 4) with whole rows kept. A restart (at step
+    !> sim%step > 0) counts what it has still to write, to its own t_end.
     subroutine check_space(sim, dir, st, msg)
         type(simulation_t), intent(inout) :: sim            !! the run (model built)
         character(len=*), intent(in) :: dir                 !! output folder
@@ -543,9 +551,14 @@ contains
         st = STAT_OK
         if (sim%scn%fields_every <= 0) return
         n_snap = sim%n_steps / sim%scn%fields_every + 1
+        trace = sim_trace_bytes(sim)
+        if (sim%step > 0) then
+            n_snap = n_snap - (sim%step / sim%scn%fields_every + 1)
+            trace = (sim%n_steps / sim%scn%every - sim%step / sim%scn%every + 1) * &
+                    int(TRACE_ROW_BYTES, i8)
+        end if
         snap = vtk_vtu_bytes(sim%mdl%dim, sim%mdl%msh%n_nodes, sim%mdl%msh%cells)
         fields = n_snap * (snap + 100_i8)    ! and its line in fields.pvd
-        trace = sim_trace_bytes(sim)
         call free_space(dir, free_b, free_f)
         key = merge('fields_every', 'every       ', fields > trace)
         what = 'the run would write about '//bytes_text(trace + fields)//' (the trace '// &
@@ -606,6 +619,9 @@ contains
         if (st /= STAT_OK) return
         if (sim%scn%fields_every > 0) allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
                                                 sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
+        ! the blow-up limit of this scene (its blowup, and its t_end in the load's energy),
+        ! from the initial state as a new run's: a raised blowup continues a run it stopped
+        call energy_limit(sim)
         call sim_checkpoint_load(sim, path, st, msg, trace_bytes)
         if (st /= STAT_OK) return
         inquire (file=dir//'/trace.csv', exist=exists, size=size)
@@ -614,9 +630,13 @@ contains
                        int_text(trace_bytes)//' bytes written up to the checkpoint; cannot continue it')
             return
         end if
+        call check_space(sim, dir, st, msg)     ! the rest of the run, to this t_end
+        if (st /= STAT_OK) return
         call trace_reopen(dir//'/trace.csv', trace_bytes, sim%trace, st, msg)
         if (st /= STAT_OK) return
         sim%outputs = .true.
+        call end_row(sim, st, msg)
+        if (st /= STAT_OK) return
         sim%restart_step = sim%step
         sim%status = 'running'
         call write_summary(sim, st, msg)
@@ -716,7 +736,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: e_total, e_test
         logical :: row
-        integer(i8) :: clock
+        integer(i8) :: clock, before
         integer :: sig
         character(len=256) :: msg
         character(len=512) :: wmsg
@@ -757,7 +777,10 @@ contains
             sim%step = sim%step + 1
             steps_done = steps_done + 1
             sim%st%t = real(sim%step, dp) * sim%scn%dt
+            before = sim%trace%bytes + int(sim%trace%n, i8)   ! the rows before this step's
             row = mod(sim%step, int(sim%scn%every, i8)) == 0 .or. sim%step == sim%n_steps
+            if (sim%step == sim%n_steps .and. mod(sim%step, int(sim%scn%every, i8)) /= 0) &
+                sim%end_bytes = before
             call record(sim, e_total, row, stat, wmsg)
             if (stat /= STAT_OK) then
                 call write_failed(wmsg)
@@ -787,13 +810,13 @@ contains
                 end if
             end if
             if (sim%step >= sim%n_steps) sim%finished = .true.
-            if (sim%scn%checkpoint_every > 0 .and. .not. sim%finished) then
-                if (mod(sim%step, int(sim%scn%checkpoint_every, i8)) == 0) then
+            if (sim%scn%checkpoint_every > 0) then
+                ! and at the run's end, from which a restart with a later t_end continues
+                if (sim%finished .or. mod(sim%step, int(sim%scn%checkpoint_every, i8)) == 0) &
                     call write_checkpoint(sim, stat, wmsg)
-                    if (stat /= STAT_OK) then
-                        call write_failed(wmsg)
-                        return
-                    end if
+                if (stat /= STAT_OK) then
+                    call write_failed(wmsg)
+                    return
                 end if
             end if
             call system_clock(clock)
@@ -955,8 +978,8 @@ contains
     end subroutine write_checkpoint
 
     !> Save the state the next step needs, with the run's counters, to the checkpoint
-    !> file `path` (atomic: see checkpoint_write). The payload, in order: step, t,
-    !> e_total(0), the blow-up limit, the trace's bytes, Newton iterations and
+    !> file `path` (atomic: see checkpoint_write). The payload, in order: step, t, the
+    !> step dt the run takes, e_total(0), the trace's bytes, Newton iterations and
     !> factorizations so far, u, v, a, M v, B(u), K_theta u, the augmented Lagrangian's
     !> multipliers lambda (none without them), the contact state
     !> (active points, e_pen, e_theta, f_n), the last step's Newton iterations, the snapshots
@@ -976,9 +999,14 @@ contains
         end if
         call buf_put(buf, sim%step)
         call buf_put(buf, sim%st%t)
+        call buf_put(buf, sim%scn%dt)
         call buf_put(buf, sim%e0)
-        call buf_put(buf, sim%e_limit)
-        call buf_put(buf, sim%trace%bytes)
+        ! (at the last step, without a last row off the rows' grid: end_bytes)
+        if (sim%step == sim%n_steps .and. sim%end_bytes >= 0) then
+            call buf_put(buf, sim%end_bytes)
+        else
+            call buf_put(buf, sim%trace%bytes)
+        end if
         call buf_put(buf, int(sim%scheme%newton_total, i8))
         call buf_put(buf, int(sim%scheme%factorizations, i8))
         call buf_put(buf, sim%st%u)
@@ -1041,9 +1069,28 @@ contains
         trace_path = sim%trace%path
         call trace_close(sim%trace, stat, errmsg)
         if (stat == STAT_OK) call trace_reopen(trace_path, trace_bytes, sim%trace, stat, errmsg)
+        if (stat == STAT_OK) call end_row(sim, stat, errmsg)
         if (stat /= STAT_OK) return
         if (sim%scn%fields_every > 0) call write_pvd(sim, stat, errmsg)
     end subroutine sim_load
+
+    !> The last row of a run continued from a checkpoint at its last step (the trace just
+    !> cut back to the checkpoint's rows): a step count that is not a multiple of &output
+    !> every has a row at the end that the checkpoint's rows leave out (a checkpoint at
+    !> the last step does not count it, so that a longer run continues from there:
+    !> end_bytes); written again from the loaded state, as the run wrote it.
+    subroutine end_row(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (state loaded, trace open)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: e_total
+        stat = STAT_OK
+        sim%end_bytes = -1
+        if (sim%step /= sim%n_steps .or. sim%step == 0) return
+        if (mod(sim%step, int(sim%scn%every, i8)) == 0) return
+        sim%end_bytes = sim%trace%bytes + int(sim%trace%n, i8)
+        call record(sim, e_total, stat=stat, errmsg=errmsg)
+    end subroutine end_row
 
     !> Load the state and counters saved by sim_checkpoint_save into an open run of the
     !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
@@ -1057,6 +1104,7 @@ contains
         type(byte_buffer_t) :: buf
         character(len=:), allocatable :: payload
         integer(i8) :: step, k8, tb, its, facts, act, nits, nsnap, cg(3)
+        real(dp) :: t, dt
         integer :: k
         if (.not. allocated(sim%scheme)) then
             call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
@@ -1069,11 +1117,26 @@ contains
         if (stat /= STAT_OK) return
         buf = buf_from(payload)
         call buf_get(buf, k8)
-        if (k8 /= step .or. step < 0 .or. step > sim%n_steps) buf%bad = .true.
+        call buf_get(buf, t)
+        call buf_get(buf, dt)
+        if (k8 /= step .or. step < 0 .or. buf%bad) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': corrupt checkpoint (its'// &
+                       ' contents do not fit this run); refused')
+            return
+        end if
+        ! the scene hash leaves dt out (central's dt = 0 takes a step that divides t_end):
+        ! the step taken must be the same, bit for bit
+        if (dt /= sim%scn%dt) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, other_dt_message(sim, path, dt))
+            return
+        end if
+        if (step > sim%n_steps) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, past_end_message(sim, path, step, t))
+            return
+        end if
         sim%step = k8
-        call buf_get(buf, sim%st%t)
+        sim%st%t = t
         call buf_get(buf, sim%e0)
-        call buf_get(buf, sim%e_limit)
         call buf_get(buf, tb)
         call buf_get(buf, its)
         call buf_get(buf, facts)
@@ -1124,6 +1187,41 @@ contains
         sim%finished = sim%step >= sim%n_steps
         if (present(trace_bytes)) trace_bytes = tb
     end subroutine sim_checkpoint_load
+
+    !> The refusal of a checkpoint whose run stepped with another dt: the scene hash leaves
+    !> dt out so that the step is compared, not the key (with &scheme dt = 0 central takes
+    !> the largest step <= 0.9 dt_crit that divides t_end, so another t_end may give
+    !> another step; giving the checkpoint's step as dt continues the run).
+    function other_dt_message(sim, path, dt) result(msg)
+        type(simulation_t), intent(in) :: sim               !! the run
+        character(len=*), intent(in) :: path                !! checkpoint file
+        real(dp), intent(in) :: dt                          !! the checkpoint's step
+        character(len=:), allocatable :: msg
+        msg = trim(path)//': written by a run with the step dt = '//real_text(dt)// &
+              ', this run''s is '//real_text(sim%scn%dt)
+        if (sim%auto_dt) then
+            msg = msg//' (&scheme dt = 0: central takes a step that divides &scheme t_end = '// &
+                  real_text(sim%scn%t_end)//'; &scheme dt = '//real_text(dt)// &
+                  ' continues with the checkpoint''s step)'
+        else
+            msg = msg//' (&scheme dt)'
+        end if
+        msg = msg//'; refused'
+    end function other_dt_message
+
+    !> The refusal of a checkpoint past the end of the run (a restart continues a run to
+    !> the same or a later &scheme t_end, never back).
+    function past_end_message(sim, path, step, t) result(msg)
+        type(simulation_t), intent(in) :: sim               !! the run (n_steps counted)
+        character(len=*), intent(in) :: path                !! checkpoint file
+        integer(i8), intent(in) :: step                     !! the checkpoint's step
+        real(dp), intent(in) :: t                           !! its time
+        character(len=:), allocatable :: msg
+        msg = trim(path)//': the checkpoint is at t = '//real_text(t)//' (step '// &
+              int_text(step)//'), this run ends at &scheme t_end = '// &
+              real_text(sim%scn%t_end)//' (step '//int_text(sim%n_steps)// &
+              '): a restart continues to the same or a later t_end; refused'
+    end function past_end_message
 
     !> The CG counters of the implicit schemes' J0 solver (solves, iterations over them,
     !> the most of one solve; zeros for the other schemes and without CG): summary.json's

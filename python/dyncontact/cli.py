@@ -204,7 +204,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override one scene key, e.g. --set scheme.dt=0.001 (repeatable)")
     r.add_argument("--restart", metavar="DIR", help="continue the stopped run whose output "
                    "folder DIR holds a checkpoint (&output checkpoint_every); the run continues "
-                   "in DIR")
+                   "in DIR (a later &scheme t_end or a raised blowup extends it)")
     r.add_argument("--out", metavar="DIR", help="output folder (default: the scene's "
                    "&output dir)")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")

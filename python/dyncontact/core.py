@@ -356,6 +356,10 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         its ``&output checkpoint_every`` wrote: the run continues from it in that folder
         (trace.csv continued, summary.json counting the whole run; the result is the one
         of the run never stopped, bit for bit). ``out`` must then be None or that folder.
+        The scene may differ in the keys that say when to stop (``scheme.t_end``,
+        ``max_steps``, ``blowup``) and in ``output.checkpoint_every``: a later t_end
+        extends a run that ended, a raised blowup continues one stopped as unstable
+        (docs/scenes.md, "Checkpoint and restart").
 
     Returns
     -------
@@ -367,7 +371,8 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     ------
     BadInputError
         bad scene, mesh or argument (Fortran stat 2); with ``restart``, a missing,
-        foreign (another scene or build), truncated or corrupt checkpoint.
+        foreign (another scene, build or step dt), truncated or corrupt checkpoint, or one
+        past the scene's t_end.
     DyncontactError
         internal failure (stat 4).
     """
