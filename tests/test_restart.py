@@ -456,6 +456,21 @@ def in_3d(text: str) -> str:
     return text.replace("dim = 2", "dim = 3").replace("probe = 0.05, 0.0", "probe = 0.05, 0.05, 0.0")
 
 
+def folder_files(folder: Path) -> dict[str, bytes]:
+    """A run folder's files by name, with their bytes (a refused restart changes none)."""
+    return {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+
+
+def refused_line(res, part: Path) -> str:
+    """The one line of a restart refused as bad input (exit 2, no traceback), which names
+    the checkpoint file of ``part``."""
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
+    assert f"{part / CKPT}" in lines[0], lines[0]
+    return lines[0]
+
+
 def restart_with(entry: str, scene: Path, folder: Path, cwd: Path) -> None:
     """Continue the run in `folder` with `scene` through one entry point; it ends ok."""
     if entry == "api":
@@ -530,15 +545,11 @@ def test_restart_before_the_checkpoint_is_refused(entry, t_end, stopped, tmp_pat
     assert checkpoint_step(part / CKPT) == 1200
     short = tmp_path / "short.nml"
     short.write_text(scene_text("hht", extra=", alpha = -0.1", t_end=t_end))
-    before = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
+    before = folder_files(part)
     cmd = exe_cmd if entry == "exe" else cli_cmd
-    res = run(cmd(short, "--restart", part), tmp_path)
-    assert res.returncode == EXIT_BAD_INPUT, res.stderr
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
-    assert f"{part / CKPT}" in lines[0] and "t = 3.0" in lines[0], lines[0]
-    assert "&scheme t_end" in lines[0] and "later t_end" in lines[0], lines[0]
-    assert {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()} == before
+    line = refused_line(run(cmd(short, "--restart", part), tmp_path), part)
+    assert "t = 3.0" in line and "&scheme t_end" in line and "later t_end" in line, line
+    assert folder_files(part) == before
 
 
 def test_central_automatic_step_of_another_t_end_is_refused_naming_the_step(tmp_path):
@@ -583,12 +594,12 @@ def test_restart_to_a_later_t_end_checks_the_space_its_snapshots_need(tmp_path):
         near.write_text(text.replace("t_end = 0.5", "t_end = 1.0"))
         part = disk / "part"
         assert run(exe_cmd(scene, "--out", part), tmp_path).returncode == EXIT_OK
-        before = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
+        before = folder_files(part)
         res = run(exe_cmd(far, "--restart", part), tmp_path)
         assert res.returncode == EXIT_BAD_INPUT, res.stderr
         assert "&output fields_every" in res.stderr and "1980 snapshots" in res.stderr, \
             res.stderr
-        assert {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()} == before
+        assert folder_files(part) == before
         res = run(exe_cmd(near, "--restart", part), tmp_path)
         assert res.returncode == EXIT_OK, res.stderr
     finally:
@@ -652,15 +663,11 @@ def test_damaged_checkpoint_is_refused_naming_the_file(entry, damage, stopped, t
     scene, part = stopped
     harm, words = DAMAGE[damage]
     harm(part / CKPT)
-    before = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
+    before = folder_files(part)
     cmd = exe_cmd if entry == "exe" else cli_cmd
-    res = run(cmd(scene, "--restart", part), tmp_path)
-    assert res.returncode == EXIT_BAD_INPUT, res.stderr
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in res.stderr, res.stderr
-    assert f"{part / CKPT}" in lines[0] and words in lines[0], lines[0]
-    after = {p.name: p.read_bytes() for p in part.iterdir() if p.is_file()}
-    assert after == before       # nothing was used, nothing was written
+    line = refused_line(run(cmd(scene, "--restart", part), tmp_path), part)
+    assert words in line, line
+    assert folder_files(part) == before       # nothing was used, nothing was written
 
 
 @pytest.mark.parametrize("entry", ["exe", "cli"])
