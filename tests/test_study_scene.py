@@ -173,9 +173,9 @@ def test_scene_dt_is_the_step_of_the_scenes_own_scheme(tmp_path, scheme, c0):
     """The scene's Δt is its own scheme's step: a scene written for central at Δt runs
     central at that Δt (the scene's own run is among the study's) and newmark at
     Δt × 4/20; on a pc scene newmark runs at 5 × its Δt; on an implicit scene central
-    runs at 5 × (20/4) and pc at a fifth, as in the built-in study. Before, the scene's
-    Δt was the implicit step whatever its scheme: central at 5 × the step the scene
-    gave it."""
+    runs at 5 × (20/4) and pc at a fifth, as in the built-in study. Read as the implicit
+    step whatever the scene's scheme, the scene's Δt would run central at 5 × the step
+    the scene gives it, past its stability limit."""
     from dyncontact.study.workprecision import run_work_precision_scene
 
     dt = H_1D / 20
