@@ -44,8 +44,10 @@ def disk_mesh(path: Path, h: float = 0.02, invert_every: int = 0) -> Path:
 def disk_scene(path: Path, mesh: Path, **over) -> Path:
     """The disk falling onto y = 0 at speed 0.1, nothing clamped, whole outline in contact
     (newmark 1/4 1/2; BASE's keys that this scene does not use are left out: alpha, which
-    BASE sets for hht, and h, which a .msh does not use)."""
-    settings = dict(mesh__file=f"'{mesh.name}'", mesh__h=None, boundary__clamped="''",
+    BASE sets for hht, h, width and length, which a .msh does not use, and amplitude,
+    which only kind = 'compressed_bar' uses)."""
+    settings = dict(mesh__file=f"'{mesh.name}'", mesh__h=None, mesh__width=None,
+                    mesh__length=None, initial__amplitude=None, boundary__clamped="''",
                     boundary__contact="'outline'", initial__kind="'velocity'",
                     initial__velocity="0.0, -0.1", scheme__name="'newmark'",
                     scheme__alpha=None,
@@ -529,6 +531,36 @@ def test_mesh_h_with_a_msh_file_is_noted_as_unused(tmp_path):
     assert notes["msh"] == [] and notes["geo_h"] == []
 
 
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_mesh_sizes_and_amplitude_that_change_nothing_are_noted(kind, tmp_path):
+    """&mesh width and length given with a .msh file size nothing (length still sets the
+    compressed bar's lift), and &initial amplitude lifts only kind = 'compressed_bar':
+    given, whatever their values, the run says so, one line each; not given, or used,
+    nothing."""
+    mesh = disk_mesh(tmp_path / "disk.msh")
+    note = ("dyncontact: note: &mesh {}: not used with a .msh file, which is meshed already "
+            "(they size a .geo and the built-in bar)")
+    amp = ("dyncontact: warning: &initial amplitude is not used with kind = '{}' (it lifts "
+           "the 'compressed_bar' state; docs/scenes.md, &initial)")
+    cases = {
+        "width": (dict(mesh__width="0.1"), [note.format("width")]),
+        "both": (dict(mesh__width="0.2", mesh__length="1.0"), [note.format("width, length")]),
+        "length_used": (dict(mesh__length="1.0", initial__kind="'compressed_bar'",
+                             initial__velocity=None), []),
+        "amplitude": (dict(initial__amplitude="0.5"), [amp.format("velocity")]),
+        "amplitude_rest": (dict(initial__amplitude="0.0", initial__kind="'rest'",
+                                initial__velocity=None), [amp.format("rest")]),
+        "amplitude_used": (dict(initial__amplitude="0.1", initial__kind="'compressed_bar'",
+                                initial__velocity=None), []),
+        "none": ({}, []),
+    }
+    for name, (over, expected) in cases.items():
+        scene = disk_scene(tmp_path / f"{name}.nml", mesh, scheme__t_end="0.01", **over)
+        res = run(kind, scene, "--out", tmp_path / name, cwd=tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        assert res.stderr.splitlines() == expected, (name, res.stderr)
+
+
 # ------------------------------------------------------------------ physics a user checks
 
 def test_free_fall_reaches_the_obstacle_when_the_formula_says(tmp_path):
@@ -917,7 +949,8 @@ def test_mesh_file_without_initial_kind_warns(kind, tmp_path):
                      "along n); give kind = 'rest' or 'velocity' (with velocity), or "
                      "'compressed_bar' to keep it (docs/scenes.md, &initial)"]),
         "kind_given": (dict(initial__kind="'compressed_bar'", initial__velocity=None), []),
-        "rest": (dict(initial__kind="'rest'", initial__velocity=None), []),
+        "rest": (dict(initial__kind="'rest'", initial__velocity=None,
+                      initial__amplitude=None, mesh__length=None), []),
         "no_lift": (dict(initial__kind=None, initial__velocity=None,
                          initial__amplitude="0.0"), []),
         "velocity": (dict(initial__kind=None),

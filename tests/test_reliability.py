@@ -782,6 +782,7 @@ def test_blow_up_from_no_energy_says_why(kind, tmp_path):
     initial state holds no energy instead of giving the bare 2.225E-307 alone."""
     scene = write_scene(tmp_path / "s.nml", contact__method="'alm'", contact__theta=None,
                         contact__obstacle_point="0.0, 0.02", initial__kind="'rest'",
+                        initial__amplitude=None,
                         scheme__name="'newmark'", scheme__alpha=None, scheme__dt="0.0005",
                         scheme__t_end="0.01")
     res = run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path)

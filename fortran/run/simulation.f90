@@ -259,6 +259,7 @@ contains
         call check_massless_weight(sim)
         call check_initial_state(sim)
         call check_unused_mesh_size(sim)
+        call check_unused_amplitude(sim)
         call check_unused_scheme_keys(sim)
         call check_unused_contact_keys(sim)
         call check_alm_mass(sim)
@@ -357,15 +358,38 @@ contains
     !> A note for an &mesh h given with a .msh file: the file's mesh is used as it is
     !> (h sizes a .geo or the built-in bar), so a scene that refines a .msh by h would
     !> otherwise run on the coarse mesh, silently.
+    !> Also a note for &mesh width, or length, given with a .msh file: they size a .geo
+    !> and the built-in bar (length is still used by kind = 'compressed_bar', whose lift
+    !> falls to 0 over it).
     subroutine check_unused_mesh_size(sim)
         type(simulation_t), intent(inout) :: sim            !! the run
-        if (.not. scene_given(sim%scn, 'mesh', 'h')) return
+        character(len=:), allocatable :: unused
         if (lower(file_extension(trim(sim%scn%mesh_file))) /= '.msh') return
-        sim%mdl%notes = trim(sim%mdl%notes)//'note: &mesh h = '//real_text(sim%scn%mesh_h)// &
-            ' is not used: a .msh file is meshed already (h sizes a .geo and the built-in'// &
-            ' bar; python -m dyncontact mesh --geo FILE.geo --h H writes a .msh of size H)'// &
-            new_line('a')
+        if (scene_given(sim%scn, 'mesh', 'h')) &
+            sim%mdl%notes = trim(sim%mdl%notes)//'note: &mesh h = '// &
+                real_text(sim%scn%mesh_h)//' is not used: a .msh file is meshed already (h'// &
+                ' sizes a .geo and the built-in bar; python -m dyncontact mesh --geo FILE.geo'// &
+                ' --h H writes a .msh of size H)'//new_line('a')
+        unused = ''
+        if (scene_given(sim%scn, 'mesh', 'width')) unused = ', width'
+        if (scene_given(sim%scn, 'mesh', 'length') .and. &
+            trim(sim%scn%initial_kind) /= 'compressed_bar') unused = unused//', length'
+        if (len(unused) > 0) &
+            sim%mdl%notes = trim(sim%mdl%notes)//'note: &mesh '//unused(3:)//': not used'// &
+                ' with a .msh file, which is meshed already (they size a .geo and the'// &
+                ' built-in bar)'//new_line('a')
     end subroutine check_unused_mesh_size
+
+    !> A warning for an &initial amplitude given with a kind other than 'compressed_bar',
+    !> the only kind it lifts: it would otherwise change nothing, silently.
+    subroutine check_unused_amplitude(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        if (trim(sim%scn%initial_kind) == 'compressed_bar') return
+        if (.not. scene_given(sim%scn, 'initial', 'amplitude')) return
+        sim%mdl%notes = trim(sim%mdl%notes)//'warning: &initial amplitude is not used with'// &
+            ' kind = '''//trim(sim%scn%initial_kind)//''' (it lifts the ''compressed_bar'''// &
+            ' state; docs/scenes.md, &initial)'//new_line('a')
+    end subroutine check_unused_amplitude
 
     !> A warning for the &scheme parameters given (whatever their values, the defaults
     !> included) that the chosen scheme does not use (hht with beta or gamma, whose beta
