@@ -41,7 +41,7 @@ module trace_output
     end interface
 
     public :: make_dirs, trace_open, trace_reopen, trace_row, trace_flush, trace_sync, &
-              trace_close, json_real, json_string
+              trace_close, trace_size, json_real, json_string
 
 contains
 
@@ -196,6 +196,13 @@ contains
         if (stat == STAT_OK) tr%bytes = tr%bytes + tr%n
         tr%n = 0
     end subroutine trace_flush
+
+    !> The trace's length in bytes with the rows still buffered: the file's size once
+    !> they are written (trace_flush).
+    pure integer(i8) function trace_size(tr)
+        type(trace_t), intent(in) :: tr      !! the trace
+        trace_size = tr%bytes + int(tr%n, i8)
+    end function trace_size
 
     !> Flush and close the trace (every error reported).
     subroutine trace_close(tr, stat, errmsg)

@@ -26,7 +26,8 @@ module simulation
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, ls_factorization, &
                              ls_auto_reason, ls_set_threads, ls_threads
     use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
-                            trace_sync, trace_close, json_real, json_string, TRACE_ROW_BYTES
+                            trace_sync, trace_close, trace_size, json_real, json_string, &
+                            TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
                         write_text_atomic, signal_caught, free_space, remove_matching, &
                         same_folder
@@ -760,7 +761,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: e_total, e_test
         logical :: row
-        integer(i8) :: clock, before
+        integer(i8) :: clock
         integer :: sig
         character(len=256) :: msg
         character(len=512) :: wmsg
@@ -801,10 +802,10 @@ contains
             sim%step = sim%step + 1
             steps_done = steps_done + 1
             sim%st%t = real(sim%step, dp) * sim%scn%dt
-            before = sim%trace%bytes + int(sim%trace%n, i8)   ! the rows before this step's
             row = mod(sim%step, int(sim%scn%every, i8)) == 0 .or. sim%step == sim%n_steps
+            ! the rows before this step's, when its row is there only as the run's end
             if (sim%step == sim%n_steps .and. mod(sim%step, int(sim%scn%every, i8)) /= 0) &
-                sim%end_bytes = before
+                sim%end_bytes = trace_size(sim%trace)
             call record(sim, e_total, row, stat, wmsg)
             if (stat /= STAT_OK) then
                 call write_failed(wmsg)
@@ -1112,7 +1113,7 @@ contains
         sim%end_bytes = -1
         if (sim%step /= sim%n_steps .or. sim%step == 0) return
         if (mod(sim%step, int(sim%scn%every, i8)) == 0) return
-        sim%end_bytes = sim%trace%bytes + int(sim%trace%n, i8)
+        sim%end_bytes = trace_size(sim%trace)
         call record(sim, e_total, stat=stat, errmsg=errmsg)
     end subroutine end_row
 
