@@ -478,21 +478,18 @@ def step_ratio(s: SchemeSpec, c_implicit: float, c_explicit: float) -> float:
     return c_explicit if s.explicit else c_implicit
 
 
-#: The scene's &scheme name that runs explicitly in its contact (the pc family) or
-#: altogether (central), for :func:`scene_step_ratio`.
-EXPLICIT_NAMES = ("pc", "pc_hht", "pc_hht_seed", "central")
-
-
 def scene_step_ratio(scene: UserScene, c_implicit: float, c_explicit: float) -> float:
     """The c that ``scene``'s own Δt stands for: its scheme is run at Δt = h/c in the
-    studies, so a scheme of ratio c' runs at the scene's Δt × c/c'. central's own
-    CENTRAL_C, the explicit family's c for the pc schemes, the implicit one's else.
-    A scene written for central at its stable step thus runs central at that step
-    (and the implicit schemes at a CENTRAL_C/c_implicit of it), not at
-    c_implicit/CENTRAL_C times it, past its stability limit."""
-    if scene.scheme == "central":
-        return CENTRAL_C
-    return c_explicit if scene.scheme in EXPLICIT_NAMES else c_implicit
+    studies, so a scheme of ratio c' runs at the scene's Δt × c/c'. It is
+    :func:`step_ratio` of the studies' schemes of the scene's &scheme name (central's own
+    CENTRAL_C, the explicit family's c for the pc schemes, the implicit one's else). A
+    scene written for central at its stable step thus runs central at that step (and
+    the implicit schemes at a CENTRAL_C/c_implicit of it), not at c_implicit/CENTRAL_C
+    times it, past its stability limit."""
+    for s in SCHEMES.values():
+        if dict(s.settings)["scheme.name"] == scene.scheme:
+            return step_ratio(s, c_implicit, c_explicit)
+    return c_implicit
 
 
 def scheme_list(keys: str | Sequence[str]) -> list[SchemeSpec]:

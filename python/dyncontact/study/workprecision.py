@@ -813,6 +813,7 @@ def _scene_series(scene: UserScene, c_implicit: float, c_explicit: float, series
     [(key, why left out)])."""
     from .common import on_scene, refusal_on_scene, scene_step_ratio
 
+    c0 = scene_step_ratio(scene, c_implicit, c_explicit)
     kept, left_out, seen = [], [], {}
     for s, c, _label, skey in _series(c_implicit, c_explicit, series):
         t = on_scene(s, scene)
@@ -828,7 +829,7 @@ def _scene_series(scene: UserScene, c_implicit: float, c_explicit: float, series
             continue
         seen[(t.settings, c)] = skey
         family = c_explicit if t.explicit else c_implicit
-        ratio = scene_step_ratio(scene, c_implicit, c_explicit) / c
+        ratio = c0 / c
         kept.append((t, c, t.label + ("" if c == family else ", the scene's Δt" if ratio == 1
                                       else f", Δt×{ratio:g}"), skey))
     return kept, left_out
