@@ -514,9 +514,11 @@ def contact_time(t: np.ndarray, f_n: np.ndarray) -> tuple[float, float, float]:
 def centre_approach(t: np.ndarray, f_n: np.ndarray, mass: float, speed: float) -> np.ndarray:
     """-(z_c(t) - z_c(0)): m z_c'' = -f_n, z_c'(0) = -speed, by the trapezoidal rule twice
     (Newmark ¼ ½'s own integration of the total momentum; :mod:`.hertz`'s docstring)."""
-    dt = np.diff(t)
-    vz = -speed - np.concatenate([[0.0], np.cumsum(0.5 * (f_n[1:] + f_n[:-1]) * dt)]) / mass
-    return -np.concatenate([[0.0], np.cumsum(0.5 * (vz[1:] + vz[:-1]) * dt)])
+    def integral(y: np.ndarray) -> np.ndarray:    # ∫_0^t y by the trapezoidal rule
+        return np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(t))])
+
+    vz = -speed - integral(f_n) / mass
+    return -integral(vz)
 
 
 @register_analysis("hertz")
