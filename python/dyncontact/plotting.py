@@ -19,7 +19,7 @@ import numpy as np
 __all__ = ["plot_traces", "run_label", "plot_field_snapshots", "read_pvd"]
 
 # (column, y label) of the first three panels; the fourth is the energy. The p_n label
-# is the formula of the runs' contact method (_P_N_LABELS, _p_n_label).
+# is the formula of the runs' contact method (_P_N_LABELS, _method_label).
 _PANELS = (
     ("u_n", r"$u_n$ at the probe"),
     ("v_n", r"$\dot u_n$ at the probe"),
@@ -116,22 +116,14 @@ def _contact_method(summary: dict) -> str:
     return method
 
 
-def _p_n_label(summaries: Sequence[dict]) -> str:
-    """The p_n panel's label: the formula of the runs' contact method, or a plain name
+def _method_label(summaries: Sequence[dict], labels: dict[str, str], plain: str) -> str:
+    """A label that depends on the contact method (``labels``: _P_N_LABELS for the p_n
+    panel, _F_N_LABELS for f_n's scale): the formula of the runs' method, or ``plain``
     when the runs use several methods (or one this module does not know)."""
     methods = {_contact_method(s) for s in summaries}
-    if len(methods) == 1 and next(iter(methods)) in _P_N_LABELS:
-        return _P_N_LABELS[next(iter(methods))]
-    return r"$p_n$ at the probe (contact pressure)"
-
-
-def _f_n_label(summaries: Sequence[dict]) -> str:
-    """The label of f_n's scale, as :func:`_p_n_label`: the formula of the runs' contact
-    method, or a plain name when they use several."""
-    methods = {_contact_method(s) for s in summaries}
-    if len(methods) == 1 and next(iter(methods)) in _F_N_LABELS:
-        return _F_N_LABELS[next(iter(methods))]
-    return r"$f_n$, total normal contact force (dashed)"
+    if len(methods) == 1 and next(iter(methods)) in labels:
+        return labels[next(iter(methods))]
+    return plain
 
 
 def _load(item) -> tuple[dict[str, np.ndarray], dict, str]:
@@ -287,8 +279,9 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         _limit_blowups(ax, ok_values[k], stopped_values[k])
     if ax_f is not None:
         _limit_blowups(ax_f, f_ok, f_stopped)
-        ax_f.set_ylabel(_f_n_label([summary for trace, summary, _name in loaded
-                                    if "f_n" in trace]))
+        ax_f.set_ylabel(_method_label([summary for trace, summary, _name in loaded
+                                       if "f_n" in trace], _F_N_LABELS,
+                                      r"$f_n$, total normal contact force (dashed)"))
     # The stop of a run that did not finish: an 'x' at its last value (kept inside the
     # panel when the value is off the scale or not finite) and a dotted vertical line.
     for t_stop, colour, lasts in stops:
@@ -302,7 +295,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
 
     for ax, (_, ylabel) in zip(axes[:2], _PANELS):
         ax.set_ylabel(ylabel)
-    axes[2].set_ylabel(_p_n_label([summary for _trace, summary, _name in loaded]))
+    axes[2].set_ylabel(_method_label([summary for _trace, summary, _name in loaded],
+                                     _P_N_LABELS, r"$p_n$ at the probe (contact pressure)"))
     axes[3].set_ylabel("energy: $e_{kin}+e_{el}" + ("+e_{load}" if with_load else "")
                        + "$ (solid), $+\\,e_{contact}$ (dashed)")
     for ax in axes:
