@@ -169,3 +169,24 @@ def occ_disk(gmsh, radius: float, h: float):
     occ.synchronize()
     gmsh.option.setNumber("Mesh.MeshSizeMax", h)
     return s, arcs
+
+
+@pytest.fixture
+def tmpfs(tmp_path):
+    """mount(options) -> a folder on a fresh tmpfs with those options (root only; else
+    skip); unmounted at the end. For the tests of a full disk."""
+    mounted = []
+
+    def mount(options: str) -> Path:
+        mnt = tmp_path / f"disk{len(mounted)}"
+        mnt.mkdir()
+        res = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(mnt)],
+                             capture_output=True, text=True)
+        if res.returncode != 0:
+            pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
+        mounted.append(mnt)
+        return mnt
+
+    yield mount
+    for mnt in mounted:
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)

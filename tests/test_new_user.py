@@ -129,29 +129,6 @@ def test_gmsh_mesh_with_inverted_cells_runs_like_the_oriented_one(tmp_path):
 
 # ------------------------------------------------------------------ fields_every = 1
 
-@pytest.fixture
-def tmpfs(tmp_path):
-    """mount(options) -> a folder on a fresh tmpfs with those options (root only; else
-    skip); unmounted at the end."""
-    import subprocess
-
-    mounted = []
-
-    def mount(options: str) -> Path:
-        mnt = tmp_path / f"disk{len(mounted)}"
-        mnt.mkdir()
-        res = subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", str(mnt)],
-                             capture_output=True, text=True)
-        if res.returncode != 0:
-            pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
-        mounted.append(mnt)
-        return mnt
-
-    yield mount
-    for mnt in mounted:
-        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
-
-
 @pytest.mark.parametrize("kind", ENTRIES)
 def test_fields_every_1_that_cannot_fit_is_refused_before_writing(kind, tmpfs, tmp_path):
     """The seed run with a snapshot every step: 6001 snapshots of 16.6 kB (102.0 MB with

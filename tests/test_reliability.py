@@ -115,18 +115,9 @@ ENTRIES = ["exe", "cli"]
 # ------------------------------------------------------------------ 1. disk full
 
 @pytest.fixture
-def small_disk(tmp_path):
+def small_disk(tmpfs):
     """A folder on a 64 KiB tmpfs (root can mount here); else skip."""
-    mnt = tmp_path / "disk"
-    mnt.mkdir()
-    res = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={SMALL_DISK}", "tmpfs", str(mnt)],
-                         capture_output=True, text=True)
-    if res.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
-    try:
-        yield mnt
-    finally:
-        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+    return tmpfs(f"size={SMALL_DISK}")
 
 
 def fill(disk: Path) -> None:
@@ -192,49 +183,41 @@ def test_disk_full_during_run_exits_4_and_says_so(kind, small_disk, tmp_path):
 
 
 @pytest.mark.parametrize("kind", ENTRIES)
-def test_disk_full_while_writing_fields_exits_4(kind, tmp_path):
+def test_disk_full_while_writing_fields_exits_4(kind, tmpfs, tmp_path):
     """Snapshots that fit the free space when the run starts (it checks: see
     test_new_user.py), then the disk fills up under the run (stopped meanwhile)."""
-    disk = tmp_path / "disk"
-    disk.mkdir()
-    res = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=16m", "tmpfs", str(disk)],
-                         capture_output=True, text=True)
-    if res.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
+    disk = tmpfs("size=16m")
+    # 60 000 steps, 601 snapshots of 16.6 kB: 10 MB of the 16
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="150.0", output__every="1000",
+                        output__fields_every="100")
+    out = disk / "o"
+    env = child_env()
+    proc = subprocess.Popen(entry(kind) + [str(scene), "--out", str(out)], cwd=tmp_path,
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    t0 = time.time()
+    while not (out / "fields" / "step_0000000.vtu").exists():
+        assert time.time() - t0 < START_TIMEOUT and proc.poll() is None, "did not start"
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGSTOP)
     try:
-        # 60 000 steps, 601 snapshots of 16.6 kB: 10 MB of the 16
-        scene = write_scene(tmp_path / "s.nml", scheme__t_end="150.0", output__every="1000",
-                            output__fields_every="100")
-        out = disk / "o"
-        env = child_env()
-        proc = subprocess.Popen(entry(kind) + [str(scene), "--out", str(out)], cwd=tmp_path,
-                                env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                text=True)
-        t0 = time.time()
-        while not (out / "fields" / "step_0000000.vtu").exists():
-            assert time.time() - t0 < START_TIMEOUT and proc.poll() is None, "did not start"
-            time.sleep(0.01)
-        proc.send_signal(signal.SIGSTOP)
-        try:
-            fill(disk)
-        finally:
-            proc.send_signal(signal.SIGCONT)
-        stdout, stderr = proc.communicate(timeout=120)
-        line = one_line(subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr),
-                        EXIT_WRITE)
-        assert ".vtu" in line
-        assert json.loads((out / "summary.json").read_text())["status"] == "write_failed"
-        # fields.pvd lists the first snapshots (those of its last rewrite: the close's needs
-        # room the disk no longer has), every VTU on disk is whole, no temporary file is left
-        import xml.etree.ElementTree as ET
-        vtus = sorted(f"fields/{p.name}" for p in (out / "fields").glob("step_*.vtu"))
-        listed = [d.get("file") for d in ET.parse(out / "fields.pvd").getroot().iter("DataSet")]
-        assert listed and listed == vtus[:len(listed)]
-        for f in vtus:
-            assert ET.parse(out / f).getroot().tag == "VTKFile", f
-        assert not list((out / "fields").glob("*.tmp")) and not (out / "fields.pvd.tmp").exists()
+        fill(disk)
     finally:
-        subprocess.run(["umount", "-l", str(disk)], capture_output=True)
+        proc.send_signal(signal.SIGCONT)
+    stdout, stderr = proc.communicate(timeout=120)
+    line = one_line(subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr),
+                    EXIT_WRITE)
+    assert ".vtu" in line
+    assert json.loads((out / "summary.json").read_text())["status"] == "write_failed"
+    # fields.pvd lists the first snapshots (those of its last rewrite: the close's needs
+    # room the disk no longer has), every VTU on disk is whole, no temporary file is left
+    import xml.etree.ElementTree as ET
+    vtus = sorted(f"fields/{p.name}" for p in (out / "fields").glob("step_*.vtu"))
+    listed = [d.get("file") for d in ET.parse(out / "fields.pvd").getroot().iter("DataSet")]
+    assert listed and listed == vtus[:len(listed)]
+    for f in vtus:
+        assert ET.parse(out / f).getroot().tag == "VTKFile", f
+    assert not list((out / "fields").glob("*.tmp")) and not (out / "fields.pvd.tmp").exists()
 
 
 @pytest.mark.parametrize("kind", ENTRIES)

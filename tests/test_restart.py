@@ -575,35 +575,27 @@ def test_central_automatic_step_of_another_t_end_is_refused_naming_the_step(tmp_
     assert_same_results(tmp_path / "part", tmp_path / "full", "central, the checkpoint's dt")
 
 
-def test_restart_to_a_later_t_end_checks_the_space_its_snapshots_need(tmp_path):
+def test_restart_to_a_later_t_end_checks_the_space_its_snapshots_need(tmpfs, tmp_path):
     """The free-space check of a run with field snapshots counts, on a restart, what the
     rest of the run to the restart's t_end will write: on a 2 MB tmpfs, a run to t = 0.5
     (21 snapshots) restarted to t = 50 (1 980 more) is refused naming &output fields_every
     and changes nothing; restarted to t = 1 it runs."""
-    disk = tmp_path / "disk"
-    disk.mkdir()
-    res = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(disk)],
-                         capture_output=True, text=True)
-    if res.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here ({res.stderr.strip()})")
-    try:
-        text = scene_text("hht", extra=", alpha = -0.1", t_end="0.5", fields=10, every=100)
-        scene, far, near = tmp_path / "s.nml", tmp_path / "far.nml", tmp_path / "near.nml"
-        scene.write_text(text)
-        far.write_text(text.replace("t_end = 0.5", "t_end = 50.0"))
-        near.write_text(text.replace("t_end = 0.5", "t_end = 1.0"))
-        part = disk / "part"
-        assert run(exe_cmd(scene, "--out", part), tmp_path).returncode == EXIT_OK
-        before = folder_files(part)
-        res = run(exe_cmd(far, "--restart", part), tmp_path)
-        assert res.returncode == EXIT_BAD_INPUT, res.stderr
-        assert "&output fields_every" in res.stderr and "1980 snapshots" in res.stderr, \
-            res.stderr
-        assert folder_files(part) == before
-        res = run(exe_cmd(near, "--restart", part), tmp_path)
-        assert res.returncode == EXIT_OK, res.stderr
-    finally:
-        subprocess.run(["umount", "-l", str(disk)], capture_output=True)
+    disk = tmpfs("size=2m")
+    text = scene_text("hht", extra=", alpha = -0.1", t_end="0.5", fields=10, every=100)
+    scene, far, near = tmp_path / "s.nml", tmp_path / "far.nml", tmp_path / "near.nml"
+    scene.write_text(text)
+    far.write_text(text.replace("t_end = 0.5", "t_end = 50.0"))
+    near.write_text(text.replace("t_end = 0.5", "t_end = 1.0"))
+    part = disk / "part"
+    assert run(exe_cmd(scene, "--out", part), tmp_path).returncode == EXIT_OK
+    before = folder_files(part)
+    res = run(exe_cmd(far, "--restart", part), tmp_path)
+    assert res.returncode == EXIT_BAD_INPUT, res.stderr
+    assert "&output fields_every" in res.stderr and "1980 snapshots" in res.stderr, \
+        res.stderr
+    assert folder_files(part) == before
+    res = run(exe_cmd(near, "--restart", part), tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
 
 
 # ------------------------------------------------------------------ refusals
