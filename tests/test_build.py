@@ -177,3 +177,47 @@ def test_simd_build_is_bit_identical_to_portable(exe, tmp_path):
         b = (portable[name] / "trace.csv").read_bytes()
         assert len(a.splitlines()) > 100, name
         assert a == b, f"{name}: the x86-64-v3 and portable builds' traces differ"
+
+
+def _blas_file(text: str) -> str:
+    """The library file of summary.json's "blas" (after OpenBLAS's configuration, if any)."""
+    return text.rsplit(": ", 1)[-1]
+
+
+def test_summary_names_the_blas_the_factorization_calls(exe, run_exe, tmp_path):
+    """summary.json's "blas": the library that defines dgemm_ for CHOLMOD's supernodal
+    factorization, the same from both entry points; it is mapped into the process that
+    ran (this one, for the extension), defines dgemm_, and is named OpenBLAS exactly when
+    it has OpenBLAS's openblas_get_config."""
+    import ctypes
+    import json
+
+    import dyncontact
+    from dyncontact import Scene
+
+    scene = ROOT / "scripts" / "scenes" / "bar3d_hht.nml"
+    scn = Scene.read(scene)
+    scn.set("scheme.t_end", 0.0)
+    text = dyncontact.run(scn, out=tmp_path / "py", progress=False).summary["blas"]
+    assert text, "the loader found no dgemm_ for CHOLMOD"
+    lib = _blas_file(text)
+    assert os.path.isabs(lib) and os.path.isfile(lib)
+    assert lib == os.path.realpath(lib), "links resolved (Debian's alternatives)"
+    with open("/proc/self/maps", encoding="utf-8") as f:
+        mapped = {os.path.realpath(line.split()[-1]) for line in f
+                  if len(line.split()) >= 6 and line.split()[-1].startswith("/")}
+    assert lib in mapped
+    handle = ctypes.CDLL(lib)
+    assert hasattr(handle, "dgemm_")
+    if hasattr(handle, "openblas_get_config"):
+        handle.openblas_get_config.restype = ctypes.c_char_p
+        assert text == f"{handle.openblas_get_config().decode()}: {lib}"
+    else:
+        assert text == lib
+    # the executable loads the same system library
+    scene_exe = tmp_path / "exe.nml"
+    scene_exe.write_text(scene.read_text().replace("t_end = 15.0", "t_end = 0.0")
+                        .replace("'out/bar3d_hht'", f"'{tmp_path / 'exe'}'"))
+    res = run_exe(str(scene_exe))
+    assert res.returncode == 0, res.stderr
+    assert json.loads((tmp_path / "exe" / "summary.json").read_text())["blas"] == text

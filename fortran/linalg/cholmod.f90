@@ -23,7 +23,7 @@
 !> A cholmod_t owns a C handle: never copy one by assignment (double free).
 module cholmod
     use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated, &
-                             c_f_pointer
+                             c_f_pointer, c_char
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
     use sparse, only: csc_t
@@ -68,7 +68,7 @@ module cholmod
 
     public :: chol_factor, chol_analyse, chol_solve, chol_ordering, chol_solve_many, &
               chol_free, chol_kernel, &
-              chol_solve_cholmod
+              chol_solve_cholmod, chol_blas
 
     interface
         !> void *dc_cholmod_new(void)
@@ -154,6 +154,13 @@ module cholmod
             type(c_ptr), value :: h                      !! handle
             integer(c_int) :: code
         end function dc_cholmod_supernodal
+
+        !> void dc_cholmod_blas(msg, len)
+        subroutine dc_cholmod_blas(msg, n) bind(C, name='dc_cholmod_blas')
+            import :: c_int, c_char
+            character(kind=c_char), intent(out) :: msg(*)  !! the text, blank-padded
+            integer(c_int), value :: n                     !! length of msg
+        end subroutine dc_cholmod_blas
 
         !> int dc_cholmod_ordering(h)
         function dc_cholmod_ordering(h) result(code) bind(C, name='dc_cholmod_ordering')
@@ -408,6 +415,15 @@ contains
         if (ch%n >= 1 .and. ch%ordering >= 1 .and. ch%ordering <= size(ORDERING_NAMES)) &
             name = trim(ORDERING_NAMES(ch%ordering))
     end function chol_ordering
+
+    !> The BLAS library the factorizations call (OpenBLAS's configuration and the file,
+    !> or the file alone; '' where the loader cannot tell): summary.json's "blas".
+    function chol_blas() result(name)
+        character(len=:), allocatable :: name
+        character(len=1024) :: buf
+        call dc_cholmod_blas(buf, int(len(buf), c_int))
+        name = trim(buf)
+    end function chol_blas
 
     !> The triangular solve chol_solve uses: KERNEL_PAIRS, KERNEL_TRIPLES, KERNEL_CHOLMOD or
     !> KERNEL_SUPERNODAL ('' without factors).

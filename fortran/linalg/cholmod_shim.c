@@ -24,6 +24,9 @@
  * dc_cholmod_export copies it instead, when the caller keeps CHOLMOD's factor). Pairs are
  * tried first: a matrix made of node pairs is never ordered as triples.
  */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <math.h>
@@ -750,6 +753,43 @@ int dc_cholmod_ordering(void *handle)
     case CHOLMOD_NESDIS: return ORD_NESDIS;
     default: return ORD_CHOLMOD;
     }
+}
+
+/* The BLAS that CHOLMOD's supernodal factorization (and UMFPACK's LU) calls, as text
+ * copied into msg (len bytes, blank-padded for Fortran): OpenBLAS's configuration when
+ * the library has one, then the file that defines dgemm_, its links resolved ("" where
+ * the loader cannot tell). It is looked up as the loader resolves CHOLMOD's reference: first in the
+ * process's global scope (the executable and its libraries), then among CHOLMOD's own
+ * dependencies (a module loaded with dlopen, such as the Python extension). On Debian the
+ * system's libblas.so.3 is an alternative: the reference BLAS or an optimized one. */
+void dc_cholmod_blas(char *msg, int len)
+{
+    char text[1024] = "";
+    void *sym = dlsym(RTLD_DEFAULT, "dgemm_");
+    void *lib = NULL;
+    Dl_info info;
+    if (sym == NULL && dladdr((void *)cholmod_start, &info) && info.dli_fname != NULL) {
+        lib = dlopen(info.dli_fname, RTLD_LAZY | RTLD_NOLOAD);
+        if (lib != NULL) sym = dlsym(lib, "dgemm_");
+    }
+    if (sym != NULL && dladdr(sym, &info) && info.dli_fname != NULL) {
+        void *own = dlopen(info.dli_fname, RTLD_LAZY | RTLD_NOLOAD);
+        char *(*config)(void) = NULL;
+        char *file = realpath(info.dli_fname, NULL); /* through the alternatives' links */
+        const char *name = file != NULL ? file : info.dli_fname;
+        if (own != NULL) {
+            *(void **)(&config) = dlsym(own, "openblas_get_config");
+            dlclose(own);
+        }
+        if (config != NULL)
+            snprintf(text, sizeof text, "%s: %s", config(), name);
+        else
+            snprintf(text, sizeof text, "%s", name);
+        free(file);
+    }
+    if (lib != NULL) dlclose(lib);
+    int n = (int)strlen(text);
+    for (int i = 0; i < len; i++) msg[i] = i < n ? text[i] : ' ';
 }
 
 /* Release the numerical values of CHOLMOD's factor (after dc_cholmod_export, when the

@@ -32,6 +32,7 @@ module simulation
                         write_text_atomic, signal_caught, free_space, remove_matching, &
                         same_folder
     use sparse, only: csc_t
+    use cholmod, only: chol_blas
     use vtk_output, only: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
     use version_info, only: DYNCONTACT_VERSION, DYNCONTACT_ISA
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get, buf_put_text, buf_get_text, buf_from
@@ -1471,7 +1472,8 @@ contains
                '  "matrix_nnz": '//int_text(int(sim%mdl%stiff%nnz, i8))//','//nl// &
                '  "scene": '//scene_to_json(sim%scn)//','//nl// &
                '  "version": '//json_string(DYNCONTACT_VERSION)//','//nl// &
-               '  "isa": '//json_string(DYNCONTACT_ISA)//nl//'}'//nl
+               '  "isa": '//json_string(DYNCONTACT_ISA)//','//nl// &
+               '  "blas": '//json_string(chol_blas())//nl//'}'//nl
         call write_text_atomic(trim(sim%scn%out_dir)//'/summary.json', text, stat, errmsg, &
                                in_place=present(last))
     end subroutine write_summary

@@ -315,6 +315,7 @@ def bench_row(spec: RunSpec, out_root: str, sparse_every: int = 100,
         "newton_its_per_step": its / steps if its is not None and steps else None,
         "factorizations": full.get("factorizations"),
         "isa": full.get("isa"),
+        "blas": full.get("blas"),
         "solve_kernel": full.get("solve_kernel"),
         "loadavg": loadavg(),
         "repeat": repeat,
@@ -518,6 +519,9 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
     isas = sorted({str(r.get("isa")) for r in rows if r.get("isa")})
     if isas:
         print(f"core built for: {', '.join(isas)} (meson option simd; see meson.options)")
+    blas = sorted({str(r.get("blas")) for r in rows if r.get("blas")})
+    if blas:
+        print(f"BLAS (CHOLMOD's supernodal factorization, UMFPACK): {', '.join(blas)}")
     doc = {
         "generated": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
         "version": package_version(),
@@ -526,6 +530,7 @@ def bench_main(argv: Sequence[str] | None = None, root: str | None = None) -> in
                     "loadavg_end": loadavg()},
         "floor_api": FLOOR_API if floor_api_available() else None,
         "isa": isas,
+        "blas": blas,
         "total_wall_s": time.perf_counter() - t0,
         "columns": {k: h for h, k, _ in _BENCH_COLUMNS},
         "rows": rows,

@@ -80,7 +80,7 @@ COLUMNS = ["geometry", "solver_kind", "h", "contact", "dofs", "matrix_nnz", "fac
            "ordering", "setup_s", "loop_ms_per_step", "solve_ms", "spmv_ms", "step_over_floor",
            "peak_mb", "setup_peak_mb", "model_mb", "peak_over_model", "base_mb",
            "peak_over_model_above_base", "steps", "cg_its_per_solve", "threads",
-           "solve_threads", "wall_ms_per_step"]
+           "solve_threads", "wall_ms_per_step", "factorization", "blas"]
 
 
 def estimate_dofs(geometry: str, h: float) -> int:
@@ -252,6 +252,7 @@ def measure_one(exe: str, h: float, contact: bool, steps: int, work: str,
         "h": h, "contact": int(contact), "dofs": summary.get("dofs"), "matrix_nnz": mnnz,
         "factor_nnz": fnnz, "solver": summary.get("solver"),
         "solve_kernel": summary.get("solve_kernel"), "ordering": summary.get("ordering", ""),
+        "factorization": summary.get("factorization", ""), "blas": summary.get("blas", ""),
         "setup_s": w0, "loop_ms_per_step": loop_ms, "solve_ms": solve_ms, "spmv_ms": spmv_ms,
         "step_over_floor": (loop_ms / (solve_ms + spmv_ms)) if solve_ms and spmv_ms else None,
         "peak_mb": peak, "setup_peak_mb": m0, "model_mb": model,
@@ -411,6 +412,10 @@ def _write_md(out: str, rows, skipped=(), max_dofs=None) -> None:
         lines.append(f"Fitted slopes against dofs ({geometry}, {solver}, with contact): " + ", ".join(
             f"{k} {_slopes(c, k):.2f}" for k in ("setup_s", "loop_ms_per_step", "solve_ms",
                                                "spmv_ms", "peak_mb") if _has(c, k)))
+        lines.append("")
+    blas = sorted({r["blas"] for r in rows if r.get("blas")})
+    if blas:
+        lines.append("BLAS (the supernodal factorization's): " + "; ".join(blas) + ".")
         lines.append("")
     for geometry, h, est in skipped:
         lines.append(f"Skipped: {geometry} h = {h:g} (about {est} dofs, above --max-dofs "
