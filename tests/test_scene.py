@@ -11,6 +11,7 @@ import random
 import re
 import subprocess
 import sys
+import warnings
 from collections import namedtuple
 from pathlib import Path
 
@@ -561,6 +562,35 @@ def test_the_keys_given_are_those_written(tmp_path):
     assert core.scene_dump(tmp_path / "again.nml", with_given=True)[1] == {
         "scheme.beta", "contact.theta", "scheme.dt"}
     assert not Scene().copy().given("scheme.dt") and scn.copy().given("scheme.dt")
+
+
+def test_unset_leaves_a_key_out_and_its_warning_with_it(tmp_path):
+    """Scene.unset: a base scene switched to another scheme (bar2d_hht.nml, which gives
+    alpha, run with newmark) warns that alpha is not used; unset, alpha is no longer given
+    nor written, takes its default, and the run gives no warning and the same trace. &mesh
+    dim and file cannot be unset; an unknown key is refused as set refuses it."""
+    from dyncontact.core import DyncontactWarning
+
+    base = Scene.read(ROOT / "scripts" / "scenes" / "bar2d_hht.nml")
+    base.set("scheme.name", "newmark")
+    base.set("scheme.t_end", 0.05)
+    with pytest.warns(DyncontactWarning, match="&scheme alpha: not used by scheme 'newmark'"):
+        before = dyncontact.run(base, out=tmp_path / "a", progress=False)
+    switched = base.copy()
+    switched.unset("scheme.alpha", "scheme.rho_inf")     # rho_inf: not given, left as is
+    assert base.given("scheme.alpha") and not switched.given("scheme.alpha")
+    assert switched.get("scheme.alpha") == Scene().get("scheme.alpha")
+    assert "alpha" not in switched.to_text() and switched == base
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DyncontactWarning)
+        after = dyncontact.run(switched, out=tmp_path / "b", progress=False)
+    assert (tmp_path / "a" / "trace.csv").read_bytes() == (tmp_path / "b" / "trace.csv").read_bytes()
+    assert before.ok and after.ok
+    for name in ("mesh.dim", "mesh.file"):
+        with pytest.raises(SceneError, match="cannot be unset"):
+            switched.unset(name)
+    with pytest.raises(SceneError, match="unknown key"):
+        switched.unset("scheme.nope")
 
 
 # --------------------------------------------------------------------------- round trip
