@@ -194,6 +194,25 @@ def warns_as_designed(scene):
         yield
 
 
+def run_as_designed(scene, out, **kwargs):
+    """dyncontact.run of drop_unused(scene) (progress off unless given), expecting its
+    design_warnings (warns_as_designed): a test's run of a switched base scene."""
+    import dyncontact
+
+    kwargs.setdefault("progress", False)
+    with warns_as_designed(drop_unused(scene)):
+        return dyncontact.run(scene, out=out, **kwargs)
+
+
+def stepper_as_designed(scene, out):
+    """A dyncontact Stepper of drop_unused(scene), its design_warnings expected; use it as
+    the Stepper: ``with stepper_as_designed(s, out) as run:``."""
+    from dyncontact.core import Stepper
+
+    with warns_as_designed(drop_unused(scene)):
+        return Stepper(scene, out)
+
+
 @contextmanager
 def gmsh_session(model: str):
     """A gmsh session of the test's own, opened as a caller of the package would: gmsh
