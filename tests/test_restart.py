@@ -809,7 +809,7 @@ def _mesh_file_scene(folder: Path) -> Path:
     scene = folder / "s.nml"
     scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0")
                      .replace("&mesh file = ''", "&mesh file = 'm.msh'")
-                     .replace(", h = 0.05 /", " /"))
+                     .replace(", width = 0.1, h = 0.05 /", " /"))   # a .msh uses neither
     return scene
 
 
