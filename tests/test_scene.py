@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import ROOT, SUBPROCESS_TIMEOUT
+from conftest import ROOT, SCHEME_PARAMS, SUBPROCESS_TIMEOUT, drop_unused
 
 import dyncontact
 from dyncontact import BadInputError, Scene, SceneError
@@ -591,6 +591,40 @@ def test_unset_leaves_a_key_out_and_its_warning_with_it(tmp_path):
             switched.unset(name)
     with pytest.raises(SceneError, match="unknown key"):
         switched.unset("scheme.nope")
+
+
+@pytest.mark.parametrize("name", sorted(SCHEME_PARAMS))
+def test_drop_unused_leaves_out_what_the_core_warns_about(name, tmp_path):
+    """conftest's SCHEME_PARAMS (which the tests' drop_unused follows) is the core's rule:
+    a scene giving every &scheme parameter, a contact theta and multiplier, quad_points and
+    an amplitude, run with kind = 'velocity' and the penalty method, warns that exactly the
+    keys drop_unused leaves out are not used; after drop_unused it gives no warning."""
+    from dyncontact.core import DyncontactWarning, Stepper
+
+    s = Scene()
+    for key, value in {"scheme.name": name, "scheme.t_end": 0.01, "scheme.alpha": 0.0,
+                       "scheme.beta": 0.25, "scheme.gamma": 0.5, "scheme.theta": 1.0,
+                       "scheme.rho_inf": 0.5, "contact.method": "penalty",
+                       "contact.theta": 1, "contact.multiplier": "integral",
+                       "contact.quad_points": 3, "initial.kind": "velocity",
+                       "initial.velocity": [0.0, -0.1], "initial.amplitude": 0.5}.items():
+        s.set(key, value)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        Stepper(s, tmp_path / "all").close()
+    unused = [k for k in ("alpha", "beta", "gamma", "theta", "rho_inf")
+              if k not in SCHEME_PARAMS[name]]
+    notes = [str(w.message) for w in seen if w.category is DyncontactWarning]
+    scheme_notes = [n for n in notes if n.startswith("warning: &scheme ")
+                    and "not used by scheme" in n]
+    assert scheme_notes == [f"warning: &scheme {', '.join(unused)}: not used by scheme "
+                            f"'{name}'" + scheme_notes[0].split(f"'{name}'", 1)[1]], notes
+    for what in ("&contact theta: not used", "&contact multiplier: not used",
+                 "&contact quad_points: not used", "&initial amplitude is not used"):
+        assert sum(what in n for n in notes) == 1, (what, notes)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DyncontactWarning)
+        Stepper(drop_unused(s), tmp_path / "dropped").close()
 
 
 # --------------------------------------------------------------------------- round trip
