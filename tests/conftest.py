@@ -120,6 +120,124 @@ def sampled_steps(run, n_steps: int, samples, extra=None) -> dict:
     return states
 
 
+#: The &scheme parameters each scheme uses (docs/scenes.md, &scheme); the others, given,
+#: change nothing and the run warns.
+SCHEME_PARAMS = {"newmark": ("beta", "gamma"), "pc": ("beta", "gamma"),
+                 "hht": ("alpha",), "hht_seed": ("alpha",), "pc_hht": ("alpha",),
+                 "pc_hht_seed": ("alpha",), "theta": ("theta",), "galpha": ("rho_inf",),
+                 "central": ()}
+
+
+def drop_unused(scene):
+    """`scene` (a dyncontact.Scene) without the keys it gives that its scheme, contact
+    method and quadrature, initial kind and mesh do not use (Scene.unset): a test that
+    switches a base scene's scheme (hht's alpha under newmark), method, quadrature or
+    initial kind on purpose runs without the warnings that those keys change nothing,
+    so that the suite's warnings summary keeps the warnings someone should look at. The
+    run is the same: only keys that change nothing are left out. Returns the scene."""
+    used = SCHEME_PARAMS[scene.get("scheme.name")]
+    names = [f"scheme.{k}" for k in ("alpha", "beta", "gamma", "theta", "rho_inf")
+             if k not in used]
+    method = scene.get("contact.method")
+    if method != "nitsche":
+        names.append("contact.theta")
+    if method != "alm":
+        names.append("contact.multiplier")
+    if scene.get("contact.quadrature") != "gauss":
+        names.append("contact.quad_points")
+    if scene.get("initial.kind") != "compressed_bar":
+        names.append("initial.amplitude")
+    if scene.get("mesh.file").lower().endswith(".msh"):
+        names += ["mesh.h", "mesh.width"]
+        if scene.get("initial.kind") != "compressed_bar":
+            names.append("mesh.length")
+    scene.unset(*[n for n in names if scene.given(n)])
+    return scene
+
+
+def design_warnings(scene) -> list[str]:
+    """The patterns (regexes) of the warnings the core gives, by design, about a choice
+    `scene` makes (docs/scenes.md, "Warnings and notes"): the augmented Lagrangian on a
+    mass other than the redistributed one, the redistributed mass with a scheme that
+    weighs its massless dofs half at each end of the step, central's dt = 0 where the
+    estimate is not a safe bound, no contact boundary (&boundary contact = ''). Every one
+    is a choice a test can make on purpose."""
+    found = []
+    contact = bool(scene.get("boundary.contact"))
+    if not contact:
+        found.append(r"no contact boundary \(&boundary contact = ''\)")
+    mass, name = scene.get("scheme.mass"), scene.get("scheme.name")
+    method = scene.get("contact.method")
+    if contact and method == "alm" and mass != "redistributed":
+        found.append(f"&contact method = 'alm' with &scheme mass = '{mass}'")
+    if contact and mass == "redistributed" and (
+            (name == "galpha" and scene.get("scheme.rho_inf") >= 1.0)
+            or (name == "theta" and scene.get("scheme.theta") <= 0.5)):
+        found.append("&scheme mass = 'redistributed' with")
+    if contact and name == "central" and scene.get("scheme.dt") == 0.0:
+        if method == "nitsche" and scene.get("contact.theta") != 1:
+            found.append("&scheme dt = 0 picks at most .* with &contact theta")
+        elif scene.dimension() == 1:
+            found.append("&scheme dt = 0 picks at most .* in 1D")
+    return found
+
+
+@contextmanager
+def warns_as_designed(scene):
+    """A block that opens a run of `scene`: when it ends without an exception (a refused
+    scene gives no warnings) it must have given each of design_warnings(scene), as
+    pytest.warns would check (the test runs that case on purpose); any other warning goes
+    on to the caller's filters (the suite's summary)."""
+    import re
+    import warnings
+
+    from dyncontact.core import DyncontactWarning
+
+    patterns = design_warnings(scene)
+    raised = True
+    seen: list = []
+    try:
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            yield
+        raised = False
+    finally:
+        expected = [w for w in seen if issubclass(w.category, DyncontactWarning)
+                    and any(re.search(p, str(w.message)) for p in patterns)]
+        for w in seen:
+            if w not in expected:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    if not raised:
+        for p in patterns:
+            assert any(re.search(p, str(w.message)) for w in expected), \
+                f"the run did not warn as designed: {p!r} (warnings: " \
+                f"{[str(w.message) for w in seen]})"
+
+
+def run_as_designed(scene, out=None, **kwargs):
+    """dyncontact.run(scene, out, ...) (progress off unless given) of drop_unused(scene)
+    (a Scene; a scene file is run as it is), expecting its design_warnings
+    (warns_as_designed): a test's run of a switched base scene."""
+    import dyncontact
+
+    kwargs.setdefault("progress", False)
+    if isinstance(scene, dyncontact.Scene):
+        designed = drop_unused(scene)
+    else:
+        designed = dyncontact.Scene.read(scene)
+    with warns_as_designed(designed):
+        return dyncontact.run(scene, out=out, **kwargs)
+
+
+def stepper_as_designed(scene, out):
+    """A dyncontact Stepper of drop_unused(scene), its design_warnings expected; use it as
+    the Stepper: ``with stepper_as_designed(s, out) as run:``."""
+    from dyncontact.core import Stepper
+
+    with warns_as_designed(drop_unused(scene)):
+        return Stepper(scene, out)
+
+
 @contextmanager
 def gmsh_session(model: str):
     """A gmsh session of the test's own, opened as a caller of the package would: gmsh

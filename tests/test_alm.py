@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import dyncontact
-from conftest import sampled_steps
+from conftest import run_as_designed, sampled_steps, stepper_as_designed
 from dyncontact import Scene
 from dyncontact import exact1d as ex
 
@@ -55,7 +55,7 @@ def seed_alm(**keys) -> Scene:
 
 
 def run(s: Scene, tmp_path: Path, name: str):
-    return dyncontact.run(s, out=tmp_path / name, progress=False)
+    return run_as_designed(s, tmp_path / name)
 
 
 def deviation(ours: np.ndarray, ref: np.ndarray, relative_above: float | None = None) -> float:
@@ -225,7 +225,7 @@ def test_alm_carried_b_is_k_u_minus_n_lambda_and_balances(scheme, tmp_path):
     the contact nodes' normal dofs ('nodal': -N lambda = lambda_i there, n = (0, -1)), is 0
     out of contact, equals the trace's p_n times the probe node's share of Gamma_C (h) at
     the probe node, and closes the scheme's balance equation with the state."""
-    from dyncontact.core import Stepper, read_trace
+    from dyncontact.core import read_trace
     h, dt = 0.05, 0.0025
     s = seed_alm(contact__multiplier="nodal", scheme__t_end=1.5, material__gravity=[0.0, -0.2])
     for k, v in SCHEMES[scheme].items():
@@ -235,7 +235,7 @@ def test_alm_carried_b_is_k_u_minus_n_lambda_and_balances(scheme, tmp_path):
     beta = (1 + af) ** 2 / 4
     n_steps = int(round(1.5 / dt))
     samples = set(range(455, n_steps)) | {10, 200}
-    with Stepper(s, tmp_path / "run") as run:
+    with stepper_as_designed(s, tmp_path / "run") as run:
         M, K = run.matrix("M"), run.matrix("K")
         states = sampled_steps(run, n_steps, samples)
     trace = read_trace(tmp_path / "run")
@@ -266,11 +266,10 @@ def test_alm_energy_change_is_the_work_of_the_multipliers(tmp_path):
     of the mean contact force C = -N lambda (the contact part of the carried B). Summed over
     the steps through the first impact it is the whole change of E (consistent mass: the
     chattering multipliers feed energy in)."""
-    from dyncontact.core import Stepper
     s = seed_alm(scheme__t_end=1.6)
     first, last = 440, 640
     work = 0.0
-    with Stepper(s, tmp_path / "run") as run:
+    with stepper_as_designed(s, tmp_path / "run") as run:
         M, K = run.matrix("M"), run.matrix("K")
         run.advance(first)
         s0 = run.state()
@@ -387,4 +386,4 @@ def test_alm_integral_with_one_point_a_facet_is_refused(tmp_path):
                                  r"method = 'alm' and multiplier = 'integral'"):
             dyncontact.run(scene, out=tmp_path / "refused", progress=False)
         scene.set("contact.quad_points", enough)
-        assert dyncontact.run(scene, out=tmp_path / f"ok{enough}", progress=False).status == "ok"
+        assert run_as_designed(scene, tmp_path / f"ok{enough}").status == "ok"

@@ -55,7 +55,7 @@ import pytest
 import dyncontact
 from dyncontact.core import Stepper, load_mesh, read_trace
 
-from conftest import ROOT, lame
+from conftest import ROOT, drop_unused, lame, warns_as_designed
 from test_invariants import SCHEMES, coefficients
 
 EPS = np.finfo(float).eps
@@ -390,7 +390,7 @@ def scene_for(dim, label, mass, contact, solver="direct"):
     scene.set("solver.kind", solver)
     if solver == "cg":
         scene.set("solver.cg_rtol", CG_RTOL)
-    return scene, mesh_keys, normal, point
+    return drop_unused(scene), mesh_keys, normal, point
 
 
 def rel(x, scale):
@@ -408,7 +408,9 @@ def test_carried_quantities_every_step(case, tmp_path):
     scene, mesh_keys, normal, point = scene_for(dim, label, mass, contact, solver)
     out = tmp_path / "run"
     states, fresh = [], []
-    with Stepper(scene, out) as run:
+    with warns_as_designed(scene):
+        run = Stepper(scene, out)
+    with run:
         M, K, Kt = run.matrix("M"), run.matrix("K"), run.matrix("K_theta")
         ref = ContactReference(dim, mesh_keys, scene.get("material.young"),
                                scene.get("material.poisson"), scene.get("contact.gamma0"),
@@ -606,7 +608,8 @@ def run_env(monkeypatch, env, scene, out):
         monkeypatch.delenv(var, raising=False)
     for var, value in env.items():
         monkeypatch.setenv(var, value)
-    res = dyncontact.run(scene, out=out, progress=False)
+    with warns_as_designed(scene):
+        res = dyncontact.run(scene, out=out, progress=False)
     assert res.ok, res.message
     return res.trace
 

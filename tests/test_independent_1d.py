@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import dyncontact
+from conftest import run_as_designed
 from dyncontact import Scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -144,7 +145,7 @@ def core_run(tmp_path, name, **keys) -> dyncontact.RunResult:
     s.set("scheme.t_end", T_END)
     for key, value in keys.items():
         s.set(key.replace("__", "."), value)
-    return dyncontact.run(s, out=tmp_path / name, progress=False)
+    return run_as_designed(s, out=tmp_path / name, progress=False)
 
 
 def differences(trace, ref) -> dict[str, float]:

@@ -26,9 +26,9 @@ import numpy as np
 import pytest
 
 import dyncontact
-from dyncontact.core import Stepper, read_trace
+from dyncontact.core import read_trace
 
-from conftest import ROOT, sampled_steps
+from conftest import ROOT, sampled_steps, stepper_as_designed
 
 SCENE = ROOT / "scripts" / "scenes" / "bar2d_hht.nml"
 SCENE_3D = ROOT / "scripts" / "scenes" / "bar3d_hht.nml"
@@ -122,7 +122,7 @@ def check_invariants(label, mass, scene_path, gravity, t_end, t_contact, tmp_pat
     n_steps = int(round(t_end / dt))
     samples = set(np.linspace(0, n_steps - 1, N_SAMPLES).astype(int).tolist())
     samples |= set(np.linspace(int(t_contact / dt), n_steps - 1, N_SAMPLES).astype(int).tolist())
-    with Stepper(scene, out) as run:
+    with stepper_as_designed(scene, out) as run:
         M, K = run.matrix("M"), run.matrix("K")
         states = sampled_steps(run, n_steps, samples,
                                lambda s0, s1: (run.eval_b(s0["u"])[0], run.eval_b(s1["u"])[0],

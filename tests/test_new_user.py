@@ -274,8 +274,8 @@ def test_lock_whose_pid_was_reused_is_taken_over(kind, tmp_path):
 
 def _scenes(tmp_path, t_end="2.0"):
     return [write_scene(tmp_path / f"{name}.nml", scheme__name=f"'{name}'", scheme__t_end=t_end,
-                        scheme__alpha=alpha)   # newmark has no alpha: BASE's, for hht, off
-            for name, alpha in (("newmark", "0.0"), ("hht", "-0.1"))]
+                        scheme__alpha=alpha)   # None: BASE's alpha (hht's) left out
+            for name, alpha in (("newmark", None), ("hht", "-0.1"))]
 
 
 def test_two_python_threads_run_scenes_like_one_after_the_other(tmp_path):
@@ -815,8 +815,7 @@ def test_body_thrown_in_flight_moves_rigidly(scheme, tmp_path):
     import dyncontact
 
     keys, dt = RIGID_SCHEMES[scheme]
-    over = {f"scheme__{k}": v for k, v in keys.items()}
-    over.setdefault("scheme__alpha", "0.0")
+    over = {f"scheme__{k}": v for k, v in keys.items()}   # alpha: left out unless given
     mesh = disk_mesh(tmp_path / "disk.msh")
     scene = disk_scene(tmp_path / "s.nml", mesh, initial__velocity="0.3, -0.1",
                        contact__obstacle_point="0.0, -1.0", scheme__dt=f"{dt}",

@@ -426,8 +426,8 @@ def test_body_at_rest_under_gravity_runs_and_conserves_energy_with_e_load(tmp_pa
     import dyncontact
 
     scene = write_scene(tmp_path / "s.nml", material__gravity="0.0, 1.0",
-                        initial__kind="'rest'", scheme__name="'newmark'", scheme__alpha=None,
-                        scheme__t_end="3.0")
+                        initial__kind="'rest'", initial__amplitude=None,
+                        scheme__name="'newmark'", scheme__alpha=None, scheme__t_end="3.0")
     res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
     assert res.status == "ok", res.message
     tr = res.trace
@@ -449,7 +449,7 @@ def test_block_sliding_under_gravity_is_not_called_unstable(tmp_path):
     g_x, t_end, mass = 1.0, 3.0, 1.0 * 0.1      # rho x area of the 1 x 0.1 bar
     scene = write_scene(tmp_path / "s.nml", boundary__clamped="''",
                         material__gravity=f"{g_x}, -1.0", initial__kind="'rest'",
-                        scheme__t_end=str(t_end))
+                        initial__amplitude=None, scheme__t_end=str(t_end))
     res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
     assert res.status == "ok", res.message
     tr = res.trace
@@ -466,9 +466,11 @@ def test_body_starting_in_the_obstacle_runs(tmp_path):
     e_total + e_contact stays at its initial value (energy-conserving Nitsche, theta = 1)."""
     import dyncontact
 
-    scene = write_scene(tmp_path / "s.nml", initial__kind="'rest'",
+    scene = write_scene(tmp_path / "s.nml", initial__kind="'rest'", initial__amplitude=None,
                         contact__obstacle_point="0.0, 0.01", scheme__t_end="3.0")
-    res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
+    with pytest.warns(dyncontact.core.DyncontactWarning,
+                      match="the contact boundary starts inside the obstacle"):
+        res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
     assert res.status == "ok", res.message
     tr = res.trace
     assert tr["e_total"][0] == 0.0 and tr["e_contact"][0] > 0
@@ -483,7 +485,9 @@ def test_no_load_keeps_the_seed_threshold(tmp_path):
 
     scene = write_scene(tmp_path / "s.nml", contact__theta="-1", contact__gamma0="0.01",
                         scheme__alpha="0.0", scheme__t_end="15.0")
-    res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
+    # the small gamma0 that makes it unstable is one the run warns about
+    with pytest.warns(dyncontact.core.DyncontactWarning, match="gamma0 = 1.000E-002 is small"):
+        res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
     assert res.status == "unstable"
     assert "exceeds blowup x e_total(0) = " in res.message
     tr = res.trace

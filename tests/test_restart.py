@@ -25,7 +25,7 @@ import pytest
 
 import dyncontact
 from conftest import EXE
-from dyncontact.core import Stepper
+from dyncontact.core import DyncontactWarning, Stepper
 
 EXIT_OK, EXIT_BAD_INPUT, EXIT_NUMERIC, EXIT_SIGNAL = 0, 2, 3, 130
 #: The checkpoint's file name in the output folder (docs/scenes.md).
@@ -600,6 +600,77 @@ def test_restart_to_a_later_t_end_checks_the_space_its_snapshots_need(tmpfs, tmp
 
 # ------------------------------------------------------------------ refusals
 
+def pvd_files(folder: Path) -> list[str]:
+    """The files fields.pvd lists, in its order."""
+    import xml.etree.ElementTree as ET
+
+    return [d.get("file") for d in ET.parse(folder / "fields.pvd").getroot().iter("DataSet")]
+
+
+def without_line(pvd: bytes, name: str) -> bytes:
+    """A fields.pvd's bytes without the line that lists `name`."""
+    return b"".join(line for line in pvd.splitlines(keepends=True)
+                    if f'file="{name}"'.encode() not in line)
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli", "api"])
+def test_restart_lists_only_the_snapshots_still_there(entry, tmp_path):
+    """A snapshot deleted between the runs (fields/step_0000100.vtu) is not in the
+    restarted run's fields.pvd (a collection listing a missing file does not open in
+    ParaView): the collection is the straight run's without that line, every file it lists
+    is there, and one warning line names the missing file."""
+    text = scene_text("hht", extra=", alpha = -0.1", t_end="1.0", fields=100)
+    first, second = tmp_path / "t1.nml", tmp_path / "t2.nml"
+    first.write_text(text)
+    second.write_text(text.replace("t_end = 1.0", "t_end = 2.0"))
+    assert run(exe_cmd(second, "--out", "full"), tmp_path).returncode == EXIT_OK
+    assert run(exe_cmd(first, "--out", "part"), tmp_path).returncode == EXIT_OK
+    part = tmp_path / "part"
+    gone = "fields/step_0000100.vtu"
+    assert gone in pvd_files(part)
+    (part / gone).unlink()
+    if entry == "api":
+        with pytest.warns(DyncontactWarning) as seen:
+            assert dyncontact.run(second, restart=part, progress=False).ok
+        lines = [str(w.message) for w in seen]
+    else:
+        cmd = exe_cmd if entry == "exe" else cli_cmd
+        res = run(cmd(second, "--restart", part), tmp_path)
+        assert res.returncode == EXIT_OK, res.stderr
+        lines = res.stderr.splitlines()
+    named = [line for line in lines if gone in line]
+    assert len(named) == 1 and "warning" in named[0] and "missing" in named[0], lines
+    listed = pvd_files(part)
+    assert gone not in listed and all((part / f).is_file() for f in listed), listed
+    assert len(listed) == len(pvd_files(tmp_path / "full")) - 1
+    assert (part / "fields.pvd").read_bytes() == \
+        without_line((tmp_path / "full" / "fields.pvd").read_bytes(), gone)
+    # the next restart's checkpoint no longer counts it: no warning a second time
+    third = tmp_path / "t3.nml"
+    third.write_text(text.replace("t_end = 1.0", "t_end = 2.5"))
+    res = run(exe_cmd(third, "--restart", part), tmp_path)
+    assert res.returncode == EXIT_OK and gone not in res.stderr, res.stderr
+    assert gone not in pvd_files(part)
+
+
+def test_stepper_load_lists_only_the_snapshots_still_there(tmp_path):
+    """Stepper.load of a state whose snapshots include one deleted since: fields.pvd lists
+    the others, and a DyncontactWarning names the missing file."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="1.0", fields=100))
+    with Stepper(scene, tmp_path / "b") as b:
+        b.advance(200)
+        b.save(tmp_path / "state.bin")
+        (tmp_path / "b" / "fields" / "step_0000100.vtu").unlink()
+        with pytest.warns(DyncontactWarning, match="step_0000100.vtu is missing"):
+            assert b.load(tmp_path / "state.bin") == 200
+        assert pvd_files(tmp_path / "b") == ["fields/step_0000000.vtu", "fields/step_0000200.vtu"]
+        b.advance(10**6)
+    listed = pvd_files(tmp_path / "b")
+    assert "fields/step_0000100.vtu" not in listed and len(listed) == 4
+    assert all((tmp_path / "b" / f).is_file() for f in listed)
+
+
 @pytest.fixture
 def stopped(tmp_path):
     """A run that ended (the folder `part`, its checkpoint at its last step) and its scene."""
@@ -738,7 +809,7 @@ def _mesh_file_scene(folder: Path) -> Path:
     scene = folder / "s.nml"
     scene.write_text(scene_text("hht", extra=", alpha = -0.1", t_end="3.0")
                      .replace("&mesh file = ''", "&mesh file = 'm.msh'")
-                     .replace(", h = 0.05 /", " /"))
+                     .replace(", width = 0.1, h = 0.05 /", " /"))   # a .msh uses neither
     return scene
 
 

@@ -11,13 +11,14 @@ import random
 import re
 import subprocess
 import sys
+import warnings
 from collections import namedtuple
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import ROOT, SUBPROCESS_TIMEOUT
+from conftest import ROOT, SCHEME_PARAMS, SUBPROCESS_TIMEOUT, drop_unused
 
 import dyncontact
 from dyncontact import BadInputError, Scene, SceneError
@@ -561,6 +562,69 @@ def test_the_keys_given_are_those_written(tmp_path):
     assert core.scene_dump(tmp_path / "again.nml", with_given=True)[1] == {
         "scheme.beta", "contact.theta", "scheme.dt"}
     assert not Scene().copy().given("scheme.dt") and scn.copy().given("scheme.dt")
+
+
+def test_unset_leaves_a_key_out_and_its_warning_with_it(tmp_path):
+    """Scene.unset: a base scene switched to another scheme (bar2d_hht.nml, which gives
+    alpha, run with newmark) warns that alpha is not used; unset, alpha is no longer given
+    nor written, takes its default, and the run gives no warning and the same trace. &mesh
+    dim and file cannot be unset; an unknown key is refused as set refuses it."""
+    from dyncontact.core import DyncontactWarning
+
+    base = Scene.read(ROOT / "scripts" / "scenes" / "bar2d_hht.nml")
+    base.set("scheme.name", "newmark")
+    base.set("scheme.t_end", 0.05)
+    with pytest.warns(DyncontactWarning, match="&scheme alpha: not used by scheme 'newmark'"):
+        before = dyncontact.run(base, out=tmp_path / "a", progress=False)
+    switched = base.copy()
+    switched.unset("scheme.alpha", "scheme.rho_inf")     # rho_inf: not given, left as is
+    assert base.given("scheme.alpha") and not switched.given("scheme.alpha")
+    assert switched.get("scheme.alpha") == Scene().get("scheme.alpha")
+    assert "alpha" not in switched.to_text() and switched == base
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DyncontactWarning)
+        after = dyncontact.run(switched, out=tmp_path / "b", progress=False)
+    assert (tmp_path / "a" / "trace.csv").read_bytes() == (tmp_path / "b" / "trace.csv").read_bytes()
+    assert before.ok and after.ok
+    for name in ("mesh.dim", "mesh.file"):
+        with pytest.raises(SceneError, match="cannot be unset"):
+            switched.unset(name)
+    with pytest.raises(SceneError, match="unknown key"):
+        switched.unset("scheme.nope")
+
+
+@pytest.mark.parametrize("name", sorted(SCHEME_PARAMS))
+def test_drop_unused_leaves_out_what_the_core_warns_about(name, tmp_path):
+    """conftest's SCHEME_PARAMS (which the tests' drop_unused follows) is the core's rule:
+    a scene giving every &scheme parameter, a contact theta and multiplier, quad_points and
+    an amplitude, run with kind = 'velocity' and the penalty method, warns that exactly the
+    keys drop_unused leaves out are not used; after drop_unused it gives no warning."""
+    from dyncontact.core import DyncontactWarning, Stepper
+
+    s = Scene()
+    for key, value in {"scheme.name": name, "scheme.t_end": 0.01, "scheme.alpha": 0.0,
+                       "scheme.beta": 0.25, "scheme.gamma": 0.5, "scheme.theta": 1.0,
+                       "scheme.rho_inf": 0.5, "contact.method": "penalty",
+                       "contact.theta": 1, "contact.multiplier": "integral",
+                       "contact.quad_points": 3, "initial.kind": "velocity",
+                       "initial.velocity": [0.0, -0.1], "initial.amplitude": 0.5}.items():
+        s.set(key, value)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        Stepper(s, tmp_path / "all").close()
+    unused = [k for k in ("alpha", "beta", "gamma", "theta", "rho_inf")
+              if k not in SCHEME_PARAMS[name]]
+    notes = [str(w.message) for w in seen if w.category is DyncontactWarning]
+    scheme_notes = [n for n in notes if n.startswith("warning: &scheme ")
+                    and "not used by scheme" in n]
+    assert scheme_notes == [f"warning: &scheme {', '.join(unused)}: not used by scheme "
+                            f"'{name}'" + scheme_notes[0].split(f"'{name}'", 1)[1]], notes
+    for what in ("&contact theta: not used", "&contact multiplier: not used",
+                 "&contact quad_points: not used", "&initial amplitude is not used"):
+        assert sum(what in n for n in notes) == 1, (what, notes)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DyncontactWarning)
+        Stepper(drop_unused(s), tmp_path / "dropped").close()
 
 
 # --------------------------------------------------------------------------- round trip

@@ -35,9 +35,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import dyncontact
 from dyncontact import Scene
 from dyncontact.core import Model, load_mesh, p1_element
+from conftest import run_as_designed
 from test_independent_1d import run_implicit
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -94,9 +94,9 @@ def trace_differences(a, b) -> dict[str, float]:
 def test_slip_bar_starts_like_the_1d_bar(theta, tmp_path):
     """t = 0: the same u_n, and the same energies per unit cross-section (u0 is
     x-independent and linear, so every energy is integrated exactly in both)."""
-    a = dyncontact.run(scene_2d(contact__theta=theta, scheme__t_end=0.0025), out=tmp_path / "2d",
+    a = run_as_designed(scene_2d(contact__theta=theta, scheme__t_end=0.0025), out=tmp_path / "2d",
                        progress=False).trace
-    b = dyncontact.run(scene_1d(contact__theta=theta, scheme__t_end=0.0025), out=tmp_path / "1d",
+    b = run_as_designed(scene_1d(contact__theta=theta, scheme__t_end=0.0025), out=tmp_path / "1d",
                        progress=False).trace
     assert a["u_n"][0] == pytest.approx(b["u_n"][0], abs=1e-15)
     for c in ("e_kin", "e_el", "e_contact", "e_total"):
@@ -108,8 +108,8 @@ def test_slip_bar_starts_like_the_1d_bar(theta, tmp_path):
 @pytest.mark.parametrize("theta", [1, 0])
 def test_slip_bar_close_to_1d_bar_but_not_to_round_off(theta, tmp_path):
     """hht alpha = 0 over T = 6 at h = 0.05."""
-    a = dyncontact.run(scene_2d(contact__theta=theta), out=tmp_path / "2d", progress=False)
-    b = dyncontact.run(scene_1d(contact__theta=theta), out=tmp_path / "1d", progress=False)
+    a = run_as_designed(scene_2d(contact__theta=theta), out=tmp_path / "2d", progress=False)
+    b = run_as_designed(scene_1d(contact__theta=theta), out=tmp_path / "1d", progress=False)
     assert a.status == b.status == "ok"
     d = trace_differences(a.trace, b.trace)
     print(f"theta = {theta}: " + " ".join(f"{k}={v:.2e}" for k, v in d.items()))
@@ -126,8 +126,8 @@ def test_slip_bar_difference_from_1d_shrinks_with_h(tmp_path):
     hs = (0.05, 0.025, 0.0125)
     du, de = [], []
     for h in hs:
-        a = dyncontact.run(scene_2d(h), out=tmp_path / f"2d{h}", progress=False)
-        b = dyncontact.run(scene_1d(h), out=tmp_path / f"1d{h}", progress=False)
+        a = run_as_designed(scene_2d(h), out=tmp_path / f"2d{h}", progress=False)
+        b = run_as_designed(scene_1d(h), out=tmp_path / f"1d{h}", progress=False)
         d = trace_differences(a.trace, b.trace)
         du.append(d["u_n"])
         de.append(d["e_total"])
@@ -322,7 +322,7 @@ def test_slip_bar_matches_independent_2d_computation(theta, tmp_path):
     """The core's 2D slip trace is the discrete 2D system it should be (so the 2D-1D
     difference above is the discretization's, not a bug in the sliding boundary)."""
     t_end = 3.0       # one period: flight, contact, release
-    res = dyncontact.run(scene_2d(contact__theta=theta, contact__quadrature="gauss",
+    res = run_as_designed(scene_2d(contact__theta=theta, contact__quadrature="gauss",
                                   contact__quad_points=3, scheme__name="newmark",
                                   scheme__t_end=t_end),
                          out=tmp_path / "2d", progress=False)

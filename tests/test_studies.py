@@ -609,6 +609,58 @@ def test_dask_local_cluster_gives_the_same_csv_as_the_pool(tmp_path):
         assert a == b, name
 
 
+def _unused_port() -> int:
+    """A local TCP port where nothing listens (bound, then released)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_study_with_no_scheduler_at_the_address_fails_fast_naming_it(tmp_path, capsys):
+    """`dyncontact study --scheduler ADDRESS --scheduler-timeout 2` where nothing listens:
+    exit 2 and one line naming the address and the wait, after about 2 s (bound 6 s: the
+    quick study's set-up takes about 1.5 s before its first sweep, on a busy machine)."""
+    pytest.importorskip("distributed")
+    import time
+
+    from dyncontact.study import cli
+
+    address = f"tcp://127.0.0.1:{_unused_port()}"
+    t0 = time.perf_counter()
+    code = cli.main(["convergence", "--quick", "--no-progress", "--out", str(tmp_path / "o"),
+                     "--scheduler", address, "--scheduler-timeout", "2"])
+    elapsed = time.perf_counter() - t0
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err, err
+    named = [line for line in err.splitlines() if address in line]
+    assert len(named) == 1, err
+    assert named[0].startswith("dyncontact study: --scheduler ") and "within 2 s" in named[0]
+    assert elapsed < 6.0, elapsed
+
+
+def test_figures_with_no_scheduler_at_the_address_fails_fast_by_default(tmp_path, capsys):
+    """scripts/figures --scheduler ADDRESS where nothing listens: exit 2 naming the address
+    after the default --scheduler-timeout of 5 s, not dask's 30 s (bound 9 s: the wait
+    plus under a second of set-up, on a busy machine)."""
+    pytest.importorskip("distributed")
+    import time
+
+    from dyncontact.study import figures
+
+    address = f"tcp://127.0.0.1:{_unused_port()}"
+    t0 = time.perf_counter()
+    code = figures.figures_main(["--quick", "--out", str(tmp_path / "f"), "--scheduler",
+                                 address])
+    elapsed = time.perf_counter() - t0
+    err = capsys.readouterr().err
+    named = [line for line in err.splitlines() if address in line]
+    assert code == 2 and len(named) == 1 and "Traceback" not in err, err
+    assert named[0].startswith("figures: --scheduler ") and "within 5 s" in named[0]
+    assert elapsed < 9.0, elapsed
+
+
 # --------------------------------------------------------------------------- work-precision
 
 @pytest.fixture(scope="module")

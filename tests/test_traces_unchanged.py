@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, drop_unused
 
 import dyncontact
 from dyncontact import Scene
@@ -45,7 +45,8 @@ def run_case(name, out):
     scn.set("scheme.t_end", 0.5)
     for key, value in keys.items():
         scn.set(key, value)
-    return dyncontact.run(scn, out=out, progress=False)
+    # the base's keys the case does not use (h and width with a .msh file): the same run
+    return dyncontact.run(drop_unused(scn), out=out, progress=False)
 
 
 @pytest.mark.parametrize("name", sorted(CASES))

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import dyncontact
+from conftest import run_as_designed
 from dyncontact import Scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -91,7 +91,7 @@ def run_with_env(monkeypatch, var: str, value: str | None, s: Scene, out: Path):
         monkeypatch.delenv(var, raising=False)
     else:
         monkeypatch.setenv(var, value)
-    return dyncontact.run(s, out=out, progress=False)
+    return run_as_designed(s, out)
 
 
 def assert_traces_agree(name: str, new, ref, tol: float, used: bool = True) -> None:

@@ -30,8 +30,12 @@ taken: there they must be equal bit for bit."""
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import pytest
+
+from dyncontact.core import DyncontactWarning
 
 from test_woodbury_reuse import (IMPLICIT, assert_traces_agree, ball, bar2d, bar3d, box,
                                  run_with_env)
@@ -94,8 +98,12 @@ UNUSED = {
 def test_zt_on_the_basis_gives_the_dofs_traces(monkeypatch, tmp_path, name):
     s = SCENES[name]() if name in SCENES else UNUSED[name]()
     s.set("scheme.t_end", min(float(s.get("scheme.t_end")), 1.6))
-    basis = run_with_env(monkeypatch, ENV, None, s, tmp_path / "basis")
-    dofs = run_with_env(monkeypatch, ENV, "dofs", s, tmp_path / "dofs")
+    # the tilted plane cuts a corner of the contact boundary: it starts inside (and warns)
+    inside = name.endswith("_tilted")
+    with (pytest.warns(DyncontactWarning, match="contact boundary starts inside the obstacle")
+          if inside else contextlib.nullcontext()):
+        basis = run_with_env(monkeypatch, ENV, None, s, tmp_path / "basis")
+        dofs = run_with_env(monkeypatch, ENV, "dofs", s, tmp_path / "dofs")
     assert_traces_agree(name, basis, dofs, TOL, used=name in SCENES)
 
 

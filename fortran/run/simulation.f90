@@ -672,9 +672,55 @@ contains
         if (sim%scn%fields_every > 0) then
             call make_dirs(dir//'/fields', st, msg)
             ! the snapshots up to the checkpoint (a killed run may have listed later ones)
+            ! that are still there (the user may have deleted some since)
+            call drop_missing_snapshots(sim)
             if (st == STAT_OK) call write_pvd(sim, st, msg)
         end if
     end subroutine reopen_outputs
+
+    !> Drop from the list of snapshots that a checkpoint brought back (sim%snap_t,
+    !> snap_file) those whose VTU file is no longer in the output folder (deleted between
+    !> the runs): fields.pvd is then rewritten to list only files ParaView can open (a
+    !> collection with a missing file does not open), and the later checkpoints no longer
+    !> count them. A deleted snapshot cannot be written again (the checkpoint holds the
+    !> state of its own step only), so it stays missing; one warning line in the run's
+    !> notes names the first missing file and counts the others.
+    subroutine drop_missing_snapshots(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run (snapshot list loaded)
+        character(len=:), allocatable :: dir
+        character(len=64) :: first
+        integer :: k, kept, missing
+        logical :: exists
+        dir = trim(sim%scn%out_dir)
+        kept = 0
+        missing = 0
+        first = ''
+        do k = 1, sim%n_snap
+            inquire (file=dir//'/'//trim(sim%snap_file(k)), exist=exists)
+            if (exists) then
+                kept = kept + 1
+                sim%snap_t(kept) = sim%snap_t(k)
+                sim%snap_file(kept) = sim%snap_file(k)
+            else
+                missing = missing + 1
+                if (missing == 1) first = sim%snap_file(k)
+            end if
+        end do
+        sim%n_snap = kept
+        if (missing == 0) return
+        sim%mdl%notes = trim(sim%mdl%notes)//'warning: '//dir//'/'//trim(first)// &
+            ' is missing'//others(missing - 1)//': fields.pvd lists only the snapshots'// &
+            ' still in the folder (a deleted snapshot is not written again)'//new_line('a')
+    contains
+        !> ' (and n other snapshots)' after the first missing one's name, or nothing.
+        function others(n) result(s)
+            integer, intent(in) :: n    !! missing snapshots besides the first
+            character(len=:), allocatable :: s
+            s = ''
+            if (n == 1) s = ' (and 1 other snapshot)'
+            if (n > 1) s = ' (and '//int_text(int(n, i8))//' other snapshots)'
+        end function others
+    end subroutine drop_missing_snapshots
 
     !> Blow-up threshold (docs/scenes.md, "blow-up test"). Without load it is
     !> blowup x e_total(0) as always (the stored penalty energy when e_total(0) = 0,
@@ -1077,7 +1123,8 @@ contains
     !> Load a checkpoint into an open run (Stepper.load): sim_checkpoint_load, then, as
     !> --restart does, trace.csv cut back to the rows up to the checkpoint's step (the rows
     !> written after the state was saved are dropped, so t never goes backwards in the
-    !> trace) and fields.pvd rewritten to list the snapshots the checkpoint counts. A
+    !> trace) and fields.pvd rewritten to list the snapshots the checkpoint counts whose
+    !> files are still there (drop_missing_snapshots: a warning in the notes). A
     !> state from beyond the rows this run has written (another run's checkpoint, further
     !> on) cannot be cut back to: the trace is then left as it is.
     subroutine sim_load(sim, path, stat, errmsg)
@@ -1097,7 +1144,10 @@ contains
         if (stat == STAT_OK) call trace_reopen(trace_path, trace_bytes, sim%trace, stat, errmsg)
         if (stat == STAT_OK) call end_row(sim, stat, errmsg)
         if (stat /= STAT_OK) return
-        if (sim%scn%fields_every > 0) call write_pvd(sim, stat, errmsg)
+        if (sim%scn%fields_every > 0) then
+            call drop_missing_snapshots(sim)
+            call write_pvd(sim, stat, errmsg)
+        end if
     end subroutine sim_load
 
     !> The last row of a run continued from a checkpoint at its last step (the trace just

@@ -721,13 +721,18 @@ class Stepper(Model):
         and build; the next :meth:`advance` continues from it, bit for bit as the run that
         saved it. Returns the step loaded. A missing, foreign, truncated or corrupt file
         raises :class:`BadInputError` naming it (the Stepper is then finished: it advances
-        no further)."""
+        no further). fields.pvd is rewritten to list the state's snapshots that are still
+        in the folder; a :class:`DyncontactWarning` names a missing one."""
         self._need()
+        before = len(_notes(_core().dc_sim_info(self.handle)[2]))
         step, stat, errmsg = _core().dc_sim_load(self.handle, _fpath(path, "checkpoint file"))
         if int(stat) != STAT_OK:
             self.finished = True
         _check(stat, errmsg, "loading the state")
         self.finished = False
+        # the notes the load added (a snapshot it lists that is no longer there)
+        for note in _notes(_core().dc_sim_info(self.handle)[2])[before:]:
+            warnings.warn(note, DyncontactWarning, stacklevel=2)
         return int(step)
 
     def state(self) -> dict[str, Any]:

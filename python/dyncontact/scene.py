@@ -196,6 +196,24 @@ class Scene:
             parsed = self._follow_dimension(parsed, replace)
         self._values, self._given = parsed
 
+    def unset(self, *names: str) -> None:
+        """Leave each ``'group.key'`` out of the scene: it is no longer given, takes its
+        default and draws no warning that it is not used. A scene that switches a base
+        scene's scheme (or contact method, quadrature, initial kind) drops the base's keys
+        the new choice does not use::
+
+            scene.set("scheme.name", "newmark")
+            scene.unset("scheme.alpha")     # bar2d_hht.nml's: newmark does not use it
+
+        A key not given is left as it is. ``'mesh.dim'`` and ``'mesh.file'`` cannot be
+        unset (the vector keys' defaults follow them: :meth:`set` them instead)."""
+        omit = {self._check_name(name) for name in names}
+        if omit & {("mesh", "dim"), ("mesh", "file")}:
+            raise SceneError(f"{self._name()}: unset(): &mesh dim and file cannot be "
+                             "unset (set them: the vector keys' defaults follow them)")
+        self._values, self._given = core.scene_parse(self.to_text(omit=omit), self._name(),
+                                                     keep_omitted=True, with_given=True)
+
     def _follow_dimension(self, parsed: tuple[dict[str, dict[str, Any]], frozenset[str]],
                           replace: dict[tuple[str, str], str]
                           ) -> tuple[dict[str, dict[str, Any]], frozenset[str]]:

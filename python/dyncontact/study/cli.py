@@ -16,8 +16,9 @@ import sys
 import time
 from typing import Any, Sequence
 
-from .common import OneLineParser, add_runner_options, positive, scheme_list
-from .sweep import sigterm_as_interrupt
+from .common import (OneLineParser, add_runner_options, positive, scheduler_timeout,
+                     scheduler_unreachable_line, scheme_list)
+from .sweep import SchedulerUnreachable, sigterm_as_interrupt
 
 __all__ = ["main", "write_index"]
 
@@ -216,8 +217,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     t0 = time.perf_counter()
     out = os.path.abspath(args.out)
     try:
-        with sigterm_as_interrupt():
+        with sigterm_as_interrupt(), scheduler_timeout(args):
             reports = _run_study(args, out, t0)
+    except SchedulerUnreachable as exc:
+        print(scheduler_unreachable_line("dyncontact study", args, exc), file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("dyncontact study: interrupted (finished runs are cached; run the same "
               "command again to resume)", file=sys.stderr)

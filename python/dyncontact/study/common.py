@@ -273,15 +273,47 @@ def mesh_sizes(text: str) -> list[float]:
     return sizes
 
 
+#: Seconds --scheduler waits for the Dask scheduler to answer (--scheduler-timeout):
+#: dask's own connect timeout is 30 s, which an address where nothing listens (a typo, a
+#: scheduler not started) took before it failed. A scheduler that runs answers in well
+#: under a second on a local network.
+SCHEDULER_TIMEOUT_S = 5.0
+
+
+@contextlib.contextmanager
+def scheduler_timeout(args) -> Iterator[None]:
+    """dask.distributed's connect timeout set to ``args.scheduler_timeout`` seconds for
+    the block when ``args.scheduler`` is given (the sweeps' Client waits that long for the
+    scheduler; :class:`~dyncontact.study.sweep.SchedulerUnreachable` after it)."""
+    if getattr(args, "scheduler", None) is None:
+        yield
+        return
+    import dask
+
+    with dask.config.set({"distributed.comm.timeouts.connect": f"{args.scheduler_timeout}s"}):
+        yield
+
+
+def scheduler_unreachable_line(label: str, args, exc) -> str:
+    """The one line of a command whose --scheduler did not answer (exit status 2)."""
+    return (f"{label}: --scheduler {exc.address}: no Dask scheduler answers there within "
+            f"{args.scheduler_timeout:g} s (is it running? --scheduler-timeout SECONDS waits "
+            "longer)")
+
+
 def add_runner_options(parser, *worker_aliases: str) -> None:
     """The sweep runner's options, the same for every command that runs a sweep:
     --workers N (and ``worker_aliases``), --scheduler ADDRESS (then --workers is
-    ignored) and --cache DIR."""
+    ignored), --scheduler-timeout SECONDS and --cache DIR."""
     parser.add_argument("--workers", *worker_aliases, dest="workers", type=int,
                         default=None, metavar="N",
                         help="processes of the local pool (default: all cores)")
     parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
                         help="run on this dask.distributed scheduler instead of the pool")
+    parser.add_argument("--scheduler-timeout", metavar="SECONDS", type=positive(float),
+                        default=SCHEDULER_TIMEOUT_S,
+                        help="seconds to wait for the scheduler to answer (default "
+                             f"{SCHEDULER_TIMEOUT_S:g}; exit 2 naming it when none does)")
     parser.add_argument("--cache", metavar="DIR", default=None,
                         help="per-run cache (default: OUT/cache)")
 

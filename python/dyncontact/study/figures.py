@@ -42,8 +42,9 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from .common import (MAX_ROWS, OneLineParser, RunSpec, add_runner_options, fmt, loadavg,
-                     new_figure, num, package_version, save_figure, scheme_text, seed_spec)
-from .sweep import ERROR, REFUSED, sigterm_as_interrupt, sweep
+                     new_figure, num, package_version, save_figure, scheduler_timeout,
+                     scheduler_unreachable_line, scheme_text, seed_spec)
+from .sweep import ERROR, REFUSED, SchedulerUnreachable, sigterm_as_interrupt, sweep
 
 __all__ = ["FigureSpec", "figure_plan", "make_figures", "plot_figure", "write_index",
            "figures_main", "MAX_ROWS", "HHT_FAMILY", "PC_FAMILY", "BALL_SCENE",
@@ -785,10 +786,13 @@ def figures_main(argv: Sequence[str] | None = None, root: str | None = None) -> 
         p.error("--workers must be >= 1")
     out = args.out or os.path.join(root, "out", "figures")
     try:
-        with sigterm_as_interrupt():
+        with sigterm_as_interrupt(), scheduler_timeout(args):
             report = make_figures(out, quick=args.quick, workers=args.workers,
                                   scheduler=args.scheduler, cache=args.cache,
                                   log=lambda s: print(s, flush=True))
+    except SchedulerUnreachable as exc:
+        print(scheduler_unreachable_line("figures", args, exc), file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("figures: interrupted (finished runs are cached; run the same command "
               "again to resume)", file=sys.stderr)

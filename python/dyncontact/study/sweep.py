@@ -35,7 +35,8 @@ Executors
 ``workers`` processes of a local :class:`concurrent.futures.ProcessPoolExecutor` by
 default; with ``scheduler`` (an address such as ``tcp://host:8786``, or a
 ``distributed.Client``) the tasks go to a ``dask.distributed`` cluster (the workers must
-see the cache folder: a shared file system, or the same machine). A run that fails
+see the cache folder: a shared file system, or the same machine); an address where no
+scheduler answers within dask's connect timeout raises :class:`SchedulerUnreachable`. A run that fails
 (bad input, an exception in the analysis, a worker that died) becomes a record with
 ``status = 'error'`` and its message; the sweep goes on. A sweep stopped by Ctrl-C (or
 by SIGTERM inside :func:`sigterm_as_interrupt`, as the command lines run) terminates the
@@ -725,11 +726,27 @@ def _sweep_pool(tasks, keys, todo, cache, workers, done) -> None:
     pool.shutdown(wait=True)
 
 
+class SchedulerUnreachable(ConnectionError):
+    """No dask.distributed scheduler answered at the address given to :func:`sweep`
+    within dask's connect timeout (``distributed.comm.timeouts.connect``: 30 s unless set;
+    the command lines' ``--scheduler-timeout``). ``address`` is the address given."""
+
+    def __init__(self, address: str, reason: str):
+        super().__init__(f"no Dask scheduler answers at {address} ({reason})")
+        self.address = address
+
+
 def _sweep_dask(tasks, keys, todo, cache, scheduler, done) -> None:
     from distributed import Client, as_completed
 
     own = not isinstance(scheduler, Client)
-    client = Client(scheduler) if own else scheduler
+    if own:
+        try:
+            client = Client(scheduler)
+        except OSError as exc:   # refused or timed out: dask retries until its timeout
+            raise SchedulerUnreachable(str(scheduler), str(exc)) from exc
+    else:
+        client = scheduler
     try:
         futs = [client.submit(execute, tasks[i], cache, keys[i], PARALLEL_THREADS, pure=False,
                               key=f"dyncontact-{keys[i]}-{uuid.uuid4().hex[:6]}")
