@@ -1,0 +1,97 @@
+"""What a researcher bringing a 3D problem of their own meets, through the executable, the
+Python CLI and the API: each bad input ends as exit 2 (BadInputError) with one line naming
+the file and the key, each numerical failure as exit 3 with the trace kept and a message
+that says what to change. The 2D cases are in test_new_user.py."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import pytest
+
+from test_reliability import ENTRIES, EXIT_OK, run
+
+EXIT_NUMERIC = 3
+
+#: The built-in 3D box, 0.3 high (h = 0.05: 144 tetrahedra), lifted by 0.05 at its
+#: bottom; central differences with the step of each test.
+BOX = ("&mesh dim = 3, length = 0.3, h = 0.05 /\n"
+       "&initial kind = 'compressed_bar', amplitude = 0.05 /\n"
+       "&scheme name = '{scheme}', dt = {dt!r}, t_end = 1.0 /\n")
+
+
+def box_scene(path: Path, scheme: str, dt: float) -> Path:
+    path.write_text(BOX.format(scheme=scheme, dt=dt))
+    return path
+
+
+@pytest.fixture(scope="module")
+def box_dt_crit(tmp_path_factory) -> float:
+    """central's own estimate of its critical step on the box (summary.json's
+    dt_crit_estimate of a run with dt = 0, which runs at 0.9 x it)."""
+    import dyncontact
+    folder = tmp_path_factory.mktemp("dtcrit")
+    res = dyncontact.run(box_scene(folder / "s.nml", "central", 0.0), out=folder / "o",
+                         progress=False)
+    assert res.status == "ok"
+    return float(res.summary["dt_crit_estimate"])
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_central_above_its_critical_step_warns_and_says_why_it_blew_up(kind, box_dt_crit,
+                                                                      tmp_path):
+    """central at 3 x its critical step estimate: a warning before the run names
+    &scheme dt, the ratio and the estimate; the run stops as unstable (exit 3, the trace
+    kept) and its message says that the step is above the estimate and what to give.
+    Without both, a newcomer saw only 'e_total exceeds blowup x e_total(0)'."""
+    dt = 3.0 * box_dt_crit
+    scene = box_scene(tmp_path / "s.nml", "central", dt)
+    res = run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path)
+    assert res.returncode == EXIT_NUMERIC, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("dyncontact: ")]
+    warn = [ln for ln in lines if "warning:" in ln]
+    assert len(warn) == 1 and "&scheme dt = " in warn[0], res.stderr
+    assert " is 3.00 x the critical step of central differences, estimated " \
+        f"{box_dt_crit:.3E}" .replace("E-0", "E-00") in warn[0], warn[0]
+    stop = [ln for ln in lines if "unstable at t = " in ln]
+    assert len(stop) == 1, res.stderr
+    assert "central is explicit, stable only below a critical step" in stop[0]
+    assert "try a smaller &scheme dt, or dt = 0 (run stopped, trace kept)" in stop[0]
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["status"] == "unstable"
+    assert summary["message"] in stop[0]          # the same line in summary.json
+    assert len((tmp_path / "o" / "trace.csv").read_text().splitlines()) > 2   # kept
+
+
+def test_central_below_its_critical_step_says_nothing(box_dt_crit, tmp_path):
+    """At 0.8 x the estimate the box runs to its end without a word about the step."""
+    import dyncontact
+    scene = box_scene(tmp_path / "s.nml", "central", 0.8 * box_dt_crit)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
+    assert res.status == "ok"
+
+
+def test_pc_unstable_says_it_is_explicit(box_dt_crit, tmp_path):
+    """pc (no estimate of its own) at 3 x central's estimate: the unstable message says
+    that pc is explicit and gives the step to reduce; through the API the run returns
+    with status 'unstable' and that message."""
+    import dyncontact
+    dt = 3.0 * box_dt_crit
+    res = dyncontact.run(box_scene(tmp_path / "s.nml", "pc", dt), out=tmp_path / "o",
+                         progress=False)
+    assert res.status == "unstable"
+    assert "; pc is explicit, stable only below a critical step: try a smaller &scheme " \
+        "dt (it is " in res.summary["message"]
+
+
+def test_implicit_runs_get_no_explicit_hint(tmp_path):
+    """An implicit run that exits 0 says nothing about steps; a scene's exit codes are
+    unchanged (the hint is in the message only)."""
+    scene = box_scene(tmp_path / "s.nml", "newmark", 0.02)
+    res = run("exe", scene, "--out", tmp_path / "o", cwd=tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert "critical step" not in res.stderr
