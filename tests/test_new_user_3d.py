@@ -57,8 +57,10 @@ def test_central_above_its_critical_step_warns_and_says_why_it_blew_up(kind, box
         f"{box_dt_crit:.3E}" .replace("E-0", "E-00") in warn[0], warn[0]
     stop = [ln for ln in lines if "unstable at t = " in ln]
     assert len(stop) == 1, res.stderr
-    assert "central is explicit, stable only below a critical step" in stop[0]
-    assert "try a smaller &scheme dt, or dt = 0 (run stopped, trace kept)" in stop[0]
+    assert stop[0].endswith(" (run stopped, trace kept); central is explicit, stable only "
+                            f"below a critical step, estimated {box_dt_crit:.3E} at full "
+                            f"contact (&scheme dt = {dt:.3E}): try a smaller &scheme dt, "
+                            "or dt = 0".replace("E-0", "E-00")), stop[0]
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["status"] == "unstable"
     assert summary["message"] in stop[0]          # the same line in summary.json
@@ -95,3 +97,34 @@ def test_implicit_runs_get_no_explicit_hint(tmp_path):
     res = run("exe", scene, "--out", tmp_path / "o", cwd=tmp_path)
     assert res.returncode == EXIT_OK, res.stderr
     assert "critical step" not in res.stderr
+
+
+GETFEM_BOX = Path(__file__).resolve().parents[1] / "meshes" / "bar3d_getfem_h0.05.msh"
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("initial.velocity", [0.0, -0.1],
+     "&initial velocity: expected 3 values in 3D (got '0.0, -0.1')"),
+    ("contact.quad_points", 5,
+     "&contact quad_points: must be 1, 3, 6 or 7 in 3D"),
+])
+def test_validate_checks_a_mesh_files_dimension_as_the_run_does(key, value, message,
+                                                                tmp_path):
+    """A scene for a 3D mesh file that leaves &mesh dim to the file (dim = 0), given a
+    2-component vector (the 2D habit) or a 2D Gauss rule: Scene.validate() passed it and
+    only the run refused it. validate now reads the file's dimension and refuses it with
+    the run's own message."""
+    import dyncontact
+    pytest.importorskip("gmsh")
+    (tmp_path / "s.nml").write_text(
+        f"&mesh file = '{GETFEM_BOX}' /\n&initial kind = 'velocity', velocity = 0, 0, -0.1 /\n"
+        "&contact quadrature = 'gauss' /\n&scheme t_end = 0.01 /\n")
+    scene = dyncontact.Scene.read(tmp_path / "s.nml")
+    scene.validate()                                   # as written: 3D vectors
+    scene.set(key, value)
+    with pytest.raises(dyncontact.BadInputError) as validated:
+        scene.validate()
+    with pytest.raises(dyncontact.BadInputError) as ran:
+        dyncontact.run(scene, out=tmp_path / "o", progress=False)
+    assert message in str(validated.value)
+    assert str(validated.value).split(": ", 1)[1] == str(ran.value).split(": ", 1)[1]

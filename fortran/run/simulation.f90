@@ -946,7 +946,7 @@ contains
         end if
         msg = 'unstable at t = '//real_text(sim%st%t, 6)//': '//what//' = '// &
               distinct_text(e, sim%e_limit)//' exceeds '//scale//' = '// &
-              distinct_text(sim%e_limit, e)//explicit_step_hint(sim)//' (run stopped, trace kept)'
+              distinct_text(sim%e_limit, e)//' (run stopped, trace kept)'//explicit_step_hint(sim)
         ! no energy at all at t = 0 (no motion, no load, nothing stored in the contact):
         ! the limit is the floor tiny(1.0) and the bare number would not say why
         if (.not. sim%has_load .and. sim%e_limit <= sim%scn%blowup * tiny(1.0_dp)) &
