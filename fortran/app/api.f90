@@ -74,6 +74,29 @@ subroutine dc_scene_text(text, name, full, json, given, stat, errmsg)
     end if
 end subroutine dc_scene_text
 
+!> Check a scene given as text against the dimension of its mesh, as a run does once the
+!> mesh is read (scene_check_dim: the vector keys' component counts, &contact quad_points,
+!> &mesh dim against a mesh file's): what Scene.validate adds for a mesh file whose
+!> dimension the scene leaves to the file (&mesh dim = 0), so that it refuses what the
+!> run would. The text is parsed with the full checks first (as dc_scene_text, full = 1).
+subroutine dc_scene_check_dim(text, name, dim, stat, errmsg)
+    use iso_c_binding, only: c_int
+    use errors, only: STAT_OK
+    use scene, only: scene_t, scene_parse, scene_check_dim
+    implicit none
+    character(len=*), intent(in) :: text        !! scene text
+    character(len=*), intent(in) :: name        !! its name in messages
+    integer(c_int), intent(in) :: dim           !! the mesh's dimension (1, 2 or 3)
+    integer(c_int), intent(out) :: stat         !! status
+    character(len=512), intent(out) :: errmsg   !! message
+    type(scene_t) :: scn
+    integer :: st
+    errmsg = ''
+    call scene_parse(text, name, '', .true., scn, st, errmsg)
+    if (st == STAT_OK) call scene_check_dim(scn, int(dim), st, errmsg)
+    stat = st
+end subroutine dc_scene_check_dim
+
 !> Open a run: read the scene, build the model, open the outputs in out_dir
 !> ('' = the scene's &output dir) unless build_only /= 0.
 subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, elements, &

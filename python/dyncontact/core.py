@@ -308,6 +308,17 @@ def scene_parse(text: str, name: str, full: bool = False, keep_omitted: bool = F
     return (scene, _given_names(given)) if with_given else scene
 
 
+def scene_check_dim(text: str, name: str, dim: int) -> None:
+    """Check a scene given as namelist text against its mesh's dimension ``dim``, as the
+    run does once the mesh is read: the vector keys' counts (3 in 3D), ``&contact
+    quad_points``, ``&mesh dim`` against a mesh file's. ``name`` stands for the scene in
+    messages. Raises :class:`BadInputError` with the core's one-line message.
+    """
+    enc = ("utf-8", "surrogateescape")
+    stat, errmsg = _core().dc_scene_check_dim(text.encode(*enc), name.encode(*enc), int(dim))
+    _check(stat, errmsg, "reading the scene")
+
+
 def _scene_output_dir(scene_json: Mapping[str, Any]) -> str | None:
     out = scene_json.get("output", {})
     d = out.get("dir") if isinstance(out, Mapping) else None

@@ -271,9 +271,17 @@ class Scene:
 
         Normalizes ``contact.obstacle_normal``. A relative mesh file counts from the
         current folder here (``read`` has resolved it against the scene file's folder).
+        With a mesh file and ``mesh.dim`` 0 the file's dimension is read (as
+        :meth:`dimension` does: a ``.geo`` is meshed, once per version of the file) and
+        the keys that depend on it are checked as the run checks them (a vector of 2
+        components on a 3D mesh is refused here, not only when the run starts).
         """
-        self._values, self._given = core.scene_parse(self.to_text(), self._name(), full=True,
-                                                     keep_omitted=True, with_given=True)
+        text = self.to_text()
+        values, given = core.scene_parse(text, self._name(), full=True, keep_omitted=True,
+                                         with_given=True)
+        self._values, self._given = values, given
+        if values["mesh"]["file"] and values["mesh"]["dim"] == 0:
+            core.scene_check_dim(text, self._name(), self.dimension())
 
     # -- writing
     def to_text(self, replace: dict[tuple[str, str], str] | None = None,
