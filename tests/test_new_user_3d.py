@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from test_reliability import ENTRIES, EXIT_OK, run
+from test_reliability import ENTRIES, EXIT_BAD_INPUT, EXIT_OK, one_line, run
 
 EXIT_NUMERIC = 3
 
@@ -128,3 +128,88 @@ def test_validate_checks_a_mesh_files_dimension_as_the_run_does(key, value, mess
         dyncontact.run(scene, out=tmp_path / "o", progress=False)
     assert message in str(validated.value)
     assert str(validated.value).split(": ", 1)[1] == str(ran.value).split(": ", 1)[1]
+
+
+#: A block of one's own (OpenCASCADE), 0.01 above the plane z = 0, with groups of every
+#: dimension under names of one's own: the sole (the contact boundary), an edge and a
+#: corner of it, the brick.
+BLOCK_GEO = ('SetFactory("OpenCASCADE");\n'
+             "Box(1) = {0, 0, 0.01, 0.2, 0.1, 0.1};\n"
+             "Mesh.MeshSizeMax = 0.05;\n"
+             'Physical Surface("sole") = {5};\nPhysical Curve("edge") = {1};\n'
+             'Physical Point("corner") = {1};\nPhysical Volume("brick") = {1};\n')
+
+BLOCK_SCENE = ("&mesh file = '{mesh}' /\n&boundary clamped = {clamped}, contact = 'sole' /\n"
+               "&material young = 1.0, poisson = 0.3 /\n"
+               "&contact obstacle_point = 0, 0, 0, obstacle_normal = 0, 0, -1,\n"
+               "         probe = 0.1, 0.05, 0.01 /\n"
+               "&initial kind = 'velocity', velocity = 0, 0, -0.1 /\n"
+               "&scheme name = 'newmark', dt = 0.01, t_end = 0.05 /\n")
+
+
+def block_scene(folder: Path, mesh: str, clamped: str = "''", geo: str = BLOCK_GEO) -> Path:
+    (folder / "block.geo").write_text(geo)
+    scene = folder / "s.nml"
+    scene.write_text(BLOCK_SCENE.format(mesh=mesh, clamped=clamped))
+    return scene
+
+
+def test_the_block_of_ones_own_runs(tmp_path):
+    """The block as written runs (its point and curve groups are read and left alone)."""
+    pytest.importorskip("gmsh")
+    res = run("exe", block_scene(tmp_path, "block.geo"), "--out", tmp_path / "o",
+              cwd=tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+@pytest.mark.parametrize("group, elements", [("edge", "segments"), ("corner", "points")])
+def test_clamped_group_of_a_lower_dimension_says_what_it_holds(kind, group, elements,
+                                                               tmp_path):
+    """clamped = a curve or a point group of the 3D block: refused (exit 2, one line)
+    saying what the group's elements are and what &boundary groups are made of in 3D, as
+    the contact group's message does; it said only 'has no facets or cells'."""
+    pytest.importorskip("gmsh")
+    res = run(kind, block_scene(tmp_path, "block.geo", f"'{group}'").name, "--out", "o",
+              cwd=tmp_path)
+    line = one_line(res, EXIT_BAD_INPUT)
+    assert line == (f"dyncontact: s.nml: &boundary clamped: group '{group}' has no facets "
+                    f"or cells in the mesh (its elements are {elements}; the facets and "
+                    "cells of a 3D mesh are triangles and tetrahedra) (mesh 'block.geo')")
+
+
+def test_second_order_3d_mesh_names_its_elements(tmp_path):
+    """A 3D .geo meshed at second order: refused (exit 2, one line naming the file and
+    &mesh file) with the element's name (a 6-node triangle is a triangle: 'only triangles
+    are supported' did not say what was wrong; here the curve group's 3-node segments come
+    first) and what to change."""
+    pytest.importorskip("gmsh")
+    scene = block_scene(tmp_path, "block.geo", geo=BLOCK_GEO + "Mesh.ElementOrder = 2;\n")
+    line = one_line(run("exe", scene.name, "--out", "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert line.startswith("dyncontact: s.nml: &mesh file: block.geo: element type ")
+    # the first second-order element met: the curve group's, a facet's or a cell's
+    assert any(f"(a {p2}, dimension {d}) is not a linear simplex; only {p1} are supported "
+               f"in dimension {d}" in line
+               for p2, p1, d in (("3-node segment", "2-node segments", 1),
+                                 ("6-node triangle", "3-node triangles", 2),
+                                 ("10-node tetrahedron", "4-node tetrahedra", 3))), line
+    assert line.endswith("(a higher-order element: mesh with Mesh.ElementOrder = 1)")
+
+
+def test_3d_geometry_meshed_in_2d_says_so(tmp_path):
+    """The block meshed with gmsh -2 (its surfaces only) and saved: refused (exit 2) with
+    the two likely causes, a 2D meshing and a missing Physical Volume."""
+    pytest.importorskip("gmsh")
+    from conftest import gmsh_session, write_msh41
+
+    (tmp_path / "block.geo").write_text(BLOCK_GEO)
+    with gmsh_session("block") as gmsh:
+        gmsh.open(str(tmp_path / "block.geo"))
+        gmsh.model.mesh.generate(2)
+        write_msh41(gmsh, tmp_path / "surface.msh")
+    scene = block_scene(tmp_path, "surface.msh")
+    line = one_line(run("exe", scene.name, "--out", "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert line == ("dyncontact: s.nml: &mesh file: surface.msh: the mesh is 2D but its z "
+                    "coordinates are not constant (a 3D geometry saved without tetrahedra: "
+                    "meshed with gmsh -2 instead of -3, or no Physical Volume?)")
+

@@ -236,9 +236,9 @@ contains
                 write (buf, '(a, i0, a, a, a)') ': the mesh is ', dim, 'D but its ', &
                     trim(merge('y', 'z', j == 2)), ' coordinates are not constant'
                 if (dim == 1) buf = trim(buf)//' (a 2D geometry saved without triangles:'// &
-                    ' no Physical Surface?)'
+                    ' meshed with gmsh -1 instead of -2, or no Physical Surface?)'
                 if (dim == 2) buf = trim(buf)//' (a 3D geometry saved without tetrahedra:'// &
-                    ' no Physical Volume?)'
+                    ' meshed with gmsh -2 instead of -3, or no Physical Volume?)'
                 call raise(stat, errmsg, STAT_BAD_INPUT, path//trim(buf))
                 return
             end if

@@ -316,10 +316,28 @@ static int find_tag(const size_t *sorted, size_t n, size_t tag)
 /* gmsh element type of the linear simplex of dimension d (point, segment, triangle, tet). */
 static int simplex_type(int d) { static const int t[4] = {15, 1, 2, 4}; return t[d]; }
 
+/* The linear simplices of dimension d, as element_name names them. */
 static const char *dim_noun(int d)
 {
-    static const char *n[4] = {"points", "segments", "triangles", "tetrahedra"};
+    static const char *n[4] = {"points", "2-node segments", "3-node triangles",
+                               "4-node tetrahedra"};
     return n[d];
+}
+
+/* gmsh's name of an element type ("6-node triangle"), as its file format's documentation
+ * gives it, so that a refusal names what the file holds; "" for a type not listed. */
+static const char *element_name(int type)
+{
+    static const char *names[32] = {
+        "", "2-node segment", "3-node triangle", "4-node quadrangle", "4-node tetrahedron",
+        "8-node hexahedron", "6-node prism", "5-node pyramid", "3-node segment",
+        "6-node triangle", "9-node quadrangle", "10-node tetrahedron", "27-node hexahedron",
+        "18-node prism", "14-node pyramid", "1-node point", "8-node quadrangle",
+        "20-node hexahedron", "15-node prism", "13-node pyramid", "9-node triangle",
+        "10-node triangle", "12-node triangle", "15-node triangle", "15-node triangle",
+        "21-node triangle", "4-node segment", "5-node segment", "6-node segment",
+        "20-node tetrahedron", "35-node tetrahedron", "56-node tetrahedron"};
+    return (type >= 1 && type <= 31) ? names[type] : "";
 }
 
 /* What to change in the .geo for an element type that is not a linear simplex: "" if
@@ -360,9 +378,11 @@ static int entity_elements(int d, int tag, block_t *b, const char *path, char *m
             etags[i] = ntags[i] = NULL;
         } else if (etags_n[i] > 0 && st == 0) {
             char buf[300];
-            snprintf(buf, sizeof buf, ": element type %d (dimension %d) is not a linear "
-                     "simplex; only %s are supported in dimension %d%s", types[i], d,
-                     dim_noun(d), d, element_hint(types[i]));
+            const char *name = element_name(types[i]);
+            snprintf(buf, sizeof buf, ": element type %d (%s%s%sdimension %d) is not a linear "
+                     "simplex; only %s are supported in dimension %d%s", types[i],
+                     *name ? "a " : "", name, *name ? ", " : "", d, dim_noun(d), d,
+                     element_hint(types[i]));
             set_msg(msg, msglen, path, buf, NULL);
             st = 2;
         }
