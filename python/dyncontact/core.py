@@ -326,10 +326,8 @@ def _scene_output_dir(scene_json: Mapping[str, Any]) -> str | None:
 
 
 def _write_scene(scene, folder: str) -> str:
-    """Validate a Scene and write it as folder/scene.nml with an absolute mesh file."""
-    validate = getattr(scene, "validate", None)
-    if callable(validate):
-        validate()
+    """Write a Scene as folder/scene.nml with an absolute mesh file (``write``
+    validates it, leaving what needs the mesh to the run, which reads it)."""
     path = os.path.join(folder, "scene.nml")
     scene.write(path)
     return path

@@ -266,21 +266,25 @@ class Scene:
     def __repr__(self) -> str:
         return f"Scene(path={self.path!r})"
 
-    def validate(self) -> None:
+    def validate(self, mesh: bool = True) -> None:
         """Check ranges and consistency in the core (raises :class:`BadInputError`).
 
         Normalizes ``contact.obstacle_normal``. A relative mesh file counts from the
         current folder here (``read`` has resolved it against the scene file's folder).
-        With a mesh file and ``mesh.dim`` 0 the file's dimension is read (as
-        :meth:`dimension` does: a ``.geo`` is meshed, once per version of the file) and
-        the keys that depend on it are checked as the run checks them (a vector of 2
-        components on a 3D mesh is refused here, not only when the run starts).
+        With a mesh file and ``mesh.dim`` 0, the keys that depend on the mesh's dimension
+        (the vector keys' counts, ``contact.quad_points``) are checked against the file's
+        dimension as the run checks them, so a vector of 2 components for a 3D mesh file
+        is refused here, not only when the run starts: the file is read for that (as
+        :meth:`dimension` does: a ``.geo`` is meshed, once per version of the file), and
+        a file that cannot be read is refused as the run would. ``mesh=False`` leaves
+        that check to the run, which reads the mesh anyway (:meth:`write` and
+        :func:`dyncontact.run` do, so that a run does not read its mesh twice).
         """
         text = self.to_text()
         values, given = core.scene_parse(text, self._name(), full=True, keep_omitted=True,
                                          with_given=True)
         self._values, self._given = values, given
-        if values["mesh"]["file"] and values["mesh"]["dim"] == 0:
+        if mesh and values["mesh"]["file"] and values["mesh"]["dim"] == 0:
             core.scene_check_dim(text, self._name(), self.dimension())
 
     # -- writing
@@ -315,7 +319,8 @@ class Scene:
         return "\n".join(lines) + "\n"
 
     def write(self, path: str | os.PathLike) -> None:
-        """Validate, then write the scene as a namelist file (mesh file made absolute)."""
-        self.validate()
+        """Validate (without reading the mesh file: ``validate(mesh=False)``), then write
+        the scene as a namelist file (mesh file made absolute)."""
+        self.validate(mesh=False)
         with open(os.fspath(path), "w", encoding="utf-8", errors="surrogateescape") as fh:
             fh.write(self.to_text(absolute_mesh=True))
