@@ -213,3 +213,61 @@ def test_3d_geometry_meshed_in_2d_says_so(tmp_path):
                     "coordinates are not constant (a 3D geometry saved without tetrahedra: "
                     "meshed with gmsh -2 instead of -3, or no Physical Volume?)")
 
+
+#: A cube of side 1 whose .geo sizes its own mesh (Mesh.MeshSizeMax = 0.5) and uses no h:
+#: what a CAD export in its own units looks like.
+OWN_SIZE_GEO = ('SetFactory("OpenCASCADE");\nBox(1) = {0, 0, 0.01, 1, 1, 1};\n'
+                "Mesh.MeshSizeMax = 0.5;\n"
+                'Physical Surface("sole") = {5};\nPhysical Volume("cube") = {1};\n')
+
+
+def own_size_cells(geo: Path, size_max: float | None = None) -> int:
+    """Tetrahedra of gmsh's own meshing of the file (with size_max imposed after the
+    file is read, as `-clmax` would)."""
+    from conftest import gmsh_session
+
+    with gmsh_session("own") as gmsh:
+        gmsh.open(str(geo))
+        if size_max is not None:
+            gmsh.option.setNumber("Mesh.MeshSizeMax", size_max)
+        gmsh.model.mesh.generate(3)
+        return sum(len(t) for t in gmsh.model.mesh.getElements(3)[1])
+
+
+@pytest.mark.parametrize("given_h", [None, 0.25])
+def test_geo_without_h_keeps_its_own_sizes_unless_the_scene_gives_h(given_h, tmp_path):
+    """A .geo that sizes its own mesh and uses no h, run by a scene that gives no &mesh h:
+    the run, Scene.dimension/validate and `dyncontact mesh` (no --h) mesh it with the
+    file's own sizes. They imposed the built-in bar's default h = 0.05 as the largest
+    size: a body drawn in mm (a cylinder of radius 100) got some 10^11 tetrahedra and the
+    run never came back from gmsh. A scene that gives h still sizes it (0.25 here)."""
+    import subprocess
+    import sys
+
+    import dyncontact
+    pytest.importorskip("gmsh")
+    geo = tmp_path / "cube.geo"
+    geo.write_text(OWN_SIZE_GEO)
+    cells = own_size_cells(geo, given_h)
+    assert cells < 3000                      # 0.05 gives about 50 000
+    h_line = "" if given_h is None else f"&mesh h = {given_h} /\n"
+    scene = tmp_path / "s.nml"
+    scene.write_text(f"&mesh file = 'cube.geo' /\n{h_line}"
+                     "&boundary clamped = '', contact = 'sole' /\n"
+                     "&contact obstacle_point = 0, 0, 0, obstacle_normal = 0, 0, -1,\n"
+                     "         probe = 0.5, 0.5, 0.01 /\n"
+                     "&initial kind = 'velocity', velocity = 0, 0, -0.1 /\n"
+                     "&scheme name = 'newmark', dt = 0.01, t_end = 0.02 /\n"
+                     .replace(f"&mesh file = 'cube.geo' /\n&mesh h = {given_h} /",
+                              f"&mesh file = 'cube.geo', h = {given_h} /"))
+    res = dyncontact.run(scene, out=tmp_path / "o", progress=False)
+    assert res.status == "ok" and res.summary["elements"] == cells
+    scn = dyncontact.Scene.read(scene)
+    scn.validate()
+    assert scn.dimension() == 3
+    if given_h is None:
+        out = tmp_path / "cube.msh"
+        cli = subprocess.run([sys.executable, "-m", "dyncontact", "mesh", "--geo", str(geo),
+                              "--out", str(out)], capture_output=True, text=True, timeout=60)
+        assert cli.returncode == 0, cli.stderr
+        assert f" {cells} tetrahedra;" in cli.stdout + cli.stderr

@@ -645,9 +645,12 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
 
 void dc_gmsh_free(void *p);
 
-/* Read path into *out (free with dc_gmsh_free). params = (h, length, width) for a .geo:
- * they are set as the file's parser variables of those names; if the file uses no h, h is
- * the largest mesh size (Mesh.MeshSizeMax). */
+/* Read path into *out (free with dc_gmsh_free). params = (h, length, width, h_given) for
+ * a .geo: the first three are set as the file's parser variables of those names; if the
+ * file uses no h and h_given is not 0 (the scene gives &mesh h), h is the largest mesh
+ * size (Mesh.MeshSizeMax); a file that uses no h, meshed for a scene that gives no h,
+ * keeps its own sizes (a default h made for the built-in bar, 0.05, imposed on a body
+ * drawn in mm meshed it with billions of elements). */
 static int gmsh_read(const char *path, const double *params, int is_geo, void **out,
                      char *msg, int msglen);
 
@@ -731,7 +734,7 @@ static int gmsh_read(const char *path, const double *params, int is_geo, void **
         ierr = 0;
         G.merge(path, &ierr);
         if (ierr) { gmsh_error(path, "gmsh cannot read it", msg, msglen); st = 2; }
-        if (st == 0 && !uses_h) {
+        if (st == 0 && !uses_h && params[3] != 0) {
             G.option_set_number("Mesh.MeshSizeMax", params[0], &ierr);
         }
         if (st == 0) {

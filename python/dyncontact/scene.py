@@ -163,7 +163,7 @@ class Scene:
         if tag not in self._mesh_dims:
             self._mesh_dims[tag] = int(core.load_mesh(
                 path, length=float(mesh["length"]), width=float(mesh["width"]),
-                h=float(mesh["h"]), check=False)["dim"])
+                h=float(mesh["h"]), check=False, h_given=self.given("mesh.h"))["dim"])
         return self._mesh_dims[tag]
 
     def set(self, name: str, value: Any) -> None:
