@@ -130,6 +130,31 @@ def test_validate_checks_a_mesh_files_dimension_as_the_run_does(key, value, mess
     assert str(validated.value).split(": ", 1)[1] == str(ran.value).split(": ", 1)[1]
 
 
+@pytest.mark.parametrize("geo_tail, what", [
+    ("Mesh.ElementOrder = 2;\n", "is not a linear simplex"),
+    ("Physical Surface(\"sole\") = {5\n", "gmsh cannot read it"),
+])
+def test_validate_names_the_scene_and_key_of_a_mesh_it_cannot_read(geo_tail, what,
+                                                                   tmp_path):
+    """Scene.validate (and Scene.get of a vector left to the file's dimension) of a scene
+    whose .geo is meshed at second order or has a syntax error: one line naming the
+    scene and &mesh file, as the run's message does; it said only 'block.geo: ...'."""
+    import dyncontact
+    pytest.importorskip("gmsh")
+    scene = block_scene(tmp_path, "block.geo", geo=BLOCK_GEO + geo_tail)
+    scn = dyncontact.Scene.read(scene)
+    with pytest.raises(dyncontact.BadInputError) as validated:
+        scn.validate()
+    with pytest.raises(dyncontact.BadInputError) as ran:
+        dyncontact.run(scn, out=tmp_path / "o", progress=False)
+    message = str(validated.value)
+    assert "\n" not in message and what in message, message
+    assert message.startswith(f"{scn._name()}: &mesh file: "), message
+    assert str(ran.value).startswith(f"{scn._name()}: &mesh file: "), ran.value
+    with pytest.raises(dyncontact.BadInputError, match=r": &mesh file: "):
+        dyncontact.Scene.read(scene).get("material.gravity")   # left out: the file's dim
+
+
 #: A block of one's own (OpenCASCADE), 0.01 above the plane z = 0, with groups of every
 #: dimension under names of one's own: the sole (the contact boundary), an edge and a
 #: corner of it, the brick.

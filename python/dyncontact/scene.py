@@ -148,7 +148,8 @@ class Scene:
     def dimension(self) -> int:
         """The mesh's dimension (1, 2 or 3): ``&mesh dim``, 2 for the built-in bar with
         dim = 0, and for a mesh file with dim = 0 the file's (read through the core, as
-        the run reads it; :class:`BadInputError` if it cannot be read)."""
+        the run reads it; :class:`BadInputError` if it cannot be read, naming the scene and
+        ``&mesh file`` as the run's message does)."""
         mesh = self._values["mesh"]
         if mesh["dim"] not in (0, 1, 2, 3):     # set, not validated yet: the core's message
             core.scene_parse(f"&mesh dim = {mesh['dim']} /", self._name(), full=True)
@@ -161,9 +162,12 @@ class Scene:
         except OSError:
             tag = (path, -1, -1)
         if tag not in self._mesh_dims:
-            self._mesh_dims[tag] = int(core.load_mesh(
-                path, length=float(mesh["length"]), width=float(mesh["width"]),
-                h=float(mesh["h"]), check=False, h_given=self.given("mesh.h"))["dim"])
+            try:
+                self._mesh_dims[tag] = int(core.load_mesh(
+                    path, length=float(mesh["length"]), width=float(mesh["width"]),
+                    h=float(mesh["h"]), check=False, h_given=self.given("mesh.h"))["dim"])
+            except BadInputError as exc:    # named as the run names it: scene and key
+                raise BadInputError(f"{self._name()}: &mesh file: {exc}") from None
         return self._mesh_dims[tag]
 
     def set(self, name: str, value: Any) -> None:
