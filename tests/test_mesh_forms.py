@@ -228,14 +228,16 @@ REFUSED_FILES = {
                           "no segments, triangles or tetrahedra"),
     "quadrangles": ("quads.geo", (ROOT / "meshes" / "bar2d.geo").read_text()
                             + "\nRecombine Surface{1};\n",
-                            "element type 3 (dimension 2) is not a linear simplex; only "
-                            "triangles are supported in dimension 2 (quadrangles, hexahedra, "
+                            "element type 3 (a 4-node quadrangle, dimension 2) is not a "
+                            "linear simplex; only 3-node triangles are supported in "
+                            "dimension 2 (quadrangles, hexahedra, "
                             "prisms or pyramids: mesh without Recombine)"),
     # a second-order mesh: its 3-node segments come first; the message says what to change
     "second_order": ("p2.geo", (ROOT / "meshes" / "disk.geo").read_text()
                      + "\nMesh.ElementOrder = 2;\n",
-                     "element type 8 (dimension 1) is not a linear simplex; only segments are "
-                     "supported in dimension 1 (a higher-order element: mesh with "
+                     "element type 8 (a 3-node segment, dimension 1) is not a linear "
+                     "simplex; only 2-node segments are supported in dimension 1 (a "
+                     "higher-order element: mesh with "
                      "Mesh.ElementOrder = 1)"),
     # triangles off the z = 0 plane with no tetrahedra: a 3D geometry saved as 2D
     "mixed_dimensions": ("tilted.geo",

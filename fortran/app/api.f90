@@ -74,6 +74,29 @@ subroutine dc_scene_text(text, name, full, json, given, stat, errmsg)
     end if
 end subroutine dc_scene_text
 
+!> Check a scene given as text against the dimension of its mesh, as a run does once the
+!> mesh is read (scene_check_dim: the vector keys' component counts, &contact quad_points,
+!> &mesh dim against a mesh file's): what Scene.validate adds for a mesh file whose
+!> dimension the scene leaves to the file (&mesh dim = 0), so that it refuses what the
+!> run would. The text is parsed with the full checks first (as dc_scene_text, full = 1).
+subroutine dc_scene_check_dim(text, name, dim, stat, errmsg)
+    use iso_c_binding, only: c_int
+    use errors, only: STAT_OK
+    use scene, only: scene_t, scene_parse, scene_check_dim
+    implicit none
+    character(len=*), intent(in) :: text        !! scene text
+    character(len=*), intent(in) :: name        !! its name in messages
+    integer(c_int), intent(in) :: dim           !! the mesh's dimension (1, 2 or 3)
+    integer(c_int), intent(out) :: stat         !! status
+    character(len=512), intent(out) :: errmsg   !! message
+    type(scene_t) :: scn
+    integer :: st
+    errmsg = ''
+    call scene_parse(text, name, '', .true., scn, st, errmsg)
+    if (st == STAT_OK) call scene_check_dim(scn, int(dim), st, errmsg)
+    stat = st
+end subroutine dc_scene_check_dim
+
 !> Open a run: read the scene, build the model, open the outputs in out_dir
 !> ('' = the scene's &output dir) unless build_only /= 0.
 subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, elements, &
@@ -523,9 +546,10 @@ end subroutine dc_p1_element
 !> Load a mesh: a mesh file (path /= '') or the built-in bar (dim, length, width, h), and
 !> its sizes. The mesh is kept behind `handle` (0 on error) for dc_mesh_arrays, which
 !> copies and releases it, or dc_mesh_free. checked = 0: a file's mesh is read without
-!> mesh_check (reader-level use, 3D meshes).
-subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, handle, dim, n_nodes, &
-                         n_cells, n_facets, n_groups, stat, errmsg)
+!> mesh_check (reader-level use, 3D meshes). h_given = 0: a .geo that uses no h keeps its
+!> own mesh sizes (a scene that gives no &mesh h); otherwise h is its largest mesh size.
+subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, h_given, handle, dim, &
+                         n_nodes, n_cells, n_facets, n_groups, stat, errmsg)
     use iso_c_binding, only: c_int, c_int64_t, c_double, c_loc
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load
@@ -536,6 +560,7 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, handle, dim, 
     real(c_double), intent(in) :: width          !! built-in bar width
     real(c_double), intent(in) :: h              !! built-in bar mesh size
     integer(c_int), intent(in) :: checked        !! 0: no mesh_check of a file's mesh
+    integer(c_int), intent(in) :: h_given        !! 0: a .geo without h keeps its own sizes
     integer(c_int64_t), intent(out) :: handle    !! the loaded mesh (0 on error)
     integer(c_int), intent(out) :: dim           !! mesh dimension
     integer(c_int), intent(out) :: n_nodes       !! nodes
@@ -549,7 +574,7 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, handle, dim, 
     errmsg = ''
     handle = 0
     allocate (msh)
-    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg, checked /= 0)
+    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg, checked /= 0, h_given /= 0)
     stat = st
     dim = msh%dim; n_nodes = msh%n_nodes; n_cells = msh%n_cells
     n_facets = msh%n_facets; n_groups = msh%n_groups

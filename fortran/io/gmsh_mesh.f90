@@ -39,7 +39,8 @@ module gmsh_mesh
             bind(C, name='dc_gmsh_read')
             import :: c_int, c_char, c_double, c_ptr
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated mesh or .geo file
-            real(c_double), intent(in) :: params(3)        !! h, length, width (a .geo's variables)
+            real(c_double), intent(in) :: params(4)        !! h, length, width (a .geo's variables),
+                                                           !! h_given (1: h sizes a .geo without h)
             integer(c_int), value :: is_geo                !! 1: mesh a .geo in-process
             type(c_ptr), intent(out) :: out                !! the mesh read (free with c_gmsh_free)
             character(kind=c_char), intent(out) :: msg(*)  !! why it failed
@@ -86,8 +87,10 @@ contains
 
     !> Read the mesh file `path` (.msh in any version gmsh reads, or .geo meshed with the
     !> parameters h, length, width) into `msh`, then check it (mesh_check) unless
-    !> check = .false. Errors: STAT_BAD_INPUT with a one-line message starting with the path.
-    subroutine read_mesh_file(path, h, length, width, msh, stat, errmsg, check)
+    !> check = .false. A .geo that uses no h is meshed with h as its largest mesh size
+    !> when h_given (the default), with its own sizes otherwise.
+    !> Errors: STAT_BAD_INPUT with a one-line message starting with the path.
+    subroutine read_mesh_file(path, h, length, width, msh, stat, errmsg, check, h_given)
         character(len=*), intent(in) :: path                !! .msh or .geo file
         real(dp), intent(in) :: h                           !! .geo parameter h
         real(dp), intent(in) :: length                      !! .geo parameter length
@@ -96,6 +99,7 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! one-line message naming the file
         logical, intent(in), optional :: check              !! run mesh_check (default .true.)
+        logical, intent(in), optional :: h_given            !! h sizes a .geo without h (default)
         character(kind=c_char) :: cmsg(MSG_LEN)
         character(len=MSG_LEN) :: msg
         character(len=:), allocatable :: p, ext
@@ -106,6 +110,7 @@ contains
         character(kind=c_char), allocatable :: names(:)
         logical :: exists, is_dir
         integer :: ios, ist, nbytes
+        real(dp) :: sized
 
         stat = STAT_OK
         p = trim(path)
@@ -141,7 +146,9 @@ contains
         end select
 
         handle = c_null_ptr
-        st = c_gmsh_read(p//c_null_char, [h, length, width], is_geo, handle, cmsg, &
+        sized = 1.0_dp
+        if (present(h_given)) sized = merge(1.0_dp, 0.0_dp, h_given)
+        st = c_gmsh_read(p//c_null_char, [h, length, width, sized], is_geo, handle, cmsg, &
                          int(MSG_LEN, c_int))
         if (st /= 0) then
             call raise(stat, errmsg, merge(STAT_BAD_INPUT, STAT_INTERNAL, st == 2), from_c(cmsg))
@@ -236,9 +243,9 @@ contains
                 write (buf, '(a, i0, a, a, a)') ': the mesh is ', dim, 'D but its ', &
                     trim(merge('y', 'z', j == 2)), ' coordinates are not constant'
                 if (dim == 1) buf = trim(buf)//' (a 2D geometry saved without triangles:'// &
-                    ' no Physical Surface?)'
+                    ' meshed with gmsh -1 instead of -2, or no Physical Surface?)'
                 if (dim == 2) buf = trim(buf)//' (a 3D geometry saved without tetrahedra:'// &
-                    ' no Physical Volume?)'
+                    ' meshed with gmsh -2 instead of -3, or no Physical Volume?)'
                 call raise(stat, errmsg, STAT_BAD_INPUT, path//trim(buf))
                 return
             end if

@@ -316,10 +316,28 @@ static int find_tag(const size_t *sorted, size_t n, size_t tag)
 /* gmsh element type of the linear simplex of dimension d (point, segment, triangle, tet). */
 static int simplex_type(int d) { static const int t[4] = {15, 1, 2, 4}; return t[d]; }
 
+/* The linear simplices of dimension d, as element_name names them. */
 static const char *dim_noun(int d)
 {
-    static const char *n[4] = {"points", "segments", "triangles", "tetrahedra"};
+    static const char *n[4] = {"points", "2-node segments", "3-node triangles",
+                               "4-node tetrahedra"};
     return n[d];
+}
+
+/* gmsh's name of an element type ("6-node triangle"), as its file format's documentation
+ * gives it, so that a refusal names what the file holds; "" for a type not listed. */
+static const char *element_name(int type)
+{
+    static const char *names[32] = {
+        "", "2-node segment", "3-node triangle", "4-node quadrangle", "4-node tetrahedron",
+        "8-node hexahedron", "6-node prism", "5-node pyramid", "3-node segment",
+        "6-node triangle", "9-node quadrangle", "10-node tetrahedron", "27-node hexahedron",
+        "18-node prism", "14-node pyramid", "1-node point", "8-node quadrangle",
+        "20-node hexahedron", "15-node prism", "13-node pyramid", "9-node triangle",
+        "10-node triangle", "12-node triangle", "15-node triangle", "15-node triangle",
+        "21-node triangle", "4-node segment", "5-node segment", "6-node segment",
+        "20-node tetrahedron", "35-node tetrahedron", "56-node tetrahedron"};
+    return (type >= 1 && type <= 31) ? names[type] : "";
 }
 
 /* What to change in the .geo for an element type that is not a linear simplex: "" if
@@ -360,9 +378,11 @@ static int entity_elements(int d, int tag, block_t *b, const char *path, char *m
             etags[i] = ntags[i] = NULL;
         } else if (etags_n[i] > 0 && st == 0) {
             char buf[300];
-            snprintf(buf, sizeof buf, ": element type %d (dimension %d) is not a linear "
-                     "simplex; only %s are supported in dimension %d%s", types[i], d,
-                     dim_noun(d), d, element_hint(types[i]));
+            const char *name = element_name(types[i]);
+            snprintf(buf, sizeof buf, ": element type %d (%s%s%sdimension %d) is not a linear "
+                     "simplex; only %s are supported in dimension %d%s", types[i],
+                     *name ? "a " : "", name, *name ? ", " : "", d, dim_noun(d), d,
+                     element_hint(types[i]));
             set_msg(msg, msglen, path, buf, NULL);
             st = 2;
         }
@@ -625,9 +645,12 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
 
 void dc_gmsh_free(void *p);
 
-/* Read path into *out (free with dc_gmsh_free). params = (h, length, width) for a .geo:
- * they are set as the file's parser variables of those names; if the file uses no h, h is
- * the largest mesh size (Mesh.MeshSizeMax). */
+/* Read path into *out (free with dc_gmsh_free). params = (h, length, width, h_given) for
+ * a .geo: the first three are set as the file's parser variables of those names; if the
+ * file uses no h and h_given is not 0 (the scene gives &mesh h), h is the largest mesh
+ * size (Mesh.MeshSizeMax); a file that uses no h, meshed for a scene that gives no h,
+ * keeps its own sizes (a default h made for the built-in bar, 0.05, imposed on a body
+ * drawn in mm meshed it with billions of elements). */
 static int gmsh_read(const char *path, const double *params, int is_geo, void **out,
                      char *msg, int msglen);
 
@@ -711,7 +734,7 @@ static int gmsh_read(const char *path, const double *params, int is_geo, void **
         ierr = 0;
         G.merge(path, &ierr);
         if (ierr) { gmsh_error(path, "gmsh cannot read it", msg, msglen); st = 2; }
-        if (st == 0 && !uses_h) {
+        if (st == 0 && !uses_h && params[3] != 0) {
             G.option_set_number("Mesh.MeshSizeMax", params[0], &ierr);
         }
         if (st == 0) {

@@ -411,7 +411,8 @@ contains
     !> Mark the nodes of every facet or cell in the comma-separated list of groups
     !> `names` (blank entries ignored; '' marks nothing). An unknown name gives
     !> STAT_BAD_INPUT with errmsg = "group 'NAME' not in mesh"; a group with no
-    !> facet and no cell (e.g. a point group of a 2D mesh) gives STAT_BAD_INPUT too.
+    !> facet and no cell (e.g. a point group of a 2D mesh, a curve group of a 3D one)
+    !> gives STAT_BAD_INPUT too, saying what its elements are.
     pure subroutine mesh_group_nodes(this, names, mask, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh
         character(len=*), intent(in) :: names             !! e.g. 'left,right'
@@ -437,7 +438,10 @@ contains
             if (.not. found) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, &
                            "group '"//trim(this%group_name(g))// &
-                           "' has no facets or cells in the mesh")
+                           "' has no facets or cells in the mesh (its elements are "// &
+                           element_kind(this%group_dim(g))//'; the facets and cells of a '// &
+                           achar(iachar('0') + this%dim)//'D mesh are '// &
+                           element_kind(this%dim - 1)//' and '//element_kind(this%dim)//')')
                 return
             end if
         end do

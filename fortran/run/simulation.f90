@@ -4,7 +4,7 @@
 module simulation
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp, i8
-    use text, only: int_text, real_text, lower
+    use text, only: int_text, real_text, fixed_text, lower
     use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
     use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim, &
@@ -22,7 +22,7 @@ module simulation
                            FAILURE_CG
     use implicit_schemes, only: implicit_scheme_t, implicit_solver_report
     use explicit_schemes, only: pc_scheme_t
-    use central_difference, only: central_scheme_t
+    use central_difference, only: central_scheme_t, CENTRAL_SAFETY
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, ls_factorization, &
                              ls_auto_reason, ls_set_threads, ls_threads
     use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
@@ -206,7 +206,8 @@ contains
         type(mesh_t) :: msh
         mmsg = ''
         call mesh_load(sim%scn%mesh_file, scene_bar_dim(sim%scn%mesh_dim), &
-                       sim%scn%mesh_length, sim%scn%mesh_width, sim%scn%mesh_h, msh, stat, mmsg)
+                       sim%scn%mesh_length, sim%scn%mesh_width, sim%scn%mesh_h, msh, stat, mmsg, &
+                       h_given=scene_given(sim%scn, 'mesh', 'h'))
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh'// &
                        trim(merge(' file:', ':     ', len_trim(sim%scn%mesh_file) > 0))//' '// &
@@ -265,6 +266,7 @@ contains
         call check_unused_scheme_keys(sim)
         call check_unused_contact_keys(sim)
         call check_alm_mass(sim)
+        call check_central_step(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
             sim%auto_dt = .true.
@@ -289,6 +291,33 @@ contains
             if (stat /= STAT_OK) return
         end if
     end subroutine start_scheme
+
+    !> A warning for central differences run at a given &scheme dt above the critical
+    !> step it estimates (the linear limit at full contact, 2 / omega_max, approached from
+    !> above by power iteration: a step above the estimate is above that limit). Such a
+    !> run goes unstable as soon as the contact is fully active, often at its first
+    !> impact, and the blow-up message alone would not say that the step is the cause.
+    subroutine check_central_step(sim)
+        type(simulation_t), intent(inout) :: sim            !! the run (scheme set up)
+        character(len=:), allocatable :: where
+        select type (s => sim%scheme)
+        type is (central_scheme_t)
+            if (sim%scn%dt <= 0.0_dp .or. .not. (s%dt_crit > 0.0_dp)) return
+            if (sim%scn%dt <= s%dt_crit) return
+            if (sim%mdl%has_contact) then
+                where = ' at full contact: the run is likely to go unstable once the contact'// &
+                        ' is active'
+            else
+                where = ': the run is likely to go unstable'
+            end if
+            sim%mdl%notes = trim(sim%mdl%notes)// &
+                'warning: &scheme dt = '//real_text(sim%scn%dt, 4)//' is '// &
+                fixed_text(sim%scn%dt / s%dt_crit, 2)//' x the critical step of central '// &
+                'differences, estimated '//real_text(s%dt_crit, 4)//where//'; give dt <= '// &
+                real_text(CENTRAL_SAFETY * s%dt_crit, 4)//' (0.9 x it) or dt = 0 (docs/'// &
+                'scenes.md, &scheme)'//new_line('a')
+        end select
+    end subroutine check_central_step
 
     !> A warning for the redistributed mass on a scheme that weighs the internal force
     !> half at t_n and half at t_n+1 (galpha rho_inf = 1, theta theta = 1/2). The massless
@@ -965,7 +994,7 @@ contains
         end if
         msg = 'unstable at t = '//real_text(sim%st%t, 6)//': '//what//' = '// &
               distinct_text(e, sim%e_limit)//' exceeds '//scale//' = '// &
-              distinct_text(sim%e_limit, e)//' (run stopped, trace kept)'
+              distinct_text(sim%e_limit, e)//' (run stopped, trace kept)'//explicit_step_hint(sim)
         ! no energy at all at t = 0 (no motion, no load, nothing stored in the contact):
         ! the limit is the floor tiny(1.0) and the bare number would not say why
         if (.not. sim%has_load .and. sim%e_limit <= sim%scn%blowup * tiny(1.0_dp)) &
@@ -974,6 +1003,26 @@ contains
                   '''alm'', whose multipliers store none, is pushed out with energy made'// &
                   ' from nothing)'
     end function unstable_message
+
+    !> What an unstable explicit run adds to its message: the explicit schemes (pc,
+    !> pc_hht, pc_hht_seed, central) are stable only below a critical step, the first
+    !> thing to check (a newcomer's step is often an implicit scheme's); central gives
+    !> its own estimate of that step. '' for the implicit schemes.
+    function explicit_step_hint(sim) result(hint)
+        type(simulation_t), intent(in) :: sim               !! the run
+        character(len=:), allocatable :: hint
+        hint = ''
+        select type (s => sim%scheme)
+        type is (pc_scheme_t)
+            hint = '; '//trim(sim%scn%scheme_name)//' is explicit, stable only below a '// &
+                   'critical step: try a smaller &scheme dt (it is '//real_text(sim%scn%dt, 4)//')'
+        type is (central_scheme_t)
+            hint = '; central is explicit, stable only below a critical step, estimated '// &
+                   real_text(s%dt_crit, 4)//trim(merge(' at full contact', '                ', &
+                   sim%mdl%has_contact))//' (&scheme dt = '//real_text(sim%scn%dt, 4)// &
+                   '): try a smaller &scheme dt, or dt = 0'
+        end select
+    end function explicit_step_hint
 
     !> x with 4 significant digits, or with as many more as tell it apart from y (up to
     !> the 17 that identify a double).

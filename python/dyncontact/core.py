@@ -308,6 +308,17 @@ def scene_parse(text: str, name: str, full: bool = False, keep_omitted: bool = F
     return (scene, _given_names(given)) if with_given else scene
 
 
+def scene_check_dim(text: str, name: str, dim: int) -> None:
+    """Check a scene given as namelist text against its mesh's dimension ``dim``, as the
+    run does once the mesh is read: the vector keys' counts (3 in 3D), ``&contact
+    quad_points``, ``&mesh dim`` against a mesh file's. ``name`` stands for the scene in
+    messages. Raises :class:`BadInputError` with the core's one-line message.
+    """
+    enc = ("utf-8", "surrogateescape")
+    stat, errmsg = _core().dc_scene_check_dim(text.encode(*enc), name.encode(*enc), int(dim))
+    _check(stat, errmsg, "reading the scene")
+
+
 def _scene_output_dir(scene_json: Mapping[str, Any]) -> str | None:
     out = scene_json.get("output", {})
     d = out.get("dir") if isinstance(out, Mapping) else None
@@ -315,10 +326,8 @@ def _scene_output_dir(scene_json: Mapping[str, Any]) -> str | None:
 
 
 def _write_scene(scene, folder: str) -> str:
-    """Validate a Scene and write it as folder/scene.nml with an absolute mesh file."""
-    validate = getattr(scene, "validate", None)
-    if callable(validate):
-        validate()
+    """Write a Scene as folder/scene.nml with an absolute mesh file (``write``
+    validates it, leaving what needs the mesh to the run, which reads it)."""
     path = os.path.join(folder, "scene.nml")
     scene.write(path)
     return path
@@ -485,11 +494,14 @@ def _scene_attr_output_dir(scene) -> str | None:
 # --------------------------------------------------------------------------- helpers
 
 def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0,
-              width: float = 0.1, h: float = 0.05, check: bool = True) -> dict[str, Any]:
+              width: float = 0.1, h: float = 0.05, check: bool = True,
+              h_given: bool = True) -> dict[str, Any]:
     """A mesh as the Fortran core reads it: a mesh file (.msh in any version gmsh reads,
     or .geo meshed with the parameters h, length, width), or the built-in bar (path '').
     ``check=False`` skips the core's mesh checks of a file's mesh (reader level: meshes
-    the model does not take, such as tetrahedra).
+    the model does not take, such as tetrahedra). ``h_given=False``: a .geo that uses no
+    h keeps its own mesh sizes, as for a scene that gives no ``&mesh h`` (with True, the
+    default, h is its largest mesh size).
 
     Returns a dict with 0-based indices: ``x`` (n_nodes, dim), ``cells`` (n_cells, dim+1),
     ``cell_group`` (n_cells; -1 = none), ``facets`` (n_facets, dim), ``facet_group``
@@ -498,7 +510,8 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
     core = _core()
     p = _fpath(path, "mesh file")
     handle, dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(
-        p, int(dim), float(length), float(width), float(h), int(bool(check)))
+        p, int(dim), float(length), float(width), float(h), int(bool(check)),
+        int(bool(h_given)))
     _check(stat, errmsg, "reading the mesh")
     (x, cells, cell_group, facets, facet_group, group_dim, names, stat,
      errmsg) = core.dc_mesh_arrays(handle, dim_, nn, nc, nf, ng)

@@ -238,14 +238,16 @@ def _uses_h(gmsh, geo: Path) -> bool:
         gmsh.option.setNumber("General.AbortOnError", abort)
 
 
-def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float = 0.05,
-             length: float = 1.0, width: float = 0.1, binary: bool = False,
-             version: float = 4.1) -> Path:
+def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
+             h: float | None = 0.05, length: float = 1.0, width: float = 0.1,
+             binary: bool = False, version: float = 4.1) -> Path:
     """Mesh a .geo with gmsh and write it as .msh (default 4.1 ASCII).
 
     h, length and width are set as the file's parameters of those names (as
     ``gmsh -setnumber h 0.02`` would); where the file uses no h, h is the largest
-    mesh size. The mesh has the geometry's dimension.
+    mesh size. ``h=None`` (``dyncontact mesh`` without ``--h``): a file that uses no h
+    keeps its own mesh sizes, as a run's .geo does for a scene without ``&mesh h``
+    (one that uses h gets 0.05). The mesh has the geometry's dimension.
 
     Returns
     -------
@@ -261,6 +263,8 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float 
         short midway gmsh does not report: ``dyncontact mesh`` finds it when it reads
         the file back.
     """
+    h_given = h is not None
+    h = 0.05 if h is None else h
     _check_sizes("generate", h=h, length=length, width=width)
     geo = Path(geo_path)
     if not geo.is_file():
@@ -277,7 +281,7 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike, h: float 
             gmsh.parser.setNumber(name, [float(value)])
         try:
             gmsh.merge(str(geo))
-            if not uses_h:
+            if not uses_h and h_given:
                 gmsh.option.setNumber("Mesh.MeshSizeMax", float(h))
             gmsh.model.mesh.generate(gmsh.model.getDimension())
         except Exception as exc:
@@ -381,7 +385,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "structured triangles) and write it as .msh 4.1 ASCII. h, length and "
                     "width are set as the file's parameters of those names; where the file "
                     "uses no h, h is the largest mesh size.")
-    p.add_argument("--h", type=float, default=0.05, help="mesh size (default 0.05)")
+    p.add_argument("--h", type=float, default=None,
+                   help="mesh size: the parameter h (default 0.05), or the largest mesh size "
+                        "of a .geo that uses no h (default: the file's own sizes)")
     p.add_argument("--out", required=True, metavar="FILE.msh",
                    help="mesh file to write (.msh, in an existing folder)")
     p.add_argument("--length", type=float, default=1.0,
@@ -413,7 +419,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         _check_out(args.out)
         fmt = dict(binary=args.binary, version=args.msh_version)
         if args.geo is None:
-            out = generate_bar(args.h, args.out, length=args.length, width=args.width, **fmt)
+            h = 0.05 if args.h is None else args.h
+            out = generate_bar(h, args.out, length=args.length, width=args.width, **fmt)
         else:
             out = generate(args.geo, args.out, h=args.h, length=args.length,
                            width=args.width, **fmt)

@@ -148,7 +148,8 @@ class Scene:
     def dimension(self) -> int:
         """The mesh's dimension (1, 2 or 3): ``&mesh dim``, 2 for the built-in bar with
         dim = 0, and for a mesh file with dim = 0 the file's (read through the core, as
-        the run reads it; :class:`BadInputError` if it cannot be read)."""
+        the run reads it; :class:`BadInputError` if it cannot be read, naming the scene and
+        ``&mesh file`` as the run's message does)."""
         mesh = self._values["mesh"]
         if mesh["dim"] not in (0, 1, 2, 3):     # set, not validated yet: the core's message
             core.scene_parse(f"&mesh dim = {mesh['dim']} /", self._name(), full=True)
@@ -161,9 +162,12 @@ class Scene:
         except OSError:
             tag = (path, -1, -1)
         if tag not in self._mesh_dims:
-            self._mesh_dims[tag] = int(core.load_mesh(
-                path, length=float(mesh["length"]), width=float(mesh["width"]),
-                h=float(mesh["h"]), check=False)["dim"])
+            try:
+                self._mesh_dims[tag] = int(core.load_mesh(
+                    path, length=float(mesh["length"]), width=float(mesh["width"]),
+                    h=float(mesh["h"]), check=False, h_given=self.given("mesh.h"))["dim"])
+            except BadInputError as exc:    # named as the run names it: scene and key
+                raise BadInputError(f"{self._name()}: &mesh file: {exc}") from None
         return self._mesh_dims[tag]
 
     def set(self, name: str, value: Any) -> None:
@@ -284,14 +288,26 @@ class Scene:
     def __repr__(self) -> str:
         return f"Scene(path={self.path!r})"
 
-    def validate(self) -> None:
+    def validate(self, mesh: bool = True) -> None:
         """Check ranges and consistency in the core (raises :class:`BadInputError`).
 
         Normalizes ``contact.obstacle_normal``. A relative mesh file counts from the
         current folder here (``read`` has resolved it against the scene file's folder).
+        With a mesh file and ``mesh.dim`` 0, the keys that depend on the mesh's dimension
+        (the vector keys' counts, ``contact.quad_points``) are checked against the file's
+        dimension as the run checks them, so a vector of 2 components for a 3D mesh file
+        is refused here, not only when the run starts: the file is read for that (as
+        :meth:`dimension` does: a ``.geo`` is meshed, once per version of the file), and
+        a file that cannot be read is refused as the run would. ``mesh=False`` leaves
+        that check to the run, which reads the mesh anyway (:meth:`write` and
+        :func:`dyncontact.run` do, so that a run does not read its mesh twice).
         """
-        self._values, self._given = core.scene_parse(self.to_text(), self._name(), full=True,
-                                                     keep_omitted=True, with_given=True)
+        text = self.to_text()
+        values, given = core.scene_parse(text, self._name(), full=True, keep_omitted=True,
+                                         with_given=True)
+        self._values, self._given = values, given
+        if mesh and values["mesh"]["file"] and values["mesh"]["dim"] == 0:
+            core.scene_check_dim(text, self._name(), self.dimension())
 
     # -- writing
     def to_text(self, replace: dict[tuple[str, str], str] | None = None,
@@ -325,7 +341,8 @@ class Scene:
         return "\n".join(lines) + "\n"
 
     def write(self, path: str | os.PathLike) -> None:
-        """Validate, then write the scene as a namelist file (mesh file made absolute)."""
-        self.validate()
+        """Validate (without reading the mesh file: ``validate(mesh=False)``), then write
+        the scene as a namelist file (mesh file made absolute)."""
+        self.validate(mesh=False)
         with open(os.fspath(path), "w", encoding="utf-8", errors="surrogateescape") as fh:
             fh.write(self.to_text(absolute_mesh=True))

@@ -497,7 +497,7 @@ def refusal_on_scene(s: SchemeSpec, scene: UserScene) -> str | None:
         scn = Scene.read(scene.path)
         for key, value in s.settings:
             scn.set(key, value)
-        scn.validate()
+        scn.validate(mesh=False)      # the scene's mesh was checked once, when it was read
     except Exception as exc:  # noqa: BLE001 - the core's reason, whatever its class
         return " ".join(str(exc).replace(scene.path + ": ", "").split())
     return None

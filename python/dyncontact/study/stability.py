@@ -675,7 +675,9 @@ def _scene_summary(report, path) -> str:
         f"Δt = {{{', '.join(f'{x:.4g}' for x in fac['implicit'])}}} × the scene's Δt "
         f"(implicit), {{{', '.join(f'{x:.4g}' for x in fac['explicit'])}}} × (explicit), "
         f"then {g['rounds']} rounds of bisection in log Δt on each bracket. Verdicts are "
-        "the core's: `unstable` = the energy exceeded blowup × e_total(0) before T; a "
+        "the core's: `unstable` = the energy exceeded blowup × its scale at t = 0 "
+        "(e_total(0); under gravity e_total + e_load against the scale of docs/scenes.md, "
+        "\"The blow-up test\") before T; a "
         "run just above the critical Δt may grow too slowly to be caught before T, so "
         "the bracket is that of this T.", "",
         f"{report['n_runs']} runs ({report['n_cached']} from the cache, "
