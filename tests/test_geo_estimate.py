@@ -127,7 +127,7 @@ def test_just_under_the_limit_runs(tmp_path, run_exe):
     assert "212 elements exceed the limit of 211 (&mesh max_elements)" in one_line(r.stderr)
 
 
-CASES = [(GEO / "box.geo", 0.05), (GEO / "cylinder.geo", 0.02),
+CASES = [(GEO / "box.geo", 0.05), (GEO / "box_builtin.geo", 0.05), (GEO / "cylinder.geo", 0.02),
          (ROOT / "meshes" / "ball.geo", 0.02), (GEO / "rect.geo", 0.01),
          (ROOT / "meshes" / "disk.geo", 0.005), (GEO / "annulus.geo", 0.003)]
 
@@ -146,13 +146,18 @@ def test_estimate_within_band(geo, h):
 
 
 def test_measure_is_the_geometry():
-    """The measure the estimate stands on: the box's volume 0.15 (OCC), the annulus's
-    area pi (0.1^2 - 0.05^2) of the built-in kernel (its boundary sampled: exact to the
-    polygon's 2 (pi / 256)^2 / 3 relative on each quarter arc, 1e-4), and the size h."""
-    box = core.estimate_geo(GEO / "box.geo", h=0.1)
-    assert box["measure"] == pytest.approx(0.15, rel=1e-12) and box["size"] == 0.1
+    """The measure the estimate stands on: the box's volume 0.15, from OCC and from the
+    plane faces of the built-in kernel's box (exact but for round-off), the annulus's
+    area pi (0.1^2 - 0.05^2) of the built-in kernel (its boundary sampled: the polygons
+    of 256 chords on each quarter arc, of angle pi / 512, miss (pi / 512)^2 / 6 = 6.3e-6 of
+    each circle's area, so of the annulus's), and the size h."""
+    for name in ("box.geo", "box_builtin.geo"):
+        box = core.estimate_geo(GEO / name, h=0.1)
+        assert box["measure"] == pytest.approx(0.15, rel=1e-12) and box["size"] == 0.1
     ann = core.estimate_geo(GEO / "annulus.geo", h=0.01)
-    assert ann["measure"] == pytest.approx(3.141592653589793 * (0.01 - 0.0025), rel=1e-4)
+    assert ann["measure"] == pytest.approx(3.141592653589793 * (0.01 - 0.0025) * (1 - 6.3e-6),
+                                         rel=1e-7)
+    assert ann["measure"] < 3.141592653589793 * (0.01 - 0.0025)
 
 
 def test_no_estimate_where_counts_are_fixed():

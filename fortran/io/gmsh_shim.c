@@ -169,6 +169,7 @@ static struct {
     __typeof__(&gmshModelGetValue) get_value;
     __typeof__(&gmshModelMeshGetSizes) get_sizes;
     __typeof__(&gmshModelGetEntitiesForPhysicalGroup) get_entities_for_physical_group;
+    __typeof__(&gmshModelGetType) get_type;
 } G;
 
 static char load_error[512];
@@ -220,6 +221,7 @@ static int gmsh_load(void)
     OPT(get_parametrization_bounds, "gmshModelGetParametrizationBounds")
     OPT(get_value, "gmshModelGetValue") OPT(get_sizes, "gmshModelMeshGetSizes")
     OPT(get_entities_for_physical_group, "gmshModelGetEntitiesForPhysicalGroup")
+    OPT(get_type, "gmshModelGetType")
 #undef OPT
     return 1;
 }
@@ -680,13 +682,16 @@ void dc_gmsh_free(void *p);
  *   1D: n = L / s.
  * The measure: OpenCASCADE's (occ.getMass) for every entity the OCC kernel built; for a
  * plane surface of the built-in kernel the area enclosed by its oriented boundary curves,
- * each sampled at ESTIMATE_SAMPLES points (the vector area, exact for straight lines).
+ * each sampled at ESTIMATE_SAMPLES points (the vector area, exact for straight lines), and
+ * for a volume of the built-in kernel bounded by plane surfaces the volume those enclose
+ * (the divergence theorem on their vector areas).
  * With physical groups of the mesh's dimension, only the entities in a group (the cells
  * kept). The size: the largest size of the points (Mesh.MeshSizeFromPoints), bounded by
  * Mesh.MeshSizeMax (the scene's h where the file uses no h) and Mesh.MeshSizeMin, times
  * Mesh.MeshSizeFactor: sizes from curvature or fields only make cells smaller, so the
  * estimate is then too low, never too high. No estimate (est[0] = -1) when a measure is
- * not known (a volume of the built-in kernel, a gmsh without these functions) or no size
+ * not known (a volume of the built-in kernel with a face that is not plane, a gmsh
+ * without these functions) or no size
  * is (no point size, no Mesh.MeshSizeMax), and for a .geo with transfinite or extruded
  * meshes (their counts are set by the file, not by the sizes), which the caller then
  * meshes and counts.
@@ -713,14 +718,15 @@ static int geo_fixes_counts(const char *path)
     return found;
 }
 
-/* Area of the plane surface tag of the built-in kernel: half the norm of the vector sum of
- * p_i x p_{i+1} along its oriented boundary curves; -1 if unknown. */
-static double surface_area(int tag)
+/* The vector area of the surface tag of the built-in kernel (half the vector sum of
+ * p_i x p_{i+1} along its oriented boundary curves: its area times its unit normal for a
+ * plane surface) into va, and a point of its boundary into p0; 0, or -1 if unknown. */
+static int vector_area(int tag, double va[3], double p0[3])
 {
     int dt[2] = {2, tag}, *bd = NULL, ierr = 0;
     size_t nb = 0, k, i;
-    double va[3] = {0, 0, 0};
     double u[ESTIMATE_SAMPLES];
+    va[0] = va[1] = va[2] = 0;
     G.get_boundary(dt, 2, &bd, &nb, 0, 1, 0, &ierr);
     if (ierr || nb == 0) { if (bd) G.free(bd); return -1; }
     for (k = 0; k + 1 < nb && ierr == 0; k += 2) {
@@ -734,7 +740,8 @@ static double surface_area(int tag)
             G.get_value(1, c, u, ESTIMATE_SAMPLES, &x, &nx, &ierr);
         }
         if (!ierr && nx == 3 * ESTIMATE_SAMPLES) {
-            double sgn = bd[k + 1] < 0 ? -1.0 : 1.0;
+            double sgn = bd[k + 1] < 0 ? -0.5 : 0.5;
+            if (k == 0) memcpy(p0, x, 3 * sizeof(double));
             for (i = 0; i + 1 < ESTIMATE_SAMPLES; i++) {
                 const double *a = x + 3 * i, *b = x + 3 * (i + 1);
                 va[0] += sgn * (a[1] * b[2] - a[2] * b[1]);
@@ -749,7 +756,40 @@ static double surface_area(int tag)
         if (x) G.free(x);
     }
     G.free(bd);
-    return ierr ? -1 : 0.5 * sqrt(va[0] * va[0] + va[1] * va[1] + va[2] * va[2]);
+    return ierr ? -1 : 0;
+}
+
+/* Area of the plane surface tag of the built-in kernel; -1 if unknown. */
+static double surface_area(int tag)
+{
+    double va[3], p0[3];
+    if (vector_area(tag, va, p0)) return -1;
+    return sqrt(va[0] * va[0] + va[1] * va[1] + va[2] * va[2]);
+}
+
+/* Volume of the volume tag of the built-in kernel bounded by plane surfaces (the
+ * divergence theorem: a third of the sum over its oriented faces of p0 . va); -1 if
+ * unknown (a face that is not plane). */
+static double volume_of_planes(int tag)
+{
+    int dt[2] = {3, tag}, *bd = NULL, ierr = 0;
+    size_t nb = 0, k;
+    double v = 0;
+    G.get_boundary(dt, 2, &bd, &nb, 0, 1, 0, &ierr);
+    if (ierr || nb == 0) { if (bd) G.free(bd); return -1; }
+    for (k = 0; k + 1 < nb && ierr == 0; k += 2) {
+        int f = bd[k + 1] < 0 ? -bd[k + 1] : bd[k + 1];
+        char *type = NULL;
+        double va[3], p0[3];
+        G.get_type(2, f, &type, &ierr);
+        if (ierr || !type || strcmp(type, "Plane") != 0 || vector_area(f, va, p0))
+            ierr = 1;
+        else
+            v += (bd[k + 1] < 0 ? -1.0 : 1.0) * (p0[0] * va[0] + p0[1] * va[1] + p0[2] * va[2]);
+        if (type) G.free(type);
+    }
+    G.free(bd);
+    return ierr ? -1 : fabs(v) / 3;
 }
 
 /* The estimate of the current model, a .geo read from path (see above). */
@@ -760,7 +800,8 @@ static void geo_estimate(const char *path, double est[4])
     double measure = 0, size = HUGE_VAL, smax = 1e22, smin = 0, factor = 1, from_points = 1;
     est[0] = -1; est[1] = 0; est[2] = 0; est[3] = ESTIMATE_MARGIN;
     if (!G.occ_get_mass || !G.get_boundary || !G.get_parametrization_bounds || !G.get_value
-        || !G.get_sizes || !G.get_entities_for_physical_group || geo_fixes_counts(path))
+        || !G.get_sizes || !G.get_entities_for_physical_group || !G.get_type
+        || geo_fixes_counts(path))
         return;
     d = G.get_dimension(&ierr);
     if (ierr || d < 1 || d > 3) return;
@@ -781,7 +822,7 @@ static void geo_estimate(const char *path, double est[4])
         if (!kept) continue;
         ierr = 0;
         G.occ_get_mass(d, tag, &m, &ierr);
-        if (ierr) m = d == 2 ? surface_area(tag) : -1;
+        if (ierr) m = d == 2 ? surface_area(tag) : d == 3 ? volume_of_planes(tag) : -1;
         measure = m >= 0 ? measure + m : -1;
     }
     if (ents) G.free(ents);
