@@ -21,8 +21,7 @@ module gmsh_mesh
     use text, only: lower, real_text, int_text
     implicit none
     private
-    public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, &
-        too_large_text
+    public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells
 
     !> Relative tolerance of the test that dropped coordinates are constant.
     real(dp), parameter :: PLANE_TOL = 1.0e-10_dp
@@ -35,7 +34,8 @@ module gmsh_mesh
             integer(c_int), value :: msglen                !! length of msg
             integer(c_int) :: ok
         end function c_gmsh_available
-        !> Read path into out with gmsh: 0, else 2 for bad input (another value: internal), and msg.
+        !> Read path into out with gmsh: 0, else 2 for bad input (another value: internal), and
+        !> msg; 5: a .geo estimated above 2 x max_elements, not meshed (est, no msg).
         function c_gmsh_read(path, params, is_geo, out, est, msg, msglen) result(st) &
             bind(C, name='dc_gmsh_read')
             import :: c_int, c_char, c_double, c_ptr
