@@ -169,3 +169,14 @@ def test_no_estimate_where_counts_are_fixed():
     est = core.estimate_geo(pole, h=0.02, length=0.06, width=0.2)
     cells = len(core.load_mesh(pole, h=0.02, length=0.06, width=0.2, check=False)["cells"])
     assert est["estimate"] < cells
+
+
+def test_sizes_kept_on_the_boundary():
+    """With Mesh.MeshSizeExtendFromBoundary = 0 the points' size stays on the boundary and
+    the interior is coarse (506 tetrahedra where the box of the same size h has 27 050):
+    the points' size is not the cells' size, and with no Mesh.MeshSizeMax there is no
+    estimate; a limit at the count is not refused."""
+    geo = GEO / "box_inner_coarse.geo"
+    assert core.estimate_geo(geo, h=0.03) is None
+    cells = len(core.load_mesh(geo, h=0.03, check=False)["cells"])
+    assert len(core.load_mesh(geo, h=0.03, check=False, max_elements=cells)["cells"]) == cells

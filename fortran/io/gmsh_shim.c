@@ -686,7 +686,8 @@ void dc_gmsh_free(void *p);
  * for a volume of the built-in kernel bounded by plane surfaces the volume those enclose
  * (the divergence theorem on their vector areas).
  * With physical groups of the mesh's dimension, only the entities in a group (the cells
- * kept). The size: the largest size of the points (Mesh.MeshSizeFromPoints), bounded by
+ * kept). The size: the largest size of the points (Mesh.MeshSizeFromPoints, where
+ * Mesh.MeshSizeExtendFromBoundary carries them into the cells' interior), bounded by
  * Mesh.MeshSizeMax (the scene's h where the file uses no h) and Mesh.MeshSizeMin, times
  * Mesh.MeshSizeFactor: sizes from curvature or fields only make cells smaller, so the
  * estimate is then too low, never too high. No estimate (est[0] = -1) when a measure is
@@ -797,7 +798,8 @@ static void geo_estimate(const char *path, double est[4])
 {
     int ierr = 0, d, *ents = NULL, *groups = NULL;
     size_t n_ents = 0, n_groups = 0, e, g;
-    double measure = 0, size = HUGE_VAL, smax = 1e22, smin = 0, factor = 1, from_points = 1;
+    double measure = 0, size = HUGE_VAL, smax = 1e22, smin = 0, factor = 1, from_points = 1,
+           extend = 1;
     est[0] = -1; est[1] = 0; est[2] = 0; est[3] = ESTIMATE_MARGIN;
     if (!G.occ_get_mass || !G.get_boundary || !G.get_parametrization_bounds || !G.get_value
         || !G.get_sizes || !G.get_entities_for_physical_group || !G.get_type
@@ -834,6 +836,11 @@ static void geo_estimate(const char *path, double est[4])
     G.option_get_number("Mesh.MeshSizeMax", &smax, &ierr);
     G.option_get_number("Mesh.MeshSizeMin", &smin, &ierr);
     G.option_get_number("Mesh.MeshSizeFactor", &factor, &ierr);
+    G.option_get_number("Mesh.MeshSizeExtendFromBoundary", &extend, &ierr);
+    /* the points' sizes reach the cells' interior only where they are extended from the
+     * boundary into it (1, 2: surfaces and volumes; -2: surfaces; -3: volumes) */
+    if (d >= 2 && !(extend == 1 || extend == 2 || extend == (d == 2 ? -2 : -3)))
+        from_points = 0;
     if (from_points != 0) {
         int *pts = NULL;
         size_t np = 0;
