@@ -46,7 +46,7 @@ def _msg(errmsg) -> str:
 
 def fortran_sizes(core_ext, path) -> tuple[int, str]:
     """stat and message of the Fortran reader on `path`."""
-    handle, *_, stat, errmsg = core_ext.dc_mesh_sizes(str(path), 2, 1.0, 0.1, 0.05, 1, 1)
+    handle, *_, stat, errmsg = core_ext.dc_mesh_sizes(str(path), 2, 1.0, 0.1, 0.05, 1, 1, 0)
     core_ext.dc_mesh_free(handle)
     return int(stat), _msg(errmsg)
 
@@ -355,7 +355,7 @@ def test_builtin_bar_1d_equals_gmsh_line(core_ext, generated):
 ])
 def test_builtin_bar_errors(core_ext, args, fragment):
     dim, length, width, h = args
-    handle, *_, stat, errmsg = core_ext.dc_mesh_sizes("", dim, length, width, h, 1, 1)
+    handle, *_, stat, errmsg = core_ext.dc_mesh_sizes("", dim, length, width, h, 1, 1, 0)
     core_ext.dc_mesh_free(handle)
     assert int(stat) == STAT_BAD_INPUT
     assert fragment in _msg(errmsg)

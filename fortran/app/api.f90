@@ -548,8 +548,10 @@ end subroutine dc_p1_element
 !> copies and releases it, or dc_mesh_free. checked = 0: a file's mesh is read without
 !> mesh_check (reader-level use, 3D meshes). h_given = 0: a .geo that uses no h keeps its
 !> own mesh sizes (a scene that gives no &mesh h); otherwise h is its largest mesh size.
-subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, h_given, handle, dim, &
-                         n_nodes, n_cells, n_facets, n_groups, stat, errmsg)
+!> max_elements > 0: a .geo whose element count, estimated before meshing, is too large
+!> for it is refused without meshing (stat 2, naming &mesh max_elements).
+subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, h_given, max_elements, &
+                         handle, dim, n_nodes, n_cells, n_facets, n_groups, stat, errmsg)
     use iso_c_binding, only: c_int, c_int64_t, c_double, c_loc
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load
@@ -561,6 +563,7 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, h_given, hand
     real(c_double), intent(in) :: h              !! built-in bar mesh size
     integer(c_int), intent(in) :: checked        !! 0: no mesh_check of a file's mesh
     integer(c_int), intent(in) :: h_given        !! 0: a .geo without h keeps its own sizes
+    integer(c_int), intent(in) :: max_elements   !! > 0: refuse a .geo estimated larger
     integer(c_int64_t), intent(out) :: handle    !! the loaded mesh (0 on error)
     integer(c_int), intent(out) :: dim           !! mesh dimension
     integer(c_int), intent(out) :: n_nodes       !! nodes
@@ -574,7 +577,8 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, h_given, hand
     errmsg = ''
     handle = 0
     allocate (msh)
-    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg, checked /= 0, h_given /= 0)
+    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg, checked /= 0, h_given /= 0, &
+                   int(max_elements))
     stat = st
     dim = msh%dim; n_nodes = msh%n_nodes; n_cells = msh%n_cells
     n_facets = msh%n_facets; n_groups = msh%n_groups
@@ -584,6 +588,27 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, h_given, hand
     end if
     handle = transfer(c_loc(msh), handle)
 end subroutine dc_mesh_sizes
+
+!> The element count of the .geo `path` estimated before meshing, as dc_mesh_sizes would
+!> mesh it (nothing is meshed): est = (estimate, measure, size, margin of the refusal),
+!> estimate -1 where none can be made (docs/scenes.md, "How large a .geo will be").
+subroutine dc_geo_estimate(path, length, width, h, h_given, est, stat, errmsg)
+    use iso_c_binding, only: c_int, c_double
+    use gmsh_mesh, only: estimate_geo_cells
+    implicit none
+    character(len=*), intent(in) :: path         !! .geo file
+    real(c_double), intent(in) :: length         !! parameter length
+    real(c_double), intent(in) :: width          !! parameter width
+    real(c_double), intent(in) :: h              !! parameter h
+    integer(c_int), intent(in) :: h_given        !! 0: a .geo without h keeps its own sizes
+    real(c_double), intent(out) :: est(4)        !! estimate, measure, size, margin
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    integer :: st
+    errmsg = ''
+    call estimate_geo_cells(path, h, length, width, h_given /= 0, est, st, errmsg)
+    stat = st
+end subroutine dc_geo_estimate
 
 !> Release a mesh of dc_mesh_sizes without copying it (0 is ignored).
 subroutine dc_mesh_free(handle)

@@ -18,10 +18,10 @@ module gmsh_mesh
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise, MSG_LEN
     use mesh, only: mesh_t, mesh_check, GROUP_NAME_LEN
-    use text, only: lower
+    use text, only: lower, real_text, int_text
     implicit none
     private
-    public :: read_mesh_file, gmsh_available, file_extension
+    public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells
 
     !> Relative tolerance of the test that dropped coordinates are constant.
     real(dp), parameter :: PLANE_TOL = 1.0e-10_dp
@@ -34,19 +34,35 @@ module gmsh_mesh
             integer(c_int), value :: msglen                !! length of msg
             integer(c_int) :: ok
         end function c_gmsh_available
-        !> Read path into out with gmsh: 0, else 2 for bad input (another value: internal), and msg.
-        function c_gmsh_read(path, params, is_geo, out, msg, msglen) result(st) &
+        !> Read path into out with gmsh: 0, else 2 for bad input (another value: internal), and
+        !> msg; 5: a .geo estimated above 2 x max_elements, not meshed (est, no msg).
+        function c_gmsh_read(path, params, is_geo, out, est, msg, msglen) result(st) &
             bind(C, name='dc_gmsh_read')
             import :: c_int, c_char, c_double, c_ptr
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated mesh or .geo file
-            real(c_double), intent(in) :: params(4)        !! h, length, width (a .geo's variables),
-                                                           !! h_given (1: h sizes a .geo without h)
+            real(c_double), intent(in) :: params(5)        !! h, length, width (a .geo's variables),
+                                                           !! h_given (1: h sizes a .geo without h),
+                                                           !! max_elements (0: no estimate)
             integer(c_int), value :: is_geo                !! 1: mesh a .geo in-process
             type(c_ptr), intent(out) :: out                !! the mesh read (free with c_gmsh_free)
+            real(c_double), intent(out) :: est(4)          !! estimate (-1: none), measure, size,
+                                                           !! margin of the refusal
             character(kind=c_char), intent(out) :: msg(*)  !! why it failed
             integer(c_int), value :: msglen                !! length of msg
             integer(c_int) :: st
         end function c_gmsh_read
+        !> A .geo's element count estimated before meshing (no mesh is made): 0, else 2.
+        function c_gmsh_estimate(path, params, est, msg, msglen) result(st) &
+            bind(C, name='dc_gmsh_estimate')
+            import :: c_int, c_char, c_double
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated .geo file
+            real(c_double), intent(in) :: params(4)        !! h, length, width, h_given
+            real(c_double), intent(out) :: est(4)          !! estimate (-1: none), measure, size,
+                                                           !! margin of the refusal
+            character(kind=c_char), intent(out) :: msg(*)  !! why it failed
+            integer(c_int), value :: msglen                !! length of msg
+            integer(c_int) :: st
+        end function c_gmsh_estimate
         !> Sizes of a mesh read by c_gmsh_read.
         subroutine c_gmsh_sizes(p, dim, n_nodes, n_cells, n_facets, n_groups, names_len) &
             bind(C, name='dc_gmsh_sizes')
@@ -88,9 +104,13 @@ contains
     !> Read the mesh file `path` (.msh in any version gmsh reads, or .geo meshed with the
     !> parameters h, length, width) into `msh`, then check it (mesh_check) unless
     !> check = .false. A .geo that uses no h is meshed with h as its largest mesh size
-    !> when h_given (the default), with its own sizes otherwise.
+    !> when h_given (the default), with its own sizes otherwise. max_elements > 0: a .geo
+    !> whose element count, estimated before meshing (estimate_geo_cells), exceeds the
+    !> refusal's margin times max_elements is not meshed (STAT_BAD_INPUT, naming
+    !> &mesh max_elements, and &mesh h when h_given).
     !> Errors: STAT_BAD_INPUT with a one-line message starting with the path.
-    subroutine read_mesh_file(path, h, length, width, msh, stat, errmsg, check, h_given)
+    subroutine read_mesh_file(path, h, length, width, msh, stat, errmsg, check, h_given, &
+                              max_elements)
         character(len=*), intent(in) :: path                !! .msh or .geo file
         real(dp), intent(in) :: h                           !! .geo parameter h
         real(dp), intent(in) :: length                      !! .geo parameter length
@@ -100,6 +120,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! one-line message naming the file
         logical, intent(in), optional :: check              !! run mesh_check (default .true.)
         logical, intent(in), optional :: h_given            !! h sizes a .geo without h (default)
+        integer, intent(in), optional :: max_elements       !! > 0: refuse a .geo estimated larger
         character(kind=c_char) :: cmsg(MSG_LEN)
         character(len=MSG_LEN) :: msg
         character(len=:), allocatable :: p, ext
@@ -110,7 +131,8 @@ contains
         character(kind=c_char), allocatable :: names(:)
         logical :: exists, is_dir
         integer :: ios, ist, nbytes
-        real(dp) :: sized
+        real(dp) :: sized, limit
+        real(c_double) :: est(4)
 
         stat = STAT_OK
         p = trim(path)
@@ -148,9 +170,15 @@ contains
         handle = c_null_ptr
         sized = 1.0_dp
         if (present(h_given)) sized = merge(1.0_dp, 0.0_dp, h_given)
-        st = c_gmsh_read(p//c_null_char, [h, length, width, sized], is_geo, handle, cmsg, &
-                         int(MSG_LEN, c_int))
-        if (st /= 0) then
+        limit = 0.0_dp
+        if (present(max_elements)) limit = real(max(0, max_elements), dp)
+        st = c_gmsh_read(p//c_null_char, [h, length, width, sized, limit], is_geo, handle, &
+                         est, cmsg, int(MSG_LEN, c_int))
+        if (st == 5) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, p//': '//too_large_text(est, &
+                       int(limit), '&mesh max_elements', merge('&mesh h', '       ', sized /= 0)))
+            return
+        else if (st /= 0) then
             call raise(stat, errmsg, merge(STAT_BAD_INPUT, STAT_INTERNAL, st == 2), from_c(cmsg))
             return
         end if
@@ -188,6 +216,48 @@ contains
         call mesh_check(msh, ios, msg)
         if (ios /= STAT_OK) call raise(stat, errmsg, ios, p//': '//trim(msg))
     end subroutine read_mesh_file
+
+    !> The element count of the .geo `path` estimated before meshing, as read_mesh_file
+    !> would mesh it with these parameters: est = (estimate, measure, size, margin), with
+    !> estimate = -1 where none can be made (gmsh_shim.c, geo_estimate; docs/scenes.md).
+    !> Errors: STAT_BAD_INPUT (gmsh cannot read the file) with a message naming it.
+    subroutine estimate_geo_cells(path, h, length, width, h_given, est, stat, errmsg)
+        character(len=*), intent(in) :: path                !! .geo file
+        real(dp), intent(in) :: h                           !! .geo parameter h
+        real(dp), intent(in) :: length                      !! .geo parameter length
+        real(dp), intent(in) :: width                       !! .geo parameter width
+        logical, intent(in) :: h_given                      !! h sizes a .geo without h
+        real(dp), intent(out) :: est(4)                     !! estimate, measure, size, margin
+        integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! one-line message naming the file
+        character(kind=c_char) :: cmsg(MSG_LEN)
+        real(c_double) :: cest(4)
+        integer(c_int) :: st
+        stat = STAT_OK
+        st = c_gmsh_estimate(trim(path)//c_null_char, &
+                             [h, length, width, merge(1.0_dp, 0.0_dp, h_given)], cest, cmsg, &
+                             int(MSG_LEN, c_int))
+        est = cest
+        if (st /= 0) call raise(stat, errmsg, STAT_BAD_INPUT, from_c(cmsg))
+    end subroutine estimate_geo_cells
+
+    !> The refusal of a .geo estimated above the limit (without the path): the estimate,
+    !> what it stands on and the keys that change it, one line.
+    pure function too_large_text(est, limit, limit_key, h_key) result(s)
+        real(dp), intent(in) :: est(4)             !! estimate, measure, size, margin
+        integer, intent(in) :: limit               !! the element limit
+        character(len=*), intent(in) :: limit_key  !! its key ('&mesh max_elements')
+        character(len=*), intent(in) :: h_key      !! the key of the mesh size, '' if none
+        character(len=:), allocatable :: s
+        s = 'about '//real_text(est(1), 2)//' elements estimated before meshing (measure '// &
+            real_text(est(2), 3)//' at mesh size '//real_text(est(3), 3)//'), more than '// &
+            int_text(nint(est(4)))//' x '//limit_key//' = '//int_text(limit)//': not meshed'
+        if (len_trim(h_key) > 0) then
+            s = s//' (a larger '//trim(h_key)//' or '//limit_key//' allows it)'
+        else
+            s = s//' (larger mesh sizes in the file, or a larger '//limit_key//', allow it)'
+        end if
+    end function too_large_text
 
     !> Group names from the shim's newline-terminated list; no comma (Python joins with ',').
     pure subroutine set_names(path, names, msh, stat, errmsg)

@@ -28,8 +28,11 @@
  * dispositions of all signals and restores them afterwards, and holds the stop signals
  * (SIGINT, SIGTERM, SIGHUP, SIGQUIT) blocked meanwhile, so that one sent during the read is
  * delivered, to the caller's handler, once the read is over.
- * Status: 0 ok, 2 bad input (message in msg), 4 out of memory. */
+ * Status: 0 ok, 2 bad input (message in msg), 4 out of memory, 5 a .geo estimated above
+ * the element limit (not meshed; see geo_estimate). */
+#define _GNU_SOURCE   /* strcasestr */
 #include <dlfcn.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -113,9 +116,19 @@ int dc_gmsh_available(char *msg, int msglen)
 }
 
 int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
-                 char *msg, int msglen)
+                 double est[4], char *msg, int msglen)
 {
     (void)params; (void)is_geo; *out = NULL;
+    est[0] = -1; est[1] = 0; est[2] = 0; est[3] = 0;
+    set_msg(msg, msglen, path, ": ", NO_GMSH_BUILD_MSG);
+    return 2;
+}
+
+int dc_gmsh_estimate(const char *path, const double *params, double est[4], char *msg,
+                     int msglen)
+{
+    (void)params;
+    est[0] = -1; est[1] = 0; est[2] = 0; est[3] = 0;
     set_msg(msg, msglen, path, ": ", NO_GMSH_BUILD_MSG);
     return 2;
 }
@@ -149,6 +162,14 @@ static struct {
     __typeof__(&gmshFree) free;
     __typeof__(&gmshLoggerGetLastError) last_error;
     __typeof__(&gmshLoggerWrite) logger_write;
+    /* optional (the estimate of a .geo's element count; none: no estimate) */
+    __typeof__(&gmshModelOccGetMass) occ_get_mass;
+    __typeof__(&gmshModelGetBoundary) get_boundary;
+    __typeof__(&gmshModelGetParametrizationBounds) get_parametrization_bounds;
+    __typeof__(&gmshModelGetValue) get_value;
+    __typeof__(&gmshModelMeshGetSizes) get_sizes;
+    __typeof__(&gmshModelGetEntitiesForPhysicalGroup) get_entities_for_physical_group;
+    __typeof__(&gmshModelGetType) get_type;
 } G;
 
 static char load_error[512];
@@ -195,6 +216,13 @@ static int gmsh_load(void)
     SYM(free, "gmshFree") SYM(last_error, "gmshLoggerGetLastError")
     SYM(logger_write, "gmshLoggerWrite")
 #undef SYM
+#define OPT(field, name) *(void **)&G.field = dlsym(G.lib, name);
+    OPT(occ_get_mass, "gmshModelOccGetMass") OPT(get_boundary, "gmshModelGetBoundary")
+    OPT(get_parametrization_bounds, "gmshModelGetParametrizationBounds")
+    OPT(get_value, "gmshModelGetValue") OPT(get_sizes, "gmshModelMeshGetSizes")
+    OPT(get_entities_for_physical_group, "gmshModelGetEntitiesForPhysicalGroup")
+    OPT(get_type, "gmshModelGetType")
+#undef OPT
     return 1;
 }
 
@@ -645,34 +673,313 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
 
 void dc_gmsh_free(void *p);
 
-/* Read path into *out (free with dc_gmsh_free). params = (h, length, width, h_given) for
- * a .geo: the first three are set as the file's parser variables of those names; if the
- * file uses no h and h_given is not 0 (the scene gives &mesh h), h is the largest mesh
- * size (Mesh.MeshSizeMax); a file that uses no h, meshed for a scene that gives no h,
- * keeps its own sizes (a default h made for the built-in bar, 0.05, imposed on a body
- * drawn in mm meshed it with billions of elements). */
+/* The element count of a .geo estimated before meshing (docs/scenes.md, "How large a .geo
+ * will be"): the measure of the cells' entities (volume in 3D, area in 2D, length in 1D)
+ * over the measure a cell of the target size s takes in gmsh's unstructured meshes,
+ * calibrated on gmsh 4.15's own meshes of boxes, cylinders, balls, disks and rectangles:
+ *   3D: n = 4.67 V / s^3   (0.55 x the count of regular tetrahedra of edge s, V 6 sqrt 2/s^3)
+ *   2D: n = 2.31 A / s^2   (the count of equilateral triangles of edge s, A 4/sqrt 3/s^2)
+ *   1D: n = L / s.
+ * The measure: OpenCASCADE's (occ.getMass) for every entity the OCC kernel built; for a
+ * plane surface of the built-in kernel the area enclosed by its oriented boundary curves,
+ * each sampled at ESTIMATE_SAMPLES points (the vector area, exact for straight lines), and
+ * for a volume of the built-in kernel bounded by plane surfaces the volume those enclose
+ * (the divergence theorem on their vector areas).
+ * With physical groups of the mesh's dimension, only the entities in a group (the cells
+ * kept). The size: the largest size of the points (Mesh.MeshSizeFromPoints, where
+ * Mesh.MeshSizeExtendFromBoundary carries them into the cells' interior), bounded by
+ * Mesh.MeshSizeMax (the scene's h where the file uses no h) and Mesh.MeshSizeMin, times
+ * Mesh.MeshSizeFactor: sizes from curvature or fields only make cells smaller, so the
+ * estimate is then too low, never too high. No estimate (est[0] = -1) when a measure is
+ * not known (a volume of the built-in kernel with a face that is not plane, a gmsh
+ * without these functions) or no size
+ * is (no point size, no Mesh.MeshSizeMax), and for a .geo with transfinite or extruded
+ * meshes (their counts are set by the file, not by the sizes), which the caller then
+ * meshes and counts.
+ * est = (estimate, measure, size, ESTIMATE_MARGIN). */
+#define ESTIMATE_SAMPLES 257
+/* A .geo is refused before meshing when its estimate exceeds ESTIMATE_MARGIN x the limit:
+ * the measured counts were 0.96 to 2.2 x the estimate (docs/scenes.md). */
+#define ESTIMATE_MARGIN 2.0
+
+/* Whether the file's text holds one of the words that fix counts of cells (Transfinite,
+ * Extrude, Layers) or reads other files (Include, Merge), which the estimate cannot see. */
+static int geo_fixes_counts(const char *path)
+{
+    static const char *words[] = {"transfinite", "extrude", "layers", "include", "merge"};
+    FILE *f = fopen(path, "r");
+    char line[4096];
+    int found = 0;
+    size_t w;
+    if (!f) return 1;
+    while (!found && fgets(line, sizeof line, f))
+        for (w = 0; w < sizeof words / sizeof *words && !found; w++)
+            found = strcasestr(line, words[w]) != NULL;
+    fclose(f);
+    return found;
+}
+
+/* The vector area of the surface tag of the built-in kernel (half the vector sum of
+ * p_i x p_{i+1} along its oriented boundary curves: its area times its unit normal for a
+ * plane surface) into va, and a point of its boundary into p0; 0, or -1 if unknown. */
+static int vector_area(int tag, double va[3], double p0[3])
+{
+    int dt[2] = {2, tag}, *bd = NULL, ierr = 0;
+    size_t nb = 0, k, i;
+    double u[ESTIMATE_SAMPLES];
+    va[0] = va[1] = va[2] = 0;
+    G.get_boundary(dt, 2, &bd, &nb, 0, 1, 0, &ierr);
+    if (ierr || nb == 0) { if (bd) G.free(bd); return -1; }
+    for (k = 0; k + 1 < nb && ierr == 0; k += 2) {
+        int c = bd[k + 1] < 0 ? -bd[k + 1] : bd[k + 1];
+        double *lo = NULL, *hi = NULL, *x = NULL;
+        size_t nlo = 0, nhi = 0, nx = 0;
+        G.get_parametrization_bounds(1, c, &lo, &nlo, &hi, &nhi, &ierr);
+        if (!ierr && nlo == 1 && nhi == 1) {
+            for (i = 0; i < ESTIMATE_SAMPLES; i++)
+                u[i] = lo[0] + (hi[0] - lo[0]) * (double)i / (ESTIMATE_SAMPLES - 1);
+            G.get_value(1, c, u, ESTIMATE_SAMPLES, &x, &nx, &ierr);
+        }
+        if (!ierr && nx == 3 * ESTIMATE_SAMPLES) {
+            double sgn = bd[k + 1] < 0 ? -0.5 : 0.5;
+            if (k == 0) memcpy(p0, x, 3 * sizeof(double));
+            for (i = 0; i + 1 < ESTIMATE_SAMPLES; i++) {
+                const double *a = x + 3 * i, *b = x + 3 * (i + 1);
+                va[0] += sgn * (a[1] * b[2] - a[2] * b[1]);
+                va[1] += sgn * (a[2] * b[0] - a[0] * b[2]);
+                va[2] += sgn * (a[0] * b[1] - a[1] * b[0]);
+            }
+        } else {
+            ierr = 1;
+        }
+        if (lo) G.free(lo);
+        if (hi) G.free(hi);
+        if (x) G.free(x);
+    }
+    G.free(bd);
+    return ierr ? -1 : 0;
+}
+
+/* Area of the plane surface tag of the built-in kernel; -1 if unknown. */
+static double surface_area(int tag)
+{
+    double va[3], p0[3];
+    if (vector_area(tag, va, p0)) return -1;
+    return sqrt(va[0] * va[0] + va[1] * va[1] + va[2] * va[2]);
+}
+
+/* Volume of the volume tag of the built-in kernel bounded by plane surfaces (the
+ * divergence theorem: a third of the sum over its oriented faces of p0 . va); -1 if
+ * unknown (a face that is not plane). */
+static double volume_of_planes(int tag)
+{
+    int dt[2] = {3, tag}, *bd = NULL, ierr = 0;
+    size_t nb = 0, k;
+    double v = 0;
+    G.get_boundary(dt, 2, &bd, &nb, 0, 1, 0, &ierr);
+    if (ierr || nb == 0) { if (bd) G.free(bd); return -1; }
+    for (k = 0; k + 1 < nb && ierr == 0; k += 2) {
+        int f = bd[k + 1] < 0 ? -bd[k + 1] : bd[k + 1];
+        char *type = NULL;
+        double va[3], p0[3];
+        G.get_type(2, f, &type, &ierr);
+        if (ierr || !type || strcmp(type, "Plane") != 0 || vector_area(f, va, p0))
+            ierr = 1;
+        else
+            v += (bd[k + 1] < 0 ? -1.0 : 1.0) * (p0[0] * va[0] + p0[1] * va[1] + p0[2] * va[2]);
+        if (type) G.free(type);
+    }
+    G.free(bd);
+    return ierr ? -1 : fabs(v) / 3;
+}
+
+/* The estimate of the current model, a .geo read from path (see above). */
+static void geo_estimate(const char *path, double est[4])
+{
+    int ierr = 0, d, *ents = NULL, *groups = NULL;
+    size_t n_ents = 0, n_groups = 0, e, g;
+    double measure = 0, size = HUGE_VAL, smax = 1e22, smin = 0, factor = 1, from_points = 1,
+           extend = 1;
+    est[0] = -1; est[1] = 0; est[2] = 0; est[3] = ESTIMATE_MARGIN;
+    if (!G.occ_get_mass || !G.get_boundary || !G.get_parametrization_bounds || !G.get_value
+        || !G.get_sizes || !G.get_entities_for_physical_group || !G.get_type
+        || geo_fixes_counts(path))
+        return;
+    d = G.get_dimension(&ierr);
+    if (ierr || d < 1 || d > 3) return;
+    G.get_entities(&ents, &n_ents, d, &ierr);
+    G.get_physical_groups(&groups, &n_groups, d, &ierr);
+    n_ents /= 2;
+    n_groups /= 2;
+    for (e = 0; e < n_ents && measure >= 0; e++) {
+        int tag = ents[2 * e + 1], kept = n_groups == 0;
+        double m = -1;
+        for (g = 0; g < n_groups && !kept; g++) {
+            int *tags = NULL;
+            size_t nt = 0, t;
+            G.get_entities_for_physical_group(d, groups[2 * g + 1], &tags, &nt, &ierr);
+            for (t = 0; t < nt && !kept; t++) kept = tags[t] == tag;
+            if (tags) G.free(tags);
+        }
+        if (!kept) continue;
+        ierr = 0;
+        G.occ_get_mass(d, tag, &m, &ierr);
+        if (ierr) m = d == 2 ? surface_area(tag) : d == 3 ? volume_of_planes(tag) : -1;
+        measure = m >= 0 ? measure + m : -1;
+    }
+    if (ents) G.free(ents);
+    if (groups) G.free(groups);
+    if (measure < 0) return;
+
+    ierr = 0;
+    G.option_get_number("Mesh.MeshSizeFromPoints", &from_points, &ierr);
+    G.option_get_number("Mesh.MeshSizeMax", &smax, &ierr);
+    G.option_get_number("Mesh.MeshSizeMin", &smin, &ierr);
+    G.option_get_number("Mesh.MeshSizeFactor", &factor, &ierr);
+    G.option_get_number("Mesh.MeshSizeExtendFromBoundary", &extend, &ierr);
+    /* the points' sizes reach the cells' interior only where they are extended from the
+     * boundary into it (1, 2: surfaces and volumes; -2: surfaces; -3: volumes) */
+    if (d >= 2 && !(extend == 1 || extend == 2 || extend == (d == 2 ? -2 : -3)))
+        from_points = 0;
+    if (from_points != 0) {
+        int *pts = NULL;
+        size_t np = 0;
+        double *sz = NULL;
+        size_t ns = 0, i, k = 0;
+        G.get_entities(&pts, &np, 0, &ierr);
+        if (!ierr && np > 0) G.get_sizes(pts, np, &sz, &ns, &ierr);
+        for (i = 0; !ierr && i < ns; i++)
+            if (sz[i] > 0 && sz[i] < 1e22) { size = k++ ? fmax(size, sz[i]) : sz[i]; }
+        if (pts) G.free(pts);
+        if (sz) G.free(sz);
+    }
+    if (smax > 0 && smax < size) size = smax;
+    if (smin > size) size = smin;
+    size *= factor;
+    if (!(size > 0 && size < 1e22)) return;
+    est[1] = measure;
+    est[2] = size;
+    est[0] = d == 3 ? 0.55 * 6 * sqrt(2.0) * measure / (size * size * size)
+           : d == 2 ? 4 / sqrt(3.0) * measure / (size * size) : measure / size;
+}
+
+/* Parse the .geo path into the current model with the parameters (h, length, width) and
+ * h as its largest mesh size where it uses no h and h_given (params[3]) is not 0. */
+static int geo_parse(const char *path, const double *params, session_t *s, char *msg,
+                     int msglen)
+{
+    /* does the file use h? parse it once without h: it then defines h, or fails.
+     * The parse runs to the end of the file whatever its errors (AbortOnError 0):
+     * a parse stopped at its first error (gmsh's default in the API, an exception)
+     * leaves the rest of the file in gmsh's lexer, which the next parse reads first
+     * (a .geo using h without defining it then failed with "line 0: syntax error").
+     * An error is seen as gmsh's last error replacing PROBE_MARK, written first. */
+    static const char PROBE_MARK[] = "dyncontact: parsing the .geo without h";
+    int uses_h = 0, ierr = 0, i;
+    char **names = NULL;
+    char *last = NULL;
+    size_t n = 0, j;
+    double abort_on_error = 2;
+    for (i = 1; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
+    G.parser_clear("h", &ierr);
+    G.option_get_number("General.AbortOnError", &abort_on_error, &ierr);
+    G.option_set_number("General.AbortOnError", 0, &ierr);
+    G.logger_write(PROBE_MARK, "error", &ierr);
+    ierr = 0;
+    G.merge(path, &ierr);
+    if (!ierr) {
+        G.last_error(&last, &ierr);
+        if (ierr || !last || strcmp(last, PROBE_MARK) != 0) ierr = 1;
+        if (last) G.free(last);
+    }
+    {
+        int ierr2 = 0;
+        G.option_set_number("General.AbortOnError", abort_on_error, &ierr2);
+    }
+    if (ierr) {
+        uses_h = 1;
+    } else {
+        G.parser_get_names(&names, &n, "h", &ierr);
+        for (j = 0; j < n; j++) {
+            if (strcmp(names[j], "h") == 0) uses_h = 1;
+            G.free(names[j]);
+        }
+        if (names) G.free(names);
+    }
+    G.model_remove(&ierr);
+    G.model_add(MODEL, &ierr);
+    clear_new_names(s);          /* the variables of that parse */
+    for (i = 0; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
+    ierr = 0;
+    G.merge(path, &ierr);
+    if (ierr) { gmsh_error(path, "gmsh cannot read it", msg, msglen); return 2; }
+    if (!uses_h && params[3] != 0) G.option_set_number("Mesh.MeshSizeMax", params[0], &ierr);
+    return 0;
+}
+
+/* Read path into *out (free with dc_gmsh_free). params = (h, length, width, h_given,
+ * max_elements) for a .geo: the first three are set as the file's parser variables of
+ * those names; if the file uses no h and h_given is not 0 (the scene gives &mesh h), h is
+ * the largest mesh size (Mesh.MeshSizeMax); a file that uses no h, meshed for a scene that
+ * gives no h, keeps its own sizes (a default h made for the built-in bar, 0.05, imposed on
+ * a body drawn in mm meshed it with billions of elements). max_elements > 0: a .geo whose
+ * estimated element count (geo_estimate, into est) exceeds ESTIMATE_MARGIN x max_elements
+ * is not meshed: status 5, the estimate in est, no message (the caller names its keys).
+ * est[0] = -1 when no estimate was made. */
 static int gmsh_read(const char *path, const double *params, int is_geo, void **out,
-                     char *msg, int msglen);
+                     double est[4], char *msg, int msglen);
 
 int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
-                 char *msg, int msglen)
+                 double est[4], char *msg, int msglen)
 {
     signal_state_t sigs;
     int st;
     signals_save(&sigs);
-    st = gmsh_read(path, params, is_geo, out, msg, msglen);
+    st = gmsh_read(path, params, is_geo, out, est, msg, msglen);
+    signals_restore(&sigs);
+    return st;
+}
+
+/* The estimate of geo_estimate for the .geo path with params (h, length, width, h_given)
+ * as dc_gmsh_read would mesh it, without meshing: status 0 (est[0] = -1: no estimate), 2
+ * (bad input, message in msg). */
+int dc_gmsh_estimate(const char *path, const double *params, double est[4], char *msg,
+                     int msglen)
+{
+    signal_state_t sigs;
+    session_t s;
+    int st;
+    est[0] = -1; est[1] = 0; est[2] = 0; est[3] = ESTIMATE_MARGIN;
+    signals_save(&sigs);
+    if (!gmsh_load()) {
+        char buf[1024];
+        dc_gmsh_available(msg, msglen);
+        snprintf(buf, sizeof buf, "%s: %s", path, msg);
+        set_msg(msg, msglen, buf, NULL, NULL);
+        signals_restore(&sigs);
+        return 2;
+    }
+    if (session_begin(&s)) {
+        gmsh_error(path, "gmsh initialization", msg, msglen);
+        st = 2;
+    } else {
+        st = geo_parse(path, params, &s, msg, msglen);
+        if (st == 0) geo_estimate(path, est);
+    }
+    session_end(&s);
     signals_restore(&sigs);
     return st;
 }
 
 /* dc_gmsh_read without the signal guard. */
 static int gmsh_read(const char *path, const double *params, int is_geo, void **out,
-                     char *msg, int msglen)
+                     double est[4], char *msg, int msglen)
 {
     session_t s;
-    int ierr = 0, st = 0, i;
+    int ierr = 0, st = 0;
     dc_gmsh_mesh_t *m;
     *out = NULL;
+    est[0] = -1; est[1] = 0; est[2] = 0; est[3] = ESTIMATE_MARGIN;
     if (!gmsh_load()) {
         dc_gmsh_available(msg, msglen);
         char buf[1024];
@@ -689,53 +996,10 @@ static int gmsh_read(const char *path, const double *params, int is_geo, void **
         return 2;
     }
     if (is_geo) {
-        /* does the file use h? parse it once without h: it then defines h, or fails.
-         * The parse runs to the end of the file whatever its errors (AbortOnError 0):
-         * a parse stopped at its first error (gmsh's default in the API, an exception)
-         * leaves the rest of the file in gmsh's lexer, which the next parse reads first
-         * (a .geo using h without defining it then failed with "line 0: syntax error").
-         * An error is seen as gmsh's last error replacing PROBE_MARK, written first. */
-        static const char PROBE_MARK[] = "dyncontact: parsing the .geo without h";
-        int uses_h = 0;
-        char **names = NULL;
-        char *last = NULL;
-        size_t n = 0, j;
-        double abort_on_error = 2;
-        for (i = 1; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
-        G.parser_clear("h", &ierr);
-        G.option_get_number("General.AbortOnError", &abort_on_error, &ierr);
-        G.option_set_number("General.AbortOnError", 0, &ierr);
-        G.logger_write(PROBE_MARK, "error", &ierr);
-        ierr = 0;
-        G.merge(path, &ierr);
-        if (!ierr) {
-            G.last_error(&last, &ierr);
-            if (ierr || !last || strcmp(last, PROBE_MARK) != 0) ierr = 1;
-            if (last) G.free(last);
-        }
-        {
-            int ierr2 = 0;
-            G.option_set_number("General.AbortOnError", abort_on_error, &ierr2);
-        }
-        if (ierr) {
-            uses_h = 1;
-        } else {
-            G.parser_get_names(&names, &n, "h", &ierr);
-            for (j = 0; j < n; j++) {
-                if (strcmp(names[j], "h") == 0) uses_h = 1;
-                G.free(names[j]);
-            }
-            if (names) G.free(names);
-        }
-        G.model_remove(&ierr);
-        G.model_add(MODEL, &ierr);
-        clear_new_names(&s);         /* the variables of that parse */
-        for (i = 0; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
-        ierr = 0;
-        G.merge(path, &ierr);
-        if (ierr) { gmsh_error(path, "gmsh cannot read it", msg, msglen); st = 2; }
-        if (st == 0 && !uses_h && params[3] != 0) {
-            G.option_set_number("Mesh.MeshSizeMax", params[0], &ierr);
+        st = geo_parse(path, params, &s, msg, msglen);
+        if (st == 0 && params[4] > 0) {
+            geo_estimate(path, est);
+            if (est[0] > ESTIMATE_MARGIN * params[4]) st = 5;
         }
         if (st == 0) {
             int d = G.get_dimension(&ierr);

@@ -207,7 +207,8 @@ contains
         mmsg = ''
         call mesh_load(sim%scn%mesh_file, scene_bar_dim(sim%scn%mesh_dim), &
                        sim%scn%mesh_length, sim%scn%mesh_width, sim%scn%mesh_h, msh, stat, mmsg, &
-                       h_given=scene_given(sim%scn, 'mesh', 'h'))
+                       h_given=scene_given(sim%scn, 'mesh', 'h'), &
+                       max_elements=sim%scn%max_elements)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh'// &
                        trim(merge(' file:', ':     ', len_trim(sim%scn%mesh_file) > 0))//' '// &

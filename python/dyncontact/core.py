@@ -38,7 +38,8 @@ import numpy as np
 __all__ = [
     "DyncontactError", "BadInputError", "NumericalError", "RunResult", "run",
     "TRACE_COLUMNS", "read_trace", "read_summary", "fortran_version", "scene_dump", "scene_parse",
-    "load_mesh", "p1_element", "umf_solve", "linear_solve", "Model", "bench_floors_available",
+    "load_mesh", "estimate_geo", "p1_element",
+    "umf_solve", "linear_solve", "Model", "bench_floors_available",
     "bench_floors",
 ]
 
@@ -495,13 +496,16 @@ def _scene_attr_output_dir(scene) -> str | None:
 
 def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0,
               width: float = 0.1, h: float = 0.05, check: bool = True,
-              h_given: bool = True) -> dict[str, Any]:
+              h_given: bool = True, max_elements: int = 0) -> dict[str, Any]:
     """A mesh as the Fortran core reads it: a mesh file (.msh in any version gmsh reads,
     or .geo meshed with the parameters h, length, width), or the built-in bar (path '').
     ``check=False`` skips the core's mesh checks of a file's mesh (reader level: meshes
     the model does not take, such as tetrahedra). ``h_given=False``: a .geo that uses no
     h keeps its own mesh sizes, as for a scene that gives no ``&mesh h`` (with True, the
-    default, h is its largest mesh size).
+    default, h is its largest mesh size). ``max_elements > 0``: a .geo whose element
+    count, estimated before meshing (:func:`estimate_geo`), exceeds the refusal's margin
+    times it is refused without meshing (:class:`BadInputError` naming
+    ``&mesh max_elements``).
 
     Returns a dict with 0-based indices: ``x`` (n_nodes, dim), ``cells`` (n_cells, dim+1),
     ``cell_group`` (n_cells; -1 = none), ``facets`` (n_facets, dim), ``facet_group``
@@ -511,7 +515,7 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
     p = _fpath(path, "mesh file")
     handle, dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(
         p, int(dim), float(length), float(width), float(h), int(bool(check)),
-        int(bool(h_given)))
+        int(bool(h_given)), int(max_elements))
     _check(stat, errmsg, "reading the mesh")
     (x, cells, cell_group, facets, facet_group, group_dim, names, stat,
      errmsg) = core.dc_mesh_arrays(handle, dim_, nn, nc, nf, ng)
@@ -527,6 +531,24 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
         "group_dim": [int(g) for g in group_dim],
         "group_names": group_names,
     }
+
+
+def estimate_geo(path: str | os.PathLike, *, length: float = 1.0, width: float = 0.1,
+                 h: float = 0.05, h_given: bool = True) -> dict[str, float] | None:
+    """The element count of a .geo estimated before meshing, as :func:`load_mesh` would
+    mesh it with these parameters (nothing is meshed; docs/scenes.md, "How large a .geo
+    will be"): a dict with ``estimate``, ``measure`` (volume, area or length of the cells'
+    entities), ``size`` (the mesh size it assumes) and ``margin`` (a .geo is refused when
+    the estimate exceeds margin x the limit), or None where no estimate can be made.
+    :class:`BadInputError` if gmsh cannot read the file."""
+    core = _core()
+    est, stat, errmsg = core.dc_geo_estimate(_fpath(path, "mesh file"), float(length),
+                                             float(width), float(h), int(bool(h_given)))
+    _check(stat, errmsg, "estimating the mesh")
+    if est[0] < 0:
+        return None
+    return {"estimate": float(est[0]), "measure": float(est[1]), "size": float(est[2]),
+            "margin": float(est[3])}
 
 
 def p1_element(dim: int, x, young: float, poisson: float, density: float):

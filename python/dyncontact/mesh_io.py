@@ -40,10 +40,13 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .core import BadInputError, DyncontactError
+from .core import BadInputError, DyncontactError, estimate_geo
 
 __all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
            "generate", "find_geo", "main"]
+
+#: ``dyncontact mesh --max-elements`` by default: the default of ``&mesh max_elements``.
+DEFAULT_MAX_ELEMENTS = 2000000
 
 #: Parameters of a .geo set by :func:`generate` and by the core (like gmsh -setnumber).
 GEO_PARAMETERS = ("h", "length", "width")
@@ -240,7 +243,8 @@ def _uses_h(gmsh, geo: Path) -> bool:
 
 def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
              h: float | None = 0.05, length: float = 1.0, width: float = 0.1,
-             binary: bool = False, version: float = 4.1) -> Path:
+             binary: bool = False, version: float = 4.1, max_elements: int = 0,
+             keys: tuple[str, str] = ("max_elements", "h")) -> Path:
     """Mesh a .geo with gmsh and write it as .msh (default 4.1 ASCII).
 
     h, length and width are set as the file's parameters of those names (as
@@ -248,6 +252,11 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     mesh size. ``h=None`` (``dyncontact mesh`` without ``--h``): a file that uses no h
     keeps its own mesh sizes, as a run's .geo does for a scene without ``&mesh h``
     (one that uses h gets 0.05). The mesh has the geometry's dimension.
+
+    ``max_elements > 0``: a .geo whose element count, estimated before meshing
+    (:func:`dyncontact.core.estimate_geo`), exceeds the refusal's margin times it is not
+    meshed: :class:`BadInputError` naming the file and `keys` (the names of the limit and
+    of h; h only when given), as a run refuses it (docs/scenes.md).
 
     Returns
     -------
@@ -269,6 +278,10 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     geo = Path(geo_path)
     if not geo.is_file():
         raise BadInputError(f"{geo}: no such file")
+    if max_elements > 0:
+        _refuse_too_large(geo, int(max_elements), keys[0], keys[1] if h_given else "",
+                          estimate_geo(geo, length=length, width=width, h=h,
+                                       h_given=h_given))
     out = Path(out_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     with _gmsh_session("dyncontact-generate") as gmsh:
@@ -294,6 +307,20 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
             _discard(out)
             raise DyncontactError(f"{out}: gmsh cannot write it: {exc}") from None
     return out
+
+
+def _refuse_too_large(geo: Path, limit: int, limit_key: str, h_key: str,
+                      est: dict | None) -> None:
+    """BadInputError, worded as the core's refusal (gmsh_mesh.f90, too_large_text), when
+    the estimate `est` (:func:`dyncontact.core.estimate_geo`) exceeds its margin x limit."""
+    if est is None or est["estimate"] <= est["margin"] * limit:
+        return
+    hint = (f"a larger {h_key} or {limit_key} allows it" if h_key else
+            f"larger mesh sizes in the file, or a larger {limit_key}, allow it")
+    raise BadInputError(
+        f"{geo}: about {est['estimate']:.1e} elements estimated before meshing (measure "
+        f"{est['measure']:.2e} at mesh size {est['size']:.2e}), more than "
+        f"{est['margin']:g} x {limit_key} = {limit}: not meshed ({hint})")
 
 
 def _discard(out: Path) -> None:
@@ -398,6 +425,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--binary", action="store_true", help="write binary .msh")
     p.add_argument("--msh-version", type=float, default=4.1, choices=(2.2, 4.1),
                    help="msh format version (default 4.1)")
+    p.add_argument("--max-elements", type=int, default=DEFAULT_MAX_ELEMENTS, metavar="N",
+                   help="a .geo estimated before meshing at more than 2 x N elements is not "
+                        f"meshed (default {DEFAULT_MAX_ELEMENTS}, as &mesh max_elements; "
+                        "0: no limit)")
     p.add_argument("--quiet", "-q", action="store_true", help="print nothing")
     return p
 
@@ -423,7 +454,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             out = generate_bar(h, args.out, length=args.length, width=args.width, **fmt)
         else:
             out = generate(args.geo, args.out, h=args.h, length=args.length,
-                           width=args.width, **fmt)
+                           width=args.width, max_elements=args.max_elements,
+                           keys=("--max-elements", "--h"), **fmt)
         try:
             mesh = read_mesh(out, check=False)
         except BadInputError:
