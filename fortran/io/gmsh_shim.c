@@ -702,6 +702,24 @@ void dc_gmsh_free(void *p);
  * the measured counts were 0.96 to 2.2 x the estimate (docs/scenes.md). */
 #define ESTIMATE_MARGIN 2.0
 
+/* est = "no estimate" (-1, no measure, no size) with the refusal's margin. */
+static void no_estimate(double est[4])
+{
+    est[0] = -1; est[1] = 0; est[2] = 0; est[3] = ESTIMATE_MARGIN;
+}
+
+/* 1 when gmsh's library is loaded (loading it if need be), else 0 with
+ * "path: <why gmsh is not available>" in msg. */
+static int gmsh_loaded(const char *path, char *msg, int msglen)
+{
+    char buf[1024];
+    if (gmsh_load()) return 1;
+    dc_gmsh_available(msg, msglen);
+    snprintf(buf, sizeof buf, "%s: %s", path, msg);
+    set_msg(msg, msglen, buf, NULL, NULL);
+    return 0;
+}
+
 /* Whether the file's text holds one of the words that fix counts of cells (Transfinite,
  * Extrude, Layers) or reads other files (Include, Merge), which the estimate cannot see. */
 static int geo_fixes_counts(const char *path)
@@ -800,7 +818,7 @@ static void geo_estimate(const char *path, double est[4])
     size_t n_ents = 0, n_groups = 0, e, g;
     double measure = 0, size = HUGE_VAL, smax = 1e22, smin = 0, factor = 1, from_points = 1,
            extend = 1;
-    est[0] = -1; est[1] = 0; est[2] = 0; est[3] = ESTIMATE_MARGIN;
+    no_estimate(est);
     if (!G.occ_get_mass || !G.get_boundary || !G.get_parametrization_bounds || !G.get_value
         || !G.get_sizes || !G.get_entities_for_physical_group || !G.get_type
         || geo_fixes_counts(path))
@@ -949,13 +967,9 @@ int dc_gmsh_estimate(const char *path, const double *params, double est[4], char
     signal_state_t sigs;
     session_t s;
     int st;
-    est[0] = -1; est[1] = 0; est[2] = 0; est[3] = ESTIMATE_MARGIN;
+    no_estimate(est);
     signals_save(&sigs);
-    if (!gmsh_load()) {
-        char buf[1024];
-        dc_gmsh_available(msg, msglen);
-        snprintf(buf, sizeof buf, "%s: %s", path, msg);
-        set_msg(msg, msglen, buf, NULL, NULL);
+    if (!gmsh_loaded(path, msg, msglen)) {
         signals_restore(&sigs);
         return 2;
     }
@@ -979,14 +993,8 @@ static int gmsh_read(const char *path, const double *params, int is_geo, void **
     int ierr = 0, st = 0;
     dc_gmsh_mesh_t *m;
     *out = NULL;
-    est[0] = -1; est[1] = 0; est[2] = 0; est[3] = ESTIMATE_MARGIN;
-    if (!gmsh_load()) {
-        dc_gmsh_available(msg, msglen);
-        char buf[1024];
-        snprintf(buf, sizeof buf, "%s: %s", path, msg);
-        set_msg(msg, msglen, buf, NULL, NULL);
-        return 2;
-    }
+    no_estimate(est);
+    if (!gmsh_loaded(path, msg, msglen)) return 2;
     m = calloc(1, sizeof *m);
     if (!m) return 4;
     if (session_begin(&s)) {
