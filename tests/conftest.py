@@ -75,6 +75,18 @@ def run_exe(exe, tmp_path):
     return run
 
 
+def stderr_line(res, code: int, prefix: str = "") -> str:
+    """The one line a program printed on stderr, which exits with `code`: exactly one
+    line, starting with `prefix`, no traceback (bad input and numerical failures are one
+    line each)."""
+    assert res.returncode == code, (res.returncode, res.stdout[-2000:], res.stderr[-2000:])
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1, res.stderr
+    assert lines[0].startswith(prefix), res.stderr
+    assert "Traceback" not in res.stderr
+    return lines[0]
+
+
 def lame(young, poisson):
     """Lamé's (lambda, mu) of Young's modulus and Poisson's ratio."""
     return (young * poisson / ((1 + poisson) * (1 - 2 * poisson)),

@@ -9,7 +9,7 @@ import subprocess
 
 import pytest
 
-from conftest import ROOT, SUBPROCESS_TIMEOUT
+from conftest import ROOT, SUBPROCESS_TIMEOUT, stderr_line
 
 
 def _script(name: str, *args, cwd) -> subprocess.CompletedProcess:
@@ -17,15 +17,6 @@ def _script(name: str, *args, cwd) -> subprocess.CompletedProcess:
     env.pop("PYTHONPATH", None)
     return subprocess.run([str(ROOT / "scripts" / name), *map(str, args)], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=SUBPROCESS_TIMEOUT)
-
-
-def _one_line(res, code: int, prefix: str) -> str:
-    assert res.returncode == code, (res.returncode, res.stdout[-2000:], res.stderr[-2000:])
-    lines = res.stderr.strip().splitlines()
-    assert len(lines) == 1, res.stderr
-    assert lines[0].startswith(prefix), res.stderr
-    assert "Traceback" not in res.stderr
-    return lines[0]
 
 
 # --------------------------------------------------------------------------- study
@@ -49,7 +40,7 @@ def test_study_refuses_bad_values_naming_the_option(run_cli, tmp_path, study, op
     args = ["study", study, "--quick", "--no-progress"]
     if option != "--out":
         args += ["--out", str(tmp_path / "s")]
-    line = _one_line(run_cli(*args, option, value), 2, "dyncontact study: ")
+    line = stderr_line(run_cli(*args, option, value), 2, "dyncontact study: ")
     assert option in line
     assert sorted(os.listdir(tmp_path)) == []   # nothing written, here or in --out
 
@@ -62,16 +53,16 @@ def test_study_refuses_a_file_for_a_folder(run_cli, tmp_path, option):
     afile.write_text("")
     args = {"--out": str(tmp_path / "s"), "--cache": str(tmp_path / "c")}
     args[option] = str(afile)
-    line = _one_line(run_cli("study", "convergence", "--quick", "--no-progress",
-                             "--out", args["--out"], "--cache", args["--cache"]),
-                     2, "dyncontact study: ")
+    line = stderr_line(run_cli("study", "convergence", "--quick", "--no-progress",
+                              "--out", args["--out"], "--cache", args["--cache"]),
+                      2, "dyncontact study: ")
     assert option in line and "not a folder" in line, line
     assert sorted(os.listdir(tmp_path)) == ["afile"]
 
 
 @pytest.mark.parametrize("args", [["--out"], ["--out="], ["--out", ""]])
 def test_studies_script_out_needs_a_folder(tmp_path, args):
-    line = _one_line(_script("studies", *args, cwd=tmp_path), 2, "studies: ")
+    line = stderr_line(_script("studies", *args, cwd=tmp_path), 2, "studies: ")
     assert "--out" in line and "unbound" not in line
     assert sorted(os.listdir(tmp_path)) == []
 
@@ -107,8 +98,8 @@ def test_sweep_counts_only_real_cache_hits(tmp_path):
     ("./", ("--out", ".msh")),
 ])
 def test_mesh_out_is_refused_in_one_line(run_cli, tmp_path, out, words):
-    line = _one_line(run_cli("mesh", "--h", "0.1", "--out", out, cwd=tmp_path), 2,
-                     "dyncontact mesh: ")
+    line = stderr_line(run_cli("mesh", "--h", "0.1", "--out", out, cwd=tmp_path), 2,
+                      "dyncontact mesh: ")
     for w in words:
         assert w in line, line
     assert sorted(os.listdir(tmp_path)) == []
@@ -143,7 +134,7 @@ def test_mesh_that_cannot_be_written_exits_4_naming_the_file(run_cli, tmp_path, 
         res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                              text=True, timeout=SUBPROCESS_TIMEOUT)
         words = (out, "could not write it whole", "File too large")
-    line = _one_line(res, 4, "dyncontact mesh: ")
+    line = stderr_line(res, 4, "dyncontact mesh: ")
     for w in words:
         assert w in line, line
     assert sorted(os.listdir(tmp_path)) == []      # no partial mesh left
@@ -157,8 +148,8 @@ def test_mesh_the_reader_refuses_is_bad_input_and_left_whole(run_cli, tmp_path):
 
     geo = tmp_path / "quads.geo"
     geo.write_text((ROOT / "meshes" / "bar2d.geo").read_text() + "\nRecombine Surface{1};\n")
-    line = _one_line(run_cli("mesh", "--geo", geo, "--h", "0.05", "--out", "q.msh",
-                             cwd=tmp_path), 2, "dyncontact mesh: ")
+    line = stderr_line(run_cli("mesh", "--geo", geo, "--h", "0.05", "--out", "q.msh",
+                              cwd=tmp_path), 2, "dyncontact mesh: ")
     assert "not a linear simplex" in line, line
     ref = mesh_io.generate(geo, tmp_path / "ref" / "q.msh", h=0.05)
     assert (tmp_path / "q.msh").read_bytes() == ref.read_bytes()

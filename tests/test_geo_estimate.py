@@ -14,7 +14,7 @@ import pytest
 
 import dyncontact
 from dyncontact import core
-from conftest import ROOT
+from conftest import ROOT, stderr_line
 
 GEO = ROOT / "tests" / "data" / "geo"
 CYL_MM = GEO / "cylinder_mm.geo"
@@ -38,12 +38,6 @@ def scene_text(geo, extra: str = "") -> str:
             "&scheme dt = 0.01, t_end = 0.02 /\n")
 
 
-def one_line(err: str) -> str:
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    return lines[0]
-
-
 @pytest.mark.parametrize("entry", ["exe", "cli"])
 def test_tiny_h_refused_before_meshing(entry, tmp_path, run_exe, run_cli):
     """h = 0.05 on the cylinder in mm (radius 100): about 6e10 elements estimated, refused
@@ -55,8 +49,7 @@ def test_tiny_h_refused_before_meshing(entry, tmp_path, run_exe, run_cli):
     t0 = time.perf_counter()
     r = run(*args)
     elapsed = time.perf_counter() - t0
-    assert r.returncode == 2, r.stderr
-    line = one_line(r.stderr)
+    line = stderr_line(r, 2)
     assert "cylinder_mm.geo: about 5.9" in line and "elements estimated before meshing" in line
     assert "&mesh max_elements = 2000000" in line and "&mesh h" in line, line
     assert elapsed < FAST * (1 if entry == "exe" else 3), elapsed
@@ -85,8 +78,7 @@ def test_own_sizes_name_no_h(tmp_path, run_exe):
     geo.write_text(CYL_MM.read_text() + "MeshSize{ PointsOf{ Volume{1}; } } = 0.05;\n")
     (tmp_path / "s.nml").write_text(scene_text("cyl.geo"))
     r = run_exe("s.nml", "--out", "o")
-    assert r.returncode == 2, r.stderr
-    line = one_line(r.stderr)
+    line = stderr_line(r, 2)
     assert "&mesh max_elements" in line and "&mesh h" not in line, line
     assert "larger mesh sizes in the file" in line, line
 
@@ -98,7 +90,7 @@ def test_mesh_command_refuses(run_cli, tmp_path):
     r = run_cli("mesh", "--geo", CYL_MM, "--h", "0.05", "--out", "c.msh")
     assert r.returncode == 2, r.stderr
     assert time.perf_counter() - t0 < 3 * FAST
-    line = one_line(r.stderr)
+    line = stderr_line(r, 2)
     assert line.startswith("dyncontact mesh: ") and "cylinder_mm.geo: about 5.9e+10" in line
     assert "--max-elements = 2000000" in line and "--h" in line, line
     assert not (tmp_path / "c.msh").exists()
@@ -123,8 +115,7 @@ def test_just_under_the_limit_runs(tmp_path, run_exe):
     assert r.returncode == 0, r.stderr
     (tmp_path / "no.nml").write_text(DISK_SCENE.format(geo=geo, limit=211))
     r = run_exe("no.nml", "--out", "o2")
-    assert r.returncode == 2
-    assert "212 elements exceed the limit of 211 (&mesh max_elements)" in one_line(r.stderr)
+    assert "212 elements exceed the limit of 211 (&mesh max_elements)" in stderr_line(r, 2)
 
 
 CASES = [(GEO / "box.geo", 0.05), (GEO / "box_builtin.geo", 0.05), (GEO / "cylinder.geo", 0.02),
