@@ -661,6 +661,42 @@ def test_figures_with_no_scheduler_at_the_address_fails_fast_by_default(tmp_path
     assert elapsed < 9.0, elapsed
 
 
+def test_python_sweep_with_no_scheduler_at_the_address_fails_fast(tmp_path):
+    """sweep(tasks, cache, scheduler=ADDRESS) called from Python where nothing listens
+    raises SchedulerUnreachable naming the address after the default 5 s, as the command
+    lines do (it waited dask's 30 s), and after ``scheduler_timeout`` seconds when given
+    (bounds: the wait plus 3 s of set-up on a busy machine); nothing is run or cached."""
+    pytest.importorskip("distributed")
+    import time
+
+    from dyncontact.study.sweep import SCHEDULER_TIMEOUT_S, SchedulerUnreachable, make_task, sweep
+
+    address = f"tcp://127.0.0.1:{_unused_port()}"
+    tasks = [make_task(None, {"scheme.t_end": 0.01})]
+    for kwargs, wait in (({}, SCHEDULER_TIMEOUT_S), ({"scheduler_timeout": 1}, 1.0)):
+        t0 = time.perf_counter()
+        with pytest.raises(SchedulerUnreachable) as info:
+            sweep(tasks, str(tmp_path / "cache"), scheduler=address, progress=False,
+                  **kwargs)
+        elapsed = time.perf_counter() - t0
+        assert info.value.address == address and info.value.timeout == wait
+        assert address in str(info.value) and f"within {wait:g} s" in str(info.value)
+        assert wait - 0.5 < elapsed < wait + 3.0, (kwargs, elapsed)
+    assert not [p for p in (tmp_path / "cache").rglob("record.json")]
+
+
+@pytest.mark.parametrize("bad", [0, -1, float("nan"), float("inf")])
+def test_python_sweep_refuses_a_scheduler_timeout_that_is_not_positive(tmp_path, bad):
+    from dyncontact.study.sweep import default_scheduler_timeout, make_task, sweep
+
+    with pytest.raises(ValueError, match="scheduler_timeout"):
+        sweep([make_task(None, {})], str(tmp_path / "c"), scheduler="tcp://127.0.0.1:1",
+              scheduler_timeout=bad, progress=False)
+    with pytest.raises(ValueError, match="scheduler_timeout"):
+        with default_scheduler_timeout(bad):
+            pass
+
+
 # --------------------------------------------------------------------------- work-precision
 
 @pytest.fixture(scope="module")

@@ -13,6 +13,8 @@ import os
 import sys
 from typing import Any, Iterable, Iterator, Mapping, Sequence
 
+from .sweep import SCHEDULER_TIMEOUT_S, default_scheduler_timeout
+
 __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0",
            "CENTRAL_C", "write_base_scenes", "study_folder", "write_csv",
            "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS",
@@ -273,24 +275,15 @@ def mesh_sizes(text: str) -> list[float]:
     return sizes
 
 
-#: Seconds --scheduler waits for the Dask scheduler to answer (--scheduler-timeout):
-#: dask's own connect timeout is 30 s, which an address where nothing listens (a typo, a
-#: scheduler not started) took before it failed. A scheduler that runs answers in well
-#: under a second on a local network.
-SCHEDULER_TIMEOUT_S = 5.0
-
-
 @contextlib.contextmanager
 def scheduler_timeout(args) -> Iterator[None]:
-    """dask.distributed's connect timeout set to ``args.scheduler_timeout`` seconds for
-    the block when ``args.scheduler`` is given (the sweeps' Client waits that long for the
-    scheduler; :class:`~dyncontact.study.sweep.SchedulerUnreachable` after it)."""
+    """The sweeps of the block wait ``args.scheduler_timeout`` seconds for the scheduler
+    when ``args.scheduler`` is given (:func:`~dyncontact.study.sweep.default_scheduler_timeout`;
+    :class:`~dyncontact.study.sweep.SchedulerUnreachable` after it)."""
     if getattr(args, "scheduler", None) is None:
         yield
         return
-    import dask
-
-    with dask.config.set({"distributed.comm.timeouts.connect": f"{args.scheduler_timeout}s"}):
+    with default_scheduler_timeout(args.scheduler_timeout):
         yield
 
 

@@ -36,7 +36,9 @@ Executors
 default; with ``scheduler`` (an address such as ``tcp://host:8786``, or a
 ``distributed.Client``) the tasks go to a ``dask.distributed`` cluster (the workers must
 see the cache folder: a shared file system, or the same machine); an address where no
-scheduler answers within dask's connect timeout raises :class:`SchedulerUnreachable`. A run that fails
+scheduler answers within ``scheduler_timeout`` seconds (default :data:`SCHEDULER_TIMEOUT_S`,
+5 s, as the command lines' ``--scheduler-timeout``; not dask's 30 s) raises
+:class:`SchedulerUnreachable`. A run that fails
 (bad input, an exception in the analysis, a worker that died) becomes a record with
 ``status = 'error'`` and its message; the sweep goes on. A sweep stopped by Ctrl-C (or
 by SIGTERM inside :func:`sigterm_as_interrupt`, as the command lines run) terminates the
@@ -60,6 +62,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import contextvars
 import ctypes
 import dataclasses
 import functools
@@ -76,7 +79,7 @@ import time
 import traceback
 import uuid
 import warnings
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -481,8 +484,39 @@ def _cost(task: Task) -> float:
     return (t_end / dt) / h
 
 
+#: Seconds :func:`sweep` waits for the Dask scheduler at an address to answer (the
+#: command lines' --scheduler-timeout default): dask's own connect timeout is 30 s, which
+#: an address where nothing listens (a typo, a scheduler not started) took before it
+#: failed. A scheduler that runs answers in well under a second on a local network.
+SCHEDULER_TIMEOUT_S = 5.0
+
+_default_scheduler_timeout: contextvars.ContextVar[float] = contextvars.ContextVar(
+    "dyncontact_scheduler_timeout", default=SCHEDULER_TIMEOUT_S)
+
+
+@contextlib.contextmanager
+def default_scheduler_timeout(seconds: float) -> Iterator[None]:
+    """Within the block, :func:`sweep` calls that give no ``scheduler_timeout`` wait
+    ``seconds`` for their scheduler: how a command line's --scheduler-timeout reaches the
+    sweeps of the study it runs, however deep they are called."""
+    token = _default_scheduler_timeout.set(_positive_seconds(seconds))
+    try:
+        yield
+    finally:
+        _default_scheduler_timeout.reset(token)
+
+
+def _positive_seconds(seconds: Any) -> float:
+    value = float(seconds)
+    if not value > 0 or value == float("inf"):
+        raise ValueError(f"scheduler_timeout must be a finite number of seconds > 0, "
+                         f"got {seconds!r}")
+    return value
+
+
 def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
-          scheduler: Any = None, progress: bool | None = None, desc: str = "runs",
+          scheduler: Any = None, scheduler_timeout: float | None = None,
+          progress: bool | None = None, desc: str = "runs",
           log: Callable[[str], None] | None = None,
           on_done: Callable[[int, dict[str, Any]], None] | None = None
           ) -> list[dict[str, Any]]:
@@ -491,9 +525,15 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
 
     ``workers``: processes of the local pool (default: all cores); ``scheduler``: a
     dask.distributed scheduler address or Client (then ``workers`` is ignored).
+    ``scheduler_timeout``: seconds to wait for the scheduler at that address to answer
+    (default :data:`SCHEDULER_TIMEOUT_S`, or the one of an enclosing
+    :func:`default_scheduler_timeout`); :class:`SchedulerUnreachable` after it, raised
+    before any run is done.
     ``on_done(i, record)`` is called in this process as soon as task i's record is
     known (from the cache or a finished run), for work that need not wait for the rest.
     """
+    timeout = (_default_scheduler_timeout.get() if scheduler_timeout is None
+               else _positive_seconds(scheduler_timeout))
     cache = os.path.abspath(cache)
     os.makedirs(cache, exist_ok=True)
     _clean_stale(cache)
@@ -539,7 +579,7 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
                 + (f", {unkeyed} whose scene could not be built" if unkeyed else ""))
 
         if todo and scheduler is not None:
-            _sweep_dask(tasks, keys, todo, cache, scheduler, done)
+            _sweep_dask(tasks, keys, todo, cache, scheduler, timeout, done)
         elif todo and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1:
             _sweep_pool(tasks, keys, todo, cache, workers or os.cpu_count() or 1, done)
         else:
@@ -728,23 +768,25 @@ def _sweep_pool(tasks, keys, todo, cache, workers, done) -> None:
 
 class SchedulerUnreachable(ConnectionError):
     """No dask.distributed scheduler answered at the address given to :func:`sweep`
-    within dask's connect timeout (``distributed.comm.timeouts.connect``: 30 s unless set;
-    the command lines' ``--scheduler-timeout``). ``address`` is the address given."""
+    within its ``scheduler_timeout`` (the command lines' ``--scheduler-timeout``).
+    ``address`` is the address given, ``timeout`` the seconds waited."""
 
-    def __init__(self, address: str, reason: str):
-        super().__init__(f"no Dask scheduler answers at {address} ({reason})")
+    def __init__(self, address: str, reason: str, timeout: float | None = None):
+        within = f" within {timeout:g} s" if timeout is not None else ""
+        super().__init__(f"no Dask scheduler answers at {address}{within} ({reason})")
         self.address = address
+        self.timeout = timeout
 
 
-def _sweep_dask(tasks, keys, todo, cache, scheduler, done) -> None:
+def _sweep_dask(tasks, keys, todo, cache, scheduler, timeout, done) -> None:
     from distributed import Client, as_completed
 
     own = not isinstance(scheduler, Client)
     if own:
         try:
-            client = Client(scheduler)
-        except OSError as exc:   # refused or timed out: dask retries until its timeout
-            raise SchedulerUnreachable(str(scheduler), str(exc)) from exc
+            client = Client(scheduler, timeout=timeout)
+        except OSError as exc:   # refused or timed out: dask retries until the timeout
+            raise SchedulerUnreachable(str(scheduler), str(exc), timeout) from exc
     else:
         client = scheduler
     try:
