@@ -154,6 +154,30 @@ def test_the_study_resumes_after_sigterm(started, run_cli, tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
 
 
+def _temporary_entries(cache) -> list[str]:
+    return [str(p) for p in cache.glob("*/*.tmp-*")] if cache.is_dir() else []
+
+
+def test_a_stopped_sweep_leaves_no_temporary_entry(started, tmp_path):
+    """The runs in progress when SIGTERM (or Ctrl-C) stops the pool are cut short: their
+    temporary cache entries (`<key>.tmp-<pid>-...`, whose workers are gone) are removed
+    with them, not left on disk for the 6 h of sweep.STALE_S. The signal is sent once a
+    worker has made one, so that there is one to remove."""
+    proc = started("study")
+    cache = tmp_path / "study" / "cache"
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while not _temporary_entries(cache) and proc.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.01)
+    if not _temporary_entries(cache):
+        pytest.fail(f"no run started in {cache} (exit {proc.poll()})")
+    proc.send_signal(signal.SIGTERM)
+    proc.communicate(timeout=END_TIMEOUT_S)
+    assert proc.returncode == 130
+    assert _wait_group_gone(proc.pid) == []
+    assert _temporary_entries(cache) == []
+
+
 # ------------------------------------------------------------- programs run as children
 
 def _descendants(pid: int) -> list[int]:

@@ -719,10 +719,11 @@ def _warm_worker(parent: int | None = None) -> None:
         pass
 
 
-def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
+def _stop_pool(pool: cf.ProcessPoolExecutor) -> list[int]:
     """Cancel the pool's pending tasks and end its workers now (SIGTERM, then SIGKILL
     after :data:`WORKER_TERM_S`): ``shutdown`` alone would wait for the runs in progress,
-    however long. A run cut short leaves only a temporary entry, never a finished one."""
+    however long. A run cut short leaves only a temporary entry, never a finished one
+    (:func:`_remove_entries_of` removes it). Returns the ended workers' pids."""
     procs = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
     for p in procs:
@@ -734,6 +735,25 @@ def _stop_pool(pool: cf.ProcessPoolExecutor) -> None:
         if p.is_alive():  # pragma: no cover - a worker stuck in uninterruptible I/O
             p.kill()
             p.join()
+    return [p.pid for p in procs if p.pid is not None]
+
+
+def _remove_entries_of(cache: str, keys: Iterable[str], pids: Iterable[int]) -> None:
+    """Remove the temporary entries (``<key>.tmp-<pid>-...``) that the ended workers
+    ``pids`` left for ``keys``, the runs they were doing when the sweep was stopped:
+    their writers are gone, so nothing will finish them (:func:`_clean_stale` would
+    remove them only hours later, and a run's folder can be large)."""
+    prefixes = tuple(f".tmp-{pid}-" for pid in pids)
+    for key in set(keys):
+        final = _entry(cache, key)
+        folder, name = os.path.split(final)
+        try:
+            names = os.listdir(folder)
+        except OSError:   # no entry of this prefix was ever made
+            continue
+        for n in names:
+            if n.startswith(name) and n[len(name):].startswith(prefixes):
+                shutil.rmtree(os.path.join(folder, n), ignore_errors=True)
 
 
 #: The signals a worker is started with blocked (:func:`_end_with_parent`).
@@ -761,7 +781,7 @@ def _sweep_pool(tasks, keys, todo, cache, workers, done) -> None:
                 rec = _error_record(tasks[i], keys[i], f"{type(exc).__name__}: {exc}")
             done(i, rec)
     except BaseException:
-        _stop_pool(pool)
+        _remove_entries_of(cache, (keys[i] for i in todo), _stop_pool(pool))
         raise
     pool.shutdown(wait=True)
 
