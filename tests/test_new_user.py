@@ -453,6 +453,29 @@ def test_group_not_in_mesh_lists_the_mesh_groups(kind, tmp_path):
 
 
 @pytest.mark.parametrize("kind", ENTRIES)
+def test_probe_left_out_on_a_mesh_of_ones_own_says_it_is_the_bars_default(kind, tmp_path):
+    """A scene for one's own mesh that does not give &contact probe takes the default of
+    its dimension, the middle of the built-in bar's bottom (0.05, 0), 0.012 from the disk
+    here (h = 0.01: the probe snaps within 0.005): the one line says that the scene does not give the key and what to give, rather
+    than only that "the point" is not on the contact boundary. A probe given far off gets
+    the error alone."""
+    mesh = disk_mesh(tmp_path / "disk.msh", h=0.01)
+    scene = disk_scene(tmp_path / "noprobe.nml", mesh, contact__probe=None)
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    # the circle is 0.0118 from (0.05, 0); its chords lie inside it, by at most h²/(8 R)
+    found = re.search(r"&contact probe: the point is not on the contact boundary: "
+                      r"distance (\S+) to its nearest point", line)
+    assert found and 0.01180 <= float(found[1]) <= 0.01180 + 0.01**2 / (8 * RADIUS), line
+    assert line.endswith("the scene does not give &contact probe, whose default is the "
+                         "middle of the built-in bar's bottom: give a point of the contact "
+                         "boundary, such as that nearest point"), line
+    scene = disk_scene(tmp_path / "far.nml", mesh, contact__probe="0.3, 0.3")
+    line = one_line(run(kind, scene, "--out", tmp_path / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert "&contact probe: the point is not on the contact boundary" in line, line
+    assert "does not give" not in line, line
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
 def test_velocity_without_kind_velocity_warns(kind, tmp_path):
     """&initial velocity given while kind keeps its default 'compressed_bar' (or is
     'rest'): the velocity is not used and the run says so before it starts, naming the

@@ -54,6 +54,7 @@ module model
         real(dp) :: obstacle_point(3) = 0.0_dp    !! a point of the obstacle plane
         real(dp) :: obstacle_normal(3) = [0.0_dp, -1.0_dp, 0.0_dp] !! normal into the obstacle
         real(dp) :: probe(3) = 0.0_dp             !! probe point on Gamma_C
+        logical :: probe_given = .true.           !! the scene gives probe (else the bar's default)
         integer :: quadrature = QUAD_EXACT        !! QUAD_EXACT | QUAD_GAUSS
         integer :: quad_points = 3                !! Gauss points per facet (QUAD_GAUSS)
         integer :: initial = INITIAL_REST         !! INITIAL_REST | INITIAL_VELOCITY | INITIAL_COMPRESSED_BAR
@@ -737,6 +738,10 @@ contains
             write (buf, vfmt) 'the point is not on the contact boundary: ' &
                 //'distance ', dbest, ' to its nearest point ', best
             m = single_blanks(buf)//' (snapped only within '//trim(real_str(PROBE_SNAP))//' x the facet length)'
+            ! a mesh of one's own with the probe left out: the default is the built-in bar's
+            if (.not. prm%probe_given) m = trim(m)//'; the scene does not give &contact probe, '// &
+                'whose default is the middle of the built-in bar''s bottom: give a point of '// &
+                'the contact boundary, such as that nearest point'
             return
         end if
         call locate_probe(mdl, best, st)

@@ -1400,6 +1400,7 @@ contains
         p%gamma0 = scn%gamma0
         p%obstacle_point = scn%obstacle_point; p%obstacle_normal = scn%obstacle_normal
         p%probe = scn%probe
+        p%probe_given = scene_given(scn, 'contact', 'probe')
         p%quadrature = merge(QUAD_GAUSS, QUAD_EXACT, scn%quadrature == 'gauss')
         p%quad_points = scn%quad_points
         select case (trim(scn%initial_kind))
