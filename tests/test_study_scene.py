@@ -435,3 +435,35 @@ def test_scene_plot_x_axis_has_numbers_when_every_run_takes_the_same_decade(tmp_
                  + ax.xaxis.get_minorticklabels()
                  if t.get_text() and lo <= t.get_position()[0] <= hi]
         assert shown, ax.get_title()
+
+
+def test_scene_studies_take_a_scene_object(tmp_path):
+    """From Python, ``run_stability_scene`` and ``run_work_precision_scene`` take a
+    dyncontact.Scene as well as a file (a notebook's scene built or edited in Python):
+    it is written as OUT/scene.nml and studied as that file would be, the same runs (the
+    second study on the same cache takes every run from it) and the same brackets;
+    anything else is a TypeError that says what is expected."""
+    import dyncontact
+    from dyncontact.study.stability import run_stability_scene
+    from dyncontact.study.workprecision import run_work_precision_scene
+
+    path = _scene_1d(tmp_path / "bar.nml", t_end=0.2)
+    grid = {"schemes": ("pc",), "dt_factors": {"implicit": (1,), "explicit": (1, 8)},
+            "rounds": 1}
+    cache = str(tmp_path / "cache")
+    kw = dict(grid=grid, cache=cache, workers=1, progress=False, log=None)
+    by_file = run_stability_scene(str(tmp_path / "file"), path, **kw)
+    scene = dyncontact.Scene.read(path)
+    by_object = run_stability_scene(str(tmp_path / "object"), scene, **kw)
+    assert (tmp_path / "object" / "scene.nml").is_file()
+    assert dyncontact.Scene.read(tmp_path / "object" / "scene.nml") == scene
+    assert by_object["n_cached"] == by_object["n_runs"] == by_file["n_runs"] > 0
+    pick = ("scheme", "dt_crit_lo", "dt_crit_hi", "bracket")
+    assert [{k: c[k] for k in pick} for c in by_object["critical"]] == \
+        [{k: c[k] for k in pick} for c in by_file["critical"]]
+    scene.set("scheme.dt", 0.0)   # refused as the file would be: one line naming it
+    with pytest.raises(ValueError, match=r"bar\.nml: &scheme dt: must be > 0"):
+        run_work_precision_scene(str(tmp_path / "wp"), scene, quick=True, cache=cache,
+                                 progress=False, log=None)
+    with pytest.raises(TypeError, match="a scene file's path or a dyncontact.Scene"):
+        run_stability_scene(str(tmp_path / "x"), 3, **kw)

@@ -431,12 +431,29 @@ class UserScene:
     scheme: str = "hht"
 
 
-def read_user_scene(path: str) -> UserScene:
+def read_user_scene(path, out: str | None = None) -> UserScene:
     """The scene file ``path`` as a :class:`UserScene`; ValueError with one line naming
     the file when it is missing, refused by the core, or has no time step of its own
-    (dt = 0, the automatic step of central differences: the ladders are multiples of it)."""
+    (dt = 0, the automatic step of central differences: the ladders are multiples of it).
+    ``path`` may also be a :class:`dyncontact.Scene` (a scene built or edited in Python):
+    it is written as ``out/scene.nml`` (``Scene.write``: its mesh file made absolute),
+    the file the study's runs then read; TypeError for anything else."""
     from ..scene import Scene
 
+    if isinstance(path, Scene):
+        if out is None:
+            raise TypeError("a Scene needs the study's output folder to be written into")
+        os.makedirs(out, exist_ok=True)
+        scene, path = path, os.path.join(os.path.abspath(out), "scene.nml")
+        try:
+            scene.write(path)
+        except Exception as exc:  # noqa: BLE001 - refused by the core: its one line,
+            raise ValueError(" ".join(str(exc).split())) from None   # naming the scene
+    elif isinstance(path, os.PathLike):
+        path = os.fspath(path)
+    elif not isinstance(path, str):
+        raise TypeError(f"scene: a scene file's path or a dyncontact.Scene, not "
+                        f"{type(path).__name__}")
     if not os.path.isfile(path):
         raise ValueError(f"--scene {path}: no such file")
     try:

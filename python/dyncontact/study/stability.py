@@ -590,7 +590,7 @@ def _summary(report, schemes, path) -> str:
     return write_markdown(path, lines)
 
 
-def run_stability_scene(out: str, scene: str, *, quick: bool = False,
+def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
                         grid: Mapping[str, Any] | None = None, cache: str | None = None,
                         workers: int | None = None, scheduler: Any = None,
                         progress: bool | None = None, log=print) -> dict[str, Any]:
@@ -598,11 +598,13 @@ def run_stability_scene(out: str, scene: str, *, quick: bool = False,
     ``grid``: schemes, dt_factors, rounds) on a scene file of one's own, its mesh, mass,
     contact (h, γ0, θ) and T as given, by :func:`critical_dt` (the grid, then the
     bisection). Writes runs.csv, stability.csv, the heat maps and summary.md into
-    ``out``; ValueError (one line) for a missing or bad scene."""
+    ``out``; ValueError (one line) for a missing or bad scene. ``scene``: a scene file's
+    path, or a :class:`dyncontact.Scene`, written as ``out/scene.nml`` for the runs to
+    read."""
     from .common import on_scene, read_user_scene, refusal_on_scene
 
     t0 = time.perf_counter()
-    scn = read_user_scene(scene)
+    scn = read_user_scene(scene, out)
     g = dict(SCENE_GRIDS["quick" if quick else "full"])
     g.update(grid or {})
     out = os.path.abspath(out)

@@ -835,7 +835,7 @@ def _scene_series(scene: UserScene, c_implicit: float, c_explicit: float, series
     return kept, left_out
 
 
-def run_work_precision_scene(out: str, scene: str, *, quick: bool = False,
+def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
                              c_implicit: float = 20.0, c_explicit: float = 100.0,
                              cache: str | None = None, workers: int | None = None,
                              scheduler: Any = None, progress: bool | None = None, log=print,
@@ -848,12 +848,14 @@ def run_work_precision_scene(out: str, scene: str, *, quick: bool = False,
     the smallest of those Δt: time-discretization errors on that mesh. A scheme the core
     refuses on the scene (an explicit one with the ALM or the redistributed mass) is left
     out with the core's reason. Writes work_precision.csv, work_precision.png and
-    summary.md into ``out``; ValueError (one line) for a missing or bad scene."""
+    summary.md into ``out``; ValueError (one line) for a missing or bad scene.
+    ``scene``: a scene file's path, or a :class:`dyncontact.Scene`, written as
+    ``out/scene.nml`` for the runs to read."""
     from .common import on_scene, read_user_scene, scene_step_ratio
 
     t0 = time.perf_counter()
     size = "quick" if quick else "full"
-    scn = read_user_scene(scene)
+    scn = read_user_scene(scene, out)
     c0 = scene_step_ratio(scn, c_implicit, c_explicit)
     out = os.path.abspath(out)
     os.makedirs(out, exist_ok=True)
