@@ -1038,8 +1038,8 @@ contains
             else if (s%omega_c == 0.0_dp) then
                 hint = '; '//trim(sim%scn%scheme_name)//' is unstable at every step: '// &
                        'gamma = '//real_text(s%gamma, 4)//' < 1/2 - alpha = '// &
-                       real_text(0.5_dp - s%alpha, 4)//' (docs/numerics.md, "Explicit '// &
-                       'schemes")'
+                       real_text(0.5_dp - s%alpha, 4)// &
+                       ' (docs/numerics.md, "Explicit schemes")'
             else
                 hint = '; '//trim(sim%scn%scheme_name)//' is explicit, stable only below a '// &
                        'critical step: try a smaller &scheme dt (it is '// &
