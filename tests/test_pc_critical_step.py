@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -146,8 +147,10 @@ def test_pc_runs_are_stable_below_the_estimate_and_not_above(name, alpha, tmp_pa
     warns before the run (ratio 1.02 to the estimate, within the power iteration's 1 %)
     and stops as unstable; summary.json's dt_crit_estimate is within 1 % of it."""
     dtc = pc_stability(*coefficients(name, alpha))[0] / chain_omega_max(CHAIN_N)
-    below = run_as_designed(free_bar(name, alpha, CHAIN_N, 0.98 * dtc, 3000 * dtc),
-                            out=tmp_path / "b")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")      # no warning but the designed one
+        below = run_as_designed(free_bar(name, alpha, CHAIN_N, 0.98 * dtc, 3000 * dtc),
+                                out=tmp_path / "b")
     with pytest.warns(DyncontactWarning, match=f"x the critical step of {name}, estimated "):
         above = run_as_designed(free_bar(name, alpha, CHAIN_N, 1.02 * dtc, 3000 * dtc),
                                 out=tmp_path / "a")
@@ -202,7 +205,9 @@ def test_pc_hht_seed_negative_alpha_says_no_step_is_stable(tmp_path):
     """Estimate 0 (no stable step), no warning before the run, and the blow-up message
     says why instead of asking for a smaller step."""
     s = free_bar("pc_hht_seed", -0.3, CHAIN_N, 0.01, 300.0)
-    res = run_as_designed(s, out=tmp_path / "o")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")      # no warning but the designed one
+        res = run_as_designed(s, out=tmp_path / "o")
     assert res.summary["dt_crit_estimate"] == 0.0
     assert res.status == "unstable"
     assert res.summary["message"].endswith(
