@@ -6,10 +6,10 @@
 !> Stability: for the linearized system the scheme is stable iff dt < 2 / omega_max,
 !> omega_max^2 the largest eigenvalue of M^{-1} (K_theta + D), D the contact tangent.
 !> The run estimates omega_max^2 at full contact (every contact quadrature point active,
-!> the stiffest state the contact can reach) by power iteration (critical_step.f90); with `&scheme dt = 0`
-!> it runs at SAFETY times the estimate. Power iteration approaches omega_max^2 from
-!> below, so the estimate of dt_crit is from above: SAFETY covers that and the
-!> nonlinearity.
+!> the stiffest state the contact can reach) by power iteration (critical_step.f90);
+!> with `&scheme dt = 0` it runs at SAFETY times the estimate. Power iteration
+!> approaches omega_max^2 from below, so the estimate of dt_crit is from above: SAFETY
+!> covers that and the nonlinearity.
 !>
 !> In flight (no active point, L = 0) the scheme conserves the modified energy
 !>     1/2 v.M v + 1/2 u.K_theta u - dt^2/8 a.M a
