@@ -78,16 +78,22 @@ def test_central_below_its_critical_step_says_nothing(box_dt_crit, tmp_path):
 
 
 def test_pc_unstable_says_it_is_explicit(box_dt_crit, tmp_path):
-    """pc (no estimate of its own) at 3 x central's estimate: the unstable message says
-    that pc is explicit and gives the step to reduce; through the API the run returns
-    with status 'unstable' and that message."""
+    """pc at 3 x central's estimate, 4.24 x its own (sqrt(2) / omega_max, the same
+    omega_max): a warning before the run, and the unstable message says that pc is
+    explicit and gives its estimate; through the API the run returns with status
+    'unstable' and that message."""
     import dyncontact
+    from dyncontact.core import DyncontactWarning
     dt = 3.0 * box_dt_crit
-    res = dyncontact.run(box_scene(tmp_path / "s.nml", "pc", dt), out=tmp_path / "o",
-                         progress=False)
+    with pytest.warns(DyncontactWarning, match=" is 4.24 x the critical step of pc, "):
+        res = dyncontact.run(box_scene(tmp_path / "s.nml", "pc", dt), out=tmp_path / "o",
+                             progress=False)
     assert res.status == "unstable"
-    assert "; pc is explicit, stable only below a critical step: try a smaller &scheme " \
-        "dt (it is " in res.summary["message"]
+    est = res.summary["dt_crit_estimate"]
+    assert est == pytest.approx(box_dt_crit / 2 ** 0.5, rel=1e-12)
+    assert res.summary["message"].endswith(
+        f"; pc is explicit, stable only below a critical step, estimated {est:.3E} at full "
+        f"contact (&scheme dt = {dt:.3E}): try a smaller &scheme dt".replace("E-0", "E-00"))
 
 
 def test_implicit_runs_get_no_explicit_hint(tmp_path):

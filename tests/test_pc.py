@@ -86,7 +86,8 @@ def test_pc_hht_dissipates_more_than_pc(tmp_path):
 
 def test_unstable_pc_stops_with_status_and_trace(tmp_path):
     """dt far above the explicit stability limit (~h / (c sqrt(3)) for P1): the run is
-    stopped as 'unstable', keeps its trace up to the stop, and the CLI exits 3."""
+    stopped as 'unstable', keeps its trace up to the stop, and the CLI exits 3, after
+    one warning line before the run (dt is 1.57 x pc's own estimate)."""
     s = scene(scheme__dt=0.02)
     path = tmp_path / "unstable.nml"
     s.write(path)
@@ -94,8 +95,10 @@ def test_unstable_pc_stops_with_status_and_trace(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "dyncontact", "run", str(path), "--out",
                            str(out), "--quiet"], capture_output=True, text=True)
     assert proc.returncode == 3
-    assert "unstable" in proc.stderr
-    assert len(proc.stderr.strip().splitlines()) == 1
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 2, proc.stderr
+    assert " is 1.57 x the critical step of pc, estimated " in lines[0], lines[0]
+    assert "unstable" in lines[1]
     summary = dyncontact.core.read_summary(out)
     trace = dyncontact.core.read_trace(out)
     assert summary["status"] == "unstable"

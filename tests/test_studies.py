@@ -946,6 +946,14 @@ def test_stability_quick_has_the_rows_beyond_the_seed_and_compares_central_estim
         if c["bracket"] == "bisection":
             assert c["estimate_over_measured"] == pytest.approx(
                 c["dt_crit_estimate"] / math.sqrt(c["dt_crit_lo"] * c["dt_crit_hi"]))
+    # the pc family records its own, sqrt(2) / omega_max with central's omega_max: with the
+    # same (lumped) mass and setting, 1/sqrt(2) of central's to round-off
+    pcs = [c for c in crit if c["scheme"] in ("pc", "pc_lumped")]
+    assert pcs and all(c["dt_crit_estimate"] and c["dt_crit_estimate"] > 0 for c in pcs)
+    same = {(c["h"], c["gamma0"], c["theta"]): c["dt_crit_estimate"] for c in cen}
+    pairs = [(c["dt_crit_estimate"], same[(c["h"], c["gamma0"], c["theta"])]) for c in pcs
+             if c["scheme"] == "pc_lumped" and (c["h"], c["gamma0"], c["theta"]) in same]
+    assert pairs and all(p == pytest.approx(q / math.sqrt(2), rel=1e-12) for p, q in pairs)
     text = open(stability["summary"], encoding="utf-8").read()
     assert "critical-step estimate against the measured one" in text
 

@@ -519,6 +519,21 @@ subroutine dc_ls_auto_decide(n, nnz, rows, cols, vals, dim, resolved, backend, m
     stat = st
 end subroutine dc_ls_auto_decide
 
+!> The pc family's stability limit Omega_c of omega dt (explicit_schemes.f90) and its
+!> amplification matrix at omega_dt, for the recurrence's (alpha, beta, gamma).
+subroutine dc_pc_stability(alpha, beta, gamma, omega_dt, omega_c, amp)
+    use iso_c_binding, only: c_double
+    use explicit_schemes, only: pc_stability_limit, pc_amplification
+    implicit none
+    real(c_double), intent(in) :: alpha            !! HHT alpha (0 for pc)
+    real(c_double), intent(in) :: beta, gamma      !! corrector beta, gamma
+    real(c_double), intent(in) :: omega_dt         !! where amp is wanted
+    real(c_double), intent(out) :: omega_c         !! stability limit of omega dt
+    real(c_double), intent(out) :: amp(3, 3)       !! amplification matrix on (u, dt v, dt^2 a)
+    omega_c = pc_stability_limit(alpha, beta, gamma)
+    amp = pc_amplification(alpha, beta, gamma, omega_dt)
+end subroutine dc_pc_stability
+
 !> P1 element matrices of one cell: stiffness, consistent and lumped mass.
 !> The leading n x n blocks (n = dim (dim + 1)) and x(1:dim, 1:dim + 1) are used.
 subroutine dc_p1_element(dim, x, young, poisson, density, ke, me, ml)

@@ -267,7 +267,7 @@ contains
         call check_unused_scheme_keys(sim)
         call check_unused_contact_keys(sim)
         call check_alm_mass(sim)
-        call check_central_step(sim)
+        call check_explicit_step(sim)
         if (sim%scn%dt == 0.0_dp) then    ! central chose its step: the run uses it
             sim%scn%dt = sim%scheme%dt
             sim%auto_dt = .true.
@@ -293,32 +293,44 @@ contains
         end if
     end subroutine start_scheme
 
-    !> A warning for central differences run at a given &scheme dt above the critical
-    !> step it estimates (the linear limit at full contact, 2 / omega_max, approached from
-    !> above by power iteration: a step above the estimate is above that limit). Such a
-    !> run goes unstable as soon as the contact is fully active, often at its first
-    !> impact, and the blow-up message alone would not say that the step is the cause.
-    subroutine check_central_step(sim)
+    !> A warning for an explicit scheme (central, pc, pc_hht, pc_hht_seed) run at a given
+    !> &scheme dt above the critical step it estimates (the linear limit at full contact,
+    !> Omega_c / omega_max, approached from above by power iteration: a step above the
+    !> estimate is above that limit). Such a run goes unstable as soon as the contact is
+    !> fully active, often at its first impact, and the blow-up message alone would not
+    !> say that the step is the cause. None for an estimate of 0 (pc_hht_seed with
+    !> alpha < 0: no step is stable, its blow-up message says so).
+    subroutine check_explicit_step(sim)
         type(simulation_t), intent(inout) :: sim            !! the run (scheme set up)
-        character(len=:), allocatable :: where
+        character(len=:), allocatable :: where, what, auto
+        real(dp) :: dt_crit
         select type (s => sim%scheme)
         type is (central_scheme_t)
-            if (sim%scn%dt <= 0.0_dp .or. .not. (s%dt_crit > 0.0_dp)) return
-            if (sim%scn%dt <= s%dt_crit) return
-            if (sim%mdl%has_contact) then
-                where = ' at full contact: the run is likely to go unstable once the contact'// &
-                        ' is active'
-            else
-                where = ': the run is likely to go unstable'
-            end if
-            sim%mdl%notes = trim(sim%mdl%notes)// &
-                'warning: &scheme dt = '//real_text(sim%scn%dt, 4)//' is '// &
-                fixed_text(sim%scn%dt / s%dt_crit, 2)//' x the critical step of central '// &
-                'differences, estimated '//real_text(s%dt_crit, 4)//where//'; give dt <= '// &
-                real_text(CENTRAL_SAFETY * s%dt_crit, 4)//' (0.9 x it) or dt = 0 (docs/'// &
-                'scenes.md, &scheme)'//new_line('a')
+            dt_crit = s%dt_crit
+            what = 'central differences'
+            auto = ' or dt = 0'
+        type is (pc_scheme_t)
+            dt_crit = s%dt_crit
+            what = trim(sim%scn%scheme_name)
+            auto = ''
+        class default
+            return
         end select
-    end subroutine check_central_step
+        if (sim%scn%dt <= 0.0_dp .or. .not. (dt_crit > 0.0_dp)) return
+        if (sim%scn%dt <= dt_crit) return
+        if (sim%mdl%has_contact) then
+            where = ' at full contact: the run is likely to go unstable once the contact'// &
+                    ' is active'
+        else
+            where = ': the run is likely to go unstable'
+        end if
+        sim%mdl%notes = trim(sim%mdl%notes)// &
+            'warning: &scheme dt = '//real_text(sim%scn%dt, 4)//' is '// &
+            fixed_text(sim%scn%dt / dt_crit, 2)//' x the critical step of '//what// &
+            ', estimated '//real_text(dt_crit, 4)//where//'; give dt <= '// &
+            real_text(CENTRAL_SAFETY * dt_crit, 4)//' (0.9 x it)'//auto//' (docs/'// &
+            'scenes.md, &scheme)'//new_line('a')
+    end subroutine check_explicit_step
 
     !> A warning for the redistributed mass on a scheme that weighs the internal force
     !> half at t_n and half at t_n+1 (galpha rho_inf = 1, theta theta = 1/2). The massless
@@ -1007,21 +1019,36 @@ contains
 
     !> What an unstable explicit run adds to its message: the explicit schemes (pc,
     !> pc_hht, pc_hht_seed, central) are stable only below a critical step, the first
-    !> thing to check (a newcomer's step is often an implicit scheme's); central gives
-    !> its own estimate of that step. '' for the implicit schemes.
+    !> thing to check (a newcomer's step is often an implicit scheme's); each gives its
+    !> own estimate of that step (pc_hht_seed with alpha < 0 has none: no step is
+    !> stable). '' for the implicit schemes.
     function explicit_step_hint(sim) result(hint)
         type(simulation_t), intent(in) :: sim               !! the run
         character(len=:), allocatable :: hint
+        character(len=:), allocatable :: contact
         hint = ''
+        contact = trim(merge(' at full contact', '                ', sim%mdl%has_contact))
         select type (s => sim%scheme)
         type is (pc_scheme_t)
-            hint = '; '//trim(sim%scn%scheme_name)//' is explicit, stable only below a '// &
-                   'critical step: try a smaller &scheme dt (it is '//real_text(sim%scn%dt, 4)//')'
+            if (s%dt_crit > 0.0_dp) then
+                hint = '; '//trim(sim%scn%scheme_name)//' is explicit, stable only below '// &
+                       'a critical step, estimated '//real_text(s%dt_crit, 4)//contact// &
+                       ' (&scheme dt = '//real_text(sim%scn%dt, 4)//'): try a smaller '// &
+                       '&scheme dt'
+            else if (s%omega_c == 0.0_dp) then
+                hint = '; '//trim(sim%scn%scheme_name)//' is unstable at every step: '// &
+                       'gamma = '//real_text(s%gamma, 4)//' < 1/2 - alpha = '// &
+                       real_text(0.5_dp - s%alpha, 4)// &
+                       ' (docs/numerics.md, "Explicit schemes")'
+            else
+                hint = '; '//trim(sim%scn%scheme_name)//' is explicit, stable only below a '// &
+                       'critical step: try a smaller &scheme dt (it is '// &
+                       real_text(sim%scn%dt, 4)//')'
+            end if
         type is (central_scheme_t)
             hint = '; central is explicit, stable only below a critical step, estimated '// &
-                   real_text(s%dt_crit, 4)//trim(merge(' at full contact', '                ', &
-                   sim%mdl%has_contact))//' (&scheme dt = '//real_text(sim%scn%dt, 4)// &
-                   '): try a smaller &scheme dt, or dt = 0'
+                   real_text(s%dt_crit, 4)//contact//' (&scheme dt = '// &
+                   real_text(sim%scn%dt, 4)//'): try a smaller &scheme dt, or dt = 0'
         end select
     end function explicit_step_hint
 
@@ -1542,6 +1569,8 @@ contains
             facts = sim%scheme%factorizations
             select type (s => sim%scheme)
             type is (central_scheme_t)
+                dt_crit_line = '  "dt_crit_estimate": '//json_real(s%dt_crit)//','//nl
+            type is (pc_scheme_t)
                 dt_crit_line = '  "dt_crit_estimate": '//json_real(s%dt_crit)//','//nl
             end select
         end if

@@ -6,10 +6,10 @@
 !> Stability: for the linearized system the scheme is stable iff dt < 2 / omega_max,
 !> omega_max^2 the largest eigenvalue of M^{-1} (K_theta + D), D the contact tangent.
 !> The run estimates omega_max^2 at full contact (every contact quadrature point active,
-!> the stiffest state the contact can reach) by power iteration; with `&scheme dt = 0`
-!> it runs at SAFETY times the estimate. Power iteration approaches omega_max^2 from
-!> below, so the estimate of dt_crit is from above: SAFETY covers that and the
-!> nonlinearity.
+!> the stiffest state the contact can reach) by power iteration (critical_step.f90);
+!> with `&scheme dt = 0` it runs at SAFETY times the estimate. Power iteration
+!> approaches omega_max^2 from below, so the estimate of dt_crit is from above: SAFETY
+!> covers that and the nonlinearity.
 !>
 !> In flight (no active point, L = 0) the scheme conserves the modified energy
 !>     1/2 v.M v + 1/2 u.K_theta u - dt^2/8 a.M a
@@ -17,17 +17,18 @@
 module central_difference
     use kinds, only: dp, i8
     use linear_solver, only: ls_factor_info
-    use errors, only: STAT_OK, STAT_NUMERIC, raise
-    use model, only: model_t, model_apply_jacobian, model_stiff_apply, model_mass_apply
+    use errors, only: STAT_OK
+    use model, only: model_t, model_stiff_apply, model_mass_apply
     use nitsche_contact, only: contact_eval
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
                            mass_solver_name, mass_solver_kernel
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, step_solve_failed
+    use critical_step, only: omega_max_squared, CRITICAL_SAFETY
     implicit none
     private
 
-    real(dp), parameter, public :: CENTRAL_SAFETY = 0.9_dp   !! dt = SAFETY dt_crit when dt = 0
-    integer, parameter :: POWER_ITERATIONS = 200             !! power iterations for omega_max
+    !> dt = SAFETY dt_crit when dt = 0
+    real(dp), parameter, public :: CENTRAL_SAFETY = CRITICAL_SAFETY
 
     !> Central differences.
     type, extends(time_scheme_t), public :: central_scheme_t
@@ -162,46 +163,18 @@ contains
         end do
     end subroutine lumped_tail
 
-    !> Critical step 2 / omega_max of central differences, omega_max^2 the largest
-    !> eigenvalue of M^{-1} (K_theta + D_full), D_full the contact tangent with every
-    !> contact quadrature point active (a deep uniform penetration), by power iteration
-    !> from a fixed start vector. 0 when there are no free dofs.
+    !> Critical step 2 / omega_max of central differences (omega_max: critical_step.f90,
+    !> at full contact). 0 when there are no free dofs.
     subroutine central_critical_dt(mdl, ms, dt_crit, stat, errmsg)
         type(model_t), intent(in) :: mdl                    !! model
         type(mass_solver_t), intent(inout) :: ms            !! M^{-1}
         real(dp), intent(out) :: dt_crit                    !! 2 / omega_max
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp), allocatable :: x(:), y(:), upen(:)
-        real(dp) :: lam, nrm, extent
-        integer :: it, i, n
-        stat = STAT_OK
+        real(dp) :: lam
         dt_crit = 0.0_dp
-        n = mdl%n_dofs
-        if (n == 0) return
-        allocate (x(n), y(n), upen(n))
-        ! a uniform penetration far beyond any strain the mesh can show: every contact
-        ! quadrature point is active there
-        extent = 1.0e6_dp * max(1.0_dp, maxval(abs(mdl%msh%x)))
-        do i = 1, n
-            upen(i) = extent * mdl%normal(mdl%dof_comp(i))
-            x(i) = 1.0_dp + real(mod(7 * i, 11), dp) / 11.0_dp   ! fixed, generic start
-        end do
-        x = x / norm2(x)
-        lam = 0.0_dp
-        do it = 1, POWER_ITERATIONS
-            call model_apply_jacobian(mdl, upen, x, y)
-            call mass_solver_apply(ms, y, x, stat, errmsg)
-            if (stat /= STAT_OK) return
-            nrm = norm2(x)
-            if (.not. (nrm > 0.0_dp .and. nrm <= huge(nrm))) then
-                call raise(stat, errmsg, STAT_NUMERIC, &
-                           'central: the critical step estimate failed (M^-1 K not finite)')
-                return
-            end if
-            lam = nrm
-            x = x / nrm
-        end do
+        call omega_max_squared(mdl, ms, 'central', lam, stat, errmsg)
+        if (stat /= STAT_OK .or. mdl%n_dofs == 0) return
         dt_crit = 2.0_dp / sqrt(lam)
     end subroutine central_critical_dt
 end module central_difference

@@ -551,6 +551,22 @@ def estimate_geo(path: str | os.PathLike, *, length: float = 1.0, width: float =
             "margin": float(est[3])}
 
 
+def pc_stability(alpha: float, beta: float, gamma: float,
+                 omega_dt: float = 0.0) -> tuple[float, np.ndarray]:
+    """The predictor-corrector family's stability limit Omega_c of omega dt, and its
+    amplification matrix on one mode at ``omega_dt`` (on (u, dt v, dt^2 a)), for the
+    recurrence's (alpha, beta, gamma) (pc: alpha = 0; pc_hht: beta = (1 - alpha)^2/4,
+    gamma = 1/2 - alpha; pc_hht_seed: beta = (1 + alpha)^2/4, gamma = 1/2 + alpha).
+    A run's critical step estimate is Omega_c / omega_max.
+
+    >>> round(pc_stability(0.0, 0.25, 0.5)[0] ** 2, 12)
+    2.0
+    """
+    omega_c, amp = _core().dc_pc_stability(float(alpha), float(beta), float(gamma),
+                                           float(omega_dt))
+    return float(omega_c), np.array(amp)
+
+
 def p1_element(dim: int, x, young: float, poisson: float, density: float):
     """P1 element matrices of one cell: (stiffness, consistent mass, lumped mass).
 

@@ -476,7 +476,8 @@ def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any
                                    / (e[0] + tr["e_contact"][0])),
              "impact_times": [float(x) for x in starts],
              "e_before_impacts": before, "t_last": float(t[-1])}
-    # central differences estimate their own critical step (summary.json)
+    # the explicit schemes (central, the pc family) estimate their own critical step
+    # (summary.json)
     m["dt_crit_estimate"] = result.summary.get("dt_crit_estimate")
     arrays = {}
     if keep_rows and len(t):

@@ -246,8 +246,8 @@ def critical_rows(crit: Mapping[tuple, Mapping[str, Any]], schemes) -> list[dict
     """The rows of stability.csv (:data:`CRITICAL_COLUMNS`) from :func:`critical_groups`'
     groups, with the bisection's [lo, hi] filled in, in the order of ``schemes`` then
     (h, gamma0, theta): the bracket, its geometric mean (and / h), the first unstable grid
-    run's status, stop time and reason, and central differences' own estimate beside
-    the measured value."""
+    run's status, stop time and reason, and the explicit schemes' own estimate (central,
+    pc, pc_hht, pc_hht_seed: summary.json's dt_crit_estimate) beside the measured value."""
     by_key = {s.key: s for s in schemes}
     order = [s.key for s in schemes]
     rows = []
@@ -403,7 +403,7 @@ def _box3d_summary(report) -> list[str]:
                       fmt(c.get("dt_crit_estimate"), ".4g"),
                       fmt(c.get("estimate_over_measured"), ".3f"), stop])
     lines += md_table(["scheme", "h", "γ0", "θ", "critical Δt 3D", "critical Δt 2D",
-                       "3D / 2D", "3D grid stable", "3D estimate (central)",
+                       "3D / 2D", "3D grid stable", "3D estimate (explicit)",
                        "estimate / measured", "first unstable 3D grid run"], table)
     return lines
 
@@ -553,12 +553,14 @@ def _summary(report, schemes, path) -> str:
                       "yes" if c["non_monotone"] else "", stop])
     lines += md_table(["scheme", "mass", "h", "γ0", "θ", "critical Δt", "grid stable",
                        "non-monotone", "first unstable grid run"], table)
-    lines += ["", "## Central differences: the run's own critical-step estimate against the "
+    lines += ["", "## Explicit schemes: the run's own critical-step estimate against the "
               "measured one", "",
-              "`dt_crit_estimate` (summary.json): 2/√λ_max of M⁻¹(K_θ + contact tangent with "
-              "every contact point active), by power iterations; the measured critical Δt "
+              "`dt_crit_estimate` (summary.json): Ω_c/√λ_max, λ_max the largest eigenvalue of "
+              "M⁻¹(K_θ + contact tangent with every contact point active) by power "
+              "iterations, Ω_c the limit of the scheme's amplification matrix (2 for central, "
+              "√2 for pc; docs/numerics.md, \"Explicit schemes\"); the measured critical Δt "
               "is the bisection's bracket above. A ratio below 1 means the estimate is on "
-              "the safe side (dt = 0 runs at 0.9 × the estimate).", ""]
+              "the safe side (central's dt = 0 runs at 0.9 × the estimate).", ""]
     table = [[c["scheme"], c["mass"], fmt(c["h"], "g"), fmt(c["gamma0"], "g"), c["theta"],
               fmt(c["dt_crit_estimate"], ".4g"),
               (f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')}"
@@ -568,23 +570,25 @@ def _summary(report, schemes, path) -> str:
     if table:
         lines += md_table(["scheme", "mass", "h", "γ0", "θ", "estimate", "measured",
                            "estimate / measured"], table)
-        ratios = [c["estimate_over_measured"] for c in report["critical"]
-                  if c.get("estimate_over_measured")]
-        if ratios:
-            lines += ["", f"Estimate / measured over {len(ratios)} settings: "
-                      f"{min(ratios):.3f} to {max(ratios):.3f} "
-                      f"(median {float(np.median(ratios)):.3f})."]
-        unsafe = [c for c in report["critical"] if c.get("dt_crit_estimate")
-                  and c["bracket"] in ("bisection", "below grid")
+        for key in dict.fromkeys(c["scheme"] for c in report["critical"]):
+            ratios = [c["estimate_over_measured"] for c in report["critical"]
+                      if c["scheme"] == key and c.get("estimate_over_measured")]
+            if ratios:
+                lines += ["", f"{key}: estimate / measured over {len(ratios)} settings: "
+                          f"{min(ratios):.3f} to {max(ratios):.3f} "
+                          f"(median {float(np.median(ratios)):.3f})."]
+        # dt = 0 is central's only
+        auto = [c for c in report["critical"] if c.get("dt_crit_estimate")
+                and c["scheme"].startswith("central")]
+        unsafe = [c for c in auto if c["bracket"] in ("bisection", "below grid")
                   and AUTO_FACTOR * c["dt_crit_estimate"] >= c["dt_crit_hi"]]
-        lines += ["", f"Δt = 0 (auto: {AUTO_FACTOR:g} × the estimate) is at or above the "
-                  f"measured unstable bound in {len(unsafe)} of "
-                  f"{sum(1 for c in report['critical'] if c.get('dt_crit_estimate'))} "
+        lines += ["", f"Central's Δt = 0 (auto: {AUTO_FACTOR:g} × the estimate) is at or "
+                  f"above the measured unstable bound in {len(unsafe)} of {len(auto)} "
                   f"settings" + (": " + ", ".join(
                       f"{c['scheme']} h={c['h']:g} γ0={c['gamma0']:g} θ={c['theta']:+d}"
                       for c in unsafe) if unsafe else "") + "."]
     else:
-        lines.append("No central-difference run in the sweep.")
+        lines.append("No explicit run in the sweep.")
     if report.get("box3d"):
         lines += _box3d_summary(report)
     return write_markdown(path, lines)
@@ -700,7 +704,7 @@ def _scene_summary(report, path) -> str:
     left = [f"- {k}: refused by the core on this scene: {why}." for k, why in
             report["left_out"]]
     lines += md_table(["scheme", "mass", "contact", "critical Δt", "/ scene's Δt",
-                       "grid stable", "non-monotone", "own estimate (central)",
+                       "grid stable", "non-monotone", "own estimate (explicit)",
                        "first unstable grid run", "why refused"], table)
     if refused:
         lines += ["", "Refused rows: the core does not run that scheme on this scene "
