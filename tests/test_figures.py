@@ -227,7 +227,7 @@ def test_figures_run_on_the_pool_on_dask_and_from_the_cache(tmp_path, monkeypatc
     monkeypatch.setattr(figures, "figure_plan", lambda quick=False: [fig])
     pool = figures.make_figures(str(tmp_path / "pool"), workers=2, log=None)
     with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=1,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=":0") as cluster:
         dask = figures.make_figures(str(tmp_path / "dask"), scheduler=cluster.scheduler_address,
                                     log=None)
     again = figures.make_figures(str(tmp_path / "pool"), workers=2, log=None)

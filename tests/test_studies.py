@@ -599,7 +599,7 @@ def test_dask_local_cluster_gives_the_same_csv_as_the_pool(tmp_path):
     pool = run_stability(str(tmp_path / "pool"), quick=True, grid=grid, workers=2,
                          progress=False, log=None)
     with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=1,
-                                  dashboard_address=None) as cluster:
+                                  dashboard_address=":0") as cluster:
         dask = run_stability(str(tmp_path / "dask"), quick=True, grid=grid,
                              scheduler=cluster.scheduler_address, progress=False, log=None)
     assert dask["n_cached"] == 0 and pool["n_cached"] == 0
