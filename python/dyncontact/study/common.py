@@ -21,7 +21,7 @@ __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0
            "RunSpec", "seed_spec", "every_for", "scheme_text", "num", "loadavg",
            "package_version", "add_runner_options", "MAX_ROWS", "OneLineParser",
            "positive", "mesh_sizes", "UserScene", "read_user_scene", "on_scene",
-           "refusal_on_scene", "scene_step_ratio"]
+           "refusal_on_scene", "scene_step_ratio", "critical_step_estimate"]
 
 #: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016). The base
 #: scenes give no key that a study's scheme or method may not use (the scheme's
@@ -511,6 +511,42 @@ def refusal_on_scene(s: SchemeSpec, scene: UserScene) -> str | None:
     except Exception as exc:  # noqa: BLE001 - the core's reason, whatever its class
         return " ".join(str(exc).replace(scene.path + ": ", "").split())
     return None
+
+
+def critical_step_estimate(s: SchemeSpec, scene: UserScene) -> float | None:
+    """The core's estimate of the critical step of scheme ``s`` (as :func:`on_scene` gives
+    it) on ``scene``: summary.json's ``dt_crit_estimate`` of the scene run with ``s``'s
+    keys, opened and closed without a step (a :class:`dyncontact.core.Stepper`: the
+    model's set-up and the power iterations, no time step; about 12 ms on the seed's bar
+    at h = 0.01). Omega_c/omega_max at full contact, approached from above
+    (docs/numerics.md, "Explicit schemes"): it depends on the mesh, material, mass and
+    contact and on the scheme's parameters, not on Δt or T. None for a scheme that has
+    none (an implicit one) or that the core refuses on the scene; 0.0 where no step is
+    stable (pc_hht_seed with α < 0). The run's warnings are left out: they are those of
+    the study's own runs of the scheme, which the sweep records."""
+    import tempfile
+    import warnings
+
+    from ..core import DyncontactError, DyncontactWarning, Stepper, read_summary
+    from ..scene import Scene
+
+    if not s.explicit:
+        return None
+    try:
+        scn = Scene.read(scene.path)
+        for key, value in s.settings:
+            scn.set(key, value)
+        scn.set("output.fields_every", 0)
+        scn.set("output.checkpoint_every", 0)
+        with tempfile.TemporaryDirectory(prefix="dyncontact-dtcrit-") as tmp:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", DyncontactWarning)
+                with Stepper(scn, tmp):
+                    pass
+            est = read_summary(tmp).get("dt_crit_estimate")
+    except (DyncontactError, ValueError, OSError):
+        return None
+    return None if est is None else float(est)
 
 
 def step_ratio(s: SchemeSpec, c_implicit: float, c_explicit: float) -> float:

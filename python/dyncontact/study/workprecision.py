@@ -40,7 +40,10 @@ the scene as given (mesh, material, mass, contact, probe, T) at a ladder of Δt 
 from the scene's (SCENE_LADDER), against the same scene run with SCENE_REFERENCE at
 SCENE_REF_FRACTIONS of the smallest of those Δt, in the same measures, reference table
 (its three Δt levels in place of mesh sizes, no separate Δt check) and plot: errors of the
-time discretization on the scene's mesh.
+time discretization on the scene's mesh. An explicit scheme whose ladder would go above
+EXPLICIT_SAFETY × its critical step, as the core estimates it on the scene, runs at its
+step divided by an integer that brings its largest step to at most that
+(:func:`_explicit_divisors`), so that its points are runs, not crosses.
 
 CPU time: process CPU time of the worker around :func:`dyncontact.run` (set-up and trace
 reading included), robust to other load on the machine. Every run writes its trace
@@ -68,7 +71,7 @@ from .sweep import Task, make_task, sweep
 __all__ = ["run_work_precision", "QUANTITIES", "DEFAULT_SERIES", "REFERENCES",
            "NORMS", "RMS_TOO", "richardson", "mean_abs_in_time", "is_resolved",
            "resolution", "run_work_precision_scene", "SCENE_LADDER", "SCENE_REFERENCE",
-           "SCENE_REF_FRACTIONS"]
+           "SCENE_REF_FRACTIONS", "EXPLICIT_SAFETY"]
 
 QUANTITIES = ("u_n", "v_n", "p_n", "e_total")
 #: The norm in time of each quantity's error (module docstring; docs/numerics.md,
@@ -110,6 +113,12 @@ SCENE_LADDER = {"full": (2.0, 1.0, 0.5, 0.25), "quick": (1.0, 0.5)}
 #: between the three give its error estimate (:func:`richardson`).
 SCENE_REFERENCE = "newmark"
 SCENE_REF_FRACTIONS = {"full": (1 / 4, 1 / 8, 1 / 16), "quick": (1 / 2, 1 / 4, 1 / 8)}
+#: ``--scene``: an explicit scheme's largest step is kept at or below this fraction of
+#: its critical step as the core estimates it on the scene (the core's CRITICAL_SAFETY,
+#: the fraction central's dt = 0 takes: the estimate is the linear limit at full contact,
+#: approached from above); where its ladder would go above, its step is divided by an
+#: integer (:func:`_explicit_divisors`).
+EXPLICIT_SAFETY = 0.9
 #: The 2D references (module docstring): name -> (scheme key, c in dt = h/c, the
 #: quantities it is the reference for, the mesh sizes per study size, coarse to fine:
 #: the finest is the reference, the two before it give its error estimate).
@@ -790,11 +799,20 @@ def _scene_rows(run_dts, ref_dts, spacing: float):
     g is not a multiple of a level's step), the rows of the built-in study are taken:
     runs about every OUTPUT_DT, references nested, compared through the interpolation.
     Returns (the runs' every, the references' every)."""
-    builtin = [_every(dt) for dt in run_dts], [_level_every(dt) for dt in ref_dts]
+    nested = _nested_rows(run_dts, ref_dts, spacing)
+    if nested is None:
+        return [_every(dt) for dt in run_dts], [_level_every(dt) for dt in ref_dts]
+    return nested
+
+
+def _nested_rows(run_dts, ref_dts, spacing: float):
+    """The rows of :func:`_scene_rows` that fall on rows of every reference level, or None
+    where the steps do not allow them (a step not an integer multiple of the finest
+    reference step, or g not a multiple of a level's step)."""
     unit = min(ref_dts)
     steps = [dt / unit for dt in list(run_dts) + list(ref_dts)]
     if any(abs(k - round(k)) > 1e-6 * k for k in steps):
-        return builtin
+        return None
     n_run = [round(dt / unit) for dt in run_dts]
     n_ref = [round(dt / unit) for dt in ref_dts]
     every = [max(1, int(spacing / dt * (1 + 1e-9))) for dt in run_dts]
@@ -802,7 +820,7 @@ def _scene_rows(run_dts, ref_dts, spacing: float):
     for e, n in zip(every, n_run):
         g = math.gcd(g, e * n)
     if any(g % n for n in n_ref):
-        return builtin
+        return None
     return every, [g // n for n in n_ref]
 
 
@@ -835,6 +853,78 @@ def _scene_series(scene: UserScene, c_implicit: float, c_explicit: float, series
     return kept, left_out
 
 
+def _explicit_estimates(scn: UserScene, kept) -> dict[str, float | None]:
+    """Series key -> the core's critical step estimate of each explicit scheme of
+    ``kept`` on the scene (:func:`.common.critical_step_estimate`): one 0-step run per
+    distinct scheme on the scene's mass and contact (pc at two c values is one)."""
+    from .common import critical_step_estimate
+
+    by_settings: dict[Any, float | None] = {}
+    out = {}
+    for s, _c, _label, skey in kept:
+        if s.explicit:
+            if s.settings not in by_settings:
+                by_settings[s.settings] = critical_step_estimate(s, scn)
+            out[skey] = by_settings[s.settings]
+    return out
+
+
+def _scene_steps(kept, base, divisors, factors, size: str):
+    """(runs, reference levels) of a scene study: each scheme of ``kept`` at its step
+    base[series key], divided by divisors.get(series key) where there is one, times each
+    of ``factors``; the reference levels at SCENE_REF_FRACTIONS of the smallest step."""
+    runs = []
+    for s, c, label, skey in kept:
+        step = base[skey] / divisors[skey] if skey in divisors else base[skey]
+        runs += [(s, c, label, skey, f, step * f) for f in factors]
+    dt_min = min(dt for *_, dt in runs)
+    return runs, tuple(dt_min * x for x in SCENE_REF_FRACTIONS[size])
+
+
+def _explicit_divisors(kept, base, factors, size: str, spacing: float,
+                       estimates) -> dict[str, int]:
+    """Series key -> the integer k by which an explicit scheme's step base[key] is
+    divided so that its largest step, base × max(factors) / k, is at most
+    EXPLICIT_SAFETY × its critical step estimate (``estimates``: key -> the core's
+    estimate; None or 0, where no step is known to be stable, leaves the scheme as it
+    is). k is the smallest integer that does it, or the first of the next ones up to 2k
+    with which every run's rows fall on the reference's (:func:`_nested_rows`: errors
+    at common times, not through an interpolation of the reference), tried in the
+    series' order. An integer divisor keeps the ladder's factors, and T a whole number
+    of steps wherever the undivided step made it one. Only the schemes whose ladder goes
+    above the cap are in the result: where none does, the study runs exactly the runs
+    (the same tasks, the same cache keys) it ran without the cap."""
+    fmax = max(factors)
+    need = {}
+    for _s, _c, _label, skey in kept:
+        est = estimates.get(skey)
+        if not est or not est > 0 or base[skey] * fmax <= EXPLICIT_SAFETY * est:
+            continue
+        cap = EXPLICIT_SAFETY * est
+        k = max(2, math.ceil(base[skey] * fmax / cap))
+        while base[skey] / k * fmax > cap:
+            k += 1
+        need[skey] = k
+    chosen = dict(need)
+    for skey, k0 in need.items():
+        for k in range(k0, 2 * k0 + 1):
+            runs, levels = _scene_steps(kept, base, {**chosen, skey: k}, factors, size)
+            if _nested_rows([dt for *_, dt in runs], levels, spacing) is not None:
+                chosen[skey] = k
+                break
+    return chosen
+
+
+def _capped_line(x) -> str:
+    """One line on a scheme whose step was lowered below its critical step."""
+    return (f"{x['series']} ({x['label']}): its ladder's largest step "
+            f"{fmt(x['dt_ladder_max'], '.4g')} is {x['dt_ladder_max'] / x['estimate']:.3g} × "
+            f"its critical step, estimated {fmt(x['estimate'], '.4g')} on this scene; run "
+            f"at its step / {x['divisor']} ({x['ratio']:.3g} × the scene's Δt), the largest "
+            f"{fmt(x['dt_max'], '.4g')} = {x['dt_max'] / x['estimate']:.3g} × the estimate "
+            f"(at most {EXPLICIT_SAFETY:g} ×)")
+
+
 def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
                              c_implicit: float = 20.0, c_explicit: float = 100.0,
                              cache: str | None = None, workers: int | None = None,
@@ -845,7 +935,11 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
     T at the Δt of ``ladder`` (factors on its step, default SCENE_LADDER; its step is
     the scene's Δt × c₀/c, c₀ the ratio of the scene's own scheme,
     :func:`.common.scene_step_ratio`), against SCENE_REFERENCE at SCENE_REF_FRACTIONS of
-    the smallest of those Δt: time-discretization errors on that mesh. A scheme the core
+    the smallest of those Δt: time-discretization errors on that mesh. An explicit
+    scheme whose largest step would be above EXPLICIT_SAFETY × its critical step, as the
+    core estimates it on the scene, runs at its step divided by an integer
+    (:func:`_explicit_divisors`; the report's 'capped', its summary's "Explicit schemes
+    below their critical step", one line each in ``log``). A scheme the core
     refuses on the scene (an explicit one with the ALM or the redistributed mass) is left
     out with the core's reason. Writes work_precision.csv, work_precision.png and
     summary.md into ``out``; ValueError (one line) for a missing or bad scene.
@@ -866,12 +960,24 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
         raise ValueError(f"--scene {scn.path}: the core refuses every scheme of the "
                          f"study on it (first: {left_out[-1][1]})")
     h = None if scn.mesh_file else scn.h
-    runs = [(s, c, label, skey, f, scn.dt * c0 / c * f)
-            for s, c, label, skey in kept for f in factors]
-    dt_min = min(dt for *_, dt in runs)
-    levels = tuple(dt_min * x for x in SCENE_REF_FRACTIONS[size])
-    run_every, ref_every = _scene_rows([dt for *_, dt in runs], levels,
-                                       scn.dt * c0 / c_implicit * max(factors))
+    base = {skey: scn.dt * c0 / c for _s, c, _label, skey in kept}
+    spacing = scn.dt * c0 / c_implicit * max(factors)
+    estimates = _explicit_estimates(scn, kept)
+    divisors = _explicit_divisors(kept, base, factors, size, spacing, estimates)
+    explicit = [{"series": skey, "label": s.label, "estimate": estimates[skey],
+                 "divisor": divisors.get(skey, 1), "ratio": c0 / c / divisors.get(skey, 1),
+                 "dt_ladder_max": base[skey] * max(factors),
+                 "dt_max": base[skey] / divisors.get(skey, 1) * max(factors)}
+                for s, c, _label, skey in kept if skey in estimates]
+    capped = [x for x in explicit if x["divisor"] > 1]
+    for x in capped:
+        if log:
+            log(f"work-precision --scene: {_capped_line(x)}")
+    kept = [(s, c, label if skey not in divisors
+             else f"{s.label}, Δt×{c0 / c / divisors[skey]:.3g} (capped)", skey)
+            for s, c, label, skey in kept]
+    runs, levels = _scene_steps(kept, base, divisors, factors, size)
+    run_every, ref_every = _scene_rows([dt for *_, dt in runs], levels, spacing)
     tasks = [_trace_task(scn.path, s, dt, scn.t_end,
                          {"case": "scene", "series": skey, "label": label, "scheme": s.key,
                           "h": h, "dt": dt, "c": c, "factor": f}, every=e)
@@ -891,20 +997,59 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
     cases = (("scene", os.path.basename(scn.path)),)
     report = _report(run_recs, recs, kept, ref_info, out, cases)
     # the schemes of another step than the scene's Δt, by their factor on it (the
-    # factors of the c values run, whatever --c-explicit was)
+    # factors of the c values run, whatever --c-explicit was); those whose step was
+    # lowered below their critical step by their series key, with the factor they ran at
     other: dict[float, list[str]] = {}
-    for s, c, _label, _skey in kept:
+    for s, c, _label, skey in kept:
         name = dict(s.settings)["scheme.name"]
-        if c != c0 and name not in other.setdefault(c0 / c, []):
+        if skey not in divisors and c != c0 and name not in other.setdefault(c0 / c, []):
             other[c0 / c].append(name)
-    step_note = ("; ".join(f"{', '.join(keys)} at {ratio:.3g}×"
-                           for ratio, keys in sorted(other.items()))
-                 or "every scheme at the scene's Δt")
+    step_note = "; ".join(f"{', '.join(keys)} at {ratio:.3g}×"
+                          for ratio, keys in sorted(other.items()))
+    if capped:
+        step_note += (("; " if step_note else "")
+                      + ", ".join(f"{x['series']} at {x['ratio']:.3g}×" for x in capped)
+                      + " (lowered below " + ("its" if len(capped) == 1 else "their")
+                      + " critical step: see below)")
+    step_note = step_note or "every scheme at the scene's Δt"
     report.update(t_end=scn.t_end, quick=quick, wall_s=time.perf_counter() - t0, size=size,
                   scene=scn, factors=factors, left_out=left_out, ref_levels=levels,
-                  ref_label=ref_spec.label, c0=c0, step_note=step_note)
+                  ref_label=ref_spec.label, c0=c0, step_note=step_note,
+                  explicit=explicit, capped=capped)
     report["summary"] = _scene_summary(report, os.path.join(out, "summary.md"))
     return report
+
+
+def _explicit_section(report) -> list[str]:
+    """The summary's lines on the explicit schemes' steps: their critical step
+    estimates, and one line per scheme whose step was lowered below it."""
+    explicit = report["explicit"]
+    if not explicit:
+        return ["No explicit scheme in the series."]
+    lines = [
+        "An explicit scheme is stable only below a critical step. The core estimates it "
+        "on this scene for each explicit scheme (summary.json's `dt_crit_estimate`: "
+        "Ω_c/ω_max at full contact, from above; docs/numerics.md, \"Explicit schemes\"), "
+        "from a run opened without a step. Where the ladder would put a scheme's largest "
+        f"step above {EXPLICIT_SAFETY:g} × its estimate (the fraction central's dt = 0 "
+        "takes), its step is divided by the smallest integer that brings it there (or "
+        "the next one, up to twice it, whose steps fall on the reference's rows), the "
+        "factors of the ladder kept: a point above it would only be a cross at the top "
+        "of the panels.", ""]
+    capped = report["capped"]
+    lines += ([f"- {_capped_line(x)}." for x in capped]
+              or [f"None lowered: every explicit scheme's largest step is at most "
+                  f"{EXPLICIT_SAFETY:g} × its estimate."])
+    rest = [x for x in explicit if x["divisor"] == 1]
+    if rest:
+        lines += ["", "Not lowered: " + "; ".join(
+            f"{x['series']}: largest step {fmt(x['dt_max'], '.4g')}, "
+            + (f"{x['dt_max'] / x['estimate']:.3g} × its estimate "
+               f"{fmt(x['estimate'], '.4g')}" if x["estimate"]
+               else "no step is stable (estimate 0)" if x["estimate"] == 0
+               else "no estimate")
+            for x in rest) + "."]
+    return lines
 
 
 def _scene_summary(report, path) -> str:
@@ -933,6 +1078,8 @@ def _scene_summary(report, path) -> str:
         "![work-precision](work_precision.png)", "", "## Schemes left out", ""]
     lines += ([f"- {k}: {why}." for k, why in report["left_out"]]
               or ["None: every scheme of the series applies to this scene."])
+    lines += ["", "## Explicit schemes below their critical step", ""]
+    lines += _explicit_section(report)
     lines += ["", "## Is the reference converged enough?", ""]
     if ref["ok"]:
         lines += [
