@@ -122,6 +122,24 @@ def test_scene_summary_has_the_reference_table_and_says_what_is_measured(wp):
     assert rep["ref"]["ok"] and len(rep["ref_levels"]) == 3
 
 
+def test_scene_where_no_cap_binds_runs_the_ladder_as_before(wp):
+    """Δt = h/20: every explicit scheme's largest step is below 0.9 × its estimate
+    (central's h/4 is 0.53 × it), so no step is lowered and every run is at the step the
+    study gave it before it knew the estimates, the float of the same expression (the
+    same tasks: the cache keys of earlier runs stay valid)."""
+    rep, _scene, _d = wp
+    assert rep["capped"] == []
+    assert {x["series"] for x in rep["explicit"]} == {"pc@100", "pc@20", "central_lumped@4"}
+    assert all(0 < x["dt_max"] <= 0.9 * x["estimate"] for x in rep["explicit"])
+    dt, c0 = H_1D / 20, 20.0
+    for r in rep["rows"]:
+        assert r["dt"] in [dt * c0 / r["c"] * f for f in LADDER], r
+        assert "(capped)" not in r["label"]
+    text = open(rep["summary"], encoding="utf-8").read()
+    assert "None lowered: every explicit scheme's largest step is at most 0.9 × its " \
+           "estimate." in text
+
+
 def test_scene_second_call_takes_every_run_from_the_cache(wp):
     from dyncontact.study.workprecision import run_work_precision_scene
 
@@ -168,14 +186,17 @@ def test_scene_summary_gives_the_explicit_steps_of_its_c_explicit(tmp_path):
     assert "here pc at 0.4×)" in text and "a fifth" not in text
 
 
-@pytest.mark.parametrize("scheme, c0", [("central", 4.0), ("pc", 100.0), ("newmark", 20.0)])
-def test_scene_dt_is_the_step_of_the_scenes_own_scheme(tmp_path, scheme, c0):
+@pytest.mark.parametrize("scheme, c0, k", [("central", 4.0, 1), ("pc", 100.0, 5),
+                                           ("newmark", 20.0, 1)])
+def test_scene_dt_is_the_step_of_the_scenes_own_scheme(tmp_path, scheme, c0, k):
     """The scene's Δt is its own scheme's step: a scene written for central at Δt runs
     central at that Δt (the scene's own run is among the study's) and newmark at
     Δt × 4/20; on a pc scene newmark runs at 5 × its Δt; on an implicit scene central
     runs at 5 × (20/4) and pc at a fifth, as in the built-in study. Read as the implicit
     step whatever the scene's scheme, the scene's Δt would run central at 5 × the step
-    the scene gives it, past its stability limit."""
+    the scene gives it, past its stability limit. On the pc scene central's Δt × 25 =
+    0.0625 is itself 2.65 × its critical step (0.0236): it runs at a k-th of it, 0.0125
+    (test_scene_explicit_schemes_run_below_their_critical_step)."""
     from dyncontact.study.workprecision import run_work_precision_scene
 
     dt = H_1D / 20
@@ -189,7 +210,10 @@ def test_scene_dt_is_the_step_of_the_scenes_own_scheme(tmp_path, scheme, c0):
     assert rep["n_errors"] == 0
     got = {r["series"]: r["dt"] for r in rep["rows"]}
     assert got == pytest.approx({"newmark@20": dt * c0 / 20, "pc@100": dt * c0 / 100,
-                                 "central_lumped@4": dt * c0 / 4})
+                                 "central_lumped@4": dt * c0 / 4 / k})
+    assert {x["series"]: x["divisor"] for x in rep["capped"]} == (
+        {"central_lumped@4": k} if k > 1 else {})
+    assert all(r["status"] == "ok" for r in rep["rows"])
     text = open(rep["summary"], encoding="utf-8").read()
     assert f"({scheme}: c₀ = {c0:g}," in text
 
@@ -212,6 +236,112 @@ def test_scene_left_out_schemes_are_said_not_crashed_on(tmp_path):
     assert "same run" in why["newmark_redist@20"]
     text = open(rep["summary"], encoding="utf-8").read()
     assert "- pc@100: refused by the core" in text
+
+
+# ------------------------------------------------------- explicit schemes, critical step
+
+#: A scene whose Δt is already near the explicit limit: the 1D bar, lumped mass, Δt =
+#: h/2.5 to T = 1.5 (one impact, at t = 1). central's ladder (Δt × c₀/c = 5 Δt) would be
+#: 0.1 and 0.05, 4.24 and 2.12 × its critical step estimate 0.0236 (√2 h/3): both stop as
+#: unstable (0.1 at t = 0.2, 0.05 at the impact); pc@20's largest, 0.02, is 1.2 × its
+#: estimate 0.0167 (= central's / √2).
+DT_NEAR = H_1D / 2.5
+T_NEAR = 1.5
+
+
+def _near_scene(path):
+    return _scene_1d(path, t_end=T_NEAR, **{f"dt = {H_1D / 20}": f"dt = {DT_NEAR}",
+                                            "mass = 'consistent'": "mass = 'lumped'"})
+
+
+def test_scene_explicit_schemes_run_below_their_critical_step(tmp_path):
+    """On a scene whose Δt would put central and pc@20 above their critical steps, both
+    run at their step divided by an integer (central by 5, pc@20 by 2), every point
+    below 0.9 × the estimate and finished (status ok); the estimate the study used is
+    the dt_crit_estimate of a run of the scheme on the scene; newmark's and pc@100's
+    steps are those of the ladder; the summary and the log say which scheme was
+    lowered, to what step and why, and the note on the steps gives the factors run."""
+    from conftest import run_as_designed
+
+    import dyncontact
+    from dyncontact.study.workprecision import EXPLICIT_SAFETY, run_work_precision_scene
+
+    scene = _near_scene(tmp_path / "near.nml")
+    logged = []
+    rep = run_work_precision_scene(str(tmp_path / "out"), scene, quick=True,
+                                   series=(("newmark", None), ("pc", None), ("pc", 20.0),
+                                           ("central_lumped", None)),
+                                   workers=1, progress=False, log=logged.append)
+    assert rep["n_errors"] == 0
+    est = {x["series"]: x["estimate"] for x in rep["explicit"]}
+    # the estimates are those of the core's own runs of the schemes on the scene
+    for skey, name in (("central_lumped@4", "central"), ("pc@20", "pc")):
+        run = dyncontact.Scene.read(scene)
+        run.set("scheme.name", name)
+        run.set("scheme.dt", 0.5 * est[skey])
+        run.set("scheme.t_end", 0.05)
+        res = run_as_designed(run, out=tmp_path / name)
+        assert res.summary["dt_crit_estimate"] == est[skey], skey
+    assert est["pc@100"] == est["pc@20"]     # one scheme and mass: one estimate
+    rows = {}
+    for r in rep["rows"]:
+        rows.setdefault(r["series"], []).append(r)
+    want = {"newmark@20": [DT_NEAR, DT_NEAR / 2], "pc@100": [DT_NEAR / 5, DT_NEAR / 10],
+            "pc@20": [DT_NEAR / 2, DT_NEAR / 4], "central_lumped@4": [DT_NEAR, DT_NEAR / 2]}
+    assert set(rows) == set(want)
+    for skey, dts in want.items():
+        assert [r["dt"] for r in rows[skey]] == pytest.approx(dts, rel=1e-12), skey
+    assert [r["dt"] for r in rows["newmark@20"]] == [DT_NEAR * 1.0, DT_NEAR * 0.5]
+    for skey in ("pc@20", "central_lumped@4"):
+        for r in rows[skey]:
+            assert r["status"] == "ok" and r["dt"] <= EXPLICIT_SAFETY * est[skey], (skey, r)
+            assert r["label"].endswith("(capped)"), r["label"]
+    assert {x["series"]: x["divisor"] for x in rep["capped"]} == {"pc@20": 2,
+                                                                  "central_lumped@4": 5}
+    text = open(rep["summary"], encoding="utf-8").read()
+    assert "## Explicit schemes below their critical step" in text
+    line = ("- central_lumped@4 (central lumped): its ladder's largest step 0.1 is 4.24 × "
+            "its critical step, estimated 0.02357 on this scene; run at its step / 5 "
+            "(1 × the scene's Δt), the largest 0.02 = 0.849 × the estimate (at most 0.9 ×).")
+    assert line in text.splitlines()
+    assert any(x.startswith("- pc@20 (pc β=0.25, γ=0.5, lumped mass): its ladder's largest "
+                            "step 0.02 is 1.2 × ") for x in text.splitlines()), text
+    assert ("here pc at 0.2×; pc@20 at 0.5×, central_lumped@4 at 1× (lowered below their "
+            "critical step: see below)") in text
+    assert "Not lowered: pc@100: largest step 0.004, 0.24 × its estimate 0.01667." in text
+    said = [x for x in logged if "critical step" in x]
+    assert len(said) == 2 and f"work-precision --scene: {line[2:-1]}" in said, logged
+
+
+def test_scene_explicit_divisor_keeps_the_rows_on_the_reference():
+    """central's step 5 × 0.01 with the ladder (1, ½) against a cap of 0.9 × 0.02357: the
+    smallest divisor is 3 (0.0167), whose steps are not multiples of the finest
+    reference step; with 4 (0.0125) they are, but its rows, 0.0125 apart, share with
+    newmark's (0.01 apart) no multiple of the coarsest reference step: in both cases
+    the runs' rows would not all fall on the reference's. The study takes 5 (0.01, the
+    scene's Δt). A scheme without an estimate, one of estimate 0 (no step is stable)
+    and one whose ladder stays below its cap are left as they are."""
+    from dyncontact.study.workprecision import _explicit_divisors, _nested_rows, _scene_steps
+
+    dt, est = 0.01, 0.023570226039551584
+    kept = [(SCHEMES["newmark"], 20.0, "n", "newmark@20"),
+            (SCHEMES["central_lumped"], 4.0, "c", "central_lumped@4"),
+            (SCHEMES["pc"], 100.0, "p", "pc@100"),
+            (SCHEMES["pc_hht_seed-0.1"], 100.0, "s", "pc_hht_seed-0.1@100")]
+    base = {"newmark@20": dt, "central_lumped@4": 5 * dt, "pc@100": dt / 5,
+            "pc_hht_seed-0.1@100": dt / 5}
+    factors, spacing = (1.0, 0.5), dt
+
+    def rows(k):
+        runs, levels = _scene_steps(kept, base, {"central_lumped@4": k}, factors, "quick")
+        return _nested_rows([x[-1] for x in runs], levels, spacing)
+
+    assert rows(3) is None and rows(4) is None and rows(5) is not None
+    got = _explicit_divisors(kept, base, factors, "quick", spacing,
+                             {"central_lumped@4": est, "pc@100": est / 2 ** 0.5,
+                              "pc_hht_seed-0.1@100": 0.0})
+    assert got == {"central_lumped@4": 5}
+    assert _explicit_divisors(kept, base, factors, "quick", spacing, {}) == {}
 
 
 # --------------------------------------------------------------------------- stability
