@@ -28,7 +28,9 @@ SCENE_HELP = {
     "work-precision": "a scene file of one's own: each scheme on it as given (mesh, "
                       "material, contact, probe, T) at Δt = 2, 1, 1/2, 1/4 × its step "
                       "(quick: 1, 1/2; the scene's Δt for its own scheme, of step h/c0, "
-                      "x c0/c for a scheme of step h/c), errors against the same scene at a "
+                      "x c0/c for a scheme of step h/c; an explicit scheme's steps divided "
+                      "by an integer where they would be above 0.9 x its critical step "
+                      "as the core estimates it), errors against the same scene at a "
                       "much finer Δt (time-discretization errors on that mesh)",
     "stability": "a scene file of one's own: the critical Δt of the main schemes on it "
                  "as given (its h, γ0, θ, T), Δt grid in multiples of its Δt, then "
