@@ -59,7 +59,8 @@ contains
     end function checkpoint_scene_hash
 
     !> The hash h0 (checkpoint_scene_hash) extended with the mesh the run built: node
-    !> coordinates, cells, tagged facets and the groups' names. A mesh file is named in the
+    !> coordinates, cells, tagged facets, the nodes of point and curve groups and the
+    !> groups' names. A mesh file is named in the
     !> scene, not held by it: edited between a stop and a restart (nodes moved, the same
     !> number of dofs) it makes another run, which the scene's hash alone would not see.
     function checkpoint_mesh_hash(h0, msh) result(h)
@@ -78,6 +79,10 @@ contains
         if (msh%n_facets > 0) then
             h = bytes_hash(transfer(msh%facets, repeat(' ', IB * size(msh%facets))), h)
             h = bytes_hash(transfer(msh%facet_group, repeat(' ', IB * msh%n_facets)), h)
+        end if
+        if (msh%n_lower > 0) then   ! (none: the hash of a mesh without such groups, as before)
+            h = bytes_hash(transfer(msh%lower_nodes, repeat(' ', IB * msh%n_lower)), h)
+            h = bytes_hash(transfer(msh%lower_group, repeat(' ', IB * msh%n_lower)), h)
         end if
         do i = 1, msh%n_groups
             h = bytes_hash(trim(msh%group_name(i))//achar(0), h)

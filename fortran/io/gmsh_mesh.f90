@@ -11,6 +11,8 @@
 !>   group of its entity (0 if none);
 !> - facets (elements of dimension dim-1) are stored once per physical group of their
 !>   entity; facets of entities without a physical group are dropped;
+!> - the physical groups of a lower dimension (points; curves in 3D) keep their nodes
+!>   (lower_nodes, lower_group: once per group and node, sorted by group then node);
 !> - x holds the first dim coordinates; the others must be constant.
 module gmsh_mesh
     use, intrinsic :: iso_c_binding, only: c_int, c_double, c_char, c_ptr, c_long_long, &
@@ -83,6 +85,20 @@ module gmsh_mesh
             integer(c_int), intent(out) :: group_dim(*)      !! (n_groups) each group's dimension
             character(kind=c_char), intent(out) :: names(*)  !! (names_len) the groups' names
         end subroutine c_gmsh_arrays
+        !> Number of (group, node) pairs of the groups of a lower dimension of a mesh read
+        !> by c_gmsh_read.
+        subroutine c_gmsh_lower_size(p, n_lower) bind(C, name='dc_gmsh_lower_size')
+            import :: c_ptr, c_long_long
+            type(c_ptr), value :: p                      !! mesh from c_gmsh_read
+            integer(c_long_long), intent(out) :: n_lower !! pairs
+        end subroutine c_gmsh_lower_size
+        !> Copy those pairs (sizes from c_gmsh_lower_size).
+        subroutine c_gmsh_lower_arrays(p, nodes, group) bind(C, name='dc_gmsh_lower_arrays')
+            import :: c_ptr, c_int
+            type(c_ptr), value :: p                      !! mesh from c_gmsh_read
+            integer(c_int), intent(out) :: nodes(*)      !! 1-based node numbers
+            integer(c_int), intent(out) :: group(*)      !! 1-based group indices
+        end subroutine c_gmsh_lower_arrays
         !> Free a mesh read by c_gmsh_read.
         subroutine c_gmsh_free(p) bind(C, name='dc_gmsh_free')
             import :: c_ptr
@@ -126,7 +142,7 @@ contains
         character(len=:), allocatable :: p, ext
         type(c_ptr) :: handle
         integer(c_int) :: st, dim, n_groups, names_len, is_geo
-        integer(c_long_long) :: nn, nc, nf
+        integer(c_long_long) :: nn, nc, nf, nl
         real(dp), allocatable :: xyz(:, :)
         character(kind=c_char), allocatable :: names(:)
         logical :: exists, is_dir
@@ -183,7 +199,8 @@ contains
             return
         end if
         call c_gmsh_sizes(handle, dim, nn, nc, nf, n_groups, names_len)
-        if (max(nn, nc, nf) > huge(1)) then
+        call c_gmsh_lower_size(handle, nl)
+        if (max(nn, nc, nf, nl) > huge(1)) then
             call c_gmsh_free(handle)
             call raise(stat, errmsg, STAT_BAD_INPUT, p//': too many nodes or elements')
             return
@@ -193,9 +210,10 @@ contains
         msh%n_cells = int(nc)
         msh%n_facets = int(nf)
         msh%n_groups = n_groups
+        msh%n_lower = int(nl)
         allocate (xyz(3, nn), msh%cells(dim + 1, nc), msh%cell_group(nc), msh%facets(dim, nf), &
                   msh%facet_group(nf), msh%group_dim(n_groups), names(max(1, names_len)), &
-                  stat=ist)
+                  msh%lower_nodes(nl), msh%lower_group(nl), stat=ist)
         if (ist /= 0) then
             call c_gmsh_free(handle)
             call raise(stat, errmsg, STAT_INTERNAL, p//': out of memory')
@@ -203,6 +221,7 @@ contains
         end if
         call c_gmsh_arrays(handle, xyz, msh%cells, msh%cell_group, msh%facets, &
                            msh%facet_group, msh%group_dim, names)
+        call c_gmsh_lower_arrays(handle, msh%lower_nodes, msh%lower_group)
         call c_gmsh_free(handle)
 
         call set_names(p, names(1:names_len), msh, stat, errmsg)

@@ -15,6 +15,9 @@
  *   - dim: the highest dimension with elements; cells: elements of dimension dim, by entity
  *     (increasing tag), in the entity's order, with the first physical group of the entity;
  *   - facets: elements of dimension dim - 1 of entities with physical groups, once per group;
+ *   - lower nodes: the nodes of the elements of dimension below dim - 1 (points; 2-node
+ *     segments of curves in 3D) of entities with physical groups, once per (group, node),
+ *     sorted by group then node: what a Physical Point or Curve holds that no facet does;
  *   - groups: the named physical groups by (dimension, tag) -- the order of $PhysicalNames in
  *     every file gmsh writes --, then the unnamed ones in order of first use by an entity.
  * The result (1-based indices) is copied by the Fortran module gmsh_mesh, then freed with
@@ -57,6 +60,9 @@ typedef struct {
     int *facet_group;      /* n_facets */
     int *group_dim;        /* n_groups */
     char *group_names;     /* n_groups names, each followed by '\n' */
+    size_t n_lower;        /* (group, node) pairs of the groups below dimension dim - 1 */
+    int *lower_nodes;      /* n_lower node numbers */
+    int *lower_group;      /* n_lower group indices */
 } dc_gmsh_mesh_t;
 
 #define NO_GMSH_MSG "mesh files need gmsh (libgmsh): install it with `pip install gmsh` " \
@@ -331,6 +337,14 @@ static int cmp_size(const void *a, const void *b)
 }
 
 /* Index (1-based) of tag in sorted[0..n), 0 if absent. */
+/* qsort order of (group, node) pairs stored as two consecutive ints. */
+static int cmp_pair(const void *a, const void *b)
+{
+    const int *x = a, *y = b;
+    if (x[0] != y[0]) return x[0] < y[0] ? -1 : 1;
+    return (x[1] > y[1]) - (x[1] < y[1]);
+}
+
 static int find_tag(const size_t *sorted, size_t n, size_t tag)
 {
     size_t lo = 0, hi = n;
@@ -435,6 +449,79 @@ static int *entity_physicals(int d, int tag, size_t *n)
 }
 
 typedef struct { int dim, tag; } group_key_t;
+
+/* The g-th (1-based) name of the newline-terminated list `names`, into out. */
+static void nth_name(const char *names, int g, char *out, size_t len)
+{
+    const char *a = names, *b;
+    out[0] = '\0';
+    for (int k = 1; k < g && a; k++) {
+        a = strchr(a, '\n');
+        if (a) a++;
+    }
+    if (!a || !(b = strchr(a, '\n'))) return;
+    snprintf(out, len, "%.*s", (int)(b - a), a);
+}
+
+/* m->lower_nodes, m->lower_group: the nodes (1-based, numbered in `sorted`) of the
+ * elements of dimension below dim - 1 of the entities with physical groups, once per
+ * (group, node), sorted by group then node. 0, else 2 (a node unknown) or 4 (memory). */
+static int lower_pairs(const char *path, int dim, const size_t *n_ents, int *const *ents,
+                       block_t *const *blocks, const group_key_t *groups, int n_groups,
+                       const size_t *sorted, size_t n_node_tags, dc_gmsh_mesh_t *m,
+                       char *msg, int msglen)
+{
+    size_t n = 0, e, i, k, v, u;
+    int *pairs = NULL;
+    for (int pass = 0; pass < 2; pass++) {
+        for (int dd = 0; dd < dim - 1; dd++)
+            for (e = 0; e < n_ents[dd]; e++) {
+                const block_t *b = &blocks[dd][e];
+                size_t np;
+                int *p = entity_physicals(dd, ents[dd][2 * e + 1], &np);
+                for (k = 0; k < np; k++) {
+                    int g = 0;
+                    for (int j = 0; j < n_groups && !g; j++)
+                        if (groups[j].dim == dd && groups[j].tag == p[k]) g = j + 1;
+                    for (i = 0; i < b->n * (size_t)(dd + 1); i++, n++) {
+                        int idx;
+                        if (pass == 0) continue;
+                        idx = find_tag(sorted, n_node_tags, b->nodes[i]);
+                        if (!idx) {
+                            char buf[160];
+                            snprintf(buf, sizeof buf, ": element %zu refers to unknown node "
+                                     "%zu", b->tags[i / (size_t)(dd + 1)], b->nodes[i]);
+                            set_msg(msg, msglen, path, buf, NULL);
+                            if (p) G.free(p);
+                            free(pairs);
+                            return 2;
+                        }
+                        pairs[2 * n] = g;
+                        pairs[2 * n + 1] = idx;
+                    }
+                }
+                if (p) G.free(p);
+            }
+        if (pass == 0) {
+            pairs = malloc((2 * n + 2) * sizeof *pairs);
+            if (!pairs) return 4;
+            n = 0;
+        }
+    }
+    qsort(pairs, n, 2 * sizeof *pairs, cmp_pair);
+    m->lower_nodes = malloc((n + 1) * sizeof(int));
+    m->lower_group = malloc((n + 1) * sizeof(int));
+    if (!m->lower_nodes || !m->lower_group) { free(pairs); return 4; }
+    for (v = 0, u = 0; v < n; v++) {
+        if (u > 0 && m->lower_group[u - 1] == pairs[2 * v]
+            && m->lower_nodes[u - 1] == pairs[2 * v + 1]) continue;
+        m->lower_group[u] = pairs[2 * v];
+        m->lower_nodes[u++] = pairs[2 * v + 1];
+    }
+    m->n_lower = u;
+    free(pairs);
+    return 0;
+}
 
 /* Build the mesh from the current model. keep_untagged: keep cells of entities without a
  * physical group when the model has some (a file: gmsh saved them; a .geo: gmsh would not). */
@@ -627,6 +714,9 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
                     st = 4;
             }
         }
+        /* lower nodes: (group, node) pairs of the groups below dimension dim - 1 */
+        if (st == 0) st = lower_pairs(path, dim, n_ents, ents, blocks, groups, n_groups,
+                                      sorted, n_node_tags, m, msg, msglen);
         /* nodes: all of them (a file), or those of the kept cells (a .geo) */
         if (st == 0) {
             size_t *pos = malloc((n_node_tags + 1) * sizeof *pos);   /* tag position */
@@ -644,6 +734,17 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
                 for (i = 0; i < m->n_cells * (dim + 1); i++) m->cells[i] = renum[m->cells[i] - 1];
                 for (i = 0; i < m->n_facets * dim; i++)
                     m->facets[i] = renum[m->facets[i] - 1];
+                for (i = 0; i < m->n_lower && st == 0; i++) {
+                    if (!renum[m->lower_nodes[i] - 1]) {
+                        char gname[80], buf[240];
+                        nth_name(names, m->lower_group[i], gname, sizeof gname);
+                        snprintf(buf, sizeof buf, ": physical group '%s' has a node in no "
+                                 "cell (the cells are the %s)", gname, dim_noun(dim));
+                        set_msg(msg, msglen, path, buf, NULL);
+                        st = 2;
+                    }
+                    m->lower_nodes[i] = renum[m->lower_nodes[i] - 1];
+                }
             }
             free(pos);
             free(renum);
@@ -1054,6 +1155,23 @@ void dc_gmsh_arrays(void *p, double *xyz, int *cells, int *cell_group, int *face
     if (m->group_names) memcpy(names, m->group_names, strlen(m->group_names));
 }
 
+/* Number of (group, node) pairs of the groups below dimension dim - 1 (Physical Points;
+ * Curves of a 3D mesh) of a mesh read by dc_gmsh_read. */
+void dc_gmsh_lower_size(void *p, long long *n_lower)
+{
+    dc_gmsh_mesh_t *m = p;
+    *n_lower = (long long)m->n_lower;
+}
+
+/* Copy those pairs: 1-based node numbers and group indices, sorted by group then node. */
+void dc_gmsh_lower_arrays(void *p, int *nodes, int *group)
+{
+    dc_gmsh_mesh_t *m = p;
+    if (m->n_lower == 0) return;
+    memcpy(nodes, m->lower_nodes, m->n_lower * sizeof(int));
+    memcpy(group, m->lower_group, m->n_lower * sizeof(int));
+}
+
 /* Release a mesh of dc_gmsh_read (NULL is fine). */
 void dc_gmsh_free(void *p)
 {
@@ -1061,5 +1179,6 @@ void dc_gmsh_free(void *p)
     if (!m) return;
     free(m->xyz); free(m->cells); free(m->cell_group); free(m->facets);
     free(m->facet_group); free(m->group_dim); free(m->group_names);
+    free(m->lower_nodes); free(m->lower_group);
     free(m);
 }

@@ -1,5 +1,6 @@
 !> Simplicial meshes: nodes, cells (segments in 1D, triangles in 2D, tetrahedra in
-!> 3D), tagged boundary facets and named physical groups.
+!> 3D), tagged boundary facets, the nodes of the groups of a lower dimension (points;
+!> curves in 3D) and named physical groups.
 module mesh
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp
@@ -28,6 +29,12 @@ module mesh
         integer, allocatable :: facet_group(:)    !! (n_facets) group index of each facet
         character(len=GROUP_NAME_LEN), allocatable :: group_name(:)  !! (n_groups)
         integer, allocatable :: group_dim(:)      !! (n_groups) dimension of the group's entities
+        integer :: n_lower = 0                    !! (group, node) pairs of the groups below dim-1
+        integer, allocatable :: lower_nodes(:)    !! (n_lower) nodes of the groups of dimension
+                                                  !! < dim-1 (Physical Points; Curves in 3D),
+                                                  !! once per group, sorted by group then node;
+                                                  !! unallocated = none
+        integer, allocatable :: lower_group(:)    !! (n_lower) group index of each such node
     end type mesh_t
 
     public :: mesh_free, mesh_check, mesh_find_group, mesh_group_nodes, mesh_group_facets
@@ -96,6 +103,18 @@ contains
             end do
             if (this%facet_group(f) < 1 .or. this%facet_group(f) > this%n_groups) then
                 call refuse_item(stat, errmsg, 'facet', f, ' has group index ', this%facet_group(f))
+                return
+            end if
+        end do
+        do k = 1, this%n_lower
+            if (this%lower_nodes(k) < 1 .or. this%lower_nodes(k) > this%n_nodes) then
+                call refuse_item(stat, errmsg, 'group node', k, ' has a node number outside 1..', &
+                                 this%n_nodes)
+                return
+            end if
+            if (this%lower_group(k) < 1 .or. this%lower_group(k) > this%n_groups) then
+                call refuse_item(stat, errmsg, 'group node', k, ' has group index ', &
+                                 this%lower_group(k))
                 return
             end if
         end do
@@ -198,9 +217,19 @@ contains
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
             return
         end if
-        if (this%n_facets < 0 .or. this%n_groups < 0) then
+        if (this%n_facets < 0 .or. this%n_groups < 0 .or. this%n_lower < 0) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'mesh check: negative facet or group count')
             return
+        end if
+        if (this%n_lower > 0) then
+            ok = allocated(this%lower_nodes) .and. allocated(this%lower_group)
+            if (ok) ok = size(this%lower_nodes) == this%n_lower &
+                         .and. size(this%lower_group) == this%n_lower
+            if (.not. ok) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, &
+                           'mesh check: lower_nodes or lower_group differ from n_lower')
+                return
+            end if
         end if
         ok = allocated(this%x) .and. allocated(this%cells) .and. allocated(this%cell_group) &
              .and. allocated(this%facets) .and. allocated(this%facet_group) &
@@ -408,11 +437,12 @@ contains
         end do
     end function group_names_text
 
-    !> Mark the nodes of every facet or cell in the comma-separated list of groups
-    !> `names` (blank entries ignored; '' marks nothing). An unknown name gives
-    !> STAT_BAD_INPUT with errmsg = "group 'NAME' not in mesh"; a group with no
-    !> facet and no cell (e.g. a point group of a 2D mesh, a curve group of a 3D one)
-    !> gives STAT_BAD_INPUT too, saying what its elements are.
+    !> Mark the nodes of the groups in the comma-separated list `names` (blank entries
+    !> ignored; '' marks nothing): the nodes of their facets or cells, and for a group of
+    !> a lower dimension (a Physical Point; a Physical Curve of a 3D mesh) its nodes.
+    !> An unknown name gives STAT_BAD_INPUT with errmsg = "group 'NAME' not in mesh"; a
+    !> group with no element in the mesh gives STAT_BAD_INPUT too, saying what its
+    !> elements are.
     pure subroutine mesh_group_nodes(this, names, mask, stat, errmsg)
         type(mesh_t), intent(in) :: this                  !! mesh
         character(len=*), intent(in) :: names             !! e.g. 'left,right'
@@ -435,6 +465,10 @@ contains
             found = .false.
             call mark_group_nodes(this%facets, this%facet_group, g, mask, found)
             call mark_group_nodes(this%cells, this%cell_group, g, mask, found)
+            if (this%n_lower > 0) then
+                call mark_group_nodes(reshape(this%lower_nodes, [1, this%n_lower]), &
+                                      this%lower_group, g, mask, found)
+            end if
             if (.not. found) then
                 call raise(stat, errmsg, STAT_BAD_INPUT, &
                            "group '"//trim(this%group_name(g))// &
