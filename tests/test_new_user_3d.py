@@ -9,6 +9,7 @@ import json
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from test_reliability import ENTRIES, EXIT_BAD_INPUT, EXIT_OK, one_line, run
@@ -194,19 +195,29 @@ def test_the_block_of_ones_own_runs(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ENTRIES)
-@pytest.mark.parametrize("group, elements", [("edge", "segments"), ("corner", "points")])
-def test_clamped_group_of_a_lower_dimension_says_what_it_holds(kind, group, elements,
-                                                               tmp_path):
-    """clamped = a curve or a point group of the 3D block: refused (exit 2, one line)
-    saying what the group's elements are and what &boundary groups are made of in 3D, as
-    the contact group's message does; it said only 'has no facets or cells'."""
+@pytest.mark.parametrize("group", ["edge", "corner"])
+def test_clamped_group_of_a_lower_dimension_clamps_its_nodes(kind, group, tmp_path):
+    """clamped = a curve or a point group of the 3D block: runs (exit 0) and holds
+    exactly the group's nodes (curve 1: the nodes on x = y = 0; point 1: the node at
+    (0, 0, 0.11), OpenCASCADE's first corner of the box), every other node keeping its three dofs. It was refused ('has no
+    facets or cells in the mesh'); more in test_lower_groups.py."""
     pytest.importorskip("gmsh")
-    res = run(kind, block_scene(tmp_path, "block.geo", f"'{group}'").name, "--out", "o",
-              cwd=tmp_path)
-    line = one_line(res, EXIT_BAD_INPUT)
-    assert line == (f"dyncontact: s.nml: &boundary clamped: group '{group}' has no facets "
-                    f"or cells in the mesh (its elements are {elements}; the facets and "
-                    "cells of a 3D mesh are triangles and tetrahedra) (mesh 'block.geo')")
+    from dyncontact import mesh_io
+    from dyncontact.core import Model
+
+    scene = block_scene(tmp_path, "block.geo", f"'{group}'")
+    res = run(kind, scene.name, "--out", "o", cwd=tmp_path)
+    assert res.returncode == EXIT_OK, res.stderr
+    x = mesh_io.read_mesh(tmp_path / "block.geo").x
+    on_edge = (np.abs(x[:, 0]) < 1e-12) & (np.abs(x[:, 1]) < 1e-12)
+    held = on_edge & (np.abs(x[:, 2] - 0.11) < 1e-12) if group == "corner" else on_edge
+    assert held.sum() == 1 if group == "corner" else held.sum() >= 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with Model(scene) as m:
+            node, _ = m.dof_map()
+    assert np.array_equal(np.unique(node), np.flatnonzero(~held))
+    assert len(node) == 3 * (~held).sum()
 
 
 def test_second_order_3d_mesh_names_its_elements(tmp_path):
