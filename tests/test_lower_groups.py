@@ -224,3 +224,44 @@ def test_contact_on_a_point_group_is_refused(kind, tmp_path):
     assert line == ("dyncontact: s.nml: &boundary contact: group 'pin' has no facets in "
                     "the mesh (its elements are points; the facets of a 2D mesh are "
                     "segments) (mesh 'plate.geo')")
+
+
+@pytest.mark.parametrize("fmt", ["geo"] + [f[0] for f in MSH_FORMATS])
+def test_the_mesh_keeps_the_nodes_of_point_and_curve_groups(fmt, tmp_path):
+    """MeshData.lower_nodes / lower_group (the core's mesh_t%lower_nodes, lower_group)
+    hold, for each point or curve group, exactly its nodes, once each: the plate's
+    'top_points' the nodes of the facet group 'top', 'pin' the node at (0, 0); the
+    block's 'lid_corners' and 'lid_edges' the nodes of the face 'lid', 'edge' those on
+    x = y = 0. Groups of facets or cells have none."""
+    from dyncontact import mesh_io
+
+    def nodes(m, name):
+        got = m.lower_nodes[m.lower_group == m.group(name)]
+        assert np.all(np.diff(got) > 0)        # sorted, each node once
+        return got
+
+    def facet_nodes(m, name):
+        return np.unique(m.facets[m.facet_group == m.group(name)])
+
+    for geo, text, dim, h in (("plate.geo", PLATE_GEO, 2, 0.1),
+                              ("block.geo", BLOCK_GEO, 3, 0.05)):
+        (tmp_path / geo).write_text(text)
+        mesh = tmp_path / geo
+        if fmt != "geo":
+            _, version, binary = next(f for f in MSH_FORMATS if f[0] == fmt)
+            mesh = tmp_path / (geo[:-4] + fmt)
+            write_msh(tmp_path / geo, dim, mesh, version, binary)
+        m = mesh_io.read_mesh(mesh, h=h)
+        lower = {m.group_names[g] for g in m.lower_group}
+        if dim == 2:
+            assert lower == {"top_points", "pin"}
+            assert np.array_equal(nodes(m, "top_points"), facet_nodes(m, "top"))
+            assert len(nodes(m, "top_points")) == 7
+            assert np.array_equal(nodes(m, "pin"),
+                                  np.flatnonzero(np.hypot(*m.x.T) < 1e-12))
+        else:
+            assert lower == {"lid_corners", "lid_edges", "edge", "corner"}
+            for name in ("lid_corners", "lid_edges"):
+                assert np.array_equal(nodes(m, name), facet_nodes(m, "lid"))
+            on_edge = np.flatnonzero(np.hypot(m.x[:, 0], m.x[:, 1]) < 1e-12)
+            assert np.array_equal(nodes(m, "edge"), on_edge)

@@ -638,6 +638,53 @@ subroutine dc_mesh_free(handle)
     deallocate (msh)
 end subroutine dc_mesh_free
 
+!> The number of (group, node) pairs of the groups of a lower dimension (Physical Points;
+!> Curves of a 3D mesh) of the mesh of dc_mesh_sizes, for dc_mesh_lower_arrays.
+subroutine dc_mesh_lower_size(handle, n_lower)
+    use iso_c_binding, only: c_int, c_int64_t
+    use mesh, only: mesh_t
+    use api_handles, only: mesh_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! from dc_mesh_sizes
+    integer(c_int), intent(out) :: n_lower       !! pairs (0 for handle 0)
+    type(mesh_t), pointer :: msh
+    n_lower = 0
+    if (handle == 0) return
+    call mesh_from_handle(handle, msh)
+    n_lower = msh%n_lower
+end subroutine dc_mesh_lower_size
+
+!> Those pairs of the mesh of dc_mesh_sizes (kept: dc_mesh_arrays releases it): node
+!> numbers and group indices, 1-based, sorted by group then node.
+subroutine dc_mesh_lower_arrays(handle, n_lower, lower_nodes, lower_group, stat, errmsg)
+    use iso_c_binding, only: c_int, c_int64_t
+    use mesh, only: mesh_t
+    use api_handles, only: mesh_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! from dc_mesh_sizes
+    integer(c_int), intent(in) :: n_lower        !! pairs (dc_mesh_lower_size)
+    integer(c_int), intent(out) :: lower_nodes(n_lower)   !! node of each pair
+    integer(c_int), intent(out) :: lower_group(n_lower)   !! group of each pair
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    type(mesh_t), pointer :: msh
+    errmsg = ''
+    stat = 0
+    lower_nodes = 0; lower_group = 0
+    if (handle == 0) then
+        stat = 4
+        errmsg = 'dc_mesh_lower_arrays: no mesh (handle 0)'
+        return
+    end if
+    call mesh_from_handle(handle, msh)
+    if (msh%n_lower /= n_lower) then
+        stat = 4
+        errmsg = 'dc_mesh_lower_arrays: size differs from the mesh'
+    else if (n_lower > 0) then
+        lower_nodes = msh%lower_nodes; lower_group = msh%lower_group
+    end if
+end subroutine dc_mesh_lower_arrays
+
 !> Arrays of the mesh of dc_mesh_sizes (its sizes), which is then released. Group names
 !> are joined by ','.
 subroutine dc_mesh_arrays(handle, dim, n_nodes, n_cells, n_facets, n_groups, x, cells, &

@@ -509,13 +509,20 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
 
     Returns a dict with 0-based indices: ``x`` (n_nodes, dim), ``cells`` (n_cells, dim+1),
     ``cell_group`` (n_cells; -1 = none), ``facets`` (n_facets, dim), ``facet_group``
-    (n_facets), ``group_dim`` and ``group_names`` (lists).
+    (n_facets), ``group_dim`` and ``group_names`` (lists), ``lower_nodes`` and
+    ``lower_group`` (the nodes of the groups of a lower dimension, Physical Points and
+    Curves of a 3D mesh: once per group, sorted by group then node).
     """
     core = _core()
     p = _fpath(path, "mesh file")
     handle, dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(
         p, int(dim), float(length), float(width), float(h), int(bool(check)),
         int(bool(h_given)), int(max_elements))
+    _check(stat, errmsg, "reading the mesh")
+    nl = core.dc_mesh_lower_size(handle)
+    lower_nodes, lower_group, stat, errmsg = core.dc_mesh_lower_arrays(handle, nl)
+    if stat:
+        core.dc_mesh_free(handle)
     _check(stat, errmsg, "reading the mesh")
     (x, cells, cell_group, facets, facet_group, group_dim, names, stat,
      errmsg) = core.dc_mesh_arrays(handle, dim_, nn, nc, nf, ng)
@@ -530,6 +537,8 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
         "facet_group": np.asarray(facet_group) - 1,
         "group_dim": [int(g) for g in group_dim],
         "group_names": group_names,
+        "lower_nodes": np.asarray(lower_nodes, dtype=np.int64) - 1,
+        "lower_group": np.asarray(lower_group, dtype=np.int64) - 1,
     }
 
 

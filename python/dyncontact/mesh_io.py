@@ -20,6 +20,9 @@ indices here):
 - facets are the elements of dimension ``dim - 1`` (points in 1D, segments in
   2D, triangles in 3D) of entities with physical groups, stored once per group;
   others are dropped;
+- the groups of a lower dimension (Physical Points; Physical Curves of a 3D mesh)
+  keep their nodes (``lower_nodes``, ``lower_group``), which ``&boundary clamped`` and
+  ``slip_*`` hold;
 - ``x`` holds the first ``dim`` coordinates (the others must be constant).
 
 >>> from dyncontact import mesh_io              # from the repository's root folder
@@ -75,6 +78,11 @@ class MeshData:
         Name of each group.
     group_dim : ndarray, shape (n_groups,), int
         Dimension of each group's entities.
+    lower_nodes : ndarray, shape (n_lower,), int
+        Nodes of the groups of dimension below ``dim - 1`` (Physical Points; Curves of
+        a 3D mesh), once per group, sorted by group then node.
+    lower_group : ndarray, shape (n_lower,), int
+        Group index of each of them.
     """
 
     dim: int
@@ -85,6 +93,10 @@ class MeshData:
     facet_group: np.ndarray
     group_names: list
     group_dim: np.ndarray
+    lower_nodes: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(0, dtype=np.int64))
+    lower_group: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def group(self, name: str) -> int:
         """Index of the group called `name`; KeyError if absent."""
@@ -154,6 +166,8 @@ def _from_core(d: dict) -> MeshData:
         facet_group=np.asarray(d["facet_group"], dtype=np.int64),
         group_names=list(d["group_names"]),
         group_dim=np.asarray(d["group_dim"], dtype=np.int64),
+        lower_nodes=np.asarray(d["lower_nodes"], dtype=np.int64),
+        lower_group=np.asarray(d["lower_group"], dtype=np.int64),
     )
 
 
@@ -388,8 +402,10 @@ def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
 def _summary(m: MeshData) -> str:
     """One line describing a mesh."""
     kind = {1: "segments", 2: "triangles", 3: "tetrahedra"}[m.dim]
-    groups = ", ".join(f"{n} ({int((m.facet_group == i).sum() + (m.cell_group == i).sum())})"
-                       for i, n in enumerate(m.group_names))
+    # each group's elements: facets and cells, or a point or curve group's nodes
+    sizes = [int((m.facet_group == i).sum() + (m.cell_group == i).sum()
+                 + (m.lower_group == i).sum()) for i in range(len(m.group_names))]
+    groups = ", ".join(f"{n} ({k})" for n, k in zip(m.group_names, sizes))
     return f"{len(m.x)} nodes, {len(m.cells)} {kind}; groups {groups}"
 
 
