@@ -1,11 +1,13 @@
 !> Unit tests of the 3D mesh checks: the built-in box passes mesh_check, with triangle
 !> facets owned by tetrahedra (the owner's opposite node off the facet); a tetrahedron of
 !> zero volume, a triangle that is no face of any tetrahedron and a repeated facet node
-!> are refused with messages naming them. Exit status 1 (error stop) on any failure.
+!> are refused with messages naming them; a point group marks its nodes alone
+!> (mesh_group_nodes), and its node or group numbers out of range are refused. Exit
+!> status 1 (error stop) on any failure.
 program test_mesh3d
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT
-    use mesh, only: mesh_t, mesh_check, mesh_facet_owner, mesh_cell_size
+    use mesh, only: mesh_t, mesh_check, mesh_facet_owner, mesh_cell_size, mesh_group_nodes
     use bar_mesh, only: bar_mesh_build
     use unit_checks, only: checks_t
     implicit none
@@ -15,6 +17,7 @@ program test_mesh3d
     integer :: stat, f, c
     character(len=200) :: msg
     real(dp) :: meas, hmax, vol
+    logical :: mask(4)
 
     call bar_mesh_build(3, 1.0_dp, 0.1_dp, 0.05_dp, box, stat, msg)
     call checks%check(stat == STAT_OK, 'box built')
@@ -60,6 +63,32 @@ program test_mesh3d
     call mesh_check(bad, stat, msg)
     call checks%check(stat == STAT_BAD_INPUT .and. index(msg, 'facet 1 is not a face') > 0, &
                       'a triangle that is no face refused: '//trim(msg))
+
+    ! a point group 'tip' (the node opposite the face z = 0): its node alone is marked
+    call one_tet(bad)
+    call add_tip(bad)
+    call mesh_check(bad, stat, msg)
+    call checks%check(stat == STAT_OK, 'a tetrahedron with a point group passes')
+    mask = .false.
+    call mesh_group_nodes(bad, 'tip', mask, stat, msg)
+    call checks%check(stat == STAT_OK .and. all(mask .eqv. [.false., .false., .false., .true.]), &
+                      'the point group marks its node alone')
+    mask = .false.
+    call mesh_group_nodes(bad, 'tip,boundary', mask, stat, msg)
+    call checks%check(stat == STAT_OK .and. all(mask), 'point and facet groups together')
+    bad%lower_nodes = [5]
+    msg = ''
+    call mesh_check(bad, stat, msg)
+    call checks%check(stat == STAT_BAD_INPUT .and. &
+                      index(msg, 'group node 1 has a node number outside 1..4') > 0, &
+                      'a point group node out of range refused: '//trim(msg))
+    call add_tip(bad)
+    bad%lower_group = [4]
+    msg = ''
+    call mesh_check(bad, stat, msg)
+    call checks%check(stat == STAT_BAD_INPUT .and. &
+                      index(msg, 'group node 1 has group index 4') > 0, &
+                      'a point group index out of range refused: '//trim(msg))
     call checks%finish('test_mesh3d')
 
 contains
@@ -80,4 +109,15 @@ contains
         m%group_name = [character(len=64) :: 'boundary', 'body']
         m%group_dim = [2, 3]
     end subroutine one_tet
+
+    !> The point group 'tip' (group 3, dimension 0): node 4.
+    subroutine add_tip(m)
+        type(mesh_t), intent(inout) :: m
+        m%n_groups = 3
+        m%group_name = [character(len=64) :: 'boundary', 'body', 'tip']
+        m%group_dim = [2, 3, 0]
+        m%n_lower = 1
+        m%lower_nodes = [4]
+        m%lower_group = [3]
+    end subroutine add_tip
 end program test_mesh3d
