@@ -265,3 +265,16 @@ def test_the_mesh_keeps_the_nodes_of_point_and_curve_groups(fmt, tmp_path):
                 assert np.array_equal(nodes(m, name), facet_nodes(m, "lid"))
             on_edge = np.flatnonzero(np.hypot(m.x[:, 0], m.x[:, 1]) < 1e-12)
             assert np.array_equal(nodes(m, "edge"), on_edge)
+
+
+def test_a_point_group_off_the_body_is_refused(tmp_path):
+    """A .geo's Physical Point at a geometry point outside the meshed surface: refused
+    when the mesh is read (exit 2, naming the file and the group), as a .msh's node in no
+    cell is; it would otherwise hold nothing where the scene meant to hold a node."""
+    (tmp_path / "plate.geo").write_text(PLATE_GEO + "Point(99) = {0.5, 0.5, 0};\n"
+                                        'Physical Point("off") = {99};\n')
+    scene = tmp_path / "s.nml"
+    scene.write_text(PLATE_SCENE.format(h=0.1, mesh="plate.geo", clamped="top"))
+    line = one_line(run("exe", "s.nml", "--out", "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert line == ("dyncontact: s.nml: &mesh file: plate.geo: physical group 'off' has a "
+                    "node in no cell (the cells are the 3-node triangles)")
