@@ -336,7 +336,6 @@ static int cmp_size(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* Index (1-based) of tag in sorted[0..n), 0 if absent. */
 /* qsort order of (group, node) pairs stored as two consecutive ints. */
 static int cmp_pair(const void *a, const void *b)
 {
@@ -345,6 +344,7 @@ static int cmp_pair(const void *a, const void *b)
     return (x[1] > y[1]) - (x[1] < y[1]);
 }
 
+/* Index (1-based) of tag in sorted[0..n), 0 if absent. */
 static int find_tag(const size_t *sorted, size_t n, size_t tag)
 {
     size_t lo = 0, hi = n;
