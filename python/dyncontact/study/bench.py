@@ -17,11 +17,10 @@ import platform
 import shutil
 import sys
 import time
-import warnings
 from typing import Any, Iterable, Mapping, Sequence
 
-from .common import (OneLineParser, RunSpec, fmt, loadavg, num, package_version, scheme_text,
-                     seed_spec)
+from .common import (OneLineParser, RunSpec, contact_free_by_design, fmt, loadavg, num,
+                     package_version, scheme_text, seed_spec)
 from .sweep import ERROR, REFUSED, run_uncached, sigterm_as_interrupt
 
 __all__ = ["bench_specs", "bench_row", "interleaved_run", "bench_table", "bench_main",
@@ -122,7 +121,7 @@ def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 
     share of contact steps and the cost of a step in flight and of a contact step in
     floors (contact_share, flight_ratio, contact_ratio: :func:`split_flight_contact`).
     Never raises."""
-    from ..core import DyncontactWarning, NumericalError, Stepper
+    from ..core import NumericalError, Stepper
 
     rec: dict[str, Any] = {"scene": spec.name, "status": "error", "message": "",
                            "steps": 0, "us_per_step": None, "floor_us": None,
@@ -135,12 +134,7 @@ def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 
     try:
         if os.path.isdir(out_dir):
             shutil.rmtree(out_dir)
-        with warnings.catch_warnings():
-            if spec.settings.get("boundary.contact") == "":
-                # the contact-free rows have no contact boundary by design: the run's
-                # warning that their probe reports nothing is not news (it came once a repeat)
-                warnings.filterwarnings("ignore", "warning: no contact boundary",
-                                        DyncontactWarning)
+        with contact_free_by_design(spec.settings.get("boundary.contact") == ""):
             run = Stepper(spec.scene(), out_dir)
         with run:
             size = max(1, -(-int(run.n_steps) // max(1, int(chunks))))
