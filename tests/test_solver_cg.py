@@ -278,6 +278,24 @@ def test_block_jacobi_cg_solves_one_and_many(dim):
         assert np.linalg.norm(xm[:, j] - x1) <= 2 * cond * rtol * np.linalg.norm(x1)
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_cg_non_convergence_reports_the_residual_reached(dim):
+    """The node-block CG that stops at cg_max_iter reports the relative residual of the x
+    it leaves, |b - A x| / |b|, not the one it formed when it started (1 from x = 0, or a
+    first guess's: a run at a large dt said 'relative residual 5.06E+003 after N
+    iterations' for every N)."""
+    rng = np.random.default_rng(60 + dim)
+    rows, cols, vals, dense = node_block_coo(rng, NODE_SIZES[dim](rng))
+    b = rng.standard_normal(dense.shape[0])
+    x, _, _, its, stat, msg = solve_kind(rows, cols, vals, b, max_iter=3)
+    assert stat == STAT_NUMERIC and its == 3, msg
+    reported = float(re.search(r"relative residual (\S+) after 3 iterations", msg).group(1))
+    reached = np.linalg.norm(b - dense @ x) / np.linalg.norm(b)
+    assert reached < 0.5                       # 3 iterations on a well-conditioned matrix
+    # the message gives 3 significant digits
+    assert reported == pytest.approx(reached, rel=5e-3), (msg, reached)
+
+
 def test_indefinite_diagonal_block_solves_directly():
     """Node pairs [[1, 2], [2, 1]]: positive diagonal, indefinite diagonal blocks, so the
     matrix is not positive definite; the block preconditioner's set-up sees it."""
