@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import types
 
 import numpy as np
 import pytest
@@ -110,14 +111,17 @@ def scene_file(tmp_path):
     return p
 
 
-def test_run_ok_in_chunks(fake, scene_file, tmp_path):
+def test_run_ok_in_chunks(fake, scene_file, tmp_path, monkeypatch):
     fc = fake(n_steps=45_000)
+    monkeypatch.setattr(core, "CHUNK_S", 1e9)     # the largest chunks, whatever the load
     seen = []
     res = dyncontact.run(scene_file, out=tmp_path / "o", progress=False,
                          callback=lambda step, n: seen.append(step))
     assert res.ok and res.status == "ok" and res.message == ""
     advances = [c for c in fc.calls if c[0] == "advance"]
-    assert {c[1] for c in advances} == {45_000 // 200}
+    # one step first, then chunks of about core.CHUNK_S, at most n_steps // 200 (the
+    # fake's steps take no time)
+    assert advances[0][1] == 1 and {c[1] for c in advances[1:]} == {45_000 // 200}
     assert seen[-1] == 45_000 and len(seen) == len(advances)
     assert fc.calls[0] == ("open", str(scene_file), str(tmp_path / "o"), 0)
     assert fc.calls[-1][0] == "close" and not fc.open_handles
@@ -127,10 +131,36 @@ def test_run_ok_in_chunks(fake, scene_file, tmp_path):
     assert res.out_dir == str(tmp_path / "o")
 
 
-def test_small_runs_use_chunks_of_100(fake, scene_file, tmp_path):
+def test_small_runs_use_chunks_of_100(fake, scene_file, tmp_path, monkeypatch):
     fc = fake(n_steps=250)
+    monkeypatch.setattr(core, "CHUNK_S", 1e9)
     dyncontact.run(scene_file, out=tmp_path / "o", progress=False)
-    assert [c[1] for c in fc.calls if c[0] == "advance"] == [100, 100, 100]
+    assert [c[1] for c in fc.calls if c[0] == "advance"] == [1, 100, 100, 100]
+
+
+def test_chunks_follow_the_time_of_a_step(fake, scene_file, tmp_path, monkeypatch):
+    """Steps of 0.125 s (a mesh of 10^5 dofs; times exact in binary): chunks of
+    CHUNK_S = 0.5 s, 4 steps, so Ctrl-C (between two chunks) waits about 0.5 s, not the
+    100 steps (12.5 s) of a fixed chunk; when the steps get slower (0.25 s: contact), the
+    chunks get shorter."""
+    fc = fake(n_steps=40)
+    clock = [0.0]
+    advance = fc.dc_sim_advance
+
+    def timed_advance(handle, max_steps):
+        before = fc.step
+        out = advance(handle, max_steps)
+        clock[0] += (0.125 if fc.step <= 20 else 0.25) * (fc.step - before)
+        return out
+
+    monkeypatch.setattr(fc, "dc_sim_advance", timed_advance)
+    monkeypatch.setattr(core, "time", types.SimpleNamespace(perf_counter=lambda: clock[0]))
+    monkeypatch.setattr(core, "CHUNK_S", 0.5)
+    res = dyncontact.run(scene_file, out=tmp_path / "o", progress=False)
+    assert res.ok
+    chunks = [c[1] for c in fc.calls if c[0] == "advance"]
+    assert chunks[:6] == [1, 4, 4, 4, 4, 4] and chunks[6] == 2, chunks
+    assert sum(chunks[:-1]) < 40 <= sum(chunks)
 
 
 def test_default_out_dir_comes_from_the_scene(fake, scene_file, tmp_path, monkeypatch):

@@ -278,6 +278,48 @@ def test_block_jacobi_cg_solves_one_and_many(dim):
         assert np.linalg.norm(xm[:, j] - x1) <= 2 * cond * rtol * np.linalg.norm(x1)
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_cg_non_convergence_reports_the_residual_reached(dim):
+    """The node-block CG that stops at cg_max_iter reports the relative residual of the x
+    it leaves, |b - A x| / |b|, not the one it formed when it started (1 from x = 0, or a
+    first guess's: a run at a large dt said 'relative residual 5.06E+003 after N
+    iterations' for every N)."""
+    rng = np.random.default_rng(60 + dim)
+    rows, cols, vals, dense = node_block_coo(rng, NODE_SIZES[dim](rng))
+    b = rng.standard_normal(dense.shape[0])
+    x, _, _, its, stat, msg = solve_kind(rows, cols, vals, b, max_iter=3)
+    assert stat == STAT_NUMERIC and its == 3, msg
+    reported = float(re.search(r"relative residual (\S+) after 3 iterations", msg).group(1))
+    reached = np.linalg.norm(b - dense @ x) / np.linalg.norm(b)
+    assert reached < 0.5                       # 3 iterations on a well-conditioned matrix
+    # the message gives 3 significant digits
+    assert reported == pytest.approx(reached, rel=5e-3), (msg, reached)
+
+
+def test_auto_falls_back_to_the_direct_solver_when_cg_does_not_converge():
+    """'auto' chooses CG from the pattern alone (its cost model assumes the iterations of a
+    mass-dominated J0); where CG then does not converge within cg_max_iter (a large dt on a
+    fine mesh: K dominates J0), the matrix is factorized and the solve done directly, the
+    note saying why, where 'cg' itself stops as a numerical failure. A random node graph
+    (degree 6, 1 000 node pairs) fills its factor enough for 'auto' to choose CG."""
+    rng = np.random.default_rng(70)
+    rows, cols, vals, dense = node_block_coo(rng, np.full(1000, 2), degree=6.0)
+    b = rng.standard_normal(dense.shape[0])
+    _, backend, note, its, stat, msg = solve_kind(rows, cols, vals, b, kind="auto")
+    assert stat == STAT_OK and backend == "pcg" and note == "" and its > 2, msg
+    counts = {}
+    x, backend, note, its, stat, msg = solve_kind(rows, cols, vals, b, kind="auto", max_iter=2,
+                                                  counts=counts)
+    assert stat == STAT_OK and backend == "cholmod_ldlt" and its == 2, msg
+    assert note.startswith("auto: conjugate gradients did not converge within &solver "
+                           "cg_max_iter = 2 iterations"), note
+    assert counts["factorizations"] == 1
+    # a direct solve: the residual at round-off (well conditioned: shifted above Gershgorin)
+    assert np.linalg.norm(b - dense @ x) <= 1e-12 * np.linalg.norm(b)
+    _, _, _, _, stat, msg = solve_kind(rows, cols, vals, b, kind="cg", max_iter=2)
+    assert stat == STAT_NUMERIC and "did not converge" in msg
+
+
 def test_indefinite_diagonal_block_solves_directly():
     """Node pairs [[1, 2], [2, 1]]: positive diagonal, indefinite diagonal blocks, so the
     matrix is not positive definite; the block preconditioner's set-up sees it."""

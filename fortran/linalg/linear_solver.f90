@@ -24,7 +24,7 @@ module linear_solver
     use iso_c_binding, only: c_long
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
-    use text, only: fixed_text
+    use text, only: fixed_text, int_text
     use sparse, only: csc_t, csc_find
     use umfpack, only: lu_t, lu_factor, lu_solve, lu_solve_many, lu_free
     use cholmod, only: cholmod_t, chol_factor, chol_analyse, chol_solve, chol_solve_many, &
@@ -344,8 +344,11 @@ contains
     end subroutine direct_factor
 
     !> After a CG solve that returned stat: `done` unless the solve proved a not positive
-    !> definite; then a is factorized directly (for the rest of the run, said in f%note)
-    !> and `done` only when that failed (stat), else the caller solves with the factors.
+    !> definite, or 'auto' chose CG and it did not converge (its cost model assumes the
+    !> iterations of a mass-dominated J0; a large dt makes K dominate and CG slow, where
+    !> the direct solve costs the same); then a is factorized directly (for the rest of the
+    !> run, said in f%note) and `done` only when that failed (stat), else the caller solves
+    !> with the factors.
     subroutine cg_fall_back(f, a, stat, errmsg, done, val)
         type(factor_t), intent(inout) :: f                  !! solver
         type(csc_t), intent(in) :: a                        !! matrix
@@ -353,10 +356,17 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(out) :: done                        !! the caller returns stat
         real(dp), intent(in), optional :: val(:)            !! values on a's pattern (for a%val)
-        done = stat == STAT_OK .or. .not. f%cg%indefinite
+        logical :: slow
+        slow = stat == STAT_NUMERIC .and. trim(f%kind) == 'auto' .and. .not. f%cg%indefinite
+        done = stat == STAT_OK .or. .not. (f%cg%indefinite .or. slow)
         if (done) return
-        f%note = 'conjugate gradients met a curvature <= 0 (the matrix is not positive '// &
-                 'definite): it was factorized directly'
+        if (slow) then
+            f%note = 'auto: conjugate gradients did not converge within &solver cg_max_iter '// &
+                     '= '//int_text(f%cg%max_iter)//' iterations: the matrix was factorized directly'
+        else
+            f%note = 'conjugate gradients met a curvature <= 0 (the matrix is not positive '// &
+                     'definite): it was factorized directly'
+        end if
         call direct_factor(f, a, stat, errmsg, val)
         done = stat /= STAT_OK
     end subroutine cg_fall_back

@@ -598,6 +598,13 @@ contains
                 call restart()
             end if
             if (.not. (rh == rh) .or. it >= p%max_iter) then
+                ! rr is the residual formed at the start or the last restart: form the one
+                ! of the x reached, which the message reports
+                if (it > 0) then
+                    call pcg_product(p, a, x, p%q)
+                    p%q = b(1:n) - p%q
+                    rr = dot(p%q, p%q)
+                end if
                 call tally(p, it)
                 call raise(stat, errmsg, STAT_NUMERIC, 'conjugate gradients did not converge: '// &
                            'relative residual '//real_text(sqrt(rr) / bnorm, 3)//' after '// &
