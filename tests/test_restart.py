@@ -366,7 +366,10 @@ def test_python_restart_after_ctrl_c_between_chunks(tmp_path):
 
     for entry in ("api", "cli"):
         part = tmp_path / f"part_{entry}"
-        with pytest.raises(KeyboardInterrupt):
+        # the interruption says, as the executable does, where the run stopped and how to
+        # continue it
+        with pytest.raises(KeyboardInterrupt, match=r"^interrupted at t = \S+ \(trace and "
+                           r"checkpoint kept: --restart .+ continues\)$"):
             dyncontact.run(scene, out=part, progress=False, callback=stop)
         assert json.loads((part / "summary.json").read_text())["status"] == "interrupted"
         step = checkpoint_step(part / CKPT)

@@ -968,18 +968,33 @@ contains
         integer, intent(in) :: sig                          !! signal caught
         integer, intent(out) :: stat                        !! status (a failed write)
         character(len=*), intent(inout), optional :: errmsg !! message
-        character(len=:), allocatable :: head
         stat = STAT_OK
         sim%status = 'interrupted'
-        head = 'interrupted by signal '//int_text(int(sig, i8))//' at t = '//real_text(sim%st%t, 6)
-        sim%message = head//' (trace kept)'
+        sim%message = interrupted_message(sim, 'interrupted by signal '//int_text(int(sig, i8)), &
+                                          .false.)
         if (sim%scn%checkpoint_every > 0) then
             call write_checkpoint(sim, stat, errmsg)
             if (stat /= STAT_OK) return
-            sim%message = head//' (trace and checkpoint kept: --restart '//trim(sim%scn%out_dir) &
-                          //' continues)'
+            sim%message = interrupted_message(sim, 'interrupted by signal '// &
+                                              int_text(int(sig, i8)), .true.)
         end if
     end subroutine stop_interrupted
+
+    !> The message of a run stopped before its end: `head` at t = the state's t, and what
+    !> was kept (with the checkpoint: how to continue from it).
+    function interrupted_message(sim, head, checkpoint) result(msg)
+        type(simulation_t), intent(in) :: sim               !! the run
+        character(len=*), intent(in) :: head                !! how it was stopped
+        logical, intent(in) :: checkpoint                   !! its checkpoint was written
+        character(len=:), allocatable :: msg
+        msg = head//' at t = '//real_text(sim%st%t, 6)
+        if (checkpoint) then
+            msg = msg//' (trace and checkpoint kept: --restart '//trim(sim%scn%out_dir)// &
+                  ' continues)'
+        else
+            msg = msg//' (trace kept)'
+        end if
+    end function interrupted_message
 
     !> The message of a run stopped by the blow-up test (docs/scenes.md). The energy and
     !> the limit are written with the digits that tell them apart (the first step past the
@@ -1085,7 +1100,12 @@ contains
                     sim%finished = .true.
                 end if
             end if
-            if (.not. sim%finished) sim%status = 'interrupted'
+            if (.not. sim%finished) then
+                ! stopped by the caller (Ctrl-C in Python): the message the executable gives
+                sim%status = 'interrupted'
+                sim%message = interrupted_message(sim, 'interrupted', &
+                                                  sim%scn%checkpoint_every > 0)
+            end if
             if (sim%status == 'running') sim%status = 'ok'
             if (stat == STAT_OK) then
                 call trace_close(sim%trace, stat, errmsg)

@@ -267,8 +267,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT
         return args.func(args)
-    except KeyboardInterrupt:
-        return _fail("interrupted", EXIT_INTERRUPTED)
+    except KeyboardInterrupt as exc:
+        # a run's own line (t, what was kept), as the executable prints it
+        said = " ".join(str(exc).split())
+        return _fail(said if said.startswith("interrupted") else "interrupted",
+                     EXIT_INTERRUPTED)
     except (core.BadInputError, UsageError) as exc:
         return _fail(str(exc), EXIT_BAD_INPUT)
     except core.NumericalError as exc:

@@ -435,6 +435,7 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                 _fpath(path, "scene file"), _fpath(given, "output folder"), 0)
         _check(stat, errmsg, "opening the run")
         message = ""
+        stopped = None
         try:
             n_steps = _warn_notes(handle)
             # the first chunk is one step; then as many as take about CHUNK_S, at most
@@ -462,9 +463,18 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                     if not finished and done == 0:
                         raise DyncontactError(
                             f"the run made no progress at step {int(step)} of {int(n_steps)}")
+        except KeyboardInterrupt as exc:   # Ctrl-C, SIGTERM, or the core's signal stop
+            stopped = exc
         finally:
             stat, errmsg = core.dc_sim_close(handle)
         _check(stat, errmsg, "closing the run")
+        if stopped is not None:
+            # with the message the run wrote on closing: t, and what was kept
+            try:
+                said = read_summary(out_dir).get("message")
+            except (OSError, ValueError):
+                said = None
+            raise KeyboardInterrupt(said or str(stopped)) from None
         trace = read_trace(out_dir)
         summary = read_summary(out_dir)
         if message and summary.get("status", "ok") == "ok":
