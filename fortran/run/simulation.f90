@@ -22,7 +22,8 @@ module simulation
                            FAILURE_CG
     use implicit_schemes, only: implicit_scheme_t, implicit_solver_report
     use explicit_schemes, only: pc_scheme_t
-    use central_difference, only: central_scheme_t, CENTRAL_SAFETY
+    use central_difference, only: central_scheme_t
+    use critical_step, only: CRITICAL_SAFETY
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_free, ls_factorization, &
                              ls_auto_reason, ls_set_threads, ls_threads
     use trace_output, only: make_dirs, trace_t, trace_open, trace_reopen, trace_row, trace_flush, &
@@ -328,7 +329,7 @@ contains
             'warning: &scheme dt = '//real_text(sim%scn%dt, 4)//' is '// &
             fixed_text(sim%scn%dt / dt_crit, 2)//' x the critical step of '//what// &
             ', estimated '//real_text(dt_crit, 4)//where//'; give dt <= '// &
-            real_text(CENTRAL_SAFETY * dt_crit, 4)//' (0.9 x it)'//auto//' (docs/'// &
+            real_text(CRITICAL_SAFETY * dt_crit, 4)//' (0.9 x it)'//auto//' (docs/'// &
             'scenes.md, &scheme)'//new_line('a')
     end subroutine check_explicit_step
 

@@ -23,12 +23,9 @@ module central_difference
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
                            mass_solver_name, mass_solver_kernel
     use time_scheme, only: time_scheme_t, state_t, scheme_params_t, step_solve_failed
-    use critical_step, only: omega_max_squared, CRITICAL_SAFETY
+    use critical_step, only: critical_dt, CRITICAL_SAFETY
     implicit none
     private
-
-    !> dt = SAFETY dt_crit when dt = 0
-    real(dp), parameter, public :: CENTRAL_SAFETY = CRITICAL_SAFETY
 
     !> Central differences.
     type, extends(time_scheme_t), public :: central_scheme_t
@@ -44,7 +41,6 @@ module central_difference
         procedure :: factor_info => central_factor_info
     end type central_scheme_t
 
-    public :: central_critical_dt
 
 contains
 
@@ -64,11 +60,12 @@ contains
         allocate (this%rhs(n))
         call mass_solver_start(this%ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg)
         if (stat /= STAT_OK) return
-        call central_critical_dt(mdl, this%ms, this%dt_crit, stat, errmsg)
+        ! dt_crit = 2 / omega_max at full contact
+        call critical_dt(mdl, this%ms, 2.0_dp, 'central', this%dt_crit, stat, errmsg)
         if (stat /= STAT_OK) return
         this%dt = prm%dt
         if (prm%dt == 0.0_dp) then
-            this%dt = CENTRAL_SAFETY * this%dt_crit
+            this%dt = CRITICAL_SAFETY * this%dt_crit
             if (this%dt > 0.0_dp .and. prm%t_end > 0.0_dp) then
                 steps = prm%t_end / this%dt
                 if (steps < 1.0e15_dp) this%dt = prm%t_end / real(ceiling(steps, i8), dp)
@@ -162,19 +159,4 @@ contains
             mv(i) = mass_diag(i) * v(i)
         end do
     end subroutine lumped_tail
-
-    !> Critical step 2 / omega_max of central differences (omega_max: critical_step.f90,
-    !> at full contact). 0 when there are no free dofs.
-    subroutine central_critical_dt(mdl, ms, dt_crit, stat, errmsg)
-        type(model_t), intent(in) :: mdl                    !! model
-        type(mass_solver_t), intent(inout) :: ms            !! M^{-1}
-        real(dp), intent(out) :: dt_crit                    !! 2 / omega_max
-        integer, intent(out) :: stat                        !! status
-        character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp) :: lam
-        dt_crit = 0.0_dp
-        call omega_max_squared(mdl, ms, 'central', lam, stat, errmsg)
-        if (stat /= STAT_OK .or. mdl%n_dofs == 0) return
-        dt_crit = 2.0_dp / sqrt(lam)
-    end subroutine central_critical_dt
 end module central_difference

@@ -21,9 +21,30 @@ module critical_step
     real(dp), parameter, public :: CRITICAL_SAFETY = 0.9_dp
     integer, parameter :: POWER_ITERATIONS = 200             !! power iterations for omega_max
 
-    public :: omega_max_squared
+    public :: omega_max_squared, critical_dt
 
 contains
+
+    !> The critical step Omega_c / omega_max of an explicit scheme whose one-mode stability
+    !> limit of omega dt is omega_c (2 for central differences; pc_stability_limit for the
+    !> pc family), omega_max at full contact (omega_max_squared). 0 when omega_c is (no
+    !> step is stable: nothing is computed) or there are no free dofs.
+    subroutine critical_dt(mdl, ms, omega_c, who, dt_crit, stat, errmsg)
+        type(model_t), intent(in) :: mdl                    !! model
+        type(mass_solver_t), intent(inout) :: ms            !! M^{-1}
+        real(dp), intent(in) :: omega_c                     !! the scheme's limit of omega dt
+        character(len=*), intent(in) :: who                 !! scheme's name, for the message
+        real(dp), intent(out) :: dt_crit                    !! omega_c / omega_max
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp) :: lam
+        stat = STAT_OK
+        dt_crit = 0.0_dp
+        if (.not. omega_c > 0.0_dp) return
+        call omega_max_squared(mdl, ms, who, lam, stat, errmsg)
+        if (stat /= STAT_OK) return
+        if (lam > 0.0_dp) dt_crit = omega_c / sqrt(lam)
+    end subroutine critical_dt
 
     !> omega_max^2, the largest eigenvalue of M^{-1} (K_theta + D_full) (module header),
     !> by POWER_ITERATIONS power iterations, each one Jacobian product and one M^{-1}

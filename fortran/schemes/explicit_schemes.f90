@@ -25,7 +25,7 @@ module explicit_schemes
     use kinds, only: dp, i8
     use linear_solver, only: ls_factor_info
     use errors, only: STAT_OK
-    use critical_step, only: omega_max_squared
+    use critical_step, only: critical_dt
     use model, only: model_t, model_stiff_apply, model_stiff_mass_apply
     use nitsche_contact, only: contact_eval
     use mass_solver, only: mass_solver_t, mass_solver_start, mass_solver_apply, mass_solver_free, &
@@ -67,7 +67,6 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: n
-        real(dp) :: lam
         n = mdl%n_dofs
         this%dt = prm%dt
         select case (prm%kind)
@@ -84,12 +83,7 @@ contains
         call mass_solver_start(this%ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg)
         if (stat /= STAT_OK) return
         this%omega_c = pc_stability_limit(this%alpha, this%beta, this%gamma)
-        this%dt_crit = 0.0_dp
-        if (this%omega_c > 0.0_dp) then
-            call omega_max_squared(mdl, this%ms, 'pc', lam, stat, errmsg)
-            if (stat /= STAT_OK) return
-            if (lam > 0.0_dp) this%dt_crit = this%omega_c / sqrt(lam)
-        end if
+        call critical_dt(mdl, this%ms, this%omega_c, 'pc', this%dt_crit, stat, errmsg)
     end subroutine pc_init
 
     !> Release the factors of M.
