@@ -498,16 +498,23 @@ def on_scene(s: SchemeSpec, scene: UserScene) -> SchemeSpec:
     return SchemeSpec(s.key, label, tuple(settings.items()), s.explicit, s.c)
 
 
+def _scene_with(s: SchemeSpec, scene: UserScene):
+    """``scene``'s file read as a :class:`dyncontact.Scene`, with scheme ``s``'s keys set
+    (as :func:`on_scene` gives it)."""
+    from ..scene import Scene
+
+    scn = Scene.read(scene.path)
+    for key, value in s.settings:
+        scn.set(key, value)
+    return scn
+
+
 def refusal_on_scene(s: SchemeSpec, scene: UserScene) -> str | None:
     """Why the core refuses scheme ``s`` (as :func:`on_scene` gives it) on ``scene``
     (one line: an explicit scheme with the augmented Lagrangian or the redistributed
     mass), or None when it takes it. Only the scene is parsed, nothing is run."""
-    from ..scene import Scene
-
     try:
-        scn = Scene.read(scene.path)
-        for key, value in s.settings:
-            scn.set(key, value)
+        scn = _scene_with(s, scene)
         scn.validate(mesh=False)      # the scene's mesh was checked once, when it was read
     except Exception as exc:  # noqa: BLE001 - the core's reason, whatever its class
         return " ".join(str(exc).replace(scene.path + ": ", "").split())
@@ -529,14 +536,11 @@ def critical_step_estimate(s: SchemeSpec, scene: UserScene) -> float | None:
     import warnings
 
     from ..core import DyncontactError, DyncontactWarning, Stepper, read_summary
-    from ..scene import Scene
 
     if not s.explicit:
         return None
     try:
-        scn = Scene.read(scene.path)
-        for key, value in s.settings:
-            scn.set(key, value)
+        scn = _scene_with(s, scene)
         scn.set("output.fields_every", 0)
         scn.set("output.checkpoint_every", 0)
         with tempfile.TemporaryDirectory(prefix="dyncontact-dtcrit-") as tmp:
