@@ -252,6 +252,15 @@ def task_key(task: Task) -> str:
 REFUSED = "refused"
 
 
+#: What marks a cache entry being written: ``<entry>.tmp-<pid>-<random>`` (:func:`_tmp_mark`).
+TMP_MARK = ".tmp-"
+
+
+def _tmp_mark(pid: int) -> str:
+    """The part of a temporary entry's name that names the process writing it."""
+    return f"{TMP_MARK}{pid}-"
+
+
 def _entry(cache: str, key: str) -> str:
     return os.path.join(cache, key[:2], key)
 
@@ -392,7 +401,7 @@ def execute(task: Task, cache: str, key: str | None = None,
             return hit
         final = _entry(cache, k)
         os.makedirs(os.path.dirname(final), exist_ok=True)
-        tmp = f"{final}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        tmp = f"{final}{_tmp_mark(os.getpid())}{uuid.uuid4().hex[:8]}"
         os.makedirs(tmp)
         try:
             run_dir = os.path.join(tmp, "run")
@@ -461,7 +470,7 @@ def _clean_stale(cache: str) -> None:
             continue
         for name in os.listdir(d):
             p = os.path.join(d, name)
-            if ".tmp-" in name and now - _last_change(p) > STALE_S:
+            if TMP_MARK in name and now - _last_change(p) > STALE_S:
                 shutil.rmtree(p, ignore_errors=True)
 
 
@@ -743,7 +752,7 @@ def _remove_entries_of(cache: str, keys: Iterable[str], pids: Iterable[int]) -> 
     ``pids`` left for ``keys``, the runs they were doing when the sweep was stopped:
     their writers are gone, so nothing will finish them (:func:`_clean_stale` would
     remove them only hours later, and a run's folder can be large)."""
-    prefixes = tuple(f".tmp-{pid}-" for pid in pids)
+    prefixes = tuple(_tmp_mark(pid) for pid in pids)
     for key in set(keys):
         final = _entry(cache, key)
         folder, name = os.path.split(final)
