@@ -31,13 +31,16 @@ from dyncontact import _core
 STAT_OK, STAT_NUMERIC = 0, 3
 
 
-def solve_kind(rows, cols, vals, b, kind="cg", rtol=1e-12, max_iter=500, counts=None):
+def solve_kind(rows, cols, vals, b, kind="cg", rtol=1e-12, max_iter=500, counts=None,
+               x0=None):
     """dc_ls_solve_kind with 1-based COO; b of shape (n,) or (n, m). counts: a dict that
-    receives the factors' "factorizations"."""
+    receives the factors' "factorizations". x0: CG's first guess (one column)."""
     b2 = np.asfortranarray(b.reshape(b.shape[0], -1), dtype=np.float64)
+    guess = np.zeros(b.shape[0]) if x0 is None else np.ascontiguousarray(x0, dtype=np.float64)
     x, backend, note, its, facts, stat, msg = _core.dc_ls_solve_kind(
         np.ascontiguousarray(rows, dtype=np.int32), np.ascontiguousarray(cols, dtype=np.int32),
-        np.ascontiguousarray(vals, dtype=np.float64), b2, kind, rtol, max_iter)
+        np.ascontiguousarray(vals, dtype=np.float64), b2, kind, rtol, max_iter, guess,
+        0 if x0 is None else 1)
     if counts is not None:
         counts["factorizations"] = int(facts)
     dec = lambda s: (s.tobytes() if hasattr(s, "tobytes") else bytes(s)).decode().strip()
@@ -294,6 +297,35 @@ def test_cg_non_convergence_reports_the_residual_reached(dim):
     assert reached < 0.5                       # 3 iterations on a well-conditioned matrix
     # the message gives 3 significant digits
     assert reported == pytest.approx(reached, rel=5e-3), (msg, reached)
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_a_guess_worse_than_zero_is_dropped(dim):
+    """CG starts from the caller's guess only when its residual is no larger than b's: a
+    guess with |b - A x0| > |b| (as the predictor's step gives at a large dt) is replaced
+    by x = 0, so the solve is the one from zero, bit for bit and in the same iterations.
+    A guess better than zero is kept and saves iterations. dim 1: the scalar Jacobi CG;
+    2 and 3: SSOR by node blocks."""
+    rng = np.random.default_rng(70 + dim)
+    if dim == 1:
+        rows, cols, vals, dense = spd_coo(rng, 200, 0.03)
+    else:
+        rows, cols, vals, dense = node_block_coo(rng, NODE_SIZES[dim](rng))
+    b = rng.standard_normal(dense.shape[0])
+    x_zero, _, _, its_zero, stat, msg = solve_kind(rows, cols, vals, b)
+    assert stat == STAT_OK, msg
+    exact = np.linalg.solve(dense, b)
+    bad = -3.0 * exact                         # residual 4 |b|
+    assert np.linalg.norm(b - dense @ bad) > np.linalg.norm(b)
+    x_bad, _, _, its_bad, stat, msg = solve_kind(rows, cols, vals, b, x0=bad)
+    assert stat == STAT_OK, msg
+    np.testing.assert_array_equal(x_bad, x_zero)
+    assert its_bad == its_zero
+    good = exact + 1e-6 * np.linalg.norm(exact) * rng.standard_normal(exact.size)
+    x_good, _, _, its_good, stat, msg = solve_kind(rows, cols, vals, b, x0=good)
+    assert stat == STAT_OK, msg
+    assert its_good < its_zero
+    assert np.linalg.norm(b - dense @ x_good) <= 1e-12 * np.linalg.norm(b)
 
 
 def test_auto_falls_back_to_the_direct_solver_when_cg_does_not_converge():

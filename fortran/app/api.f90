@@ -326,11 +326,11 @@ end subroutine dc_ls_solve
 
 !> Solve A X = B (m columns) with linear_solver configured to `kind` ('direct', 'cg',
 !> 'auto' with dimension 2), A as 1-based COO triplets: one column through ls_solve,
-!> several through ls_solve_many. backend is the one that solved ('pcg' for CG),
+!> several through ls_solve_many (one column may start CG from the guess x0). backend is the one that solved ('pcg' for CG),
 !> note why CG did not run where asked, cg_its the CG iterations over all columns,
 !> factorizations the factors' count (the direct factorization of a CG fallback included).
-subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_max_iter, x, &
-                            backend, note, cg_its, factorizations, stat, errmsg)
+subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_max_iter, x0, &
+                            guess, x, backend, note, cg_its, factorizations, stat, errmsg)
     use iso_c_binding, only: c_int, c_double
     use kinds, only: i8
     use errors, only: STAT_OK
@@ -348,6 +348,8 @@ subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_ma
     character(len=*), intent(in) :: kind         !! 'direct', 'cg' or 'auto'
     real(c_double), intent(in) :: cg_rtol        !! CG relative residual tolerance
     integer(c_int), intent(in) :: cg_max_iter    !! CG iteration limit
+    real(c_double), intent(in) :: x0(n)          !! CG's first guess (m = 1, guess /= 0)
+    integer(c_int), intent(in) :: guess          !! 1: start CG from x0
     real(c_double), intent(out) :: x(n, m)       !! solutions
     character(len=16), intent(out) :: backend    !! solver that ran
     character(len=200), intent(out) :: note      !! why CG did not run ('' if it did)
@@ -367,7 +369,8 @@ subroutine dc_ls_solve_kind(n, nnz, m, rows, cols, vals, b, kind, cg_rtol, cg_ma
     if (st == STAT_OK) call ls_factor(f, a, st, errmsg)
     if (st == STAT_OK) then
         if (m == 1) then
-            call ls_solve(f, a, b(:, 1), x(:, 1), st, errmsg)
+            if (guess /= 0) x(:, 1) = x0
+            call ls_solve(f, a, b(:, 1), x(:, 1), st, errmsg, guess=guess /= 0)
         else
             call ls_solve_many(f, a, b, x, st, errmsg)
         end if

@@ -12,7 +12,8 @@
 !> the scalar Jacobi. Grouping dofs that are not one node would still give the same
 !> products and SPD preconditioners.
 !>
-!> A solve starts from x = 0, or from a guess the caller passes in x, and stops when the
+!> A solve starts from x = 0, or from a guess the caller passes in x (dropped for x = 0
+!> when its residual is larger than b: such a guess costs iterations), and stops when the
 !> residual |b - A x| is at most rtol |b|: the recurrence's residual first, then the
 !> residual formed by a product with A (the recurrence drifts from it by round-off; the
 !> iterations go on until the formed one passes too). Nothing is kept from one solve to
@@ -398,7 +399,8 @@ contains
         end do
     end subroutine many3
 
-    !> Solve A x = b from x = 0, or from the x given when `guess` is true. STAT_NUMERIC
+    !> Solve A x = b from x = 0, or from the x given when `guess` is true and
+    !> |b - A x| <= |b| (from x = 0 otherwise). STAT_NUMERIC
     !> when the residual does not reach rtol |b| within max_iter iterations, or A shows
     !> it is not positive definite. `val`: as given to pcg_setup.
     subroutine pcg_solve(p, a, b, x, stat, errmsg, guess, val)
@@ -426,7 +428,6 @@ contains
             call ssor_solve(p, a, b, x, warm, stat, errmsg)
             return
         end if
-        if (.not. warm) x(1:n) = 0.0_dp
         bnorm = sqrt(dot(b(1:n), b(1:n)))
         p%solves = p%solves + 1
         p%last_its = 0
@@ -438,7 +439,11 @@ contains
         if (warm) then
             call pcg_product(p, a, x, p%q, val)
             p%r = b(1:n) - p%q
-        else
+            ! a guess farther from b than x = 0 is (|b - A x| > |b|) is dropped
+            if (dot(p%r, p%r) > bnorm**2) warm = .false.
+        end if
+        if (.not. warm) then
+            x(1:n) = 0.0_dp
             p%r = b(1:n)
         end if
         call precondition()
@@ -582,10 +587,17 @@ contains
         if (warm) then
             call pcg_product(p, a, x, p%q)
             p%q = b(1:n) - p%q
+            rr = dot(p%q, p%q)
+            ! a guess farther from b than x = 0 is (|b - A x| > |b|) is dropped
+            if (rr > bnorm**2) then
+                x(1:n) = 0.0_dp
+                p%q = b(1:n)
+                rr = dot(p%q, p%q)
+            end if
         else
             p%q = b(1:n)
+            rr = dot(p%q, p%q)
         end if
-        rr = dot(p%q, p%q)
         call restart()
         it = 0
         do
