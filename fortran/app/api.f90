@@ -628,6 +628,38 @@ subroutine dc_geo_estimate(path, length, width, h, h_given, est, stat, errmsg)
     stat = st
 end subroutine dc_geo_estimate
 
+!> The refusal of a .geo whose element count, estimated before meshing as in
+!> dc_geo_estimate, exceeds the margin x `limit` (limit > 0): the core's one line, the file
+!> named, with `limit_key` and `h_key` ('' when h is not given) as the keys that change
+!> it; '' when the estimate is within it or none can be made.
+subroutine dc_geo_refusal(path, length, width, h, h_given, limit, limit_key, h_key, text, &
+                          stat, errmsg)
+    use iso_c_binding, only: c_int, c_double
+    use errors, only: STAT_OK
+    use gmsh_mesh, only: estimate_geo_cells, too_large_text
+    implicit none
+    character(len=*), intent(in) :: path         !! .geo file
+    real(c_double), intent(in) :: length         !! parameter length
+    real(c_double), intent(in) :: width          !! parameter width
+    real(c_double), intent(in) :: h              !! parameter h
+    integer(c_int), intent(in) :: h_given        !! 0: a .geo without h keeps its own sizes
+    integer(c_int), intent(in) :: limit          !! the element limit (> 0)
+    character(len=*), intent(in) :: limit_key    !! the limit's key, as the caller names it
+    character(len=*), intent(in) :: h_key        !! h's key, '' when h is not given
+    character(len=512), intent(out) :: text      !! the refusal, '' if none
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    real(c_double) :: est(4)
+    integer :: st
+    errmsg = ''
+    text = ''
+    call estimate_geo_cells(path, h, length, width, h_given /= 0, est, st, errmsg)
+    stat = st
+    if (st /= STAT_OK .or. limit <= 0 .or. est(1) < 0) return
+    if (est(1) > est(4) * limit) text = path//': '//too_large_text(est, int(limit), limit_key, &
+                                                                   h_key)
+end subroutine dc_geo_refusal
+
 !> Release a mesh of dc_mesh_sizes without copying it (0 is ignored).
 subroutine dc_mesh_free(handle)
     use iso_c_binding, only: c_int64_t

@@ -23,7 +23,7 @@ module gmsh_mesh
     use text, only: lower, real_text, int_text
     implicit none
     private
-    public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells
+    public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, too_large_text
 
     !> Relative tolerance of the test that dropped coordinates are constant.
     real(dp), parameter :: PLANE_TOL = 1.0e-10_dp

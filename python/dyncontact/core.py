@@ -584,6 +584,20 @@ def estimate_geo(path: str | os.PathLike, *, length: float = 1.0, width: float =
             "margin": float(est[3])}
 
 
+def geo_refusal(path: str | os.PathLike, limit: int, limit_key: str, h_key: str, *,
+                length: float = 1.0, width: float = 0.1, h: float = 0.05,
+                h_given: bool = True) -> str | None:
+    """The core's one-line refusal of a .geo whose element count, estimated before meshing
+    (:func:`estimate_geo`), exceeds the margin times ``limit``, naming the file and the keys
+    that change it (``h_key`` "" where h is not given); None where it is within the limit
+    or no estimate can be made. :class:`BadInputError` if gmsh cannot read the file."""
+    text, stat, errmsg = _core().dc_geo_refusal(
+        _fpath(path, "mesh file"), float(length), float(width), float(h), int(bool(h_given)),
+        int(limit), limit_key, h_key)
+    _check(stat, errmsg, "estimating the mesh")
+    return _str(text) or None
+
+
 def pc_stability(alpha: float, beta: float, gamma: float,
                  omega_dt: float = 0.0) -> tuple[float, np.ndarray]:
     """The predictor-corrector family's stability limit Omega_c of omega dt, and its

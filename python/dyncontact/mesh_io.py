@@ -43,7 +43,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .core import BadInputError, DyncontactError, estimate_geo
+from .core import BadInputError, DyncontactError, geo_refusal
 
 __all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
            "generate", "find_geo", "main"]
@@ -293,9 +293,10 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     if not geo.is_file():
         raise BadInputError(f"{geo}: no such file")
     if max_elements > 0:
-        _refuse_too_large(geo, int(max_elements), keys[0], keys[1] if h_given else "",
-                          estimate_geo(geo, length=length, width=width, h=h,
-                                       h_given=h_given))
+        refusal = geo_refusal(geo, int(max_elements), keys[0], keys[1] if h_given else "",
+                              length=length, width=width, h=h, h_given=h_given)
+        if refusal:
+            raise BadInputError(refusal)
     out = Path(out_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     with _gmsh_session("dyncontact-generate") as gmsh:
@@ -321,20 +322,6 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
             _discard(out)
             raise DyncontactError(f"{out}: gmsh cannot write it: {exc}") from None
     return out
-
-
-def _refuse_too_large(geo: Path, limit: int, limit_key: str, h_key: str,
-                      est: dict | None) -> None:
-    """BadInputError, worded as the core's refusal (gmsh_mesh.f90, too_large_text), when
-    the estimate `est` (:func:`dyncontact.core.estimate_geo`) exceeds its margin x limit."""
-    if est is None or est["estimate"] <= est["margin"] * limit:
-        return
-    hint = (f"a larger {h_key} or {limit_key} allows it" if h_key else
-            f"larger mesh sizes in the file, or a larger {limit_key}, allow it")
-    raise BadInputError(
-        f"{geo}: about {est['estimate']:.1e} elements estimated before meshing (measure "
-        f"{est['measure']:.2e} at mesh size {est['size']:.2e}), more than "
-        f"{est['margin']:g} x {limit_key} = {limit}: not meshed ({hint})")
 
 
 def _discard(out: Path) -> None:
