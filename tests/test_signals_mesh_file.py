@@ -2,7 +2,8 @@
 process's signal dispositions as they were (gmsh's initialization and finalization reset
 some, SIGTERM among them), so SIGTERM stops such a run as documented (docs/scenes.md, exit
 codes): exit 130, summary status "interrupted", the trace kept, a checkpoint written at the
-signal's step and the lock released, in the executable and in `python -m dyncontact run`."""
+signal's step and the lock released, in the executable and in `python -m dyncontact run`;
+a signal while gmsh meshes a .geo ends the executable at once, with nothing written."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import signal
 import struct
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -100,3 +102,63 @@ def test_sigterm_stops_a_run_on_a_mesh_file(kind, tmp_path):
     (ckpt_step,) = struct.unpack_from("<q", header, CKPT_STEP_OFFSET)
     assert ckpt_step == steps
     assert not (out / ".dyncontact.lock").exists()
+
+
+#: A unit cube meshed at h = 0.03: about 20 s of gmsh meshing (docs/scenes.md, "Signals
+#: while gmsh works"), long enough to signal the executable in the middle of it.
+CUBE_GEO = """SetFactory("OpenCASCADE");
+Box(1) = {0, 0, 0, 1, 1, 1};
+Mesh.MeshSizeMax = h;
+Physical Surface("bottom") = {5};
+Physical Surface("top") = {6};
+Physical Volume("body") = {1};
+"""
+
+
+def _wait_for_gmsh(proc: subprocess.Popen, timeout: float = 60.0) -> None:
+    """Wait until the process has loaded libgmsh (it is then reading the file: the
+    library is loaded by the read itself), then a little more, into the meshing."""
+    t_end = time.monotonic() + timeout
+    maps = Path(f"/proc/{proc.pid}/maps")
+    while time.monotonic() < t_end and proc.poll() is None:
+        if "libgmsh" in maps.read_text():
+            time.sleep(0.3)
+            return
+        time.sleep(0.05)
+    pytest.fail("the run did not start reading its .geo with gmsh")
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
+def test_a_signal_while_gmsh_meshes_ends_the_executable_at_once(sig, tmp_path):
+    """The executable does not wait for gmsh to finish meshing: SIGINT or SIGTERM during
+    the read ends it at once with exit 130 and one line naming the file, and nothing is
+    written (the output folder is made after the mesh is read). Without this the signal
+    was held until gmsh returned, 20 s later, and the run then stopped before its first
+    step."""
+    (tmp_path / "cube.geo").write_text(CUBE_GEO, encoding="utf-8")
+    (tmp_path / "s.nml").write_text(
+        "&mesh file = 'cube.geo', h = 0.03, max_elements = 100000000 /\n"
+        "&boundary clamped = 'top', contact = 'bottom' /\n"
+        "&contact probe = 0.5, 0.5, 0.0, obstacle_point = 0.0, 0.0, 0.0,\n"
+        "         obstacle_normal = 0.0, 0.0, -1.0 /\n"
+        "&scheme name = 'hht', dt = 1e-3, t_end = 0.01 /\n", encoding="utf-8")
+    if not Path("/proc/self/maps").exists():
+        pytest.skip("needs /proc to see when gmsh is loaded")
+    proc = subprocess.Popen(entry("exe") + ["s.nml", "--out", "o"], cwd=tmp_path,
+                            env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    try:
+        _wait_for_gmsh(proc)
+        t0 = time.monotonic()
+        proc.send_signal(sig)
+        stdout, stderr = proc.communicate(timeout=120)
+        waited = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == EXIT_SIGNAL, (proc.returncode, stdout, stderr)
+    assert stderr == (f"dyncontact: cube.geo: interrupted by signal {int(sig)} while gmsh "
+                      "read it; nothing was written\n"), stderr
+    assert waited < 5.0, waited          # a fraction of the meshing's 20 s
+    assert not (tmp_path / "o").exists()

@@ -30,17 +30,23 @@
  * own handler (run_guard.c) or Python's. Every call that enters gmsh therefore saves the
  * dispositions of all signals and restores them afterwards, and holds the stop signals
  * (SIGINT, SIGTERM, SIGHUP, SIGQUIT) blocked meanwhile, so that one sent during the read is
- * delivered, to the caller's handler, once the read is over.
+ * delivered, to the caller's handler, once the read is over. In the executable (its
+ * handlers installed, run_guard.c), a read or meshing may take minutes and nothing has
+ * been written yet: there a thread waits for SIGINT / SIGTERM during dc_gmsh_read and
+ * ends the process at once (exit 130, one line naming the file), so Ctrl-C does not wait
+ * for gmsh to finish.
  * Status: 0 ok, 2 bad input (message in msg), 4 out of memory, 5 a .geo estimated above
  * the element limit (not meshed; see geo_estimate). */
 #define _GNU_SOURCE   /* strcasestr */
 #include <dlfcn.h>
 #include <math.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 #ifdef DC_HAVE_GMSHC
 #include <gmshc.h>
 #endif
@@ -99,6 +105,58 @@ static void signals_restore(const signal_state_t *s)
     for (sig = 1; sig < NSIG; sig++)
         if (s->saved[sig]) sigaction(sig, &s->action[sig], NULL);
     pthread_sigmask(SIG_SETMASK, &s->mask, NULL);
+}
+
+int dc_signals_installed(void);   /* run_guard.c */
+
+/* The thread that ends the executable on SIGINT / SIGTERM during a read (see the header);
+ * running = 0 where none was started. */
+typedef struct {
+    pthread_t thread;
+    int running;
+} stop_watch_t;
+
+/* Wait for SIGINT or SIGTERM (blocked in every thread meanwhile, so they stay pending until
+ * taken here), then say so in one line naming the file and end the process with 130, the
+ * executable's status for an interrupted run. */
+static void *stop_watch_main(void *arg)
+{
+    const char *path = arg;
+    sigset_t stop;
+    int sig = 0;
+    char line[4096];
+    int n;
+    sigemptyset(&stop);
+    sigaddset(&stop, SIGINT);
+    sigaddset(&stop, SIGTERM);
+    if (sigwait(&stop, &sig) != 0) return NULL;
+    n = snprintf(line, sizeof line, "dyncontact: %s: interrupted by signal %d while gmsh read "
+                 "it; nothing was written\n", path, sig);
+    if (n > 0) {
+        ssize_t w = write(STDERR_FILENO, line, (size_t)n < sizeof line ? (size_t)n
+                                                                    : sizeof line - 1);
+        (void)w;
+    }
+    _exit(130);
+    return NULL;
+}
+
+/* In the executable, start the thread of stop_watch_main for path (the stop signals are
+ * already blocked by signals_save); elsewhere nothing. */
+static void stop_watch_start(stop_watch_t *w, const char *path)
+{
+    w->running = dc_signals_installed()
+                 && pthread_create(&w->thread, NULL, stop_watch_main, (void *)path) == 0;
+}
+
+/* End the thread of stop_watch_start (before the signals are unblocked, so that a signal
+ * sent after the read goes to the run's handler as before). */
+static void stop_watch_end(stop_watch_t *w)
+{
+    if (!w->running) return;
+    pthread_cancel(w->thread);   /* sigwait is a cancellation point */
+    pthread_join(w->thread, NULL);
+    w->running = 0;
 }
 
 static void set_msg(char *msg, int len, const char *a, const char *b, const char *c)
@@ -1052,9 +1110,12 @@ int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
                  double est[4], char *msg, int msglen)
 {
     signal_state_t sigs;
+    stop_watch_t watch;
     int st;
     signals_save(&sigs);
+    stop_watch_start(&watch, path);
     st = gmsh_read(path, params, is_geo, out, est, msg, msglen);
+    stop_watch_end(&watch);
     signals_restore(&sigs);
     return st;
 }

@@ -29,6 +29,8 @@
 
 static volatile sig_atomic_t dc_signal_flag = 0;
 
+static volatile sig_atomic_t dc_signals_own = 0;   /* the executable's handlers installed */
+
 static void dc_on_signal(int sig) { dc_signal_flag = sig; }
 
 /* Install the SIGINT and SIGTERM handlers (executable only), and ignore SIGXFSZ: a write
@@ -47,8 +49,14 @@ int dc_signals_install(void)
 #ifdef SIGXFSZ
     if (signal(SIGXFSZ, SIG_IGN) == SIG_ERR) return errno;
 #endif
+    dc_signals_own = 1;
     return 0;
 }
+
+/* 1 once dc_signals_install has run: the process is the executable, which may end itself
+ * on SIGINT / SIGTERM while nothing has been written (gmsh_shim.c); 0 in a host process
+ * such as Python, whose own handling of the signals stays. */
+int dc_signals_installed(void) { return (int)dc_signals_own; }
 
 /* The signal caught since the handlers were installed (0 = none). */
 int dc_signal_caught(void) { return (int)dc_signal_flag; }
