@@ -546,7 +546,11 @@ contains
             col2 = col1 + merge(1, 0, width >= 2)
             col3 = col1 + merge(2, 0, width >= 3)
         end if
-        allocate (bval(w * w, size(col1) + merge(1, 0, w == 3)))
+        allocate (bval(w * w, size(col1) + merge(1, 0, w == 3)), stat=m)
+        if (m /= 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, who//': out of memory (the block values)')
+            return
+        end if
         bval = 0.0_dp
         ! the values row group by row group: a group's columns are consecutive entries of a
         call group_work(a, first, group, mark, place)

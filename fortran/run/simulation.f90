@@ -853,7 +853,7 @@ contains
         logical :: row
         integer(i8) :: clock
         integer :: sig
-        character(len=256) :: msg
+        character(len=512) :: msg
         character(len=512) :: wmsg
         stat = STAT_OK
         steps_done = 0
@@ -874,6 +874,16 @@ contains
                 return
             end if
             call sim%scheme%step(sim%mdl, sim%st, stat, msg)
+            if (stat == STAT_INTERNAL) then
+                ! out of memory (errors' oom_text): the trace up to the last step is kept
+                sim%status = 'internal_error'
+                if (index(msg, 'out of memory') == 1) sim%status = 'out_of_memory'
+                sim%message = trim(msg)//' (the run stopped at t = '// &
+                              real_text(sim%st%t, 6)//', trace kept)'
+                sim%finished = .true.
+                call raise(stat, errmsg, STAT_INTERNAL, trim(sim%message))
+                return
+            end if
             if (stat /= STAT_OK) then
                 sim%status = 'newton_failed'
                 sim%message = trim(msg)       ! (it gives t: the schemes' step_failed)
