@@ -222,7 +222,10 @@ contains
                       '''): the probe reports nothing (u_n, v_n, p_n are 0 in trace.csv)')
         end if
         call add_theta_term(mdl)
-        call block_copy(mdl, stat, msg)
+        ! the node-block copies of K_theta and M (8 bytes an entry each and their work)
+        stat = STAT_OK
+        if (mdl%dim >= 2 .and. .not. has_room(20.0_dp * mdl%stiff%nnz)) stat = STAT_INTERNAL
+        if (stat == STAT_OK) call block_copy(mdl, stat, msg)
         if (stat == STAT_INTERNAL) then
             call raise(stat, errmsg, STAT_INTERNAL, oom_text('the assembly (the node-block '// &
                        'copies of K_theta and M)', 'the matrices of '//int_text(mdl%n_dofs)// &

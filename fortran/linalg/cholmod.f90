@@ -556,8 +556,8 @@ contains
             call triple_ldl_solve(ch%triples, b, x)
         else if ((ch%pairs%n > 0 .or. ch%triples%n > 0) .and. .not. ch%keep_cholmod) then
             call raise(stat, errmsg, STAT_BAD_INPUT, who//': CHOLMOD''s factor was released')
-        else if (dc_cholmod_solve(ch%handle, 1_c_int, b, x) /= DC_OK) then
-            call raise(stat, errmsg, STAT_INTERNAL, who//': cholmod_solve2 failed')
+        else
+            call solve2(ch, 1, b, x, who, stat, errmsg)
         end if
     end subroutine solve_one
 
@@ -590,9 +590,30 @@ contains
                 int_text(size(b, 2))//' columns', mb_text(8.0_dp * size(b)), OOM_HINT_FACTOR))
             return
         end if
-        if (dc_cholmod_solve(ch%handle, int(size(b, 2), c_int), b, x) /= DC_OK) &
-            call raise(stat, errmsg, STAT_INTERNAL, 'chol_solve_many: cholmod_solve2 failed')
+        call solve2(ch, size(b, 2), b, x, 'chol_solve_many', stat, errmsg)
     end subroutine chol_solve_many
+
+    !> cholmod_solve2 for ncol right-hand sides: STAT_INTERNAL when it fails, with the
+    !> out of memory line when its workspaces could not be allocated.
+    subroutine solve2(ch, ncol, b, x, who, stat, errmsg)
+        type(cholmod_t), intent(inout) :: ch                !! factors
+        integer, intent(in) :: ncol                         !! right-hand sides
+        real(dp), intent(in) :: b(*)                        !! (n, ncol)
+        real(dp), intent(out) :: x(*)                       !! (n, ncol)
+        character(len=*), intent(in) :: who                 !! caller, for the message
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(c_int) :: status
+        stat = STAT_OK
+        status = dc_cholmod_solve(ch%handle, int(ncol, c_int), b, x)
+        if (status == DC_OUT_OF_MEMORY) then
+            call raise(stat, errmsg, STAT_INTERNAL, oom_text('the solves of '// &
+                       int_text(ncol)//' columns', 'their work, about '// &
+                       mb_text(24.0_dp * ch%n * ncol), OOM_HINT_FACTOR))
+        else if (status /= DC_OK) then
+            call raise(stat, errmsg, STAT_INTERNAL, who//': cholmod_solve2 failed')
+        end if
+    end subroutine solve2
 
     !> Release the CHOLMOD objects and the copied factors (safe to call twice or on a
     !> fresh cholmod_t). The counters are kept.

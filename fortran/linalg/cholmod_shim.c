@@ -149,6 +149,10 @@ void *dc_cholmod_new(void)
     h->c.final_ll = 0;                    /* keep LDL' */
     h->c.final_pack = 1;
     h->c.final_monotonic = 1;
+    /* METIS ends the process (abort) when an allocation fails: CHOLMOD first asks for
+     * METIS's observed upper bound, (10 nz + 50 n + 4096) indices, and where that is
+     * refused the ordering is out of memory (analyze_blocks then keeps another) */
+    h->c.metis_memory = 1.0;
     return h;
 }
 
@@ -938,7 +942,8 @@ int dc_cholmod_release_numeric(void *handle)
 }
 
 /* Solve A X = B for ncol right-hand sides (b and x column-major, n x ncol) with
- * cholmod_solve2 (workspaces kept in the handle). Returns DC_OK or DC_FAILED. */
+ * cholmod_solve2 (workspaces kept in the handle). Returns DC_OK, DC_OUT_OF_MEMORY (the
+ * workspaces) or DC_FAILED. */
 int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
 {
     dc_cholmod *h = handle;
@@ -947,7 +952,7 @@ int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
     if (h->B == NULL || h->bcols != ncol) {
         free_dense(h);
         h->B = calloc(1, sizeof(cholmod_dense));
-        if (h->B == NULL) return DC_FAILED;
+        if (h->B == NULL) return DC_OUT_OF_MEMORY;
         h->bcols = ncol;
     }
     h->B->nrow = (size_t) h->n;
@@ -958,8 +963,9 @@ int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
     h->B->z = NULL;
     h->B->xtype = CHOLMOD_REAL;
     h->B->dtype = CHOLMOD_DOUBLE;
+    h->c.status = CHOLMOD_OK;
     if (!cholmod_solve2(CHOLMOD_A, h->L, h->B, NULL, &h->X, NULL, &h->Y, &h->E, &h->c))
-        return DC_FAILED;
+        return h->c.status == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
     memcpy(x, h->X->x, sizeof(double) * (size_t) h->n * (size_t) ncol);
     return DC_OK;
 }

@@ -829,10 +829,12 @@ contains
             end if
         end do
         if (ok) then
-            s = bval(1, :nb)
-        else
-            allocate (s(0))
+            ! out of memory: M keeps its blocks (the same products, without the shortcut)
+            allocate (s(nb), stat=e)
+            ok = e == 0
+            if (ok) s = bval(1, :nb)
         end if
+        if (.not. ok) allocate (s(0))
     end subroutine scalar_blocks
 
     !> kx = K x and mv = M v in one pass, M = blocks ms(k) I on the block pattern of kb

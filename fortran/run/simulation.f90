@@ -6,7 +6,8 @@ module simulation
     use kinds, only: dp, i8
     use text, only: int_text, real_text, fixed_text, lower
     use vector_ops, only: dot
-    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise, &
+                      has_room, oom_text, mb_text, OOM_HINT_MESH
     use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim, &
                      scene_given
     use mesh, only: mesh_t
@@ -259,6 +260,15 @@ contains
         type is (central_scheme_t)
             call ls_set_threads(s%ms%lu, sim%scn%solver_threads)
         end select
+        ! the scheme's matrix values (J0 = M + c K_theta on the model's pattern) and its
+        ! vectors (some ten of n), at the least: asked for first, as they are allocated
+        ! without a status
+        if (.not. has_room(8.0_dp * sim%mdl%stiff%nnz + 80.0_dp * sim%n_dofs)) then
+            call raise(stat, errmsg, STAT_INTERNAL, oom_text('the set-up of the time scheme', &
+                       'J0 and its vectors, at least '//mb_text(8.0_dp * sim%mdl%stiff%nnz + &
+                       80.0_dp * sim%n_dofs), OOM_HINT_MESH))
+            return
+        end if
         call sim%scheme%init(sim%mdl, sprm, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
         call check_massless_weight(sim)
