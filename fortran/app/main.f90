@@ -37,8 +37,9 @@ program main
             write (*, '(a)') '--restart DIR continues a stopped run from DIR/checkpoint.bin (written with'
             write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv; a later'
             write (*, '(a)') '&scheme t_end or a raised blowup in SCENE.nml extends the run.'
-            write (*, '(a)') 'Exit status: 0 ok, 2 bad input, 3 numerical failure, 4 write/internal error,'
-            write (*, '(a)') '130 interrupted (SIGINT/SIGTERM).'
+            write (*, '(a)') 'Exit status: 0 ok, 2 bad input, 3 numerical failure, 4 write failure, out of'
+            write (*, '(a)') 'memory (one line naming the stage) or internal error, 130 interrupted'
+            write (*, '(a)') '(SIGINT/SIGTERM).'
             call c_exit(0_c_int)
         case ('--version', '-V')
             write (*, '(a)') 'dyncontact '//DYNCONTACT_VERSION

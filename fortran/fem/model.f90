@@ -3,7 +3,8 @@
 !> CSC pattern), contact facets and the probe.
 module model
     use kinds, only: dp
-    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, raise
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise, oom_text, &
+                      mb_text, has_room, OOM_HINT_MESH
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets, mesh_parts
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass
     use simplex_geometry, only: simplex_measure
@@ -158,6 +159,19 @@ contains
                        //''' in '//trim(prm%mesh_name)//')')
             return
         end if
+        call cell_pattern(mdl, mdl%stiff, stat)
+        if (stat == STAT_OK) then
+            ! M and K_theta on the pattern, and the node-block copies of K_theta and M to
+            ! come: 24 bytes an entry at the least
+            if (.not. has_room(24.0_dp * mdl%stiff%nnz)) stat = STAT_INTERNAL
+        end if
+        if (stat /= STAT_OK) then
+            call raise(stat, errmsg, STAT_INTERNAL, oom_text('the assembly', 'the matrices of '// &
+                       int_text(mdl%n_dofs)//' dofs have '//int_text(mdl%stiff%nnz)// &
+                       ' entries, 36 bytes each for K, M and K_theta ('// &
+                       mb_text(36.0_dp * mdl%stiff%nnz)//')', OOM_HINT_MESH))
+            return
+        end if
         call assemble(mdl, prm, lambda, mu, stat, msg)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//trim(msg))
@@ -208,7 +222,16 @@ contains
                       '''): the probe reports nothing (u_n, v_n, p_n are 0 in trace.csv)')
         end if
         call add_theta_term(mdl)
-        call block_copy(mdl, stat, msg)
+        ! the node-block copies of K_theta and M (8 bytes an entry each and their work)
+        stat = STAT_OK
+        if (mdl%dim >= 2 .and. .not. has_room(20.0_dp * mdl%stiff%nnz)) stat = STAT_INTERNAL
+        if (stat == STAT_OK) call block_copy(mdl, stat, msg)
+        if (stat == STAT_INTERNAL) then
+            call raise(stat, errmsg, STAT_INTERNAL, oom_text('the assembly (the node-block '// &
+                       'copies of K_theta and M)', 'the matrices of '//int_text(mdl%n_dofs)// &
+                       ' dofs have '//int_text(mdl%stiff%nnz)//' entries', OOM_HINT_MESH))
+            return
+        end if
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//trim(msg))
             return
@@ -297,7 +320,7 @@ contains
         end subroutine group_mask
     end subroutine number_dofs
 
-    !> Pattern, cell positions, M, K, K_theta (= K until add_theta_term) and L.
+    !> M, K, K_theta (= K until add_theta_term) and L on the pattern (cell_pattern).
     pure subroutine assemble(mdl, prm, lambda, mu, st, m)
         type(model_t), intent(inout) :: mdl          !! model being built
         type(model_params_t), intent(in) :: prm      !! parameters
@@ -310,7 +333,6 @@ contains
         st = STAT_OK
         dim = mdl%dim
         ne = mdl%ndof_e
-        call cell_pattern(mdl, mdl%stiff)
         mdl%mass_val = mdl%stiff%val
         allocate (mdl%load(mdl%n_dofs))
         mdl%load = 0.0_dp
@@ -364,16 +386,22 @@ contains
     !> (n + (dim + 1) n_cells integers of work, where the triplets took 36 bytes for each
     !> of the ndof_e^2 entries of every cell: 160 MB for the 3D box at 19 440 dofs, the
     !> set-up's peak there).
-    pure subroutine cell_pattern(mdl, a)
+    pure subroutine cell_pattern(mdl, a, stat)
         type(model_t), intent(in) :: mdl             !! model (dofs numbered)
         type(csc_t), intent(out) :: a                !! pattern
+        integer, intent(out) :: stat                 !! STAT_OK, STAT_INTERNAL (out of memory)
         integer, allocatable :: first(:), cells(:), mark(:), buf(:)
         integer :: nn, nc, nv, i, j, k, c, p, q, t, r, cnt, pass, node, other, row
+        stat = STAT_OK
         nn = mdl%msh%n_nodes
         nc = mdl%msh%n_cells
         nv = size(mdl%msh%cells, 1)
         ! the cells of each node (CSR)
-        allocate (first(nn + 1), cells(nv * nc))
+        allocate (first(nn + 1), cells(nv * nc), stat=stat)
+        if (stat /= 0) then
+            stat = STAT_INTERNAL
+            return
+        end if
         first = 0
         do c = 1, nc
             do k = 1, nv
@@ -396,7 +424,11 @@ contains
         end do
         first(1) = 1
         a%n = mdl%n_dofs
-        allocate (a%colptr(a%n + 1), mark(a%n), buf(a%n))
+        allocate (a%colptr(a%n + 1), mark(a%n), buf(a%n), stat=stat)
+        if (stat /= 0) then
+            stat = STAT_INTERNAL
+            return
+        end if
         ! two passes over the columns: count, then store
         do pass = 1, 2
             mark = 0
@@ -429,7 +461,11 @@ contains
             if (pass == 1) then
                 a%colptr(a%n + 1) = cnt
                 a%nnz = cnt
-                allocate (a%rowind(cnt), a%val(cnt))
+                allocate (a%rowind(cnt), a%val(cnt), stat=stat)
+                if (stat /= 0) then
+                    stat = STAT_INTERNAL
+                    return
+                end if
                 a%val = 0.0_dp
             end if
         end do

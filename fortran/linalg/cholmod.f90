@@ -25,7 +25,9 @@ module cholmod
     use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated, &
                              c_f_pointer, c_char
     use kinds, only: dp
-    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise, oom_text, &
+                      mb_text, OOM_HINT_FACTOR
+    use text, only: int_text
     use sparse, only: csc_t
     use ldl_solves, only: pair_ldl_t, pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, &
                           pair_ldl_free, triple_ldl_t, triple_ldl_build, triple_ldl_solve, &
@@ -34,7 +36,8 @@ module cholmod
     private
 
     ! Statuses of cholmod_shim.c.
-    integer(c_int), parameter :: DC_OK = 0, DC_NOT_POSDEF = 1, DC_OUT_OF_MEMORY = 2
+    integer(c_int), parameter :: DC_OK = 0, DC_NOT_POSDEF = 1, DC_OUT_OF_MEMORY = 2, &
+                                 DC_OUT_OF_MEMORY_ORDERING = 4
 
     !> LDL^T factors of one symmetric matrix (the symbolic analysis is kept across
     !> numeric refactorizations of the same pattern).
@@ -112,6 +115,20 @@ module cholmod
             real(c_double), intent(out) :: entries       !! entries the factor will store (D and L)
             integer(c_int) :: status
         end function dc_cholmod_analyse
+
+        !> void dc_cholmod_need(h, need)
+        subroutine dc_cholmod_need(h, need) bind(C, name='dc_cholmod_need')
+            import :: c_ptr, c_double
+            type(c_ptr), value :: h                      !! handle
+            real(c_double), intent(out) :: need(4)       !! factor, work, BLAS buffer, threads
+        end subroutine dc_cholmod_need
+
+        !> double dc_cholmod_entries(h)
+        function dc_cholmod_entries(h) result(entries) bind(C, name='dc_cholmod_entries')
+            import :: c_ptr, c_double
+            type(c_ptr), value :: h                      !! handle
+            real(c_double) :: entries
+        end function dc_cholmod_entries
 
         !> long dc_cholmod_nnz(h)
         function dc_cholmod_nnz(h) result(nnz) bind(C, name='dc_cholmod_nnz')
@@ -258,6 +275,10 @@ contains
             status = dc_cholmod_analyse(ch%handle, int(a%n, c_int), a%colptr, a%rowind, a%val, &
                                         analysed, e)
         end if
+        if (status == DC_OUT_OF_MEMORY_ORDERING) then
+            call raise(stat, errmsg, STAT_INTERNAL, ordering_oom_text(a))
+            return
+        end if
         if (status /= DC_OK) then
             call raise(stat, errmsg, STAT_INTERNAL, 'chol_analyse: CHOLMOD failed')
             return
@@ -302,7 +323,10 @@ contains
             call raise(stat, errmsg, STAT_NUMERIC, trim(buf))
             return
         case (DC_OUT_OF_MEMORY)
-            call raise(stat, errmsg, STAT_INTERNAL, 'chol_factor: out of memory')
+            call raise(stat, errmsg, STAT_INTERNAL, factor_oom_text(ch))
+            return
+        case (DC_OUT_OF_MEMORY_ORDERING)
+            call raise(stat, errmsg, STAT_INTERNAL, ordering_oom_text(a))
             return
         case default
             call raise(stat, errmsg, STAT_INTERNAL, 'chol_factor: CHOLMOD failed')
@@ -407,6 +431,44 @@ contains
         end function take_blocks
     end subroutine chol_factor
 
+    !> The line of a symbolic analysis (the fill-reducing orderings) that ran out of memory.
+    function ordering_oom_text(a) result(msg)
+        type(csc_t), intent(in) :: a                        !! the matrix analysed
+        character(len=:), allocatable :: msg
+        msg = oom_text('the ordering (the symbolic analysis of the factorization)', &
+                       'a matrix of '//int_text(a%n)//' rows and '//int_text(a%nnz)// &
+                       ' entries', OOM_HINT_FACTOR)
+    end function ordering_oom_text
+
+    !> The line of a numerical factorization that ran out of memory: the factor's entries
+    !> (from the symbolic analysis) and the bytes it was to hold, with its work, the BLAS's
+    !> buffer and the stacks of CHOLMOD's threads where they were still to be made
+    !> (dc_cholmod_need).
+    function factor_oom_text(ch) result(msg)
+        type(cholmod_t), intent(in) :: ch                   !! the factors that failed
+        character(len=:), allocatable :: msg
+        real(dp) :: entries, need(4)
+        character(len=:), allocatable :: what, hint
+        entries = dc_cholmod_entries(ch%handle)
+        call dc_cholmod_need(ch%handle, need)
+        what = ''
+        if (entries > 0.0_dp) what = 'the factor has '//int_text(int(entries, c_long))// &
+            ' entries (from the symbolic analysis)'
+        if (need(1) > 0.0_dp) then
+            if (len(what) > 0) what = what//', '
+            what = what//mb_text(need(1))
+            if (sum(need(2:4)) > 0.0_dp) then
+                what = what//', '//mb_text(sum(need))//' with its work'
+                if (need(3) > 0.0_dp) what = what//', the BLAS''s '//mb_text(need(3))//' buffer'
+                if (need(4) > 0.0_dp) what = what//' and the stacks of CHOLMOD''s threads'
+            end if
+        end if
+        hint = OOM_HINT_FACTOR
+        if (need(4) > 0.0_dp) hint = hint//' (OMP_THREAD_LIMIT=1: no threads'' stacks, '// &
+            mb_text(need(4))//' less)'
+        msg = oom_text('the factorization', what, hint)
+    end function factor_oom_text
+
     !> The fill-reducing ordering of the factors ('' without factors): see ORDERING_NAMES.
     pure function chol_ordering(ch) result(name)
         type(cholmod_t), intent(in) :: ch                   !! factors
@@ -494,8 +556,8 @@ contains
             call triple_ldl_solve(ch%triples, b, x)
         else if ((ch%pairs%n > 0 .or. ch%triples%n > 0) .and. .not. ch%keep_cholmod) then
             call raise(stat, errmsg, STAT_BAD_INPUT, who//': CHOLMOD''s factor was released')
-        else if (dc_cholmod_solve(ch%handle, 1_c_int, b, x) /= DC_OK) then
-            call raise(stat, errmsg, STAT_INTERNAL, who//': cholmod_solve2 failed')
+        else
+            call solve2(ch, 1, b, x, who, stat, errmsg)
         end if
     end subroutine solve_one
 
@@ -507,6 +569,7 @@ contains
         real(dp), intent(out) :: x(:, :)                    !! solutions (n, m)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        logical :: ok
         if (ch%n < 1) then
             call raise(stat, errmsg, STAT_BAD_INPUT, 'chol_solve_many: no factors')
             return
@@ -517,17 +580,40 @@ contains
         end if
         stat = STAT_OK
         if (size(b, 2) == 0) return
-        if (ch%pairs%n > 0) then
-            call pair_ldl_solve_many(ch%pairs, b, x)
+        if (ch%pairs%n > 0 .or. ch%triples%n > 0) then
+            if (ch%pairs%n > 0) then
+                call pair_ldl_solve_many(ch%pairs, b, x, ok)
+            else
+                call triple_ldl_solve_many(ch%triples, b, x, ok)
+            end if
+            if (.not. ok) call raise(stat, errmsg, STAT_INTERNAL, oom_text('the solves of '// &
+                int_text(size(b, 2))//' columns', mb_text(8.0_dp * size(b)), OOM_HINT_FACTOR))
             return
         end if
-        if (ch%triples%n > 0) then
-            call triple_ldl_solve_many(ch%triples, b, x)
-            return
-        end if
-        if (dc_cholmod_solve(ch%handle, int(size(b, 2), c_int), b, x) /= DC_OK) &
-            call raise(stat, errmsg, STAT_INTERNAL, 'chol_solve_many: cholmod_solve2 failed')
+        call solve2(ch, size(b, 2), b, x, 'chol_solve_many', stat, errmsg)
     end subroutine chol_solve_many
+
+    !> cholmod_solve2 for ncol right-hand sides: STAT_INTERNAL when it fails, with the
+    !> out of memory line when its workspaces could not be allocated.
+    subroutine solve2(ch, ncol, b, x, who, stat, errmsg)
+        type(cholmod_t), intent(inout) :: ch                !! factors
+        integer, intent(in) :: ncol                         !! right-hand sides
+        real(dp), intent(in) :: b(*)                        !! (n, ncol)
+        real(dp), intent(out) :: x(*)                       !! (n, ncol)
+        character(len=*), intent(in) :: who                 !! caller, for the message
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        integer(c_int) :: status
+        stat = STAT_OK
+        status = dc_cholmod_solve(ch%handle, int(ncol, c_int), b, x)
+        if (status == DC_OUT_OF_MEMORY) then
+            call raise(stat, errmsg, STAT_INTERNAL, oom_text('the solves of '// &
+                       int_text(ncol)//' columns', 'their work, about '// &
+                       mb_text(24.0_dp * ch%n * ncol), OOM_HINT_FACTOR))
+        else if (status /= DC_OK) then
+            call raise(stat, errmsg, STAT_INTERNAL, who//': cholmod_solve2 failed')
+        end if
+    end subroutine solve2
 
     !> Release the CHOLMOD objects and the copied factors (safe to call twice or on a
     !> fresh cholmod_t). The counters are kept.

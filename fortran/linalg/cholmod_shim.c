@@ -30,7 +30,10 @@
 #include <stdlib.h>
 #include <string.h>
 #include <math.h>
+#include <pthread.h>
 #include "cholmod.h"
+
+int omp_get_thread_limit(void);   /* libgomp's (omp.h without -fopenmp) */
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
@@ -51,10 +54,89 @@ typedef struct {
     int taken;             /* L's values and rows were turned into node blocks in place
                             * (dc_cholmod_take_blocks): L's numeric part is not a factor
                             * any more, its x and i are lent to the caller */
+    double need[4];        /* bytes the factorization that ran out of memory was to hold
+                            * (dc_cholmod_need): the factor, its work, the BLAS's buffer,
+                            * the threads' stacks */
 } dc_cholmod;
 
-/* Statuses returned to Fortran. */
-enum { DC_OK = 0, DC_NOT_POSDEF = 1, DC_OUT_OF_MEMORY = 2, DC_FAILED = 3 };
+/* Statuses returned to Fortran: DC_OUT_OF_MEMORY in the numerical factorization,
+ * DC_OUT_OF_MEMORY_ORDERING in the symbolic analysis (the orderings). */
+enum { DC_OK = 0, DC_NOT_POSDEF = 1, DC_OUT_OF_MEMORY = 2, DC_FAILED = 3,
+       DC_OUT_OF_MEMORY_ORDERING = 4 };
+
+/* Out of memory in a library that cannot say so. The first BLAS call of the process
+ * (LAPACK's dpotrf in CHOLMOD's supernodal factorization; UMFPACK's dgemm) makes
+ * OpenBLAS allocate its buffer (BLAS_BUFFER bytes: 128 MiB and a page in OpenBLAS 0.3 on
+ * x86-64), and OpenBLAS retries a failed allocation for ever (a run under a limit of the
+ * address space hangs there); the supernodal factorization's OpenMP loops start
+ * CHOLMOD_OMP_NUM_THREADS - 1 helper threads (4 - 1 in Debian's build, whatever
+ * OMP_NUM_THREADS says), whose stacks count against that limit, and libgomp ends the
+ * process (exit status 1, "Thread creation failed") when one cannot be made. Both
+ * happen once a process (the buffer and the threads are kept), so before the first
+ * supernodal factorization the room for them, with the factor's, is asked for first
+ * (dc_room) and a refusal is an ordinary out of memory. These flags say they were made. */
+#define BLAS_BUFFER ((double) (128 << 20) + (1 << 20))
+static int blas_buffer_made = 0;
+static int omp_threads_made = 0;
+
+/* The bytes of a thread's stack (the default of new threads: RLIMIT_STACK, or
+ * OMP_STACKSIZE / GOMP_STACKSIZE, not read here: set larger, the check is short of
+ * them) and a guard page. */
+static double thread_stack_bytes(void)
+{
+    pthread_attr_t attr;
+    size_t size = 8u << 20;
+    if (pthread_getattr_default_np(&attr) == 0) {
+        if (pthread_attr_getstacksize(&attr, &size) != 0) size = 8u << 20;
+        pthread_attr_destroy(&attr);
+    }
+    return (double) size + 4096.0;
+}
+
+/* The bytes the BLAS's buffer will take: BLAS_BUFFER where the BLAS is OpenBLAS and has
+ * not made it yet, else 0 (the reference BLAS allocates nothing). */
+void dc_cholmod_blas(char *msg, int len);
+
+static double blas_buffer_bytes(void)
+{
+    char text[1024];
+    if (blas_buffer_made) return 0.0;
+    dc_cholmod_blas(text, (int) sizeof text - 1);
+    text[sizeof text - 1] = '\0';
+    return strstr(text, "OpenBLAS") != NULL ? BLAS_BUFFER : 0.0;
+}
+
+/* The threads of CHOLMOD's OpenMP loops: CHOLMOD_OMP_NUM_THREADS, at most OpenMP's
+ * thread limit (OMP_THREAD_LIMIT; OMP_NUM_THREADS does not lower it). */
+static int omp_helpers(void)
+{
+    int limit = omp_get_thread_limit();
+    return limit < CHOLMOD_OMP_NUM_THREADS ? (limit > 1 ? limit : 1) : CHOLMOD_OMP_NUM_THREADS;
+}
+
+/* Whether `bytes` could be allocated now (allocated and freed at once, never touched:
+ * under a limit of the address space this is the test; without one it costs nothing
+ * but the call). */
+static int dc_room(double bytes)
+{
+    void *p;
+    if (bytes <= 0) return 1;
+    if (bytes > (double) ((size_t) -1 / 2)) return 0;
+    p = malloc((size_t) bytes);
+    if (p == NULL) return 0;
+    free(p);
+    return 1;
+}
+
+/* Whether BLAS_BUFFER bytes are free when the BLAS has not made its buffer yet (see
+ * BLAS_BUFFER): UMFPACK asks before its numerical factorization. 1 when it may go on. */
+int dc_blas_room(double extra)
+{
+    return dc_room(extra + blas_buffer_bytes());
+}
+
+/* UMFPACK's numerical factorization went through: the BLAS has its buffer. */
+void dc_blas_made(void) { blas_buffer_made = 1; }
 
 /* New handle (NULL when out of memory). */
 void *dc_cholmod_new(void)
@@ -67,6 +149,10 @@ void *dc_cholmod_new(void)
     h->c.final_ll = 0;                    /* keep LDL' */
     h->c.final_pack = 1;
     h->c.final_monotonic = 1;
+    /* METIS ends the process (abort) when an allocation fails: CHOLMOD first asks for
+     * METIS's observed upper bound, (10 nz + 50 n + 4096) indices, and where that is
+     * refused the ordering is out of memory (analyze_blocks then keeps another) */
+    h->c.metis_memory = 1.0;
     return h;
 }
 
@@ -273,7 +359,10 @@ static cholmod_factor *analyze_blocks(cholmod_sparse *a, int bs, cholmod_common 
     int forced = forced_ordering();
     static const int tries[3] = { ORD_AMD, ORD_METIS, ORD_NESDIS };
     *ord = ORD_NONE;
-    if (np == NULL || ni == NULL || nperm == NULL || perm == NULL) goto done;
+    if (np == NULL || ni == NULL || nperm == NULL || perm == NULL) {
+        c->status = CHOLMOD_OUT_OF_MEMORY;
+        goto done;
+    }
     /* the blocks' upper pattern: column J's rows are those of column bs J + bs - 1 up to
      * the diagonal, one a block, divided by bs */
     for (J = 0; J < nn; J++) {
@@ -412,7 +501,7 @@ static int analyse(dc_cholmod *h, cholmod_sparse *ap, int n, const int *colptr,
         if (h->L == NULL) {
             int st = h->c.status;
             free_factor(h);
-            return st == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
+            return st == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY_ORDERING : DC_FAILED;
         }
         /* the orderings' workspace goes (the factorization allocates its own, smaller) */
         cholmod_free_work(&h->c);
@@ -610,6 +699,34 @@ int dc_cholmod_analyse(void *handle, int n, const int *colptr, const int *rowind
     return st;
 }
 
+/* The bytes of the numerical factor of the analysis h->L: a supernodal one's values and
+ * row indices, a simplicial one's entries (D and L) at 8 + 4 bytes (0 without one). */
+static double factor_bytes(const dc_cholmod *h)
+{
+    if (h->L == NULL) return 0.0;
+    if (h->L->is_super)
+        return 8.0 * (double) h->L->xsize + 4.0 * (double) h->L->ssize;
+    return 12.0 * h_lnz(h->L);
+}
+
+/* The bytes the factorization that ran out of memory (DC_OUT_OF_MEMORY) was to hold,
+ * need[4]: the factor; for a supernodal one its work (the largest update matrix and the
+ * permuted matrix), the BLAS's buffer and the threads' stacks still to be made (0 where
+ * none or unknown). */
+void dc_cholmod_need(void *handle, double *need)
+{
+    dc_cholmod *h = handle;
+    int k;
+    for (k = 0; k < 4; k++) need[k] = h == NULL ? 0.0 : h->need[k];
+}
+
+/* Entries of the analysed factor (D and L; 0 without an analysis). */
+double dc_cholmod_entries(void *handle)
+{
+    dc_cholmod *h = handle;
+    return h == NULL || h->L == NULL ? 0.0 : h->entries;
+}
+
 /* Analyse (when n or the pattern changed) and factorize P A P' = L D L' for the n x n
  * CSC matrix (0-based colptr[n+1], rowind[nnz], sorted rows, values val), reading its
  * upper triangle; node blocks are ordered together when the pattern allows (*paired = their
@@ -625,6 +742,7 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
     int j, k, ok, ranges;
     const double *d;
     const int *lp;
+    double held;
 
     *analysed = 0;
     *lnz = 0;
@@ -649,6 +767,21 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
     malloc_trim(0);
 #endif
     h->c.status = CHOLMOD_OK;
+    h->need[0] = factor_bytes(h);
+    h->need[1] = h->need[2] = h->need[3] = 0.0;
+    held = h->L->xtype != CHOLMOD_PATTERN ? h->need[0] : 0.0;   /* refactorized in place */
+    if (h->super) {
+        /* the supernodal factorization's peak: the factor, its largest update matrix, and
+         * the permuted matrix (two transposes of a, 12 bytes an entry each), and the
+         * first time the BLAS's buffer and the OpenMP threads (see BLAS_BUFFER),
+         * asked for first, since a failure there is not returned */
+        h->need[1] = 8.0 * (double) h->L->maxcsize + 24.0 * (double) colptr[n];
+        h->need[2] = blas_buffer_bytes();
+        if (!omp_threads_made)
+            h->need[3] = (omp_helpers() - 1) * thread_stack_bytes();
+        if (!dc_room(h->need[0] + h->need[1] + h->need[2] + h->need[3] - held))
+            return DC_OUT_OF_MEMORY;
+    }
     ranges = factor_ranges();
     if (!h->L->is_super && h->L->ordering != CHOLMOD_NATURAL && ranges > 0)
         ok = factor_by_ranges(h, &a, ranges);
@@ -656,6 +789,10 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
         ok = cholmod_factorize(&a, h->L, &h->c);
     if (!ok || h->c.status < CHOLMOD_OK)
         return h->c.status == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
+    if (h->super) {
+        blas_buffer_made = 1;
+        omp_threads_made = 1;
+    }
     if (h->L->xtype != CHOLMOD_REAL || (!h->super && (h->L->is_super || h->L->is_ll)))
         return DC_FAILED;
     if (h->c.status == CHOLMOD_NOT_POSDEF || h->L->minor < h->L->n) {
@@ -805,7 +942,8 @@ int dc_cholmod_release_numeric(void *handle)
 }
 
 /* Solve A X = B for ncol right-hand sides (b and x column-major, n x ncol) with
- * cholmod_solve2 (workspaces kept in the handle). Returns DC_OK or DC_FAILED. */
+ * cholmod_solve2 (workspaces kept in the handle). Returns DC_OK, DC_OUT_OF_MEMORY (the
+ * workspaces) or DC_FAILED. */
 int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
 {
     dc_cholmod *h = handle;
@@ -814,7 +952,7 @@ int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
     if (h->B == NULL || h->bcols != ncol) {
         free_dense(h);
         h->B = calloc(1, sizeof(cholmod_dense));
-        if (h->B == NULL) return DC_FAILED;
+        if (h->B == NULL) return DC_OUT_OF_MEMORY;
         h->bcols = ncol;
     }
     h->B->nrow = (size_t) h->n;
@@ -825,8 +963,9 @@ int dc_cholmod_solve(void *handle, int ncol, const double *b, double *x)
     h->B->z = NULL;
     h->B->xtype = CHOLMOD_REAL;
     h->B->dtype = CHOLMOD_DOUBLE;
+    h->c.status = CHOLMOD_OK;
     if (!cholmod_solve2(CHOLMOD_A, h->L, h->B, NULL, &h->X, NULL, &h->Y, &h->E, &h->c))
-        return DC_FAILED;
+        return h->c.status == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
     memcpy(x, h->X->x, sizeof(double) * (size_t) h->n * (size_t) ncol);
     return DC_OK;
 }

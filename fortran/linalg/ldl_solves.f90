@@ -558,12 +558,16 @@ contains
     !> (the factor is read once per k columns instead of once per column: the solves of
     !> many right-hand sides are bound by reading L). Each column gets the operations of
     !> pair_ldl_solve in the same order.
-    pure subroutine pair_ldl_solve_many(f, b, x)
+    pure subroutine pair_ldl_solve_many(f, b, x, ok)
         type(pair_ldl_t), intent(in) :: f                   !! block factors
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, k)
         real(dp), intent(out) :: x(:, :)                    !! solutions (n, k)
+        logical, intent(out) :: ok                          !! .false.: out of memory (x not set)
         real(dp), allocatable :: y(:, :)
-        allocate (y(size(b, 2), f%n))
+        integer :: ist
+        allocate (y(size(b, 2), f%n), stat=ist)
+        ok = ist == 0
+        if (.not. ok) return
         call pair_sweeps_many(f%n, f%nn, size(f%bi), size(b, 2), f%perm, f%bp, f%bi, f%bx, &
                               f%l21, f%d, b, x, y)
     end subroutine pair_ldl_solve_many
@@ -914,12 +918,16 @@ contains
     !> X = A^{-1} B for the k columns of B in one pass over the factor (as
     !> pair_ldl_solve_many). Each column gets the operations of triple_ldl_solve in the
     !> same order.
-    pure subroutine triple_ldl_solve_many(f, b, x)
+    pure subroutine triple_ldl_solve_many(f, b, x, ok)
         type(triple_ldl_t), intent(in) :: f                 !! block factors
         real(dp), intent(in) :: b(:, :)                     !! right-hand sides (n, k)
         real(dp), intent(out) :: x(:, :)                    !! solutions (n, k)
+        logical, intent(out) :: ok                          !! .false.: out of memory (x not set)
         real(dp), allocatable :: y(:, :)
-        allocate (y(size(b, 2), f%n))
+        integer :: ist
+        allocate (y(size(b, 2), f%n), stat=ist)
+        ok = ist == 0
+        if (.not. ok) return
         call triple_sweeps_many(f%n, f%nt, size(f%bi), size(b, 2), f%perm, f%bp, f%bi, f%bx, &
                                 f%ld, f%d, b, x, y)
     end subroutine triple_ldl_solve_many

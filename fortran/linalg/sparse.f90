@@ -546,7 +546,11 @@ contains
             col2 = col1 + merge(1, 0, width >= 2)
             col3 = col1 + merge(2, 0, width >= 3)
         end if
-        allocate (bval(w * w, size(col1) + merge(1, 0, w == 3)))
+        allocate (bval(w * w, size(col1) + merge(1, 0, w == 3)), stat=m)
+        if (m /= 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, who//': out of memory (the block values)')
+            return
+        end if
         bval = 0.0_dp
         ! the values row group by row group: a group's columns are consecutive entries of a
         call group_work(a, first, group, mark, place)
@@ -825,10 +829,12 @@ contains
             end if
         end do
         if (ok) then
-            s = bval(1, :nb)
-        else
-            allocate (s(0))
+            ! out of memory: M keeps its blocks (the same products, without the shortcut)
+            allocate (s(nb), stat=e)
+            ok = e == 0
+            if (ok) s = bval(1, :nb)
         end if
+        if (.not. ok) allocate (s(0))
     end subroutine scalar_blocks
 
     !> kx = K x and mv = M v in one pass, M = blocks ms(k) I on the block pattern of kb

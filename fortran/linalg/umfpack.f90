@@ -9,7 +9,8 @@
 module umfpack
     use iso_c_binding, only: c_ptr, c_null_ptr, c_double, c_int, c_associated
     use kinds, only: dp
-    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise, oom_text, &
+                      mb_text, OOM_HINT_MESH
     use sparse, only: csc_t
     implicit none
     private
@@ -23,6 +24,10 @@ module umfpack
     integer, parameter, public :: UMFPACK_IRSTEP = 7     !! Control: max. iterative refinement steps
     integer, parameter, public :: UMFPACK_ORDERING = 10  !! Control: ordering
     integer, parameter, public :: UMFPACK_STATUS = 0     !! Info: status of the last call
+    integer, parameter, public :: UMFPACK_SIZE_OF_UNIT = 3   !! Info: bytes of a Unit
+    integer, parameter, public :: UMFPACK_PEAK_MEMORY_ESTIMATE = 21 !! Info: the symbolic
+                                                                    !! analysis' estimate of
+                                                                    !! the peak (Units)
     integer, parameter, public :: UMFPACK_NUMERIC_SIZE = 40  !! Info: Numeric object size (Units)
     integer, parameter, public :: UMFPACK_FLOPS = 42     !! Info: flops of the factorization
     integer, parameter, public :: UMFPACK_LNZ = 43       !! Info: nnz(L) incl. diagonal
@@ -76,6 +81,18 @@ module umfpack
     public :: lu_factor, lu_solve, lu_solve_many, lu_free, lu_rcond, umfpack_status_text
 
     interface
+        !> int dc_blas_room(double extra) (cholmod_shim.c): room for extra bytes and the
+        !> BLAS's buffer when it is still to be made
+        function dc_blas_room(extra) result(ok) bind(C, name='dc_blas_room')
+            import :: c_int, c_double
+            real(c_double), value :: extra               !! bytes besides the buffer
+            integer(c_int) :: ok
+        end function dc_blas_room
+
+        !> void dc_blas_made(void) (cholmod_shim.c): the BLAS has made its buffer
+        subroutine dc_blas_made() bind(C, name='dc_blas_made')
+        end subroutine dc_blas_made
+
         !> int umfpack_di_get_lunz(int *lnz, int *unz, int *n_row, int *n_col, int *nz_udiag, void *Numeric)
         function umfpack_di_get_lunz(lnz, unz, n_row, n_col, nz_udiag, numeric) &
             bind(C, name='umfpack_di_get_lunz') result(status)
@@ -184,6 +201,7 @@ contains
         integer(c_int) :: status
         integer :: ierr
         logical :: reuse
+        real(dp) :: peak
 
         if (c_associated(lu%numeric)) call umfpack_di_free_numeric(lu%numeric)
         lu%numeric = c_null_ptr
@@ -222,11 +240,28 @@ contains
             lu%n = a%n
         end if
 
+        ! the symbolic analysis' estimate of the numerical factorization's peak and, at the
+        ! process's first BLAS call, OpenBLAS's buffer (whose failed allocation OpenBLAS
+        ! retries for ever: cholmod_shim.c, BLAS_BUFFER), asked for first
+        peak = lu%info(UMFPACK_PEAK_MEMORY_ESTIMATE + 1) * lu%info(UMFPACK_SIZE_OF_UNIT + 1)
+        if (dc_blas_room(max(peak, 0.0_dp)) == 0) then
+            call raise(stat, errmsg, STAT_INTERNAL, oom_text('the factorization (UMFPACK''s LU)', &
+                       'about '//mb_text(peak)//' estimated by its symbolic analysis, with '// &
+                       'the BLAS''s buffer', OOM_HINT_MESH))
+            return
+        end if
         status = umfpack_di_numeric(a%colptr, a%rowind, v, lu%symbolic, lu%numeric, &
                                     lu%control, lu%info)
         lu%factorizations = lu%factorizations + 1
+        if (status == UMFPACK_OK) call dc_blas_made()
         if (status == UMFPACK_OK) then
             call extract_factors(lu, stat, errmsg)
+        else if (status == UMFPACK_ERROR_out_of_memory) then
+            if (c_associated(lu%numeric)) call umfpack_di_free_numeric(lu%numeric)
+            lu%numeric = c_null_ptr
+            call raise(stat, errmsg, STAT_INTERNAL, oom_text('the factorization (UMFPACK''s LU)', &
+                       'about '//mb_text(peak)//' estimated by its symbolic analysis', &
+                       OOM_HINT_MESH))
         else
             if (c_associated(lu%numeric)) call umfpack_di_free_numeric(lu%numeric)
             lu%numeric = c_null_ptr

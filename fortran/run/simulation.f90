@@ -6,7 +6,8 @@ module simulation
     use kinds, only: dp, i8
     use text, only: int_text, real_text, fixed_text, lower
     use vector_ops, only: dot
-    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise, &
+                      has_room, oom_text, mb_text, OOM_HINT_MESH
     use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim, &
                      scene_given
     use mesh, only: mesh_t
@@ -259,6 +260,15 @@ contains
         type is (central_scheme_t)
             call ls_set_threads(s%ms%lu, sim%scn%solver_threads)
         end select
+        ! the scheme's matrix values (J0 = M + c K_theta on the model's pattern) and its
+        ! vectors (some ten of n), at the least: asked for first, as they are allocated
+        ! without a status
+        if (.not. has_room(8.0_dp * sim%mdl%stiff%nnz + 80.0_dp * sim%n_dofs)) then
+            call raise(stat, errmsg, STAT_INTERNAL, oom_text('the set-up of the time scheme', &
+                       'J0 and its vectors, at least '//mb_text(8.0_dp * sim%mdl%stiff%nnz + &
+                       80.0_dp * sim%n_dofs), OOM_HINT_MESH))
+            return
+        end if
         call sim%scheme%init(sim%mdl, sprm, sim%st, stat, errmsg)
         if (stat /= STAT_OK) return
         call check_massless_weight(sim)
@@ -853,7 +863,7 @@ contains
         logical :: row
         integer(i8) :: clock
         integer :: sig
-        character(len=256) :: msg
+        character(len=512) :: msg
         character(len=512) :: wmsg
         stat = STAT_OK
         steps_done = 0
@@ -874,6 +884,16 @@ contains
                 return
             end if
             call sim%scheme%step(sim%mdl, sim%st, stat, msg)
+            if (stat == STAT_INTERNAL) then
+                ! out of memory (errors' oom_text): the trace up to the last step is kept
+                sim%status = 'internal_error'
+                if (index(msg, 'out of memory') == 1) sim%status = 'out_of_memory'
+                sim%message = trim(msg)//' (the run stopped at t = '// &
+                              real_text(sim%st%t, 6)//', trace kept)'
+                sim%finished = .true.
+                call raise(stat, errmsg, STAT_INTERNAL, trim(sim%message))
+                return
+            end if
             if (stat /= STAT_OK) then
                 sim%status = 'newton_failed'
                 sim%message = trim(msg)       ! (it gives t: the schemes' step_failed)

@@ -40,7 +40,7 @@
 !> Z by the same sums, to the same numbers, if needed again.
 module contact_columns
     use kinds, only: dp, i8
-    use errors, only: STAT_OK
+    use errors, only: STAT_OK, STAT_INTERNAL, raise, oom_text, mb_text, OOM_HINT_MESH
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use sparse, only: csc_t
     use linear_solver, only: factor_t, ls_solve_many
@@ -167,7 +167,11 @@ contains
         s = findloc(zc%bowner, 0, dim=1)
         if (s == 0) then      ! (the slot arrays doubled when full)
             ncap = min(size(zc%bslot), max(2 * cap, ZCHUNK))
-            allocate (tmp(zc%n, ncap), itmp(2, ncap), otmp(ncap))
+            allocate (tmp(zc%n, ncap), itmp(2, ncap), otmp(ncap), stat=s)
+            if (s /= 0) then
+                call columns_oom(zc, 8.0_dp * zc%n * ncap, stat, errmsg)
+                return
+            end if
             tmp(:, 1:cap) = zc%zb
             itmp(:, 1:cap) = zc%brange
             otmp = 0
@@ -545,12 +549,21 @@ contains
         stat = STAT_OK
         j0 = group_first(g) - 1
         nb = group_last(zc, g) - j0
-        allocate (e(zc%n, nb), zb(zc%n, nb))
+        allocate (e(zc%n, nb), zb(zc%n, nb), stat=i)
+        if (i /= 0) then
+            call columns_oom(zc, 16.0_dp * zc%n * nb, stat, errmsg)
+            return
+        end if
         e = 0.0_dp
         do j = 1, nb
             e(cdofs(j0 + j), j) = 1.0_dp
         end do
         call ls_solve_many(lu, a, e, zb, stat, errmsg, val)
+        if (stat == STAT_INTERNAL .and. present(errmsg)) then
+            ! the solves' work: named as the columns' (the stage the user sees)
+            if (index(errmsg, 'out of memory') == 1) call columns_oom(zc, 8.0_dp * zc%n * nb, &
+                                                                      stat, errmsg)
+        end if
         if (stat /= STAT_OK) return
         deallocate (e)
         do j = 1, nb
@@ -563,7 +576,13 @@ contains
             if (zc%drop) cmax = ZDROP * maxval(abs(zb(:, j)))
             if (zc%drop) then
                 nk = count(abs(zb(:, j)) > cmax)
-                allocate (zc%z(s)%rows(nk), zc%z(s)%val(nk))
+                allocate (zc%z(s)%rows(nk), zc%z(s)%val(nk), stat=i)
+                if (i /= 0) then
+                    zc%owner(s) = 0
+                    zc%slot(l) = 0
+                    call columns_oom(zc, 12.0_dp * nk, stat, errmsg)
+                    return
+                end if
                 nk = 0
                 do i = 1, zc%n
                     if (abs(zb(i, j)) > cmax) then
@@ -582,6 +601,21 @@ contains
         zc%glast(g) = zc%step
         zc%peak_bytes = max(zc%peak_bytes, zc%bytes)
     end subroutine solve_group
+
+    !> The line of an allocation of the cache that failed (STAT_INTERNAL): the bytes it
+    !> asked for and those the cache held.
+    pure subroutine columns_oom(zc, bytes, stat, errmsg)
+        type(zcache_t), intent(in) :: zc             !! cache
+        real(dp), intent(in) :: bytes                !! the allocation that failed
+        integer, intent(out) :: stat                 !! STAT_INTERNAL
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=:), allocatable :: held
+        held = ''
+        if (zc%bytes > 0) held = ', with '//mb_text(real(zc%bytes, dp))//' held'
+        call raise(stat, errmsg, STAT_INTERNAL, oom_text('the contact columns (the '// &
+                   'columns of J0^-1 the contact correction keeps)', mb_text(bytes)// &
+                   ' more'//held, OOM_HINT_MESH))
+    end subroutine columns_oom
 
     !> The first column of group g.
     pure integer function group_first(g)

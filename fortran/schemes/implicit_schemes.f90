@@ -769,7 +769,7 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: rnorm, scale, dt
-        character(len=256) :: why
+        character(len=512) :: why
         logical :: warm
         integer :: l, q, nk, f
         flight = .false.
@@ -1791,7 +1791,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         real(dp) :: cb, kb
         integer :: it, active
-        character(len=256) :: why
+        character(len=512) :: why
         stat = STAT_OK
         call rhs_coefficients(this, cb, kb)
         call newton_rhs(size(st%u), cb, kb, this%c, mdl%load, st%bu, this%md, this%r)

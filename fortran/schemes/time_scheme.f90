@@ -3,7 +3,7 @@ module time_scheme
     use kinds, only: dp, i8
     use model, only: model_t, model_eval_b
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
-    use errors, only: STAT_NUMERIC, raise
+    use errors, only: STAT_NUMERIC, STAT_INTERNAL, raise
     use text, only: real_text
     implicit none
     private
@@ -135,7 +135,9 @@ contains
 
     !> A failed step: STAT_NUMERIC with the message 'WHAT at t = T: REASON' (': REASON'
     !> only when the failing routine gave one), t the time the step was to reach; the
-    !> cause is kept in this%failure for the run's advice. A step's failures go through
+    !> cause is kept in this%failure for the run's advice. A REASON that begins 'out of
+    !> memory' (errors' oom_text) is STAT_INTERNAL with that line alone: the run's
+    !> advice about the step does not apply. A step's failures go through
     !> here, or (Newton did not converge, whose message gives t mid-sentence) set the
     !> cause themselves: each message gives t once, and the run need not read it.
     pure subroutine step_failed(this, cause, what, t, reason, stat, errmsg)
@@ -144,10 +146,13 @@ contains
         character(len=*), intent(in) :: what                !! what failed
         real(dp), intent(in) :: t                           !! time the step was to reach
         character(len=*), intent(in) :: reason              !! the failing routine's reason
-        integer, intent(out) :: stat                        !! STAT_NUMERIC
+        integer, intent(out) :: stat                        !! STAT_NUMERIC (STAT_INTERNAL)
         character(len=*), intent(inout), optional :: errmsg !! message
         this%failure = cause
-        if (len_trim(reason) > 0) then
+        if (index(reason, 'out of memory') == 1) then
+            ! not a numerical failure: the line is the allocation's (stage, bytes, hint)
+            call raise(stat, errmsg, STAT_INTERNAL, trim(reason))
+        else if (len_trim(reason) > 0) then
             call raise(stat, errmsg, STAT_NUMERIC, what//' at t = '//real_text(t, 6)//': '// &
                        trim(reason))
         else

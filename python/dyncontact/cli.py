@@ -2,7 +2,7 @@
 
 Exit status: 0 ok, 2 bad input (one line ``dyncontact: MESSAGE`` on stderr, no
 traceback), 3 numerical failure (unstable / newton_failed; the trace is kept),
-4 write failure or internal error, 130 interrupted (Ctrl-C or SIGTERM).
+4 write failure, out of memory or internal error, 130 interrupted (Ctrl-C or SIGTERM).
 """
 
 from __future__ import annotations
