@@ -1266,9 +1266,6 @@ contains
         call record(sim, e_total, stat=stat, errmsg=errmsg)
     end subroutine end_row
 
-    !> Load the state and counters saved by sim_checkpoint_save into an open run of the
-    !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
-    !> a truncated or corrupt checkpoint; the run is then finished, not to be advanced).
     !> The refusal `msg` of another scene's checkpoint `path`, with the keys by which the
     !> run's scene differs from the scene of summary.json in the checkpoint's folder (the
     !> run that wrote it, unless another run wrote there since), those the checkpoint
@@ -1306,6 +1303,9 @@ contains
               ' a new run without --restart); refused'
     end function other_scene_message
 
+    !> Load the state and counters saved by sim_checkpoint_save into an open run of the
+    !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
+    !> a truncated or corrupt checkpoint; the run is then finished, not to be advanced).
     subroutine sim_checkpoint_load(sim, path, stat, errmsg, trace_bytes)
         type(simulation_t), intent(inout) :: sim            !! an open run (scheme set up)
         character(len=*), intent(in) :: path                !! checkpoint file
