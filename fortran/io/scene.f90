@@ -391,7 +391,7 @@ contains
     end function scene_to_json
 
     !> The keys whose values differ between two scenes' JSON as scene_to_json writes them
-    !> ('&material young: 1.0E+000 here, 6.6666666666666663E-001 there'; several joined by
+    !> ('&material young: 1.0E+000 here, 6.666666666666666E-001 there'; several joined by
     !> '; '), leaving out the keys of `skip` (' group.key group.key ... '); a key of one
     !> text that the other lacks counts as different. '' when none differ, or when either
     !> text is not such JSON (the caller then says nothing more).
