@@ -239,8 +239,9 @@ def test_second_order_3d_mesh_names_its_elements(tmp_path):
 
 
 def test_3d_geometry_meshed_in_2d_says_so(tmp_path):
-    """The block meshed with gmsh -2 (its surfaces only) and saved: refused (exit 2) with
-    the two likely causes, a 2D meshing and a missing Physical Volume."""
+    """The block meshed with gmsh -2 (its surfaces only) and saved: refused (exit 2)
+    naming its Physical Volume, which has no tetrahedra, and the likely cause, a 2D
+    meshing."""
     pytest.importorskip("gmsh")
     from conftest import gmsh_session, write_msh41
 
@@ -251,9 +252,9 @@ def test_3d_geometry_meshed_in_2d_says_so(tmp_path):
         write_msh41(gmsh, tmp_path / "surface.msh")
     scene = block_scene(tmp_path, "surface.msh")
     line = one_line(run("exe", scene.name, "--out", "o", cwd=tmp_path), EXIT_BAD_INPUT)
-    assert line == ("dyncontact: s.nml: &mesh file: surface.msh: the mesh is 2D but its z "
-                    "coordinates are not constant (a 3D geometry saved without tetrahedra: "
-                    "meshed with gmsh -2 instead of -3, or no Physical Volume?)")
+    assert line == ("dyncontact: s.nml: &mesh file: surface.msh: volume 1 of physical "
+                    "group 'brick' has no 4-node tetrahedra in the file (saved with gmsh -2 "
+                    "instead of -3, or a volume gmsh could not mesh)")
 
 
 #: A cube of side 1 whose .geo sizes its own mesh (Mesh.MeshSizeMax = 0.5) and uses no h:

@@ -676,6 +676,43 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
         set_msg(msg, msglen, path, ": no segments, triangles or tetrahedra in the mesh", NULL);
         st = 2;
     }
+    /* an entity of a physical group of the cells' dimension or above that has no elements:
+     * gmsh did not mesh it (a .geo surface or volume it cannot mesh), or the file was saved
+     * at a lower dimension; taken as it is, the mesh would be the rest (the curves of a
+     * surface that failed: a 1D bar where a 2D body was meant) */
+    for (d = dim; d <= 3 && st == 0 && dim > 0; d++)
+        for (e = 0; e < n_ents[d] && st == 0; e++) {
+            static const char *ent[4] = {"point", "curve", "surface", "volume"};
+            size_t np;
+            int *p;
+            char gname[80], buf[720];
+            if (blocks[d][e].n > 0) continue;
+            p = entity_physicals(d, ents[d][2 * e + 1], &np);
+            if (np > 0) {
+                gname[0] = '\0';
+                for (int g = 0; g < n_groups; g++)
+                    if (groups[g].dim == d && groups[g].tag == p[0])
+                        nth_name(names, g + 1, gname, sizeof gname);
+                if (keep_untagged && d > dim)
+                    snprintf(buf, sizeof buf, ": %s %d of physical group '%s' has no %s in the "
+                             "file (saved with gmsh -%d instead of -%d, or a %s gmsh could not "
+                             "mesh)", ent[d], ents[d][2 * e + 1], gname, dim_noun(d), dim, d,
+                             ent[d]);
+                else if (keep_untagged)
+                    snprintf(buf, sizeof buf, ": %s %d of physical group '%s' has no %s in the "
+                             "file (a %s gmsh could not mesh)", ent[d], ents[d][2 * e + 1],
+                             gname, dim_noun(d), ent[d]);
+                else
+                    snprintf(buf, sizeof buf, ": %s %d of physical group '%s' has no %s: gmsh "
+                             "could not mesh it (a %s whose boundary crosses itself, say; gmsh "
+                             "retries such a %s Mesh.MaxRetries times, 10 by default, which can "
+                             "take minutes: Mesh.MaxRetries = 0 in the file gives up at once)",
+                             ent[d], ents[d][2 * e + 1], gname, dim_noun(d), ent[d], ent[d]);
+                set_msg(msg, msglen, path, buf, NULL);
+                st = 2;
+            }
+            if (p) G.free(p);
+        }
 
     /* nodes by increasing tag */
     if (st == 0) {

@@ -95,7 +95,7 @@ module scene
     end type scene_t
 
     public :: scene_read, scene_parse, scene_to_json, scene_check_dim, scene_bar_dim
-    public :: scene_given, scene_given_names
+    public :: scene_given, scene_given_names, scene_json_diff
 
     !> One key: its table row, the component it fills and its value as read.
     type :: key_t
@@ -389,6 +389,144 @@ contains
         end do
         json = json//'}}'
     end function scene_to_json
+
+    !> The keys whose values differ between two scenes' JSON as scene_to_json writes them
+    !> ('&material young: 1.0E+000 here, 6.666666666666666E-001 there'; several joined by
+    !> '; '), leaving out the keys of `skip` (' group.key group.key ... '); a key of one
+    !> text that the other lacks counts as different. '' when none differ, or when either
+    !> text is not such JSON (the caller then says nothing more).
+    pure function scene_json_diff(here, there, skip) result(diff)
+        character(len=*), intent(in) :: here    !! the run's scene JSON
+        character(len=*), intent(in) :: there   !! the other scene's JSON (summary.json's)
+        character(len=*), intent(in) :: skip    !! keys not compared, blank-separated
+        character(len=:), allocatable :: diff
+        integer, parameter :: MAX_KEYS = 200
+        character(len=80) :: names_a(MAX_KEYS), names_b(MAX_KEYS)
+        integer :: va(2, MAX_KEYS), vb(2, MAX_KEYS), na, nb, i, j
+        logical :: ok_a, ok_b
+        diff = ''
+        call json_pairs(here, names_a, va, na, ok_a)
+        call json_pairs(there, names_b, vb, nb, ok_b)
+        if (.not. (ok_a .and. ok_b) .or. na == 0 .or. nb == 0) return
+        do i = 1, na
+            if (index(skip, ' '//trim(names_a(i))//' ') > 0) cycle
+            do j = 1, nb
+                if (names_b(j) == names_a(i)) exit
+            end do
+            if (j <= nb) then
+                if (here(va(1, i):va(2, i)) == there(vb(1, j):vb(2, j))) cycle
+            end if
+            if (len(diff) > 0) diff = diff//'; '
+            diff = diff//'&'//replace_dot(trim(names_a(i)))//': '//here(va(1, i):va(2, i))// &
+                   ' here, '
+            if (j <= nb) then
+                diff = diff//there(vb(1, j):vb(2, j))//' there'
+            else
+                diff = diff//'not there'
+            end if
+        end do
+    contains
+        !> 'group.key' as '&group key'
+        pure function replace_dot(name) result(r)
+            character(len=*), intent(in) :: name  !! group.key
+            character(len=:), allocatable :: r
+            integer :: k
+            k = index(name, '.')
+            r = name(1:k - 1)//' '//name(k + 1:)
+        end function replace_dot
+    end function scene_json_diff
+
+    !> The 'group.key' names of a scene's JSON, {"group": {"key": value, ...}, ...}, and
+    !> where each value's text lies (first and last character); ok = .false. when the text
+    !> does not have that form (or more keys than fit).
+    pure subroutine json_pairs(text, names, where, n, ok)
+        character(len=*), intent(in) :: text          !! the JSON
+        character(len=*), intent(out) :: names(:)     !! group.key of each value
+        integer, intent(out) :: where(:, :)           !! (2, n): first and last character
+        integer, intent(out) :: n                     !! values found
+        logical, intent(out) :: ok                    !! the text had the form
+        character(len=80) :: group
+        integer :: i, depth, start, q
+        n = 0
+        ok = .false.
+        group = ''
+        depth = 0
+        i = 1
+        do while (i <= len(text))
+            select case (text(i:i))
+            case ('{')
+                depth = depth + 1
+            case ('}')
+                depth = depth - 1
+                if (depth == 0) exit
+            case ('"')
+                q = json_string_end(text, i)
+                if (q == 0) return
+                if (depth == 1) then
+                    group = text(i + 1:q - 1)
+                else if (depth == 2) then
+                    if (n >= size(names)) return
+                    n = n + 1
+                    names(n) = trim(group)//'.'//text(i + 1:q - 1)
+                    start = q + 1
+                    do while (start <= len(text))     ! past ': '
+                        if (text(start:start) /= ':' .and. text(start:start) /= ' ') exit
+                        start = start + 1
+                    end do
+                    i = json_value_end(text, start)
+                    if (i == 0) return
+                    where(:, n) = [start, i]
+                else
+                    return
+                end if
+                i = q
+                if (depth == 2) i = where(2, n)
+            end select
+            i = i + 1
+        end do
+        ok = depth == 0
+    end subroutine json_pairs
+
+    !> Position of the quote that ends the JSON string starting at text(i:i) ('"'), 0 if
+    !> none (a backslash escapes the next character).
+    pure function json_string_end(text, i) result(q)
+        character(len=*), intent(in) :: text  !! the JSON
+        integer, intent(in) :: i              !! its opening quote
+        integer :: q
+        q = i + 1
+        do while (q <= len(text))
+            if (text(q:q) == '\') then
+                q = q + 2
+                cycle
+            end if
+            if (text(q:q) == '"') return
+            q = q + 1
+        end do
+        q = 0
+    end function json_string_end
+
+    !> Last character of the JSON value starting at text(start:start) (a number, null, a
+    !> string or an array of numbers), 0 if it does not end.
+    pure function json_value_end(text, start) result(last)
+        character(len=*), intent(in) :: text  !! the JSON
+        integer, intent(in) :: start          !! the value's first character
+        integer :: last
+        last = 0
+        if (start > len(text)) return
+        if (text(start:start) == '"') then
+            last = json_string_end(text, start)
+        else if (text(start:start) == '[') then
+            last = index(text(start:), ']')
+            if (last > 0) last = start + last - 1
+        else
+            last = start
+            do while (last < len(text))
+                if (scan(text(last + 1:last + 1), ',}') > 0) exit
+                last = last + 1
+            end do
+            last = len_trim(text(1:last))
+        end if
+    end function json_value_end
 
     ! ---------------------------------------------------------------- scanning
 

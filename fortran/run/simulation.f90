@@ -9,7 +9,7 @@ module simulation
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise, &
                       has_room, oom_text, mb_text, OOM_HINT_MESH
     use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim, &
-                     scene_given
+                     scene_given, scene_json_diff
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
     use gmsh_mesh, only: file_extension
@@ -1286,6 +1286,43 @@ contains
         call record(sim, e_total, stat=stat, errmsg=errmsg)
     end subroutine end_row
 
+    !> The refusal `msg` of another scene's checkpoint `path`, with the keys by which the
+    !> run's scene differs from the scene of summary.json in the checkpoint's folder (the
+    !> run that wrote it, unless another run wrote there since), those the checkpoint
+    !> compares: a scene edited between the stop and the restart says which key changed.
+    !> `msg` as it is when the summary cannot be read or no such key differs (the mesh).
+    function other_scene_message(sim, path, msg) result(out)
+        type(simulation_t), intent(in) :: sim   !! the run
+        character(len=*), intent(in) :: path    !! checkpoint file
+        character(len=*), intent(in) :: msg     !! checkpoint_read's refusal
+        character(len=:), allocatable :: out
+        character(len=*), parameter :: SKIP = ' output.dir output.checkpoint_every '// &
+            'mesh.file scheme.t_end scheme.max_steps scheme.blowup scheme.dt '
+        character(len=:), allocatable :: summary, text, diff
+        integer(i8) :: size
+        integer :: unit, ios, k
+        logical :: exists
+        out = trim(msg)
+        k = index(path, '/', back=.true.)
+        summary = path(1:k)//'summary.json'
+        inquire (file=summary, exist=exists, size=size)
+        if (.not. exists .or. size <= 0 .or. size > 10000000_i8) return
+        allocate (character(len=size) :: text)
+        open (newunit=unit, file=summary, access='stream', form='unformatted', &
+              action='read', status='old', iostat=ios)
+        if (ios /= 0) return
+        read (unit, iostat=ios) text
+        close (unit)
+        if (ios /= 0) return
+        k = index(text, '"scene": {')
+        if (k == 0) return
+        diff = scene_json_diff(scene_to_json(sim%scn), text(k + 9:), SKIP)
+        if (len(diff) == 0) return
+        out = trim(path)//': written by another scene: '//diff//' (in '//summary// &
+              ', the scene of the run that wrote it; restart with that scene, or start'// &
+              ' a new run without --restart); refused'
+    end function other_scene_message
+
     !> Load the state and counters saved by sim_checkpoint_save into an open run of the
     !> same scene (STAT_BAD_INPUT naming the file for another scene's, another build's,
     !> a truncated or corrupt checkpoint; the run is then finished, not to be advanced).
@@ -1308,7 +1345,13 @@ contains
         ! written over the file at close)
         sim%finished = .true.
         call checkpoint_read(path, sim%scene_hash, int(sim%n_dofs, i8), payload, step, stat, errmsg)
-        if (stat /= STAT_OK) return
+        if (stat /= STAT_OK) then
+            if (present(errmsg)) then
+                if (index(errmsg, ': written by another scene or mesh') > 0) &
+                    errmsg = other_scene_message(sim, path, errmsg)
+            end if
+            return
+        end if
         buf = buf_from(payload)
         call buf_get(buf, k8)
         call buf_get(buf, t)

@@ -314,6 +314,9 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
             gmsh.model.mesh.generate(gmsh.model.getDimension())
         except Exception as exc:
             raise BadInputError(f"{geo}: gmsh cannot mesh it: {exc}") from None
+        unmeshed = _unmeshed(gmsh)
+        if unmeshed:
+            raise BadInputError(f"{geo}: {unmeshed}")
         gmsh.option.setNumber("Mesh.MshFileVersion", float(version))
         gmsh.option.setNumber("Mesh.Binary", int(bool(binary)))
         try:
@@ -322,6 +325,36 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
             _discard(out)
             raise DyncontactError(f"{out}: gmsh cannot write it: {exc}") from None
     return out
+
+
+_ENTITY = ("point", "curve", "surface", "volume")
+_CELLS = ("points", "2-node segments", "3-node triangles", "4-node tetrahedra")
+
+
+def _unmeshed(gmsh) -> str | None:
+    """Why the model just meshed is not the body its physical groups describe, or None: an
+    entity of a physical group, of the cells' dimension or above, that gmsh left without
+    elements (a surface whose boundary crosses itself). Written as it is, the file would be
+    the rest: the curves of a surface that failed, a 1D bar where a 2D body was meant (the
+    core refuses such a file with the same words, gmsh_shim.c)."""
+    def meshed(d: int, tag: int) -> bool:
+        return any(len(t) for t in gmsh.model.mesh.getElements(d, tag)[1])
+
+    dims = [d for d in range(1, 4) for _, tag in gmsh.model.getEntities(d)
+            if meshed(d, tag) and gmsh.model.getPhysicalGroupsForEntity(d, tag).size]
+    if not dims:
+        return None
+    for d in range(max(dims), 4):
+        for _, tag in gmsh.model.getEntities(d):
+            groups = gmsh.model.getPhysicalGroupsForEntity(d, tag)
+            if groups.size and not meshed(d, tag):
+                name = gmsh.model.getPhysicalName(d, int(groups[0])) or str(int(groups[0]))
+                return (f"{_ENTITY[d]} {tag} of physical group '{name}' has no {_CELLS[d]}: "
+                        f"gmsh could not mesh it (a {_ENTITY[d]} whose boundary crosses "
+                        f"itself, say; gmsh retries such a {_ENTITY[d]} Mesh.MaxRetries "
+                        "times, 10 by default, which can take minutes: Mesh.MaxRetries = 0 "
+                        "in the file gives up at once)")
+    return None
 
 
 def _discard(out: Path) -> None:
