@@ -407,6 +407,26 @@ def test_executable_arguments(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ENTRIES)
+@pytest.mark.parametrize("option", ["--out", "--restart"])
+def test_a_folder_option_given_twice_is_an_error(kind, option, tmp_path):
+    """`--out o1 --out o2` (or --restart twice) is refused naming both, where the last one
+    was used silently; nothing is run."""
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.01")
+    line = one_line(run(kind, scene, option, "o1", option, "o2", cwd=tmp_path),
+                    EXIT_BAD_INPUT)
+    assert f"{option} given twice (o1, o2)" in line, line
+    assert not (tmp_path / "o1").exists() and not (tmp_path / "o2").exists()
+
+
+def test_plot_out_given_twice_is_an_error(tmp_path):
+    res = subprocess.run([sys.executable, "-m", "dyncontact", "plot", "x", "--out", "a.png",
+                          "--out", "b.png"], cwd=tmp_path, env=child_env(),
+                         capture_output=True, text=True, timeout=60)
+    line = one_line(res, EXIT_BAD_INPUT)
+    assert "--out given twice (a.png, b.png)" in line, line
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
 def test_out_path_over_the_limit_is_an_error(kind, tmp_path):
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.01")
     long_out = tmp_path / ("d" * 200) / ("e" * 200) / ("f" * 200) / ("g" * 200) / ("h" * 250)

@@ -108,16 +108,18 @@ contains
     end function argument
 
     !> The folder named after `option` (argument k): k moves on to it. A missing or empty
-    !> folder name stops the program.
+    !> folder name, or the option given twice, stops the program.
     subroutine folder_argument(option, k, dir)
         character(len=*), intent(in) :: option   !! '--out' or '--restart'
         integer, intent(inout) :: k              !! the option's argument number, then the folder's
-        character(len=*), intent(out) :: dir     !! the folder
+        character(len=*), intent(inout) :: dir   !! the folder ('' until given)
         character(len=:), allocatable :: a
         if (k == nargs) call fail(STAT_BAD_INPUT, option//' needs a folder ('//USAGE//')')
         k = k + 1
         a = argument(k)
         if (len(a) == 0) call fail(STAT_BAD_INPUT, option//': empty folder name')
+        if (len_trim(dir) > 0) call fail(STAT_BAD_INPUT, option//' given twice ('//trim(dir)// &
+                                         ', '//a//'); '//USAGE)
         dir = a
     end subroutine folder_argument
 

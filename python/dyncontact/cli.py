@@ -189,6 +189,17 @@ def cmd_mesh(argv: Sequence[str]) -> int:
     return int(rc or 0)
 
 
+class _Once(argparse.Action):
+    """An option that may be given once: a second one is a usage error naming both values
+    (the executable refuses it too), not a silent choice of the last."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        given = getattr(namespace, self.dest, None)
+        if given is not None:
+            parser.error(f"{option_string} given twice ({given}, {values})")
+        setattr(namespace, self.dest, values)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description="Elastic bodies hitting a rigid obstacle "
                 "(Nitsche contact, P1 elements, implicit and explicit time schemes).")
@@ -202,10 +213,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("scene", metavar="SCENE.nml")
     r.add_argument("--set", action="append", metavar="GROUP.KEY=VALUE",
                    help="override one scene key, e.g. --set scheme.dt=0.001 (repeatable)")
-    r.add_argument("--restart", metavar="DIR", help="continue the stopped run whose output "
+    r.add_argument("--restart", action=_Once, metavar="DIR", help="continue the stopped run whose output "
                    "folder DIR holds a checkpoint (&output checkpoint_every); the run continues "
                    "in DIR (a later &scheme t_end or a raised blowup extends it)")
-    r.add_argument("--out", metavar="DIR", help="output folder (default: the scene's "
+    r.add_argument("--out", action=_Once, metavar="DIR", help="output folder (default: the scene's "
                    "&output dir)")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress bar, no summary")
     r.add_argument("--wait", action="store_true", help="when another run holds the output "
@@ -216,7 +227,7 @@ def build_parser() -> argparse.ArgumentParser:
                         description="Draw u_n, v_n, p_n and the energy of one or more "
                         "runs (folders holding trace.csv and summary.json).")
     pl.add_argument("dirs", nargs="+", metavar="DIR")
-    pl.add_argument("--out", required=True, metavar="FILE.png",
+    pl.add_argument("--out", required=True, action=_Once, metavar="FILE.png",
                     help="image to write: FILE.png, .pdf or .svg; a name without one of "
                     "these extensions gets .png added (cmp_dt0.001 -> cmp_dt0.001.png); "
                     "an existing folder or a name ending with '/': FOLDER/traces.png")
