@@ -86,7 +86,11 @@ def cmd_run(args) -> int:
 
         scene = Scene.read(scene_path)
         for group, key, value in sets:
-            scene.set(f"{group}.{key}", value)   # the core converts and checks the value
+            try:
+                scene.set(f"{group}.{key}", value)   # the core converts and checks the value
+            except core.BadInputError as exc:
+                # the core names the scene file: say that the key came from the command line
+                raise core.BadInputError(f"--set {group}.{key}={value}: {exc}") from None
     else:
         scene = scene_path
     progress = False if args.quiet else None
