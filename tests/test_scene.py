@@ -92,7 +92,7 @@ BAD_CASES = [
             "unknown key"),
     BadCase("giant_number", "&output every = " + "0" * 500_000 + "1 /\n", "&output every",
             "out of range"),
-    BadCase("missing_scene_file", MISSING, "", "cannot read scene file"),
+    BadCase("missing_scene_file", MISSING, "", "no such scene file"),
     BadCase("scene_is_directory", DIRECTORY, "", "cannot read scene file"),
     # types
     BadCase("string_for_int", "&mesh dim = 'two' /\n", "&mesh dim", "expected an integer"),

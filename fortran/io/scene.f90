@@ -236,6 +236,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         character(len=:), allocatable :: text
         integer :: unit, ios, n
+        logical :: exists
 
         ios = 1
         n = 0
@@ -253,7 +254,10 @@ contains
             close (unit)
         end if
         if (ios /= 0) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': cannot read scene file')
+            exists = .false.
+            if (len_trim(path) > 0) inquire (file=trim(path), exist=exists)
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': '// &
+                       trim(merge('cannot read scene file', 'no such scene file    ', exists)))
         else if (n == 0) then    ! a failed copy, not a scene: comments alone give the defaults
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': empty scene file (0 bytes)')
         else if (n >= 2 .and. (text(1:min(2, n)) == achar(255)//achar(254) .or. &

@@ -79,8 +79,6 @@ def _sigterm_as_interrupt(signum, frame):  # noqa: ARG001 - signal handler signa
 def cmd_run(args) -> int:
     sets = [parse_set(s) for s in (args.set or [])]
     scene_path = args.scene
-    if not os.path.isfile(scene_path):
-        raise core.BadInputError(f"{scene_path}: no such scene file")
     if sets:
         from .scene import Scene
 

@@ -407,8 +407,6 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     try:
         if isinstance(scene, (str, bytes, os.PathLike)):
             path = os.fsdecode(scene)
-            if not os.path.isfile(path):
-                raise BadInputError(f"{path}: no such scene file")
             if out is None:   # the folder the core will use (a bad scene raises here)
                 out = _scene_output_dir(scene_dump(path)) or "out"
         else:
