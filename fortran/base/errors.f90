@@ -23,7 +23,7 @@ module errors
         'use a coarser mesh (a larger &mesh h), &solver kind = ''cg'' (it needs no factor)'// &
         ' or allow the run more memory'
 
-    public :: raise, stat_name, oom_text, mb_text, has_room
+    public :: raise, stat_name, oom_text, is_oom_text, mb_text, has_room
 
     interface
         !> C malloc().
@@ -64,6 +64,13 @@ contains
         if (len_trim(what) > 0) msg = msg//': '//trim(what)
         msg = msg//'; '//hint
     end function oom_text
+
+    !> Whether `msg` is an out-of-memory line of oom_text (it begins 'out of memory'): how a
+    !> caller that gets STAT_INTERNAL tells an allocation that failed from other failures.
+    pure logical function is_oom_text(msg)
+        character(len=*), intent(in) :: msg    !! a message
+        is_oom_text = index(msg, 'out of memory') == 1
+    end function is_oom_text
 
     !> Whether `bytes` could be allocated now: allocated and freed at once, never touched
     !> (under a limit of the address space, ulimit -v, that is the test; without one it

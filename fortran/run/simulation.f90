@@ -7,7 +7,7 @@ module simulation
     use text, only: int_text, real_text, fixed_text, lower
     use vector_ops, only: dot
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, raise, &
-                      has_room, oom_text, mb_text, OOM_HINT_MESH
+                      has_room, oom_text, is_oom_text, mb_text, OOM_HINT_MESH
     use scene, only: scene_t, scene_read, scene_to_json, scene_check_dim, scene_bar_dim, &
                      scene_given, scene_json_diff
     use mesh, only: mesh_t
@@ -887,7 +887,7 @@ contains
             if (stat == STAT_INTERNAL) then
                 ! out of memory (errors' oom_text): the trace up to the last step is kept
                 sim%status = 'internal_error'
-                if (index(msg, 'out of memory') == 1) sim%status = 'out_of_memory'
+                if (is_oom_text(msg)) sim%status = 'out_of_memory'
                 sim%message = trim(msg)//' (the run stopped at t = '// &
                               real_text(sim%st%t, 6)//', trace kept)'
                 sim%finished = .true.

@@ -40,7 +40,7 @@
 !> Z by the same sums, to the same numbers, if needed again.
 module contact_columns
     use kinds, only: dp, i8
-    use errors, only: STAT_OK, STAT_INTERNAL, raise, oom_text, mb_text, OOM_HINT_MESH
+    use errors, only: STAT_OK, STAT_INTERNAL, raise, oom_text, is_oom_text, mb_text, OOM_HINT_MESH
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
     use sparse, only: csc_t
     use linear_solver, only: factor_t, ls_solve_many
@@ -561,7 +561,7 @@ contains
         call ls_solve_many(lu, a, e, zb, stat, errmsg, val)
         if (stat == STAT_INTERNAL .and. present(errmsg)) then
             ! the solves' work: named as the columns' (the stage the user sees)
-            if (index(errmsg, 'out of memory') == 1) call columns_oom(zc, 8.0_dp * zc%n * nb, &
+            if (is_oom_text(errmsg)) call columns_oom(zc, 8.0_dp * zc%n * nb, &
                                                                       stat, errmsg)
         end if
         if (stat /= STAT_OK) return

@@ -3,7 +3,7 @@ module time_scheme
     use kinds, only: dp, i8
     use model, only: model_t, model_eval_b
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
-    use errors, only: STAT_NUMERIC, STAT_INTERNAL, raise
+    use errors, only: STAT_NUMERIC, STAT_INTERNAL, raise, is_oom_text
     use text, only: real_text
     implicit none
     private
@@ -149,7 +149,7 @@ contains
         integer, intent(out) :: stat                        !! STAT_NUMERIC (STAT_INTERNAL)
         character(len=*), intent(inout), optional :: errmsg !! message
         this%failure = cause
-        if (index(reason, 'out of memory') == 1) then
+        if (is_oom_text(reason)) then
             ! not a numerical failure: the line is the allocation's (stage, bytes, hint)
             call raise(stat, errmsg, STAT_INTERNAL, trim(reason))
         else if (len_trim(reason) > 0) then
