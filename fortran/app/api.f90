@@ -609,31 +609,12 @@ end subroutine dc_mesh_sizes
 
 !> The element count of the .geo `path` estimated before meshing, as dc_mesh_sizes would
 !> mesh it (nothing is meshed): est = (estimate, measure, size, margin of the refusal),
-!> estimate -1 where none can be made (docs/scenes.md, "How large a .geo will be").
-subroutine dc_geo_estimate(path, length, width, h, h_given, est, stat, errmsg)
-    use iso_c_binding, only: c_int, c_double
-    use gmsh_mesh, only: estimate_geo_cells
-    implicit none
-    character(len=*), intent(in) :: path         !! .geo file
-    real(c_double), intent(in) :: length         !! parameter length
-    real(c_double), intent(in) :: width          !! parameter width
-    real(c_double), intent(in) :: h              !! parameter h
-    integer(c_int), intent(in) :: h_given        !! 0: a .geo without h keeps its own sizes
-    real(c_double), intent(out) :: est(4)        !! estimate, measure, size, margin
-    integer(c_int), intent(out) :: stat          !! status
-    character(len=512), intent(out) :: errmsg    !! message
-    integer :: st
-    errmsg = ''
-    call estimate_geo_cells(path, h, length, width, h_given /= 0, est, st, errmsg)
-    stat = st
-end subroutine dc_geo_estimate
-
-!> The refusal of a .geo whose element count, estimated before meshing as in
-!> dc_geo_estimate, exceeds the margin x `limit` (limit > 0): the core's one line, the file
-!> named, with `limit_key` and `h_key` ('' when h is not given) as the keys that change
-!> it; '' when the estimate is within it or none can be made.
-subroutine dc_geo_refusal(path, length, width, h, h_given, limit, limit_key, h_key, text, &
-                          stat, errmsg)
+!> estimate -1 where none can be made (docs/scenes.md, "How large a .geo will be"). With
+!> limit > 0, `text` is the core's one-line refusal when the estimate exceeds margin x
+!> limit, the file named, with `limit_key` and `h_key` ('' when h is not given) as the keys
+!> that change it; '' otherwise.
+subroutine dc_geo_estimate(path, length, width, h, h_given, limit, limit_key, h_key, est, &
+                           text, stat, errmsg)
     use iso_c_binding, only: c_int, c_double
     use errors, only: STAT_OK
     use gmsh_mesh, only: estimate_geo_cells, too_large_text
@@ -643,13 +624,13 @@ subroutine dc_geo_refusal(path, length, width, h, h_given, limit, limit_key, h_k
     real(c_double), intent(in) :: width          !! parameter width
     real(c_double), intent(in) :: h              !! parameter h
     integer(c_int), intent(in) :: h_given        !! 0: a .geo without h keeps its own sizes
-    integer(c_int), intent(in) :: limit          !! the element limit (> 0)
+    integer(c_int), intent(in) :: limit          !! the element limit (0: no refusal text)
     character(len=*), intent(in) :: limit_key    !! the limit's key, as the caller names it
     character(len=*), intent(in) :: h_key        !! h's key, '' when h is not given
+    real(c_double), intent(out) :: est(4)        !! estimate, measure, size, margin
     character(len=512), intent(out) :: text      !! the refusal, '' if none
     integer(c_int), intent(out) :: stat          !! status
     character(len=512), intent(out) :: errmsg    !! message
-    real(c_double) :: est(4)
     integer :: st
     errmsg = ''
     text = ''
@@ -658,7 +639,7 @@ subroutine dc_geo_refusal(path, length, width, h, h_given, limit, limit_key, h_k
     if (st /= STAT_OK .or. limit <= 0 .or. est(1) < 0) return
     if (est(1) > est(4) * limit) text = path//': '//too_large_text(est, int(limit), limit_key, &
                                                                    h_key)
-end subroutine dc_geo_refusal
+end subroutine dc_geo_estimate
 
 !> Release a mesh of dc_mesh_sizes without copying it (0 is ignored).
 subroutine dc_mesh_free(handle)

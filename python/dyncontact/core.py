@@ -572,9 +572,9 @@ def estimate_geo(path: str | os.PathLike, *, length: float = 1.0, width: float =
     entities), ``size`` (the mesh size it assumes) and ``margin`` (a .geo is refused when
     the estimate exceeds margin x the limit), or None where no estimate can be made.
     :class:`BadInputError` if gmsh cannot read the file."""
-    core = _core()
-    est, stat, errmsg = core.dc_geo_estimate(_fpath(path, "mesh file"), float(length),
-                                             float(width), float(h), int(bool(h_given)))
+    est, _, stat, errmsg = _core().dc_geo_estimate(
+        _fpath(path, "mesh file"), float(length), float(width), float(h), int(bool(h_given)),
+        0, "", "")
     _check(stat, errmsg, "estimating the mesh")
     if est[0] < 0:
         return None
@@ -589,7 +589,7 @@ def geo_refusal(path: str | os.PathLike, limit: int, limit_key: str, h_key: str,
     (:func:`estimate_geo`), exceeds the margin times ``limit``, naming the file and the keys
     that change it (``h_key`` "" where h is not given); None where it is within the limit
     or no estimate can be made. :class:`BadInputError` if gmsh cannot read the file."""
-    text, stat, errmsg = _core().dc_geo_refusal(
+    _, text, stat, errmsg = _core().dc_geo_estimate(
         _fpath(path, "mesh file"), float(length), float(width), float(h), int(bool(h_given)),
         int(limit), limit_key, h_key)
     _check(stat, errmsg, "estimating the mesh")
