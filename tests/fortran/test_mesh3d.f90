@@ -42,16 +42,10 @@ program test_mesh3d
     call mesh_check(bad, stat, msg)
     call checks%check(stat == STAT_OK, 'a single tetrahedron passes')
     bad%x(:, 4) = [0.5_dp, 0.5_dp, 0.0_dp]     ! flat: in the plane of the others
-    msg = ''
-    call mesh_check(bad, stat, msg)
-    call checks%check(stat == STAT_BAD_INPUT .and. index(msg, 'cell 1 is degenerate') > 0, &
-                      'zero-volume tetrahedron refused: '//trim(msg))
+    call check_refused('cell 1 is degenerate', 'zero-volume tetrahedron refused')
     call one_tet(bad)
     bad%facets(:, 2) = [1, 2, 2]
-    msg = ''
-    call mesh_check(bad, stat, msg)
-    call checks%check(stat == STAT_BAD_INPUT .and. index(msg, 'facet 2 repeats a node') > 0, &
-                      'repeated facet node refused: '//trim(msg))
+    call check_refused('facet 2 repeats a node', 'repeated facet node refused')
     call one_tet(bad)
     bad%n_nodes = 5
     bad%x = reshape([0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1], [3, 5]) * 1.0_dp
@@ -59,10 +53,7 @@ program test_mesh3d
     bad%n_cells = 2
     bad%cell_group = [1, 1]
     bad%facets(:, 1) = [1, 2, 5]
-    msg = ''
-    call mesh_check(bad, stat, msg)
-    call checks%check(stat == STAT_BAD_INPUT .and. index(msg, 'facet 1 is not a face') > 0, &
-                      'a triangle that is no face refused: '//trim(msg))
+    call check_refused('facet 1 is not a face', 'a triangle that is no face refused')
 
     ! a point group 'tip' (the node opposite the face z = 0): its node alone is marked
     call one_tet(bad)
@@ -77,21 +68,24 @@ program test_mesh3d
     call mesh_group_nodes(bad, 'tip,boundary', mask, stat, msg)
     call checks%check(stat == STAT_OK .and. all(mask), 'point and facet groups together')
     bad%lower_nodes = [5]
-    msg = ''
-    call mesh_check(bad, stat, msg)
-    call checks%check(stat == STAT_BAD_INPUT .and. &
-                      index(msg, 'group node 1 has a node number outside 1..4') > 0, &
-                      'a point group node out of range refused: '//trim(msg))
+    call check_refused('group node 1 has a node number outside 1..4', &
+                       'a point group node out of range refused')
     call add_tip(bad)
     bad%lower_group = [4]
-    msg = ''
-    call mesh_check(bad, stat, msg)
-    call checks%check(stat == STAT_BAD_INPUT .and. &
-                      index(msg, 'group node 1 has group index 4') > 0, &
-                      'a point group index out of range refused: '//trim(msg))
+    call check_refused('group node 1 has group index 4', 'a point group index out of range refused')
     call checks%finish('test_mesh3d')
 
 contains
+
+    !> mesh_check refuses `bad` (STAT_BAD_INPUT) with a message that holds `text`.
+    subroutine check_refused(text, what)
+        character(len=*), intent(in) :: text   !! what the message must say
+        character(len=*), intent(in) :: what   !! the check's name
+        msg = ''
+        call mesh_check(bad, stat, msg)
+        call checks%check(stat == STAT_BAD_INPUT .and. index(msg, text) > 0, &
+                          what//': '//trim(msg))
+    end subroutine check_refused
 
     !> The unit tetrahedron with its four faces in one group.
     subroutine one_tet(m)
