@@ -594,7 +594,9 @@ def scene_step_ratio(scene: UserScene, c_implicit: float, c_explicit: float) -> 
 
 def scheme_list(keys: str | Sequence[str]) -> list[SchemeSpec]:
     """Schemes from a comma-separated list of keys (ValueError names a bad key, and
-    refuses an empty list: a study of no scheme is a mistake, not a request for all)."""
+    refuses an empty list: a study of no scheme is a mistake, not a request for all; and
+    a key given twice, whose runs would be counted twice in the study's fits, its tables
+    and its CSVs)."""
     if isinstance(keys, str):
         keys = [k.strip() for k in keys.split(",") if k.strip()]
     if not keys:
@@ -603,6 +605,9 @@ def scheme_list(keys: str | Sequence[str]) -> list[SchemeSpec]:
     if bad:
         raise ValueError(f"unknown scheme key(s) {', '.join(bad)}; known: "
                          f"{', '.join(SCHEMES)}")
+    twice = sorted({k for k in keys if list(keys).count(k) > 1}, key=list(keys).index)
+    if twice:
+        raise ValueError(f"scheme key(s) given more than once: {', '.join(twice)}")
     return [SCHEMES[k] for k in keys]
 
 
