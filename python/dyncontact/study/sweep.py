@@ -530,7 +530,9 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
           on_done: Callable[[int, dict[str, Any]], None] | None = None
           ) -> list[dict[str, Any]]:
     """Execute tasks (cached ones are taken from ``cache``) and return their records in
-    the order of ``tasks``. Each record gets ``task`` (the Task) added.
+    the order of ``tasks``. Each record gets ``task`` (the Task) added. Tasks of one
+    cache key (the same scene and analysis, whatever their tags: a grid that names one
+    case twice) are one run, done once; each of them gets a copy of its record.
 
     ``workers``: processes of the local pool (default: all cores); ``scheduler``: a
     dask.distributed scheduler address or Client (then ``workers`` is ignored).
@@ -569,31 +571,53 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
                 on_done(i, rec)
 
         hits = 0
+        # tasks of one key are one run (the same scene and analysis, other tags): it is
+        # done once and its record given to each of them
+        same: dict[str, list[int]] = {}
         for i, task in enumerate(tasks):
             try:
                 keys[i] = task_key(task)
             except Exception as exc:  # noqa: BLE001 - e.g. a bad key: an error record
                 done(i, _error_record(task, None, f"{type(exc).__name__}: {exc}"))
                 continue
+            if keys[i] in same:
+                same[keys[i]].append(i)
+                continue
+            same[keys[i]] = [i]
             hit = lookup(cache, keys[i])
             if hit is not None:
                 hits += 1
                 done(i, hit)
             else:
                 todo.append(i)
+        repeats = {}
+        for first, *more in same.values():
+            if more:
+                repeats[first] = more
+                if records[first] is not None:   # from the cache
+                    hits += len(more)
+                    for j in more:
+                        done(j, dict(records[first]))
         todo.sort(key=lambda i: -_cost(tasks[i]))
         if log:
-            unkeyed = len(tasks) - hits - len(todo)   # no scene: an error record each
+            dup = sum(len(repeats.get(i, ())) for i in todo)
+            unkeyed = len(tasks) - hits - len(todo) - dup   # no scene: an error record each
             log(f"{desc}: {len(tasks)} runs, {hits} from the cache, {len(todo)} to do"
+                + (f" ({dup} more the same run as another)" if dup else "")
                 + (f", {unkeyed} whose scene could not be built" if unkeyed else ""))
 
+        def done_all(i: int, rec: dict[str, Any]) -> None:
+            done(i, rec)
+            for j in repeats.get(i, ()):
+                done(j, dict(rec))
+
         if todo and scheduler is not None:
-            _sweep_dask(tasks, keys, todo, cache, scheduler, timeout, done)
+            _sweep_dask(tasks, keys, todo, cache, scheduler, timeout, done_all)
         elif todo and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1:
-            _sweep_pool(tasks, keys, todo, cache, workers or os.cpu_count() or 1, done)
+            _sweep_pool(tasks, keys, todo, cache, workers or os.cpu_count() or 1, done_all)
         else:
             for i in todo:
-                done(i, execute(tasks[i], cache, keys[i]))
+                done_all(i, execute(tasks[i], cache, keys[i]))
         if refused:
             say(f"{desc}: {len(refused)} run(s) refused by the core as bad input "
                 f"(first: {refused[0]})")
