@@ -133,11 +133,19 @@ def _load(item) -> tuple[dict[str, np.ndarray], dict, str]:
     if hasattr(item, "trace") and hasattr(item, "summary"):
         name = os.path.basename(os.path.normpath(str(getattr(item, "out_dir", "") or "")))
         return item.trace, dict(item.summary or {}), name or "run"
+    from .core import BadInputError
+
     d = os.fspath(item)
     trace_path = os.path.join(d, "trace.csv")
     if not os.path.isfile(trace_path):
         raise FileNotFoundError(f"{d}: no trace.csv")
-    return read_trace(d), read_summary(d), os.path.basename(os.path.normpath(d))
+    if os.path.getsize(trace_path) == 0:
+        raise BadInputError(f"{trace_path}: empty file (not a trace of a run)")
+    trace = read_trace(d)
+    if "t" not in trace:   # another CSV: nothing of it would be drawn
+        raise BadInputError(f"{trace_path}: no column 't' (not a trace of a run: "
+                            f"its columns are {', '.join(trace)})")
+    return trace, read_summary(d), os.path.basename(os.path.normpath(d))
 
 
 def _last_finite(y: np.ndarray) -> float:

@@ -1,6 +1,8 @@
-"""A sweep grid that names one case twice: the sweep runs it once and gives its record to
-each task; a study's --schemes that names a scheme twice is refused (its rows would be
-counted twice in the fits, the tables and the CSVs)."""
+"""Inputs a user of many runs gets wrong: a sweep grid that names one case twice (the
+sweep runs it once and gives its record to each task); a study's --schemes that names a
+scheme twice (refused: its rows would be counted twice in the fits, the tables and the
+CSVs); a folder given to `plot` whose trace.csv is empty or another CSV (bad input, exit
+2 naming the file, not exit 4 or an empty chart)."""
 
 from __future__ import annotations
 
@@ -69,3 +71,26 @@ def test_study_schemes_given_twice_is_refused_naming_it(run_cli, tmp_path):
                                str(tmp_path / "s")), 2, "dyncontact study: ")
     assert "--schemes" in line and "newmark" in line, line
     assert sorted(os.listdir(tmp_path)) == []
+
+
+@pytest.mark.parametrize("text, words", [
+    ("", "empty file"),
+    ("a,b\n1,2\n3,4\n", "no column 't'"),
+])
+def test_plot_of_a_folder_whose_trace_is_not_a_run_is_bad_input(run_cli, tmp_path, text,
+                                                                 words):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "trace.csv").write_text(text)
+    line = stderr_line(run_cli("plot", run, "--out", tmp_path / "x.png"), 2, "dyncontact: ")
+    assert str(run / "trace.csv") in line and words in line, line
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_plot_traces_refuses_another_csv(tmp_path):
+    from dyncontact import BadInputError
+    from dyncontact.plotting import plot_traces
+
+    (tmp_path / "trace.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(BadInputError, match="no column 't'"):
+        plot_traces([tmp_path], None)
