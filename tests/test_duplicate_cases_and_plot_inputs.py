@@ -2,15 +2,19 @@
 sweep runs it once and gives its record to each task); a study's --schemes that names a
 scheme twice (refused: its rows would be counted twice in the fits, the tables and the
 CSVs); a folder given to `plot` whose trace.csv is empty or another CSV (bad input, exit
-2 naming the file, not exit 4 or an empty chart)."""
+2 naming the file, not exit 4 or an empty chart); scripts/convergence_1d's options (a
+scheme twice, a --finest off its grid of meshes, a --t-end <= 0: exit 2 naming the option,
+not a silent single mesh or a traceback) and its runs (no warning about keys of the base
+scene that hht does not use)."""
 
 from __future__ import annotations
 
 import os
+import subprocess
 
 import pytest
 
-from conftest import stderr_line
+from conftest import ROOT, SUBPROCESS_TIMEOUT, stderr_line
 from dyncontact.study import sweep as sweep_mod
 from dyncontact.study.common import scheme_list, write_base_scenes
 from dyncontact.study.sweep import by_tags, make_task, sweep
@@ -94,3 +98,43 @@ def test_plot_traces_refuses_another_csv(tmp_path):
     (tmp_path / "trace.csv").write_text("a,b\n1,2\n")
     with pytest.raises(BadInputError, match="no column 't'"):
         plot_traces([tmp_path], None)
+
+
+def _convergence_1d(*args, cwd) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    return subprocess.run([str(ROOT / "scripts" / "convergence_1d"), *args], cwd=cwd,
+                          env=env, capture_output=True, text=True,
+                          timeout=SUBPROCESS_TIMEOUT)
+
+
+@pytest.mark.parametrize("option, value, words", [
+    ("--schemes", "newmark,newmark", "'newmark' given more than once"),
+    ("--finest", "30", "25 times a power of 2"),    # ran 1/h = 25 alone, without orders
+    ("--finest", "0", "25 times a power of 2"),
+    ("--t-end", "-1", "finite number > 0"),         # a traceback, exit 1
+    ("--t-end", "nan", "finite number > 0"),
+])
+def test_convergence_1d_refuses_bad_options_naming_them(tmp_path, option, value, words):
+    res = _convergence_1d(option, value, cwd=tmp_path)
+    assert res.returncode == 2, (res.returncode, res.stdout[-1000:], res.stderr[-1000:])
+    assert "Traceback" not in res.stderr
+    last = res.stderr.strip().splitlines()[-1]
+    assert last.startswith("scripts/convergence_1d: error: ") and option in last, last
+    assert words in last, last
+    assert res.stdout == "" and os.listdir(tmp_path) == []
+
+
+def test_convergence_1d_short_run_is_quiet_and_marks_p_n_unmeasured(tmp_path):
+    """T = 0.5 ends before the first contact window: p_n is nan, with no numpy warning;
+    hht runs without the base scene's beta and gamma (no warning that they change
+    nothing)."""
+    res = _convergence_1d("--schemes", "hht", "--finest", "50", "--t-end", "0.5",
+                          "--keep", str(tmp_path / "runs"), cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    assert "Warning" not in res.stderr, res.stderr
+    rows = [line.split() for line in res.stdout.splitlines()
+            if line.split()[:1] in (["25"], ["50"], ["order"])]
+    assert [r[0] for r in rows] == ["25", "50", "order"]
+    assert all(r[3] == "nan" for r in rows), rows       # p_n
+    assert all(r[1] != "nan" for r in rows), rows       # u_n is measured
