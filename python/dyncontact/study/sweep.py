@@ -42,7 +42,9 @@ scheduler answers within ``scheduler_timeout`` seconds (default :data:`SCHEDULER
 (bad input, an exception in the analysis, a worker that died) becomes a record with
 ``status = 'error'`` and its message; the sweep goes on. A sweep stopped by Ctrl-C (or
 by SIGTERM inside :func:`sigterm_as_interrupt`, as the command lines run) terminates the
-pool's workers before the ``KeyboardInterrupt`` goes on, and a worker whose parent dies
+pool's workers before the ``KeyboardInterrupt`` goes on (by SIGTERM in a process that
+left it at its default action, likewise, and then the process ends by SIGTERM:
+:func:`_sigterm_ends_after_cleaning`), and a worker whose parent dies
 (even by ``kill -9``) ends too: no worker outlives the sweep. Runs that share a machine
 with other runs (the pool's workers, and every Dask task) run their solves on one thread
 (``&solver threads = 1``, :data:`PARALLEL_THREADS`, unless the task sets the key; the
@@ -611,13 +613,15 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
             for j in repeats.get(i, ()):
                 done(j, dict(rec))
 
-        if todo and scheduler is not None:
-            _sweep_dask(tasks, keys, todo, cache, scheduler, timeout, done_all)
-        elif todo and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1:
-            _sweep_pool(tasks, keys, todo, cache, workers or os.cpu_count() or 1, done_all)
-        else:
-            for i in todo:
-                done_all(i, execute(tasks[i], cache, keys[i]))
+        with _sigterm_ends_after_cleaning():
+            if todo and scheduler is not None:
+                _sweep_dask(tasks, keys, todo, cache, scheduler, timeout, done_all)
+            elif todo and (workers or os.cpu_count() or 1) > 1 and len(todo) > 1:
+                _sweep_pool(tasks, keys, todo, cache, workers or os.cpu_count() or 1,
+                            done_all)
+            else:
+                for i in todo:
+                    done_all(i, execute(tasks[i], cache, keys[i]))
         if refused:
             say(f"{desc}: {len(refused)} run(s) refused by the core as bad input "
                 f"(first: {refused[0]})")
@@ -636,6 +640,39 @@ def _describe(task: Task) -> str:
 
 def _sigterm_raises(signum, frame):  # noqa: ARG001 - signal handler signature
     raise KeyboardInterrupt(f"signal {signum}")
+
+
+@contextlib.contextmanager
+def _sigterm_ends_after_cleaning():
+    """Within the block, a SIGTERM that would end the process outright (its default
+    action: a script of one's own that calls :func:`sweep`, ended by ``kill PID`` or a
+    batch system's time limit) first unwinds the sweep as Ctrl-C does: the pool's workers
+    are ended and the temporary entries of the runs they were doing removed (in the
+    serial case, the one of the run in progress). Then the process ends by SIGTERM, as
+    it would have (exit status 143 from a shell). A handler already set (the command
+    lines' :func:`sigterm_as_interrupt`, the caller's own) is left alone, and so is a
+    thread other than the main one, where Python cannot set handlers."""
+    if threading.current_thread() is not threading.main_thread() \
+            or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+    received = []
+
+    def terminates(signum, frame):  # noqa: ARG001 - signal handler signature
+        received.append(signum)
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    signal.signal(signal.SIGTERM, terminates)
+    try:
+        yield
+    except KeyboardInterrupt:
+        # the interrupt may come out of dyncontact.run as its own (the serial case)
+        if received:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            os.kill(os.getpid(), signal.SIGTERM)   # ends the process here
+        raise
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 @contextlib.contextmanager

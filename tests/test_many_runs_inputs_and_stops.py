@@ -5,12 +5,18 @@ CSVs); a folder given to `plot` whose trace.csv is empty or another CSV (bad inp
 2 naming the file, not exit 4 or an empty chart); scripts/convergence_1d's options (a
 scheme twice, a --finest off its grid of meshes, a --t-end <= 0: exit 2 naming the option,
 not a silent single mesh or a traceback) and its runs (no warning about keys of the base
-scene that hht does not use)."""
+scene that hht does not use); and a script of one's own that calls sweep() and is ended
+by SIGTERM (`kill PID`, a batch system's time limit): its runs in progress leave no
+temporary cache entry, and it still ends by SIGTERM."""
 
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
+import sys
+import textwrap
+import time
 
 import pytest
 
@@ -138,3 +144,43 @@ def test_convergence_1d_short_run_is_quiet_and_marks_p_n_unmeasured(tmp_path):
     assert [r[0] for r in rows] == ["25", "50", "order"]
     assert all(r[3] == "nan" for r in rows), rows       # p_n
     assert all(r[1] != "nan" for r in rows), rows       # u_n is measured
+
+
+#: A sweep of four runs of about a second each (1D bar, 80 000 steps), as a user's script.
+SWEEP_SCRIPT = textwrap.dedent("""
+    import sys
+    from dyncontact.study.common import write_base_scenes
+    from dyncontact.study.sweep import make_task, sweep
+
+    base = write_base_scenes(sys.argv[1] + "/scenes")["exact1d"]
+    tasks = [make_task(base, {"mesh.h": 0.02, "scheme.dt": dt, "scheme.t_end": 40.0,
+                              "output.every": 1000}) for dt in (5e-4, 4e-4, 3e-4, 2e-4)]
+    sweep(tasks, sys.argv[1] + "/cache", workers=int(sys.argv[2]), progress=False)
+""")
+START_S = 60.0
+
+
+@pytest.mark.parametrize("workers", [2, 1])
+def test_sigterm_to_a_script_of_ones_own_leaves_no_temporary_entry(tmp_path, workers):
+    """Without a SIGTERM handler of the script's own, SIGTERM used to end it at once: the
+    runs in progress stayed as `<key>.tmp-<pid>-...` folders for the 6 h of
+    sweep.STALE_S. Now the sweep unwinds first (as on Ctrl-C), then the process ends by
+    SIGTERM as before."""
+    script = tmp_path / "my_sweep.py"
+    script.write_text(SWEEP_SCRIPT)
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    proc = subprocess.Popen([sys.executable, str(script), str(tmp_path), str(workers)],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    cache = tmp_path / "cache"
+    deadline = time.monotonic() + START_S
+    while not list(cache.glob("*/*.tmp-*")) and proc.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert list(cache.glob("*/*.tmp-*")), f"no run started (exit {proc.poll()})"
+    proc.send_signal(signal.SIGTERM)
+    _out, err = proc.communicate(timeout=SUBPROCESS_TIMEOUT)
+    assert proc.returncode == -signal.SIGTERM, (proc.returncode, err[-2000:])
+    assert list(cache.glob("*/*.tmp-*")) == []
+    assert "Traceback" not in err, err[-2000:]
