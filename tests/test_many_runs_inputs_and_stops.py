@@ -67,6 +67,9 @@ def test_tasks_of_one_key_are_run_once(tmp_path, monkeypatch):
     assert "runs: 4 runs, 4 from the cache, 0 to do" in lines, lines
     assert all(r["cached"] for r in again)
     assert [r["metrics"] for r in again] == [r["metrics"] for r in recs]
+    for rs in (recs, again):
+        rs[1]["metrics"]["mine"] = 1.0
+        assert "mine" not in rs[0]["metrics"]
 
 
 def test_scheme_list_refuses_a_key_given_twice():

@@ -599,7 +599,7 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
                 if records[first] is not None:   # from the cache
                     hits += len(more)
                     for j in more:
-                        done(j, dict(records[first]))
+                        done(j, _copy_record(records[first]))
         todo.sort(key=lambda i: -_cost(tasks[i]))
         if log:
             dup = sum(len(repeats.get(i, ())) for i in todo)
@@ -611,7 +611,7 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
         def done_all(i: int, rec: dict[str, Any]) -> None:
             done(i, rec)
             for j in repeats.get(i, ()):
-                done(j, dict(rec))
+                done(j, _copy_record(rec))
 
         with _sigterm_ends_after_cleaning():
             if todo and scheduler is not None:
@@ -631,6 +631,12 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
         rec["task"] = task
         out.append(rec)
     return out
+
+
+def _copy_record(rec: Mapping[str, Any]) -> dict[str, Any]:
+    """A record of its own for another task of the same run: its dicts copied (the
+    arrays themselves are shared, as a record's arrays from the cache are read once)."""
+    return {k: dict(v) if isinstance(v, dict) else v for k, v in rec.items()}
 
 
 def _describe(task: Task) -> str:
