@@ -2,7 +2,8 @@
 sweep runs it once and gives its record to each task); a study's --schemes that names a
 scheme twice (refused: its rows would be counted twice in the fits, the tables and the
 CSVs); a folder given to `plot` whose trace.csv is empty or another CSV (bad input, exit
-2 naming the file, not exit 4 or an empty chart); scripts/convergence_1d's options (a
+2 naming the file, not exit 4 or an empty chart) and the chart of many runs (74 or more
+made matplotlib refuse the layout); scripts/convergence_1d's options (a
 scheme twice, a --finest off its grid of meshes, a --t-end <= 0: exit 2 naming the option,
 not a silent single mesh or a traceback) and its runs (no warning about keys of the base
 scene that hht does not use); and a script of one's own that calls sweep() and is ended
@@ -187,3 +188,31 @@ def test_sigterm_to_a_script_of_ones_own_leaves_no_temporary_entry(tmp_path, wor
     assert proc.returncode == -signal.SIGTERM, (proc.returncode, err[-2000:])
     assert list(cache.glob("*/*.tmp-*")) == []
     assert "Traceback" not in err, err[-2000:]
+
+
+def _result(i: int):
+    import numpy as np
+
+    from dyncontact import RunResult
+
+    t = np.linspace(0.0, 1.0, 11)
+    trace = {"t": t, "u_n": -0.5 + 0.01 * i * t, "v_n": 0 * t, "p_n": 0 * t,
+             "e_kin": 0 * t, "e_el": 0 * t + 0.125, "e_contact": 0 * t, "e_total": 0 * t + 0.125}
+    return RunResult(trace=trace, summary={"status": "ok"}, out_dir=f"run{i}")
+
+
+def _panel_height_in(fig) -> float:
+    return fig.axes[0].get_position().height * fig.get_figheight()
+
+
+@pytest.mark.parametrize("title", [None, "a sweep"])
+def test_plot_of_many_runs_keeps_its_panels(tmp_path, title):
+    from dyncontact.plotting import plot_traces
+
+    few = plot_traces([_result(i) for i in range(12)], None, title=title)
+    many = plot_traces([_result(i) for i in range(80)], tmp_path / "many.png", title=title)
+    assert (tmp_path / "many.png").is_file()
+    assert len(many.legends[0].get_texts()) == 80
+    assert few.get_figheight() == 7.5
+    assert many.get_figheight() > few.get_figheight()
+    assert abs(_panel_height_in(many) - _panel_height_in(few)) < 1e-9

@@ -54,6 +54,19 @@ _SCHEME_PARAMS = {
 }
 _SYMBOL = {"alpha": "α", "beta": "β", "gamma": "γ", "theta": "θ"}
 
+#: plot_traces' figure (inches) with a legend of up to _LEGEND_ROWS_IN_PLACE rows (two
+#: runs a row), which takes its room from the panels; each row beyond makes the figure
+#: taller by _LEGEND_ROW_IN, so that the panels keep their height however many runs are
+#: drawn (with a fixed height the legend pushed the panels' bottom above their top from
+#: 74 runs on, and matplotlib refused to draw).
+_FIG_W_IN, _FIG_H_IN = 11.0, 7.5
+_LEGEND_ROWS_IN_PLACE = 6
+_LEGEND_ROW_IN = 0.024 * _FIG_H_IN
+#: the panels' bottom margin (x-axis labels) under the legend, and the top margin without
+#: and with a title, in inches
+_BOTTOM_IN = 0.085 * _FIG_H_IN
+_TOP_IN, _TOP_TITLE_IN = 0.03 * _FIG_H_IN, 0.06 * _FIG_H_IN
+
 
 def _num(v: Any) -> str:
     """A parameter value, short: 0.0025, -0.1, 0.25, 1e-05."""
@@ -202,7 +215,9 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     added to both for every run, so that the curves show the mechanical energy. When a
     trace has the f_n column (the total normal contact force), the p_n panel draws it
     dashed on a second scale at its right (a fifth Axes, ``fig.axes[4]``, twin of the p_n
-    panel); traces written before f_n existed are drawn without it.
+    panel); traces written before f_n existed are drawn without it. The legend goes
+    under the panels, two runs a row; beyond 12 runs the figure grows taller with it,
+    the panels keeping their height.
 
     Returns
     -------
@@ -223,11 +238,13 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     # f_n (total contact force: other units than p_n) on a second scale of the p_n panel,
     # its labels between the columns (wider apart for them)
     with_f_n = any("f_n" in trace for trace, _summary, _name in loaded)
-    fig = Figure(figsize=(11.0, 7.5))
     legend_rows = math.ceil(len(items) / 2)
-    fig.subplots_adjust(left=0.08, right=0.985, top=0.94 if title else 0.97,
-                        bottom=0.085 + 0.024 * legend_rows, hspace=0.07,
-                        wspace=0.42 if with_f_n else 0.24)
+    height = _FIG_H_IN + _LEGEND_ROW_IN * max(0, legend_rows - _LEGEND_ROWS_IN_PLACE)
+    fig = Figure(figsize=(_FIG_W_IN, height))
+    fig.subplots_adjust(left=0.08, right=0.985,
+                        top=1.0 - (_TOP_TITLE_IN if title else _TOP_IN) / height,
+                        bottom=(_BOTTOM_IN + _LEGEND_ROW_IN * legend_rows) / height,
+                        hspace=0.07, wspace=0.42 if with_f_n else 0.24)
     axes = fig.subplots(2, 2, sharex=True).ravel()
     colours = [f"C{i % 10}" for i in range(len(items))]
     handles = []
