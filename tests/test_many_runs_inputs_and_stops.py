@@ -3,7 +3,7 @@ sweep runs it once and gives its record to each task); a study's --schemes that 
 scheme twice (refused: its rows would be counted twice in the fits, the tables and the
 CSVs); a folder given to `plot` whose trace.csv is empty or another CSV (bad input, exit
 2 naming the file, not exit 4 or an empty chart) and the chart of many runs (74 or more
-made matplotlib refuse the layout); scripts/convergence_1d's options (a
+made matplotlib refuse the layout, the 11th run took the 1st one's colour); scripts/convergence_1d's options (a
 scheme twice, a --finest off its grid of meshes, a --t-end <= 0: exit 2 naming the option,
 not a silent single mesh or a traceback) and its runs (no warning about keys of the base
 scene that hht does not use); and a script of one's own that calls sweep() and is ended
@@ -216,3 +216,14 @@ def test_plot_of_many_runs_keeps_its_panels(tmp_path, title):
     assert few.get_figheight() == 7.5
     assert many.get_figheight() > few.get_figheight()
     assert abs(_panel_height_in(many) - _panel_height_in(few)) < 1e-9
+
+
+@pytest.mark.parametrize("n", [3, 12, 20, 80])
+def test_plot_of_many_runs_draws_each_in_a_colour_of_its_own(n):
+    from matplotlib.colors import to_rgba
+
+    from dyncontact.plotting import plot_traces
+
+    fig = plot_traces([_result(i) for i in range(n)], None)
+    colours = {to_rgba(line.get_color()) for line in fig.axes[0].get_lines()}
+    assert len(colours) == n

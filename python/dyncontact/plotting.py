@@ -217,7 +217,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     dashed on a second scale at its right (a fifth Axes, ``fig.axes[4]``, twin of the p_n
     panel); traces written before f_n existed are drawn without it. The legend goes
     under the panels, two runs a row; beyond 12 runs the figure grows taller with it,
-    the panels keeping their height.
+    the panels keeping their height. Each run has a colour of its own (beyond ten runs,
+    from 'tab20', then 'turbo').
 
     Returns
     -------
@@ -246,7 +247,7 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
                         bottom=(_BOTTOM_IN + _LEGEND_ROW_IN * legend_rows) / height,
                         hspace=0.07, wspace=0.42 if with_f_n else 0.24)
     axes = fig.subplots(2, 2, sharex=True).ravel()
-    colours = [f"C{i % 10}" for i in range(len(items))]
+    colours = _run_colours(len(items))
     handles = []
     # Per panel: finite values of the runs that finished ('ok') and of the stopped ones,
     # to keep a blow-up from flattening everything else (see _limit_blowups).
@@ -336,6 +337,19 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         fig.suptitle(title)
     _save(fig, out_png)
     return fig
+
+
+def _run_colours(n: int) -> list:
+    """One colour per run, no two alike: matplotlib's ten default colours (C0..C9) up
+    to ten runs; 'tab20' up to twenty; beyond, n colours spread over 'turbo' (the
+    default cycle repeats after ten, which drew the 11th run in the 1st one's colour)."""
+    if n <= 10:
+        return [f"C{i}" for i in range(n)]
+    from matplotlib import colormaps
+
+    if n <= 20:
+        return [colormaps["tab20"](i) for i in range(n)]
+    return [colormaps["turbo"](x) for x in np.linspace(0.05, 0.95, n)]
 
 
 def _clear_columns(fig, left_ax, right_ax, pad_px: float = 14.0) -> None:
