@@ -1,5 +1,5 @@
 """Inputs a user of many runs gets wrong: a sweep grid that names one case twice (the
-sweep runs it once and gives its record to each task); a study's --schemes that names a
+sweep runs it once and gives its record to each task), or a pool of no process; a study's --schemes that names a
 scheme twice (refused: its rows would be counted twice in the fits, the tables and the
 CSVs); a folder given to `plot` whose trace.csv is empty or another CSV (bad input, exit
 2 naming the file, not exit 4 or an empty chart) and the chart of many runs (74 or more
@@ -71,6 +71,16 @@ def test_tasks_of_one_key_are_run_once(tmp_path, monkeypatch):
     for rs in (recs, again):
         rs[1]["metrics"]["mine"] = 1.0
         assert "mine" not in rs[0]["metrics"]
+
+
+@pytest.mark.parametrize("workers", [0, -2, 1.5, True])
+def test_sweep_refuses_a_pool_of_no_process(tmp_path, workers):
+    """workers = 0 ran on every core and a negative number on one, without a word."""
+    base = write_base_scenes(str(tmp_path / "scenes"))["exact1d"]
+    with pytest.raises(ValueError, match="workers must be a whole number >= 1"):
+        sweep([make_task(base, _settings(0.25))], str(tmp_path / "cache"), workers=workers,
+              progress=False)
+    assert not (tmp_path / "cache").exists()
 
 
 def test_scheme_list_refuses_a_key_given_twice():

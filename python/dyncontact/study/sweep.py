@@ -536,7 +536,8 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
     cache key (the same scene and analysis, whatever their tags: a grid that names one
     case twice) are one run, done once; each of them gets a copy of its record.
 
-    ``workers``: processes of the local pool (default: all cores); ``scheduler``: a
+    ``workers``: processes of the local pool (>= 1, default: all cores; ValueError
+    otherwise); ``scheduler``: a
     dask.distributed scheduler address or Client (then ``workers`` is ignored).
     ``scheduler_timeout``: seconds to wait for the scheduler at that address to answer
     (default :data:`SCHEDULER_TIMEOUT_S`, or the one of an enclosing
@@ -547,6 +548,11 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
     """
     timeout = (_default_scheduler_timeout.get() if scheduler_timeout is None
                else _positive_seconds(scheduler_timeout))
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or workers < 1):
+        # 0 ran on every core and a negative number on one, both without a word
+        raise ValueError(f"workers must be a whole number >= 1 (or None: every core), "
+                         f"got {workers!r}")
     cache = os.path.abspath(cache)
     os.makedirs(cache, exist_ok=True)
     _clean_stale(cache)
