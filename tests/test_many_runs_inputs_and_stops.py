@@ -8,7 +8,8 @@ scheme twice, a --finest off its grid of meshes, a --t-end <= 0: exit 2 naming t
 not a silent single mesh or a traceback) and its runs (no warning about keys of the base
 scene that hht does not use); and a script of one's own that calls sweep() and is ended
 by SIGTERM (`kill PID`, a batch system's time limit): its runs in progress leave no
-temporary cache entry, and it still ends by SIGTERM."""
+temporary cache entry, and it still ends by SIGTERM. And the advice of a central run at
+&scheme dt = 0 that goes unstable (a smaller dt, not dt = 0 again)."""
 
 from __future__ import annotations
 
@@ -237,3 +238,30 @@ def test_plot_of_many_runs_draws_each_in_a_colour_of_its_own(n):
     fig = plot_traces([_result(i) for i in range(n)], None)
     colours = {to_rgba(line.get_color()) for line in fig.axes[0].get_lines()}
     assert len(colours) == n
+
+
+CENTRAL_1D = """&mesh dim = 1, length = 1.0, h = 0.01 /
+&boundary clamped = 'top', contact = 'bottom' /
+&material young = 1.0, poisson = 0.0, density = 1.0 /
+&contact method = 'nitsche', theta = 1, gamma0 = 10.0, obstacle_point = 0.0,
+         obstacle_normal = -1.0, probe = 0.0 /
+&initial kind = 'compressed_bar', amplitude = 0.5 /
+&scheme name = 'central', dt = 0, t_end = 60, mass = 'lumped' /
+&output dir = 'out', every = 10 /
+"""
+
+
+def test_central_at_dt_0_gone_unstable_asks_for_a_smaller_dt(run_exe, tmp_path):
+    """The 1D bar at the step central chooses (0.9 x its estimate, a bound the run warns
+    is not safe in 1D) goes unstable near t = 19; the message used to name that step as
+    '&scheme dt' and advise 'try a smaller &scheme dt, or dt = 0', the scene's own
+    value."""
+    (tmp_path / "s.nml").write_text(CENTRAL_1D)
+    res = run_exe("s.nml")
+    assert res.returncode == 3, res.stderr
+    stop = [ln for ln in res.stderr.splitlines() if "unstable at t = " in ln]
+    assert len(stop) == 1, res.stderr
+    assert stop[0].endswith("(&scheme dt = 0 took 4.242E-003, at most 0.9 x the estimate, "
+                            "which is not a safe bound on this scene): give a smaller "
+                            "&scheme dt"), stop[0]
+    assert "or dt = 0" not in stop[0]

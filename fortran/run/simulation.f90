@@ -1083,8 +1083,16 @@ contains
             end if
         type is (central_scheme_t)
             hint = '; central is explicit, stable only below a critical step, estimated '// &
-                   real_text(s%dt_crit, 4)//contact//' (&scheme dt = '// &
-                   real_text(sim%scn%dt, 4)//'): try a smaller &scheme dt, or dt = 0'
+                   real_text(s%dt_crit, 4)//contact
+            if (sim%auto_dt) then
+                ! the run took its own step already: dt = 0 is no advice here
+                hint = hint//' (&scheme dt = 0 took '//real_text(sim%scn%dt, 4)// &
+                       ', at most 0.9 x the estimate, which is not a safe bound on this '// &
+                       'scene): give a smaller &scheme dt'
+            else
+                hint = hint//' (&scheme dt = '//real_text(sim%scn%dt, 4)// &
+                       '): try a smaller &scheme dt, or dt = 0'
+            end if
         end select
     end function explicit_step_hint
 
