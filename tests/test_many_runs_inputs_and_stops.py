@@ -1,15 +1,20 @@
-"""Inputs a user of many runs gets wrong: a sweep grid that names one case twice (the
-sweep runs it once and gives its record to each task), or a pool of no process; a study's --schemes that names a
-scheme twice (refused: its rows would be counted twice in the fits, the tables and the
-CSVs); a folder given to `plot` whose trace.csv is empty or another CSV (bad input, exit
-2 naming the file, not exit 4 or an empty chart) and the chart of many runs (74 or more
-made matplotlib refuse the layout, the 11th run took the 1st one's colour); scripts/convergence_1d's options (a
-scheme twice, a --finest off its grid of meshes, a --t-end <= 0: exit 2 naming the option,
-not a silent single mesh or a traceback) and its runs (no warning about keys of the base
-scene that hht does not use); and a script of one's own that calls sweep() and is ended
-by SIGTERM (`kill PID`, a batch system's time limit): its runs in progress leave no
-temporary cache entry, and it still ends by SIGTERM. And the advice of a central run at
-&scheme dt = 0 that goes unstable (a smaller dt, not dt = 0 again)."""
+"""What a user of many runs meets, and what the code now does:
+
+- a sweep grid that names one case twice: the sweep runs it once and gives its record to
+  each task; a pool of no process (workers < 1) is refused;
+- a study's --schemes that names a scheme twice: refused (its rows would be counted twice
+  in the fits, the tables and the CSVs);
+- `plot` of a folder whose trace.csv is empty or another CSV: bad input, exit 2 naming the
+  file (not exit 4, not an empty chart); the chart of many runs (from 74 runs matplotlib
+  refused the layout; the 11th run took the 1st one's colour);
+- scripts/convergence_1d: a scheme twice, a --finest off its grid of meshes, a --t-end
+  <= 0 are exit 2 naming the option (not a silent single mesh or a traceback); its hht
+  runs draw no warning about the base scene's keys that hht does not use;
+- a script of one's own that calls sweep() and is ended by SIGTERM (`kill PID`, a batch
+  system's time limit): its runs in progress leave no temporary cache entry, and it
+  still ends by SIGTERM;
+- central at &scheme dt = 0 gone unstable: the advice is a smaller dt, not dt = 0 again.
+"""
 
 from __future__ import annotations
 
