@@ -210,18 +210,32 @@ def test_parse_set_syntax(item, expected):
 
 @pytest.mark.parametrize("item, key", [("scheme.dt=abc", "dt"), ("scheme.bogus=1", "bogus"),
                                        ("nogroup.dt=1", "nogroup"),
-                                       ("contact.theta=1.5", "theta")])
+                                       ("contact.theta=1.5", "theta"),
+                                       ("scheme.dt=-1", "dt"), ("contact.gamma0=0", "gamma0")])
 def test_set_bad_key_or_value_exits_2(run_cli, tmp_path, item, key):
-    """The Scene rejects unknown keys and values of the wrong type, naming the key; where
-    the --set item itself is refused (not the value's range, checked by the run), the line
-    begins with it, so that a key that is not in the scene file is not blamed on it."""
+    """The Scene rejects unknown keys and values of the wrong type, and the run values out
+    of range, naming the key; either way the line begins with the --set item, so that a
+    value that is not in the scene file is not blamed on it."""
     scene = tmp_path / "s.nml"
-    scene.write_text("&scheme dt = 0.01 /\n")
+    scene.write_text("&scheme dt = 0.01 /\n&contact gamma0 = 10 /\n")
     line = _one_error_line(run_cli("run", scene, "--set", item, "--out", tmp_path / "o"), 2)
     assert key in line
-    if key != "theta":
-        assert line.startswith(f"dyncontact: --set {item}: "), line
+    assert line.startswith(f"dyncontact: --set {item}: "), line
     assert not (tmp_path / "o").exists()
+
+
+def test_set_blames_only_the_keys_it_set(run_cli, tmp_path):
+    """A value out of range in the file itself is still the file's, with --set given for
+    another key; of two items for one key, the one used (the last) is named."""
+    scene = tmp_path / "s.nml"
+    scene.write_text("&scheme dt = -0.01 /\n&contact theta = 1 /\n")
+    line = _one_error_line(run_cli("run", scene, "--set", "contact.theta=0",
+                                   "--out", tmp_path / "o"), 2)
+    assert line.startswith(f"dyncontact: {scene}: &scheme dt: "), line
+    scene.write_text("&scheme dt = 0.01 /\n")
+    line = _one_error_line(run_cli("run", scene, "--set", "contact.theta=4",
+                                   "--set", "contact.theta=5", "--out", tmp_path / "o"), 2)
+    assert line.startswith("dyncontact: --set contact.theta=5: &contact theta: "), line
 
 
 def test_bad_command_line_is_one_line(run_cli):

@@ -68,6 +68,25 @@ def parse_set(item: str) -> tuple[str, str, str]:
     return group, key, raw
 
 
+def _blame_set(message: str, scene_path, sets) -> str | None:
+    """The run's refusal of a value that came from ``--set``, said of the ``--set`` item.
+
+    The run checks ranges (and keys against each other) on the whole scene and names the
+    scene file and the key (``s.nml: &scheme dt: must be > 0 ...``). When that key was
+    given by ``--set``, the scene file holds another value or none, so the line begins with
+    the item instead (``--set scheme.dt=-1: &scheme dt: must be > 0 ...``). ``None`` when
+    the message is not about a key set on the command line.
+    """
+    prefix = f"{scene_path}: "
+    if not sets or not message.startswith(prefix):
+        return None
+    rest = message[len(prefix):]
+    for group, key, value in reversed(sets):      # the last item of a key is the one used
+        if rest.startswith(f"&{group} {key}:") or rest.startswith(f"&{group} {key} "):
+            return f"--set {group}.{key}={value}: {rest}"
+    return None
+
+
 # --------------------------------------------------------------------------- commands
 
 def _sigterm_as_interrupt(signum, frame):  # noqa: ARG001 - signal handler signature
@@ -112,7 +131,10 @@ def cmd_run(args) -> int:
                 break
             except core.BadInputError as exc:
                 if not (args.wait and LOCK_HELD in str(exc)):
-                    raise
+                    blamed = _blame_set(str(exc), scene_path, sets)
+                    if blamed is None:
+                        raise
+                    raise core.BadInputError(blamed) from None
                 if not waited:
                     print(f"{PROG}: {' '.join(str(exc).split())}; waiting (--wait)",
                           file=sys.stderr, flush=True)
