@@ -957,3 +957,30 @@ def test_checkpoint_file_holds_the_state_it_stands_for(tmp_path):
         vec = np.frombuffer(payload[pos + 8:pos + 8 + 8 * count], dtype="<f8")
         assert np.array_equal(vec, st[key]), key
         pos += 8 + 8 * count
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+def test_a_new_run_removes_an_earlier_runs_checkpoint(entry, tmp_path):
+    """A run (not a restart) into a folder where another run left its checkpoint removes
+    it once its own trace is there: `--restart` then finds no checkpoint, and never one
+    whose trace is gone (the earlier run's checkpoint at step 600 against a new trace of
+    200 steps was refused as a truncated trace, naming trace.csv, not the stale file).
+    A new run that does not start (bad input) leaves the earlier run's results whole."""
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    first = tmp_path / "first.nml"
+    first.write_text(scene_text("newmark", t_end="1.5"))
+    assert run(cmd(first, "--out", tmp_path / "o"), tmp_path).returncode == EXIT_OK
+    assert checkpoint_step(tmp_path / "o" / CKPT) == 600
+    kept = (tmp_path / "o" / CKPT).read_bytes()
+    bad = tmp_path / "bad.nml"
+    bad.write_text(scene_text("newmark", t_end="0.5", gamma0="-1.0", every=0))
+    assert run(cmd(bad, "--out", tmp_path / "o"), tmp_path).returncode == EXIT_BAD_INPUT
+    assert (tmp_path / "o" / CKPT).read_bytes() == kept
+    second = tmp_path / "second.nml"
+    second.write_text(scene_text("newmark", t_end="0.5", every=0))
+    assert run(cmd(second, "--out", tmp_path / "o"), tmp_path).returncode == EXIT_OK
+    assert not (tmp_path / "o" / CKPT).exists()
+    assert not (tmp_path / "o" / f"{CKPT}.tmp").exists()
+    line = refused_line(run(cmd(second, "--restart", tmp_path / "o"), tmp_path),
+                        tmp_path / "o")
+    assert "no checkpoint to restart from" in line, line

@@ -565,7 +565,7 @@ contains
         sim%trace%path = dir//'/trace.csv'
         call system_clock(sim%clock_flush)
         sim%clock_summary = sim%clock_flush
-        call remove_old_fields(dir, st, msg)
+        call remove_old_outputs(dir, st, msg)
         if (st /= STAT_OK) return
         if (sim%scn%fields_every > 0) then
             call make_dirs(dir//'/fields', st, msg)
@@ -582,19 +582,23 @@ contains
         end if
     end subroutine open_outputs
 
-    !> A new run's folder holds no earlier run's field snapshots: fields/step_*.vtu (and
-    !> the temporary .vtu.tmp of a killed run) and fields.pvd are removed once the new
-    !> trace has replaced the old one, so that old snapshots are neither listed nor left
-    !> beside the new trace (a restart keeps them: they are its own).
-    subroutine remove_old_fields(dir, st, msg)
+    !> A new run's folder holds no earlier run's field snapshots or checkpoint:
+    !> fields/step_*.vtu (and the temporary .vtu.tmp of a killed run), fields.pvd and
+    !> checkpoint.bin (and its .tmp) are removed once the new trace has replaced the old
+    !> one, so that old snapshots are neither listed nor left beside the new trace, and
+    !> `--restart` never finds a checkpoint of a trace that is gone (a restart keeps them:
+    !> they are its own).
+    subroutine remove_old_outputs(dir, st, msg)
         character(len=*), intent(in) :: dir                 !! output folder
         integer, intent(out) :: st                          !! status
         character(len=*), intent(inout), optional :: msg    !! message
+        call file_remove(dir//'/'//CHECKPOINT_NAME)
+        call file_remove(dir//'/'//CHECKPOINT_NAME//'.tmp')
         call file_remove(dir//'/fields.pvd')
         call file_remove(dir//'/fields.pvd.tmp')
         call remove_matching(dir//'/fields', 'step_', '.vtu', st, msg)
         if (st == STAT_OK) call remove_matching(dir//'/fields', 'step_', '.vtu.tmp', st, msg)
-    end subroutine remove_old_fields
+    end subroutine remove_old_outputs
 
     !> Take the output folder's lock (sim%locked) and check that trace.csv and
     !> summary.json can be written there: the opening of a new run's outputs and of a
