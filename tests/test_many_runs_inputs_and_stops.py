@@ -1,4 +1,4 @@
-"""What a user of many runs meets, and what the code now does:
+"""What a user of many runs meets, and what the code does:
 
 - a sweep grid that names one case twice: the sweep runs it once and gives its record to
   each task; a pool of no process (workers < 1) is refused;
@@ -13,7 +13,9 @@
 - a script of one's own that calls sweep() and is ended by SIGTERM (`kill PID`, a batch
   system's time limit): its runs in progress leave no temporary cache entry, and it
   still ends by SIGTERM;
-- central at &scheme dt = 0 gone unstable: the advice is a smaller dt, not dt = 0 again.
+- central at &scheme dt = 0 gone unstable: the advice is a smaller dt, not dt = 0 again;
+- a study whose --out or --cache folder cannot be made: one line naming the study, the
+  option and the folder, exit 2 (not the system's bare message).
 """
 
 from __future__ import annotations
@@ -93,6 +95,19 @@ def test_scheme_list_refuses_a_key_given_twice():
     with pytest.raises(ValueError, match="more than once: newmark$"):
         scheme_list("newmark,pc,newmark")
     assert [s.key for s in scheme_list("newmark,pc")] == ["newmark", "pc"]
+
+
+@pytest.mark.parametrize("option", ["--out", "--cache"])
+def test_study_folder_that_cannot_be_made_is_refused_naming_the_option(run_cli, tmp_path,
+                                                                       option):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    folder = blocker / "sub"            # below a file: ENOTDIR, whoever runs the test
+    args = ["--out", str(tmp_path / "s")] if option == "--cache" else []
+    line = stderr_line(run_cli("study", "convergence", "--quick", "--no-progress",
+                               *args, option, str(folder)), 2,
+                       "dyncontact study convergence: ")
+    assert f"{option} {folder}: cannot create the folder" in line, line
 
 
 def test_study_schemes_given_twice_is_refused_naming_it(run_cli, tmp_path):

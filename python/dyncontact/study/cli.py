@@ -216,6 +216,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         except ValueError as exc:
             print(f"dyncontact study: --schemes: {exc}", file=sys.stderr)
             return 2
+    for option, folder in (("--out", args.out), ("--cache", args.cache)):
+        if folder is None:
+            continue
+        try:
+            os.makedirs(folder, exist_ok=True)
+        except OSError as exc:
+            from ..cli import WRITE_ERRNOS
+
+            # as a run's output folder: no room or a read-only file system is exit 4
+            print(f"dyncontact study {args.study}: {option} {folder}: cannot create the "
+                  f"folder ({exc.strerror or exc})", file=sys.stderr)
+            return 4 if exc.errno in WRITE_ERRNOS else 2
     t0 = time.perf_counter()
     out = os.path.abspath(args.out)
     try:
