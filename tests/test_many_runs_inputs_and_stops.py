@@ -14,12 +14,15 @@
   system's time limit): its runs in progress leave no temporary cache entry, and it
   still ends by SIGTERM;
 - central at &scheme dt = 0 gone unstable: the advice is a smaller dt, not dt = 0 again;
+- a sweep task tagged with the name of a field of the run (`steps`, `status`, ...) or
+  of a metric: refused (by_tags would put the run's value under the tag's name);
 - a study whose --out or --cache folder cannot be made: one line naming the study, the
   option and the folder, exit 2 (not the system's bare message).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import subprocess
@@ -95,6 +98,23 @@ def test_scheme_list_refuses_a_key_given_twice():
     with pytest.raises(ValueError, match="more than once: newmark$"):
         scheme_list("newmark,pc,newmark")
     assert [s.key for s in scheme_list("newmark,pc")] == ["newmark", "pc"]
+
+
+def test_a_tag_named_as_a_field_of_the_run_is_refused(tmp_path):
+    """by_tags puts the run's fields and metrics beside the tags: a tag of the same name
+    would be replaced by the run's value in the row without a word."""
+    base = write_base_scenes(str(tmp_path / "scenes"))["exact1d"]
+    for name in ("steps", "status", "message", "t_end_reached", "wall_s"):
+        with pytest.raises(ValueError, match=f"'{name}'"):
+            make_task(base, _settings(0.25), tags={"scheme": "newmark", name: 1})
+    recs = sweep([make_task(base, _settings(0.25), tags={"label": "a"})],
+                 str(tmp_path / "cache"), workers=1, progress=False)
+    metric = sorted(recs[0]["metrics"])[0]
+    recs[0]["task"] = dataclasses.replace(recs[0]["task"],
+                                          tags=(("label", "a"), (metric, "mine")))
+    with pytest.raises(ValueError, match=f"'{metric}'"):
+        by_tags(recs)
+    assert by_tags(recs[:0]) == []
 
 
 @pytest.mark.parametrize("option", ["--out", "--cache"])

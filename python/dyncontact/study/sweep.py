@@ -150,11 +150,22 @@ class Task:
         return dict(self.tags).get(key, default)
 
 
+#: The run's fields that :func:`by_tags` puts beside a task's tags: a tag may not be
+#: named as one of them (its value would be replaced by the run's without a word).
+RUN_FIELDS = ("status", "message", "t_end_reached", "steps", "wall_s")
+
+
 def make_task(base: str | None, settings: Mapping[str, Any], analysis: str = "trace",
               params: Mapping[str, Any] | None = None,
               tags: Mapping[str, Any] | None = None) -> Task:
     """A :class:`Task` from plain dicts (values must be plain numbers / strings);
-    ``base`` None or '': the built-in default scene."""
+    ``base`` None or '': the built-in default scene. A tag named as one of
+    :data:`RUN_FIELDS` is a ValueError."""
+    clash = [k for k in (tags or {}) if k in RUN_FIELDS]
+    if clash:
+        raise ValueError(f"tag(s) {', '.join(map(repr, clash))}: the names of the run's own "
+                         f"fields in by_tags ({', '.join(RUN_FIELDS)}); name the tag "
+                         "otherwise")
     return Task(base=os.path.abspath(base) if base else "", settings=tuple(settings.items()),
                 analysis=analysis, params=tuple(sorted((params or {}).items())),
                 tags=tuple((tags or {}).items()))
@@ -910,13 +921,20 @@ def _sweep_dask(tasks, keys, todo, cache, scheduler, timeout, done) -> None:
 
 
 def by_tags(records: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Flat rows: each record's tags, then its status fields and metrics."""
+    """Flat rows: each record's tags, then its status fields (:data:`RUN_FIELDS`) and
+    metrics. A tag named as a status field or a metric is a ValueError naming it: the
+    row would hold the run's value under the tag's name."""
     rows = []
     for r in records:
-        row = dict(r["task"].tags)
-        row.update(status=r["status"], message=(r.get("message") or "").splitlines()[0]
+        tags = dict(r["task"].tags)
+        row = dict(status=r["status"], message=(r.get("message") or "").splitlines()[0]
                    if r.get("message") else "", t_end_reached=r.get("t_end_reached"),
                    steps=r.get("steps"), wall_s=r.get("wall_s"))
         row.update(r.get("metrics", {}))
-        rows.append(row)
+        clash = [k for k in tags if k in row]
+        if clash:
+            raise ValueError(f"tag(s) {', '.join(map(repr, clash))} of task "
+                             f"{_describe(r['task'])!r}: the names of the run's own fields "
+                             "or metrics; name the tag otherwise")
+        rows.append({**tags, **row})
     return rows
