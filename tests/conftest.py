@@ -23,6 +23,40 @@ SUBPROCESS_TIMEOUT = 120
 if os.environ.get("PYTEST_XDIST_WORKER"):
     os.environ.setdefault("DYNCONTACT_THREADS", "1")
 
+#: The test files that measure wall time, send signals, limit memory or count threads:
+#: under pytest-xdist with --dist loadfile (scripts/test) they form one unit of work, run
+#: on one worker one after another, never two of them at once (pytest_xdist_make_scheduler).
+ALONE_FILES = frozenset({
+    "test_auto_rule.py", "test_fields_outputs.py", "test_geo_estimate.py",
+    "test_out_of_memory.py", "test_parallel_solve.py", "test_reliability.py",
+    "test_restart.py", "test_scaling.py", "test_signals_mesh_file.py",
+    "test_solver_threads.py", "test_studies.py", "test_study_signals.py",
+})
+
+
+def alone_or_file(nodeid: str) -> str:
+    """The unit of work of a test under --dist loadfile: "alone" for a test of
+    ALONE_FILES, else its file (its module-scoped fixtures are then built once)."""
+    path = nodeid.split("::", 1)[0]
+    return "alone" if path.rsplit("/", 1)[-1] in ALONE_FILES else path
+
+
+@pytest.hookimpl(tryfirst=True, optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """--dist loadfile with ALONE_FILES as one file (alone_or_file). xdist's own
+    --dist loadgroup cannot do it here: it tags the tests' node ids, which pytest 9 no
+    longer lets a plugin change. Other --dist modes are xdist's; without xdist the hook
+    is never called (optionalhook)."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class AloneOrFileScheduling(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return alone_or_file(nodeid)
+
+    return AloneOrFileScheduling(config, log)
+
 
 @pytest.fixture(scope="session")
 def root() -> Path:
