@@ -51,6 +51,11 @@ def pytest_xdist_make_scheduler(config, log):
         return None
     from xdist.scheduler import LoadFileScheduling
 
+    if not callable(getattr(LoadFileScheduling, "_split_scope", None)):
+        # an xdist without the scope hook that --dist loadfile is built on: its own
+        # loadfile (the files of ALONE_FILES then may run beside each other)
+        return None
+
     class AloneOrFileScheduling(LoadFileScheduling):
         def _split_scope(self, nodeid: str) -> str:
             return alone_or_file(nodeid)
