@@ -213,8 +213,9 @@ def test_get_with_a_dimension_out_of_range_says_so():
 
 def test_a_scene_run_from_python_is_named_by_its_file_in_errors(run_cli, tmp_path):
     """A Scene is run through a temporary file; an error the core finds only once the mesh
-    is read (a 2-component probe on a 3D mesh file) names the scene's own file, from
-    dyncontact.run and from `python -m dyncontact run --set`, never the temporary one."""
+    is read (a 2-component probe on a 3D mesh file) names the scene's own file from
+    dyncontact.run, and the --set item that gave the value from `python -m dyncontact run
+    --set`, never the temporary file."""
     path = write(tmp_path, BOX_FILE)
     scn = Scene.read(path)
     scn.set("contact.probe", [0.05, 0.0])
@@ -224,5 +225,5 @@ def test_a_scene_run_from_python_is_named_by_its_file_in_errors(run_cli, tmp_pat
     assert "dyncontact-" not in str(err.value)
     res = run_cli("run", path, "--set", "contact.probe=0.05,0.0", "--out", tmp_path / "o2")
     assert res.returncode == 2
-    assert res.stderr.strip() == (f"dyncontact: {path}: &contact probe: expected 3 values in "
-                                  "3D (got '0.05, 0.0')")
+    assert res.stderr.strip() == ("dyncontact: --set contact.probe=0.05,0.0: &contact probe: "
+                                  "expected 3 values in 3D (got '0.05, 0.0')")
