@@ -597,3 +597,21 @@ def test_scene_studies_take_a_scene_object(tmp_path):
                                  progress=False, log=None)
     with pytest.raises(TypeError, match="a scene file's path or a dyncontact.Scene"):
         run_stability_scene(str(tmp_path / "x"), 3, **kw)
+
+
+def test_stability_summary_gives_bounds_outside_the_grid_in_scene_steps_too():
+    """The summary's "/ scene's Δt" column says what its "critical Δt" column does: the
+    bracket's geometric mean within the grid, and the bound where the critical Δt is
+    outside it ("> 8" beside "> 0.08" at a scene's Δt of 0.01), not "-"."""
+    from dyncontact.study.stability import _crit_text, _ratio_text
+
+    rows = [({"bracket": "bisection", "dt_crit_lo": 0.02, "dt_crit_hi": 0.08,
+              "dt_crit": 0.04}, "0.02 – 0.08", "4"),
+            ({"bracket": "above grid", "dt_crit_lo": 0.08, "dt_crit_hi": None,
+              "dt_crit": None}, "> 0.08", "> 8"),
+            ({"bracket": "below grid", "dt_crit_lo": None, "dt_crit_hi": 0.005,
+              "dt_crit": None}, "< 0.005", "< 0.5"),
+            ({"bracket": "refused", "dt_crit_lo": None, "dt_crit_hi": None,
+              "dt_crit": None}, "refused", "-")]
+    for c, crit, ratio in rows:
+        assert (_crit_text(c), _ratio_text(c, 0.01)) == (crit, ratio), c

@@ -378,6 +378,19 @@ def _crit_text(c) -> str:
     return f"< {fmt(c['dt_crit_hi'], '.4g')}"
 
 
+def _ratio_text(c, dt: float) -> str:
+    """The critical Δt of :func:`_crit_text` as a multiple of the scene's Δt: the
+    bracket's geometric mean, or the bound of a critical Δt outside the grid ("> 8", "< 0.5");
+    "-" for a refused row."""
+    if c["bracket"] == "bisection":
+        return fmt(c["dt_crit"] / dt if c.get("dt_crit") else None, ".3g")
+    if c["bracket"] == "above grid":
+        return f"> {fmt(c['dt_crit_lo'] / dt, '.3g')}"
+    if c["bracket"] == "refused":
+        return "-"
+    return f"< {fmt(c['dt_crit_hi'] / dt, '.3g')}"
+
+
 def _box3d_summary(report) -> list[str]:
     box = report["box3d"]
     g3 = box["grid"]
@@ -692,11 +705,10 @@ def _scene_summary(report, path) -> str:
         "## Critical Δt (stability.csv)", ""]
     table = []
     for c in report["critical"]:
-        mid = c.get("dt_crit")
         stop = f"{c['first_unstable_status']} at t={fmt(c['first_unstable_stop'], '.4g')}" \
             if c["first_unstable_status"] else ""
         table.append([c["scheme"], c["mass"], c["method"], _crit_text(c),
-                      fmt(mid / scn.dt if mid else None, ".3g"), c["grid_stable"],
+                      _ratio_text(c, scn.dt), c["grid_stable"],
                       "yes" if c["non_monotone"] else "",
                       fmt(c.get("dt_crit_estimate"), ".4g"), stop,
                       c["first_unstable_reason"] if c["bracket"] == "refused" else ""])
