@@ -63,6 +63,30 @@ def test_plot_two_runs_writes_png(run_cli, tmp_path):
     assert png.read_bytes()[:8] == PNG_MAGIC
 
 
+def test_plot_labels_of_runs_alike_name_the_keys_that_differ(tmp_path):
+    """Runs whose labels read alike are told apart by the scene keys that differ between
+    them (not by folders that say nothing, such as a sweep cache's 64-digit hashes); where
+    the scenes do not differ, by the folder, a hash cut to 12 digits."""
+    from dyncontact.plotting import plot_traces
+
+    cache = tmp_path / "cache"
+    runs = []
+    for gamma0, digit in ((10.0, "a"), (20.0, "b")):
+        run = _write_run(cache / (digit * 64))
+        summary = json.loads((run / "summary.json").read_text())
+        summary["scene"]["contact"] = {"gamma0": gamma0}
+        (run / "summary.json").write_text(json.dumps(summary))
+        runs.append(run)
+    same = _write_run(tmp_path / "c")
+    labels = [t.get_text() for t in plot_traces(runs, None).legends[0].get_texts()]
+    assert labels == ["hht α=-0.1, Δt=0.0025, h=0.05 [contact.gamma0=10]",
+                      "hht α=-0.1, Δt=0.0025, h=0.05 [contact.gamma0=20]"], labels
+    twins = [_write_run(cache / ("c" * 64)), same]
+    labels = [t.get_text() for t in plot_traces(twins, None).legends[0].get_texts()]
+    assert labels == ["hht α=-0.1, Δt=0.0025, h=0.05 [cccccccccccc]",
+                      "hht α=-0.1, Δt=0.0025, h=0.05 [c]"], labels
+
+
 def test_plot_traces_api_labels(tmp_path):
     from dyncontact.plotting import plot_traces, run_label
 

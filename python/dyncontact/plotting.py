@@ -119,6 +119,61 @@ def run_label(summary: dict, fallback: str = "") -> str:
     return parts[0]
 
 
+#: At most this many scene keys tell runs of one label apart ("[contact.gamma0=20]").
+APART_KEYS = 3
+
+
+def _scene_items(summary: dict) -> dict[str, Any]:
+    """The scene of a summary.json as {'group.key': value} (vectors as tuples); the
+    output keys, which do not change what was run, left out."""
+    scene = summary.get("scene") if isinstance(summary.get("scene"), dict) else {}
+    return {f"{g}.{k}": tuple(v) if isinstance(v, list) else v
+            for g, keys in scene.items() if isinstance(keys, dict) and g != "output"
+            for k, v in keys.items()}
+
+
+def _short_folder(name: str) -> str:
+    """A folder's name for a legend: a hash (a sweep cache's run folder, 64 hex digits)
+    cut to its first 12 digits, as git shortens commits."""
+    if len(name) > 16 and all(ch in "0123456789abcdef" for ch in name):
+        return name[:12]
+    return name
+
+
+def _told_apart(names: list[str], summaries: list[dict], folders: list[str]) -> list[str]:
+    """Labels of runs that read alike (:func:`run_label` does not list every key) made
+    different: each run of a group of equal labels gets the scene keys whose values
+    differ within the group ('[contact.gamma0=20]', at most APART_KEYS of them), or its
+    folder's name where the scenes do not differ or differ in more keys than that."""
+    out = list(names)
+    for name in set(names):
+        group = [i for i, n in enumerate(names) if n == name]
+        if len(group) < 2:
+            continue
+        items = [_scene_items(summaries[i]) for i in group]
+        keys = sorted({k for it in items for k in it})
+        differ = [k for k in keys if len({repr(it.get(k)) for it in items}) > 1]
+        for i, it in zip(group, items):
+            if 0 < len(differ) <= APART_KEYS:
+                what = ", ".join(f"{k}={_apart_value(it.get(k))}" for k in differ)
+            else:
+                what = _short_folder(folders[i])
+            out[i] = f"{name} [{what}]"
+    return out
+
+
+def _apart_value(v: Any) -> str:
+    """A scene value in a legend: numbers as :func:`_num`, vectors comma-separated, a
+    key the scene does not have as '-'."""
+    if v is None:
+        return "-"
+    if isinstance(v, tuple):
+        return ",".join(_apart_value(x) for x in v)
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        return _num(v)
+    return str(v)
+
+
 def _contact_method(summary: dict) -> str:
     """'nitsche', 'penalty', 'alm integral' or 'alm nodal' from a summary.json (Nitsche
     when it does not say: the default method)."""
@@ -204,8 +259,9 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         :class:`dyncontact.RunResult` objects; one colour per run.
     out_png : file to write (None: do not save).
     labels : legend labels (default: scheme and parameters from summary.json, e.g.
-        'hht α=-0.1, Δt=0.0025, h=0.05' (:func:`run_label`), followed by the run's folder
-        where two runs would read alike). A run whose status is not 'ok' is drawn up to
+        'hht α=-0.1, Δt=0.0025, h=0.05' (:func:`run_label`); where two runs would read
+        alike, followed by the scene keys that differ between them, or by the run's
+        folder). A run whose status is not 'ok' is drawn up to
         where it stopped, marked with an 'x', and labelled '(unstable at t=...)'.
     title : figure title.
 
@@ -265,10 +321,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     names = labels if labels is not None else [run_label(summary, default_name)
                                                for _, summary, default_name in loaded]
     if labels is None:
-        # runs whose settings read alike (the label does not list every key) are told
-        # apart by their folders
-        names = [f"{name} [{loaded[i][2]}]" if names.count(name) > 1 else name
-                 for i, name in enumerate(names)]
+        names = _told_apart(names, [summary for _, summary, _ in loaded],
+                            [default_name for _, _, default_name in loaded])
     for i, (trace, summary, _name) in enumerate(loaded):
         label = names[i]
         t = np.asarray(trace.get("t", np.empty(0)), dtype=float)
