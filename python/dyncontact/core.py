@@ -676,6 +676,12 @@ class Model:
 
     def __init__(self, scene, _out: str | os.PathLike | None = None):
         # _out: the output folder of a run (Stepper); None builds the model only
+        from .scene import Scene
+
+        self.handle = 0
+        if not isinstance(scene, (str, bytes, os.PathLike, Scene)):
+            raise TypeError(f"{type(self).__name__}(): scene must be a path (str, bytes or "
+                            f"os.PathLike) or a dyncontact.Scene, not {type(scene).__name__}")
         self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
         self.handle = 0
         try:
