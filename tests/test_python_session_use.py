@@ -1,0 +1,85 @@
+"""dyncontact driven from one Python session (a notebook): the values a Python user passes
+(paths, fractions, numpy numbers) are taken or refused as README.md says, bad input is a
+BadInputError naming the file and the key, and a Stepper refuses a wrong argument with a
+TypeError as run() does. Small scenes only: the 1D bar at h = 0.05 over a short t_end."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+import dyncontact
+from dyncontact import BadInputError, Scene, Stepper
+from dyncontact.study.sweep import by_tags, make_task, sweep
+
+BAR1D = ROOT / "scripts" / "scenes" / "bar1d.nml"
+GEO = ROOT / "meshes" / "bar2d.geo"
+
+
+def small_bar() -> Scene:
+    scene = Scene.read(BAR1D)
+    scene.set("mesh.h", 0.05)
+    scene.set("scheme.dt", 0.0025)
+    scene.set("scheme.t_end", 0.05)
+    return scene
+
+
+@pytest.mark.parametrize("key, value", [("mesh.file", GEO), ("output.dir", Path("out/x"))])
+def test_scene_set_takes_a_path_for_a_string_key(key, value):
+    scene = small_bar()
+    scene.set(key, value)
+    assert scene.get(key) == str(value)
+
+
+def test_run_of_a_scene_whose_mesh_file_was_set_as_a_path(tmp_path):
+    scene = small_bar()
+    scene.set("mesh.dim", 0)
+    scene.set("mesh.file", GEO)
+    scene.set("mesh.h", 0.1)
+    scene.unset("contact.obstacle_normal", "contact.probe", "contact.obstacle_point",
+                "material.gravity")
+    res = dyncontact.run(scene, out=tmp_path / "run", progress=False)
+    assert res.status == "ok"
+    assert res.summary["scene"]["mesh"]["file"] == str(GEO)
+
+
+def test_scene_set_takes_a_fraction_as_its_value():
+    scene = small_bar()
+    scene.set("scheme.dt", Fraction(1, 400))
+    assert scene.get("scheme.dt") == 0.0025
+
+
+@pytest.mark.parametrize("text", ["1/400", "0.1 /", "0.1, t_end = 3"])
+def test_scene_set_of_a_value_that_ends_the_group_names_the_key(text):
+    scene = small_bar()
+    with pytest.raises(BadInputError) as info:
+        scene.set("scheme.dt", text)
+    msg = str(info.value)
+    assert msg.startswith(f"{BAR1D}: &scheme dt: ")
+    assert f"(got '{text}')" in msg
+    assert "line " not in msg
+    assert scene.get("scheme.dt") == 0.0025     # the scene is left as it was
+
+
+@pytest.mark.parametrize("bad", [3, {"scheme.dt": 0.001}, None])
+def test_stepper_of_something_not_a_scene_is_a_type_error(bad, tmp_path):
+    with pytest.raises(TypeError, match=r"Stepper\(\): scene must be a path"):
+        Stepper(bad, tmp_path / "out")
+    with pytest.raises(TypeError, match=r"run\(\): scene must be a path"):
+        dyncontact.run(bad, out=tmp_path / "out")
+
+
+def test_sweep_takes_numpy_values_and_a_numpy_worker_count(tmp_path):
+    dts = np.array([0.005, 0.0025])
+    tasks = [make_task(str(BAR1D), {"mesh.h": 0.05, "scheme.dt": dt,
+                                    "scheme.t_end": np.float32(0.05)}, tags={"dt": dt})
+             for dt in dts]
+    rows = by_tags(sweep(tasks, str(tmp_path / "cache"), workers=np.int64(1),
+                         progress=False))
+    assert [(r["dt"], r["status"], r["steps"]) for r in rows] == [(0.005, "ok", 10),
+                                                                   (0.0025, "ok", 20)]
