@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import operator
 import os
 import shutil
 import sys
@@ -368,7 +369,10 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     progress : None (default) shows a progress bar on stderr when it is a terminal;
         True / False force it on / off.
     callback : optional ``callback(step, n_steps)`` called after each chunk of steps
-        (about ``CHUNK_S`` seconds of steps).
+        (about ``CHUNK_S`` seconds of steps). A ``KeyboardInterrupt`` it raises stops the
+        run as Ctrl-C does: the trace is kept, the folder's lock released, and the
+        interrupt raised again with the run's line (``interrupted at t = ...``; after the
+        last chunk, ``interrupted after the run ended at t = ...``).
     restart : output folder of a stopped run of the same scene, holding the checkpoint.bin
         its ``&output checkpoint_every`` wrote: the run continues from it in that folder
         (trace.csv continued, summary.json counting the whole run; the result is the one
@@ -467,11 +471,16 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
             stat, errmsg = core.dc_sim_close(handle)
         _check(stat, errmsg, "closing the run")
         if stopped is not None:
-            # with the message the run wrote on closing: t, and what was kept
+            # with the message the run wrote on closing: t, and what was kept; a run that
+            # had ended (the callback of its last chunk stopped it) wrote none
             try:
-                said = read_summary(out_dir).get("message")
+                summary = read_summary(out_dir)
             except (OSError, ValueError):
-                said = None
+                summary = {}
+            said = summary.get("message")
+            if not said and summary.get("status") == "ok":
+                said = (f"interrupted after the run ended at t = "
+                        f"{summary.get('t_end_reached')} (trace and summary complete)")
             raise KeyboardInterrupt(said or str(stopped)) from None
         trace = read_trace(out_dir)
         summary = read_summary(out_dir)
@@ -786,11 +795,17 @@ class Stepper(Model):
             raise
 
     def advance(self, steps: int = 1) -> int:
-        """Advance by at most ``steps`` steps (an int >= 0); returns the steps done. A
+        """Advance by at most ``steps`` steps (an int >= 0: a Python or numpy integer, or a
+        0-d integer array); returns the steps done. A
         numerical failure (unstable, Newton) raises :class:`NumericalError`; a closed
         Stepper, :class:`DyncontactError`."""
-        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
+        if isinstance(steps, (bool, np.bool_)):
             raise TypeError(f"advance(): steps must be an int, not {type(steps).__name__}")
+        try:                  # an int, a numpy integer or a 0-d integer array
+            steps = operator.index(steps)
+        except TypeError:
+            raise TypeError(f"advance(): steps must be an int, not {type(steps).__name__}"
+                            ) from None
         if steps < 0:
             raise ValueError(f"advance(): steps must be >= 0 (got {steps})")
         self._need()
