@@ -83,3 +83,32 @@ def test_sweep_takes_numpy_values_and_a_numpy_worker_count(tmp_path):
                          progress=False))
     assert [(r["dt"], r["status"], r["steps"]) for r in rows] == [(0.005, "ok", 10),
                                                                    (0.0025, "ok", 20)]
+
+
+def test_stepper_advance_takes_a_numpy_integer_or_a_0d_integer_array(tmp_path):
+    with Stepper(small_bar(), tmp_path / "out") as st:
+        assert st.advance(np.int64(2)) == 2
+        assert st.advance(np.array(3)) == 3
+        assert st.state()["t"] == pytest.approx(5 * 0.0025, rel=1e-12)
+        for bad in (2.0, np.array(2.0), True, np.array(True), [2]):
+            with pytest.raises(TypeError, match="steps must be an int"):
+                st.advance(bad)
+
+
+def test_interrupt_in_the_callback_of_the_last_chunk_says_the_run_ended(tmp_path):
+    """A KeyboardInterrupt raised by the callback after the last step keeps the complete
+    run, and its text says so (it was empty: the run had written no message)."""
+    def stop_at_end(step, n_steps):
+        if step == n_steps:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt) as info:
+        dyncontact.run(small_bar(), out=tmp_path / "out", progress=False,
+                       callback=stop_at_end)
+    assert str(info.value) == ("interrupted after the run ended at t = 0.05 "
+                               "(trace and summary complete)")
+    summary = dyncontact.core.read_summary(tmp_path / "out")
+    assert (summary["status"], summary["steps"]) == ("ok", 20)
+    assert len(dyncontact.core.read_trace(tmp_path / "out")["t"]) == 21
+    # the folder's lock is released: the next run in the session writes there
+    assert dyncontact.run(small_bar(), out=tmp_path / "out", progress=False).status == "ok"
