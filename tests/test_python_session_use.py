@@ -112,3 +112,24 @@ def test_interrupt_in_the_callback_of_the_last_chunk_says_the_run_ended(tmp_path
     assert len(dyncontact.core.read_trace(tmp_path / "out")["t"]) == 21
     # the folder's lock is released: the next run in the session writes there
     assert dyncontact.run(small_bar(), out=tmp_path / "out", progress=False).status == "ok"
+
+
+@pytest.mark.parametrize("study", ["stability", "work_precision"])
+def test_study_on_a_bad_scene_raises_bad_input_naming_it(study, tmp_path):
+    """README: bad input raises dyncontact.BadInputError; the studies on a scene of
+    one's own raised a plain ValueError, which `except BadInputError` missed."""
+    if study == "stability":
+        from dyncontact.study.stability import run_stability_scene as run_study
+    else:
+        from dyncontact.study.workprecision import run_work_precision_scene as run_study
+    missing = tmp_path / "missing.nml"
+    with pytest.raises(BadInputError, match=f"{missing}: no such file"):
+        run_study(str(tmp_path / "study"), missing, quick=True, workers=1, progress=False)
+    no_step = tmp_path / "central.nml"
+    no_step.write_text("&scheme name = 'central', dt = 0 /\n")
+    with pytest.raises(BadInputError, match=r"central.nml: &scheme dt = 0: the study"):
+        run_study(str(tmp_path / "study"), no_step, quick=True, workers=1, progress=False)
+    scene = small_bar()
+    scene.set("scheme.dt", -1.0)                 # refused when the Scene is written
+    with pytest.raises(BadInputError, match=rf"{BAR1D}: &scheme dt: "):
+        run_study(str(tmp_path / "study"), scene, quick=True, workers=1, progress=False)
