@@ -133,3 +133,11 @@ def test_study_on_a_bad_scene_raises_bad_input_naming_it(study, tmp_path):
     scene.set("scheme.dt", -1.0)                 # refused when the Scene is written
     with pytest.raises(BadInputError, match=rf"{BAR1D}: &scheme dt: "):
         run_study(str(tmp_path / "study"), scene, quick=True, workers=1, progress=False)
+
+
+def test_scene_set_takes_a_list_of_group_names(tmp_path):
+    scene = small_bar()
+    scene.set("boundary.slip_x", ["left", "right"])
+    assert scene.get("boundary.slip_x") == "left,right"
+    scene.set("boundary.slip_x", [])
+    assert scene.get("boundary.slip_x") == ""

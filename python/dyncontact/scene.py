@@ -51,9 +51,13 @@ def _quote(s: str) -> str:
 def _value_text(value: Any, current: Any) -> str:
     """A Python value (or a command-line string) as namelist text for a key whose current
     value is `current` (its type is the key's type); the core converts and checks it.
-    A path (``pathlib.Path``) is its text, as a string value."""
+    A path (``pathlib.Path``) is its text, as a string value; a list of names for a
+    string key (``&boundary``'s groups) is the comma-separated list."""
     if isinstance(value, os.PathLike):
         value = os.fsdecode(value)
+    if isinstance(current, str) and isinstance(value, (list, tuple)) \
+            and all(isinstance(v, str) for v in value):
+        value = ",".join(v.strip() for v in value)
     if isinstance(current, str):
         if isinstance(value, str):
             v = value.strip()
@@ -183,7 +187,9 @@ class Scene:
         """Set ``'group.key'``; the core converts ``value`` to the key's type.
 
         ``value`` may be a Python or numpy value or a command-line string: ``'0.001'``,
-        ``"'lumped'"`` or ``'lumped'``, ``'0.0,-1.0'``. A single number for a vector sets
+        ``"'lumped'"`` or ``'lumped'``, ``'0.0,-1.0'``; a path (``pathlib.Path``) for
+        ``mesh.file`` or ``output.dir``; a list of group names (``['left', 'right']``,
+        the same as ``'left,right'``) for a ``&boundary`` key. A single number for a vector sets
         component 1 and zeroes component 2. Ranges, and the count of a vector's components
         against the mesh's dimension, are checked by :meth:`validate` (and by the run).
 
