@@ -488,12 +488,17 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
             summary = dict(summary, status="unstable")
         return RunResult(trace=trace, summary=summary, out_dir=out_dir, message=message)
     except BadInputError as exc:
-        # the core names the file it read: for a Scene, name the Scene (its file) instead
-        if written is not None and written in str(exc):
-            raise BadInputError(str(exc).replace(written, scene._name())) from None
-        raise
+        _raise_for_scene(exc, written, scene)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _raise_for_scene(exc: BadInputError, written: str | None, scene) -> None:
+    """Raise ``exc``; where it names the temporary file ``written`` that a Scene was
+    written to (the core names the file it read), name the Scene (its file) instead."""
+    if written is not None and written in str(exc):
+        raise BadInputError(str(exc).replace(written, scene._name())) from None
+    raise exc
 
 
 def _folder_arg(path, what: str) -> str:
@@ -693,18 +698,23 @@ class Model:
                             f"os.PathLike) or a dyncontact.Scene, not {type(scene).__name__}")
         self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
         self.handle = 0
+        written = None    # the temporary file a Scene is written to
         try:
             if isinstance(scene, (str, bytes, os.PathLike)):
                 path = os.fsdecode(scene)
             else:
-                path = _write_scene(scene, self._tmp)
+                path = written = _write_scene(scene, self._tmp)
             out = b""
             if _out is not None:   # as given, as the executable records it in summary.json
                 out = _fpath(_folder_arg(_out, "out"), "output folder")
             (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
              errmsg) = _core().dc_sim_open(_fpath(path, "scene file"), out,
                                            1 if _out is None else 0)
-            _check(stat, errmsg, "building the model" if _out is None else "opening the run")
+            try:
+                _check(stat, errmsg,
+                       "building the model" if _out is None else "opening the run")
+            except BadInputError as exc:
+                _raise_for_scene(exc, written, scene)
             self.handle = handle
         except BaseException:
             shutil.rmtree(self._tmp, ignore_errors=True)
@@ -911,15 +921,19 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
         return None
     core = _core()
     tmp = tempfile.mkdtemp(prefix="dyncontact-bench-")
+    written = None    # the temporary file a Scene is written to
     try:
         if isinstance(scene, (str, bytes, os.PathLike)):
             path = os.fsdecode(scene)
         else:
-            path = _write_scene(scene, tmp)
+            path = written = _write_scene(scene, tmp)
         handle, *_, stat, errmsg = core.dc_sim_open(_fpath(path, "scene file"),
                                                     _fpath(os.path.join(tmp, "out"),
                                                            "output folder"), 0)
-        _check(stat, errmsg, "opening the run")
+        try:
+            _check(stat, errmsg, "opening the run")
+        except BadInputError as exc:
+            _raise_for_scene(exc, written, scene)
         try:
             return _handle_floors(handle, n_rep, batches)
         finally:
