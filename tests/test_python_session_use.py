@@ -141,3 +141,25 @@ def test_scene_set_takes_a_list_of_group_names(tmp_path):
     assert scene.get("boundary.slip_x") == "left,right"
     scene.set("boundary.slip_x", [])
     assert scene.get("boundary.slip_x") == ""
+
+
+def test_scene_refused_once_its_mesh_is_read_is_named_by_stepper_and_model(tmp_path):
+    """A Scene that only the mesh shows wrong (a 2-component probe for a 3D mesh file
+    with &mesh dim = 0) is refused naming the Scene's file, not the temporary file it
+    was written to, by Stepper, Model and bench_floors as by run()."""
+    scene = Scene()
+    scene.set("mesh.file", ROOT / "meshes" / "bar3d_getfem_h0.05.msh")
+    scene.set("initial.kind", "compressed_bar")
+    scene.set("scheme.t_end", 0.01)
+    scene.set("contact.probe", [0.05, 0.0])
+    scene.path = str(tmp_path / "mine.nml")
+    want = f"{tmp_path / 'mine.nml'}: &contact probe: expected 3 values in 3D (got '0.05, 0.0')"
+    calls = [lambda: dyncontact.run(scene, out=tmp_path / "a", progress=False),
+             lambda: Stepper(scene, tmp_path / "b"),
+             lambda: dyncontact.core.Model(scene)]
+    if dyncontact.core.bench_floors_available():
+        calls.append(lambda: dyncontact.core.bench_floors(scene, n_rep=1))
+    for call in calls:
+        with pytest.raises(BadInputError) as info:
+            call()
+        assert str(info.value) == want
