@@ -110,7 +110,7 @@ def test_interrupt_in_the_callback_of_the_last_chunk_says_the_run_ended(tmp_path
     summary = dyncontact.core.read_summary(tmp_path / "out")
     assert (summary["status"], summary["steps"]) == ("ok", 20)
     assert len(dyncontact.core.read_trace(tmp_path / "out")["t"]) == 21
-    # the folder's lock is released: the next run in the session writes there
+    # the folder's lock is released: the next run writes there
     assert dyncontact.run(small_bar(), out=tmp_path / "out", progress=False).status == "ok"
 
 
