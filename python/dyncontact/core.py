@@ -697,7 +697,6 @@ class Model:
             raise TypeError(f"{type(self).__name__}(): scene must be a path (str, bytes or "
                             f"os.PathLike) or a dyncontact.Scene, not {type(scene).__name__}")
         self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
-        self.handle = 0
         written = None    # the temporary file a Scene is written to
         try:
             if isinstance(scene, (str, bytes, os.PathLike)):
@@ -806,9 +805,8 @@ class Stepper(Model):
 
     def advance(self, steps: int = 1) -> int:
         """Advance by at most ``steps`` steps (an int >= 0: a Python or numpy integer, or a
-        0-d integer array); returns the steps done. A
-        numerical failure (unstable, Newton) raises :class:`NumericalError`; a closed
-        Stepper, :class:`DyncontactError`."""
+        0-d integer array); returns the steps done. A numerical failure (unstable,
+        Newton) raises :class:`NumericalError`; a closed Stepper, :class:`DyncontactError`."""
         if isinstance(steps, (bool, np.bool_)):
             raise TypeError(f"advance(): steps must be an int, not {type(steps).__name__}")
         try:                  # an int, a numpy integer or a 0-d integer array

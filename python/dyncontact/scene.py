@@ -189,9 +189,10 @@ class Scene:
         ``value`` may be a Python or numpy value or a command-line string: ``'0.001'``,
         ``"'lumped'"`` or ``'lumped'``, ``'0.0,-1.0'``; a path (``pathlib.Path``) for
         ``mesh.file`` or ``output.dir``; a list of group names (``['left', 'right']``,
-        the same as ``'left,right'``) for a ``&boundary`` key. A single number for a vector sets
-        component 1 and zeroes component 2. Ranges, and the count of a vector's components
-        against the mesh's dimension, are checked by :meth:`validate` (and by the run).
+        the same as ``'left,right'``) for a ``&boundary`` key. A single number for a
+        vector sets component 1 and zeroes component 2. Ranges, and the count of a
+        vector's components against the mesh's dimension, are checked by
+        :meth:`validate` (and by the run).
 
         Setting ``'mesh.dim'`` (or ``'mesh.file'``) changes the defaults of the vector keys
         not given (3 components in 3D). A vector given with exactly the old dimension's

@@ -434,8 +434,9 @@ class UserScene:
 
 def read_user_scene(path, out: str | None = None) -> UserScene:
     """The scene file ``path`` as a :class:`UserScene`; :class:`dyncontact.BadInputError`
-    (a ValueError) with one line naming the file when it is missing, refused by the core, or has no time step of its own
-    (dt = 0, the automatic step of central differences: the ladders are multiples of it).
+    (a ValueError) with one line naming the file when it is missing, refused by the
+    core, or has no time step of its own (dt = 0, the automatic step of central
+    differences: the ladders are multiples of it).
     ``path`` may also be a :class:`dyncontact.Scene` (a scene built or edited in Python):
     it is written as ``out/scene.nml`` (``Scene.write``: its mesh file made absolute),
     the file the study's runs then read; TypeError for anything else."""
@@ -472,8 +473,9 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
         hint = ("; central's automatic step is chosen when the scene runs: `dyncontact "
                 "run` it once and give the Δt its summary.json records (scene.scheme.dt)"
                 if values["scheme.name"] == "central" else "")
-        raise BadInputError(f"--scene {path}: &scheme dt = {values['scheme.dt']:g}: the study "
-                         f"derives its time steps from the scene's, give one > 0{hint}")
+        raise BadInputError(f"--scene {path}: &scheme dt = {values['scheme.dt']:g}: the "
+                            "study derives its time steps from the scene's, give one > 0"
+                            f"{hint}")
     return UserScene(os.path.abspath(path), int(values["dim"]),
                      float(values["mesh.h"]), float(values["scheme.dt"]),
                      float(values["scheme.t_end"]), str(values["scheme.mass"]),

@@ -70,8 +70,8 @@ import dataclasses
 import functools
 import hashlib
 import json
-import os
 import numbers
+import os
 import shutil
 import signal
 import subprocess
