@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import operator
 import os
 import shutil
 import sys
@@ -368,7 +369,10 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     progress : None (default) shows a progress bar on stderr when it is a terminal;
         True / False force it on / off.
     callback : optional ``callback(step, n_steps)`` called after each chunk of steps
-        (about ``CHUNK_S`` seconds of steps).
+        (about ``CHUNK_S`` seconds of steps). A ``KeyboardInterrupt`` it raises stops the
+        run as Ctrl-C does: the trace is kept, the folder's lock released, and the
+        interrupt raised again with the run's line (``interrupted at t = ...``; after the
+        last chunk, ``interrupted after the run ended at t = ...``).
     restart : output folder of a stopped run of the same scene, holding the checkpoint.bin
         its ``&output checkpoint_every`` wrote: the run continues from it in that folder
         (trace.csv continued, summary.json counting the whole run; the result is the one
@@ -467,11 +471,16 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
             stat, errmsg = core.dc_sim_close(handle)
         _check(stat, errmsg, "closing the run")
         if stopped is not None:
-            # with the message the run wrote on closing: t, and what was kept
+            # with the message the run wrote on closing: t, and what was kept; a run that
+            # had ended (the callback of its last chunk stopped it) wrote none
             try:
-                said = read_summary(out_dir).get("message")
+                summary = read_summary(out_dir)
             except (OSError, ValueError):
-                said = None
+                summary = {}
+            said = summary.get("message")
+            if not said and summary.get("status") == "ok":
+                said = (f"interrupted after the run ended at t = "
+                        f"{summary.get('t_end_reached')} (trace and summary complete)")
             raise KeyboardInterrupt(said or str(stopped)) from None
         trace = read_trace(out_dir)
         summary = read_summary(out_dir)
@@ -479,12 +488,17 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
             summary = dict(summary, status="unstable")
         return RunResult(trace=trace, summary=summary, out_dir=out_dir, message=message)
     except BadInputError as exc:
-        # the core names the file it read: for a Scene, name the Scene (its file) instead
-        if written is not None and written in str(exc):
-            raise BadInputError(str(exc).replace(written, scene._name())) from None
-        raise
+        _raise_for_scene(exc, written, scene)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _raise_for_scene(exc: BadInputError, written: str | None, scene) -> None:
+    """Raise ``exc``; where it names the temporary file ``written`` that a Scene was
+    written to (the core names the file it read), name the Scene (its file) instead."""
+    if written is not None and written in str(exc):
+        raise BadInputError(str(exc).replace(written, scene._name())) from None
+    raise exc
 
 
 def _folder_arg(path, what: str) -> str:
@@ -676,20 +690,30 @@ class Model:
 
     def __init__(self, scene, _out: str | os.PathLike | None = None):
         # _out: the output folder of a run (Stepper); None builds the model only
-        self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
+        from .scene import Scene
+
         self.handle = 0
+        if not isinstance(scene, (str, bytes, os.PathLike, Scene)):
+            raise TypeError(f"{type(self).__name__}(): scene must be a path (str, bytes or "
+                            f"os.PathLike) or a dyncontact.Scene, not {type(scene).__name__}")
+        self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
+        written = None    # the temporary file a Scene is written to
         try:
             if isinstance(scene, (str, bytes, os.PathLike)):
                 path = os.fsdecode(scene)
             else:
-                path = _write_scene(scene, self._tmp)
+                path = written = _write_scene(scene, self._tmp)
             out = b""
             if _out is not None:   # as given, as the executable records it in summary.json
                 out = _fpath(_folder_arg(_out, "out"), "output folder")
             (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
              errmsg) = _core().dc_sim_open(_fpath(path, "scene file"), out,
                                            1 if _out is None else 0)
-            _check(stat, errmsg, "building the model" if _out is None else "opening the run")
+            try:
+                _check(stat, errmsg,
+                       "building the model" if _out is None else "opening the run")
+            except BadInputError as exc:
+                _raise_for_scene(exc, written, scene)
             self.handle = handle
         except BaseException:
             shutil.rmtree(self._tmp, ignore_errors=True)
@@ -780,11 +804,16 @@ class Stepper(Model):
             raise
 
     def advance(self, steps: int = 1) -> int:
-        """Advance by at most ``steps`` steps (an int >= 0); returns the steps done. A
-        numerical failure (unstable, Newton) raises :class:`NumericalError`; a closed
-        Stepper, :class:`DyncontactError`."""
-        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
+        """Advance by at most ``steps`` steps (an int >= 0: a Python or numpy integer, or a
+        0-d integer array); returns the steps done. A numerical failure (unstable,
+        Newton) raises :class:`NumericalError`; a closed Stepper, :class:`DyncontactError`."""
+        if isinstance(steps, (bool, np.bool_)):
             raise TypeError(f"advance(): steps must be an int, not {type(steps).__name__}")
+        try:                  # an int, a numpy integer or a 0-d integer array
+            steps = operator.index(steps)
+        except TypeError:
+            raise TypeError(f"advance(): steps must be an int, not {type(steps).__name__}"
+                            ) from None
         if steps < 0:
             raise ValueError(f"advance(): steps must be >= 0 (got {steps})")
         self._need()
@@ -890,15 +919,19 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
         return None
     core = _core()
     tmp = tempfile.mkdtemp(prefix="dyncontact-bench-")
+    written = None    # the temporary file a Scene is written to
     try:
         if isinstance(scene, (str, bytes, os.PathLike)):
             path = os.fsdecode(scene)
         else:
-            path = _write_scene(scene, tmp)
+            path = written = _write_scene(scene, tmp)
         handle, *_, stat, errmsg = core.dc_sim_open(_fpath(path, "scene file"),
                                                     _fpath(os.path.join(tmp, "out"),
                                                            "output folder"), 0)
-        _check(stat, errmsg, "opening the run")
+        try:
+            _check(stat, errmsg, "opening the run")
+        except BadInputError as exc:
+            _raise_for_scene(exc, written, scene)
         try:
             return _handle_floors(handle, n_rep, batches)
         finally:

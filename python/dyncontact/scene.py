@@ -50,7 +50,14 @@ def _quote(s: str) -> str:
 
 def _value_text(value: Any, current: Any) -> str:
     """A Python value (or a command-line string) as namelist text for a key whose current
-    value is `current` (its type is the key's type); the core converts and checks it."""
+    value is `current` (its type is the key's type); the core converts and checks it.
+    A path (``pathlib.Path``) is its text, as a string value; a list of names for a
+    string key (``&boundary``'s groups) is the comma-separated list."""
+    if isinstance(value, os.PathLike):
+        value = os.fsdecode(value)
+    if isinstance(current, str) and isinstance(value, (list, tuple)) \
+            and all(isinstance(v, str) for v in value):
+        value = ",".join(v.strip() for v in value)
     if isinstance(current, str):
         if isinstance(value, str):
             v = value.strip()
@@ -69,9 +76,14 @@ def _value_text(value: Any, current: Any) -> str:
 
 def _number_text(x: Any) -> str:
     """One number: Python numbers by repr (exact), numpy scalars by str (their shortest
-    decimal, so np.float32(0.001) is 0.001); anything else as text for the core to refuse."""
+    decimal, so np.float32(0.001) is 0.001), a fraction (``fractions.Fraction``) as its
+    nearest float (its text '1/400' would end the namelist group); anything else as text
+    for the core to refuse."""
     if type(x) in (int, float):
         return repr(x)
+    if isinstance(x, numbers.Rational) and not isinstance(x, numbers.Integral) \
+            and type(x).__module__ != "numpy":
+        return repr(float(x))
     return str(x)
 
 
@@ -175,9 +187,12 @@ class Scene:
         """Set ``'group.key'``; the core converts ``value`` to the key's type.
 
         ``value`` may be a Python or numpy value or a command-line string: ``'0.001'``,
-        ``"'lumped'"`` or ``'lumped'``, ``'0.0,-1.0'``. A single number for a vector sets
-        component 1 and zeroes component 2. Ranges, and the count of a vector's components
-        against the mesh's dimension, are checked by :meth:`validate` (and by the run).
+        ``"'lumped'"`` or ``'lumped'``, ``'0.0,-1.0'``; a path (``pathlib.Path``) for
+        ``mesh.file`` or ``output.dir``; a list of group names (``['left', 'right']``,
+        the same as ``'left,right'``) for a ``&boundary`` key. A single number for a
+        vector sets component 1 and zeroes component 2. Ranges, and the count of a
+        vector's components against the mesh's dimension, are checked by
+        :meth:`validate` (and by the run).
 
         Setting ``'mesh.dim'`` (or ``'mesh.file'``) changes the defaults of the vector keys
         not given (3 components in 3D). A vector given with exactly the old dimension's
@@ -190,8 +205,17 @@ class Scene:
         current = self._values[group][key]
         text = _value_text(value, [] if current is None else current)
         replace = {(group, key): text}
-        parsed = core.scene_parse(self.to_text(replace), self._name(), keep_omitted=True,
-                                  with_given=True)
+        try:
+            parsed = core.scene_parse(self.to_text(replace), self._name(),
+                                      keep_omitted=True, with_given=True)
+        except BadInputError as exc:
+            # the rest of the scene parsed before, so the value is at fault: a message
+            # about another key or a line of the text written here ('1/400' or '0.1 /'
+            # ends the group) is said about this key
+            if f"&{group} {key}:" in str(exc):
+                raise
+            raise SceneError(f"{self._name()}: &{group} {key}: expected values only, not "
+                             f"another key or a '/' (got '{text}')") from None
         # every group is written (so a value cannot open one again), but not every key:
         # a value that gives another key of its group ('1, t_end = 5') is refused
         if parsed[1] - self._given - {f"{group}.{key}"}:

@@ -433,12 +433,14 @@ class UserScene:
 
 
 def read_user_scene(path, out: str | None = None) -> UserScene:
-    """The scene file ``path`` as a :class:`UserScene`; ValueError with one line naming
-    the file when it is missing, refused by the core, or has no time step of its own
-    (dt = 0, the automatic step of central differences: the ladders are multiples of it).
+    """The scene file ``path`` as a :class:`UserScene`; :class:`dyncontact.BadInputError`
+    (a ValueError) with one line naming the file when it is missing, refused by the
+    core, or has no time step of its own (dt = 0, the automatic step of central
+    differences: the ladders are multiples of it).
     ``path`` may also be a :class:`dyncontact.Scene` (a scene built or edited in Python):
     it is written as ``out/scene.nml`` (``Scene.write``: its mesh file made absolute),
     the file the study's runs then read; TypeError for anything else."""
+    from ..core import BadInputError
     from ..scene import Scene
 
     if isinstance(path, Scene):
@@ -449,14 +451,14 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
         try:
             scene.write(path)
         except Exception as exc:  # noqa: BLE001 - refused by the core: its one line,
-            raise ValueError(" ".join(str(exc).split())) from None   # naming the scene
+            raise BadInputError(" ".join(str(exc).split())) from None   # naming the scene
     elif isinstance(path, os.PathLike):
         path = os.fspath(path)
     elif not isinstance(path, str):
         raise TypeError(f"scene: a scene file's path or a dyncontact.Scene, not "
                         f"{type(path).__name__}")
     if not os.path.isfile(path):
-        raise ValueError(f"--scene {path}: no such file")
+        raise BadInputError(f"--scene {path}: no such file")
     try:
         scn = Scene.read(path)
         scn.validate()
@@ -466,13 +468,14 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
         # the mesh's dimension, not &mesh dim: 0 (the default) means the file's, or 2D
         values["dim"] = scn.dimension()
     except Exception as exc:  # noqa: BLE001 - any refusal of the scene: one line
-        raise ValueError(f"--scene {path}: {' '.join(str(exc).split())}") from None
+        raise BadInputError(f"--scene {path}: {' '.join(str(exc).split())}") from None
     if not values["scheme.dt"] > 0:
         hint = ("; central's automatic step is chosen when the scene runs: `dyncontact "
                 "run` it once and give the Δt its summary.json records (scene.scheme.dt)"
                 if values["scheme.name"] == "central" else "")
-        raise ValueError(f"--scene {path}: &scheme dt = {values['scheme.dt']:g}: the study "
-                         f"derives its time steps from the scene's, give one > 0{hint}")
+        raise BadInputError(f"--scene {path}: &scheme dt = {values['scheme.dt']:g}: the "
+                            "study derives its time steps from the scene's, give one > 0"
+                            f"{hint}")
     return UserScene(os.path.abspath(path), int(values["dim"]),
                      float(values["mesh.h"]), float(values["scheme.dt"]),
                      float(values["scheme.t_end"]), str(values["scheme.mass"]),

@@ -615,9 +615,9 @@ def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
     ``grid``: schemes, dt_factors, rounds) on a scene file of one's own, its mesh, mass,
     contact (h, γ0, θ) and T as given, by :func:`critical_dt` (the grid, then the
     bisection). Writes runs.csv, stability.csv, the heat maps and summary.md into
-    ``out``; ValueError (one line) for a missing or bad scene. ``scene``: a scene file's
-    path, or a :class:`dyncontact.Scene`, written as ``out/scene.nml`` for the runs to
-    read."""
+    ``out``; BadInputError (a ValueError, one line) for a missing or bad scene.
+    ``scene``: a scene file's path, or a :class:`dyncontact.Scene`, written as
+    ``out/scene.nml`` for the runs to read."""
     from .common import on_scene, read_user_scene, refusal_on_scene
 
     t0 = time.perf_counter()

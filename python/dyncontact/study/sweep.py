@@ -70,6 +70,7 @@ import dataclasses
 import functools
 import hashlib
 import json
+import numbers
 import os
 import shutil
 import signal
@@ -559,11 +560,13 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
     """
     timeout = (_default_scheduler_timeout.get() if scheduler_timeout is None
                else _positive_seconds(scheduler_timeout))
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
+    if workers is not None and (isinstance(workers, bool)
+                                or not isinstance(workers, numbers.Integral) or workers < 1):
         # 0 ran on every core and a negative number on one, both without a word
         raise ValueError(f"workers must be a whole number >= 1 (or None: every core), "
                          f"got {workers!r}")
+    if workers is not None:
+        workers = int(workers)            # a numpy integer: the pool takes an int
     cache = os.path.abspath(cache)
     os.makedirs(cache, exist_ok=True)
     _clean_stale(cache)

@@ -942,7 +942,8 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
     below their critical step", one line each in ``log``). A scheme the core
     refuses on the scene (an explicit one with the ALM or the redistributed mass) is left
     out with the core's reason. Writes work_precision.csv, work_precision.png and
-    summary.md into ``out``; ValueError (one line) for a missing or bad scene.
+    summary.md into ``out``; BadInputError (a ValueError, one line) for a missing or bad
+    scene.
     ``scene``: a scene file's path, or a :class:`dyncontact.Scene`, written as
     ``out/scene.nml`` for the runs to read."""
     from .common import on_scene, read_user_scene, scene_step_ratio
