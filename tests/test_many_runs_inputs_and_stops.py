@@ -217,10 +217,9 @@ START_S = 60.0
 
 @pytest.mark.parametrize("workers", [2, 1])
 def test_sigterm_to_a_script_of_ones_own_leaves_no_temporary_entry(tmp_path, workers):
-    """Without a SIGTERM handler of the script's own, SIGTERM used to end it at once: the
-    runs in progress stayed as `<key>.tmp-<pid>-...` folders for the 6 h of
-    sweep.STALE_S. Now the sweep unwinds first (as on Ctrl-C), then the process ends by
-    SIGTERM as before."""
+    """A script without a SIGTERM handler of its own, ended by SIGTERM: the sweep unwinds
+    first (as on Ctrl-C), so that no run in progress stays as a `<key>.tmp-<pid>-...`
+    folder for the 6 h of sweep.STALE_S, then the process ends by SIGTERM."""
     script = tmp_path / "my_sweep.py"
     script.write_text(SWEEP_SCRIPT)
     env = dict(os.environ)
@@ -293,9 +292,8 @@ CENTRAL_1D = """&mesh dim = 1, length = 1.0, h = 0.01 /
 
 def test_central_at_dt_0_gone_unstable_asks_for_a_smaller_dt(run_exe, tmp_path):
     """The 1D bar at the step central chooses (0.9 x its estimate, a bound the run warns
-    is not safe in 1D) goes unstable near t = 19; the message used to name that step as
-    '&scheme dt' and advise 'try a smaller &scheme dt, or dt = 0', the scene's own
-    value."""
+    is not safe in 1D) goes unstable near t = 19; the message names the step the run took
+    and asks for a smaller &scheme dt, not for dt = 0, the scene's own value."""
     (tmp_path / "s.nml").write_text(CENTRAL_1D)
     res = run_exe("s.nml")
     assert res.returncode == 3, res.stderr

@@ -57,8 +57,8 @@ _SYMBOL = {"alpha": "α", "beta": "β", "gamma": "γ", "theta": "θ"}
 #: plot_traces' figure (inches) with a legend of up to _LEGEND_ROWS_IN_PLACE rows (two
 #: runs a row), which takes its room from the panels; each row beyond makes the figure
 #: taller by _LEGEND_ROW_IN, so that the panels keep their height however many runs are
-#: drawn (with a fixed height the legend pushed the panels' bottom above their top from
-#: 74 runs on, and matplotlib refused to draw).
+#: drawn (with a fixed height the legend would push the panels' bottom above their top
+#: from 74 runs on, which matplotlib refuses to draw).
 _FIG_W_IN, _FIG_H_IN = 11.0, 7.5
 _LEGEND_ROWS_IN_PLACE = 6
 _LEGEND_ROW_IN = 0.024 * _FIG_H_IN
