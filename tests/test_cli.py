@@ -245,6 +245,7 @@ def test_set_bad_key_or_value_exits_2(run_cli, tmp_path, item, key):
     line = _one_error_line(run_cli("run", scene, "--set", item, "--out", tmp_path / "o"), 2)
     assert key in line
     assert line.startswith(f"dyncontact: --set {item}: "), line
+    assert "s.nml" not in line, line          # the file holds another value, or none
     assert not (tmp_path / "o").exists()
 
 

@@ -68,22 +68,27 @@ def parse_set(item: str) -> tuple[str, str, str]:
     return group, key, raw
 
 
-def _blame_set(message: str, scene_path, sets) -> str | None:
-    """The run's refusal of a value that came from ``--set``, said of the ``--set`` item.
+def _said_of_set(message: str, scene_path, group: str, key: str, value: str) -> str:
+    """The core's refusal of a value that ``--set group.key=value`` gave, said of the item:
+    the core names the scene file (``s.nml: &scheme dt: must be > 0 ...``), which holds
+    another value or none, so the line begins with the item instead (``--set
+    scheme.dt=-1: &scheme dt: must be > 0 ...``)."""
+    prefix = f"{scene_path}: "
+    rest = message[len(prefix):] if message.startswith(prefix) else message
+    return f"--set {group}.{key}={value}: {rest}"
 
-    The run checks ranges (and keys against each other) on the whole scene and names the
-    scene file and the key (``s.nml: &scheme dt: must be > 0 ...``). When that key was
-    given by ``--set``, the scene file holds another value or none, so the line begins with
-    the item instead (``--set scheme.dt=-1: &scheme dt: must be > 0 ...``). ``None`` when
-    the message is not about a key set on the command line.
-    """
+
+def _blame_set(message: str, scene_path, sets) -> str | None:
+    """The run's refusal (it checks ranges, and keys against each other, on the whole
+    scene) said of the ``--set`` item that gave the key it names (:func:`_said_of_set`);
+    ``None`` when the message is not about a key set on the command line."""
     prefix = f"{scene_path}: "
     if not sets or not message.startswith(prefix):
         return None
     rest = message[len(prefix):]
     for group, key, value in reversed(sets):      # the last item of a key is the one used
         if rest.startswith(f"&{group} {key}:") or rest.startswith(f"&{group} {key} "):
-            return f"--set {group}.{key}={value}: {rest}"
+            return _said_of_set(message, scene_path, group, key, value)
     return None
 
 
@@ -106,8 +111,8 @@ def cmd_run(args) -> int:
             try:
                 scene.set(f"{group}.{key}", value)   # the core converts and checks the value
             except core.BadInputError as exc:
-                # the core names the scene file: say that the key came from the command line
-                raise core.BadInputError(f"--set {group}.{key}={value}: {exc}") from None
+                raise core.BadInputError(_said_of_set(str(exc), scene_path, group, key,
+                                                      value)) from None
     else:
         scene = scene_path
     progress = False if args.quiet else None
