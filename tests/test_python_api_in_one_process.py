@@ -1,9 +1,10 @@
-"""dyncontact driven from one Python session (a notebook): the values a Python user passes
-(paths, fractions, numpy numbers, lists of group names) are taken or refused as the docs
-say; bad input is a BadInputError naming the file (a Scene's, never its temporary copy)
-and the key, also from the studies on a scene of one's own; a Stepper refuses a wrong
-argument with a TypeError as run() does; an interrupt from run()'s callback keeps the run
-and says what was kept. Small scenes only: the 1D bar at h = 0.05 over a short t_end."""
+"""dyncontact driven from one Python process (a notebook's kernel): the values a Python
+user passes (paths, fractions, numpy numbers, lists of group names) are taken or refused
+as the docs say; bad input is a BadInputError naming the file (a Scene's, never its
+temporary copy) and the key, also from the studies on a scene of one's own; a Stepper
+refuses a wrong argument with a TypeError as run() does; an interrupt from run()'s
+callback keeps the run and says what was kept. Small scenes only: the 1D bar at h = 0.05
+over a short t_end."""
 
 from __future__ import annotations
 
