@@ -341,6 +341,26 @@ def _write_scene(scene, folder: str) -> str:
     return path
 
 
+def _need_scene(scene, who: str) -> None:
+    """TypeError naming ``who`` (``run()``, ``Stepper()``) unless ``scene`` is a path or
+    a :class:`dyncontact.Scene`."""
+    from .scene import Scene
+
+    if not isinstance(scene, (str, bytes, os.PathLike, Scene)):
+        raise TypeError(f"{who}: scene must be a path (str, bytes or os.PathLike) or a "
+                        f"dyncontact.Scene, not {type(scene).__name__}")
+
+
+def _scene_file(scene, folder: str) -> tuple[str, str | None]:
+    """(the scene file the core reads, the temporary file written for it or None): a
+    path as it is; a Scene written into ``folder`` (:func:`_write_scene`), whose file
+    the core's messages name until :func:`_raise_for_scene` names the Scene instead."""
+    if isinstance(scene, (str, bytes, os.PathLike)):
+        return os.fsdecode(scene), None
+    written = _write_scene(scene, folder)
+    return written, written
+
+
 def _progress_bar(progress, total: int, desc: str):
     """A tqdm bar on stderr (progress=None: only when stderr is a terminal)."""
     if progress is None:
@@ -397,11 +417,7 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     DyncontactError
         internal failure (stat 4).
     """
-    from .scene import Scene
-
-    if not isinstance(scene, (str, bytes, os.PathLike, Scene)):
-        raise TypeError("run(): scene must be a path (str, bytes or os.PathLike) or a "
-                        f"dyncontact.Scene, not {type(scene).__name__}")
+    _need_scene(scene, "run()")
     core = _core()
     explicit_out = out is not None
     if restart is not None and out is None:
@@ -409,14 +425,10 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     tmp = tempfile.mkdtemp(prefix="dyncontact-")
     written = None    # the temporary file a Scene is written to (its messages name the Scene)
     try:
-        if isinstance(scene, (str, bytes, os.PathLike)):
-            path = os.fsdecode(scene)
-            if out is None:   # the folder the core will use (a bad scene raises here)
-                out = _scene_output_dir(scene_dump(path)) or "out"
-        else:
-            path = written = _write_scene(scene, tmp)
-            if out is None:
-                out = _scene_attr_output_dir(scene) or "out"
+        path, written = _scene_file(scene, tmp)
+        if out is None:   # the folder the core will use (a bad scene file raises here)
+            out = (_scene_output_dir(scene_dump(path)) if written is None
+                   else _scene_attr_output_dir(scene)) or "out"
         # Relative output folders count from the current folder, for both entry points;
         # the core gets the folder as given, so that summary.json records it as the
         # executable does.
@@ -690,19 +702,11 @@ class Model:
 
     def __init__(self, scene, _out: str | os.PathLike | None = None):
         # _out: the output folder of a run (Stepper); None builds the model only
-        from .scene import Scene
-
         self.handle = 0
-        if not isinstance(scene, (str, bytes, os.PathLike, Scene)):
-            raise TypeError(f"{type(self).__name__}(): scene must be a path (str, bytes or "
-                            f"os.PathLike) or a dyncontact.Scene, not {type(scene).__name__}")
+        _need_scene(scene, f"{type(self).__name__}()")
         self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
-        written = None    # the temporary file a Scene is written to
         try:
-            if isinstance(scene, (str, bytes, os.PathLike)):
-                path = os.fsdecode(scene)
-            else:
-                path = written = _write_scene(scene, self._tmp)
+            path, written = _scene_file(scene, self._tmp)
             out = b""
             if _out is not None:   # as given, as the executable records it in summary.json
                 out = _fpath(_folder_arg(_out, "out"), "output folder")
@@ -919,12 +923,8 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
         return None
     core = _core()
     tmp = tempfile.mkdtemp(prefix="dyncontact-bench-")
-    written = None    # the temporary file a Scene is written to
     try:
-        if isinstance(scene, (str, bytes, os.PathLike)):
-            path = os.fsdecode(scene)
-        else:
-            path = written = _write_scene(scene, tmp)
+        path, written = _scene_file(scene, tmp)
         handle, *_, stat, errmsg = core.dc_sim_open(_fpath(path, "scene file"),
                                                     _fpath(os.path.join(tmp, "out"),
                                                            "output folder"), 0)
