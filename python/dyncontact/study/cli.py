@@ -194,7 +194,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.cache is not None and not args.cache.strip():
         print("dyncontact study: --cache: must not be empty", file=sys.stderr)
         return 2
-    for option, folder in (("--out", args.out), ("--cache", args.cache)):
+    folders = (("--out", args.out), ("--cache", args.cache))
+    for option, folder in folders:
         if folder is not None and os.path.exists(folder) and not os.path.isdir(folder):
             print(f"dyncontact study: {option} {folder}: a file, not a folder", file=sys.stderr)
             return 2
@@ -216,7 +217,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         except ValueError as exc:
             print(f"dyncontact study: --schemes: {exc}", file=sys.stderr)
             return 2
-    for option, folder in (("--out", args.out), ("--cache", args.cache)):
+    for option, folder in folders:      # made once the arguments are known to be good
         if folder is None:
             continue
         try:

@@ -684,9 +684,9 @@ def _sigterm_ends_after_cleaning():
         return
     received = []
 
-    def terminates(signum, frame):  # noqa: ARG001 - signal handler signature
+    def terminates(signum, frame):
         received.append(signum)
-        raise KeyboardInterrupt(f"signal {signum}")
+        _sigterm_raises(signum, frame)
 
     signal.signal(signal.SIGTERM, terminates)
     try:
@@ -930,9 +930,9 @@ def by_tags(records: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
     rows = []
     for r in records:
         tags = dict(r["task"].tags)
-        row = dict(status=r["status"], message=(r.get("message") or "").splitlines()[0]
-                   if r.get("message") else "", t_end_reached=r.get("t_end_reached"),
-                   steps=r.get("steps"), wall_s=r.get("wall_s"))
+        row = {field: r.get(field) for field in RUN_FIELDS}
+        row["status"] = r["status"]
+        row["message"] = r["message"].splitlines()[0] if r.get("message") else ""
         row.update(r.get("metrics", {}))
         clash = [k for k in tags if k in row]
         if clash:
