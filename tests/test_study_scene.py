@@ -21,6 +21,7 @@ import os
 import pytest
 from test_studies import _cfl_lumped_1d
 
+from dyncontact import BadInputError, Scene
 from dyncontact.study.common import EXACT_1D, SCHEMES
 from dyncontact.study.sweep import sweep, task_key
 
@@ -615,3 +616,77 @@ def test_stability_summary_gives_bounds_outside_the_grid_in_scene_steps_too():
               "dt_crit": None}, "refused", "-")]
     for c, crit, ratio in rows:
         assert (_crit_text(c), _ratio_text(c, 0.01)) == (crit, ratio), c
+
+
+def _refused_by_every_scheme(path):
+    """A scene on which the core refuses each explicit scheme (the augmented Lagrangian)."""
+    return _scene_1d(path, t_end=0.1, **{"method = 'nitsche'": "method = 'alm'"})
+
+
+@pytest.mark.parametrize("study", ["stability", "work-precision"])
+def test_scene_refusals_from_python_name_the_file_not_the_option(tmp_path, study):
+    """Called from Python, a study names the scene file it refuses as the caller gave it
+    (no `--scene`, the command line's option, which the caller did not use); the core's
+    refusal, which names the file already, is its one line as the core says it."""
+    from dyncontact.study.stability import run_stability_scene
+    from dyncontact.study.workprecision import run_work_precision_scene
+
+    def study_on(scene, **kw):
+        if study == "stability":
+            return run_stability_scene(str(tmp_path / "out"), scene, quick=True,
+                                       progress=False, log=None, **kw)
+        return run_work_precision_scene(str(tmp_path / "out"), scene, quick=True,
+                                        progress=False, log=None, **kw)
+
+    missing = str(tmp_path / "none.nml")
+    with pytest.raises(BadInputError) as exc:
+        study_on(missing)
+    assert str(exc.value) == f"{missing}: no such file"
+    bad = tmp_path / "bad.nml"
+    bad.write_text("&mesh dim = 7 /\n")
+    with pytest.raises(BadInputError) as exc:
+        study_on(str(bad))
+    assert str(exc.value).startswith(f"{bad}: &mesh dim:"), exc.value
+    zero = tmp_path / "zero.nml"
+    zero.write_text("&scheme name = 'central', dt = 0.0 /\n")
+    with pytest.raises(BadInputError) as exc:
+        study_on(str(zero))
+    assert str(exc.value).startswith(f"{zero}: &scheme dt = 0: "), exc.value
+    alm = _refused_by_every_scheme(tmp_path / "alm.nml")
+    kw = ({"grid": {"schemes": ("pc", "central")}} if study == "stability"
+          else {"series": (("pc", None), ("central_lumped", None))})
+    with pytest.raises(BadInputError) as exc:
+        study_on(alm, **kw)
+    assert str(exc.value).startswith(f"{alm}: the core refuses every scheme of the study "
+                                     "on it (first: "), exc.value
+    # a Scene: named by the file the study writes it as, which its runs read
+    scn = Scene.read(str(zero))
+    with pytest.raises(BadInputError) as exc:
+        study_on(scn)
+    written = os.path.join(str(tmp_path / "out"), "scene.nml")
+    assert str(exc.value).startswith(f"{written}: &scheme dt = 0: "), exc.value
+
+
+@pytest.mark.parametrize("study", ["stability", "work-precision"])
+def test_scene_refusals_on_the_command_line_name_the_option(tmp_path, capsys, monkeypatch,
+                                                           study):
+    """The command line says the same refusals of the option that gave the scene."""
+    from dyncontact.study import stability
+    from dyncontact.study.cli import main
+
+    bad = tmp_path / "bad.nml"
+    bad.write_text("&mesh dim = 7 /\n")
+    assert main([study, "--out", str(tmp_path / "o"), "--scene", str(bad),
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"dyncontact study: --scene {bad}: {bad}: &mesh dim:"), err
+    if study == "stability":    # its schemes are the grid's: explicit ones only
+        monkeypatch.setitem(stability.SCENE_GRIDS, "quick",
+                            {**stability.SCENE_GRIDS["quick"], "schemes": ("pc", "central")})
+        alm = _refused_by_every_scheme(tmp_path / "alm.nml")
+        assert main([study, "--out", str(tmp_path / "o2"), "--scene", alm, "--quick",
+                     "--no-progress"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1, err
+        assert err.startswith(f"dyncontact study: --scene {os.path.abspath(alm)}: the core "
+                              "refuses every scheme of the study on it (first: "), err

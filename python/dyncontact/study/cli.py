@@ -16,8 +16,8 @@ import sys
 import time
 from typing import Any, Sequence
 
-from .common import (OneLineParser, add_runner_options, positive, scheduler_timeout,
-                     scheduler_unreachable_line, scheme_list)
+from .common import (OneLineParser, UserSceneError, add_runner_options, positive,
+                     scheduler_timeout, scheduler_unreachable_line, scheme_list)
 from .sweep import SchedulerUnreachable, sigterm_as_interrupt
 
 __all__ = ["main", "write_index"]
@@ -183,6 +183,11 @@ def write_index(out: str, reports: dict[str, dict[str, Any]], wall_s: float,
     return path
 
 
+def _scene_line(exc: UserSceneError) -> str:
+    """A study's refusal of the scene, said of the option that gave it."""
+    return f"--scene {exc.scene}: {exc.why}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
@@ -208,6 +213,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         try:
             read_user_scene(args.scene)   # before anything is written
+        except UserSceneError as exc:
+            print(f"dyncontact study: {_scene_line(exc)}", file=sys.stderr)
+            return 2
         except ValueError as exc:
             print(f"dyncontact study: {exc}", file=sys.stderr)
             return 2
@@ -241,6 +249,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("dyncontact study: interrupted (finished runs are cached; run the same "
               "command again to resume)", file=sys.stderr)
         return 130
+    except UserSceneError as exc:
+        print(f"dyncontact study: {_scene_line(exc)}", file=sys.stderr)
+        return 2
     except ValueError as exc:
         print(f"dyncontact study: {exc}", file=sys.stderr)
         return 2

@@ -13,6 +13,7 @@ import os
 import sys
 from typing import Any, Iterable, Iterator, Mapping, Sequence
 
+from ..core import BadInputError
 from .sweep import SCHEDULER_TIMEOUT_S, default_scheduler_timeout
 
 __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0",
@@ -20,7 +21,7 @@ __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0
            "md_table", "fmt", "slope", "new_figure", "save_figure", "STATUS_COLORS",
            "RunSpec", "seed_spec", "every_for", "scheme_text", "num", "loadavg",
            "package_version", "add_runner_options", "MAX_ROWS", "OneLineParser",
-           "positive", "mesh_sizes", "UserScene", "read_user_scene", "on_scene",
+           "positive", "mesh_sizes", "UserScene", "UserSceneError", "read_user_scene", "on_scene",
            "refusal_on_scene", "scene_step_ratio", "critical_step_estimate",
            "contact_free_by_design"]
 
@@ -413,6 +414,18 @@ SCHEMES: dict[str, SchemeSpec] = {s.key: s for s in (
 )}
 
 
+class UserSceneError(BadInputError):
+    """A scene of one's own that a study refuses (a :class:`dyncontact.BadInputError`):
+    ``scene`` names the scene file the study reads, ``why`` is what is wrong. The line is
+    ``SCENE: WHY`` (``WHY`` alone when it names the file already, as the core's refusals
+    do); the command line, where the scene came from ``--scene``, says
+    ``--scene SCENE: WHY``."""
+
+    def __init__(self, scene: str, why: str) -> None:
+        self.scene, self.why = scene, why
+        super().__init__(why if why.startswith(f"{scene}: ") else f"{scene}: {why}")
+
+
 @dataclasses.dataclass(frozen=True)
 class UserScene:
     """A scene file of one's own for ``study ... --scene``: its absolute ``path`` and the
@@ -433,14 +446,15 @@ class UserScene:
 
 
 def read_user_scene(path, out: str | None = None) -> UserScene:
-    """The scene file ``path`` as a :class:`UserScene`; :class:`dyncontact.BadInputError`
-    (a ValueError) with one line naming the file when it is missing, refused by the
-    core, or has no time step of its own (dt = 0, the automatic step of central
-    differences: the ladders are multiples of it).
+    """The scene file ``path`` as a :class:`UserScene`; :class:`UserSceneError` (a
+    :class:`dyncontact.BadInputError`, a ValueError) with one line naming the file when
+    it is missing, refused by the core, or has no time step of its own (dt = 0, the
+    automatic step of central differences: the ladders are multiples of it).
     ``path`` may also be a :class:`dyncontact.Scene` (a scene built or edited in Python):
     it is written as ``out/scene.nml`` (``Scene.write``: its mesh file made absolute),
-    the file the study's runs then read; TypeError for anything else."""
-    from ..core import BadInputError
+    the file the study's runs then read and its messages name (a Scene that cannot be
+    written: the Scene's own message, :class:`dyncontact.BadInputError`); TypeError for
+    anything else."""
     from ..scene import Scene
 
     if isinstance(path, Scene):
@@ -458,7 +472,7 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
         raise TypeError(f"scene: a scene file's path or a dyncontact.Scene, not "
                         f"{type(path).__name__}")
     if not os.path.isfile(path):
-        raise BadInputError(f"--scene {path}: no such file")
+        raise UserSceneError(path, "no such file")
     try:
         scn = Scene.read(path)
         scn.validate()
@@ -468,14 +482,14 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
         # the mesh's dimension, not &mesh dim: 0 (the default) means the file's, or 2D
         values["dim"] = scn.dimension()
     except Exception as exc:  # noqa: BLE001 - any refusal of the scene: one line
-        raise BadInputError(f"--scene {path}: {' '.join(str(exc).split())}") from None
+        raise UserSceneError(path, " ".join(str(exc).split())) from None
     if not values["scheme.dt"] > 0:
         hint = ("; central's automatic step is chosen when the scene runs: `dyncontact "
                 "run` it once and give the Δt its summary.json records (scene.scheme.dt)"
                 if values["scheme.name"] == "central" else "")
-        raise BadInputError(f"--scene {path}: &scheme dt = {values['scheme.dt']:g}: the "
-                            "study derives its time steps from the scene's, give one > 0"
-                            f"{hint}")
+        raise UserSceneError(path, f"&scheme dt = {values['scheme.dt']:g}: the study "
+                             "derives its time steps from the scene's, give one > 0"
+                             f"{hint}")
     return UserScene(os.path.abspath(path), int(values["dim"]),
                      float(values["mesh.h"]), float(values["scheme.dt"]),
                      float(values["scheme.t_end"]), str(values["scheme.mass"]),

@@ -618,7 +618,7 @@ def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
     ``out``; BadInputError (a ValueError, one line) for a missing or bad scene.
     ``scene``: a scene file's path, or a :class:`dyncontact.Scene`, written as
     ``out/scene.nml`` for the runs to read."""
-    from .common import on_scene, read_user_scene, refusal_on_scene
+    from .common import UserSceneError, on_scene, read_user_scene, refusal_on_scene
 
     t0 = time.perf_counter()
     scn = read_user_scene(scene, out)
@@ -636,8 +636,8 @@ def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
         else:
             left_out.append((s.key, why))
     if not schemes:
-        raise ValueError(f"--scene {scn.path}: the core refuses every scheme of the "
-                         f"study on it (first: {left_out[0][1]})")
+        raise UserSceneError(scn.path, "the core refuses every scheme of the study on "
+                             f"it (first: {left_out[0][1]})")
     # critical_dt's grid is in Δt/h: the scene's Δt multiples over its own h, γ0, θ; a
     # .msh file's h is its own (&mesh h, which it does not use, would name every row 0.05)
     msh = os.path.splitext(scn.mesh_file)[1].lower() == ".msh"

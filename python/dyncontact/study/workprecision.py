@@ -946,7 +946,7 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
     scene.
     ``scene``: a scene file's path, or a :class:`dyncontact.Scene`, written as
     ``out/scene.nml`` for the runs to read."""
-    from .common import on_scene, read_user_scene, scene_step_ratio
+    from .common import UserSceneError, on_scene, read_user_scene, scene_step_ratio
 
     t0 = time.perf_counter()
     size = "quick" if quick else "full"
@@ -958,8 +958,8 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
     factors = tuple(ladder or SCENE_LADDER[size])
     kept, left_out = _scene_series(scn, c_implicit, c_explicit, series)
     if not kept:
-        raise ValueError(f"--scene {scn.path}: the core refuses every scheme of the "
-                         f"study on it (first: {left_out[-1][1]})")
+        raise UserSceneError(scn.path, "the core refuses every scheme of the study on "
+                             f"it (first: {left_out[-1][1]})")
     h = None if scn.mesh_file else scn.h
     base = {skey: scn.dt * c0 / c for _s, c, _label, skey in kept}
     spacing = scn.dt * c0 / c_implicit * max(factors)
