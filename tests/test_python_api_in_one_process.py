@@ -166,3 +166,34 @@ def test_scene_refused_once_its_mesh_is_read_is_named_by_stepper_and_model(tmp_p
         with pytest.raises(BadInputError) as info:
             call()
         assert str(info.value) == want
+
+
+def test_runs_leave_the_callers_scene_as_it_was(tmp_path):
+    """run(), Stepper, Model, bench_floors and the studies on a Scene leave it as the
+    caller left it: the obstacle normal as given (not normalized: the run's copy is),
+    the keys given, the path. The run itself uses the unit normal, as the executable
+    does: the same trace as the scene given the unit normal."""
+    from dyncontact.core import Model
+    from dyncontact.study.common import read_user_scene
+
+    def state(scene):
+        return scene.to_dict(), scene.given("contact.obstacle_normal"), scene.path
+
+    scene = small_bar()
+    scene.set("contact.obstacle_normal", -2.0)
+    before = state(scene)
+    res = dyncontact.run(scene, out=tmp_path / "run", progress=False)
+    assert state(scene) == before and scene.get("contact.obstacle_normal") == [-2.0, 0.0]
+    with Stepper(scene, tmp_path / "stepped") as st:
+        st.advance(1)
+    with Model(scene):
+        pass
+    if dyncontact.core.bench_floors_available():
+        dyncontact.core.bench_floors(scene, n_rep=1)
+    read_user_scene(scene, str(tmp_path / "study"))
+    assert state(scene) == before
+    unit = small_bar()
+    unit.set("contact.obstacle_normal", -1.0)
+    same = dyncontact.run(unit, out=tmp_path / "unit", progress=False)
+    for column in ("u_n", "p_n", "e_total"):
+        np.testing.assert_array_equal(res.trace[column], same.trace[column])

@@ -335,9 +335,11 @@ def _scene_output_dir(scene_json: Mapping[str, Any]) -> str | None:
 
 def _write_scene(scene, folder: str) -> str:
     """Write a Scene as folder/scene.nml with an absolute mesh file (``write``
-    validates it, leaving what needs the mesh to the run, which reads it)."""
+    validates it, leaving what needs the mesh to the run, which reads it). A copy is
+    written: the validation normalizes ``contact.obstacle_normal`` in the Scene it
+    checks, and a run leaves the caller's Scene as the caller left it."""
     path = os.path.join(folder, "scene.nml")
-    scene.write(path)
+    scene.copy().write(path)
     return path
 
 
@@ -384,7 +386,8 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     ----------
     scene : path of a scene file (.nml), or a :class:`dyncontact.Scene`. A path is given
         to the Fortran core as is; a Scene is validated and written to a temporary file
-        (mesh file made absolute) first.
+        (mesh file made absolute) first, through a copy: the caller's Scene is left as
+        it was (``contact.obstacle_normal`` as given; the run normalizes it).
     out : output folder; None = the scene's ``&output dir``.
     progress : None (default) shows a progress bar on stderr when it is a terminal;
         True / False force it on / off.

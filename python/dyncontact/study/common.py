@@ -463,7 +463,7 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
         os.makedirs(out, exist_ok=True)
         scene, path = path, os.path.join(os.path.abspath(out), "scene.nml")
         try:
-            scene.write(path)
+            scene.copy().write(path)   # the caller's Scene left as it is (not normalized)
         except Exception as exc:  # noqa: BLE001 - refused by the core: its one line,
             raise BadInputError(" ".join(str(exc).split())) from None   # naming the scene
     elif isinstance(path, os.PathLike):
