@@ -197,3 +197,44 @@ def test_runs_leave_the_callers_scene_as_it_was(tmp_path):
     same = dyncontact.run(unit, out=tmp_path / "unit", progress=False)
     for column in ("u_n", "p_n", "e_total"):
         np.testing.assert_array_equal(res.trace[column], same.trace[column])
+
+
+class CallbackBroke(ValueError):
+    """An error of the caller's callback (not an interrupt)."""
+
+
+def test_an_error_in_the_callback_is_said_as_the_callbacks_not_as_an_interrupt(tmp_path):
+    """An exception other than KeyboardInterrupt raised by run()'s callback stops the
+    run with the trace kept and the folder's lock released; summary.json says the
+    callback raised it (its type and text), not 'interrupted' as for Ctrl-C, and the
+    exception itself goes on to the caller. Raised after the last chunk, the complete
+    run keeps its own summary."""
+    def broke_at_first(step, n_steps):
+        raise CallbackBroke('no "probe" here\nsecond line')
+
+    scene = small_bar()
+    scene.set("output.checkpoint_every", 5)
+    with pytest.raises(CallbackBroke) as info:
+        dyncontact.run(scene, out=tmp_path / "out", progress=False, callback=broke_at_first)
+    assert str(info.value) == 'no "probe" here\nsecond line'
+    summary = dyncontact.core.read_summary(tmp_path / "out")
+    assert summary["status"] == "interrupted" and 0 < summary["steps"] < 20
+    head, _, rest = summary["message"].partition(" at t = ")
+    t, _, kept = rest.partition(" ")
+    assert head == 'callback raised CallbackBroke: no "probe" here second line; stopped'
+    assert float(t) == pytest.approx(summary["t_end_reached"], rel=1e-5)
+    assert kept == f"(trace and checkpoint kept: --restart {tmp_path / 'out'} continues)"
+    assert len(dyncontact.core.read_trace(tmp_path / "out")["t"]) == summary["steps"] + 1
+    # the lock is released and the checkpoint continues the run
+    res = dyncontact.run(scene, restart=tmp_path / "out", progress=False)
+    assert (res.status, res.summary["steps"]) == ("ok", 20)
+
+    def broke_at_end(step, n_steps):
+        if step == n_steps:
+            raise CallbackBroke("after the end")
+
+    with pytest.raises(CallbackBroke):
+        dyncontact.run(small_bar(), out=tmp_path / "end", progress=False,
+                       callback=broke_at_end)
+    summary = dyncontact.core.read_summary(tmp_path / "end")
+    assert (summary["status"], summary["steps"], summary.get("message", "")) == ("ok", 20, "")

@@ -171,6 +171,21 @@ subroutine dc_sim_close(handle, stat, errmsg)
     stat = st
 end subroutine dc_sim_close
 
+!> Say why the caller stops an open run before its end, when not by an interrupt
+!> (a Python callback that raised): dc_sim_close then heads summary.json's message
+!> with `head` instead of 'interrupted'.
+subroutine dc_sim_stopped_by(handle, head)
+    use iso_c_binding, only: c_int64_t
+    use simulation, only: simulation_t, sim_stopped_by
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    character(len=*), intent(in) :: head         !! one line, e.g. 'callback raised ...'
+    type(simulation_t), pointer :: sim
+    call sim_from_handle(handle, sim)
+    call sim_stopped_by(sim, head)
+end subroutine dc_sim_stopped_by
+
 !> B(u) on the free dofs of an open run.
 subroutine dc_sim_eval_b(handle, n, u, b, active)
     use iso_c_binding, only: c_int, c_int64_t, c_double

@@ -58,6 +58,9 @@ module simulation
         logical :: finished = .false.              !! t_end reached or stopped
         character(len=32) :: status = 'ok'         !! ok | running | unstable | newton_failed | interrupted | write_failed
         character(len=512) :: message = ''         !! why the run stopped early
+        !> How the caller stopped the run before its end, when not by an interrupt (a
+        !> Python callback that raised): the head of its message; '' = 'interrupted'.
+        character(len=384) :: stop_head = ''
         type(scene_t) :: scn                       !! the scene
         type(model_t) :: mdl                       !! the model
         class(time_scheme_t), allocatable :: scheme !! the time scheme
@@ -88,7 +91,7 @@ module simulation
     end type simulation_t
 
     public :: sim_open, sim_open_scene, sim_advance, sim_close, sim_trace_bytes, &
-              sim_checkpoint_save, sim_checkpoint_load, sim_save, sim_load
+              sim_checkpoint_save, sim_checkpoint_load, sim_save, sim_load, sim_stopped_by
 
 contains
 
@@ -1113,6 +1116,16 @@ contains
         end do
     end function distinct_text
 
+    !> Say why the caller stops the run before its end, when not by an interrupt (a
+    !> Python callback that raised): sim_close heads summary.json's message with `head`
+    !> ('<head> at t = ... (trace kept)') in place of 'interrupted'; the status stays
+    !> 'interrupted' (stopped by its caller). A run that has ended keeps its own.
+    subroutine sim_stopped_by(sim, head)
+        type(simulation_t), intent(inout) :: sim            !! the run
+        character(len=*), intent(in) :: head                !! one line, e.g. 'callback raised ...'
+        sim%stop_head = head
+    end subroutine sim_stopped_by
+
     !> Write the last rows and summary.json (when outputs are open), release the
     !> output folder's lock and everything else. A write error is returned (the
     !> summary is still attempted after a failed trace write).
@@ -1134,10 +1147,16 @@ contains
                 end if
             end if
             if (.not. sim%finished) then
-                ! stopped by the caller (Ctrl-C in Python): the message the executable gives
+                ! stopped by the caller (Ctrl-C in Python): the message the executable
+                ! gives; another cause the caller named (sim_stopped_by) heads it instead
                 sim%status = 'interrupted'
-                sim%message = interrupted_message(sim, 'interrupted', &
-                                                  sim%scn%checkpoint_every > 0)
+                if (len_trim(sim%stop_head) > 0) then
+                    sim%message = interrupted_message(sim, trim(sim%stop_head), &
+                                                      sim%scn%checkpoint_every > 0)
+                else
+                    sim%message = interrupted_message(sim, 'interrupted', &
+                                                      sim%scn%checkpoint_every > 0)
+                end if
             end if
             if (sim%status == 'running') sim%status = 'ok'
             if (stat == STAT_OK) then

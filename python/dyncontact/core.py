@@ -395,7 +395,10 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         (about ``CHUNK_S`` seconds of steps). A ``KeyboardInterrupt`` it raises stops the
         run as Ctrl-C does: the trace is kept, the folder's lock released, and the
         interrupt raised again with the run's line (``interrupted at t = ...``; after the
-        last chunk, ``interrupted after the run ended at t = ...``).
+        last chunk, ``interrupted after the run ended at t = ...``). Any other exception
+        it raises stops the run the same way (trace kept, lock released, summary.json's
+        status 'interrupted') with the message ``callback raised TYPE: TEXT; stopped at
+        t = ... (trace kept)``, and goes on to the caller as it was raised.
     restart : output folder of a stopped run of the same scene, holding the checkpoint.bin
         its ``&output checkpoint_every`` wrote: the run continues from it in that folder
         (trace.csv continued, summary.json counting the whole run; the result is the one
@@ -472,7 +475,7 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                     if bar is not None and done:
                         bar.update(int(done))
                     if callback is not None:
-                        callback(int(step), int(n_steps))
+                        _call_back(callback, int(step), int(n_steps), handle)
                     if stat == STAT_NUMERIC:
                         message = _str(errmsg) or "numerical failure"
                         break
@@ -506,6 +509,30 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         _raise_for_scene(exc, written, scene)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+#: The longest text of a callback's exception that summary.json's message repeats.
+CALLBACK_TEXT_MAX = 200
+
+
+def _call_back(callback, step: int, n_steps: int, handle) -> None:
+    """``callback(step, n_steps)`` of run(). An exception other than KeyboardInterrupt
+    it raises is told to the core first, so that the run it stops says so in
+    summary.json (``callback raised ValueError: ...; stopped at t = ... (trace
+    kept)``, status 'interrupted'), then goes on to the caller; a KeyboardInterrupt
+    stops the run as Ctrl-C does."""
+    try:
+        callback(step, n_steps)
+    except KeyboardInterrupt:
+        raise
+    except Exception as exc:
+        text = " ".join(str(exc).split())
+        if len(text) > CALLBACK_TEXT_MAX:
+            text = text[:CALLBACK_TEXT_MAX - 3] + "..."
+        said = type(exc).__name__ + (f": {text}" if text else "")
+        _core().dc_sim_stopped_by(handle, f"callback raised {said}; stopped".encode(
+            "utf-8", "surrogateescape"))
+        raise
 
 
 def _raise_for_scene(exc: BadInputError, written: str | None, scene) -> None:
