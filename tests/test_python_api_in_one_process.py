@@ -238,3 +238,38 @@ def test_an_error_in_the_callback_is_said_as_the_callbacks_not_as_an_interrupt(t
                        callback=broke_at_end)
     summary = dyncontact.core.read_summary(tmp_path / "end")
     assert (summary["status"], summary["steps"], summary.get("message", "")) == ("ok", 20, "")
+
+
+def test_readers_of_a_run_folder_that_is_not_there_raise_bad_input_naming_it(tmp_path):
+    """read_trace, read_summary, plot_traces and plot_field_snapshots on a folder that is
+    not there (a typo in a notebook) raise the project's bad-input error naming the
+    folder, which is still the FileNotFoundError they raised before."""
+    import pickle
+
+    from dyncontact.core import RunNotFoundError, read_summary, read_trace
+    from dyncontact.plotting import plot_field_snapshots, plot_traces
+
+    missing = tmp_path / "no_such_run"
+    a_file = tmp_path / "file.txt"
+    a_file.write_text("x\n")
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    cases = [(read_trace, missing, "no such run folder"),
+             (read_summary, missing, "no such run folder"),
+             (lambda d: plot_traces([d]), missing, "no such run folder"),
+             (plot_field_snapshots, missing, "no such run folder"),
+             (read_trace, a_file, "not a folder (a run folder holds trace.csv)"),
+             (read_trace, empty, "no trace.csv"),
+             (lambda d: plot_traces([d]), empty, "no trace.csv"),
+             (plot_field_snapshots, empty,
+              "no fields.pvd (run with &output fields_every > 0)")]
+    for read, folder, what in cases:
+        with pytest.raises(BadInputError) as info:
+            read(folder)
+        exc = info.value
+        assert isinstance(exc, FileNotFoundError) and isinstance(exc, RunNotFoundError)
+        assert str(exc) == f"{folder}: {what}"
+        assert exc.filename == str(folder)
+        again = pickle.loads(pickle.dumps(exc))     # as a sweep's worker sends it
+        assert type(again) is RunNotFoundError and str(again) == str(exc)
+    assert read_summary(empty) == {}                 # a folder without one: as documented

@@ -12,8 +12,9 @@ try:
 except ImportError:  # pragma: no cover - source tree without a build
     __version__ = "0+unknown"
 
-from .core import BadInputError, DyncontactError, NumericalError, RunResult, Stepper, run
+from .core import (BadInputError, DyncontactError, NumericalError, RunNotFoundError, RunResult,
+                   Stepper, run)
 from .scene import Scene, SceneError
 
 __all__ = ["Scene", "SceneError", "run", "RunResult", "Stepper", "DyncontactError",
-           "BadInputError", "NumericalError", "__version__"]
+           "BadInputError", "RunNotFoundError", "NumericalError", "__version__"]

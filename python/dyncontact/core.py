@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import errno
 import json
 import operator
 import os
@@ -38,7 +39,8 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 __all__ = [
-    "DyncontactError", "BadInputError", "NumericalError", "RunResult", "run",
+    "DyncontactError", "BadInputError", "RunNotFoundError", "NumericalError", "RunResult",
+    "run", "run_file",
     "TRACE_COLUMNS", "read_trace", "read_summary", "fortran_version", "scene_dump", "scene_parse",
     "load_mesh", "estimate_geo", "p1_element",
     "umf_solve", "linear_solve", "Model", "bench_floors_available",
@@ -66,6 +68,38 @@ class DyncontactError(RuntimeError):
 
 class BadInputError(DyncontactError, ValueError):
     """Bad scene, mesh or argument (Fortran stat 2; exit status 2)."""
+
+
+class RunNotFoundError(BadInputError, FileNotFoundError):
+    """A run folder (or the file of it a reader needs: trace.csv, fields.pvd) that is not
+    there: bad input, one line naming the path. Also a :class:`FileNotFoundError`
+    (``errno`` ENOENT, ``filename`` the path), which the readers raised before."""
+
+    def __init__(self, path: str | os.PathLike, what: str) -> None:
+        path = os.fspath(path)
+        FileNotFoundError.__init__(self, errno.ENOENT, what, path)
+        self.path, self.what = path, what
+
+    def __str__(self) -> str:
+        return f"{self.path}: {self.what}"
+
+    def __reduce__(self):      # pickled as made (a sweep's worker process to the caller)
+        return type(self), (self.path, self.what)
+
+
+def run_file(out_dir: str | os.PathLike, name: str, what: str | None = None) -> str:
+    """The path of file ``name`` of the run folder ``out_dir`` (the readers' one check):
+    :class:`RunNotFoundError` naming the folder when it is not there (or is a file), and
+    when ``what`` is given (said after ``no NAME``: why it is needed, or '') and the
+    folder has no such file."""
+    folder = os.fspath(out_dir)
+    if not os.path.isdir(folder):
+        raise RunNotFoundError(folder, "no such run folder" if not os.path.exists(folder)
+                               else "not a folder (a run folder holds trace.csv)")
+    path = os.path.join(folder, name)
+    if what is not None and not os.path.isfile(path):
+        raise RunNotFoundError(folder, f"no {name}{what}")
+    return path
 
 
 class DyncontactWarning(UserWarning):
@@ -155,8 +189,10 @@ def read_trace(out_dir: str | os.PathLike) -> dict[str, np.ndarray]:
     parsed by numpy's C reader in one call (about twice as fast as a Python loop, which
     matters for the 150 000-row runs of a study); a file it does not read whole (a
     malformed line) is read line by line, up to the first bad line.
+    A folder that is not there, or has no trace.csv: :class:`RunNotFoundError` (a
+    BadInputError and a FileNotFoundError) naming it.
     """
-    path = os.path.join(os.fspath(out_dir), "trace.csv")
+    path = run_file(out_dir, "trace.csv", "")
     with open(path, encoding="utf-8") as f:
         text = f.read()
     if not text:
@@ -190,8 +226,9 @@ def read_trace(out_dir: str | os.PathLike) -> dict[str, np.ndarray]:
 
 
 def read_summary(out_dir: str | os.PathLike) -> dict[str, Any]:
-    """summary.json of a run folder ({} if it does not exist)."""
-    path = os.path.join(os.fspath(out_dir), "summary.json")
+    """summary.json of a run folder ({} if the folder has none);
+    :class:`RunNotFoundError` naming the folder when it is not there."""
+    path = run_file(out_dir, "summary.json")
     if not os.path.exists(path):
         return {}
     with open(path, encoding="utf-8") as f:

@@ -201,12 +201,10 @@ def _load(item) -> tuple[dict[str, np.ndarray], dict, str]:
     if hasattr(item, "trace") and hasattr(item, "summary"):
         name = os.path.basename(os.path.normpath(str(getattr(item, "out_dir", "") or "")))
         return item.trace, dict(item.summary or {}), name or "run"
-    from .core import BadInputError
+    from .core import BadInputError, run_file
 
     d = os.fspath(item)
-    trace_path = os.path.join(d, "trace.csv")
-    if not os.path.isfile(trace_path):
-        raise FileNotFoundError(f"{d}: no trace.csv")
+    trace_path = run_file(d, "trace.csv", "")
     if os.path.getsize(trace_path) == 0:
         raise BadInputError(f"{trace_path}: empty file (not a trace of a run)")
     trace = read_trace(d)
@@ -506,16 +504,14 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     from matplotlib.figure import Figure
     from matplotlib.tri import Triangulation
 
-    from .core import read_summary
+    from .core import read_summary, run_file
 
     if isinstance(max_snapshots, bool) or int(max_snapshots) != max_snapshots \
             or max_snapshots < 1:
         raise ValueError(f"max_snapshots = {max_snapshots!r} (must be an integer >= 1)")
     max_snapshots = int(max_snapshots)
     run_dir = os.fspath(run_dir)
-    pvd = os.path.join(run_dir, "fields.pvd")
-    if not os.path.isfile(pvd):
-        raise FileNotFoundError(f"{run_dir}: no fields.pvd (run with &output fields_every > 0)")
+    pvd = run_file(run_dir, "fields.pvd", " (run with &output fields_every > 0)")
     sets = read_pvd(pvd)
     if not sets:
         raise ValueError(f"{pvd}: no snapshots")
