@@ -47,7 +47,7 @@ class FakeCore:
             json.dump(scene, f)
         return given, stat, errmsg
 
-    def dc_sim_open(self, path, out_dir, build_only):
+    def dc_sim_open(self, path, out_dir, build_only, out_said=b""):
         self.calls.append(("open", os.fsdecode(path), os.fsdecode(out_dir), build_only))
         if self.open_stat:
             return 0, 0, 0, 0, 0, self.open_stat, b"scene.nml: &scheme dt: must be > 0   "
@@ -261,9 +261,9 @@ def test_cli_set_goes_through_the_scene(fake, scene_file, tmp_path, capsys):
     seen = {}
     orig_open = fc.dc_sim_open
 
-    def spy_open(path, out_dir, build_only):
+    def spy_open(path, out_dir, build_only, out_said):
         seen["text"] = open(path).read()
-        return orig_open(path, out_dir, build_only)
+        return orig_open(path, out_dir, build_only, out_said)
 
     fc.dc_sim_open = spy_open
     rc = cli.main(["run", str(scene_file), "--set", "scheme.dt=0.004",

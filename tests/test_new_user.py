@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import gmsh_session, occ_disk, write_msh41
-from test_reliability import (ENTRIES, EXIT_BAD_INPUT, EXIT_OK, one_line, run,
+from test_reliability import (ENTRIES, EXIT_BAD_INPUT, EXIT_OK, EXIT_WRITE, one_line, run,
                               write_scene)
 
 #: Radius and centre height of the disk; the obstacle is the plane y = 0.
@@ -1018,12 +1018,53 @@ def test_stepper_gives_the_runs_warnings(tmp_path):
 
 @pytest.mark.parametrize("kind", ENTRIES)
 @pytest.mark.parametrize("out, why", [("afile", "a file of that name is in the way"),
-                                      ("afile/run", "Not a directory")])
+                                      ("afile/run", "Not a directory"),
+                                      ("afile/run/deeper", "Not a directory")])
 def test_out_that_cannot_be_a_folder_says_why(kind, out, why, tmp_path):
-    """--out naming a file, or a folder under a file: exit 4 (an output could not be
-    written) and one line that says why; it said only 'cannot create folder'."""
+    """--out naming a file, or a folder under a file: a bad path, so exit 2 (bad input)
+    as for `study` and `plot`, not 4 (kept for a full or read-only disk), and one line
+    naming the option and the folder and saying why; the file is left as it was."""
     scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.01")
     (tmp_path / "afile").write_text("results of last week\n")
-    line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), 4)
-    assert f"{out}: cannot create folder: {why}" in line, line
+    line = one_line(run(kind, scene, "--out", out, cwd=tmp_path), EXIT_BAD_INPUT)
+    assert line == f"dyncontact: --out {out}: cannot create the folder ({why})", line
     assert (tmp_path / "afile").read_text() == "results of last week\n"
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_output_folder_of_the_scene_that_cannot_be_a_folder_names_the_key(kind, tmp_path):
+    """Without --out the folder is the scene's &output dir: the line names the scene
+    file and the key, exit 2."""
+    (tmp_path / "afile").write_text("")
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.01", output__dir="'afile/run'")
+    line = one_line(run(kind, scene, cwd=tmp_path), EXIT_BAD_INPUT)
+    assert line == (f"dyncontact: {scene}: &output dir: afile/run: cannot create the folder "
+                    "(Not a directory)"), line
+
+
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_out_on_a_read_only_disk_is_exit_4(kind, tmpfs, tmp_path):
+    """A folder that cannot be made for want of a writable disk is not a bad path: exit 4
+    (as `study` says it, WRITE_ERRNOS), one line naming --out and the folder."""
+    disk = tmpfs("size=64k,ro")
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.01")
+    line = one_line(run(kind, scene, "--out", disk / "o", cwd=tmp_path), EXIT_WRITE)
+    assert line == (f"dyncontact: --out {disk / 'o'}: cannot create the folder "
+                    "(Read-only file system)"), line
+
+
+def test_out_that_cannot_be_a_folder_from_python_names_the_argument(tmp_path):
+    """From Python the folder is named as run()'s and Stepper()'s argument (out='...'),
+    not as the command line's option, and the error is bad input."""
+    import dyncontact
+    from dyncontact import BadInputError
+
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="0.01")
+    (tmp_path / "afile").write_text("")
+    out = str(tmp_path / "afile" / "run")
+    want = f"out={out!r}: cannot create the folder (Not a directory)"
+    for call in (lambda: dyncontact.run(scene, out=out, progress=False),
+                 lambda: dyncontact.Stepper(scene, out)):
+        with pytest.raises(BadInputError) as info:
+            call()
+        assert str(info.value) == want

@@ -98,8 +98,9 @@ subroutine dc_scene_check_dim(text, name, dim, stat, errmsg)
 end subroutine dc_scene_check_dim
 
 !> Open a run: read the scene, build the model, open the outputs in out_dir
-!> ('' = the scene's &output dir) unless build_only /= 0.
-subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, elements, &
+!> ('' = the scene's &output dir) unless build_only /= 0. out_said: how a message names
+!> the output folder when it cannot be made ('' = the scene's &output dir).
+subroutine dc_sim_open(path, out_dir, build_only, out_said, handle, n_steps, dofs, elements, &
                        contact_facets, stat, errmsg)
     use iso_c_binding, only: c_int, c_int64_t
     use errors, only: STAT_OK
@@ -109,6 +110,7 @@ subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, element
     character(len=*), intent(in) :: path         !! scene file
     character(len=*), intent(in) :: out_dir      !! output folder override
     integer(c_int), intent(in) :: build_only     !! 1: model only, no outputs
+    character(len=*), intent(in) :: out_said     !! the output folder in messages ('' = the scene's key)
     integer(c_int64_t), intent(out) :: handle    !! opaque run handle (0 on error)
     integer(c_int), intent(out) :: n_steps       !! steps to t_end
     integer(c_int), intent(out) :: dofs          !! free dofs
@@ -120,7 +122,8 @@ subroutine dc_sim_open(path, out_dir, build_only, handle, n_steps, dofs, element
     integer :: st
     errmsg = ''
     n_steps = 0; dofs = 0; elements = 0; contact_facets = 0
-    call sim_open_handle(path, out_dir, build_only == 0, handle, sim, st, errmsg)
+    call sim_open_handle(path, out_dir, build_only == 0, handle, sim, st, errmsg, &
+                         out_said=out_said)
     stat = st
     if (st /= STAT_OK) return
     n_steps = int(min(sim%n_steps, int(huge(n_steps), kind(sim%n_steps))), c_int)  ! full count: dc_sim_info

@@ -32,7 +32,8 @@ contains
 
     !> Open a run on the heap (sim_open with these arguments) behind an opaque handle
     !> for sim_from_handle; on failure the run is freed and the handle is 0.
-    subroutine sim_open_handle(path, out_dir, write_output, handle, sim, stat, errmsg, restart)
+    subroutine sim_open_handle(path, out_dir, write_output, handle, sim, stat, errmsg, restart, &
+                               out_said)
         character(len=*), intent(in) :: path                !! scene file
         character(len=*), intent(in) :: out_dir             !! output folder override ('' = scene's)
         logical, intent(in) :: write_output                 !! .false.: build the model only
@@ -41,9 +42,11 @@ contains
         integer, intent(out) :: stat                        !! sim_open's status
         character(len=*), intent(inout), optional :: errmsg !! message
         character(len=*), intent(in), optional :: restart   !! checkpoint folder (sim_open)
+        character(len=*), intent(in), optional :: out_said  !! the output folder in messages (sim_open)
         handle = 0
         allocate (sim)
-        call sim_open(sim, path, out_dir, write_output, stat, errmsg, restart=restart)
+        call sim_open(sim, path, out_dir, write_output, stat, errmsg, restart=restart, &
+                      out_said=out_said)
         if (stat /= STAT_OK) then
             deallocate (sim)
             return

@@ -64,7 +64,12 @@ program main
     end if
     call signals_install(stat, errmsg)
     if (stat /= STAT_OK) call fail(stat, errmsg)
-    call sim_open(sim, scene_path, out_dir, .true., stat, errmsg, restart=restart_dir)
+    if (len_trim(out_dir) > 0) then     ! an output folder that cannot be made is named as given
+        call sim_open(sim, scene_path, out_dir, .true., stat, errmsg, restart=restart_dir, &
+                      out_said='--out '//trim(out_dir))
+    else
+        call sim_open(sim, scene_path, out_dir, .true., stat, errmsg, restart=restart_dir)
+    end if
     if (stat /= STAT_OK) call fail(stat, errmsg)
     if (sim%restart_step >= 0) write (*, '(a)') 'dyncontact: restart at step '// &
         int_text(sim%restart_step)//', t='//real_text(sim%st%t, 6)

@@ -78,6 +78,12 @@ module os_files
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
             integer(c_int) :: r
         end function c_check_writable
+        !> 1 when errno err says the file system has no room or takes no writes, else 0.
+        function c_errno_no_room(err) bind(C, name='dc_errno_no_room') result(r)
+            import :: c_int
+            integer(c_int), value :: err  !! errno value
+            integer(c_int) :: r
+        end function c_errno_no_room
         !> Short text of an errno value.
         subroutine c_strerror(err, msg, n) bind(C, name='dc_strerror')
             import :: c_int, c_char
@@ -122,7 +128,8 @@ module os_files
 
     public :: signals_install, signal_caught, fd_open, fd_write, fd_close, file_rename, &
               file_remove, check_writable, lock_take, lock_release, write_text_atomic, sys_error, &
-              free_space, fd_sync, fd_reopen, bytes_hash, remove_matching, same_folder
+              free_space, fd_sync, fd_reopen, bytes_hash, remove_matching, same_folder, &
+              write_status
 
 contains
 
@@ -134,6 +141,15 @@ contains
         call c_strerror(int(err, c_int), buf, int(len(buf), c_int))
         s = trim(buf)
     end function sys_error
+
+    !> The status of a write that failed with errno err: STAT_INTERNAL (exit 4) when the
+    !> file system has no room or takes no writes (ENOSPC, EDQUOT, EFBIG, EROFS), else
+    !> STAT_BAD_INPUT (exit 2: a bad path, a file in the way, no permission).
+    function write_status(err) result(stat)
+        integer, intent(in) :: err    !! errno
+        integer :: stat
+        stat = merge(STAT_INTERNAL, STAT_BAD_INPUT, c_errno_no_room(int(err, c_int)) /= 0)
+    end function write_status
 
     !> Bytes and files an unprivileged user may still create in folder dir's file system
     !> (-1 for a count the file system does not report, or when dir cannot be queried).

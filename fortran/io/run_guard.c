@@ -107,6 +107,18 @@ int dc_fd_close(int fd) { return close(fd) == 0 ? 0 : errno; }
  * that name is there, a folder or not). */
 int dc_mkdir(const char *path) { return mkdir(path, 0755) == 0 ? 0 : errno; }
 
+/* 1 when errno err says the file system has no room or takes no writes (full, over a
+ * quota or a file-size limit, read-only), 0 for any other reason (a bad path: a file in
+ * the way, no such parent, no permission). The same set as WRITE_ERRNOS in
+ * python/dyncontact/cli.py: exit 4 for the first, 2 (bad input) for the others. */
+int dc_errno_no_room(int err)
+{
+    switch (err) {
+    case ENOSPC: case EDQUOT: case EFBIG: case EROFS: return 1;
+    default: return 0;
+    }
+}
+
 /* Flush a descriptor's data to the device. */
 int dc_fsync(int fd)
 {

@@ -3,8 +3,8 @@ module trace_output
     use iso_c_binding, only: c_int, c_char, c_null_char, c_double
     use text, only: text_json_string => json_string
     use kinds, only: dp, i8
-    use errors, only: STAT_OK, STAT_INTERNAL, raise
-    use os_files, only: fd_open, fd_write, fd_close, fd_reopen, fd_sync, sys_error
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
+    use os_files, only: fd_open, fd_write, fd_close, fd_reopen, fd_sync, sys_error, write_status
     implicit none
     private
 
@@ -46,31 +46,44 @@ module trace_output
 contains
 
     !> Create a folder and its parents (like mkdir -p); existing folders are fine. On
-    !> failure the message says why: a file in the way, or the last mkdir's errno text.
-    subroutine make_dirs(path, stat, errmsg)
+    !> failure one line: `said` (how the caller names the folder; default: its path), then
+    !> why: a file in the way, or the system's text for the first folder of the path that
+    !> could not be made. The status is write_status's: STAT_INTERNAL (exit 4) when the
+    !> file system has no room or is read-only, STAT_BAD_INPUT (exit 2) for a bad path.
+    subroutine make_dirs(path, stat, errmsg, said)
         character(len=*), intent(in) :: path                !! folder
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: i, r, n
+        character(len=*), intent(in), optional :: said      !! the folder as messages name it
+        character(len=:), allocatable :: name
+        integer :: i, r, n, err
         logical :: exists, is_folder
         stat = STAT_OK
         r = 0
+        err = 0     ! the errno of the first folder not made where nothing is in the way
         n = len_trim(path)
         do i = 2, n + 1
             if (i <= n) then
                 if (path(i:i) /= '/') cycle
             end if
             r = c_mkdir(path(1:i - 1)//c_null_char)
+            if (r /= 0 .and. err == 0) then
+                inquire (file=path(1:i - 1), exist=exists)
+                if (.not. exists) err = r
+            end if
         end do
         inquire (file=trim(path)//'/.', exist=is_folder)
         if (is_folder) return
+        name = trim(path)
+        if (present(said)) name = said
         inquire (file=trim(path), exist=exists)
         if (exists) then
-            call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder: '// &
-                       'a file of that name is in the way')
+            call raise(stat, errmsg, STAT_BAD_INPUT, name//': cannot create the folder '// &
+                       '(a file of that name is in the way)')
         else
-            call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder: '// &
-                       sys_error(r))
+            if (err == 0) err = r
+            call raise(stat, errmsg, write_status(err), name//': cannot create the folder ('// &
+                       sys_error(err)//')')
         end if
     end subroutine make_dirs
 

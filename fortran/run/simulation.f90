@@ -61,6 +61,9 @@ module simulation
         !> How the caller stopped the run before its end, when not by an interrupt (a
         !> Python callback that raised): the head of its message; '' = 'interrupted'.
         character(len=384) :: stop_head = ''
+        !> The output folder as messages name it when it cannot be made ('--out DIR');
+        !> '' = the scene's &output dir (sim_open).
+        character(len=:), allocatable :: out_said
         type(scene_t) :: scn                       !! the scene
         type(model_t) :: mdl                       !! the model
         class(time_scheme_t), allocatable :: scheme !! the time scheme
@@ -98,8 +101,11 @@ contains
     !> Read the scene, build the model, open the outputs (nothing is overwritten
     !> before this succeeds) and write the t = 0 row. `out_dir` /= '' overrides &output dir.
     !> `restart` /= '': continue the run from the checkpoint in that folder (which is
-    !> then the output folder) instead of starting at t = 0.
-    subroutine sim_open(sim, scene_path, out_dir, write_output, stat, errmsg, restart)
+    !> then the output folder) instead of starting at t = 0. `out_said`: how messages
+    !> name the output folder when it cannot be made (the caller's option and the
+    !> folder, '--out DIR'); absent or '': the scene's key, 'SCENE: &output dir: DIR'.
+    subroutine sim_open(sim, scene_path, out_dir, write_output, stat, errmsg, restart, &
+                        out_said)
         type(simulation_t), intent(out) :: sim              !! the run
         character(len=*), intent(in) :: scene_path          !! scene file
         character(len=*), intent(in) :: out_dir             !! output folder override ('' = scene's)
@@ -107,6 +113,7 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! message
         character(len=*), intent(in), optional :: restart   !! folder of the checkpoint ('' = none)
+        character(len=*), intent(in), optional :: out_said  !! the output folder in messages
         type(scene_t) :: scn
         character(len=:), allocatable :: rdir
         rdir = ''
@@ -127,22 +134,26 @@ contains
         if (stat /= STAT_OK) return
         if (len_trim(out_dir) > 0) scn%out_dir = out_dir
         if (len(rdir) > 0) scn%out_dir = rdir
-        call sim_open_scene(sim, scn, write_output, stat, errmsg, restart=len(rdir) > 0)
+        call sim_open_scene(sim, scn, write_output, stat, errmsg, restart=len(rdir) > 0, &
+                            out_said=out_said)
     end subroutine sim_open
 
     !> sim_open for a scene already read and validated (`restart`: continue from the
-    !> checkpoint in the scene's output folder).
-    subroutine sim_open_scene(sim, scn, write_output, stat, errmsg, restart)
+    !> checkpoint in the scene's output folder; `out_said`: as in sim_open).
+    subroutine sim_open_scene(sim, scn, write_output, stat, errmsg, restart, out_said)
         type(simulation_t), intent(out) :: sim              !! the run
         type(scene_t), intent(in) :: scn                    !! validated scene
         logical, intent(in) :: write_output                 !! .false.: build the model only
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: restart            !! continue from the checkpoint
+        character(len=*), intent(in), optional :: out_said  !! the output folder in messages
         integer :: n
         logical :: again
         again = .false.
         if (present(restart)) again = restart
+        sim%out_said = ''
+        if (present(out_said)) sim%out_said = out_said
         call system_clock(sim%clock0, sim%clock_rate)
         sim%scn = scn
         sim%pvd_due = .false.
@@ -546,7 +557,11 @@ contains
         character(len=*), intent(inout), optional :: msg    !! message
         character(len=:), allocatable :: dir
         dir = trim(sim%scn%out_dir)
-        call make_dirs(dir, st, msg)
+        if (len(sim%out_said) > 0) then
+            call make_dirs(dir, st, msg, said=sim%out_said)
+        else
+            call make_dirs(dir, st, msg, said=trim(sim%scn%path)//': &output dir: '//dir)
+        end if
         if (st /= STAT_OK) return
         call take_folder(sim, dir, st, msg)
         if (st == STAT_OK .and. sim%scn%fields_every > 0) &

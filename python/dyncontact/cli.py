@@ -100,6 +100,16 @@ def _sigterm_as_interrupt(signum, frame):  # noqa: ARG001 - signal handler signa
     raise KeyboardInterrupt(f"signal {signum}")
 
 
+def _said_of_option(exc: Exception, out: str | None) -> Exception:
+    """``exc``, a run's error, with the output folder that run() names as its argument
+    (``out='DIR': cannot create the folder (...)``) named as this command's option
+    (``--out DIR: ...``, as the executable and ``study`` say it)."""
+    prefix = f"out={out!r}: "
+    if out is not None and str(exc).startswith(prefix):
+        return type(exc)(f"--out {out}: {str(exc)[len(prefix):]}")
+    return exc
+
+
 def cmd_run(args) -> int:
     sets = [parse_set(s) for s in (args.set or [])]
     scene_path = args.scene
@@ -138,13 +148,15 @@ def cmd_run(args) -> int:
                 if not (args.wait and LOCK_HELD in str(exc)):
                     blamed = _blame_set(str(exc), scene_path, sets)
                     if blamed is None:
-                        raise
+                        raise _said_of_option(exc, args.out) from None
                     raise core.BadInputError(blamed) from None
                 if not waited:
                     print(f"{PROG}: {' '.join(str(exc).split())}; waiting (--wait)",
                           file=sys.stderr, flush=True)
                 waited = True
                 time.sleep(WAIT_POLL_S)
+            except core.DyncontactError as exc:     # an --out on a full or read-only disk
+                raise _said_of_option(exc, args.out) from None
     s = result.summary
     if result.status != "ok":
         # the core's message, as the executable prints it (it gives t and what to check)

@@ -489,7 +489,8 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                 _fpath(path, "scene file"), _fpath(given, "restart folder"))
         else:
             handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
-                _fpath(path, "scene file"), _fpath(given, "output folder"), 0)
+                _fpath(path, "scene file"), _fpath(given, "output folder"), 0,
+                _out_said("out", given) if explicit_out else b"")
         _check(stat, errmsg, "opening the run")
         message = ""
         stopped = None
@@ -578,6 +579,13 @@ def _raise_for_scene(exc: BadInputError, written: str | None, scene) -> None:
     if written is not None and written in str(exc):
         raise BadInputError(str(exc).replace(written, scene._name())) from None
     raise exc
+
+
+def _out_said(name: str, given: str) -> bytes:
+    """How the core's message names an output folder given as argument ``name`` of
+    run() or Stepper() when it cannot be made: ``out='DIR'`` (the command line says
+    ``--out DIR`` instead, :func:`dyncontact.cli.main`)."""
+    return os.fsencode(f"{name}={given!r}")
 
 
 def _folder_arg(path, what: str) -> str:
@@ -774,12 +782,13 @@ class Model:
         self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
         try:
             path, written = _scene_file(scene, self._tmp)
-            out = b""
+            out, said = b"", b""
             if _out is not None:   # as given, as the executable records it in summary.json
-                out = _fpath(_folder_arg(_out, "out"), "output folder")
+                given = _folder_arg(_out, "out")
+                out, said = _fpath(given, "output folder"), _out_said("out", given)
             (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
              errmsg) = _core().dc_sim_open(_fpath(path, "scene file"), out,
-                                           1 if _out is None else 0)
+                                           1 if _out is None else 0, said)
             try:
                 _check(stat, errmsg,
                        "building the model" if _out is None else "opening the run")
@@ -994,7 +1003,7 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
         path, written = _scene_file(scene, tmp)
         handle, *_, stat, errmsg = core.dc_sim_open(_fpath(path, "scene file"),
                                                     _fpath(os.path.join(tmp, "out"),
-                                                           "output folder"), 0)
+                                                           "output folder"), 0, b"")
         try:
             _check(stat, errmsg, "opening the run")
         except BadInputError as exc:
