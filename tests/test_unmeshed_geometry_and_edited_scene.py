@@ -74,6 +74,39 @@ def test_mesh_command_refuses_a_surface_it_cannot_mesh_and_writes_nothing(tmp_pa
     assert not (tmp_path / "crossed.msh").exists()
 
 
+def test_the_mesh_command_says_the_cores_words_for_a_surface_it_cannot_mesh(tmp_path,
+                                                                          monkeypatch):
+    """mesh_io meshes a .geo with gmsh's Python module and finds the surface left without
+    triangles itself, but its line is the core's (the reader's, gmsh_shim.c), not a copy
+    of it in Python: the same line as a run's refusal of the same .geo."""
+    import types
+
+    import dyncontact.core as core
+    from dyncontact import BadInputError
+    from dyncontact.mesh_io import generate
+
+    geo = tmp_path / "crossed.geo"
+    geo.write_text(CROSSED_GEO)
+    with pytest.raises(BadInputError) as read:
+        core.load_mesh(geo)
+    with pytest.raises(BadInputError) as meshed:
+        generate(geo, tmp_path / "crossed.msh")
+    assert str(meshed.value) == str(read.value)
+    assert str(meshed.value).startswith(f"{geo}: surface 1 of physical group 'body' has no "
+                                        "3-node triangles: gmsh could not mesh it")
+    # the words come from the core: a core that says others is followed
+    real = core._core()
+    fake = types.SimpleNamespace(
+        dc_unmeshed_text=lambda d, tag, group: f"entity {d} {tag} of {group.decode()}: core",
+        **{k: getattr(real, k) for k in dir(real) if k.startswith("dc_")
+           and k != "dc_unmeshed_text"})
+    monkeypatch.setattr(core, "_core", lambda: fake)
+    with pytest.raises(BadInputError) as meshed:
+        generate(geo, tmp_path / "crossed.msh")
+    assert str(meshed.value) == f"{geo}: entity 2 1 of body: core"
+    assert not (tmp_path / "crossed.msh").exists()
+
+
 RESTART = ("&scheme t_end = 0.05 /\n&output checkpoint_every = 10 /\n"
            "&contact theta = {theta}, obstacle_point = 0.0, {gap} /\n")
 

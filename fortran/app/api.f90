@@ -659,6 +659,19 @@ subroutine dc_geo_estimate(path, length, width, h, h_given, limit, limit_key, h_
                                                                    h_key)
 end subroutine dc_geo_estimate
 
+!> Why a .geo meshed in-process is refused when gmsh left entity `d` `tag` of physical
+!> group `group` without elements (the reader's wording, without the path in front).
+subroutine dc_unmeshed_text(d, tag, group, text)
+    use iso_c_binding, only: c_int
+    use gmsh_mesh, only: unmeshed_text
+    implicit none
+    integer(c_int), intent(in) :: d              !! the entity's dimension (1 curve ... 3 volume)
+    integer(c_int), intent(in) :: tag            !! its gmsh tag
+    character(len=*), intent(in) :: group        !! its physical group's name
+    character(len=512), intent(out) :: text      !! the refusal
+    text = unmeshed_text(int(d), int(tag), group, 0)
+end subroutine dc_unmeshed_text
+
 !> Release a mesh of dc_mesh_sizes without copying it (0 is ignored).
 subroutine dc_mesh_free(handle)
     use iso_c_binding, only: c_int64_t

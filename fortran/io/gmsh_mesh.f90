@@ -23,7 +23,8 @@ module gmsh_mesh
     use text, only: lower, real_text, int_text
     implicit none
     private
-    public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, too_large_text
+    public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, too_large_text, &
+              unmeshed_text
 
     !> Relative tolerance of the test that dropped coordinates are constant.
     real(dp), parameter :: PLANE_TOL = 1.0e-10_dp
@@ -99,6 +100,17 @@ module gmsh_mesh
             integer(c_int), intent(out) :: nodes(*)      !! 1-based node numbers
             integer(c_int), intent(out) :: group(*)      !! 1-based group indices
         end subroutine c_gmsh_lower_arrays
+        !> The refusal of an entity of a physical group that has no elements (gmsh_shim.c).
+        subroutine c_unmeshed_text(d, tag, group, cells_dim, from_file, out, len) &
+            bind(C, name='dc_unmeshed_text')
+            import :: c_int, c_char
+            integer(c_int), value :: d, tag                  !! the entity's dimension and tag
+            character(kind=c_char), intent(in) :: group(*)   !! NUL-terminated group name
+            integer(c_int), value :: cells_dim               !! the cells' dimension
+            integer(c_int), value :: from_file               !! 1: a mesh file; 0: a .geo meshed
+            character(kind=c_char), intent(out) :: out(*)    !! the text, NUL-terminated
+            integer(c_int), value :: len                     !! length of out
+        end subroutine c_unmeshed_text
         !> Free a mesh read by c_gmsh_read.
         subroutine c_gmsh_free(p) bind(C, name='dc_gmsh_free')
             import :: c_ptr
@@ -356,6 +368,24 @@ contains
     end function file_extension
 
     !> Fortran text of a NUL-terminated C buffer.
+    !> Why a mesh is refused that has an entity of a physical group without elements
+    !> (without the path in front): entity `d` (0 point ... 3 volume) `tag` of group
+    !> `group`. `cells_dim` > 0: read from a mesh file whose cells have that dimension;
+    !> 0: a .geo meshed in-process that gmsh could not mesh. The reader's own wording,
+    !> which python/dyncontact/mesh_io.py gives too (for the .geo it meshes).
+    function unmeshed_text(d, tag, group, cells_dim) result(s)
+        integer, intent(in) :: d                   !! the entity's dimension, 0..3
+        integer, intent(in) :: tag                 !! its gmsh tag
+        character(len=*), intent(in) :: group      !! its (first) physical group's name
+        integer, intent(in) :: cells_dim           !! the file's cells' dimension; 0: a .geo
+        character(len=:), allocatable :: s
+        character(kind=c_char) :: buf(MSG_LEN)
+        call c_unmeshed_text(int(d, c_int), int(tag, c_int), trim(group)//c_null_char, &
+                             int(cells_dim, c_int), merge(1_c_int, 0_c_int, cells_dim > 0), &
+                             buf, int(MSG_LEN, c_int))
+        s = from_c(buf)
+    end function unmeshed_text
+
     pure function from_c(buf) result(s)
         character(kind=c_char), intent(in) :: buf(:)   !! C string
         character(len=:), allocatable :: s

@@ -165,6 +165,35 @@ static void set_msg(char *msg, int len, const char *a, const char *b, const char
     snprintf(msg, (size_t)len, "%s%s%s", a, b ? b : "", c ? c : "");
 }
 
+/* The refusal of an entity of a physical group (dimension d, tag, the group's name) that
+ * has no elements: `from_file` 0, a .geo meshed in-process, gmsh could not mesh it;
+ * 1, a mesh file of cells of dimension `cells_dim` without it (saved at a lower
+ * dimension when d > cells_dim, or an entity gmsh could not mesh). Without the path in
+ * front (the caller names the file). The one wording of the core's reader and of
+ * python/dyncontact/mesh_io.py (through dc_unmeshed_text). */
+void dc_unmeshed_text(int d, int tag, const char *group, int cells_dim, int from_file,
+                      char *out, int len)
+{
+    static const char *ent[4] = {"point", "curve", "surface", "volume"};
+    static const char *noun[4] = {"points", "2-node segments", "3-node triangles",
+                                  "4-node tetrahedra"};
+    if (len <= 0) return;
+    if (d < 0 || d > 3) d = 3;
+    if (from_file && d > cells_dim)
+        snprintf(out, (size_t)len, "%s %d of physical group '%s' has no %s in the file "
+                 "(saved with gmsh -%d instead of -%d, or a %s gmsh could not mesh)", ent[d],
+                 tag, group, noun[d], cells_dim, d, ent[d]);
+    else if (from_file)
+        snprintf(out, (size_t)len, "%s %d of physical group '%s' has no %s in the file (a %s "
+                 "gmsh could not mesh)", ent[d], tag, group, noun[d], ent[d]);
+    else
+        snprintf(out, (size_t)len, "%s %d of physical group '%s' has no %s: gmsh could not "
+                 "mesh it (a %s whose boundary crosses itself, say; gmsh retries such a %s "
+                 "Mesh.MaxRetries times, 10 by default, which can take minutes: "
+                 "Mesh.MaxRetries = 0 in the file gives up at once)", ent[d], tag, group,
+                 noun[d], ent[d], ent[d]);
+}
+
 /* Path of the libgmsh this build would load ('' if none found); for messages and tests. */
 void dc_gmsh_build_lib(char *out, int len)
 {
@@ -682,7 +711,6 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
      * surface that failed: a 1D bar where a 2D body was meant) */
     for (d = dim; d <= 3 && st == 0 && dim > 0; d++)
         for (e = 0; e < n_ents[d] && st == 0; e++) {
-            static const char *ent[4] = {"point", "curve", "surface", "volume"};
             size_t np;
             int *p;
             char gname[80], buf[720];
@@ -693,22 +721,9 @@ static int extract(const char *path, int keep_untagged, dc_gmsh_mesh_t *m, char 
                 for (int g = 0; g < n_groups; g++)
                     if (groups[g].dim == d && groups[g].tag == p[0])
                         nth_name(names, g + 1, gname, sizeof gname);
-                if (keep_untagged && d > dim)
-                    snprintf(buf, sizeof buf, ": %s %d of physical group '%s' has no %s in the "
-                             "file (saved with gmsh -%d instead of -%d, or a %s gmsh could not "
-                             "mesh)", ent[d], ents[d][2 * e + 1], gname, dim_noun(d), dim, d,
-                             ent[d]);
-                else if (keep_untagged)
-                    snprintf(buf, sizeof buf, ": %s %d of physical group '%s' has no %s in the "
-                             "file (a %s gmsh could not mesh)", ent[d], ents[d][2 * e + 1],
-                             gname, dim_noun(d), ent[d]);
-                else
-                    snprintf(buf, sizeof buf, ": %s %d of physical group '%s' has no %s: gmsh "
-                             "could not mesh it (a %s whose boundary crosses itself, say; gmsh "
-                             "retries such a %s Mesh.MaxRetries times, 10 by default, which can "
-                             "take minutes: Mesh.MaxRetries = 0 in the file gives up at once)",
-                             ent[d], ents[d][2 * e + 1], gname, dim_noun(d), ent[d], ent[d]);
-                set_msg(msg, msglen, path, buf, NULL);
+                dc_unmeshed_text(d, ents[d][2 * e + 1], gname, dim, keep_untagged, buf,
+                                 (int)sizeof buf);
+                set_msg(msg, msglen, path, ": ", buf);
                 st = 2;
             }
             if (p) G.free(p);

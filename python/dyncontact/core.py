@@ -42,7 +42,7 @@ __all__ = [
     "DyncontactError", "BadInputError", "RunNotFoundError", "NumericalError", "RunResult",
     "run", "run_file",
     "TRACE_COLUMNS", "read_trace", "read_summary", "fortran_version", "scene_dump", "scene_parse",
-    "load_mesh", "estimate_geo", "p1_element",
+    "load_mesh", "estimate_geo", "unmeshed_text", "p1_element",
     "umf_solve", "linear_solve", "Model", "bench_floors_available",
     "bench_floors",
 ]
@@ -695,6 +695,16 @@ def geo_refusal(path: str | os.PathLike, limit: int, limit_key: str, h_key: str,
         int(limit), limit_key, h_key)
     _check(stat, errmsg, "estimating the mesh")
     return _str(text) or None
+
+
+def unmeshed_text(dim: int, tag: int, group: str) -> str:
+    """The core's refusal of a .geo meshed in-process in which gmsh left entity ``dim``
+    (1 curve, 2 surface, 3 volume) ``tag`` of physical group ``group`` without elements
+    (a surface whose boundary crosses itself), without the path in front: the words the
+    core's reader says of such a .geo, for a mesh that Python meshes with gmsh."""
+    text = _core().dc_unmeshed_text(int(dim), int(tag),
+                                    str(group).encode("utf-8", "surrogateescape"))
+    return _str(text)
 
 
 def pc_stability(alpha: float, beta: float, gamma: float,

@@ -43,7 +43,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .core import BadInputError, DyncontactError, geo_refusal
+from .core import BadInputError, DyncontactError, geo_refusal, unmeshed_text
 
 __all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
            "generate", "find_geo", "main"]
@@ -327,16 +327,13 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     return out
 
 
-_ENTITY = ("point", "curve", "surface", "volume")
-_CELLS = ("points", "2-node segments", "3-node triangles", "4-node tetrahedra")
-
-
 def _unmeshed(gmsh) -> str | None:
     """Why the model just meshed is not the body its physical groups describe, or None: an
     entity of a physical group, of the cells' dimension or above, that gmsh left without
     elements (a surface whose boundary crosses itself). Written as it is, the file would be
-    the rest: the curves of a surface that failed, a 1D bar where a 2D body was meant (the
-    core refuses such a file with the same words, gmsh_shim.c)."""
+    the rest: the curves of a surface that failed, a 1D bar where a 2D body was meant. The
+    words are the core's (:func:`dyncontact.core.unmeshed_text`), which refuses such a
+    .geo in a run alike (gmsh_shim.c)."""
     def meshed(d: int, tag: int) -> bool:
         return any(len(t) for t in gmsh.model.mesh.getElements(d, tag)[1])
 
@@ -349,11 +346,7 @@ def _unmeshed(gmsh) -> str | None:
             groups = gmsh.model.getPhysicalGroupsForEntity(d, tag)
             if groups.size and not meshed(d, tag):
                 name = gmsh.model.getPhysicalName(d, int(groups[0])) or str(int(groups[0]))
-                return (f"{_ENTITY[d]} {tag} of physical group '{name}' has no {_CELLS[d]}: "
-                        f"gmsh could not mesh it (a {_ENTITY[d]} whose boundary crosses "
-                        f"itself, say; gmsh retries such a {_ENTITY[d]} Mesh.MaxRetries "
-                        "times, 10 by default, which can take minutes: Mesh.MaxRetries = 0 "
-                        "in the file gives up at once)")
+                return unmeshed_text(d, tag, name)
     return None
 
 
