@@ -367,7 +367,6 @@ contains
         end if
     end function file_extension
 
-    !> Fortran text of a NUL-terminated C buffer.
     !> Why a mesh is refused that has an entity of a physical group without elements
     !> (without the path in front): entity `d` (0 point ... 3 volume) `tag` of group
     !> `group`. `cells_dim` > 0: read from a mesh file whose cells have that dimension;
@@ -386,6 +385,7 @@ contains
         s = from_c(buf)
     end function unmeshed_text
 
+    !> Fortran text of a NUL-terminated C buffer.
     pure function from_c(buf) result(s)
         character(kind=c_char), intent(in) :: buf(:)   !! C string
         character(len=:), allocatable :: s
