@@ -103,9 +103,9 @@ int dc_fd_write(int fd, const char *buf, long n)
 /* Close a descriptor (its error, e.g. a delayed ENOSPC on a network disk, is returned). */
 int dc_fd_close(int fd) { return close(fd) == 0 ? 0 : errno; }
 
-/* Create one folder (mode 0755 before the umask): 0 or errno (EEXIST when something of
- * that name is there, a folder or not). */
-int dc_mkdir(const char *path) { return mkdir(path, 0755) == 0 ? 0 : errno; }
+/* Create one folder (mode 0755 before the umask): 0 when made or when something of that
+ * name is there already (a folder or not: the caller checks what), else errno. */
+int dc_mkdir(const char *path) { return mkdir(path, 0755) == 0 || errno == EEXIST ? 0 : errno; }
 
 /* Flush a descriptor's data to the device. */
 int dc_fsync(int fd)

@@ -25,7 +25,8 @@ module trace_output
 
     interface
         !> int mkdir(const char *path, mode_t mode) from the C library.
-        !> Create one folder (mode 0755 before the umask): 0 or errno (run_guard.c).
+        !> Create one folder (mode 0755 before the umask): 0 when made or when something
+        !> of that name is there already, else errno (run_guard.c).
         function c_mkdir(path) bind(C, name='dc_mkdir') result(r)
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
@@ -46,31 +47,35 @@ module trace_output
 contains
 
     !> Create a folder and its parents (like mkdir -p); existing folders are fine. On
-    !> failure the message says why: a file in the way, or the last mkdir's errno text.
+    !> failure the message says why: a file in the way, or the errno text of the first
+    !> folder that could not be made (a read-only or forbidden parent, not the
+    !> "No such file or directory" of the folders below it).
     subroutine make_dirs(path, stat, errmsg)
         character(len=*), intent(in) :: path                !! folder
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: i, r, n
+        integer :: i, r, n, cause
         logical :: exists, is_folder
         stat = STAT_OK
         r = 0
+        cause = 0
         n = len_trim(path)
         do i = 2, n + 1
             if (i <= n) then
                 if (path(i:i) /= '/') cycle
             end if
             r = c_mkdir(path(1:i - 1)//c_null_char)
+            if (r /= 0 .and. cause == 0) cause = r
         end do
         inquire (file=trim(path)//'/.', exist=is_folder)
         if (is_folder) return
         inquire (file=trim(path), exist=exists)
-        if (exists) then
+        if (exists .or. cause == 0) then
             call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder: '// &
                        'a file of that name is in the way')
         else
             call raise(stat, errmsg, STAT_INTERNAL, trim(path)//': cannot create folder: '// &
-                       sys_error(r))
+                       sys_error(cause))
         end if
     end subroutine make_dirs
 
