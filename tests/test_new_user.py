@@ -226,7 +226,8 @@ def test_lock_left_by_kill_9_is_taken_over_by_the_next_run(kind, tmp_path):
     while not (lock.exists() and lock.read_text().endswith("\n")):
         assert time.time() - t0 < 60 and proc.poll() is None, "the run did not start"
         time.sleep(0.01)
-    assert lock.read_text() == f"{proc.pid} {_proc_identity(proc.pid)}\n"
+    import socket
+    assert lock.read_text() == f"{proc.pid} {_proc_identity(proc.pid)} {socket.gethostname()}\n"
     proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=60)
     assert lock.exists()                       # left behind

@@ -2,11 +2,15 @@
  *
  * libgmsh is large (about 90 MB): it is dlopen()ed by the first call that names a mesh
  * file, never at start-up, so a run on a built-in mesh does not map it. Where it is looked
- * for: $DYNCONTACT_GMSH_LIB alone when it is set; otherwise the library found by meson at
- * build time (DC_GMSH_LIB), then the dynamic loader's own search (libgmsh.so.<version>,
- * libgmsh.so).
- * A build without gmshc.h (DC_HAVE_GMSHC undefined) still compiles: every call then reports
- * that mesh files need gmsh.
+ * for: $DYNCONTACT_GMSH_LIB alone when it is set; otherwise in the environment this code is
+ * installed in (lib/libgmsh.so* in the folder of the executable or extension module that
+ * holds it and in its four parents: the gmsh wheel puts the library in <venv>/lib, the
+ * executable is <venv>/bin/dyncontact and the extension
+ * <venv>/lib/pythonX.Y/site-packages/dyncontact/_core*.so), then the library found by meson
+ * at build time (DC_GMSH_LIB), then the dynamic loader's own search (libgmsh.so.<version>,
+ * libgmsh.so). The build needs no gmsh: the functions' signatures are in gmsh_api.h.
+ * A build with gmsh disabled (DC_WITH_GMSH undefined) still compiles: every call then
+ * reports that mesh files need gmsh.
  *
  * dc_gmsh_read() loads a file (msh 2.2 / 4.x, ASCII or binary, or a .geo meshed in-process
  * with the parameters h, length, width) and applies the project's conventions
@@ -45,10 +49,15 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <glob.h>
+#include <limits.h>
 #include <strings.h>
 #include <unistd.h>
-#ifdef DC_HAVE_GMSHC
-#include <gmshc.h>
+#ifdef DC_WITH_GMSH
+#ifdef DC_GMSHC_CHECK
+#include <gmshc.h>   /* the compiler checks gmsh_api.h's signatures against gmsh's own */
+#endif
+#include "gmsh_api.h"
 #endif
 
 #ifndef DC_GMSH_LIB
@@ -72,9 +81,10 @@ typedef struct {
 } dc_gmsh_mesh_t;
 
 #define NO_GMSH_MSG "mesh files need gmsh (libgmsh): install it with `pip install gmsh` " \
-    "(scripts/setup does) and rebuild, or set DYNCONTACT_GMSH_LIB to the path of libgmsh.so"
-#define NO_GMSH_BUILD_MSG "mesh files need gmsh, and this build has none: install it with " \
-    "`pip install gmsh` (scripts/setup does), then rebuild (meson finds it in the venv)"
+    "into the environment dyncontact is installed in (scripts/setup does), or set " \
+    "DYNCONTACT_GMSH_LIB to the path of libgmsh.so"
+#define NO_GMSH_BUILD_MSG "mesh files need gmsh, and this build has it disabled (meson " \
+    "option gmsh=disabled): rebuild without that option"
 
 /* The dispositions of every signal and the calling thread's signal mask, saved before a
  * call into gmsh and restored after it (see the header). */
@@ -200,7 +210,7 @@ void dc_gmsh_build_lib(char *out, int len)
     set_msg(out, len, DC_GMSH_LIB, NULL, NULL);
 }
 
-#ifndef DC_HAVE_GMSHC
+#ifndef DC_WITH_GMSH
 
 int dc_gmsh_available(char *msg, int msglen)
 {
@@ -267,16 +277,49 @@ static struct {
 
 static char load_error[512];
 
+/* The libgmsh of the environment this code is installed in, in out ('' if none): the last
+ * (highest version) lib/libgmsh.so* in the folder of the file that holds this code (the
+ * executable, or the extension module in a Python process) or in one of its four parents. */
+static void installed_gmsh(char *out, size_t len)
+{
+    Dl_info info;
+    char dir[PATH_MAX], pattern[PATH_MAX + 32];
+    int level;
+    out[0] = '\0';
+    if (!dladdr((void *)installed_gmsh, &info) || !info.dli_fname
+            || !strchr(info.dli_fname, '/') || !realpath(info.dli_fname, dir)) {
+        ssize_t n = readlink("/proc/self/exe", dir, sizeof dir - 1);
+        if (n <= 0) return;
+        dir[n] = '\0';
+    }
+    for (level = 0; level <= 4; level++) {
+        char *slash = strrchr(dir, '/');
+        glob_t found;
+        if (!slash || slash == dir) return;   /* never / itself: the system's /lib */
+        *slash = '\0';
+        snprintf(pattern, sizeof pattern, "%s/lib/libgmsh.so*", dir);
+        if (glob(pattern, 0, NULL, &found) == 0) {
+            snprintf(out, len, "%s", found.gl_pathv[found.gl_pathc - 1]);
+            globfree(&found);
+            return;
+        }
+        globfree(&found);
+    }
+}
+
 /* dlopen libgmsh once (the process keeps it); 1 if the functions are there. */
 static int gmsh_load(void)
 {
-    const char *candidates[4];
+    const char *candidates[5];
+    static char installed[PATH_MAX];
     int n = 0, i;
     if (G.lib) return 1;
     const char *env = getenv("DYNCONTACT_GMSH_LIB");
     if (env && *env) {
         candidates[n++] = env;
     } else {
+        installed_gmsh(installed, sizeof installed);
+        if (*installed) candidates[n++] = installed;
         if (*DC_GMSH_LIB) candidates[n++] = DC_GMSH_LIB;
 #ifdef DC_GMSH_SOVERSION
         candidates[n++] = "libgmsh.so." DC_GMSH_SOVERSION;

@@ -97,6 +97,14 @@ module os_files
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated lock file path
             integer(c_int) :: r
         end function c_lock_take
+        !> The host name of the other machine that wrote a lock file: 1 (host set), or 0.
+        function c_lock_host(path, host, n) bind(C, name='dc_lock_host') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)   !! NUL-terminated lock file path
+            character(kind=c_char), intent(out) :: host(*)  !! its host name, blank-padded
+            integer(c_int), value :: n                      !! length of host
+            integer(c_int) :: r
+        end function c_lock_host
         !> Bytes and inodes an unprivileged user may still create on path's file system.
         function c_free_space(path, bytes, files) bind(C, name='dc_free_space') result(r)
             import :: c_int, c_char, c_int64_t
@@ -326,18 +334,28 @@ contains
                                //sys_error(r)//' (previous results left untouched)')
     end subroutine check_writable
 
-    !> Take the lock of an output folder (LOCK_NAME holding our pid). A folder locked
-    !> by a live process is STAT_BAD_INPUT; a stale lock (dead pid) is taken over.
+    !> Take the lock of an output folder (LOCK_NAME holding our pid, its start, the boot
+    !> and the host). A folder locked by a live process, or by a run on another machine
+    !> (a shared file system), is STAT_BAD_INPUT; a stale lock (dead pid) is taken over.
     subroutine lock_take(dir, stat, errmsg)
         character(len=*), intent(in) :: dir                 !! output folder
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: r
         character(len=24) :: buf
+        character(len=256) :: host
         stat = STAT_OK
         r = c_lock_take(trim(dir)//'/'//LOCK_NAME//c_null_char)
         if (r < 0) then
             write (buf, '(i0)') -r
+            if (c_lock_host(trim(dir)//'/'//LOCK_NAME//c_null_char, host, &
+                            int(len(host), c_int)) == 1) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(dir)//': another run (pid ' &
+                           //trim(buf)//' on host '//trim(host)//') is writing into this ' &
+                           //'output folder (lock '//LOCK_NAME//'; if no run is left on ' &
+                           //trim(host)//', remove '//trim(dir)//'/'//LOCK_NAME//')')
+                return
+            end if
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(dir)//': another run (pid '//trim(buf) &
                        //') is writing into this output folder (lock '//LOCK_NAME//')')
         else if (r > 0) then

@@ -103,9 +103,9 @@ int dc_fd_write(int fd, const char *buf, long n)
 /* Close a descriptor (its error, e.g. a delayed ENOSPC on a network disk, is returned). */
 int dc_fd_close(int fd) { return close(fd) == 0 ? 0 : errno; }
 
-/* Create one folder (mode 0755 before the umask): 0 or errno (EEXIST when something of
- * that name is there, a folder or not). */
-int dc_mkdir(const char *path) { return mkdir(path, 0755) == 0 ? 0 : errno; }
+/* Create one folder (mode 0755 before the umask): 0 when made or when something of that
+ * name is there already (a folder or not: the caller checks what), else errno. */
+int dc_mkdir(const char *path) { return mkdir(path, 0755) == 0 || errno == EEXIST ? 0 : errno; }
 
 /* 1 when errno err says the file system has no room or takes no writes (full, over a
  * quota or a file-size limit, read-only), 0 for any other reason (a bad path: a file in
@@ -223,6 +223,32 @@ void dc_strerror(int err, char *msg, int len)
     for (i = 0; i < len; i++) msg[i] = i < n ? s[i] : ' ';
 }
 
+/* The kernel's boot id into out (n bytes); 0 on success, -1 where /proc does not tell. */
+static int dc_boot_id(char *out, size_t n)
+{
+    ssize_t r;
+    int fd = open("/proc/sys/kernel/random/boot_id", O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return -1;
+    r = read(fd, out, n - 1);
+    close(fd);
+    if (r <= 0) return -1;
+    out[r] = '\0';
+    out[strcspn(out, "\n")] = '\0';
+    return 0;
+}
+
+/* 1 if a lock written on host `host` with boot id `boot` comes from another machine: its
+ * host name is not ours and its boot id is not ours either (a container of this machine
+ * has another host name but the same kernel, whose pids we may check). */
+static int dc_other_machine(const char *host, const char *boot)
+{
+    char mine[256], my_boot[64];
+    if (*host == '\0' || gethostname(mine, sizeof mine) != 0) return 0;
+    mine[sizeof mine - 1] = '\0';
+    if (strcmp(host, mine) == 0) return 0;
+    return dc_boot_id(my_boot, sizeof my_boot) != 0 || strcmp(boot, my_boot) != 0;
+}
+
 /* "STARTTIME BOOT_ID" of process pid (its start in clock ticks after boot, field 22 of
  * /proc/PID/stat, and the kernel's boot id) into out; 0 on success, -1 where /proc does
  * not tell (another system, a process already gone). */
@@ -244,31 +270,33 @@ static int dc_proc_identity(long pid, char *out, size_t n)
     if (p == NULL) return -1;
     for (field = 2; field < 22 && p != NULL; field++) p = strchr(p + 1, ' ');
     if (p == NULL || sscanf(p + 1, "%llu", &start) != 1) return -1;
-    fd = open("/proc/sys/kernel/random/boot_id", O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return -1;
-    r = read(fd, boot, sizeof boot - 1);
-    close(fd);
-    if (r <= 0) return -1;
-    boot[r] = '\0';
-    boot[strcspn(boot, "\n")] = '\0';
+    if (dc_boot_id(boot, sizeof boot) != 0) return -1;
     snprintf(out, n, "%llu %s", start, boot);
     return 0;
 }
 
-/* Take the lock file path: created with O_EXCL, holding "PID STARTTIME BOOT_ID" (just
- * "PID" where /proc does not tell). A lock whose pid is not a live process (stale, e.g.
- * after kill -9), or is a live process with another start time or boot id (the pid
- * reused after a kill -9 or a reboot), is taken over.
- * Returns 0 (taken), -pid (held by the live process pid) or errno (> 0). */
+/* Take the lock file path: created with O_EXCL, holding "PID STARTTIME BOOT_ID HOST"
+ * (just "PID" where /proc does not tell; no HOST where the machine has no name). A lock
+ * whose pid is not a live process (stale, e.g. after kill -9), or is a live process with
+ * another start time or boot id (the pid reused after a kill -9 or a reboot), is taken
+ * over. A lock written on another machine (an output folder on a file system that
+ * several machines share, the nodes of a cluster) is held: its pid cannot be checked
+ * from here, and two runs must not write into one folder.
+ * Returns 0 (taken), -pid (held by the live process pid, or by pid on another machine:
+ * dc_lock_host names it) or errno (> 0). */
 int dc_lock_take(const char *path)
 {
-    char buf[160], mine[128], theirs[128];
+    char buf[512], mine[128], theirs[128], host[256];
     int attempt;
+    if (gethostname(host, sizeof host) != 0) host[0] = '\0';
+    host[sizeof host - 1] = '\0';
+    if (strchr(host, ' ') || strchr(host, '\n')) host[0] = '\0';
     for (attempt = 0; attempt < 3; attempt++) {
         int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
         if (fd >= 0) {
             int n = dc_proc_identity((long)getpid(), mine, sizeof mine) == 0
-                        ? snprintf(buf, sizeof buf, "%ld %s\n", (long)getpid(), mine)
+                        ? snprintf(buf, sizeof buf, "%ld %s%s%s\n", (long)getpid(), mine,
+                                   *host ? " " : "", host)
                         : snprintf(buf, sizeof buf, "%ld\n", (long)getpid());
             int err = dc_fd_write(fd, buf, n);
             int err2 = dc_fd_close(fd);
@@ -307,10 +335,16 @@ int dc_lock_take(const char *path)
             }
             continue;
         }
+        char lock_start[32] = "", lock_boot[64] = "", lock_host[256] = "";
+        int k = sscanf(rest, "%31s %63s %255s", lock_start, lock_boot, lock_host);
+        if (k == 3 && dc_other_machine(lock_host, lock_boot)) return (int)-pid;
         if (kill((pid_t)pid, 0) == 0 || errno == EPERM) {
             /* Alive: the owner unless the lock names another start or boot of that pid. */
+            char identity[128];
+            snprintf(identity, sizeof identity, "%s%s%s", lock_start, k >= 2 ? " " : "",
+                     lock_boot);
             if (*rest == '\0' || dc_proc_identity(pid, theirs, sizeof theirs) != 0
-                || strcmp(rest, theirs) == 0)
+                || strcmp(identity, theirs) == 0)
                 return (int)-pid;
         }
         /* Stale: the process is gone, or the pid is another process now. Remove and
@@ -318,6 +352,27 @@ int dc_lock_take(const char *path)
         unlink(path);
     }
     return EEXIST;
+}
+
+/* The host name of the machine that wrote the lock file path, blank-padded into out
+ * (len bytes), when that is another machine (dc_lock_take holds such a lock); 1 then,
+ * else 0 (out blank). */
+int dc_lock_host(const char *path, char *out, int len)
+{
+    char buf[512], start[32] = "", boot[64] = "", host[256] = "";
+    long pid;
+    int i, n, fd = open(path, O_RDONLY | O_CLOEXEC);
+    ssize_t r = fd < 0 ? -1 : read(fd, buf, sizeof buf - 1);
+    for (i = 0; i < len; i++) out[i] = ' ';
+    if (fd >= 0) close(fd);
+    if (r <= 0) return 0;
+    buf[r] = '\0';
+    if (sscanf(buf, "%ld %31s %63s %255s", &pid, start, boot, host) != 4
+        || !dc_other_machine(host, boot))
+        return 0;
+    n = (int)strlen(host);
+    for (i = 0; i < len && i < n; i++) out[i] = host[i];
+    return 1;
 }
 
 /* Remove the lock file if it holds our pid. */

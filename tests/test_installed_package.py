@@ -1,0 +1,85 @@
+"""The package as `meson install` (and so `pip install .`, which installs the same files)
+puts it, used from a folder outside the source tree: what it needs at run time must be
+among the installed files, not looked up in the repository."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import EXE, ROOT
+
+#: Runs `python -m dyncontact ARGS` on the installed package only: the editable install of
+#: the test environment (a finder on sys.meta_path that maps `dyncontact` to the source
+#: tree) is taken out, and the destdir's site-packages is the first path.
+RUN_INSTALLED = """
+import runpy, sys
+site = sys.argv.pop(1)
+sys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in type(f).__module__]
+sys.path.insert(0, site)
+import dyncontact
+assert dyncontact.__file__.startswith(site), dyncontact.__file__
+sys.argv[0] = 'dyncontact'
+runpy.run_module('dyncontact', run_name='__main__', alter_sys=True)
+"""
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory) -> Path:
+    """The site-packages folder of build/ installed with `meson install --destdir`."""
+    meson = shutil.which("meson", path=os.path.dirname(sys.executable)) or shutil.which("meson")
+    if meson is None or not EXE.is_file():
+        pytest.skip("no meson or no build/; run scripts/setup")
+    dest = tmp_path_factory.mktemp("destdir")
+    subprocess.run([meson, "install", "-C", str(ROOT / "build"), "--destdir", str(dest),
+                    "--no-rebuild", "-q"], check=True, capture_output=True, timeout=300)
+    found = list(dest.rglob("site-packages/dyncontact/__init__.py"))
+    assert len(found) == 1, found
+    return found[0].parent.parent
+
+
+def _run_installed(site: Path, args, cwd: Path) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    return subprocess.run([sys.executable, "-c", RUN_INSTALLED, str(site), *args], cwd=cwd,
+                          env=env, capture_output=True, text=True, timeout=120)
+
+
+def test_installed_mesh_command_has_its_default_geometry(installed, tmp_path):
+    """`python -m dyncontact mesh --out bar.msh`, from a folder outside the source tree,
+    meshes the default bar (bar2d.geo); the example geometries are installed unchanged."""
+    r = _run_installed(installed, ["mesh", "--h", "0.05", "--out", "bar.msh"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "bar.msh").stat().st_size > 0
+    for name in ("bar2d.geo", "disk.geo", "ball.geo", "ball_pole.geo"):
+        shipped = installed / "dyncontact" / name
+        assert shipped.read_bytes() == (ROOT / "meshes" / name).read_bytes(), name
+
+
+def test_installed_entry_points_give_one_trace(installed, tmp_path):
+    """The installed executable and the installed `python -m dyncontact run`, started in a
+    folder of their own on a scene of another folder whose mesh path is relative to it,
+    write the same trace."""
+    exe = next(installed.parents[2].rglob("bin/dyncontact"))
+    scenes = tmp_path / "scenes"
+    (scenes / "meshes").mkdir(parents=True)
+    shutil.copy(ROOT / "meshes" / "bar2d_getfem_h0.05.msh", scenes / "meshes")
+    scene = scenes / "s.nml"
+    scene.write_text("&mesh file = 'meshes/bar2d_getfem_h0.05.msh' /\n"
+                     "&initial kind = 'compressed_bar' /\n"
+                     "&scheme dt = 0.01, t_end = 0.3 /\n&output dir = 'res/run' /\n")
+    work = tmp_path / "work"
+    work.mkdir()
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    r = subprocess.run([str(exe), str(scene), "--out", "exe"], cwd=work, env=env,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    r = _run_installed(installed, ["run", str(scene), "--quiet"], work)
+    assert r.returncode == 0, r.stderr
+    assert (work / "res" / "run" / "trace.csv").read_bytes() == \
+        (work / "exe" / "trace.csv").read_bytes()
