@@ -25,7 +25,8 @@ module trace_output
 
     interface
         !> int mkdir(const char *path, mode_t mode) from the C library.
-        !> Create one folder (mode 0755 before the umask): 0 or errno (run_guard.c).
+        !> Create one folder (mode 0755 before the umask): 0 when made or when that name
+        !> is there already (a folder or not), else errno (run_guard.c).
         function c_mkdir(path) bind(C, name='dc_mkdir') result(r)
             import :: c_int, c_char
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
