@@ -929,7 +929,8 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
                              c_implicit: float = 20.0, c_explicit: float = 100.0,
                              cache: str | None = None, workers: int | None = None,
                              scheduler: Any = None, progress: bool | None = None, log=print,
-                             ladder=None, series=DEFAULT_SERIES) -> dict[str, Any]:
+                             ladder=None, series=DEFAULT_SERIES,
+                             desc: str | None = None) -> dict[str, Any]:
     """The work-precision study on a scene file of one's own (``study work-precision
     --scene``): every scheme of ``series`` on the scene's mesh, mass, contact, probe and
     T at the Δt of ``ladder`` (factors on its step, default SCENE_LADDER; its step is
@@ -945,12 +946,15 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
     summary.md into ``out``; BadInputError (a ValueError, one line) for a missing or bad
     scene.
     ``scene``: a scene file's path, or a :class:`dyncontact.Scene`, written as
-    ``out/scene.nml`` for the runs to read."""
+    ``out/scene.nml`` for the runs to read. ``desc``: the study's name in the lines of
+    ``log`` and on the progress bar; by default it names the scene file
+    (``work-precision (bar.nml)``); the command line gives ``work-precision --scene``."""
     from .common import UserSceneError, on_scene, read_user_scene, scene_step_ratio
 
     t0 = time.perf_counter()
     size = "quick" if quick else "full"
     scn = read_user_scene(scene, out)
+    desc = desc or f"work-precision ({os.path.basename(scn.path)})"
     c0 = scene_step_ratio(scn, c_implicit, c_explicit)
     out = os.path.abspath(out)
     os.makedirs(out, exist_ok=True)
@@ -973,7 +977,7 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
     capped = [x for x in explicit if x["divisor"] > 1]
     for x in capped:
         if log:
-            log(f"work-precision --scene: {_capped_line(x)}")
+            log(f"{desc}: {_capped_line(x)}")
     kept = [(s, c, label if skey not in divisors
              else f"{s.label}, Δt×{c0 / c / divisors[skey]:.3g} (capped)", skey)
             for s, c, label, skey in kept]
@@ -989,7 +993,7 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
                          every=e), ("scene", i, h, dt))
             for i, (dt, e) in enumerate(zip(levels, ref_every))]
     recs = sweep(tasks + [t for t, _ in refs], cache, workers=workers,
-                 scheduler=scheduler, progress=progress, desc="work-precision --scene",
+                 scheduler=scheduler, progress=progress, desc=desc,
                  log=log)
     run_recs, ref_recs = recs[:len(tasks)], recs[len(tasks):]
     ref_info = _reference_estimates(
