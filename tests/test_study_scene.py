@@ -314,6 +314,34 @@ def test_scene_explicit_schemes_run_below_their_critical_step(tmp_path):
     assert len(said) == 2 and f"work-precision (near.nml): {line[2:-1]}" in said, logged
 
 
+def test_scene_explicit_divisor_keeps_the_ladder_points_below_the_cap():
+    """A scheme whose ladder (2, 1, ½, ¼) × 0.01 crosses its cap 0.0075 (0.9 × 1/120):
+    its points 0.005 and 0.0025 are below the cap and run as they are; the ladder is
+    divided by 4, not by 3 (the smallest that brings 0.02 under the cap, whose steps
+    0.0067, 0.0033, ... left both out): 0.005, 0.0025, 0.00125, 0.000625. Central's
+    0.05 × (2, 1, ½, ¼) under a cap of 0.0212 keeps its 0.0125 with 8 (5, the smallest
+    under the cap, ran 0.02, 0.01, 0.005, 0.0025 and left 0.0125 out)."""
+    from dyncontact.study.workprecision import (EXPLICIT_SAFETY, _explicit_divisors,
+                                                _scene_steps)
+
+    factors, dt = (2.0, 1.0, 0.5, 0.25), 0.01
+    kept = [(SCHEMES["pc"], 20.0, "p", "pc@20"),
+            (SCHEMES["central_lumped"], 4.0, "c", "central_lumped@4")]
+    base = {"pc@20": dt, "central_lumped@4": 5 * dt}
+    est = {"pc@20": 0.0075 / EXPLICIT_SAFETY, "central_lumped@4": 0.023570226039551584}
+    got = _explicit_divisors(kept, base, factors, "full", dt, est)
+    assert got == {"pc@20": 4, "central_lumped@4": 8}
+    runs, _levels = _scene_steps(kept, base, got, factors, "full")
+    steps = {k: [x for *_, skey, _f, x in runs if skey == k] for k in base}
+    assert steps["pc@20"] == pytest.approx([0.005, 0.0025, 0.00125, 0.000625], rel=1e-12)
+    for skey, b in base.items():
+        cap = EXPLICIT_SAFETY * est[skey]
+        assert max(steps[skey]) <= cap
+        for f in factors:
+            if b * f <= cap:
+                assert any(math.isclose(b * f, x, rel_tol=1e-12) for x in steps[skey]), f
+
+
 def test_scene_explicit_divisor_keeps_the_rows_on_the_reference():
     """central's step 5 × 0.01 with the ladder (1, ½) against a cap of 0.9 × 0.02357: the
     smallest divisor is 3 (0.0167), whose steps are not multiples of the finest

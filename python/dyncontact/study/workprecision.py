@@ -887,15 +887,19 @@ def _explicit_divisors(kept, base, factors, size: str, spacing: float,
     divided so that its largest step, base × max(factors) / k, is at most
     EXPLICIT_SAFETY × its critical step estimate (``estimates``: key -> the core's
     estimate; None or 0, where no step is known to be stable, leaves the scheme as it
-    is). k is the smallest integer that does it, or the first of the next ones up to 2k
-    with which every run's rows fall on the reference's (:func:`_nested_rows`: errors
-    at common times, not through an interpolation of the reference), tried in the
-    series' order. An integer divisor keeps the ladder's factors, and T a whole number
-    of steps wherever the undivided step made it one. Only the schemes whose ladder goes
-    above the cap are in the result: where none does, the study runs exactly the runs
-    (the same tasks, the same cache keys) it ran without the cap."""
+    is). k is the smallest integer that does it and keeps the ladder's points already
+    at or below the cap (:func:`_keeps_stable_points`: on the halving ladders, a power of
+    two, the ladder shifted down by whole halvings; where no integer keeps them, the
+    smallest that brings the largest step under the cap), or the first of the next ones
+    up to 2k that also keeps them and with which every run's rows fall on the
+    reference's (:func:`_nested_rows`: errors at common times, not through an
+    interpolation of the reference), tried in the series' order. An integer divisor
+    keeps the ladder's factors, and T a whole number of steps wherever the undivided
+    step made it one. Only the schemes whose ladder goes above the cap are in the
+    result: where none does, the study runs exactly the runs (the same tasks, the same
+    cache keys) it ran without the cap."""
     fmax = max(factors)
-    need = {}
+    need, keeps = {}, {}
     for _s, _c, _label, skey in kept:
         est = estimates.get(skey)
         if not est or not est > 0 or base[skey] * fmax <= EXPLICIT_SAFETY * est:
@@ -904,15 +908,32 @@ def _explicit_divisors(kept, base, factors, size: str, spacing: float,
         k = max(2, math.ceil(base[skey] * fmax / cap))
         while base[skey] / k * fmax > cap:
             k += 1
+        stable = [f for f in factors if base[skey] * f <= cap]
+        keeps[skey] = lambda k, stable=stable: _keeps_stable_points(k, stable, factors)
+        first = k
+        while not keeps[skey](k) and k < fmax / min(factors):   # f × k <= fmax
+            k += 1
+        if not keeps[skey](k):        # no integer keeps them: the smallest under the cap
+            k = first
+            keeps[skey] = lambda k: True
         need[skey] = k
     chosen = dict(need)
     for skey, k0 in need.items():
         for k in range(k0, 2 * k0 + 1):
+            if not keeps[skey](k):
+                continue
             runs, levels = _scene_steps(kept, base, {**chosen, skey: k}, factors, size)
             if _nested_rows([dt for *_, dt in runs], levels, spacing) is not None:
                 chosen[skey] = k
                 break
     return chosen
+
+
+def _keeps_stable_points(k: int, stable, factors) -> bool:
+    """Whether the ladder ``factors`` divided by k still holds each point of ``stable``
+    (the factors whose step is at or below the cap): each f × k is a factor of the
+    ladder, so that the step f × base is run as base / k × (f × k)."""
+    return all(any(math.isclose(f * k, g, rel_tol=1e-9) for g in factors) for f in stable)
 
 
 def _capped_line(x) -> str:
