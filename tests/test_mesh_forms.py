@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from conftest import callers_gmsh_session
-from dyncontact import core, mesh_io
+from dyncontact import Scene, core, mesh_io
 from dyncontact.core import BadInputError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -161,6 +161,51 @@ def test_geo_using_h_without_defining_it(core_ext, run_cli, tmp_path):
                      "&scheme t_end = 0.01 /\n")
     res = core.run(scene, out=tmp_path / "out", progress=False)
     assert res.status == "ok" and res.summary["elements"] == len(ref.cells)
+
+
+def test_geo_defining_h_keeps_its_own_h_unless_the_scene_gives_one(core_ext, run_cli,
+                                                                  tmp_path):
+    """A .geo that defines h (DefineConstant[h = {0.02, ...}]) is meshed with its own
+    h where the scene gives no &mesh h, as gmsh without -setnumber h meshes it (not with
+    the built-in bar's default 0.05), and with the scene's h where it gives one: in a
+    run, Scene.dimension()/validate(), the size estimate before meshing and
+    `dyncontact mesh --geo` without --h. A .geo that uses h without defining it gets the
+    default 0.05."""
+    geo = tmp_path / "tri.geo"
+    geo.write_text('DefineConstant[ h = {0.02, Name "Parameters/h"} ];\n' + BARE_H_GEO)
+    bare = tmp_path / "bare.geo"
+    bare.write_text(BARE_H_GEO)
+    own = mesh_io.read_mesh(geo, h=0.02)
+    other = mesh_io.read_mesh(geo, h=0.05)
+    assert len(own.cells) > 2 * len(other.cells)
+    assert core.estimate_geo(geo, h=0.05, h_given=False) == core.estimate_geo(geo, h=0.02)
+    assert core.estimate_geo(bare, h=0.05, h_given=False) == core.estimate_geo(bare, h=0.05)
+    r = run_cli("mesh", "--geo", geo, "--out", "own.msh", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    same_mesh(mesh_io.read_mesh(tmp_path / "own.msh"), own, "mesh command without --h")
+    r = run_cli("mesh", "--geo", bare, "--out", "bare.msh", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    same_mesh(mesh_io.read_mesh(tmp_path / "bare.msh"), mesh_io.read_mesh(bare, h=0.05),
+              "mesh command without --h, h not defined")
+    text = ("&mesh file = '{geo}'{h}, max_elements = {limit} /\n"
+            "&boundary clamped = '', contact = 'outline' /\n"
+            "&contact probe = 0.0, 0.0 /\n&initial kind = 'rest' /\n"
+            "&scheme t_end = 0.01 /\n")
+    for name, h, want in (("tri.geo", "", own), ("tri.geo", ", h = 0.05", other),
+                          ("bare.geo", "", other)):
+        scene = tmp_path / "s.nml"
+        scene.write_text(text.format(geo=name, h=h, limit=2000000))
+        Scene.read(scene).validate()
+        res = core.run(scene, out=tmp_path / "out", progress=False)
+        assert res.status == "ok" and res.summary["elements"] == len(want.cells), (name, h)
+    # the refusal of a too-large .geo estimates it at its own h too
+    est = core.estimate_geo(geo, h=0.02)["estimate"]
+    limit = int(est / core.estimate_geo(geo, h=0.02)["margin"]) - 1
+    scene.write_text(text.format(geo="tri.geo", h="", limit=limit))
+    with pytest.raises(BadInputError, match="max_elements"):
+        Scene.read(scene).validate()
+    scene.write_text(text.format(geo="tri.geo", h=", h = 0.05", limit=limit))
+    Scene.read(scene).validate()
 
 
 SCENE = """&mesh file = '{file}'{h} /

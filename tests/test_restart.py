@@ -897,6 +897,21 @@ def test_restart_with_another_out_folder_is_refused(stopped, tmp_path):
         dyncontact.run(scene, out=tmp_path / "elsewhere", restart=part, progress=False)
 
 
+def test_restart_with_another_out_folder_is_said_in_options_on_the_command_line(tmp_path):
+    """The Python CLI refuses --out B --restart A in the executable's words, of its
+    options (--restart, --out, left out), not in run()'s (restart=, out=, None)."""
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("hht", t_end="1.0"))
+    said = []
+    for cmd in (exe_cmd, cli_cmd):
+        res = run(cmd(Path("s.nml"), "--restart", "part", "--out", "elsewhere"), tmp_path)
+        assert res.returncode == EXIT_BAD_INPUT, res.stderr
+        said.append(res.stderr.strip().split(": ", 1)[1])
+    assert said[1] == said[0] == ("--restart part continues the run in that folder: --out "
+                                  "must be the same folder or left out"), said
+    assert not (tmp_path / "elsewhere").exists() and not (tmp_path / "part").exists()
+
+
 @pytest.mark.parametrize("entry,spelling", [
     (e, s) for e in ("exe", "cli") for s in ("part/", "./part", "absolute", "link")])
 def test_restart_with_out_naming_the_same_folder_otherwise(entry, spelling, stopped, tmp_path):

@@ -311,7 +311,35 @@ def test_scene_explicit_schemes_run_below_their_critical_step(tmp_path):
             "critical step: see below)") in text
     assert "Not lowered: pc@100: largest step 0.004, 0.24 × its estimate 0.01667." in text
     said = [x for x in logged if "critical step" in x]
-    assert len(said) == 2 and f"work-precision --scene: {line[2:-1]}" in said, logged
+    assert len(said) == 2 and f"work-precision (near.nml): {line[2:-1]}" in said, logged
+
+
+def test_scene_explicit_divisor_keeps_the_ladder_points_below_the_cap():
+    """A scheme whose ladder (2, 1, ½, ¼) × 0.01 crosses its cap 0.0075 (0.9 × 1/120):
+    its points 0.005 and 0.0025 are below the cap and run as they are; the ladder is
+    divided by 4, not by 3 (the smallest that brings 0.02 under the cap, whose steps
+    0.0067, 0.0033, ... left both out): 0.005, 0.0025, 0.00125, 0.000625. Central's
+    0.05 × (2, 1, ½, ¼) under a cap of 0.0212 keeps its 0.0125 with 8 (5, the smallest
+    under the cap, ran 0.02, 0.01, 0.005, 0.0025 and left 0.0125 out)."""
+    from dyncontact.study.workprecision import (EXPLICIT_SAFETY, _explicit_divisors,
+                                                _scene_steps)
+
+    factors, dt = (2.0, 1.0, 0.5, 0.25), 0.01
+    kept = [(SCHEMES["pc"], 20.0, "p", "pc@20"),
+            (SCHEMES["central_lumped"], 4.0, "c", "central_lumped@4")]
+    base = {"pc@20": dt, "central_lumped@4": 5 * dt}
+    est = {"pc@20": 0.0075 / EXPLICIT_SAFETY, "central_lumped@4": 0.023570226039551584}
+    got = _explicit_divisors(kept, base, factors, "full", dt, est)
+    assert got == {"pc@20": 4, "central_lumped@4": 8}
+    runs, _levels = _scene_steps(kept, base, got, factors, "full")
+    steps = {k: [x for *_, skey, _f, x in runs if skey == k] for k in base}
+    assert steps["pc@20"] == pytest.approx([0.005, 0.0025, 0.00125, 0.000625], rel=1e-12)
+    for skey, b in base.items():
+        cap = EXPLICIT_SAFETY * est[skey]
+        assert max(steps[skey]) <= cap
+        for f in factors:
+            if b * f <= cap:
+                assert any(math.isclose(b * f, x, rel_tol=1e-12) for x in steps[skey]), f
 
 
 def test_scene_explicit_divisor_keeps_the_rows_on_the_reference():
@@ -598,6 +626,37 @@ def test_scene_studies_take_a_scene_object(tmp_path):
                                  progress=False, log=None)
     with pytest.raises(TypeError, match="a scene file's path or a dyncontact.Scene"):
         run_stability_scene(str(tmp_path / "x"), 3, **kw)
+
+
+@pytest.mark.parametrize("study", ["stability", "work-precision"])
+def test_scene_studies_from_python_log_the_file_not_the_option(tmp_path, capsys, study):
+    """Called from Python, a study's log lines and progress bars name the scene file
+    (``stability (bar.nml) grid``), not `--scene`, the command line's option, which the
+    caller did not use; the command line's wording is the one it passes as ``desc``."""
+    from dyncontact.study.stability import run_stability_scene
+    from dyncontact.study.workprecision import run_work_precision_scene
+
+    path = _scene_1d(tmp_path / "bar.nml", t_end=0.1)
+    logged = []
+    kw = dict(cache=str(tmp_path / "cache"), workers=1, progress=True, log=logged.append)
+    if study == "stability":
+        grid = {"schemes": ("pc",), "dt_factors": {"implicit": (1,), "explicit": (1, 8)},
+                "rounds": 1}
+        run_stability_scene(str(tmp_path / "out"), path, grid=grid, **kw)
+    else:
+        run_work_precision_scene(str(tmp_path / "out"), path, quick=True, ladder=(1.0,),
+                                 series=(("pc", None),), **kw)
+    bars = capsys.readouterr().err
+    assert logged and all(x.startswith(f"{study} (bar.nml)") for x in logged), logged
+    assert f"{study} (bar.nml)" in bars, bars
+    assert not [x for x in logged if "--scene" in x] and "--scene" not in bars
+    kw.update(log=None, desc=f"{study} --scene")   # the command line's (cached runs)
+    if study == "stability":
+        run_stability_scene(str(tmp_path / "out"), path, grid=grid, **kw)
+    else:
+        run_work_precision_scene(str(tmp_path / "out"), path, quick=True, ladder=(1.0,),
+                                 series=(("pc", None),), **kw)
+    assert f"{study} --scene" in capsys.readouterr().err
 
 
 def test_stability_summary_gives_bounds_outside_the_grid_in_scene_steps_too():

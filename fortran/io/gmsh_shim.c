@@ -1135,8 +1135,11 @@ static void geo_estimate(const char *path, double est[4])
            : d == 2 ? 4 / sqrt(3.0) * measure / (size * size) : measure / size;
 }
 
-/* Parse the .geo path into the current model with the parameters (h, length, width) and
- * h as its largest mesh size where it uses no h and h_given (params[3]) is not 0. */
+/* Parse the .geo path into the current model with the parameters (length, width) and h,
+ * and h as its largest mesh size where it uses no h and h_given (params[3]) is not 0.
+ * h is set where h_given, or where the file uses h without defining it; a file that
+ * defines h (DefineConstant[h = {...}]) for a scene that gives no h keeps its own value,
+ * as gmsh without -setnumber h would mesh it. */
 static int geo_parse(const char *path, const double *params, session_t *s, char *msg,
                      int msglen)
 {
@@ -1147,7 +1150,7 @@ static int geo_parse(const char *path, const double *params, session_t *s, char 
      * (a .geo using h without defining it then failed with "line 0: syntax error").
      * An error is seen as gmsh's last error replacing PROBE_MARK, written first. */
     static const char PROBE_MARK[] = "dyncontact: parsing the .geo without h";
-    int uses_h = 0, ierr = 0, i;
+    int uses_h = 0, needs_h = 0, ierr = 0, i;
     char **names = NULL;
     char *last = NULL;
     size_t n = 0, j;
@@ -1169,7 +1172,7 @@ static int geo_parse(const char *path, const double *params, session_t *s, char 
         G.option_set_number("General.AbortOnError", abort_on_error, &ierr2);
     }
     if (ierr) {
-        uses_h = 1;
+        uses_h = needs_h = 1;
     } else {
         G.parser_get_names(&names, &n, "h", &ierr);
         for (j = 0; j < n; j++) {
@@ -1181,7 +1184,8 @@ static int geo_parse(const char *path, const double *params, session_t *s, char 
     G.model_remove(&ierr);
     G.model_add(MODEL, &ierr);
     clear_new_names(s);          /* the variables of that parse */
-    for (i = 0; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
+    for (i = (params[3] != 0 || needs_h) ? 0 : 1; i < 3; i++)
+        G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
     ierr = 0;
     G.merge(path, &ierr);
     if (ierr) { gmsh_error(path, "gmsh cannot read it", msg, msglen); return 2; }
@@ -1191,7 +1195,8 @@ static int geo_parse(const char *path, const double *params, session_t *s, char 
 
 /* Read path into *out (free with dc_gmsh_free). params = (h, length, width, h_given,
  * max_elements) for a .geo: the first three are set as the file's parser variables of
- * those names; if the file uses no h and h_given is not 0 (the scene gives &mesh h), h is
+ * those names (h only where h_given is not 0 or the file uses h without defining it:
+ * geo_parse); if the file uses no h and h_given is not 0 (the scene gives &mesh h), h is
  * the largest mesh size (Mesh.MeshSizeMax); a file that uses no h, meshed for a scene that
  * gives no h, keeps its own sizes (a default h made for the built-in bar, 0.05, imposed on
  * a body drawn in mm meshed it with billions of elements). max_elements > 0: a .geo whose

@@ -100,13 +100,21 @@ def _sigterm_as_interrupt(signum, frame):  # noqa: ARG001 - signal handler signa
     raise KeyboardInterrupt(f"signal {signum}")
 
 
-def _said_of_option(exc: Exception, out: str | None) -> Exception:
-    """``exc``, a run's error, with the output folder that run() names as its argument
-    (``out='DIR': cannot create the folder (...)``) named as this command's option
-    (``--out DIR: ...``, as the executable and ``study`` say it)."""
+def _said_of_option(exc: Exception, out: str | None, restart: str | None = None) -> Exception:
+    """``exc``, a run's error, with the folders that run() names as its arguments said as
+    this command's options, as the executable and ``study`` say them: the output folder
+    (``out='DIR': cannot create the folder (...)`` becomes ``--out DIR: ...``), and the
+    refusal of an output folder other than the restart folder (``restart='B' continues
+    the run in that folder: out must be the same folder or None`` becomes ``--restart B
+    continues the run in that folder: --out must be the same folder or left out``)."""
+    text = str(exc)
     prefix = f"out={out!r}: "
-    if out is not None and str(exc).startswith(prefix):
-        return type(exc)(f"--out {out}: {str(exc)[len(prefix):]}")
+    if out is not None and text.startswith(prefix):
+        return type(exc)(f"--out {out}: {text[len(prefix):]}")
+    if restart is not None and text == (f"restart={restart!r} continues the run in that "
+                                        "folder: out must be the same folder or None"):
+        return type(exc)(f"--restart {restart} continues the run in that folder: "
+                         "--out must be the same folder or left out")
     return exc
 
 
@@ -148,7 +156,7 @@ def cmd_run(args) -> int:
                 if not (args.wait and LOCK_HELD in str(exc)):
                     blamed = _blame_set(str(exc), scene_path, sets)
                     if blamed is None:
-                        raise _said_of_option(exc, args.out) from None
+                        raise _said_of_option(exc, args.out, args.restart) from None
                     raise core.BadInputError(blamed) from None
                 if not waited:
                     print(f"{PROG}: {' '.join(str(exc).split())}; waiting (--wait)",
@@ -156,7 +164,7 @@ def cmd_run(args) -> int:
                 waited = True
                 time.sleep(WAIT_POLL_S)
             except core.DyncontactError as exc:     # an --out on a full or read-only disk
-                raise _said_of_option(exc, args.out) from None
+                raise _said_of_option(exc, args.out, args.restart) from None
     s = result.summary
     if result.status != "ok":
         # the core's message, as the executable prints it (it gives t and what to check)

@@ -229,17 +229,19 @@ def _check_sizes(who: str, **sizes: float) -> None:
             raise BadInputError(f"{who}: {name} = {value} (must be > 0)")
 
 
-#: gmsh's last error before the parse of _uses_h: still the last one after it when the
+#: gmsh's last error before the parse of _h_use: still the last one after it when the
 #: parse met no error.
 _PROBE_MARK = "dyncontact: parsing the .geo without h"
 
 
-def _uses_h(gmsh, geo: Path) -> bool:
-    """Whether the .geo uses a parameter h: parsed once without it, it defines h or has
-    an error (as the core's reader decides, fortran/io/gmsh_shim.c). The parse runs to the
-    end of the file whatever its errors (General.AbortOnError 0): a parse stopped at its
-    first error leaves the rest of the file in gmsh's lexer, which the next parse would
-    read first ("line 0: syntax error"). An error is seen as gmsh's last error replacing
+def _h_use(gmsh, geo: Path) -> str:
+    """How the .geo uses a parameter h, parsed once without it (as the core's reader
+    decides, fortran/io/gmsh_shim.c): ``"needs"`` where the parse has an error (the file
+    uses h without defining it, or is bad), ``"defines"`` where it defines h
+    (DefineConstant), ``"none"`` where it uses no h. The parse runs to the end of the
+    file whatever its errors (General.AbortOnError 0): a parse stopped at its first error
+    leaves the rest of the file in gmsh's lexer, which the next parse would read first
+    ("line 0: syntax error"). An error is seen as gmsh's last error replacing
     _PROBE_MARK."""
     abort = gmsh.option.getNumber("General.AbortOnError")
     gmsh.option.setNumber("General.AbortOnError", 0)
@@ -248,9 +250,10 @@ def _uses_h(gmsh, geo: Path) -> bool:
         try:
             gmsh.merge(str(geo))
         except Exception:   # noqa: BLE001 - any failure: the file needs h (or is bad)
-            return True
-        return (gmsh.logger.getLastError() != _PROBE_MARK
-                or "h" in gmsh.parser.getNames("h"))
+            return "needs"
+        if gmsh.logger.getLastError() != _PROBE_MARK:
+            return "needs"
+        return "defines" if "h" in gmsh.parser.getNames("h") else "none"
     finally:
         gmsh.option.setNumber("General.AbortOnError", abort)
 
@@ -263,9 +266,11 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
 
     h, length and width are set as the file's parameters of those names (as
     ``gmsh -setnumber h 0.02`` would); where the file uses no h, h is the largest
-    mesh size. ``h=None`` (``dyncontact mesh`` without ``--h``): a file that uses no h
-    keeps its own mesh sizes, as a run's .geo does for a scene without ``&mesh h``
-    (one that uses h gets 0.05). The mesh has the geometry's dimension.
+    mesh size. ``h=None`` (``dyncontact mesh`` without ``--h``): as a run's .geo for a
+    scene without ``&mesh h``, h is not set: a file that defines h
+    (``DefineConstant[h = {...}]``) keeps its own value, one that uses no h its own mesh
+    sizes, and one that uses h without defining it gets 0.05. The mesh has the
+    geometry's dimension.
 
     ``max_elements > 0``: a .geo whose element count, estimated before meshing
     (:func:`dyncontact.core.estimate_geo`), exceeds the refusal's margin times it is not
@@ -302,14 +307,17 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     with _gmsh_session("dyncontact-generate") as gmsh:
         gmsh.parser.setNumber("length", [float(length)])
         gmsh.parser.setNumber("width", [float(width)])
-        uses_h = _uses_h(gmsh, geo)
+        h_use = _h_use(gmsh, geo)
         gmsh.model.remove()
         gmsh.model.add("dyncontact-generate")
+        if "h" in gmsh.parser.getNames("h"):   # defined by that parse
+            gmsh.parser.clear("h")
         for name, value in (("h", h), ("length", length), ("width", width)):
-            gmsh.parser.setNumber(name, [float(value)])
+            if name != "h" or h_given or h_use == "needs":
+                gmsh.parser.setNumber(name, [float(value)])
         try:
             gmsh.merge(str(geo))
-            if not uses_h and h_given:
+            if h_use == "none" and h_given:
                 gmsh.option.setNumber("Mesh.MeshSizeMax", float(h))
             gmsh.model.mesh.generate(gmsh.model.getDimension())
         except Exception as exc:
@@ -442,8 +450,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "width are set as the file's parameters of those names; where the file "
                     "uses no h, h is the largest mesh size.")
     p.add_argument("--h", type=float, default=None,
-                   help="mesh size: the parameter h (default 0.05), or the largest mesh size "
-                        "of a .geo that uses no h (default: the file's own sizes)")
+                   help="mesh size: the parameter h (default: the .geo's own, its "
+                        "DefineConstant; 0.05 for a .geo that uses h without defining it), "
+                        "or the largest mesh size of a .geo that uses no h (default: the "
+                        "file's own sizes)")
     p.add_argument("--out", required=True, metavar="FILE.msh",
                    help="mesh file to write (.msh, in an existing folder)")
     p.add_argument("--length", type=float, default=1.0,

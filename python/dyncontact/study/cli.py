@@ -123,11 +123,13 @@ def run_one(name: str, out: str, args) -> dict[str, Any]:
 
         return run_work_precision_scene(out, scene, quick=args.quick,
                                         c_implicit=args.c_implicit,
-                                        c_explicit=args.c_explicit, **kw)
+                                        c_explicit=args.c_explicit,
+                                        desc="work-precision --scene", **kw)
     if name == "stability" and scene is not None:
         from .stability import run_stability_scene
 
-        return run_stability_scene(out, scene, quick=args.quick, **kw)
+        return run_stability_scene(out, scene, quick=args.quick, desc="stability --scene",
+                                   **kw)
     if name == "work-precision":
         from .workprecision import run_work_precision
 

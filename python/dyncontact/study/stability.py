@@ -610,18 +610,22 @@ def _summary(report, schemes, path) -> str:
 def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
                         grid: Mapping[str, Any] | None = None, cache: str | None = None,
                         workers: int | None = None, scheduler: Any = None,
-                        progress: bool | None = None, log=print) -> dict[str, Any]:
+                        progress: bool | None = None, log=print,
+                        desc: str | None = None) -> dict[str, Any]:
     """``study stability --scene``: the critical Δt of each scheme of SCENE_GRIDS (or
     ``grid``: schemes, dt_factors, rounds) on a scene file of one's own, its mesh, mass,
     contact (h, γ0, θ) and T as given, by :func:`critical_dt` (the grid, then the
     bisection). Writes runs.csv, stability.csv, the heat maps and summary.md into
     ``out``; BadInputError (a ValueError, one line) for a missing or bad scene.
     ``scene``: a scene file's path, or a :class:`dyncontact.Scene`, written as
-    ``out/scene.nml`` for the runs to read."""
+    ``out/scene.nml`` for the runs to read. ``desc``: the study's name in the lines of
+    ``log`` and on the progress bars; by default it names the scene file (``stability
+    (bar.nml) grid``); the command line gives ``stability --scene``."""
     from .common import UserSceneError, on_scene, read_user_scene, refusal_on_scene
 
     t0 = time.perf_counter()
     scn = read_user_scene(scene, out)
+    desc = desc or f"stability ({os.path.basename(scn.path)})"
     g = dict(SCENE_GRIDS["quick" if quick else "full"])
     g.update(grid or {})
     out = os.path.abspath(out)
@@ -647,7 +651,7 @@ def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
                                        for kind, fs in g["dt_factors"].items()})
     crit = critical_dt(scn.path, schemes, g, out, cache, workers=workers,
                        scheduler=scheduler, progress=progress, log=log,
-                       desc="stability --scene")
+                       desc=desc)
     all_recs = crit["records"]
     report = {"runs": crit["runs"], "critical": crit["critical"], "csv": crit["csv"],
               "runs_csv": crit["runs_csv"],

@@ -887,15 +887,19 @@ def _explicit_divisors(kept, base, factors, size: str, spacing: float,
     divided so that its largest step, base × max(factors) / k, is at most
     EXPLICIT_SAFETY × its critical step estimate (``estimates``: key -> the core's
     estimate; None or 0, where no step is known to be stable, leaves the scheme as it
-    is). k is the smallest integer that does it, or the first of the next ones up to 2k
-    with which every run's rows fall on the reference's (:func:`_nested_rows`: errors
-    at common times, not through an interpolation of the reference), tried in the
-    series' order. An integer divisor keeps the ladder's factors, and T a whole number
-    of steps wherever the undivided step made it one. Only the schemes whose ladder goes
-    above the cap are in the result: where none does, the study runs exactly the runs
-    (the same tasks, the same cache keys) it ran without the cap."""
+    is). k is the smallest integer that does it and keeps the ladder's points already
+    at or below the cap (:func:`_keeps_stable_points`: on the halving ladders, a power of
+    two, the ladder shifted down by whole halvings; where no integer keeps them, the
+    smallest that brings the largest step under the cap), or the first of the next ones
+    up to 2k that also keeps them and with which every run's rows fall on the
+    reference's (:func:`_nested_rows`: errors at common times, not through an
+    interpolation of the reference), tried in the series' order. An integer divisor
+    keeps the ladder's factors, and T a whole number of steps wherever the undivided
+    step made it one. Only the schemes whose ladder goes above the cap are in the
+    result: where none does, the study runs exactly the runs (the same tasks, the same
+    cache keys) it ran without the cap."""
     fmax = max(factors)
-    need = {}
+    need, keeps = {}, {}
     for _s, _c, _label, skey in kept:
         est = estimates.get(skey)
         if not est or not est > 0 or base[skey] * fmax <= EXPLICIT_SAFETY * est:
@@ -904,15 +908,32 @@ def _explicit_divisors(kept, base, factors, size: str, spacing: float,
         k = max(2, math.ceil(base[skey] * fmax / cap))
         while base[skey] / k * fmax > cap:
             k += 1
+        stable = [f for f in factors if base[skey] * f <= cap]
+        keeps[skey] = lambda k, stable=stable: _keeps_stable_points(k, stable, factors)
+        first = k
+        while not keeps[skey](k) and k < fmax / min(factors):   # f × k <= fmax
+            k += 1
+        if not keeps[skey](k):        # no integer keeps them: the smallest under the cap
+            k = first
+            keeps[skey] = lambda k: True
         need[skey] = k
     chosen = dict(need)
     for skey, k0 in need.items():
         for k in range(k0, 2 * k0 + 1):
+            if not keeps[skey](k):
+                continue
             runs, levels = _scene_steps(kept, base, {**chosen, skey: k}, factors, size)
             if _nested_rows([dt for *_, dt in runs], levels, spacing) is not None:
                 chosen[skey] = k
                 break
     return chosen
+
+
+def _keeps_stable_points(k: int, stable, factors) -> bool:
+    """Whether the ladder ``factors`` divided by k still holds each point of ``stable``
+    (the factors whose step is at or below the cap): each f × k is a factor of the
+    ladder, so that the step f × base is run as base / k × (f × k)."""
+    return all(any(math.isclose(f * k, g, rel_tol=1e-9) for g in factors) for f in stable)
 
 
 def _capped_line(x) -> str:
@@ -929,7 +950,8 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
                              c_implicit: float = 20.0, c_explicit: float = 100.0,
                              cache: str | None = None, workers: int | None = None,
                              scheduler: Any = None, progress: bool | None = None, log=print,
-                             ladder=None, series=DEFAULT_SERIES) -> dict[str, Any]:
+                             ladder=None, series=DEFAULT_SERIES,
+                             desc: str | None = None) -> dict[str, Any]:
     """The work-precision study on a scene file of one's own (``study work-precision
     --scene``): every scheme of ``series`` on the scene's mesh, mass, contact, probe and
     T at the Δt of ``ladder`` (factors on its step, default SCENE_LADDER; its step is
@@ -945,12 +967,15 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
     summary.md into ``out``; BadInputError (a ValueError, one line) for a missing or bad
     scene.
     ``scene``: a scene file's path, or a :class:`dyncontact.Scene`, written as
-    ``out/scene.nml`` for the runs to read."""
+    ``out/scene.nml`` for the runs to read. ``desc``: the study's name in the lines of
+    ``log`` and on the progress bar; by default it names the scene file
+    (``work-precision (bar.nml)``); the command line gives ``work-precision --scene``."""
     from .common import UserSceneError, on_scene, read_user_scene, scene_step_ratio
 
     t0 = time.perf_counter()
     size = "quick" if quick else "full"
     scn = read_user_scene(scene, out)
+    desc = desc or f"work-precision ({os.path.basename(scn.path)})"
     c0 = scene_step_ratio(scn, c_implicit, c_explicit)
     out = os.path.abspath(out)
     os.makedirs(out, exist_ok=True)
@@ -973,7 +998,7 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
     capped = [x for x in explicit if x["divisor"] > 1]
     for x in capped:
         if log:
-            log(f"work-precision --scene: {_capped_line(x)}")
+            log(f"{desc}: {_capped_line(x)}")
     kept = [(s, c, label if skey not in divisors
              else f"{s.label}, Δt×{c0 / c / divisors[skey]:.3g} (capped)", skey)
             for s, c, label, skey in kept]
@@ -989,7 +1014,7 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
                          every=e), ("scene", i, h, dt))
             for i, (dt, e) in enumerate(zip(levels, ref_every))]
     recs = sweep(tasks + [t for t, _ in refs], cache, workers=workers,
-                 scheduler=scheduler, progress=progress, desc="work-precision --scene",
+                 scheduler=scheduler, progress=progress, desc=desc,
                  log=log)
     run_recs, ref_recs = recs[:len(tasks)], recs[len(tasks):]
     ref_info = _reference_estimates(
