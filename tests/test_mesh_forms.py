@@ -168,8 +168,8 @@ def test_geo_defining_h_keeps_its_own_h_unless_the_scene_gives_one(core_ext, run
     """A .geo that defines h (DefineConstant[h = {0.02, ...}]) is meshed with its own
     h where the scene gives no &mesh h, as gmsh without -setnumber h meshes it (not with
     the built-in bar's default 0.05), and with the scene's h where it gives one: in a
-    run, Scene.dimension()/validate(), the size estimate before meshing and
-    `dyncontact mesh --geo` without --h. A .geo that uses h without defining it gets the
+    run, Scene.dimension()/validate(), the size estimate before meshing,
+    `dyncontact mesh --geo` without --h and mesh_io.read_mesh without h. A .geo that uses h without defining it gets the
     default 0.05."""
     geo = tmp_path / "tri.geo"
     geo.write_text('DefineConstant[ h = {0.02, Name "Parameters/h"} ];\n' + BARE_H_GEO)
@@ -178,6 +178,8 @@ def test_geo_defining_h_keeps_its_own_h_unless_the_scene_gives_one(core_ext, run
     own = mesh_io.read_mesh(geo, h=0.02)
     other = mesh_io.read_mesh(geo, h=0.05)
     assert len(own.cells) > 2 * len(other.cells)
+    same_mesh(mesh_io.read_mesh(geo), own, "read_mesh without h")
+    same_mesh(mesh_io.read_mesh(bare), other, "read_mesh without h, h not defined")
     assert core.estimate_geo(geo, h=0.05, h_given=False) == core.estimate_geo(geo, h=0.02)
     assert core.estimate_geo(bare, h=0.05, h_given=False) == core.estimate_geo(bare, h=0.05)
     r = run_cli("mesh", "--geo", geo, "--out", "own.msh", cwd=tmp_path)

@@ -461,6 +461,37 @@ def test_scene_stability_on_a_msh_file_reports_its_own_h(tmp_path):
     assert "(h = its shortest edge, 0.1)" in open(rep["summary"], encoding="utf-8").read()
 
 
+def test_scene_stability_on_a_geo_defining_h_keeps_its_h(tmp_path):
+    """A .geo that defines its own h (DefineConstant), in a scene that gives no &mesh h,
+    is meshed at that h by the scene's own run: the study's runs leave &mesh h unset too
+    (setting it to the scene's default, 0.05, ran them on another mesh than the scene's),
+    and the tables give the mesh's own h, as for a .msh file."""
+    import csv
+    import json
+
+    from dyncontact.study.stability import run_stability_scene
+
+    from conftest import ROOT
+
+    geo = (ROOT / "meshes" / "bar2d.geo").read_text()
+    assert "h = {0.05," in geo
+    (tmp_path / "bar.geo").write_text(geo.replace("h = {0.05,", "h = {0.1,"))
+    scene = tmp_path / "s.nml"
+    scene.write_text("&mesh file = 'bar.geo' /\n&initial kind = 'compressed_bar' /\n"
+                     "&scheme dt = 0.005, t_end = 0.5 /\n")
+    rep = run_stability_scene(str(tmp_path / "out"), str(scene), quick=True,
+                              grid={"schemes": ("hht-0.1",), "rounds": 1},
+                              workers=1, progress=False, log=None)
+    records = [json.loads(p.read_text()) for p in (tmp_path / "out").rglob("record.json")]
+    assert len(records) == rep["n_runs"] > 0
+    assert all(r["status"] != "error" for r in records)
+    assert rep["grid"]["set_h"] is False
+    assert rep["grid"]["h"] == (pytest.approx(0.1, rel=1e-12),)
+    rows = list(csv.DictReader(open(rep["csv"], encoding="utf-8")))
+    assert rows and all(float(r["h"]) == pytest.approx(0.1, rel=1e-12) for r in rows)
+    assert "(h = its shortest edge, 0.1)" in open(rep["summary"], encoding="utf-8").read()
+
+
 @pytest.mark.parametrize("contact, said", [
     ("method = 'nitsche', theta = -1,", "nitsche contact (γ0 = 10, θ = -1)"),
     ("method = 'penalty',", "penalty contact (γ0 = 10)")])

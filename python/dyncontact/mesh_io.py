@@ -171,11 +171,13 @@ def _from_core(d: dict) -> MeshData:
     )
 
 
-def read_mesh(path: str | os.PathLike, *, h: float = 0.05, length: float = 1.0,
+def read_mesh(path: str | os.PathLike, *, h: float | None = None, length: float = 1.0,
               width: float = 0.1, check: bool = True) -> MeshData:
     """Read a mesh file as the core does: .msh (2.2, 4.x, ASCII or binary) or .geo
     (meshed in-process; h, length, width are its parameters of those names, and h the
-    largest mesh size where the file uses no h).
+    largest mesh size where the file uses no h). ``h=None`` meshes a .geo as a run of a
+    scene without ``&mesh h`` does: a file that defines h keeps its own, one that uses
+    no h its own mesh sizes, one that uses h without defining it gets 0.05.
 
     ``check=False`` skips the core's mesh checks (for meshes the model does not take).
 
@@ -189,7 +191,8 @@ def read_mesh(path: str | os.PathLike, *, h: float = 0.05, length: float = 1.0,
     path = os.fspath(path)
     if not path.strip():
         raise BadInputError("read_mesh: empty file name")
-    return _from_core(load_mesh(path, h=h, length=length, width=width, check=check))
+    return _from_core(load_mesh(path, h=0.05 if h is None else h, length=length,
+                                width=width, check=check, h_given=h is not None))
 
 
 def read_msh_fortran(path: str | os.PathLike) -> MeshData:

@@ -430,7 +430,9 @@ class UserSceneError(BadInputError):
 class UserScene:
     """A scene file of one's own for ``study ... --scene``: its absolute ``path`` and the
     keys the studies derive their runs from (the scene's own values; ``dim``: the mesh's
-    dimension, 1, 2 or 3, also when the scene leaves ``&mesh dim`` at 0)."""
+    dimension, 1, 2 or 3, also when the scene leaves ``&mesh dim`` at 0; ``h_given``:
+    whether the scene gives ``&mesh h``, without which a .geo is meshed with its own
+    sizes; ``length`` and ``width``: the .geo's parameters of those names)."""
 
     path: str
     dim: int
@@ -443,6 +445,9 @@ class UserScene:
     theta: int
     mesh_file: str
     scheme: str = "hht"
+    h_given: bool = True
+    length: float = 1.0
+    width: float = 0.1
 
 
 def read_user_scene(path, out: str | None = None) -> UserScene:
@@ -478,7 +483,9 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
         scn.validate()
         values = {k: scn.get(k) for k in ("mesh.h", "scheme.dt", "scheme.t_end",
                                           "scheme.mass", "contact.method", "contact.gamma0",
-                                          "contact.theta", "mesh.file", "scheme.name")}
+                                          "contact.theta", "mesh.file", "scheme.name",
+                                          "mesh.length", "mesh.width")}
+        values["h_given"] = scn.given("mesh.h")
         # the mesh's dimension, not &mesh dim: 0 (the default) means the file's, or 2D
         values["dim"] = scn.dimension()
     except Exception as exc:  # noqa: BLE001 - any refusal of the scene: one line
@@ -495,7 +502,8 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
                      float(values["scheme.t_end"]), str(values["scheme.mass"]),
                      str(values["contact.method"]), float(values["contact.gamma0"]),
                      int(values["contact.theta"]), str(values["mesh.file"] or ""),
-                     str(values["scheme.name"]))
+                     str(values["scheme.name"]), bool(values["h_given"]),
+                     float(values["mesh.length"]), float(values["mesh.width"]))
 
 
 def on_scene(s: SchemeSpec, scene: UserScene) -> SchemeSpec:

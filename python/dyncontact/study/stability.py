@@ -213,8 +213,9 @@ def _grid_tasks(base, schemes, grid, t_end, **task_kw):
 
 def _task(base, s, h, g0, th, dt, t_end, phase, keep_rows=0, first=None, set_h=True):
     """One run of the grid or of a bisection. ``set_h``: the run sets &mesh h = h (the
-    built-in bar, a .geo); False for a .msh file, which is meshed already: h is then the
-    mesh's own size (:func:`mesh_file_h`), reported, not set."""
+    built-in bar, a .geo the scene gives &mesh h for); False for a .msh file, which is
+    meshed already, and a .geo the scene gives no &mesh h for, which is meshed with its
+    own sizes: h is then the mesh's own size (:func:`mesh_file_h`), reported, not set."""
     settings = dict(first or {})        # first: keys that must come first (mesh.dim)
     settings.update(s.settings)
     if s.method == "nitsche":           # penalty and ALM have no theta (th = 1, the default)
@@ -642,12 +643,15 @@ def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
     if not schemes:
         raise UserSceneError(scn.path, "the core refuses every scheme of the study on "
                              f"it (first: {left_out[0][1]})")
-    # critical_dt's grid is in Δt/h: the scene's Δt multiples over its own h, γ0, θ; a
-    # .msh file's h is its own (&mesh h, which it does not use, would name every row 0.05)
-    msh = os.path.splitext(scn.mesh_file)[1].lower() == ".msh"
-    h = mesh_file_h(scn.mesh_file) if msh else scn.h
+    # critical_dt's grid is in Δt/h: the scene's Δt multiples over its own h, γ0, θ. A
+    # .msh file's h is its own (&mesh h, which it does not use, would name every row
+    # 0.05), and so is that of a .geo the scene gives no &mesh h for: it is meshed with
+    # its own sizes (or its own DefineConstant h), which setting h would change
+    own = os.path.splitext(scn.mesh_file)[1].lower() == ".msh" or (
+        bool(scn.mesh_file) and not scn.h_given)
+    h = mesh_file_h(scn.mesh_file, length=scn.length, width=scn.width) if own else scn.h
     g.update(h=(h,), gamma0=(scn.gamma0,), theta=(scn.theta,), t_end=scn.t_end,
-             set_h=not msh, dt_over_h={kind: tuple(f * scn.dt / h for f in fs)
+             set_h=not own, dt_over_h={kind: tuple(f * scn.dt / h for f in fs)
                                        for kind, fs in g["dt_factors"].items()})
     crit = critical_dt(scn.path, schemes, g, out, cache, workers=workers,
                        scheduler=scheduler, progress=progress, log=log,
@@ -666,13 +670,15 @@ def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
     return report
 
 
-def mesh_file_h(path: str) -> float:
+def mesh_file_h(path: str, length: float = 1.0, width: float = 0.1) -> float:
     """The size h of the mesh file ``path`` for the stability tables (Δt_crit/h, the
     heat maps): its shortest edge, which is h on every built-in mesh (the squares' and
-    cubes' sides; the diagonals are longer) and bounds the explicit schemes' steps."""
+    cubes' sides; the diagonals are longer) and bounds the explicit schemes' steps. A
+    .geo is meshed as for a scene that gives no ``&mesh h`` (with ``length`` and
+    ``width`` as its parameters of those names)."""
     from ..mesh_io import read_mesh
 
-    m = read_mesh(path, check=False)
+    m = read_mesh(path, check=False, length=length, width=width)
     k = m.cells.shape[1]
     pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
     edges = np.concatenate([m.x[m.cells[:, i]] - m.x[m.cells[:, j]] for i, j in pairs])
