@@ -429,24 +429,43 @@ def test_scene_stability_brackets_the_cfl_limits(tmp_path, monkeypatch):
                       f"{crit['pc']['dt_crit_over_h']:.3g}": "k"}, colour
 
 
-def test_scene_stability_on_a_msh_file_reports_its_own_h(tmp_path):
-    """A .msh file is meshed already: the runs do not set &mesh h (which would only draw
-    the note that it is not used), and the tables and heat maps give the mesh's own h,
-    its shortest edge, h on the built-in mesh the file was written from. They gave the
-    unused &mesh h's default, 0.05, whatever the mesh."""
-    import csv
-    import json
+def _mesh_of_its_own_h(tmp_path, form: str) -> str:
+    """A mesh file of h = 0.1 in tmp_path that a scene need not give &mesh h for: a .msh
+    (meshed already), or a .geo that defines its own h (the seed's bar with its
+    DefineConstant h = 0.1)."""
     import subprocess
     import sys
 
+    from conftest import ROOT
+
+    if form == "msh":
+        made = subprocess.run([sys.executable, "-m", "dyncontact", "mesh", "--h", "0.1",
+                               "--out", str(tmp_path / "m.msh")], capture_output=True,
+                              text=True)
+        assert made.returncode == 0, made.stderr
+        return "m.msh"
+    geo = (ROOT / "meshes" / "bar2d.geo").read_text()
+    assert "h = {0.05," in geo
+    (tmp_path / "bar.geo").write_text(geo.replace("h = {0.05,", "h = {0.1,"))
+    return "bar.geo"
+
+
+@pytest.mark.parametrize("form", ["msh", "geo"])
+def test_scene_stability_on_a_mesh_of_its_own_h_reports_that_h(tmp_path, form):
+    """A .msh file is meshed already, and a .geo that defines its own h, in a scene that
+    gives no &mesh h, is meshed at that h by the scene's own run. The study's runs do not
+    set &mesh h (for a .msh it only drew the note that it is not used; for the .geo,
+    setting the scene's default, 0.05, ran them on another mesh than the scene's), and
+    the tables and heat maps give the mesh's own h, its shortest edge (h on the built-in
+    mesh the file was written from), not the unused default 0.05."""
+    import csv
+    import json
+
     from dyncontact.study.stability import run_stability_scene
 
-    made = subprocess.run([sys.executable, "-m", "dyncontact", "mesh", "--h", "0.1",
-                           "--out", str(tmp_path / "m.msh")], capture_output=True, text=True)
-    assert made.returncode == 0, made.stderr
     scene = tmp_path / "s.nml"
-    scene.write_text("&mesh file = 'm.msh' /\n&initial kind = 'compressed_bar' /\n"
-                     "&scheme dt = 0.005, t_end = 0.5 /\n")
+    scene.write_text(f"&mesh file = '{_mesh_of_its_own_h(tmp_path, form)}' /\n"
+                     "&initial kind = 'compressed_bar' /\n&scheme dt = 0.005, t_end = 0.5 /\n")
     rep = run_stability_scene(str(tmp_path / "out"), str(scene), quick=True,
                               grid={"schemes": ("hht-0.1",), "rounds": 1},
                               workers=1, progress=False, log=None)
@@ -454,41 +473,11 @@ def test_scene_stability_on_a_msh_file_reports_its_own_h(tmp_path):
     assert len(records) == rep["n_runs"] > 0
     assert all(r["status"] != "error" for r in records)
     assert not [w for r in records for w in r["warnings"] if "&mesh h" in w]
-    assert rep["grid"]["h"] == (pytest.approx(0.1, rel=1e-12),)
-    rows = list(csv.DictReader(open(rep["csv"], encoding="utf-8")))
-    assert rows and all(float(r["h"]) == pytest.approx(0.1, rel=1e-12) for r in rows)
-    assert "stability_h0.1.png" in [os.path.basename(p) for p in rep["pngs"]]
-    assert "(h = its shortest edge, 0.1)" in open(rep["summary"], encoding="utf-8").read()
-
-
-def test_scene_stability_on_a_geo_defining_h_keeps_its_h(tmp_path):
-    """A .geo that defines its own h (DefineConstant), in a scene that gives no &mesh h,
-    is meshed at that h by the scene's own run: the study's runs leave &mesh h unset too
-    (setting it to the scene's default, 0.05, ran them on another mesh than the scene's),
-    and the tables give the mesh's own h, as for a .msh file."""
-    import csv
-    import json
-
-    from dyncontact.study.stability import run_stability_scene
-
-    from conftest import ROOT
-
-    geo = (ROOT / "meshes" / "bar2d.geo").read_text()
-    assert "h = {0.05," in geo
-    (tmp_path / "bar.geo").write_text(geo.replace("h = {0.05,", "h = {0.1,"))
-    scene = tmp_path / "s.nml"
-    scene.write_text("&mesh file = 'bar.geo' /\n&initial kind = 'compressed_bar' /\n"
-                     "&scheme dt = 0.005, t_end = 0.5 /\n")
-    rep = run_stability_scene(str(tmp_path / "out"), str(scene), quick=True,
-                              grid={"schemes": ("hht-0.1",), "rounds": 1},
-                              workers=1, progress=False, log=None)
-    records = [json.loads(p.read_text()) for p in (tmp_path / "out").rglob("record.json")]
-    assert len(records) == rep["n_runs"] > 0
-    assert all(r["status"] != "error" for r in records)
     assert rep["grid"]["set_h"] is False
     assert rep["grid"]["h"] == (pytest.approx(0.1, rel=1e-12),)
     rows = list(csv.DictReader(open(rep["csv"], encoding="utf-8")))
     assert rows and all(float(r["h"]) == pytest.approx(0.1, rel=1e-12) for r in rows)
+    assert "stability_h0.1.png" in [os.path.basename(p) for p in rep["pngs"]]
     assert "(h = its shortest edge, 0.1)" in open(rep["summary"], encoding="utf-8").read()
 
 
