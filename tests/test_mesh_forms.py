@@ -180,8 +180,9 @@ def test_geo_defining_h_keeps_its_own_h_unless_the_scene_gives_one(core_ext, run
     assert len(own.cells) > 2 * len(other.cells)
     same_mesh(mesh_io.read_mesh(geo), own, "read_mesh without h")
     same_mesh(mesh_io.read_mesh(bare), other, "read_mesh without h, h not defined")
-    assert core.estimate_geo(geo, h=0.05, h_given=False) == core.estimate_geo(geo, h=0.02)
-    assert core.estimate_geo(bare, h=0.05, h_given=False) == core.estimate_geo(bare, h=0.05)
+    no_h = ("length", "width")
+    assert core.estimate_geo(geo, h=0.05, given=no_h) == core.estimate_geo(geo, h=0.02)
+    assert core.estimate_geo(bare, h=0.05, given=no_h) == core.estimate_geo(bare, h=0.05)
     r = run_cli("mesh", "--geo", geo, "--out", "own.msh", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     same_mesh(mesh_io.read_mesh(tmp_path / "own.msh"), own, "mesh command without --h")
