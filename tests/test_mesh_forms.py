@@ -286,6 +286,25 @@ def test_geo_defining_length_and_width_keeps_its_own_unless_the_scene_gives_them
         Scene.read(scene).validate()
 
 
+def test_own_length_and_width_in_a_callers_gmsh_session(core_ext, tmp_path):
+    """Two .geo files defining their own length and width (DefineConstant with the Names
+    "Parameters/length", "Parameters/width") read one after the other in a caller's gmsh
+    session, by the core and by generate, each keep their own: a DefineConstant takes an
+    existing ONELAB value over its own, and the first file's values were taken for the
+    second's."""
+    first, second = tmp_path / "first.geo", tmp_path / "second.geo"
+    for path, length, width in ((first, 0.3, 0.2), (second, 0.4, 0.1)):
+        path.write_text(f'DefineConstant[ length = {{{length}, Name "Parameters/length"}},\n'
+                        f'  width = {{{width}, Name "Parameters/width"}} ];\n' + RECT_GEO)
+    with callers_gmsh_session():
+        for path, top in ((first, [0.2, 0.3]), (second, [0.1, 0.4]), (first, [0.2, 0.3])):
+            np.testing.assert_allclose(mesh_io.read_mesh(path).x.max(axis=0), top,
+                                       rtol=1e-12, err_msg=path.name)
+            out = mesh_io.generate(path, tmp_path / "g.msh", length=None, width=None)
+            np.testing.assert_allclose(mesh_io.read_mesh(out).x.max(axis=0), top,
+                                       rtol=1e-12, err_msg=f"generate {path.name}")
+
+
 SCENE = """&mesh file = '{file}'{h} /
 &boundary clamped = 'top', contact = 'bottom' /
 &contact probe = {probe} /

@@ -267,6 +267,7 @@ static struct {
     __typeof__(&gmshLoggerWrite) logger_write;
     /* optional (the estimate of a .geo's element count; none: no estimate) */
     __typeof__(&gmshModelOccGetMass) occ_get_mass;
+    __typeof__(&gmshOnelabClear) onelab_clear;
     __typeof__(&gmshModelGetBoundary) get_boundary;
     __typeof__(&gmshModelGetParametrizationBounds) get_parametrization_bounds;
     __typeof__(&gmshModelGetValue) get_value;
@@ -357,7 +358,7 @@ static int gmsh_load(void)
     OPT(get_parametrization_bounds, "gmshModelGetParametrizationBounds")
     OPT(get_value, "gmshModelGetValue") OPT(get_sizes, "gmshModelMeshGetSizes")
     OPT(get_entities_for_physical_group, "gmshModelGetEntitiesForPhysicalGroup")
-    OPT(get_type, "gmshModelGetType")
+    OPT(get_type, "gmshModelGetType") OPT(onelab_clear, "gmshOnelabClear")
 #undef OPT
     return 1;
 }
@@ -1151,6 +1152,26 @@ static void geo_estimate(const char *path, double est[4])
  * an error after which the parse goes on, so the file's later definitions are seen. An
  * error is seen as gmsh's last error replacing PROBE_MARK, written first. The model and
  * the variables of the parse are removed after it. */
+/* Set the .geo parameters of the bits of `set` to params, and clear the others with
+ * their ONELAB parameters "Parameters/<name>" (the names the shipped .geo files give): a
+ * DefineConstant with a Name takes the value of an existing ONELAB parameter over its
+ * own, so a value left by another file read in the same gmsh session (a caller's) was
+ * taken for this file's own. */
+static void set_parameters(const double *params, int set)
+{
+    int ierr = 0, i;
+    char name[32];
+    for (i = 0; i < 3; i++) {
+        if (set & (1 << i)) {
+            G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
+        } else {
+            G.parser_clear(PARAM_NAMES[i], &ierr);
+            snprintf(name, sizeof name, "Parameters/%s", PARAM_NAMES[i]);
+            if (G.onelab_clear) G.onelab_clear(name, &ierr);
+        }
+    }
+}
+
 static int geo_probe(const char *path, const double *params, int set, int *defined,
                      session_t *s)
 {
@@ -1160,10 +1181,7 @@ static int geo_probe(const char *path, const double *params, int set, int *defin
     char *last = NULL;
     size_t n = 0, j;
     double abort_on_error = 2;
-    for (i = 0; i < 3; i++) {
-        if (set & (1 << i)) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
-        else G.parser_clear(PARAM_NAMES[i], &ierr);
-    }
+    set_parameters(params, set);
     G.option_get_number("General.AbortOnError", &abort_on_error, &ierr);
     G.option_set_number("General.AbortOnError", 0, &ierr);
     G.logger_write(PROBE_MARK, "error", &ierr);
@@ -1201,7 +1219,7 @@ static int geo_parse(const char *path, const double *params, session_t *s, char 
                      int msglen)
 {
     const int given = (int)params[3];
-    int uses_h, needs_h, err, defined = 0, set, ierr = 0, i;
+    int uses_h, needs_h, err, defined = 0, set, ierr = 0;
     /* length and width not given: set unless the file defines them (seen in a parse
      * without them and without h, which an undefined variable does not stop) */
     err = geo_probe(path, params, given & (GIVEN_LENGTH | GIVEN_WIDTH), &defined, s);
@@ -1213,10 +1231,7 @@ static int geo_parse(const char *path, const double *params, session_t *s, char 
     needs_h = err;
     uses_h = err || (defined & GIVEN_H);
     if ((given & GIVEN_H) || needs_h) set |= GIVEN_H;
-    for (i = 0; i < 3; i++) {
-        if (set & (1 << i)) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
-        else G.parser_clear(PARAM_NAMES[i], &ierr);
-    }
+    set_parameters(params, set);
     ierr = 0;
     G.merge(path, &ierr);
     if (ierr) { gmsh_error(path, "gmsh cannot read it", msg, msglen); return 2; }
