@@ -46,7 +46,7 @@ def _msg(errmsg) -> str:
 
 def fortran_sizes(core_ext, path) -> tuple[int, str]:
     """stat and message of the Fortran reader on `path`."""
-    handle, *_, stat, errmsg = core_ext.dc_mesh_sizes(str(path), 2, 1.0, 0.1, 0.05, 1, 1, 0)
+    handle, *_, stat, errmsg = core_ext.dc_mesh_sizes(str(path), 2, 1.0, 0.1, 0.05, 1, 7, 0)
     core_ext.dc_mesh_free(handle)
     return int(stat), _msg(errmsg)
 

@@ -180,8 +180,9 @@ def test_geo_defining_h_keeps_its_own_h_unless_the_scene_gives_one(core_ext, run
     assert len(own.cells) > 2 * len(other.cells)
     same_mesh(mesh_io.read_mesh(geo), own, "read_mesh without h")
     same_mesh(mesh_io.read_mesh(bare), other, "read_mesh without h, h not defined")
-    assert core.estimate_geo(geo, h=0.05, h_given=False) == core.estimate_geo(geo, h=0.02)
-    assert core.estimate_geo(bare, h=0.05, h_given=False) == core.estimate_geo(bare, h=0.05)
+    no_h = ("length", "width")
+    assert core.estimate_geo(geo, h=0.05, given=no_h) == core.estimate_geo(geo, h=0.02)
+    assert core.estimate_geo(bare, h=0.05, given=no_h) == core.estimate_geo(bare, h=0.05)
     r = run_cli("mesh", "--geo", geo, "--out", "own.msh", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     same_mesh(mesh_io.read_mesh(tmp_path / "own.msh"), own, "mesh command without --h")
@@ -208,6 +209,100 @@ def test_geo_defining_h_keeps_its_own_h_unless_the_scene_gives_one(core_ext, run
         Scene.read(scene).validate()
     scene.write_text(text.format(geo="tri.geo", h=", h = 0.05", limit=limit))
     Scene.read(scene).validate()
+
+
+#: A rectangle [0, width] x [0, length] of size h (used, not defined: 0.05 by default).
+RECT_GEO = ("Point(1) = {0, 0, 0, h}; Point(2) = {width, 0, 0, h};\n"
+            "Point(3) = {width, length, 0, h}; Point(4) = {0, length, 0, h};\n"
+            "Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {3, 4}; Line(4) = {4, 1};\n"
+            "Curve Loop(1) = {1, 2, 3, 4}; Plane Surface(1) = {1};\n"
+            'Physical Curve("bottom") = {1}; Physical Surface("body") = {1};\n')
+
+
+def test_geo_defining_length_and_width_keeps_its_own_unless_the_scene_gives_them(
+        core_ext, run_cli, tmp_path):
+    """A .geo that defines length and width (DefineConstant, as meshes/ball.geo's width
+    = 0.2 and meshes/ball_pole.geo's length = 0.06) keeps its own values where the scene
+    gives no &mesh length and width, as h does, and takes the scene's where it gives
+    them; one that uses them without defining them gets the defaults 1.0 and 0.1: in a
+    run, Scene.dimension()/validate() and the refusal of a too-large .geo, the size
+    estimate, `dyncontact mesh --geo` without --length/--width, mesh_io.read_mesh without
+    length/width, and the studies' reading of a scene. They were always set, the file's
+    own values overridden by the defaults."""
+    from dyncontact.study.common import read_user_scene
+
+    geo = tmp_path / "rect.geo"
+    geo.write_text('DefineConstant[ length = {0.3, Name "Parameters/length"},\n'
+                   '                width = {0.2, Name "Parameters/width"} ];\n' + RECT_GEO)
+    bare = tmp_path / "bare.geo"
+    bare.write_text(RECT_GEO)
+    own = mesh_io.read_mesh(geo)
+    np.testing.assert_allclose(own.x.max(axis=0), [0.2, 0.3], rtol=1e-12)
+    given = mesh_io.read_mesh(geo, length=1.0, width=0.1)
+    np.testing.assert_allclose(given.x.max(axis=0), [0.1, 1.0], rtol=1e-12)
+    np.testing.assert_allclose(mesh_io.read_mesh(geo, width=0.1).x.max(axis=0), [0.1, 0.3],
+                               rtol=1e-12)
+    same_mesh(mesh_io.read_mesh(bare), given, "read_mesh, length and width not defined")
+    assert len(own.cells) != len(given.cells)
+    # the estimate: the rectangle's area
+    assert core.estimate_geo(geo, given=("h",))["measure"] == pytest.approx(0.06, rel=1e-12)
+    assert core.estimate_geo(geo)["measure"] == pytest.approx(0.1, rel=1e-12)
+    assert core.estimate_geo(bare, given=())["measure"] == pytest.approx(0.1, rel=1e-12)
+    # `dyncontact mesh --geo`
+    r = run_cli("mesh", "--geo", geo, "--out", "own.msh", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    same_mesh(mesh_io.read_mesh(tmp_path / "own.msh"), own, "mesh without --length/--width")
+    r = run_cli("mesh", "--geo", geo, "--length", "1", "--width", "0.1", "--out", "g.msh",
+                cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    same_mesh(mesh_io.read_mesh(tmp_path / "g.msh"), given, "mesh --length 1 --width 0.1")
+    r = run_cli("mesh", "--geo", bare, "--out", "bare.msh", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    same_mesh(mesh_io.read_mesh(tmp_path / "bare.msh"), given, "mesh, not defined")
+    # a run, Scene.validate() and the studies' reading of the scene
+    text = ("&mesh file = '{geo}'{lw}, max_elements = {limit} /\n"
+            "&boundary clamped = '', contact = 'bottom' /\n"
+            "&contact probe = 0.0, 0.0 /\n&initial kind = 'rest' /\n"
+            "&scheme dt = 0.001, t_end = 0.002 /\n")
+    scene = tmp_path / "s.nml"
+    lw = ", length = 1.0, width = 0.1"
+    for name, keys, want, user in (("rect.geo", "", own, (None, None)),
+                                   ("rect.geo", lw, given, (1.0, 0.1)),
+                                   ("bare.geo", "", given, (None, None))):
+        scene.write_text(text.format(geo=name, lw=keys, limit=2000000))
+        Scene.read(scene).validate()
+        res = core.run(scene, out=tmp_path / "out", progress=False)
+        assert res.status == "ok" and res.summary["elements"] == len(want.cells), (name, keys)
+        us = read_user_scene(str(scene))
+        assert (us.length, us.width) == user, (name, keys)
+    # the refusal of a too-large .geo estimates it at the file's own length and width
+    est = core.estimate_geo(geo)
+    limit = int(est["estimate"] / est["margin"]) - 1
+    assert core.estimate_geo(geo, given=("h",))["estimate"] < est["margin"] * limit
+    scene.write_text(text.format(geo="rect.geo", lw="", limit=limit))
+    Scene.read(scene).validate()
+    scene.write_text(text.format(geo="rect.geo", lw=lw, limit=limit))
+    with pytest.raises(BadInputError, match="max_elements"):
+        Scene.read(scene).validate()
+
+
+def test_own_length_and_width_in_a_callers_gmsh_session(core_ext, tmp_path):
+    """Two .geo files defining their own length and width (DefineConstant with the Names
+    "Parameters/length", "Parameters/width") read one after the other in a caller's gmsh
+    session, by the core and by generate, each keep their own: a DefineConstant takes an
+    existing ONELAB value over its own, and the first file's values were taken for the
+    second's."""
+    first, second = tmp_path / "first.geo", tmp_path / "second.geo"
+    for path, length, width in ((first, 0.3, 0.2), (second, 0.4, 0.1)):
+        path.write_text(f'DefineConstant[ length = {{{length}, Name "Parameters/length"}},\n'
+                        f'  width = {{{width}, Name "Parameters/width"}} ];\n' + RECT_GEO)
+    with callers_gmsh_session():
+        for path, top in ((first, [0.2, 0.3]), (second, [0.1, 0.4]), (first, [0.2, 0.3])):
+            np.testing.assert_allclose(mesh_io.read_mesh(path).x.max(axis=0), top,
+                                       rtol=1e-12, err_msg=path.name)
+            out = mesh_io.generate(path, tmp_path / "g.msh", length=None, width=None)
+            np.testing.assert_allclose(mesh_io.read_mesh(out).x.max(axis=0), top,
+                                       rtol=1e-12, err_msg=f"generate {path.name}")
 
 
 SCENE = """&mesh file = '{file}'{h} /

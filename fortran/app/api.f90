@@ -582,11 +582,13 @@ end subroutine dc_p1_element
 !> Load a mesh: a mesh file (path /= '') or the built-in bar (dim, length, width, h), and
 !> its sizes. The mesh is kept behind `handle` (0 on error) for dc_mesh_arrays, which
 !> copies and releases it, or dc_mesh_free. checked = 0: a file's mesh is read without
-!> mesh_check (reader-level use, 3D meshes). h_given = 0: a .geo that uses no h keeps its
-!> own mesh sizes (a scene that gives no &mesh h); otherwise h is its largest mesh size.
+!> mesh_check (reader-level use, 3D meshes). given: the bits (1 h, 2 length, 4 width;
+!> gmsh_mesh's GEO_GIVEN_*) of the .geo parameters the scene gives, set as the file's; one
+!> not given keeps the file's own value where it defines it (DefineConstant), and h not
+!> given leaves a .geo that uses no h its own mesh sizes (otherwise h is its largest).
 !> max_elements > 0: a .geo whose element count, estimated before meshing, is too large
 !> for it is refused without meshing (stat 2, naming &mesh max_elements).
-subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, h_given, max_elements, &
+subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, given, max_elements, &
                          handle, dim, n_nodes, n_cells, n_facets, n_groups, stat, errmsg)
     use iso_c_binding, only: c_int, c_int64_t, c_double, c_loc
     use mesh, only: mesh_t
@@ -598,7 +600,7 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, h_given, max_
     real(c_double), intent(in) :: width          !! built-in bar width
     real(c_double), intent(in) :: h              !! built-in bar mesh size
     integer(c_int), intent(in) :: checked        !! 0: no mesh_check of a file's mesh
-    integer(c_int), intent(in) :: h_given        !! 0: a .geo without h keeps its own sizes
+    integer(c_int), intent(in) :: given          !! a .geo's given parameters (bits; 7: all)
     integer(c_int), intent(in) :: max_elements   !! > 0: refuse a .geo estimated larger
     integer(c_int64_t), intent(out) :: handle    !! the loaded mesh (0 on error)
     integer(c_int), intent(out) :: dim           !! mesh dimension
@@ -613,7 +615,7 @@ subroutine dc_mesh_sizes(path, bar_dim, length, width, h, checked, h_given, max_
     errmsg = ''
     handle = 0
     allocate (msh)
-    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg, checked /= 0, h_given /= 0, &
+    call mesh_load(path, bar_dim, length, width, h, msh, st, errmsg, checked /= 0, int(given), &
                    int(max_elements))
     stat = st
     dim = msh%dim; n_nodes = msh%n_nodes; n_cells = msh%n_cells
@@ -631,7 +633,7 @@ end subroutine dc_mesh_sizes
 !> limit > 0, `text` is the core's one-line refusal when the estimate exceeds margin x
 !> limit, the file named, with `limit_key` and `h_key` ('' when h is not given) as the keys
 !> that change it; '' otherwise.
-subroutine dc_geo_estimate(path, length, width, h, h_given, limit, limit_key, h_key, est, &
+subroutine dc_geo_estimate(path, length, width, h, given, limit, limit_key, h_key, est, &
                            text, stat, errmsg)
     use iso_c_binding, only: c_int, c_double
     use errors, only: STAT_OK
@@ -641,7 +643,7 @@ subroutine dc_geo_estimate(path, length, width, h, h_given, limit, limit_key, h_
     real(c_double), intent(in) :: length         !! parameter length
     real(c_double), intent(in) :: width          !! parameter width
     real(c_double), intent(in) :: h              !! parameter h
-    integer(c_int), intent(in) :: h_given        !! 0: a .geo without h keeps its own sizes
+    integer(c_int), intent(in) :: given          !! given parameters (bits, dc_mesh_sizes)
     integer(c_int), intent(in) :: limit          !! the element limit (0: no refusal text)
     character(len=*), intent(in) :: limit_key    !! the limit's key, as the caller names it
     character(len=*), intent(in) :: h_key        !! h's key, '' when h is not given
@@ -652,7 +654,7 @@ subroutine dc_geo_estimate(path, length, width, h, h_given, limit, limit_key, h_
     integer :: st
     errmsg = ''
     text = ''
-    call estimate_geo_cells(path, h, length, width, h_given /= 0, est, st, errmsg)
+    call estimate_geo_cells(path, h, length, width, int(given), est, st, errmsg)
     stat = st
     if (st /= STAT_OK .or. limit <= 0 .or. est(1) < 0) return
     if (est(1) > est(4) * limit) text = path//': '//too_large_text(est, int(limit), limit_key, &

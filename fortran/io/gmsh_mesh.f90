@@ -24,7 +24,16 @@ module gmsh_mesh
     implicit none
     private
     public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, too_large_text, &
-              unmeshed_text
+              unmeshed_text, geo_given
+    public :: GEO_GIVEN_H, GEO_GIVEN_LENGTH, GEO_GIVEN_WIDTH, GEO_GIVEN_ALL
+
+    !> The bits of `given`, the .geo parameters the scene gives (geo_given): each is set
+    !> as the file's parameter of that name; one not given is set only where the file
+    !> uses it without defining it (a file's DefineConstant keeps its own value), and h
+    !> not given leaves a file that uses no h its own sizes (gmsh_shim.c, geo_parse).
+    integer, parameter :: GEO_GIVEN_H = 1, GEO_GIVEN_LENGTH = 2, GEO_GIVEN_WIDTH = 4
+    !> Every parameter given (the readers' default, as gmsh -setnumber of all three).
+    integer, parameter :: GEO_GIVEN_ALL = 7
 
     !> Relative tolerance of the test that dropped coordinates are constant.
     real(dp), parameter :: PLANE_TOL = 1.0e-10_dp
@@ -44,7 +53,7 @@ module gmsh_mesh
             import :: c_int, c_char, c_double, c_ptr
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated mesh or .geo file
             real(c_double), intent(in) :: params(5)        !! h, length, width (a .geo's variables),
-                                                           !! h_given (1: h sizes a .geo without h),
+                                                           !! given (GEO_GIVEN_* bits),
                                                            !! max_elements (0: no estimate)
             integer(c_int), value :: is_geo                !! 1: mesh a .geo in-process
             type(c_ptr), intent(out) :: out                !! the mesh read (free with c_gmsh_free)
@@ -59,7 +68,7 @@ module gmsh_mesh
             bind(C, name='dc_gmsh_estimate')
             import :: c_int, c_char, c_double
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated .geo file
-            real(c_double), intent(in) :: params(4)        !! h, length, width, h_given
+            real(c_double), intent(in) :: params(4)        !! h, length, width, given (bits)
             real(c_double), intent(out) :: est(4)          !! estimate (-1: none), measure, size,
                                                            !! margin of the refusal
             character(kind=c_char), intent(out) :: msg(*)  !! why it failed
@@ -120,6 +129,15 @@ module gmsh_mesh
 
 contains
 
+    !> The `given` bits (GEO_GIVEN_*) of a scene that gives &mesh h, length, width or not.
+    pure integer function geo_given(h, length, width)
+        logical, intent(in) :: h                 !! &mesh h given
+        logical, intent(in) :: length            !! &mesh length given
+        logical, intent(in) :: width             !! &mesh width given
+        geo_given = merge(GEO_GIVEN_H, 0, h) + merge(GEO_GIVEN_LENGTH, 0, length) + &
+                    merge(GEO_GIVEN_WIDTH, 0, width)
+    end function geo_given
+
     !> Whether libgmsh can be loaded (this loads it); why not in `why`.
     function gmsh_available(why) result(ok)
         character(len=*), intent(out), optional :: why   !! reason when .false.
@@ -131,13 +149,16 @@ contains
 
     !> Read the mesh file `path` (.msh in any version gmsh reads, or .geo meshed with the
     !> parameters h, length, width) into `msh`, then check it (mesh_check) unless
-    !> check = .false. A .geo that uses no h is meshed with h as its largest mesh size
-    !> when h_given (the default), with its own sizes otherwise. max_elements > 0: a .geo
+    !> check = .false. `given` (GEO_GIVEN_* bits, default GEO_GIVEN_ALL): the parameters
+    !> the scene gives, set as the .geo's; one not given keeps the file's own value where
+    !> it defines it, and is set (to the value passed, the scene's default) where it uses
+    !> it without defining it. A .geo that uses no h is meshed with h as its largest mesh
+    !> size when h is given, with its own sizes otherwise. max_elements > 0: a .geo
     !> whose element count, estimated before meshing (estimate_geo_cells), exceeds the
     !> refusal's margin times max_elements is not meshed (STAT_BAD_INPUT, naming
-    !> &mesh max_elements, and &mesh h when h_given).
+    !> &mesh max_elements, and &mesh h when h is given).
     !> Errors: STAT_BAD_INPUT with a one-line message starting with the path.
-    subroutine read_mesh_file(path, h, length, width, msh, stat, errmsg, check, h_given, &
+    subroutine read_mesh_file(path, h, length, width, msh, stat, errmsg, check, given, &
                               max_elements)
         character(len=*), intent(in) :: path                !! .msh or .geo file
         real(dp), intent(in) :: h                           !! .geo parameter h
@@ -147,7 +168,7 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK, STAT_BAD_INPUT, ...
         character(len=*), intent(inout), optional :: errmsg !! one-line message naming the file
         logical, intent(in), optional :: check              !! run mesh_check (default .true.)
-        logical, intent(in), optional :: h_given            !! h sizes a .geo without h (default)
+        integer, intent(in), optional :: given              !! GEO_GIVEN_* bits (default all)
         integer, intent(in), optional :: max_elements       !! > 0: refuse a .geo estimated larger
         character(kind=c_char) :: cmsg(MSG_LEN)
         character(len=MSG_LEN) :: msg
@@ -159,7 +180,8 @@ contains
         character(kind=c_char), allocatable :: names(:)
         logical :: exists, is_dir
         integer :: ios, ist, nbytes
-        real(dp) :: sized, limit
+        integer :: bits
+        real(dp) :: limit
         real(c_double) :: est(4)
 
         stat = STAT_OK
@@ -196,15 +218,16 @@ contains
         end select
 
         handle = c_null_ptr
-        sized = 1.0_dp
-        if (present(h_given)) sized = merge(1.0_dp, 0.0_dp, h_given)
+        bits = GEO_GIVEN_ALL
+        if (present(given)) bits = iand(given, GEO_GIVEN_ALL)
         limit = 0.0_dp
         if (present(max_elements)) limit = real(max(0, max_elements), dp)
-        st = c_gmsh_read(p//c_null_char, [h, length, width, sized, limit], is_geo, handle, &
-                         est, cmsg, int(MSG_LEN, c_int))
+        st = c_gmsh_read(p//c_null_char, [h, length, width, real(bits, dp), limit], is_geo, &
+                         handle, est, cmsg, int(MSG_LEN, c_int))
         if (st == 5) then
             call raise(stat, errmsg, STAT_BAD_INPUT, p//': '//too_large_text(est, &
-                       int(limit), '&mesh max_elements', merge('&mesh h', '       ', sized /= 0)))
+                       int(limit), '&mesh max_elements', &
+                       merge('&mesh h', '       ', iand(bits, GEO_GIVEN_H) /= 0)))
             return
         else if (st /= 0) then
             call raise(stat, errmsg, merge(STAT_BAD_INPUT, STAT_INTERNAL, st == 2), from_c(cmsg))
@@ -252,12 +275,12 @@ contains
     !> would mesh it with these parameters: est = (estimate, measure, size, margin), with
     !> estimate = -1 where none can be made (gmsh_shim.c, geo_estimate; docs/scenes.md).
     !> Errors: STAT_BAD_INPUT (gmsh cannot read the file) with a message naming it.
-    subroutine estimate_geo_cells(path, h, length, width, h_given, est, stat, errmsg)
+    subroutine estimate_geo_cells(path, h, length, width, given, est, stat, errmsg)
         character(len=*), intent(in) :: path                !! .geo file
         real(dp), intent(in) :: h                           !! .geo parameter h
         real(dp), intent(in) :: length                      !! .geo parameter length
         real(dp), intent(in) :: width                       !! .geo parameter width
-        logical, intent(in) :: h_given                      !! h sizes a .geo without h
+        integer, intent(in) :: given                        !! GEO_GIVEN_* bits (read_mesh_file)
         real(dp), intent(out) :: est(4)                     !! estimate, measure, size, margin
         integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! one-line message naming the file
@@ -266,8 +289,8 @@ contains
         integer(c_int) :: st
         stat = STAT_OK
         st = c_gmsh_estimate(trim(path)//c_null_char, &
-                             [h, length, width, merge(1.0_dp, 0.0_dp, h_given)], cest, cmsg, &
-                             int(MSG_LEN, c_int))
+                             [h, length, width, real(iand(given, GEO_GIVEN_ALL), dp)], cest, &
+                             cmsg, int(MSG_LEN, c_int))
         est = cest
         if (st /= 0) call raise(stat, errmsg, STAT_BAD_INPUT, from_c(cmsg))
     end subroutine estimate_geo_cells

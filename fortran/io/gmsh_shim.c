@@ -267,6 +267,7 @@ static struct {
     __typeof__(&gmshLoggerWrite) logger_write;
     /* optional (the estimate of a .geo's element count; none: no estimate) */
     __typeof__(&gmshModelOccGetMass) occ_get_mass;
+    __typeof__(&gmshOnelabClear) onelab_clear;
     __typeof__(&gmshModelGetBoundary) get_boundary;
     __typeof__(&gmshModelGetParametrizationBounds) get_parametrization_bounds;
     __typeof__(&gmshModelGetValue) get_value;
@@ -357,7 +358,7 @@ static int gmsh_load(void)
     OPT(get_parametrization_bounds, "gmshModelGetParametrizationBounds")
     OPT(get_value, "gmshModelGetValue") OPT(get_sizes, "gmshModelMeshGetSizes")
     OPT(get_entities_for_physical_group, "gmshModelGetEntitiesForPhysicalGroup")
-    OPT(get_type, "gmshModelGetType")
+    OPT(get_type, "gmshModelGetType") OPT(onelab_clear, "gmshOnelabClear")
 #undef OPT
     return 1;
 }
@@ -1135,28 +1136,52 @@ static void geo_estimate(const char *path, double est[4])
            : d == 2 ? 4 / sqrt(3.0) * measure / (size * size) : measure / size;
 }
 
-/* Parse the .geo path into the current model with the parameters (length, width) and h,
- * and h as its largest mesh size where it uses no h and h_given (params[3]) is not 0.
- * h is set where h_given, or where the file uses h without defining it; a file that
- * defines h (DefineConstant[h = {...}]) for a scene that gives no h keeps its own value,
- * as gmsh without -setnumber h would mesh it. */
-static int geo_parse(const char *path, const double *params, session_t *s, char *msg,
-                     int msglen)
+/* The bits of params[3], `given`: the parameters (PARAM_NAMES) the scene gives. */
+#define GIVEN_H 1
+#define GIVEN_LENGTH 2
+#define GIVEN_WIDTH 4
+
+/* Parse the .geo path once into the current model with the parameters of the bits of
+ * `set` set to params and the others cleared, to see how it uses them: 1 if the parse
+ * has an error, 0 if not; *defined gets the bits of the parameters that are parser
+ * variables after it (those of `set`, and those the file defines, DefineConstant).
+ * The parse runs to the end of the file whatever its errors (AbortOnError 0): a parse
+ * stopped at its first error (gmsh's default in the API, an exception) leaves the rest
+ * of the file in gmsh's lexer, which the next parse reads first (a .geo using h without
+ * defining it then failed with "line 0: syntax error"); a variable it uses undefined is
+ * an error after which the parse goes on, so the file's later definitions are seen. An
+ * error is seen as gmsh's last error replacing PROBE_MARK, written first. The model and
+ * the variables of the parse are removed after it. */
+/* Set the .geo parameters of the bits of `set` to params, and clear the others with
+ * their ONELAB parameters "Parameters/<name>" (the names the shipped .geo files give): a
+ * DefineConstant with a Name takes the value of an existing ONELAB parameter over its
+ * own, so a value left by another file read in the same gmsh session (a caller's) was
+ * taken for this file's own. */
+static void set_parameters(const double *params, int set)
 {
-    /* does the file use h? parse it once without h: it then defines h, or fails.
-     * The parse runs to the end of the file whatever its errors (AbortOnError 0):
-     * a parse stopped at its first error (gmsh's default in the API, an exception)
-     * leaves the rest of the file in gmsh's lexer, which the next parse reads first
-     * (a .geo using h without defining it then failed with "line 0: syntax error").
-     * An error is seen as gmsh's last error replacing PROBE_MARK, written first. */
+    int ierr = 0, i;
+    char name[32];
+    for (i = 0; i < 3; i++) {
+        if (set & (1 << i)) {
+            G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
+        } else {
+            G.parser_clear(PARAM_NAMES[i], &ierr);
+            snprintf(name, sizeof name, "Parameters/%s", PARAM_NAMES[i]);
+            if (G.onelab_clear) G.onelab_clear(name, &ierr);
+        }
+    }
+}
+
+static int geo_probe(const char *path, const double *params, int set, int *defined,
+                     session_t *s)
+{
     static const char PROBE_MARK[] = "dyncontact: parsing the .geo without h";
-    int uses_h = 0, needs_h = 0, ierr = 0, i;
+    int ierr = 0, err, i;
     char **names = NULL;
     char *last = NULL;
     size_t n = 0, j;
     double abort_on_error = 2;
-    for (i = 1; i < 3; i++) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
-    G.parser_clear("h", &ierr);
+    set_parameters(params, set);
     G.option_get_number("General.AbortOnError", &abort_on_error, &ierr);
     G.option_set_number("General.AbortOnError", 0, &ierr);
     G.logger_write(PROBE_MARK, "error", &ierr);
@@ -1167,39 +1192,62 @@ static int geo_parse(const char *path, const double *params, session_t *s, char 
         if (ierr || !last || strcmp(last, PROBE_MARK) != 0) ierr = 1;
         if (last) G.free(last);
     }
-    {
-        int ierr2 = 0;
-        G.option_set_number("General.AbortOnError", abort_on_error, &ierr2);
+    err = ierr != 0;
+    ierr = 0;
+    G.option_set_number("General.AbortOnError", abort_on_error, &ierr);
+    *defined = 0;
+    G.parser_get_names(&names, &n, "", &ierr);
+    for (j = 0; j < n; j++) {
+        for (i = 0; i < 3; i++)
+            if (strcmp(names[j], PARAM_NAMES[i]) == 0) *defined |= 1 << i;
+        G.free(names[j]);
     }
-    if (ierr) {
-        uses_h = needs_h = 1;
-    } else {
-        G.parser_get_names(&names, &n, "h", &ierr);
-        for (j = 0; j < n; j++) {
-            if (strcmp(names[j], "h") == 0) uses_h = 1;
-            G.free(names[j]);
-        }
-        if (names) G.free(names);
-    }
+    if (names) G.free(names);
     G.model_remove(&ierr);
     G.model_add(MODEL, &ierr);
     clear_new_names(s);          /* the variables of that parse */
-    for (i = (params[3] != 0 || needs_h) ? 0 : 1; i < 3; i++)
-        G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
+    return err;
+}
+
+/* Parse the .geo path into the current model with its parameters (h, length, width) =
+ * params[0..2] set where the scene gives them (the bits of params[3], GIVEN_*), as
+ * gmsh -setnumber would: a file that defines one (DefineConstant[h = {...}]) keeps its
+ * own value where the scene does not give it, as gmsh without -setnumber meshes it; one
+ * that uses it without defining it gets params' value (the scene's default). Where the
+ * file uses no h and the scene gives h, h is its largest mesh size. */
+static int geo_parse(const char *path, const double *params, session_t *s, char *msg,
+                     int msglen)
+{
+    const int given = (int)params[3];
+    int uses_h, needs_h, err, defined = 0, set, ierr = 0;
+    /* length and width not given: set unless the file defines them (seen in a parse
+     * without them and without h, which an undefined variable does not stop) */
+    err = geo_probe(path, params, given & (GIVEN_LENGTH | GIVEN_WIDTH), &defined, s);
+    set = (given | ~defined) & (GIVEN_LENGTH | GIVEN_WIDTH);
+    /* does the file use h? parsed without h (length and width as set): it then
+     * defines h, or fails */
+    if (err && set != (given & (GIVEN_LENGTH | GIVEN_WIDTH)))
+        err = geo_probe(path, params, set, &defined, s);
+    needs_h = err;
+    uses_h = err || (defined & GIVEN_H);
+    if ((given & GIVEN_H) || needs_h) set |= GIVEN_H;
+    set_parameters(params, set);
     ierr = 0;
     G.merge(path, &ierr);
     if (ierr) { gmsh_error(path, "gmsh cannot read it", msg, msglen); return 2; }
-    if (!uses_h && params[3] != 0) G.option_set_number("Mesh.MeshSizeMax", params[0], &ierr);
+    if (!uses_h && (given & GIVEN_H))
+        G.option_set_number("Mesh.MeshSizeMax", params[0], &ierr);
     return 0;
 }
 
-/* Read path into *out (free with dc_gmsh_free). params = (h, length, width, h_given,
+/* Read path into *out (free with dc_gmsh_free). params = (h, length, width, given,
  * max_elements) for a .geo: the first three are set as the file's parser variables of
- * those names (h only where h_given is not 0 or the file uses h without defining it:
- * geo_parse); if the file uses no h and h_given is not 0 (the scene gives &mesh h), h is
- * the largest mesh size (Mesh.MeshSizeMax); a file that uses no h, meshed for a scene that
- * gives no h, keeps its own sizes (a default h made for the built-in bar, 0.05, imposed on
- * a body drawn in mm meshed it with billions of elements). max_elements > 0: a .geo whose
+ * those names where `given` (bits GIVEN_H, GIVEN_LENGTH, GIVEN_WIDTH: the scene gives
+ * them) or the file uses them without defining them (geo_parse); if the file uses no h
+ * and the scene gives &mesh h, h is the largest mesh size (Mesh.MeshSizeMax); a file
+ * that uses no h, meshed for a scene that gives no h, keeps its own sizes (a default h
+ * made for the built-in bar, 0.05, imposed on a body drawn in mm meshed it with billions
+ * of elements). max_elements > 0: a .geo whose
  * estimated element count (geo_estimate, into est) exceeds ESTIMATE_MARGIN x max_elements
  * is not meshed: status 5, the estimate in est, no message (the caller names its keys).
  * est[0] = -1 when no estimate was made. */
@@ -1220,7 +1268,7 @@ int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
     return st;
 }
 
-/* The estimate of geo_estimate for the .geo path with params (h, length, width, h_given)
+/* The estimate of geo_estimate for the .geo path with params (h, length, width, given)
  * as dc_gmsh_read would mesh it, without meshing: status 0 (est[0] = -1: no estimate), 2
  * (bad input, message in msg). */
 int dc_gmsh_estimate(const char *path, const double *params, double est[4], char *msg,

@@ -14,8 +14,10 @@ contains
     !> A mesh file (path /= '': .msh, or .geo meshed with the parameters h, length, width)
     !> or the built-in bar (bar_dim, length, width, h). check = .false.: a file's mesh is
     !> not checked (mesh_check), for reading meshes the model does not take yet.
-    !> max_elements > 0: a .geo estimated above it is refused before meshing (read_mesh_file).
-    subroutine mesh_load(path, bar_dim, length, width, h, msh, stat, errmsg, check, h_given, &
+    !> given: the .geo parameters the scene gives (GEO_GIVEN_* bits of gmsh_mesh, default
+    !> all; read_mesh_file). max_elements > 0: a .geo estimated above it is refused before
+    !> meshing (read_mesh_file).
+    subroutine mesh_load(path, bar_dim, length, width, h, msh, stat, errmsg, check, given, &
                          max_elements)
         character(len=*), intent(in) :: path                !! .msh/.geo file or '' (built-in bar)
         integer, intent(in) :: bar_dim                      !! bar dimension
@@ -26,10 +28,10 @@ contains
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         logical, intent(in), optional :: check              !! check a file's mesh (default)
-        logical, intent(in), optional :: h_given            !! h sizes a .geo without h (default)
+        integer, intent(in), optional :: given              !! a .geo's given parameters (bits)
         integer, intent(in), optional :: max_elements       !! > 0: refuse a .geo estimated larger
         if (len_trim(path) > 0) then
-            call read_mesh_file(path, h, length, width, msh, stat, errmsg, check, h_given, &
+            call read_mesh_file(path, h, length, width, msh, stat, errmsg, check, given, &
                                 max_elements)
         else
             call bar_mesh_build(bar_dim, length, width, h, msh, stat, errmsg)

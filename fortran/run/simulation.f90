@@ -12,7 +12,7 @@ module simulation
                      scene_given, scene_json_diff
     use mesh, only: mesh_t
     use mesh_source, only: mesh_load, mesh_label
-    use gmsh_mesh, only: file_extension
+    use gmsh_mesh, only: file_extension, geo_given
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
     use alm_contact, only: ALM_OFF, ALM_INTEGRAL, ALM_NODAL
     use model, only: model_t, model_params_t, model_build, model_initial, model_probe, &
@@ -223,7 +223,9 @@ contains
         mmsg = ''
         call mesh_load(sim%scn%mesh_file, scene_bar_dim(sim%scn%mesh_dim), &
                        sim%scn%mesh_length, sim%scn%mesh_width, sim%scn%mesh_h, msh, stat, mmsg, &
-                       h_given=scene_given(sim%scn, 'mesh', 'h'), &
+                       given=geo_given(scene_given(sim%scn, 'mesh', 'h'), &
+                                       scene_given(sim%scn, 'mesh', 'length'), &
+                                       scene_given(sim%scn, 'mesh', 'width')), &
                        max_elements=sim%scn%max_elements)
         if (stat /= STAT_OK) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &mesh'// &

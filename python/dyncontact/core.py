@@ -617,15 +617,38 @@ def _scene_attr_output_dir(scene) -> str | None:
 
 # --------------------------------------------------------------------------- helpers
 
+#: The bits of the core's ``given``: the .geo parameters a scene gives (gmsh_mesh's
+#: GEO_GIVEN_H, GEO_GIVEN_LENGTH, GEO_GIVEN_WIDTH).
+_GEO_GIVEN_BITS = {"h": 1, "length": 2, "width": 4}
+
+
+def _given_bits(given) -> int:
+    """The core's bits of ``given``, a collection of .geo parameter names ("h",
+    "length", "width"); ValueError naming any other."""
+    if isinstance(given, str):
+        given = (given,)
+    bits = 0
+    for name in given:
+        if name not in _GEO_GIVEN_BITS:
+            raise ValueError(f"given: {name!r} is not a .geo parameter "
+                             f"({', '.join(_GEO_GIVEN_BITS)})")
+        bits |= _GEO_GIVEN_BITS[name]
+    return bits
+
+
 def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0,
               width: float = 0.1, h: float = 0.05, check: bool = True,
-              h_given: bool = True, max_elements: int = 0) -> dict[str, Any]:
+              given=("h", "length", "width"), max_elements: int = 0) -> dict[str, Any]:
     """A mesh as the Fortran core reads it: a mesh file (.msh in any version gmsh reads,
     or .geo meshed with the parameters h, length, width), or the built-in bar (path '').
     ``check=False`` skips the core's mesh checks of a file's mesh (reader level: meshes
-    the model does not take, such as tetrahedra). ``h_given=False``: a .geo that uses no
-    h keeps its own mesh sizes, as for a scene that gives no ``&mesh h`` (with True, the
-    default, h is its largest mesh size). ``max_elements > 0``: a .geo whose element
+    the model does not take, such as tetrahedra). ``given``: the names of the .geo's
+    parameters the scene gives (default all three), set as the file's; one left out is
+    as for a scene that does not give it: a .geo that defines it
+    (``DefineConstant[width = {0.2, ...}]``) keeps its own value, one that uses it
+    without defining it gets the value passed (the scene's default), and without
+    ``"h"`` a .geo that uses no h keeps its own mesh sizes (with ``"h"``, h is its
+    largest mesh size). ``max_elements > 0``: a .geo whose element
     count, estimated before meshing (:func:`estimate_geo`), exceeds the refusal's margin
     times it is refused without meshing (:class:`BadInputError` naming
     ``&mesh max_elements``).
@@ -640,7 +663,7 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
     p = _fpath(path, "mesh file")
     handle, dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(
         p, int(dim), float(length), float(width), float(h), int(bool(check)),
-        int(bool(h_given)), int(max_elements))
+        _given_bits(given), int(max_elements))
     _check(stat, errmsg, "reading the mesh")
     nl = core.dc_mesh_lower_size(handle)
     lower_nodes, lower_group, stat, errmsg = core.dc_mesh_lower_arrays(handle, nl)
@@ -666,15 +689,16 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
 
 
 def estimate_geo(path: str | os.PathLike, *, length: float = 1.0, width: float = 0.1,
-                 h: float = 0.05, h_given: bool = True) -> dict[str, float] | None:
+                 h: float = 0.05,
+                 given=("h", "length", "width")) -> dict[str, float] | None:
     """The element count of a .geo estimated before meshing, as :func:`load_mesh` would
-    mesh it with these parameters (nothing is meshed; docs/scenes.md, "How large a .geo
-    will be"): a dict with ``estimate``, ``measure`` (volume, area or length of the cells'
+    mesh it with these parameters and ``given`` (nothing is meshed; docs/scenes.md, "How
+    large a .geo will be"): a dict with ``estimate``, ``measure`` (volume, area or length of the cells'
     entities), ``size`` (the mesh size it assumes) and ``margin`` (a .geo is refused when
     the estimate exceeds margin x the limit), or None where no estimate can be made.
     :class:`BadInputError` if gmsh cannot read the file."""
     est, _, stat, errmsg = _core().dc_geo_estimate(
-        _fpath(path, "mesh file"), float(length), float(width), float(h), int(bool(h_given)),
+        _fpath(path, "mesh file"), float(length), float(width), float(h), _given_bits(given),
         0, "", "")
     _check(stat, errmsg, "estimating the mesh")
     if est[0] < 0:
@@ -685,13 +709,14 @@ def estimate_geo(path: str | os.PathLike, *, length: float = 1.0, width: float =
 
 def geo_refusal(path: str | os.PathLike, limit: int, limit_key: str, h_key: str, *,
                 length: float = 1.0, width: float = 0.1, h: float = 0.05,
-                h_given: bool = True) -> str | None:
+                given=("h", "length", "width")) -> str | None:
     """The core's one-line refusal of a .geo whose element count, estimated before meshing
-    (:func:`estimate_geo`), exceeds the margin times ``limit``, naming the file and the keys
-    that change it (``h_key`` "" where h is not given); None where it is within the limit
+    (:func:`estimate_geo`, with ``given`` as there), exceeds the margin times ``limit``,
+    naming the file and the keys that change it (``h_key`` "" where h is not given); None
+    where it is within the limit
     or no estimate can be made. :class:`BadInputError` if gmsh cannot read the file."""
     _, text, stat, errmsg = _core().dc_geo_estimate(
-        _fpath(path, "mesh file"), float(length), float(width), float(h), int(bool(h_given)),
+        _fpath(path, "mesh file"), float(length), float(width), float(h), _given_bits(given),
         int(limit), limit_key, h_key)
     _check(stat, errmsg, "estimating the mesh")
     return _str(text) or None

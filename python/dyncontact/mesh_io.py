@@ -54,6 +54,10 @@ DEFAULT_MAX_ELEMENTS = 2000000
 #: Parameters of a .geo set by :func:`generate` and by the core (like gmsh -setnumber).
 GEO_PARAMETERS = ("h", "length", "width")
 
+#: Their values where a .geo uses them without defining them and they are not given
+#: (the defaults of ``&mesh h``, ``length`` and ``width``).
+GEO_DEFAULTS = {"h": 0.05, "length": 1.0, "width": 0.1}
+
 
 @dataclasses.dataclass
 class MeshData:
@@ -171,13 +175,16 @@ def _from_core(d: dict) -> MeshData:
     )
 
 
-def read_mesh(path: str | os.PathLike, *, h: float | None = None, length: float = 1.0,
-              width: float = 0.1, check: bool = True) -> MeshData:
+def read_mesh(path: str | os.PathLike, *, h: float | None = None,
+              length: float | None = None, width: float | None = None,
+              check: bool = True) -> MeshData:
     """Read a mesh file as the core does: .msh (2.2, 4.x, ASCII or binary) or .geo
     (meshed in-process; h, length, width are its parameters of those names, and h the
-    largest mesh size where the file uses no h). ``h=None`` meshes a .geo as a run of a
-    scene without ``&mesh h`` does: a file that defines h keeps its own, one that uses
-    no h its own mesh sizes, one that uses h without defining it gets 0.05.
+    largest mesh size where the file uses no h). None (the default) meshes a .geo as a
+    run of a scene without that key does: a file that defines the parameter
+    (``DefineConstant``) keeps its own value, one that uses it without defining it gets
+    the key's default (:data:`GEO_DEFAULTS`: 0.05, 1.0, 0.1); ``h=None`` leaves a file
+    that uses no h its own mesh sizes.
 
     ``check=False`` skips the core's mesh checks (for meshes the model does not take).
 
@@ -191,8 +198,10 @@ def read_mesh(path: str | os.PathLike, *, h: float | None = None, length: float 
     path = os.fspath(path)
     if not path.strip():
         raise BadInputError("read_mesh: empty file name")
-    return _from_core(load_mesh(path, h=0.05 if h is None else h, length=length,
-                                width=width, check=check, h_given=h is not None))
+    values = {"h": h, "length": length, "width": width}
+    return _from_core(load_mesh(
+        path, check=check, given=[k for k, v in values.items() if v is not None],
+        **{k: GEO_DEFAULTS[k] if v is None else v for k, v in values.items()}))
 
 
 def read_msh_fortran(path: str | os.PathLike) -> MeshData:
@@ -232,48 +241,89 @@ def _check_sizes(who: str, **sizes: float) -> None:
             raise BadInputError(f"{who}: {name} = {value} (must be > 0)")
 
 
-#: gmsh's last error before the parse of _h_use: still the last one after it when the
-#: parse met no error.
+#: gmsh's last error before the parse of _geo_probe: still the last one after it when
+#: the parse met no error.
 _PROBE_MARK = "dyncontact: parsing the .geo without h"
 
 
-def _h_use(gmsh, geo: Path) -> str:
-    """How the .geo uses a parameter h, parsed once without it (as the core's reader
-    decides, fortran/io/gmsh_shim.c): ``"needs"`` where the parse has an error (the file
-    uses h without defining it, or is bad), ``"defines"`` where it defines h
-    (DefineConstant), ``"none"`` where it uses no h. The parse runs to the end of the
-    file whatever its errors (General.AbortOnError 0): a parse stopped at its first error
-    leaves the rest of the file in gmsh's lexer, which the next parse would read first
-    ("line 0: syntax error"). An error is seen as gmsh's last error replacing
-    _PROBE_MARK."""
+def _set_parameters(gmsh, values: dict[str, float], names) -> None:
+    """Set the .geo parameters ``names`` to their ``values`` and clear the others with
+    their ONELAB parameters ``Parameters/<name>`` (as the core's reader does: a
+    DefineConstant with a Name takes an existing ONELAB value over its own, so one left
+    by another file read in the caller's gmsh session was taken for this file's own)."""
+    for name in GEO_PARAMETERS:
+        if name in names:
+            gmsh.parser.setNumber(name, [float(values[name])])
+        else:
+            gmsh.parser.clear(name)
+            gmsh.onelab.clear("Parameters/" + name)
+
+
+def _geo_probe(gmsh, geo: Path, values: dict[str, float], names,
+               model: str) -> tuple[bool, set[str]]:
+    """Parse the .geo once with the parameters ``names`` set to their ``values`` and the
+    others cleared (as the core's reader does, fortran/io/gmsh_shim.c, geo_probe):
+    whether the parse has an error (the file uses a parameter it does not define, or is
+    bad), and the parameters that are parser variables after it (those set and those
+    the file defines, DefineConstant). The parse runs to the end of the file whatever
+    its errors (General.AbortOnError 0): a parse stopped at its first error leaves the
+    rest of the file in gmsh's lexer, which the next parse would read first ("line 0:
+    syntax error"); after a variable used undefined it goes on, so the file's later
+    definitions are seen. An error is seen as gmsh's last error replacing _PROBE_MARK.
+    The parse's model and variables are removed after it (a fresh ``model`` added)."""
+    before = set(gmsh.parser.getNames())
+    _set_parameters(gmsh, values, names)
     abort = gmsh.option.getNumber("General.AbortOnError")
     gmsh.option.setNumber("General.AbortOnError", 0)
     try:
         gmsh.logger.write(_PROBE_MARK, "error")
         try:
             gmsh.merge(str(geo))
-        except Exception:   # noqa: BLE001 - any failure: the file needs h (or is bad)
-            return "needs"
-        if gmsh.logger.getLastError() != _PROBE_MARK:
-            return "needs"
-        return "defines" if "h" in gmsh.parser.getNames("h") else "none"
+            error = gmsh.logger.getLastError() != _PROBE_MARK
+        except Exception:   # noqa: BLE001 - any failure: a parameter needed (or bad)
+            error = True
+        after = set(gmsh.parser.getNames())
     finally:
         gmsh.option.setNumber("General.AbortOnError", abort)
+    gmsh.model.remove()
+    gmsh.model.add(model)
+    for name in after - before:     # the variables of that parse
+        gmsh.parser.clear(name)
+    return error, after & set(GEO_PARAMETERS)
+
+
+def _geo_settings(gmsh, geo: Path, values: dict[str, float],
+                  given: set[str], model: str) -> tuple[set[str], bool]:
+    """Which parameters to set for meshing the .geo, and whether it uses h (the core's
+    geo_parse): those ``given``, and those not given that the file uses without defining
+    (a file that defines one keeps its own value). length and width not given are set
+    unless the file defines them (a first parse without them and without h); h is set
+    where given, or where a parse with length and width so set and without h fails."""
+    lw = {"length", "width"}
+    error, defined = _geo_probe(gmsh, geo, values, given & lw, model)
+    names = (given | (lw - defined)) & lw
+    if error and names != given & lw:
+        error, defined = _geo_probe(gmsh, geo, values, names, model)
+    if "h" in given or error:
+        names.add("h")
+    return names, error or "h" in defined
 
 
 def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
-             h: float | None = 0.05, length: float = 1.0, width: float = 0.1,
+             h: float | None = 0.05, length: float | None = 1.0,
+             width: float | None = 0.1,
              binary: bool = False, version: float = 4.1, max_elements: int = 0,
              keys: tuple[str, str] = ("max_elements", "h")) -> Path:
     """Mesh a .geo with gmsh and write it as .msh (default 4.1 ASCII).
 
     h, length and width are set as the file's parameters of those names (as
     ``gmsh -setnumber h 0.02`` would); where the file uses no h, h is the largest
-    mesh size. ``h=None`` (``dyncontact mesh`` without ``--h``): as a run's .geo for a
-    scene without ``&mesh h``, h is not set: a file that defines h
-    (``DefineConstant[h = {...}]``) keeps its own value, one that uses no h its own mesh
-    sizes, and one that uses h without defining it gets 0.05. The mesh has the
-    geometry's dimension.
+    mesh size. None (``dyncontact mesh`` without ``--h``, ``--length`` or ``--width``):
+    as a run's .geo for a scene without that key, the parameter is not set: a file
+    that defines it (``DefineConstant[h = {...}]``) keeps its own value, one that uses
+    it without defining it gets the key's default (:data:`GEO_DEFAULTS`: 0.05, 1.0,
+    0.1), and ``h=None`` leaves a file that uses no h its own mesh sizes. The mesh has
+    the geometry's dimension.
 
     ``max_elements > 0``: a .geo whose element count, estimated before meshing
     (:func:`dyncontact.core.estimate_geo`), exceeds the refusal's margin times it is not
@@ -294,33 +344,29 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
         short midway gmsh does not report: ``dyncontact mesh`` finds it when it reads
         the file back.
     """
-    h_given = h is not None
-    h = 0.05 if h is None else h
-    _check_sizes("generate", h=h, length=length, width=width)
+    given = {k for k, v in (("h", h), ("length", length), ("width", width))
+             if v is not None}
+    values = {k: GEO_DEFAULTS[k] if v is None else v
+              for k, v in (("h", h), ("length", length), ("width", width))}
+    h_given = "h" in given
+    h = values["h"]
+    _check_sizes("generate", **values)
     geo = Path(geo_path)
     if not geo.is_file():
         raise BadInputError(f"{geo}: no such file")
     if max_elements > 0:
         refusal = geo_refusal(geo, int(max_elements), keys[0], keys[1] if h_given else "",
-                              length=length, width=width, h=h, h_given=h_given)
+                              given=given, **values)
         if refusal:
             raise BadInputError(refusal)
     out = Path(out_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     with _gmsh_session("dyncontact-generate") as gmsh:
-        gmsh.parser.setNumber("length", [float(length)])
-        gmsh.parser.setNumber("width", [float(width)])
-        h_use = _h_use(gmsh, geo)
-        gmsh.model.remove()
-        gmsh.model.add("dyncontact-generate")
-        if "h" in gmsh.parser.getNames("h"):   # defined by that parse
-            gmsh.parser.clear("h")
-        for name, value in (("h", h), ("length", length), ("width", width)):
-            if name != "h" or h_given or h_use == "needs":
-                gmsh.parser.setNumber(name, [float(value)])
+        names, uses_h = _geo_settings(gmsh, geo, values, given, "dyncontact-generate")
+        _set_parameters(gmsh, values, names)
         try:
             gmsh.merge(str(geo))
-            if h_use == "none" and h_given:
+            if not uses_h and h_given:
                 gmsh.option.setNumber("Mesh.MeshSizeMax", float(h))
             gmsh.model.mesh.generate(gmsh.model.getDimension())
         except Exception as exc:
@@ -459,10 +505,14 @@ def build_parser() -> argparse.ArgumentParser:
                         "file's own sizes)")
     p.add_argument("--out", required=True, metavar="FILE.msh",
                    help="mesh file to write (.msh, in an existing folder)")
-    p.add_argument("--length", type=float, default=1.0,
-                   help="parameter length (the bar's length, y; default 1)")
-    p.add_argument("--width", type=float, default=0.1,
-                   help="parameter width (the bar's width, x; default 0.1)")
+    p.add_argument("--length", type=float, default=None,
+                   help="parameter length (the bar's length, y; default: a .geo's own, "
+                        "its DefineConstant; 1 for the bar and a .geo that uses length "
+                        "without defining it)")
+    p.add_argument("--width", type=float, default=None,
+                   help="parameter width (the bar's width, x; default: a .geo's own, its "
+                        "DefineConstant; 0.1 for the bar and a .geo that uses width "
+                        "without defining it)")
     p.add_argument("--geo", metavar="FILE.geo", help="geometry (default meshes/bar2d.geo)")
     p.add_argument("--binary", action="store_true", help="write binary .msh")
     p.add_argument("--msh-version", type=float, default=4.1, choices=(2.2, 4.1),
@@ -493,7 +543,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         fmt = dict(binary=args.binary, version=args.msh_version)
         if args.geo is None:
             h = 0.05 if args.h is None else args.h
-            out = generate_bar(h, args.out, length=args.length, width=args.width, **fmt)
+            out = generate_bar(h, args.out, **fmt,
+                               length=1.0 if args.length is None else args.length,
+                               width=0.1 if args.width is None else args.width)
         else:
             out = generate(args.geo, args.out, h=args.h, length=args.length,
                            width=args.width, max_elements=args.max_elements,

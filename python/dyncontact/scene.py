@@ -177,7 +177,8 @@ class Scene:
             try:
                 self._mesh_dims[tag] = int(core.load_mesh(
                     path, length=float(mesh["length"]), width=float(mesh["width"]),
-                    h=float(mesh["h"]), check=False, h_given=self.given("mesh.h"),
+                    h=float(mesh["h"]), check=False,
+                    given=[k for k in ("h", "length", "width") if self.given(f"mesh.{k}")],
                     max_elements=int(mesh["max_elements"]))["dim"])
             except BadInputError as exc:    # named as the run names it: scene and key
                 raise BadInputError(f"{self._name()}: &mesh file: {exc}") from None

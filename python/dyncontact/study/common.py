@@ -432,7 +432,8 @@ class UserScene:
     keys the studies derive their runs from (the scene's own values; ``dim``: the mesh's
     dimension, 1, 2 or 3, also when the scene leaves ``&mesh dim`` at 0; ``h_given``:
     whether the scene gives ``&mesh h``, without which a .geo is meshed with its own
-    sizes; ``length`` and ``width``: the .geo's parameters of those names)."""
+    sizes; ``length`` and ``width``: the .geo's parameters of those names, None where the
+    scene does not give them: a .geo that defines them then keeps its own values)."""
 
     path: str
     dim: int
@@ -446,8 +447,8 @@ class UserScene:
     mesh_file: str
     scheme: str = "hht"
     h_given: bool = True
-    length: float = 1.0
-    width: float = 0.1
+    length: float | None = 1.0
+    width: float | None = 0.1
 
 
 def read_user_scene(path, out: str | None = None) -> UserScene:
@@ -486,6 +487,9 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
                                           "contact.theta", "mesh.file", "scheme.name",
                                           "mesh.length", "mesh.width")}
         values["h_given"] = scn.given("mesh.h")
+        for k in ("mesh.length", "mesh.width"):     # None: the .geo's own, if it has one
+            if not scn.given(k):
+                values[k] = None
         # the mesh's dimension, not &mesh dim: 0 (the default) means the file's, or 2D
         values["dim"] = scn.dimension()
     except Exception as exc:  # noqa: BLE001 - any refusal of the scene: one line
@@ -503,7 +507,8 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
                      str(values["contact.method"]), float(values["contact.gamma0"]),
                      int(values["contact.theta"]), str(values["mesh.file"] or ""),
                      str(values["scheme.name"]), bool(values["h_given"]),
-                     float(values["mesh.length"]), float(values["mesh.width"]))
+                     *(None if values[k] is None else float(values[k])
+                       for k in ("mesh.length", "mesh.width")))
 
 
 def on_scene(s: SchemeSpec, scene: UserScene) -> SchemeSpec:

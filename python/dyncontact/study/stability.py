@@ -670,12 +670,14 @@ def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
     return report
 
 
-def mesh_file_h(path: str, length: float = 1.0, width: float = 0.1) -> float:
+def mesh_file_h(path: str, length: float | None = None,
+                width: float | None = None) -> float:
     """The size h of the mesh file ``path`` for the stability tables (Δt_crit/h, the
     heat maps): its shortest edge, which is h on every built-in mesh (the squares' and
     cubes' sides; the diagonals are longer) and bounds the explicit schemes' steps. A
     .geo is meshed as for a scene that gives no ``&mesh h`` (with ``length`` and
-    ``width`` as its parameters of those names)."""
+    ``width`` as its parameters of those names; None: as for a scene that does not give
+    them, :func:`dyncontact.mesh_io.read_mesh`)."""
     from ..mesh_io import read_mesh
 
     m = read_mesh(path, check=False, length=length, width=width)
