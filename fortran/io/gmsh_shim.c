@@ -1141,17 +1141,6 @@ static void geo_estimate(const char *path, double est[4])
 #define GIVEN_LENGTH 2
 #define GIVEN_WIDTH 4
 
-/* Parse the .geo path once into the current model with the parameters of the bits of
- * `set` set to params and the others cleared, to see how it uses them: 1 if the parse
- * has an error, 0 if not; *defined gets the bits of the parameters that are parser
- * variables after it (those of `set`, and those the file defines, DefineConstant).
- * The parse runs to the end of the file whatever its errors (AbortOnError 0): a parse
- * stopped at its first error (gmsh's default in the API, an exception) leaves the rest
- * of the file in gmsh's lexer, which the next parse reads first (a .geo using h without
- * defining it then failed with "line 0: syntax error"); a variable it uses undefined is
- * an error after which the parse goes on, so the file's later definitions are seen. An
- * error is seen as gmsh's last error replacing PROBE_MARK, written first. The model and
- * the variables of the parse are removed after it. */
 /* Set the .geo parameters of the bits of `set` to params, and clear the others with
  * their ONELAB parameters "Parameters/<name>" (the names the shipped .geo files give): a
  * DefineConstant with a Name takes the value of an existing ONELAB parameter over its
@@ -1172,6 +1161,17 @@ static void set_parameters(const double *params, int set)
     }
 }
 
+/* Parse the .geo path once into the current model with the parameters of the bits of
+ * `set` set to params and the others cleared, to see how it uses them: 1 if the parse
+ * has an error, 0 if not; *defined gets the bits of the parameters that are parser
+ * variables after it (those of `set`, and those the file defines, DefineConstant).
+ * The parse runs to the end of the file whatever its errors (AbortOnError 0): a parse
+ * stopped at its first error (gmsh's default in the API, an exception) leaves the rest
+ * of the file in gmsh's lexer, which the next parse reads first (a .geo using h without
+ * defining it then failed with "line 0: syntax error"); a variable it uses undefined is
+ * an error after which the parse goes on, so the file's later definitions are seen. An
+ * error is seen as gmsh's last error replacing PROBE_MARK, written first. The model and
+ * the variables of the parse are removed after it. */
 static int geo_probe(const char *path, const double *params, int set, int *defined,
                      session_t *s)
 {
