@@ -150,7 +150,8 @@ def cmd_run(args) -> int:
         warnings.showwarning = show
         while True:
             try:
-                result = core.run(scene, out=args.out, progress=progress, restart=args.restart)
+                result = core.run(scene, out=args.out, progress=progress, restart=args.restart,
+                                  opened=None if args.quiet else _print_opened)
                 break
             except core.BadInputError as exc:
                 if not (args.wait and LOCK_HELD in str(exc)):
@@ -175,15 +176,21 @@ def cmd_run(args) -> int:
             msg = f"{result.status} at t = {t_stop:.6g} (trace kept)"
         return _fail(msg, EXIT_NUMERIC)
     if not args.quiet:
-        print(f"{PROG}: {args.scene}: {_counted(s.get('dofs'), 'dof')}, "
-              f"{_counted(s.get('elements'), 'element')}, "
-              f"{_counted(s.get('contact_facets'), 'contact facet')}; "
-              f"{s.get('scheme', '?')}, {_counted(s.get('steps'), 'step')}")
+        # the output folder as given, as the executable prints it (summary.json records it)
+        folder = ((s.get("scene") or {}).get("output") or {}).get("dir") or result.out_dir
         wall = s.get("wall_s")
         wall_txt = f", {float(wall):.2f} s" if isinstance(wall, (int, float)) else ""
         print(f"{PROG}: ok, {_counted(s.get('steps'), 'step')} to "
-              f"t={_full_exponent(s.get('t_end_reached'))}{wall_txt} -> {result.out_dir}")
+              f"t={_full_exponent(s.get('t_end_reached'))}{wall_txt} -> {folder}", flush=True)
     return EXIT_OK
+
+
+def _print_opened(lines: list[str]) -> None:
+    """The lines the executable prints once the run is open, before its steps (restart,
+    then the run's sizes, scheme and output folder), flushed so that a job's log has them
+    even when the run is stopped by a signal or fails."""
+    for line in lines:
+        print(f"{PROG}: {line}", flush=True)
 
 
 def cmd_plot(args) -> int:
