@@ -79,3 +79,28 @@ def test_sigterm_run_has_its_first_line(tmp_path: Path, who: str):
     assert rest == ""
     assert proc.returncode == 130, err
     assert err.splitlines()[-1].startswith("dyncontact: interrupted")
+
+
+@pytest.mark.parametrize("who", ["exe", "cli"])
+def test_closed_stdout_keeps_the_run(tmp_path: Path, who: str):
+    """A reader that closed stdout's pipe (`| head -1`, here closed before the run starts,
+    so every line fails with EPIPE) neither kills the run (SIGPIPE, exit 141) nor stops
+    it: its trace and summary are complete, stderr has no traceback, and the exit status
+    is the run's (docs/scenes.md, *Output on stdout*)."""
+    import json
+    import os
+
+    (tmp_path / "s.nml").write_text(scene("0.5"))
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    try:
+        run = subprocess.run(commands("s.nml", "--out", "o")[who], cwd=tmp_path,
+                             stdout=write_end, stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write_end)
+    assert run.returncode == 0, run.stderr
+    assert run.stderr == ""
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["status"] == "ok" and summary["steps"] == 200
+    rows = (tmp_path / "o" / "trace.csv").read_text().splitlines()
+    assert len(rows) == 1 + 201       # the header, t = 0 and every step
