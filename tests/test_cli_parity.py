@@ -104,3 +104,16 @@ def test_closed_stdout_keeps_the_run(tmp_path: Path, who: str):
     assert summary["status"] == "ok" and summary["steps"] == 200
     rows = (tmp_path / "o" / "trace.csv").read_text().splitlines()
     assert len(rows) == 1 + 201       # the header, t = 0 and every step
+
+
+def test_executable_help_stands_without_the_source_tree():
+    """An installed executable has no docs/ beside it: --help names the scene groups, the
+    documentation by its title, and the Python command line's own help, not a path only."""
+    text = subprocess.run([str(commands("x.nml")["exe"][0]), "--help"], capture_output=True,
+                          text=True, timeout=30).stdout
+    flat = " ".join(text.split())
+    for group in ("&mesh", "&boundary", "&material", "&contact", "&initial", "&scheme",
+                  "&output", "&solver"):
+        assert group in flat
+    assert '"Scene files, outputs and exit codes"' in flat
+    assert "python -m dyncontact run --help" in flat

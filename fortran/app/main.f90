@@ -33,8 +33,13 @@ program main
         select case (arg)
         case ('--help', '-h')
             write (*, '(a)') USAGE
-            write (*, '(a)') 'Runs a scene file (Fortran namelist, docs/scenes.md) and writes trace.csv and'
-            write (*, '(a)') 'summary.json into the output folder (&output dir, or DIR).'
+            write (*, '(a)') 'Runs a scene file and writes trace.csv and summary.json into the output folder'
+            write (*, '(a)') '(&output dir, or DIR). A scene file is a Fortran namelist of the groups &mesh,'
+            write (*, '(a)') '&boundary, &material, &contact, &initial, &scheme, &output and &solver; every'
+            write (*, '(a)') 'key has a default. Its keys, the outputs and the exit codes are described in'
+            write (*, '(a)') '"Scene files, outputs and exit codes" (docs/scenes.md of the source); with the'
+            write (*, '(a)') 'Python package installed, `python -m dyncontact run --help` gives the Python'
+            write (*, '(a)') 'command line, and dyncontact.Scene.read(FILE) checks a scene file.'
             write (*, '(a)') '--restart DIR continues a stopped run from DIR/checkpoint.bin (written with'
             write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv; a later'
             write (*, '(a)') '&scheme t_end or a raised blowup in SCENE.nml extends the run.'
