@@ -8,7 +8,6 @@ program main
     use os_files, only: signals_install
     use version_info, only: DYNCONTACT_VERSION
     use text, only: int_text, real_text
-    use kinds, only: i8
     use run_lines, only: start_line, restart_line, counted
     implicit none
     interface
