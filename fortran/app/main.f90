@@ -8,7 +8,7 @@ program main
     use os_files, only: signals_install
     use version_info, only: DYNCONTACT_VERSION
     use text, only: int_text, real_text
-    use kinds, only: i8
+    use run_lines, only: start_line, restart_line, counted
     implicit none
     interface
         !> C exit(): ends the program with a status and no extra output.
@@ -32,8 +32,13 @@ program main
         select case (arg)
         case ('--help', '-h')
             write (*, '(a)') USAGE
-            write (*, '(a)') 'Runs a scene file (Fortran namelist, docs/scenes.md) and writes trace.csv and'
-            write (*, '(a)') 'summary.json into the output folder (&output dir, or DIR).'
+            write (*, '(a)') 'Runs a scene file and writes trace.csv and summary.json into the output folder'
+            write (*, '(a)') '(&output dir, or DIR). A scene file is a Fortran namelist of the groups &mesh,'
+            write (*, '(a)') '&boundary, &material, &contact, &initial, &scheme, &output and &solver; every'
+            write (*, '(a)') 'key has a default. Its keys, the outputs and the exit codes are described in'
+            write (*, '(a)') '"Scene files, outputs and exit codes" (docs/scenes.md of the source); with the'
+            write (*, '(a)') 'Python package installed, `python -m dyncontact run --help` gives the Python'
+            write (*, '(a)') 'command line, and dyncontact.Scene.read(FILE) checks a scene file.'
             write (*, '(a)') '--restart DIR continues a stopped run from DIR/checkpoint.bin (written with'
             write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv; a later'
             write (*, '(a)') '&scheme t_end or a raised blowup in SCENE.nml extends the run.'
@@ -71,12 +76,8 @@ program main
         call sim_open(sim, scene_path, out_dir, .true., stat, errmsg, restart=restart_dir)
     end if
     if (stat /= STAT_OK) call fail(stat, errmsg)
-    if (sim%restart_step >= 0) write (*, '(a)') 'dyncontact: restart at step '// &
-        int_text(sim%restart_step)//', t='//real_text(sim%st%t, 6)
-    write (*, '(a)') 'dyncontact: '//trim(scene_path)//': '//counted(int(sim%n_dofs, i8), 'dof')// &
-        ', '//counted(int(sim%n_cells, i8), 'element')//', '// &
-        counted(int(sim%n_contact, i8), 'contact facet')//'; '//trim(sim%scn%scheme_name)//', '// &
-        counted(sim%n_steps, 'step')//' -> '//trim(sim%scn%out_dir)
+    if (sim%restart_step >= 0) write (*, '(a)') 'dyncontact: '//restart_line(sim)
+    write (*, '(a)') 'dyncontact: '//start_line(sim, trim(scene_path), trim(sim%scn%out_dir))
     call print_warnings(sim%mdl%notes)
     flush (6)
     do while (.not. sim%finished)
@@ -127,15 +128,6 @@ contains
                                          ', '//a//'); '//USAGE)
         dir = a
     end subroutine folder_argument
-
-    !> "n noun" with the noun in the plural unless n = 1 ('1 contact facet', '2 steps').
-    function counted(n, noun) result(s)
-        integer(i8), intent(in) :: n            !! the count
-        character(len=*), intent(in) :: noun    !! the noun, singular
-        character(len=:), allocatable :: s
-        s = int_text(n)//' '//noun
-        if (n /= 1_i8) s = s//'s'
-    end function counted
 
     !> Print the model's warnings and notes, one line each, on stderr.
     subroutine print_warnings(notes)

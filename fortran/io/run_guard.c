@@ -36,7 +36,10 @@ static void dc_on_signal(int sig) { dc_signal_flag = sig; }
 /* Install the SIGINT and SIGTERM handlers (executable only), and ignore SIGXFSZ: a write
  * past the file-size limit (ulimit -f, a batch system's RLIMIT_FSIZE) then fails with
  * EFBIG and is reported as any other failed write (summary status "write_failed", exit
- * 4), as under Python, which ignores SIGXFSZ, instead of killing the process. */
+ * 4), as under Python, which ignores SIGXFSZ, instead of killing the process. SIGPIPE is
+ * ignored too, as Python does: a reader that closes the pipe of stdout (`| head -1`)
+ * then makes the program's own lines fail with EPIPE, which main.f90 disregards, instead
+ * of killing the run before or while it writes its files. */
 int dc_signals_install(void)
 {
     struct sigaction sa;
@@ -49,6 +52,7 @@ int dc_signals_install(void)
 #ifdef SIGXFSZ
     if (signal(SIGXFSZ, SIG_IGN) == SIG_ERR) return errno;
 #endif
+    if (signal(SIGPIPE, SIG_IGN) == SIG_ERR) return errno;
     dc_signals_own = 1;
     return 0;
 }

@@ -150,7 +150,8 @@ def cmd_run(args) -> int:
         warnings.showwarning = show
         while True:
             try:
-                result = core.run(scene, out=args.out, progress=progress, restart=args.restart)
+                result = core.run(scene, out=args.out, progress=progress, restart=args.restart,
+                                  opened=None if args.quiet else _print_opened)
                 break
             except core.BadInputError as exc:
                 if not (args.wait and LOCK_HELD in str(exc)):
@@ -175,15 +176,42 @@ def cmd_run(args) -> int:
             msg = f"{result.status} at t = {t_stop:.6g} (trace kept)"
         return _fail(msg, EXIT_NUMERIC)
     if not args.quiet:
-        print(f"{PROG}: {args.scene}: {_counted(s.get('dofs'), 'dof')}, "
-              f"{_counted(s.get('elements'), 'element')}, "
-              f"{_counted(s.get('contact_facets'), 'contact facet')}; "
-              f"{s.get('scheme', '?')}, {_counted(s.get('steps'), 'step')}")
+        # the output folder as given, as the executable prints it (summary.json records it)
+        folder = ((s.get("scene") or {}).get("output") or {}).get("dir") or result.out_dir
         wall = s.get("wall_s")
         wall_txt = f", {float(wall):.2f} s" if isinstance(wall, (int, float)) else ""
-        print(f"{PROG}: ok, {_counted(s.get('steps'), 'step')} to "
-              f"t={_full_exponent(s.get('t_end_reached'))}{wall_txt} -> {result.out_dir}")
+        _say(f"{PROG}: ok, {_counted(s.get('steps'), 'step')} to "
+             f"t={_full_exponent(s.get('t_end_reached'))}{wall_txt} -> {folder}")
     return EXIT_OK
+
+
+def _print_opened(lines: list[str]) -> None:
+    """The lines the executable prints once the run is open, before its steps (restart,
+    then the run's sizes, scheme and output folder), flushed so that a job's log has them
+    even when the run is stopped by a signal or fails."""
+    for line in lines:
+        _say(f"{PROG}: {line}")
+
+
+def _say(line: str) -> None:
+    """Print one line on stdout, flushed. A stdout whose reader has gone (``| head -1``)
+    does not stop the run: the line and the ones after it are dropped (stdout is pointed
+    at /dev/null, so that Python's flush at exit does not complain either), and the exit
+    status stays the run's, as the executable's."""
+    try:
+        print(line, flush=True)
+    except BrokenPipeError:
+        _drop_stdout()
+
+
+def _drop_stdout() -> None:
+    """Point stdout at /dev/null (its reader closed the pipe): later prints and the
+    interpreter's last flush then go nowhere, without a traceback."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, sys.stdout.fileno())
+    finally:
+        os.close(devnull)
 
 
 def cmd_plot(args) -> int:
@@ -338,7 +366,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail(str(exc), EXIT_NUMERIC)
     except core.DyncontactError as exc:
         return _fail(str(exc), EXIT_INTERNAL)
-    except BrokenPipeError:  # pragma: no cover - e.g. piped into head
+    except BrokenPipeError:  # e.g. `plot` or `--help` piped into head: its work is done
+        _drop_stdout()
         return EXIT_OK
     except OSError as exc:
         name = f"{exc.filename}: " if getattr(exc, "filename", None) else ""

@@ -416,7 +416,8 @@ def _progress_bar(progress, total: int, desc: str):
 
 def run(scene, out: str | os.PathLike | None = None, progress: bool | None = None,
         callback: Callable[[int, int], None] | None = None,
-        restart: str | os.PathLike | None = None) -> RunResult:
+        restart: str | os.PathLike | None = None,
+        opened: Callable[[list[str]], None] | None = None) -> RunResult:
     """Run one scene to its end (or until it becomes unstable) and read its outputs.
 
     Parameters
@@ -444,6 +445,13 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         ``max_steps``, ``blowup``) and in ``output.checkpoint_every``: a later t_end
         extends a run that ended, a raised blowup continues one stopped as unstable
         (docs/scenes.md, "Checkpoint and restart").
+    opened : optional ``opened(lines)`` called once the run is open, before its first
+        step, with the lines the executable prints on stdout at that moment, without its
+        ``dyncontact: `` prefix: ``restart at step N, t=T`` for a restart, then ``SCENE: N
+        dofs, M elements, F contact facets; SCHEME, K steps -> DIR`` (the scene file, or
+        a Scene's path, and the output folder as given). An exception it raises stops
+        the run before its first step (the folder's lock released) and goes on to the
+        caller.
 
     Returns
     -------
@@ -496,6 +504,12 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         stopped = None
         try:
             n_steps = _warn_notes(handle)
+            if opened is not None:
+                said = os.fsdecode(scene) if written is None else scene._name()
+                lines = [_str(x) for x in core.dc_sim_lines(
+                    handle, said.encode("utf-8", "surrogateescape"),
+                    _fpath(given, "output folder"))]
+                opened([line for line in lines if line])
             # the first chunk is one step; then as many as take about CHUNK_S, at most
             # max(100, n_steps // 200) (fewer calls on small fast runs)
             max_chunk = max(100, n_steps // 200)
