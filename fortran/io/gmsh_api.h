@@ -62,5 +62,6 @@ void gmshModelMeshGetSizes(const int *dimTags, const size_t dimTags_n, double **
 void gmshModelGetEntitiesForPhysicalGroup(const int dim, const int tag, int **tags,
                                           size_t *tags_n, int *ierr);
 void gmshModelGetType(const int dim, const int tag, char **entityType, int *ierr);
+void gmshOnelabClear(const char *name, int *ierr);
 
 #endif
