@@ -1144,8 +1144,8 @@ static void geo_estimate(const char *path, double est[4])
 /* Set the .geo parameters of the bits of `set` to params, and clear the others with
  * their ONELAB parameters "Parameters/<name>" (the names the shipped .geo files give): a
  * DefineConstant with a Name takes the value of an existing ONELAB parameter over its
- * own, so a value left by another file read in the same gmsh session (a caller's) was
- * taken for this file's own. */
+ * own: without the clearing, a value that another file read in the same gmsh session
+ * (a caller's) left behind would be taken for this file's own. */
 static void set_parameters(const double *params, int set)
 {
     int ierr = 0, i;

@@ -249,8 +249,9 @@ _PROBE_MARK = "dyncontact: parsing the .geo without h"
 def _set_parameters(gmsh, values: dict[str, float], names) -> None:
     """Set the .geo parameters ``names`` to their ``values`` and clear the others with
     their ONELAB parameters ``Parameters/<name>`` (as the core's reader does: a
-    DefineConstant with a Name takes an existing ONELAB value over its own, so one left
-    by another file read in the caller's gmsh session was taken for this file's own)."""
+    DefineConstant with a Name takes an existing ONELAB value over its own: without the
+    clearing, one left by another file read in the caller's gmsh session would be taken
+    for this file's own)."""
     for name in GEO_PARAMETERS:
         if name in names:
             gmsh.parser.setNumber(name, [float(values[name])])
