@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 from contextlib import contextmanager
@@ -287,6 +288,19 @@ def stepper_as_designed(scene, out):
 
     with warns_as_designed(drop_unused(scene)):
         return Stepper(scene, out)
+
+
+def scene_beside_its_mesh(folder: Path, t_end: float, out_dir: str) -> Path:
+    """A scene file folder/s.nml whose mesh, a copy of the seed's GetFEM mesh at h = 0.05,
+    is named relative to the scene (folder/meshes/...), as a user's own folder of scenes
+    holds them: the compressed bar, Δt = 0.01 to t_end, &output dir = out_dir."""
+    (folder / "meshes").mkdir(parents=True)
+    shutil.copy(ROOT / "meshes" / "bar2d_getfem_h0.05.msh", folder / "meshes")
+    scene = folder / "s.nml"
+    scene.write_text("&mesh file = 'meshes/bar2d_getfem_h0.05.msh' /\n"
+                     "&initial kind = 'compressed_bar' /\n"
+                     f"&scheme dt = 0.01, t_end = {t_end} /\n&output dir = '{out_dir}' /\n")
+    return scene
 
 
 @contextmanager

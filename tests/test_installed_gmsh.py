@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, scene_beside_its_mesh
 
 SHIM = ROOT / "fortran" / "io" / "gmsh_shim.c"
 
@@ -91,13 +91,7 @@ def test_installed_executable_prefers_its_environments_gmsh(exe, tmp_path):
     env = _env_with_gmsh(tmp_path)
     installed = env / "bin" / "dyncontact"
     shutil.copy2(exe, installed)
-    scenes = tmp_path / "scenes"
-    (scenes / "meshes").mkdir(parents=True)
-    shutil.copy(ROOT / "meshes" / "bar2d_getfem_h0.05.msh", scenes / "meshes")
-    scene = scenes / "s.nml"
-    scene.write_text("&mesh file = 'meshes/bar2d_getfem_h0.05.msh' /\n"
-                     "&initial kind = 'compressed_bar' /\n"
-                     "&scheme dt = 0.01, t_end = 0.02 /\n&output dir = 'out' /\n")
+    scene = scene_beside_its_mesh(tmp_path / "scenes", 0.02, "out")
     work = tmp_path / "work"
     work.mkdir()
     r = subprocess.run([str(installed), str(scene)], env=_clean_env(LD_DEBUG="files"),

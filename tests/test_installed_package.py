@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import EXE, ROOT
+from conftest import EXE, ROOT, scene_beside_its_mesh
 
 #: Runs `python -m dyncontact ARGS` on the installed package only: the editable install of
 #: the test environment (a finder on sys.meta_path that maps `dyncontact` to the source
@@ -65,13 +65,7 @@ def test_installed_entry_points_give_one_trace(installed, tmp_path):
     folder of their own on a scene of another folder whose mesh path is relative to it,
     write the same trace."""
     exe = next(installed.parents[2].rglob("bin/dyncontact"))
-    scenes = tmp_path / "scenes"
-    (scenes / "meshes").mkdir(parents=True)
-    shutil.copy(ROOT / "meshes" / "bar2d_getfem_h0.05.msh", scenes / "meshes")
-    scene = scenes / "s.nml"
-    scene.write_text("&mesh file = 'meshes/bar2d_getfem_h0.05.msh' /\n"
-                     "&initial kind = 'compressed_bar' /\n"
-                     "&scheme dt = 0.01, t_end = 0.3 /\n&output dir = 'res/run' /\n")
+    scene = scene_beside_its_mesh(tmp_path / "scenes", 0.3, "res/run")
     work = tmp_path / "work"
     work.mkdir()
     env = dict(os.environ)
