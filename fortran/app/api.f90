@@ -189,6 +189,26 @@ subroutine dc_sim_stopped_by(handle, head)
     call sim_stopped_by(sim, head)
 end subroutine dc_sim_stopped_by
 
+!> The lines the executable prints on stdout when it opens a run (module run_lines),
+!> without its 'dyncontact: ' prefix: the restart line ('' unless the run continues from
+!> a checkpoint) and the run's line, naming the scene file and the output folder as given.
+subroutine dc_sim_lines(handle, scene_said, out_said, restart, start)
+    use iso_c_binding, only: c_int64_t
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle
+    use run_lines, only: start_line, restart_line
+    implicit none
+    integer(c_int64_t), intent(in) :: handle       !! run handle
+    character(len=*), intent(in) :: scene_said     !! the scene file as given
+    character(len=*), intent(in) :: out_said       !! the output folder as given
+    character(len=1024), intent(out) :: restart    !! restart line ('' for a fresh run)
+    character(len=4096), intent(out) :: start      !! the run's line
+    type(simulation_t), pointer :: sim
+    call sim_from_handle(handle, sim)
+    restart = restart_line(sim)
+    start = start_line(sim, scene_said, out_said)
+end subroutine dc_sim_lines
+
 !> B(u) on the free dofs of an open run.
 subroutine dc_sim_eval_b(handle, n, u, b, active)
     use iso_c_binding, only: c_int, c_int64_t, c_double
