@@ -2,9 +2,18 @@
 
 from __future__ import annotations
 
+import re
+import tomllib
+from importlib.metadata import version
 from pathlib import Path
 
+from packaging.specifiers import SpecifierSet
+from packaging.version import Version
+
 from conftest import ALONE_FILES, ROOT, alone_or_file
+
+#: The packages the suite's scheduler (conftest.pytest_xdist_make_scheduler) builds on.
+RUNNERS = ("pytest", "pytest-xdist")
 
 
 def test_the_files_that_run_alone_exist():
@@ -26,5 +35,37 @@ def test_units_of_work():
 def test_setup_installs_xdist_and_the_suite_uses_loadfile():
     """scripts/test's workers come from the project's own set-up, and the suite's units
     are built only under --dist loadfile."""
-    assert " pytest-xdist " in (ROOT / "scripts" / "setup").read_text()
+    assert "'pytest-xdist>=" in (ROOT / "scripts" / "setup").read_text()
     assert "--dist loadfile" in (ROOT / "scripts" / "test").read_text()
+
+
+def _pins_of(requirements) -> dict[str, SpecifierSet]:
+    """{name: specifier} of the requirements (PEP 508 strings) that name a runner."""
+    pins = {}
+    for req in requirements:
+        m = re.fullmatch(r"([A-Za-z0-9_.-]+)\s*(.*)", req.strip())
+        if m and m.group(1).lower() in RUNNERS:
+            pins[m.group(1).lower()] = SpecifierSet(m.group(2))
+    return pins
+
+
+def test_runners_are_pinned_to_the_major_versions_the_scheduler_works_with():
+    """pyproject.toml's test extra holds pytest and pytest-xdist to a range below their
+    next major version, scripts/setup installs the same ranges, the environment's
+    versions are in them, and its pytest-xdist has the hook the scheduler overrides."""
+    extra = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]["test"]
+    pins = _pins_of(extra)
+    assert sorted(pins) == sorted(RUNNERS), extra
+    for name, spec in pins.items():
+        lower = [Version(s.version) for s in spec if s.operator == ">="]
+        upper = [Version(s.version) for s in spec if s.operator == "<"]
+        assert len(lower) == 1 and upper == [Version(f"{lower[0].major + 1}")], (name, spec)
+        assert Version(version(name)) in spec, (name, version(name), spec)
+    setup = (ROOT / "scripts" / "setup").read_text()
+    arrays = re.search(r"^py_pkgs=\((.*?)\)", setup, re.S | re.M).group(1)
+    words = [quoted or bare for quoted, bare in re.findall(r"'([^']*)'|(\S+)", arrays)]
+    assert _pins_of(words) == pins, words
+    from xdist.scheduler import LoadFileScheduling
+
+    assert callable(getattr(LoadFileScheduling, "_split_scope", None))
