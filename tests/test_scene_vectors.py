@@ -227,3 +227,35 @@ def test_a_scene_run_from_python_is_named_by_its_file_in_errors(run_cli, tmp_pat
     assert res.returncode == 2
     assert res.stderr.strip() == ("dyncontact: --set contact.probe=0.05,0.0: &contact probe: "
                                   "expected 3 values in 3D (got '0.05, 0.0')")
+
+
+#: A .geo whose dimension follows its parameters: the rectangle width x length (its own
+#: width 0.2 and length 2.0), a box instead for width > 0.5, length < 1.5 or h < 0.3.
+SWITCHING_GEO = """DefineConstant[
+  h = {0.5, Name "Parameters/h"},
+  length = {2.0, Name "Parameters/length"},
+  width = {0.2, Name "Parameters/width"}
+];
+SetFactory("OpenCASCADE");
+If (width > 0.5 || length < 1.5 || h < 0.3)
+  Box(1) = {0, 0, 0, width, width, length};
+Else
+  Rectangle(1) = {0, 0, 0, width, length};
+EndIf
+Mesh.MeshSizeMax = h;
+"""
+
+
+@pytest.mark.parametrize("key, value", [("mesh.width", 1.0), ("mesh.h", 0.25),
+                                        ("mesh.length", 1.0)])
+def test_dimension_follows_the_mesh_keys_a_geo_is_meshed_with(tmp_path, key, value):
+    """A scene's dimension read once from its .geo is not reused for a mesh of other
+    &mesh h, length or width, nor once the scene gives a key it left to the file (here
+    length = 1.0, the value the scene held without giving it): each makes the file a box."""
+    (tmp_path / "switch.geo").write_text(SWITCHING_GEO)
+    scn = Scene.read(write(tmp_path, "&mesh file = 'switch.geo', h = 0.5 /\n"
+                                     "&initial kind = 'rest' /\n"))
+    assert scn.dimension() == 2
+    scn.set(key, value)
+    assert scn.dimension() == 3
+    assert Scene.read(scn.path).dimension() == 2

@@ -106,8 +106,8 @@ class Scene:
         self._given: frozenset[str]
         self._values, self._given = core.scene_parse("", "<scene>", keep_omitted=True,
                                                      with_given=True)
-        #: (mesh file, its mtime and size) -> its dimension, read once.
-        self._mesh_dims: dict[tuple[str, int, int], int] = {}
+        #: The mesh file's dimension by everything that makes the mesh read (:meth:`_mesh_key`).
+        self._mesh_dims: dict[tuple, int] = {}
 
     @classmethod
     def read(cls, path: str | os.PathLike) -> "Scene":
@@ -167,22 +167,32 @@ class Scene:
             core.scene_parse(f"&mesh dim = {mesh['dim']} /", self._name(), full=True)
         if mesh["dim"] != 0 or not mesh["file"]:
             return mesh["dim"] or 2
+        key = self._mesh_key()
+        if key not in self._mesh_dims:
+            path, _, _, length, width, h, given, max_elements = key
+            try:
+                self._mesh_dims[key] = int(core.load_mesh(
+                    path, length=length, width=width, h=h, check=False, given=list(given),
+                    max_elements=max_elements)["dim"])
+            except BadInputError as exc:    # named as the run names it: scene and key
+                raise BadInputError(f"{self._name()}: &mesh file: {exc}") from None
+        return self._mesh_dims[key]
+
+    def _mesh_key(self) -> tuple:
+        """Everything the mesh file's mesh follows: the file (path, mtime, size) and the
+        &mesh keys it is read with (a .geo's h, length and width, which of them the scene
+        gives, max_elements), so that a dimension read once is reused only for the same
+        mesh."""
+        mesh = self._values["mesh"]
         path = mesh["file"]
         try:
             st = os.stat(path)
-            tag = (path, st.st_mtime_ns, st.st_size)
+            stamp = (st.st_mtime_ns, st.st_size)
         except OSError:
-            tag = (path, -1, -1)
-        if tag not in self._mesh_dims:
-            try:
-                self._mesh_dims[tag] = int(core.load_mesh(
-                    path, length=float(mesh["length"]), width=float(mesh["width"]),
-                    h=float(mesh["h"]), check=False,
-                    given=[k for k in ("h", "length", "width") if self.given(f"mesh.{k}")],
-                    max_elements=int(mesh["max_elements"]))["dim"])
-            except BadInputError as exc:    # named as the run names it: scene and key
-                raise BadInputError(f"{self._name()}: &mesh file: {exc}") from None
-        return self._mesh_dims[tag]
+            stamp = (-1, -1)
+        given = tuple(k for k in ("h", "length", "width") if self.given(f"mesh.{k}"))
+        return (path, *stamp, float(mesh["length"]), float(mesh["width"]), float(mesh["h"]),
+                given, int(mesh["max_elements"]))
 
     def set(self, name: str, value: Any) -> None:
         """Set ``'group.key'``; the core converts ``value`` to the key's type.
