@@ -247,21 +247,30 @@ def test_figures_run_on_the_pool_on_dask_and_from_the_cache(tmp_path, monkeypatc
 
 def test_figures_take_the_studies_options(tmp_path, monkeypatch, capsys):
     """scripts/figures passes the runner's options (as `dyncontact study` takes them, and
-    --jobs as before) to make_figures, and refuses a pool of no process."""
+    --jobs, -j for --workers) to make_figures, and refuses a pool of no process, and a
+    pool size with a scheduler (whose cluster has its own workers) naming both."""
     from dyncontact.study import figures
 
     seen = []
     monkeypatch.setattr(figures, "make_figures", lambda out, **kw: seen.append((out, kw))
                         or {"figures": [], "runs": []})
     assert figures.figures_main(["--workers", "3", "--cache", "C", "--out", "O"]) == 0
-    assert figures.figures_main(["-j", "2", "--scheduler", "tcp://h:8786"],
-                                root=str(tmp_path)) == 0
+    assert figures.figures_main(["-j", "2"], root=str(tmp_path)) == 0
+    assert figures.figures_main(["--scheduler", "tcp://h:8786"], root=str(tmp_path)) == 0
     assert [(kw["workers"], kw["scheduler"], kw["cache"]) for _, kw in seen] == [
-        (3, None, "C"), (2, "tcp://h:8786", None)]
+        (3, None, "C"), (2, None, None), (None, "tcp://h:8786", None)]
     assert seen[0][0] == "O" and seen[1][0] == str(tmp_path / "out" / "figures")
     with pytest.raises(SystemExit) as exc:
         figures.figures_main(["--workers", "0"])
     assert exc.value.code == 2 and "--workers must be >= 1" in capsys.readouterr().err
+    for workers in (["-j", "2"], ["--workers", "2"]):
+        with pytest.raises(SystemExit) as exc:
+            figures.figures_main([*workers, "--scheduler", "tcp://h:8786"])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert exc.value.code == 2 and len(err) == 1, err
+        assert err[0].startswith("figures: ") and "--workers" in err[0] \
+            and "--scheduler" in err[0], err
+    assert len(seen) == 3
 
 
 # --------------------------------------------------------------------------- plan, runs, index

@@ -697,6 +697,31 @@ def test_python_sweep_refuses_a_scheduler_timeout_that_is_not_positive(tmp_path,
             pass
 
 
+@pytest.mark.parametrize("study", ["convergence", "hertz", "all"])
+def test_study_refuses_workers_with_a_scheduler(tmp_path, capsys, study):
+    """`study ... --workers N --scheduler ADDRESS`: a Dask cluster's workers are its own,
+    so N would size nothing; one line naming both options, exit 2, before anything is
+    written (no scheduler is asked: the address is never contacted)."""
+    from dyncontact.study import cli
+
+    code = cli.main([study, "--quick", "--out", str(tmp_path / "o"), "--workers", "2",
+                     "--scheduler", "tcp://127.0.0.1:1"])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, lines
+    assert lines[0].startswith("dyncontact study: ") and "Traceback" not in lines[0]
+    assert "--workers" in lines[0] and "--scheduler" in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_python_sweep_refuses_workers_with_a_scheduler(tmp_path):
+    """sweep(..., workers=N, scheduler=ADDRESS) from Python: ValueError naming both, before
+    the scheduler is asked or the cache made."""
+    with pytest.raises(ValueError, match=r"workers = 2 with a scheduler"):
+        sweep([make_task(None, {})], str(tmp_path / "c"), workers=2,
+              scheduler="tcp://127.0.0.1:1", progress=False)
+    assert not (tmp_path / "c").exists()
+
+
 # --------------------------------------------------------------------------- work-precision
 
 @pytest.fixture(scope="module")

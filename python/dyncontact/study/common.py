@@ -298,13 +298,16 @@ def scheduler_unreachable_line(label: str, args, exc) -> str:
 
 def add_runner_options(parser, *worker_aliases: str) -> None:
     """The sweep runner's options, the same for every command that runs a sweep:
-    --workers N (and ``worker_aliases``), --scheduler ADDRESS (then --workers is
-    ignored), --scheduler-timeout SECONDS and --cache DIR."""
-    parser.add_argument("--workers", *worker_aliases, dest="workers", type=int,
+    --workers N (and ``worker_aliases``) or --scheduler ADDRESS (not both: a Dask
+    cluster's workers are its own, started with it, so N would size nothing; the pair is a
+    usage error naming both, exit status 2), --scheduler-timeout SECONDS and --cache DIR."""
+    runner = parser.add_mutually_exclusive_group()
+    runner.add_argument("--workers", *worker_aliases, dest="workers", type=int,
                         default=None, metavar="N",
                         help="processes of the local pool (default: all cores)")
-    parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
-                        help="run on this dask.distributed scheduler instead of the pool")
+    runner.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                        help="run on this dask.distributed scheduler instead of the pool "
+                             "(on the cluster's own workers: not with --workers)")
     parser.add_argument("--scheduler-timeout", metavar="SECONDS", type=positive(float),
                         default=SCHEDULER_TIMEOUT_S,
                         help="seconds to wait for the scheduler to answer (default "

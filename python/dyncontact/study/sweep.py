@@ -550,7 +550,8 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
 
     ``workers``: processes of the local pool (>= 1, default: all cores; ValueError
     otherwise); ``scheduler``: a
-    dask.distributed scheduler address or Client (then ``workers`` is ignored).
+    dask.distributed scheduler address or Client, whose cluster runs the tasks on its own
+    workers (ValueError with ``workers`` too: it would size nothing).
     ``scheduler_timeout``: seconds to wait for the scheduler at that address to answer
     (default :data:`SCHEDULER_TIMEOUT_S`, or the one of an enclosing
     :func:`default_scheduler_timeout`); :class:`SchedulerUnreachable` after it, raised
@@ -567,6 +568,9 @@ def sweep(tasks: Sequence[Task], cache: str, *, workers: int | None = None,
                          f"got {workers!r}")
     if workers is not None:
         workers = int(workers)            # a numpy integer: the pool takes an int
+    if workers is not None and scheduler is not None:
+        raise ValueError(f"workers = {workers} with a scheduler: the Dask cluster runs the "
+                         "tasks on its own workers; give one of them")
     cache = os.path.abspath(cache)
     os.makedirs(cache, exist_ok=True)
     _clean_stale(cache)
