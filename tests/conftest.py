@@ -127,6 +127,34 @@ def stderr_line(res, code: int, prefix: str = "") -> str:
     return lines[0]
 
 
+class Ended:
+    """What :func:`signal_after` collected of the process it signalled."""
+
+    def __init__(self) -> None:
+        self.stdout: str | None = None
+        self.stderr: str | None = None
+        self.returncode: int | None = None
+
+
+@contextmanager
+def signal_after(proc: subprocess.Popen, sig: int, timeout: float = SUBPROCESS_TIMEOUT):
+    """``with signal_after(proc, sig) as ended:`` the block waits for the moment to
+    signal the running process (a line it writes, rows in its trace); on leaving the block
+    `sig` is sent and the process's output collected (communicate within `timeout`) into
+    ``ended`` (stdout, stderr, returncode). Whatever fails on the way (the block, the
+    wait), the process does not outlive the test: still running, it is killed and reaped."""
+    ended = Ended()
+    try:
+        yield ended
+        proc.send_signal(sig)
+        ended.stdout, ended.stderr = proc.communicate(timeout=timeout)
+        ended.returncode = proc.returncode
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
 def lame(young, poisson):
     """Lamé's (lambda, mu) of Young's modulus and Poisson's ratio."""
     return (young * poisson / ((1 + poisson) * (1 - 2 * poisson)),

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import EXE
+from conftest import EXE, signal_after
 
 
 def scene(t_end: str, every: int = 1) -> str:
@@ -66,14 +66,9 @@ def test_sigterm_run_has_its_first_line(tmp_path: Path, who: str):
     (tmp_path / "s.nml").write_text(scene("1.0e3", every=100))
     proc = subprocess.Popen(commands("s.nml", "--out", "o")[who], cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
+    with signal_after(proc, signal.SIGTERM, timeout=60) as ended:
         first = proc.stdout.readline()   # blocks until the line is written and flushed
-        proc.send_signal(signal.SIGTERM)
-        rest, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    rest, err = ended.stdout, ended.stderr
     assert first == ("dyncontact: s.nml: 120 dofs, 80 elements, 2 contact facets; newmark, "
                      "400000 steps -> o\n")
     assert rest == ""

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import gmsh_session, occ_disk, write_msh41
+from conftest import gmsh_session, occ_disk, signal_after, write_msh41
 from test_reliability import (ENTRIES, EXIT_BAD_INPUT, EXIT_OK, EXIT_WRITE, one_line, run,
                               write_scene)
 
@@ -180,11 +180,8 @@ def test_large_field_output_that_fits_is_announced(tmpfs, tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "dyncontact", "run", str(scene), "--out",
                              str(disk / "o")], cwd=tmp_path, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
-    try:
+    with signal_after(proc, signal.SIGINT, timeout=120):
         line = proc.stderr.readline()
-    finally:
-        proc.send_signal(signal.SIGINT)
-        proc.communicate(timeout=120)
     # each snapshot is the size of the first one (same mesh), plus its line in fields.pvd
     first = (disk / "o" / "fields" / "step_0000000.vtu").stat().st_size
     total = 6401 * (first + 100)

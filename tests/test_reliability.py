@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import EXE, ROOT, gmsh_session, occ_disk, stderr_line, write_msh41
+from conftest import EXE, ROOT, gmsh_session, occ_disk, signal_after, stderr_line, write_msh41
 
 #: Exit statuses (docs/scenes.md).
 EXIT_OK, EXIT_BAD_INPUT, EXIT_WRITE, EXIT_SIGNAL = 0, 2, 4, 130
@@ -299,16 +299,14 @@ def test_two_runs_into_one_folder(tmp_path):
     """A second run into the folder of a running one is refused with exit 2 and leaves the
     first run's trace intact (the first is started, seen running, then stopped)."""
     first = _start_long("exe", tmp_path)
-    try:
+    with signal_after(first, signal.SIGTERM, timeout=120) as ended:
         wait_for_rows(tmp_path / "o", 10)
         scene = write_scene(tmp_path / "s.nml", scheme__t_end="3.0")
         second = subprocess.run(entry("exe") + [str(scene), "--out", str(tmp_path / "o")],
                                 cwd=tmp_path, capture_output=True, text=True, timeout=120)
         assert second.returncode == EXIT_BAD_INPUT, second.stderr
         assert "lock" in second.stderr
-    finally:
-        first.send_signal(signal.SIGTERM)
-        assert first.wait(timeout=120) == EXIT_SIGNAL
+    assert ended.returncode == EXIT_SIGNAL
     rows = trace_rows(tmp_path / "o")
     assert len(rows) > 10
     assert "\x00" not in (tmp_path / "o" / "trace.csv").read_text()

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import EXE
+from conftest import EXE, signal_after
 
 #: t in a message: d.ddddd, the letter E, the exponent's sign and three digits.
 FULL_EXPONENT = r"-?\d\.\d{5}E[+-]\d{3}"
@@ -79,11 +79,8 @@ def test_trace_size_note_gives_the_size_with_its_unit(tmp_path):
     env.pop("PYTHONPATH", None)
     proc = subprocess.Popen([str(EXE), "big.nml", "--out", "o"], cwd=tmp_path, env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    try:
+    with signal_after(proc, signal.SIGINT, timeout=60):
         note = proc.stderr.readline()
-    finally:
-        proc.send_signal(signal.SIGINT)
-        proc.communicate(timeout=60)
     assert re.fullmatch(r"dyncontact: note: the trace will take about \d+\.\d (MB|GB) "
                         r"\(500001 rows; &output every thins it\)\n", note), note
 

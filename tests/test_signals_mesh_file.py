@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, signal_after
 from test_reliability import child_env, entry, wait_for_rows
 
 EXIT_SIGNAL = 130
@@ -80,14 +80,9 @@ def test_sigterm_stops_a_run_on_a_mesh_file(kind, tmp_path):
         args.append("--quiet")
     proc = subprocess.Popen(args, cwd=tmp_path, env=child_env(), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
-    try:
+    with signal_after(proc, signal.SIGTERM, timeout=120) as ended:
         wait_for_rows(out, 300)
-        proc.send_signal(signal.SIGTERM)
-        stdout, stderr = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    stdout, stderr = ended.stdout, ended.stderr
     assert proc.returncode == EXIT_SIGNAL, (proc.returncode, stdout, stderr)
     assert "interrupted" in stderr
     summary = json.loads((out / "summary.json").read_text())
@@ -147,16 +142,11 @@ def test_a_signal_while_gmsh_meshes_ends_the_executable_at_once(sig, tmp_path):
     proc = subprocess.Popen(entry("exe") + ["s.nml", "--out", "o"], cwd=tmp_path,
                             env=child_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)
-    try:
+    with signal_after(proc, sig, timeout=120) as ended:
         _wait_for_gmsh(proc)
         t0 = time.monotonic()
-        proc.send_signal(sig)
-        stdout, stderr = proc.communicate(timeout=120)
-        waited = time.monotonic() - t0
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    waited = time.monotonic() - t0
+    stdout, stderr = ended.stdout, ended.stderr
     assert proc.returncode == EXIT_SIGNAL, (proc.returncode, stdout, stderr)
     assert stderr == (f"dyncontact: cube.geo: interrupted by signal {int(sig)} while gmsh "
                       "read it; nothing was written\n"), stderr

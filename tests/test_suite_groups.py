@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import re
+import signal
+import subprocess
+import sys
 import tomllib
 from importlib.metadata import version
 from pathlib import Path
 
+import pytest
 from packaging.specifiers import SpecifierSet
 from packaging.version import Version
 
-from conftest import ALONE_FILES, ROOT, alone_or_file
+from conftest import ALONE_FILES, ROOT, alone_or_file, signal_after
 
 #: The packages the suite's scheduler (conftest.pytest_xdist_make_scheduler) builds on.
 RUNNERS = ("pytest", "pytest-xdist")
@@ -69,3 +73,26 @@ def test_runners_are_pinned_to_the_major_versions_the_scheduler_works_with():
     from xdist.scheduler import LoadFileScheduling
 
     assert callable(getattr(LoadFileScheduling, "_split_scope", None))
+
+
+def test_signal_after_collects_the_output_or_ends_the_process(tmp_path):
+    """conftest.signal_after: the signal sent after the block, the output collected; a
+    block that fails leaves no process behind (killed and reaped)."""
+    child = ("import signal, sys, time\n"
+             "signal.signal(signal.SIGTERM, lambda *a: (print('term'), sys.exit(7)))\n"
+             "print('ready', flush=True)\n"
+             "time.sleep(60)\n")
+    proc = subprocess.Popen([sys.executable, "-c", child], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    with signal_after(proc, signal.SIGTERM) as ended:
+        assert proc.stdout.readline() == "ready\n"
+    assert (ended.stdout, ended.stderr, ended.returncode) == ("term\n", "", 7)
+    proc = subprocess.Popen([sys.executable, "-c", child], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    with pytest.raises(ZeroDivisionError):
+        with signal_after(proc, signal.SIGTERM) as ended:
+            proc.stdout.readline()
+            1 / 0
+    assert proc.returncode == -signal.SIGKILL and ended.returncode is None
+    proc.stdout.close()
+    proc.stderr.close()
