@@ -3,6 +3,8 @@ puts it, used from a folder outside the source tree: what it needs at run time m
 among the installed files, not looked up in the repository."""
 from __future__ import annotations
 
+import csv
+import json
 import os
 import shutil
 import subprocess
@@ -11,18 +13,22 @@ from pathlib import Path
 
 import pytest
 
+import dyncontact
 from conftest import EXE, ROOT, scene_beside_its_mesh
 
-#: Runs `python -m dyncontact ARGS` on the installed package only: the editable install of
-#: the test environment (a finder on sys.meta_path that maps `dyncontact` to the source
-#: tree) is taken out, and the destdir's site-packages is the first path.
-RUN_INSTALLED = """
+#: The installed package only: the editable install of the test environment (a finder on
+#: sys.meta_path that maps `dyncontact` to the source tree) is taken out, and the
+#: destdir's site-packages is the first path.
+ONLY_INSTALLED = """
 import runpy, sys
 site = sys.argv.pop(1)
 sys.meta_path[:] = [f for f in sys.meta_path if 'editable' not in type(f).__module__]
 sys.path.insert(0, site)
 import dyncontact
 assert dyncontact.__file__.startswith(site), dyncontact.__file__
+"""
+#: Runs `python -m dyncontact ARGS` on the installed package only.
+RUN_INSTALLED = ONLY_INSTALLED + """
 sys.argv[0] = 'dyncontact'
 runpy.run_module('dyncontact', run_name='__main__', alter_sys=True)
 """
@@ -77,3 +83,43 @@ def test_installed_entry_points_give_one_trace(installed, tmp_path):
     assert r.returncode == 0, r.stderr
     assert (work / "res" / "run" / "trace.csv").read_bytes() == \
         (work / "exe" / "trace.csv").read_bytes()
+
+
+def test_installed_studies_find_the_ball_scene_and_meshes(installed, tmp_path):
+    """The studies' ball scene (study hertz, the figures' Fig. 9) and meshes (the Hertz
+    ball, the scaling sweep's disk) are the installed package's own files, from a folder
+    outside the source tree; the installed scene is the source tree's, its mesh named
+    beside it."""
+    code = ONLY_INSTALLED + """
+import json
+from dyncontact import Scene
+from dyncontact.study import figures, hertz, scaling
+paths = [figures.BALL_SCENE, hertz.BALL_SCENE, hertz.BALL_POLE_GEO, scaling.DISK_GEO]
+print(json.dumps({"paths": paths, "scene": Scene.read(hertz.BALL_SCENE).to_dict()}))
+"""
+    env = dict(os.environ)
+    env.pop("PYTHONPATH", None)
+    r = subprocess.run([sys.executable, "-c", code, str(installed)], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    got = json.loads(r.stdout)
+    package = installed / "dyncontact"
+    assert got["paths"] == [str(package / "ball3d_newmark.nml")] * 2 + \
+        [str(package / "ball_pole.geo"), str(package / "disk.geo")]
+    source = dyncontact.Scene.read(ROOT / "scripts" / "scenes" / "ball3d_newmark.nml")
+    expected = source.to_dict()
+    assert os.path.normpath(expected["mesh"]["file"]) == str(ROOT / "meshes" / "ball.geo")
+    assert os.path.normpath(got["scene"]["mesh"]["file"]) == str(package / "ball.geo")
+    expected["mesh"]["file"] = got["scene"]["mesh"]["file"]
+    assert got["scene"] == expected
+
+
+def test_installed_study_hertz_runs_outside_the_source_tree(installed, tmp_path):
+    """`python -m dyncontact study hertz --quick` of the installed package, from a folder
+    outside the source tree: both runs of its table done."""
+    r = _run_installed(installed, ["study", "hertz", "--quick", "--workers", "1",
+                                   "--no-progress", "--out", "h"], tmp_path)
+    assert r.returncode == 0, r.stderr[-2000:]
+    with open(tmp_path / "h" / "hertz.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["status"] for r in rows] == ["ok", "ok"]

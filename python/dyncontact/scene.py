@@ -30,12 +30,13 @@ from __future__ import annotations
 import copy
 import numbers
 import os
+from pathlib import Path
 from typing import Any
 
 from . import core
 from .core import BadInputError
 
-__all__ = ["Scene", "SceneError"]
+__all__ = ["Scene", "SceneError", "find_scene"]
 
 #: The exception of a bad scene (the same class as BadInputError).
 SceneError = BadInputError
@@ -85,6 +86,18 @@ def _number_text(x: Any) -> str:
             and type(x).__module__ != "numpy":
         return repr(float(x))
     return str(x)
+
+
+def find_scene(name: str) -> Path:
+    """The example scene file `name` of the source tree's scripts/scenes/ that the package
+    installs (the studies' ball, ``ball3d_newmark.nml``): next to this module (an install:
+    its &mesh file names the .geo installed beside it), or in the source tree."""
+    here = Path(__file__).resolve().parent
+    candidates = [here / name, here.parent.parent / "scripts" / "scenes" / name]
+    for c in candidates:
+        if c.is_file():
+            return c
+    raise FileNotFoundError(f"{name} not found (looked in {', '.join(map(str, candidates))})")
 
 
 class Scene:

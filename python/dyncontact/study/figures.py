@@ -36,11 +36,11 @@ import os
 import shutil
 import sys
 import time
-from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from ..scene import find_scene
 from .common import (MAX_ROWS, OneLineParser, RunSpec, add_runner_options, fmt, loadavg,
                      new_figure, num, package_version, save_figure, scheduler_timeout,
                      scheduler_unreachable_line, scheme_text, seed_spec)
@@ -88,8 +88,7 @@ PC_FAMILY = (  # (scheme, params) of Figs. 5-7
 
 
 #: The ball scene of Fig. 9 (its mesh: meshes/ball.geo, meshed in-process at &mesh h).
-BALL_SCENE = str(Path(__file__).resolve().parents[3] / "scripts" / "scenes"
-                 / "ball3d_newmark.nml")
+BALL_SCENE = str(find_scene("ball3d_newmark.nml"))
 #: Fig. 9's ball: (mesh size, dt, t_end) of the trace run, quick and full, dropped at
 #: BALL_SPEED, the scene's own speed. A faster drop squashes this soft ball (E = 1, ρ = 1:
 #: at 1 m/s the kinetic energy per volume is half of E) to strains of order 1, where the

@@ -48,11 +48,12 @@ from __future__ import annotations
 import math
 import os
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..mesh_io import find_geo
+from ..scene import find_scene
 from .common import fmt, md_table, new_figure, save_figure, slope, write_csv, write_markdown
 from .sweep import ERROR, make_task, sweep
 
@@ -63,10 +64,9 @@ __all__ = ["run_hertz", "hertz_impact", "hertz_time_factor", "hertz_speed", "her
            "ZONE_PATCHES"]
 
 #: The pole-refined ball (its &mesh length: the radius of the zone of size h).
-BALL_POLE_GEO = str(Path(__file__).resolve().parents[3] / "meshes" / "ball_pole.geo")
+BALL_POLE_GEO = str(find_geo("ball_pole.geo"))
 #: The ball scene whose material, contact and scheme the study starts from.
-BALL_SCENE = str(Path(__file__).resolve().parents[3] / "scripts" / "scenes"
-                 / "ball3d_newmark.nml")
+BALL_SCENE = str(find_scene("ball3d_newmark.nml"))
 #: The ball: radius (&mesh width), Young's modulus, Poisson's ratio, density.
 RADIUS, YOUNG, POISSON, DENSITY = 0.2, 1.0, 0.3, 1.0
 #: Nitsche's γ0: the element bound of the pole meshes is about 11.5 (θ = 1), the core's

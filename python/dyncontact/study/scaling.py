@@ -52,6 +52,7 @@ import tempfile
 import time
 from typing import Any, Sequence
 
+from ..mesh_io import find_geo
 from .common import (OneLineParser, environment, md_table, mesh_sizes, new_figure,
                      positive, save_figure, slope, write_csv)
 from .sweep import child_group, sigterm_as_interrupt
@@ -73,8 +74,7 @@ GEOMETRY_SIZES = {
 #: The coarsest mesh of each geometry: its 0-step run measures the fixed footprint (base_mb).
 BASE_H = {"strip": 0.1, "disk": 0.05, "box": 0.1}
 #: The disk's mesh file.
-DISK_GEO = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(
-    os.path.abspath(__file__))))), "meshes", "disk.geo")
+DISK_GEO = str(find_geo("disk.geo"))
 
 COLUMNS = ["geometry", "solver_kind", "h", "contact", "dofs", "matrix_nnz", "factor_nnz", "solver", "solve_kernel",
            "ordering", "setup_s", "loop_ms_per_step", "solve_ms", "spmv_ms", "step_over_floor",
