@@ -278,6 +278,22 @@ def test_version_and_help(run_cli):
     assert res.returncode == 0 and "--set" in res.stdout
 
 
+def test_run_help_says_what_the_executables_help_says_of_scene_files(run_cli, run_exe):
+    """`run --help` (an installed package has no docs/) lists the scene groups, names the
+    documentation by its title and gives the exit statuses, in the executable's words."""
+    exe = run_exe("--help")
+    cli = run_cli("run", "--help")
+    assert exe.returncode == 0 and cli.returncode == 0, (exe.stderr, cli.stderr)
+    said = " ".join(exe.stdout.split())
+    cli_said = " ".join(cli.stdout.split())
+    end = "(docs/scenes.md of the source)"
+    scene_files = said[said.index("A scene file is"):said.index(end) + len(end)]
+    exits = said[said.index("Exit status:"):]
+    for words in (scene_files, exits):
+        assert words in cli_said, words
+    assert '"Scene files, outputs and exit codes"' in scene_files and "&solver" in scene_files
+
+
 # --------------------------------------------------------------------------- outputs
 
 def test_read_trace_drops_a_partial_last_line(tmp_path):

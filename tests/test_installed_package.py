@@ -66,6 +66,16 @@ def test_installed_mesh_command_has_its_default_geometry(installed, tmp_path):
         assert shipped.read_bytes() == (ROOT / "meshes" / name).read_bytes(), name
 
 
+def test_installed_run_help_names_the_scene_documentation(installed, tmp_path):
+    """`python -m dyncontact run --help` of the installed package (no docs/ beside it)
+    lists the scene groups and names the documentation by its title."""
+    r = _run_installed(installed, ["run", "--help"], tmp_path)
+    assert r.returncode == 0, r.stderr
+    said = " ".join(r.stdout.split())
+    assert '"Scene files, outputs and exit codes"' in said and "&solver" in said, said
+    assert "Exit status: 0 ok, 2 bad input" in said, said
+
+
 def test_installed_entry_points_give_one_trace(installed, tmp_path):
     """The installed executable and the installed `python -m dyncontact run`, started in a
     folder of their own on a scene of another folder whose mesh path is relative to it,

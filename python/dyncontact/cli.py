@@ -277,6 +277,20 @@ class _Once(argparse.Action):
         setattr(namespace, self.dest, values)
 
 
+#: What a scene file is and where its documentation is, by title: the sentences of the
+#: executable's --help (fortran/app/main.f90), so that `run --help` of an installed
+#: package, which has no docs/, says as much (tests/test_cli.py holds the two equal).
+SCENE_FILES_HELP = (
+    "A scene file is a Fortran namelist of the groups &mesh, &boundary, &material, "
+    "&contact, &initial, &scheme, &output and &solver; every key has a default. Its keys, "
+    "the outputs and the exit codes are described in \"Scene files, outputs and exit "
+    "codes\" (docs/scenes.md of the source)")
+#: The exit statuses of a run, as the executable's --help gives them.
+EXIT_STATUS_HELP = (
+    "Exit status: 0 ok, 2 bad input, 3 numerical failure, 4 write failure, out of memory "
+    "(one line naming the stage) or internal error, 130 interrupted (SIGINT/SIGTERM).")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description="Elastic bodies hitting a rigid obstacle "
                 "(Nitsche contact, P1 elements, implicit and explicit time schemes).")
@@ -284,9 +298,10 @@ def build_parser() -> argparse.ArgumentParser:
                    version=f"%(prog)s {_version()}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
-    r = sub.add_parser("run", help="run a scene file", description="Run a scene file "
-                       "(Fortran namelist, see docs/scenes.md); writes trace.csv and "
-                       "summary.json into the output folder.")
+    r = sub.add_parser("run", help="run a scene file", description="Run a scene file; "
+                       "writes trace.csv and summary.json into the output folder (&output "
+                       f"dir, or --out DIR). {SCENE_FILES_HELP}; dyncontact.Scene.read(FILE) "
+                       "checks a scene file.", epilog=EXIT_STATUS_HELP)
     r.add_argument("scene", metavar="SCENE.nml")
     r.add_argument("--set", action="append", metavar="GROUP.KEY=VALUE",
                    help="override one scene key, e.g. --set scheme.dt=0.001 (repeatable)")
