@@ -62,6 +62,7 @@ module model
         real(dp) :: amplitude = 0.0_dp            !! compressed_bar lift
         real(dp) :: velocity(3) = 0.0_dp          !! INITIAL_VELOCITY velocity
         real(dp) :: length = 1.0_dp               !! compressed_bar: the lift falls to 0 over it
+        logical :: length_from_mesh = .false.     !! compressed_bar: over the body's extent instead
     end type model_params_t
 
     !> Everything constant in time.
@@ -105,7 +106,7 @@ module model
         real(dp) :: gamma0_min = 0.0_dp           !! smallest gamma0 keeping K_theta PSD (element bound, theta = 1)
     end type model_t
 
-    public :: model_build, model_eval_b, model_apply_jacobian, model_initial, &
+    public :: model_build, model_eval_b, model_apply_jacobian, model_initial, model_lift_length, &
               model_probe, model_mass_apply, model_stiff_apply, model_full_field, &
               model_step_products, model_stiff_mass_apply, model_stiff_theta_values, &
               model_mass_definite, model_scalar_mass
@@ -1213,6 +1214,30 @@ contains
         end do
     end subroutine model_apply_jacobian
 
+    !> The length over which the 'compressed_bar' lift -amplitude (1 - d/length) n falls
+    !> to 0: prm%length, or with prm%length_from_mesh the body's extent along n from the
+    !> obstacle plane, the largest d(x) = (obstacle_point - x).n over the mesh's nodes. That
+    !> is the body's own length along n where it touches the plane (the seed's bar), so that
+    !> the lift is 0 at its far end whatever length a mesh file's body has; a length of
+    !> &mesh length's default would strain another body by amplitude/1.0 and lift its far
+    !> end. Not > 0 when no node is on the body's side of the plane.
+    pure function model_lift_length(mdl, prm) result(length)
+        type(model_t), intent(in) :: mdl            !! model (its mesh and normal)
+        type(model_params_t), intent(in) :: prm     !! its parameters (obstacle point, length)
+        real(dp) :: length                          !! the lift's length (mesh units)
+        integer :: node, dim
+        if (.not. prm%length_from_mesh) then
+            length = prm%length
+            return
+        end if
+        dim = mdl%dim
+        length = -huge(1.0_dp)
+        do node = 1, mdl%msh%n_nodes
+            length = max(length, dot_product(prm%obstacle_point(1:dim) - mdl%msh%x(:, node), &
+                                             mdl%normal(1:dim)))
+        end do
+    end function model_lift_length
+
     !> Initial displacement and velocity (SPEC section 3, &initial).
     pure subroutine model_initial(mdl, prm, u0, v0)
         type(model_t), intent(in) :: mdl            !! model
@@ -1220,10 +1245,12 @@ contains
         real(dp), intent(out) :: u0(:)        !! (n_dofs)
         real(dp), intent(out) :: v0(:)        !! (n_dofs)
         integer :: i, node, k, dim
-        real(dp) :: d
+        real(dp) :: d, length
         dim = mdl%dim
         u0 = 0.0_dp
         v0 = 0.0_dp
+        length = prm%length
+        if (prm%initial == INITIAL_COMPRESSED_BAR) length = model_lift_length(mdl, prm)
         do i = 1, mdl%n_dofs
             node = mdl%dof_node(i)
             k = mdl%dof_comp(i)
@@ -1232,7 +1259,7 @@ contains
                 v0(i) = prm%velocity(k)
             case (INITIAL_COMPRESSED_BAR)
                 d = dot_product(prm%obstacle_point(1:dim) - mdl%msh%x(:, node), mdl%normal(1:dim))
-                u0(i) = -prm%amplitude * (1.0_dp - d / prm%length) * mdl%normal(k)
+                u0(i) = -prm%amplitude * (1.0_dp - d / length) * mdl%normal(k)
             end select
         end do
     end subroutine model_initial

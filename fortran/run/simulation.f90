@@ -15,9 +15,10 @@ module simulation
     use gmsh_mesh, only: file_extension, geo_given
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
     use alm_contact, only: ALM_OFF, ALM_INTEGRAL, ALM_NODAL
-    use model, only: model_t, model_params_t, model_build, model_initial, model_probe, &
-                     model_mass_apply, model_full_field, MASS_CONSISTENT, MASS_LUMPED, &
-                     MASS_REDISTRIBUTED, INITIAL_REST, INITIAL_VELOCITY, INITIAL_COMPRESSED_BAR
+    use model, only: model_t, model_params_t, model_build, model_initial, model_lift_length, &
+                     model_probe, model_mass_apply, model_full_field, MASS_CONSISTENT, &
+                     MASS_LUMPED, MASS_REDISTRIBUTED, INITIAL_REST, INITIAL_VELOCITY, &
+                     INITIAL_COMPRESSED_BAR
     use time_scheme, only: time_scheme_t, state_t, state_eval, scheme_params_t, scheme_kind, &
                            SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED, SCHEME_CENTRAL, &
                            FAILURE_CG
@@ -244,6 +245,15 @@ contains
         end if
         call model_build(msh, model_params(sim%scn), sim%mdl, stat, errmsg)
         if (stat /= STAT_OK) return
+        if (trim(sim%scn%initial_kind) == 'compressed_bar' .and. sim%scn%amplitude /= 0.0_dp &
+            .and. .not. model_lift_length(sim%mdl, model_params(sim%scn)) > 0.0_dp) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(sim%scn%path)//': &initial kind:'// &
+                       ' ''compressed_bar'' lifts the body over its extent along'// &
+                       ' obstacle_normal from the obstacle plane, and the mesh file''s body'// &
+                       ' has no node on its side of the plane; give &mesh length or another'// &
+                       ' kind (got ''compressed_bar'')')
+            return
+        end if
         sim%scene_hash = checkpoint_mesh_hash(sim%scene_hash, sim%mdl%msh)
         sim%n_dofs = sim%mdl%n_dofs
         sim%n_cells = sim%mdl%msh%n_cells
@@ -420,7 +430,9 @@ contains
                 'warning: &initial kind is not given: the mesh file''s body starts from the'// &
                 ' default kind = ''compressed_bar'', the seed bar''s u0 = -amplitude (1 -'// &
                 ' d/length) n, at rest (compressed by amplitude/length = '// &
-                real_text(sim%scn%amplitude / sim%scn%mesh_length)//' along n); give kind ='// &
+                real_text(sim%scn%amplitude / &
+                          model_lift_length(sim%mdl, model_params(sim%scn)))// &
+                ' along n); give kind ='// &
                 ' ''rest'' or ''velocity'' (with velocity), or ''compressed_bar'' to keep it'// &
                 ' (docs/scenes.md, &initial)'//new_line('a')
         end if
@@ -1573,6 +1585,10 @@ contains
         p%amplitude = scn%amplitude
         p%velocity = scn%velocity
         p%length = scn%mesh_length
+        ! a mesh file's body has its own length (a .geo that defines it, any .msh), which
+        ! &mesh length knows only when the scene gives it
+        p%length_from_mesh = len_trim(scn%mesh_file) > 0 .and. &
+            .not. scene_given(scn, 'mesh', 'length')
     end function model_params
 
     !> The scheme's parameters from a validated scene (the scheme chosen once, by kind).
