@@ -1030,8 +1030,9 @@ class Stepper(Model):
         and build; the next :meth:`advance` continues from it, bit for bit as the run that
         saved it. Returns the step loaded. A missing, foreign, truncated or corrupt file
         raises :class:`BadInputError` naming it (the Stepper is then finished: it advances
-        no further). fields.pvd is rewritten to list the state's snapshots that are still
-        in the folder; a :class:`DyncontactWarning` names a missing one."""
+        no further). The snapshots of steps after the state's are removed, and fields.pvd
+        is rewritten to list the state's snapshots that are still in the folder; a
+        :class:`DyncontactWarning` names a missing one."""
         self._need()
         before = len(_notes(_core().dc_sim_info(self.handle)[2]))
         step, stat, errmsg = _core().dc_sim_load(self.handle, _fpath(path, "checkpoint file"))
