@@ -305,6 +305,47 @@ def test_own_length_and_width_in_a_callers_gmsh_session(core_ext, tmp_path):
                                        rtol=1e-12, err_msg=f"generate {path.name}")
 
 
+def _named_size_geo(path: Path, size: float) -> Path:
+    """A unit square whose mesh size is a DefineConstant named "Mesh/size", a Name
+    outside "Parameters/": one the reader knows nothing of."""
+    path.write_text(f'DefineConstant[ size = {{{size}, Name "Mesh/size"}} ];\n'
+                    + RECT_GEO.replace("width", "1").replace("length", "1")
+                    .replace(", h}", ", size}"))
+    return path
+
+
+#: The mesh sizes of the two files of test_a_read_leaves_the_onelab_database_as_it_found_it.
+COARSE, FINE = 0.25, 0.1
+
+
+def test_a_read_leaves_the_onelab_database_as_it_found_it(core_ext, tmp_path):
+    """Two .geo files whose DefineConstant share a Name outside "Parameters/" ("Mesh/size",
+    0.25 and 0.1), read one after the other in a caller's gmsh session by the core
+    (read_mesh), by generate and by a run, each mesh at their own size: a DefineConstant
+    takes the value of an existing ONELAB parameter of its Name over its own, so the first
+    file's 0.25 was taken for the second's. The caller's own ONELAB parameters are as
+    they were after each read, and no parameter of the files is left behind."""
+    coarse = _named_size_geo(tmp_path / "coarse.geo", COARSE)
+    fine = _named_size_geo(tmp_path / "fine.geo", FINE)
+    alone = {p: len(mesh_io.read_mesh(p).cells) for p in (coarse, fine)}
+    assert alone[coarse] < alone[fine]
+    scene = tmp_path / "s.nml"
+    with callers_gmsh_session() as gmsh:
+        gmsh.onelab.setNumber("Mine/x", [3.0])
+        mine = sorted(gmsh.onelab.getNames())
+        for path in (coarse, fine, coarse, fine):
+            assert len(mesh_io.read_mesh(path).cells) == alone[path], path.name
+            out = mesh_io.generate(path, tmp_path / "g.msh", h=None, length=None, width=None)
+            assert len(mesh_io.read_mesh(out).cells) == alone[path], f"generate {path.name}"
+            scene.write_text(f"&mesh file = '{path}' /\n&boundary clamped = '', contact = 'bottom' /\n"
+                             "&contact probe = 0.5, 0.0 /\n&initial kind = 'rest' /\n"
+                             "&scheme dt = 0.01, t_end = 0.01 /\n")
+            r = core.run(scene, out=tmp_path / "out", progress=False)
+            assert r.summary["elements"] == alone[path], f"run {path.name}"
+            assert sorted(gmsh.onelab.getNames()) == mine
+            assert gmsh.onelab.getNumber("Mine/x") == [3.0]
+
+
 SCENE = """&mesh file = '{file}'{h} /
 &boundary clamped = 'top', contact = 'bottom' /
 &contact probe = {probe} /

@@ -63,5 +63,7 @@ void gmshModelGetEntitiesForPhysicalGroup(const int dim, const int tag, int **ta
                                           size_t *tags_n, int *ierr);
 void gmshModelGetType(const int dim, const int tag, char **entityType, int *ierr);
 void gmshOnelabClear(const char *name, int *ierr);
+void gmshOnelabGet(char **data, const char *name, const char *format, int *ierr);
+void gmshOnelabSet(const char *data, const char *format, int *ierr);
 
 #endif

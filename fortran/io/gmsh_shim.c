@@ -26,8 +26,10 @@
  *     every file gmsh writes --, then the unnamed ones in order of first use by an entity.
  * The result (1-based indices) is copied by the Fortran module gmsh_mesh, then freed with
  * dc_gmsh_free(). gmsh state: initialized and finalized around the read; if the process
- * already runs gmsh (the Python gmsh module), a model is added and removed and the options
- * and parser variables set here are restored. Terminal output is off (General.Terminal 0).
+ * already runs gmsh (the Python gmsh module), a model is added and removed, the options
+ * and parser variables set here are restored, and its ONELAB database is set aside during
+ * the read and put back as it was (onelab_empty). Terminal output is off
+ * (General.Terminal 0).
  * Signals: loading libgmsh and gmsh's initialization and finalization install or reset
  * handlers (seen with gmsh 4.15: SIGHUP, SIGQUIT, SIGBUS, SIGFPE, SIGSEGV, SIGPIPE and
  * SIGTERM are no longer caught after a read), which would take SIGTERM away from the run's
@@ -268,6 +270,8 @@ static struct {
     /* optional (the estimate of a .geo's element count; none: no estimate) */
     __typeof__(&gmshModelOccGetMass) occ_get_mass;
     __typeof__(&gmshOnelabClear) onelab_clear;
+    __typeof__(&gmshOnelabGet) onelab_get;
+    __typeof__(&gmshOnelabSet) onelab_set;
     __typeof__(&gmshModelGetBoundary) get_boundary;
     __typeof__(&gmshModelGetParametrizationBounds) get_parametrization_bounds;
     __typeof__(&gmshModelGetValue) get_value;
@@ -359,6 +363,7 @@ static int gmsh_load(void)
     OPT(get_value, "gmshModelGetValue") OPT(get_sizes, "gmshModelMeshGetSizes")
     OPT(get_entities_for_physical_group, "gmshModelGetEntitiesForPhysicalGroup")
     OPT(get_type, "gmshModelGetType") OPT(onelab_clear, "gmshOnelabClear")
+    OPT(onelab_get, "gmshOnelabGet") OPT(onelab_set, "gmshOnelabSet")
 #undef OPT
     return 1;
 }
@@ -399,10 +404,25 @@ typedef struct {
     double terminal, size_max;
     char **names_before;
     size_t n_names_before;
+    char *onelab_before;     /* the caller's ONELAB database (JSON), restored at the end */
+    int onelab_own;          /* 1: this read may empty the ONELAB database (onelab_empty) */
 } session_t;
 
 static const char *MODEL = "dyncontact-read";
 static const char *PARAM_NAMES[3] = {"h", "length", "width"};
+
+/* Empty the ONELAB database, so that a parse sees none of the parameters that an earlier
+ * parse created (a DefineConstant with a Name takes the value of an existing ONELAB
+ * parameter of that Name over its own: `DefineConstant[h = {0.02, Name "Mesh/h"}]` read
+ * after a file that made "Mesh/h" 0.1 in the same gmsh session would mesh at 0.1), as
+ * `gmsh file.geo` meshes it in a fresh process. Only where the database is this read's: a
+ * session gmsh opened for it, or the caller's with its database set aside (session_begin)
+ * and put back (session_end); a libgmsh without gmshOnelabGet/Set leaves it as it is. */
+static void onelab_empty(const session_t *s)
+{
+    int ierr = 0;
+    if (s->onelab_own) G.onelab_clear("", &ierr);
+}
 
 static int session_begin(session_t *s)
 {
@@ -419,7 +439,16 @@ static int session_begin(session_t *s)
         G.option_get_number("General.Terminal", &s->terminal, &ierr);
         G.option_get_number("Mesh.MeshSizeMax", &s->size_max, &ierr);
         G.parser_get_names(&s->names_before, &s->n_names_before, "", &ierr);
+        /* the caller's ONELAB parameters, set aside for the read (onelab_empty) */
+        if (G.onelab_get && G.onelab_set && G.onelab_clear) {
+            ierr = 0;
+            G.onelab_get(&s->onelab_before, "", "json", &ierr);
+            if (ierr && s->onelab_before) { G.free(s->onelab_before); s->onelab_before = NULL; }
+            ierr = 0;
+        }
     }
+    s->onelab_own = G.onelab_clear && (s->own || s->onelab_before);
+    onelab_empty(s);
     G.option_set_number("General.Terminal", 0, &ierr);
     G.model_add(MODEL, &ierr);
     return ierr;
@@ -451,6 +480,12 @@ static void session_end(session_t *s)
     G.model_set_current(MODEL, &ierr);
     if (!ierr) G.model_remove(&ierr);
     clear_new_names(s);
+    if (s->onelab_before) {       /* the caller's ONELAB database as it was */
+        onelab_empty(s);
+        ierr = 0;
+        G.onelab_set(s->onelab_before, "json", &ierr);
+        G.free(s->onelab_before);
+    }
     for (j = 0; j < s->n_names_before; j++) G.free(s->names_before[j]);
     if (s->names_before) G.free(s->names_before);
     G.option_set_number("General.Terminal", s->terminal, &ierr);
@@ -1141,23 +1176,13 @@ static void geo_estimate(const char *path, double est[4])
 #define GIVEN_LENGTH 2
 #define GIVEN_WIDTH 4
 
-/* Set the .geo parameters of the bits of `set` to params, and clear the others with
- * their ONELAB parameters "Parameters/<name>" (the names the shipped .geo files give): a
- * DefineConstant with a Name takes the value of an existing ONELAB parameter over its
- * own: without the clearing, a value that another file read in the same gmsh session
- * (a caller's) left behind would be taken for this file's own. */
+/* Set the .geo parameters of the bits of `set` to params, and clear the others. */
 static void set_parameters(const double *params, int set)
 {
     int ierr = 0, i;
-    char name[32];
     for (i = 0; i < 3; i++) {
-        if (set & (1 << i)) {
-            G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
-        } else {
-            G.parser_clear(PARAM_NAMES[i], &ierr);
-            snprintf(name, sizeof name, "Parameters/%s", PARAM_NAMES[i]);
-            if (G.onelab_clear) G.onelab_clear(name, &ierr);
-        }
+        if (set & (1 << i)) G.parser_set_number(PARAM_NAMES[i], &params[i], 1, &ierr);
+        else G.parser_clear(PARAM_NAMES[i], &ierr);
     }
 }
 
@@ -1170,8 +1195,8 @@ static void set_parameters(const double *params, int set)
  * of the file in gmsh's lexer, which the next parse reads first (a .geo using h without
  * defining it then failed with "line 0: syntax error"); a variable it uses undefined is
  * an error after which the parse goes on, so the file's later definitions are seen. An
- * error is seen as gmsh's last error replacing PROBE_MARK, written first. The model and
- * the variables of the parse are removed after it. */
+ * error is seen as gmsh's last error replacing PROBE_MARK, written first. The model, the
+ * variables and the ONELAB parameters of the parse are removed after it. */
 static int geo_probe(const char *path, const double *params, int set, int *defined,
                      session_t *s)
 {
@@ -1206,6 +1231,7 @@ static int geo_probe(const char *path, const double *params, int set, int *defin
     G.model_remove(&ierr);
     G.model_add(MODEL, &ierr);
     clear_new_names(s);          /* the variables of that parse */
+    onelab_empty(s);             /* and its ONELAB parameters */
     return err;
 }
 

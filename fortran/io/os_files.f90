@@ -112,12 +112,14 @@ module os_files
             integer(c_int64_t), intent(out) :: bytes, files  !! bytes and inodes left (-1: not told)
             integer(c_int) :: r
         end function c_free_space
-        !> Remove the files of dir named prefix*suffix: 0 or the first errno met.
-        function c_remove_matching(dir, prefix, suffix) bind(C, name='dc_remove_matching') &
-            result(r)
-            import :: c_int, c_char
+        !> Remove the files of dir named prefix*suffix (with after >= 0: prefix N suffix,
+        !> N a number > after): 0 or the first errno met.
+        function c_remove_matching(dir, prefix, suffix, after) &
+            bind(C, name='dc_remove_matching') result(r)
+            import :: c_int, c_char, c_long_long
             character(kind=c_char), intent(in) :: dir(*), prefix(*), suffix(*)
                 !! NUL-terminated folder, name prefix, suffix
+            integer(c_long_long), value :: after    !! -1: every such name
             integer(c_int) :: r
         end function c_remove_matching
         !> 1 if a and b name the same existing file, 0 if two, -1 if either does not exist.
@@ -299,15 +301,21 @@ contains
     end subroutine file_remove
 
     !> Remove the files of folder `dir` named `prefix`*`suffix` (none if the folder does
-    !> not exist); STAT_INTERNAL naming the folder if one cannot be removed.
-    subroutine remove_matching(dir, prefix, suffix, stat, errmsg)
+    !> not exist); with `after`, only those named `prefix`N`suffix` with N a number above
+    !> it. STAT_INTERNAL naming the folder if one cannot be removed.
+    subroutine remove_matching(dir, prefix, suffix, stat, errmsg, after)
         character(len=*), intent(in) :: dir                 !! folder
         character(len=*), intent(in) :: prefix              !! start of the names
         character(len=*), intent(in) :: suffix              !! end of the names
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
+        integer(i8), intent(in), optional :: after          !! >= 0: numbers above it only
         integer :: r
-        r = c_remove_matching(trim(dir)//c_null_char, prefix//c_null_char, suffix//c_null_char)
+        integer(c_long_long) :: above
+        above = -1
+        if (present(after)) above = int(max(after, 0_i8), c_long_long)
+        r = c_remove_matching(trim(dir)//c_null_char, prefix//c_null_char, suffix//c_null_char, &
+                              above)
         call check_errno(r, trim(dir)//'/'//prefix//'*'//suffix, 'cannot remove', stat, errmsg)
     end subroutine remove_matching
 

@@ -10,7 +10,8 @@
  *     whose outputs cannot fit before it starts;
  *   - fsync, reopening a file cut back to a given size (a trace continued from a
  *     checkpoint), and a 64-bit FNV-1a hash of a byte buffer (checkpoint checksums);
- *   - the removal of a previous run's snapshots (files of a folder by prefix and suffix)
+ *   - the removal of a previous run's snapshots (files of a folder by prefix and suffix),
+ *     or of those after a checkpoint's step (numbered names above a number);
  *     and whether two paths name the same folder (device and inode).
  * Every function returns 0 on success and errno (> 0) on failure unless said otherwise. */
 #include <dirent.h>
@@ -177,10 +178,25 @@ int dc_free_space(const char *path, int64_t *bytes, int64_t *files)
 
 int dc_unlink(const char *path) { return unlink(path) == 0 || errno == ENOENT ? 0 : errno; }
 
+/* 1 if the n characters at s are decimal digits making a number above `after`. */
+static int number_after(const char *s, size_t n, long long after)
+{
+    unsigned long long v = 0;
+    if (n == 0) return 0;
+    for (size_t i = 0; i < n; i++) {
+        if (s[i] < '0' || s[i] > '9') return 0;
+        if (v > (unsigned long long)INT64_MAX / 10) return 1;   /* far above any step */
+        v = v * 10 + (unsigned long long)(s[i] - '0');
+    }
+    return v > (unsigned long long)after;
+}
+
 /* Remove the files of folder dir whose names start with prefix and end with suffix (a
- * missing folder holds none). Returns 0 or the first errno met (the others are still
- * tried). */
-int dc_remove_matching(const char *dir, const char *prefix, const char *suffix)
+ * missing folder holds none); with after >= 0, only those whose name between prefix and
+ * suffix is a number above after (the snapshots of steps after a checkpoint's). Returns 0
+ * or the first errno met (the others are still tried). */
+int dc_remove_matching(const char *dir, const char *prefix, const char *suffix,
+                       long long after)
 {
     DIR *d = opendir(dir);
     struct dirent *e;
@@ -191,6 +207,8 @@ int dc_remove_matching(const char *dir, const char *prefix, const char *suffix)
         size_t n = strlen(e->d_name);
         if (n < lp + ls || strncmp(e->d_name, prefix, lp) != 0
             || strcmp(e->d_name + n - ls, suffix) != 0)
+            continue;
+        if (after >= 0 && !number_after(e->d_name + lp, n - lp - ls, after))
             continue;
         char *path = malloc(ld + n + 2);
         if (path == NULL) { err = err ? err : ENOMEM; continue; }

@@ -1,6 +1,7 @@
 !> Run outputs: trace.csv (buffered, written in whole rows), JSON helpers, output folders.
 module trace_output
     use iso_c_binding, only: c_int, c_char, c_null_char, c_double
+    use ieee_arithmetic, only: ieee_is_finite, ieee_is_nan
     use text, only: text_json_string => json_string
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
@@ -168,9 +169,25 @@ contains
 
     contains
 
-        !> Append x as es24.16e3 and a comma.
+        !> Append x as es24.16e3 and a comma; a value that is not finite (the last row of a
+        !> run stopped as unstable) as nan, inf or -inf without blanks, as Python and numpy
+        !> write them: pandas reads those as numbers, but gfortran's right-aligned NaN
+        !> and Infinity, with their leading blanks, as text, and with them the whole
+        !> column (e_total, ...) of the trace.
         subroutine put_real(x)
             real(dp), intent(in) :: x   !! value
+            character(len=:), allocatable :: word
+            if (.not. ieee_is_finite(x)) then
+                if (ieee_is_nan(x)) then
+                    word = 'nan'
+                else
+                    word = merge('inf ', '-inf', x > 0.0_dp)
+                    word = trim(word)
+                end if
+                row(n + 1:n + len(word) + 1) = word//','
+                n = n + len(word) + 1
+                return
+            end if
             if (c_format_es(x, row(n + 1:n + 24)) == 0) write (row(n + 1:n + 24), '(es24.16e3)') x
             row(n + 25:n + 25) = ','
             n = n + 25

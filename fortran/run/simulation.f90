@@ -763,9 +763,27 @@ contains
             ! the snapshots up to the checkpoint (a killed run may have listed later ones)
             ! that are still there (the user may have deleted some since)
             call drop_missing_snapshots(sim)
+            call drop_later_snapshots(sim, st, msg)
             if (st == STAT_OK) call write_pvd(sim, st, msg)
         end if
     end subroutine reopen_outputs
+
+    !> Remove the snapshot files of steps after the loaded checkpoint's (fields/step_N.vtu
+    !> and .vtu.tmp, N > sim%step), as the trace's rows after it are cut: a stopped run
+    !> may have written snapshots past its last checkpoint, which a restart to an earlier
+    !> t_end (or a Stepper gone back to a saved state) does not write again. Left there,
+    !> they would lie beside the trace as this run's fields at times it never reached,
+    !> for anyone who reads fields/ without fields.pvd. The continued run writes its own.
+    subroutine drop_later_snapshots(sim, st, msg)
+        type(simulation_t), intent(in) :: sim               !! the run (checkpoint loaded)
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
+        character(len=:), allocatable :: fields
+        fields = trim(sim%scn%out_dir)//'/fields'
+        call remove_matching(fields, 'step_', '.vtu', st, msg, after=int(sim%step, i8))
+        if (st == STAT_OK) &
+            call remove_matching(fields, 'step_', '.vtu.tmp', st, msg, after=int(sim%step, i8))
+    end subroutine drop_later_snapshots
 
     !> Drop from the list of snapshots that a checkpoint brought back (sim%snap_t,
     !> snap_file) those whose VTU file is no longer in the output folder (deleted between
@@ -1324,7 +1342,8 @@ contains
         if (stat /= STAT_OK) return
         if (sim%scn%fields_every > 0) then
             call drop_missing_snapshots(sim)
-            call write_pvd(sim, stat, errmsg)
+            call drop_later_snapshots(sim, stat, errmsg)
+            if (stat == STAT_OK) call write_pvd(sim, stat, errmsg)
         end if
     end subroutine sim_load
 

@@ -44,7 +44,7 @@ __all__ = [
     "TRACE_COLUMNS", "read_trace", "read_summary", "fortran_version", "scene_dump", "scene_parse",
     "load_mesh", "estimate_geo", "unmeshed_text", "p1_element",
     "umf_solve", "linear_solve", "Model", "bench_floors_available",
-    "bench_floors",
+    "bench_floors", "cpu_lacks", "V3_FEATURES",
 ]
 
 #: Header of trace.csv (SPEC section 4).
@@ -111,8 +111,63 @@ class NumericalError(DyncontactError):
     """Numerical failure outside a time loop (Fortran stat 3: singular matrix, ...)."""
 
 
+#: The features of x86-64-v3 that the core compiled with -march=x86-64-v3 -mno-fma may use
+#: (the x86-64 psABI's levels v2 and v3 but FMA), as (name, flag of /proc/cpuinfo);
+#: fortran/app/cpu_check.c, the executable's check, has the same list.
+V3_FEATURES = (("cmpxchg16b", "cx16"), ("lahf_lm", "lahf_lm"), ("popcnt", "popcnt"),
+               ("sse3", "pni"), ("sse4.1", "sse4_1"), ("sse4.2", "sse4_2"), ("ssse3", "ssse3"),
+               ("avx", "avx"), ("avx2", "avx2"), ("bmi", "bmi1"), ("bmi2", "bmi2"),
+               ("f16c", "f16c"), ("lzcnt", "abm"), ("movbe", "movbe"), ("osxsave", "xsave"))
+
+
+def cpu_lacks(isa: str, flags: set[str] | None) -> str | None:
+    """The one-line error for a CPU whose /proc/cpuinfo ``flags`` lack features that the
+    instruction set ``isa`` of the build uses, else None (also when the flags are unknown:
+    None, another system than Linux). Pure, so that a test can give it an older CPU."""
+    if isa != "x86-64-v3" or flags is None:
+        return None
+    lacking = [name for name, flag in V3_FEATURES if flag not in flags]
+    if not lacking:
+        return None
+    return ("this build of the core uses x86-64-v3 instructions (AVX2; -Dsimd=auto on a "
+            f"machine that has them) and this CPU lacks {', '.join(lacking)}; rebuild with "
+            "`meson setup build -Dsimd=portable` (or `pip install . "
+            "-Csetup-args=-Dsimd=portable`)")
+
+
+def _cpu_flags() -> set[str] | None:
+    """The CPU's feature flags from /proc/cpuinfo (its first processor), None if unknown."""
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                if key.strip() == "flags":
+                    return set(value.split())
+    except OSError:
+        pass
+    return None
+
+
+def _check_cpu() -> None:
+    """Raise DyncontactError (exit 4 from the CLI, as the executable's check) when the CPU
+    lacks what the extension was compiled for. Importing the extension on such a CPU may
+    kill the process with SIGILL ("Illegal instruction"), which no Python code can catch,
+    so the check reads /proc/cpuinfo and the build's recorded level (``_version.__isa__``)
+    and runs before the import."""
+    try:
+        from ._version import __isa__
+    except ImportError:  # pragma: no cover - source tree without a build
+        return
+    said = cpu_lacks(__isa__, _cpu_flags())
+    if said:
+        raise DyncontactError(said)
+
+
 def _core():
-    """The extension module, imported on first use with a readable error."""
+    """The extension module, imported on first use with a readable error; the CPU is
+    checked first (_check_cpu)."""
+    if __package__ + "._core" not in sys.modules:
+        _check_cpu()
     try:
         from . import _core as core
     except ImportError as exc:  # pragma: no cover - depends on the installation
@@ -975,8 +1030,9 @@ class Stepper(Model):
         and build; the next :meth:`advance` continues from it, bit for bit as the run that
         saved it. Returns the step loaded. A missing, foreign, truncated or corrupt file
         raises :class:`BadInputError` naming it (the Stepper is then finished: it advances
-        no further). fields.pvd is rewritten to list the state's snapshots that are still
-        in the folder; a :class:`DyncontactWarning` names a missing one."""
+        no further). The snapshots of steps after the state's are removed, and fields.pvd
+        is rewritten to list the state's snapshots that are still in the folder; a
+        :class:`DyncontactWarning` names a missing one."""
         self._need()
         before = len(_notes(_core().dc_sim_info(self.handle)[2]))
         step, stat, errmsg = _core().dc_sim_load(self.handle, _fpath(path, "checkpoint file"))

@@ -119,7 +119,8 @@ def _gmsh_session(model: str = "dyncontact") -> Iterator:
     If gmsh is not initialized, it is initialized (no config files, no terminal
     output) and finalized afterwards. If the caller already runs gmsh, a new model
     is added and removed afterwards, and the caller's current model, options
-    and parser/ONELAB variables set here are restored.
+    and parser variables set here are restored; its ONELAB database is set aside
+    (emptied, :func:`_onelab_empty`) and put back as it was.
     """
     import gmsh
 
@@ -129,12 +130,15 @@ def _gmsh_session(model: str = "dyncontact") -> Iterator:
         saved = {}
         previous_model = None
         names_before: set = set()
+        onelab_before = None
     else:
         saved = {k: gmsh.option.getNumber(k)
                  for k in ("General.Terminal", "Mesh.MshFileVersion", "Mesh.Binary",
                            "Mesh.MeshSizeMax")}
         previous_model = gmsh.model.getCurrent()
         names_before = set(gmsh.parser.getNames())
+        onelab_before = gmsh.onelab.get()
+    _onelab_empty(gmsh)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add(model)
@@ -149,8 +153,9 @@ def _gmsh_session(model: str = "dyncontact") -> Iterator:
             with contextlib.suppress(Exception):
                 for name in set(gmsh.parser.getNames()) - names_before:
                     gmsh.parser.clear(name)
-                for name in GEO_PARAMETERS:
-                    gmsh.onelab.clear("Parameters/" + name)
+            with contextlib.suppress(Exception):
+                _onelab_empty(gmsh)
+                gmsh.onelab.set(onelab_before)
             for key, value in saved.items():
                 gmsh.option.setNumber(key, value)
             if previous_model is not None and previous_model in gmsh.model.list():
@@ -246,18 +251,23 @@ def _check_sizes(who: str, **sizes: float) -> None:
 _PROBE_MARK = "dyncontact: parsing the .geo without h"
 
 
+def _onelab_empty(gmsh) -> None:
+    """Empty gmsh's ONELAB database, so that a parse sees no parameter an earlier parse
+    created, as the core's reader does (fortran/io/gmsh_shim.c, onelab_empty): a
+    DefineConstant with a Name takes the value of an existing ONELAB parameter of that
+    Name over its own (``DefineConstant[h = {0.02, Name "Mesh/h"}]`` parsed after a file
+    that made "Mesh/h" 0.1 would mesh at 0.1); `gmsh file.geo` starts with none.
+    :func:`_gmsh_session` sets a caller's database aside first and puts it back."""
+    gmsh.onelab.clear()
+
+
 def _set_parameters(gmsh, values: dict[str, float], names) -> None:
-    """Set the .geo parameters ``names`` to their ``values`` and clear the others with
-    their ONELAB parameters ``Parameters/<name>`` (as the core's reader does: a
-    DefineConstant with a Name takes an existing ONELAB value over its own: without the
-    clearing, one left by another file read in the caller's gmsh session would be taken
-    for this file's own)."""
+    """Set the .geo parameters ``names`` to their ``values`` and clear the others."""
     for name in GEO_PARAMETERS:
         if name in names:
             gmsh.parser.setNumber(name, [float(values[name])])
         else:
             gmsh.parser.clear(name)
-            gmsh.onelab.clear("Parameters/" + name)
 
 
 def _geo_probe(gmsh, geo: Path, values: dict[str, float], names,
@@ -271,7 +281,8 @@ def _geo_probe(gmsh, geo: Path, values: dict[str, float], names,
     rest of the file in gmsh's lexer, which the next parse would read first ("line 0:
     syntax error"); after a variable used undefined it goes on, so the file's later
     definitions are seen. An error is seen as gmsh's last error replacing _PROBE_MARK.
-    The parse's model and variables are removed after it (a fresh ``model`` added)."""
+    The parse's model, variables and ONELAB parameters are removed after it (a fresh
+    ``model`` added)."""
     before = set(gmsh.parser.getNames())
     _set_parameters(gmsh, values, names)
     abort = gmsh.option.getNumber("General.AbortOnError")
@@ -290,6 +301,7 @@ def _geo_probe(gmsh, geo: Path, values: dict[str, float], names,
     gmsh.model.add(model)
     for name in after - before:     # the variables of that parse
         gmsh.parser.clear(name)
+    _onelab_empty(gmsh)             # and its ONELAB parameters
     return error, after & set(GEO_PARAMETERS)
 
 

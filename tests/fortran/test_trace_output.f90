@@ -3,10 +3,11 @@
 !> against libgfortran's formatted output), for random values over the whole range of
 !> exponents, more of them between 1e-30 and 1e-5 (the fast path's two-step scaling),
 !> rounding boundaries, signed zeros and non-finite values (f_n, the last column, is
-!> given -e_load: the same values, the other sign).
+!> given -e_load: the same values, the other sign); but for a value that is not finite,
+!> written nan, inf or -inf without blanks (the text pandas reads as a number).
 program test_trace_output
     use, intrinsic :: ieee_arithmetic, only: ieee_value, ieee_quiet_nan, ieee_positive_inf, &
-                                             ieee_negative_inf
+                                             ieee_negative_inf, ieee_is_finite, ieee_is_nan
     use kinds, only: dp
     use trace_output, only: trace_t, trace_open, trace_row, trace_close
     implicit none
@@ -81,8 +82,12 @@ program test_trace_output
         read (unit, '(a)', iostat=ios) line
         if (ios /= 0) error stop 'trace too short'
         v = vals(:, i)
-        write (expect, '(8(es24.16e3, ","), i0, ",", i0, 2(",", es24.16e3))') v(1:8), ints(:, i), &
-            v(9), -v(9)
+        expect = ''
+        do k = 1, 8
+            expect = trim(expect)//field(v(k))//','
+        end do
+        write (expect(len_trim(expect) + 1:), '(i0, ",", i0, ",")') ints(:, i)
+        expect = trim(expect)//field(v(9))//','//field(-v(9))
         if (line /= expect) then
             fails = fails + 1
             if (fails <= 5) then
@@ -97,4 +102,20 @@ program test_trace_output
         error stop 1
     end if
     print '(a, i0, a)', 'test_trace_output: ', size(vals, 2), ' rows identical'
+contains
+    !> x as es24.16e3, or nan, inf, -inf when it is not finite.
+    function field(x) result(s)
+        real(dp), intent(in) :: x   !! value
+        character(len=:), allocatable :: s
+        character(len=24) :: buf
+        if (ieee_is_nan(x)) then
+            s = 'nan'
+        else if (.not. ieee_is_finite(x)) then
+            s = merge('inf ', '-inf', x > 0.0_dp)
+            s = trim(s)
+        else
+            write (buf, '(es24.16e3)') x
+            s = buf
+        end if
+    end function field
 end program test_trace_output
