@@ -341,6 +341,20 @@ def test_body_at_rest_takes_one_newton_iteration_a_step(tmp_path, name):
         assert np.all(tr[col] == 0.0), col
 
 
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_summary_names_the_dimension(tmp_path, dim):
+    """summary.json's dim is the body's: the built-in bar's &mesh dim, and a mesh file's
+    own, which the scene's mesh.dim (0: from the file) does not say."""
+    s = scene(scheme__t_end=0.01, mesh__dim=dim, initial__kind="rest")
+    if dim == 3:
+        s.set("mesh.dim", 0)
+        s.set("mesh.file", str(Path(__file__).parent / "data" / "meshes" / "box3d.geo"))
+    res = run(s, tmp_path, "s")
+    assert res.status == "ok"
+    assert res.summary["dim"] == dim
+    assert res.summary["scene"]["mesh"]["dim"] == (0 if dim == 3 else dim)
+
+
 def test_summary_fields(tmp_path):
     res = run(scene(scheme__t_end=0.1), tmp_path, "s")
     s = res.summary

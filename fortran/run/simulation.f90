@@ -1749,6 +1749,7 @@ contains
                '  "wall_s": '//json_real(real(clock - sim%clock0, dp) / sim%clock_rate)//','//nl// &
                '  "newton_its_total": '//int_text(int(its, i8))//','//nl// &
                '  "factorizations": '//int_text(int(facts, i8))//','//nl// &
+               '  "dim": '//int_text(int(sim%mdl%dim, i8))//','//nl// &
                '  "dofs": '//int_text(int(sim%n_dofs, i8))//','//nl// &
                '  "elements": '//int_text(int(sim%n_cells, i8))//','//nl// &
                '  "contact_facets": '//int_text(int(sim%n_contact, i8))//','//nl// &
