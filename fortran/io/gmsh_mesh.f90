@@ -21,6 +21,7 @@ module gmsh_mesh
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise, MSG_LEN
     use mesh, only: mesh_t, mesh_check, GROUP_NAME_LEN
     use text, only: lower, real_text, int_text
+    use msh_sections, only: msh_check_counts
     implicit none
     private
     public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, too_large_text, &
@@ -209,6 +210,8 @@ contains
         select case (ext)
         case ('.msh')
             is_geo = 0
+            call msh_check_counts(p, stat, errmsg)
+            if (stat /= STAT_OK) return
         case ('.geo')
             is_geo = 1
         case default
