@@ -440,6 +440,27 @@ def test_msh4_header_counts_that_differ_from_the_blocks_refused(run_exe, tmp_pat
         mesh_io.read_mesh(p)
 
 
+#: A .geo with gmsh's Exit command: gmsh ends the process there (status 1, no word).
+_EXIT_GEO = (ROOT / "meshes" / "disk.geo").read_text() + "\nExit ;\n"
+
+
+def test_geo_with_exit_refused(run_exe, tmp_path):
+    """The run, the reader and the estimate (Scene.validate) refuse it naming the file;
+    the Python process that asked lives on. Exit in a comment or a string is no command."""
+    p = tmp_path / "exits.geo"
+    p.write_text(_EXIT_GEO)
+    what = "has gmsh's 'Exit' command"
+    assert f"{p}: {what}" in _exe_error(run_exe, tmp_path, p)
+    with pytest.raises(BadInputError, match=what):
+        mesh_io.read_mesh(p)
+    with pytest.raises(BadInputError, match=what):
+        core.estimate_geo(p)
+    quiet = tmp_path / "quiet.geo"
+    quiet.write_text((ROOT / "meshes" / "disk.geo").read_text()
+                     + '\n// Exit;\n/* Exit; */\nPrintf("Exit;");\nExits = 1;\n')
+    assert mesh_io.read_mesh(quiet).dim == 2
+
+
 def test_missing_file(run_exe, tmp_path):
     msg = _exe_error(run_exe, tmp_path, tmp_path / "none.msh")
     assert "none.msh" in msg and "cannot read mesh file" in msg
