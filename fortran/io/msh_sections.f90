@@ -15,11 +15,11 @@
 !> maxTag', then per block 'entityDim entityTag parametric numNodesInBlock', that many
 !> tag lines and that many coordinate lines; $Elements: 'numEntityBlocks numElements
 !> minTag maxTag', then per block 'entityDim entityTag elementType numElementsInBlock' and
-!> that many lines. MSH 4.0 ASCII has one line per node (tag and coordinates). Binary 4.1
+!> that many lines. Binary 4.1
 !> (data size 8): the header's four size_t, per block three int and a size_t count, then
 !> the block's size_t tags and doubles (nodes) or size_t rows of 1 + nodes-per-element
-!> (elements). A file that ends inside a section, a binary file of another layout (4.0,
-!> data size other than 8, other byte order) or an element type not in the table below
+!> (elements). A file that ends inside a section, a binary file of another layout (MSH 4.0 and
+!> 2.2, a data size other than 8, other byte order) or an element type not in the table below
 !> are left to gmsh, which refuses them itself or reads them safely.
 module msh_sections
     use, intrinsic :: iso_fortran_env, only: int32, int64
@@ -64,7 +64,7 @@ contains
         p = 12
         call skip_eol(buf, p)
         read (buf(p:min(nbytes, p + 63)), *, iostat=ios) version, file_type, data_size
-        if (ios /= 0 .or. version < 4.0) return
+        if (ios /= 0 .or. version < 4.05) return          ! 2.2 and 4.0: gmsh's
         binary = file_type == 1
         if (binary) then
             if (version < 4.05 .or. data_size /= 8) return
