@@ -439,6 +439,69 @@ def test_mesh_file_refused(run_exe, tmp_path, name, text, what):
     assert f"{p}: {what}" in msg
 
 
+def _swap_counts(data: bytes, section: bytes, binary: bool) -> bytes:
+    """data with the first two numbers of `section`'s header (its block count and its
+    node or element count) swapped."""
+    start = data.index(b"\n" + section + b"\n") + len(section) + 2
+    if binary:
+        a, b = data[start:start + 8], data[start + 8:start + 16]
+        return data[:start] + b + a + data[start + 16:]
+    end = data.index(b"\n", start)
+    head = data[start:end].split()
+    return data[:start] + b" ".join([head[1], head[0], *head[2:]]) + data[end:]
+
+
+def _fewer_nodes(data: bytes, section: bytes, binary: bool) -> bytes:
+    """data with `section`'s header count 5 less than its blocks hold."""
+    start = data.index(b"\n" + section + b"\n") + len(section) + 2
+    if binary:
+        n = int.from_bytes(data[start + 8:start + 16], "little")
+        return data[:start + 8] + (n - 5).to_bytes(8, "little") + data[start + 16:]
+    end = data.index(b"\n", start)
+    head = data[start:end].split()
+    return data[:start] + b" ".join([head[0], b"%d" % (int(head[1]) - 5), *head[2:]]) \
+        + data[end:]
+
+
+@pytest.mark.parametrize("binary", [False, True], ids=["ascii", "binary"])
+@pytest.mark.parametrize("section", [b"$Nodes", b"$Elements"])
+@pytest.mark.parametrize("edit", [_swap_counts, _fewer_nodes], ids=["swapped", "fewer"])
+def test_msh4_header_counts_that_differ_from_the_blocks_refused(run_exe, tmp_path, binary,
+                                                                 section, edit):
+    """gmsh sizes its arrays from a msh 4 section's header and fills them from its blocks:
+    a header count below the blocks' sum wrote past them (abort, "corrupted size vs.
+    prev_size"); such a file is refused naming the file and the section, exit 2."""
+    src = rewrite(ROOT / "meshes" / "bar2d_getfem_h0.05.msh", tmp_path / "src.msh", 4.1,
+                  binary)
+    p = tmp_path / "bad.msh"
+    p.write_bytes(edit(src.read_bytes(), section, binary))
+    msg = _exe_error(run_exe, tmp_path, p)
+    assert f"{p}: its {section.decode()} section" in msg
+    with pytest.raises(BadInputError, match=f"its \\{section.decode()} section"):
+        mesh_io.read_mesh(p)
+
+
+#: A .geo with gmsh's Exit command: gmsh ends the process there (status 1, no word).
+_EXIT_GEO = (ROOT / "meshes" / "disk.geo").read_text() + "\nExit ;\n"
+
+
+def test_geo_with_exit_refused(run_exe, tmp_path):
+    """The run, the reader and the estimate (Scene.validate) refuse it naming the file;
+    the Python process that asked lives on. Exit in a comment or a string is no command."""
+    p = tmp_path / "exits.geo"
+    p.write_text(_EXIT_GEO)
+    what = "has gmsh's 'Exit' command"
+    assert f"{p}: {what}" in _exe_error(run_exe, tmp_path, p)
+    with pytest.raises(BadInputError, match=what):
+        mesh_io.read_mesh(p)
+    with pytest.raises(BadInputError, match=what):
+        core.estimate_geo(p)
+    quiet = tmp_path / "quiet.geo"
+    quiet.write_text((ROOT / "meshes" / "disk.geo").read_text()
+                     + '\n// Exit;\n/* Exit; */\nPrintf("Exit;");\nExits = 1;\n')
+    assert mesh_io.read_mesh(quiet).dim == 2
+
+
 def test_missing_file(run_exe, tmp_path):
     msg = _exe_error(run_exe, tmp_path, tmp_path / "none.msh")
     assert "none.msh" in msg and "cannot read mesh file" in msg

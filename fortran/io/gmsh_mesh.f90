@@ -21,6 +21,7 @@ module gmsh_mesh
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise, MSG_LEN
     use mesh, only: mesh_t, mesh_check, GROUP_NAME_LEN
     use text, only: lower, real_text, int_text
+    use msh_sections, only: msh_check_counts
     implicit none
     private
     public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, too_large_text, &
@@ -209,8 +210,12 @@ contains
         select case (ext)
         case ('.msh')
             is_geo = 0
+            call msh_check_counts(p, stat, errmsg)
+            if (stat /= STAT_OK) return
         case ('.geo')
             is_geo = 1
+            call geo_check_exit(p, stat, errmsg)
+            if (stat /= STAT_OK) return
         case default
             call raise(stat, errmsg, STAT_BAD_INPUT, p//": unknown mesh file extension '"// &
                        ext//"' (a mesh file is a gmsh .msh or .geo file)")
@@ -288,12 +293,88 @@ contains
         real(c_double) :: cest(4)
         integer(c_int) :: st
         stat = STAT_OK
+        call geo_check_exit(trim(path), stat, errmsg)
+        if (stat /= STAT_OK) return
         st = c_gmsh_estimate(trim(path)//c_null_char, &
                              [h, length, width, real(iand(given, GEO_GIVEN_ALL), dp)], cest, &
                              cmsg, int(MSG_LEN, c_int))
         est = cest
         if (st /= 0) call raise(stat, errmsg, STAT_BAD_INPUT, from_c(cmsg))
     end subroutine estimate_geo_cells
+
+    !> Refuse a .geo with gmsh's `Exit` command (STAT_BAD_INPUT naming the file): gmsh ends
+    !> the whole process there, the run and a caller's Python alike, with status 1 and no
+    !> word. The scan is of the text without its comments and strings; a file it cannot
+    !> read passes (gmsh's read says why).
+    subroutine geo_check_exit(path, stat, errmsg)
+        character(len=*), intent(in) :: path                !! .geo file
+        integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! one line naming the file
+        character(len=:), allocatable :: buf
+        integer :: unit, ios, nbytes, i, j, n
+        logical :: word_start
+
+        stat = STAT_OK
+        inquire (file=path, size=nbytes, iostat=ios)
+        if (ios /= 0 .or. nbytes < 4) return
+        allocate (character(len=nbytes) :: buf, stat=ios)
+        if (ios /= 0) return
+        open (newunit=unit, file=path, access='stream', form='unformatted', action='read', &
+              status='old', iostat=ios)
+        if (ios /= 0) return
+        read (unit, iostat=ios) buf
+        close (unit)
+        if (ios /= 0) return
+        n = len(buf)
+        i = 1
+        do while (i <= n)
+            if (buf(i:min(n, i + 1)) == '//') then             ! comment to the line's end
+                j = index(buf(i:), achar(10))
+                if (j == 0) return
+                i = i + j
+            else if (buf(i:min(n, i + 1)) == '/*') then        ! block comment
+                j = index(buf(i + 2:), '*/')
+                if (j == 0) return
+                i = i + j + 3
+            else if (buf(i:i) == '"') then                      ! string
+                j = index(buf(i + 1:), '"')
+                if (j == 0) return
+                i = i + j + 1
+            else
+                word_start = i == 1
+                if (.not. word_start) word_start = .not. is_name_char(buf(i - 1:i - 1))
+                if (word_start .and. buf(i:min(n, i + 3)) == 'Exit') then
+                    j = i + 4
+                    if (j <= n) then
+                        if (is_name_char(buf(j:j))) then
+                            i = j
+                            cycle
+                        end if
+                    end if
+                    do while (j <= n)
+                        if (verify(buf(j:j), ' '//achar(9)//achar(10)//achar(13)) /= 0) exit
+                        j = j + 1
+                    end do
+                    if (j <= n) then
+                        if (buf(j:j) == ';') then
+                            call raise(stat, errmsg, STAT_BAD_INPUT, path//": has gmsh's "// &
+                                       "'Exit' command, which would end the run without a "// &
+                                       'word: remove it (gmsh meshes the file without it)')
+                            return
+                        end if
+                    end if
+                end if
+                i = i + 1
+            end if
+        end do
+    end subroutine geo_check_exit
+
+    !> True for a letter, a digit or an underscore (a .geo name's characters).
+    pure logical function is_name_char(c)
+        character, intent(in) :: c  !! one character
+        is_name_char = verify(c, 'abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ'// &
+                              '0123456789_') == 0
+    end function is_name_char
 
     !> The refusal of a .geo estimated above the limit (without the path): the estimate,
     !> what it stands on and the keys that change it, one line.
