@@ -67,19 +67,19 @@ contains
         if (ios /= 0 .or. version < 4.05) return          ! 2.2 and 4.0: gmsh's
         binary = file_type == 1
         if (binary) then
-            if (version < 4.05 .or. data_size /= 8) return
+            if (data_size /= 8) return
             call next_line(buf, p)
             if (p + 3 > nbytes) return
             if (transfer(buf(p:p + 3), 0_int32) /= 1) return    ! another byte order
         end if
 
-        w = walk(buf, '$Nodes', .true., binary, version < 4.05, why)
+        w = walk(buf, '$Nodes', .true., binary, why)
         if (w == WALK_BAD) then
             call raise(stat, errmsg, STAT_BAD_INPUT, path//': its $Nodes section '//trim(why)// &
                        ' (a header count that differs from its blocks: not read)')
             return
         end if
-        w = walk(buf, '$Elements', .false., binary, version < 4.05, why)
+        w = walk(buf, '$Elements', .false., binary, why)
         if (w == WALK_BAD) then
             call raise(stat, errmsg, STAT_BAD_INPUT, path//': its $Elements section '// &
                        trim(why)//' (a header count that differs from its blocks: not read)')
@@ -88,12 +88,11 @@ contains
 
     !> Walk the section that starts with the line `mark`: WALK_OK when its blocks add up
     !> to its header's count, WALK_BAD with why, WALK_UNKNOWN when it cannot be told.
-    integer function walk(buf, mark, nodes, binary, v40, why) result(w)
+    integer function walk(buf, mark, nodes, binary, why) result(w)
         character(len=*), intent(in) :: buf        !! the whole file
         character(len=*), intent(in) :: mark       !! '$Nodes' or '$Elements'
         logical, intent(in) :: nodes               !! the section holds nodes
         logical, intent(in) :: binary              !! binary 4.1 layout
-        logical, intent(in) :: v40                 !! MSH 4.0 (ASCII: one line per node)
         character(len=*), intent(out) :: why       !! what does not add up
         integer(int64) :: p, n_blocks, n_total, sum_n, n, b, head(4), fin
         integer(int32) :: ints(3)
@@ -101,6 +100,7 @@ contains
 
         w = WALK_UNKNOWN
         why = ''
+        fin = 0
         p = section_start(buf, mark)
         if (p == 0) return
         if (binary) then
@@ -173,7 +173,7 @@ contains
                 end if
                 n = head(4)
                 call next_line(buf, p)
-                if (nodes .and. .not. v40) then
+                if (nodes) then                 ! the tags' lines, then the coordinates'
                     call skip_lines(buf, p, 2*n)
                 else
                     call skip_lines(buf, p, n)
