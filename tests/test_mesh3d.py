@@ -192,7 +192,7 @@ def test_zero_volume_tetrahedron_is_refused(exe, tmp_path):
     mesh = cube_msh(tmp_path / "flat.msh", tets=CUBE_TETS + [[0, 1, 2, 3]])
     scene, r = run_scene(exe, tmp_path, mesh)
     assert_refused(r, tmp_path, scene, "&mesh file:", str(mesh),
-                   "cell 7 is degenerate (volume 0.000E+00")
+                   "cell 7 is degenerate (volume 0.000E+000")
 
 
 @pytest.mark.parametrize("bottom", ["segments", "points"])

@@ -12,13 +12,15 @@ the model takes 2D meshes.
 from __future__ import annotations
 
 import os
+import re
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import callers_gmsh_session
+from conftest import callers_gmsh_session, stderr_line
 from dyncontact import Scene, core, mesh_io
 from dyncontact.core import BadInputError
 
@@ -611,3 +613,16 @@ def test_gmsh_prints_nothing(run_exe, tmp_path, capfd, core_ext):
         mesh_io.read_mesh(bad)
     out, err = capfd.readouterr()
     assert out == "" and err == ""
+
+
+def test_degenerate_cell_sizes_written_with_their_exponent(run_exe, tmp_path):
+    """A degenerate cell's measure below 1e-99 is written with its E (2.470E-322, not
+    the 2.470-322 of a 2-digit exponent format), and both entry points give one text."""
+    scene = tmp_path / "s.nml"
+    scene.write_text("&mesh length = 1e-320 /\n&scheme t_end = 0.01 /\n")
+    exe_line = stderr_line(run_exe(scene), 2, "dyncontact: ")
+    assert re.search(r"is degenerate \(measure \d\.\d{3}E-3\d\d, longest edge 5\.000E-002\)$",
+                     exe_line), exe_line
+    py = subprocess.run([sys.executable, "-m", "dyncontact", "run", str(scene), "--out",
+                         str(tmp_path / "p")], capture_output=True, text=True, cwd=tmp_path)
+    assert stderr_line(py, 2, "dyncontact: ") == exe_line

@@ -6,6 +6,7 @@ module mesh
     use kinds, only: dp
     use simplex_geometry, only: simplex_measure, simplex_diameter
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
+    use text, only: real_text
     implicit none
     private
 
@@ -81,10 +82,10 @@ contains
             end if
             call mesh_cell_size(this, c, meas, hmax)
             if (abs(meas) <= DEGENERATE_TOL * hmax**this%dim) then
-                write (buf, '(a, i0, a, a, es10.3, a, es10.3, a)') 'mesh check: cell ', c, &
-                    ' is degenerate (', trim(merge('volume ', 'measure', this%dim == 3)), &
-                    abs(meas), ', longest edge ', hmax, ')'
-                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf))
+                write (buf, '(a, i0, a)') 'mesh check: cell ', c, ' is degenerate ('
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(buf)// &
+                           trim(merge('volume ', 'measure', this%dim == 3))//' '// &
+                           real_text(abs(meas), 4)//', longest edge '//real_text(hmax, 4)//')')
                 return
             end if
         end do
