@@ -22,6 +22,7 @@ module gmsh_mesh
     use mesh, only: mesh_t, mesh_check, GROUP_NAME_LEN
     use text, only: lower, real_text, int_text
     use msh_sections, only: msh_check_counts
+    use os_files, only: read_whole_file
     implicit none
     private
     public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, too_large_text, &
@@ -311,20 +312,12 @@ contains
         integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! one line naming the file
         character(len=:), allocatable :: buf
-        integer :: unit, ios, nbytes, i, j, n
-        logical :: word_start
+        integer :: i, j, n
+        logical :: word_start, ok
 
         stat = STAT_OK
-        inquire (file=path, size=nbytes, iostat=ios)
-        if (ios /= 0 .or. nbytes < 4) return
-        allocate (character(len=nbytes) :: buf, stat=ios)
-        if (ios /= 0) return
-        open (newunit=unit, file=path, access='stream', form='unformatted', action='read', &
-              status='old', iostat=ios)
-        if (ios /= 0) return
-        read (unit, iostat=ios) buf
-        close (unit)
-        if (ios /= 0) return
+        call read_whole_file(path, 4, buf, ok)
+        if (.not. ok) return
         n = len(buf)
         i = 1
         do while (i <= n)

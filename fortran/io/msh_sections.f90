@@ -24,6 +24,7 @@
 module msh_sections
     use, intrinsic :: iso_fortran_env, only: int32, int64
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
+    use os_files, only: read_whole_file
     implicit none
     private
     public :: msh_check_counts
@@ -45,21 +46,14 @@ contains
         character(len=:), allocatable :: buf
         character(len=64) :: why
         integer(int64) :: nbytes, p
-        integer :: unit, ios, file_type, data_size, w
+        integer :: ios, file_type, data_size, w
         real :: version
-        logical :: binary
+        logical :: binary, ok
 
         stat = STAT_OK
-        inquire (file=path, size=nbytes, iostat=ios)
-        if (ios /= 0 .or. nbytes < 16) return
-        allocate (character(len=nbytes) :: buf, stat=ios)
-        if (ios /= 0) return
-        open (newunit=unit, file=path, access='stream', form='unformatted', action='read', &
-              status='old', iostat=ios)
-        if (ios /= 0) return
-        read (unit, iostat=ios) buf
-        close (unit)
-        if (ios /= 0) return
+        call read_whole_file(path, 16, buf, ok)
+        if (.not. ok) return
+        nbytes = len(buf, int64)
         if (buf(1:11) /= '$MeshFormat') return
         p = 12
         call skip_eol(buf, p)

@@ -139,9 +139,31 @@ module os_files
     public :: signals_install, signal_caught, fd_open, fd_write, fd_close, file_rename, &
               file_remove, check_writable, lock_take, lock_release, write_text_atomic, sys_error, &
               free_space, fd_sync, fd_reopen, bytes_hash, remove_matching, same_folder, &
-              write_status
+              write_status, read_whole_file
 
 contains
+
+    !> The whole file `path` in `buf`: ok false where it cannot be read (missing,
+    !> unreadable, not enough memory) or holds fewer than `min_bytes` bytes.
+    subroutine read_whole_file(path, min_bytes, buf, ok)
+        character(len=*), intent(in) :: path                    !! the file
+        integer, intent(in) :: min_bytes                        !! the fewest bytes it may hold
+        character(len=:), allocatable, intent(out) :: buf       !! its bytes
+        logical, intent(out) :: ok                              !! it was read
+        integer(i8) :: nbytes
+        integer :: unit, ios
+        ok = .false.
+        inquire (file=path, size=nbytes, iostat=ios)
+        if (ios /= 0 .or. nbytes < min_bytes) return
+        allocate (character(len=nbytes) :: buf, stat=ios)
+        if (ios /= 0) return
+        open (newunit=unit, file=path, access='stream', form='unformatted', action='read', &
+              status='old', iostat=ios)
+        if (ios /= 0) return
+        read (unit, iostat=ios) buf
+        close (unit)
+        ok = ios == 0
+    end subroutine read_whole_file
 
     !> The system's text for an errno value.
     function sys_error(err) result(s)
