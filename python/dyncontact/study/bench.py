@@ -117,7 +117,9 @@ def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 
     taken seconds apart (these machines' speed drifts by tens of percent within a
     minute). Returns us_per_step (all stretches), the floors (step-weighted means of
     the stretches' floors), floor_us, floor_ratio = Σ time / Σ steps × floor (=
-    us_per_step / floor_us), chunk_ratios, steps and status, and from the run's trace the
+    us_per_step / floor_us; each stretch's floor is the faster of its two solves, so
+    floor_us can lie below step_floor() of the mean floors), chunk_ratios, chunk_steps,
+    chunk_floors_us, steps and status, and from the run's trace the
     share of contact steps and the cost of a step in flight and of a contact step in
     floors (contact_share, flight_ratio, contact_ratio: :func:`split_flight_contact`).
     Never raises."""
@@ -184,6 +186,8 @@ def interleaved_run(spec: RunSpec, out_dir: str, chunks: int = 16, n_rep: int = 
     rec["floor_us"] = spent / steps
     rec["floor_ratio"] = 1e6 * seconds / spent
     rec["chunk_ratios"] = [1e6 * t / (d * f) for (d, t), f in zip(stretches, step_floors)]
+    rec["chunk_steps"] = [d for d, _ in stretches]
+    rec["chunk_floors_us"] = step_floors
     rec.update(_split(out_dir, [d for d, _ in stretches], rec["chunk_ratios"]))
     return rec
 
