@@ -324,8 +324,9 @@ def test_a_read_leaves_the_onelab_database_as_it_found_it(core_ext, tmp_path):
     """Two .geo files whose DefineConstant share a Name outside "Parameters/" ("Mesh/size",
     0.25 and 0.1), read one after the other in a caller's gmsh session by the core
     (read_mesh), by generate and by a run, each mesh at their own size: a DefineConstant
-    takes the value of an existing ONELAB parameter of its Name over its own, so the first
-    file's 0.25 was taken for the second's. The caller's own ONELAB parameters are as
+    takes the value of an existing ONELAB parameter of its Name over its own, so a
+    read that left "Mesh/size" behind would mesh the second file at the first's 0.25. The
+    caller's own ONELAB parameters are as
     they were after each read, and no parameter of the files is left behind."""
     coarse = _named_size_geo(tmp_path / "coarse.geo", COARSE)
     fine = _named_size_geo(tmp_path / "fine.geo", FINE)

@@ -2,7 +2,7 @@
 blow-up limit too high to catch the growth before it overflows) are written nan, inf and
 -inf without blanks, as Python and numpy write them: pandas.read_csv reads those as
 numbers, but a right-aligned "                Infinity" as text, and with it the whole
-column (e_total, ...) of the trace, which then no longer divides by e_total[0]."""
+column (e_total, ...) of the trace, which then cannot be divided by e_total[0]."""
 
 from __future__ import annotations
 
