@@ -229,8 +229,8 @@ def test_geo_defining_length_and_width_keeps_its_own_unless_the_scene_gives_them
     them; one that uses them without defining them gets the defaults 1.0 and 0.1: in a
     run, Scene.dimension()/validate() and the refusal of a too-large .geo, the size
     estimate, `dyncontact mesh --geo` without --length/--width, mesh_io.read_mesh without
-    length/width, and the studies' reading of a scene. They were always set, the file's
-    own values overridden by the defaults."""
+    length/width, and the studies' reading of a scene. Setting them always would override
+    the file's own values with the defaults."""
     from dyncontact.study.common import read_user_scene
 
     geo = tmp_path / "rect.geo"
@@ -292,8 +292,8 @@ def test_own_length_and_width_in_a_callers_gmsh_session(core_ext, tmp_path):
     """Two .geo files defining their own length and width (DefineConstant with the Names
     "Parameters/length", "Parameters/width") read one after the other in a caller's gmsh
     session, by the core and by generate, each keep their own: a DefineConstant takes an
-    existing ONELAB value over its own, and the first file's values were taken for the
-    second's."""
+    existing ONELAB value over its own, so values the first read left behind would be
+    taken for the second file's."""
     first, second = tmp_path / "first.geo", tmp_path / "second.geo"
     for path, length, width in ((first, 0.3, 0.2), (second, 0.4, 0.1)):
         path.write_text(f'DefineConstant[ length = {{{length}, Name "Parameters/length"}},\n'

@@ -1272,8 +1272,8 @@ static int geo_parse(const char *path, const double *params, session_t *s, char 
  * them) or the file uses them without defining them (geo_parse); if the file uses no h
  * and the scene gives &mesh h, h is the largest mesh size (Mesh.MeshSizeMax); a file
  * that uses no h, meshed for a scene that gives no h, keeps its own sizes (a default h
- * made for the built-in bar, 0.05, imposed on a body drawn in mm meshed it with billions
- * of elements). max_elements > 0: a .geo whose
+ * made for the built-in bar, 0.05, imposed on a body drawn in mm would mesh it with
+ * billions of elements). max_elements > 0: a .geo whose
  * estimated element count (geo_estimate, into est) exceeds ESTIMATE_MARGIN x max_elements
  * is not meshed: status 5, the estimate in est, no message (the caller names its keys).
  * est[0] = -1 when no estimate was made. */
