@@ -762,28 +762,31 @@ contains
             call make_dirs(dir//'/fields', st, msg)
             ! the snapshots up to the checkpoint (a killed run may have listed later ones)
             ! that are still there (the user may have deleted some since)
-            call drop_missing_snapshots(sim)
-            call drop_later_snapshots(sim, st, msg)
-            if (st == STAT_OK) call write_pvd(sim, st, msg)
+            call snapshots_at_checkpoint(sim, st, msg)
         end if
     end subroutine reopen_outputs
 
-    !> Remove the snapshot files of steps after the loaded checkpoint's (fields/step_N.vtu
-    !> and .vtu.tmp, N > sim%step), as the trace's rows after it are cut: a stopped run
-    !> may have written snapshots past its last checkpoint, which a restart to an earlier
-    !> t_end (or a Stepper gone back to a saved state) does not write again. Left there,
-    !> they would lie beside the trace as this run's fields at times it never reached,
-    !> for anyone who reads fields/ without fields.pvd. The continued run writes its own.
-    subroutine drop_later_snapshots(sim, st, msg)
-        type(simulation_t), intent(in) :: sim               !! the run (checkpoint loaded)
+    !> The field snapshots as of the loaded checkpoint, for a restart and a Stepper's load
+    !> alike: the list keeps those still in the folder (drop_missing_snapshots), the files
+    !> of steps after the checkpoint's (fields/step_N.vtu and .vtu.tmp, N > sim%step) are
+    !> removed as the trace's rows after it are cut, and fields.pvd is rewritten. A stopped
+    !> run may have written snapshots past its last checkpoint, which a restart to an
+    !> earlier t_end (or a Stepper gone back to a saved state) does not write again; left
+    !> there, they would lie beside the trace as this run's fields at times it never
+    !> reached, for anyone who reads fields/ without fields.pvd. The continued run writes
+    !> its own.
+    subroutine snapshots_at_checkpoint(sim, st, msg)
+        type(simulation_t), intent(inout) :: sim            !! the run (checkpoint loaded)
         integer, intent(out) :: st                          !! status
         character(len=*), intent(inout), optional :: msg    !! message
         character(len=:), allocatable :: fields
+        call drop_missing_snapshots(sim)
         fields = trim(sim%scn%out_dir)//'/fields'
         call remove_matching(fields, 'step_', '.vtu', st, msg, after=int(sim%step, i8))
         if (st == STAT_OK) &
             call remove_matching(fields, 'step_', '.vtu.tmp', st, msg, after=int(sim%step, i8))
-    end subroutine drop_later_snapshots
+        if (st == STAT_OK) call write_pvd(sim, st, msg)
+    end subroutine snapshots_at_checkpoint
 
     !> Drop from the list of snapshots that a checkpoint brought back (sim%snap_t,
     !> snap_file) those whose VTU file is no longer in the output folder (deleted between
@@ -1340,11 +1343,7 @@ contains
         if (stat == STAT_OK) call trace_reopen(trace_path, trace_bytes, sim%trace, stat, errmsg)
         if (stat == STAT_OK) call end_row(sim, stat, errmsg)
         if (stat /= STAT_OK) return
-        if (sim%scn%fields_every > 0) then
-            call drop_missing_snapshots(sim)
-            call drop_later_snapshots(sim, stat, errmsg)
-            if (stat == STAT_OK) call write_pvd(sim, stat, errmsg)
-        end if
+        if (sim%scn%fields_every > 0) call snapshots_at_checkpoint(sim, stat, errmsg)
     end subroutine sim_load
 
     !> The last row of a run continued from a checkpoint at its last step (the trace just
