@@ -44,6 +44,7 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from .core import BadInputError, DyncontactError, geo_refusal, unmeshed_text
+from .scene import packaged_file
 
 __all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
            "generate", "find_geo", "main"]
@@ -231,12 +232,7 @@ def builtin_bar(dim: int = 2, length: float = 1.0, width: float = 0.1,
 
 def find_geo(name: str = "bar2d.geo") -> Path:
     """The .geo file `name`: next to this module, or in the source tree's meshes/."""
-    here = Path(__file__).resolve().parent
-    candidates = [here / name, here.parent.parent / "meshes" / name]
-    for c in candidates:
-        if c.is_file():
-            return c
-    raise FileNotFoundError(f"{name} not found (looked in {', '.join(map(str, candidates))})")
+    return packaged_file(name, "meshes")
 
 
 def _check_sizes(who: str, **sizes: float) -> None:

@@ -36,7 +36,7 @@ from typing import Any
 from . import core
 from .core import BadInputError
 
-__all__ = ["Scene", "SceneError", "find_scene"]
+__all__ = ["Scene", "SceneError", "find_scene", "packaged_file"]
 
 #: The exception of a bad scene (the same class as BadInputError).
 SceneError = BadInputError
@@ -88,16 +88,22 @@ def _number_text(x: Any) -> str:
     return str(x)
 
 
-def find_scene(name: str) -> Path:
-    """The example scene file `name` of the source tree's scripts/scenes/ that the package
-    installs (the studies' ball, ``ball3d_newmark.nml``): next to this module (an install:
-    its &mesh file names the .geo installed beside it), or in the source tree."""
+def packaged_file(name: str, *source_folder: str) -> Path:
+    """The data file `name` that the package installs beside its modules (an install), or
+    else the source tree's ``source_folder/name``; FileNotFoundError naming both places."""
     here = Path(__file__).resolve().parent
-    candidates = [here / name, here.parent.parent / "scripts" / "scenes" / name]
+    candidates = [here / name, here.parent.parent.joinpath(*source_folder, name)]
     for c in candidates:
         if c.is_file():
             return c
     raise FileNotFoundError(f"{name} not found (looked in {', '.join(map(str, candidates))})")
+
+
+def find_scene(name: str) -> Path:
+    """The example scene file `name` of the source tree's scripts/scenes/ that the package
+    installs (the studies' ball, ``ball3d_newmark.nml``): next to this module (an install:
+    its &mesh file names the .geo installed beside it), or in the source tree."""
+    return packaged_file(name, "scripts", "scenes")
 
 
 class Scene:
