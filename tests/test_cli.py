@@ -368,8 +368,8 @@ def test_both_entry_points_record_the_output_folder_as_given(run_cli, run_exe, t
     ("studies", ["out/studies", "--workers"]), ("convergence_1d", ["--schemes"]),
     ("test", ["-k", "not slow"]), ("geo_estimate", ["--quick", "--2d"])])
 def test_every_script_answers_help(script, words):
-    """`scripts/NAME --help` prints its usage and exits 0, without running anything (setup
-    used to install and build instead, demo to exit 2, studies to print --out as required);
+    """`scripts/NAME --help` prints its usage and exits 0, without running anything (no install or
+    build by setup, no usage error from demo, no '--out required' from studies);
     bench's help names the modes its wrapper dispatches (--scaling, --getfem)."""
     import subprocess
 

@@ -143,9 +143,10 @@ BARE_H_GEO = ("Point(1) = {-0.1, 0, 0, 2 * h}; Point(2) = {0.1, 0, 0, h};\n"
 def test_geo_using_h_without_defining_it(core_ext, run_cli, tmp_path):
     """A .geo that uses h as gmsh -setnumber sets it, without DefineConstant: the run's
     reader, read_mesh and `dyncontact mesh` mesh it with the scene's h, as the same file
-    with h defined in it (DefineConstant, the form of meshes/*.geo). Their first parse
-    without h used to stop at its first 'Unknown variable', leaving the rest of the file
-    in gmsh's lexer, so the parse with h failed ("line 0: syntax error (;)")."""
+    with h defined in it (DefineConstant, the form of meshes/*.geo). With gmsh's
+    default, a first parse without h stops at its first 'Unknown variable' and leaves the rest of the file in
+    gmsh's lexer, so a later parse with h would fail ("line 0: syntax error (;)"): the
+    reader's first parse runs to the end of the file (AbortOnError 0)."""
     bare = tmp_path / "bare.geo"
     bare.write_text(BARE_H_GEO)
     defined = tmp_path / "defined.geo"

@@ -991,7 +991,7 @@ def test_example_scenes_open_without_warnings(path, tmp_path):
 
 def test_stepper_gives_the_runs_warnings(tmp_path):
     """A Stepper is a run driven step by step: the warnings and notes run() gives before
-    the run starts are DyncontactWarning warnings there too (it used to say nothing);
+    the run starts are DyncontactWarning warnings there too (not silence);
     turned into errors, they leave no run open (the output folder's lock is released)."""
     import warnings
 
