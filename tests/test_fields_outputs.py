@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from dyncontact.core import read_trace
+from dyncontact.plotting import read_pvd
 from test_reliability import child_env, entry
 
 EXIT_OK, EXIT_WRITE = 0, 4
@@ -83,6 +85,24 @@ def test_kill_9_leaves_a_pvd_listing_the_snapshots(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ["exe", "cli"])
+@pytest.mark.parametrize("fields_every, steps", [(50, [0, 50, 100, 150, 200]),
+                                                 (60, [0, 60, 120, 180, 200])])
+def test_snapshots_every_k_steps_and_at_the_last_step(kind, tmp_path, fields_every, steps):
+    """200 steps: a snapshot at step 0 and every fields_every steps, and one at the last
+    step when fields_every does not divide the step count (as the trace's last row), so
+    that fields.pvd ends with the final state, at the trace's last t."""
+    out = tmp_path / "o"
+    s = scene(tmp_path / "s.nml", t_end="0.5", fields_every=fields_every)
+    res = subprocess.run(command(kind, s, out), cwd=tmp_path, env=child_env(),
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == EXIT_OK, res.stderr
+    assert assert_whole_snapshots(out) == [f"fields/step_{k:07d}.vtu" for k in steps]
+    times = [t for t, _ in read_pvd(out / "fields.pvd")]
+    assert times == pytest.approx([0.0025 * k for k in steps], rel=1e-12, abs=0)
+    assert times[-1] == pytest.approx(float(read_trace(out)["t"][-1]), rel=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["exe", "cli"])
 def test_new_run_removes_the_previous_runs_snapshots(kind, tmp_path):
     out = tmp_path / "o"
     s1 = scene(tmp_path / "s1.nml", t_end="1.0", fields_every=100)
@@ -96,7 +116,8 @@ def test_new_run_removes_the_previous_runs_snapshots(kind, tmp_path):
     res = subprocess.run(command(kind, s2, out), cwd=tmp_path, env=child_env(), capture_output=True,
                          text=True, timeout=120)
     assert res.returncode == EXIT_OK, res.stderr
-    assert assert_whole_snapshots(out) == ["fields/step_0000000.vtu", "fields/step_0000150.vtu"]
+    assert assert_whole_snapshots(out) == ["fields/step_0000000.vtu", "fields/step_0000150.vtu",
+                                           "fields/step_0000200.vtu"]     # the last step
 
     s3 = scene(tmp_path / "s3.nml", t_end="0.5", fields_every=0)
     res = subprocess.run(command(kind, s3, out), cwd=tmp_path, env=child_env(), capture_output=True,

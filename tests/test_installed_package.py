@@ -68,12 +68,19 @@ def test_installed_mesh_command_has_its_default_geometry(installed, tmp_path):
 
 def test_installed_run_help_names_the_scene_documentation(installed, tmp_path):
     """`python -m dyncontact run --help` of the installed package (no docs/ beside it)
-    lists the scene groups and names the documentation by its title."""
+    lists the scene groups and names the documentation by its title, in the lines that
+    end the installed executable's --help too (run_help.txt, installed beside the
+    modules)."""
     r = _run_installed(installed, ["run", "--help"], tmp_path)
     assert r.returncode == 0, r.stderr
     said = " ".join(r.stdout.split())
     assert '"Scene files, outputs and exit codes"' in said and "&solver" in said, said
     assert "Exit status: 0 ok, 2 bad input" in said, said
+    text = (installed / "dyncontact" / "run_help.txt").read_text(encoding="utf-8")
+    assert text == (ROOT / "python" / "dyncontact" / "run_help.txt").read_text(encoding="utf-8")
+    exe = next(installed.parents[2].rglob("bin/dyncontact"))
+    e = subprocess.run([str(exe), "--help"], capture_output=True, text=True, timeout=30)
+    assert e.returncode == 0 and e.stdout.endswith(text) and r.stdout.endswith(text)
 
 
 def test_installed_entry_points_give_one_trace(installed, tmp_path):

@@ -148,6 +148,17 @@ def test_fields_every_1_that_cannot_fit_is_refused_before_writing(kind, tmpfs, t
     assert after == before
 
 
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_the_estimate_counts_the_last_steps_snapshot(kind, tmpfs, tmp_path):
+    """6000 steps with a snapshot every 7: steps 0, 7, ..., 5999 and the last one, 6000,
+    off the grid (858 + 1 snapshots), each counted before the run is refused."""
+    disk = tmpfs("size=1m")
+    scene = write_scene(tmp_path / "s.nml", scheme__t_end="15.0", output__fields_every="7")
+    line = one_line(run(kind, scene, "--out", disk / "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert "&output fields_every: the run would write about" in line
+    assert "859 snapshots of 16.6 kB each" in line, line
+
+
 def test_fields_every_1_refused_in_python(tmpfs, tmp_path):
     import dyncontact
 

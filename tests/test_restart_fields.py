@@ -51,16 +51,16 @@ def test_a_restart_to_an_earlier_end_leaves_no_later_snapshot(run_exe, tmp_path)
     shutil.copy(tmp_path / "k" / "checkpoint.bin", tmp_path / "ckpt50.bin")
     res = run_exe(s100, "--restart", "k")          # on to step 100 ...
     assert res.returncode == 0, res.stderr
-    assert max(snapshot_steps(tmp_path / "k")) == 98
+    assert snapshot_steps(tmp_path / "k")[-3:] == [91, 98, 100]
     shutil.copy(tmp_path / "ckpt50.bin", tmp_path / "k" / "checkpoint.bin")   # ... killed
     res = run_exe(s80, "--restart", "k")           # continued from step 50 to step 80
     assert res.returncode == 0, res.stderr
     res = run_exe(s80, "--out", "straight")
     assert res.returncode == 0, res.stderr
 
-    expected = list(range(0, 81, FIELDS_EVERY))
+    expected = list(range(0, 81, FIELDS_EVERY)) + [80]      # and the last step's
     assert snapshot_steps(tmp_path / "straight") == expected
-    assert snapshot_steps(tmp_path / "k") == expected, "snapshots of steps 84, 91, 98 left"
+    assert snapshot_steps(tmp_path / "k") == expected, "snapshots of steps 84 to 100 left"
     assert listed_steps(tmp_path / "k") == expected
     assert (tmp_path / "k" / "trace.csv").read_bytes() == \
         (tmp_path / "straight" / "trace.csv").read_bytes()
@@ -80,7 +80,7 @@ def test_a_stepper_gone_back_to_a_saved_state_leaves_no_later_snapshot(tmp_path)
             assert snapshot_steps(out) == list(range(0, 31, FIELDS_EVERY))
             assert listed_steps(out) == snapshot_steps(out)
             st.advance(70)
-    assert snapshot_steps(out) == list(range(0, 101, FIELDS_EVERY))
+    assert snapshot_steps(out) == list(range(0, 101, FIELDS_EVERY)) + [100]
 
 
 @pytest.mark.parametrize("name, kept", [("step_0000084.vtu", False),
@@ -96,3 +96,34 @@ def test_only_numbered_snapshots_after_the_checkpoint_are_removed(run_exe, tmp_p
     res = run_exe(s80, "--restart", "k")
     assert res.returncode == 0, res.stderr
     assert (tmp_path / "k" / "fields" / name).exists() == kept
+
+
+def test_a_restart_to_a_later_end_keeps_no_snapshot_of_the_shorter_runs_end(run_exe,
+                                                                           tmp_path):
+    """The run to step 50 ends with a snapshot of its last step, off the grid of 7; the run
+    continued from its checkpoint to step 100 (a later t_end) holds the fields of the run
+    made straight to step 100: no snapshot at step 50, one at step 100, the same files and
+    fields.pvd. Continued to step 50 again, the last step's snapshot is written again."""
+    s50, s100 = scene(tmp_path, 0.125, "s50.nml"), scene(tmp_path, 0.25, "s100.nml")
+    assert run_exe(s50, "--out", "k").returncode == 0
+    expected50 = list(range(0, 50, FIELDS_EVERY)) + [50]
+    assert snapshot_steps(tmp_path / "k") == listed_steps(tmp_path / "k") == expected50
+    last50 = (tmp_path / "k" / "fields" / "step_0000050.vtu").read_bytes()
+    shutil.copy(tmp_path / "k" / "checkpoint.bin", tmp_path / "ckpt50.bin")
+    res = run_exe(s50, "--restart", "k")        # to the same end: its last snapshot again
+    assert res.returncode == 0, res.stderr
+    assert snapshot_steps(tmp_path / "k") == listed_steps(tmp_path / "k") == expected50
+    assert (tmp_path / "k" / "fields" / "step_0000050.vtu").read_bytes() == last50
+    res = run_exe(s100, "--restart", "k")
+    assert res.returncode == 0, res.stderr
+    assert run_exe(s100, "--out", "straight").returncode == 0
+    expected = list(range(0, 100, FIELDS_EVERY)) + [100]
+    assert snapshot_steps(tmp_path / "straight") == expected
+    for folder in ("k", "straight"):
+        assert snapshot_steps(tmp_path / folder) == listed_steps(tmp_path / folder) == expected
+    assert (tmp_path / "k" / "fields.pvd").read_bytes() == \
+        (tmp_path / "straight" / "fields.pvd").read_bytes()
+    for step in expected:
+        name = f"fields/step_{step:07d}.vtu"
+        assert (tmp_path / "k" / name).read_bytes() == \
+            (tmp_path / "straight" / name).read_bytes(), name

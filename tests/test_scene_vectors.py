@@ -259,3 +259,52 @@ def test_dimension_follows_the_mesh_keys_a_geo_is_meshed_with(tmp_path, key, val
     scn.set(key, value)
     assert scn.dimension() == 3
     assert Scene.read(scn.path).dimension() == 2
+
+
+def test_a_vector_set_stays_when_the_dimension_changes(tmp_path):
+    """A vector set through Scene.set is the user's, even with the 2D default's value: a
+    later &mesh dim = 3 keeps it, and validate refuses its count as it refuses the same
+    scene written as a file; the vectors left out follow the new dimension."""
+    scn = Scene()
+    scn.set("contact.probe", [0.05, 0.0])
+    scn.set("mesh.dim", 3)
+    assert scn.get("contact.probe") == [0.05, 0.0]
+    assert scn.get("contact.obstacle_normal") == [0.0, 0.0, -1.0]
+    said = r"&contact probe: expected 3 values in 3D \(got '0.05, 0.0'\)"
+    with pytest.raises(BadInputError, match=r"^<scene>: " + said):
+        scn.validate()
+    path = write(tmp_path, "&mesh dim = 3 /\n&contact probe = 0.05, 0.0 /\n")
+    with pytest.raises(BadInputError, match=said):
+        Scene.read(path).validate()
+    scn.set("contact.probe", [0.05, 0.05, 0.0])
+    scn.validate()
+
+
+#: The switching .geo's scene, spelling out the 2D defaults as bar2d_hht.nml does.
+SPELLED_OUT = ("&mesh file = 'switch.geo', h = 0.5 /\n&initial kind = 'rest' /\n"
+               "&contact obstacle_normal = 0.0, -1.0, probe = 0.05, 0.0 /\n")
+
+
+@pytest.mark.parametrize("key, value", [("mesh.width", 1.0), ("mesh.h", 0.25),
+                                        ("mesh.length", 1.0)])
+def test_vector_defaults_follow_a_geo_made_3d_by_its_mesh_keys(tmp_path, key, value):
+    """An &mesh h, length or width that makes the .geo a box makes the vectors 3D as
+    &mesh dim = 3 does: those left out and those the file gives with the 2D default
+    take the 3D defaults, and the scene validates; a vector set stays as set."""
+    (tmp_path / "switch.geo").write_text(SWITCHING_GEO)
+    path = write(tmp_path, SPELLED_OUT)
+    scn = Scene.read(path)
+    assert scn.dimension() == 2
+    scn.set("initial.velocity", [0.0, 0.0])
+    scn.set(key, value)
+    assert scn.dimension() == 3
+    for name in ("contact.probe", "contact.obstacle_normal", "material.gravity"):
+        assert scn.get(name) == VECTOR_DEFAULTS[3][tuple(name.split("."))], name
+    assert scn.get("initial.velocity") == [0.0, 0.0]
+    with pytest.raises(BadInputError, match=r"&initial velocity: expected 3 values in 3D"):
+        scn.validate()
+    scn.set("initial.velocity", [0.0, 0.0, 0.0])
+    scn.validate()
+    scn.unset(key)                                    # back to the rectangle
+    assert scn.dimension() == 2
+    assert scn.get("contact.probe") == [0.05, 0.0]

@@ -33,18 +33,14 @@ program main
         case ('--help', '-h')
             write (*, '(a)') USAGE
             write (*, '(a)') 'Runs a scene file and writes trace.csv and summary.json into the output folder'
-            write (*, '(a)') '(&output dir, or DIR). A scene file is a Fortran namelist of the groups &mesh,'
-            write (*, '(a)') '&boundary, &material, &contact, &initial, &scheme, &output and &solver; every'
-            write (*, '(a)') 'key has a default. Its keys, the outputs and the exit codes are described in'
-            write (*, '(a)') '"Scene files, outputs and exit codes" (docs/scenes.md of the source); with the'
-            write (*, '(a)') 'Python package installed, `python -m dyncontact run --help` gives the Python'
-            write (*, '(a)') 'command line, and dyncontact.Scene.read(FILE) checks a scene file.'
+            write (*, '(a)') '(&output dir, or DIR). With the Python package installed, `python -m dyncontact'
+            write (*, '(a)') 'run --help` gives the Python command line.'
             write (*, '(a)') '--restart DIR continues a stopped run from DIR/checkpoint.bin (written with'
             write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv; a later'
             write (*, '(a)') '&scheme t_end or a raised blowup in SCENE.nml extends the run.'
-            write (*, '(a)') 'Exit status: 0 ok, 2 bad input, 3 numerical failure, 4 write failure, out of'
-            write (*, '(a)') 'memory (one line naming the stage) or internal error, 130 interrupted'
-            write (*, '(a)') '(SIGINT/SIGTERM).'
+            ! the scene files and exit statuses, from python/dyncontact/run_help.txt, which
+            ! `python -m dyncontact run --help` prints too (meson.build writes the include)
+            include 'run_help.h'
             call c_exit(0_c_int)
         case ('--version', '-V')
             write (*, '(a)') 'dyncontact '//DYNCONTACT_VERSION

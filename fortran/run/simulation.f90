@@ -650,7 +650,8 @@ contains
     !> With field snapshots (fields_every > 0), refuse a run whose outputs cannot fit in
     !> the output folder's file system, before anything is written: the trace
     !> (TRACE_ROW_BYTES a row) and every snapshot (vtk_vtu_bytes, exact) against the
-    !> free bytes, the snapshot files against the free file slots. The key named is
+    !> free bytes, the snapshot files against the free file slots (a snapshot at step 0,
+    !> every fields_every steps and at the last step). The key named is
     !> the one that thins the larger part. Large field output is announced as a large
     !> trace is. Without fields nothing is refused here: a trace that outgrows the disk
     !> stops the run as a failed write (exit 4) with whole rows kept. A restart (at step
@@ -665,7 +666,10 @@ contains
         character(len=:), allocatable :: key, what
         st = STAT_OK
         if (sim%scn%fields_every <= 0) return
+        ! step 0, the multiples of fields_every and the last step; a restart from step
+        ! sim%step writes those after it and the last step's again (end_only_snapshot)
         n_snap = sim%n_steps / sim%scn%fields_every + 1
+        if (mod(sim%n_steps, int(sim%scn%fields_every, i8)) /= 0) n_snap = n_snap + 1
         trace = sim_trace_bytes(sim)
         if (sim%step > 0) then
             n_snap = n_snap - (sim%step / sim%scn%fields_every + 1)
@@ -774,19 +778,38 @@ contains
     !> earlier t_end (or a Stepper gone back to a saved state) does not write again; left
     !> there, they would lie beside the trace as this run's fields at times it never
     !> reached, for anyone who reads fields/ without fields.pvd. The continued run writes
-    !> its own.
+    !> its own. A checkpoint's step off the snapshots' grid (fields_every) has a snapshot
+    !> only as the end of a run (the checkpoint does not list it): its file is removed too,
+    !> as a longer run has none there, and written again when the step is this run's last
+    !> (end_only_snapshot).
     subroutine snapshots_at_checkpoint(sim, st, msg)
         type(simulation_t), intent(inout) :: sim            !! the run (checkpoint loaded)
         integer, intent(out) :: st                          !! status
         character(len=*), intent(inout), optional :: msg    !! message
         character(len=:), allocatable :: fields
+        integer(i8) :: after
         call drop_missing_snapshots(sim)
         fields = trim(sim%scn%out_dir)//'/fields'
-        call remove_matching(fields, 'step_', '.vtu', st, msg, after=int(sim%step, i8))
-        if (st == STAT_OK) &
-            call remove_matching(fields, 'step_', '.vtu.tmp', st, msg, after=int(sim%step, i8))
+        after = sim%step
+        if (mod(sim%step, int(sim%scn%fields_every, i8)) /= 0) after = sim%step - 1
+        call remove_matching(fields, 'step_', '.vtu', st, msg, after=after)
+        if (st == STAT_OK) call remove_matching(fields, 'step_', '.vtu.tmp', st, msg, after=after)
+        if (st == STAT_OK .and. end_only_snapshot(sim)) call snapshot(sim, st, msg)
         if (st == STAT_OK) call write_pvd(sim, st, msg)
     end subroutine snapshots_at_checkpoint
+
+    !> Whether the run stands at its last step and that step is off the snapshots' grid
+    !> (a step count that is not a multiple of &output fields_every): its snapshot is
+    !> there for the end only. A checkpoint there does not list it, so that a longer run
+    !> continued from it holds the snapshots of a run made straight to its own end; a run
+    !> continued to this same end writes it again (snapshots_at_checkpoint), as end_row
+    !> does the trace's last row.
+    logical function end_only_snapshot(sim)
+        type(simulation_t), intent(in) :: sim   !! the run
+        end_only_snapshot = .false.
+        if (sim%scn%fields_every <= 0 .or. sim%step /= sim%n_steps .or. sim%step == 0) return
+        end_only_snapshot = mod(sim%step, int(sim%scn%fields_every, i8)) /= 0
+    end function end_only_snapshot
 
     !> Drop from the list of snapshots that a checkpoint brought back (sim%snap_t,
     !> snap_file) those whose VTU file is no longer in the output folder (deleted between
@@ -993,7 +1016,8 @@ contains
                 return
             end if
             if (sim%scn%fields_every > 0) then
-                if (mod(sim%step, int(sim%scn%fields_every, i8)) == 0) then
+                if (mod(sim%step, int(sim%scn%fields_every, i8)) == 0 .or. &
+                    sim%step == sim%n_steps) then
                     call snapshot(sim, stat, wmsg)
                     if (stat /= STAT_OK) then
                         call write_failed(wmsg)
@@ -1254,15 +1278,16 @@ contains
     !> factorizations so far, u, v, a, M v, B(u), K_theta u, the augmented Lagrangian's
     !> multipliers lambda (none without them), the contact state
     !> (active points, e_pen, e_theta, f_n), the last step's Newton iterations, the snapshots
-    !> written (times, names), what the scheme carries (time_scheme_t%save), then the CG
-    !> counters (cg_counters_get).
+    !> written (times, names; at the last step without the one there for the end only, as
+    !> the trace's bytes: end_only_snapshot), what the scheme carries
+    !> (time_scheme_t%save), then the CG counters (cg_counters_get).
     subroutine sim_checkpoint_save(sim, path, stat, errmsg)
         type(simulation_t), intent(in) :: sim               !! an open run (scheme set up)
         character(len=*), intent(in) :: path                !! checkpoint file
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
         type(byte_buffer_t) :: buf
-        integer :: k
+        integer :: k, n_snap
         integer(i8) :: cg(3)
         if (.not. allocated(sim%scheme)) then
             call raise(stat, errmsg, STAT_INTERNAL, 'checkpoint: the run has no scheme set up')
@@ -1292,8 +1317,11 @@ contains
         call buf_put(buf, sim%st%e_theta)
         call buf_put(buf, sim%st%f_n)
         call buf_put(buf, int(sim%st%newton_its, i8))
-        call buf_put(buf, int(sim%n_snap, i8))
-        do k = 1, sim%n_snap
+        ! (at the last step, without its snapshot when it is off the grid: end_only_snapshot)
+        n_snap = sim%n_snap
+        if (end_only_snapshot(sim)) n_snap = n_snap - 1
+        call buf_put(buf, int(n_snap, i8))
+        do k = 1, n_snap
             call buf_put(buf, sim%snap_t(k))
             call buf_put_text(buf, trim(sim%snap_file(k)))
         end do

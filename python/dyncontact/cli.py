@@ -15,6 +15,7 @@ import sys
 import threading
 import time
 import warnings
+from pathlib import Path
 from typing import Sequence
 
 from . import core
@@ -277,18 +278,12 @@ class _Once(argparse.Action):
         setattr(namespace, self.dest, values)
 
 
-#: What a scene file is and where its documentation is, by title: the sentences of the
-#: executable's --help (fortran/app/main.f90), so that `run --help` of an installed
-#: package, which has no docs/, says as much (tests/test_cli.py holds the two equal).
-SCENE_FILES_HELP = (
-    "A scene file is a Fortran namelist of the groups &mesh, &boundary, &material, "
-    "&contact, &initial, &scheme, &output and &solver; every key has a default. Its keys, "
-    "the outputs and the exit codes are described in \"Scene files, outputs and exit "
-    "codes\" (docs/scenes.md of the source)")
-#: The exit statuses of a run, as the executable's --help gives them.
-EXIT_STATUS_HELP = (
-    "Exit status: 0 ok, 2 bad input, 3 numerical failure, 4 write failure, out of memory "
-    "(one line naming the stage) or internal error, 130 interrupted (SIGINT/SIGTERM).")
+def run_help_text() -> str:
+    """What a scene file is, where its documentation is (by title: an installed package
+    has no docs/) and the exit statuses: run_help.txt beside this module, which the
+    executable's --help prints too (meson.build makes it part of the program), so that
+    both say the same lines."""
+    return (Path(__file__).resolve().parent / "run_help.txt").read_text(encoding="utf-8")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -299,9 +294,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     r = sub.add_parser("run", help="run a scene file", description="Run a scene file; "
-                       "writes trace.csv and summary.json into the output folder (&output "
-                       f"dir, or --out DIR). {SCENE_FILES_HELP}; dyncontact.Scene.read(FILE) "
-                       "checks a scene file.", epilog=EXIT_STATUS_HELP)
+                       "writes trace.csv and summary.json into the output folder\n"
+                       "(&output dir, or --out DIR).", epilog=run_help_text(),
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     r.add_argument("scene", metavar="SCENE.nml")
     r.add_argument("--set", action="append", metavar="GROUP.KEY=VALUE",
                    help="override one scene key, e.g. --set scheme.dt=0.001 (repeatable)")

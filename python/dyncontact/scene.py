@@ -127,6 +127,9 @@ class Scene:
                                                      with_given=True)
         #: The mesh file's dimension by everything that makes the mesh read (:meth:`_mesh_key`).
         self._mesh_dims: dict[tuple, int] = {}
+        #: The keys set through :meth:`set` ('group.key'): a vector among them stays as
+        #: set when the dimension changes (:meth:`_follow_dimension`).
+        self._set_keys: frozenset[str] = frozenset()
 
     @classmethod
     def read(cls, path: str | os.PathLike) -> "Scene":
@@ -224,12 +227,14 @@ class Scene:
         vector's components against the mesh's dimension, are checked by
         :meth:`validate` (and by the run).
 
-        Setting ``'mesh.dim'`` (or ``'mesh.file'``) changes the defaults of the vector keys
-        not given (3 components in 3D). A vector given with exactly the old dimension's
-        default of 1 or 2 components (a scene that spells out the 2D defaults) takes the
-        new dimension's default; any other vector is kept as given, never shortened, so a
-        vector with a count of components of the old dimension makes :meth:`validate`
-        fail naming it, until it is set too.
+        Setting a ``&mesh`` key that changes the mesh's dimension (``'mesh.dim'``,
+        ``'mesh.file'``, or a ``.geo``'s ``h``, ``length`` or ``width``) changes the
+        defaults of the vector keys not given (3 components in 3D). A vector the scene
+        file gives with exactly the old dimension's default of 1 or 2 components (a scene
+        that spells out the 2D defaults) takes the new dimension's default; a vector set
+        here, and any other, is kept as given, never shortened, so a vector with a count of
+        components of the old dimension makes :meth:`validate` fail naming it, as in a
+        scene file, until it is set too.
         """
         group, key = self._check_name(name)
         current = self._values[group][key]
@@ -251,9 +256,10 @@ class Scene:
         if parsed[1] - self._given - {f"{group}.{key}"}:
             raise SceneError(f"{self._name()}: &{group} {key}: expected values only, not "
                              f"another key (got '{text}')")
-        if (group, key) in (("mesh", "dim"), ("mesh", "file")):
+        if group == "mesh":
             parsed = self._follow_dimension(parsed, replace)
         self._values, self._given = parsed
+        self._set_keys = self._set_keys | {f"{group}.{key}"}
 
     def unset(self, *names: str) -> None:
         """Leave each ``'group.key'`` out of the scene: it is no longer given, takes its
@@ -270,18 +276,32 @@ class Scene:
         if omit & {("mesh", "dim"), ("mesh", "file")}:
             raise SceneError(f"{self._name()}: unset(): &mesh dim and file cannot be "
                              "unset (set them: the vector keys' defaults follow them)")
-        self._values, self._given = core.scene_parse(self.to_text(omit=omit), self._name(),
-                                                     keep_omitted=True, with_given=True)
+        parsed = core.scene_parse(self.to_text(omit=omit), self._name(), keep_omitted=True,
+                                  with_given=True)
+        if any(group == "mesh" for group, _ in omit):   # a .geo's h, length, width
+            parsed = self._follow_dimension(parsed, omit=omit)
+        self._values, self._given = parsed
+        self._set_keys = self._set_keys - {f"{g}.{k}" for g, k in omit}
 
     def _follow_dimension(self, parsed: tuple[dict[str, dict[str, Any]], frozenset[str]],
-                          replace: dict[tuple[str, str], str]
+                          replace: dict[tuple[str, str], str] | None = None,
+                          omit: set[tuple[str, str]] | None = None
                           ) -> tuple[dict[str, dict[str, Any]], frozenset[str]]:
-        """`parsed` (self with `replace` applied: values and keys given) where the
-        dimension changed: a vector given with exactly the old dimension's default of 1 or
-        2 components becomes the key left out (the new dimension's default), as if the
-        scene had not spelled out the default; a vector of 3 components is kept as given
-        (never shortened)."""
+        """`parsed` (self with `replace` applied and `omit` left out: values and keys
+        given) where the dimension changed: a vector the scene file gives with exactly the
+        old dimension's default of 1 or 2 components becomes the key left out (the new
+        dimension's default), as if the scene had not spelled out the default; a vector
+        set through :meth:`set` or of 3 components is kept as given (never shortened). The
+        dimensions are read (a mesh file's, a .geo meshed) only when a vector could
+        follow."""
         values = parsed[0]
+
+        def follows(gk: tuple[str, str], dim: int) -> bool:
+            return values[gk[0]][gk[1]] == VECTOR_DEFAULTS[dim][gk] \
+                and f"{gk[0]}.{gk[1]}" not in self._set_keys
+
+        if not any(follows(gk, dim) for dim in (1, 2) for gk in VECTOR_DEFAULTS[dim]):
+            return parsed
         other = self.copy()
         other._values, other._given = parsed
         try:
@@ -291,12 +311,11 @@ class Scene:
         self._mesh_dims.update(other._mesh_dims)
         if old == new or old == 3:
             return parsed
-        omit = {gk for gk, default in VECTOR_DEFAULTS[old].items()
-                if values[gk[0]][gk[1]] == default}
-        if not omit:
+        follow = {gk for gk in VECTOR_DEFAULTS[old] if follows(gk, old)}
+        if not follow:
             return parsed
-        return core.scene_parse(self.to_text(replace, omit=omit), self._name(),
-                                keep_omitted=True, with_given=True)
+        return core.scene_parse(self.to_text(replace, omit=follow | set(omit or ())),
+                                self._name(), keep_omitted=True, with_given=True)
 
     def __getitem__(self, name: str) -> Any:
         return self.get(name)
@@ -311,6 +330,7 @@ class Scene:
         other._values = copy.deepcopy(self._values)
         other._given = self._given
         other._mesh_dims = dict(self._mesh_dims)
+        other._set_keys = self._set_keys
         return other
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
