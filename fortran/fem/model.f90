@@ -2,12 +2,13 @@
 !> (Dirichlet conditions eliminated), assembled M, K, K_theta and L (one shared
 !> CSC pattern), contact facets and the probe.
 module model
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise, oom_text, &
                       mb_text, has_room, OOM_HINT_MESH
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets, mesh_parts
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass
-    use simplex_geometry, only: simplex_measure
+    use simplex_geometry, only: simplex_measure, simplex_diameter
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_find, csc_matvec_t_values, csc_swap_values, block2_csc_values, &
                       csc_from_coo, &
@@ -892,8 +893,12 @@ contains
     !> gamma0 against the material: with theta = 1, K_theta = K - sum theta |F| /
     !> gamma_N s s^T stays positive semi-definite if on every cell touching Gamma_C
     !> sum_f (|F| / gamma_N) s^T K_e^+ s <= 1 (Cauchy-Schwarz in the K_e norm; s is
-    !> orthogonal to the rigid modes). This gives gamma0_min; below it theta = 1 is an
-    !> error, theta = 0 / -1 a warning (weakly enforced contact).
+    !> orthogonal to the rigid modes). With gamma_N = gamma0 / h_T this is gamma0 >=
+    !> gamma0_min = max over cells of sum_f |F| h_T s^T K_e^+ s, a bound of the mesh and
+    !> the material alone: it is computed without gamma0, so a gamma0 near the underflow
+    !> limit (whose gamma_N = gamma0 / h_T would overflow |F| / gamma_N) still gets the
+    !> true bound and a usable suggestion. Below it theta = 1 is an error, theta = 0 / -1
+    !> a warning (weakly enforced contact).
     pure subroutine check_gamma0(mdl, prm, lambda, mu, st, m)
         type(model_t), intent(inout) :: mdl          !! model being built
         type(model_params_t), intent(in) :: prm      !! parameters
@@ -902,19 +907,19 @@ contains
         character(len=*), intent(inout) :: m         !! message
         real(dp), parameter :: SUGGEST = 2.0_dp   ! margin of the suggested value over gamma0_min
         real(dp), parameter :: BOUND_RTOL = 1.0e-12_dp   ! 'at the bound', relative
-        real(dp) :: ratio_max, g_min, g_sug, stiff
+        real(dp) :: g_min, g_sug, stiff
         real(dp), allocatable :: ratio(:)
-        integer :: f
+        integer :: f, c
         character(len=400) :: buf
         st = STAT_OK
         allocate (ratio(mdl%msh%n_cells))
         ratio = 0.0_dp
         do f = 1, mdl%ct%n_facets
-            ratio(mdl%ct%cell(f)) = ratio(mdl%ct%cell(f)) + &
-                mdl%ct%measure(f) * facet_compliance(mdl, prm%young, lambda, mu, f) / mdl%ct%gamma(f)
+            c = mdl%ct%cell(f)
+            ratio(c) = ratio(c) + mdl%ct%measure(f) * facet_compliance(mdl, prm%young, lambda, &
+                mu, f) * simplex_diameter(mdl%dim, mdl%msh%x(:, mdl%msh%cells(:, c)))
         end do
-        ratio_max = maxval(ratio)
-        g_min = prm%gamma0 * ratio_max
+        g_min = maxval(ratio)
         mdl%gamma0_min = g_min
         ! at the bound K_theta is singular on a contact cell: with theta = 1 the run
         ! needs gamma0 above it (to round-off). J0 = M + c K_theta stays definite there, but
@@ -926,29 +931,35 @@ contains
         stiff = prm%young
         if (mdl%dim >= 2) stiff = lambda + 2.0_dp * mu
         g_sug = round_up(SUGGEST * g_min)
-        if (prm%nitsche_theta == 1) then
-            if (prm%gamma0 > g_min * (1.0_dp + BOUND_RTOL)) then
-                if (mdl%dim == 1 .and. prm%gamma0 < SUGGEST * g_min) then
-                    write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
-                        'warning: &contact gamma0 = ', prm%gamma0, ' is less than twice the '// &
-                        'element bound ', g_min, ' (theta = 1): the contact cell is left '// &
-                        'soft and its slow mode pollutes u_n, v_n and p_n (in 1D the bound '// &
-                        'is exact); consider gamma0 = ', g_sug, ' (docs/scenes.md)'
-                    call note(mdl, trim(buf))
-                end if
-                return
-            end if
-        else if (prm%gamma0 >= g_min) then
-            return
-        end if
-        if (prm%nitsche_theta == 1) then
+        if (prm%nitsche_theta == 1 .and. .not. prm%gamma0 > g_min * (1.0_dp + BOUND_RTOL)) then
             st = STAT_BAD_INPUT
             write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a, es10.3e3, a)') '', prm%gamma0, &
                 ' is too small for the material: with theta = 1, K_theta is indefinite below ' &
                 //'gamma0 = ', g_min, ' (element bound) and singular at it; use gamma0 = ', &
                 g_sug, ' (the stiffness E or lambda + 2 mu is ', stiff, '; docs/scenes.md)'
             m = trim(adjustl(buf))
-        else
+        else if (.not. (all(ieee_is_finite(mdl%ct%gamma)) .and. &
+                        all(ieee_is_finite(1.0_dp / mdl%ct%gamma)))) then
+            ! the contact terms carry gamma_N and |F| / gamma_N: a gamma0 near either end
+            ! of the range of reals (1e-320, 1e308) overflows one of them, and the first
+            ! step that touches the obstacle is NaN (the suggestion: twice the element bound,
+            ! or the stiffness where there is no bound, the penalty's 0)
+            st = STAT_BAD_INPUT
+            if (.not. g_min > 0.0_dp) g_sug = round_up(stiff)
+            write (buf, '(a, es10.3e3, a, es8.1e3, a)') '', prm%gamma0, ' is out of range: '// &
+                'gamma_N = gamma0 / h_T or 1 / gamma_N overflows on this mesh; use gamma0 = ', &
+                g_sug, ' (docs/scenes.md)'
+            m = trim(adjustl(buf))
+        else if (prm%nitsche_theta == 1) then
+            if (mdl%dim == 1 .and. prm%gamma0 < SUGGEST * g_min) then
+                write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
+                    'warning: &contact gamma0 = ', prm%gamma0, ' is less than twice the '// &
+                    'element bound ', g_min, ' (theta = 1): the contact cell is left '// &
+                    'soft and its slow mode pollutes u_n, v_n and p_n (in 1D the bound '// &
+                    'is exact); consider gamma0 = ', g_sug, ' (docs/scenes.md)'
+                call note(mdl, trim(buf))
+            end if
+        else if (prm%gamma0 < g_min) then
             write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
                 'warning: &contact gamma0 = ', prm%gamma0, &
                 ' is small for the material (contact weakly enforced, large penetration; ' &
