@@ -1,8 +1,9 @@
 """Values the scene reader accepts (finite, in their key's range) whose numbers overflow
-on the mesh: a run started from them would go NaN at its first contact and be reported
-as a numerical failure (exit 3). They are bad input, refused at set-up through both
-entry points with exit status 2 and the same one line naming the scene file and the key
-(fortran/fem/model.f90: check_gamma0)."""
+on the mesh: a run started from them would begin at e_total(0) = Infinity or NaN, or go
+NaN at its first contact, and be reported as a numerical failure (exit 3). They are bad
+input, refused at set-up through both entry points with exit status 2 and the same one
+line naming the scene file and the key (fortran/fem/model.f90: check_gamma0,
+model_check_initial)."""
 
 from __future__ import annotations
 
@@ -20,6 +21,18 @@ EXIT_BAD_INPUT = 2
 AT_SET_UP = "&scheme t_end = 0 /\n"
 
 CASES = [
+    BadCase("velocity_1e308", "&initial kind = 'velocity', velocity = 0.0, -1e308 /\n",
+            "&initial velocity", "the initial kinetic energy v0.M v0 / 2 is not finite"),
+    BadCase("velocity_1e200_dense",
+            "&initial kind = 'velocity', velocity = 1e150, 0.0 /\n"
+            "&material density = 1e100 /\n",
+            "&initial velocity", "&material density = 1.0E+100"),
+    BadCase("amplitude_1e200", "&initial amplitude = 1e200 /\n", "&initial amplitude",
+            "the initial elastic and contact energy of kind = 'compressed_bar' is not finite"),
+    BadCase("young_1e308", "&material young = 1e308 /\n", "&material young",
+            "overflows the stiffness matrix K"),
+    BadCase("gravity_times_density", "&material gravity = 0.0, -1e300, density = 1e300 /\n",
+            "&material gravity", "the load rho g overflows"),
     BadCase("gamma0_subnormal_theta0", "&contact theta = 0, gamma0 = 1e-320 /\n",
             "&contact gamma0", "1 / gamma_N overflows on this mesh; use gamma0 = 1.0E+001"),
     BadCase("gamma0_subnormal_penalty", "&contact method = 'penalty', gamma0 = 1e-320 /\n",
@@ -44,6 +57,16 @@ def test_overflowing_value_is_bad_input(run_exe, run_cli, case, tmp_path):
     line = refused_line(run_exe, run_cli, path)
     assert f"{path}: {case.where}: " in line, (line, case.where)
     assert case.what in line, (line, case.what)
+
+
+def test_just_below_overflow_runs(run_exe, tmp_path):
+    """The largest velocity whose kinetic energy is finite on the bar runs its steps (the
+    check refuses only a state that overflows)."""
+    path = tmp_path / "fast.nml"
+    path.write_text("&initial kind = 'velocity', velocity = 0.0, -1e150 /\n"
+                    "&scheme t_end = 0.005 /\n")
+    res = run_exe(path, cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
 
 
 BOUND = re.compile(r"indefinite below gamma0 = (\S+) \(element bound\)")

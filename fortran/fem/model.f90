@@ -17,7 +17,7 @@ module model
                       block2_matvec_ks3, block3_t, block3_from_csc, block3_matvec, block3_matvec_km, &
                       block3_scalar_blocks, block3_matvec_ks2, block3_matvec_ks3
     use mass_redistribution, only: mass_region, mass_redistribute
-    use text, only: int_text
+    use text, only: int_text, real_text
     use cholmod, only: cholmod_t, chol_factor, chol_free
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
@@ -108,6 +108,7 @@ module model
     end type model_t
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, model_lift_length, &
+              model_check_initial, &
               model_probe, model_mass_apply, model_stiff_apply, model_full_field, &
               model_step_products, model_stiff_mass_apply, model_stiff_theta_values, &
               model_mass_definite, model_scalar_mass
@@ -1274,6 +1275,69 @@ contains
             end select
         end do
     end subroutine model_initial
+
+    !> The initial state's energies are finite. Each key is finite and in its range, yet
+    !> a velocity of 1e308, a lift of 1e200 or a Young's modulus whose stiffness entries
+    !> overflow would start the run at e_total(0) = Infinity (or NaN) and be reported
+    !> as a blow-up at its first step; it is bad input (STAT_BAD_INPUT, the message
+    !> names the scene file and the key). In the order a cause propagates: the matrices
+    !> (&material young: K; density: M), the load (gravity with density), the kinetic
+    !> energy v0.M v0 / 2 (&initial velocity) and the elastic, contact and load terms at
+    !> u0 (&initial amplitude, the only key that lifts u0 from 0; at u0 = 0 the contact
+    !> energy of a body starting in the obstacle, &contact gamma0). One product with M,
+    !> one evaluation of B: O(nnz), once per run.
+    pure subroutine model_check_initial(mdl, prm, u0, v0, stat, errmsg)
+        type(model_t), intent(in) :: mdl                    !! model
+        type(model_params_t), intent(in) :: prm             !! its parameters
+        real(dp), intent(in) :: u0(:)                       !! (n_dofs) initial displacement
+        real(dp), intent(in) :: v0(:)                       !! (n_dofs) initial velocity
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), allocatable :: w(:), ktu(:)
+        real(dp) :: e_pen, e_theta
+        integer :: active, dim
+        character(len=:), allocatable :: at
+        stat = STAT_OK
+        dim = mdl%dim
+        if (.not. all(ieee_is_finite(mdl%stiff%val))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &material young: '// &
+                       real_text(prm%young)//' overflows the stiffness matrix K on this mesh')
+            return
+        end if
+        if (.not. all(ieee_is_finite(mdl%mass_val))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &material density: '// &
+                       real_text(prm%density)//' overflows the mass matrix M on this mesh')
+            return
+        end if
+        if (.not. all(ieee_is_finite(mdl%load))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &material gravity: '// &
+                       'the load rho g overflows on this mesh (&material density = '// &
+                       real_text(prm%density)//')')
+            return
+        end if
+        allocate (w(mdl%n_dofs), ktu(mdl%n_dofs))
+        call model_mass_apply(mdl, v0, w)
+        if (.not. ieee_is_finite(0.5_dp * dot_product(v0, w))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &initial velocity: '// &
+                       'the initial kinetic energy v0.M v0 / 2 is not finite (|velocity| = '// &
+                       real_text(norm2(prm%velocity(1:dim)))//', &material density = '// &
+                       real_text(prm%density)//')')
+            return
+        end if
+        call model_eval_b(mdl, u0, w, ktu, active, e_pen, e_theta)
+        if (ieee_is_finite(0.5_dp * dot_product(u0, ktu) + e_theta) .and. &
+            ieee_is_finite(e_pen) .and. ieee_is_finite(dot_product(u0, mdl%load))) return
+        if (any(u0 /= 0.0_dp)) then
+            at = '&initial amplitude: the initial elastic and contact energy of kind = '// &
+                 '''compressed_bar'' is not finite (amplitude = '//real_text(prm%amplitude)// &
+                 ', &material young = '//real_text(prm%young)//', &contact gamma0 = '// &
+                 real_text(prm%gamma0)//')'
+        else
+            at = '&contact gamma0: the contact energy of the initial state is not finite '// &
+                 '(gamma0 = '//real_text(prm%gamma0)//')'
+        end if
+        call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//at)
+    end subroutine model_check_initial
 
     !> Probe values: u_n, v_n interpolated; p_n = Nitsche pressure (mean over the
     !> facets when the probe is on a shared node or edge). Zero without contact boundary.
