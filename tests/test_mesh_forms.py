@@ -501,8 +501,47 @@ def test_geo_with_exit_refused(run_exe, tmp_path):
         core.estimate_geo(p)
     quiet = tmp_path / "quiet.geo"
     quiet.write_text((ROOT / "meshes" / "disk.geo").read_text()
-                     + '\n// Exit;\n/* Exit; */\nPrintf("Exit;");\nExits = 1;\n')
+                     + '\n// Exit;\n/* Exit; */\nPrintf("Exit;");\nExits = 1;\n'
+                     + "Printf('Sleep 1;');\nSystem = 2;\nSleep[0] = 1;\nSleep += 1;\n"
+                     + "SystemCalls = 1;\n")
     assert mesh_io.read_mesh(quiet).dim == 2
+
+
+#: gmsh's .geo commands that end the process, stall it or run other programs (each
+#: appended to a .geo that meshes; MARK is a file the command would create): the
+#: command, and what the refusal says it would do.
+GEO_COMMANDS = {
+    "exit_status": ("Exit 3;", "Exit", "end the run without a word"),
+    "sleep": ("Sleep 30;", "Sleep", "stall the run"),
+    "sleep_parenthesis": ("Sleep(30);", "Sleep", "stall the run"),
+    "system_call": ('SystemCall "touch MARK";', "SystemCall", "run a shell command"),
+    "system": ('System "touch MARK";', "System", "run a shell command"),
+    "non_blocking": ('NonBlockingSystemCall "touch MARK";', "NonBlockingSystemCall",
+                     "run a shell command"),
+    "onelab_run": ('OnelabRun("touch MARK");', "OnelabRun", "run another program"),
+}
+
+
+@pytest.mark.parametrize("case", GEO_COMMANDS, ids=list(GEO_COMMANDS))
+def test_geo_command_that_escapes_the_process_refused(run_exe, run_cli, tmp_path, case):
+    """Both entry points refuse the .geo with the same line naming the file and the
+    command, exit 2, before gmsh reads it (the shell command does not run, nothing
+    stalls); so do mesh_io.generate, without a limit, and the reader."""
+    command, name, effect = GEO_COMMANDS[case]
+    mark = tmp_path / "ran"
+    p = tmp_path / "escapes.geo"
+    p.write_text((ROOT / "meshes" / "disk.geo").read_text() + "\n"
+                 + command.replace("MARK", str(mark)) + "\n")
+    scene = tmp_path / "s.nml"
+    scene.write_text(f"&mesh file = '{p}' /\n&scheme t_end = 0 /\n")
+    lines = [stderr_line(res, 2) for res in (run_exe(scene), run_cli("run", scene))]
+    assert lines[0] == lines[1], lines
+    assert f"{p}: has gmsh's '{name}' command, which would {effect}" in lines[0]
+    with pytest.raises(BadInputError, match=f"'{name}' command"):
+        mesh_io.generate(p, tmp_path / "out.msh", max_elements=0)
+    with pytest.raises(BadInputError, match=f"'{name}' command"):
+        mesh_io.read_mesh(p)
+    assert not mark.exists()
 
 
 def test_missing_file(run_exe, tmp_path):
