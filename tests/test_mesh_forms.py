@@ -484,6 +484,24 @@ def test_msh4_header_counts_that_differ_from_the_blocks_refused(run_exe, tmp_pat
         mesh_io.read_mesh(p)
 
 
+@pytest.mark.parametrize("section", [b"$Nodes", b"$Elements"])
+@pytest.mark.parametrize("edit", [_swap_counts, _fewer_nodes], ids=["swapped", "fewer"])
+def test_msh40_ascii_header_counts_that_differ_from_the_blocks_refused(run_exe, tmp_path,
+                                                                       section, edit):
+    """MSH 4.0 ASCII (a node a line, two-number headers): gmsh trusts its counts the same
+    way (abort, "double free or corruption"); refused naming the file and the section,
+    exit 2, while the file as gmsh wrote it reads."""
+    src = rewrite(ROOT / "meshes" / "bar2d_getfem_h0.05.msh", tmp_path / "src.msh", 4.0,
+                  False)
+    assert mesh_io.read_mesh(src).dim == 2
+    p = tmp_path / "bad.msh"
+    p.write_bytes(edit(src.read_bytes(), section, False))
+    msg = _exe_error(run_exe, tmp_path, p)
+    assert f"{p}: its {section.decode()} section" in msg
+    with pytest.raises(BadInputError, match=f"its \\{section.decode()} section"):
+        mesh_io.read_mesh(p)
+
+
 #: A .geo with gmsh's Exit command: gmsh ends the process there (status 1, no word).
 _EXIT_GEO = (ROOT / "meshes" / "disk.geo").read_text() + "\nExit ;\n"
 
