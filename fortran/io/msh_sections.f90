@@ -24,6 +24,11 @@
 !> numNodes'). A file that ends inside a section, a binary file of another layout
 !> (MSH 4.0 and 2.2, a data size other than 8, other byte order) or an element type not
 !> in the table below are left to gmsh, which refuses them itself or reads them safely.
+!> Left to gmsh as well, as it reads them to the same mesh with no invalid access under
+!> valgrind (gmsh 4.15, tests/test_mesh_forms.py): a 4.1 $Nodes header whose [minTag,
+!> maxTag] does not hold the blocks' tags (1 2, 62 63 or 1 100000000 for tags 1..63), an
+!> ASCII file whose $MeshFormat gives data size 4 (ASCII does not use it), and a
+!> $PhysicalNames name without its closing quote (gmsh takes the name to the line's end).
 module msh_sections
     use, intrinsic :: iso_fortran_env, only: int32, int64
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
