@@ -170,6 +170,7 @@ contains
                     return
                 end if
                 read (buf(p:line_end(buf, p)), *, iostat=ios) head
+                if (v40 .and. ios /= 0) return       ! another layout labelled 4.0: gmsh's
                 if (ios /= 0 .or. head(4) < 0) then
                     w = WALK_BAD
                     why = 'block '//count_text(b)// &
@@ -195,6 +196,7 @@ contains
         end if
         if (.not. binary) then
             if (buf(p:min(len(buf, int64), p + len(mark) + 2)) /= '$End'//mark(2:)) then
+                if (v40) return                      ! another layout labelled 4.0: gmsh's
                 w = WALK_BAD
                 why = 'has more blocks than its header gives'
                 return
