@@ -23,7 +23,7 @@ AT_SET_UP = "&scheme t_end = 0 /\n"
 CASES = [
     BadCase("velocity_1e308", "&initial kind = 'velocity', velocity = 0.0, -1e308 /\n",
             "&initial velocity", "the initial kinetic energy v0.M v0 / 2 is not finite"),
-    BadCase("velocity_1e200_dense",
+    BadCase("velocity_with_density",
             "&initial kind = 'velocity', velocity = 1e150, 0.0 /\n"
             "&material density = 1e100 /\n",
             "&initial velocity", "&material density = 1.0E+100"),
