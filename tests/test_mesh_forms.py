@@ -485,6 +485,55 @@ def test_msh4_header_counts_that_differ_from_the_blocks_refused(run_exe, tmp_pat
         mesh_io.read_mesh(p)
 
 
+@pytest.mark.parametrize("section", [b"$Nodes", b"$Elements"])
+@pytest.mark.parametrize("edit", [_swap_counts, _fewer_nodes], ids=["swapped", "fewer"])
+def test_msh40_ascii_header_counts_that_differ_from_the_blocks_refused(run_exe, tmp_path,
+                                                                       section, edit):
+    """MSH 4.0 ASCII (a node a line, two-number headers): gmsh trusts its counts the same
+    way (abort, "double free or corruption"); refused naming the file and the section,
+    exit 2, while the file as gmsh wrote it reads."""
+    src = rewrite(ROOT / "meshes" / "bar2d_getfem_h0.05.msh", tmp_path / "src.msh", 4.0,
+                  False)
+    assert mesh_io.read_mesh(src).dim == 2
+    p = tmp_path / "bad.msh"
+    p.write_bytes(edit(src.read_bytes(), section, False))
+    msg = _exe_error(run_exe, tmp_path, p)
+    assert f"{p}: its {section.decode()} section" in msg
+    with pytest.raises(BadInputError, match=f"its \\{section.decode()} section"):
+        mesh_io.read_mesh(p)
+
+
+def _tag_range(data: bytes, low: bytes, high: bytes) -> bytes:
+    """data with its $Nodes header's minTag and maxTag replaced."""
+    start = data.index(b"\n$Nodes\n") + 8
+    end = data.index(b"\n", start)
+    head = data[start:end].split()
+    return data[:start] + b" ".join([head[0], head[1], low, high]) + data[end:]
+
+
+#: Fields of an ASCII 4.1 file that disagree with its content, which gmsh reads to the
+#: same mesh with no invalid access under valgrind (fortran/io/msh_sections.f90): left
+#: to gmsh, accepted.
+HARMLESS_EDITS = {
+    "tags_above_range": lambda d: _tag_range(d, b"1", b"2"),
+    "tags_below_range": lambda d: _tag_range(d, b"62", b"63"),
+    "range_far_too_wide": lambda d: _tag_range(d, b"1", b"100000000"),
+    "data_size_4": lambda d: d.replace(b"4.1 0 8", b"4.1 0 4", 1),
+    "unterminated_name": lambda d: d.replace(b'"bottom"', b'"bottom', 1),
+}
+
+
+@pytest.mark.parametrize("edit", HARMLESS_EDITS, ids=list(HARMLESS_EDITS))
+def test_msh41_fields_gmsh_reads_alike_are_accepted(tmp_path, edit):
+    src = rewrite(ROOT / "meshes" / "bar2d_getfem_h0.05.msh", tmp_path / "src.msh", 4.1,
+                  False)
+    p = tmp_path / "edited.msh"
+    data = HARMLESS_EDITS[edit](src.read_bytes())
+    assert data != src.read_bytes()
+    p.write_bytes(data)
+    same_mesh(mesh_io.read_mesh(src), mesh_io.read_mesh(p), edit)
+
+
 #: A .geo with gmsh's Exit command: gmsh ends the process there (status 1, no word).
 _EXIT_GEO = (ROOT / "meshes" / "disk.geo").read_text() + "\nExit ;\n"
 
@@ -502,8 +551,47 @@ def test_geo_with_exit_refused(run_exe, tmp_path):
         core.estimate_geo(p)
     quiet = tmp_path / "quiet.geo"
     quiet.write_text((ROOT / "meshes" / "disk.geo").read_text()
-                     + '\n// Exit;\n/* Exit; */\nPrintf("Exit;");\nExits = 1;\n')
+                     + '\n// Exit;\n/* Exit; */\nPrintf("Exit;");\nExits = 1;\n'
+                     + "Printf('Sleep 1;');\nSystem = 2;\nSleep[0] = 1;\nSleep += 1;\n"
+                     + "SystemCalls = 1;\n")
     assert mesh_io.read_mesh(quiet).dim == 2
+
+
+#: gmsh's .geo commands that end the process, stall it or run other programs (each
+#: appended to a .geo that meshes; MARK is a file the command would create): the
+#: command, and what the refusal says it would do.
+GEO_COMMANDS = {
+    "exit_status": ("Exit 3;", "Exit", "end the run without a word"),
+    "sleep": ("Sleep 30;", "Sleep", "stall the run"),
+    "sleep_parenthesis": ("Sleep(30);", "Sleep", "stall the run"),
+    "system_call": ('SystemCall "touch MARK";', "SystemCall", "run a shell command"),
+    "system": ('System "touch MARK";', "System", "run a shell command"),
+    "non_blocking": ('NonBlockingSystemCall "touch MARK";', "NonBlockingSystemCall",
+                     "run a shell command"),
+    "onelab_run": ('OnelabRun("touch MARK");', "OnelabRun", "run another program"),
+}
+
+
+@pytest.mark.parametrize("case", GEO_COMMANDS, ids=list(GEO_COMMANDS))
+def test_geo_command_that_escapes_the_process_refused(run_exe, run_cli, tmp_path, case):
+    """Both entry points refuse the .geo with the same line naming the file and the
+    command, exit 2, before gmsh reads it (the shell command does not run, nothing
+    stalls); so do mesh_io.generate, without a limit, and the reader."""
+    command, name, effect = GEO_COMMANDS[case]
+    mark = tmp_path / "ran"
+    p = tmp_path / "escapes.geo"
+    p.write_text((ROOT / "meshes" / "disk.geo").read_text() + "\n"
+                 + command.replace("MARK", str(mark)) + "\n")
+    scene = tmp_path / "s.nml"
+    scene.write_text(f"&mesh file = '{p}' /\n&scheme t_end = 0 /\n")
+    lines = [stderr_line(res, 2) for res in (run_exe(scene), run_cli("run", scene))]
+    assert lines[0] == lines[1], lines
+    assert f"{p}: has gmsh's '{name}' command, which would {effect}" in lines[0]
+    with pytest.raises(BadInputError, match=f"'{name}' command"):
+        mesh_io.generate(p, tmp_path / "out.msh", max_elements=0)
+    with pytest.raises(BadInputError, match=f"'{name}' command"):
+        mesh_io.read_mesh(p)
+    assert not mark.exists()
 
 
 def test_missing_file(run_exe, tmp_path):

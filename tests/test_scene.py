@@ -242,7 +242,12 @@ BAD_CASES = [
     BadCase("rho_inf_above_one", "&scheme name = 'galpha', rho_inf = 1.5 /\n",
             "&scheme rho_inf", "must be in [0, 1] for scheme 'galpha'"),
     BadCase("newton_tol_zero", "&scheme newton_tol = 0.0 /\n", "&scheme newton_tol",
-            "must be > 0"),
+            "must be in (0, 1)"),
+    # a relative tolerance of 1 or more stops every Newton at its first iterate
+    BadCase("newton_tol_one", "&scheme newton_tol = 1.0 /\n", "&scheme newton_tol",
+            "must be in (0, 1) (got '1.0')"),
+    BadCase("newton_tol_huge", "&scheme newton_tol = 1e308 /\n", "&scheme newton_tol",
+            "must be in (0, 1) (got '1e308')"),
     BadCase("newton_maxit_zero", "&scheme newton_maxit = 0 /\n", "&scheme newton_maxit",
             "must be > 0"),
     BadCase("blowup_one", "&scheme blowup = 1.0 /\n", "&scheme blowup", "must be > 1"),

@@ -2,12 +2,13 @@
 !> (Dirichlet conditions eliminated), assembled M, K, K_theta and L (one shared
 !> CSC pattern), contact facets and the probe.
 module model
+    use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise, oom_text, &
                       mb_text, has_room, OOM_HINT_MESH
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets, mesh_parts
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass
-    use simplex_geometry, only: simplex_measure
+    use simplex_geometry, only: simplex_measure, simplex_diameter
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_find, csc_matvec_t_values, csc_swap_values, block2_csc_values, &
                       csc_from_coo, &
@@ -16,7 +17,7 @@ module model
                       block2_matvec_ks3, block3_t, block3_from_csc, block3_matvec, block3_matvec_km, &
                       block3_scalar_blocks, block3_matvec_ks2, block3_matvec_ks3
     use mass_redistribution, only: mass_region, mass_redistribute
-    use text, only: int_text
+    use text, only: int_text, real_text
     use cholmod, only: cholmod_t, chol_factor, chol_free
     use nitsche_contact, only: contact_t, contact_init, contact_eval, contact_max_rank, &
                                facet_pressure, &
@@ -107,6 +108,7 @@ module model
     end type model_t
 
     public :: model_build, model_eval_b, model_apply_jacobian, model_initial, model_lift_length, &
+              model_check_initial, &
               model_probe, model_mass_apply, model_stiff_apply, model_full_field, &
               model_step_products, model_stiff_mass_apply, model_stiff_theta_values, &
               model_mass_definite, model_scalar_mass
@@ -892,8 +894,12 @@ contains
     !> gamma0 against the material: with theta = 1, K_theta = K - sum theta |F| /
     !> gamma_N s s^T stays positive semi-definite if on every cell touching Gamma_C
     !> sum_f (|F| / gamma_N) s^T K_e^+ s <= 1 (Cauchy-Schwarz in the K_e norm; s is
-    !> orthogonal to the rigid modes). This gives gamma0_min; below it theta = 1 is an
-    !> error, theta = 0 / -1 a warning (weakly enforced contact).
+    !> orthogonal to the rigid modes). With gamma_N = gamma0 / h_T this is gamma0 >=
+    !> gamma0_min = max over cells of sum_f |F| h_T s^T K_e^+ s, a bound of the mesh and
+    !> the material alone: it is computed without gamma0, so a gamma0 near the underflow
+    !> limit (whose gamma_N = gamma0 / h_T would overflow |F| / gamma_N) still gets the
+    !> true bound and a usable suggestion. Below it theta = 1 is an error, theta = 0 / -1
+    !> a warning (weakly enforced contact).
     pure subroutine check_gamma0(mdl, prm, lambda, mu, st, m)
         type(model_t), intent(inout) :: mdl          !! model being built
         type(model_params_t), intent(in) :: prm      !! parameters
@@ -902,19 +908,19 @@ contains
         character(len=*), intent(inout) :: m         !! message
         real(dp), parameter :: SUGGEST = 2.0_dp   ! margin of the suggested value over gamma0_min
         real(dp), parameter :: BOUND_RTOL = 1.0e-12_dp   ! 'at the bound', relative
-        real(dp) :: ratio_max, g_min, g_sug, stiff
+        real(dp) :: g_min, g_sug, stiff
         real(dp), allocatable :: ratio(:)
-        integer :: f
+        integer :: f, c
         character(len=400) :: buf
         st = STAT_OK
         allocate (ratio(mdl%msh%n_cells))
         ratio = 0.0_dp
         do f = 1, mdl%ct%n_facets
-            ratio(mdl%ct%cell(f)) = ratio(mdl%ct%cell(f)) + &
-                mdl%ct%measure(f) * facet_compliance(mdl, prm%young, lambda, mu, f) / mdl%ct%gamma(f)
+            c = mdl%ct%cell(f)
+            ratio(c) = ratio(c) + mdl%ct%measure(f) * facet_compliance(mdl, prm%young, lambda, &
+                mu, f) * simplex_diameter(mdl%dim, mdl%msh%x(:, mdl%msh%cells(:, c)))
         end do
-        ratio_max = maxval(ratio)
-        g_min = prm%gamma0 * ratio_max
+        g_min = maxval(ratio)
         mdl%gamma0_min = g_min
         ! at the bound K_theta is singular on a contact cell: with theta = 1 the run
         ! needs gamma0 above it (to round-off). J0 = M + c K_theta stays definite there, but
@@ -926,29 +932,35 @@ contains
         stiff = prm%young
         if (mdl%dim >= 2) stiff = lambda + 2.0_dp * mu
         g_sug = round_up(SUGGEST * g_min)
-        if (prm%nitsche_theta == 1) then
-            if (prm%gamma0 > g_min * (1.0_dp + BOUND_RTOL)) then
-                if (mdl%dim == 1 .and. prm%gamma0 < SUGGEST * g_min) then
-                    write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
-                        'warning: &contact gamma0 = ', prm%gamma0, ' is less than twice the '// &
-                        'element bound ', g_min, ' (theta = 1): the contact cell is left '// &
-                        'soft and its slow mode pollutes u_n, v_n and p_n (in 1D the bound '// &
-                        'is exact); consider gamma0 = ', g_sug, ' (docs/scenes.md)'
-                    call note(mdl, trim(buf))
-                end if
-                return
-            end if
-        else if (prm%gamma0 >= g_min) then
-            return
-        end if
-        if (prm%nitsche_theta == 1) then
+        if (prm%nitsche_theta == 1 .and. .not. prm%gamma0 > g_min * (1.0_dp + BOUND_RTOL)) then
             st = STAT_BAD_INPUT
             write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a, es10.3e3, a)') '', prm%gamma0, &
                 ' is too small for the material: with theta = 1, K_theta is indefinite below ' &
                 //'gamma0 = ', g_min, ' (element bound) and singular at it; use gamma0 = ', &
                 g_sug, ' (the stiffness E or lambda + 2 mu is ', stiff, '; docs/scenes.md)'
             m = trim(adjustl(buf))
-        else
+        else if (.not. (all(ieee_is_finite(mdl%ct%gamma)) .and. &
+                        all(ieee_is_finite(1.0_dp / mdl%ct%gamma)))) then
+            ! the contact terms carry gamma_N and |F| / gamma_N: a gamma0 near either end
+            ! of the range of reals (1e-320, 1e308) overflows one of them, and the first
+            ! step that touches the obstacle is NaN (the suggestion: twice the element bound,
+            ! or the stiffness where there is no bound, the penalty's 0)
+            st = STAT_BAD_INPUT
+            if (.not. g_min > 0.0_dp) g_sug = round_up(stiff)
+            write (buf, '(a, es10.3e3, a, es8.1e3, a)') '', prm%gamma0, ' is out of range: '// &
+                'gamma_N = gamma0 / h_T or 1 / gamma_N overflows on this mesh; use gamma0 = ', &
+                g_sug, ' (docs/scenes.md)'
+            m = trim(adjustl(buf))
+        else if (prm%nitsche_theta == 1) then
+            if (mdl%dim == 1 .and. prm%gamma0 < SUGGEST * g_min) then
+                write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
+                    'warning: &contact gamma0 = ', prm%gamma0, ' is less than twice the '// &
+                    'element bound ', g_min, ' (theta = 1): the contact cell is left '// &
+                    'soft and its slow mode pollutes u_n, v_n and p_n (in 1D the bound '// &
+                    'is exact); consider gamma0 = ', g_sug, ' (docs/scenes.md)'
+                call note(mdl, trim(buf))
+            end if
+        else if (prm%gamma0 < g_min) then
             write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a)') &
                 'warning: &contact gamma0 = ', prm%gamma0, &
                 ' is small for the material (contact weakly enforced, large penetration; ' &
@@ -1263,6 +1275,69 @@ contains
             end select
         end do
     end subroutine model_initial
+
+    !> The initial state's energies are finite. Each key is finite and in its range, yet
+    !> a velocity of 1e308, a lift of 1e200 or a Young's modulus whose stiffness entries
+    !> overflow would start the run at e_total(0) = Infinity (or NaN) and be reported
+    !> as a blow-up at its first step; it is bad input (STAT_BAD_INPUT, the message
+    !> names the scene file and the key). In the order a cause propagates: the matrices
+    !> (&material young: K; density: M), the load (gravity with density), the kinetic
+    !> energy v0.M v0 / 2 (&initial velocity) and the elastic, contact and load terms at
+    !> u0 (&initial amplitude, the only key that lifts u0 from 0; at u0 = 0 the contact
+    !> energy of a body starting in the obstacle, &contact gamma0). One product with M,
+    !> one evaluation of B: O(nnz), once per run.
+    pure subroutine model_check_initial(mdl, prm, u0, v0, stat, errmsg)
+        type(model_t), intent(in) :: mdl                    !! model
+        type(model_params_t), intent(in) :: prm             !! its parameters
+        real(dp), intent(in) :: u0(:)                       !! (n_dofs) initial displacement
+        real(dp), intent(in) :: v0(:)                       !! (n_dofs) initial velocity
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        real(dp), allocatable :: w(:), ktu(:)
+        real(dp) :: e_pen, e_theta
+        integer :: active, dim
+        character(len=:), allocatable :: at
+        stat = STAT_OK
+        dim = mdl%dim
+        if (.not. all(ieee_is_finite(mdl%stiff%val))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &material young: '// &
+                       real_text(prm%young)//' overflows the stiffness matrix K on this mesh')
+            return
+        end if
+        if (.not. all(ieee_is_finite(mdl%mass_val))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &material density: '// &
+                       real_text(prm%density)//' overflows the mass matrix M on this mesh')
+            return
+        end if
+        if (.not. all(ieee_is_finite(mdl%load))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &material gravity: '// &
+                       'the load rho g overflows on this mesh (&material density = '// &
+                       real_text(prm%density)//')')
+            return
+        end if
+        allocate (w(mdl%n_dofs), ktu(mdl%n_dofs))
+        call model_mass_apply(mdl, v0, w)
+        if (.not. ieee_is_finite(0.5_dp * dot_product(v0, w))) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &initial velocity: '// &
+                       'the initial kinetic energy v0.M v0 / 2 is not finite (|velocity| = '// &
+                       real_text(norm2(prm%velocity(1:dim)))//', &material density = '// &
+                       real_text(prm%density)//')')
+            return
+        end if
+        call model_eval_b(mdl, u0, w, ktu, active, e_pen, e_theta)
+        if (ieee_is_finite(0.5_dp * dot_product(u0, ktu) + e_theta) .and. &
+            ieee_is_finite(e_pen) .and. ieee_is_finite(dot_product(u0, mdl%load))) return
+        if (any(u0 /= 0.0_dp)) then
+            at = '&initial amplitude: the initial elastic and contact energy of kind = '// &
+                 '''compressed_bar'' is not finite (amplitude = '//real_text(prm%amplitude)// &
+                 ', &material young = '//real_text(prm%young)//', &contact gamma0 = '// &
+                 real_text(prm%gamma0)//')'
+        else
+            at = '&contact gamma0: the contact energy of the initial state is not finite '// &
+                 '(gamma0 = '//real_text(prm%gamma0)//')'
+        end if
+        call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//at)
+    end subroutine model_check_initial
 
     !> Probe values: u_n, v_n interpolated; p_n = Nitsche pressure (mean over the
     !> facets when the probe is on a shared node or edge). Zero without contact boundary.

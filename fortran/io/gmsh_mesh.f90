@@ -215,7 +215,7 @@ contains
             if (stat /= STAT_OK) return
         case ('.geo')
             is_geo = 1
-            call geo_check_exit(p, stat, errmsg)
+            call geo_check_commands(p, stat, errmsg)
             if (stat /= STAT_OK) return
         case default
             call raise(stat, errmsg, STAT_BAD_INPUT, p//": unknown mesh file extension '"// &
@@ -294,7 +294,7 @@ contains
         real(c_double) :: cest(4)
         integer(c_int) :: st
         stat = STAT_OK
-        call geo_check_exit(trim(path), stat, errmsg)
+        call geo_check_commands(trim(path), stat, errmsg)
         if (stat /= STAT_OK) return
         st = c_gmsh_estimate(trim(path)//c_null_char, &
                              [h, length, width, real(iand(given, GEO_GIVEN_ALL), dp)], cest, &
@@ -303,17 +303,29 @@ contains
         if (st /= 0) call raise(stat, errmsg, STAT_BAD_INPUT, from_c(cmsg))
     end subroutine estimate_geo_cells
 
-    !> Refuse a .geo with gmsh's `Exit` command (STAT_BAD_INPUT naming the file): gmsh ends
-    !> the whole process there, the run and a caller's Python alike, with status 1 and no
-    !> word. The scan is of the text without its comments and strings; a file it cannot
-    !> read passes (gmsh's read says why).
-    subroutine geo_check_exit(path, stat, errmsg)
+    !> Refuse a .geo with one of gmsh's commands that end, stall or escape the process
+    !> (STAT_BAD_INPUT naming the file and the command): `Exit` ends the whole process,
+    !> the run and a caller's Python alike, with its own status and no word; `Sleep`
+    !> stalls it (once per parse, and a .geo is parsed more than once); `SystemCall`,
+    !> `System`, `NonBlockingSystemCall` and `OnelabRun` start other programs. `Abort`
+    !> ends only gmsh's parse (the file's geometry up to it is meshed) and is left to
+    !> gmsh, as are its commands that write files. The scan is of the text without its
+    !> comments and strings ("..." and '...'); a command is the whole name, not followed
+    !> by an assignment or an index (a variable of that name, `System = 1;`, passes). A
+    !> file it cannot read passes (gmsh's read says why).
+    subroutine geo_check_commands(path, stat, errmsg)
         character(len=*), intent(in) :: path                !! .geo file
         integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! one line naming the file
+        character(len=*), parameter :: COMMANDS(6) = [character(len=21) :: 'Exit', 'Sleep', &
+            'SystemCall', 'System', 'NonBlockingSystemCall', 'OnelabRun']
+        character(len=*), parameter :: EFFECTS(6) = [character(len=40) :: &
+            'would end the run without a word', 'would stall the run', &
+            'would run a shell command', 'would run a shell command', &
+            'would run a shell command', 'would run another program']
         character(len=:), allocatable :: buf
-        integer :: i, j, n
-        logical :: word_start, ok
+        integer :: i, j, k, n
+        logical :: ok
 
         stat = STAT_OK
         call read_whole_file(path, 4, buf, ok)
@@ -329,38 +341,47 @@ contains
                 j = index(buf(i + 2:), '*/')
                 if (j == 0) return
                 i = i + j + 3
-            else if (buf(i:i) == '"') then                      ! string
-                j = index(buf(i + 1:), '"')
+            else if (buf(i:i) == '"' .or. buf(i:i) == "'") then ! string
+                j = index(buf(i + 1:), buf(i:i))
                 if (j == 0) return
                 i = i + j + 1
+            else if (is_name_char(buf(i:i))) then               ! a whole name
+                j = i
+                do while (j < n)
+                    if (.not. is_name_char(buf(j + 1:j + 1))) exit
+                    j = j + 1
+                end do
+                do k = 1, size(COMMANDS)
+                    if (buf(i:j) /= trim(COMMANDS(k))) cycle
+                    if (names_variable(buf(j + 1:))) exit
+                    call raise(stat, errmsg, STAT_BAD_INPUT, path//": has gmsh's '"// &
+                               trim(COMMANDS(k))//"' command, which "//trim(EFFECTS(k))// &
+                               ': remove it (gmsh meshes the file without it)')
+                    return
+                end do
+                i = j + 1
             else
-                word_start = i == 1
-                if (.not. word_start) word_start = .not. is_name_char(buf(i - 1:i - 1))
-                if (word_start .and. buf(i:min(n, i + 3)) == 'Exit') then
-                    j = i + 4
-                    if (j <= n) then
-                        if (is_name_char(buf(j:j))) then
-                            i = j
-                            cycle
-                        end if
-                    end if
-                    do while (j <= n)
-                        if (verify(buf(j:j), ' '//achar(9)//achar(10)//achar(13)) /= 0) exit
-                        j = j + 1
-                    end do
-                    if (j <= n) then
-                        if (buf(j:j) == ';') then
-                            call raise(stat, errmsg, STAT_BAD_INPUT, path//": has gmsh's "// &
-                                       "'Exit' command, which would end the run without a "// &
-                                       'word: remove it (gmsh meshes the file without it)')
-                            return
-                        end if
-                    end if
-                end if
                 i = i + 1
             end if
         end do
-    end subroutine geo_check_exit
+    end subroutine geo_check_commands
+
+    !> True when the text after a name makes it a variable: an assignment (=, +=, -=,
+    !> *=, /=, ++, --), an index ([ or ~{) or a member (.), after blanks.
+    pure logical function names_variable(rest)
+        character(len=*), intent(in) :: rest    !! the text after the name
+        integer :: j
+        names_variable = .false.
+        j = verify(rest, ' '//achar(9)//achar(10)//achar(13))
+        if (j == 0) return
+        select case (rest(j:min(len(rest), j + 1)))
+        case ('+=', '-=', '*=', '/=', '++', '--', '~{')
+            names_variable = .true.
+        case default
+            names_variable = (rest(j:j) == '=' .and. rest(j:min(len(rest), j + 1)) /= '==') &
+                             .or. rest(j:j) == '[' .or. rest(j:j) == '.'
+        end select
+    end function names_variable
 
     !> True for a letter, a digit or an underscore (a .geo name's characters).
     pure logical function is_name_char(c)

@@ -18,9 +18,17 @@
 !> that many lines. Binary 4.1
 !> (data size 8): the header's four size_t, per block three int and a size_t count, then
 !> the block's size_t tags and doubles (nodes) or size_t rows of 1 + nodes-per-element
-!> (elements). A file that ends inside a section, a binary file of another layout (MSH 4.0 and
-!> 2.2, a data size other than 8, other byte order) or an element type not in the table below
-!> are left to gmsh, which refuses them itself or reads them safely.
+!> (elements). ASCII MSH 4.0, whose counts gmsh trusts the same way ("double free or
+!> corruption" on a header count below its blocks'), has two-number headers and one
+!> line a node ('tag x y z' after the block's 'entityTag entityDim parametric
+!> numNodes'). A file that ends inside a section, a binary file of another layout
+!> (MSH 4.0 and 2.2, a data size other than 8, other byte order) or an element type not
+!> in the table below are left to gmsh, which refuses them itself or reads them safely.
+!> Left to gmsh as well, as it reads them to the same mesh with no invalid access under
+!> valgrind (gmsh 4.15, tests/test_mesh_forms.py): a 4.1 $Nodes header whose [minTag,
+!> maxTag] does not hold the blocks' tags (1 2, 62 63 or 1 100000000 for tags 1..63), an
+!> ASCII file whose $MeshFormat gives data size 4 (ASCII does not use it), and a
+!> $PhysicalNames name without its closing quote (gmsh takes the name to the line's end).
 module msh_sections
     use, intrinsic :: iso_fortran_env, only: int32, int64
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
@@ -48,7 +56,7 @@ contains
         integer(int64) :: nbytes, p
         integer :: ios, file_type, data_size, w
         real :: version
-        logical :: binary, ok
+        logical :: binary, ok, v40
 
         stat = STAT_OK
         call read_whole_file(path, 16, buf, ok)
@@ -58,8 +66,10 @@ contains
         p = 12
         call skip_eol(buf, p)
         read (buf(p:min(nbytes, p + 63)), *, iostat=ios) version, file_type, data_size
-        if (ios /= 0 .or. version < 4.05) return          ! 2.2 and 4.0: gmsh's
+        if (ios /= 0 .or. version < 3.95) return          ! 2.2: gmsh's
         binary = file_type == 1
+        v40 = version < 4.05
+        if (v40 .and. binary) return                       ! binary 4.0: gmsh's
         if (binary) then
             if (data_size /= 8) return
             call next_line(buf, p)
@@ -67,13 +77,13 @@ contains
             if (transfer(buf(p:p + 3), 0_int32) /= 1) return    ! another byte order
         end if
 
-        w = walk(buf, '$Nodes', .true., binary, why)
+        w = walk(buf, '$Nodes', .true., binary, v40, why)
         if (w == WALK_BAD) then
             call raise(stat, errmsg, STAT_BAD_INPUT, path//': its $Nodes section '//trim(why)// &
                        ' (a header count that differs from its blocks: not read)')
             return
         end if
-        w = walk(buf, '$Elements', .false., binary, why)
+        w = walk(buf, '$Elements', .false., binary, v40, why)
         if (w == WALK_BAD) then
             call raise(stat, errmsg, STAT_BAD_INPUT, path//': its $Elements section '// &
                        trim(why)//' (a header count that differs from its blocks: not read)')
@@ -82,11 +92,12 @@ contains
 
     !> Walk the section that starts with the line `mark`: WALK_OK when its blocks add up
     !> to its header's count, WALK_BAD with why, WALK_UNKNOWN when it cannot be told.
-    integer function walk(buf, mark, nodes, binary, why) result(w)
+    integer function walk(buf, mark, nodes, binary, v40, why) result(w)
         character(len=*), intent(in) :: buf        !! the whole file
         character(len=*), intent(in) :: mark       !! '$Nodes' or '$Elements'
         logical, intent(in) :: nodes               !! the section holds nodes
         logical, intent(in) :: binary              !! binary 4.1 layout
+        logical, intent(in) :: v40                 !! ASCII 4.0 layout (a node a line)
         character(len=*), intent(out) :: why       !! what does not add up
         integer(int64) :: p, n_blocks, n_total, sum_n, n, b, head(4), fin
         integer(int32) :: ints(3)
@@ -159,6 +170,7 @@ contains
                     return
                 end if
                 read (buf(p:line_end(buf, p)), *, iostat=ios) head
+                if (v40 .and. ios /= 0) return       ! another layout labelled 4.0: gmsh's
                 if (ios /= 0 .or. head(4) < 0) then
                     w = WALK_BAD
                     why = 'block '//count_text(b)// &
@@ -167,7 +179,7 @@ contains
                 end if
                 n = head(4)
                 call next_line(buf, p)
-                if (nodes) then                 ! the tags' lines, then the coordinates'
+                if (nodes .and. .not. v40) then ! the tags' lines, then the coordinates'
                     call skip_lines(buf, p, 2*n)
                 else
                     call skip_lines(buf, p, n)
@@ -184,6 +196,7 @@ contains
         end if
         if (.not. binary) then
             if (buf(p:min(len(buf, int64), p + len(mark) + 2)) /= '$End'//mark(2:)) then
+                if (v40) return                      ! another layout labelled 4.0: gmsh's
                 w = WALK_BAD
                 why = 'has more blocks than its header gives'
                 return

@@ -183,7 +183,7 @@ contains
             row('scheme', 'max_steps', '100000000', '> 0', i=scn%max_steps), &
             row('scheme', 'mass', "'consistent'", "one of 'consistent', 'lumped', 'redistributed'", &
                 s=scn%mass), &
-            row('scheme', 'newton_tol', '1e-10', '> 0', r=scn%newton_tol), &
+            row('scheme', 'newton_tol', '1e-10', 'in (0, 1)', r=scn%newton_tol), &
             row('scheme', 'newton_maxit', '50', '> 0', i=scn%newton_maxit), &
             row('scheme', 'blowup', '10.0', '> 1', r=scn%blowup), &
             row('output', 'dir', "'out'", 'not be empty', s=scn%out_dir), &

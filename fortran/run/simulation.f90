@@ -16,6 +16,7 @@ module simulation
     use nitsche_contact, only: QUAD_EXACT, QUAD_GAUSS
     use alm_contact, only: ALM_OFF, ALM_INTEGRAL, ALM_NODAL
     use model, only: model_t, model_params_t, model_build, model_initial, model_lift_length, &
+                     model_check_initial, &
                      model_probe, model_mass_apply, model_full_field, MASS_CONSISTENT, &
                      MASS_LUMPED, MASS_REDISTRIBUTED, INITIAL_REST, INITIAL_VELOCITY, &
                      INITIAL_COMPRESSED_BAR
@@ -174,6 +175,8 @@ contains
                   sim%st%mv(n), sim%st%lam(sim%mdl%alm%nl))
         sim%st%lam = 0.0_dp
         call model_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v)
+        call model_check_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v, stat, errmsg)
+        if (stat /= STAT_OK) return
         call state_eval(sim%mdl, sim%st)
         call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
         sim%st%a = 0.0_dp

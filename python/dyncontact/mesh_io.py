@@ -43,7 +43,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .core import BadInputError, DyncontactError, geo_refusal, unmeshed_text
+from .core import BadInputError, DyncontactError, estimate_geo, geo_refusal, unmeshed_text
 from .scene import packaged_file
 
 __all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
@@ -347,7 +347,8 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     Raises
     ------
     BadInputError
-        A size not > 0, no such .geo, or gmsh cannot mesh it.
+        A size not > 0, no such .geo, a gmsh command that ends, stalls or escapes the
+        process (`Exit`, `Sleep`, `SystemCall`: docs/scenes.md), or gmsh cannot mesh it.
     DyncontactError
         gmsh cannot write `out_path` (nothing is left under that name). A write cut
         short midway gmsh does not report: ``dyncontact mesh`` finds it when it reads
@@ -368,6 +369,8 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
                               given=given, **values)
         if refusal:
             raise BadInputError(refusal)
+    else:   # the core's scan for gmsh's commands that end, stall or escape this process
+        estimate_geo(geo, given=given, **values)
     out = Path(out_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     with _gmsh_session("dyncontact-generate") as gmsh:
