@@ -204,3 +204,25 @@ def test_a_snapshot_with_values_that_overflowed_is_readable(run_cli, tmp_path):
     read = [*mesh.points.ravel(), *mesh.point_data["displacement"].ravel(),
             *mesh.point_data["velocity"].ravel()]
     assert sorted(repr(float(v)) for v in read) == sorted(map(repr, values))
+
+
+def test_an_interrupted_run_writes_no_snapshot_of_the_step_it_stopped_on(tmp_path):
+    """Ctrl-C (here from the progress callback) is no numerical failure: the snapshots are
+    the grid's up to the step it stopped on, and its restart gives the run made straight."""
+    import dyncontact
+
+    scene = write(tmp_path, "s.nml", BLOWUP.replace("blowup = 1.001", "blowup = 10.0"))
+    assert run(exe_cmd(scene, "--out", "full"), tmp_path).returncode == EXIT_OK
+
+    def stop(step, n_steps):
+        if step >= 100 and step % FIELDS_EVERY != 0:
+            raise KeyboardInterrupt
+
+    part = tmp_path / "part"
+    with pytest.raises(KeyboardInterrupt):
+        dyncontact.run(scene, out=part, progress=False, callback=stop)
+    stopped = steps_done(part)
+    assert stopped % FIELDS_EVERY != 0 and checkpoint_step(part / CKPT) == stopped
+    assert snapshot_steps(part) == [s for _, s in listed(part)] == grid(stopped)
+    restart_with("exe", scene, part, tmp_path)
+    assert_same_results(part, tmp_path / "full", "interrupted, then restarted")
