@@ -1734,7 +1734,7 @@ contains
     !> iterate of the failed step is no state of the scheme. It lies after the run's last
     !> checkpoint, or at it off the snapshots' grid: a restart removes it with the trace's
     !> rows after the checkpoint (snapshots_at_checkpoint). It takes the place of the
-    !> snapshots the run no longer reaches, so check_space's count holds.
+    !> snapshots the run does not reach, so check_space's count holds.
     subroutine failure_snapshot(sim, stat, errmsg)
         type(simulation_t), intent(inout) :: sim            !! the run (stopped by a failure)
         integer, intent(out) :: stat                        !! status (a failed write)
