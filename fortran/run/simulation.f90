@@ -670,7 +670,10 @@ contains
         st = STAT_OK
         if (sim%scn%fields_every <= 0) return
         ! step 0, the multiples of fields_every and the last step; a restart from step
-        ! sim%step writes those after it and the last step's again (end_only_snapshot)
+        ! sim%step writes those after it and the last step's again (end_only_snapshot).
+        ! Exact for a run that fails too: its failure snapshot (failure_snapshot), at or
+        ! after its last grid snapshot and before the end, stands for the end's or the
+        ! next grid step's, which it never writes
         n_snap = sim%n_steps / sim%scn%fields_every + 1
         if (mod(sim%n_steps, int(sim%scn%fields_every, i8)) /= 0) n_snap = n_snap + 1
         trace = sim_trace_bytes(sim)
@@ -933,7 +936,8 @@ contains
     end function sim_trace_bytes
 
     !> Advance at most max_steps steps. A blow-up or Newton failure stops the run
-    !> (finished = .true.) with STAT_NUMERIC; the trace so far is kept. A failed write
+    !> (finished = .true.) with STAT_NUMERIC; the trace so far is kept, and with field
+    !> snapshots the state it stopped at has one (failure_snapshot). A failed write
     !> stops it with STAT_INTERNAL (status write_failed), a caught SIGINT/SIGTERM at
     !> the end of a step with STAT_INTERRUPTED (status interrupted).
     subroutine sim_advance(sim, max_steps, steps_done, stat, errmsg)
@@ -988,6 +992,11 @@ contains
                                   ' gamma0 (of the order of the material stiffness, '// &
                                   'docs/scenes.md), &scheme newton_tol'
                 end if
+                call failure_snapshot(sim, stat, wmsg)
+                if (stat /= STAT_OK) then
+                    call write_failed(wmsg)
+                    return
+                end if
                 sim%finished = .true.
                 call raise(stat, errmsg, STAT_NUMERIC, trim(sim%message))
                 return
@@ -1008,6 +1017,7 @@ contains
             if (sim%has_load) e_test = e_total - dot_product(sim%st%u, sim%mdl%load)
             if (.not. ieee_is_finite(e_test) .or. e_test > sim%e_limit) then
                 if (.not. row) call record(sim, e_total, stat=stat, errmsg=wmsg)
+                if (stat == STAT_OK) call failure_snapshot(sim, stat, wmsg)
                 if (stat /= STAT_OK) then
                     call write_failed(wmsg)
                     return
@@ -1693,7 +1703,7 @@ contains
         allocate (uf(sim%mdl%dim, sim%mdl%msh%n_nodes), vf(sim%mdl%dim, sim%mdl%msh%n_nodes))
         call model_full_field(sim%mdl, sim%st%u, uf)
         call model_full_field(sim%mdl, sim%st%v, vf)
-        write (name, '(a, i0.7, a)') 'fields/step_', sim%step, '.vtu'  ! 7 digits or more
+        name = snapshot_name(sim%step)
         path = trim(sim%scn%out_dir)//'/'//trim(name)
         call vtk_write_vtu(path//'.tmp', sim%mdl%dim, sim%mdl%msh%x, sim%mdl%msh%cells, uf, vf, &
                            stat, errmsg)
@@ -1710,6 +1720,35 @@ contains
         if (sim%n_snap == 1 .or. real(clock - sim%clock_pvd, dp) > FLUSH_S * sim%clock_rate) &
             call write_pvd(sim, stat, errmsg)
     end subroutine snapshot
+
+    !> The snapshot file of step `step`, relative to the output folder:
+    !> fields/step_NNNNNNN.vtu (7 digits or more).
+    pure function snapshot_name(step) result(name)
+        integer(i8), intent(in) :: step     !! the run's step
+        character(len=64) :: name
+        write (name, '(a, i0.7, a)') 'fields/step_', step, '.vtu'
+    end function snapshot_name
+
+    !> With field snapshots (fields_every > 0), the snapshot of the state a numerical
+    !> failure stopped the run at, unless its step has one already, so that the fields of
+    !> the trace's last state can be looked at: after a blow-up, the step whose energy
+    !> failed the test (its values as computed, non-finite ones included: the trace's
+    !> last row); after a Newton (or linear solve) failure, the last step accepted, as the
+    !> iterate of the failed step is no state of the scheme. It lies after the run's last
+    !> checkpoint, or at it off the snapshots' grid: a restart removes it with the trace's
+    !> rows after the checkpoint (snapshots_at_checkpoint). It takes the place of the
+    !> snapshots the run does not reach, so check_space's count holds.
+    subroutine failure_snapshot(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (stopped by a failure)
+        integer, intent(out) :: stat                        !! status (a failed write)
+        character(len=*), intent(inout), optional :: errmsg !! message
+        stat = STAT_OK
+        if (sim%scn%fields_every <= 0) return
+        if (sim%n_snap > 0) then
+            if (sim%snap_file(sim%n_snap) == snapshot_name(sim%step)) return
+        end if
+        call snapshot(sim, stat, errmsg)
+    end subroutine failure_snapshot
 
     !> fields.pvd listing the snapshots written so far (sim%snap_t, snap_file), written
     !> atomically (temporary file + rename). Rewriting the whole list at every snapshot

@@ -990,7 +990,9 @@ class Stepper(Model):
     def advance(self, steps: int = 1) -> int:
         """Advance by at most ``steps`` steps (an int >= 0: a Python or numpy integer, or a
         0-d integer array); returns the steps done. A numerical failure (unstable,
-        Newton) raises :class:`NumericalError`; a closed Stepper, :class:`DyncontactError`."""
+        Newton) raises :class:`NumericalError`, with the snapshot of the state it stopped
+        at written as the executable writes it (docs/scenes.md, *Outputs*); a closed
+        Stepper, :class:`DyncontactError`."""
         if isinstance(steps, (bool, np.bool_)):
             raise TypeError(f"advance(): steps must be an int, not {type(steps).__name__}")
         try:                  # an int, a numpy integer or a 0-d integer array
