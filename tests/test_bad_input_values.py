@@ -3,7 +3,8 @@ on the mesh: a run started from them would begin at e_total(0) = Infinity or NaN
 NaN at its first contact, and be reported as a numerical failure (exit 3). They are bad
 input, refused at set-up through both entry points with exit status 2 and the same one
 line naming the scene file and the key (fortran/fem/model.f90: check_gamma0,
-model_check_initial)."""
+model_check_initial; fortran/run/simulation.f90: energy_limit, whose blow-up limit
+would otherwise be Infinity and the test off)."""
 
 from __future__ import annotations
 
@@ -33,6 +34,13 @@ CASES = [
             "overflows the stiffness matrix K"),
     BadCase("gravity_times_density", "&material gravity = 0.0, -1e300, density = 1e300 /\n",
             "&material gravity", "the load rho g overflows"),
+    BadCase("gravity_load_energy", "&material gravity = 0.0, -1e200 /\n",
+            "&material gravity", "the load's energy 1/2 L.(K + M/t_end^2)^-1 L overflows"),
+    BadCase("blowup_times_scale",
+            "&initial kind = 'velocity', velocity = 0.0, -1e10, amplitude = 0.0 /\n"
+            "&scheme blowup = 1e300, t_end = 0 /\n",
+            "&scheme blowup", "x the energy scale 4.833E+018 overflows, which would turn the "
+            "blow-up test off; give blowup <= 3.7E+288"),
     BadCase("gamma0_subnormal_theta0", "&contact theta = 0, gamma0 = 1e-320 /\n",
             "&contact gamma0", "1 / gamma_N overflows on this mesh; use gamma0 = 1.0E+001"),
     BadCase("gamma0_subnormal_penalty", "&contact method = 'penalty', gamma0 = 1e-320 /\n",
@@ -53,7 +61,8 @@ def refused_line(run_exe, run_cli, path) -> str:
 
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.id)
 def test_overflowing_value_is_bad_input(run_exe, run_cli, case, tmp_path):
-    path = write_case(case._replace(content=case.content + AT_SET_UP), tmp_path)
+    at_set_up = "" if "&scheme" in case.content else AT_SET_UP   # (t_end = 0 given)
+    path = write_case(case._replace(content=case.content + at_set_up), tmp_path)
     line = refused_line(run_exe, run_cli, path)
     assert f"{path}: {case.where}: " in line, (line, case.where)
     assert case.what in line, (line, case.what)

@@ -182,6 +182,10 @@ contains
         sim%st%a = 0.0_dp
         if (.not. write_output) return
         call start_scheme(sim, stat, errmsg)
+        ! the blow-up limit of this scene (its blowup, and its t_end in the load's energy),
+        ! from the initial state, for a new run and a restart alike: a raised blowup
+        ! continues a run it stopped
+        if (stat == STAT_OK) call energy_limit(sim, stat, errmsg)
         if (stat /= STAT_OK) then
             call release_scheme(sim)
             return
@@ -585,7 +589,6 @@ contains
             call check_writable(dir//'/fields.pvd', st, msg)
         if (st == STAT_OK) call check_space(sim, dir, st, msg)
         if (st /= STAT_OK) return
-        call energy_limit(sim)
         call trace_open(dir//'/trace.csv.tmp', sim%trace, st, msg)
         if (st /= STAT_OK) return
         sim%outputs = .true.
@@ -744,9 +747,6 @@ contains
         if (st /= STAT_OK) return
         if (sim%scn%fields_every > 0) allocate (sim%snap_t(sim%n_steps / sim%scn%fields_every + 2), &
                                                 sim%snap_file(sim%n_steps / sim%scn%fields_every + 2))
-        ! the blow-up limit of this scene (its blowup, and its t_end in the load's energy),
-        ! from the initial state as a new run's: a raised blowup continues a run it stopped
-        call energy_limit(sim)
         call sim_checkpoint_load(sim, path, st, msg, trace_bytes)
         if (st /= STAT_OK) return
         inquire (file=dir//'/trace.csv', exist=exists, size=size)
@@ -867,10 +867,15 @@ contains
     !> is e_total - u.L and the scale |e_total(0) - u0.L| + the stored penalty energy
     !> + the load's energy 1/2 L.(K + M/t_end^2)^{-1} L (the static energy
     !> 1/2 L.K^{-1} L when K dominates; the work of L on the free body over t_end
-    !> when K has rigid modes). Never a running maximum (growth must be seen).
-    subroutine energy_limit(sim)
+    !> when K has rigid modes). Never a running maximum (growth must be seen). A limit
+    !> that overflows is bad input, as it would turn the test off: the load's energy
+    !> (&material gravity) or blowup x the scale (&scheme blowup).
+    subroutine energy_limit(sim, st, msg)
         type(simulation_t), intent(inout) :: sim            !! the run at its initial state
+        integer, intent(out) :: st                          !! status
+        character(len=*), intent(inout), optional :: msg    !! message
         real(dp) :: e_tot, e_scale
+        st = STAT_OK
         e_tot = 0.5_dp * dot_product(sim%st%v, sim%st%mv) &
                 + 0.5_dp * dot_product(sim%st%u, sim%st%ktu) + sim%st%e_theta
         e_scale = e_tot
@@ -881,6 +886,18 @@ contains
             e_scale = max(sim%st%e_pen, 0.0_dp)
         end if
         sim%e_limit = sim%scn%blowup * max(e_scale, tiny(1.0_dp))
+        if (ieee_is_finite(sim%e_limit)) return
+        if (.not. ieee_is_finite(e_scale)) then
+            call raise(st, msg, STAT_BAD_INPUT, trim(sim%scn%path)//': &material gravity: '// &
+                       'the load''s energy 1/2 L.(K + M/t_end^2)^-1 L overflows on this mesh '// &
+                       '(|gravity| = '//real_text(norm2(sim%scn%gravity), 4)// &
+                       ', &material density = '//real_text(sim%scn%density, 4)//')')
+        else
+            call raise(st, msg, STAT_BAD_INPUT, trim(sim%scn%path)//': &scheme blowup: '// &
+                       real_text(sim%scn%blowup, 4)//' x the energy scale '// &
+                       real_text(e_scale, 4)//' overflows, which would turn the blow-up '// &
+                       'test off; give blowup <= '//real_text(huge(1.0_dp) / e_scale / 10.0_dp, 1))
+        end if
     end subroutine energy_limit
 
     !> Step count in 64 bits, refused above &scheme max_steps (t_end / dt may not even
