@@ -228,3 +228,29 @@ def test_an_interrupted_run_writes_no_snapshot_of_the_step_it_stopped_on(tmp_pat
     assert snapshot_steps(part) == [s for _, s in listed(part)] == grid(stopped)
     restart_with("exe", scene, part, tmp_path)
     assert_same_results(part, tmp_path / "full", "interrupted, then restarted")
+
+
+@pytest.mark.parametrize("scheme, contact", [
+    ("newmark", "theta = 1"), ("hht", "theta = 0"), ("theta", "theta = -1"),
+    ("newmark", "method = 'penalty'"), ("newmark", "method = 'alm', multiplier = 'integral'"),
+    ("hht", "method = 'alm', multiplier = 'nodal'")])
+def test_a_newton_failure_ends_the_trace_at_the_last_step_accepted(scheme, contact, tmp_path):
+    """With &output every = 7, the last step accepted before a Newton failure (off the
+    rows' grid) gets its row, as the run's last: the same line, byte for byte, as the end
+    row of the run whose t_end is that step (the failed step's iterations leave no trace
+    in the state the row reads: u, v, their products, the contact state and the
+    multipliers, the Newton count)."""
+    rows = "&output dir = 'out', every = 7,"
+    text = scene_text(scheme, t_end="3.0", extra=", newton_maxit = 1", contact=contact).replace(
+        "&output dir = 'out',", rows)
+    scene = write(tmp_path, "s.nml", text)
+    res = run(exe_cmd(scene, "--out", "part"), tmp_path)
+    assert res.returncode == EXIT_NUMERIC and "did not converge" in res.stderr, res.stderr
+    part = tmp_path / "part"
+    accepted = steps_done(part)
+    assert accepted % 7 != 0
+    last = (part / "trace.csv").read_text().splitlines()[-1]
+    assert float(last.split(",")[0]) == pytest.approx(accepted * DT, rel=1e-12)
+    ends = write(tmp_path, "ends.nml", text.replace("t_end = 3.0", f"t_end = {accepted * DT!r}"))
+    assert run(exe_cmd(ends, "--out", "ends"), tmp_path).returncode == EXIT_OK
+    assert last == (tmp_path / "ends" / "trace.csv").read_text().splitlines()[-1]

@@ -1009,7 +1009,12 @@ contains
                                   ' gamma0 (of the order of the material stiffness, '// &
                                   'docs/scenes.md), &scheme newton_tol'
                 end if
-                call failure_snapshot(sim, stat, wmsg)
+                ! the trace ends, as the snapshots do, at the last step accepted (off the
+                ! rows' grid its row is written here; the failed step changed no state)
+                stat = STAT_OK
+                if (mod(sim%step, int(sim%scn%every, i8)) /= 0) &
+                    call record(sim, e_total, stat=stat, errmsg=wmsg)
+                if (stat == STAT_OK) call failure_snapshot(sim, stat, wmsg)
                 if (stat /= STAT_OK) then
                     call write_failed(wmsg)
                     return
