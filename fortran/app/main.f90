@@ -9,6 +9,7 @@ program main
     use version_info, only: DYNCONTACT_VERSION
     use text, only: int_text, real_text
     use run_lines, only: start_line, restart_line, counted
+    use run_help_text, only: print_run_help
     implicit none
     interface
         !> C exit(): ends the program with a status and no extra output.
@@ -39,8 +40,8 @@ program main
             write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv; a later'
             write (*, '(a)') '&scheme t_end or a raised blowup in SCENE.nml extends the run.'
             ! the scene files and exit statuses, from python/dyncontact/run_help.txt, which
-            ! `python -m dyncontact run --help` prints too (meson.build writes the include)
-            include 'run_help.h'
+            ! `python -m dyncontact run --help` prints too (meson.build generates the module)
+            call print_run_help()
             call c_exit(0_c_int)
         case ('--version', '-V')
             write (*, '(a)') 'dyncontact '//DYNCONTACT_VERSION
