@@ -342,11 +342,11 @@ contains
     !> `file.opt` when it exists, parsed as .geo too. A file named by an expression
     !> (`Include StrCat(...)`, a string variable) cannot be resolved without running
     !> gmsh's parser, and a user relies on the check to keep commands out: it is refused,
-    !> naming the file that holds it (every .geo in meshes/ names its includes, if any,
-    !> with a string). A file already scanned the same way is not scanned again (include
-    !> cycles end, a file included twice is scanned once); deeper than GEO_MAX_DEPTH
-    !> files is refused (a cycle through differently written names; gmsh itself stops on
-    !> a cycle without a guard when it runs out of open files). A missing file passes
+    !> naming the file that holds it (no .geo in meshes/ includes or merges a file). A
+    !> file already scanned the same way is not scanned again (include cycles end, a
+    !> file included twice is scanned once); a file nested deeper than GEO_MAX_DEPTH is
+    !> refused (a cycle through differently written names; gmsh itself stops on a cycle
+    !> without a guard when it runs out of open files). A missing file passes
     !> (gmsh's read says it cannot open it).
     recursive subroutine scan_geo(path, top, how, depth, seen, stat, errmsg)
         character(len=*), intent(in) :: path                !! file to scan
