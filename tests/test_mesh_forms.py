@@ -661,6 +661,19 @@ def test_geo_include_cycle(tmp_path):
     assert not mark.exists()
 
 
+
+def test_geo_includes_nested_too_deep_refused(tmp_path):
+    """Files nested more than 20 deep are refused (a cycle through differently written
+    names would not end otherwise), naming the file past the limit; 20 deep pass."""
+    for k in range(21):
+        _write(tmp_path / f"n{k}.geo", f'Include "n{k + 1}.geo";\n')
+    _write(tmp_path / "n21.geo", "// clean\n")
+    with pytest.raises(BadInputError, match=f"{tmp_path / 'n21.geo'}: files included or "
+                       "merged more than 20 deep"):
+        core.estimate_geo(tmp_path / "n0.geo")
+    (tmp_path / "n20.geo").write_text((ROOT_MESHES / "disk.geo").read_text())
+    assert mesh_io.read_mesh(tmp_path / "n0.geo", h=0.05).dim == 2
+
 #: Files gmsh parses as .geo when the .geo merges them (a .geo, a .msh without a mesh
 #: header) or after it (the options file name.opt gmsh merges after each file): the
 #: line that pulls the file in, the file, its text.
