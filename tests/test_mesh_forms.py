@@ -594,6 +594,136 @@ def test_geo_command_that_escapes_the_process_refused(run_exe, run_cli, tmp_path
     assert not mark.exists()
 
 
+
+def _write(path: Path, text: str) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return path
+
+
+def _disk_with(tmp_path: Path, line: str) -> Path:
+    """meshes/disk.geo with `line` after it, as tmp_path/top.geo."""
+    return _write(tmp_path / "top.geo", (ROOT_MESHES / "disk.geo").read_text() + "\n"
+                  + line + "\n")
+
+
+def test_geo_exit_in_included_file_refused(run_exe, tmp_path):
+    """An Exit in a file the .geo includes (named relative to the .geo's folder) is
+    refused by the run, the reader and the estimate, naming the included file and the
+    .geo that reads it."""
+    inc = _write(tmp_path / "parts" / "ends.geo", "Exit;\n")
+    top = _disk_with(tmp_path, 'Include "parts/ends.geo";')
+    line = _exe_error(run_exe, tmp_path, top)
+    assert f"{inc}: has gmsh's 'Exit' command" in line and f"from {top})" in line, line
+    with pytest.raises(BadInputError, match=f"{inc}: has gmsh's 'Exit' command"):
+        mesh_io.read_mesh(top)
+    with pytest.raises(BadInputError, match="'Exit' command"):
+        core.estimate_geo(top)
+
+
+def test_geo_system_call_two_includes_deep_refused(run_exe, run_cli, tmp_path):
+    """A SystemCall in a file included from an included file, each named relative to
+    the folder of the file that names it (as gmsh resolves it): both entry points
+    refuse with the same line naming that file, so do mesh_io.generate and the reader,
+    and the shell command does not run."""
+    mark = tmp_path / "ran"
+    deep = _write(tmp_path / "sub" / "deeper" / "call.geo", f'SystemCall "touch {mark}";\n')
+    _write(tmp_path / "sub" / "one.geo", 'Include "deeper/call.geo";\n')
+    top = _disk_with(tmp_path, 'Include "sub/one.geo";')
+    scene = tmp_path / "s.nml"
+    scene.write_text(f"&mesh file = '{top}' /\n&scheme t_end = 0 /\n")
+    lines = [stderr_line(res, 2) for res in (run_exe(scene), run_cli("run", scene))]
+    assert lines[0] == lines[1], lines
+    assert f"{deep}: has gmsh's 'SystemCall' command, which would run a shell command" \
+        in lines[0]
+    with pytest.raises(BadInputError, match="'SystemCall' command"):
+        mesh_io.generate(top, tmp_path / "out.msh", max_elements=0)
+    with pytest.raises(BadInputError, match="'SystemCall' command"):
+        mesh_io.read_mesh(top)
+    assert not mark.exists()
+
+
+def test_geo_include_cycle(tmp_path):
+    """a.geo includes b.geo, which includes a.geo (a.geo guards itself, as gmsh needs):
+    the check ends, the disk reads as disk.geo gives it; a command in a file b.geo
+    includes after the cycle is still found."""
+    disk = (ROOT_MESHES / "disk.geo").read_text()
+    a = _write(tmp_path / "a.geo", "If (!Exists(a_read))\na_read = 1;\n"
+               + 'Include "b.geo";\n' + disk + "\nEndIf\n")
+    b = _write(tmp_path / "b.geo", 'Include "a.geo";\n')
+    same_mesh(mesh_io.read_mesh(ROOT_MESHES / "disk.geo", h=0.05),
+              mesh_io.read_mesh(a, h=0.05), "cycle")
+    mark = tmp_path / "ran"
+    _write(tmp_path / "c.geo", f'SystemCall "touch {mark}";\n')
+    b.write_text('Include "a.geo";\nInclude "c.geo";\n')
+    with pytest.raises(BadInputError, match=f"{tmp_path / 'c.geo'}: has gmsh's 'SystemCall'"):
+        mesh_io.read_mesh(a, h=0.05)
+    assert not mark.exists()
+
+
+
+def test_geo_includes_nested_too_deep_refused(tmp_path):
+    """Files nested more than 20 deep are refused (a cycle through differently written
+    names would not end otherwise), naming the file past the limit; 20 deep pass."""
+    for k in range(21):
+        _write(tmp_path / f"n{k}.geo", f'Include "n{k + 1}.geo";\n')
+    _write(tmp_path / "n21.geo", "// clean\n")
+    with pytest.raises(BadInputError, match=f"{tmp_path / 'n21.geo'}: files included or "
+                       "merged more than 20 deep"):
+        core.estimate_geo(tmp_path / "n0.geo")
+    (tmp_path / "n20.geo").write_text((ROOT_MESHES / "disk.geo").read_text())
+    assert mesh_io.read_mesh(tmp_path / "n0.geo", h=0.05).dim == 2
+
+#: Files gmsh parses as .geo when the .geo merges them (a .geo, a .msh without a mesh
+#: header) or after it (the options file name.opt gmsh merges after each file): the
+#: line that pulls the file in, the file, its text.
+MERGED_GEO = {
+    "merge_geo": ('Merge "more.geo";', "more.geo", "Exit;\n"),
+    "merge_msh_without_header": ('Merge "more.msh";', "more.msh", "Exit 3;\n"),
+    "options_file": ("", "top.geo.opt", "Exit;\n"),
+}
+
+
+@pytest.mark.parametrize("case", MERGED_GEO, ids=list(MERGED_GEO))
+def test_geo_exit_in_merged_file_refused(tmp_path, case):
+    line, name, text = MERGED_GEO[case]
+    f = _write(tmp_path / name, text)
+    top = _disk_with(tmp_path, line)
+    with pytest.raises(BadInputError, match=f"{f}: has gmsh's 'Exit' command"):
+        mesh_io.read_mesh(top)
+
+
+def test_geo_merge_of_a_mesh_not_scanned(tmp_path):
+    """A merged file gmsh reads as a mesh (a mesh header on its first line) is not
+    scanned: a name 'Exit' in it is no command."""
+    _write(tmp_path / "more.msh", "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+           "$Comments\nExit;\n$EndComments\n")
+    assert mesh_io.read_mesh(_disk_with(tmp_path, 'Merge "more.msh";'), h=0.05).dim == 2
+
+
+def test_geo_include_of_expression_refused(tmp_path):
+    """A file named by an expression cannot be followed without gmsh's parser: refused,
+    naming the file that holds the Include."""
+    _write(tmp_path / "parts" / "body.geo", (ROOT_MESHES / "disk.geo").read_text())
+    top = _write(tmp_path / "top.geo", 'Include StrCat("parts/", "body.geo");\n')
+    with pytest.raises(BadInputError, match=f"{top}: has gmsh's 'Include' of a file not "
+                       "named by a string"):
+        mesh_io.read_mesh(top)
+
+
+def test_geo_clean_include_meshes_as_inlined(run_exe, tmp_path):
+    """A clean file included (with the command names in its comments and strings, and
+    included twice) meshes as the same text inlined, and a run on it succeeds."""
+    body = (ROOT_MESHES / "disk.geo").read_text()
+    _write(tmp_path / "parts" / "body.geo", body + '\n// Exit;\nPrintf("SystemCall");\n')
+    _write(tmp_path / "parts" / "none.geo", "// nothing\n")
+    top = _write(tmp_path / "top.geo", 'Include "parts/body.geo";\n'
+                 'Include "parts/none.geo";\nInclude "parts/none.geo";\n')
+    for h in (0.05, 0.03):
+        same_mesh(mesh_io.read_mesh(ROOT_MESHES / "disk.geo", h=h),
+                  mesh_io.read_mesh(top, h=h), f"include h={h}")
+
+
 def test_missing_file(run_exe, tmp_path):
     msg = _exe_error(run_exe, tmp_path, tmp_path / "none.msh")
     assert "none.msh" in msg and "cannot read mesh file" in msg

@@ -37,6 +37,12 @@ module gmsh_mesh
     !> Every parameter given (the readers' default, as gmsh -setnumber of all three).
     integer, parameter :: GEO_GIVEN_ALL = 7
 
+    !> How scan_geo reaches a file: the .geo read (merged by gmsh), a file it includes
+    !> (parsed as .geo), a file it merges (parsed as .geo unless gmsh reads it otherwise).
+    integer, parameter :: GEO_TOP = 0, GEO_INCLUDED = 1, GEO_MERGED = 2
+    !> Files nested deeper than this under the .geo read are refused (scan_geo).
+    integer, parameter :: GEO_MAX_DEPTH = 20
+
     !> Relative tolerance of the test that dropped coordinates are constant.
     real(dp), parameter :: PLANE_TOL = 1.0e-10_dp
 
@@ -312,9 +318,42 @@ contains
     !> gmsh, as are its commands that write files. The scan is of the text without its
     !> comments and strings ("..." and '...'); a command is the whole name, not followed
     !> by an assignment or an index (a variable of that name, `System = 1;`, passes). A
-    !> file it cannot read passes (gmsh's read says why).
+    !> file it cannot read passes (gmsh's read says why). The files gmsh parses along
+    !> with it are scanned the same way (scan_geo): those it names with `Include` or
+    !> `Merge`, and the options file gmsh merges after each file it merges.
     subroutine geo_check_commands(path, stat, errmsg)
         character(len=*), intent(in) :: path                !! .geo file
+        integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
+        character(len=*), intent(inout), optional :: errmsg !! one line naming the file
+        character(len=:), allocatable :: seen
+        seen = achar(0)
+        call scan_geo(path, path, GEO_TOP, 0, seen, stat, errmsg)
+    end subroutine geo_check_commands
+
+    !> The scan of geo_check_commands of the file `path`, reached from the top-level
+    !> .geo `top` at include depth `depth` as `how` (GEO_TOP, GEO_INCLUDED, GEO_MERGED),
+    !> then of the files it names with `Include "file";` or `Merge "file";`, recursively.
+    !> gmsh resolves a relative name against the folder of the file that names it, an
+    !> absolute one as given; it parses an included file as .geo whatever its name, and
+    !> merges a file (gmshMerge, MergeFile in gmsh's OpenFile.cpp) by its extension: the
+    !> extensions of its other readers (merged_by_extension) are not scanned, any other
+    !> (.geo, .msh, .pos, .opt, none, ...) is parsed as .geo unless its first line is a
+    !> mesh or view header (geo_header_not_geo), and after each merge gmsh merges
+    !> `file.opt` when it exists, parsed as .geo too. A file named by an expression
+    !> (`Include StrCat(...)`, a string variable) cannot be resolved without running
+    !> gmsh's parser, and a user relies on the check to keep commands out: it is refused,
+    !> naming the file that holds it (no .geo in meshes/ includes or merges a file). A
+    !> file already scanned the same way is not scanned again (include cycles end, a
+    !> file included twice is scanned once); a file nested deeper than GEO_MAX_DEPTH is
+    !> refused (a cycle through differently written names; gmsh itself stops on a cycle
+    !> without a guard when it runs out of open files). A missing file passes
+    !> (gmsh's read says it cannot open it).
+    recursive subroutine scan_geo(path, top, how, depth, seen, stat, errmsg)
+        character(len=*), intent(in) :: path                !! file to scan
+        character(len=*), intent(in) :: top                 !! the top-level .geo (messages)
+        integer, intent(in) :: how                          !! GEO_TOP, GEO_INCLUDED, GEO_MERGED
+        integer, intent(in) :: depth                        !! files between top and path
+        character(len=:), allocatable, intent(inout) :: seen !! NUL-separated keys scanned
         integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! one line naming the file
         character(len=*), parameter :: COMMANDS(6) = [character(len=21) :: 'Exit', 'Sleep', &
@@ -323,13 +362,33 @@ contains
             'would end the run without a word', 'would stall the run', &
             'would run a shell command', 'would run a shell command', &
             'would run a shell command', 'would run another program']
-        character(len=:), allocatable :: buf
-        integer :: i, j, k, n
+        character(len=:), allocatable :: buf, key, via, name
+        integer :: i, j, k, n, q
         logical :: ok
 
         stat = STAT_OK
+        via = ''
+        name = ''
+        if (path /= top) via = ' (read through Include or Merge from '//top//')'
+        if (depth > GEO_MAX_DEPTH) then
+            call raise(stat, errmsg, STAT_BAD_INPUT, path//': files included or merged '// &
+                       'more than '//int_text(GEO_MAX_DEPTH)//' deep (a cycle?)'//via)
+            return
+        end if
+        key = achar(48 + how)//path//achar(0)
+        if (index(seen, achar(0)//key) > 0) return
+        seen = seen//key
+        if (how /= GEO_INCLUDED) then     ! gmsh merges path.opt after merging path
+            inquire (file=path//'.opt', exist=ok, iostat=q)
+            if (q == 0 .and. ok) then
+                call scan_geo(path//'.opt', top, GEO_MERGED, depth + 1, seen, stat, errmsg)
+                if (stat /= STAT_OK) return
+            end if
+            if (how == GEO_MERGED .and. merged_by_extension(file_extension(path))) return
+        end if
         call read_whole_file(path, 4, buf, ok)
         if (.not. ok) return
+        if (how == GEO_MERGED .and. geo_header_not_geo(buf)) return
         n = len(buf)
         i = 1
         do while (i <= n)
@@ -356,15 +415,95 @@ contains
                     if (names_variable(buf(j + 1:))) exit
                     call raise(stat, errmsg, STAT_BAD_INPUT, path//": has gmsh's '"// &
                                trim(COMMANDS(k))//"' command, which "//trim(EFFECTS(k))// &
-                               ': remove it (gmsh meshes the file without it)')
+                               ': remove it (gmsh meshes the file without it)'//via)
                     return
                 end do
+                if ((buf(i:j) == 'Include' .or. buf(i:j) == 'Merge' .or. &
+                     buf(i:j) == 'MergeWithBoundingBox') .and. &
+                    .not. names_variable(buf(j + 1:))) then
+                    q = j + next_token(buf(j + 1:))
+                    k = 0
+                    if (q <= n) then
+                        if (buf(q:q) == '"') k = index(buf(q + 1:), '"')
+                    end if
+                    if (k == 0) then
+                        call raise(stat, errmsg, STAT_BAD_INPUT, path//": has gmsh's '"// &
+                                   buf(i:j)//"' of a file not named by a string ("// &
+                                   '"file.geo"), '// &
+                                   'which the check of its commands cannot follow: name the'// &
+                                   ' file with a string'//via)
+                        return
+                    end if
+                    name = buf(q + 1:q + k - 1)
+                    if (len(name) > 0) then
+                        if (name(1:1) /= '/') name = path(1:index(path, '/', back=.true.))//name
+                        call scan_geo(name, top, merge(GEO_INCLUDED, GEO_MERGED, &
+                                      buf(i:j) == 'Include'), depth + 1, seen, stat, errmsg)
+                        if (stat /= STAT_OK) return
+                    end if
+                    j = q + k
+                end if
                 i = j + 1
             else
                 i = i + 1
             end if
         end do
-    end subroutine geo_check_commands
+    end subroutine scan_geo
+
+    !> The offset in `rest` of its first character after blanks and comments (gmsh's
+    !> lexer skips them between a command and its argument); len(rest) + 1 if none.
+    pure integer function next_token(rest)
+        character(len=*), intent(in) :: rest    !! the text after a name
+        integer :: i, j
+        i = 1
+        do while (i <= len(rest))
+            if (rest(i:min(len(rest), i + 1)) == '//') then
+                j = index(rest(i:), achar(10))
+                if (j == 0) exit
+                i = i + j
+            else if (rest(i:min(len(rest), i + 1)) == '/*') then
+                j = index(rest(i + 2:), '*/')
+                if (j == 0) exit
+                i = i + j + 3
+            else if (verify(rest(i:i), ' '//achar(9)//achar(10)//achar(13)) == 0) then
+                i = i + 1
+            else
+                next_token = i
+                return
+            end if
+        end do
+        next_token = len(rest) + 1
+    end function next_token
+
+    !> True for the extensions gmsh's MergeFile (gmsh 4.15) reads with a reader of its
+    !> own, CAD and mesh formats, compared in these cases only, as gmsh compares them: a
+    !> file merged with one of them is not parsed as .geo. Images, read only by gmsh
+    !> builds with a graphical interface, are left to the scan.
+    pure logical function merged_by_extension(ext)
+        character(len=*), intent(in) :: ext     !! extension with its dot, '' if none
+        character(len=*), parameter :: OTHER = ' .stl .STL .nii .brep .rle .brp .BRP .xao .XAO'// &
+            ' .iges .IGES .igs .IGS .step .STEP .stp .STP .sat .SAT .x_t .xmt_txt .x_b'// &
+            ' .xmt_bin .unv .UNV .vtk .VTK .wrl .WRL .vrml .VRML .iv .IV .mesh .MESH .off'// &
+            ' .OFF .diff .DIFF .med .MED .mmed .MMED .rmed .RMED .bdf .BDF .nas .NAS .neu'// &
+            ' .NEU .dat .DAT .p3d .P3D .ply2 .PLY2 .ply .PLY .geom .GEOM '
+        merged_by_extension = len(ext) > 1 .and. index(ext, ' ') == 0 .and. &
+                              index(OTHER, ' '//ext//' ') > 0
+    end function merged_by_extension
+
+    !> True when a merged file's first line starts as gmsh's MergeFile reads a mesh
+    !> ($MeshFormat, $Comments, $NO, $ELM, $PTS, $PARA) or a view ($PostFormat, $View)
+    !> instead of parsing the file as .geo.
+    pure logical function geo_header_not_geo(buf)
+        character(len=*), intent(in) :: buf     !! the file's bytes
+        character(len=*), parameter :: HEADERS(8) = [character(len=11) :: '$PTS', '$NO', &
+            '$PARA', '$ELM', '$MeshFormat', '$Comments', '$PostFormat', '$View']
+        integer :: k
+        geo_header_not_geo = .false.
+        do k = 1, size(HEADERS)
+            if (len(buf) < len_trim(HEADERS(k))) cycle
+            if (buf(1:len_trim(HEADERS(k))) == trim(HEADERS(k))) geo_header_not_geo = .true.
+        end do
+    end function geo_header_not_geo
 
     !> True when the text after a name makes it a variable: an assignment (=, +=, -=,
     !> *=, /=, ++, --), an index ([ or ~{) or a member (.), after blanks.
