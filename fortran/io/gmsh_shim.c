@@ -226,13 +226,13 @@ static void *stop_watch_main(void *arg)
  * signals_restore); elsewhere (a library caller) nothing. */
 static void stop_watch_start(stop_watch_t *w, const char *path)
 {
-    struct sigaction now;
+    struct sigaction current;
     int n, i, any = 0;
     w->armed = w->running = 0;
     if (!dc_read_signal_exits() || stop_armed) return;
     for (i = 0; i < 2; i++) {
-        stop_ends[i] = sigaction(STOP_SIGNALS[i], NULL, &now) == 0
-                       && now.sa_handler != SIG_IGN;
+        stop_ends[i] = sigaction(STOP_SIGNALS[i], NULL, &current) == 0
+                       && current.sa_handler != SIG_IGN;
         any = any || stop_ends[i];
     }
     if (!any) return;
