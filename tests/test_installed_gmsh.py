@@ -60,7 +60,7 @@ def test_shim_built_without_gmsh_finds_the_installed_wheel(tmp_path):
     driver.write_text(
         "#include <stdio.h>\n"
         "int dc_gmsh_available(char *msg, int msglen);\n"
-        "int dc_signals_installed(void) { return 0; }\n"
+        "int dc_read_signal_exits(void) { return 0; }\n"
         "int main(void) {\n"
         "    char msg[1024];\n"
         "    int ok = dc_gmsh_available(msg, sizeof msg);\n"

@@ -12,6 +12,17 @@ subroutine dc_version(version)
     version = DYNCONTACT_VERSION
 end subroutine dc_version
 
+!> For a program only (`python -m dyncontact run`), never the library: from this call on,
+!> SIGINT / SIGTERM while gmsh reads or meshes a mesh file end the process at once (exit
+!> 130, the executable's one line naming the file) instead of waiting for gmsh. A switch of
+!> the process that the program owning it sets once, as the executable installs its signal
+!> handlers; not a run's state, since a library caller's process is not the run's to end.
+subroutine dc_exit_on_read_signal()
+    use os_files, only: exit_on_read_signal
+    implicit none
+    call exit_on_read_signal()
+end subroutine dc_exit_on_read_signal
+
 !> Read and validate a scene file; write the parsed scene (defaults filled) as JSON.
 !> given: the keys the file writes, 'group.key' separated by blanks.
 subroutine dc_scene_dump(path, json_path, given, stat, errmsg)

@@ -40,7 +40,9 @@
  * handlers installed, run_guard.c), a read or meshing may take minutes and nothing has
  * been written yet: there a thread waits for SIGINT / SIGTERM during dc_gmsh_read and
  * ends the process at once (exit 130, one line naming the file), so Ctrl-C does not wait
- * for gmsh to finish.
+ * for gmsh to finish. A program that runs in a Python process (`python -m dyncontact
+ * run`) asks for the same with dc_exit_on_read_signal (run_guard.c); a library caller
+ * never does, and keeps the signal until the read is over.
  * Status: 0 ok, 2 bad input (message in msg), 4 out of memory, 5 a .geo estimated above
  * the element limit (not meshed; see geo_estimate). */
 #define _GNU_SOURCE   /* strcasestr */
@@ -119,56 +121,140 @@ static void signals_restore(const signal_state_t *s)
     pthread_sigmask(SIG_SETMASK, &s->mask, NULL);
 }
 
-int dc_signals_installed(void);   /* run_guard.c */
+int dc_read_signal_exits(void);   /* run_guard.c */
 
-/* The thread that ends the executable on SIGINT / SIGTERM during a read (see the header);
- * running = 0 where none was started. */
+/* A stop armed by stop_watch_start: armed = 1 when this read armed it, running = 1 when
+ * its thread (stop_watch_main) runs. */
 typedef struct {
     pthread_t thread;
-    int running;
+    int armed, running;
 } stop_watch_t;
 
-/* Wait for SIGINT or SIGTERM (blocked in every thread meanwhile, so they stay pending until
- * taken here), then say so in one line naming the file and end the process with 130, the
- * executable's status for an interrupted run. */
+/* The start of the line said when a stop signal ends a read ("dyncontact: FILE:
+ * interrupted by signal "), and whether a stop is armed: process state, written before
+ * the handler of stop_arm_handlers is installed and read by it, since a signal handler
+ * gets no argument. One read at a time is armed (the executable and the Python command
+ * line read one mesh at a time); a read started meanwhile in another thread arms none. */
+static char stop_head[4096];
+static size_t stop_head_len;
+static volatile sig_atomic_t stop_armed = 0;
+
+/* The stop signals, and those of them that end an armed read: not one the process
+ * ignores when the read starts (SIG_IGN: `nohup`, a background job of a shell without job
+ * control), which stays ignored. */
+static const int STOP_SIGNALS[2] = {SIGINT, SIGTERM};
+static int stop_ends[2];
+
+#define STOP_TAIL " while gmsh read it; nothing was written\n"
+
+/* Say that signal sig interrupted the read, in one line on stderr, and end the process
+ * with 130, the status of an interrupted run. Only async-signal-safe calls (write, _exit):
+ * a signal handler calls it too. */
+static void stop_exit(int sig)
+{
+    char num[16];
+    int i = (int)sizeof num;
+    ssize_t w;
+    do { num[--i] = (char)('0' + sig % 10); sig /= 10; } while (sig > 0 && i > 0);
+    w = write(STDERR_FILENO, stop_head, stop_head_len);
+    w = write(STDERR_FILENO, num + i, sizeof num - (size_t)i);
+    w = write(STDERR_FILENO, STOP_TAIL, sizeof STOP_TAIL - 1);
+    (void)w;
+    _exit(130);
+}
+
+static void stop_on_signal(int sig) { stop_exit(sig); }
+
+/* Point SIGINT and SIGTERM (those of stop_ends) at stop_on_signal while a stop is armed. The thread of
+ * stop_watch_main alone does not do: a signal sent to the process goes to any one of its
+ * threads that does not block it, and a Python process has such threads (OpenBLAS's
+ * workers, started when numpy is imported, before the read blocks the signals in its own
+ * thread); there the disposition decides, which would be Python's handler (a flag, seen
+ * once gmsh returns) or, for SIGTERM once gmsh's initialization has reset it, the default
+ * (killed without a line). Called when the stop is armed, and again after gmsh's
+ * initialization (gmsh_read). */
+static void stop_arm_handlers(void)
+{
+    struct sigaction sa;
+    int i;
+    if (!stop_armed) return;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = stop_on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaddset(&sa.sa_mask, SIGINT);
+    sigaddset(&sa.sa_mask, SIGTERM);
+    for (i = 0; i < 2; i++)
+        if (stop_ends[i]) sigaction(STOP_SIGNALS[i], &sa, NULL);
+}
+
+/* The stop signals' dispositions after gmsh's initialization, which resets SIGTERM,
+ * SIGHUP and SIGQUIT to their defaults, as they must be during the read in the threads
+ * that do not block them (a Python process has such threads, see stop_arm_handlers):
+ * the stop's handlers where one is armed, else the caller's own, saved in s by
+ * signals_save. Without this a library caller's SIGTERM during the first read reaches one
+ * of those threads with the default disposition and kills the process, instead of
+ * reaching the caller's handler once the read is over. */
+static void stop_signals_after_init(const signal_state_t *s)
+{
+    static const int stop[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
+    size_t i;
+    for (i = 0; i < sizeof stop / sizeof stop[0]; i++)
+        if (s->saved[stop[i]]) sigaction(stop[i], &s->action[stop[i]], NULL);
+    stop_arm_handlers();
+}
+
+/* Wait for SIGINT or SIGTERM (those of stop_ends; blocked in the reading thread, so they
+ * stay pending until taken here or by another thread's stop_on_signal), then stop_exit. The one thread of
+ * the executable that does not block them during a read. */
 static void *stop_watch_main(void *arg)
 {
-    const char *path = arg;
     sigset_t stop;
-    int sig = 0;
-    char line[4096];
-    int n;
+    int sig = 0, i;
+    (void)arg;
     sigemptyset(&stop);
-    sigaddset(&stop, SIGINT);
-    sigaddset(&stop, SIGTERM);
+    for (i = 0; i < 2; i++)
+        if (stop_ends[i]) sigaddset(&stop, STOP_SIGNALS[i]);
     if (sigwait(&stop, &sig) != 0) return NULL;
-    n = snprintf(line, sizeof line, "dyncontact: %s: interrupted by signal %d while gmsh read "
-                 "it; nothing was written\n", path, sig);
-    if (n > 0) {
-        ssize_t w = write(STDERR_FILENO, line, (size_t)n < sizeof line ? (size_t)n
-                                                                    : sizeof line - 1);
-        (void)w;
-    }
-    _exit(130);
+    stop_exit(sig);
     return NULL;
 }
 
-/* In the executable, start the thread of stop_watch_main for path (the stop signals are
- * already blocked by signals_save); elsewhere nothing. */
+/* In the executable, or a program that asked for it (dc_exit_on_read_signal, run_guard.c:
+ * `python -m dyncontact run`), arm the stop for path: the line's start, the handlers of
+ * stop_arm_handlers and the thread of stop_watch_main (the stop signals are blocked in
+ * this thread already by signals_save, and the dispositions it saved are put back by
+ * signals_restore); elsewhere (a library caller) nothing. */
 static void stop_watch_start(stop_watch_t *w, const char *path)
 {
-    w->running = dc_signals_installed()
-                 && pthread_create(&w->thread, NULL, stop_watch_main, (void *)path) == 0;
+    struct sigaction current;
+    int n, i, any = 0;
+    w->armed = w->running = 0;
+    if (!dc_read_signal_exits() || stop_armed) return;
+    for (i = 0; i < 2; i++) {
+        stop_ends[i] = sigaction(STOP_SIGNALS[i], NULL, &current) == 0
+                       && current.sa_handler != SIG_IGN;
+        any = any || stop_ends[i];
+    }
+    if (!any) return;
+    n = snprintf(stop_head, sizeof stop_head, "dyncontact: %s: interrupted by signal ", path);
+    if (n < 0) return;
+    stop_head_len = (size_t)n < sizeof stop_head ? (size_t)n : sizeof stop_head - 1;
+    stop_armed = w->armed = 1;
+    stop_arm_handlers();
+    w->running = pthread_create(&w->thread, NULL, stop_watch_main, NULL) == 0;
 }
 
-/* End the thread of stop_watch_start (before the signals are unblocked, so that a signal
- * sent after the read goes to the run's handler as before). */
+/* End the thread of stop_watch_start and disarm, before signals_restore puts the
+ * dispositions and the mask back, so that a signal sent after the read goes to the run's
+ * handler as before. */
 static void stop_watch_end(stop_watch_t *w)
 {
-    if (!w->running) return;
-    pthread_cancel(w->thread);   /* sigwait is a cancellation point */
-    pthread_join(w->thread, NULL);
-    w->running = 0;
+    if (w->running) {
+        pthread_cancel(w->thread);   /* sigwait is a cancellation point */
+        pthread_join(w->thread, NULL);
+    }
+    if (w->armed) stop_armed = 0;
+    w->armed = w->running = 0;
 }
 
 static void set_msg(char *msg, int len, const char *a, const char *b, const char *c)
@@ -1278,7 +1364,7 @@ static int geo_parse(const char *path, const double *params, session_t *s, char 
  * is not meshed: status 5, the estimate in est, no message (the caller names its keys).
  * est[0] = -1 when no estimate was made. */
 static int gmsh_read(const char *path, const double *params, int is_geo, void **out,
-                     double est[4], char *msg, int msglen);
+                     double est[4], char *msg, int msglen, const signal_state_t *sigs);
 
 int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
                  double est[4], char *msg, int msglen)
@@ -1288,7 +1374,7 @@ int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
     int st;
     signals_save(&sigs);
     stop_watch_start(&watch, path);
-    st = gmsh_read(path, params, is_geo, out, est, msg, msglen);
+    st = gmsh_read(path, params, is_geo, out, est, msg, msglen, &sigs);
     stop_watch_end(&watch);
     signals_restore(&sigs);
     return st;
@@ -1313,6 +1399,7 @@ int dc_gmsh_estimate(const char *path, const double *params, double est[4], char
         gmsh_error(path, "gmsh initialization", msg, msglen);
         st = 2;
     } else {
+        stop_signals_after_init(&sigs);
         st = geo_parse(path, params, &s, msg, msglen);
         if (st == 0) geo_estimate(path, est);
     }
@@ -1321,9 +1408,10 @@ int dc_gmsh_estimate(const char *path, const double *params, double est[4], char
     return st;
 }
 
-/* dc_gmsh_read without the signal guard. */
+/* dc_gmsh_read inside its signal guard (sigs: the dispositions it saved, put back for the
+ * stop signals after gmsh's initialization by stop_signals_after_init). */
 static int gmsh_read(const char *path, const double *params, int is_geo, void **out,
-                     double est[4], char *msg, int msglen)
+                     double est[4], char *msg, int msglen, const signal_state_t *sigs)
 {
     session_t s;
     int ierr = 0, st = 0;
@@ -1339,6 +1427,7 @@ static int gmsh_read(const char *path, const double *params, int is_geo, void **
         free(m);
         return 2;
     }
+    stop_signals_after_init(sigs);
     if (is_geo) {
         st = geo_parse(path, params, &s, msg, msglen);
         if (st == 0 && params[4] > 0) {

@@ -15,6 +15,9 @@ module os_files
             import :: c_int
             integer(c_int) :: r
         end function c_signals_install
+        !> SIGINT / SIGTERM during a gmsh read end the process from this call on (run_guard.c).
+        subroutine c_exit_on_read_signal() bind(C, name='dc_exit_on_read_signal')
+        end subroutine c_exit_on_read_signal
         !> The signal caught since the handlers were installed (0 = none; run_guard.c).
         function c_signal_caught() bind(C, name='dc_signal_caught') result(r)
             import :: c_int
@@ -136,10 +139,10 @@ module os_files
         end function c_lock_release
     end interface
 
-    public :: signals_install, signal_caught, fd_open, fd_write, fd_close, file_rename, &
-              file_remove, check_writable, lock_take, lock_release, write_text_atomic, sys_error, &
-              free_space, fd_sync, fd_reopen, bytes_hash, remove_matching, same_folder, &
-              write_status, read_whole_file
+    public :: signals_install, exit_on_read_signal, signal_caught, fd_open, fd_write, &
+              fd_close, file_rename, file_remove, check_writable, lock_take, lock_release, &
+              write_text_atomic, sys_error, free_space, fd_sync, fd_reopen, bytes_hash, &
+              remove_matching, same_folder, write_status, read_whole_file
 
 contains
 
@@ -208,6 +211,14 @@ contains
         if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, 'cannot install signal handlers: ' &
                                //sys_error(r))
     end subroutine signals_install
+
+    !> For a program hosted in another process (the Python command line), never for the
+    !> library: from this call on, SIGINT / SIGTERM while gmsh reads a mesh file end the
+    !> process, exit status 130 and one line naming the file, as in the executable, whose
+    !> handlers (signals_install) mean the same. A switch of the process, never cleared.
+    subroutine exit_on_read_signal()
+        call c_exit_on_read_signal()
+    end subroutine exit_on_read_signal
 
     !> The signal number caught since signals_install (0 = none, always 0 without it).
     function signal_caught() result(sig)

@@ -32,6 +32,8 @@ static volatile sig_atomic_t dc_signal_flag = 0;
 
 static volatile sig_atomic_t dc_signals_own = 0;   /* the executable's handlers installed */
 
+static volatile sig_atomic_t dc_read_exit = 0;     /* dc_exit_on_read_signal has run */
+
 static void dc_on_signal(int sig) { dc_signal_flag = sig; }
 
 /* Install the SIGINT and SIGTERM handlers (executable only), and ignore SIGXFSZ: a write
@@ -58,10 +60,20 @@ int dc_signals_install(void)
     return 0;
 }
 
-/* 1 once dc_signals_install has run: the process is the executable, which may end itself
- * on SIGINT / SIGTERM while nothing has been written (gmsh_shim.c); 0 in a host process
- * such as Python, whose own handling of the signals stays. */
-int dc_signals_installed(void) { return (int)dc_signals_own; }
+/* Called once by a program hosted in another process image (`python -m dyncontact run`):
+ * from then on SIGINT / SIGTERM during a gmsh read end the process as in the executable
+ * (gmsh_shim.c), with exit status 130 and the same line. A switch of the process, never
+ * cleared, like the executable's handlers, and never set by the library: whether a signal
+ * may end the process belongs to the program that owns it; a script or notebook that
+ * calls the library keeps its own handling of the signals. The caller must have written
+ * nothing before the read that the exit would leave behind (a temporary file, a lock). */
+void dc_exit_on_read_signal(void) { dc_read_exit = 1; }
+
+/* 1 when SIGINT / SIGTERM during a gmsh read may end the process, while nothing has been
+ * written (gmsh_shim.c): in the executable (dc_signals_install has run) or a program that
+ * called dc_exit_on_read_signal; 0 in a library caller's process (a Python script or
+ * notebook), whose own handling of the signals stays. */
+int dc_read_signal_exits(void) { return dc_signals_own || dc_read_exit; }
 
 /* The signal caught since the handlers were installed (0 = none). */
 int dc_signal_caught(void) { return (int)dc_signal_flag; }

@@ -136,6 +136,14 @@ def cmd_run(args) -> int:
         scene = scene_path
     progress = False if args.quiet else None
     waited = False
+    if getattr(args, "program", False) and not sets:
+        # as the executable: Ctrl-C or SIGTERM while gmsh reads or meshes the mesh file
+        # ends the program at once (exit 130, one line naming the file) instead of after
+        # the meshing; nothing is written before the read (the core makes the output
+        # folder and takes its lock after it, and run() of a scene file makes no
+        # temporary file). Not with --set: run() writes the Scene to a temporary file
+        # first, which the exit would leave behind.
+        core.exit_on_signal_during_mesh_read()
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
     with warnings.catch_warnings():
@@ -351,8 +359,12 @@ def _counted(n, noun: str) -> str:
     return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point; returns the exit status."""
+def main(argv: Sequence[str] | None = None, *, program: bool = False) -> int:
+    """Entry point; returns the exit status. ``program``: the process is this command
+    (``python -m dyncontact``), which may then end itself on a signal while gmsh reads a
+    run's mesh file, as the executable does (:func:`dyncontact.core.
+    exit_on_signal_during_mesh_read`); False (a caller that runs the command inside its
+    own process) keeps Python's handling of the signals."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         if argv and argv[0] == "mesh":
@@ -364,6 +376,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT
+        args.program = program
         return args.func(args)
     except KeyboardInterrupt as exc:
         # a run's own line (t, what was kept), as the executable prints it

@@ -177,6 +177,26 @@ def _core():
     return core
 
 
+def exit_on_signal_during_mesh_read() -> None:
+    """For a program only (``python -m dyncontact run``), never for a library caller:
+    from this call on, SIGINT or SIGTERM while gmsh reads or meshes a mesh file ends the
+    whole process at once with exit status 130 and the executable's line on stderr
+    (``dyncontact: FILE: interrupted by signal N while gmsh read it; nothing was
+    written``), instead of the signal waiting until gmsh returns (minutes on a large
+    .geo) and coming back as a KeyboardInterrupt.
+
+    A switch of the process, set once and never cleared, as the executable's signal
+    handlers are: ending the process is the decision of the program that owns it, not
+    of a run, so it is no argument of :func:`run` and no state of a library object. A
+    script, a notebook or a :class:`Stepper` that imports dyncontact keeps Python's
+    handling of the signals (a KeyboardInterrupt once the read is over). It is safe only
+    where nothing has been written before the read: the core reads the mesh before it
+    makes the output folder or takes its lock, and :func:`run` of a scene file makes no
+    temporary file (a :class:`dyncontact.Scene` is written to one first, which the exit
+    would leave behind: the caller that runs a Scene must not set this)."""
+    _core().dc_exit_on_read_signal()
+
+
 def _str(b: bytes | str) -> str:
     """A fixed-length Fortran string returned by f2py, as str."""
     if isinstance(b, bytes):
@@ -445,11 +465,16 @@ def _need_scene(scene, who: str) -> None:
                         f"dyncontact.Scene, not {type(scene).__name__}")
 
 
-def _scene_file(scene, folder: str) -> tuple[str, str | None]:
+def _is_path(scene) -> bool:
+    """True for a scene given as a path (a file the core reads), False for a Scene."""
+    return isinstance(scene, (str, bytes, os.PathLike))
+
+
+def _scene_file(scene, folder: str | None) -> tuple[str, str | None]:
     """(the scene file the core reads, the temporary file written for it or None): a
     path as it is; a Scene written into ``folder`` (:func:`_write_scene`), whose file
     the core's messages name until :func:`_raise_for_scene` names the Scene instead."""
-    if isinstance(scene, (str, bytes, os.PathLike)):
+    if _is_path(scene):
         return os.fsdecode(scene), None
     written = _write_scene(scene, folder)
     return written, written
@@ -528,7 +553,10 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     explicit_out = out is not None
     if restart is not None and out is None:
         out = restart
-    tmp = tempfile.mkdtemp(prefix="dyncontact-")
+    # a folder for the file a Scene is written to; none for a scene file, so that a
+    # program that ends itself on a signal while gmsh reads the mesh
+    # (exit_on_signal_during_mesh_read) leaves nothing behind
+    tmp = None if _is_path(scene) else tempfile.mkdtemp(prefix="dyncontact-")
     written = None    # the temporary file a Scene is written to (its messages name the Scene)
     try:
         path, written = _scene_file(scene, tmp)
@@ -615,7 +643,8 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     except BadInputError as exc:
         _raise_for_scene(exc, written, scene)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
 
 
 #: The longest text of a callback's exception that summary.json's message repeats.
