@@ -33,6 +33,7 @@ module msh_sections
     use, intrinsic :: iso_fortran_env, only: int32, int64
     use errors, only: STAT_OK, STAT_BAD_INPUT, raise
     use os_files, only: read_whole_file
+    use text, only: int_text
     implicit none
     private
     public :: msh_check_counts
@@ -136,7 +137,7 @@ contains
             if (binary) then
                 if (p + 19 > fin) then
                     w = WALK_BAD
-                    why = 'header gives '//count_text(n_blocks)//' blocks, it has fewer'
+                    why = 'header gives '//int_text(n_blocks)//' blocks, it has fewer'
                     return
                 end if
                 ints = transfer(buf(p:p + 11), ints)
@@ -144,7 +145,7 @@ contains
                 p = p + 20
                 if (n < 0 .or. n > len(buf, int64)) then
                     w = WALK_BAD
-                    why = 'block '//count_text(b)//' has a count '// &
+                    why = 'block '//int_text(b)//' has a count '// &
                           'larger than the file'
                     return
                 end if
@@ -159,21 +160,21 @@ contains
                 end if
                 if (p > fin) then
                     w = WALK_BAD
-                    why = 'block '//count_text(b)//' runs past the end of the section'
+                    why = 'block '//int_text(b)//' runs past the end of the section'
                     return
                 end if
             else
                 if (buf(p:p) == '$') then
                     w = WALK_BAD
-                    why = 'header gives '//count_text(n_blocks)// &
-                          ' blocks, it has '//count_text(b - 1)
+                    why = 'header gives '//int_text(n_blocks)// &
+                          ' blocks, it has '//int_text(b - 1)
                     return
                 end if
                 read (buf(p:line_end(buf, p)), *, iostat=ios) head
                 if (v40 .and. ios /= 0) return       ! another layout labelled 4.0: gmsh's
                 if (ios /= 0 .or. head(4) < 0) then
                     w = WALK_BAD
-                    why = 'block '//count_text(b)// &
+                    why = 'block '//int_text(b)// &
                           "'s header does not parse"
                     return
                 end if
@@ -190,8 +191,8 @@ contains
         if (p > len(buf, int64)) return
         if (sum_n /= n_total) then
             w = WALK_BAD
-            why = 'header gives '//count_text(n_total)// &
-                  ', its blocks hold '//count_text(sum_n)
+            why = 'header gives '//int_text(n_total)// &
+                  ', its blocks hold '//int_text(sum_n)
             return
         end if
         if (.not. binary) then
@@ -279,15 +280,6 @@ contains
             if (buf(p:p) == LF) p = p + 1
         end if
     end subroutine skip_eol
-
-    !> A count as text, without blanks.
-    pure function count_text(n) result(t)
-        integer(int64), intent(in) :: n  !! the count
-        character(len=:), allocatable :: t
-        character(len=24) :: buf
-        write (buf, '(i0)') n
-        t = trim(buf)
-    end function count_text
 
     !> Nodes of gmsh element type t (the linear and Lagrange types gmsh writes), 0 if
     !> not in this table.
