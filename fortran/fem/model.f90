@@ -1284,18 +1284,21 @@ contains
     !> (&material young: K; density: M), the load (gravity with density), the kinetic
     !> energy v0.M v0 / 2 (&initial velocity) and the elastic, contact and load terms at
     !> u0 (&initial amplitude, the only key that lifts u0 from 0; at u0 = 0 the contact
-    !> energy of a body starting in the obstacle, &contact gamma0). One product with M,
-    !> one evaluation of B: O(nnz), once per run.
-    pure subroutine model_check_initial(mdl, prm, u0, v0, stat, errmsg)
+    !> energy of a body starting in the obstacle, &contact gamma0). It reads the products
+    !> the run evaluates at its initial state anyway (M v0 and B(u0): model_mass_apply,
+    !> model_eval_b), which are finite or not whatever the matrices hold: O(n) here.
+    pure subroutine model_check_initial(mdl, prm, u0, v0, mv0, ktu0, e_pen, e_theta, &
+                                        stat, errmsg)
         type(model_t), intent(in) :: mdl                    !! model
         type(model_params_t), intent(in) :: prm             !! its parameters
         real(dp), intent(in) :: u0(:)                       !! (n_dofs) initial displacement
         real(dp), intent(in) :: v0(:)                       !! (n_dofs) initial velocity
+        real(dp), intent(in) :: mv0(:)                      !! M v0
+        real(dp), intent(in) :: ktu0(:)                     !! K_theta u0 (model_eval_b)
+        real(dp), intent(in) :: e_pen, e_theta              !! contact energies at u0 (model_eval_b)
         integer, intent(out) :: stat                        !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        real(dp), allocatable :: w(:), ktu(:)
-        real(dp) :: e_pen, e_theta
-        integer :: active, dim
+        integer :: dim
         character(len=:), allocatable :: at
         stat = STAT_OK
         dim = mdl%dim
@@ -1315,17 +1318,14 @@ contains
                        real_text(prm%density)//')')
             return
         end if
-        allocate (w(mdl%n_dofs), ktu(mdl%n_dofs))
-        call model_mass_apply(mdl, v0, w)
-        if (.not. ieee_is_finite(0.5_dp * dot_product(v0, w))) then
+        if (.not. ieee_is_finite(0.5_dp * dot_product(v0, mv0))) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': &initial velocity: '// &
                        'the initial kinetic energy v0.M v0 / 2 is not finite (|velocity| = '// &
                        real_text(norm2(prm%velocity(1:dim)))//', &material density = '// &
                        real_text(prm%density)//')')
             return
         end if
-        call model_eval_b(mdl, u0, w, ktu, active, e_pen, e_theta)
-        if (ieee_is_finite(0.5_dp * dot_product(u0, ktu) + e_theta) .and. &
+        if (ieee_is_finite(0.5_dp * dot_product(u0, ktu0) + e_theta) .and. &
             ieee_is_finite(e_pen) .and. ieee_is_finite(dot_product(u0, mdl%load))) return
         if (any(u0 /= 0.0_dp)) then
             at = '&initial amplitude: the initial elastic and contact energy of kind = '// &

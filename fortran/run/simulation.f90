@@ -175,10 +175,11 @@ contains
                   sim%st%mv(n), sim%st%lam(sim%mdl%alm%nl))
         sim%st%lam = 0.0_dp
         call model_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v)
-        call model_check_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v, stat, errmsg)
-        if (stat /= STAT_OK) return
         call state_eval(sim%mdl, sim%st)
         call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
+        call model_check_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v, sim%st%mv, &
+                                 sim%st%ktu, sim%st%e_pen, sim%st%e_theta, stat, errmsg)
+        if (stat /= STAT_OK) return
         sim%st%a = 0.0_dp
         if (.not. write_output) return
         call start_scheme(sim, stat, errmsg)
