@@ -692,6 +692,22 @@ subroutine dc_geo_estimate(path, length, width, h, given, limit, limit_key, h_ke
                                                                    h_key)
 end subroutine dc_geo_estimate
 
+!> Refuse a .geo with one of gmsh's commands that end, stall or escape the process, in it
+!> or in a file it includes or merges (stat STAT_BAD_INPUT, errmsg naming the file and the
+!> command): the scan of the core's reader and estimate, without gmsh.
+subroutine dc_geo_check(path, stat, errmsg)
+    use iso_c_binding, only: c_int
+    use gmsh_mesh, only: geo_check_commands
+    implicit none
+    character(len=*), intent(in) :: path         !! .geo file
+    integer(c_int), intent(out) :: stat          !! status
+    character(len=512), intent(out) :: errmsg    !! message
+    integer :: st
+    errmsg = ''
+    call geo_check_commands(path, st, errmsg)
+    stat = st
+end subroutine dc_geo_check
+
 !> Why a .geo meshed in-process is refused when gmsh left entity `d` `tag` of physical
 !> group `group` without elements (the reader's wording, without the path in front).
 subroutine dc_unmeshed_text(d, tag, group, text)

@@ -26,7 +26,7 @@ module gmsh_mesh
     implicit none
     private
     public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, too_large_text, &
-              unmeshed_text, geo_given
+              unmeshed_text, geo_given, geo_check_commands
     public :: GEO_GIVEN_H, GEO_GIVEN_LENGTH, GEO_GIVEN_WIDTH, GEO_GIVEN_ALL
 
     !> The bits of `given`, the .geo parameters the scene gives (geo_given): each is set

@@ -805,6 +805,15 @@ def estimate_geo(path: str | os.PathLike, *, length: float = 1.0, width: float =
             "margin": float(est[3])}
 
 
+def geo_check(path: str | os.PathLike) -> None:
+    """:class:`BadInputError` naming the file and the command if the .geo (or a file it
+    includes or merges) holds one of gmsh's commands that end, stall or escape the
+    process (docs/scenes.md): the text scan that the core's reader and :func:`estimate_geo`
+    make before gmsh parses the file, without starting gmsh."""
+    stat, errmsg = _core().dc_geo_check(_fpath(path, "mesh file"))
+    _check(stat, errmsg, "checking the .geo")
+
+
 def geo_refusal(path: str | os.PathLike, limit: int, limit_key: str, h_key: str, *,
                 length: float = 1.0, width: float = 0.1, h: float = 0.05,
                 given=("h", "length", "width")) -> str | None:

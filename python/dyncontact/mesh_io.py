@@ -43,7 +43,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .core import BadInputError, DyncontactError, estimate_geo, geo_refusal, unmeshed_text
+from .core import BadInputError, DyncontactError, geo_check, geo_refusal, unmeshed_text
 from .scene import packaged_file
 
 __all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
@@ -369,8 +369,8 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
                               given=given, **values)
         if refusal:
             raise BadInputError(refusal)
-    else:   # the core's scan for gmsh's commands that end, stall or escape this process
-        estimate_geo(geo, given=given, **values)
+    else:   # the estimate's scan for gmsh's commands that end, stall or escape this process
+        geo_check(geo)
     out = Path(out_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     with _gmsh_session("dyncontact-generate") as gmsh:
