@@ -660,6 +660,39 @@ def test_geo_includes_nested_too_deep_refused(tmp_path):
     (tmp_path / "n20.geo").write_text((ROOT_MESHES / "disk.geo").read_text())
     assert mesh_io.read_mesh(tmp_path / "n0.geo", h=0.05).dim == 2
 
+#: How b.geo, which a.geo includes, names a.geo again in an include cycle gmsh reads
+#: (a.geo guards itself): b.geo's place, its text; "link" names a link to a.geo.
+CYCLE_SPELLINGS = {
+    "dot": ("b.geo", 'Include "./a.geo";\n'),
+    "dot_dot": ("sub/b.geo", 'Include "../sub/../a.geo";\n'),
+    "link": ("b.geo", 'Include "link.geo";\n'),
+}
+
+
+@pytest.mark.parametrize("case", CYCLE_SPELLINGS, ids=list(CYCLE_SPELLINGS))
+def test_geo_include_cycle_through_names_written_differently(run_exe, run_cli, tmp_path,
+                                                              case):
+    """gmsh reads a.geo as one file however it is named; so does the scan, by canonical
+    paths (comparing names as text, it went round the cycle to the nesting limit and
+    refused the file, 'more than 20 deep'): the reader gives the bar as bar2d.geo gives
+    it, and a run through each entry point succeeds."""
+    where, text = CYCLE_SPELLINGS[case]
+    bar = ROOT_MESHES / "bar2d.geo"
+    a = _write(tmp_path / "a.geo", "If (!Exists(a_read))\na_read = 1;\n"
+               f'Include "{where}";\nInclude "{bar}";\nEndIf\n')
+    _write(tmp_path / where, text)
+    if case == "link":
+        (tmp_path / "link.geo").symlink_to(a)
+    same_mesh(mesh_io.read_mesh(bar, h=0.05), mesh_io.read_mesh(a, h=0.05), case)
+    for run, out in ((run_exe, "out_exe"), (run_cli, "out_cli")):
+        scene = tmp_path / f"{out}.nml"
+        scene.write_text(f"&mesh file = '{a}' /\n&scheme t_end = 0.01 /\n"
+                         f"&output dir = '{out}' /\n")
+        res = run(scene) if run is run_exe else run("run", scene)
+        assert res.returncode == 0, res.stderr[-2000:]
+        assert (tmp_path / out).is_dir()
+
+
 #: Files gmsh parses as .geo when the .geo merges them (a .geo, a .msh without a mesh
 #: header) or after it (the options file name.opt gmsh merges after each file): the
 #: line that pulls the file in, the file, its text.

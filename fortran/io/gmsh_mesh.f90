@@ -22,7 +22,7 @@ module gmsh_mesh
     use mesh, only: mesh_t, mesh_check, GROUP_NAME_LEN
     use text, only: lower, real_text, int_text
     use msh_sections, only: msh_check_counts
-    use os_files, only: read_whole_file
+    use os_files, only: read_whole_file, real_path
     implicit none
     private
     public :: read_mesh_file, gmsh_available, file_extension, estimate_geo_cells, too_large_text, &
@@ -344,10 +344,12 @@ contains
     !> gmsh's parser, and a user relies on the check to keep commands out: it is refused,
     !> naming the file that holds it (no .geo in meshes/ includes or merges a file). A
     !> file already scanned the same way is not scanned again (include cycles end, a
-    !> file included twice is scanned once); a file nested deeper than GEO_MAX_DEPTH is
-    !> refused (a cycle through differently written names; gmsh itself stops on a cycle
-    !> without a guard when it runs out of open files). A missing file passes
-    !> (gmsh's read says it cannot open it).
+    !> file included twice is scanned once), a file being known by its canonical path
+    !> (real_path), so that 'a.geo', './a.geo', 'sub/../a.geo' or a link to it, which
+    !> gmsh reads as one file (a cycle guarded by a condition meshes), are one file
+    !> here too; a file nested deeper than GEO_MAX_DEPTH is refused (gmsh itself stops
+    !> on a cycle without a guard when it runs out of open files, and no .geo needs so
+    !> deep a nesting). A missing file passes (gmsh's read says it cannot open it).
     recursive subroutine scan_geo(path, top, how, depth, seen, stat, errmsg)
         character(len=*), intent(in) :: path                !! file to scan
         character(len=*), intent(in) :: top                 !! the top-level .geo (messages)
@@ -375,7 +377,8 @@ contains
                        'more than '//int_text(GEO_MAX_DEPTH)//' deep (a cycle?)'//via)
             return
         end if
-        key = achar(48 + how)//path//achar(0)
+        ! one file however its name is written ('a.geo', './a.geo', 'sub/../a.geo', a link)
+        key = achar(48 + how)//real_path(path)//achar(0)
         if (index(seen, achar(0)//key) > 0) return
         seen = seen//key
         if (how /= GEO_INCLUDED) then     ! gmsh merges path.opt after merging path

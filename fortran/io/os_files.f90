@@ -137,12 +137,22 @@ module os_files
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated lock file path
             integer(c_int) :: r
         end function c_lock_release
+        !> The canonical form of path in out: its length, -1 if it cannot be resolved
+        !> (file_paths.c).
+        function c_real_path(path, out, len) bind(C, name='dc_real_path') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
+            character(kind=c_char), intent(out) :: out(*)  !! its canonical form, NUL-terminated
+            integer(c_int), value :: len                   !! length of out
+            integer(c_int) :: r
+        end function c_real_path
     end interface
 
     public :: signals_install, exit_on_read_signal, signal_caught, fd_open, fd_write, &
               fd_close, file_rename, file_remove, check_writable, lock_take, lock_release, &
               write_text_atomic, sys_error, free_space, fd_sync, fd_reopen, bytes_hash, &
               remove_matching, same_folder, write_status, read_whole_file
+    public :: real_path
 
 contains
 
@@ -447,4 +457,22 @@ contains
         end if
         if (st2 == STAT_OK) stat = STAT_OK
     end subroutine write_text_atomic
+
+    !> The canonical form of `path` (absolute; '.', '..' and symbolic links resolved),
+    !> which names one file one way however it is written; `path` itself when it cannot
+    !> be resolved (a missing file, a folder we cannot search).
+    function real_path(path) result(s)
+        character(len=*), intent(in) :: path   !! a file or folder
+        character(len=:), allocatable :: s
+        integer, parameter :: PATH_MAX_LEN = 4096
+        character(kind=c_char) :: buf(PATH_MAX_LEN)
+        integer :: n
+        n = c_real_path(path//c_null_char, buf, int(PATH_MAX_LEN, c_int))
+        if (n < 0) then
+            s = path
+            return
+        end if
+        allocate (character(len=n) :: s)
+        s = transfer(buf(1:n), s)
+    end function real_path
 end module os_files
