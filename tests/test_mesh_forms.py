@@ -543,9 +543,10 @@ def test_geo_with_exit_refused(run_exe, tmp_path):
     assert mesh_io.read_mesh(quiet).dim == 2
 
 
-#: gmsh's .geo commands that end the process, stall it or run other programs (each
-#: appended to a .geo that meshes; MARK is a file the command would create): the
-#: command, and what the refusal says it would do.
+#: gmsh's .geo commands that end the process, stall it, run other programs or write
+#: to disk outside the run's output folder (each appended to a .geo that meshes; MARK
+#: is a file the command would create): the command, and what the refusal says it
+#: would do.
 GEO_COMMANDS = {
     "exit_status": ("Exit 3;", "Exit", "end the run without a word"),
     "sleep": ("Sleep 30;", "Sleep", "stall the run"),
@@ -555,6 +556,17 @@ GEO_COMMANDS = {
     "non_blocking": ('NonBlockingSystemCall "touch MARK";', "NonBlockingSystemCall",
                      "run a shell command"),
     "onelab_run": ('OnelabRun("touch MARK");', "OnelabRun", "run another program"),
+    "print": ('Print "MARK.png";', "Print", "write a file"),
+    "save": ('Save "MARK.msh";', "Save", "write a file"),
+    "save_view": ('Save View[0] "MARK.pos";', "Save", "write a file"),
+    "create_dir": ('CreateDir "MARK";', "CreateDir", "create a folder"),
+    "printf_to_file": ('Printf("x") > "MARK";', "Printf(...) >", "write a file"),
+    "printf_values_to_file": ('Printf("x %g", 1) /* to */ > "MARK";', "Printf(...) >",
+                              "write a file"),
+    "printf_append": ('Printf("x") >> "MARK";', "Printf(...) >>",
+                      "append to a file at each of gmsh's parses of it"),
+    "plugin_that_writes": ('Plugin(Bubbles).OutputFile = "MARK";\nPlugin (Bubbles) . Run;',
+                           "Plugin(Bubbles).Run", "write a file"),
 }
 
 
@@ -562,7 +574,8 @@ GEO_COMMANDS = {
 def test_geo_command_that_escapes_the_process_refused(run_exe, run_cli, tmp_path, case):
     """Both entry points refuse the .geo with the same line naming the file and the
     command, exit 2, before gmsh reads it (the shell command does not run, nothing
-    stalls); so do mesh_io.generate, without a limit, and the reader."""
+    stalls, no file is written); so do mesh_io.generate, without a limit, and the
+    reader."""
     command, name, effect = GEO_COMMANDS[case]
     mark = tmp_path / "ran"
     p = tmp_path / "escapes.geo"
@@ -573,11 +586,25 @@ def test_geo_command_that_escapes_the_process_refused(run_exe, run_cli, tmp_path
     lines = [stderr_line(res, 2) for res in (run_exe(scene), run_cli("run", scene))]
     assert lines[0] == lines[1], lines
     assert f"{p}: has gmsh's '{name}' command, which would {effect}" in lines[0]
-    with pytest.raises(BadInputError, match=f"'{name}' command"):
+    with pytest.raises(BadInputError, match=re.escape(f"'{name}' command")):
         mesh_io.generate(p, tmp_path / "out.msh", max_elements=0)
-    with pytest.raises(BadInputError, match=f"'{name}' command"):
+    with pytest.raises(BadInputError, match=re.escape(f"'{name}' command")):
         mesh_io.read_mesh(p)
-    assert not mark.exists()
+    assert not any(tmp_path.glob("ran*"))
+
+
+def test_geo_printf_to_the_terminal_and_print_options_pass(tmp_path):
+    """Printf without '>' prints to the terminal, '>' inside its arguments or a string
+    is no redirection, Print.Width is an option, Plugin(Bubbles) without Run and a
+    plugin that writes nothing are no writes: the .geo meshes as disk.geo gives it."""
+    disk = (ROOT_MESHES / "disk.geo").read_text()
+    p = _write(tmp_path / "quiet.geo", disk + '\nPrintf("x");\nPrintf("a > b");\n'
+               'Printf("%g", 2 > 1);\nPrintf("%g", (1 > 0)) ;\nPrint.Width = 100;\n'
+               'Printf("Save >> f");\nSaved = 1;\n// Save "f";\n'
+               'Plugin(Bubbles).OutputFile = "f";\n')
+    same_mesh(mesh_io.read_mesh(ROOT_MESHES / "disk.geo", h=0.05),
+              mesh_io.read_mesh(p, h=0.05), "quiet")
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["quiet.geo"]
 
 
 

@@ -313,9 +313,15 @@ contains
     !> (STAT_BAD_INPUT naming the file and the command): `Exit` ends the whole process,
     !> the run and a caller's Python alike, with its own status and no word; `Sleep`
     !> stalls it (once per parse, and a .geo is parsed more than once); `SystemCall`,
-    !> `System`, `NonBlockingSystemCall` and `OnelabRun` start other programs. `Abort`
-    !> ends only gmsh's parse (the file's geometry up to it is meshed) and is left to
-    !> gmsh, as are its commands that write files. The scan is of the text without its
+    !> `System`, `NonBlockingSystemCall` and `OnelabRun` start other programs. Refused
+    !> too are the commands that write to disk wherever the file says, outside the run's
+    !> output folder, which a geometry given to a simulation has no reason to do and
+    !> which would overwrite a user's file, or append to it at every parse: `Print`,
+    !> `Save` (also `Save View[i]`), `CreateDir`, `Printf(...) > file` and `>> file`,
+    !> and `Plugin(name).Run` of the plugins that write files (refused_command; gmsh
+    !> 4.15 has no command that deletes a file). `Printf` to the terminal passes.
+    !> `Abort` ends only gmsh's parse (the file's geometry up to it is meshed) and is
+    !> left to gmsh. The scan is of the text without its
     !> comments and strings ("..." and '...'); a command is the whole name, not followed
     !> by an assignment or an index (a variable of that name, `System = 1;`, passes). A
     !> file it cannot read passes (gmsh's read says why). The files gmsh parses along
@@ -358,13 +364,7 @@ contains
         character(len=:), allocatable, intent(inout) :: seen !! NUL-separated keys scanned
         integer, intent(out) :: stat                        !! STAT_OK or STAT_BAD_INPUT
         character(len=*), intent(inout), optional :: errmsg !! one line naming the file
-        character(len=*), parameter :: COMMANDS(6) = [character(len=21) :: 'Exit', 'Sleep', &
-            'SystemCall', 'System', 'NonBlockingSystemCall', 'OnelabRun']
-        character(len=*), parameter :: EFFECTS(6) = [character(len=40) :: &
-            'would end the run without a word', 'would stall the run', &
-            'would run a shell command', 'would run a shell command', &
-            'would run a shell command', 'would run another program']
-        character(len=:), allocatable :: buf, key, via, name
+        character(len=:), allocatable :: buf, key, via, name, what
         integer :: i, j, k, n, q
         logical :: ok
 
@@ -413,14 +413,12 @@ contains
                     if (.not. is_name_char(buf(j + 1:j + 1))) exit
                     j = j + 1
                 end do
-                do k = 1, size(COMMANDS)
-                    if (buf(i:j) /= trim(COMMANDS(k))) cycle
-                    if (names_variable(buf(j + 1:))) exit
-                    call raise(stat, errmsg, STAT_BAD_INPUT, path//": has gmsh's '"// &
-                               trim(COMMANDS(k))//"' command, which "//trim(EFFECTS(k))// &
+                what = refused_command(buf(i:j), buf(j + 1:))
+                if (len(what) > 0) then
+                    call raise(stat, errmsg, STAT_BAD_INPUT, path//": has gmsh's "//what// &
                                ': remove it (gmsh meshes the file without it)'//via)
                     return
-                end do
+                end if
                 if ((buf(i:j) == 'Include' .or. buf(i:j) == 'Merge' .or. &
                      buf(i:j) == 'MergeWithBoundingBox') .and. &
                     .not. names_variable(buf(j + 1:))) then
@@ -452,6 +450,113 @@ contains
             end if
         end do
     end subroutine scan_geo
+
+    !> What the refusal of the .geo command `name`, followed by the text `rest`, says
+    !> ("'Exit' command, which would end the run without a word"), '' if it is no
+    !> refused command. Refused: the commands that end, stall or escape the process
+    !> (Exit, Sleep, SystemCall, System, NonBlockingSystemCall, OnelabRun) and those
+    !> that write to disk where the file says, outside the run's output folder (gmsh
+    !> 4.15's Gmsh.y: Print and Save, of the model or of a view, CreateDir, Printf(...)
+    !> followed by '>' or '>>', and Plugin(name).Run of the plugins that write files).
+    !> A name followed by an assignment, an index or a member (names_variable) is a
+    !> variable or an option (Print.Width), no command; Printf without '>' prints to the
+    !> terminal and passes.
+    pure function refused_command(name, rest) result(what)
+        character(len=*), intent(in) :: name    !! a whole name of the .geo
+        character(len=*), intent(in) :: rest    !! the text after it
+        character(len=:), allocatable :: what
+        character(len=*), parameter :: COMMANDS(9) = [character(len=21) :: 'Exit', 'Sleep', &
+            'SystemCall', 'System', 'NonBlockingSystemCall', 'OnelabRun', 'Print', 'Save', &
+            'CreateDir']
+        character(len=*), parameter :: EFFECTS(9) = [character(len=40) :: &
+            'would end the run without a word', 'would stall the run', &
+            'would run a shell command', 'would run a shell command', &
+            'would run a shell command', 'would run another program', &
+            'would write a file', 'would write a file', 'would create a folder']
+        !> gmsh 4.15's plugins whose Run writes files (their Fopen and ofstream calls).
+        character(len=*), parameter :: WRITING_PLUGINS(4) = [character(len=14) :: &
+            'Bubbles', 'NearToFarField', 'BoundaryAngles', 'VoroMetal']
+        integer :: k, q, e
+        what = ''
+        if (names_variable(rest)) return
+        do k = 1, size(COMMANDS)
+            if (name /= trim(COMMANDS(k))) cycle
+            what = "'"//trim(COMMANDS(k))//"' command, which "//trim(EFFECTS(k))
+            return
+        end do
+        if (name == 'Printf') then      ! Printf(...) > "file" writes, >> appends
+            q = next_token(rest)
+            if (q > len(rest)) return
+            if (rest(q:q) /= '(') return
+            e = closing_parenthesis(rest(q:))
+            if (e == 0) return
+            q = q + e - 1
+            q = q + next_token(rest(q + 1:))
+            if (q > len(rest)) return
+            if (rest(q:q) /= '>') return
+            if (rest(q:min(len(rest), q + 1)) == '>>') then
+                what = "'Printf(...) >>' command, which would append to a file at each of "// &
+                       "gmsh's parses of it (two or more in a run)"
+            else
+                what = "'Printf(...) >' command, which would write a file"
+            end if
+        else if (name == 'Plugin') then ! Plugin(name).Run
+            q = next_token(rest)
+            if (q > len(rest)) return
+            if (rest(q:q) /= '(') return
+            e = closing_parenthesis(rest(q:))
+            if (e == 0) return
+            do k = 1, size(WRITING_PLUGINS)
+                if (trim(adjustl(rest(q + 1:q + e - 2))) /= trim(WRITING_PLUGINS(k))) cycle
+                q = q + e - 1
+                q = q + next_token(rest(q + 1:))
+                if (q > len(rest)) return
+                if (rest(q:q) /= '.') return
+                q = q + next_token(rest(q + 1:))
+                if (q + 2 > len(rest)) return
+                if (rest(q:q + 2) /= 'Run') return
+                if (q + 3 <= len(rest)) then
+                    if (is_name_char(rest(q + 3:q + 3))) return
+                end if
+                what = "'Plugin("//trim(WRITING_PLUGINS(k))//").Run' command, which would "// &
+                       'write a file'
+                return
+            end do
+        end if
+    end function refused_command
+
+    !> The offset in `text`, which starts with '(', of the ')' that closes it, skipping
+    !> strings and comments; 0 if none.
+    pure integer function closing_parenthesis(text) result(e)
+        character(len=*), intent(in) :: text    !! '(' and what follows
+        integer :: i, j, depth
+        e = 0
+        depth = 0
+        i = 1
+        do while (i <= len(text))
+            if (text(i:min(len(text), i + 1)) == '//') then
+                j = index(text(i:), achar(10))
+                if (j == 0) return
+                i = i + j
+            else if (text(i:min(len(text), i + 1)) == '/*') then
+                j = index(text(i + 2:), '*/')
+                if (j == 0) return
+                i = i + j + 3
+            else if (text(i:i) == '"' .or. text(i:i) == "'") then
+                j = index(text(i + 1:), text(i:i))
+                if (j == 0) return
+                i = i + j + 1
+            else
+                if (text(i:i) == '(') depth = depth + 1
+                if (text(i:i) == ')') depth = depth - 1
+                if (depth == 0) then
+                    e = i
+                    return
+                end if
+                i = i + 1
+            end if
+        end do
+    end function closing_parenthesis
 
     !> The offset in `rest` of its first character after blanks and comments (gmsh's
     !> lexer skips them between a command and its argument); len(rest) + 1 if none.

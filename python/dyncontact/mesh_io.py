@@ -348,7 +348,8 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     ------
     BadInputError
         A size not > 0, no such .geo, a gmsh command that ends, stalls or escapes the
-        process (`Exit`, `Sleep`, `SystemCall`: docs/scenes.md), or gmsh cannot mesh it.
+        process (`Exit`, `Sleep`, `SystemCall`) or writes to disk (`Save`, `Print`,
+        `CreateDir`, `Printf(...) > "file"`: docs/scenes.md), or gmsh cannot mesh it.
     DyncontactError
         gmsh cannot write `out_path` (nothing is left under that name). A write cut
         short midway gmsh does not report: ``dyncontact mesh`` finds it when it reads
