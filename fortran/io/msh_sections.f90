@@ -24,6 +24,10 @@
 !> numNodes'). A file that ends inside a section, a binary file of another layout
 !> (MSH 4.0 and 2.2, a data size other than 8, other byte order) or an element type not
 !> in the table below are left to gmsh, which refuses them itself or reads them safely.
+!> Binary MSH 4.0 needs no check of its own: gmsh 4.15 neither writes nor reads it; it
+!> refuses the file on its $MeshFormat line ("Can only read MSH 4.0 format in ASCII
+!> mode"), before it sizes any array from a section's header (tests/test_mesh_forms.py,
+!> with a header count below its blocks', no invalid access under valgrind).
 !> Left to gmsh as well, as it reads them to the same mesh with no invalid access under
 !> valgrind (gmsh 4.15, tests/test_mesh_forms.py): a 4.1 $Nodes header whose [minTag,
 !> maxTag] does not hold the blocks' tags (1 2, 62 63 or 1 100000000 for tags 1..63), an
@@ -70,7 +74,7 @@ contains
         if (ios /= 0 .or. version < 3.95) return          ! 2.2: gmsh's
         binary = file_type == 1
         v40 = version < 4.05
-        if (v40 .and. binary) return                       ! binary 4.0: gmsh's
+        if (v40 .and. binary) return                       ! binary 4.0: gmsh refuses it
         if (binary) then
             if (data_size /= 8) return
             call next_line(buf, p)
