@@ -703,8 +703,9 @@ def test_geo_include_cycle(tmp_path):
 
 
 def test_geo_includes_nested_too_deep_refused(tmp_path):
-    """Files nested more than 20 deep are refused (a cycle through differently written
-    names would not end otherwise), naming the file past the limit; 20 deep pass."""
+    """Files nested more than 20 deep are refused (no .geo needs so deep a nesting; a
+    cycle ends at the first file seen again, however its name is written), naming the
+    file past the limit; 20 deep pass."""
     for k in range(21):
         _write(tmp_path / f"n{k}.geo", f'Include "n{k + 1}.geo";\n')
     _write(tmp_path / "n21.geo", "// clean\n")

@@ -374,7 +374,7 @@ contains
         if (path /= top) via = ' (read through Include or Merge from '//top//')'
         if (depth > GEO_MAX_DEPTH) then
             call raise(stat, errmsg, STAT_BAD_INPUT, path//': files included or merged '// &
-                       'more than '//int_text(GEO_MAX_DEPTH)//' deep (a cycle?)'//via)
+                       'more than '//int_text(GEO_MAX_DEPTH)//' deep'//via)
             return
         end if
         ! one file however its name is written ('a.geo', './a.geo', 'sub/../a.geo', a link)
