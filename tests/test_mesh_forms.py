@@ -715,12 +715,16 @@ def test_geo_includes_nested_too_deep_refused(tmp_path):
     (tmp_path / "n20.geo").write_text((ROOT_MESHES / "disk.geo").read_text())
     assert mesh_io.read_mesh(tmp_path / "n0.geo", h=0.05).dim == 2
 
-#: How b.geo, which a.geo includes, names a.geo again in an include cycle gmsh reads
-#: (a.geo guards itself): b.geo's place, its text; "link" names a link to a.geo.
+#: How a.geo names b.geo and b.geo names a.geo again in an include cycle gmsh reads
+#: (a.geo guards itself): b.geo's name in a.geo, b.geo's text. "link": link.geo is a
+#: link to a.geo (a cycle a scan by names as text ended too, after one more round);
+#: "folder_link": sub is a link to the folder itself, so that each round names the
+#: files one 'sub/' deeper.
 CYCLE_SPELLINGS = {
     "dot": ("b.geo", 'Include "./a.geo";\n'),
     "dot_dot": ("sub/b.geo", 'Include "../sub/../a.geo";\n'),
     "link": ("b.geo", 'Include "link.geo";\n'),
+    "folder_link": ("sub/b.geo", 'Include "sub/a.geo";\n'),
 }
 
 
@@ -733,6 +737,8 @@ def test_geo_include_cycle_through_names_written_differently(run_exe, run_cli, t
     it, and a run through each entry point succeeds."""
     where, text = CYCLE_SPELLINGS[case]
     bar = ROOT_MESHES / "bar2d.geo"
+    if case == "folder_link":
+        (tmp_path / "sub").symlink_to(tmp_path, target_is_directory=True)
     a = _write(tmp_path / "a.geo", "If (!Exists(a_read))\na_read = 1;\n"
                f'Include "{where}";\nInclude "{bar}";\nEndIf\n')
     _write(tmp_path / where, text)
