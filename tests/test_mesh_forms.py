@@ -591,7 +591,7 @@ GEO_COMMANDS = {
     "printf_values_to_file": ('Printf("x %g", 1) /* to */ > "MARK";', "Printf(...) >",
                               "write a file"),
     "printf_append": ('Printf("x") >> "MARK";', "Printf(...) >>",
-                      "append to a file at each of gmsh's parses of it"),
+                      "append to a file at each of gmsh's parses of the .geo"),
     "plugin_that_writes": ('Plugin(Bubbles).OutputFile = "MARK";\nPlugin (Bubbles) . Run;',
                            "Plugin(Bubbles).Run", "write a file"),
 }

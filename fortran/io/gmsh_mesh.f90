@@ -496,7 +496,7 @@ contains
             if (rest(q:q) /= '>') return
             if (rest(q:min(len(rest), q + 1)) == '>>') then
                 what = "'Printf(...) >>' command, which would append to a file at each of "// &
-                       "gmsh's parses of it (two or more in a run)"
+                       "gmsh's parses of the .geo (two or more in a run)"
             else
                 what = "'Printf(...) >' command, which would write a file"
             end if
