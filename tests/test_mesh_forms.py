@@ -490,7 +490,8 @@ def test_msh4_header_counts_that_differ_from_the_blocks_refused(run_exe, tmp_pat
 
 
 @pytest.mark.parametrize("label", [b"4 1 8", b"4.0 1 8"], ids=["4", "4.0"])
-def test_msh40_binary_is_refused_by_gmsh_before_its_sections(run_exe, run_cli, tmp_path, label):
+def test_msh40_binary_is_refused_by_gmsh_before_its_sections(run_exe, run_cli, tmp_path,
+                                                              label):
     """gmsh 4.15 neither writes nor reads binary MSH 4.0: it refuses the file on its
     $MeshFormat line, before it sizes any array from a section's header. So a binary
     4.0 file whose $Nodes header count is 5 below its blocks' (a binary 4.1 file so
@@ -622,8 +623,9 @@ def test_geo_command_that_escapes_the_process_refused(run_exe, run_cli, tmp_path
 
 def test_geo_printf_to_the_terminal_and_print_options_pass(tmp_path):
     """Printf without '>' prints to the terminal, '>' inside its arguments or a string
-    is no redirection, Print.Width is an option, Plugin(Bubbles) without Run and a
-    plugin that writes nothing are no writes: the .geo meshes as disk.geo gives it."""
+    is no redirection, Print.Width is an option, Saved a variable, Plugin(Bubbles)
+    without Run sets an option and writes nothing: the .geo meshes as disk.geo gives
+    it, and no file appears beside it."""
     disk = (ROOT_MESHES / "disk.geo").read_text()
     p = _write(tmp_path / "quiet.geo", disk + '\nPrintf("x");\nPrintf("a > b");\n'
                'Printf("%g", 2 > 1);\nPrintf("%g", (1 > 0)) ;\nPrint.Width = 100;\n'
@@ -714,6 +716,7 @@ def test_geo_includes_nested_too_deep_refused(tmp_path):
         core.estimate_geo(tmp_path / "n0.geo")
     (tmp_path / "n20.geo").write_text((ROOT_MESHES / "disk.geo").read_text())
     assert mesh_io.read_mesh(tmp_path / "n0.geo", h=0.05).dim == 2
+
 
 #: How a.geo names b.geo and b.geo names a.geo again in an include cycle gmsh reads
 #: (a.geo guards itself): b.geo's name in a.geo, b.geo's text. "link": link.geo is a
