@@ -175,11 +175,7 @@ contains
                        mb_text(36.0_dp * mdl%stiff%nnz)//')', OOM_HINT_MESH))
             return
         end if
-        call assemble(mdl, prm, lambda, mu, stat, msg)
-        if (stat /= STAT_OK) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(prm%name)//': '//trim(msg))
-            return
-        end if
+        call assemble(mdl, prm, lambda, mu)
 
         call mesh_group_facets(mdl%msh, prm%contact, facets, stat, msg)
         if (stat /= STAT_OK) then
@@ -324,16 +320,13 @@ contains
     end subroutine number_dofs
 
     !> M, K, K_theta (= K until add_theta_term) and L on the pattern (cell_pattern).
-    pure subroutine assemble(mdl, prm, lambda, mu, st, m)
+    pure subroutine assemble(mdl, prm, lambda, mu)
         type(model_t), intent(inout) :: mdl          !! model being built
         type(model_params_t), intent(in) :: prm      !! parameters
         real(dp), intent(in) :: lambda, mu           !! Lame parameters
-        integer, intent(out) :: st                   !! status
-        character(len=*), intent(inout) :: m         !! message
         integer :: c, a, b, i, j, ne, dim, cd(MAX_E), pos(MAX_E, MAX_E)
         real(dp) :: xe(3, 4), ke(MAX_E, MAX_E), me(MAX_E, MAX_E)
         real(dp) :: vol
-        st = STAT_OK
         dim = mdl%dim
         ne = mdl%ndof_e
         mdl%mass_val = mdl%stiff%val

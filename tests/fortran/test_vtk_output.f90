@@ -82,6 +82,7 @@ contains
         integer :: stat, i, j, m, n, c, unit
         integer(i8) :: size_on_disk
         character(len=:), allocatable :: path
+        path = trim(dir)//'/test_vtk_size.vtu'
         do m = 1, 32, 31                       ! (m+1)^2 nodes, 2 m^2 triangles
             n = (m + 1)**2
             allocate (x(2, n), u(2, n), v(2, n), cells(3, 2 * m * m))
@@ -100,7 +101,6 @@ contains
                     c = c + 2
                 end do
             end do
-            path = trim(dir)//'/test_vtk_size.vtu'
             call vtk_write_vtu(path, 2, x, cells, u, v, stat)
             open (newunit=unit, file=path, access='stream')
             inquire (unit=unit, size=size_on_disk)
