@@ -101,6 +101,19 @@ def _sigterm_as_interrupt(signum, frame):  # noqa: ARG001 - signal handler signa
     raise KeyboardInterrupt(f"signal {signum}")
 
 
+def _catch_sigterm() -> None:
+    """Make SIGTERM stop the command as Ctrl-C does (:func:`_sigterm_as_interrupt`), in
+    the main thread (Python sets handlers there only), unless the process ignores
+    SIGTERM: a signal ignored from the program's start stays ignored, as the executable
+    leaves it (run_guard.c) and as Python leaves an ignored SIGINT (no
+    KeyboardInterrupt)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_IGN:
+        return
+    signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
+
+
 def _said_of_option(exc: Exception, out: str | None, restart: str | None = None) -> Exception:
     """``exc``, a run's error, with the folders that run() names as its arguments said as
     this command's options, as the executable and ``study`` say them: the output folder
@@ -144,8 +157,7 @@ def cmd_run(args) -> int:
         # temporary file). Not with --set: run() writes the Scene to a temporary file
         # first, which the exit would leave behind.
         core.exit_on_signal_during_mesh_read()
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
+    _catch_sigterm()
     with warnings.catch_warnings():
         warnings.simplefilter("always", core.DyncontactWarning)
         previous = warnings.showwarning
