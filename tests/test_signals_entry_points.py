@@ -2,7 +2,12 @@
 
 - a SIGINT or SIGTERM ignored when the program starts (`nohup`, a background job of a
   shell without job control) stays ignored, in the executable and in `python -m
-  dyncontact run` alike, while the other one still stops the run.
+  dyncontact run` alike, while the other one still stops the run;
+- `python -m dyncontact run --set ...` ends at once on a signal while gmsh meshes its
+  .geo, as without --set, and leaves no temporary file;
+- `python -m dyncontact mesh --geo` ends at once on a signal while gmsh meshes, writes
+  or reads back the mesh, and leaves no file, not even a part of one, and an existing
+  file of that name as it was.
 
 Every child starts with SIGINT at its default (as Ctrl-C finds it in a terminal), since
 pytest's own children may have inherited it ignored."""
@@ -12,6 +17,7 @@ from __future__ import annotations
 import json
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -19,8 +25,12 @@ import pytest
 
 from conftest import signal_after
 from test_reliability import child_env, entry, write_scene
+from test_signals_mesh_file import CUBE_GEO, _cube_scene, _start, _wait_for_gmsh
 
 EXIT_SIGNAL = 130
+#: A bound far above what the stop takes (0.01-0.1 s) and far below the 20 s or more
+#: that gmsh goes on meshing the cube at h = 0.03 without it.
+PROMPT_S = 8.0
 #: Seconds a run goes on after an ignored signal before it is stopped: several chunks of
 #: steps of the Python command line (about 0.5 s each), at the end of the first of which a
 #: signal it caught would have stopped it (the executable: at the end of the step).
@@ -85,3 +95,97 @@ def test_a_signal_ignored_at_start_stays_ignored(kind, ignored, tmp_path):
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["status"] == "interrupted"
     assert not (tmp_path / "o" / ".dyncontact.lock").exists()
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
+def test_run_with_set_ends_at_once_while_gmsh_meshes(sig, tmp_path):
+    """`run --set` writes the changed scene to a temporary file, which the stop removes:
+    a signal while gmsh meshes the .geo ends it at once, exit 130 and the one line naming
+    the file (the absolute path the Scene gives it), no output folder, an empty $TMPDIR.
+    Without the fix it waits for the meshing and the set-up (28 s measured), then stops
+    before the first step, after making the output folder."""
+    _cube_scene(tmp_path, 0.03)
+    args = entry("cli") + ["s.nml", "--set", "scheme.dt=0.002", "--out", "o", "--quiet"]
+    proc = _start(args, tmp_path)
+    with signal_after(proc, sig) as ended:
+        _wait_for_gmsh(proc)
+        t0 = time.monotonic()
+    waited = time.monotonic() - t0
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    geo = (tmp_path / "cube.geo").resolve()
+    assert ended.stderr == (f"dyncontact: {geo}: interrupted by signal {int(sig)} while "
+                            "gmsh read it; nothing was written\n"), ended.stderr
+    assert waited < PROMPT_S, waited
+    assert not (tmp_path / "o").exists()
+    assert list((tmp_path / "tmp").iterdir()) == []
+
+
+def _mesh_args(h: float) -> list[str]:
+    return [sys.executable, "-m", "dyncontact", "mesh", "--geo", "cube.geo", "--h", str(h),
+            "--out", "m.msh"]
+
+
+def _meshes(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.endswith(".msh"))
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
+def test_mesh_command_ends_at_once_while_gmsh_meshes(sig, tmp_path):
+    """`dyncontact mesh --geo` stopped while gmsh meshes: exit 130 at once, one line
+    naming the .geo, no mesh file. Without the fix SIGINT waits for the meshing (6 s
+    measured at this size, "dyncontact: interrupted"), and SIGTERM kills the process
+    without a word (status -15: gmsh's initialization resets SIGTERM to its default)."""
+    _cube_scene(tmp_path, 0.03)
+    proc = _start(_mesh_args(0.03), tmp_path)
+    with signal_after(proc, sig) as ended:
+        _wait_for_gmsh(proc)
+        t0 = time.monotonic()
+    waited = time.monotonic() - t0
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    assert ended.stderr == (f"dyncontact: cube.geo: interrupted by signal {int(sig)} while "
+                            "gmsh meshed it; nothing was written\n"), ended.stderr
+    assert waited < PROMPT_S, waited
+    assert _meshes(tmp_path) == []
+
+
+def test_mesh_command_stopped_while_writing_leaves_the_old_file(tmp_path):
+    """A stop while gmsh writes the mesh (signalled as soon as a file is written: another
+    .msh appears, or m.msh changes) removes what was written, and an existing file of
+    that name stays as it was: the mesh is written under a temporary name and renamed
+    once whole. Without the fix gmsh writes m.msh itself, cut where the signal found
+    it."""
+    _cube_scene(tmp_path, 0.03)
+    old = tmp_path / "m.msh"
+    old.write_text("the previous mesh\n", encoding="utf-8")
+    before = old.stat().st_mtime_ns
+    proc = _start(_mesh_args(0.03), tmp_path)
+    with signal_after(proc, signal.SIGINT) as ended:
+        t_end = time.monotonic() + 120
+        while _meshes(tmp_path) == ["m.msh"] and old.stat().st_mtime_ns == before:
+            assert proc.poll() is None, ("ended before the signal", proc.communicate())
+            assert time.monotonic() < t_end, "the mesh was not written"
+            time.sleep(0.01)
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    assert ended.stderr == ("dyncontact: cube.geo: interrupted by signal 2 while gmsh "
+                            "meshed it; nothing was written\n"), ended.stderr
+    assert _meshes(tmp_path) == ["m.msh"]
+    assert old.read_text(encoding="utf-8") == "the previous mesh\n"
+
+
+def test_mesh_generate_keeps_the_ignored_sigterm(tmp_path):
+    """A SIGTERM ignored by the process stays ignored through mesh_io.generate, whose
+    gmsh initialization resets it to its default: after the call the disposition is
+    SIG_IGN again, in the library and in the command line alike."""
+    (tmp_path / "cube.geo").write_text(CUBE_GEO, encoding="utf-8")
+    code = ("import signal, sys\n"
+            "from dyncontact import mesh_io\n"
+            "signal.signal(signal.SIGTERM, signal.SIG_IGN)\n"
+            "mesh_io.generate('cube.geo', 'm.msh', h=0.5)\n"
+            "print([l.split()[1] for l in open('/proc/self/status')"
+            " if l.startswith('SigIgn')][0])\n")
+    res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=child_env(),
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    ignored = int(res.stdout.strip(), 16)
+    assert ignored >> (int(signal.SIGTERM) - 1) & 1, res.stdout
+    assert _meshes(tmp_path) == ["m.msh"]

@@ -149,13 +149,12 @@ def cmd_run(args) -> int:
         scene = scene_path
     progress = False if args.quiet else None
     waited = False
-    if getattr(args, "program", False) and not sets:
+    if getattr(args, "program", False):
         # as the executable: Ctrl-C or SIGTERM while gmsh reads or meshes the mesh file
         # ends the program at once (exit 130, one line naming the file) instead of after
-        # the meshing; nothing is written before the read (the core makes the output
-        # folder and takes its lock after it, and run() of a scene file makes no
-        # temporary file). Not with --set: run() writes the Scene to a temporary file
-        # first, which the exit would leave behind.
+        # the meshing; nothing is left behind: the core makes the output folder and takes
+        # its lock after the read, and the temporary file that run() writes a Scene to
+        # (--set) is removed by the exit (core.removed_if_stopped)
         core.exit_on_signal_during_mesh_read()
     _catch_sigterm()
     with warnings.catch_warnings():
@@ -280,9 +279,15 @@ def cmd_study(argv: Sequence[str]) -> int:
     return int(study_cli.main(list(argv)) or 0)
 
 
-def cmd_mesh(argv: Sequence[str]) -> int:
+def cmd_mesh(argv: Sequence[str], program: bool = False) -> int:
     from . import mesh_io
 
+    if program:
+        # as `run`: Ctrl-C or SIGTERM while gmsh meshes, writes or reads back the mesh
+        # ends the program at once (exit 130, one line naming the .geo), the mesh file
+        # written so far removed (mesh_io.generate writes it under a temporary name that
+        # the exit removes, and gives it its name once it reads back whole)
+        core.exit_on_signal_during_mesh_read()
     rc = mesh_io.main(list(argv))
     return int(rc or 0)
 
@@ -380,7 +385,7 @@ def main(argv: Sequence[str] | None = None, *, program: bool = False) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         if argv and argv[0] == "mesh":
-            return cmd_mesh(argv[1:])
+            return cmd_mesh(argv[1:], program)
         if argv and argv[0] == "study":
             return cmd_study(argv[1:])
         parser = build_parser()
