@@ -7,7 +7,8 @@
   .geo, as without --set, and leaves no temporary file;
 - `python -m dyncontact mesh --geo` ends at once on a signal while gmsh meshes, writes
   or reads back the mesh, and leaves no file, not even a part of one, and an existing
-  file of that name as it was.
+  file of that name as it was;
+- a signal that reaches Python while the core opens a run closes the run it opened.
 
 Every child starts with SIGINT at its default (as Ctrl-C finds it in a terminal), since
 pytest's own children may have inherited it ignored."""
@@ -15,6 +16,7 @@ pytest's own children may have inherited it ignored."""
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -189,3 +191,48 @@ def test_mesh_generate_keeps_the_ignored_sigterm(tmp_path):
     ignored = int(res.stdout.strip(), 16)
     assert ignored >> (int(signal.SIGTERM) - 1) & 1, res.stdout
     assert _meshes(tmp_path) == ["m.msh"]
+
+
+#: A library caller whose Ctrl-C comes while the core opens the run: the signal is sent
+#: by the core call itself, right before it returns (as one sent during a long set-up
+#: reaches Python once the call returns).
+SIGNAL_IN_OPEN = """
+import os, signal, sys
+import dyncontact
+from dyncontact import core
+
+real = core._core()
+
+class Core:
+    def __getattr__(self, name):
+        return getattr(real, name)
+
+    def dc_sim_open(self, *args):
+        result = real.dc_sim_open(*args)
+        os.kill(os.getpid(), signal.SIGINT)
+        return result
+
+core._core = lambda: Core()
+try:
+    dyncontact.run(sys.argv[1], out="o", progress=False)
+except KeyboardInterrupt as exc:
+    print(f"KeyboardInterrupt: {exc}")
+"""
+
+
+def test_a_signal_during_the_open_closes_the_run(tmp_path):
+    """The run the core opened is closed as interrupted (summary.json says so, its lock
+    is released) and the interrupt goes on to the caller with the run's line. Without
+    the fix the KeyboardInterrupt came out of the open's return before the run was
+    stored: its folder stayed locked, with summary.json's status "running"."""
+    scene = _long_scene(tmp_path)
+    res = subprocess.run([sys.executable, "-c", SIGNAL_IN_OPEN, str(scene)], cwd=tmp_path,
+                         env=child_env(), capture_output=True, text=True, timeout=120,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert res.returncode == 0, res.stderr
+    assert res.stdout == "KeyboardInterrupt: interrupted at t = 0.00000E+000 (trace kept)\n", \
+        (res.stdout, res.stderr)
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    assert not (tmp_path / "o" / ".dyncontact.lock").exists()
+    assert sorted(os.listdir(tmp_path / "o")) == ["summary.json", "trace.csv"]

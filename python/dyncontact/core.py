@@ -652,16 +652,25 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                 raise BadInputError(f"restart={os.fspath(restart)!r} continues the run in that "
                                     "folder: out must be the same folder or None")
             out_dir = restart_dir
-            handle, _n, start, stat, errmsg = core.dc_sim_open_restart(
-                _fpath(path, "scene file"), _fpath(given, "restart folder"))
-        else:
-            handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
-                _fpath(path, "scene file"), _fpath(given, "output folder"), 0,
-                _out_said("out", given) if explicit_out else b"")
+        # a signal during the open (the set-up after the mesh is read: seconds to minutes
+        # on a large mesh) is held until the run is in hands (_SignalsHeld), then stops it
+        # before its first step as any other: the run closed as interrupted, its lock
+        # released
+        with _SignalsHeld() as held:
+            if restart is not None:
+                handle, _n, start, stat, errmsg = core.dc_sim_open_restart(
+                    _fpath(path, "scene file"), _fpath(given, "restart folder"))
+            else:
+                handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
+                    _fpath(path, "scene file"), _fpath(given, "output folder"), 0,
+                    _out_said("out", given) if explicit_out else b"")
+        if not handle:
+            held.deliver()
         _check(stat, errmsg, "opening the run")
         message = ""
         stopped = None
         try:
+            held.deliver()
             n_steps = _warn_notes(handle)
             if opened is not None:
                 said = os.fsdecode(scene) if written is None else scene._name()
@@ -722,6 +731,55 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
         _stop_keeps(named)
+
+
+class _SignalsHeld:
+    """``with _SignalsHeld() as held:`` around a core call whose result must be stored
+    before anything may interrupt (an open run, to be closed whatever happens): a SIGINT
+    or SIGTERM whose handler is Python code (Ctrl-C's KeyboardInterrupt, the command
+    line's SIGTERM) is recorded instead of handled during the block, and handled, by the
+    handler that was set, at ``held.deliver()``. Python handles a signal that came during
+    a call as soon as the call returns, before its result is stored: the run the core
+    had opened meanwhile was then never closed (its folder left locked, summary.json
+    saying "running"). Only in the main thread, where Python runs its handlers; a block
+    left by an exception delivers at once."""
+
+    SIGNALS = ("SIGINT", "SIGTERM")
+
+    def __init__(self) -> None:
+        self._previous: dict[int, Any] = {}
+        self._held: list[tuple[int, Any]] = []
+
+    def __enter__(self) -> "_SignalsHeld":
+        import signal
+        import threading
+
+        if threading.current_thread() is threading.main_thread():
+            for name in self.SIGNALS:
+                sig = getattr(signal, name)
+                handler = signal.getsignal(sig)
+                if callable(handler):
+                    self._previous[sig] = handler
+                    signal.signal(sig, self._record)
+        return self
+
+    def _record(self, signum, frame) -> None:
+        self._held.append((signum, frame))
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        import signal
+
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        if exc_type is not None:
+            self.deliver()
+
+    def deliver(self) -> None:
+        """Handle the signals held, once each, as their handlers would have (Ctrl-C's
+        raises KeyboardInterrupt here)."""
+        held, self._held = self._held, []
+        for signum, frame in held:
+            self._previous[signum](signum, frame)
 
 
 #: The longest text of a callback's exception that summary.json's message repeats.
