@@ -73,10 +73,10 @@ def _goes_on(proc: subprocess.Popen, folder: Path, seconds: float,
 @pytest.mark.parametrize("kind", ["exe", "cli"])
 def test_a_signal_ignored_at_start_stays_ignored(kind, ignored, tmp_path):
     """Started with `ignored` ignored, the run goes on after it (its trace keeps growing,
-    for several chunks of steps of the Python command line); the other stop signal still stops it, exit 130 with
-    the trace and summary of an interrupted run. Without the fix the executable installs
-    its handler over an ignored SIGINT or SIGTERM and stops, and the Python command line
-    does so for SIGTERM."""
+    for several chunks of steps of the Python command line); the other stop signal still
+    stops it, exit 130 with the trace and summary of an interrupted run. Without the fix
+    the executable installs its handler over an ignored SIGINT or SIGTERM and stops on
+    it, and the Python command line does so for SIGTERM."""
     other = signal.SIGTERM if ignored == signal.SIGINT else signal.SIGINT
 
     def dispositions():
