@@ -43,14 +43,15 @@
  * for gmsh to finish. A program that runs in a Python process (`python -m dyncontact
  * run` and `mesh`) asks for the same with dc_exit_on_read_signal (run_guard.c); a library
  * caller never does, and keeps the signal until the read is over. Before it ends the
- * process, the stop removes the temporary files the program named (dc_stop_removes,
- * run_guard.c). A signal the process ignores when the read starts stays ignored. The
- * Python gmsh module's own calls (mesh_io.generate) get the same guard through
- * dc_gmsh_guard_begin / dc_gmsh_guard_after_init / dc_gmsh_guard_end.
+ * process, the stop removes the temporary files the program named (dc_stop_removes).
+ * A signal the process ignores when the read starts stays ignored. The Python gmsh
+ * module's own calls (mesh_io.generate) get the same guard through dc_gmsh_guard_begin,
+ * dc_gmsh_guard_after_init and dc_gmsh_guard_end.
  * Status: 0 ok, 2 bad input (message in msg), 4 out of memory, 5 a .geo estimated above
  * the element limit (not meshed; see geo_estimate). */
 #define _GNU_SOURCE   /* strcasestr */
 #include <dlfcn.h>
+#include <errno.h>
 #include <math.h>
 #include <pthread.h>
 #include <signal.h>
@@ -154,10 +155,68 @@ static int stop_ends[2];
 
 #define STOP_TAIL " while gmsh read it; nothing was written"
 
-void dc_stop_remove_all(void);   /* run_guard.c */
+/* The files and folders that a stop during a gmsh read removes before it ends the process
+ * (dc_stop_remove_all, called by stop_exit): a program's temporary files written before
+ * the read (`python -m dyncontact run --set` writes its scene there, `dyncontact mesh` its
+ * mesh file until it is whole). A fixed table, so that the handler reads it without a
+ * lock or an allocation: a path is copied into a free slot before the slot is marked
+ * used, and the slot is marked free before it is reused. */
+#define STOP_REMOVE_SLOTS 8
+#define STOP_REMOVE_PATH 4096
+static char stop_remove_path[STOP_REMOVE_SLOTS][STOP_REMOVE_PATH];
+static volatile sig_atomic_t stop_remove_used[STOP_REMOVE_SLOTS];
+static pthread_mutex_t stop_remove_lock = PTHREAD_MUTEX_INITIALIZER;
 
-/* Remove what the program named to be removed on a stop (dc_stop_removes, run_guard.c:
- * its temporary files), say that signal sig interrupted the read, in one line on stderr,
+/* Name path (a file or an empty folder) to be removed by a stop during a gmsh read, until
+ * dc_stop_keeps(path). 0, ENAMETOOLONG (an empty path or one too long) or ENOSPC (every
+ * slot in use). */
+int dc_stop_removes(const char *path)
+{
+    size_t n = strlen(path);
+    int i, err = ENOSPC;
+    if (n == 0 || n >= STOP_REMOVE_PATH) return ENAMETOOLONG;
+    pthread_mutex_lock(&stop_remove_lock);
+    for (i = 0; i < STOP_REMOVE_SLOTS; i++) {
+        if (stop_remove_used[i]) continue;
+        memcpy(stop_remove_path[i], path, n + 1);
+        __atomic_thread_fence(__ATOMIC_SEQ_CST);   /* the path before the mark */
+        stop_remove_used[i] = 1;
+        err = 0;
+        break;
+    }
+    pthread_mutex_unlock(&stop_remove_lock);
+    return err;
+}
+
+/* Take back one naming of path by dc_stop_removes (the file is kept, or removed by its
+ * writer itself); a path not named is ignored. */
+void dc_stop_keeps(const char *path)
+{
+    int i;
+    pthread_mutex_lock(&stop_remove_lock);
+    for (i = 0; i < STOP_REMOVE_SLOTS; i++)
+        if (stop_remove_used[i] && strcmp(stop_remove_path[i], path) == 0) {
+            stop_remove_used[i] = 0;
+            break;
+        }
+    pthread_mutex_unlock(&stop_remove_lock);
+}
+
+/* Remove the files, then the (then empty) folders, named by dc_stop_removes. Only
+ * async-signal-safe calls (unlink, rmdir): the stop's signal handler calls it right
+ * before _exit. */
+void dc_stop_remove_all(void)
+{
+    int i, saved = errno;
+    for (i = 0; i < STOP_REMOVE_SLOTS; i++)
+        if (stop_remove_used[i]) (void)unlink(stop_remove_path[i]);
+    for (i = STOP_REMOVE_SLOTS - 1; i >= 0; i--)
+        if (stop_remove_used[i]) (void)rmdir(stop_remove_path[i]);
+    errno = saved;
+}
+
+/* Remove what the program named to be removed on a stop (dc_stop_removes: its temporary
+ * files), say that signal sig interrupted the read, in one line on stderr,
  * and end the process with 130, the status of an interrupted run. Only async-signal-safe
  * calls (unlink, rmdir, write, _exit): a signal handler calls it too. */
 static void stop_exit(int sig)

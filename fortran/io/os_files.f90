@@ -24,7 +24,7 @@ module os_files
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
             integer(c_int) :: r
         end function c_stop_removes
-        !> Take back one naming of path by c_stop_removes (run_guard.c).
+        !> Take back one naming of path by c_stop_removes (gmsh_shim.c).
         subroutine c_stop_keeps(path) bind(C, name='dc_stop_keeps')
             import :: c_char
             character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path

@@ -2,8 +2,6 @@
  * itself (bound through bind(C) in os_files.f90 and main.f90):
  *   - SIGINT / SIGTERM handlers that only set a flag, polled at the end of each step
  *     (not for a signal the process ignores from its start: it stays ignored);
- *   - the files that a stop signal during a gmsh read removes before it ends the process
- *     (gmsh_shim.c): temporary files a program wrote before the read;
  *   - an output-folder lock file created with O_EXCL that holds the owner's pid (and, on
  *     Linux, the process's start time and the boot id, so that a pid reused after a
  *     kill -9 or a reboot is not taken for the owner);
@@ -21,7 +19,6 @@
 #include <errno.h>
 #include <math.h>
 #include <fcntl.h>
-#include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -87,68 +84,8 @@ int dc_signals_install(void)
  * may end the process belongs to the program that owns it; a script or notebook that
  * calls the library keeps its own handling of the signals. What the caller wrote before
  * the read that the exit would leave behind (a temporary file) must be named to
- * dc_stop_removes first; nothing else may be (an output folder, a lock). */
+ * dc_stop_removes (gmsh_shim.c) first; nothing else may be (an output folder, a lock). */
 void dc_exit_on_read_signal(void) { dc_read_exit = 1; }
-
-/* The files and folders that a stop during a gmsh read removes before it ends the process
- * (dc_stop_remove_all, called by the stop's signal handler in gmsh_shim.c): a program's
- * temporary files written before the read (`python -m dyncontact run --set` writes its
- * scene there; `dyncontact mesh` its mesh file until it is whole). A fixed table, so that
- * the handler reads it without a lock or an allocation: a path is copied into a free slot
- * before the slot is marked used, and the slot is marked free before it is reused. */
-#define STOP_REMOVE_SLOTS 8
-#define STOP_REMOVE_PATH 4096
-static char stop_remove_path[STOP_REMOVE_SLOTS][STOP_REMOVE_PATH];
-static volatile sig_atomic_t stop_remove_used[STOP_REMOVE_SLOTS];
-static pthread_mutex_t stop_remove_lock = PTHREAD_MUTEX_INITIALIZER;
-
-/* Name path (a file or an empty folder) to be removed by a stop during a gmsh read, until
- * dc_stop_keeps(path). 0, ENAMETOOLONG (an empty path or one too long) or ENOSPC (every
- * slot in use). */
-int dc_stop_removes(const char *path)
-{
-    size_t n = strlen(path);
-    int i, err = ENOSPC;
-    if (n == 0 || n >= STOP_REMOVE_PATH) return ENAMETOOLONG;
-    pthread_mutex_lock(&stop_remove_lock);
-    for (i = 0; i < STOP_REMOVE_SLOTS; i++) {
-        if (stop_remove_used[i]) continue;
-        memcpy(stop_remove_path[i], path, n + 1);
-        __atomic_thread_fence(__ATOMIC_SEQ_CST);   /* the path before the mark */
-        stop_remove_used[i] = 1;
-        err = 0;
-        break;
-    }
-    pthread_mutex_unlock(&stop_remove_lock);
-    return err;
-}
-
-/* Take back one naming of path by dc_stop_removes (the file is kept, or removed by its
- * writer itself); a path not named is ignored. */
-void dc_stop_keeps(const char *path)
-{
-    int i;
-    pthread_mutex_lock(&stop_remove_lock);
-    for (i = 0; i < STOP_REMOVE_SLOTS; i++)
-        if (stop_remove_used[i] && strcmp(stop_remove_path[i], path) == 0) {
-            stop_remove_used[i] = 0;
-            break;
-        }
-    pthread_mutex_unlock(&stop_remove_lock);
-}
-
-/* Remove the files, then the (then empty) folders, named by dc_stop_removes. Only
- * async-signal-safe calls (unlink, rmdir): the stop's signal handler calls it right
- * before _exit. */
-void dc_stop_remove_all(void)
-{
-    int i, saved = errno;
-    for (i = 0; i < STOP_REMOVE_SLOTS; i++)
-        if (stop_remove_used[i]) (void)unlink(stop_remove_path[i]);
-    for (i = STOP_REMOVE_SLOTS - 1; i >= 0; i--)
-        if (stop_remove_used[i]) (void)rmdir(stop_remove_path[i]);
-    errno = saved;
-}
 
 /* 1 when SIGINT / SIGTERM during a gmsh read may end the process, while nothing has been
  * written (gmsh_shim.c): in the executable (dc_signals_install has run) or a program that

@@ -125,11 +125,11 @@ def _gmsh_session(path: str | os.PathLike, model: str = "dyncontact") -> Iterato
     and parser variables set here are restored; its ONELAB database is set aside
     (emptied, :func:`_onelab_empty`) and put back as it was.
 
-    The session is inside :func:`dyncontact.core.gmsh_guard` (unless the caller's block
-    is already): the signal dispositions that loading gmsh and its initialization change
-    (SIGTERM's reset to its default) are put back, and in a program that asked for it
-    (``python -m dyncontact mesh``) SIGINT or SIGTERM ends the process at once, exit
-    status 130, with a line naming `path`.
+    Its calls into gmsh are inside :func:`dyncontact.core.gmsh_guard` (unless the
+    caller's block is already): the signal dispositions that loading gmsh and its
+    initialization change (SIGTERM's reset to its default) are put back, and in a program
+    that asked for it (``python -m dyncontact mesh``) SIGINT or SIGTERM ends the process
+    at once, exit status 130, with a line naming `path`.
     """
     with gmsh_guard(path):
         with _gmsh_model(model) as gmsh:
@@ -608,18 +608,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         _check_out(args.out)
-        read = []
+        read, refused = [], []
 
         def read_back(part: Path) -> None:
             # the mesh as written, before it takes its name: gmsh does not report a write
-            # cut short midway, which then does not read back (the messages name --out)
+            # cut short midway, which then does not read back, and is discarded; a file
+            # written whole that the reader refuses (quadrangles) takes its name, as gmsh
+            # wrote it, and the command fails as bad input (the messages name --out)
             try:
                 read.append(read_mesh(part, check=False))
             except BadInputError as exc:
                 reason = _cut_short(part)
                 if reason is None:
-                    raise BadInputError(str(exc).replace(str(part), str(Path(args.out)))) \
-                        from None
+                    refused.append(BadInputError(str(exc).replace(str(part),
+                                                                  str(Path(args.out)))))
+                    return
                 raise DyncontactError(f"{Path(args.out)}: gmsh could not write it whole: "
                                       f"{reason}") from None
 
@@ -633,6 +636,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             out = generate(args.geo, args.out, h=args.h, length=args.length,
                            width=args.width, max_elements=args.max_elements,
                            keys=("--max-elements", "--h"), **fmt)
+        if refused:
+            raise refused[0]
         mesh = read[0]
     except (BadInputError, OSError) as exc:
         print(f"dyncontact mesh: {' '.join(str(exc).split())}", file=sys.stderr)
