@@ -216,9 +216,9 @@ void dc_stop_remove_all(void)
 }
 
 /* Remove what the program named to be removed on a stop (dc_stop_removes: its temporary
- * files), say that signal sig interrupted the read, in one line on stderr,
- * and end the process with 130, the status of an interrupted run. Only async-signal-safe
- * calls (unlink, rmdir, write, _exit): a signal handler calls it too. */
+ * files), say that signal sig interrupted the read, in one line on stderr, and end the
+ * process with 130, the status of an interrupted run. Only async-signal-safe calls
+ * (unlink, rmdir, write, _exit): a signal handler calls it too. */
 static void stop_exit(int sig)
 {
     char num[16];

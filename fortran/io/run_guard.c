@@ -79,12 +79,13 @@ int dc_signals_install(void)
 
 /* Called once by a program hosted in another process image (`python -m dyncontact run`
  * and `mesh`): from then on SIGINT / SIGTERM during a gmsh read end the process as in the
- * executable (gmsh_shim.c), with exit status 130 and the same line. A switch of the process, never
- * cleared, like the executable's handlers, and never set by the library: whether a signal
- * may end the process belongs to the program that owns it; a script or notebook that
- * calls the library keeps its own handling of the signals. What the caller wrote before
- * the read that the exit would leave behind (a temporary file) must be named to
- * dc_stop_removes (gmsh_shim.c) first; nothing else may be (an output folder, a lock). */
+ * executable (gmsh_shim.c), with exit status 130 and the same line. A switch of the
+ * process, never cleared, like the executable's handlers, and never set by the library:
+ * whether a signal may end the process belongs to the program that owns it; a script or
+ * notebook that calls the library keeps its own handling of the signals. What the caller
+ * wrote before the read that the exit would leave behind (a temporary file) must be
+ * named to dc_stop_removes (gmsh_shim.c) first; nothing else may be (an output folder, a
+ * lock). */
 void dc_exit_on_read_signal(void) { dc_read_exit = 1; }
 
 /* 1 when SIGINT / SIGTERM during a gmsh read may end the process, while nothing has been

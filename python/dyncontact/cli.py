@@ -286,7 +286,7 @@ def cmd_mesh(argv: Sequence[str], program: bool = False) -> int:
         # as `run`: Ctrl-C or SIGTERM while gmsh meshes, writes or reads back the mesh
         # ends the program at once (exit 130, one line naming the .geo), the mesh file
         # written so far removed (mesh_io.generate writes it under a temporary name that
-        # the exit removes, and gives it its name once it reads back whole)
+        # the exit removes, and gives it its name once gmsh wrote it whole)
         core.exit_on_signal_during_mesh_read()
     rc = mesh_io.main(list(argv))
     return int(rc or 0)
