@@ -30,8 +30,10 @@ import json
 import operator
 import os
 import shutil
+import signal
 import sys
 import tempfile
+import threading
 import time
 import warnings
 from typing import Any, Callable, Mapping
@@ -630,7 +632,7 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         out = restart
     # a folder for the file a Scene is written to, none for a scene file; a program that
     # ends itself on a signal while gmsh reads the mesh (exit_on_signal_during_mesh_read)
-    # removes both first (removed_if_stopped), and so leaves nothing behind
+    # removes the file and the folder first (removed_if_stopped): nothing is left behind
     tmp = None if _is_path(scene) else tempfile.mkdtemp(prefix="dyncontact-")
     written = None    # the temporary file a Scene is written to (its messages name the Scene)
     named = [] if tmp is None else _stop_removes([tmp, os.path.join(tmp, SCENE_FILE)])
@@ -751,9 +753,6 @@ class _SignalsHeld:
         self._held: list[tuple[int, Any]] = []
 
     def __enter__(self) -> "_SignalsHeld":
-        import signal
-        import threading
-
         if threading.current_thread() is threading.main_thread():
             for name in self.SIGNALS:
                 sig = getattr(signal, name)
@@ -767,8 +766,6 @@ class _SignalsHeld:
         self._held.append((signum, frame))
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        import signal
-
         for sig, handler in self._previous.items():
             signal.signal(sig, handler)
         if exc_type is not None:
