@@ -12,16 +12,69 @@ subroutine dc_version(version)
     version = DYNCONTACT_VERSION
 end subroutine dc_version
 
-!> For a program only (`python -m dyncontact run`), never the library: from this call on,
-!> SIGINT / SIGTERM while gmsh reads or meshes a mesh file end the process at once (exit
-!> 130, the executable's one line naming the file) instead of waiting for gmsh. A switch of
-!> the process that the program owning it sets once, as the executable installs its signal
-!> handlers; not a run's state, since a library caller's process is not the run's to end.
+!> For a program only (`python -m dyncontact run`, `mesh`), never the library: from this
+!> call on, SIGINT / SIGTERM while gmsh reads or meshes a mesh file end the process at once
+!> (exit 130, the executable's one line naming the file) instead of waiting for gmsh. A
+!> switch of the process that the program owning it sets once, as the executable installs
+!> its signal handlers; not a run's state, since a library caller's process is not the
+!> run's to end.
 subroutine dc_exit_on_read_signal()
     use os_files, only: exit_on_read_signal
     implicit none
     call exit_on_read_signal()
 end subroutine dc_exit_on_read_signal
+
+!> Name a file or a folder (emptied first) that a stop during a gmsh read removes before it
+!> ends the process (dc_exit_on_read_signal), until dc_stop_keeps: a temporary file a
+!> program wrote before the read. err: 0, or errno (too long, or too many named).
+subroutine dc_stop_removes(path, err)
+    use iso_c_binding, only: c_int
+    use os_files, only: stop_removes
+    implicit none
+    character(len=*), intent(in) :: path        !! file or folder
+    integer(c_int), intent(out) :: err          !! 0 or errno
+    integer :: e
+    call stop_removes(path, e)
+    err = e
+end subroutine dc_stop_removes
+
+!> Take back one naming of path by dc_stop_removes.
+subroutine dc_stop_keeps(path)
+    use os_files, only: stop_keeps
+    implicit none
+    character(len=*), intent(in) :: path        !! file or folder
+    call stop_keeps(path)
+end subroutine dc_stop_keeps
+
+!> Begin the guard around the caller's own calls into gmsh (the Python gmsh module): the
+!> signal dispositions kept; after dc_exit_on_read_signal, SIGINT / SIGTERM end the
+!> process at once (exit 130, the line line_start, the signal's number, line_end).
+!> held = 1 when the guard is this call's (end it with dc_gmsh_guard_end), 0 otherwise.
+subroutine dc_gmsh_guard_begin(line_start, line_end, held)
+    use iso_c_binding, only: c_int
+    use os_files, only: gmsh_guard_begin
+    implicit none
+    character(len=*), intent(in) :: line_start  !! the line before the signal's number
+    character(len=*), intent(in) :: line_end    !! the line after it
+    integer(c_int), intent(out) :: held         !! 1 = held by this call
+    logical :: h
+    call gmsh_guard_begin(line_start, line_end, h)
+    held = merge(1, 0, h)
+end subroutine dc_gmsh_guard_begin
+
+!> Inside the guard, right after gmsh's initialization (it resets some dispositions).
+subroutine dc_gmsh_guard_after_init()
+    use os_files, only: gmsh_guard_after_init
+    implicit none
+    call gmsh_guard_after_init()
+end subroutine dc_gmsh_guard_after_init
+
+!> End the guard the calling thread began.
+subroutine dc_gmsh_guard_end()
+    use os_files, only: gmsh_guard_end
+    implicit none
+    call gmsh_guard_end()
+end subroutine dc_gmsh_guard_end
 
 !> Read and validate a scene file; write the parsed scene (defaults filled) as JSON.
 !> given: the keys the file writes, 'group.key' separated by blanks.

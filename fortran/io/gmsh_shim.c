@@ -41,12 +41,17 @@
  * been written yet: there a thread waits for SIGINT / SIGTERM during dc_gmsh_read and
  * ends the process at once (exit 130, one line naming the file), so Ctrl-C does not wait
  * for gmsh to finish. A program that runs in a Python process (`python -m dyncontact
- * run`) asks for the same with dc_exit_on_read_signal (run_guard.c); a library caller
- * never does, and keeps the signal until the read is over.
+ * run` and `mesh`) asks for the same with dc_exit_on_read_signal (run_guard.c); a library
+ * caller never does, and keeps the signal until the read is over. Before it ends the
+ * process, the stop removes the temporary files the program named (dc_stop_removes).
+ * A signal the process ignores when the read starts stays ignored. The Python gmsh
+ * module's own calls (mesh_io.generate) get the same guard through dc_gmsh_guard_begin,
+ * dc_gmsh_guard_after_init and dc_gmsh_guard_end.
  * Status: 0 ok, 2 bad input (message in msg), 4 out of memory, 5 a .geo estimated above
  * the element limit (not meshed; see geo_estimate). */
 #define _GNU_SOURCE   /* strcasestr */
 #include <dlfcn.h>
+#include <errno.h>
 #include <math.h>
 #include <pthread.h>
 #include <signal.h>
@@ -130,13 +135,16 @@ typedef struct {
     int armed, running;
 } stop_watch_t;
 
-/* The start of the line said when a stop signal ends a read ("dyncontact: FILE:
- * interrupted by signal "), and whether a stop is armed: process state, written before
- * the handler of stop_arm_handlers is installed and read by it, since a signal handler
- * gets no argument. One read at a time is armed (the executable and the Python command
- * line read one mesh at a time); a read started meanwhile in another thread arms none. */
+/* The line said when a stop signal ends a read, around the signal's number ("dyncontact:
+ * FILE: interrupted by signal " and STOP_TAIL), and whether a stop is armed: process
+ * state, written before the handler of stop_arm_handlers is installed and read by it,
+ * since a signal handler gets no argument. One read at a time is armed (the executable
+ * and the Python command line read one mesh at a time); a read started meanwhile in
+ * another thread, or inside a guard (dc_gmsh_guard_begin) that armed one, arms none. */
 static char stop_head[4096];
 static size_t stop_head_len;
+static char stop_tail[512];
+static size_t stop_tail_len;
 static volatile sig_atomic_t stop_armed = 0;
 
 /* The stop signals, and those of them that end an armed read: not one the process
@@ -145,20 +153,83 @@ static volatile sig_atomic_t stop_armed = 0;
 static const int STOP_SIGNALS[2] = {SIGINT, SIGTERM};
 static int stop_ends[2];
 
-#define STOP_TAIL " while gmsh read it; nothing was written\n"
+#define STOP_TAIL " while gmsh read it; nothing was written"
 
-/* Say that signal sig interrupted the read, in one line on stderr, and end the process
- * with 130, the status of an interrupted run. Only async-signal-safe calls (write, _exit):
- * a signal handler calls it too. */
+/* The files and folders that a stop during a gmsh read removes before it ends the process
+ * (dc_stop_remove_all, called by stop_exit): a program's temporary files written before
+ * the read (`python -m dyncontact run --set` writes its scene there, `dyncontact mesh` its
+ * mesh file until it is whole). A fixed table, so that the handler reads it without a
+ * lock or an allocation: a path is copied into a free slot before the slot is marked
+ * used, and the slot is marked free before it is reused. */
+#define STOP_REMOVE_SLOTS 8
+#define STOP_REMOVE_PATH 4096
+static char stop_remove_path[STOP_REMOVE_SLOTS][STOP_REMOVE_PATH];
+static volatile sig_atomic_t stop_remove_used[STOP_REMOVE_SLOTS];
+static pthread_mutex_t stop_remove_lock = PTHREAD_MUTEX_INITIALIZER;
+
+/* Name path (a file or an empty folder) to be removed by a stop during a gmsh read, until
+ * dc_stop_keeps(path). 0, ENAMETOOLONG (an empty path or one too long) or ENOSPC (every
+ * slot in use). */
+int dc_stop_removes(const char *path)
+{
+    size_t n = strlen(path);
+    int i, err = ENOSPC;
+    if (n == 0 || n >= STOP_REMOVE_PATH) return ENAMETOOLONG;
+    pthread_mutex_lock(&stop_remove_lock);
+    for (i = 0; i < STOP_REMOVE_SLOTS; i++) {
+        if (stop_remove_used[i]) continue;
+        memcpy(stop_remove_path[i], path, n + 1);
+        __atomic_thread_fence(__ATOMIC_SEQ_CST);   /* the path before the mark */
+        stop_remove_used[i] = 1;
+        err = 0;
+        break;
+    }
+    pthread_mutex_unlock(&stop_remove_lock);
+    return err;
+}
+
+/* Take back one naming of path by dc_stop_removes (the file is kept, or removed by its
+ * writer itself); a path not named is ignored. */
+void dc_stop_keeps(const char *path)
+{
+    int i;
+    pthread_mutex_lock(&stop_remove_lock);
+    for (i = 0; i < STOP_REMOVE_SLOTS; i++)
+        if (stop_remove_used[i] && strcmp(stop_remove_path[i], path) == 0) {
+            stop_remove_used[i] = 0;
+            break;
+        }
+    pthread_mutex_unlock(&stop_remove_lock);
+}
+
+/* Remove the files, then the (then empty) folders, named by dc_stop_removes. Only
+ * async-signal-safe calls (unlink, rmdir): the stop's signal handler calls it right
+ * before _exit. */
+void dc_stop_remove_all(void)
+{
+    int i, saved = errno;
+    for (i = 0; i < STOP_REMOVE_SLOTS; i++)
+        if (stop_remove_used[i]) (void)unlink(stop_remove_path[i]);
+    for (i = STOP_REMOVE_SLOTS - 1; i >= 0; i--)
+        if (stop_remove_used[i]) (void)rmdir(stop_remove_path[i]);
+    errno = saved;
+}
+
+/* Remove what the program named to be removed on a stop (dc_stop_removes: its temporary
+ * files), say that signal sig interrupted the read, in one line on stderr, and end the
+ * process with 130, the status of an interrupted run. Only async-signal-safe calls
+ * (unlink, rmdir, write, _exit): a signal handler calls it too. */
 static void stop_exit(int sig)
 {
     char num[16];
     int i = (int)sizeof num;
     ssize_t w;
+    dc_stop_remove_all();
     do { num[--i] = (char)('0' + sig % 10); sig /= 10; } while (sig > 0 && i > 0);
     w = write(STDERR_FILENO, stop_head, stop_head_len);
     w = write(STDERR_FILENO, num + i, sizeof num - (size_t)i);
-    w = write(STDERR_FILENO, STOP_TAIL, sizeof STOP_TAIL - 1);
+    w = write(STDERR_FILENO, stop_tail, stop_tail_len);
+    w = write(STDERR_FILENO, "\n", 1);
     (void)w;
     _exit(130);
 }
@@ -219,26 +290,34 @@ static void *stop_watch_main(void *arg)
     return NULL;
 }
 
+/* Copy text into buf (size bytes), cut to fit; its length. */
+static size_t stop_text(char *buf, size_t size, const char *text)
+{
+    int n = snprintf(buf, size, "%s", text);
+    if (n < 0) { buf[0] = '\0'; return 0; }
+    return (size_t)n < size ? (size_t)n : size - 1;
+}
+
 /* In the executable, or a program that asked for it (dc_exit_on_read_signal, run_guard.c:
- * `python -m dyncontact run`), arm the stop for path: the line's start, the handlers of
- * stop_arm_handlers and the thread of stop_watch_main (the stop signals are blocked in
- * this thread already by signals_save, and the dispositions it saved are put back by
- * signals_restore); elsewhere (a library caller) nothing. */
-static void stop_watch_start(stop_watch_t *w, const char *path)
+ * `python -m dyncontact run` and `mesh`), arm the stop, whose line is head, the signal's
+ * number and tail: the line, the handlers of stop_arm_handlers and the thread of
+ * stop_watch_main (the stop signals are blocked in this thread already by signals_save,
+ * and the dispositions it saved are put back by signals_restore); elsewhere (a library
+ * caller) nothing. */
+static void stop_watch_start(stop_watch_t *w, const char *head, const char *tail)
 {
     struct sigaction current;
-    int n, i, any = 0;
+    int i, any = 0;
     w->armed = w->running = 0;
     if (!dc_read_signal_exits() || stop_armed) return;
     for (i = 0; i < 2; i++) {
         stop_ends[i] = sigaction(STOP_SIGNALS[i], NULL, &current) == 0
-                       && current.sa_handler != SIG_IGN;
+                       && ((current.sa_flags & SA_SIGINFO) || current.sa_handler != SIG_IGN);
         any = any || stop_ends[i];
     }
     if (!any) return;
-    n = snprintf(stop_head, sizeof stop_head, "dyncontact: %s: interrupted by signal ", path);
-    if (n < 0) return;
-    stop_head_len = (size_t)n < sizeof stop_head ? (size_t)n : sizeof stop_head - 1;
+    stop_head_len = stop_text(stop_head, sizeof stop_head, head);
+    stop_tail_len = stop_text(stop_tail, sizeof stop_tail, tail);
     stop_armed = w->armed = 1;
     stop_arm_handlers();
     w->running = pthread_create(&w->thread, NULL, stop_watch_main, NULL) == 0;
@@ -255,6 +334,74 @@ static void stop_watch_end(stop_watch_t *w)
     }
     if (w->armed) stop_armed = 0;
     w->armed = w->running = 0;
+}
+
+/* A guard around a program's own calls into gmsh that do not go through dc_gmsh_read:
+ * the Python gmsh module of `python -m dyncontact mesh`, which parses, meshes and writes a
+ * .geo (python/dyncontact/mesh_io.py). Within it, as within dc_gmsh_read: the stop
+ * signals are blocked in the calling thread, the dispositions of every signal are saved
+ * at dc_gmsh_guard_begin and put back at dc_gmsh_guard_end (those that gmsh's
+ * initialization resets, SIGTERM among them, and a SIGTERM ignored from the program's
+ * start, which would otherwise end the process), and dc_gmsh_guard_after_init, called
+ * right after gmsh's initialization, puts the stop signals' dispositions back at once;
+ * in a program that asked for it (dc_exit_on_read_signal), SIGINT / SIGTERM end the
+ * process at once with exit status 130, after removing what dc_stop_removes names (the
+ * mesh file being written), saying line_start, the signal's number and line_end. A
+ * library caller keeps the signal until the guard ends. One guard at a time, held by
+ * the thread that began it (a Python thread of the process); a begin meanwhile returns 0
+ * and guards nothing, and a dc_gmsh_read inside arms no stop of its own (the guard's
+ * line and files stand). Process state, since the Python code between the calls into
+ * gmsh cannot carry it. */
+static signal_state_t guard_sigs;
+static stop_watch_t guard_watch;
+static pthread_mutex_t guard_lock = PTHREAD_MUTEX_INITIALIZER;
+static pthread_t guard_owner;
+static int guard_held = 0;
+
+/* 1 when the calling thread holds the guard. */
+static int guard_mine(void)
+{
+    int mine;
+    pthread_mutex_lock(&guard_lock);
+    mine = guard_held && pthread_equal(guard_owner, pthread_self());
+    pthread_mutex_unlock(&guard_lock);
+    return mine;
+}
+
+/* Begin the guard (see above): 1, or 0 when another call holds it (nothing done). */
+int dc_gmsh_guard_begin(const char *line_start, const char *line_end)
+{
+    pthread_mutex_lock(&guard_lock);
+    if (guard_held) {
+        pthread_mutex_unlock(&guard_lock);
+        return 0;
+    }
+    guard_held = 1;
+    guard_owner = pthread_self();
+    pthread_mutex_unlock(&guard_lock);
+    signals_save(&guard_sigs);
+    stop_watch_start(&guard_watch, line_start, line_end);
+    return 1;
+}
+
+/* Right after gmsh's initialization inside the guard: the stop signals' dispositions as
+ * the guard found them, or the stop's handlers where it armed one. */
+void dc_gmsh_guard_after_init(void)
+{
+    if (guard_mine()) stop_signals_after_init(&guard_sigs);
+}
+
+/* End the guard that the calling thread began (otherwise nothing): disarm its stop, put
+ * back the dispositions and the thread's signal mask; a stop signal held meanwhile then
+ * reaches the caller's handler. */
+void dc_gmsh_guard_end(void)
+{
+    if (!guard_mine()) return;
+    stop_watch_end(&guard_watch);
+    signals_restore(&guard_sigs);
+    pthread_mutex_lock(&guard_lock);
+    guard_held = 0;
+    pthread_mutex_unlock(&guard_lock);
 }
 
 static void set_msg(char *msg, int len, const char *a, const char *b, const char *c)
@@ -1371,9 +1518,11 @@ int dc_gmsh_read(const char *path, const double *params, int is_geo, void **out,
 {
     signal_state_t sigs;
     stop_watch_t watch;
+    char head[4096];
     int st;
     signals_save(&sigs);
-    stop_watch_start(&watch, path);
+    snprintf(head, sizeof head, "dyncontact: %s: interrupted by signal ", path);
+    stop_watch_start(&watch, head, STOP_TAIL);
     st = gmsh_read(path, params, is_geo, out, est, msg, msglen, &sigs);
     stop_watch_end(&watch);
     signals_restore(&sigs);

@@ -18,6 +18,32 @@ module os_files
         !> SIGINT / SIGTERM during a gmsh read end the process from this call on (run_guard.c).
         subroutine c_exit_on_read_signal() bind(C, name='dc_exit_on_read_signal')
         end subroutine c_exit_on_read_signal
+        !> Name a file or empty folder that a stop during a gmsh read removes: 0 or errno.
+        function c_stop_removes(path) bind(C, name='dc_stop_removes') result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
+            integer(c_int) :: r
+        end function c_stop_removes
+        !> Take back one naming of path by c_stop_removes (gmsh_shim.c).
+        subroutine c_stop_keeps(path) bind(C, name='dc_stop_keeps')
+            import :: c_char
+            character(kind=c_char), intent(in) :: path(*)  !! NUL-terminated path
+        end subroutine c_stop_keeps
+        !> Begin the guard around a program's own calls into gmsh (gmsh_shim.c): 1, or 0
+        !> when another call holds it.
+        function c_gmsh_guard_begin(line_start, line_end) bind(C, name='dc_gmsh_guard_begin') &
+            result(r)
+            import :: c_int, c_char
+            character(kind=c_char), intent(in) :: line_start(*)  !! NUL-terminated text
+            character(kind=c_char), intent(in) :: line_end(*)    !! NUL-terminated text
+            integer(c_int) :: r
+        end function c_gmsh_guard_begin
+        !> Inside the guard, right after gmsh's initialization (gmsh_shim.c).
+        subroutine c_gmsh_guard_after_init() bind(C, name='dc_gmsh_guard_after_init')
+        end subroutine c_gmsh_guard_after_init
+        !> End the guard the calling thread began (gmsh_shim.c).
+        subroutine c_gmsh_guard_end() bind(C, name='dc_gmsh_guard_end')
+        end subroutine c_gmsh_guard_end
         !> The signal caught since the handlers were installed (0 = none; run_guard.c).
         function c_signal_caught() bind(C, name='dc_signal_caught') result(r)
             import :: c_int
@@ -149,6 +175,8 @@ module os_files
     end interface
 
     public :: signals_install, exit_on_read_signal, signal_caught, fd_open, fd_write, &
+              stop_removes, stop_keeps, gmsh_guard_begin, gmsh_guard_after_init, &
+              gmsh_guard_end, &
               fd_close, file_rename, file_remove, check_writable, lock_take, lock_release, &
               write_text_atomic, sys_error, free_space, fd_sync, fd_reopen, bytes_hash, &
               remove_matching, same_folder, write_status, read_whole_file
@@ -229,6 +257,45 @@ contains
     subroutine exit_on_read_signal()
         call c_exit_on_read_signal()
     end subroutine exit_on_read_signal
+
+    !> Name path (a file, or a folder emptied first) for removal when a stop signal ends
+    !> the process during a gmsh read (exit_on_read_signal), until stop_keeps(path): a
+    !> temporary file written before the read that the exit would otherwise leave behind.
+    !> err: 0, or errno (ENAMETOOLONG, or ENOSPC when too many are named).
+    subroutine stop_removes(path, err)
+        character(len=*), intent(in) :: path   !! file or folder
+        integer, intent(out) :: err            !! 0 or errno
+        err = c_stop_removes(path//c_null_char)
+    end subroutine stop_removes
+
+    !> Take back one naming of path by stop_removes (its writer keeps or removes it).
+    subroutine stop_keeps(path)
+        character(len=*), intent(in) :: path   !! file or folder
+        call c_stop_keeps(path//c_null_char)
+    end subroutine stop_keeps
+
+    !> Begin the guard around a program's own calls into gmsh outside the core's reader
+    !> (the Python gmsh module): the signal dispositions kept, and in a program that
+    !> asked for it (exit_on_read_signal) SIGINT / SIGTERM ending the process at once
+    !> with exit status 130 and the line line_start, the signal's number, line_end.
+    !> held: whether this call holds the guard (one at a time; see gmsh_shim.c).
+    subroutine gmsh_guard_begin(line_start, line_end, held)
+        character(len=*), intent(in) :: line_start  !! the line before the signal's number
+        character(len=*), intent(in) :: line_end    !! the line after it
+        logical, intent(out) :: held                !! the guard is this call's
+        held = c_gmsh_guard_begin(line_start//c_null_char, line_end//c_null_char) /= 0
+    end subroutine gmsh_guard_begin
+
+    !> Inside the guard, right after gmsh's initialization, which resets some signals'
+    !> dispositions: the stop signals' put back at once.
+    subroutine gmsh_guard_after_init()
+        call c_gmsh_guard_after_init()
+    end subroutine gmsh_guard_after_init
+
+    !> End the guard the calling thread began: dispositions and signal mask put back.
+    subroutine gmsh_guard_end()
+        call c_gmsh_guard_end()
+    end subroutine gmsh_guard_end
 
     !> The signal number caught since signals_install (0 = none, always 0 without it).
     function signal_caught() result(sig)

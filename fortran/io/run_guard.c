@@ -1,6 +1,7 @@
 /* run_guard.c: the few POSIX calls the Fortran core needs and Fortran cannot make
  * itself (bound through bind(C) in os_files.f90 and main.f90):
- *   - SIGINT / SIGTERM handlers that only set a flag, polled at the end of each step;
+ *   - SIGINT / SIGTERM handlers that only set a flag, polled at the end of each step
+ *     (not for a signal the process ignores from its start: it stays ignored);
  *   - an output-folder lock file created with O_EXCL that holds the owner's pid (and, on
  *     Linux, the process's start time and the boot id, so that a pid reused after a
  *     kill -9 or a reboot is not taken for the owner);
@@ -36,7 +37,22 @@ static volatile sig_atomic_t dc_read_exit = 0;     /* dc_exit_on_read_signal has
 
 static void dc_on_signal(int sig) { dc_signal_flag = sig; }
 
-/* Install the SIGINT and SIGTERM handlers (executable only), and ignore SIGXFSZ: a write
+/* Point signal sig at the action sa, unless the process ignores it: a signal ignored
+ * when the program starts (SIG_IGN is inherited through exec: `nohup` ignores SIGHUP, a
+ * shell without job control starts its background jobs, `cmd &` in a script, with SIGINT
+ * and SIGQUIT ignored) is meant to leave the program alone, and stays ignored, as shells,
+ * make and Python leave it (Python installs no KeyboardInterrupt for a SIGINT ignored at
+ * its start). 0 or errno. */
+static int catch_unless_ignored(int sig, const struct sigaction *sa)
+{
+    struct sigaction current;
+    if (sigaction(sig, NULL, &current) != 0) return errno;
+    if (!(current.sa_flags & SA_SIGINFO) && current.sa_handler == SIG_IGN) return 0;
+    return sigaction(sig, sa, NULL) == 0 ? 0 : errno;
+}
+
+/* Install the SIGINT and SIGTERM handlers (executable only; a signal the process ignores
+ * from its start stays ignored: catch_unless_ignored), and ignore SIGXFSZ: a write
  * past the file-size limit (ulimit -f, a batch system's RLIMIT_FSIZE) then fails with
  * EFBIG and is reported as any other failed write (summary status "write_failed", exit
  * 4), as under Python, which ignores SIGXFSZ, instead of killing the process. SIGPIPE is
@@ -46,12 +62,13 @@ static void dc_on_signal(int sig) { dc_signal_flag = sig; }
 int dc_signals_install(void)
 {
     struct sigaction sa;
+    int err;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = dc_on_signal;
     sigemptyset(&sa.sa_mask);
     sa.sa_flags = SA_RESTART;
-    if (sigaction(SIGINT, &sa, NULL) != 0) return errno;
-    if (sigaction(SIGTERM, &sa, NULL) != 0) return errno;
+    if ((err = catch_unless_ignored(SIGINT, &sa)) != 0) return err;
+    if ((err = catch_unless_ignored(SIGTERM, &sa)) != 0) return err;
 #ifdef SIGXFSZ
     if (signal(SIGXFSZ, SIG_IGN) == SIG_ERR) return errno;
 #endif
@@ -60,13 +77,15 @@ int dc_signals_install(void)
     return 0;
 }
 
-/* Called once by a program hosted in another process image (`python -m dyncontact run`):
- * from then on SIGINT / SIGTERM during a gmsh read end the process as in the executable
- * (gmsh_shim.c), with exit status 130 and the same line. A switch of the process, never
- * cleared, like the executable's handlers, and never set by the library: whether a signal
- * may end the process belongs to the program that owns it; a script or notebook that
- * calls the library keeps its own handling of the signals. The caller must have written
- * nothing before the read that the exit would leave behind (a temporary file, a lock). */
+/* Called once by a program hosted in another process image (`python -m dyncontact run`
+ * and `mesh`): from then on SIGINT / SIGTERM during a gmsh read end the process as in the
+ * executable (gmsh_shim.c), with exit status 130 and the same line. A switch of the
+ * process, never cleared, like the executable's handlers, and never set by the library:
+ * whether a signal may end the process belongs to the program that owns it; a script or
+ * notebook that calls the library keeps its own handling of the signals. What the caller
+ * wrote before the read that the exit would leave behind (a temporary file) must be
+ * named to dc_stop_removes (gmsh_shim.c) first; nothing else may be (an output folder, a
+ * lock). */
 void dc_exit_on_read_signal(void) { dc_read_exit = 1; }
 
 /* 1 when SIGINT / SIGTERM during a gmsh read may end the process, while nothing has been

@@ -101,6 +101,19 @@ def _sigterm_as_interrupt(signum, frame):  # noqa: ARG001 - signal handler signa
     raise KeyboardInterrupt(f"signal {signum}")
 
 
+def _catch_sigterm() -> None:
+    """Make SIGTERM stop the command as Ctrl-C does (:func:`_sigterm_as_interrupt`), in
+    the main thread (Python sets handlers there only), unless the process ignores
+    SIGTERM: a signal ignored from the program's start stays ignored, as the executable
+    leaves it (run_guard.c) and as Python leaves an ignored SIGINT (no
+    KeyboardInterrupt)."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_IGN:
+        return
+    signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
+
+
 def _said_of_option(exc: Exception, out: str | None, restart: str | None = None) -> Exception:
     """``exc``, a run's error, with the folders that run() names as its arguments said as
     this command's options, as the executable and ``study`` say them: the output folder
@@ -136,16 +149,14 @@ def cmd_run(args) -> int:
         scene = scene_path
     progress = False if args.quiet else None
     waited = False
-    if getattr(args, "program", False) and not sets:
+    if getattr(args, "program", False):
         # as the executable: Ctrl-C or SIGTERM while gmsh reads or meshes the mesh file
         # ends the program at once (exit 130, one line naming the file) instead of after
-        # the meshing; nothing is written before the read (the core makes the output
-        # folder and takes its lock after it, and run() of a scene file makes no
-        # temporary file). Not with --set: run() writes the Scene to a temporary file
-        # first, which the exit would leave behind.
+        # the meshing; nothing is left behind: the core makes the output folder and takes
+        # its lock after the read, and the temporary file that run() writes a Scene to
+        # (--set) is removed by the exit (core.removed_if_stopped)
         core.exit_on_signal_during_mesh_read()
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
+    _catch_sigterm()
     with warnings.catch_warnings():
         warnings.simplefilter("always", core.DyncontactWarning)
         previous = warnings.showwarning
@@ -268,9 +279,15 @@ def cmd_study(argv: Sequence[str]) -> int:
     return int(study_cli.main(list(argv)) or 0)
 
 
-def cmd_mesh(argv: Sequence[str]) -> int:
+def cmd_mesh(argv: Sequence[str], program: bool = False) -> int:
     from . import mesh_io
 
+    if program:
+        # as `run`: Ctrl-C or SIGTERM while gmsh meshes, writes or reads back the mesh
+        # ends the program at once (exit 130, one line naming the .geo), the mesh file
+        # written so far removed (mesh_io.generate writes it under a temporary name that
+        # the exit removes, and gives it its name once gmsh wrote it whole)
+        core.exit_on_signal_during_mesh_read()
     rc = mesh_io.main(list(argv))
     return int(rc or 0)
 
@@ -368,7 +385,7 @@ def main(argv: Sequence[str] | None = None, *, program: bool = False) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         if argv and argv[0] == "mesh":
-            return cmd_mesh(argv[1:])
+            return cmd_mesh(argv[1:], program)
         if argv and argv[0] == "study":
             return cmd_study(argv[1:])
         parser = build_parser()

@@ -30,8 +30,10 @@ import json
 import operator
 import os
 import shutil
+import signal
 import sys
 import tempfile
+import threading
 import time
 import warnings
 from typing import Any, Callable, Mapping
@@ -52,6 +54,10 @@ TRACE_COLUMNS = ("t", "u_n", "v_n", "p_n", "e_kin", "e_el", "e_contact", "e_tota
                  "newton_its", "active", "e_load", "f_n")
 
 STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED = 0, 2, 3, 4, 5
+
+#: The name of the file a :class:`dyncontact.Scene` is written to, in a temporary folder,
+#: for the core to read (:func:`run`, :class:`Model`).
+SCENE_FILE = "scene.nml"
 
 #: Longest path the Fortran core accepts, in bytes of the file-system encoding.
 PATH_MAX_BYTES = 1024
@@ -190,11 +196,82 @@ def exit_on_signal_during_mesh_read() -> None:
     of a run, so it is no argument of :func:`run` and no state of a library object. A
     script, a notebook or a :class:`Stepper` that imports dyncontact keeps Python's
     handling of the signals (a KeyboardInterrupt once the read is over). It is safe only
-    where nothing has been written before the read: the core reads the mesh before it
-    makes the output folder or takes its lock, and :func:`run` of a scene file makes no
-    temporary file (a :class:`dyncontact.Scene` is written to one first, which the exit
-    would leave behind: the caller that runs a Scene must not set this)."""
+    where nothing the exit would leave behind has been written before the read: the core
+    reads the mesh before it makes the output folder or takes its lock; :func:`run` of a
+    :class:`dyncontact.Scene` writes it to a temporary file first, and
+    :func:`dyncontact.mesh_io.generate` its mesh file under a temporary name until it is
+    whole, and both name them to :func:`removed_if_stopped`, so that the exit removes
+    them. A SIGINT or SIGTERM that the process ignores (``nohup``, a background job of a
+    shell without job control) stays ignored."""
     _core().dc_exit_on_read_signal()
+
+
+@contextlib.contextmanager
+def removed_if_stopped(*paths: str | os.PathLike):
+    """Within the block, a stop signal that ends the process during a gmsh read
+    (:func:`exit_on_signal_during_mesh_read`) first removes each of ``paths``: files,
+    then folders (removed when the files have emptied them). For the temporary files a
+    caller writes before a read and removes itself afterwards. Nothing changes in a
+    process that has not asked for that exit. The core holds a few such names at a time
+    (8): a path it cannot hold (too many named at once, a path over 4095 bytes) would be
+    left behind by such an exit, as before, and is not an error of the block."""
+    named = _stop_removes(paths)
+    try:
+        yield
+    finally:
+        _stop_keeps(named)
+
+
+def _stop_removes(paths) -> list[bytes]:
+    """Name ``paths`` to the core for removal by a stop (:func:`removed_if_stopped`);
+    those it holds, for :func:`_stop_keeps`."""
+    lib = _core()
+    named = []
+    for path in paths:
+        b = os.fsencode(path)
+        if lib.dc_stop_removes(b) == 0:
+            named.append(b)
+    return named
+
+
+def _stop_keeps(named: list[bytes]) -> None:
+    """Take back the names of :func:`_stop_removes`."""
+    lib = _core()
+    for b in reversed(named):
+        lib.dc_stop_keeps(b)
+
+
+@contextlib.contextmanager
+def gmsh_guard(path: str | os.PathLike, doing: str = "meshed"):
+    """Guard the caller's own calls into gmsh (the gmsh Python module) as the core
+    guards its reads: within the block, the stop signals (SIGINT, SIGTERM, SIGHUP,
+    SIGQUIT) are held in the calling thread, and every signal's disposition is put back
+    at its end, undoing what gmsh's initialization changes (it resets SIGTERM to its
+    default, which would kill the process without a word, even where SIGTERM was
+    ignored). Call :func:`gmsh_guard_after_init` right after ``gmsh.initialize()``.
+
+    In a program that asked for it (:func:`exit_on_signal_during_mesh_read`), SIGINT or
+    SIGTERM inside the block ends the process at once, exit status 130, after removing
+    what :func:`removed_if_stopped` names, with one line on stderr:
+    ``dyncontact: PATH: interrupted by signal N while gmsh DOING it; nothing was
+    written``. Elsewhere (a library caller) the signal reaches the caller's handler once
+    the block ends (a KeyboardInterrupt for Ctrl-C). One guard at a time in the process:
+    a block inside another one, or in another thread meanwhile, guards nothing more."""
+    lib = _core()
+    start = b"dyncontact: " + os.fsencode(path) + b": interrupted by signal "
+    held = lib.dc_gmsh_guard_begin(start, f" while gmsh {doing} it; nothing was written")
+    try:
+        yield
+    finally:
+        if held:
+            lib.dc_gmsh_guard_end()
+
+
+def gmsh_guard_after_init() -> None:
+    """Inside :func:`gmsh_guard`, right after ``gmsh.initialize()``: the stop signals'
+    dispositions put back at once (gmsh's initialization resets SIGTERM's, so that a
+    SIGTERM during the meshing would kill the process without a word)."""
+    _core().dc_gmsh_guard_after_init()
 
 
 def _str(b: bytes | str) -> str:
@@ -450,7 +527,7 @@ def _write_scene(scene, folder: str) -> str:
     validates it, leaving what needs the mesh to the run, which reads it). A copy is
     written: the validation normalizes ``contact.obstacle_normal`` in the Scene it
     checks, and a run leaves the caller's Scene as the caller left it."""
-    path = os.path.join(folder, "scene.nml")
+    path = os.path.join(folder, SCENE_FILE)
     scene.copy().write(path)
     return path
 
@@ -553,11 +630,12 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     explicit_out = out is not None
     if restart is not None and out is None:
         out = restart
-    # a folder for the file a Scene is written to; none for a scene file, so that a
-    # program that ends itself on a signal while gmsh reads the mesh
-    # (exit_on_signal_during_mesh_read) leaves nothing behind
+    # a folder for the file a Scene is written to, none for a scene file; a program that
+    # ends itself on a signal while gmsh reads the mesh (exit_on_signal_during_mesh_read)
+    # removes the file and the folder first (removed_if_stopped): nothing is left behind
     tmp = None if _is_path(scene) else tempfile.mkdtemp(prefix="dyncontact-")
     written = None    # the temporary file a Scene is written to (its messages name the Scene)
+    named = [] if tmp is None else _stop_removes([tmp, os.path.join(tmp, SCENE_FILE)])
     try:
         path, written = _scene_file(scene, tmp)
         if out is None:   # the folder the core will use (a bad scene file raises here)
@@ -576,16 +654,25 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                 raise BadInputError(f"restart={os.fspath(restart)!r} continues the run in that "
                                     "folder: out must be the same folder or None")
             out_dir = restart_dir
-            handle, _n, start, stat, errmsg = core.dc_sim_open_restart(
-                _fpath(path, "scene file"), _fpath(given, "restart folder"))
-        else:
-            handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
-                _fpath(path, "scene file"), _fpath(given, "output folder"), 0,
-                _out_said("out", given) if explicit_out else b"")
+        # a signal during the open (the set-up after the mesh is read: seconds to minutes
+        # on a large mesh) is held until the run is in hands (_SignalsHeld), then stops it
+        # before its first step as any other: the run closed as interrupted, its lock
+        # released
+        with _SignalsHeld() as held:
+            if restart is not None:
+                handle, _n, start, stat, errmsg = core.dc_sim_open_restart(
+                    _fpath(path, "scene file"), _fpath(given, "restart folder"))
+            else:
+                handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
+                    _fpath(path, "scene file"), _fpath(given, "output folder"), 0,
+                    _out_said("out", given) if explicit_out else b"")
+        if not handle:
+            held.deliver()
         _check(stat, errmsg, "opening the run")
         message = ""
         stopped = None
         try:
+            held.deliver()
             n_steps = _warn_notes(handle)
             if opened is not None:
                 said = os.fsdecode(scene) if written is None else scene._name()
@@ -645,6 +732,51 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
+        _stop_keeps(named)
+
+
+class _SignalsHeld:
+    """``with _SignalsHeld() as held:`` around a core call whose result must be stored
+    before anything may interrupt (an open run, to be closed whatever happens): a SIGINT
+    or SIGTERM whose handler is Python code (Ctrl-C's KeyboardInterrupt, the command
+    line's SIGTERM) is recorded instead of handled during the block, and handled, by the
+    handler that was set, at ``held.deliver()``. Python handles a signal that came during
+    a call as soon as the call returns, before its result is stored: the run the core
+    had opened meanwhile was then never closed (its folder left locked, summary.json
+    saying "running"). Only in the main thread, where Python runs its handlers; a block
+    left by an exception delivers at once."""
+
+    SIGNALS = ("SIGINT", "SIGTERM")
+
+    def __init__(self) -> None:
+        self._previous: dict[int, Any] = {}
+        self._held: list[tuple[int, Any]] = []
+
+    def __enter__(self) -> "_SignalsHeld":
+        if threading.current_thread() is threading.main_thread():
+            for name in self.SIGNALS:
+                sig = getattr(signal, name)
+                handler = signal.getsignal(sig)
+                if callable(handler):
+                    self._previous[sig] = handler
+                    signal.signal(sig, self._record)
+        return self
+
+    def _record(self, signum, frame) -> None:
+        self._held.append((signum, frame))
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        if exc_type is not None:
+            self.deliver()
+
+    def deliver(self) -> None:
+        """Handle the signals held, once each, as their handlers would have (Ctrl-C's
+        raises KeyboardInterrupt here)."""
+        held, self._held = self._held, []
+        for signum, frame in held:
+            self._previous[signum](signum, frame)
 
 
 #: The longest text of a callback's exception that summary.json's message repeats.

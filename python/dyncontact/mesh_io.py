@@ -39,11 +39,12 @@ import dataclasses
 import os
 import sys
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
-from .core import BadInputError, DyncontactError, geo_check, geo_refusal, unmeshed_text
+from .core import (BadInputError, DyncontactError, geo_check, geo_refusal, gmsh_guard,
+                   gmsh_guard_after_init, removed_if_stopped, unmeshed_text)
 from .scene import packaged_file
 
 __all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
@@ -114,20 +115,36 @@ class MeshData:
 # --------------------------------------------------------------------------- gmsh session
 
 @contextlib.contextmanager
-def _gmsh_session(model: str = "dyncontact") -> Iterator:
-    """gmsh with a fresh, empty current model; everything is undone on exit.
+def _gmsh_session(path: str | os.PathLike, model: str = "dyncontact") -> Iterator:
+    """gmsh with a fresh, empty current model, for the file `path`; everything is undone
+    on exit.
 
     If gmsh is not initialized, it is initialized (no config files, no terminal
     output) and finalized afterwards. If the caller already runs gmsh, a new model
     is added and removed afterwards, and the caller's current model, options
     and parser variables set here are restored; its ONELAB database is set aside
     (emptied, :func:`_onelab_empty`) and put back as it was.
+
+    Its calls into gmsh are inside :func:`dyncontact.core.gmsh_guard` (unless the
+    caller's block is already): the signal dispositions that loading gmsh and its
+    initialization change (SIGTERM's reset to its default) are put back, and in a program
+    that asked for it (``python -m dyncontact mesh``) SIGINT or SIGTERM ends the process
+    at once, exit status 130, with a line naming `path`.
     """
+    with gmsh_guard(path):
+        with _gmsh_model(model) as gmsh:
+            yield gmsh
+
+
+@contextlib.contextmanager
+def _gmsh_model(model: str) -> Iterator:
+    """The gmsh session of :func:`_gmsh_session`, inside its guard."""
     import gmsh
 
     own = not gmsh.isInitialized()
     if own:
         gmsh.initialize(readConfigFiles=False, interruptible=False)
+        gmsh_guard_after_init()
         saved = {}
         previous_model = None
         names_before: set = set()
@@ -322,7 +339,8 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
              h: float | None = 0.05, length: float | None = 1.0,
              width: float | None = 0.1,
              binary: bool = False, version: float = 4.1, max_elements: int = 0,
-             keys: tuple[str, str] = ("max_elements", "h")) -> Path:
+             keys: tuple[str, str] = ("max_elements", "h"),
+             verify: Callable[[Path], None] | None = None) -> Path:
     """Mesh a .geo with gmsh and write it as .msh (default 4.1 ASCII).
 
     h, length and width are set as the file's parameters of those names (as
@@ -333,6 +351,13 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     it without defining it gets the key's default (:data:`GEO_DEFAULTS`: 0.05, 1.0,
     0.1), and ``h=None`` leaves a file that uses no h its own mesh sizes. The mesh has
     the geometry's dimension.
+
+    The file is written under a temporary name in `out_path`'s folder and renamed to
+    `out_path` once whole: an error, a KeyboardInterrupt or a stop signal
+    (:func:`dyncontact.core.exit_on_signal_during_mesh_read`) leaves no part of a mesh
+    under that name, and an existing file of that name as it was. ``verify(path)``, when
+    given, is called with the temporary file before the rename (``dyncontact mesh`` reads
+    it back); an exception it raises discards the file and goes on to the caller.
 
     ``max_elements > 0``: a .geo whose element count, estimated before meshing
     (:func:`dyncontact.core.estimate_geo`), exceeds the refusal's margin times it is not
@@ -359,28 +384,51 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
              if v is not None}
     values = {k: GEO_DEFAULTS[k] if v is None else v
               for k, v in (("h", h), ("length", length), ("width", width))}
-    h_given = "h" in given
-    h = values["h"]
     _check_sizes("generate", **values)
     geo = Path(geo_path)
     if not geo.is_file():
         raise BadInputError(f"{geo}: no such file")
-    if max_elements > 0:
-        refusal = geo_refusal(geo, int(max_elements), keys[0], keys[1] if h_given else "",
-                              given=given, **values)
-        if refusal:
-            raise BadInputError(refusal)
-    else:   # the estimate's scan for gmsh's commands that end, stall or escape this process
-        geo_check(geo)
     out = Path(out_path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with _gmsh_session("dyncontact-generate") as gmsh:
+    # the mesh is written under a temporary name beside `out` and given its name once
+    # whole (and read back by `verify`), so that `out` is never a part of a mesh: not
+    # after an error, a KeyboardInterrupt, nor a stop signal that ends the program
+    # (python -m dyncontact mesh), which removes the part first (removed_if_stopped)
+    part = _part_name(out)
+    with removed_if_stopped(part):
+        try:
+            # one guard for gmsh's parse of the estimate, its meshing, the write and the
+            # read back: a stop signal during any of them says the .geo's name
+            with gmsh_guard(geo):
+                if max_elements > 0:
+                    refusal = geo_refusal(geo, int(max_elements), keys[0],
+                                          keys[1] if "h" in given else "", given=given,
+                                          **values)
+                    if refusal:
+                        raise BadInputError(refusal)
+                else:   # the estimate's scan for gmsh's commands that end, stall or escape
+                    geo_check(geo)
+                out.parent.mkdir(parents=True, exist_ok=True)
+                _mesh_into(geo, part, out, values, given, binary, version)
+                if verify is not None:
+                    verify(part)
+            os.replace(part, out)
+        except BaseException:
+            _discard(part)
+            raise
+    return out
+
+
+def _mesh_into(geo: Path, part: Path, out: Path, values: dict[str, float], given: set[str],
+               binary: bool, version: float) -> None:
+    """Mesh `geo` as :func:`generate` does and write the mesh to `part` (the errors name
+    `out`, the file meant)."""
+    with _gmsh_session(geo, "dyncontact-generate") as gmsh:
         names, uses_h = _geo_settings(gmsh, geo, values, given, "dyncontact-generate")
         _set_parameters(gmsh, values, names)
         try:
             gmsh.merge(str(geo))
-            if not uses_h and h_given:
-                gmsh.option.setNumber("Mesh.MeshSizeMax", float(h))
+            if not uses_h and "h" in given:
+                gmsh.option.setNumber("Mesh.MeshSizeMax", float(values["h"]))
             gmsh.model.mesh.generate(gmsh.model.getDimension())
         except Exception as exc:
             raise BadInputError(f"{geo}: gmsh cannot mesh it: {exc}") from None
@@ -390,11 +438,16 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
         gmsh.option.setNumber("Mesh.MshFileVersion", float(version))
         gmsh.option.setNumber("Mesh.Binary", int(bool(binary)))
         try:
-            gmsh.write(str(out))
+            gmsh.write(str(part))
         except Exception as exc:   # gmsh raises a bare Exception with its last error
-            _discard(out)
             raise DyncontactError(f"{out}: gmsh cannot write it: {exc}") from None
-    return out
+
+
+def _part_name(out: Path) -> Path:
+    """The temporary name :func:`generate` writes `out` under: hidden, beside it (a
+    rename within the folder), of this process, and ending in .msh, from which gmsh
+    takes the format."""
+    return out.with_name(f".{out.name}.{os.getpid()}.part.msh")
 
 
 def _unmeshed(gmsh) -> str | None:
@@ -447,7 +500,8 @@ def _cut_short(out: Path) -> str | None:
 
 def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
                  width: float = 0.1, geo_path: str | os.PathLike | None = None,
-                 binary: bool = False, version: float = 4.1) -> Path:
+                 binary: bool = False, version: float = 4.1,
+                 verify: Callable[[Path], None] | None = None) -> Path:
     """Mesh ``meshes/bar2d.geo`` with gmsh and write it as .msh (default 4.1 ASCII).
 
     Structured (transfinite) triangles of [0, width] x [0, length] with
@@ -466,6 +520,8 @@ def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
         The .geo file (default: :func:`find_geo`).
     binary, version : bool, float
         Format of the file (see :func:`generate`).
+    verify : callable, optional
+        Called with the file written before it takes its name (see :func:`generate`).
 
     Returns
     -------
@@ -477,7 +533,7 @@ def generate_bar(h: float, out_path: str | os.PathLike, length: float = 1.0,
         raise BadInputError(f"generate_bar: h = {h} gives too many elements")
     geo = Path(geo_path) if geo_path is not None else find_geo()
     return generate(geo, out_path, h=h, length=length, width=width, binary=binary,
-                    version=version)
+                    version=version, verify=verify)
 
 
 # --------------------------------------------------------------------------- command line
@@ -553,7 +609,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         _check_out(args.out)
-        fmt = dict(binary=args.binary, version=args.msh_version)
+        read, refused = [], []
+
+        def read_back(part: Path) -> None:
+            # the mesh as written, before it takes its name: gmsh does not report a write
+            # cut short midway, which then does not read back, and is discarded; a file
+            # written whole that the reader refuses (quadrangles) takes its name, as gmsh
+            # wrote it, and the command fails as bad input (the messages name --out)
+            try:
+                read.append(read_mesh(part, check=False))
+            except BadInputError as exc:
+                reason = _cut_short(part)
+                if reason is None:
+                    refused.append(BadInputError(str(exc).replace(str(part),
+                                                                  str(Path(args.out)))))
+                    return
+                raise DyncontactError(f"{Path(args.out)}: gmsh could not write it whole: "
+                                      f"{reason}") from None
+
+        fmt = dict(binary=args.binary, version=args.msh_version, verify=read_back)
         if args.geo is None:
             h = 0.05 if args.h is None else args.h
             out = generate_bar(h, args.out, **fmt,
@@ -563,15 +637,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             out = generate(args.geo, args.out, h=args.h, length=args.length,
                            width=args.width, max_elements=args.max_elements,
                            keys=("--max-elements", "--h"), **fmt)
-        try:
-            mesh = read_mesh(out, check=False)
-        except BadInputError:
-            reason = _cut_short(out)
-            if reason is None:
-                raise
-            _discard(out)
-            raise DyncontactError(f"{out}: gmsh could not write it whole: {reason}") \
-                from None
+        if refused:
+            raise refused[0]
+        mesh = read[0]
     except (BadInputError, OSError) as exc:
         print(f"dyncontact mesh: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2

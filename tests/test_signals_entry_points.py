@@ -1,0 +1,238 @@
+"""Stop signals in both entry points, beyond tests/test_signals_mesh_file.py:
+
+- a SIGINT or SIGTERM ignored when the program starts (`nohup`, a background job of a
+  shell without job control) stays ignored, in the executable and in `python -m
+  dyncontact run` alike, while the other one still stops the run;
+- `python -m dyncontact run --set ...` ends at once on a signal while gmsh meshes its
+  .geo, as without --set, and leaves no temporary file;
+- `python -m dyncontact mesh --geo` ends at once on a signal while gmsh meshes, writes
+  or reads back the mesh, and leaves no file, not even a part of one, and an existing
+  file of that name as it was;
+- a signal that reaches Python while the core opens a run closes the run it opened.
+
+Every child starts with SIGINT at its default (as Ctrl-C finds it in a terminal), since
+pytest's own children may have inherited it ignored."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import signal_after
+from test_reliability import child_env, entry, write_scene
+from test_signals_mesh_file import CUBE_GEO, _cube_scene, _start, _wait_for_gmsh
+
+EXIT_SIGNAL = 130
+#: A bound far above what the stop takes (0.01-0.1 s) and far below the 20 s or more
+#: that gmsh goes on meshing the cube at h = 0.03 without it.
+PROMPT_S = 8.0
+#: Seconds a run goes on after an ignored signal before it is stopped: several chunks of
+#: steps of the Python command line (about 0.5 s each), at the end of the first of which a
+#: signal it caught would have stopped it (the executable: at the end of the step).
+GOES_ON_S = 3.0
+
+
+def _long_scene(folder: Path) -> Path:
+    """A 1D run of 10^7 steps, a trace row every 1000 steps, into folder/o (stopped long
+    before its end)."""
+    return write_scene(folder / "long.nml", mesh__dim="1", mesh__h="0.05",
+                       contact__obstacle_point="0.0", contact__obstacle_normal="-1.0",
+                       contact__probe="0.0", scheme__dt="1e-4", scheme__t_end="1000.0",
+                       output__every="1000", output__dir="'o'")
+
+
+def _trace_size(folder: Path) -> int:
+    p = folder / "o" / "trace.csv"
+    return p.stat().st_size if p.exists() else 0
+
+
+def _goes_on(proc: subprocess.Popen, folder: Path, seconds: float,
+             timeout: float = 120.0) -> bool:
+    """Whether the run goes on for `seconds` from now, its trace growing meanwhile: True
+    once both are seen; False if the process ends first."""
+    size = _trace_size(folder)
+    t_min = time.monotonic() + seconds
+    t_end = time.monotonic() + timeout
+    while time.monotonic() < t_end:
+        if proc.poll() is not None:
+            return False
+        if time.monotonic() >= t_min and _trace_size(folder) > size:
+            return True
+        time.sleep(0.05)
+    pytest.fail("the run did not write its trace")
+
+
+@pytest.mark.parametrize("ignored", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
+@pytest.mark.parametrize("kind", ["exe", "cli"])
+def test_a_signal_ignored_at_start_stays_ignored(kind, ignored, tmp_path):
+    """Started with `ignored` ignored, the run goes on after it (its trace keeps growing,
+    for several chunks of steps of the Python command line); the other stop signal still
+    stops it, exit 130 with the trace and summary of an interrupted run. Without the fix
+    the executable installs its handler over an ignored SIGINT or SIGTERM and stops on
+    it, and the Python command line does so for SIGTERM."""
+    other = signal.SIGTERM if ignored == signal.SIGINT else signal.SIGINT
+
+    def dispositions():
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.signal(ignored, signal.SIG_IGN)
+
+    args = entry(kind) + [str(_long_scene(tmp_path))] + (["--quiet"] if kind == "cli" else [])
+    proc = subprocess.Popen(args, cwd=tmp_path, env=child_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, preexec_fn=dispositions)
+    with signal_after(proc, other) as ended:
+        assert _goes_on(proc, tmp_path, 0.0), proc.communicate()     # rows written
+        proc.send_signal(ignored)
+        assert _goes_on(proc, tmp_path, GOES_ON_S), \
+            (f"stopped by the ignored signal {ignored!r}", proc.communicate())
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    if kind == "exe":    # the executable's line names the signal that stopped it
+        assert f"interrupted by signal {int(other)} at t = " in ended.stderr, ended.stderr
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    assert not (tmp_path / "o" / ".dyncontact.lock").exists()
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
+def test_run_with_set_ends_at_once_while_gmsh_meshes(sig, tmp_path):
+    """`run --set` writes the changed scene to a temporary file, which the stop removes:
+    a signal while gmsh meshes the .geo ends it at once, exit 130 and the one line naming
+    the file (the absolute path the Scene gives it), no output folder, an empty $TMPDIR.
+    Without the fix it waits for the meshing and the set-up (28 s measured), then stops
+    before the first step, after making the output folder."""
+    _cube_scene(tmp_path, 0.03)
+    args = entry("cli") + ["s.nml", "--set", "scheme.dt=0.002", "--out", "o", "--quiet"]
+    proc = _start(args, tmp_path)
+    with signal_after(proc, sig) as ended:
+        _wait_for_gmsh(proc)
+        t0 = time.monotonic()
+    waited = time.monotonic() - t0
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    geo = (tmp_path / "cube.geo").resolve()
+    assert ended.stderr == (f"dyncontact: {geo}: interrupted by signal {int(sig)} while "
+                            "gmsh read it; nothing was written\n"), ended.stderr
+    assert waited < PROMPT_S, waited
+    assert not (tmp_path / "o").exists()
+    assert list((tmp_path / "tmp").iterdir()) == []
+
+
+def _mesh_args(h: float) -> list[str]:
+    return [sys.executable, "-m", "dyncontact", "mesh", "--geo", "cube.geo", "--h", str(h),
+            "--out", "m.msh"]
+
+
+def _meshes(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if p.name.endswith(".msh"))
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
+def test_mesh_command_ends_at_once_while_gmsh_meshes(sig, tmp_path):
+    """`dyncontact mesh --geo` stopped while gmsh meshes: exit 130 at once, one line
+    naming the .geo, no mesh file. Without the fix SIGINT waits for the meshing (6 s
+    measured at this size, "dyncontact: interrupted"), and SIGTERM kills the process
+    without a word (status -15: gmsh's initialization resets SIGTERM to its default)."""
+    _cube_scene(tmp_path, 0.03)
+    proc = _start(_mesh_args(0.03), tmp_path)
+    with signal_after(proc, sig) as ended:
+        _wait_for_gmsh(proc)
+        t0 = time.monotonic()
+    waited = time.monotonic() - t0
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    assert ended.stderr == (f"dyncontact: cube.geo: interrupted by signal {int(sig)} while "
+                            "gmsh meshed it; nothing was written\n"), ended.stderr
+    assert waited < PROMPT_S, waited
+    assert _meshes(tmp_path) == []
+
+
+def test_mesh_command_stopped_while_writing_leaves_the_old_file(tmp_path):
+    """A stop while gmsh writes the mesh (signalled as soon as a file is written: another
+    .msh appears, or m.msh changes) removes what was written, and an existing file of
+    that name stays as it was: the mesh is written under a temporary name and renamed
+    once whole. Without the fix gmsh writes m.msh itself, cut where the signal found
+    it."""
+    _cube_scene(tmp_path, 0.03)
+    old = tmp_path / "m.msh"
+    old.write_text("the previous mesh\n", encoding="utf-8")
+    before = old.stat().st_mtime_ns
+    proc = _start(_mesh_args(0.03), tmp_path)
+    with signal_after(proc, signal.SIGINT) as ended:
+        t_end = time.monotonic() + 120
+        while _meshes(tmp_path) == ["m.msh"] and old.stat().st_mtime_ns == before:
+            assert proc.poll() is None, ("ended before the signal", proc.communicate())
+            assert time.monotonic() < t_end, "the mesh was not written"
+            time.sleep(0.01)
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    assert ended.stderr == ("dyncontact: cube.geo: interrupted by signal 2 while gmsh "
+                            "meshed it; nothing was written\n"), ended.stderr
+    assert _meshes(tmp_path) == ["m.msh"]
+    assert old.read_text(encoding="utf-8") == "the previous mesh\n"
+
+
+def test_mesh_generate_keeps_the_ignored_sigterm(tmp_path):
+    """A SIGTERM ignored by the process stays ignored through mesh_io.generate, whose
+    gmsh initialization resets it to its default: after the call the disposition is
+    SIG_IGN again, in the library and in the command line alike."""
+    (tmp_path / "cube.geo").write_text(CUBE_GEO, encoding="utf-8")
+    code = ("import signal, sys\n"
+            "from dyncontact import mesh_io\n"
+            "signal.signal(signal.SIGTERM, signal.SIG_IGN)\n"
+            "mesh_io.generate('cube.geo', 'm.msh', h=0.5)\n"
+            "print([l.split()[1] for l in open('/proc/self/status')"
+            " if l.startswith('SigIgn')][0])\n")
+    res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=child_env(),
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    ignored = int(res.stdout.strip(), 16)
+    assert ignored >> (int(signal.SIGTERM) - 1) & 1, res.stdout
+    assert _meshes(tmp_path) == ["m.msh"]
+
+
+#: A library caller whose Ctrl-C comes while the core opens the run: the signal is sent
+#: by the core call itself, right before it returns (as one sent during a long set-up
+#: reaches Python once the call returns).
+SIGNAL_IN_OPEN = """
+import os, signal, sys
+import dyncontact
+from dyncontact import core
+
+real = core._core()
+
+class Core:
+    def __getattr__(self, name):
+        return getattr(real, name)
+
+    def dc_sim_open(self, *args):
+        result = real.dc_sim_open(*args)
+        os.kill(os.getpid(), signal.SIGINT)
+        return result
+
+core._core = lambda: Core()
+try:
+    dyncontact.run(sys.argv[1], out="o", progress=False)
+except KeyboardInterrupt as exc:
+    print(f"KeyboardInterrupt: {exc}")
+"""
+
+
+def test_a_signal_during_the_open_closes_the_run(tmp_path):
+    """The run the core opened is closed as interrupted (summary.json says so, its lock
+    is released) and the interrupt goes on to the caller with the run's line. Without
+    the fix the KeyboardInterrupt came out of the open's return before the run was
+    stored: its folder stayed locked, with summary.json's status "running"."""
+    scene = _long_scene(tmp_path)
+    res = subprocess.run([sys.executable, "-c", SIGNAL_IN_OPEN, str(scene)], cwd=tmp_path,
+                         env=child_env(), capture_output=True, text=True, timeout=120,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert res.returncode == 0, res.stderr
+    assert res.stdout == "KeyboardInterrupt: interrupted at t = 0.00000E+000 (trace kept)\n", \
+        (res.stdout, res.stderr)
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    assert not (tmp_path / "o" / ".dyncontact.lock").exists()
+    assert sorted(os.listdir(tmp_path / "o")) == ["summary.json", "trace.csv"]
