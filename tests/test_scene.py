@@ -154,6 +154,14 @@ BAD_CASES = [
             "&initial velocity", "expected 3 values in 3D (got '0, 0, 1, 2')"),
     BadCase("vector_4_values_2d", "&material gravity = 0, -9.81, 0, 0 /\n",
             "&material gravity", "expected 1 or 2 values in 2D (got '0, -9.81, 0, 0')"),
+    # a 1D mesh uses component 1 only: a nonzero second component is not dropped unseen
+    BadCase("gravity_2d_in_1d", "&mesh dim = 1 /\n&material gravity = 0.0, -9.81 /\n",
+            "&material gravity", "expected 1 value in 1D, or 2 whose second is 0"),
+    BadCase("velocity_2d_in_1d",
+            "&mesh dim = 1 /\n&initial kind = 'velocity', velocity = 0.0, -1.0 /\n",
+            "&initial velocity", "expected 1 value in 1D, or 2 whose second is 0"),
+    BadCase("normal_2d_in_1d", "&mesh dim = 1 /\n&contact obstacle_normal = 0.0, -1.0 /\n",
+            "&contact obstacle_normal", "expected 1 value in 1D, or 2 whose second is 0"),
     BadCase("vector_4_values_dim_unknown",
             f"&mesh file = '{ROOT / 'meshes' / 'bar3d_getfem_h0.05.msh'}' /\n"
             "&material gravity = 0, 0, 0, 0 /\n",
@@ -181,7 +189,7 @@ BAD_CASES = [
     BadCase("gamma0_zero", "&contact gamma0 = 0.0 /\n", "&contact gamma0", "must be > 0"),
     BadCase("normal_zero", "&contact obstacle_normal = 0.0, 0.0 /\n",
             "&contact obstacle_normal", "nonzero"),
-    BadCase("normal_1d_zero", "&mesh dim = 1 /\n&contact obstacle_normal = 0.0, -1.0 /\n",
+    BadCase("normal_1d_zero", "&mesh dim = 1 /\n&contact obstacle_normal = 0.0 /\n",
             "&contact obstacle_normal", "nonzero in 1D"),
     BadCase("quadrature_unknown", "&contact quadrature = 'simpson' /\n",
             "&contact quadrature", "must be 'exact' or 'gauss'"),
@@ -520,7 +528,7 @@ def test_dim_given_with_a_mesh_file_must_be_the_files(tmp_path):
         assert Scene.read(ok).get("mesh.dim") == (2 if keys else 0)
         with dyncontact.core.Model(ok) as m:
             assert m.elements == 80    # the file's triangles
-    no_file = scene_text(tmp_path, "&mesh dim = 1 /\n&contact obstacle_normal = 0, -1 /\n",
+    no_file = scene_text(tmp_path, "&mesh dim = 1 /\n&contact obstacle_normal = 0 /\n",
                          "nofile.nml")
     with pytest.raises(BadInputError, match="&contact obstacle_normal: component 1"):
         Scene.read(no_file)

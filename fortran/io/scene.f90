@@ -1074,6 +1074,14 @@ contains
                 msg = key_ctx(name, keys(k))//': expected 1 or 2 values in '//int_text(dim)// &
                       'D (got '''//shown(keys(k)%text, VALUE_LEN)//''')'
                 return
+            else if (dim == 1 .and. keys(k)%nval == 2) then
+                ! a 1D mesh uses component 1 only: a nonzero second would be dropped unseen
+                if (keys(k)%v(2) /= 0.0_dp) then
+                    msg = key_ctx(name, keys(k))//': expected 1 value in 1D, or 2 whose '// &
+                          'second is 0 (a 1D mesh uses component 1 only; got '''// &
+                          shown(keys(k)%text, VALUE_LEN)//''')'
+                    return
+                end if
             end if
         end do
     end subroutine vector_dims
