@@ -507,6 +507,25 @@ def test_nan_and_inf_are_refused_in_every_key(core_ext, group, key, tmp_path):
         assert "\n" not in msg
 
 
+def test_read_scene_keeps_its_mesh_file_after_a_change_of_folder(tmp_path, monkeypatch):
+    """A scene read by a relative path, whose relative &mesh file counts from the scene's
+    folder, still finds its mesh once the process has changed its current folder (a
+    notebook's %cd before the run): the Scene held the path relative to the folder it was
+    read from, and validate() then said "cannot read mesh file 'sub/disk.geo'"."""
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    (sub / "disk.geo").write_text((ROOT / "meshes" / "disk.geo").read_text())
+    scene_text(sub, "&mesh file = 'disk.geo' /\n&contact probe = 0.0, 0.01 /\n")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(tmp_path)
+    scn = Scene.read("sub/s.nml")
+    monkeypatch.chdir(elsewhere)
+    assert os.path.samefile(scn.get("mesh.file"), sub / "disk.geo")
+    scn.validate()
+    assert scn.dimension() == 2
+
+
 def test_normal_is_normalized(tmp_path):
     path = scene_text(tmp_path, "&contact obstacle_normal = 3.0, -4.0 /\n")
     assert Scene.read(path).get("contact.obstacle_normal") == [0.6, -0.8]
