@@ -271,6 +271,9 @@ BAD_CASES = [
             "must be 0, 1 or 2"),
     BadCase("solver_threads_name", "&solver threads = 'auto' /\n", "&solver threads",
             "expected an integer, not a string"),
+    # a quoted value is quoted as written, not with its quotes doubled (''abc'')
+    BadCase("real_given_a_string", "&scheme dt = 'abc' /\n", "&scheme dt",
+            "expected a real number, not a string (got \"'abc'\")"),
 ]
 
 

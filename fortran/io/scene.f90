@@ -746,7 +746,11 @@ contains
                 key%v = x
             end if
         end if
-        if (len(what) > 0) msg = ctx//': '//what//' (got '''//shown(key%text, VALUE_LEN)//''')'
+        if (len(what) > 0 .and. key%quoted) then     ! 'abc' as written, not ''abc''
+            msg = ctx//': '//what//' (got "'//shown(key%text, VALUE_LEN)//'")'
+        else if (len(what) > 0) then
+            msg = ctx//': '//what//' (got '''//shown(key%text, VALUE_LEN)//''')'
+        end if
     end subroutine convert
 
     !> Whether every value in `text` (values joined by ', ', each maybe `r*`-prefixed) is a
