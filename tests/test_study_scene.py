@@ -616,6 +616,27 @@ def test_scene_plot_x_axis_has_numbers_when_every_run_takes_the_same_decade(tmp_
         assert shown, ax.get_title()
 
 
+def test_stability_analysis_of_a_body_that_starts_with_no_energy():
+    """A scene at rest under gravity starts with e_total = 0: its energy ratios are
+    undefined (NaN), not inf with numpy's divide-by-zero warning on the study's stderr."""
+    import warnings
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from dyncontact.study.analyses import analyse_stability
+
+    t = np.linspace(0.0, 1.0, 5)
+    trace = {"t": t, "e_total": np.array([0.0, 1e-3, 2e-3, 1e-3, 0.0]),
+             "e_contact": np.zeros(5), "active": np.zeros(5), "u_n": np.zeros(5)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = analyse_stability("run", SimpleNamespace(trace=trace, summary={}))["metrics"]
+    assert m["e0"] == 0.0
+    for key in ("e_end_ratio", "e_max_ratio", "ec_end_ratio"):
+        assert math.isnan(m[key]), (key, m[key])
+
+
 def test_scene_studies_take_a_scene_object(tmp_path):
     """From Python, ``run_stability_scene`` and ``run_work_precision_scene`` take a
     dyncontact.Scene as well as a file (a notebook's scene built or edited in Python):
