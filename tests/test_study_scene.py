@@ -616,6 +616,33 @@ def test_scene_plot_x_axis_has_numbers_when_every_run_takes_the_same_decade(tmp_
         assert shown, ax.get_title()
 
 
+def test_scene_plot_x_numbers_within_a_decade_do_not_overlap(tmp_path, monkeypatch):
+    """Runs of 12-45 ms of CPU: the x axis's minor ticks carry the numbers, as plain
+    numbers (0.03) side by side; as 3×10⁻² and 4×10⁻² they overlapped on a panel."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import dyncontact.study.workprecision as wp
+
+    rows = [{"case": "scene", "series": "newmark@20", "status": "ok", "cpu_s": cpu,
+             **{f"err_{q}": err for q in ("u_n", "v_n", "p_n", "e_total")}}
+            for cpu, err in ((0.0125, 2e-4), (0.045, 5e-5))]
+    series = [(SCHEMES["newmark"], 20.0, "newmark", "newmark@20")]
+    figs = []
+    monkeypatch.setattr(wp, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
+    wp._plot(rows, series, {}, str(tmp_path / "wp.png"), cases=(("scene", "s.nml"),))
+    fig = figs[0]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes[:4]:
+        lo, hi = ax.get_xlim()
+        labels = [t for t in ax.xaxis.get_majorticklabels() + ax.xaxis.get_minorticklabels()
+                  if t.get_text() and lo <= t.get_position()[0] <= hi]
+        assert len(labels) >= 2, ax.get_title()
+        boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0)
+        for left, right in zip(boxes, boxes[1:]):
+            assert left.x1 <= right.x0, (ax.get_title(), [t.get_text() for t in labels])
+
+
 def test_stability_analysis_of_a_body_that_starts_with_no_energy():
     """A scene at rest under gravity starts with e_total = 0: its energy ratios are
     undefined (NaN), not inf with numpy's divide-by-zero warning on the study's stderr."""
