@@ -643,6 +643,31 @@ def test_scene_plot_x_numbers_within_a_decade_do_not_overlap(tmp_path, monkeypat
             assert left.x1 <= right.x0, (ax.get_title(), [t.get_text() for t in labels])
 
 
+def test_scene_stability_map_gives_its_dt_over_h_to_3_digits_either_side_of_1(
+        tmp_path, monkeypatch):
+    """On a mesh of its own, the scene's Δt multiples over its h are no round numbers:
+    the map's columns read 1/2.64 and 3.03 alike, not 1/2.64 and 3.02601."""
+    import matplotlib
+    matplotlib.use("Agg")
+    from types import SimpleNamespace
+
+    import dyncontact.study.stability as st
+
+    h, ratios = 0.0132187, [0.005 / 0.0132187, 0.04 / 0.0132187]
+    scheme = SimpleNamespace(key="hht-0.1", label="hht α=-0.1", explicit=False)
+    rows = [{"phase": "grid", "scheme": "hht-0.1", "h": h, "gamma0": 10.0, "theta": 1,
+             "dt_over_h": r, "classification": "stable", "stop_time": None} for r in ratios]
+    crit = [{"scheme": "hht-0.1", "h": h, "gamma0": 10.0, "theta": 1,
+             "bracket": "above grid", "dt_crit_lo": 0.04, "dt_crit_over_h": None}]
+    grid = {"h": [h], "gamma0": [10.0], "theta": [1], "t_end": 1.0,
+            "dt_over_h": {"implicit": ratios, "explicit": ratios}}
+    figs = []
+    monkeypatch.setattr(st, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
+    st._heatmaps(rows, crit, [scheme], grid, str(tmp_path))
+    labels = [t.get_text() for t in figs[0].axes[0].get_xticklabels()]
+    assert labels == ["1/2.64", "3.03"], labels
+
+
 def test_stability_analysis_of_a_body_that_starts_with_no_energy():
     """A scene at rest under gravity starts with e_total = 0: its energy ratios are
     undefined (NaN), not inf with numpy's divide-by-zero warning on the study's stderr."""

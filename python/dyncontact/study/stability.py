@@ -471,7 +471,7 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
                                 fontsize=6, color="w")
             ax.imshow(z, cmap=cmap, vmin=-0.5, vmax=4.5, aspect="auto")
             ax.set_xticks(range(len(ratios)))
-            ax.set_xticklabels([f"1/{1 / r:.3g}" if r < 1 else f"{r:g}" for r in ratios],
+            ax.set_xticklabels([f"1/{1 / r:.3g}" if r < 1 else f"{r:.3g}" for r in ratios],
                                fontsize=7)
             ax.set_yticks(range(len(combos)))
             ax.set_yticklabels([f"γ0={g0:g} θ={th:+d}" for g0, th in combos], fontsize=6)
