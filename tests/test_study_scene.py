@@ -478,7 +478,11 @@ def test_scene_stability_on_a_mesh_of_its_own_h_reports_that_h(tmp_path, form):
     rows = list(csv.DictReader(open(rep["csv"], encoding="utf-8")))
     assert rows and all(float(r["h"]) == pytest.approx(0.1, rel=1e-12) for r in rows)
     assert "stability_h0.1.png" in [os.path.basename(p) for p in rep["pngs"]]
-    assert "(h = its shortest edge, 0.1)" in open(rep["summary"], encoding="utf-8").read()
+    summary = open(rep["summary"], encoding="utf-8").read()
+    assert "(h = its shortest edge, 0.1)" in summary
+    # the summary says what its charts show, not only their file names
+    assert "`stability_h*.png` has one panel per scheme" in summary
+    assert "`critical_dt.png` gives each scheme's critical Δt/h" in summary
 
 
 @pytest.mark.parametrize("contact, said", [

@@ -735,6 +735,11 @@ def _scene_summary(report, path) -> str:
                   "(its reason in the last column)."]
     if left:
         lines += ["", "Schemes left out:", ""] + left
+    lines += ["", "The charts: `stability_h*.png` has one panel per scheme, its grid runs "
+              "by Δt/h (columns, h the mesh's above): green stable, red unstable (the time "
+              "it stopped written in the cell), orange Newton failed; `critical_dt.png` "
+              "gives each scheme's critical Δt/h, the geometric middle of its bisection's "
+              "bracket (> or < where the whole grid was stable or unstable)."]
     lines += [""] + [f"![{os.path.basename(p)}]({os.path.basename(p)})" for p in
                      report["pngs"]]
     return write_markdown(path, lines)
