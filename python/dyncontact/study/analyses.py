@@ -466,7 +466,7 @@ def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any
     m: dict[str, Any] = {}
     if len(t):
         # a body at rest (under gravity) starts with no energy: no ratio to it, as in
-        # _energy_metrics (e/0 was inf, with numpy's divide-by-zero warning on stderr)
+        # _energy_metrics (not e/0 = inf, with numpy's divide-by-zero warning on stderr)
         e0 = float(e[0])
         scale = e0 if e0 != 0 else float("nan")
         ec0 = float(e[0] + tr["e_contact"][0])

@@ -736,8 +736,8 @@ def _scene_summary(report, path) -> str:
     if left:
         lines += ["", "Schemes left out:", ""] + left
     lines += ["", "The charts: `stability_h*.png` has one panel per scheme, its grid runs "
-              "by Δt/h (columns, h the mesh's above): green stable, red unstable (the time "
-              "it stopped written in the cell), orange Newton failed; `critical_dt.png` "
+              "by Δt/h (columns; h as above) coloured by verdict (the colours in its "
+              "title; an unstable run's stop time written in its cell); `critical_dt.png` "
               "gives each scheme's critical Δt/h, the geometric middle of its bisection's "
               "bracket (> or < where the whole grid was stable or unstable)."]
     lines += [""] + [f"![{os.path.basename(p)}]({os.path.basename(p)})" for p in
