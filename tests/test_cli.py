@@ -380,6 +380,7 @@ def test_every_script_answers_help(script, words):
     for word in words:
         assert word in res.stdout, (script, word)
     assert "wall time" not in res.stdout + res.stderr
+    assert "setup:" not in res.stdout + res.stderr, (script, res.stderr[:200])
 
 
 @pytest.mark.parametrize("failure", ["newton", "unstable"])

@@ -45,6 +45,18 @@ def test_study_refuses_bad_values_naming_the_option(run_cli, tmp_path, study, op
     assert sorted(os.listdir(tmp_path)) == []   # nothing written, here or in --out
 
 
+def test_study_help_names_every_study(capsys):
+    """`dyncontact study --help` says what it runs: its description named three of the
+    five studies (no contact methods, no Hertz), though each is a STUDY it lists."""
+    from dyncontact.study.cli import main
+
+    assert main(["--help"]) == 0
+    description = capsys.readouterr().out.split("positional arguments")[0]
+    for study in ("convergence", "work-precision", "stability", "contact methods", "Hertz",
+                  "'all'"):
+        assert study in description, (study, description)
+
+
 @pytest.mark.parametrize("option", ["--out", "--cache"])
 def test_study_refuses_a_file_for_a_folder(run_cli, tmp_path, option):
     """--out or --cache naming an existing file: one line naming the option, not the

@@ -73,6 +73,15 @@ def test_default_kind_warning_gives_the_bodys_strain(run_exe, tmp_path):
     assert "(compressed by amplitude/length = 2.5E-001 along n)" in res.stderr, res.stderr
 
 
+def test_default_kind_warning_gives_the_strain_to_3_digits(run_exe, tmp_path):
+    """A strain that is no short decimal (0.5 / 3.0) is given to 3 digits, not 16."""
+    _bar_geo(tmp_path, 3.0)
+    res = run_exe(_scene(tmp_path, "nokind", "file = 'bar.geo', h = 0.1",
+                         f"amplitude = {AMPLITUDE}"))
+    assert res.returncode == 0, res.stderr
+    assert "(compressed by amplitude/length = 1.67E-001 along n)" in res.stderr, res.stderr
+
+
 def test_body_beyond_the_obstacle_plane_is_refused(run_exe, tmp_path):
     """With no node of the body on its side of the obstacle plane the lift has no length
     to fall over: one line naming the scene and &initial kind, exit 2."""

@@ -154,6 +154,14 @@ BAD_CASES = [
             "&initial velocity", "expected 3 values in 3D (got '0, 0, 1, 2')"),
     BadCase("vector_4_values_2d", "&material gravity = 0, -9.81, 0, 0 /\n",
             "&material gravity", "expected 1 or 2 values in 2D (got '0, -9.81, 0, 0')"),
+    # a 1D mesh uses component 1 only: a nonzero second component is not dropped unseen
+    BadCase("gravity_2d_in_1d", "&mesh dim = 1 /\n&material gravity = 0.0, -9.81 /\n",
+            "&material gravity", "expected 1 value in 1D, or 2 whose second is 0"),
+    BadCase("velocity_2d_in_1d",
+            "&mesh dim = 1 /\n&initial kind = 'velocity', velocity = 0.0, -1.0 /\n",
+            "&initial velocity", "expected 1 value in 1D, or 2 whose second is 0"),
+    BadCase("normal_2d_in_1d", "&mesh dim = 1 /\n&contact obstacle_normal = 0.0, -1.0 /\n",
+            "&contact obstacle_normal", "expected 1 value in 1D, or 2 whose second is 0"),
     BadCase("vector_4_values_dim_unknown",
             f"&mesh file = '{ROOT / 'meshes' / 'bar3d_getfem_h0.05.msh'}' /\n"
             "&material gravity = 0, 0, 0, 0 /\n",
@@ -181,7 +189,7 @@ BAD_CASES = [
     BadCase("gamma0_zero", "&contact gamma0 = 0.0 /\n", "&contact gamma0", "must be > 0"),
     BadCase("normal_zero", "&contact obstacle_normal = 0.0, 0.0 /\n",
             "&contact obstacle_normal", "nonzero"),
-    BadCase("normal_1d_zero", "&mesh dim = 1 /\n&contact obstacle_normal = 0.0, -1.0 /\n",
+    BadCase("normal_1d_zero", "&mesh dim = 1 /\n&contact obstacle_normal = 0.0 /\n",
             "&contact obstacle_normal", "nonzero in 1D"),
     BadCase("quadrature_unknown", "&contact quadrature = 'simpson' /\n",
             "&contact quadrature", "must be 'exact' or 'gauss'"),
@@ -263,6 +271,9 @@ BAD_CASES = [
             "must be 0, 1 or 2"),
     BadCase("solver_threads_name", "&solver threads = 'auto' /\n", "&solver threads",
             "expected an integer, not a string"),
+    # a quoted value is quoted as written, not with its quotes doubled (''abc'')
+    BadCase("real_given_a_string", "&scheme dt = 'abc' /\n", "&scheme dt",
+            "expected a real number, not a string (got \"'abc'\")"),
 ]
 
 
@@ -499,6 +510,25 @@ def test_nan_and_inf_are_refused_in_every_key(core_ext, group, key, tmp_path):
         assert "\n" not in msg
 
 
+def test_read_scene_keeps_its_mesh_file_after_a_change_of_folder(tmp_path, monkeypatch):
+    """A scene read by a relative path, whose relative &mesh file counts from the scene's
+    folder, still finds its mesh once the process has changed its current folder (a
+    notebook's %cd before the run): the Scene held the path relative to the folder it was
+    read from, and validate() then said "cannot read mesh file 'sub/disk.geo'"."""
+    sub = tmp_path / "sub"
+    sub.mkdir()
+    (sub / "disk.geo").write_text((ROOT / "meshes" / "disk.geo").read_text())
+    scene_text(sub, "&mesh file = 'disk.geo' /\n&contact probe = 0.0, 0.01 /\n")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(tmp_path)
+    scn = Scene.read("sub/s.nml")
+    monkeypatch.chdir(elsewhere)
+    assert os.path.samefile(scn.get("mesh.file"), sub / "disk.geo")
+    scn.validate()
+    assert scn.dimension() == 2
+
+
 def test_normal_is_normalized(tmp_path):
     path = scene_text(tmp_path, "&contact obstacle_normal = 3.0, -4.0 /\n")
     assert Scene.read(path).get("contact.obstacle_normal") == [0.6, -0.8]
@@ -520,7 +550,7 @@ def test_dim_given_with_a_mesh_file_must_be_the_files(tmp_path):
         assert Scene.read(ok).get("mesh.dim") == (2 if keys else 0)
         with dyncontact.core.Model(ok) as m:
             assert m.elements == 80    # the file's triangles
-    no_file = scene_text(tmp_path, "&mesh dim = 1 /\n&contact obstacle_normal = 0, -1 /\n",
+    no_file = scene_text(tmp_path, "&mesh dim = 1 /\n&contact obstacle_normal = 0 /\n",
                          "nofile.nml")
     with pytest.raises(BadInputError, match="&contact obstacle_normal: component 1"):
         Scene.read(no_file)

@@ -478,7 +478,11 @@ def test_scene_stability_on_a_mesh_of_its_own_h_reports_that_h(tmp_path, form):
     rows = list(csv.DictReader(open(rep["csv"], encoding="utf-8")))
     assert rows and all(float(r["h"]) == pytest.approx(0.1, rel=1e-12) for r in rows)
     assert "stability_h0.1.png" in [os.path.basename(p) for p in rep["pngs"]]
-    assert "(h = its shortest edge, 0.1)" in open(rep["summary"], encoding="utf-8").read()
+    summary = open(rep["summary"], encoding="utf-8").read()
+    assert "(h = its shortest edge, 0.1)" in summary
+    # the summary says what its charts show, not only their file names
+    assert "`stability_h*.png` has one panel per scheme" in summary
+    assert "`critical_dt.png` gives each scheme's critical Δt/h" in summary
 
 
 @pytest.mark.parametrize("contact, said", [
@@ -614,6 +618,79 @@ def test_scene_plot_x_axis_has_numbers_when_every_run_takes_the_same_decade(tmp_
                  + ax.xaxis.get_minorticklabels()
                  if t.get_text() and lo <= t.get_position()[0] <= hi]
         assert shown, ax.get_title()
+
+
+def test_scene_plot_x_numbers_within_a_decade_do_not_overlap(tmp_path, monkeypatch):
+    """Runs of 12-45 ms of CPU: the x axis's minor ticks carry the numbers, as plain
+    numbers (0.03) side by side; as 3×10⁻² and 4×10⁻² they overlapped on a panel."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import dyncontact.study.workprecision as wp
+
+    rows = [{"case": "scene", "series": "newmark@20", "status": "ok", "cpu_s": cpu,
+             **{f"err_{q}": err for q in ("u_n", "v_n", "p_n", "e_total")}}
+            for cpu, err in ((0.0125, 2e-4), (0.045, 5e-5))]
+    series = [(SCHEMES["newmark"], 20.0, "newmark", "newmark@20")]
+    figs = []
+    monkeypatch.setattr(wp, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
+    wp._plot(rows, series, {}, str(tmp_path / "wp.png"), cases=(("scene", "s.nml"),))
+    fig = figs[0]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes[:4]:
+        lo, hi = ax.get_xlim()
+        labels = [t for t in ax.xaxis.get_majorticklabels() + ax.xaxis.get_minorticklabels()
+                  if t.get_text() and lo <= t.get_position()[0] <= hi]
+        assert len(labels) >= 2, ax.get_title()
+        boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0)
+        for left, right in zip(boxes, boxes[1:]):
+            assert left.x1 <= right.x0, (ax.get_title(), [t.get_text() for t in labels])
+
+
+def test_scene_stability_map_gives_its_dt_over_h_to_3_digits_either_side_of_1(
+        tmp_path, monkeypatch):
+    """On a mesh of its own, the scene's Δt multiples over its h are no round numbers:
+    the map's columns read 1/2.64 and 3.03 alike, not 1/2.64 and 3.02601."""
+    import matplotlib
+    matplotlib.use("Agg")
+    from types import SimpleNamespace
+
+    import dyncontact.study.stability as st
+
+    h, ratios = 0.0132187, [0.005 / 0.0132187, 0.04 / 0.0132187]
+    scheme = SimpleNamespace(key="hht-0.1", label="hht α=-0.1", explicit=False)
+    rows = [{"phase": "grid", "scheme": "hht-0.1", "h": h, "gamma0": 10.0, "theta": 1,
+             "dt_over_h": r, "classification": "stable", "stop_time": None} for r in ratios]
+    crit = [{"scheme": "hht-0.1", "h": h, "gamma0": 10.0, "theta": 1,
+             "bracket": "above grid", "dt_crit_lo": 0.04, "dt_crit_over_h": None}]
+    grid = {"h": [h], "gamma0": [10.0], "theta": [1], "t_end": 1.0,
+            "dt_over_h": {"implicit": ratios, "explicit": ratios}}
+    figs = []
+    monkeypatch.setattr(st, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
+    st._heatmaps(rows, crit, [scheme], grid, str(tmp_path))
+    labels = [t.get_text() for t in figs[0].axes[0].get_xticklabels()]
+    assert labels == ["1/2.64", "3.03"], labels
+
+
+def test_stability_analysis_of_a_body_that_starts_with_no_energy():
+    """A scene at rest under gravity starts with e_total = 0: its energy ratios are
+    undefined (NaN), not inf with numpy's divide-by-zero warning on the study's stderr."""
+    import warnings
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from dyncontact.study.analyses import analyse_stability
+
+    t = np.linspace(0.0, 1.0, 5)
+    trace = {"t": t, "e_total": np.array([0.0, 1e-3, 2e-3, 1e-3, 0.0]),
+             "e_contact": np.zeros(5), "active": np.zeros(5), "u_n": np.zeros(5)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = analyse_stability("run", SimpleNamespace(trace=trace, summary={}))["metrics"]
+    assert m["e0"] == 0.0
+    for key in ("e_end_ratio", "e_max_ratio", "ec_end_ratio"):
+        assert math.isnan(m[key]), (key, m[key])
 
 
 def test_scene_studies_take_a_scene_object(tmp_path):

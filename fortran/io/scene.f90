@@ -746,7 +746,11 @@ contains
                 key%v = x
             end if
         end if
-        if (len(what) > 0) msg = ctx//': '//what//' (got '''//shown(key%text, VALUE_LEN)//''')'
+        if (len(what) > 0 .and. key%quoted) then     ! 'abc' as written, not ''abc''
+            msg = ctx//': '//what//' (got "'//shown(key%text, VALUE_LEN)//'")'
+        else if (len(what) > 0) then
+            msg = ctx//': '//what//' (got '''//shown(key%text, VALUE_LEN)//''')'
+        end if
     end subroutine convert
 
     !> Whether every value in `text` (values joined by ', ', each maybe `r*`-prefixed) is a
@@ -1074,6 +1078,14 @@ contains
                 msg = key_ctx(name, keys(k))//': expected 1 or 2 values in '//int_text(dim)// &
                       'D (got '''//shown(keys(k)%text, VALUE_LEN)//''')'
                 return
+            else if (dim == 1 .and. keys(k)%nval == 2) then
+                ! a 1D mesh uses component 1 only: a nonzero second would be dropped unseen
+                if (keys(k)%v(2) /= 0.0_dp) then
+                    msg = key_ctx(name, keys(k))//': expected 1 value in 1D, or 2 whose '// &
+                          'second is 0 (a 1D mesh uses component 1 only; got '''// &
+                          shown(keys(k)%text, VALUE_LEN)//''')'
+                    return
+                end if
             end if
         end do
     end subroutine vector_dims

@@ -420,7 +420,8 @@ contains
     !>   'compressed_bar' (the user's choice), nor with amplitude = 0 (then u0 = 0).
     subroutine check_initial_state(sim)
         type(simulation_t), intent(inout) :: sim            !! the run
-        character(len=:), allocatable :: start
+        character(len=:), allocatable :: start, three_digits
+        real(dp) :: strain
         if (trim(sim%scn%initial_kind) /= 'velocity' .and. any(sim%scn%velocity /= 0.0_dp) &
             .and. scene_given(sim%scn, 'initial', 'velocity')) then
             if (trim(sim%scn%initial_kind) == 'compressed_bar') then
@@ -434,13 +435,15 @@ contains
                 '; kind = ''velocity'' starts with that velocity'//new_line('a')
         else if (len_trim(sim%scn%mesh_file) > 0 .and. sim%scn%amplitude /= 0.0_dp .and. &
                  .not. scene_given(sim%scn, 'initial', 'kind')) then
+            ! to 3 digits, written as short as it reads back (2.38E+000, 2.5E-001)
+            three_digits = real_text(sim%scn%amplitude / &
+                                     model_lift_length(sim%mdl, model_params(sim%scn)), 3)
+            read (three_digits, *) strain
             sim%mdl%notes = trim(sim%mdl%notes)// &
                 'warning: &initial kind is not given: the mesh file''s body starts from the'// &
                 ' default kind = ''compressed_bar'', the seed bar''s u0 = -amplitude (1 -'// &
                 ' d/length) n, at rest (compressed by amplitude/length = '// &
-                real_text(sim%scn%amplitude / &
-                          model_lift_length(sim%mdl, model_params(sim%scn)))// &
-                ' along n); give kind ='// &
+                real_text(strain)//' along n); give kind ='// &
                 ' ''rest'' or ''velocity'' (with velocity), or ''compressed_bar'' to keep it'// &
                 ' (docs/scenes.md, &initial)'//new_line('a')
         end if

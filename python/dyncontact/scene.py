@@ -135,12 +135,17 @@ class Scene:
     def read(cls, path: str | os.PathLike) -> "Scene":
         """Read and validate a scene file (raises :class:`BadInputError`).
 
-        A relative ``&mesh file`` is resolved against the scene file's folder.
+        A relative ``&mesh file`` is resolved against the scene file's folder, and made
+        absolute: the Scene still names the same file after the process changes its
+        current folder (``os.chdir``, a notebook's ``%cd``).
         """
         scn = cls()
         scn.path = os.fspath(path)
         scn._values, scn._given = core.scene_dump(scn.path, keep_omitted=True,
                                                   with_given=True)
+        mesh = scn._values["mesh"]
+        if mesh["file"] and not os.path.isabs(mesh["file"]):
+            mesh["file"] = os.path.join(os.getcwd(), mesh["file"])   # '..' kept, as read
         return scn
 
     # -- access
@@ -367,7 +372,8 @@ class Scene:
         """Check ranges and consistency in the core (raises :class:`BadInputError`).
 
         Normalizes ``contact.obstacle_normal``. A relative mesh file counts from the
-        current folder here (``read`` has resolved it against the scene file's folder).
+        current folder here (``read`` has made the file's absolute; one given to
+        :meth:`set` counts from the current folder).
         With a mesh file and ``mesh.dim`` 0, the keys that depend on the mesh's dimension
         (the vector keys' counts, ``contact.quad_points``) are checked against the file's
         dimension as the run checks them, so a vector of 2 components for a 3D mesh file

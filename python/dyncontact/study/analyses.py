@@ -465,15 +465,19 @@ def analyse_stability(run_dir: str, result, keep_rows: int = 0) -> dict[str, Any
     t, e = tr["t"], tr["e_total"]
     m: dict[str, Any] = {}
     if len(t):
+        # a body at rest (under gravity) starts with no energy: no ratio to it, as in
+        # _energy_metrics (not e/0 = inf, with numpy's divide-by-zero warning on stderr)
         e0 = float(e[0])
+        scale = e0 if e0 != 0 else float("nan")
+        ec0 = float(e[0] + tr["e_contact"][0])
         fin = np.isfinite(e)
         starts = impacts(t, tr["active"])
         idx = np.searchsorted(t, starts) - 1
-        before = [float(e[i] / e0) for i in idx if i >= 0]
-        m = {"e0": e0, "e_end_ratio": float(e[-1] / e0),
-             "e_max_ratio": float(np.max(e[fin]) / e0) if fin.any() else float("nan"),
-             "ec_end_ratio": float((e[-1] + tr["e_contact"][-1])
-                                   / (e[0] + tr["e_contact"][0])),
+        before = [float(e[i] / scale) for i in idx if i >= 0]
+        m = {"e0": e0, "e_end_ratio": float(e[-1] / scale),
+             "e_max_ratio": float(np.max(e[fin]) / scale) if fin.any() else float("nan"),
+             "ec_end_ratio": float((e[-1] + tr["e_contact"][-1]) / ec0) if ec0
+             else float("nan"),
              "impact_times": [float(x) for x in starts],
              "e_before_impacts": before, "t_last": float(t[-1])}
     # the explicit schemes (central, the pc family) estimate their own critical step

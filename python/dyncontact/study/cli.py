@@ -61,8 +61,9 @@ def _nonempty(text: str) -> str:
 def _parser() -> argparse.ArgumentParser:
     p = OneLineParser(
         prog="dyncontact study",
-        description="Convergence, work-precision and stability studies; each writes CSV, "
-        "PNG and summary.md into --out.")
+        description="The studies: convergence, work-precision, stability, contact methods "
+        "and Hertz's impact ('all': the first three and the which-scheme table); each "
+        "writes CSV, PNG and summary.md into --out.")
     sub = p.add_subparsers(dest="study", metavar="STUDY", required=True)
     helps = {"convergence": "errors against the 1D closed form, observed orders",
              "work-precision": "error against CPU time per scheme (1D exact, 2D seed bar; "

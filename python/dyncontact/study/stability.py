@@ -471,7 +471,7 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
                                 fontsize=6, color="w")
             ax.imshow(z, cmap=cmap, vmin=-0.5, vmax=4.5, aspect="auto")
             ax.set_xticks(range(len(ratios)))
-            ax.set_xticklabels([f"1/{1 / r:.3g}" if r < 1 else f"{r:g}" for r in ratios],
+            ax.set_xticklabels([f"1/{1 / r:.3g}" if r < 1 else f"{r:.3g}" for r in ratios],
                                fontsize=7)
             ax.set_yticks(range(len(combos)))
             ax.set_yticklabels([f"γ0={g0:g} θ={th:+d}" for g0, th in combos], fontsize=6)
@@ -735,6 +735,11 @@ def _scene_summary(report, path) -> str:
                   "(its reason in the last column)."]
     if left:
         lines += ["", "Schemes left out:", ""] + left
+    lines += ["", "The charts: `stability_h*.png` has one panel per scheme, its grid runs "
+              "by Δt/h (columns; h as above) coloured by verdict (the colours in its "
+              "title; an unstable run's stop time written in its cell); `critical_dt.png` "
+              "gives each scheme's critical Δt/h, the geometric middle of its bisection's "
+              "bracket (> or < where the whole grid was stable or unstable)."]
     lines += [""] + [f"![{os.path.basename(p)}]({os.path.basename(p)})" for p in
                      report["pngs"]]
     return write_markdown(path, lines)

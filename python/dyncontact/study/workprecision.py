@@ -599,14 +599,25 @@ def _plot(rows, series, ref_info, path, cases=CASES):
 
 def _minor_labels_only_within_a_decade(ax) -> None:
     """Leave the minor ticks of a log axis unlabelled when its range holds a power of 10
-    (which is labelled), and labelled (matplotlib's default) when it holds none: a scene
-    study's quick runs can all take 5-6 ms of CPU, and the x axis then had no number."""
-    from matplotlib.ticker import NullFormatter
+    (which is labelled), and labelled when it holds none: a scene study's quick runs can
+    all take 5-6 ms of CPU, and the x axis then had no number. Those are the minor ticks
+    matplotlib labels by default, written as plain numbers (0.03): as 3×10⁻² they
+    overlapped their neighbours on a panel's width."""
+    from matplotlib.ticker import LogFormatter, NullFormatter
+
+    class PlainLogFormatter(LogFormatter):
+        """matplotlib's choice of the minor ticks to label, each as a plain number."""
+
+        def __call__(self, x, pos=None):
+            return f"{x:g}".replace("-", "\N{MINUS SIGN}") if super().__call__(x, pos) \
+                else ""
 
     for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
         lo, hi = min(lo, hi), max(lo, hi)
         if lo > 0 and math.floor(math.log10(hi)) >= math.ceil(math.log10(lo)):
             axis.set_minor_formatter(NullFormatter())
+        else:
+            axis.set_minor_formatter(PlainLogFormatter(labelOnlyBase=False))
 
 
 def _pn_note(ref) -> str:
