@@ -8,7 +8,8 @@
 - `python -m dyncontact mesh --geo` ends at once on a signal while gmsh meshes, writes
   or reads back the mesh, and leaves no file, not even a part of one, and an existing
   file of that name as it was;
-- a signal that reaches Python while the core opens a run closes the run it opened.
+- a signal that reaches Python while the core opens a run closes the run it opened,
+  in run() as in a Model, a Stepper and bench_floors.
 
 Every child starts with SIGINT at its default (as Ctrl-C finds it in a terminal), since
 pytest's own children may have inherited it ignored."""
@@ -236,3 +237,79 @@ def test_a_signal_during_the_open_closes_the_run(tmp_path):
     assert summary["status"] == "interrupted"
     assert not (tmp_path / "o" / ".dyncontact.lock").exists()
     assert sorted(os.listdir(tmp_path / "o")) == ["summary.json", "trace.csv"]
+
+
+#: As SIGNAL_IN_OPEN, for the other callers of the core's open: a Model (no outputs), a
+#: Stepper (its run in folder o) and bench_floors (a run in a temporary folder). Prints
+#: whether the interrupt came out, the handles the open returned and those closed, and
+#: what is left in the temporary folder.
+SIGNAL_IN_OBJECT_OPEN = """
+import json, os, signal, sys, tempfile
+from dyncontact import core
+
+real = core._core()
+opened, closed = [], []
+
+class Core:
+    def __getattr__(self, name):
+        return getattr(real, name)
+
+    def dc_sim_open(self, *args):
+        result = real.dc_sim_open(*args)
+        opened.append(int(result[0]))
+        os.kill(os.getpid(), signal.SIGINT)
+        return result
+
+    def dc_sim_close(self, handle):
+        closed.append(int(handle))
+        return real.dc_sim_close(handle)
+
+core._core = lambda: Core()
+what = sys.argv[2]
+try:
+    if what == "model":
+        obj = core.Model(sys.argv[1])
+    elif what == "stepper":
+        obj = core.Stepper(sys.argv[1], "o")
+    else:
+        obj = core.bench_floors(sys.argv[1], n_rep=10)
+    said = "no interrupt"
+except KeyboardInterrupt:
+    said = "KeyboardInterrupt"
+print(json.dumps({"said": said, "opened": opened, "closed": closed,
+                  "tmp": sorted(os.listdir(tempfile.gettempdir()))}))
+"""
+
+
+@pytest.mark.parametrize("what", ["model", "stepper", "bench_floors"])
+def test_a_signal_during_an_objects_open_frees_it(what, tmp_path):
+    """Ctrl-C while the core opens a Model, a Stepper or bench_floors' run: the
+    interrupt goes on to the caller and the handle the open returned is closed, with the
+    temporary folder removed; the Stepper's run is closed as interrupted (summary.json
+    says so, its lock released). Without the fix the KeyboardInterrupt came out of the
+    open's return before the handle was stored: it was never closed, and the Stepper's
+    folder stayed locked with summary.json's status "running"."""
+    if what == "bench_floors":
+        from dyncontact import core
+        if not core.bench_floors_available():
+            pytest.skip("the extension has no timing helper")
+    scene = _long_scene(tmp_path)
+    (tmp_path / "tmp").mkdir()
+    env = dict(child_env(), TMPDIR=str(tmp_path / "tmp"))
+    res = subprocess.run([sys.executable, "-c", SIGNAL_IN_OBJECT_OPEN, str(scene), what],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert res.returncode == 0, res.stderr
+    got = json.loads(res.stdout)
+    assert got["said"] == "KeyboardInterrupt", got
+    assert len(got["opened"]) == 1 and got["opened"][0] != 0, got
+    assert got["closed"] == got["opened"], got
+    assert got["tmp"] == [], got
+    if what == "stepper":
+        summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+        assert summary["status"] == "interrupted", summary
+        assert summary["message"].startswith("interrupted at t = 0"), summary
+        assert not (tmp_path / "o" / ".dyncontact.lock").exists()
+        assert sorted(os.listdir(tmp_path / "o")) == ["summary.json", "trace.csv"]
+    else:
+        assert not (tmp_path / "o").exists()

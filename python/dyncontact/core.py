@@ -654,25 +654,31 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                 raise BadInputError(f"restart={os.fspath(restart)!r} continues the run in that "
                                     "folder: out must be the same folder or None")
             out_dir = restart_dir
-        # a signal during the open (the set-up after the mesh is read: seconds to minutes
-        # on a large mesh) is held until the run is in hands (_SignalsHeld), then stops it
-        # before its first step as any other: the run closed as interrupted, its lock
-        # released
-        with _SignalsHeld() as held:
-            if restart is not None:
-                handle, _n, start, stat, errmsg = core.dc_sim_open_restart(
-                    _fpath(path, "scene file"), _fpath(given, "restart folder"))
-            else:
-                handle, n_steps, _dofs, _elements, _facets, stat, errmsg = core.dc_sim_open(
-                    _fpath(path, "scene file"), _fpath(given, "output folder"), 0,
-                    _out_said("out", given) if explicit_out else b"")
-        if not handle:
-            held.deliver()
-        _check(stat, errmsg, "opening the run")
+        if restart is not None:
+            def open_run():
+                return core.dc_sim_open_restart(_fpath(path, "scene file"),
+                                                _fpath(given, "restart folder"))
+        else:
+            def open_run():
+                return core.dc_sim_open(_fpath(path, "scene file"),
+                                        _fpath(given, "output folder"), 0,
+                                        _out_said("out", given) if explicit_out else b"")
+        handle = 0
+
+        def keep(opened_handle: int) -> None:
+            nonlocal handle
+            handle = opened_handle
+
         message = ""
         stopped = None
         try:
-            held.deliver()
+            # a signal during the open (the set-up after the mesh is read: seconds to
+            # minutes on a large mesh) stops the run before its first step as any other:
+            # the run closed as interrupted, its lock released (_open_held)
+            got = _open_held(open_run, keep)
+            _check(got[-2], got[-1], "opening the run")
+            if restart is not None:
+                start = got[2]
             n_steps = _warn_notes(handle)
             if opened is not None:
                 said = os.fsdecode(scene) if written is None else scene._name()
@@ -706,9 +712,12 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
                         raise DyncontactError(
                             f"the run made no progress at step {int(step)} of {int(n_steps)}")
         except KeyboardInterrupt as exc:   # Ctrl-C, SIGTERM, or the core's signal stop
+            if not handle:                 # during an open that failed: nothing to close
+                raise
             stopped = exc
         finally:
-            stat, errmsg = core.dc_sim_close(handle)
+            if handle:
+                stat, errmsg = core.dc_sim_close(handle)
         _check(stat, errmsg, "closing the run")
         if stopped is not None:
             # with the message the run wrote on closing: t, and what was kept; a run that
@@ -735,9 +744,32 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
         _stop_keeps(named)
 
 
+def _open_held(open_call: Callable[[], tuple], keep: Callable[[int], None]) -> tuple:
+    """``open_call()``, a core call that opens a run or a model and returns its handle
+    first (0 when it failed) and its stat and message last, made with SIGINT and SIGTERM
+    held (:class:`_SignalsHeld`); ``keep(handle)`` stores a handle it opened where the
+    caller's clean-up closes it, and only then are the signals held handled (Ctrl-C's
+    KeyboardInterrupt raised here). Returns the call's result.
+
+    The one way :func:`run`, :class:`Model`, :class:`Stepper` and :func:`bench_floors`
+    open the core's objects: a signal during the open (a run's set-up after the mesh
+    read: seconds to minutes on a large mesh) reached Python as the call returned, before
+    the handle was stored, and the object was never freed (a run's folder left locked,
+    its summary.json saying "running"). A signal during an open that failed is raised
+    before the failure (the caller asked to stop; nothing is left open)."""
+    with _SignalsHeld() as held:
+        got = open_call()
+    try:
+        if got[0]:
+            keep(got[0])
+    finally:
+        held.deliver()
+    return got
+
+
 class _SignalsHeld:
     """``with _SignalsHeld() as held:`` around a core call whose result must be stored
-    before anything may interrupt (an open run, to be closed whatever happens): a SIGINT
+    before anything may interrupt (:func:`_open_held`): a SIGINT
     or SIGTERM whose handler is Python code (Ctrl-C's KeyboardInterrupt, the command
     line's SIGTERM) is recorded instead of handled during the block, and handled, by the
     handler that was set, at ``held.deliver()``. Python handles a signal that came during
@@ -1060,18 +1092,27 @@ class Model:
             if _out is not None:   # as given, as the executable records it in summary.json
                 given = _folder_arg(_out, "out")
                 out, said = _fpath(given, "output folder"), _out_said("out", given)
-            (handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
-             errmsg) = _core().dc_sim_open(_fpath(path, "scene file"), out,
-                                           1 if _out is None else 0, said)
+            scene_path = _fpath(path, "scene file")
+            (_handle, self.n_steps, self.dofs, self.elements, self.contact_facets, stat,
+             errmsg) = _open_held(
+                lambda: _core().dc_sim_open(scene_path, out, 1 if _out is None else 0, said),
+                self._keep)
             try:
                 _check(stat, errmsg,
                        "building the model" if _out is None else "opening the run")
             except BadInputError as exc:
                 _raise_for_scene(exc, written, scene)
-            self.handle = handle
         except BaseException:
-            shutil.rmtree(self._tmp, ignore_errors=True)
+            # a model opened before a signal held over its open (_open_held) is freed; a
+            # Stepper's run is closed as interrupted, its lock released
+            try:
+                self.close()
+            finally:
+                shutil.rmtree(self._tmp, ignore_errors=True)
             raise
+
+    def _keep(self, handle: int) -> None:
+        self.handle = handle
 
     def _need(self):
         if not self.handle:
@@ -1278,17 +1319,20 @@ def bench_floors(scene, n_rep: int = 1000, batches: int = 1) -> dict[str, float 
     tmp = tempfile.mkdtemp(prefix="dyncontact-bench-")
     try:
         path, written = _scene_file(scene, tmp)
-        handle, *_, stat, errmsg = core.dc_sim_open(_fpath(path, "scene file"),
-                                                    _fpath(os.path.join(tmp, "out"),
-                                                           "output folder"), 0, b"")
+        scene_path = _fpath(path, "scene file")
+        out_path = _fpath(os.path.join(tmp, "out"), "output folder")
+        kept: list[int] = []
         try:
-            _check(stat, errmsg, "opening the run")
-        except BadInputError as exc:
-            _raise_for_scene(exc, written, scene)
-        try:
-            return _handle_floors(handle, n_rep, batches)
+            _h, *_, stat, errmsg = _open_held(
+                lambda: core.dc_sim_open(scene_path, out_path, 0, b""), kept.append)
+            try:
+                _check(stat, errmsg, "opening the run")
+            except BadInputError as exc:
+                _raise_for_scene(exc, written, scene)
+            return _handle_floors(kept[0], n_rep, batches)
         finally:
-            core.dc_sim_close(handle)
+            for handle in kept:
+                core.dc_sim_close(handle)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
