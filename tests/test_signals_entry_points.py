@@ -9,7 +9,8 @@
   or reads back the mesh, and leaves no file, not even a part of one, and an existing
   file of that name as it was;
 - a signal that reaches Python while the core opens a run closes the run it opened,
-  in run() as in a Model, a Stepper and bench_floors.
+  in run() as in a Model, a Stepper and bench_floors;
+- `dyncontact study` leaves a SIGTERM ignored at start ignored, as `run` does.
 
 Every child starts with SIGINT at its default (as Ctrl-C finds it in a terminal), since
 pytest's own children may have inherited it ignored."""
@@ -313,3 +314,43 @@ def test_a_signal_during_an_objects_open_frees_it(what, tmp_path):
         assert sorted(os.listdir(tmp_path / "o")) == ["summary.json", "trace.csv"]
     else:
         assert not (tmp_path / "o").exists()
+
+
+def test_the_study_leaves_an_ignored_sigterm_ignored(tmp_path):
+    """`dyncontact study` started with SIGTERM ignored (`nohup`) goes on after a SIGTERM,
+    its pool's workers too; Ctrl-C still stops it, exit 130, and no worker is left.
+    Without the fix its handler raised KeyboardInterrupt on the ignored SIGTERM: it
+    stopped at once with exit 130."""
+    from test_study_signals import END_TIMEOUT_S, _children, _wait_group_gone
+
+    def dispositions():
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+    args = [sys.executable, "-m", "dyncontact", "study", "convergence", "--quick", "--out",
+            str(tmp_path / "study"), "--workers", "2", "--no-progress"]
+    proc = subprocess.Popen(args, cwd=tmp_path, env=child_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=dispositions)
+    try:
+        deadline = time.monotonic() + 60.0
+        while len(_children(proc.pid)) < 2:
+            assert proc.poll() is None and time.monotonic() < deadline, \
+                ("no pool of 2 workers appeared", proc.communicate())
+            time.sleep(0.05)
+        workers = _children(proc.pid)
+        proc.send_signal(signal.SIGTERM)
+        time.sleep(GOES_ON_S)
+        assert proc.poll() is None, ("stopped by the ignored SIGTERM", proc.communicate())
+        assert set(workers) <= set(_children(proc.pid)), "a worker ended on the SIGTERM"
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=END_TIMEOUT_S)
+        assert proc.returncode == EXIT_SIGNAL, (proc.returncode, err[-2000:])
+        assert "interrupted" in err and "Traceback" not in err, err[-2000:]
+        assert not _wait_group_gone(proc.pid)
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        proc.communicate()

@@ -711,8 +711,12 @@ def sigterm_as_interrupt():
     Ctrl-C does, so that ``kill PID`` of a study, the figures or the bench stops its
     pool and its workers and exits 130, as ``python -m dyncontact run`` does
     (docs/scenes.md, *Exit codes*). The previous handler is restored at the end. Outside
-    the main thread (where Python cannot set handlers) it does nothing."""
-    if threading.current_thread() is not threading.main_thread():
+    the main thread (where Python cannot set handlers) it does nothing, and so it does
+    where SIGTERM is ignored (``nohup``, a background job of a shell without job
+    control): a signal ignored from the program's start stays ignored, as the executable
+    and ``python -m dyncontact run`` leave it."""
+    if threading.current_thread() is not threading.main_thread() \
+            or signal.getsignal(signal.SIGTERM) is signal.SIG_IGN:
         yield
         return
     previous = signal.signal(signal.SIGTERM, _sigterm_raises)
