@@ -387,7 +387,7 @@ def read_summary(out_dir: str | os.PathLike) -> dict[str, Any]:
         return json.load(f)
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(repr=False)
 class RunResult:
     """What :func:`run` returns.
 
@@ -397,12 +397,23 @@ class RunResult:
     summary : the parsed summary.json (``status``, ``steps``, ``scheme``, ``scene``, ...)
     out_dir : the folder that holds trace.csv and summary.json
     message : the core's message when the run stopped early ('' otherwise)
+
+    Its repr is one line, without the arrays and the summary::
+
+        <RunResult status='ok' steps=1500 t=3.0 out_dir='/home/me/out'
+         trace=301 rows x (t, u_n, v_n, ...)>
     """
 
     trace: dict[str, np.ndarray]
     summary: dict[str, Any]
     out_dir: str
     message: str = ""
+
+    def __repr__(self) -> str:
+        rows = len(next(iter(self.trace.values()), ()))
+        return (f"<RunResult status={self.status!r} steps={self.summary.get('steps', '?')} "
+                f"t={self.summary.get('t_end_reached', '?')} out_dir={self.out_dir!r} "
+                f"trace={rows} rows x ({', '.join(self.trace)})>")
 
     @property
     def status(self) -> str:
@@ -1079,12 +1090,15 @@ class Model:
     Attributes: ``dofs`` (free dofs), ``elements``, ``contact_facets`` and ``n_steps``
     (steps to t_end). A model alone starts no scheme, so ``n_steps`` is 0 where the scheme
     chooses the step (``central`` with ``dt = 0``); a :class:`Stepper` has the count.
+    ``scene``: the scene file, or a :class:`dyncontact.Scene`'s name (its file, or
+    ``<scene>``).
     """
 
     def __init__(self, scene, _out: str | os.PathLike | None = None):
         # _out: the output folder of a run (Stepper); None builds the model only
         self.handle = 0
         _need_scene(scene, f"{type(self).__name__}()")
+        self.scene = os.fsdecode(scene) if _is_path(scene) else scene._name()
         self._tmp = tempfile.mkdtemp(prefix="dyncontact-")
         try:
             path, written = _scene_file(scene, self._tmp)
@@ -1180,6 +1194,12 @@ class Stepper(Model):
             st = s.state()          # u, v, a, mv, load, bu on the free dofs; t, f_n, clear
             M = s.matrix("M")       # the assembled matrix, dense
             s.save("state.bin")     # a checkpoint; s.load("state.bin") goes back to it
+
+    Beyond :class:`Model`'s attributes: ``out`` (the output folder as given), ``step``
+    (the steps done so far, or the step loaded) and ``finished`` (the run reached its
+    end). Its repr says where it is::
+
+        <Stepper scene='bar.nml' t=0.01 step=10 out='out/bar' open>
     """
 
     _WHICH = {"M": 1, "K": 2, "K_theta": 3}
@@ -1188,8 +1208,10 @@ class Stepper(Model):
         if not isinstance(out, (str, bytes, os.PathLike)):
             raise TypeError("Stepper(): out must be the output folder (a path), not "
                             f"{type(out).__name__}")
-        super().__init__(scene, _out=out)
+        self.out = os.fsdecode(out)
+        self.step = 0
         self.finished = False
+        super().__init__(scene, _out=out)
         # the warnings and notes a run gives before it starts (docs/scenes.md); warnings
         # turned into errors leave no run open
         try:
@@ -1214,7 +1236,8 @@ class Stepper(Model):
         if steps < 0:
             raise ValueError(f"advance(): steps must be >= 0 (got {steps})")
         self._need()
-        done, _step, finished, stat, errmsg = _core().dc_sim_advance(self.handle, int(steps))
+        done, step, finished, stat, errmsg = _core().dc_sim_advance(self.handle, int(steps))
+        self.step = int(step)
         self.finished = bool(finished)
         if stat == STAT_NUMERIC:
             raise NumericalError(_str(errmsg))
@@ -1253,17 +1276,43 @@ class Stepper(Model):
             self.finished = True
         _check(stat, errmsg, "loading the state")
         self.finished = False
+        self.step = int(step)
         # the notes the load added (a snapshot it lists that is no longer there)
         for note in _notes(_core().dc_sim_info(self.handle)[2])[before:]:
             warnings.warn(note, DyncontactWarning, stacklevel=2)
         return int(step)
 
+    def __repr__(self) -> str:
+        where = f"t={self.state()['t']!r} " if self.handle else ""
+        said = "open" if self.handle else "closed"
+        if self.finished:
+            said += ", finished"
+        return (f"<Stepper scene={self.scene!r} {where}step={self.step} out={self.out!r} "
+                f"{said}>")
+
     def state(self) -> dict[str, Any]:
-        """t, u, v, a, mv (the product M v the energies use), load and bu (B(u) as the
-        scheme carries it into the next step), free dofs; clear: the last step found no
-        contact point possible at u (:meth:`contact_clear`), so the trace's p_n skips the
-        probe's facets at a node (False: not known); f_n: the total normal contact force at
-        u, the trace's f_n (docs/scenes.md)."""
+        """The run's state now (after the last :meth:`advance` or :meth:`load`; before
+        them, the initial state), as a dict of new arrays. The vectors are float64 arrays
+        on the free dofs (length ``dofs``; :meth:`dof_map` gives the node and component of
+        each):
+
+        - ``t`` (float): the time reached;
+        - ``u``: the displacement;
+        - ``v``: the velocity;
+        - ``a``: the acceleration (zeros for the theta scheme, which carries none);
+        - ``mv``: the product M v of the mass matrix and the velocity, from which the
+          trace's e_kin = ½ v·M v is computed;
+        - ``load``: the load vector L = ∫ ρ g·v of ``&material gravity`` (zeros without
+          gravity), whose potential is the trace's e_load = −u·L;
+        - ``bu``: B(u), the internal force, elastic and contact (M u'' + B(u) = L,
+          docs/numerics.md), as the scheme carries it into the next step
+          (:meth:`eval_b` evaluates it anew at any u);
+        - ``clear`` (bool): the last step found no contact point possible at u
+          (:meth:`contact_clear`), so the trace's p_n skips the probe's facets at a node;
+          False: not known;
+        - ``f_n`` (float): the total normal contact force at u, the trace's f_n
+          (docs/scenes.md).
+        """
         self._need()
         t, u, v, a, mv, load, bu, clear, f_n = _core().dc_sim_state(self.handle, self.dofs)
         return {"t": float(t), "u": u, "v": v, "a": a, "mv": mv, "load": load, "bu": bu,
