@@ -142,6 +142,55 @@ def test_plot_needs_out(run_cli, tmp_path):
     _one_error_line(run_cli("plot", a), 2)
 
 
+@pytest.mark.parametrize("given, said", [
+    ("x", "1 label for 2 folders"),
+    ("x,y,z", "3 labels for 2 folders"),
+])
+def test_plot_labels_not_one_per_folder_is_one_line_naming_the_option(run_cli, tmp_path,
+                                                                      given, said):
+    a, b = _write_run(tmp_path / "a"), _write_run(tmp_path / "b")
+    line = _one_error_line(run_cli("plot", a, b, "--labels", given, "--out",
+                                   tmp_path / "x.png"), 2)
+    assert line == f"dyncontact: --labels: {said}; give one per folder, comma-separated"
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_plot_traces_labels_not_one_per_run_is_bad_input(tmp_path):
+    """The package's bad-input error, still the ValueError it was."""
+    from dyncontact import BadInputError
+    from dyncontact.plotting import plot_traces
+
+    a, b = _write_run(tmp_path / "a"), _write_run(tmp_path / "b")
+    with pytest.raises(BadInputError) as info:
+        plot_traces([a, b], None, labels=["x"])
+    assert isinstance(info.value, ValueError)
+    assert str(info.value) == "labels: 1 label for 2 runs; give one per run"
+    with pytest.raises(BadInputError, match="nothing to plot") as info:
+        plot_traces([], None)
+    assert isinstance(info.value, ValueError)
+
+
+@pytest.mark.parametrize("kind", ["missing", "a file", "no trace"])
+def test_plot_of_a_folder_that_is_not_a_run_says_what_the_api_says(run_cli, tmp_path, kind):
+    """`plot DIR` refuses a folder in the words of plot_traces(DIR) (RunNotFoundError):
+    'no such run folder' for one that is not there, not 'no trace.csv'."""
+    from dyncontact import RunNotFoundError
+    from dyncontact.plotting import plot_traces
+
+    folder = tmp_path / "run"
+    if kind == "a file":
+        folder.write_text("x\n")
+    elif kind == "no trace":
+        folder.mkdir()
+    with pytest.raises(RunNotFoundError) as info:
+        plot_traces([folder], None)
+    line = _one_error_line(run_cli("plot", folder, "--out", tmp_path / "x.png"), 2)
+    assert line == f"dyncontact: {info.value}"
+    if kind == "missing":
+        assert line == f"dyncontact: {folder}: no such run folder"
+    assert not (tmp_path / "x.png").exists()
+
+
 @pytest.mark.parametrize("out, written", [
     ("cmp_dt0.001", "cmp_dt0.001.png"),          # dots in a name are not an extension
     ("run.v2", "run.v2.png"),

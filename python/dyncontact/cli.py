@@ -237,12 +237,15 @@ def _drop_stdout() -> None:
 def cmd_plot(args) -> int:
     from .plotting import plot_traces
 
-    for d in args.dirs:
-        if not os.path.isfile(os.path.join(d, "trace.csv")):
-            raise core.BadInputError(f"{d}: no trace.csv")
     labels = args.labels.split(",") if args.labels else None
     if labels is not None and len(labels) != len(args.dirs):
-        raise UsageError(f"--labels: {len(labels)} labels for {len(args.dirs)} folders")
+        raise UsageError(f"--labels: {_counted(len(labels), 'label')} for "
+                         f"{_counted(len(args.dirs), 'folder')}; give one per folder, "
+                         "comma-separated")
+    for d in args.dirs:
+        # the readers' own check, so that a folder is refused in the API's words
+        # ('no such run folder', 'not a folder ...', 'no trace.csv'), before any drawing
+        core.run_file(d, "trace.csv", "")
     out = _png_path(args.out)
     plot_traces(args.dirs, out, labels=labels, title=args.title)
     if not args.quiet:

@@ -277,15 +277,27 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     Returns
     -------
     matplotlib.figure.Figure
+
+    Raises
+    ------
+    BadInputError
+        (a ``ValueError`` too) no run given, or ``labels`` not one per run.
+    RunNotFoundError
+        a run folder that is not there or has no trace.csv (a ``BadInputError``).
     """
     from matplotlib.figure import Figure
 
     items = list(dirs_or_results) if not isinstance(dirs_or_results, (str, os.PathLike)) \
         else [dirs_or_results]
+    from .core import BadInputError   # a ValueError too, which these were before
+
     if not items:
-        raise ValueError("nothing to plot")
+        raise BadInputError("plot_traces: nothing to plot (no run folder or RunResult)")
     if labels is not None and len(labels) != len(items):
-        raise ValueError(f"{len(labels)} labels for {len(items)} runs")
+        n = len(labels)
+        raise BadInputError(f"labels: {n} label{'' if n == 1 else 's'} for "
+                            f"{len(items)} run{'' if len(items) == 1 else 's'}; "
+                            "give one per run")
 
     # A fixed layout (constrained layout costs about half of the drawing time): the
     # legend, one row per two runs, goes under the panels.
