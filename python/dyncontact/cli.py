@@ -338,7 +338,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "folder's lock, wait for it to end instead of stopping (exit 2)")
     r.set_defaults(func=cmd_run)
 
-    pl = sub.add_parser("plot", help="overlay the traces of runs in one PNG",
+    pl = sub.add_parser("plot", help="overlay the traces of runs in one image (.png, .pdf "
+                        "or .svg)",
                         description="Draw u_n, v_n, p_n and the energy of one or more "
                         "runs (folders holding trace.csv and summary.json).")
     pl.add_argument("dirs", nargs="+", metavar="DIR")
@@ -352,9 +353,10 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--quiet", "-q", action="store_true")
     pl.set_defaults(func=cmd_plot)
 
-    sub.add_parser("mesh", help="mesh tools (see `dyncontact mesh --help`)", add_help=False)
-    sub.add_parser("study", help="convergence, work-precision and stability studies (see "
-                   "`dyncontact study --help`)", add_help=False)
+    sub.add_parser("mesh", help="mesh a .geo with gmsh into a .msh file (see `dyncontact "
+                   "mesh --help`)", add_help=False)
+    sub.add_parser("study", help="convergence, work-precision, stability, contact methods and "
+                   "Hertz's impact studies (see `dyncontact study --help`)", add_help=False)
     return p
 
 
