@@ -342,6 +342,27 @@ def test_run_help_and_the_executables_help_end_with_the_same_lines(run_cli, run_
     assert "Exit status: 0 ok, 2 bad input" in said
 
 
+@pytest.mark.parametrize("args, name", [
+    (("--set", "scheme.dt=0.001"), "--set"),
+    (("--set=scheme.dt=0.001",), "--set"),
+    (("--quiet",), "--quiet"),
+    (("-q",), "-q"),
+    (("--wait",), "--wait"),
+])
+def test_the_executable_says_an_option_of_python_run_is_one(run_exe, run_cli, tmp_path,
+                                                            args, name):
+    """`build/dyncontact scene.nml --set k=v` said 'unknown option --set' with no hint:
+    one line saying which command takes it (exit 2, nothing run); that command's help
+    lists it, and the executable's help says it does."""
+    line = _one_error_line(run_exe("scene.nml", *args), 2)
+    assert line.startswith(f"dyncontact: {name} belongs to `python -m dyncontact run`, "
+                           "not to the executable (usage: dyncontact SCENE.nml"), line
+    assert sorted(tmp_path.iterdir()) == []
+    assert f" {name}" in run_cli("run", "--help").stdout
+    assert {"-q": "--quiet"}.get(name, name) in " ".join(run_exe("--help").stdout.split())
+    assert "unknown option --setx" in _one_error_line(run_exe("scene.nml", "--setx"), 2)
+
+
 # --------------------------------------------------------------------------- outputs
 
 def test_read_trace_drops_a_partial_last_line(tmp_path):
