@@ -249,13 +249,14 @@ def _limit_blowups(ax, ok: list[np.ndarray], stopped: list[np.ndarray],
 
 def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = None,
                 labels: Sequence[str] | None = None, title: str | None = None):
-    """Draw the traces of one or more runs in four panels and save them as a PNG.
+    """Draw the traces of one or more runs in four panels and save them as an image.
 
     Parameters
     ----------
     dirs_or_results : run folders (holding trace.csv and summary.json) and/or
         :class:`dyncontact.RunResult` objects; one colour per run.
-    out_png : file to write (None: do not save).
+    out_png : file to write (None: do not save); its extension gives the format (.png,
+        .pdf, .svg; without one, matplotlib writes OUT.png), its folders are created.
     labels : legend labels (default: scheme and parameters from summary.json, e.g.
         'hht α=-0.1, Δt=0.0025, h=0.05' (:func:`run_label`); where two runs would read
         alike, followed by the scene keys that differ between them, or by the run's
