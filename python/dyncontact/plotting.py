@@ -288,10 +288,10 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     """
     from matplotlib.figure import Figure
 
-    items = list(dirs_or_results) if not isinstance(dirs_or_results, (str, os.PathLike)) \
-        else [dirs_or_results]
     from .core import BadInputError   # a ValueError too, which these were before
 
+    items = list(dirs_or_results) if not isinstance(dirs_or_results, (str, os.PathLike)) \
+        else [dirs_or_results]
     if not items:
         raise BadInputError("plot_traces: nothing to plot (no run folder or RunResult)")
     if labels is not None and len(labels) != len(items):
