@@ -142,6 +142,55 @@ def test_plot_needs_out(run_cli, tmp_path):
     _one_error_line(run_cli("plot", a), 2)
 
 
+@pytest.mark.parametrize("given, said", [
+    ("x", "1 label for 2 folders"),
+    ("x,y,z", "3 labels for 2 folders"),
+])
+def test_plot_labels_not_one_per_folder_is_one_line_naming_the_option(run_cli, tmp_path,
+                                                                      given, said):
+    a, b = _write_run(tmp_path / "a"), _write_run(tmp_path / "b")
+    line = _one_error_line(run_cli("plot", a, b, "--labels", given, "--out",
+                                   tmp_path / "x.png"), 2)
+    assert line == f"dyncontact: --labels: {said}; give one per folder, comma-separated"
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_plot_traces_labels_not_one_per_run_is_bad_input(tmp_path):
+    """The package's bad-input error, still the ValueError it was."""
+    from dyncontact import BadInputError
+    from dyncontact.plotting import plot_traces
+
+    a, b = _write_run(tmp_path / "a"), _write_run(tmp_path / "b")
+    with pytest.raises(BadInputError) as info:
+        plot_traces([a, b], None, labels=["x"])
+    assert isinstance(info.value, ValueError)
+    assert str(info.value) == "labels: 1 label for 2 runs; give one per run"
+    with pytest.raises(BadInputError, match="nothing to plot") as info:
+        plot_traces([], None)
+    assert isinstance(info.value, ValueError)
+
+
+@pytest.mark.parametrize("kind", ["missing", "a file", "no trace"])
+def test_plot_of_a_folder_that_is_not_a_run_says_what_the_api_says(run_cli, tmp_path, kind):
+    """`plot DIR` refuses a folder in the words of plot_traces(DIR) (RunNotFoundError):
+    'no such run folder' for one that is not there, not 'no trace.csv'."""
+    from dyncontact import RunNotFoundError
+    from dyncontact.plotting import plot_traces
+
+    folder = tmp_path / "run"
+    if kind == "a file":
+        folder.write_text("x\n")
+    elif kind == "no trace":
+        folder.mkdir()
+    with pytest.raises(RunNotFoundError) as info:
+        plot_traces([folder], None)
+    line = _one_error_line(run_cli("plot", folder, "--out", tmp_path / "x.png"), 2)
+    assert line == f"dyncontact: {info.value}"
+    if kind == "missing":
+        assert line == f"dyncontact: {folder}: no such run folder"
+    assert not (tmp_path / "x.png").exists()
+
+
 @pytest.mark.parametrize("out, written", [
     ("cmp_dt0.001", "cmp_dt0.001.png"),          # dots in a name are not an extension
     ("run.v2", "run.v2.png"),
@@ -291,6 +340,27 @@ def test_run_help_and_the_executables_help_end_with_the_same_lines(run_cli, run_
     said = " ".join(text.split())
     assert '"Scene files, outputs and exit codes"' in said and "&solver" in said
     assert "Exit status: 0 ok, 2 bad input" in said
+
+
+@pytest.mark.parametrize("args, name", [
+    (("--set", "scheme.dt=0.001"), "--set"),
+    (("--set=scheme.dt=0.001",), "--set"),
+    (("--quiet",), "--quiet"),
+    (("-q",), "-q"),
+    (("--wait",), "--wait"),
+])
+def test_the_executable_says_an_option_of_python_run_is_one(run_exe, run_cli, tmp_path,
+                                                            args, name):
+    """`build/dyncontact scene.nml --set k=v` said 'unknown option --set' with no hint:
+    one line saying which command takes it (exit 2, nothing run); that command's help
+    lists it, and the executable's help says it does."""
+    line = _one_error_line(run_exe("scene.nml", *args), 2)
+    assert line.startswith(f"dyncontact: {name} belongs to `python -m dyncontact run`, "
+                           "not to the executable (usage: dyncontact SCENE.nml"), line
+    assert sorted(tmp_path.iterdir()) == []
+    assert f" {name}" in run_cli("run", "--help").stdout
+    assert {"-q": "--quiet"}.get(name, name) in " ".join(run_exe("--help").stdout.split())
+    assert "unknown option --setx" in _one_error_line(run_exe("scene.nml", "--setx"), 2)
 
 
 # --------------------------------------------------------------------------- outputs

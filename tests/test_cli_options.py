@@ -57,6 +57,21 @@ def test_study_help_names_every_study(capsys):
         assert study in description, (study, description)
 
 
+def test_top_level_help_says_what_plot_and_study_do():
+    """`dyncontact --help` said that plot writes a PNG (it writes .pdf and .svg too) and
+    that study runs three studies (contact methods and Hertz's impact missing)."""
+    from dyncontact.cli import PLOT_FORMATS, build_parser
+
+    text = " ".join(build_parser().format_help().split())
+    plot = text[text.index(" plot "):text.index(" mesh ")]
+    study = text[text.index(" study "):]
+    for ext in PLOT_FORMATS:
+        assert ext in plot, (ext, plot)
+    for name in ("convergence", "work-precision", "stability", "contact methods", "Hertz"):
+        assert name in study, (name, study)
+    assert "a .geo" in text[text.index(" mesh "):text.index(" study ")]
+
+
 @pytest.mark.parametrize("option", ["--out", "--cache"])
 def test_study_refuses_a_file_for_a_folder(run_cli, tmp_path, option):
     """--out or --cache naming an existing file: one line naming the option, not the

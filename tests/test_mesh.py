@@ -19,7 +19,7 @@ import pytest
 
 from conftest import callers_gmsh_session, gmsh_session, write_msh41
 from dyncontact import mesh_io
-from dyncontact.core import BadInputError
+from dyncontact.core import BadInputError, DyncontactError
 
 ROOT = Path(__file__).resolve().parents[1]
 MESHES = ROOT / "meshes"
@@ -604,6 +604,31 @@ def test_mesh_command_via_cli(run_cli, tmp_path):
     r = run_cli("mesh", "--h", "0.1", "--out", "m.msh", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "m.msh").is_file()
+
+
+def test_mesh_command_writes_through_a_symbolic_link(run_cli, tmp_path):
+    """`--out LINK.msh`, a symbolic link (relative, to an existing file or to one not yet
+    there), writes the file it points to and stays a link, as a write into it did before
+    the mesh was written under a temporary name and renamed (which replaced the link)."""
+    meshes = tmp_path / "meshes"
+    meshes.mkdir()
+    (meshes / "old.msh").write_text("old\n")
+    (tmp_path / "LINK.msh").symlink_to(Path("meshes") / "old.msh")
+    (tmp_path / "NEW.msh").symlink_to(Path("meshes") / "new.msh")    # dangling
+    for link, target in (("LINK.msh", "old.msh"), ("NEW.msh", "new.msh")):
+        r = run_cli("mesh", "--h", "0.1", "--out", link, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr
+        assert r.stdout.startswith(f"dyncontact mesh: wrote {link}: "), r.stdout
+        assert (tmp_path / link).is_symlink()
+        assert (tmp_path / link).readlink() == Path("meshes") / target
+        assert (meshes / target).read_text().startswith("$MeshFormat\n4.1 0 8\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["LINK.msh", "NEW.msh", "meshes"]
+    assert sorted(p.name for p in meshes.iterdir()) == ["new.msh", "old.msh"]
+    (tmp_path / "loop1.msh").symlink_to("loop2.msh")
+    (tmp_path / "loop2.msh").symlink_to("loop1.msh")
+    with pytest.raises(DyncontactError, match="loop1.msh: cannot write it: Too many levels"):
+        mesh_io.generate_bar(0.1, tmp_path / "loop1.msh")
+    assert (tmp_path / "loop1.msh").readlink() == Path("loop2.msh")
 
 
 def test_mesh_command_help(run_cli, tmp_path):

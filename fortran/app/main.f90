@@ -35,7 +35,8 @@ program main
             write (*, '(a)') USAGE
             write (*, '(a)') 'Runs a scene file and writes trace.csv and summary.json into the output folder'
             write (*, '(a)') '(&output dir, or DIR). With the Python package installed, `python -m dyncontact'
-            write (*, '(a)') 'run --help` gives the Python command line.'
+            write (*, '(a)') 'run --help` gives the Python command line, which also takes --set GROUP.KEY=VALUE,'
+            write (*, '(a)') '--quiet and --wait.'
             write (*, '(a)') '--restart DIR continues a stopped run from DIR/checkpoint.bin (written with'
             write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv; a later'
             write (*, '(a)') '&scheme t_end or a raised blowup in SCENE.nml extends the run.'
@@ -52,7 +53,12 @@ program main
             call folder_argument('--restart', i, restart_dir)
         case default
             if (len(arg) > 1) then
-                if (arg(1:1) == '-') call fail(STAT_BAD_INPUT, 'unknown option '//arg//' ('//USAGE//')')
+                if (arg(1:1) == '-') then
+                    if (len(python_run_option(arg)) > 0) call fail(STAT_BAD_INPUT, &
+                        python_run_option(arg)//' belongs to `python -m dyncontact run`, '// &
+                        'not to the executable ('//USAGE//')')
+                    call fail(STAT_BAD_INPUT, 'unknown option '//arg//' ('//USAGE//')')
+                end if
             end if
             if (len_trim(scene_path) > 0) call fail(STAT_BAD_INPUT, 'two scene files given ('// &
                                                     trim(scene_path)//', '//arg//'); '//USAGE)
@@ -125,6 +131,25 @@ contains
                                          ', '//a//'); '//USAGE)
         dir = a
     end subroutine folder_argument
+
+    !> The option of `python -m dyncontact run` that the executable does not take which
+    !> `a` is (its name, before any '=': `--set=scheme.dt=0.001` is --set), or ''.
+    function python_run_option(a) result(name)
+        character(len=*), intent(in) :: a   !! a command argument
+        character(len=:), allocatable :: name
+        integer :: eq
+        eq = index(a, '=')
+        if (eq > 0) then
+            name = a(1:eq - 1)
+        else
+            name = a
+        end if
+        select case (name)
+        case ('--set', '--wait', '--quiet', '-q')
+        case default
+            name = ''
+        end select
+    end function python_run_option
 
     !> Print the model's warnings and notes, one line each, on stderr.
     subroutine print_warnings(notes)

@@ -237,12 +237,15 @@ def _drop_stdout() -> None:
 def cmd_plot(args) -> int:
     from .plotting import plot_traces
 
-    for d in args.dirs:
-        if not os.path.isfile(os.path.join(d, "trace.csv")):
-            raise core.BadInputError(f"{d}: no trace.csv")
     labels = args.labels.split(",") if args.labels else None
     if labels is not None and len(labels) != len(args.dirs):
-        raise UsageError(f"--labels: {len(labels)} labels for {len(args.dirs)} folders")
+        raise UsageError(f"--labels: {_counted(len(labels), 'label')} for "
+                         f"{_counted(len(args.dirs), 'folder')}; give one per folder, "
+                         "comma-separated")
+    for d in args.dirs:
+        # the readers' own check, so that a folder is refused in the API's words
+        # ('no such run folder', 'not a folder ...', 'no trace.csv'), before any drawing
+        core.run_file(d, "trace.csv", "")
     out = _png_path(args.out)
     plot_traces(args.dirs, out, labels=labels, title=args.title)
     if not args.quiet:
@@ -335,7 +338,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "folder's lock, wait for it to end instead of stopping (exit 2)")
     r.set_defaults(func=cmd_run)
 
-    pl = sub.add_parser("plot", help="overlay the traces of runs in one PNG",
+    pl = sub.add_parser("plot", help="overlay the traces of runs in one image (.png, .pdf "
+                        "or .svg)",
                         description="Draw u_n, v_n, p_n and the energy of one or more "
                         "runs (folders holding trace.csv and summary.json).")
     pl.add_argument("dirs", nargs="+", metavar="DIR")
@@ -349,9 +353,10 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--quiet", "-q", action="store_true")
     pl.set_defaults(func=cmd_plot)
 
-    sub.add_parser("mesh", help="mesh tools (see `dyncontact mesh --help`)", add_help=False)
-    sub.add_parser("study", help="convergence, work-precision and stability studies (see "
-                   "`dyncontact study --help`)", add_help=False)
+    sub.add_parser("mesh", help="mesh a .geo with gmsh into a .msh file (see `dyncontact "
+                   "mesh --help`)", add_help=False)
+    sub.add_parser("study", help="convergence, work-precision, stability, contact methods and "
+                   "Hertz's impact studies (see `dyncontact study --help`)", add_help=False)
     return p
 
 

@@ -36,6 +36,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import errno
 import os
 import sys
 from pathlib import Path
@@ -353,7 +354,9 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     the geometry's dimension.
 
     The file is written under a temporary name in `out_path`'s folder and renamed to
-    `out_path` once whole: an error, a KeyboardInterrupt or a stop signal
+    `out_path` once whole (`out_path` a symbolic link: in the folder of the file it
+    points to, and renamed to that file, so that the mesh goes through the link and the
+    link stays): an error, a KeyboardInterrupt or a stop signal
     (:func:`dyncontact.core.exit_on_signal_during_mesh_read`) leaves no part of a mesh
     under that name, and an existing file of that name as it was. ``verify(path)``, when
     given, is called with the temporary file before the rename (``dyncontact mesh`` reads
@@ -392,8 +395,10 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     # the mesh is written under a temporary name beside `out` and given its name once
     # whole (and read back by `verify`), so that `out` is never a part of a mesh: not
     # after an error, a KeyboardInterrupt, nor a stop signal that ends the program
-    # (python -m dyncontact mesh), which removes the part first (removed_if_stopped)
-    part = _part_name(out)
+    # (python -m dyncontact mesh), which removes the part first (removed_if_stopped);
+    # `out` a symbolic link: beside the file it points to, which the rename replaces
+    target = _written_file(out)
+    part = _part_name(target)
     with removed_if_stopped(part):
         try:
             # one guard for gmsh's parse of the estimate, its meshing, the write and the
@@ -411,7 +416,7 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
                 _mesh_into(geo, part, out, values, given, binary, version)
                 if verify is not None:
                     verify(part)
-            os.replace(part, out)
+            os.replace(part, target)
         except BaseException:
             _discard(part)
             raise
@@ -441,6 +446,20 @@ def _mesh_into(geo: Path, part: Path, out: Path, values: dict[str, float], given
             gmsh.write(str(part))
         except Exception as exc:   # gmsh raises a bare Exception with its last error
             raise DyncontactError(f"{out}: gmsh cannot write it: {exc}") from None
+
+
+def _written_file(out: Path) -> Path:
+    """The file that writing `out` writes: `out`, or where a symbolic link `out` points to
+    (through a chain of links, each relative one from its own folder; the file need not
+    exist yet), so that :func:`generate`'s rename writes through the link, as a write
+    into `out` would, and leaves the link a link. A loop of links, which no write goes
+    through: :class:`DyncontactError` naming `out`."""
+    if not out.is_symlink():
+        return out
+    target = Path(os.path.realpath(out))
+    if target.is_symlink():
+        raise DyncontactError(f"{out}: cannot write it: {os.strerror(errno.ELOOP)}")
+    return target
 
 
 def _part_name(out: Path) -> Path:

@@ -249,13 +249,14 @@ def _limit_blowups(ax, ok: list[np.ndarray], stopped: list[np.ndarray],
 
 def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = None,
                 labels: Sequence[str] | None = None, title: str | None = None):
-    """Draw the traces of one or more runs in four panels and save them as a PNG.
+    """Draw the traces of one or more runs in four panels and save them as an image.
 
     Parameters
     ----------
     dirs_or_results : run folders (holding trace.csv and summary.json) and/or
         :class:`dyncontact.RunResult` objects; one colour per run.
-    out_png : file to write (None: do not save).
+    out_png : file to write (None: do not save); its extension gives the format (.png,
+        .pdf, .svg; without one, matplotlib writes OUT.png), its folders are created.
     labels : legend labels (default: scheme and parameters from summary.json, e.g.
         'hht α=-0.1, Δt=0.0025, h=0.05' (:func:`run_label`); where two runs would read
         alike, followed by the scene keys that differ between them, or by the run's
@@ -277,15 +278,27 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     Returns
     -------
     matplotlib.figure.Figure
+
+    Raises
+    ------
+    BadInputError
+        (a ``ValueError`` too) no run given, or ``labels`` not one per run.
+    RunNotFoundError
+        a run folder that is not there or has no trace.csv (a ``BadInputError``).
     """
     from matplotlib.figure import Figure
+
+    from .core import BadInputError   # a ValueError too, which these were before
 
     items = list(dirs_or_results) if not isinstance(dirs_or_results, (str, os.PathLike)) \
         else [dirs_or_results]
     if not items:
-        raise ValueError("nothing to plot")
+        raise BadInputError("plot_traces: nothing to plot (no run folder or RunResult)")
     if labels is not None and len(labels) != len(items):
-        raise ValueError(f"{len(labels)} labels for {len(items)} runs")
+        n = len(labels)
+        raise BadInputError(f"labels: {n} label{'' if n == 1 else 's'} for "
+                            f"{len(items)} run{'' if len(items) == 1 else 's'}; "
+                            "give one per run")
 
     # A fixed layout (constrained layout costs about half of the drawing time): the
     # legend, one row per two runs, goes under the panels.
