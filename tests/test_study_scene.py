@@ -595,23 +595,30 @@ def test_scene_rows_fall_back_to_the_builtin_rows_for_steps_out_of_ratio():
     assert ref_every == [_level_every(d) for d in levels]
 
 
-def test_scene_plot_x_axis_has_numbers_when_every_run_takes_the_same_decade(tmp_path,
-                                                                           monkeypatch):
-    """A quick scene study's runs can all take 5-6 ms of CPU: the log x axis then holds
-    no power of 10, and its minor ticks must carry the numbers (they had none)."""
+def _scene_chart_of_two_runs(tmp_path, monkeypatch, cpu_s):
+    """The work-precision chart of a scene study whose two runs took `cpu_s` seconds of
+    CPU (errors 2e-4 and 5e-5), drawn."""
     import matplotlib
     matplotlib.use("Agg")
     import dyncontact.study.workprecision as wp
 
     rows = [{"case": "scene", "series": "newmark@20", "status": "ok", "cpu_s": cpu,
              **{f"err_{q}": err for q in ("u_n", "v_n", "p_n", "e_total")}}
-            for cpu, err in ((0.0052, 2e-4), (0.0061, 5e-5))]
+            for cpu, err in zip(cpu_s, (2e-4, 5e-5))]
     series = [(SCHEMES["newmark"], 20.0, "newmark", "newmark@20")]
     figs = []
     monkeypatch.setattr(wp, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
     wp._plot(rows, series, {}, str(tmp_path / "wp.png"), cases=(("scene", "s.nml"),))
     fig = figs[0]
     fig.canvas.draw()
+    return fig
+
+
+def test_scene_plot_x_axis_has_numbers_when_every_run_takes_the_same_decade(tmp_path,
+                                                                           monkeypatch):
+    """A quick scene study's runs can all take 5-6 ms of CPU: the log x axis then holds
+    no power of 10, and its minor ticks must carry the numbers (they had none)."""
+    fig = _scene_chart_of_two_runs(tmp_path, monkeypatch, (0.0052, 0.0061))
     for ax in fig.axes[:4]:
         lo, hi = ax.get_xlim()
         shown = [t.get_text() for t in ax.xaxis.get_majorticklabels()
@@ -623,19 +630,7 @@ def test_scene_plot_x_axis_has_numbers_when_every_run_takes_the_same_decade(tmp_
 def test_scene_plot_x_numbers_within_a_decade_do_not_overlap(tmp_path, monkeypatch):
     """Runs of 12-45 ms of CPU: the x axis's minor ticks carry the numbers, as plain
     numbers (0.03) side by side; as 3×10⁻² and 4×10⁻² they overlapped on a panel."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import dyncontact.study.workprecision as wp
-
-    rows = [{"case": "scene", "series": "newmark@20", "status": "ok", "cpu_s": cpu,
-             **{f"err_{q}": err for q in ("u_n", "v_n", "p_n", "e_total")}}
-            for cpu, err in ((0.0125, 2e-4), (0.045, 5e-5))]
-    series = [(SCHEMES["newmark"], 20.0, "newmark", "newmark@20")]
-    figs = []
-    monkeypatch.setattr(wp, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
-    wp._plot(rows, series, {}, str(tmp_path / "wp.png"), cases=(("scene", "s.nml"),))
-    fig = figs[0]
-    fig.canvas.draw()
+    fig = _scene_chart_of_two_runs(tmp_path, monkeypatch, (0.0125, 0.045))
     renderer = fig.canvas.get_renderer()
     for ax in fig.axes[:4]:
         lo, hi = ax.get_xlim()
