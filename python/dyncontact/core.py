@@ -214,7 +214,7 @@ def removed_if_stopped(*paths: str | os.PathLike):
     caller writes before a read and removes itself afterwards. Nothing changes in a
     process that has not asked for that exit. The core holds a few such names at a time
     (8): a path it cannot hold (too many named at once, a path over 4095 bytes) would be
-    left behind by such an exit, as before, and is not an error of the block."""
+    left behind by such an exit, and is not an error of the block."""
     named = _stop_removes(paths)
     try:
         yield
