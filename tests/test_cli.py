@@ -318,6 +318,45 @@ def test_bad_command_line_is_one_line(run_cli):
     _one_error_line(run_cli("run", "x.nml", "--bogus"), 2)
 
 
+def _main_line(capsys, *args) -> str:
+    """The one line `python -m dyncontact ARGS` prints on stderr, exiting 2 (in process)."""
+    from dyncontact.cli import main
+
+    assert main([str(a) for a in args]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    return err.strip()
+
+
+@pytest.mark.parametrize("first", ["scene.nml", "S.NML", "existing"])
+def test_a_scene_given_for_the_command_says_the_run_command(capsys, tmp_path, monkeypatch,
+                                                            first):
+    """`python -m dyncontact scene.nml` (run forgotten) said "invalid choice: 'scene.nml'":
+    an existing file or a name ending in .nml is said to need `run` before it, with the
+    rest of the command line, and nothing is run."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "existing").write_text("&scheme dt = 0.01 /\n")
+    line = _main_line(capsys, first, "--out", "o")
+    assert line == (f"dyncontact: {first} is not a command; to run a scene file: "
+                     f"`python -m dyncontact run {first} --out o`"), line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["existing"]
+    assert "invalid choice: 'frob'" in _main_line(capsys, "frob")
+
+
+@pytest.mark.parametrize("args, command", [
+    (("run", "s.nml", "--bogus"), "dyncontact run"),
+    (("run", "s.nml", "t.nml"), "dyncontact run"),
+    (("plot", "a", "--out", "x.png", "--bogus"), "dyncontact plot"),
+    (("--bogus",), "dyncontact"),
+])
+def test_an_unknown_option_points_to_its_commands_help(capsys, args, command):
+    """`run s.nml --bogus` pointed to `dyncontact --help`, which does not list run's
+    options: the subcommand's own help is named."""
+    line = _main_line(capsys, *args)
+    assert line.startswith("dyncontact: unrecognized arguments: "), line
+    assert line.endswith(f"(see `{command} --help`)"), line
+
+
 def test_version_and_help(run_cli):
     import dyncontact
 

@@ -578,9 +578,17 @@ def _check_out(out: str) -> None:
         raise BadInputError(f"--out {out}: is a folder")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse whose errors are one line, as the other commands' (``dyncontact mesh:
+    MESSAGE (see `dyncontact mesh --help`)``, exit 2), not the usage and the message."""
+
+    def error(self, message):  # noqa: D102 - argparse API
+        raise BadInputError(f"{message} (see `{self.prog} --help`)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m dyncontact mesh``."""
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="dyncontact mesh",
         description="Mesh a .geo with gmsh (default: the bar of meshes/bar2d.geo, "
                     "structured triangles) and write it as .msh 4.1 ASCII. h, length and "
@@ -625,8 +633,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "mesh":
         argv = argv[1:]
-    args = build_parser().parse_args(argv)
     try:
+        args = build_parser().parse_args(argv)
         _check_out(args.out)
         read, refused = [], []
 
