@@ -134,6 +134,9 @@ def _said_of_option(exc: Exception, out: str | None, restart: str | None = None)
 
 
 def cmd_run(args) -> int:
+    for option, folder in (("--out", args.out), ("--restart", args.restart)):
+        if folder == "":     # `--out=` or `--out ''`: the option named, as the executable
+            raise UsageError(f"{option}: empty folder name")
     sets = [parse_set(s) for s in (args.set or [])]
     scene_path = args.scene
     if sets:
