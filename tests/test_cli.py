@@ -155,6 +155,41 @@ def test_plot_labels_not_one_per_folder_is_one_line_naming_the_option(run_cli, t
     assert not (tmp_path / "x.png").exists()
 
 
+@pytest.mark.parametrize("given, said", [
+    ("", "label 1 of 1 is empty"),
+    ("x,", "label 2 of 2 is empty"),
+    ("x,,y", "label 2 of 3 is empty"),
+    (" ,y", "label 1 of 2 is empty"),
+])
+def test_plot_empty_labels_are_refused_naming_the_option(capsys, tmp_path, given, said):
+    """`--labels ""` drew the default labels and `a,,b` a blank legend entry, silently (an
+    empty label has no meaning of its own): one line naming --labels, nothing drawn."""
+    from dyncontact.cli import main
+
+    a, b = _write_run(tmp_path / "a"), _write_run(tmp_path / "b")
+    dirs = [a] if given == "" else [a, b, _write_run(tmp_path / "c")][:len(given.split(","))]
+    assert main(["plot", *map(str, dirs), "--labels", given, "--out",
+                 str(tmp_path / "x.png")]) == 2
+    assert capsys.readouterr().err == (f"dyncontact: --labels: {said}; give one per folder, "
+                                       "comma-separated\n")
+    assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("labels, said", [
+    ([""], "label 1 of 1 is empty"),
+    (["x", "  "], "label 2 of 2 is empty"),
+])
+def test_plot_traces_empty_label_is_bad_input(tmp_path, labels, said):
+    from dyncontact import BadInputError
+    from dyncontact.plotting import plot_traces
+
+    runs = [_write_run(tmp_path / name) for name in "ab"[:len(labels)]]
+    with pytest.raises(BadInputError) as info:
+        plot_traces(runs, tmp_path / "x.png", labels=labels)
+    assert str(info.value) == f"labels: {said}; give one per run"
+    assert not (tmp_path / "x.png").exists()
+
+
 def test_plot_traces_labels_not_one_per_run_is_bad_input(tmp_path):
     """The package's bad-input error, still the ValueError it was."""
     from dyncontact import BadInputError

@@ -241,7 +241,12 @@ def _drop_stdout() -> None:
 def cmd_plot(args) -> int:
     from .plotting import plot_traces
 
-    labels = args.labels.split(",") if args.labels else None
+    labels = args.labels.split(",") if args.labels is not None else None
+    for i, label in enumerate(labels or [], 1):
+        # `--labels ""` and `a,,b` would draw the default or a blank legend entry
+        if not label.strip():
+            raise UsageError(f"--labels: label {i} of {len(labels)} is empty; give one "
+                             "per folder, comma-separated")
     if labels is not None and len(labels) != len(args.dirs):
         raise UsageError(f"--labels: {_counted(len(labels), 'label')} for "
                          f"{_counted(len(args.dirs), 'folder')}; give one per folder, "
