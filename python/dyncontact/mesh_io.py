@@ -568,12 +568,21 @@ def _summary(m: MeshData) -> str:
 
 
 def _check_out(out: str) -> None:
-    """BadInputError naming ``--out`` unless it is a .msh file in an existing folder."""
+    """BadInputError naming ``--out`` unless it is a .msh file in an existing folder (a
+    symbolic link: and the file it points to is in one)."""
     if not out.lower().endswith(".msh") or out.endswith(("/", os.sep)):
         raise BadInputError(f"--out {out}: the mesh file's name must end in .msh")
     folder = os.path.dirname(out) or "."
     if not os.path.isdir(folder):
         raise BadInputError(f"--out {out}: no folder {folder} (create it first)")
+    if os.path.islink(out):
+        # the mesh is written where the link points (generate): that file's folder must
+        # be there too (a loop of links is generate's to refuse)
+        target = os.path.realpath(out)
+        target_folder = os.path.dirname(target)
+        if not os.path.islink(target) and not os.path.isdir(target_folder):
+            raise BadInputError(f"--out {out}: a link to {target}: no folder "
+                                f"{target_folder} (create it first)")
     if os.path.isdir(out):
         raise BadInputError(f"--out {out}: is a folder")
 
