@@ -155,6 +155,41 @@ def test_plot_labels_not_one_per_folder_is_one_line_naming_the_option(run_cli, t
     assert not (tmp_path / "x.png").exists()
 
 
+@pytest.mark.parametrize("given, said", [
+    ("", "label 1 of 1 is empty"),
+    ("x,", "label 2 of 2 is empty"),
+    ("x,,y", "label 2 of 3 is empty"),
+    (" ,y", "label 1 of 2 is empty"),
+])
+def test_plot_empty_labels_are_refused_naming_the_option(capsys, tmp_path, given, said):
+    """`--labels ""` drew the default labels and `a,,b` a blank legend entry, silently (an
+    empty label has no meaning of its own): one line naming --labels, nothing drawn."""
+    from dyncontact.cli import main
+
+    a, b = _write_run(tmp_path / "a"), _write_run(tmp_path / "b")
+    dirs = [a] if given == "" else [a, b, _write_run(tmp_path / "c")][:len(given.split(","))]
+    assert main(["plot", *map(str, dirs), "--labels", given, "--out",
+                 str(tmp_path / "x.png")]) == 2
+    assert capsys.readouterr().err == (f"dyncontact: --labels: {said}; give one per folder, "
+                                       "comma-separated\n")
+    assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("labels, said", [
+    ([""], "label 1 of 1 is empty"),
+    (["x", "  "], "label 2 of 2 is empty"),
+])
+def test_plot_traces_empty_label_is_bad_input(tmp_path, labels, said):
+    from dyncontact import BadInputError
+    from dyncontact.plotting import plot_traces
+
+    runs = [_write_run(tmp_path / name) for name in "ab"[:len(labels)]]
+    with pytest.raises(BadInputError) as info:
+        plot_traces(runs, tmp_path / "x.png", labels=labels)
+    assert str(info.value) == f"labels: {said}; give one per run"
+    assert not (tmp_path / "x.png").exists()
+
+
 def test_plot_traces_labels_not_one_per_run_is_bad_input(tmp_path):
     """The package's bad-input error, still the ValueError it was."""
     from dyncontact import BadInputError
@@ -316,6 +351,45 @@ def test_bad_command_line_is_one_line(run_cli):
     _one_error_line(run_cli("frobnicate"), 2)
     _one_error_line(run_cli("run"), 2)
     _one_error_line(run_cli("run", "x.nml", "--bogus"), 2)
+
+
+def _main_line(capsys, *args) -> str:
+    """The one line `python -m dyncontact ARGS` prints on stderr, exiting 2 (in process)."""
+    from dyncontact.cli import main
+
+    assert main([str(a) for a in args]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    return err.strip()
+
+
+@pytest.mark.parametrize("first", ["scene.nml", "S.NML", "existing"])
+def test_a_scene_given_for_the_command_says_the_run_command(capsys, tmp_path, monkeypatch,
+                                                            first):
+    """`python -m dyncontact scene.nml` (run forgotten) said "invalid choice: 'scene.nml'":
+    an existing file or a name ending in .nml is said to need `run` before it, with the
+    rest of the command line, and nothing is run."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "existing").write_text("&scheme dt = 0.01 /\n")
+    line = _main_line(capsys, first, "--out", "o")
+    assert line == (f"dyncontact: {first} is not a command; to run a scene file: "
+                     f"`python -m dyncontact run {first} --out o`"), line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["existing"]
+    assert "invalid choice: 'frob'" in _main_line(capsys, "frob")
+
+
+@pytest.mark.parametrize("args, command", [
+    (("run", "s.nml", "--bogus"), "dyncontact run"),
+    (("run", "s.nml", "t.nml"), "dyncontact run"),
+    (("plot", "a", "--out", "x.png", "--bogus"), "dyncontact plot"),
+    (("--bogus",), "dyncontact"),
+])
+def test_an_unknown_option_points_to_its_commands_help(capsys, args, command):
+    """`run s.nml --bogus` pointed to `dyncontact --help`, which does not list run's
+    options: the subcommand's own help is named."""
+    line = _main_line(capsys, *args)
+    assert line.startswith("dyncontact: unrecognized arguments: "), line
+    assert line.endswith(f"(see `{command} --help`)"), line
 
 
 def test_version_and_help(run_cli):

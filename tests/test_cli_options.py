@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+from pathlib import Path
 
 import pytest
 
@@ -130,6 +131,27 @@ def test_mesh_out_is_refused_in_one_line(run_cli, tmp_path, out, words):
     for w in words:
         assert w in line, line
     assert sorted(os.listdir(tmp_path)) == []
+
+
+@pytest.mark.parametrize("link", ["missing/m.msh", "sub/missing/m.msh"])
+def test_mesh_out_linking_into_a_missing_folder_is_refused_in_one_line(capsys, tmp_path,
+                                                                        monkeypatch, link):
+    """`--out LINK.msh` whose target's folder is not there failed at gmsh's write (exit 4)
+    while `--out missing/m.msh` says to create the folder (exit 2): the link says the
+    same, naming the target and its folder, and is left as it was."""
+    from dyncontact.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "LINK.msh").symlink_to(link)
+    assert main(["mesh", "--h", "0.1", "--out", "LINK.msh"]) == 2
+    target = tmp_path / link
+    assert capsys.readouterr().err == (f"dyncontact mesh: --out LINK.msh: a link to "
+                                       f"{target}: no folder {target.parent} (create it "
+                                       "first)\n")
+    assert (tmp_path / "LINK.msh").readlink() == Path(link)
+    assert sorted(os.listdir(tmp_path)) == ["LINK.msh", "sub"]
+    assert os.listdir(tmp_path / "sub") == []
 
 
 #: File-size limit (bytes) of the test below: the mesh at h = 0.02 (250 nodes, ~1000

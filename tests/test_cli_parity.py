@@ -112,3 +112,27 @@ def test_executable_help_stands_without_the_source_tree():
         assert group in flat
     assert '"Scene files, outputs and exit codes"' in flat
     assert "python -m dyncontact run --help" in flat
+
+
+@pytest.mark.parametrize("who", ["exe", "cli"])
+def test_out_and_restart_take_the_equals_form(tmp_path: Path, who: str):
+    """The executable refused --out=DIR and --restart=DIR as unknown options, which
+    `python -m dyncontact run` takes: both take them, as --out DIR and --restart DIR, and
+    both refuse an empty folder name in one line naming the option (exit 2)."""
+    (tmp_path / "s.nml").write_text(scene("0.05", every=1), encoding="utf-8")
+    (tmp_path / "s2.nml").write_text(scene("0.1", every=1), encoding="utf-8")
+    run = subprocess.run(commands("s.nml", "--out=o")[who], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert lines(run.stdout)[-1] == "dyncontact: ok, 20 steps to t=5.00000E-002 -> o"
+    again = subprocess.run(commands("s2.nml", "--restart=o")[who], cwd=tmp_path,
+                           capture_output=True, text=True, timeout=120)
+    assert again.returncode == 0, again.stderr
+    assert lines(again.stdout)[-1] == "dyncontact: ok, 40 steps to t=1.00000E-001 -> o"
+    for args, option in ((("--out=",), "--out"), (("--restart=",), "--restart"),
+                         (("--out", ""), "--out"), (("--restart", ""), "--restart")):
+        res = subprocess.run(commands("s.nml", *args)[who], cwd=tmp_path,
+                             capture_output=True, text=True, timeout=120)
+        assert (res.returncode, res.stderr) == (2, f"dyncontact: {option}: empty folder "
+                                                   "name\n"), (args, res.stderr)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o", "s.nml", "s2.nml"]

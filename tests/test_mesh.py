@@ -638,6 +638,24 @@ def test_mesh_command_help(run_cli, tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("args, words", [
+    (("--out", "x.msh", "--bogus"), "unrecognized arguments: --bogus"),
+    (("--out", "x.msh", "--h", "abc"), "argument --h: invalid float value: 'abc'"),
+    ((), "the following arguments are required: --out"),
+])
+def test_mesh_command_line_errors_are_one_line(capsys, tmp_path, monkeypatch, args, words):
+    """argparse's errors of `mesh` were its usage and the message, while the command's
+    other errors and the other commands' are one line: one line naming the mesh
+    command's help, exit 2, nothing written."""
+    from dyncontact.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["mesh", *args]) == 2
+    err = capsys.readouterr().err
+    assert err == f"dyncontact mesh: {words} (see `dyncontact mesh --help`)\n", err
+    assert list(tmp_path.iterdir()) == []
+
+
 #: Two squares' four triangles on [0, 1]^2 (MSH 2.2): 'bottom' and 'top' on the boundary,
 #: 'mid' the edge y = 0.5 between the two squares, a face of two triangles.
 TWO_SQUARES_MSH = """$MeshFormat

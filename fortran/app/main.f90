@@ -1,5 +1,5 @@
-!> dyncontact executable: `dyncontact SCENE.nml [--out DIR] [--restart DIR]`. The only
-!> place that stops.
+!> dyncontact executable: `dyncontact SCENE.nml [--out DIR] [--restart DIR]` (or
+!> --out=DIR, --restart=DIR). The only place that stops.
 program main
     use simulation, only: simulation_t, sim_open, sim_advance, sim_close
     use iso_c_binding, only: c_int
@@ -37,6 +37,7 @@ program main
             write (*, '(a)') '(&output dir, or DIR). With the Python package installed, `python -m dyncontact'
             write (*, '(a)') 'run --help` gives the Python command line, which also takes --set GROUP.KEY=VALUE,'
             write (*, '(a)') '--quiet and --wait.'
+            write (*, '(a)') '--out DIR and --restart DIR may be written --out=DIR and --restart=DIR.'
             write (*, '(a)') '--restart DIR continues a stopped run from DIR/checkpoint.bin (written with'
             write (*, '(a)') '&output checkpoint_every > 0), appending to DIR/trace.csv; a later'
             write (*, '(a)') '&scheme t_end or a raised blowup in SCENE.nml extends the run.'
@@ -52,6 +53,16 @@ program main
         case ('--restart')
             call folder_argument('--restart', i, restart_dir)
         case default
+            ! --out=DIR and --restart=DIR, as `python -m dyncontact run` (argparse) takes them
+            if (starts_with(arg, '--out=')) then
+                call folder_given('--out', arg(len('--out=') + 1:), out_dir)
+                i = i + 1
+                cycle
+            else if (starts_with(arg, '--restart=')) then
+                call folder_given('--restart', arg(len('--restart=') + 1:), restart_dir)
+                i = i + 1
+                cycle
+            end if
             if (len(arg) > 1) then
                 if (arg(1:1) == '-') then
                     if (len(python_run_option(arg)) > 0) call fail(STAT_BAD_INPUT, &
@@ -126,11 +137,28 @@ contains
         if (k == nargs) call fail(STAT_BAD_INPUT, option//' needs a folder ('//USAGE//')')
         k = k + 1
         a = argument(k)
+        call folder_given(option, a, dir)
+    end subroutine folder_argument
+
+    !> The folder `a` given to `option` (after it, or after its '='). An empty folder
+    !> name, or the option given twice, stops the program.
+    subroutine folder_given(option, a, dir)
+        character(len=*), intent(in) :: option   !! '--out' or '--restart'
+        character(len=*), intent(in) :: a        !! the folder as given
+        character(len=*), intent(inout) :: dir   !! the folder ('' until given)
         if (len(a) == 0) call fail(STAT_BAD_INPUT, option//': empty folder name')
         if (len_trim(dir) > 0) call fail(STAT_BAD_INPUT, option//' given twice ('//trim(dir)// &
                                          ', '//a//'); '//USAGE)
         dir = a
-    end subroutine folder_argument
+    end subroutine folder_given
+
+    !> Whether `a` begins with `prefix`.
+    pure logical function starts_with(a, prefix)
+        character(len=*), intent(in) :: a        !! a command argument
+        character(len=*), intent(in) :: prefix   !! its possible beginning
+        starts_with = .false.
+        if (len(a) >= len(prefix)) starts_with = a(1:len(prefix)) == prefix
+    end function starts_with
 
     !> The option of `python -m dyncontact run` that the executable does not take which
     !> `a` is (its name, before any '=': `--set=scheme.dt=0.001` is --set), or ''.

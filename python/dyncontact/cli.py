@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import errno
 import os
+import shlex
 import signal
 import sys
 import threading
@@ -133,6 +134,9 @@ def _said_of_option(exc: Exception, out: str | None, restart: str | None = None)
 
 
 def cmd_run(args) -> int:
+    for option, folder in (("--out", args.out), ("--restart", args.restart)):
+        if folder == "":     # `--out=` or `--out ''`: the option named, as the executable
+            raise UsageError(f"{option}: empty folder name")
     sets = [parse_set(s) for s in (args.set or [])]
     scene_path = args.scene
     if sets:
@@ -237,7 +241,12 @@ def _drop_stdout() -> None:
 def cmd_plot(args) -> int:
     from .plotting import plot_traces
 
-    labels = args.labels.split(",") if args.labels else None
+    labels = args.labels.split(",") if args.labels is not None else None
+    for i, label in enumerate(labels or [], 1):
+        # `--labels ""` and `a,,b` would draw the default or a blank legend entry
+        if not label.strip():
+            raise UsageError(f"--labels: label {i} of {len(labels)} is empty; give one "
+                             "per folder, comma-separated")
     if labels is not None and len(labels) != len(args.dirs):
         raise UsageError(f"--labels: {_counted(len(labels), 'label')} for "
                          f"{_counted(len(args.dirs), 'folder')}; give one per folder, "
@@ -381,6 +390,18 @@ def _counted(n, noun: str) -> str:
     return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
+#: The subcommands, which an argument of the same name is taken for.
+COMMANDS = ("run", "plot", "mesh", "study")
+
+
+def _scene_for_command(first: str) -> bool:
+    """Whether the first argument, given where the command goes, is a scene file: an
+    existing file, or a name ending in .nml (the command `run` forgotten)."""
+    if first in COMMANDS or first.startswith("-"):
+        return False
+    return first.lower().endswith(".nml") or os.path.isfile(first)
+
+
 def main(argv: Sequence[str] | None = None, *, program: bool = False) -> int:
     """Entry point; returns the exit status. ``program``: the process is this command
     (``python -m dyncontact``), which may then end itself on a signal while gmsh reads a
@@ -393,8 +414,18 @@ def main(argv: Sequence[str] | None = None, *, program: bool = False) -> int:
             return cmd_mesh(argv[1:], program)
         if argv and argv[0] == "study":
             return cmd_study(argv[1:])
+        if argv and _scene_for_command(argv[0]):
+            # `python -m dyncontact scene.nml`: argparse would say "invalid choice"
+            raise UsageError(f"{argv[0]} is not a command; to run a scene file: "
+                             f"`python -m dyncontact {shlex.join(['run', *argv])}`")
         parser = build_parser()
-        args = parser.parse_args(argv)
+        args, extras = parser.parse_known_args(argv)
+        if extras:
+            # the subcommand's parser leaves them to this one, whose error would point
+            # to the top-level help, which does not list the subcommand's options
+            command = f"{PROG} {args.command}" if args.command else PROG
+            raise UsageError(f"unrecognized arguments: {' '.join(extras)} "
+                             f"(see `{command} --help`)")
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT

@@ -568,19 +568,36 @@ def _summary(m: MeshData) -> str:
 
 
 def _check_out(out: str) -> None:
-    """BadInputError naming ``--out`` unless it is a .msh file in an existing folder."""
+    """BadInputError naming ``--out`` unless it is a .msh file in an existing folder (a
+    symbolic link: and the file it points to is in one)."""
     if not out.lower().endswith(".msh") or out.endswith(("/", os.sep)):
         raise BadInputError(f"--out {out}: the mesh file's name must end in .msh")
     folder = os.path.dirname(out) or "."
     if not os.path.isdir(folder):
         raise BadInputError(f"--out {out}: no folder {folder} (create it first)")
+    if os.path.islink(out):
+        # the mesh is written where the link points (generate): that file's folder must
+        # be there too (a loop of links is generate's to refuse)
+        target = os.path.realpath(out)
+        target_folder = os.path.dirname(target)
+        if not os.path.islink(target) and not os.path.isdir(target_folder):
+            raise BadInputError(f"--out {out}: a link to {target}: no folder "
+                                f"{target_folder} (create it first)")
     if os.path.isdir(out):
         raise BadInputError(f"--out {out}: is a folder")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse whose errors are one line, as the other commands' (``dyncontact mesh:
+    MESSAGE (see `dyncontact mesh --help`)``, exit 2), not the usage and the message."""
+
+    def error(self, message):  # noqa: D102 - argparse API
+        raise BadInputError(f"{message} (see `{self.prog} --help`)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m dyncontact mesh``."""
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="dyncontact mesh",
         description="Mesh a .geo with gmsh (default: the bar of meshes/bar2d.geo, "
                     "structured triangles) and write it as .msh 4.1 ASCII. h, length and "
@@ -625,8 +642,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "mesh":
         argv = argv[1:]
-    args = build_parser().parse_args(argv)
     try:
+        args = build_parser().parse_args(argv)
         _check_out(args.out)
         read, refused = [], []
 

@@ -282,7 +282,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     Raises
     ------
     BadInputError
-        (a ``ValueError`` too) no run given, or ``labels`` not one per run.
+        (a ``ValueError`` too) no run given, or ``labels`` not one per run or with
+        an empty (or blank) one.
     RunNotFoundError
         a run folder that is not there or has no trace.csv (a ``BadInputError``).
     """
@@ -299,6 +300,10 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         raise BadInputError(f"labels: {n} label{'' if n == 1 else 's'} for "
                             f"{len(items)} run{'' if len(items) == 1 else 's'}; "
                             "give one per run")
+    for i, label in enumerate(labels or [], 1):
+        if not str(label).strip():   # a blank legend entry, which no run can be told by
+            raise BadInputError(f"labels: label {i} of {len(labels)} is empty; give one "
+                                "per run")
 
     # A fixed layout (constrained layout costs about half of the drawing time): the
     # legend, one row per two runs, goes under the panels.
