@@ -9,7 +9,8 @@
   or reads back the mesh, and leaves no file, not even a part of one, and an existing
   file of that name as it was;
 - a signal that reaches Python while the core opens a run closes the run it opened,
-  in run() as in a Model, a Stepper and bench_floors;
+  in run() as in a Model, a Stepper and bench_floors, and one while the core reads a
+  mesh for load_mesh frees the mesh it read;
 - `dyncontact study` leaves a SIGTERM ignored at start ignored, as `run` does.
 
 Every child starts with SIGINT at its default (as Ctrl-C finds it in a terminal), since
@@ -27,7 +28,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import signal_after
+from conftest import ROOT, signal_after
 from test_reliability import child_env, entry, write_scene
 from test_signals_mesh_file import CUBE_GEO, _cube_scene, _start, _wait_for_gmsh
 
@@ -314,6 +315,74 @@ def test_a_signal_during_an_objects_open_frees_it(what, tmp_path):
         assert sorted(os.listdir(tmp_path / "o")) == ["summary.json", "trace.csv"]
     else:
         assert not (tmp_path / "o").exists()
+
+
+#: load_mesh with a SIGINT sent as the core call named in argv[2] returns: the mesh read
+#: (argv[1]: a file, or '' for the built-in bar). Prints whether the interrupt came out,
+#: the handles dc_mesh_sizes returned, those dc_mesh_arrays copied and released, and
+#: those dc_mesh_free released (0 ignored, not listed).
+SIGNAL_IN_MESH_READ = """
+import json, os, signal, sys
+from dyncontact import core
+
+real = core._core()
+opened, copied, freed = [], [], []
+when = sys.argv[2]
+
+class Core:
+    def __getattr__(self, name):
+        return getattr(real, name)
+
+    def dc_mesh_sizes(self, *args):
+        result = real.dc_mesh_sizes(*args)
+        opened.append(int(result[0]))
+        if when == "dc_mesh_sizes":
+            os.kill(os.getpid(), signal.SIGINT)
+        return result
+
+    def dc_mesh_arrays(self, handle, *args):
+        copied.append(int(handle))
+        result = real.dc_mesh_arrays(handle, *args)
+        if when == "dc_mesh_arrays":
+            os.kill(os.getpid(), signal.SIGINT)
+        return result
+
+    def dc_mesh_free(self, handle):
+        if handle:
+            freed.append(int(handle))
+        return real.dc_mesh_free(handle)
+
+core._core = lambda: Core()
+try:
+    core.load_mesh(sys.argv[1])
+    said = "no interrupt"
+except KeyboardInterrupt:
+    said = "KeyboardInterrupt"
+print(json.dumps({"said": said, "opened": opened, "copied": copied, "freed": freed}))
+"""
+
+
+@pytest.mark.parametrize("mesh", ["", str(ROOT / "meshes" / "bar2d_getfem_h0.05.msh")],
+                         ids=["bar", "msh"])
+@pytest.mark.parametrize("when", ["dc_mesh_sizes", "dc_mesh_arrays"])
+def test_a_signal_during_load_mesh_frees_the_mesh_once(when, mesh, tmp_path):
+    """Ctrl-C as the core's read of a mesh for load_mesh returns: the interrupt goes on
+    to the caller and the mesh read is freed (dc_mesh_free); Ctrl-C as the copy that
+    releases it returns: it is not freed a second time. Without the fix the
+    KeyboardInterrupt came out of the read's return before the handle was stored: the
+    mesh was never freed (its memory kept to the end of the process)."""
+    res = subprocess.run([sys.executable, "-c", SIGNAL_IN_MESH_READ, mesh, when],
+                         cwd=tmp_path, env=child_env(), capture_output=True, text=True,
+                         timeout=120,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert res.returncode == 0, res.stderr
+    got = json.loads(res.stdout)
+    assert got["said"] == "KeyboardInterrupt", got
+    assert len(got["opened"]) == 1 and got["opened"][0] != 0, got
+    if when == "dc_mesh_sizes":
+        assert got["freed"] == got["opened"] and got["copied"] == [], got
+    else:
+        assert got["copied"] == got["opened"] and got["freed"] == [], got
 
 
 def test_the_study_leaves_an_ignored_sigterm_ignored(tmp_path):

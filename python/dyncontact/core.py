@@ -756,18 +756,19 @@ def run(scene, out: str | os.PathLike | None = None, progress: bool | None = Non
 
 
 def _open_held(open_call: Callable[[], tuple], keep: Callable[[int], None]) -> tuple:
-    """``open_call()``, a core call that opens a run or a model and returns its handle
-    first (0 when it failed) and its stat and message last, made with SIGINT and SIGTERM
-    held (:class:`_SignalsHeld`); ``keep(handle)`` stores a handle it opened where the
-    caller's clean-up closes it, and only then are the signals held handled (Ctrl-C's
-    KeyboardInterrupt raised here). Returns the call's result.
+    """``open_call()``, a core call that opens a run, a model or a mesh and returns its
+    handle first (0 when it failed) and its stat and message last, made with SIGINT and
+    SIGTERM held (:class:`_SignalsHeld`); ``keep(handle)`` stores a handle it opened where
+    the caller's clean-up closes or frees it, and only then are the signals held handled
+    (Ctrl-C's KeyboardInterrupt raised here). Returns the call's result.
 
-    The one way :func:`run`, :class:`Model`, :class:`Stepper` and :func:`bench_floors`
-    open the core's objects: a signal during the open (a run's set-up after the mesh
-    read: seconds to minutes on a large mesh) reached Python as the call returned, before
-    the handle was stored, and the object was never freed (a run's folder left locked,
-    its summary.json saying "running"). A signal during an open that failed is raised
-    before the failure (the caller asked to stop; nothing is left open)."""
+    The one way :func:`run`, :class:`Model`, :class:`Stepper`, :func:`bench_floors` and
+    :func:`load_mesh` open the core's objects: a signal during the open (a run's set-up
+    after the mesh read, a .geo's meshing: seconds to minutes on a large mesh) reached
+    Python as the call returned, before the handle was stored, and the object was never
+    freed (a run's folder left locked, its summary.json saying "running"; a mesh's
+    memory kept to the end of the process). A signal during an open that failed is
+    raised before the failure (the caller asked to stop; nothing is left open)."""
     with _SignalsHeld() as held:
         got = open_call()
     try:
@@ -934,17 +935,33 @@ def load_mesh(path: str | os.PathLike = "", *, dim: int = 2, length: float = 1.0
     """
     core = _core()
     p = _fpath(path, "mesh file")
-    handle, dim_, nn, nc, nf, ng, stat, errmsg = core.dc_mesh_sizes(
-        p, int(dim), float(length), float(width), float(h), int(bool(check)),
-        _given_bits(given), int(max_elements))
-    _check(stat, errmsg, "reading the mesh")
-    nl = core.dc_mesh_lower_size(handle)
-    lower_nodes, lower_group, stat, errmsg = core.dc_mesh_lower_arrays(handle, nl)
-    if stat:
-        core.dc_mesh_free(handle)
-    _check(stat, errmsg, "reading the mesh")
-    (x, cells, cell_group, facets, facet_group, group_dim, names, stat,
-     errmsg) = core.dc_mesh_arrays(handle, dim_, nn, nc, nf, ng)
+    handle = 0
+
+    def keep(opened: int) -> None:
+        nonlocal handle
+        handle = opened
+
+    try:
+        # the mesh the core read is freed whatever stops load_mesh, a signal as the read
+        # returns included (_open_held)
+        _, dim_, nn, nc, nf, ng, stat, errmsg = _open_held(
+            lambda: core.dc_mesh_sizes(p, int(dim), float(length), float(width), float(h),
+                                       int(bool(check)), _given_bits(given),
+                                       int(max_elements)),
+            keep)
+        _check(stat, errmsg, "reading the mesh")
+        nl = core.dc_mesh_lower_size(handle)
+        lower_nodes, lower_group, stat, errmsg = core.dc_mesh_lower_arrays(handle, nl)
+        _check(stat, errmsg, "reading the mesh")
+        # dc_mesh_arrays releases the mesh (whatever its stat): the handle is forgotten
+        # with signals held, so that a signal as it returns frees nothing twice
+        with _SignalsHeld() as held:
+            (x, cells, cell_group, facets, facet_group, group_dim, names, stat,
+             errmsg) = core.dc_mesh_arrays(handle, dim_, nn, nc, nf, ng)
+            handle = 0
+    finally:
+        core.dc_mesh_free(handle)          # 0 (released or never read) is ignored
+    held.deliver()
     _check(stat, errmsg, "reading the mesh")
     group_names = [s for s in _str(names).split(",")] if ng else []
     return {
