@@ -53,7 +53,47 @@ def test_a_steppers_repr_says_where_it_is(scene):
         s.advance(100)
         t = s.state()["t"]
         assert repr(s) == f"<Stepper scene='s.nml' t={t!r} step=50 out='o' open, finished>"
-    assert repr(s) == "<Stepper scene='s.nml' step=50 out='o' closed, finished>"
+    assert repr(s) == f"<Stepper scene='s.nml' t={t!r} step=50 out='o' closed, finished>"
+
+
+def _no_state(self):
+    raise AssertionError("repr copied the state (state())")
+
+
+@pytest.mark.filterwarnings("ignore:.*&scheme dt = 0 picks")
+@pytest.mark.parametrize("dt", ["1e-3", "0"], ids=["given_dt", "central_auto_dt"])
+def test_a_steppers_repr_keeps_t_without_copying_the_state(scene, tmp_path, monkeypatch,
+                                                           dt):
+    """The repr's t is the core's (state()'s t), after an advance, a load and a close,
+    without state(), which copies every state array; the central scheme's automatic step
+    (dt = 0), which the scene does not give, and a loaded state's t are the core's own
+    too. Without the fix the repr called state(), and a closed Stepper's showed no t."""
+    if dt == "0":
+        (tmp_path / "s.nml").write_text(
+            SCENE.replace("&scheme dt = 1e-3, t_end = 0.05",
+                          "&scheme name = 'central', dt = 0, t_end = 1.0"),
+            encoding="utf-8")
+    state = core.Stepper.state
+    with core.Stepper(scene, "o") as s:
+        seen = []
+        for act in ("open", "advance", "save", "advance", "load"):
+            if act == "advance":
+                s.advance(4)
+            elif act == "save":
+                s.save(tmp_path / "state.bin")
+            elif act == "load":
+                s.load(tmp_path / "state.bin")
+            t = state(s)["t"]
+            seen.append(t)
+            with monkeypatch.context() as m:
+                m.setattr(core.Stepper, "state", _no_state)
+                assert repr(s) == (f"<Stepper scene='s.nml' t={t!r} step={s.step} "
+                                   "out='o' open>"), act
+                assert s.t == t, act
+        assert seen[0] == 0.0 < seen[1] < seen[3]
+        assert seen[4] == seen[2] == seen[1]
+    monkeypatch.setattr(core.Stepper, "state", _no_state)
+    assert repr(s) == f"<Stepper scene='s.nml' t={seen[4]!r} step=4 out='o' closed>"
 
 
 def test_a_steppers_step_follows_a_load(scene, tmp_path):

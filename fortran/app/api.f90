@@ -941,6 +941,19 @@ subroutine dc_sim_state(handle, n, t, u, v, a, mv, load, bu, clear, f_n)
     bu = sim%st%bu
 end subroutine dc_sim_state
 
+!> The time an open run has reached (dc_sim_state's t), without copying its state.
+subroutine dc_sim_time(handle, t)
+    use iso_c_binding, only: c_int64_t, c_double
+    use simulation, only: simulation_t
+    use api_handles, only: sim_from_handle
+    implicit none
+    integer(c_int64_t), intent(in) :: handle     !! run handle
+    real(c_double), intent(out) :: t             !! time
+    type(simulation_t), pointer :: sim
+    call sim_from_handle(handle, sim)
+    t = sim%st%t
+end subroutine dc_sim_time
+
 !> Stored entries of the assembled matrices of an open run (M, K, K_theta share a pattern).
 subroutine dc_sim_matrix_nnz(handle, nnz)
     use iso_c_binding, only: c_int, c_int64_t

@@ -1213,8 +1213,9 @@ class Stepper(Model):
             s.save("state.bin")     # a checkpoint; s.load("state.bin") goes back to it
 
     Beyond :class:`Model`'s attributes: ``out`` (the output folder as given), ``step``
-    (the steps done so far, or the step loaded) and ``finished`` (the run reached its
-    end). Its repr says where it is::
+    (the steps done so far, or the step loaded), ``t`` (the time reached, the core's
+    own: ``state()['t']`` without copying the state; kept when closed) and ``finished``
+    (the run reached its end). Its repr says where it is::
 
         <Stepper scene='bar.nml' t=0.01 step=10 out='out/bar' open>
     """
@@ -1227,15 +1228,22 @@ class Stepper(Model):
                             f"{type(out).__name__}")
         self.out = os.fsdecode(out)
         self.step = 0
+        self.t = 0.0
         self.finished = False
         super().__init__(scene, _out=out)
         # the warnings and notes a run gives before it starts (docs/scenes.md); warnings
         # turned into errors leave no run open
         try:
+            self._at()
             _warn_notes(self.handle)
         except BaseException:
             self.close()
             raise
+
+    def _at(self) -> None:
+        """Keep ``t`` as the core has it (not step x dt: a loaded state's t, or the central
+        scheme's automatic step, would differ)."""
+        self.t = float(_core().dc_sim_time(self.handle))
 
     def advance(self, steps: int = 1) -> int:
         """Advance by at most ``steps`` steps (an int >= 0: a Python or numpy integer, or a
@@ -1255,6 +1263,7 @@ class Stepper(Model):
         self._need()
         done, step, finished, stat, errmsg = _core().dc_sim_advance(self.handle, int(steps))
         self.step = int(step)
+        self._at()
         self.finished = bool(finished)
         if stat == STAT_NUMERIC:
             raise NumericalError(_str(errmsg))
@@ -1289,6 +1298,7 @@ class Stepper(Model):
         self._need()
         before = len(_notes(_core().dc_sim_info(self.handle)[2]))
         step, stat, errmsg = _core().dc_sim_load(self.handle, _fpath(path, "checkpoint file"))
+        self._at()
         if int(stat) != STAT_OK:
             self.finished = True
         _check(stat, errmsg, "loading the state")
@@ -1300,12 +1310,11 @@ class Stepper(Model):
         return int(step)
 
     def __repr__(self) -> str:
-        where = f"t={self.state()['t']!r} " if self.handle else ""
         said = "open" if self.handle else "closed"
         if self.finished:
             said += ", finished"
-        return (f"<Stepper scene={self.scene!r} {where}step={self.step} out={self.out!r} "
-                f"{said}>")
+        return (f"<Stepper scene={self.scene!r} t={self.t!r} step={self.step} "
+                f"out={self.out!r} {said}>")
 
     def state(self) -> dict[str, Any]:
         """The run's state now (after the last :meth:`advance` or :meth:`load`; before
