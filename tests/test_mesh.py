@@ -608,8 +608,8 @@ def test_mesh_command_via_cli(run_cli, tmp_path):
 
 def test_mesh_command_writes_through_a_symbolic_link(run_cli, tmp_path):
     """`--out LINK.msh`, a symbolic link (relative, to an existing file or to one not yet
-    there), writes the file it points to and stays a link, as a write into it did before
-    the mesh was written under a temporary name and renamed (which replaced the link)."""
+    there), writes the file it points to and stays a link, as a write into it would: the
+    mesh is written under a temporary name beside the link's target and renamed to it."""
     meshes = tmp_path / "meshes"
     meshes.mkdir()
     (meshes / "old.msh").write_text("old\n")
@@ -629,6 +629,16 @@ def test_mesh_command_writes_through_a_symbolic_link(run_cli, tmp_path):
     with pytest.raises(DyncontactError, match="loop1.msh: cannot write it: Too many levels"):
         mesh_io.generate_bar(0.1, tmp_path / "loop1.msh")
     assert (tmp_path / "loop1.msh").readlink() == Path("loop2.msh")
+
+
+def test_generate_through_a_link_creates_its_targets_folders(tmp_path):
+    """generate_bar's `out_path` folders are created, through a symbolic link too: a link
+    to a file in folders not yet there gets them, and the mesh, and stays a link."""
+    (tmp_path / "LINK.msh").symlink_to(Path("new") / "sub" / "m.msh")
+    mesh_io.generate_bar(0.1, tmp_path / "LINK.msh")
+    assert (tmp_path / "LINK.msh").is_symlink()
+    assert (tmp_path / "new" / "sub" / "m.msh").read_text().startswith("$MeshFormat\n")
+    assert sorted(p.name for p in (tmp_path / "new" / "sub").iterdir()) == ["m.msh"]
 
 
 def test_mesh_command_help(run_cli, tmp_path):

@@ -412,7 +412,8 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
                         raise BadInputError(refusal)
                 else:   # the estimate's scan for gmsh's commands that end, stall or escape
                     geo_check(geo)
-                out.parent.mkdir(parents=True, exist_ok=True)
+                # the folders of the file written: a link's target's, not the link's
+                target.parent.mkdir(parents=True, exist_ok=True)
                 _mesh_into(geo, part, out, values, given, binary, version)
                 if verify is not None:
                     verify(part)
