@@ -67,7 +67,8 @@ def test_a_steppers_repr_keeps_t_without_copying_the_state(scene, tmp_path, monk
     """The repr's t is the core's (state()'s t), after an advance, a load and a close,
     without state(), which copies every state array; the central scheme's automatic step
     (dt = 0), which the scene does not give, and a loaded state's t are the core's own
-    too. Without the fix the repr called state(), and a closed Stepper's showed no t."""
+    too. A repr through state() would copy the state, and a closed Stepper's would
+    show no t."""
     if dt == "0":
         (tmp_path / "s.nml").write_text(
             SCENE.replace("&scheme dt = 1e-3, t_end = 0.05",

@@ -77,9 +77,8 @@ def _goes_on(proc: subprocess.Popen, folder: Path, seconds: float,
 def test_a_signal_ignored_at_start_stays_ignored(kind, ignored, tmp_path):
     """Started with `ignored` ignored, the run goes on after it (its trace keeps growing,
     for several chunks of steps of the Python command line); the other stop signal still
-    stops it, exit 130 with the trace and summary of an interrupted run. Without the fix
-    the executable installs its handler over an ignored SIGINT or SIGTERM and stops on
-    it, and the Python command line does so for SIGTERM."""
+    stops it, exit 130 with the trace and summary of an interrupted run. A handler
+    installed over an ignored signal would stop the run on it."""
     other = signal.SIGTERM if ignored == signal.SIGINT else signal.SIGINT
 
     def dispositions():
@@ -107,8 +106,8 @@ def test_run_with_set_ends_at_once_while_gmsh_meshes(sig, tmp_path):
     """`run --set` writes the changed scene to a temporary file, which the stop removes:
     a signal while gmsh meshes the .geo ends it at once, exit 130 and the one line naming
     the file (the absolute path the Scene gives it), no output folder, an empty $TMPDIR.
-    Without the fix it waits for the meshing and the set-up (28 s measured), then stops
-    before the first step, after making the output folder."""
+    Without the stop it would wait for the meshing and the set-up (28 s measured), then
+    stop before the first step, after making the output folder."""
     _cube_scene(tmp_path, 0.03)
     args = entry("cli") + ["s.nml", "--set", "scheme.dt=0.002", "--out", "o", "--quiet"]
     proc = _start(args, tmp_path)
@@ -137,9 +136,9 @@ def _meshes(folder: Path) -> list[str]:
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
 def test_mesh_command_ends_at_once_while_gmsh_meshes(sig, tmp_path):
     """`dyncontact mesh --geo` stopped while gmsh meshes: exit 130 at once, one line
-    naming the .geo, no mesh file. Without the fix SIGINT waits for the meshing (6 s
-    measured at this size, "dyncontact: interrupted"), and SIGTERM kills the process
-    without a word (status -15: gmsh's initialization resets SIGTERM to its default)."""
+    naming the .geo, no mesh file. Without the guard SIGINT would wait for the meshing
+    (6 s measured at this size), and SIGTERM would kill the process without a word
+    (status -15: gmsh's initialization resets SIGTERM to its default)."""
     _cube_scene(tmp_path, 0.03)
     proc = _start(_mesh_args(0.03), tmp_path)
     with signal_after(proc, sig) as ended:
@@ -157,7 +156,7 @@ def test_mesh_command_stopped_while_writing_leaves_the_old_file(tmp_path):
     """A stop while gmsh writes the mesh (signalled as soon as a file is written: another
     .msh appears, or m.msh changes) removes what was written, and an existing file of
     that name stays as it was: the mesh is written under a temporary name and renamed
-    once whole. Without the fix gmsh writes m.msh itself, cut where the signal found
+    once whole. gmsh writing m.msh itself would leave it cut where the signal found
     it."""
     _cube_scene(tmp_path, 0.03)
     old = tmp_path / "m.msh"
@@ -288,9 +287,9 @@ def test_a_signal_during_an_objects_open_frees_it(what, tmp_path):
     """Ctrl-C while the core opens a Model, a Stepper or bench_floors' run: the
     interrupt goes on to the caller and the handle the open returned is closed, with the
     temporary folder removed; the Stepper's run is closed as interrupted (summary.json
-    says so, its lock released). Without the fix the KeyboardInterrupt came out of the
-    open's return before the handle was stored: it was never closed, and the Stepper's
-    folder stayed locked with summary.json's status "running"."""
+    says so, its lock released). Unheld, the KeyboardInterrupt would come out of the
+    open's return before the handle is stored: it would never be closed, and the
+    Stepper's folder would stay locked with summary.json's status "running"."""
     if what == "bench_floors":
         from dyncontact import core
         if not core.bench_floors_available():
@@ -368,9 +367,9 @@ print(json.dumps({"said": said, "opened": opened, "copied": copied, "freed": fre
 def test_a_signal_during_load_mesh_frees_the_mesh_once(when, mesh, tmp_path):
     """Ctrl-C as the core's read of a mesh for load_mesh returns: the interrupt goes on
     to the caller and the mesh read is freed (dc_mesh_free); Ctrl-C as the copy that
-    releases it returns: it is not freed a second time. Without the fix the
-    KeyboardInterrupt came out of the read's return before the handle was stored: the
-    mesh was never freed (its memory kept to the end of the process)."""
+    releases it returns: it is not freed a second time. Unheld, the KeyboardInterrupt
+    would come out of the read's return before the handle is stored: the mesh would
+    never be freed (its memory kept to the end of the process)."""
     res = subprocess.run([sys.executable, "-c", SIGNAL_IN_MESH_READ, mesh, when],
                          cwd=tmp_path, env=child_env(), capture_output=True, text=True,
                          timeout=120,
@@ -388,8 +387,8 @@ def test_a_signal_during_load_mesh_frees_the_mesh_once(when, mesh, tmp_path):
 def test_the_study_leaves_an_ignored_sigterm_ignored(tmp_path):
     """`dyncontact study` started with SIGTERM ignored (`nohup`) goes on after a SIGTERM,
     its pool's workers too; Ctrl-C still stops it, exit 130, and no worker is left.
-    Without the fix its handler raised KeyboardInterrupt on the ignored SIGTERM: it
-    stopped at once with exit 130."""
+    A handler installed over the ignored SIGTERM would raise KeyboardInterrupt on it:
+    the study would stop at once with exit 130."""
     from test_study_signals import END_TIMEOUT_S, _children, _wait_group_gone
 
     def dispositions():

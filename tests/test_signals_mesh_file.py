@@ -166,9 +166,9 @@ def test_a_signal_while_gmsh_meshes_ends_the_program_at_once(kind, sig, tmp_path
     """The executable and `python -m dyncontact run` do not wait for gmsh to finish
     meshing: SIGINT or SIGTERM during the read ends them at once with exit 130 and the
     same line naming the file, and nothing is written: no output folder (it is made after
-    the mesh is read), no temporary file. Without the fix the command line holds the
-    signal until gmsh returns, 20 s later, and then stops before the first step (SIGINT),
-    or is killed by SIGTERM without a line (gmsh's initialization resets its disposition,
+    the mesh is read), no temporary file. Without the stop the command line would hold
+    the signal until gmsh returns, 20 s later, and then stop before the first step
+    (SIGINT), or be killed by SIGTERM without a line (gmsh's initialization resets its disposition,
     and numpy's OpenBLAS threads, which do not block it, take it)."""
     _cube_scene(tmp_path, 0.03)
     args = entry(kind) + ["s.nml", "--out", "o"] + (["--quiet"] if kind == "cli" else [])
