@@ -393,20 +393,13 @@ contains
         if (.not. ok) return
         if (how == GEO_MERGED .and. geo_header_not_geo(buf)) return
         n = len(buf)
+        what = ''      ! (gfortran's maybe-uninitialized warning otherwise)
         i = 1
         do while (i <= n)
-            if (buf(i:min(n, i + 1)) == '//') then             ! comment to the line's end
-                j = index(buf(i:), achar(10))
-                if (j == 0) return
-                i = i + j
-            else if (buf(i:min(n, i + 1)) == '/*') then        ! block comment
-                j = index(buf(i + 2:), '*/')
-                if (j == 0) return
-                i = i + j + 3
-            else if (buf(i:i) == '"' .or. buf(i:i) == "'") then ! string
-                j = index(buf(i + 1:), buf(i:i))
-                if (j == 0) return
-                i = i + j + 1
+            j = past_comment(buf, i, .true.)                    ! a comment or a string
+            if (j == 0) return                                  ! (not terminated)
+            if (j /= i) then
+                i = j
             else if (is_name_char(buf(i:i))) then               ! a whole name
                 j = i
                 do while (j < n)
@@ -534,18 +527,10 @@ contains
         depth = 0
         i = 1
         do while (i <= len(text))
-            if (text(i:min(len(text), i + 1)) == '//') then
-                j = index(text(i:), achar(10))
-                if (j == 0) return
-                i = i + j
-            else if (text(i:min(len(text), i + 1)) == '/*') then
-                j = index(text(i + 2:), '*/')
-                if (j == 0) return
-                i = i + j + 3
-            else if (text(i:i) == '"' .or. text(i:i) == "'") then
-                j = index(text(i + 1:), text(i:i))
-                if (j == 0) return
-                i = i + j + 1
+            j = past_comment(text, i, .true.)
+            if (j == 0) return
+            if (j /= i) then
+                i = j
             else
                 if (text(i:i) == '(') depth = depth + 1
                 if (text(i:i) == ')') depth = depth - 1
@@ -565,14 +550,10 @@ contains
         integer :: i, j
         i = 1
         do while (i <= len(rest))
-            if (rest(i:min(len(rest), i + 1)) == '//') then
-                j = index(rest(i:), achar(10))
-                if (j == 0) exit
-                i = i + j
-            else if (rest(i:min(len(rest), i + 1)) == '/*') then
-                j = index(rest(i + 2:), '*/')
-                if (j == 0) exit
-                i = i + j + 3
+            j = past_comment(rest, i, .false.)
+            if (j == 0) exit
+            if (j /= i) then
+                i = j
             else if (verify(rest(i:i), ' '//achar(9)//achar(10)//achar(13)) == 0) then
                 i = i + 1
             else
@@ -582,6 +563,28 @@ contains
         end do
         next_token = len(rest) + 1
     end function next_token
+
+    !> The offset in `text` just past the comment that starts at offset i (`//` to the
+    !> line's end, or `/* ... */`), or with `strings` the string ("..." or '...'): i when
+    !> none starts there, 0 when it is not terminated. The .geo scan, next_token and
+    !> closing_parenthesis skip comments and strings as gmsh's lexer does, through it.
+    pure integer function past_comment(text, i, strings) result(k)
+        character(len=*), intent(in) :: text    !! the text
+        integer, intent(in) :: i                !! an offset in it
+        logical, intent(in) :: strings          !! strings skipped too
+        integer :: j
+        k = i
+        if (text(i:min(len(text), i + 1)) == '//') then
+            j = index(text(i:), achar(10))
+            k = merge(i + j, 0, j > 0)
+        else if (text(i:min(len(text), i + 1)) == '/*') then
+            j = index(text(i + 2:), '*/')
+            k = merge(i + j + 3, 0, j > 0)
+        else if (strings .and. (text(i:i) == '"' .or. text(i:i) == "'")) then
+            j = index(text(i + 1:), text(i:i))
+            k = merge(i + j + 1, 0, j > 0)
+        end if
+    end function past_comment
 
     !> True for the extensions gmsh's MergeFile (gmsh 4.15) reads with a reader of its
     !> own, CAD and mesh formats, compared in these cases only, as gmsh compares them: a
