@@ -174,13 +174,11 @@ module os_files
         end function c_real_path
     end interface
 
-    public :: signals_install, exit_on_read_signal, signal_caught, fd_open, fd_write, &
-              stop_removes, stop_keeps, gmsh_guard_begin, gmsh_guard_after_init, &
-              gmsh_guard_end, &
+    public :: signals_install, exit_on_read_signal, signal_caught, stop_removes, stop_keeps, &
+              gmsh_guard_begin, gmsh_guard_after_init, gmsh_guard_end, fd_open, fd_write, &
               fd_close, file_rename, file_remove, check_writable, lock_take, lock_release, &
               write_text_atomic, sys_error, free_space, fd_sync, fd_reopen, bytes_hash, &
-              remove_matching, same_folder, write_status, read_whole_file
-    public :: real_path
+              remove_matching, same_folder, write_status, read_whole_file, real_path
 
 contains
 
