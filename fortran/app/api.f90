@@ -24,6 +24,31 @@ subroutine dc_exit_on_read_signal()
     call exit_on_read_signal()
 end subroutine dc_exit_on_read_signal
 
+!> Point SIGINT or SIGTERM (sig) at the stop flag's handler (base/stop_signal.c), for a
+!> library caller whose own handler of it raises KeyboardInterrupt, over the core's call
+!> that opens a run only: the run's set-up then reads the signal between its phases and
+!> stops within a fraction of a second (STAT_INTERRUPTED) instead of after the set-up.
+!> The caller puts its own handler back after the call and takes the flag
+!> (dc_stop_signal_take). A signal the process ignores stays ignored. err: 0, or errno.
+subroutine dc_stop_signals_catch(sig, err)
+    use iso_c_binding, only: c_int
+    use os_files, only: stop_signals_catch
+    implicit none
+    integer(c_int), intent(in) :: sig     !! SIGINT or SIGTERM
+    integer(c_int), intent(out) :: err    !! 0 or errno
+    err = int(stop_signals_catch(int(sig)), c_int)
+end subroutine dc_stop_signals_catch
+
+!> The signal the stop flag holds (0 = none), and the flag cleared: after the call that
+!> dc_stop_signals_catch covered, once the caller's handlers are back.
+subroutine dc_stop_signal_take(sig)
+    use iso_c_binding, only: c_int
+    use stop_signal, only: signal_take
+    implicit none
+    integer(c_int), intent(out) :: sig    !! signal number, 0 = none
+    sig = int(signal_take(), c_int)
+end subroutine dc_stop_signal_take
+
 !> Name a file or a folder (emptied first) that a stop during a gmsh read removes before it
 !> ends the process (dc_exit_on_read_signal), until dc_stop_keeps: a temporary file a
 !> program wrote before the read. err: 0, or errno (too long, or too many named).

@@ -4,6 +4,7 @@
 module model
     use, intrinsic :: ieee_arithmetic, only: ieee_is_finite
     use kinds, only: dp
+    use stop_signal, only: check_stop
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise, oom_text, &
                       mb_text, has_room, OOM_HINT_MESH
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets, mesh_parts
@@ -34,6 +35,8 @@ module model
     integer, parameter, public :: INITIAL_COMPRESSED_BAR = 3
     !> Most contact facets that can hold the probe (a node of Gamma_C and its facets).
     integer, parameter, public :: MAX_PROBE = 32
+    !> Cells assembled between two reads of the stop flag (about 0.1 s of assembly).
+    integer, parameter :: ASSEMBLY_CHUNK = 10000
 
     !> The plain parameters a model is built from (docs/scenes.md names the keys).
     type, public :: model_params_t
@@ -117,7 +120,8 @@ contains
 
     !> Build the model on a mesh from plain parameters. Errors (STAT_BAD_INPUT) start
     !> with prm%name and name the key: an unusable mesh, a group the mesh lacks, a probe
-    !> off Gamma_C.
+    !> off Gamma_C. A stop signal caught during the assembly (module stop_signal) gives
+    !> STAT_INTERRUPTED.
     subroutine model_build(msh, prm, mdl, stat, errmsg)
         type(mesh_t), intent(in) :: msh                     !! mesh (copied into the model)
         type(model_params_t), intent(in) :: prm             !! parameters
@@ -127,7 +131,7 @@ contains
         character(len=1024) :: msg
         real(dp) :: lambda, mu
         integer, allocatable :: facets(:)
-        integer :: dim, j, parts
+        integer :: dim, j, parts, c0
         logical :: faces
         stat = STAT_OK
         msg = ''
@@ -175,7 +179,16 @@ contains
                        mb_text(36.0_dp * mdl%stiff%nnz)//')', OOM_HINT_MESH))
             return
         end if
-        call assemble(mdl, prm, lambda, mu)
+        ! in chunks of cells, with the stop flag read between them (some 2 s on a mesh of
+        ! 1.8e5 tetrahedra): the sums are made in the same order as in one pass
+        call assemble_start(mdl, prm)
+        do c0 = 1, mdl%msh%n_cells, ASSEMBLY_CHUNK
+            call check_stop('the assembly', stat, errmsg)
+            if (stat /= STAT_OK) return
+            call assemble_cells(mdl, prm, lambda, mu, c0, &
+                                min(mdl%msh%n_cells, c0 + ASSEMBLY_CHUNK - 1))
+        end do
+        call assemble_end(mdl)
 
         call mesh_group_facets(mdl%msh, prm%contact, facets, stat, msg)
         if (stat /= STAT_OK) then
@@ -319,21 +332,29 @@ contains
         end subroutine group_mask
     end subroutine number_dofs
 
-    !> M, K, K_theta (= K until add_theta_term) and L on the pattern (cell_pattern).
-    pure subroutine assemble(mdl, prm, lambda, mu)
+    !> The start of the assembly of M, K, K_theta (= K until add_theta_term) and L on the
+    !> pattern (cell_pattern): M and L zero (K's values are zero on the new pattern).
+    pure subroutine assemble_start(mdl, prm)
         type(model_t), intent(inout) :: mdl          !! model being built
         type(model_params_t), intent(in) :: prm      !! parameters
+        mdl%mass_val = mdl%stiff%val
+        allocate (mdl%load(mdl%n_dofs))
+        mdl%load = 0.0_dp
+        mdl%lumped = prm%mass == MASS_LUMPED
+    end subroutine assemble_start
+
+    !> The contributions of cells c_first to c_last to M, K and L, added in cell order.
+    pure subroutine assemble_cells(mdl, prm, lambda, mu, c_first, c_last)
+        type(model_t), intent(inout) :: mdl          !! model being built (assemble_start)
+        type(model_params_t), intent(in) :: prm      !! parameters
         real(dp), intent(in) :: lambda, mu           !! Lame parameters
+        integer, intent(in) :: c_first, c_last       !! cells
         integer :: c, a, b, i, j, ne, dim, cd(MAX_E), pos(MAX_E, MAX_E)
         real(dp) :: xe(3, 4), ke(MAX_E, MAX_E), me(MAX_E, MAX_E)
         real(dp) :: vol
         dim = mdl%dim
         ne = mdl%ndof_e
-        mdl%mass_val = mdl%stiff%val
-        allocate (mdl%load(mdl%n_dofs))
-        mdl%load = 0.0_dp
-        mdl%lumped = prm%mass == MASS_LUMPED
-        do c = 1, mdl%msh%n_cells
+        do c = c_first, c_last
             call cell_positions(mdl, c, cd(1:ne), pos(1:ne, 1:ne))
             xe(1:dim, 1:dim + 1) = mdl%msh%x(:, mdl%msh%cells(:, c))
             call p1_stiffness(dim, xe(1:dim, 1:dim + 1), lambda, mu, prm%young, ke(1:ne, 1:ne))
@@ -354,6 +375,12 @@ contains
                 end do
             end do
         end do
+    end subroutine assemble_cells
+
+    !> The end of the assembly: K_theta = K, and the lumped mass's diagonal.
+    pure subroutine assemble_end(mdl)
+        type(model_t), intent(inout) :: mdl          !! model being built (every cell added)
+        integer :: j
         mdl%stiff_theta_val = mdl%stiff%val
         if (mdl%lumped) then
             allocate (mdl%mass_diag(mdl%n_dofs))
@@ -361,7 +388,7 @@ contains
                 mdl%mass_diag(j) = mdl%mass_val(csc_find(mdl%stiff, j, j))
             end do
         end if
-    end subroutine assemble
+    end subroutine assemble_end
 
     !> Free dofs of cell c (0 = constrained).
     pure subroutine cell_dofs(mdl, c, cd)

@@ -1,4 +1,4 @@
-!> Checked file operations, the output-folder lock and the signal flag, through the
+!> Checked file operations, the output-folder lock and the signal handlers, through the
 !> small C layer run_guard.c (POSIX calls with their errno). Every failure comes back
 !> as a status and a one-line message naming the path and the system's reason.
 module os_files
@@ -15,6 +15,13 @@ module os_files
             import :: c_int
             integer(c_int) :: r
         end function c_signals_install
+        !> Point SIGINT or SIGTERM at the stop flag's handler, for a library caller: 0 or
+        !> errno (run_guard.c).
+        function c_stop_signals_catch(sig) bind(C, name='dc_stop_signals_catch') result(r)
+            import :: c_int
+            integer(c_int), value :: sig   !! SIGINT or SIGTERM
+            integer(c_int) :: r
+        end function c_stop_signals_catch
         !> SIGINT / SIGTERM during a gmsh read end the process from this call on (run_guard.c).
         subroutine c_exit_on_read_signal() bind(C, name='dc_exit_on_read_signal')
         end subroutine c_exit_on_read_signal
@@ -44,11 +51,6 @@ module os_files
         !> End the guard the calling thread began (gmsh_shim.c).
         subroutine c_gmsh_guard_end() bind(C, name='dc_gmsh_guard_end')
         end subroutine c_gmsh_guard_end
-        !> The signal caught since the handlers were installed (0 = none; run_guard.c).
-        function c_signal_caught() bind(C, name='dc_signal_caught') result(r)
-            import :: c_int
-            integer(c_int) :: r
-        end function c_signal_caught
         !> Open path for writing (created or truncated): fd >= 0 or -errno.
         function c_fd_open(path) bind(C, name='dc_fd_open') result(r)
             import :: c_int, c_char
@@ -174,11 +176,11 @@ module os_files
         end function c_real_path
     end interface
 
-    public :: signals_install, exit_on_read_signal, signal_caught, stop_removes, stop_keeps, &
-              gmsh_guard_begin, gmsh_guard_after_init, gmsh_guard_end, fd_open, fd_write, &
-              fd_close, file_rename, file_remove, check_writable, lock_take, lock_release, &
-              write_text_atomic, sys_error, free_space, fd_sync, fd_reopen, bytes_hash, &
-              remove_matching, same_folder, write_status, read_whole_file, real_path
+    public :: signals_install, stop_signals_catch, exit_on_read_signal, stop_removes, &
+              stop_keeps, gmsh_guard_begin, gmsh_guard_after_init, gmsh_guard_end, fd_open, &
+              fd_write, fd_close, file_rename, file_remove, check_writable, lock_take, &
+              lock_release, write_text_atomic, sys_error, free_space, fd_sync, fd_reopen, &
+              bytes_hash, remove_matching, same_folder, write_status, read_whole_file, real_path
 
 contains
 
@@ -236,7 +238,7 @@ contains
         bytes = int(b, i8); files = int(f, i8)
     end subroutine free_space
 
-    !> Install the SIGINT / SIGTERM handlers (they only set a flag; see signal_caught) and
+    !> Install the SIGINT / SIGTERM handlers (they only set a flag; module stop_signal) and
     !> ignore SIGXFSZ (a write past the file-size limit fails as on a full disk).
     subroutine signals_install(stat, errmsg)
         integer, intent(out) :: stat                        !! status
@@ -247,6 +249,16 @@ contains
         if (r /= 0) call raise(stat, errmsg, STAT_INTERNAL, 'cannot install signal handlers: ' &
                                //sys_error(r))
     end subroutine signals_install
+
+    !> For a library caller whose own handler of signal sig (SIGINT or SIGTERM) raises
+    !> KeyboardInterrupt, over the core's call that opens a run: the signal then sets the
+    !> stop flag (module stop_signal), which the run's set-up reads, until the caller puts
+    !> its handler back. A signal the process ignores stays ignored. 0, or errno.
+    function stop_signals_catch(sig) result(err)
+        integer, intent(in) :: sig   !! SIGINT or SIGTERM
+        integer :: err
+        err = int(c_stop_signals_catch(int(sig, c_int)))
+    end function stop_signals_catch
 
     !> For a program hosted in another process (the Python command line), never for the
     !> library: from this call on, SIGINT / SIGTERM while gmsh reads a mesh file end the
@@ -294,12 +306,6 @@ contains
     subroutine gmsh_guard_end()
         call c_gmsh_guard_end()
     end subroutine gmsh_guard_end
-
-    !> The signal number caught since signals_install (0 = none, always 0 without it).
-    function signal_caught() result(sig)
-        integer :: sig
-        sig = c_signal_caught()
-    end function signal_caught
 
     !> Open (create or truncate) a file for writing; fd >= 0 on success.
     subroutine fd_open(path, fd, stat, errmsg)

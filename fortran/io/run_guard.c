@@ -1,7 +1,8 @@
 /* run_guard.c: the few POSIX calls the Fortran core needs and Fortran cannot make
  * itself (bound through bind(C) in os_files.f90 and main.f90):
- *   - SIGINT / SIGTERM handlers that only set a flag, polled at the end of each step
- *     (not for a signal the process ignores from its start: it stays ignored);
+ *   - SIGINT / SIGTERM handlers that only set the stop flag (base/stop_signal.c), read
+ *     before each step and in a run's set-up (not for a signal the process ignores from
+ *     its start: it stays ignored);
  *   - an output-folder lock file created with O_EXCL that holds the owner's pid (and, on
  *     Linux, the process's start time and the boot id, so that a pid reused after a
  *     kill -9 or a reboot is not taken for the owner);
@@ -29,13 +30,11 @@
 #include <sys/types.h>
 #include <unistd.h>
 
-static volatile sig_atomic_t dc_signal_flag = 0;
-
 static volatile sig_atomic_t dc_signals_own = 0;   /* the executable's handlers installed */
 
 static volatile sig_atomic_t dc_read_exit = 0;     /* dc_exit_on_read_signal has run */
 
-static void dc_on_signal(int sig) { dc_signal_flag = sig; }
+void dc_on_stop_signal(int sig);   /* base/stop_signal.c: sets the stop flag */
 
 /* Point signal sig at the action sa, unless the process ignores it: a signal ignored
  * when the program starts (SIG_IGN is inherited through exec: `nohup` ignores SIGHUP, a
@@ -64,7 +63,7 @@ int dc_signals_install(void)
     struct sigaction sa;
     int err;
     memset(&sa, 0, sizeof sa);
-    sa.sa_handler = dc_on_signal;
+    sa.sa_handler = dc_on_stop_signal;
     sigemptyset(&sa.sa_mask);
     sa.sa_flags = SA_RESTART;
     if ((err = catch_unless_ignored(SIGINT, &sa)) != 0) return err;
@@ -94,8 +93,22 @@ void dc_exit_on_read_signal(void) { dc_read_exit = 1; }
  * notebook), whose own handling of the signals stays. */
 int dc_read_signal_exits(void) { return dc_signals_own || dc_read_exit; }
 
-/* The signal caught since the handlers were installed (0 = none). */
-int dc_signal_caught(void) { return (int)dc_signal_flag; }
+/* Point signal sig (SIGINT or SIGTERM) at the stop flag's handler, for a library caller
+ * whose own handler of it is Python code (core.py's _SignalsHeld, over the core's call
+ * that opens a run): the run's set-up then sees the signal and stops within a fraction
+ * of a second (base/stop_signal.c). The caller puts its own handler back after the call
+ * (Python's signal.signal) and takes the flag (dc_stop_signal_take). A signal the process
+ * ignores stays ignored. 0 or errno (EINVAL for another signal). */
+int dc_stop_signals_catch(int sig)
+{
+    struct sigaction sa;
+    if (sig != SIGINT && sig != SIGTERM) return EINVAL;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = dc_on_stop_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    return catch_unless_ignored(sig, &sa);
+}
 
 /* Open path for writing (created or truncated, mode 0644). Returns fd >= 0 or -errno. */
 int dc_fd_open(const char *path)

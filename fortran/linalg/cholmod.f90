@@ -25,8 +25,8 @@ module cholmod
     use iso_c_binding, only: c_ptr, c_null_ptr, c_int, c_long, c_double, c_associated, &
                              c_f_pointer, c_char
     use kinds, only: dp
-    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, raise, oom_text, &
-                      mb_text, OOM_HINT_FACTOR
+    use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_NUMERIC, STAT_INTERNAL, STAT_INTERRUPTED, &
+                      raise, oom_text, mb_text, OOM_HINT_FACTOR
     use text, only: int_text
     use sparse, only: csc_t
     use ldl_solves, only: pair_ldl_t, pair_ldl_build, pair_ldl_solve, pair_ldl_solve_many, &
@@ -37,7 +37,7 @@ module cholmod
 
     ! Statuses of cholmod_shim.c.
     integer(c_int), parameter :: DC_OK = 0, DC_NOT_POSDEF = 1, DC_OUT_OF_MEMORY = 2, &
-                                 DC_OUT_OF_MEMORY_ORDERING = 4
+                                 DC_OUT_OF_MEMORY_ORDERING = 4, DC_INTERRUPTED = 5
 
     !> LDL^T factors of one symmetric matrix (the symbolic analysis is kept across
     !> numeric refactorizations of the same pattern).
@@ -253,7 +253,8 @@ contains
     !> factorization): `entries` = the entries the factor of a will store (D and L, what
     !> chol_factor then reports as factor_nnz). The analysis is kept in ch, so the next
     !> chol_factor of the same pattern does not redo it; ch holds no factors after this.
-    !> CHOLMOD errors give STAT_INTERNAL; an inconsistent csc_t gives STAT_BAD_INPUT.
+    !> CHOLMOD errors give STAT_INTERNAL; an inconsistent csc_t gives STAT_BAD_INPUT; a
+    !> stop signal caught before an ordering tried (module stop_signal) STAT_INTERRUPTED.
     !> The analysis reads a's pattern alone: a matrix on a's pattern with other values
     !> (`val`, see chol_factor) has the same.
     subroutine chol_analyse(ch, a, entries, stat, errmsg, val)
@@ -279,6 +280,10 @@ contains
             call raise(stat, errmsg, STAT_INTERNAL, ordering_oom_text(a))
             return
         end if
+        if (status == DC_INTERRUPTED) then
+            call raise(stat, errmsg, STAT_INTERRUPTED, 'interrupted during the ordering')
+            return
+        end if
         if (status /= DC_OK) then
             call raise(stat, errmsg, STAT_INTERNAL, 'chol_analyse: CHOLMOD failed')
             return
@@ -291,7 +296,10 @@ contains
     !> Factorize the symmetric matrix a (its upper triangle is read): P A P^T = L D L^T,
     !> simplicial. The analysis is redone only when n or the pattern changed. A zero,
     !> negative or non-finite pivot gives STAT_NUMERIC (no factors kept); CHOLMOD
-    !> errors give STAT_INTERNAL; an inconsistent csc_t gives STAT_BAD_INPUT. With `val`,
+    !> errors give STAT_INTERNAL; an inconsistent csc_t gives STAT_BAD_INPUT; a stop signal
+    !> caught before an ordering tried, before the numerical factorization or before a
+    !> range of rows of a simplicial one (module stop_signal) STAT_INTERRUPTED, no factors
+    !> kept (the supernodal factorization is one CHOLMOD call). With `val`,
     !> the matrix factorized has a's pattern and the values val (a%val is not read): a
     !> matrix kept as values on another's pattern (J0 on the model's) needs no copy of it.
     subroutine chol_factor(ch, a, stat, errmsg, val)
@@ -327,6 +335,9 @@ contains
             return
         case (DC_OUT_OF_MEMORY_ORDERING)
             call raise(stat, errmsg, STAT_INTERNAL, ordering_oom_text(a))
+            return
+        case (DC_INTERRUPTED)
+            call raise(stat, errmsg, STAT_INTERRUPTED, 'interrupted during the factorization')
             return
         case default
             call raise(stat, errmsg, STAT_INTERNAL, 'chol_factor: CHOLMOD failed')

@@ -60,9 +60,14 @@ typedef struct {
 } dc_cholmod;
 
 /* Statuses returned to Fortran: DC_OUT_OF_MEMORY in the numerical factorization,
- * DC_OUT_OF_MEMORY_ORDERING in the symbolic analysis (the orderings). */
+ * DC_OUT_OF_MEMORY_ORDERING in the symbolic analysis (the orderings), DC_INTERRUPTED
+ * when the stop flag was set (a SIGINT / SIGTERM, base/stop_signal.c) before an
+ * ordering tried, before the numerical factorization or before a range of rows of a
+ * simplicial one: no factor kept. */
 enum { DC_OK = 0, DC_NOT_POSDEF = 1, DC_OUT_OF_MEMORY = 2, DC_FAILED = 3,
-       DC_OUT_OF_MEMORY_ORDERING = 4 };
+       DC_OUT_OF_MEMORY_ORDERING = 4, DC_INTERRUPTED = 5 };
+
+int dc_signal_caught(void);   /* base/stop_signal.c: the stop flag (0 = none) */
 
 /* Out of memory in a library that cannot say so. The first BLAS call of the process
  * (LAPACK's dpotrf in CHOLMOD's supernodal factorization; UMFPACK's dgemm) makes
@@ -376,6 +381,10 @@ static cholmod_factor *analyze_blocks(cholmod_sparse *a, int bs, cholmod_common 
     c->method[0].ordering = CHOLMOD_GIVEN;
     c->postorder = 0;
     for (k = 0; k < 3; k++) {
+        if (dc_signal_caught()) {    /* stopped: no analysis (analyse says why) */
+            if (L != NULL) cholmod_free_factor(&L, c);
+            break;
+        }
         if (forced != ORD_NONE && tries[k] != forced) continue;
         /* METIS is tried for node triples (3D) only: on the node pairs of 2D meshes,
          * CHOLMOD's nested dissection (built on METIS's node separators) gave fewer
@@ -432,7 +441,8 @@ static void pattern_hash(int n, const int *colptr, const int *rowind, unsigned l
  * blocks ordered together when the pattern allows, the ordering with the fewest factor
  * entries, the supernodal analysis when use_supernodal says so. h->entries = the
  * factor's entries (D and L, from the column counts: what the numerical factorization
- * will store). Returns DC_OK, DC_OUT_OF_MEMORY or DC_FAILED (no analysis kept). */
+ * will store). Returns DC_OK, DC_OUT_OF_MEMORY, DC_INTERRUPTED (the stop flag set during
+ * the orderings) or DC_FAILED (no analysis kept). */
 static int analyse(dc_cholmod *h, cholmod_sparse *ap, int n, const int *colptr,
                    const int *rowind, int *analysed)
 {
@@ -501,6 +511,7 @@ static int analyse(dc_cholmod *h, cholmod_sparse *ap, int n, const int *colptr,
         if (h->L == NULL) {
             int st = h->c.status;
             free_factor(h);
+            if (dc_signal_caught()) return DC_INTERRUPTED;
             return st == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY_ORDERING : DC_FAILED;
         }
         /* the orderings' workspace goes (the factorization allocates its own, smaller) */
@@ -600,8 +611,9 @@ static void triu_columns(const cholmod_sparse *a, const int *pinv, int k0, int k
  * a(r, c), r <= c, of A's upper triangle at column max(pinv r, pinv c), row
  * min(pinv r, pinv c), rows sorted (what a transpose gives); rowfac reads each column in
  * that order, so L is the same bit for bit. Then, as cholmod_factorize does, L is
- * packed (final_pack, final_monotonic). Returns 1, or 0 (h->c.status says why). */
-static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
+ * packed (final_pack, final_monotonic). Returns 1, or 0 (h->c.status says why; *stopped
+ * = 1 when the stop flag was found set before a range, base/stop_signal.c). */
+static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges, int *stopped)
 {
     cholmod_factor *L = h->L;
     cholmod_sparse s = *a;
@@ -646,7 +658,13 @@ static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges)
         lnz = L->nz;
         for (k = 0; k < n; k++) lnz[k] = 1;
     }
+    *stopped = 0;
     for (k0 = 0; k0 < n && ok; k0 = k1) {
+        if (dc_signal_caught()) {
+            *stopped = 1;
+            ok = 0;
+            break;
+        }
         k1 = range_end(cnt, n, k0, target, &sum);
         /* sp[k + 1] is column k's next free place while the range is filled, its end after */
         sp[k0] = 0;
@@ -732,14 +750,16 @@ double dc_cholmod_entries(void *handle)
  * upper triangle; node blocks are ordered together when the pattern allows (*paired = their
  * size, 2 or 3, else 0; see the header). Returns DC_OK; DC_NOT_POSDEF when a pivot is zero, negative or not
  * finite (minor = its column, 0-based; the factor is kept but must not be used);
- * DC_OUT_OF_MEMORY; DC_FAILED (other CHOLMOD errors). *analysed = 1 when the symbolic
+ * DC_OUT_OF_MEMORY; DC_INTERRUPTED (the stop flag set before the orderings tried, the
+ * numerical factorization or a range of its rows: see the statuses above); DC_FAILED
+ * (other CHOLMOD errors). *analysed = 1 when the symbolic
  * analysis was redone, *lnz = stored entries of L (unit diagonal not counted). */
 int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
                       const double *val, int *analysed, long *lnz, int *minor, int *paired)
 {
     dc_cholmod *h = handle;
     cholmod_sparse a;
-    int j, k, ok, ranges;
+    int j, k, ok, ranges, stopped = 0;
     const double *d;
     const int *lp;
     double held;
@@ -782,11 +802,16 @@ int dc_cholmod_factor(void *handle, int n, const int *colptr, const int *rowind,
         if (!dc_room(h->need[0] + h->need[1] + h->need[2] + h->need[3] - held))
             return DC_OUT_OF_MEMORY;
     }
+    if (dc_signal_caught()) return DC_INTERRUPTED;
     ranges = factor_ranges();
     if (!h->L->is_super && h->L->ordering != CHOLMOD_NATURAL && ranges > 0)
-        ok = factor_by_ranges(h, &a, ranges);
+        ok = factor_by_ranges(h, &a, ranges, &stopped);
     else
         ok = cholmod_factorize(&a, h->L, &h->c);
+    if (stopped) {             /* a factor made in part: not kept */
+        free_factor(h);
+        return DC_INTERRUPTED;
+    }
     if (!ok || h->c.status < CHOLMOD_OK)
         return h->c.status == CHOLMOD_OUT_OF_MEMORY ? DC_OUT_OF_MEMORY : DC_FAILED;
     if (h->super) {

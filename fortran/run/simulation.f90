@@ -33,8 +33,8 @@ module simulation
                             trace_sync, trace_close, trace_size, json_real, json_string, &
                             TRACE_ROW_BYTES
     use os_files, only: lock_take, lock_release, check_writable, file_rename, file_remove, &
-                        write_text_atomic, signal_caught, free_space, remove_matching, &
-                        same_folder
+                        write_text_atomic, free_space, remove_matching, same_folder
+    use stop_signal, only: signal_caught, check_stop
     use sparse, only: csc_t
     use cholmod, only: chol_blas
     use vtk_output, only: vtk_write_vtu, vtk_write_pvd, vtk_vtu_bytes
@@ -141,7 +141,12 @@ contains
     end subroutine sim_open
 
     !> sim_open for a scene already read and validated (`restart`: continue from the
-    !> checkpoint in the scene's output folder; `out_said`: as in sim_open).
+    !> checkpoint in the scene's output folder; `out_said`: as in sim_open). A stop signal
+    !> caught during the set-up (module stop_signal: read between its phases and in its
+    !> long loops) gives STAT_INTERRUPTED and the message of the run stopped; a new run's
+    !> folder then holds it as stopped before its first step (open_stopped), a restart's
+    !> folder is left as it was (its checkpoint still continues it), and a model alone
+    !> (write_output = .false.) writes nothing.
     subroutine sim_open_scene(sim, scn, write_output, stat, errmsg, restart, out_said)
         type(simulation_t), intent(out) :: sim              !! the run
         type(scene_t), intent(in) :: scn                    !! validated scene
@@ -160,37 +165,20 @@ contains
         sim%scn = scn
         sim%pvd_due = .false.
         sim%scene_hash = checkpoint_scene_hash(scn)
-        call build_model(sim, stat, errmsg)
-        if (stat /= STAT_OK) return
-        ! a property of the model, set for a new run and a restart alike (e_load and the
-        ! blow-up test energy e_total - u.L use it)
-        sim%has_load = any(sim%mdl%load /= 0.0_dp)
-        ! dt = 0 (central): the step count is known once the scheme has chosen dt
-        if (sim%scn%dt > 0.0_dp) then
-            call count_steps(sim, write_output, stat, errmsg)
-            if (stat /= STAT_OK) return
+        call set_up(sim, write_output, stat, errmsg)
+        if (stat /= STAT_OK) call release_scheme(sim)
+        if (stat == STAT_INTERRUPTED) then
+            sim%status = 'interrupted'
+            sim%message = interrupted_message(sim, 'interrupted by signal '// &
+                                              int_text(int(signal_caught(), i8))// &
+                                              ' during the set-up', .false.)
+            if (write_output .and. .not. again) then
+                call open_stopped(sim, stat, errmsg)
+            else
+                call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
+            end if
         end if
-        n = sim%n_dofs
-        allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
-                  sim%st%mv(n), sim%st%lam(sim%mdl%alm%nl))
-        sim%st%lam = 0.0_dp
-        call model_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v)
-        call state_eval(sim%mdl, sim%st)
-        call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
-        call model_check_initial(sim%mdl, model_params(scn), sim%st%u, sim%st%v, sim%st%mv, &
-                                 sim%st%ktu, sim%st%e_pen, sim%st%e_theta, stat, errmsg)
-        if (stat /= STAT_OK) return
-        sim%st%a = 0.0_dp
-        if (.not. write_output) return
-        call start_scheme(sim, stat, errmsg)
-        ! the blow-up limit of this scene (its blowup, and its t_end in the load's energy),
-        ! from the initial state, for a new run and a restart alike: a raised blowup
-        ! continues a run it stopped
-        if (stat == STAT_OK) call energy_limit(sim, stat, errmsg)
-        if (stat /= STAT_OK) then
-            call release_scheme(sim)
-            return
-        end if
+        if (stat /= STAT_OK .or. .not. write_output) return
         if (again) then
             call reopen_outputs(sim, stat, errmsg)
         else
@@ -211,6 +199,95 @@ contains
         end if
         sim%finished = sim%step >= sim%n_steps
     end subroutine sim_open_scene
+
+    !> The set-up of a run before its outputs: the mesh and the model, the initial state
+    !> and (write_output) the time scheme and the blow-up limit. The stop flag is read
+    !> between these phases, and inside them in their long loops: STAT_INTERRUPTED.
+    subroutine set_up(sim, write_output, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (scn set)
+        logical, intent(in) :: write_output                 !! .false.: build the model only
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=*), parameter :: WHAT = 'the set-up'
+        integer :: n
+        call build_model(sim, stat, errmsg)
+        call check_stop(WHAT, stat, errmsg)
+        if (stat /= STAT_OK) return
+        ! a property of the model, set for a new run and a restart alike (e_load and the
+        ! blow-up test energy e_total - u.L use it)
+        sim%has_load = any(sim%mdl%load /= 0.0_dp)
+        ! dt = 0 (central): the step count is known once the scheme has chosen dt
+        if (sim%scn%dt > 0.0_dp) then
+            call count_steps(sim, write_output, stat, errmsg)
+            if (stat /= STAT_OK) return
+        end if
+        n = sim%n_dofs
+        allocate (sim%st%u(n), sim%st%v(n), sim%st%a(n), sim%st%bu(n), sim%st%ktu(n), &
+                  sim%st%mv(n), sim%st%lam(sim%mdl%alm%nl))
+        sim%st%lam = 0.0_dp
+        call model_initial(sim%mdl, model_params(sim%scn), sim%st%u, sim%st%v)
+        call state_eval(sim%mdl, sim%st)
+        call model_mass_apply(sim%mdl, sim%st%v, sim%st%mv)
+        call model_check_initial(sim%mdl, model_params(sim%scn), sim%st%u, sim%st%v, &
+                                 sim%st%mv, sim%st%ktu, sim%st%e_pen, sim%st%e_theta, stat, &
+                                 errmsg)
+        if (stat /= STAT_OK) return
+        sim%st%a = 0.0_dp
+        call check_stop(WHAT, stat, errmsg)
+        if (stat /= STAT_OK .or. .not. write_output) return
+        call start_scheme(sim, stat, errmsg)
+        call check_stop(WHAT, stat, errmsg)
+        ! the blow-up limit of this scene (its blowup, and its t_end in the load's energy),
+        ! from the initial state, for a new run and a restart alike: a raised blowup
+        ! continues a run it stopped
+        if (stat == STAT_OK) call energy_limit(sim, stat, errmsg)
+        call check_stop(WHAT, stat, errmsg)
+    end subroutine set_up
+
+    !> A new run whose set-up a stop signal interrupted (sim%status and message set): its
+    !> folder as that of a run stopped before its first step, made and locked, trace.csv
+    !> replaced by the trace's header alone (no step made; the previous run's snapshots
+    !> and checkpoint removed, as a new run's opening does), summary.json saying
+    !> 'interrupted', and the lock released. STAT_INTERRUPTED with the run's message, or
+    !> the failure of a write (the folder's lock released).
+    subroutine open_stopped(sim, stat, errmsg)
+        type(simulation_t), intent(inout) :: sim            !! the run (set-up interrupted)
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        character(len=:), allocatable :: dir
+        integer :: st2
+        dir = trim(sim%scn%out_dir)
+        if (len(sim%out_said) > 0) then
+            call make_dirs(dir, stat, errmsg, said=sim%out_said)
+        else
+            call make_dirs(dir, stat, errmsg, said=trim(sim%scn%path)//': &output dir: '//dir)
+        end if
+        if (stat == STAT_OK) call take_folder(sim, dir, stat, errmsg)
+        if (stat == STAT_OK) call trace_open(dir//'/trace.csv.tmp', sim%trace, stat, errmsg)
+        if (stat == STAT_OK) then
+            sim%outputs = .true.
+            call trace_flush(sim%trace, stat, errmsg)
+        end if
+        if (stat == STAT_OK) call file_rename(dir//'/trace.csv.tmp', dir//'/trace.csv', &
+                                              stat, errmsg)
+        if (stat == STAT_OK) then
+            sim%trace%path = dir//'/trace.csv'
+            call remove_old_outputs(dir, stat, errmsg)
+        end if
+        if (stat == STAT_OK) then
+            sim%finished = .true.
+            call sim_close(sim, stat, errmsg)     ! summary.json, the lock released
+            if (stat == STAT_OK) call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
+            return
+        end if
+        if (sim%trace%fd >= 0) then
+            call trace_close(sim%trace, st2)
+            call file_remove(dir//'/trace.csv.tmp')
+        end if
+        if (sim%locked) call lock_release(sim%scn%out_dir)
+        sim%locked = .false.
+        sim%outputs = .false.
+    end subroutine open_stopped
 
     !> The scheme of a run that failed to open: its factors are C memory, which the
     !> deallocation of the run would not release.
@@ -992,6 +1069,19 @@ contains
                 return
             end if
             call sim%scheme%step(sim%mdl, sim%st, stat, msg)
+            if (stat == STAT_INTERRUPTED) then
+                ! a stop signal caught inside the step (a factorization's ranges of rows,
+                ! where conjugate gradients fall back on one): stopped at its start, as
+                ! before a step (a step that fails changes no state)
+                call stop_interrupted(sim, signal_caught(), stat, wmsg)
+                if (stat /= STAT_OK) then
+                    call write_failed(wmsg)
+                    return
+                end if
+                sim%finished = .true.
+                call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
+                return
+            end if
             if (stat == STAT_INTERNAL) then
                 ! out of memory (errors' oom_text): the trace up to the last step is kept
                 sim%status = 'internal_error'

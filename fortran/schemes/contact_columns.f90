@@ -42,6 +42,7 @@ module contact_columns
     use kinds, only: dp, i8
     use errors, only: STAT_OK, STAT_INTERNAL, raise, oom_text, is_oom_text, mb_text, OOM_HINT_MESH
     use byte_buffer, only: byte_buffer_t, buf_put, buf_get
+    use stop_signal, only: check_stop
     use sparse, only: csc_t
     use linear_solver, only: factor_t, ls_solve_many
     implicit none
@@ -517,7 +518,8 @@ contains
 
     !> Every column, group after group, without a budget: the full precomputation (the
     !> augmented Lagrangian's Newton uses all of W). On an empty cache slot l then holds
-    !> column l, so w(:, 1:m) is W.
+    !> column l, so w(:, 1:m) is W. A set-up's work: the stop flag is read before each
+    !> group (module stop_signal), STAT_INTERRUPTED when it is set.
     subroutine zcache_ensure_all(zc, lu, a, val, cdofs, stat, errmsg)
         type(zcache_t), intent(inout) :: zc          !! cache (empty)
         type(factor_t), intent(inout) :: lu          !! factors of J0
@@ -526,11 +528,17 @@ contains
         integer, intent(in) :: cdofs(:)              !! (m) the contact-cell dofs
         integer, intent(out) :: stat                 !! status
         character(len=*), intent(inout), optional :: errmsg !! message
-        integer :: l
+        integer :: l, g
         stat = STAT_OK
         if (zc%m == 0) return
         zc%budget = huge(zc%budget)
-        call zcache_ensure(zc, lu, a, val, cdofs, [(l, l = 1, zc%m)], stat, errmsg)
+        do g = 1, (zc%m - 1) / ZCHUNK + 1
+            call check_stop('the contact columns', stat, errmsg)
+            if (stat /= STAT_OK) return
+            call zcache_ensure(zc, lu, a, val, cdofs, [(l, l = group_first(g), group_last(zc, g))], &
+                               stat, errmsg)
+            if (stat /= STAT_OK) return
+        end do
     end subroutine zcache_ensure_all
 
     !> Solve the columns of group g (not held) in one call and store them.

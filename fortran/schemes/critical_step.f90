@@ -13,6 +13,7 @@ module critical_step
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use model, only: model_t, model_apply_jacobian
     use mass_solver, only: mass_solver_t, mass_solver_apply
+    use stop_signal, only: check_stop
     implicit none
     private
 
@@ -48,7 +49,8 @@ contains
 
     !> omega_max^2, the largest eigenvalue of M^{-1} (K_theta + D_full) (module header),
     !> by POWER_ITERATIONS power iterations, each one Jacobian product and one M^{-1}
-    !> application. 0 when there are no free dofs.
+    !> application. 0 when there are no free dofs. A set-up's work: the stop flag is read
+    !> before each iteration (module stop_signal), STAT_INTERRUPTED when it is set.
     subroutine omega_max_squared(mdl, ms, who, lam, stat, errmsg)
         type(model_t), intent(in) :: mdl                    !! model
         type(mass_solver_t), intent(inout) :: ms            !! M^{-1}
@@ -73,6 +75,8 @@ contains
         end do
         x = x / norm2(x)
         do it = 1, POWER_ITERATIONS
+            call check_stop('the critical step estimate', stat, errmsg)   ! a set-up's work
+            if (stat /= STAT_OK) return
             call model_apply_jacobian(mdl, upen, x, y)
             call mass_solver_apply(ms, y, x, stat, errmsg)
             if (stat /= STAT_OK) return
