@@ -102,6 +102,9 @@ def _sigterm_as_interrupt(signum, frame):  # noqa: ARG001 - signal handler signa
     raise KeyboardInterrupt(f"signal {signum}")
 
 
+_sigterm_as_interrupt.raises_keyboard_interrupt = True   # a run's set-up reads it (core)
+
+
 def _catch_sigterm() -> None:
     """Make SIGTERM stop the command as Ctrl-C does (:func:`_sigterm_as_interrupt`), in
     the main thread (Python sets handlers there only), unless the process ignores
