@@ -31,8 +31,8 @@ ALONE_FILES = frozenset({
     "test_auto_rule.py", "test_fields_outputs.py", "test_geo_estimate.py",
     "test_out_of_memory.py", "test_parallel_solve.py", "test_reliability.py",
     "test_restart.py", "test_scaling.py", "test_signals_entry_points.py",
-    "test_signals_mesh_file.py", "test_solver_threads.py", "test_studies.py",
-    "test_study_signals.py",
+    "test_signals_mesh_file.py", "test_signals_setup.py", "test_solver_threads.py",
+    "test_studies.py", "test_study_signals.py",
 })
 
 

@@ -1,0 +1,174 @@
+"""A stop signal during a run's set-up (after the mesh read: the assembly, the mass
+factorization of the initial acceleration, the critical step's power iterations) stops
+the run within a fraction of a second, in the executable, `python -m dyncontact run`,
+dyncontact.run() and a Stepper alike: exit 130 (KeyboardInterrupt in Python) with the
+line `interrupted by signal N during the set-up at t = 0.00000E+000 (trace kept)`, and
+the output folder as that of a run stopped before its first step: summary.json saying
+"interrupted" with that line, trace.csv with its header alone, the lock released.
+
+The scene is the built-in 3D bar at h = 0.015 (68 000 tetrahedra) under central
+differences: its set-up takes 4-6 s on the test machine, each of its pieces a small part
+of a second. The signal is sent once the process has spent SETTLE_CPU_S of CPU time in
+the run's code (for Python, counted from the moment the core's extension is loaded), well
+inside the set-up; without the set-up reading the stop flag the process would go on for
+the rest of it (seconds) before it stops."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import SUBPROCESS_TIMEOUT, signal_after
+from test_reliability import child_env, entry, write_scene
+
+EXIT_SIGNAL = 130
+#: CPU seconds of the run's own work before the signal is sent: past the scene's read
+#: and the mesh, within a set-up of 4-6 s.
+SETTLE_CPU_S = 1.0
+#: The bound on the time from the signal to the process's end: the set-up's longest
+#: piece between two reads of the flag is about 0.1 s here (a chunk of cells, a range of
+#: rows, a power iteration), against the 3-5 s of set-up left without them.
+PROMPT_S = 1.5
+#: The trace's header (trace_output.f90), the whole of trace.csv of a run stopped in its
+#: set-up.
+TRACE_HEADER = "t,u_n,v_n,p_n,e_kin,e_el,e_contact,e_total,newton_its,active,e_load,f_n\n"
+
+
+#: The scene of a slow set-up: the built-in 3D bar (1 x 0.2 x 0.2) at h = 0.015 under
+#: central differences, one step, into the folder o.
+SLOW_SETUP_SCENE = """&mesh dim = 3, length = 1.0, width = 0.2, h = 0.015 /
+&boundary clamped = 'top', contact = 'bottom' /
+&contact obstacle_point = 0.0, 0.0, 0.0, obstacle_normal = 0.0, 0.0, -1.0,
+         probe = 0.1, 0.1, 0.0 /
+&initial kind = 'rest' /
+&scheme name = 'central', dt = 1e-6, t_end = 1e-6 /
+&output dir = 'o' /
+"""
+
+
+def _slow_setup_scene(folder: Path) -> Path:
+    """folder/s.nml: SLOW_SETUP_SCENE."""
+    path = folder / "s.nml"
+    path.write_text(SLOW_SETUP_SCENE, encoding="utf-8")
+    return path
+
+
+def _said(sig: int) -> str:
+    return f"interrupted by signal {int(sig)} during the set-up at t = 0.00000E+000 (trace kept)"
+
+
+def _cpu_s(pid: int) -> float:
+    """User and system CPU seconds of process pid (/proc/PID/stat)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _core_loaded(pid: int) -> bool:
+    """Whether process pid has loaded the core (the executable has it from its start)."""
+    maps = Path(f"/proc/{pid}/maps").read_text()
+    return "/build/dyncontact\n" in maps or "_core." in maps
+
+
+def _wait_into_setup(proc: subprocess.Popen, timeout: float = 60.0) -> None:
+    """Wait until the process has spent SETTLE_CPU_S of CPU since it loaded the core."""
+    if not Path("/proc/self/stat").exists():
+        pytest.skip("needs /proc to see the process's CPU time")
+    t_end = time.monotonic() + timeout
+    start = None
+    while time.monotonic() < t_end:
+        assert proc.poll() is None, ("ended before the signal", proc.communicate())
+        if start is None and _core_loaded(proc.pid):
+            start = _cpu_s(proc.pid)
+        if start is not None and _cpu_s(proc.pid) - start >= SETTLE_CPU_S:
+            return
+        time.sleep(0.01)
+    pytest.fail("the run did not get into its set-up")
+
+
+def _start(args: list[str], cwd: Path) -> subprocess.Popen:
+    """A child with SIGINT at its default, as Ctrl-C finds it in a terminal."""
+    return subprocess.Popen(args, cwd=cwd, env=child_env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+
+def _assert_stopped_in_setup(folder: Path, sig: int) -> None:
+    """The output folder of a run stopped in its set-up by sig."""
+    out = folder / "o"
+    assert sorted(os.listdir(out)) == ["summary.json", "trace.csv"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["status"], summary["message"]) == ("interrupted", _said(sig)), summary
+    assert (out / "trace.csv").read_text() == TRACE_HEADER
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
+@pytest.mark.parametrize("kind", ["exe", "cli"])
+def test_a_signal_during_the_setup_stops_the_program_promptly(kind, sig, tmp_path):
+    """Exit 130 within PROMPT_S of the signal, the one line of the run stopped in its
+    set-up, and its folder: summary.json "interrupted", trace.csv's header, no lock."""
+    _slow_setup_scene(tmp_path)
+    args = entry(kind) + ["s.nml"] + (["--quiet"] if kind == "cli" else [])
+    proc = _start(args, tmp_path)
+    with signal_after(proc, sig) as ended:
+        _wait_into_setup(proc)
+        t0 = time.monotonic()
+    waited = time.monotonic() - t0
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    assert ended.stderr == f"dyncontact: {_said(sig)}\n", ended.stderr
+    assert waited < PROMPT_S, waited
+    _assert_stopped_in_setup(tmp_path, sig)
+
+
+#: A library caller: a run (dyncontact.run, or a Stepper) stopped in its set-up by
+#: Ctrl-C, then a small run of the same process to its end (the stop flag is cleared
+#: after the open: it does not stop the process's later runs). Prints the interrupt's
+#: text and the small run's status.
+LIBRARY_CALLER = """
+import sys
+import dyncontact
+from dyncontact import core
+
+try:
+    if sys.argv[1] == "run":
+        dyncontact.run("s.nml", progress=False)
+    else:
+        core.Stepper("s.nml", "o")
+    print("no interrupt", flush=True)
+except KeyboardInterrupt as exc:
+    print(f"KeyboardInterrupt: {exc}", flush=True)
+print(dyncontact.run("small.nml", progress=False).summary["status"])
+"""
+
+
+@pytest.mark.parametrize("caller", ["run", "stepper"])
+def test_ctrl_c_during_the_setup_stops_a_library_run_promptly(caller, tmp_path):
+    """dyncontact.run() and a Stepper being made raise the KeyboardInterrupt with the
+    line of the run stopped in its set-up within PROMPT_S of Ctrl-C, its folder as the
+    programs leave it; a later run in the same process goes to its end."""
+    _slow_setup_scene(tmp_path)
+    write_scene(tmp_path / "small.nml", scheme__t_end="0.01", output__dir="'small'")
+    proc = _start([sys.executable, "-c", LIBRARY_CALLER, caller], tmp_path)
+    try:
+        _wait_into_setup(proc)
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        # the KeyboardInterrupt's line comes out before the small run: the time to it
+        line = proc.stdout.readline()
+        waited = time.monotonic() - t0
+        rest, err = proc.communicate(timeout=SUBPROCESS_TIMEOUT)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, (proc.returncode, line, rest, err)
+    assert line == f"KeyboardInterrupt: {_said(signal.SIGINT)}\n", (line, err)
+    assert rest == "ok\n", (rest, err)
+    assert waited < PROMPT_S, waited
+    _assert_stopped_in_setup(tmp_path, signal.SIGINT)
