@@ -58,6 +58,26 @@ def test_study_help_names_every_study(capsys):
         assert study in description, (study, description)
 
 
+@pytest.mark.parametrize("args, command", [
+    (("convergence", "--out", "o", "--bogus"), "dyncontact study convergence"),
+    (("work-precision", "--bogus", "--out", "o"), "dyncontact study work-precision"),
+    (("all", "--out", "o", "extra"), "dyncontact study all"),
+])
+def test_study_unknown_option_points_to_the_studys_help(capsys, tmp_path, args, command):
+    """`dyncontact study convergence --bogus` pointed to `dyncontact study --help`, which
+    does not list the study's options: the study's own help is named, in one line, and
+    nothing is written."""
+    from dyncontact.study.cli import main
+
+    args = [str(tmp_path / a) if a == "o" else a for a in args]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1, err
+    assert err.startswith("dyncontact study: unrecognized arguments: "), err
+    assert err.strip().endswith(f"(see `{command} --help`)"), err
+    assert sorted(os.listdir(tmp_path)) == []
+
+
 def test_top_level_help_says_what_plot_and_study_do():
     """`dyncontact --help` said that plot writes a PNG (it writes .pdf and .svg too) and
     that study runs three studies (contact methods and Hertz's impact missing)."""

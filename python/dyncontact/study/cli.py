@@ -58,6 +58,12 @@ def _nonempty(text: str) -> str:
     return text
 
 
+def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentParser:
+    """The parser of subcommand `name` of `parser`."""
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return action.choices[name]
+
+
 def _parser() -> argparse.ArgumentParser:
     p = OneLineParser(
         prog="dyncontact study",
@@ -192,8 +198,14 @@ def _scene_line(exc: UserSceneError) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    parser = _parser()
     try:
-        args = _parser().parse_args(argv)
+        args, extras = parser.parse_known_args(argv)
+        if extras:
+            # argparse would report them from the top-level parser, pointing to `dyncontact
+            # study --help`, which does not list the study's options: the study's own
+            # parser reports them, pointing to its help
+            _subparser(parser, args.study).error(f"unrecognized arguments: {' '.join(extras)}")
     except SystemExit as exc:   # --help (0) or a bad command line (2, reported)
         return int(exc.code or 0)
     if args.workers is not None and args.workers < 1:
