@@ -4,7 +4,8 @@ the run within a fraction of a second, in the executable, `python -m dyncontact 
 dyncontact.run() and a Stepper alike: exit 130 (KeyboardInterrupt in Python) with the
 line `interrupted by signal N during the set-up at t = 0.00000E+000 (trace kept)`, and
 the output folder as that of a run stopped before its first step: summary.json saying
-"interrupted" with that line, trace.csv with its header alone, the lock released.
+"interrupted" with that line, trace.csv with its header alone, the lock released. A
+restart stopped in its set-up leaves its folder as it was.
 
 The scene is the built-in 3D bar at h = 0.015 (68 000 tetrahedra) under central
 differences: its set-up takes 4-6 s on the test machine, each of its pieces a small part
@@ -172,3 +173,30 @@ def test_ctrl_c_during_the_setup_stops_a_library_run_promptly(caller, tmp_path):
     assert rest == "ok\n", (rest, err)
     assert waited < PROMPT_S, waited
     _assert_stopped_in_setup(tmp_path, signal.SIGINT)
+
+
+def test_a_signal_during_a_restarts_setup_leaves_its_folder_as_it_was(exe, tmp_path):
+    """`--restart o` stopped in its set-up: exit 130 within PROMPT_S, one line saying
+    nothing was written, and the folder byte for byte as the stopped run left it (its
+    checkpoint still continues it), no lock."""
+    scene = _slow_setup_scene(tmp_path)
+    text = SLOW_SETUP_SCENE.replace("t_end = 1e-6", "t_end = 2e-6").replace(
+        "dir = 'o'", "dir = 'o', checkpoint_every = 1")
+    scene.write_text(text, encoding="utf-8")
+    first = subprocess.run([str(exe), "s.nml"], cwd=tmp_path, env=child_env(),
+                           capture_output=True, text=True, timeout=SUBPROCESS_TIMEOUT)
+    assert first.returncode == 0, first.stderr
+    scene.write_text(text.replace("t_end = 2e-6", "t_end = 4e-6"), encoding="utf-8")
+    out = tmp_path / "o"
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert sorted(before) == ["checkpoint.bin", "summary.json", "trace.csv"], sorted(before)
+    proc = _start([str(exe), "s.nml", "--restart", "o"], tmp_path)
+    with signal_after(proc, signal.SIGINT) as ended:
+        _wait_into_setup(proc)
+        t0 = time.monotonic()
+    waited = time.monotonic() - t0
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    assert ended.stderr == ("dyncontact: interrupted by signal 2 during the set-up "
+                            "(nothing written)\n"), ended.stderr
+    assert waited < PROMPT_S, waited
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before

@@ -169,13 +169,13 @@ contains
         if (stat /= STAT_OK) call release_scheme(sim)
         if (stat == STAT_INTERRUPTED) then
             sim%status = 'interrupted'
-            sim%message = interrupted_message(sim, 'interrupted by signal '// &
-                                              int_text(int(signal_caught(), i8))// &
-                                              ' during the set-up', .false.)
+            sim%message = 'interrupted by signal '//int_text(int(signal_caught(), i8))// &
+                          ' during the set-up'
             if (write_output .and. .not. again) then
+                sim%message = interrupted_message(sim, trim(sim%message), .false.)
                 call open_stopped(sim, stat, errmsg)
             else
-                call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
+                call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message)//' (nothing written)')
             end if
         end if
         if (stat /= STAT_OK .or. .not. write_output) return
