@@ -7,9 +7,11 @@ the output folder as that of a run stopped before its first step: summary.json s
 "interrupted" with that line, trace.csv with its header alone, the lock released. A
 restart stopped in its set-up leaves its folder as it was.
 
-The scene is the built-in 3D bar at h = 0.015 (68 000 tetrahedra) under central
-differences: its set-up takes 4-6 s on the test machine, each of its pieces a small part
-of a second. The signal is sent once the process has spent SETTLE_CPU_S of CPU time in
+The scenes are the built-in 3D bar at h = 0.015 (68 000 tetrahedra) under central
+differences (the assembly, the mass factorization, the critical step's power
+iterations) and the 2D strip at h = 0.0035 under HHT (the factorizations of M and J0,
+the orderings tried): each set-up takes 4-6 s on the test machine, each of its pieces a
+small part of a second. The signal is sent once the process has spent SETTLE_CPU_S of CPU time in
 the run's code (for Python, counted from the moment the core's extension is loaded), well
 inside the set-up; without the set-up reading the stop flag the process would go on for
 the rest of it (seconds) before it stops."""
@@ -54,10 +56,22 @@ SLOW_SETUP_SCENE = """&mesh dim = 3, length = 1.0, width = 0.2, h = 0.015 /
 """
 
 
-def _slow_setup_scene(folder: Path) -> Path:
-    """folder/s.nml: SLOW_SETUP_SCENE."""
+#: An implicit scheme's slow set-up: the built-in 2D strip 1 x 1 at h = 0.0035 (125 000
+#: dofs; simplicial factors, made by ranges of rows) under HHT: the mass factorization of
+#: the initial acceleration, the orderings tried and the factorization of J0.
+SLOW_IMPLICIT_SETUP_SCENE = """&mesh dim = 2, length = 1.0, width = 1.0, h = 0.0035 /
+&boundary clamped = 'top', contact = 'bottom' /
+&contact obstacle_point = 0.0, 0.0, obstacle_normal = 0.0, -1.0, probe = 0.5, 0.0 /
+&initial kind = 'rest' /
+&scheme name = 'hht', dt = 1e-3, t_end = 1e-3 /
+&output dir = 'o' /
+"""
+
+
+def _slow_setup_scene(folder: Path, text: str = SLOW_SETUP_SCENE) -> Path:
+    """folder/s.nml: SLOW_SETUP_SCENE, or the scene `text`."""
     path = folder / "s.nml"
-    path.write_text(SLOW_SETUP_SCENE, encoding="utf-8")
+    path.write_text(text, encoding="utf-8")
     return path
 
 
@@ -109,12 +123,16 @@ def _assert_stopped_in_setup(folder: Path, sig: int) -> None:
     assert (out / "trace.csv").read_text() == TRACE_HEADER
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["int", "term"])
-@pytest.mark.parametrize("kind", ["exe", "cli"])
-def test_a_signal_during_the_setup_stops_the_program_promptly(kind, sig, tmp_path):
+@pytest.mark.parametrize("kind, sig, scene", [
+    ("exe", signal.SIGINT, SLOW_SETUP_SCENE), ("exe", signal.SIGTERM, SLOW_SETUP_SCENE),
+    ("cli", signal.SIGINT, SLOW_SETUP_SCENE), ("cli", signal.SIGTERM, SLOW_SETUP_SCENE),
+    ("exe", signal.SIGINT, SLOW_IMPLICIT_SETUP_SCENE),
+    ("cli", signal.SIGINT, SLOW_IMPLICIT_SETUP_SCENE),
+], ids=["exe-int", "exe-term", "cli-int", "cli-term", "exe-int-implicit", "cli-int-implicit"])
+def test_a_signal_during_the_setup_stops_the_program_promptly(kind, sig, scene, tmp_path):
     """Exit 130 within PROMPT_S of the signal, the one line of the run stopped in its
     set-up, and its folder: summary.json "interrupted", trace.csv's header, no lock."""
-    _slow_setup_scene(tmp_path)
+    _slow_setup_scene(tmp_path, scene)
     args = entry(kind) + ["s.nml"] + (["--quiet"] if kind == "cli" else [])
     proc = _start(args, tmp_path)
     with signal_after(proc, sig) as ended:
