@@ -3,7 +3,8 @@
 !> Python caller only over the opening of a run. The time loop reads it before each
 !> step; the set-up reads it between its phases and in its long loops, and returns
 !> STAT_INTERRUPTED when it is set, so that a run stops within a fraction of a second of
-!> the signal instead of after the whole set-up. Read only: set by the handler alone.
+!> the signal instead of after the whole set-up. Set by the handler alone, cleared only
+!> for a Python caller once its open is over (signal_take).
 module stop_signal
     use iso_c_binding, only: c_int
     use errors, only: STAT_OK, STAT_INTERRUPTED, raise

@@ -663,6 +663,7 @@ static int factor_by_ranges(dc_cholmod *h, const cholmod_sparse *a, int ranges, 
         if (dc_signal_caught()) {
             *stopped = 1;
             ok = 0;
+            h->c.grow2 = grow2;
             break;
         }
         k1 = range_end(cnt, n, k0, target, &sum);
