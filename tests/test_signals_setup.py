@@ -11,10 +11,10 @@ The scenes are the built-in 3D bar at h = 0.015 (68 000 tetrahedra) under centra
 differences (the assembly, the mass factorization, the critical step's power
 iterations) and the 2D strip at h = 0.0035 under HHT (the factorizations of M and J0,
 the orderings tried): each set-up takes 4-6 s on the test machine, each of its pieces a
-small part of a second. The signal is sent once the process has spent SETTLE_CPU_S of CPU time in
-the run's code (for Python, counted from the moment the core's extension is loaded), well
-inside the set-up; without the set-up reading the stop flag the process would go on for
-the rest of it (seconds) before it stops."""
+small part of a second. The signal is sent once the process has spent SETTLE_CPU_S of
+CPU time in the run's code (for Python, counted from the moment the core's extension is
+loaded), well inside the set-up; without the set-up reading the stop flag the process
+would go on for the rest of it (seconds) before it stops."""
 
 from __future__ import annotations
 
@@ -56,8 +56,8 @@ SLOW_SETUP_SCENE = """&mesh dim = 3, length = 1.0, width = 0.2, h = 0.015 /
 """
 
 
-#: An implicit scheme's slow set-up: the built-in 2D strip 1 x 1 at h = 0.0035 (125 000
-#: dofs; simplicial factors, made by ranges of rows) under HHT: the mass factorization of
+#: An implicit scheme's slow set-up: the built-in 2D strip 1 x 1 at h = 0.0035 (some
+#: 160 000 dofs; simplicial factors, made by ranges of rows) under HHT: the mass factorization of
 #: the initial acceleration, the orderings tried and the factorization of J0.
 SLOW_IMPLICIT_SETUP_SCENE = """&mesh dim = 2, length = 1.0, width = 1.0, h = 0.0035 /
 &boundary clamped = 'top', contact = 'bottom' /
