@@ -535,8 +535,8 @@ contains
         do g = 1, (zc%m - 1) / ZCHUNK + 1
             call check_stop('the contact columns', stat, errmsg)
             if (stat /= STAT_OK) return
-            call zcache_ensure(zc, lu, a, val, cdofs, [(l, l = group_first(g), group_last(zc, g))], &
-                               stat, errmsg)
+            call zcache_ensure(zc, lu, a, val, cdofs, &
+                               [(l, l = group_first(g), group_last(zc, g))], stat, errmsg)
             if (stat /= STAT_OK) return
         end do
     end subroutine zcache_ensure_all
