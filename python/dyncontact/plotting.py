@@ -16,7 +16,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-__all__ = ["plot_traces", "run_label", "plot_field_snapshots", "read_pvd"]
+__all__ = ["plot_traces", "run_label", "plot_field_snapshots", "read_pvd", "run_colours"]
 
 # (column, y label) of the first three panels; the fourth is the energy. The p_n label
 # is the formula of the runs' contact method (_P_N_LABELS, _method_label).
@@ -319,7 +319,7 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
                         bottom=(_BOTTOM_IN + _LEGEND_ROW_IN * legend_rows) / height,
                         hspace=0.07, wspace=0.42 if with_f_n else 0.24)
     axes = fig.subplots(2, 2, sharex=True).ravel()
-    colours = _run_colours(len(items))
+    colours = run_colours(len(items))
     handles = []
     # Per panel: finite values of the runs that finished ('ok') and of the stopped ones,
     # to keep a blow-up from flattening everything else (see _limit_blowups).
@@ -409,7 +409,7 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     return fig
 
 
-def _run_colours(n: int) -> list:
+def run_colours(n: int) -> list:
     """One colour per run, no two alike: matplotlib's ten default colours (C0..C9) up
     to ten runs; 'tab20' up to twenty; beyond, n colours spread over 'turbo' (the
     default cycle repeats after ten, which drew the 11th run in the 1st one's colour)."""
