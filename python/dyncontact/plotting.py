@@ -51,8 +51,9 @@ _SCHEME_PARAMS = {
     "newmark": ("beta", "gamma"),
     "pc": ("beta", "gamma"),
     "theta": ("theta",),
+    "galpha": ("rho_inf",),
 }
-_SYMBOL = {"alpha": "α", "beta": "β", "gamma": "γ", "theta": "θ"}
+_SYMBOL = {"alpha": "α", "beta": "β", "gamma": "γ", "theta": "θ", "rho_inf": "ρ∞"}
 
 #: plot_traces' figure (inches) with a legend of up to _LEGEND_ROWS_IN_PLACE rows (two
 #: runs a row), which takes its room from the panels; each row beyond makes the figure
