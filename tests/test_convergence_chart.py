@@ -1,5 +1,6 @@
 """The convergence study's chart (convergence.png), drawn from made-up rows: one colour
-per scheme, and the mesh sizes the study ran readable on the h axis.
+per scheme, the mesh sizes the study ran readable on the h axis, and a title that says
+what was run (it had none).
 
 With matplotlib's default cycle of ten colours the study's fourteen schemes shared
 colours (newmark and central lumped both blue, theta 1/2 and hht -0.1 redistributed both
@@ -24,7 +25,8 @@ def _drawn(tmp_path, monkeypatch, ns):
             for i, s in enumerate(schemes) for n in ns]
     figs = []
     monkeypatch.setattr(conv, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
-    conv._plot(rows, schemes, str(tmp_path / "convergence.png"))
+    conv._plot(rows, schemes, str(tmp_path / "convergence.png"), t_end=3.0,
+               c_implicit=20.0, c_explicit=100.0)
     fig = figs[0]
     fig.canvas.draw()
     return fig, schemes
@@ -59,3 +61,11 @@ def test_every_mesh_size_is_a_number_on_the_h_axis(tmp_path, monkeypatch, ns):
         boxes = sorted((t.get_window_extent(renderer) for t in shown), key=lambda b: b.x0)
         for left, right in zip(boxes, boxes[1:]):
             assert left.x1 <= right.x0, (ax.get_title(), [t.get_text() for t in shown])
+
+
+def test_title_says_the_case_and_the_steps(tmp_path, monkeypatch):
+    fig, _ = _drawn(tmp_path, monkeypatch, (25, 50, 100))
+    title = fig._suptitle.get_text()
+    assert "1D closed form" in title and "T = 3" in title, title
+    assert "Δt = h/20 implicit, h/100 explicit" in title, title
+    assert "central lumped h/4" in title, title      # a scheme with its own step

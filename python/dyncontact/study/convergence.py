@@ -129,7 +129,8 @@ def run_convergence(out: str, *, quick: bool = False, schemes: str | None = None
                            "runs": sum(1 for r in rows if r["scheme"] == s.key)})
     ord_path = write_csv(os.path.join(out, "orders.csv"), orders,
                          ["scheme", "norm", "order_fit", "order_last", "runs_ok", "runs"])
-    png = _plot(rows, sch, os.path.join(out, "convergence.png"))
+    png = _plot(rows, sch, os.path.join(out, "convergence.png"), t_end=t_end,
+                c_implicit=c_implicit, c_explicit=c_explicit)
     # the 3D rows for the study's schemes among BOX3D_SCHEMES
     box_schemes = [k for k in BOX3D_SCHEMES if k in {s.key for s in sch}]
     box = box3d_rows(out, base, c_implicit=c_implicit, t_end=t_end,
@@ -267,7 +268,7 @@ def _box3d_summary(box) -> list[str]:
     return lines
 
 
-def _plot(rows, schemes, path):
+def _plot(rows, schemes, path, t_end: float, c_implicit: float, c_explicit: float):
     from matplotlib.ticker import FixedFormatter, FixedLocator, NullFormatter, NullLocator
 
     from ..plotting import run_colours
@@ -305,7 +306,11 @@ def _plot(rows, schemes, path):
     handles, labels = axes.flat[0].get_legend_handles_labels()
     ax.legend(handles, labels, loc="center", fontsize=6)
     ax.axis("off")
-    return save_figure(fig, path)
+    own = "".join(f", {s.label} h/{s.c:g}" for s in schemes if s.c is not None)
+    fig.suptitle(f"Errors against the 1D closed form (bar [0, 1], E = ρ = 1, "
+                 f"T = {t_end:g}); Δt = h/{c_implicit:g} implicit, h/{c_explicit:g} "
+                 f"explicit{own}", fontsize=10)
+    return save_figure(fig, path, top=1 - 0.3 / fig.get_figheight())
 
 
 def _finest_table(rows, schemes, n, norms) -> list[str]:
