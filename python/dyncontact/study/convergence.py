@@ -329,7 +329,8 @@ def _summary(report, schemes, path) -> str:
     ns = report["ns"]
     lines = [
         "# Convergence against the 1D closed form", "",
-        f"1D exact case (SPEC §2), θ = 1, γ0 = 10, T = {report['t_end']:g}; "
+        f"1D exact case (docs/numerics.md, *The seed's test case*), θ = 1, γ0 = 10, "
+        f"T = {report['t_end']:g}; "
         f"h = {', '.join('1/' + str(n) for n in ns)}; Δt = h/c with c = "
         f"{report['c_implicit']:g} (implicit) and {report['c_explicit']:g} "
         f"(predictor-corrector)"

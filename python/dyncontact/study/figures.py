@@ -703,7 +703,8 @@ def write_index(out_root: str, report: Mapping[str, Any]) -> str:
         f"(each measured around `dyncontact.run`); plots: "
         f"{report.get('plots_wall_sum_s', 0.0):.1f} s summed.",
         "",
-        "Status `unstable`: the run tripped `&scheme blowup` and stopped (SPEC §4); its "
+        "Status `unstable`: the run tripped `&scheme blowup` and stopped (docs/scenes.md, "
+        "*The blow-up test*); its "
         "curve ends there, marked with an x and a dotted vertical line.",
         "",
     ]
