@@ -748,6 +748,10 @@ def test_set_coerces(name, value, expected):
     ("scheme.foo", "1", "&scheme foo"),
     ("schemes.dt", "1", "unknown key"),
     ("dt", "1", "unknown key"),
+    # a group without its key: the message said '&scheme : unknown key'
+    ("scheme", "1", "unknown key 'scheme' (expected group.key, 'scheme.KEY' with KEY one of "
+                    "name, alpha"),
+    ("scheme.", "1", "unknown key 'scheme.' (expected group.key"),
     ("scheme.dt", "abc", "&scheme dt"),
     ("scheme.dt", "nan", "&scheme dt"),
     ("scheme.dt", float("inf"), "&scheme dt"),
