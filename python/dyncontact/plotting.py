@@ -400,7 +400,9 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         ax.grid(True, lw=0.4, alpha=0.5)
     for ax in axes[2:]:
         ax.set_xlabel("t")
-    title_text = fig.suptitle(title) if title else None
+    # the title as far below the figure's top in inches whatever the legend's rows make
+    # the figure's height (matplotlib's y = 0.98 is a fraction of it)
+    title_text = fig.suptitle(title, y=1.0 - 0.02 * _FIG_H_IN / height) if title else None
     _fit_margins(fig, axes, ax_f, title_text)
     if ax_f is not None:
         _clear_columns(fig, ax_f, axes[3])
