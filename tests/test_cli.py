@@ -119,6 +119,45 @@ def test_plot_traces_api_labels(tmp_path):
     assert any(line.get_linestyle() == "--" for line in energy_lines)
 
 
+#: The parameters each scheme uses (docs/scenes.md, &scheme: "newmark and pc: beta,
+#: gamma; the HHT family: alpha; theta: theta; galpha: rho_inf; central: none") and how
+#: a legend writes them.
+SCHEME_PARAMETERS = {
+    "newmark": {"beta": "β", "gamma": "γ"}, "pc": {"beta": "β", "gamma": "γ"},
+    "hht": {"alpha": "α"}, "hht_seed": {"alpha": "α"}, "pc_hht": {"alpha": "α"},
+    "pc_hht_seed": {"alpha": "α"}, "theta": {"theta": "θ"}, "galpha": {"rho_inf": "ρ∞"},
+    "central": {},
+}
+
+
+@pytest.mark.parametrize("name", sorted(SCHEME_PARAMETERS))
+def test_run_label_gives_the_parameters_the_scheme_uses(name):
+    """A legend says the scheme's own parameters and no other: galpha's labels left
+    its rho_inf out ('galpha Δt=0.0025, h=0.05' for every rho_inf)."""
+    from dyncontact.plotting import run_label
+
+    scheme = {"name": name, "alpha": -0.05, "beta": 0.3, "gamma": 0.6, "theta": 0.7,
+              "rho_inf": 0.8, "dt": 0.0025, "mass": "consistent"}
+    values = {k: v for k, v in scheme.items() if k not in ("name", "dt", "mass")}
+    label = run_label({"scene": {"scheme": scheme, "mesh": {"file": "", "h": 0.05}}})
+    used = SCHEME_PARAMETERS[name]
+    params = ", ".join(f"{symbol}={values[key]:g}" for key, symbol in used.items())
+    assert label == f"{name} {params + ', ' if params else ''}Δt=0.0025, h=0.05", label
+
+
+def test_run_label_knows_every_scheme():
+    """SCHEME_PARAMETERS above lists the core's schemes (the names the scene reader
+    takes, as its message lists them)."""
+    import dyncontact
+
+    scene = dyncontact.Scene()
+    scene.set("scheme.name", "no_such_scheme")
+    with pytest.raises(dyncontact.BadInputError) as err:
+        scene.validate()
+    listed = str(err.value).split("must be one of ")[1].split(" (got")[0]
+    assert sorted(listed.replace("'", "").split(", ")) == sorted(SCHEME_PARAMETERS)
+
+
 def test_plot_explicit_labels_and_result_objects(tmp_path):
     from dyncontact.core import RunResult, read_summary, read_trace
     from dyncontact.plotting import plot_traces

@@ -112,3 +112,20 @@ def test_a_closed_stepper_raises_instead_of_crashing(tmp_path):
             call()
     with pytest.raises(TypeError, match="out must be the output folder"):
         dyncontact.Stepper(scene, None)
+
+
+@pytest.mark.parametrize("budget", [2**31, 10**12, "np.int64"])
+def test_stepper_advance_takes_any_budget_to_the_end(tmp_path, budget):
+    """advance(steps) advances by *at most* steps: a budget beyond the core's C int
+    (2**31 - 1, more than any run's steps: &scheme max_steps is one) runs to the end, as
+    advance(10**9) does; it raised OverflowError from the f2py boundary."""
+    import dyncontact
+
+    if budget == "np.int64":
+        budget = np.int64(2**40)
+    scene = dyncontact.Scene.read(ROOT / "scripts" / "scenes" / "bar2d_hht.nml")
+    scene.set("scheme.t_end", 0.05)
+    with dyncontact.Stepper(scene, tmp_path / "run") as st:
+        assert st.advance(3) == 3
+        assert st.advance(budget) == 17
+        assert st.finished and st.step == 20

@@ -93,7 +93,7 @@ BAD_CASES = [
     BadCase("giant_number", "&output every = " + "0" * 500_000 + "1 /\n", "&output every",
             "out of range"),
     BadCase("missing_scene_file", MISSING, "", "no such scene file"),
-    BadCase("scene_is_directory", DIRECTORY, "", "cannot read scene file"),
+    BadCase("scene_is_directory", DIRECTORY, "", "a folder, not a scene file"),
     # types
     BadCase("string_for_int", "&mesh dim = 'two' /\n", "&mesh dim", "expected an integer"),
     BadCase("real_for_int", "&scheme newton_maxit = 1.5 /\n", "&scheme newton_maxit",
@@ -748,6 +748,10 @@ def test_set_coerces(name, value, expected):
     ("scheme.foo", "1", "&scheme foo"),
     ("schemes.dt", "1", "unknown key"),
     ("dt", "1", "unknown key"),
+    # a group without its key: the message said '&scheme : unknown key'
+    ("scheme", "1", "unknown key 'scheme' (expected group.key, 'scheme.KEY' with KEY one of "
+                    "name, alpha"),
+    ("scheme.", "1", "unknown key 'scheme.' (expected group.key"),
     ("scheme.dt", "abc", "&scheme dt"),
     ("scheme.dt", "nan", "&scheme dt"),
     ("scheme.dt", float("inf"), "&scheme dt"),

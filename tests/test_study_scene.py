@@ -841,3 +841,22 @@ def test_scene_refusals_on_the_command_line_name_the_option(tmp_path, capsys, mo
         assert len(err.splitlines()) == 1, err
         assert err.startswith(f"dyncontact study: --scene {os.path.abspath(alm)}: the core "
                               "refuses every scheme of the study on it (first: "), err
+
+
+@pytest.mark.parametrize("cpu_s", [(0.0055, 0.045), (0.0052, 0.047), (0.0021, 0.0092)])
+def test_scene_plot_axes_give_two_numbers_when_one_power_of_ten_is_in_range(tmp_path,
+                                                                           monkeypatch,
+                                                                           cpu_s):
+    """Runs of 5-50 ms of CPU, a quick study's: the range holds one power of 10 (0.01),
+    which alone was labelled, one number on the axis; the minor ticks carry numbers too
+    (plain, side by side without overlapping)."""
+    fig = _scene_chart_of_two_runs(tmp_path, monkeypatch, cpu_s)
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes[:4]:
+        lo, hi = ax.get_xlim()
+        labels = [t for t in ax.xaxis.get_majorticklabels() + ax.xaxis.get_minorticklabels()
+                  if t.get_text() and lo <= t.get_position()[0] <= hi]
+        assert len(labels) >= 2, (ax.get_title(), [t.get_text() for t in labels])
+        boxes = sorted((t.get_window_extent(renderer) for t in labels), key=lambda b: b.x0)
+        for left, right in zip(boxes, boxes[1:]):
+            assert left.x1 <= right.x0, (ax.get_title(), [t.get_text() for t in labels])

@@ -236,7 +236,7 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         character(len=:), allocatable :: text
         integer :: unit, ios, n
-        logical :: exists
+        logical :: exists, is_folder
 
         ios = 1
         n = 0
@@ -255,9 +255,16 @@ contains
         end if
         if (ios /= 0) then
             exists = .false.
+            is_folder = .false.
             if (len_trim(path) > 0) inquire (file=trim(path), exist=exists)
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': '// &
-                       trim(merge('cannot read scene file', 'no such scene file    ', exists)))
+            ! a run's output folder given for its scene is a likely slip: say what it is
+            if (exists) inquire (file=trim(path)//'/.', exist=is_folder)
+            if (is_folder) then
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': a folder, not a scene file')
+            else
+                call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': '// &
+                           trim(merge('cannot read scene file', 'no such scene file    ', exists)))
+            end if
         else if (n == 0) then    ! a failed copy, not a scene: comments alone give the defaults
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': empty scene file (0 bytes)')
         else if (n >= 2 .and. (text(1:min(2, n)) == achar(255)//achar(254) .or. &

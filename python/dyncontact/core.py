@@ -66,6 +66,8 @@ PATH_MAX_BYTES = 1024
 #: Ctrl-C, SIGTERM, the progress bar and the callback act between two chunks. A fixed
 #: chunk of 100 steps took 10-100 s on meshes of 10^5 dofs, where Ctrl-C waited that long.
 CHUNK_S = 0.5
+#: The largest step budget the core's dc_sim_advance takes (a C int).
+C_INT_MAX = 2**31 - 1
 
 
 class DyncontactError(RuntimeError):
@@ -1302,7 +1304,10 @@ class Stepper(Model):
         if steps < 0:
             raise ValueError(f"advance(): steps must be >= 0 (got {steps})")
         self._need()
-        done, step, finished, stat, errmsg = _core().dc_sim_advance(self.handle, int(steps))
+        # the core takes a C int: a larger budget advances to the end as well, since no run
+        # has more steps (&scheme max_steps is a C int too)
+        budget = min(steps, C_INT_MAX)
+        done, step, finished, stat, errmsg = _core().dc_sim_advance(self.handle, budget)
         self.step = int(step)
         self._at()
         self.finished = bool(finished)

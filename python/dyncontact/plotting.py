@@ -16,7 +16,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-__all__ = ["plot_traces", "run_label", "plot_field_snapshots", "read_pvd"]
+__all__ = ["plot_traces", "run_label", "plot_field_snapshots", "read_pvd", "run_colours"]
 
 # (column, y label) of the first three panels; the fourth is the energy. The p_n label
 # is the formula of the runs' contact method (_P_N_LABELS, _method_label).
@@ -51,8 +51,9 @@ _SCHEME_PARAMS = {
     "newmark": ("beta", "gamma"),
     "pc": ("beta", "gamma"),
     "theta": ("theta",),
+    "galpha": ("rho_inf",),
 }
-_SYMBOL = {"alpha": "α", "beta": "β", "gamma": "γ", "theta": "θ"}
+_SYMBOL = {"alpha": "α", "beta": "β", "gamma": "γ", "theta": "θ", "rho_inf": "ρ∞"}
 
 #: plot_traces' figure (inches) with a legend of up to _LEGEND_ROWS_IN_PLACE rows (two
 #: runs a row), which takes its room from the panels; each row beyond makes the figure
@@ -319,7 +320,7 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
                         bottom=(_BOTTOM_IN + _LEGEND_ROW_IN * legend_rows) / height,
                         hspace=0.07, wspace=0.42 if with_f_n else 0.24)
     axes = fig.subplots(2, 2, sharex=True).ravel()
-    colours = _run_colours(len(items))
+    colours = run_colours(len(items))
     handles = []
     # Per panel: finite values of the runs that finished ('ok') and of the stopped ones,
     # to keep a blow-up from flattening everything else (see _limit_blowups).
@@ -399,17 +400,19 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         ax.grid(True, lw=0.4, alpha=0.5)
     for ax in axes[2:]:
         ax.set_xlabel("t")
+    # the title as far below the figure's top in inches whatever the legend's rows make
+    # the figure's height (matplotlib's y = 0.98 is a fraction of it)
+    title_text = fig.suptitle(title, y=1.0 - 0.02 * _FIG_H_IN / height) if title else None
+    _fit_margins(fig, axes, ax_f, title_text)
     if ax_f is not None:
         _clear_columns(fig, ax_f, axes[3])
     fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.0),
                ncols=min(len(handles), 2), fontsize="small", frameon=False)
-    if title:
-        fig.suptitle(title)
     _save(fig, out_png)
     return fig
 
 
-def _run_colours(n: int) -> list:
+def run_colours(n: int) -> list:
     """One colour per run, no two alike: matplotlib's ten default colours (C0..C9) up
     to ten runs; 'tab20' up to twenty; beyond, n colours spread over 'turbo' (the
     default cycle repeats after ten, which drew the 11th run in the 1st one's colour)."""
@@ -420,6 +423,44 @@ def _run_colours(n: int) -> list:
     if n <= 20:
         return [colormaps["tab20"](i) for i in range(n)]
     return [colormaps["turbo"](x) for x in np.linspace(0.05, 0.95, n)]
+
+
+def _fit_margins(fig, axes, twin, title_text=None, pad_px: float = 4.0,
+                 row_pad_px: float = 12.0) -> None:
+    """Widen the fixed layout's margins where the panels' labels need it: the left
+    margin until the left column's y labels and tick labels (u_n from -0.0075 to 0.0125:
+    seven characters) begin pad_px inside the figure, the space between the rows until
+    the lower panels' scale factors ('1e8' above p_n in SI units, which matplotlib puts
+    above the panel's top) end row_pad_px under the upper panels (closer, they read as
+    the upper panel's tick labels), and the top margin until
+    the upper panels' scale factors end pad_px under the title (or the figure's top)."""
+    upper = list(axes[:2])
+    lower = list(axes[2:]) + ([twin] if twin is not None else [])
+    height = fig.bbox.height
+    for _ in range(4):
+        sp = fig.subplotpars
+        changed = False
+        x0 = min(ax.get_tightbbox().x0 for ax in (axes[0], axes[2]))
+        if x0 < pad_px:
+            fig.subplots_adjust(left=sp.left + (pad_px - x0) / fig.bbox.width)
+            changed = True
+        ceiling = height - pad_px
+        if title_text is not None:
+            ceiling = title_text.get_window_extent().y0 - pad_px
+        over = max(ax.get_tightbbox().y1 for ax in upper) - ceiling
+        if over > 0:
+            fig.subplots_adjust(top=sp.top - over / height)
+            changed = True
+        overlap = (max(ax.get_tightbbox().y1 for ax in lower) + row_pad_px
+                   - min(ax.get_tightbbox().y0 for ax in upper))
+        if overlap > 0.5:
+            # the gap between the rows is hspace x a panel's height, span / (2 + hspace)
+            span = sp.top - sp.bottom
+            gap = sp.hspace * span / (2.0 + sp.hspace) + overlap / height
+            fig.subplots_adjust(hspace=2.0 * gap / (span - gap))
+            changed = True
+        if not changed:
+            return
 
 
 def _clear_columns(fig, left_ax, right_ax, pad_px: float = 14.0) -> None:

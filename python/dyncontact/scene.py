@@ -160,6 +160,9 @@ class Scene:
         if group not in self._values:
             raise SceneError(f"{self._name()}: unknown key '{name}' (expected group.key with "
                              f"group one of {', '.join(self._values)})")
+        if not key:     # a group alone ('scheme'): no key to name, '&scheme :' said nothing
+            raise SceneError(f"{self._name()}: unknown key '{name}' (expected group.key, "
+                             f"'{group}.KEY' with KEY one of {', '.join(self._values[group])})")
         raise SceneError(f"{self._name()}: &{group} {key}: unknown key (expected one of "
                          f"{', '.join(self._values[group])})")
 

@@ -31,7 +31,7 @@ __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0
 #: the runs'), so that the run's warnings about unused keys are about the study's own
 #: settings.
 EXACT_1D = """\
-! 1D impact with a closed-form solution (SPEC section 2), written by dyncontact.study.
+! 1D impact with a closed form (docs/numerics.md, the seed's test case), by dyncontact.study.
 &mesh     file = '', dim = 1, length = 1.0, h = 0.04 /
 &boundary clamped = 'top', contact = 'bottom' /
 &material young = 1.0, poisson = 0.0, density = 1.0 /
@@ -45,7 +45,7 @@ EXACT_1D = """\
 #: The seed's 2D bar (SPEC section 2): built-in mesh, theta = 1 (the default), gamma0 =
 #: 10, hht with alpha = 0 (the default).
 SEED_2D = """\
-! The seed's 2D bar (SPEC section 2), written by dyncontact.study.
+! The seed's 2D bar (docs/numerics.md, "The seed's test case"), written by dyncontact.study.
 &mesh     file = '', dim = 2, length = 1.0, width = 0.1, h = 0.05 /
 &boundary clamped = 'top', contact = 'bottom' /
 &material young = 0.6666666666666666, poisson = 0.3333333333333333, density = 1.0 /

@@ -473,6 +473,8 @@ def _plot(out: str, rows) -> None:
                 sl = slope([p[0] for p in pts], [p[1] for p in pts])
                 ax_m.loglog([p[0] for p in pts], [p[1] for p in pts], ":", marker="o",
                             label=f"direct: peak RSS, no contact, slope {sl:.2f}")
+        ax_t.set_ylabel("time: ms (step, solve, SpMV), s (set-up)", fontsize=8)
+        ax_m.set_ylabel("memory (MB)", fontsize=8)
         for ax, title in ((ax_t, "time"), (ax_m, "memory")):
             ax.set_xlabel("dofs")
             ax.set_title(f"{geometry}, hht, dt = {DT:g}: {title}", fontsize=8)

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 import os
+import textwrap
 import time
 from typing import Any, Callable, Hashable, Mapping
 
@@ -479,11 +480,18 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
             ax.set_title(s.label, fontsize=9)
         for ax in list(axes.flat)[len(schemes):]:
             ax.axis("off")
-        fig.suptitle(f"h = {h:g}, T = {g['t_end']:g}: green stable, red unstable (stop time "
-                     f"written), orange Newton failed, grey error, light grey refused by the "
-                     f"core", fontsize=9)
+        # white: a cell with no run (penalty and ALM have no Nitsche theta to vary); the
+        # key wrapped to the figure's width (about 14 characters an inch at 9 points), which
+        # is one panel wide for a study of one scheme
+        lines = textwrap.wrap(f"h = {h:g}, T = {g['t_end']:g}: green stable, red unstable "
+                              "(stop time written), orange Newton failed, grey error, light "
+                              "grey refused by the core, white not run",
+                              width=int(14 * fig.get_figwidth()))
+        fig.suptitle("\n".join(lines), fontsize=9)
+        fig.set_figheight(fig.get_figheight() + 0.15 * (len(lines) - 1))
         path = os.path.join(out, f"stability_h{h:g}.png")
-        pngs.append(save_figure(fig, path, top=1 - 0.35 / fig.get_figheight()))
+        pngs.append(save_figure(fig, path, top=1 - (0.2 + 0.15 * len(lines))
+                                / fig.get_figheight()))
     # critical dt / h
     fig, axes = new_figure(len(g["h"]), 1, 0.9 * len(schemes) + 3, 0.3 * len(combos) + 2.2)
     finite = [c["dt_crit_over_h"] for c in crit_rows if c.get("dt_crit_over_h")]

@@ -598,9 +598,11 @@ def _plot(rows, series, ref_info, path, cases=CASES):
 
 
 def _minor_labels_only_within_a_decade(ax) -> None:
-    """Leave the minor ticks of a log axis unlabelled when its range holds a power of 10
-    (which is labelled), and labelled when it holds none: a scene study's quick runs can
-    all take 5-6 ms of CPU, and the x axis then had no number. Those are the minor ticks
+    """Leave the minor ticks of a log axis unlabelled when its range holds two powers of
+    10 or more (which are labelled), label those at 2 and 5 x a power of 10 when it holds
+    one (5-50 ms of CPU, a quick study's: 10⁻² was the axis's one number), and label them
+    as matplotlib chooses when it holds none: a scene study's quick runs can all take 5-6
+    ms of CPU, and the x axis then had no number. Those are the minor ticks
     matplotlib labels by default, written as plain numbers (0.03): as 3×10⁻² they
     overlapped their neighbours on a panel's width."""
     from matplotlib.ticker import LogFormatter, NullFormatter
@@ -612,10 +614,21 @@ def _minor_labels_only_within_a_decade(ax) -> None:
             return f"{x:g}".replace("-", "\N{MINUS SIGN}") if super().__call__(x, pos) \
                 else ""
 
+    class TwoAndFiveFormatter(LogFormatter):
+        """The minor ticks 2 and 5 x a power of 10, as plain numbers: beside the one
+        labelled power of 10, matplotlib's choice (2, 3, 4, 6 x) overlapped (0.03 0.04)."""
+
+        def __call__(self, x, pos=None):
+            lead = round(x / 10.0 ** math.floor(math.log10(x) + 1e-9))
+            return f"{x:g}".replace("-", "\N{MINUS SIGN}") if lead in (2, 5) else ""
+
     for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
         lo, hi = min(lo, hi), max(lo, hi)
-        if lo > 0 and math.floor(math.log10(hi)) >= math.ceil(math.log10(lo)):
+        powers = math.floor(math.log10(hi)) - math.ceil(math.log10(lo)) + 1 if lo > 0 else 0
+        if powers >= 2:
             axis.set_minor_formatter(NullFormatter())
+        elif powers == 1:     # one number alone on the axis: 2 and 5 x its decades too
+            axis.set_minor_formatter(TwoAndFiveFormatter(labelOnlyBase=False))
         else:
             axis.set_minor_formatter(PlainLogFormatter(labelOnlyBase=False))
 

@@ -1,0 +1,87 @@
+"""The contact methods study's chart (methods.png) from made-up rows: its title says
+which scene and settings the runs are (it had none: three panels of numbers without the
+bar, h or T), and its legend explains the crosses of the runs that did not finish."""
+
+from __future__ import annotations
+
+import math
+
+
+def _rows(unstable: bool):
+    from dyncontact.study.methods import MASSES, METHODS, SCHEMES
+
+    rows = []
+    for i, method in enumerate(METHODS):
+        for mass in MASSES:
+            for scheme in SCHEMES:
+                bad = unstable and i == 0 and mass == "lumped"
+                rows.append({"method": method, "mass": mass, "scheme": scheme,
+                             "status": "unstable" if bad else "ok",
+                             "e_drift": 1e-3 * (i + 1), "pn_std": 0.1 * (i + 1),
+                             "max_un": 1e-4 if i < 4 else 0.0})
+    return rows
+
+
+def _drawn(monkeypatch, rows, **kw):
+    import matplotlib
+    matplotlib.use("Agg")
+
+    import dyncontact.study.methods as methods
+
+    figs = []
+    monkeypatch.setattr(methods, "save_figure", lambda fig, path, **k: figs.append(fig))
+    methods._chart(rows, "methods.png", **kw)
+    return figs[0]
+
+
+def test_title_names_the_scene_and_its_settings(monkeypatch):
+    fig = _drawn(monkeypatch, _rows(False), h=0.1, t_end=3.0)
+    title = fig._suptitle.get_text()
+    assert "seed 2D bar" in title and "h = 0.1" in title and "T = 3" in title, title
+    assert "Δt = h/20" in title and "γ0 = 10" in title, title
+
+
+def test_legend_explains_the_crosses_of_unfinished_runs(monkeypatch):
+    fig = _drawn(monkeypatch, _rows(True), h=0.05, t_end=15.0)
+    crosses = [ln for ax in fig.axes for ln in ax.get_lines() if ln.get_marker() == "x"
+               and len(ln.get_xdata()) and not math.isnan(ln.get_xdata()[0])]
+    assert crosses
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert any("not finished" in label for label in labels), labels
+
+
+def test_legend_covers_no_point(monkeypatch):
+    """Inside the first panel ('best' place) it covered the ALM runs' points."""
+    import numpy as np
+
+    captured = {}
+
+    def keep(fig, path, **kw):
+        fig.tight_layout(rect=kw.get("rect") or (0, 0, 1, kw.get("top", 1.0)))
+        captured["fig"] = fig
+
+    import matplotlib
+    matplotlib.use("Agg")
+
+    import dyncontact.study.methods as methods
+
+    rows = _rows(True)
+    for k, r in enumerate(rows):          # points spread over the panels' whole height
+        r["e_drift"] = 10.0 ** (-4 + 4 * (k % 7) / 6)
+    monkeypatch.setattr(methods, "save_figure", keep)
+    methods._chart(rows, "methods.png", h=0.1, t_end=3.0)
+    fig = captured["fig"]
+    fig.canvas.draw()
+    legends = fig.legends + [ax.get_legend() for ax in fig.axes if ax.get_legend()]
+    assert len(legends) == 1
+    box = legends[0].get_window_extent()
+    for ax in fig.axes:
+        for ln in ax.get_lines():
+            if not len(ln.get_xdata()):
+                continue                  # the legend's own entries
+            xy = ln.get_transform().transform(np.column_stack([ln.get_xdata(),
+                                                               ln.get_ydata()]))
+            inside = ((xy[:, 0] > box.x0) & (xy[:, 0] < box.x1)
+                      & (xy[:, 1] > box.y0) & (xy[:, 1] < box.y1))
+            assert not inside.any(), ax.get_title()
+    assert box.x1 <= fig.bbox.width
