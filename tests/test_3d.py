@@ -281,7 +281,7 @@ def test_3d_mesh_file_with_2d_vectors_is_refused(exe, tmp_path):
 
 
 def test_ball_contact_patch_grows_and_shrinks(tmp_path):
-    """The ball of meshes/ball.geo (coarse, h = 0.1) dropped at 0.1 m/s: the number of
+    """The ball of meshes/ball.geo (coarse, h = 0.1) dropped at speed 0.1: the number of
     active contact points rises from 0, peaks and falls back to 0 as the ball bounces
     off; after the bounce the energy is e0 to a few % (measured: +0.2 % at this h; inside
     the contact e_total is not conserved by Nitsche's term: up to 12 % here)."""

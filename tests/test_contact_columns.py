@@ -22,7 +22,7 @@ ENV = "DYNCONTACT_CONTACT_COLUMNS"
 
 
 def ball(t_end: float) -> Scene:
-    """The coarse ball dropped at 1 m/s, ten times the scene's speed: its patch grows
+    """The coarse ball dropped at speed 1, ten times the scene's speed: its patch grows
     by some points at nearly every step of the window (the algebra under test does not
     need the small strains of the scene's speed)."""
     s = Scene.read(ROOT / "scripts" / "scenes" / "ball3d_newmark.nml")

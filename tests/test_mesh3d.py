@@ -154,7 +154,7 @@ def cube_msh(path, *, tets=CUBE_TETS, bottom="triangles", plate=None):
 
 
 def run_scene(exe, tmp_path, mesh, mesh_keys="", contact="bottom"):
-    """build/dyncontact on a 3D scene of the mesh file (the cube dropped at 1 m/s)."""
+    """build/dyncontact on a 3D scene of the mesh file (the cube dropped at speed 1)."""
     scene = tmp_path / "s.nml"
     scene.write_text(
         f"&mesh file = '{mesh}' {mesh_keys} /\n"

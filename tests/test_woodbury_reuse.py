@@ -33,7 +33,7 @@ ENV = "DYNCONTACT_WOODBURY_FRESH"
 
 
 def ball() -> Scene:
-    """The coarse ball dropped at 1 m/s ('exact' quadrature): its patch grows by some
+    """The coarse ball dropped at speed 1 ('exact' quadrature): its patch grows by some
     points at nearly every step of the window."""
     s = Scene.read(ROOT / "scripts" / "scenes" / "ball3d_newmark.nml")
     s.set("mesh.h", 0.1)

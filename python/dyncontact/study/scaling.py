@@ -2,7 +2,7 @@
 
 Geometries (``--geometry``): the seed's 2D strip (built-in, h = 0.01 to 0.00125, ``--large``
 down to 0.000625), a 2D disk (meshes/disk.geo through gmsh, radius 0.1, its whole outline
-the contact boundary, dropped at 1 m/s) and the 3D box [0, 0.1]^2 x [0, 1] of tetrahedra
+the contact boundary, dropped at speed 1) and the 3D box [0, 0.1]^2 x [0, 1] of tetrahedra
 (built-in, h = 0.05 to 0.00625); each with ``&solver kind`` 'direct' and/or 'cg'
 (``--solvers``). Sizes whose estimated dofs exceed ``--max-dofs`` are left out (and
 listed in scaling.md as such). For each mesh size h (hht, Δt = 0.0005) the executable is
@@ -104,7 +104,7 @@ def scene_text(geometry: str, h: float, steps: int, contact: bool, out_dir: str,
                solver: str = "direct") -> str:
     """The scene of one row: the strip (see :func:`strip_scene`), the disk (a free disk of
     radius 0.1 whose whole outline may touch the obstacle, its lowest point on the plane
-    y = 0.01 at t = 0 and moving into it at 1 m/s: in contact from the first step) or the 3D box (the
+    y = 0.01 at t = 0 and moving into it at speed 1: in contact from the first step) or the 3D box (the
     strip's set-up in 3D); hht with Δt = 0.0005, ``steps`` steps, ``&solver kind`` solver."""
     solver_line = f"&solver kind = '{solver}' /\n"
     if geometry == "strip":
