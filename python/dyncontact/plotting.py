@@ -120,6 +120,9 @@ def run_label(summary: dict, fallback: str = "") -> str:
     return parts[0]
 
 
+#: What a run's energies and f_n are, by its model's dimension (docs/scenes.md, trace.csv).
+_PER_DIM = {1: "1D per unit cross-section", 2: "2D per unit thickness", 3: "3D whole body"}
+
 #: At most this many scene keys tell runs of one label apart ("[contact.gamma0=20]").
 APART_KEYS = 3
 
@@ -268,7 +271,9 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
     The panels: u_n, v_n and p_n at the probe (p_n labelled with the formula of the runs'
     contact method, from summary.json), and the energy e_kin + e_el (solid) and
     + e_contact (dashed); when a run has a body force (a nonzero e_load column), e_load is
-    added to both for every run, so that the curves show the mechanical energy. When a
+    added to both for every run, so that the curves show the mechanical energy (runs of
+    models of different dimensions get a note there: their energies are per unit
+    cross-section in 1D, per unit thickness in 2D, whole in 3D). When a
     trace has the f_n column (the total normal contact force), the p_n panel draws it
     dashed on a second scale at its right (a fifth Axes, ``fig.axes[4]``, twin of the p_n
     panel); traces written before f_n existed are drawn without it. The legend goes
@@ -396,6 +401,20 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
                                      _P_N_LABELS, r"$p_n$ at the probe (contact pressure)"))
     axes[3].set_ylabel("energy: $e_{kin}+e_{el}" + ("+e_{load}" if with_load else "")
                        + "$ (solid), $+\\,e_{contact}$ (dashed)")
+    # the energies and f_n are those of each run's model: per unit cross-section in 1D,
+    # per unit thickness in 2D, of the whole body in 3D; runs of several dimensions on one
+    # chart get a note saying so, since their curves are not in the same units
+    dims = sorted({int(summary["dim"]) for _trace, summary, _name in loaded
+                   if isinstance(summary.get("dim"), int) and summary["dim"] in _PER_DIM})
+    if len(dims) > 1:
+        # in a band above the curves (the scale's top raised by a fifth of its range)
+        lo, hi = axes[3].get_ylim()
+        axes[3].set_ylim(lo, hi + 0.2 * (hi - lo))
+        axes[3].text(0.5, 0.98, "energies" + (" and $f_n$" if with_f_n else "")
+                     + " not comparable across dimensions:\n"
+                     + ", ".join(_PER_DIM[d] for d in dims),
+                     transform=axes[3].transAxes, fontsize=7, va="top", ha="center",
+                     gid="dims-note", bbox={"fc": "white", "alpha": 0.8, "lw": 0})
     for ax in axes:
         ax.grid(True, lw=0.4, alpha=0.5)
     for ax in axes[2:]:
