@@ -1,7 +1,7 @@
-"""What a user reads cites only what the repository holds. The docs, the example scenes
+"""What a user reads cites only what the repository holds: the docs, the example scenes
 and the texts the package writes into its outputs (the studies' summaries, the figures'
-index, the scenes written for the runs) cited "SPEC §2" and the like: the project's
-contract, which is not part of the repository. The seed's test case is now a section of
+index, the scenes written for the runs) cite no "SPEC §2" or the like, the project's
+contract, which is not part of the repository; the seed's test case is a section of
 docs/numerics.md."""
 
 from __future__ import annotations
