@@ -1,10 +1,10 @@
 """The convergence study's chart (convergence.png), drawn from made-up rows: one colour
 per scheme, the mesh sizes the study ran readable on the h axis, and a title that says
-what was run (it had none).
+what was run.
 
-With matplotlib's default cycle of ten colours the study's fourteen schemes shared
+With matplotlib's default cycle of ten colours the study's fourteen schemes would share
 colours (newmark and central lumped both blue, theta 1/2 and hht -0.1 redistributed both
-red), and the log h axis of 0.04 ... 0.0025 (1.2 decades) had one number, 10^-2.
+red), and the log h axis of 0.04 ... 0.0025 (1.2 decades) would show one number, 10^-2.
 """
 
 from __future__ import annotations

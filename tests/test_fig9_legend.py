@@ -1,6 +1,6 @@
 """Fig. 9 (the ball at its maximum compression, study/figures.py): the legend of its
-energy panel covers no curve. It sat at the panel's centre right, over e_kin, e_el and
-the count of active contact points."""
+energy panel covers no curve (at the panel's centre right it would lie over e_kin, e_el
+and the count of active contact points)."""
 
 from __future__ import annotations
 

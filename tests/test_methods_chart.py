@@ -1,5 +1,5 @@
 """The contact methods study's chart (methods.png) from made-up rows: its title says
-which scene and settings the runs are (it had none: three panels of numbers without the
+which scene and settings the runs are (without it: three panels of numbers without the
 bar, h or T), and its legend explains the crosses of the runs that did not finish."""
 
 from __future__ import annotations
@@ -51,7 +51,8 @@ def test_legend_explains_the_crosses_of_unfinished_runs(monkeypatch):
 
 
 def test_legend_covers_no_point(monkeypatch):
-    """Inside the first panel ('best' place) it covered the ALM runs' points."""
+    """Beside the panels: inside the first ('best' place) it would cover the ALM runs'
+    points."""
     import numpy as np
 
     captured = {}

@@ -1,7 +1,7 @@
 """The scaling chart (scripts/bench --scaling, docs/scaling/*.png) redrawn from the
 committed sweeps' CSVs: every panel says on its y axis what it measures and in which
-units. The time panels (steps and solves in ms, the set-up in s) and the memory panels
-(MB) had no y label; the units were only in the 5-point legends."""
+units: the time panels (steps and solves in ms, the set-up in s) and the memory panels
+(MB), whose 5-point legends are too small to carry them."""
 
 from __future__ import annotations
 

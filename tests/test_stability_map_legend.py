@@ -1,6 +1,6 @@
 """The stability map's title explains every colour its panels show, white included:
 the penalty and ALM rows of the Nitsche theta = -1 line are not run (the methods have
-no Nitsche theta), and their white cells were explained nowhere."""
+no Nitsche theta), and the key says what their white cells are."""
 
 from __future__ import annotations
 

@@ -848,7 +848,7 @@ def test_scene_plot_axes_give_two_numbers_when_one_power_of_ten_is_in_range(tmp_
                                                                            monkeypatch,
                                                                            cpu_s):
     """Runs of 5-50 ms of CPU, a quick study's: the range holds one power of 10 (0.01),
-    which alone was labelled, one number on the axis; the minor ticks carry numbers too
+    which alone would be labelled, one number on the axis; the minor ticks carry numbers too
     (plain, side by side without overlapping)."""
     fig = _scene_chart_of_two_runs(tmp_path, monkeypatch, cpu_s)
     renderer = fig.canvas.get_renderer()

@@ -452,7 +452,7 @@ def plot_ball_snapshot(trace_dir: str, snap_dir: str, out_png: str | None,
     h1, l1 = ax_t.get_legend_handles_labels()
     h2, l2 = ax_a.get_legend_handles_labels()
     # the legend in a band kept free above the curves (each scale's top raised by 45 % of
-    # its range): anywhere inside the curves' range it covered e_kin, e_el or the active
+    # its range): anywhere inside the curves' range it would cover e_kin, e_el or the active
     # points
     for ax in (ax_t, ax_a):
         lo, hi = ax.get_ylim()

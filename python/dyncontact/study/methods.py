@@ -149,7 +149,7 @@ def _chart(rows: list[dict[str, Any]], path: str, h: float, t_end: float) -> str
              for scheme, c in (("newmark", "C0"), ("hht -0.1", "C1"))]
     if any(r["status"] != "ok" for r in rows):
         keys.append(Line2D([], [], color="k", marker="x", ls="none", label="run not finished"))
-    # beside the panels: inside one ('best' place) it covered the ALM runs' points
+    # beside the panels: inside one ('best' place) it would cover the ALM runs' points
     legend = fig.legend(handles=keys, loc="center right", fontsize="small")
     fig.suptitle(f"Contact methods on the seed 2D bar: h = {h:g}, Δt = h/20, T = {t_end:g}, "
                  "γ0 = 10, exact contact quadrature", fontsize=10)

@@ -600,9 +600,9 @@ def _plot(rows, series, ref_info, path, cases=CASES):
 def _minor_labels_only_within_a_decade(ax) -> None:
     """Leave the minor ticks of a log axis unlabelled when its range holds two powers of
     10 or more (which are labelled), label those at 2 and 5 x a power of 10 when it holds
-    one (5-50 ms of CPU, a quick study's: 10⁻² was the axis's one number), and label them
-    as matplotlib chooses when it holds none: a scene study's quick runs can all take 5-6
-    ms of CPU, and the x axis then had no number. Those are the minor ticks
+    one (5-50 ms of CPU, a quick study's: 10⁻² would be the axis's one number), and label
+    them as matplotlib chooses when it holds none (a scene study's quick runs can all take
+    5-6 ms of CPU, an axis with no power of 10 in range). Those are the minor ticks
     matplotlib labels by default, written as plain numbers (0.03): as 3×10⁻² they
     overlapped their neighbours on a panel's width."""
     from matplotlib.ticker import LogFormatter, NullFormatter
