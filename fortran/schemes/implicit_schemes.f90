@@ -267,7 +267,8 @@ contains
         ! u0 = 0, or u0 in equilibrium with L), a0 = 0 exactly, what the solve returns
         ! (the factors applied to zeros), and M is not factorized
         if (this%kind == KIND_NEWMARK .and. .not. at_rest()) then
-            call mass_solver_start(ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg)
+            call mass_solver_start(ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg, &
+                                   once=.true.)
             call mass_solver_free(ms)
             if (stat /= STAT_OK) return
         else
