@@ -89,7 +89,7 @@ def initial_acceleration(tmp_path, name, scene):
 def test_supernodal_and_simplicial_mass_give_the_same_a0(tmp_path, monkeypatch):
     """S factorized both ways (DYNCONTACT_FACTORIZATION forces it): the same a0 to
     round-off. The run's own choice (supernodal where S's factor columns are long, on 3D
-    meshes from some 10^4 nodes) changes a0 at that level only."""
+    meshes from some 3 000 to 10 000 nodes on) changes a0 at that level only."""
     s = drop_unused(bar(tmp_path, gravity=(0.0, 0.0, -2.0)))
     s.set("mesh.h", 0.025)
     a = {}

@@ -40,8 +40,9 @@ contains
     !> did not succeed (LU instead: not symmetric, or a pivot <= 0), model_mass_definite
     !> decides.
     !> With `once` true the factors serve one solve (then freed): S may then be factorized
-    !> supernodally, faster where its factor's columns are long (3D meshes from some 10^4
-    !> nodes), where a factor solved at every step stays simplicial (its solves faster).
+    !> supernodally, faster where its factor's columns are long (3D meshes from some 3 000
+    !> to 10 000 nodes on), where a factor solved at every step stays simplicial (its
+    !> solves faster).
     subroutine mass_solver_init(ms, mdl, stat, errmsg, once)
         type(mass_solver_t), intent(inout) :: ms            !! solver
         type(model_t), intent(in) :: mdl                    !! model
