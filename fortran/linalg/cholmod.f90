@@ -171,8 +171,8 @@ module cholmod
         !> void dc_cholmod_few_solves(h, few)
         subroutine dc_cholmod_few_solves(h, few) bind(C, name='dc_cholmod_few_solves')
             import :: c_ptr, c_int
-            type(c_ptr), value :: h
-            integer(c_int), value :: few
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int), value :: few                 !! 1: a few solves only, 0: many
         end subroutine dc_cholmod_few_solves
 
         !> int dc_cholmod_supernodal(h)
