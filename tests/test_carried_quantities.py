@@ -558,7 +558,8 @@ def test_carried_quantities_every_step(case, tmp_path):
     else:
         assert np.all(trace["newton_its"][1:] >= 1)
     # factorizations: J0 once (implicit, direct solver), M once unless lumped (explicit
-    # schemes, and the Newmark family's initial acceleration), the θ-scheme's check that
+    # schemes, and the Newmark family's initial acceleration: L - B(u0) is not zero
+    # here, gravity; tests/test_initial_acceleration.py for a zero one), the θ-scheme's check that
     # a redistributed M is definite once (of S or M, direct whatever the solver); a CG
     # that fell back to a direct factorization would add it (implicit_schemes' count_lu0; the factors' count
     # of it: test_solver_cg), which J0, positive definite in every accepted scene, never

@@ -54,6 +54,9 @@ module cholmod
                                                  !! copy (chol_solve_cholmod; tests, floors);
                                                  !! a supernodal one is then not copied by
                                                  !! blocks (solves by cholmod_solve2)
+        logical :: few_solves = .false.          !! the factor serves a few solves only: one
+                                                 !! without node blocks may then be
+                                                 !! supernodal (cholmod_shim's use_supernodal)
         type(pair_ldl_t) :: pairs                !! the factor by 2x2 blocks (pairs%n = 0: none)
         type(triple_ldl_t) :: triples            !! the factor by 3x3 blocks (triples%n = 0: none)
     end type cholmod_t
@@ -165,6 +168,13 @@ module cholmod
             integer(c_int) :: status
         end function dc_cholmod_take_blocks
 
+        !> void dc_cholmod_few_solves(h, few)
+        subroutine dc_cholmod_few_solves(h, few) bind(C, name='dc_cholmod_few_solves')
+            import :: c_ptr, c_int
+            type(c_ptr), value :: h                      !! handle
+            integer(c_int), value :: few                 !! 1: a few solves only, 0: many
+        end subroutine dc_cholmod_few_solves
+
         !> int dc_cholmod_supernodal(h)
         function dc_cholmod_supernodal(h) result(code) bind(C, name='dc_cholmod_supernodal')
             import :: c_ptr, c_int
@@ -247,6 +257,7 @@ contains
             call raise(stat, errmsg, STAT_INTERNAL, who//': out of memory')
             return
         end if
+        call dc_cholmod_few_solves(ch%handle, merge(1_c_int, 0_c_int, ch%few_solves))
     end subroutine chol_prepare
 
     !> The symbolic analysis of chol_factor alone (ordering chosen, no numerical

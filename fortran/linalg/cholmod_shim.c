@@ -10,7 +10,8 @@
  * final_ll = FALSE), made by cholmod_rowfac a range of rows at a time, so that only a
  * range's columns of the permuted matrix are held next to the factor (factor_by_ranges;
  * the factor of cholmod_factorize bit for bit), or supernodal LL' when the factor's
- * columns are long (use_supernodal: 3D meshes from some 10^4 dofs on). Only the upper triangle of the
+ * columns are long (use_supernodal: 3D meshes from some 10^4 dofs on; a matrix without
+ * node blocks only when its factor serves a few solves). Only the upper triangle of the
  * CSC matrix is read (stype = +1): pass the full symmetric matrix or its upper triangle.
  *
  * Node blocks: when the dofs 2k, 2k+1 (0-based) come in pairs whose 2x2 blocks are all
@@ -49,6 +50,7 @@ typedef struct {
     int paired;            /* the analysis ordered node blocks together: their size (2, 3), or 0 */
     int ordering;          /* the ordering of the analysis (ORD_*) */
     int super;             /* the factorization is CHOLMOD's supernodal LL' (else simplicial LDL') */
+    int few_solves;        /* the factor serves a few solves only (dc_cholmod_few_solves) */
     double entries;        /* entries of the analysed factor (D and L: its column counts) */
     int *bi;               /* the blocks' rows taken from a supernodal factor (else NULL) */
     int taken;             /* L's values and rows were turned into node blocks in place
@@ -281,6 +283,20 @@ static double h_lnz(const cholmod_factor *L)
  * by the same node-block kernels (dc_cholmod_take_blocks turns LL' into LDL'). */
 #define SUPERNODAL_MIN_COLUMN 150.0
 
+/* The same rule for a factor without node blocks (a scalar matrix: the node matrix S of
+ * a mass M = S (x) I_d) whose factor serves a few solves only (dc_cholmod_few_solves: the
+ * Newmark family's initial acceleration, freed after one solve). Its numerical
+ * factorization with the ordering of cholmod_analyze (ordering, factorization and one
+ * solve timed, best of 3, the two alternating; docs/performance.md, "Where the set-up's
+ * time goes"): slower at 24-27 entries a column (2D, 40 401 and 64 881 nodes: 0.34 s
+ * against 0.72 s), 70 and 90 (3D, 1 331 and 6 561 nodes: 1.1-1.4x), within the machine's
+ * noise at 116-126, 1.5-2x faster at 140-146 (3D, 4 096-6 929 nodes), 3-3.7x at 162-211
+ * (3D, 9 261-25 856 nodes: 1.2 s against 4.5 s at 17 576). Its solves by cholmod_solve2
+ * are slower (the 3D cube at 9 261 nodes: 11.7-13.2 ms against 8.8-10.5 ms for 3
+ * right-hand sides), which is why a factor kept for every step (pc, central) stays
+ * simplicial. */
+#define SCALAR_SUPERNODAL_MIN_COLUMN 110.0
+
 /* Orderings of the node blocks' graph (dc_cholmod_ordering's codes). */
 enum { ORD_NONE = 0, ORD_AMD = 1, ORD_METIS = 2, ORD_NESDIS = 3, ORD_CHOLMOD = 4 };
 
@@ -310,14 +326,17 @@ static int forced_factorization(void)
 }
 
 /* Whether to factorize supernodally, from the simplicial symbolic factor L: see
- * SUPERNODAL_MIN_COLUMN. Only a factor made of node blocks (blocks = their size, else 0)
- * is: it is solved by the same kernels either way, where a factor without them is solved
- * by cholmod_solve2, which was measured slower on the supernodal factor. */
-static int use_supernodal(const cholmod_factor *L, int blocks)
+ * SUPERNODAL_MIN_COLUMN. A factor made of node blocks (blocks = their size, else 0) is
+ * solved by the same kernels either way; a factor without them is solved by
+ * cholmod_solve2, which was measured slower on the supernodal factor, so it is
+ * factorized supernodally only when it serves a few solves (few_solves; see
+ * SCALAR_SUPERNODAL_MIN_COLUMN). */
+static int use_supernodal(const cholmod_factor *L, int blocks, int few_solves)
 {
     int f = forced_factorization();
     if (f >= 0) return f;
-    return blocks > 0 && h_lnz(L) >= SUPERNODAL_MIN_COLUMN * (double) L->n;
+    if (blocks > 0) return h_lnz(L) >= SUPERNODAL_MIN_COLUMN * (double) L->n;
+    return few_solves && h_lnz(L) >= SCALAR_SUPERNODAL_MIN_COLUMN * (double) L->n;
 }
 
 /* Order the node blocks' graph g with ordering ord into nperm (1 on success). */
@@ -464,7 +483,7 @@ static int analyse(dc_cholmod *h, cholmod_sparse *ap, int n, const int *colptr,
             h->ordering = ORD_CHOLMOD;
         }
         h->super = 0;
-        if (h->L != NULL && use_supernodal(h->L, h->paired)) {
+        if (h->L != NULL && use_supernodal(h->L, h->paired, h->few_solves)) {
             /* the same ordering, analysed for the supernodal factorization (not
              * postordered: the node blocks stay in place) */
             int *perm = malloc(sizeof(int) * (size_t) n);
@@ -893,6 +912,15 @@ int dc_cholmod_export(void *handle, int *perm, int *colptr, int *rowind, double 
     }
     colptr[h->n] = k;
     return DC_OK;
+}
+
+/* Whether the next analyses are for a factor that serves a few solves only (few = 1;
+ * 0, the default, for one solved at every step): use_supernodal's rule for a factor
+ * without node blocks. Kept in the handle for the analyses that follow. */
+void dc_cholmod_few_solves(void *handle, int few)
+{
+    dc_cholmod *h = handle;
+    if (h != NULL) h->few_solves = few != 0;
 }
 
 /* 1 when the factor is CHOLMOD's supernodal LL', 0 when simplicial LDL' (or none). */

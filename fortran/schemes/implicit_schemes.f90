@@ -110,6 +110,10 @@ module implicit_schemes
     !> The environment variable that applies Z T on the contact-cell dofs ('dofs'):
     !> never on the node basis (the reference that basis is tested against).
     character(len=*), parameter :: ZT_VAR = 'DYNCONTACT_ZT_BASIS'
+    !> The environment variable that makes the Newmark family solve M a0 = L - B(u0) even
+    !> when L - B(u0) is zero ('solve'): a test-only switch, to check that skipping the
+    !> factorization then leaves every result unchanged bit for bit.
+    character(len=*), parameter :: A0_VAR = 'DYNCONTACT_INITIAL_SOLVE'
 
     !> Newmark-family and theta schemes.
     type, extends(time_scheme_t), public :: implicit_scheme_t
@@ -258,9 +262,13 @@ contains
         end if
         allocate (this%md(n), this%dvec(n))
 
-        ! initial acceleration (Newmark family only)
-        if (this%kind == KIND_NEWMARK) then
-            call mass_solver_start(ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg)
+        ! initial acceleration (Newmark family only): M a0 = L - B(u0), one factorization
+        ! of M (or S) freed at once. Where L - B(u0) is zero at every dof (no load and
+        ! u0 = 0, or u0 in equilibrium with L), a0 = 0 exactly, what the solve returns
+        ! (the factors applied to zeros), and M is not factorized
+        if (this%kind == KIND_NEWMARK .and. .not. at_rest()) then
+            call mass_solver_start(ms, mdl, st%bu, st%a, this%factorizations, stat, errmsg, &
+                                   once=.true.)
             call mass_solver_free(ms)
             if (stat /= STAT_OK) return
         else
@@ -326,6 +334,17 @@ contains
         end if
         ! zcache_ensure_all on an empty cache: slot l holds column l, w(:, 1:m) is W
         if (mdl%alm%kind /= ALM_OFF) call alm_newton_init(this%almn, mdl, this%zc%w(:, 1:this%m))
+
+    contains
+
+        !> Whether the Newmark family's M a0 = L - B(u0) has a zero right-hand side at
+        !> every dof (a consistent or redistributed mass: a lumped one is not factorized,
+        !> its a0 = L - B(u0) over diag(M) is left to mass_solver_start), unless A0_VAR
+        !> asks for the solve.
+        logical function at_rest()
+            at_rest = .not. mdl%lumped .and. env_text(A0_VAR) /= 'solve'
+            if (at_rest) at_rest = all(mdl%load - st%bu == 0.0_dp)
+        end function at_rest
     end subroutine implicit_init
 
     !> The contact nodes and the arrays of Z T on the node basis (see the module header);
