@@ -548,12 +548,38 @@ def _cheapest(rows, cases=CASES) -> list[dict[str, Any]]:
     return out
 
 
-def _plot(rows, series, ref_info, path, cases=CASES):
-    """One row of panels per case (its quantities' errors against CPU time)."""
-    import matplotlib.pyplot as plt
+#: Markers and line styles of the variants of one scheme family, in the series' order
+#: (:func:`series_styles`).
+VARIANT_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
+VARIANT_LINES = ("-", "--", ":", "-.")
 
+
+def series_styles(series) -> list[tuple[Any, str, str]]:
+    """(colour, marker, line style) of each series: one colour per scheme family (the
+    core's scheme name: newmark, hht, theta, pc, pc_hht, galpha, central; matplotlib's
+    ten distinct colours), the family's variants (parameters, mass, contact method,
+    step) told apart by marker and line style. 'tab20', which these replace, gave
+    families light/dark pairs of one hue, hard to tell apart on 20 series."""
+    from matplotlib import colormaps
+
+    colours = colormaps["tab10"].colors
+    families: dict[str, int] = {}
+    seen: dict[str, int] = {}
+    out = []
+    for s, _c, _label, _skey in series:
+        family = dict(s.settings).get("scheme.name", s.key)
+        f = families.setdefault(family, len(families))
+        k = seen[family] = seen.get(family, -1) + 1
+        out.append((colours[f % len(colours)], VARIANT_MARKERS[k % len(VARIANT_MARKERS)],
+                    VARIANT_LINES[k % len(VARIANT_LINES)]))
+    return out
+
+
+def _plot(rows, series, ref_info, path, cases=CASES):
+    """One row of panels per case (its quantities' errors against CPU time); each series
+    in its family's colour, with its own marker and line style (:func:`series_styles`)."""
     fig, axes = new_figure(len(cases), 4, 3.9, 3.3)
-    colors = plt.get_cmap("tab20").colors
+    styles = series_styles(series)
     for i, (case, title) in enumerate(cases):
         for j, q in enumerate(QUANTITIES):
             ax = axes[i, j]
@@ -561,13 +587,12 @@ def _plot(rows, series, ref_info, path, cases=CASES):
             finite = [r[key] for r in rows if r["case"] == case and r.get(key)
                       and r["status"] == "ok" and math.isfinite(r[key])]
             top = 2.0 * max(finite) if finite else 1.0
-            for k, (s, c, label, skey) in enumerate(series):
-                col = colors[k % len(colors)]
+            for (s, c, label, skey), (col, marker, line) in zip(series, styles):
                 mine = [r for r in rows if r["case"] == case and r["series"] == skey]
                 ok = [r for r in mine if r["status"] == "ok" and r.get(key) and r.get("cpu_s")]
                 if ok:
-                    ax.loglog([r["cpu_s"] for r in ok], [r[key] for r in ok], "o-", ms=3,
-                              color=col, label=label)
+                    ax.loglog([r["cpu_s"] for r in ok], [r[key] for r in ok], marker=marker,
+                              ls=line, ms=4, lw=1.1, color=col, label=label, gid=skey)
                     unres = [r for r in ok if r.get(f"resolved_{q}") is False]
                     if unres:
                         ax.loglog([r["cpu_s"] for r in unres], [r[key] for r in unres], "o",
@@ -592,7 +617,14 @@ def _plot(rows, series, ref_info, path, cases=CASES):
     for ax in axes[:, 0]:
         h, lab = ax.get_legend_handles_labels()
         seen.update({a: b for a, b in zip(lab, h) if a not in seen})
-    fig.legend(list(seen.values()), list(seen.keys()), loc="center right", fontsize=7,
+    # grouped by family (the order of the colours), each family's variants in the
+    # series' order; entries not of a series (the reference's line) last
+    colour_rank = {c: i for i, c in enumerate(dict.fromkeys(c for c, _m, _l in styles))}
+    rank = {label: (colour_rank[col], k) for k, ((_s, _c, label, _skey), (col, _m, _l))
+            in enumerate(zip(series, styles))}
+    order = sorted(seen, key=lambda lab: rank.get(lab.split(": ")[0], (len(colour_rank), 0))
+                   + (lab != lab.split(": ")[0],))
+    fig.legend([seen[lab] for lab in order], order, loc="center right", fontsize=7,
                title="open circle: not resolved by the reference", title_fontsize=7)
     return save_figure(fig, path, rect=(0, 0, 0.82, 1))
 
