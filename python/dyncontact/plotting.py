@@ -661,7 +661,7 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     ----------
     run_dir : folder of a run with ``fields_every > 0`` (holding fields.pvd and fields/).
     out_png : file to write (None: do not save).
-    title : figure title.
+    title : figure title (wrapped to the figure's width).
     max_snapshots : at most this many snapshots (>= 1, else ValueError), spread evenly
         over the run, the first and the last included; 1: the last alone.
     field : the point field that deforms the mesh and colours it.
@@ -761,6 +761,12 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     ax.set_ylim(float(y_all.min()) - 0.12 * height, float(y_all.max()) + 0.03 * height)
     fig.colorbar(mappable, ax=ax, shrink=0.8, label=f"|{'u' if field == 'displacement' else field}|")
     if title:
-        fig.suptitle(title)
+        # wrapped to the figure's width (about 10 characters an inch at 12 points): a
+        # figure of few snapshots is narrow, and a long title ran past both its edges
+        import textwrap
+
+        fig.suptitle("\n".join(line for part in str(title).splitlines()
+                               for line in textwrap.wrap(part, int(10 * fig.get_figwidth()))
+                               or [""]))
     _save(fig, out_png)
     return fig

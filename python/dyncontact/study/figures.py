@@ -146,6 +146,10 @@ def ball_snapshot_spec(trace_run: RunSpec, run_dir: str) -> RunSpec:
                    settings=settings)
 
 
+#: The body of Figs. 1-7, as their titles name it.
+SEED_BAR = "seed 2D bar [0, 0.1] × [0, 1]"
+
+
 def figure_plan(quick: bool = False) -> list[FigureSpec]:
     """The seed's Figures 1-7 (SPEC section 2) and the 3D Figures 8-9.
 
@@ -169,8 +173,8 @@ def figure_plan(quick: bool = False) -> list[FigureSpec]:
     f1_steps = math.ceil(f1_t / f1_dt - 1e-9)
     figs = [FigureSpec(
         key="fig1", png="fig1_field.png", kind="snapshots",
-        title=f"Fig. 1: displacement over the first period, trapezoidal rule "
-              f"(newmark β=0.25, γ=0.5), h={num(f1_h)}, Δt={num(f1_dt)}",
+        title=f"Fig. 1: displacement of the {SEED_BAR} over the first period, trapezoidal "
+              f"rule (newmark β=0.25, γ=0.5), h={num(f1_h)}, Δt={num(f1_dt)}",
         runs=[seed_spec("newmark", f1_h, f1_dt, f1_t, beta=0.25, gamma=0.5,
                         fields_every=max(1, round(f1_steps / 10)), prefix="fields_")],
         note="VTU snapshots and the ParaView index: runs/{run}/fields.pvd")]
@@ -179,7 +183,8 @@ def figure_plan(quick: bool = False) -> list[FigureSpec]:
         repeat = quick and k > 0 and h == meshes[k - 1]
         figs.append(FigureSpec(
             key=f"fig{2 + k}", png=f"fig{2 + k}_hht_family.png", kind="traces",
-            title=f"Fig. {2 + k}: HHT family, h={num(h)}, Δt=h/20={num(dt)}, T={num(t_end)}",
+            title=f"Fig. {2 + k}: HHT family on the {SEED_BAR}, h={num(h)}, "
+                  f"Δt=h/20={num(dt)}, T={num(t_end)}",
             runs=[seed_spec(s, h, dt, t_end, **p) for s, p in HHT_FAMILY],
             note="quick mode: the same mesh as the previous figure" if repeat else ""))
     for k, h in enumerate(meshes):
@@ -188,8 +193,8 @@ def figure_plan(quick: bool = False) -> list[FigureSpec]:
                 for div in (100, 20) for s, p in PC_FAMILY]
         figs.append(FigureSpec(
             key=f"fig{5 + k}", png=f"fig{5 + k}_predictor_corrector.png", kind="traces",
-            title=f"Fig. {5 + k}: predictor-corrector, h={num(h)}, Δt=h/100 and h/20, "
-                  f"T={num(t_end)}",
+            title=f"Fig. {5 + k}: predictor-corrector on the {SEED_BAR}, h={num(h)}, "
+                  f"Δt=h/100 and h/20, T={num(t_end)}",
             runs=runs,
             note="quick mode: the same mesh as the previous figure" if repeat else ""))
     h3 = 0.05
