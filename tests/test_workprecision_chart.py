@@ -94,3 +94,49 @@ def test_legend_grouped_by_family_beside_the_panels(fig):
     box = legend.get_window_extent()
     assert box.x1 <= fig.bbox.width and box.y0 >= 0 and box.y1 <= fig.bbox.height
     assert all(ax.get_tightbbox().x1 <= box.x0 for ax in fig.axes)
+
+
+def test_title_says_the_cases_and_steps(monkeypatch):
+    """The chart had no title: which bodies, T, Δt were in the summary only."""
+    import matplotlib
+    matplotlib.use("Agg")
+
+    import dyncontact.study.workprecision as wp
+
+    titles = []
+
+    def plot(rows, series, ref_info, path, cases=wp.CASES, title=""):
+        titles.append(title)
+        return path
+    monkeypatch.setattr(wp, "_plot", plot)
+    monkeypatch.setattr(wp, "write_csv", lambda path, rows, cols: path)
+    wp._report([], [], _series(), {"truth": {}, "quantities": {}}, "unused", wp.CASES,
+               title="the title")
+    assert titles == ["the title"]
+
+
+def test_title_drawn_above_the_panels(monkeypatch):
+    import matplotlib
+    matplotlib.use("Agg")
+
+    import dyncontact.study.workprecision as wp
+
+    figs = []
+
+    def keep(fig, path, **kw):
+        fig.tight_layout(rect=kw.get("rect") or (0, 0, 1, kw.get("top", 1.0)))
+        figs.append(fig)
+        return path
+    monkeypatch.setattr(wp, "save_figure", keep)
+    title = ("Error against CPU time to T = 1.5: the 1D exact case (bar [0, 1], E = ρ = 1) "
+             "at h = 1/25, 1/50, the seed 2D bar [0, 0.1] × [0, 1] at h = 0.1, 0.05; "
+             "Δt = h/20 implicit, h/100 explicit unless labelled")
+    wp._plot([], _series(), {}, "work_precision.png", title=title)
+    fig = figs[0]
+    assert " ".join(fig._suptitle.get_text().split()) == title
+    fig.canvas.draw()
+    box = fig._suptitle.get_window_extent()
+    assert box.x0 >= 0 and box.x1 <= fig.bbox.width and box.y1 <= fig.bbox.height
+    assert all(ax.get_tightbbox().y1 <= box.y0 for ax in fig.axes)
+    assert all(ax.get_xlabel() == "CPU time (s)" for ax in fig.axes)
+
