@@ -141,14 +141,16 @@ def scene_title(summaries: Sequence[dict], width: int = 100) -> str:
     """A title saying what scene the runs (their summary.json) are of, from the scene
     keys they share (the legend tells the runs apart by the others): the body (the mesh
     file's name, or the built-in bar's dimension and size) and h, the material (E, ν,
-    ρ, gravity when not 0), the initial state, the contact method (γ0 for Nitsche and
-    penalty), and the scheme and Δt when every run has the same; on lines of at most
-    ``width`` characters, broken between these groups. '' when the summaries hold no
-    scene (runs written before summary.json had one).
+    ρ, gravity when not 0), the initial state, the contact method (Nitsche, the default,
+    when the scenes do not say; θ and γ0 for Nitsche, γ0 for penalty), and the scheme
+    and Δt when every run has the same; on lines of at most ``width`` characters, broken
+    between these groups. '' when the summaries hold no scene (runs written before
+    summary.json had one).
 
     >>> scene_title([{"scene": {"mesh": {"file": "", "dim": 1, "length": 1.0, "h": 0.01},
-    ...                          "material": {"young": 1.0}}}])
-    '1D bar, length 1, h = 0.01; E = 1'
+    ...                          "material": {"young": 1.0},
+    ...                          "contact": {"method": "penalty", "gamma0": 10.0}}}])
+    '1D bar, length 1, h = 0.01; E = 1; penalty, γ0 = 10'
     """
     summaries = [s for s in summaries if isinstance(s.get("scene"), dict)]
     if not summaries:
