@@ -573,8 +573,10 @@ def series_styles(series) -> list[tuple[Any, str, str]]:
     families: dict[str, int] = {}
     seen: dict[str, int] = {}
     out = []
-    for s, _c, _label, _skey in series:
-        family = dict(s.settings).get("scheme.name", s.key)
+    for s, _c, _label, skey in series:
+        # a series without a SchemeSpec (made-up rows) is a family of its own
+        family = (dict(s.settings).get("scheme.name", s.key) if s is not None
+                  else f"series {skey}")
         f = families.setdefault(family, len(families))
         k = seen[family] = seen.get(family, -1) + 1
         out.append((colours[f % len(colours)], VARIANT_MARKERS[k % len(VARIANT_MARKERS)],
