@@ -86,3 +86,40 @@ def test_legend_covers_no_point(monkeypatch):
                       & (xy[:, 1] > box.y0) & (xy[:, 1] < box.y1))
             assert not inside.any(), ax.get_title()
     assert box.x1 <= fig.bbox.width
+
+
+def _points(ax):
+    """(x, y) of the runs' markers in a panel (not the floor's line)."""
+    return [(float(ln.get_xdata()[0]), float(ln.get_ydata()[0])) for ln in ax.get_lines()
+            if ln.get_gid() is None and len(ln.get_xdata()) == 1]
+
+
+def test_penetration_panel_says_where_zero_and_gaps_are_drawn(monkeypatch):
+    """The max u_n panel drew exact zeros (and the ALM's round-off) at 1e-16 without
+    saying so, and a gap (max u_n < 0: the probe stayed off the plane) as a penetration
+    of its size, |max u_n|."""
+    from dyncontact.study.methods import ZERO_FLOOR
+
+    rows = _rows(False)
+    values = {"nitsche 1": 2e-3, "penalty": 3e-18, "alm integral": 0.0, "alm nodal": -1e-3}
+    for r in rows:
+        r["max_un"] = values.get(r["method"], 1e-4)
+    fig = _drawn(monkeypatch, rows, h=0.1, t_end=3.0)
+    ax = fig.axes[2]
+    assert "penetration" in ax.get_title()
+    ys = sorted({y for _x, y in _points(ax)})
+    assert ys == [ZERO_FLOOR, 1e-4, 2e-3], ys      # the gap -1e-3 not drawn as 1e-3
+    floor = [ln for ln in ax.get_lines() if ln.get_gid() == "zero-floor"]
+    assert len(floor) == 1 and floor[0].get_ydata()[0] == ZERO_FLOOR
+    notes = [t.get_text() for t in ax.texts if t.get_gid() == "zero-floor-note"]
+    assert len(notes) == 1 and "none" in notes[0] and f"{ZERO_FLOOR:g}" in notes[0], notes
+
+
+def test_no_floor_line_without_values_under_it(monkeypatch):
+    rows = _rows(False)
+    for r in rows:
+        r["max_un"] = 1e-4
+    fig = _drawn(monkeypatch, rows, h=0.1, t_end=3.0)
+    for ax in fig.axes:
+        assert not [ln for ln in ax.get_lines() if ln.get_gid() == "zero-floor"]
+        assert not [t for t in ax.texts if t.get_gid() == "zero-floor-note"]

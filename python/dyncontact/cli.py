@@ -242,7 +242,7 @@ def _drop_stdout() -> None:
 
 
 def cmd_plot(args) -> int:
-    from .plotting import plot_traces
+    from .plotting import plot_traces, scene_title
 
     labels = args.labels.split(",") if args.labels is not None else None
     for i, label in enumerate(labels or [], 1):
@@ -259,7 +259,10 @@ def cmd_plot(args) -> int:
         # ('no such run folder', 'not a folder ...', 'no trace.csv'), before any drawing
         core.run_file(d, "trace.csv", "")
     out = _png_path(args.out)
-    plot_traces(args.dirs, out, labels=labels, title=args.title)
+    title = args.title
+    if title is None:   # the scene the runs share, from their summary.json
+        title = scene_title([core.read_summary(d) for d in args.dirs])
+    plot_traces(args.dirs, out, labels=labels, title=title or None)
     if not args.quiet:
         print(f"{PROG}: wrote {out}")
     return EXIT_OK
@@ -359,7 +362,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="image to write: FILE.png, .pdf or .svg; a name without one of "
                     "these extensions gets .png added (cmp_dt0.001 -> cmp_dt0.001.png); "
                     "an existing folder or a name ending with '/': FOLDER/traces.png")
-    pl.add_argument("--title", metavar="T")
+    pl.add_argument("--title", metavar="T", help="figure title (default: the scene the "
+                    "runs share, from their summary.json: the mesh file's name or the "
+                    "built-in bar, h, material, initial state, contact method, and the "
+                    "scheme and dt when they share them; --title '' for none)")
     pl.add_argument("--labels", metavar="L1,L2,...", help="legend labels (default: scheme "
                     "and parameters from summary.json)")
     pl.add_argument("--quiet", "-q", action="store_true")

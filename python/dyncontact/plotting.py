@@ -16,7 +16,8 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-__all__ = ["plot_traces", "run_label", "plot_field_snapshots", "read_pvd", "run_colours"]
+__all__ = ["plot_traces", "run_label", "scene_title", "plot_field_snapshots", "read_pvd",
+           "run_colours"]
 
 # (column, y label) of the first three panels; the fourth is the energy. The p_n label
 # is the formula of the runs' contact method (_P_N_LABELS, _method_label).
@@ -118,6 +119,105 @@ def run_label(summary: dict, fallback: str = "") -> str:
         params.append(f"ALM {contact.get('multiplier', '')}".strip())
     parts.append(name + (" " + ", ".join(params) if params else ""))
     return parts[0]
+
+
+def _common(summaries: Sequence[dict], group: str, key: str) -> Any:
+    """The value of scene key group.key when every run has the same one (vectors as
+    tuples), else None."""
+    values = []
+    for s in summaries:
+        v = _get(s, "scene", group, key)
+        values.append(tuple(v) if isinstance(v, list) else v)
+    if not values or values[0] is None or any(v != values[0] for v in values[1:]):
+        return None
+    return values[0]
+
+
+def _vector(v: Any) -> str:
+    return "(" + ", ".join(_num(x) for x in v) + ")" if isinstance(v, tuple) else _num(v)
+
+
+def scene_title(summaries: Sequence[dict], width: int = 100) -> str:
+    """A title saying what scene the runs (their summary.json) are of, from the scene
+    keys they share (the legend tells the runs apart by the others): the body (the mesh
+    file's name, or the built-in bar's dimension and size) and h, the material (E, ν,
+    ρ, gravity when not 0), the initial state, the contact method (Nitsche, the default,
+    when the scenes do not say; θ and γ0 for Nitsche, γ0 for penalty), and the scheme
+    and Δt when every run has the same; on lines of at most ``width`` characters, broken
+    between these groups. '' when the summaries hold no scene (runs written before
+    summary.json had one).
+
+    >>> scene_title([{"scene": {"mesh": {"file": "", "dim": 1, "length": 1.0, "h": 0.01},
+    ...                          "material": {"young": 1.0},
+    ...                          "contact": {"method": "penalty", "gamma0": 10.0}}}])
+    '1D bar, length 1, h = 0.01; E = 1; penalty, γ0 = 10'
+    """
+    summaries = [s for s in summaries if isinstance(s.get("scene"), dict)]
+    if not summaries:
+        return ""
+    groups = []
+    body = []
+    file = _common(summaries, "mesh", "file")
+    dim = _common(summaries, "mesh", "dim")
+    length = _common(summaries, "mesh", "length")
+    bar_width = _common(summaries, "mesh", "width")
+    if file:
+        body.append(os.path.basename(str(file)))
+    elif file == "" and dim in (1, 2, 3):
+        if dim == 1:
+            body.append("1D bar" + (f", length {_num(length)}" if length is not None else ""))
+        elif length is not None and bar_width is not None:
+            size = " × ".join([_num(bar_width)] * (dim - 1) + [_num(length)])
+            body.append(f"{dim}D bar {size}")
+        else:
+            body.append(f"{dim}D bar")
+    h = _common(summaries, "mesh", "h")
+    if h is not None and not str(file or "").lower().endswith(".msh"):
+        body.append(f"h = {_num(h)}")
+    groups.append(", ".join(body))
+    material = [f"{sym} = {_num(v)}" for sym, key in (("E", "young"), ("ν", "poisson"),
+                                                        ("ρ", "density"))
+                if (v := _common(summaries, "material", key)) is not None]
+    gravity = _common(summaries, "material", "gravity")
+    if isinstance(gravity, tuple) and any(float(g) != 0 for g in gravity):
+        material.append(f"gravity {_vector(gravity)}")
+    groups.append(", ".join(material))
+    kind = _common(summaries, "initial", "kind")
+    if kind == "compressed_bar":
+        amplitude = _common(summaries, "initial", "amplitude")
+        groups.append("compressed bar" + (f" (lift {_num(amplitude)})"
+                                          if amplitude is not None else ""))
+    elif kind == "velocity":
+        velocity = _common(summaries, "initial", "velocity")
+        groups.append("initial velocity" + (f" {_vector(velocity)}"
+                                            if velocity is not None else ""))
+    elif kind:
+        groups.append(f"initial state: {kind}")
+    methods = {_contact_method(s) for s in summaries}
+    if len(methods) == 1:
+        method = next(iter(methods))
+        gamma0 = _common(summaries, "contact", "gamma0")
+        name = {"nitsche": "Nitsche", "penalty": "penalty"}.get(method, method.replace(
+            "alm", "ALM"))
+        if method == "nitsche":
+            theta = _common(summaries, "contact", "theta")
+            if theta is not None:
+                name += f" θ = {_num(theta)}"
+        if method in ("nitsche", "penalty") and gamma0 is not None:
+            name += f", γ0 = {_num(gamma0)}"
+        groups.append(name)
+    scheme = _common(summaries, "scheme", "name")
+    dt = _common(summaries, "scheme", "dt")
+    groups.append(", ".join(([scheme] if scheme else [])
+                            + ([f"Δt = {_num(dt)}"] if dt is not None else [])))
+    lines = [""]
+    for g in (g for g in groups if g):
+        if lines[-1] and len(lines[-1]) + 2 + len(g) > width:
+            lines[-1] += ";"
+            lines.append(g)
+        else:
+            lines[-1] += ("; " if lines[-1] else "") + g
+    return "\n".join(lines)
 
 
 #: What a run's energies and f_n are, by its model's dimension (docs/scenes.md, trace.csv).
@@ -563,7 +663,7 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     ----------
     run_dir : folder of a run with ``fields_every > 0`` (holding fields.pvd and fields/).
     out_png : file to write (None: do not save).
-    title : figure title.
+    title : figure title (wrapped to the figure's width).
     max_snapshots : at most this many snapshots (>= 1, else ValueError), spread evenly
         over the run, the first and the last included; 1: the last alone.
     field : the point field that deforms the mesh and colours it.
@@ -663,6 +763,12 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     ax.set_ylim(float(y_all.min()) - 0.12 * height, float(y_all.max()) + 0.03 * height)
     fig.colorbar(mappable, ax=ax, shrink=0.8, label=f"|{'u' if field == 'displacement' else field}|")
     if title:
-        fig.suptitle(title)
+        # wrapped to the figure's width (about 10 characters an inch at 12 points): a
+        # figure of few snapshots is narrow, and a long title ran past both its edges
+        import textwrap
+
+        fig.suptitle("\n".join(line for part in str(title).splitlines()
+                               for line in textwrap.wrap(part, int(10 * fig.get_figwidth()))
+                               or [""]))
     _save(fig, out_png)
     return fig

@@ -146,6 +146,10 @@ def ball_snapshot_spec(trace_run: RunSpec, run_dir: str) -> RunSpec:
                    settings=settings)
 
 
+#: The body of Figs. 1-7, as their titles name it.
+SEED_BAR = "seed 2D bar [0, 0.1] × [0, 1]"
+
+
 def figure_plan(quick: bool = False) -> list[FigureSpec]:
     """The seed's Figures 1-7 (SPEC section 2) and the 3D Figures 8-9.
 
@@ -169,8 +173,8 @@ def figure_plan(quick: bool = False) -> list[FigureSpec]:
     f1_steps = math.ceil(f1_t / f1_dt - 1e-9)
     figs = [FigureSpec(
         key="fig1", png="fig1_field.png", kind="snapshots",
-        title=f"Fig. 1: displacement over the first period, trapezoidal rule "
-              f"(newmark β=0.25, γ=0.5), h={num(f1_h)}, Δt={num(f1_dt)}",
+        title=f"Fig. 1: displacement of the {SEED_BAR} over the first period, trapezoidal "
+              f"rule (newmark β=0.25, γ=0.5), h={num(f1_h)}, Δt={num(f1_dt)}",
         runs=[seed_spec("newmark", f1_h, f1_dt, f1_t, beta=0.25, gamma=0.5,
                         fields_every=max(1, round(f1_steps / 10)), prefix="fields_")],
         note="VTU snapshots and the ParaView index: runs/{run}/fields.pvd")]
@@ -179,7 +183,8 @@ def figure_plan(quick: bool = False) -> list[FigureSpec]:
         repeat = quick and k > 0 and h == meshes[k - 1]
         figs.append(FigureSpec(
             key=f"fig{2 + k}", png=f"fig{2 + k}_hht_family.png", kind="traces",
-            title=f"Fig. {2 + k}: HHT family, h={num(h)}, Δt=h/20={num(dt)}, T={num(t_end)}",
+            title=f"Fig. {2 + k}: HHT family on the {SEED_BAR}, h={num(h)}, "
+                  f"Δt=h/20={num(dt)}, T={num(t_end)}",
             runs=[seed_spec(s, h, dt, t_end, **p) for s, p in HHT_FAMILY],
             note="quick mode: the same mesh as the previous figure" if repeat else ""))
     for k, h in enumerate(meshes):
@@ -188,8 +193,8 @@ def figure_plan(quick: bool = False) -> list[FigureSpec]:
                 for div in (100, 20) for s, p in PC_FAMILY]
         figs.append(FigureSpec(
             key=f"fig{5 + k}", png=f"fig{5 + k}_predictor_corrector.png", kind="traces",
-            title=f"Fig. {5 + k}: predictor-corrector, h={num(h)}, Δt=h/100 and h/20, "
-                  f"T={num(t_end)}",
+            title=f"Fig. {5 + k}: predictor-corrector on the {SEED_BAR}, h={num(h)}, "
+                  f"Δt=h/100 and h/20, T={num(t_end)}",
             runs=runs,
             note="quick mode: the same mesh as the previous figure" if repeat else ""))
     h3 = 0.05
@@ -252,7 +257,8 @@ def _first_contact(trace: Mapping[str, np.ndarray]) -> float | None:
 def plot_box_vs_strip(strip_dir: str, box_dir: str, out_png: str | None,
                       title: str = "") -> dict[str, Any]:
     """Fig. 8: u_n, p_n and e_total/e_total(0) at the probe of the 2D strip run and of the
-    3D box run (same scheme, Δt and output rows), one panel each. Returns what is drawn:
+    3D box run (same scheme, Δt and output rows), one panel each, one legend under them
+    (the runs, their dofs and e_total(0)). Returns what is drawn:
     per run its run folder name, dofs, e_total(0), min u_n, min p_n, the first contact and
     e_total(T)/e_total(0); and the largest |box - strip| of u_n and p_n over their common
     rows."""
@@ -267,11 +273,14 @@ def plot_box_vs_strip(strip_dir: str, box_dir: str, out_png: str | None,
     fig, axes = new_figure(1, 3, 4.6, 3.6)
     ax_u, ax_p, ax_e = axes[0]
     data: dict[str, Any] = {}
+    # the strip's energy is per unit thickness, the box's of the whole body (width 0.1)
+    per = {"strip": " per unit thickness", "box": ""}
     for (tr, sm, label, name), key, style in zip(runs, ("strip", "box"), ("-", "--")):
         t, e = tr["t"], tr["e_total"]
         ax_u.plot(t, tr["u_n"], style, lw=1.0, label=label)
         ax_p.plot(t, tr["p_n"], style, lw=1.0, label=label)
-        ax_e.plot(t, e / e[0], style, lw=1.0, label=f"{label}, e0={e[0]:.4g}")
+        ax_e.plot(t, e / e[0], style, lw=1.0,
+                  label=f"{label}, e_total(0) = {e[0]:.4g}{per[key]}")
         data[key] = {"run": name, "dofs": sm.get("dofs"), "status": sm.get("status"),
                      "rows": int(len(t)), "e0": float(e[0]),
                      "u_n_min": float(np.min(tr["u_n"])), "u_n_max": float(np.max(tr["u_n"])),
@@ -290,13 +299,17 @@ def plot_box_vs_strip(strip_dir: str, box_dir: str, out_png: str | None,
         ax.set_xlabel("t")
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
+    # one legend under the panels: in each panel ('best' place) it covered the curves,
+    # which fill the panels (u_n's dips, the energy's spikes)
+    fig.legend(*ax_e.get_legend_handles_labels(), loc="lower center", ncols=2,
+               fontsize=8, frameon=False)
     ax_u.set_title(f"max |Δu_n| = {data['max_abs_du_n']:.3g}", fontsize=9)
     ax_p.set_title(f"max |Δp_n| = {data['max_abs_dp_n']:.3g}", fontsize=9)
     ax_e.set_title("energy relative to its start", fontsize=9)
     fig.suptitle(title, fontsize=9)
     if out_png:
-        save_figure(fig, out_png, top=1 - 0.3 / fig.get_figheight())
+        save_figure(fig, out_png, rect=(0, 0.35 / fig.get_figheight(), 1,
+                                        1 - 0.3 / fig.get_figheight()))
     else:
         import matplotlib.pyplot as plt
 

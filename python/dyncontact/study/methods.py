@@ -121,23 +121,46 @@ def run_methods(out: str, quick: bool = False, workers: int | None = None,
             "rows": rows}
 
 
+#: Where the chart's log scales draw a value exactly 0.
+ZERO_FLOOR = 1e-16
+
+
 def _chart(rows: list[dict[str, Any]], path: str, h: float, t_end: float) -> str:
     """Three panels over the runs: |energy drift|, p_n std and max u_n, by method (x),
     one marker per mass and scheme; unstable runs as crosses; the title names the scene
-    (the seed's 2D bar at mesh size h, up to t_end)."""
+    (the seed's 2D bar at mesh size h, up to t_end). The penetration panel draws
+    max(max u_n, 0): a run whose probe stays off the plane (max u_n < 0, a gap) has none,
+    not the gap's size. Values under ZERO_FLOOR (0, or round-off: the ALM's penetration),
+    which a log scale cannot show, are drawn at ZERO_FLOOR on a dotted line that says
+    so."""
     fig, axes = new_figure(1, 3, width=4.6)
     methods = list(METHODS)
     markers = {"consistent": "o", "lumped": "s", "redistributed": "^"}
-    for ax, key, title in zip(axes.flat, ("e_drift", "pn_std", "max_un"),
-                              ("|E(T)/E(0) - 1|", "std p_n on [1.2, 1.8]", "max u_n")):
+    for ax, key, title, floor_note in zip(
+            axes.flat, ("e_drift", "pn_std", "max_un"),
+            ("|E(T)/E(0) - 1|", "std p_n on [1.2, 1.8]",
+             "penetration max(max u_n, 0) at the probe"),
+            (f"< {ZERO_FLOOR:g} (0 drawn here)", f"< {ZERO_FLOOR:g} (0 drawn here)",
+             f"< {ZERO_FLOOR:g}: none (max u_n ≤ 0) or round-off")):
+        floored = False
         for r in rows:
             x = methods.index(r["method"]) + (0.15 if r["scheme"] != "newmark" else -0.15)
-            y = abs(r[key]) if np.isfinite(r[key]) else np.nan
+            if not np.isfinite(r[key]):
+                y = np.nan
+            elif key == "max_un":
+                y = max(r[key], 0.0)
+            else:
+                y = abs(r[key])
+            floored = floored or y < ZERO_FLOOR
             stable = r["status"] == "ok"
-            ax.plot(x, max(y, 1e-16), marker=markers[r["mass"]] if stable else "x",
+            ax.plot(x, max(y, ZERO_FLOOR), marker=markers[r["mass"]] if stable else "x",
                     color="C0" if r["scheme"] == "newmark" else "C1", linestyle="none",
                     fillstyle="full" if stable else "none")
         ax.set_yscale("log")
+        if floored:
+            ax.axhline(ZERO_FLOOR, color="0.5", lw=0.8, ls=":", gid="zero-floor")
+            ax.text(0.02, ZERO_FLOOR, floor_note, transform=ax.get_yaxis_transform(),
+                    fontsize=7, color="0.3", va="bottom", ha="left", gid="zero-floor-note")
         ax.set_xticks(range(len(methods)))
         ax.set_xticklabels(methods, rotation=45, ha="right")
         ax.set_title(title)
@@ -146,7 +169,7 @@ def _chart(rows: list[dict[str, Any]], path: str, h: float, t_end: float) -> str
     keys = [Line2D([], [], color="k", marker=m, ls="none", label=mass)
             for mass, m in markers.items()]
     keys += [Line2D([], [], color=c, marker=".", ls="none", label=scheme)
-             for scheme, c in (("newmark", "C0"), ("hht -0.1", "C1"))]
+             for scheme, c in (("newmark ¼ ½", "C0"), ("hht α = -0.1", "C1"))]
     if any(r["status"] != "ok" for r in rows):
         keys.append(Line2D([], [], color="k", marker="x", ls="none", label="run not finished"))
     # beside the panels: inside one ('best' place) it would cover the ALM runs' points

@@ -323,7 +323,7 @@ def run_stability(out: str, *, quick: bool = False, grid: Mapping[str, Any] | No
     recs, all_recs = crit["grid_records"], crit["records"]
     run_rows, crit_rows = crit["runs"], crit["critical"]
     crit_csv, runs_csv = crit["csv"], crit["runs_csv"]
-    pngs = _heatmaps(run_rows, crit_rows, schemes, g, out)
+    pngs = _heatmaps(run_rows, crit_rows, schemes, g, out, scene=SEED_SCENE)
     from .claims import claims_table
 
     claims = claims_table(recs, g)
@@ -363,7 +363,7 @@ def run_box3d(out: str, base: str, g: Mapping[str, Any], g3: Mapping[str, Any], 
                        desc="stability 3D")
     run_rows, crit_rows, all_recs = crit["runs"], crit["critical"], crit["records"]
     crit_csv, runs_csv = crit["csv"], crit["runs_csv"]
-    pngs = _heatmaps(run_rows, crit_rows, schemes, grid, folder)
+    pngs = _heatmaps(run_rows, crit_rows, schemes, grid, folder, scene=BOX3D_SCENE)
     return {"critical": crit_rows, "runs": run_rows, "records": all_recs, "grid": grid,
             "csv": crit_csv, "runs_csv": runs_csv, "pngs": pngs}
 
@@ -441,9 +441,18 @@ def _run_row(r) -> dict[str, Any]:
             "steps": r.get("steps")}
 
 
-def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
+#: The scenes of the built-in study's charts (their titles).
+SEED_SCENE = ("seed 2D bar [0, 0.1] × [0, 1] (E = 2/3, ν = 1/3, ρ = 1; compressed bar, "
+              "lift 0.5)")
+BOX3D_SCENE = "3D box [0, 0.1]² × [0, 1] (the seed 2D bar's material, lift and contact)"
+
+
+def _heatmaps(run_rows, crit_rows, schemes, g, out, scene: str = "") -> list[str]:
     """One PNG per h: a panel per scheme, rows (gamma0, theta), columns dt/h, colour =
-    classification, text = stop time; and critical_dt.png (dt_crit/h per scheme)."""
+    classification, text = stop time; and critical_dt.png (dt_crit/h per scheme). Their
+    titles begin with ``scene``, what the runs are of (SEED_SCENE, BOX3D_SCENE, a scene
+    file's name)."""
+    on = f"{scene}: " if scene else ""
     from matplotlib.colors import ListedColormap
 
     names = ["stable", "unstable", "newton_failed", "error", "refused"]
@@ -483,7 +492,7 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
         # white: a cell with no run (penalty and ALM have no Nitsche theta to vary); the
         # key wrapped to the figure's width (about 14 characters an inch at 9 points), which
         # is one panel wide for a study of one scheme
-        lines = textwrap.wrap(f"h = {h:g}, T = {g['t_end']:g}: green stable, red unstable "
+        lines = textwrap.wrap(f"{on}h = {h:g}, T = {g['t_end']:g}: green stable, red unstable "
                               "(stop time written), orange Newton failed, grey error, light "
                               "grey refused by the core, white not run",
                               width=int(14 * fig.get_figwidth()))
@@ -524,10 +533,19 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out) -> list[str]:
         ax.set_xticklabels([s.key for s in schemes], rotation=45, ha="right", fontsize=7)
         ax.set_yticks(range(len(combos)))
         ax.set_yticklabels([f"γ0={g0:g} θ={th:+d}" for g0, th in combos], fontsize=6)
-        ax.set_title(f"critical Δt/h, h = {h:g} (bisection; > / <: stable / unstable on "
-                     f"the whole grid)", fontsize=9)
+        # wrapped to the panel's width (about 14 characters an inch at 9 points; the
+        # colour bar takes a quarter of the figure's)
+        ax.set_title("\n".join(textwrap.wrap(
+            f"critical Δt/h, h = {h:g}, T = {g['t_end']:g} (bisection; > / <: stable / "
+            "unstable on the whole grid)", width=int(10 * fig.get_figwidth()))), fontsize=9)
         fig.colorbar(im, ax=ax, label="log10(Δt_crit/h)")
-    pngs.append(save_figure(fig, os.path.join(out, "critical_dt.png")))
+    top = 1.0
+    if scene:
+        lines = textwrap.wrap(scene, width=int(14 * fig.get_figwidth()))
+        fig.suptitle("\n".join(lines), fontsize=9)
+        fig.set_figheight(fig.get_figheight() + 0.15 * len(lines))
+        top = 1 - (0.1 + 0.15 * len(lines)) / fig.get_figheight()
+    pngs.append(save_figure(fig, os.path.join(out, "critical_dt.png"), top=top))
     return pngs
 
 
@@ -667,7 +685,8 @@ def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
     all_recs = crit["records"]
     report = {"runs": crit["runs"], "critical": crit["critical"], "csv": crit["csv"],
               "runs_csv": crit["runs_csv"],
-              "pngs": _heatmaps(crit["runs"], crit["critical"], schemes, g, out),
+              "pngs": _heatmaps(crit["runs"], crit["critical"], schemes, g, out,
+                                scene=os.path.basename(scn.path)),
               "grid": g, "scene": scn, "schemes": schemes, "left_out": left_out,
               "n_runs": len(all_recs),
               "n_cached": sum(r["cached"] for r in all_recs),

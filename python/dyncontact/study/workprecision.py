@@ -463,7 +463,11 @@ def run_work_precision(out: str, *, quick: bool = False, c_implicit: float = 20.
         if r.get("shipped") and r["status"] != "ok":
             log(f"work-precision: {r['message']}")
     ref_info = _reference_estimates(ref_recs, [k for _, k in refs], size)
-    report = _report(run_recs, recs, series, ref_info, out, CASES)
+    title = (f"Error against CPU time to T = {t_end:g}: the 1D exact case (bar [0, 1], "
+             f"E = ρ = 1) at h = {', '.join(f'1/{n}' for n in LADDER_1D[size])}, the seed "
+             f"2D bar [0, 0.1] × [0, 1] at h = {', '.join(f'{h:g}' for h in LADDER_2D[size])}"
+             f"; Δt = h/{c_implicit:g} implicit, h/{c_explicit:g} explicit unless labelled")
+    report = _report(run_recs, recs, series, ref_info, out, CASES, title=title)
     report.update(t_end=t_end, quick=quick, wall_s=time.perf_counter() - t0, size=size)
     report["summary"] = _summary(report, os.path.join(out, "summary.md"))
     return report
@@ -491,10 +495,12 @@ def _row(r, truth) -> dict[str, Any]:
     return row
 
 
-def _report(run_recs, recs, series, ref_info, out: str, cases) -> dict[str, Any]:
+def _report(run_recs, recs, series, ref_info, out: str, cases,
+            title: str = "") -> dict[str, Any]:
     """Rows (with the resolved flags of the cases measured against a reference run),
-    work_precision.csv, work_precision.png and the cheapest-scheme table; the report
-    without its summary. ``recs``: every record of the sweep (for the counts)."""
+    work_precision.csv, work_precision.png (``title``: its title) and the cheapest-scheme
+    table; the report without its summary. ``recs``: every record of the sweep (for the
+    counts)."""
     truth = ref_info.pop("truth")
     rows = [_row(r, truth) for r in run_recs]
     for x in rows:
@@ -508,7 +514,8 @@ def _report(run_recs, recs, series, ref_info, out: str, cases) -> dict[str, Any]
             "cpu_s", "wall_s", "newton_its_total", *(f"err_{m}" for m in measures),
             *(f"resolved_{m}" for m in measures), "message"]
     csv_path = write_csv(os.path.join(out, "work_precision.csv"), rows, cols)
-    png = _plot(rows, series, ref_info, os.path.join(out, "work_precision.png"), cases)
+    png = _plot(rows, series, ref_info, os.path.join(out, "work_precision.png"), cases,
+                title=title)
     return {"rows": rows, "ref": ref_info, "cheapest": _cheapest(rows, cases),
             "csv": csv_path, "png": png, "n_runs": len(recs),
             "n_cached": sum(r["cached"] for r in recs),
@@ -548,12 +555,42 @@ def _cheapest(rows, cases=CASES) -> list[dict[str, Any]]:
     return out
 
 
-def _plot(rows, series, ref_info, path, cases=CASES):
-    """One row of panels per case (its quantities' errors against CPU time)."""
-    import matplotlib.pyplot as plt
+#: Markers and line styles of the variants of one scheme family, in the series' order
+#: (:func:`series_styles`).
+VARIANT_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
+VARIANT_LINES = ("-", "--", ":", "-.")
 
+
+def series_styles(series) -> list[tuple[Any, str, str]]:
+    """(colour, marker, line style) of each series: one colour per scheme family (the
+    core's scheme name: newmark, hht, theta, pc, pc_hht, galpha, central; matplotlib's
+    ten distinct colours), the family's variants (parameters, mass, contact method,
+    step) told apart by marker and line style. 'tab20', which these replace, gave
+    families light/dark pairs of one hue, hard to tell apart on 20 series."""
+    from matplotlib import colormaps
+
+    colours = colormaps["tab10"].colors
+    families: dict[str, int] = {}
+    seen: dict[str, int] = {}
+    out = []
+    for s, _c, _label, skey in series:
+        # a series without a SchemeSpec (made-up rows) is a family of its own
+        family = (dict(s.settings).get("scheme.name", s.key) if s is not None
+                  else f"series {skey}")
+        f = families.setdefault(family, len(families))
+        k = seen[family] = seen.get(family, -1) + 1
+        out.append((colours[f % len(colours)], VARIANT_MARKERS[k % len(VARIANT_MARKERS)],
+                    VARIANT_LINES[k % len(VARIANT_LINES)]))
+    return out
+
+
+def _plot(rows, series, ref_info, path, cases=CASES, title: str = ""):
+    """One row of panels per case (its quantities' errors against CPU time); each series
+    in its family's colour, with its own marker and line style (:func:`series_styles`);
+    ``title`` (what the cases are, T, Δt) above them."""
+    heading = title       # the loop below names each case's title `title`
     fig, axes = new_figure(len(cases), 4, 3.9, 3.3)
-    colors = plt.get_cmap("tab20").colors
+    styles = series_styles(series)
     for i, (case, title) in enumerate(cases):
         for j, q in enumerate(QUANTITIES):
             ax = axes[i, j]
@@ -561,13 +598,12 @@ def _plot(rows, series, ref_info, path, cases=CASES):
             finite = [r[key] for r in rows if r["case"] == case and r.get(key)
                       and r["status"] == "ok" and math.isfinite(r[key])]
             top = 2.0 * max(finite) if finite else 1.0
-            for k, (s, c, label, skey) in enumerate(series):
-                col = colors[k % len(colors)]
+            for (s, c, label, skey), (col, marker, line) in zip(series, styles):
                 mine = [r for r in rows if r["case"] == case and r["series"] == skey]
                 ok = [r for r in mine if r["status"] == "ok" and r.get(key) and r.get("cpu_s")]
                 if ok:
-                    ax.loglog([r["cpu_s"] for r in ok], [r[key] for r in ok], "o-", ms=3,
-                              color=col, label=label)
+                    ax.loglog([r["cpu_s"] for r in ok], [r[key] for r in ok], marker=marker,
+                              ls=line, ms=4, lw=1.1, color=col, label=label, gid=skey)
                     unres = [r for r in ok if r.get(f"resolved_{q}") is False]
                     if unres:
                         ax.loglog([r["cpu_s"] for r in unres], [r[key] for r in unres], "o",
@@ -582,7 +618,7 @@ def _plot(rows, series, ref_info, path, cases=CASES):
                 ax.axhline(est, color="k", ls=":", lw=0.8,
                            label="reference error (est.)" if j == 0 else None)
             ax.set_title(f"{title}: {q}", fontsize=9)
-            ax.set_xlabel("CPU s")
+            ax.set_xlabel("CPU time (s)")
             ax.set_ylabel(f"{NORM_NAME[NORMS[q]]} error in time"
                           + (" / e(0)" if q == "e_total" else ""))
             ax.grid(True, which="both", alpha=0.3)
@@ -592,9 +628,23 @@ def _plot(rows, series, ref_info, path, cases=CASES):
     for ax in axes[:, 0]:
         h, lab = ax.get_legend_handles_labels()
         seen.update({a: b for a, b in zip(lab, h) if a not in seen})
-    fig.legend(list(seen.values()), list(seen.keys()), loc="center right", fontsize=7,
+    # grouped by family (the order of the colours), each family's variants in the
+    # series' order; entries not of a series (the reference's line) last
+    colour_rank = {c: i for i, c in enumerate(dict.fromkeys(c for c, _m, _l in styles))}
+    rank = {label: (colour_rank[col], k) for k, ((_s, _c, label, _skey), (col, _m, _l))
+            in enumerate(zip(series, styles))}
+    order = sorted(seen, key=lambda lab: rank.get(lab.split(": ")[0], (len(colour_rank), 0))
+                   + (lab != lab.split(": ")[0],))
+    fig.legend([seen[lab] for lab in order], order, loc="center right", fontsize=7,
                title="open circle: not resolved by the reference", title_fontsize=7)
-    return save_figure(fig, path, rect=(0, 0, 0.82, 1))
+    top = 1.0
+    if heading:
+        import textwrap
+
+        lines = textwrap.wrap(heading, width=int(14 * fig.get_figwidth()))
+        fig.suptitle("\n".join(lines), fontsize=9)
+        top = 1 - (0.1 + 0.17 * len(lines)) / fig.get_figheight()
+    return save_figure(fig, path, rect=(0, 0, 0.82, top))
 
 
 def _minor_labels_only_within_a_decade(ax) -> None:
