@@ -1,5 +1,5 @@
 """Fig. 8 (the 3D box against the 2D strip, study/figures.py): its legend covers no
-curve. A legend in each panel ('best' place) sat over the u_n dips and the energy's
+curve. A legend in each panel ('best' place) would lie over the u_n dips and the energy's
 spikes, which fill the panels; one legend under the panels says the runs, their dofs
 and e_total(0) (the strip's per unit thickness)."""
 

@@ -17,7 +17,7 @@ def test_titles_of_figs_1_to_7_name_the_body():
 
 
 def test_a_long_snapshot_title_stays_inside_the_figure(tmp_path):
-    """Fig. 1's title (110 characters) ran past both edges of the snapshots' figure."""
+    """Fig. 1's title (110 characters) stays within the snapshots' figure."""
     from dyncontact.plotting import plot_field_snapshots
     from dyncontact.study.figures import figure_plan
     from test_plotting import _write_snapshots

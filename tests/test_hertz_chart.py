@@ -1,6 +1,6 @@
 """The Hertz study's chart (hertz.png) from made-up rows: its title names the scene (the
 ball, its material, the speeds, the mesh sizes, scheme and contact), as the other
-studies' charts do (it had none), its axes say what they show, and the legends stay
+studies' charts do, its axes say what they show, and the legends stay
 clear of the x labels."""
 
 from __future__ import annotations

@@ -97,7 +97,7 @@ def test_legend_grouped_by_family_beside_the_panels(fig):
 
 
 def test_title_says_the_cases_and_steps(monkeypatch):
-    """The chart had no title: which bodies, T, Δt were in the summary only."""
+    """The chart's title says which bodies, T and Δt, which the summary says too."""
     import matplotlib
     matplotlib.use("Agg")
 

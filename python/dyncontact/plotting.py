@@ -764,7 +764,7 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     fig.colorbar(mappable, ax=ax, shrink=0.8, label=f"|{'u' if field == 'displacement' else field}|")
     if title:
         # wrapped to the figure's width (about 10 characters an inch at 12 points): a
-        # figure of few snapshots is narrow, and a long title ran past both its edges
+        # figure of few snapshots is narrow, and a long title would run past both its edges
         import textwrap
 
         fig.suptitle("\n".join(line for part in str(title).splitlines()

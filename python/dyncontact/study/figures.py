@@ -299,7 +299,7 @@ def plot_box_vs_strip(strip_dir: str, box_dir: str, out_png: str | None,
         ax.set_xlabel("t")
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
-    # one legend under the panels: in each panel ('best' place) it covered the curves,
+    # one legend under the panels: in each panel ('best' place) it would cover the curves,
     # which fill the panels (u_n's dips, the energy's spikes)
     fig.legend(*ax_e.get_legend_handles_labels(), loc="lower center", ncols=2,
                fontsize=8, frameon=False)
