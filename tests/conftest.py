@@ -116,6 +116,21 @@ def run_exe(exe, tmp_path):
     return run
 
 
+def saved_figures(monkeypatch, module) -> list:
+    """Replace module.save_figure by one that lays each figure out as save_figure does
+    (tight_layout in its rect, or below its top) and keeps it instead of writing it: the
+    list of the figures the module saves, in order, for a test to inspect."""
+    figs = []
+
+    def keep(fig, path, top: float = 1.0, rect=None):
+        fig.tight_layout(rect=rect or (0, 0, 1, top))
+        figs.append(fig)
+        return path
+
+    monkeypatch.setattr(module, "save_figure", keep)
+    return figs
+
+
 def stderr_line(res, code: int, prefix: str = "") -> str:
     """The one line a program printed on stderr, which exits with `code`: exactly one
     line, starting with `prefix`, no traceback (bad input and numerical failures are one

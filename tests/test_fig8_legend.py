@@ -9,6 +9,7 @@ import json
 
 import numpy as np
 
+from conftest import saved_figures
 from test_plotting import _write_run
 
 
@@ -24,12 +25,7 @@ def test_one_legend_under_the_panels(tmp_path, monkeypatch):
         summary = json.loads((run / "summary.json").read_text())
         summary["dofs"] = dofs
         (run / "summary.json").write_text(json.dumps(summary))
-    figs = []
-
-    def keep(fig, path, **kw):
-        fig.tight_layout(rect=kw.get("rect") or (0, 0, 1, kw.get("top", 1.0)))
-        figs.append(fig)
-    monkeypatch.setattr(figures, "save_figure", keep)
+    figs = saved_figures(monkeypatch, figures)
     figures.plot_box_vs_strip(str(strip), str(box), str(tmp_path / "fig8.png"), title="t")
     fig = figs[0]
     assert all(ax.get_legend() is None for ax in fig.axes)

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import pytest
 
+from conftest import saved_figures
+
 #: The quick study's series (a/R = 0.1 at h_c = a/2 and a/2.83) and a second one.
 SERIES = ((0.1, (2.0, 2.0 ** 1.5)), (0.05, (2.0, 2.0 ** 1.5)))
 
@@ -31,13 +33,7 @@ def fig(monkeypatch):
 
     import dyncontact.study.hertz as hertz
 
-    figs = []
-
-    def keep(fig, path, **kw):
-        fig.tight_layout(rect=kw.get("rect") or (0, 0, 1, kw.get("top", 1.0)))
-        figs.append(fig)
-        return path
-    monkeypatch.setattr(hertz, "save_figure", keep)
+    figs = saved_figures(monkeypatch, hertz)
     hertz._chart(_rows(), "hertz.png")
     return figs[0]
 

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 
+from conftest import saved_figures
+
 
 def _rows(unstable: bool):
     from dyncontact.study.methods import MASSES, METHODS, SCHEMES
@@ -55,12 +57,6 @@ def test_legend_covers_no_point(monkeypatch):
     points."""
     import numpy as np
 
-    captured = {}
-
-    def keep(fig, path, **kw):
-        fig.tight_layout(rect=kw.get("rect") or (0, 0, 1, kw.get("top", 1.0)))
-        captured["fig"] = fig
-
     import matplotlib
     matplotlib.use("Agg")
 
@@ -69,9 +65,9 @@ def test_legend_covers_no_point(monkeypatch):
     rows = _rows(True)
     for k, r in enumerate(rows):          # points spread over the panels' whole height
         r["e_drift"] = 10.0 ** (-4 + 4 * (k % 7) / 6)
-    monkeypatch.setattr(methods, "save_figure", keep)
+    figs = saved_figures(monkeypatch, methods)
     methods._chart(rows, "methods.png", h=0.1, t_end=3.0)
-    fig = captured["fig"]
+    fig = figs[0]
     fig.canvas.draw()
     legends = fig.legends + [ax.get_legend() for ax in fig.axes if ax.get_legend()]
     assert len(legends) == 1

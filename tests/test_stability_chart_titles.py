@@ -8,6 +8,8 @@ from types import SimpleNamespace
 
 import pytest
 
+from conftest import saved_figures
+
 
 def _draw(monkeypatch, schemes, scene):
     import matplotlib
@@ -24,13 +26,7 @@ def _draw(monkeypatch, schemes, scene):
             for k, s in enumerate(schemes)]
     grid = {"h": [h], "gamma0": [10.0], "theta": [1], "t_end": 30.0,
             "dt_over_h": {"implicit": ratios, "explicit": ratios}}
-    figs = []
-
-    def keep(fig, path, **kw):
-        fig.tight_layout(rect=kw.get("rect") or (0, 0, 1, kw.get("top", 1.0)))
-        figs.append(fig)
-        return path
-    monkeypatch.setattr(st, "save_figure", keep)
+    figs = saved_figures(monkeypatch, st)
     st._heatmaps(rows, crit, schemes, grid, "unused", scene=scene)
     return figs
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import pytest
 
+from conftest import saved_figures
+
 
 def _series():
     from dyncontact.study.workprecision import _series
@@ -54,13 +56,7 @@ def fig(monkeypatch):
                        "status": "ok", "cpu_s": 0.01 * (1 + k / 10) * (1 + j)}
                 row.update({f"err_{q}": 1e-2 * (1 + k) / (1 + j) for q in wp.QUANTITIES})
                 rows.append(row)
-    figs = []
-
-    def keep(fig, path, **kw):
-        fig.tight_layout(rect=kw.get("rect") or (0, 0, 1, kw.get("top", 1.0)))
-        figs.append(fig)
-        return path
-    monkeypatch.setattr(wp, "save_figure", keep)
+    figs = saved_figures(monkeypatch, wp)
     ref = {"quantities": {q: {"est": 1e-4} for q in wp.QUANTITIES}}
     wp._plot(rows, _series(), ref, "work_precision.png")
     return figs[0]
@@ -121,13 +117,7 @@ def test_title_drawn_above_the_panels(monkeypatch):
 
     import dyncontact.study.workprecision as wp
 
-    figs = []
-
-    def keep(fig, path, **kw):
-        fig.tight_layout(rect=kw.get("rect") or (0, 0, 1, kw.get("top", 1.0)))
-        figs.append(fig)
-        return path
-    monkeypatch.setattr(wp, "save_figure", keep)
+    figs = saved_figures(monkeypatch, wp)
     title = ("Error against CPU time to T = 1.5: the 1D exact case (bar [0, 1], E = ρ = 1) "
              "at h = 1/25, 1/50, the seed 2D bar [0, 0.1] × [0, 1] at h = 0.1, 0.05; "
              "Δt = h/20 implicit, h/100 explicit unless labelled")

@@ -1074,21 +1074,16 @@ contains
         do while (.not. sim%finished .and. steps_done < max_steps)
             sig = signal_caught()
             if (sig /= 0) then
-                call stop_interrupted(sim, sig, stat, wmsg)
-                if (stat /= STAT_OK) then
-                    call write_failed(wmsg)
-                    return
-                end if
-                sim%finished = .true.
-                call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message))
-                return
-            end if
-            call sim%scheme%step(sim%mdl, sim%st, stat, msg)
-            if (stat == STAT_INTERRUPTED) then
+                stat = STAT_INTERRUPTED
+            else
+                call sim%scheme%step(sim%mdl, sim%st, stat, msg)
                 ! a stop signal caught inside the step (a factorization's ranges of rows,
                 ! where conjugate gradients fall back on one): stopped at its start, as
                 ! before a step (a step that fails changes no state)
-                call stop_interrupted(sim, signal_caught(), stat, wmsg)
+                if (stat == STAT_INTERRUPTED) sig = signal_caught()
+            end if
+            if (stat == STAT_INTERRUPTED) then
+                call stop_interrupted(sim, sig, stat, wmsg)
                 if (stat /= STAT_OK) then
                     call write_failed(wmsg)
                     return
