@@ -116,6 +116,17 @@ def run_exe(exe, tmp_path):
     return run
 
 
+@pytest.fixture(autouse=True)
+def _close_figures():
+    """Close the pyplot figures a test left open (those a chart test takes from
+    saved_figures, or a plotting call it inspects), so that they do not pile up in the
+    worker's process over the suite."""
+    yield
+    pyplot = sys.modules.get("matplotlib.pyplot")
+    if pyplot is not None:
+        pyplot.close("all")
+
+
 def saved_figures(monkeypatch, module) -> list:
     """Replace module.save_figure by one that lays each figure out as save_figure does
     (tight_layout in its rect, or below its top) and keeps it instead of writing it: the
