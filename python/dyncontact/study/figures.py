@@ -90,9 +90,10 @@ PC_FAMILY = (  # (scheme, params) of Figs. 5-7
 #: The ball scene of Fig. 9 (its mesh: meshes/ball.geo, meshed in-process at &mesh h).
 BALL_SCENE = str(find_scene("ball3d_newmark.nml"))
 #: Fig. 9's ball: (mesh size, dt, t_end) of the trace run, quick and full, dropped at
-#: BALL_SPEED, the scene's own speed. A faster drop squashes this soft ball (E = 1, ρ = 1, units in
-#: which the wave speed is 1: at speed 1 the kinetic energy per volume is half of E) to strains of order 1, where the
-#: linear model inverts tetrahedra; at speed 0.1 the compression is a quarter of the radius
+#: BALL_SPEED, the scene's own speed. A faster drop squashes this soft ball (E = 1,
+#: ρ = 1, units in which the wave speed is 1: at speed 1 the kinetic energy per volume is
+#: half of E) to strains of order 1, where the linear model inverts tetrahedra; at speed
+#: 0.1 the compression is a quarter of the radius
 #: (Hertz: 0.053) and the contact lasts about 1.3 (Hertz: 1.55), with its largest elastic
 #: energy near t = 0.75. T = 1.6 holds the whole contact: the patch grows and shrinks.
 #: h = 0.1: 257 tetrahedra, ~3 ms a step; h = 0.05 (the scene's): ~50 ms a step.

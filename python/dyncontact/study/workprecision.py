@@ -565,8 +565,8 @@ def series_styles(series) -> list[tuple[Any, str, str]]:
     """(colour, marker, line style) of each series: one colour per scheme family (the
     core's scheme name: newmark, hht, theta, pc, pc_hht, galpha, central; matplotlib's
     ten distinct colours), the family's variants (parameters, mass, contact method,
-    step) told apart by marker and line style. 'tab20', which these replace, gave
-    families light/dark pairs of one hue, hard to tell apart on 20 series."""
+    step) told apart by marker and line style: with 'tab20' the series would come in
+    light/dark pairs of one hue, hard to tell apart on 20 series."""
     from matplotlib import colormaps
 
     colours = colormaps["tab10"].colors
