@@ -6,6 +6,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -161,6 +162,8 @@ class Ended:
         self.stdout: str | None = None
         self.stderr: str | None = None
         self.returncode: int | None = None
+        #: seconds from the signal to the process's end (its output collected)
+        self.waited: float | None = None
 
 
 @contextmanager
@@ -168,13 +171,16 @@ def signal_after(proc: subprocess.Popen, sig: int, timeout: float = SUBPROCESS_T
     """``with signal_after(proc, sig) as ended:`` the block waits for the moment to
     signal the running process (a line it writes, rows in its trace); on leaving the block
     `sig` is sent and the process's output collected (communicate within `timeout`) into
-    ``ended`` (stdout, stderr, returncode). Whatever fails on the way (the block, the
+    ``ended`` (stdout, stderr, returncode, and waited: the seconds from the signal to the
+    process's end). Whatever fails on the way (the block, the
     wait), the process does not outlive the test: still running, it is killed and reaped."""
     ended = Ended()
     try:
         yield ended
+        sent = time.monotonic()
         proc.send_signal(sig)
         ended.stdout, ended.stderr = proc.communicate(timeout=timeout)
+        ended.waited = time.monotonic() - sent
         ended.returncode = proc.returncode
     finally:
         if proc.poll() is None:
