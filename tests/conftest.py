@@ -128,6 +128,33 @@ def _close_figures():
         pyplot.close("all")
 
 
+def peak_run(cmd, cwd, env=None,
+             field: str = "VmPeak") -> tuple[int, subprocess.CompletedProcess]:
+    """Run cmd (which must succeed) and return its peak in bytes and the result: the
+    /proc status `field`, read while it runs, VmPeak (address space) or VmHWM (resident
+    memory), a high-water mark, so any read after the peak gives it. env: default the
+    test's environment without PYTHONPATH."""
+    if env is None:
+        env = dict(os.environ)
+        env.pop("PYTHONPATH", None)
+    p = subprocess.Popen([str(c) for c in cmd], cwd=cwd, env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    peak = 0
+    status = Path(f"/proc/{p.pid}/status")
+    while p.poll() is None:
+        try:
+            for line in status.read_text().splitlines():
+                if line.startswith(field + ":"):
+                    peak = max(peak, int(line.split()[1]) * 1024)
+        except (OSError, ValueError, IndexError):
+            pass
+        time.sleep(0.001)
+    out, err = p.communicate()
+    assert p.returncode == 0, err
+    assert peak > 0
+    return peak, subprocess.CompletedProcess(p.args, p.returncode, out, err)
+
+
 def saved_figures(monkeypatch, module) -> list:
     """Replace module.save_figure by one that lays each figure out as save_figure does
     (tight_layout in its rect, or below its top) and keeps it instead of writing it: the

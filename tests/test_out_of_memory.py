@@ -17,12 +17,11 @@ import json
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
-from conftest import EXE
+from conftest import EXE, peak_run
 
 resource = pytest.importorskip("resource")
 if not hasattr(resource, "RLIMIT_AS") or not Path("/proc/self/status").is_file():
@@ -61,27 +60,6 @@ def env_with(**extra) -> dict:
     env.pop("PYTHONPATH", None)
     env.update(extra)
     return env
-
-
-def peak_run(cmd, cwd, env=None) -> tuple[int, subprocess.CompletedProcess]:
-    """Run cmd without a limit; its peak address space in bytes (VmPeak, read while it
-    runs: a high-water mark, so any read after the peak gives it) and the result."""
-    p = subprocess.Popen([str(c) for c in cmd], cwd=cwd, env=env or env_with(),
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    peak = 0
-    status = Path(f"/proc/{p.pid}/status")
-    while p.poll() is None:
-        try:
-            for line in status.read_text().splitlines():
-                if line.startswith("VmPeak:"):
-                    peak = max(peak, int(line.split()[1]) * 1024)
-        except (OSError, ValueError, IndexError):
-            pass
-        time.sleep(0.001)
-    out, err = p.communicate()
-    assert p.returncode == 0, err
-    assert peak > 0
-    return peak, subprocess.CompletedProcess(p.args, p.returncode, out, err)
 
 
 def limited_run(cmd, cwd, limit: int, env=None) -> subprocess.CompletedProcess:
