@@ -155,6 +155,18 @@ def peak_run(cmd, cwd, env=None,
     return peak, subprocess.CompletedProcess(p.args, p.returncode, out, err)
 
 
+def stable_grid(schemes, h: float, ratios, t_end: float = 1.0) -> tuple[list, dict]:
+    """Made-up input of the stability study's maps (study/stability.py, _heatmaps): the
+    grid rows of every scheme (objects with .key) at mesh size h, gamma0 = 10, theta = 1
+    and each dt/h in ratios, all stable, and the grid (rows, grid)."""
+    rows = [{"phase": "grid", "scheme": s.key, "h": h, "gamma0": 10.0, "theta": 1,
+             "dt_over_h": r, "classification": "stable", "stop_time": None}
+            for s in schemes for r in ratios]
+    grid = {"h": [h], "gamma0": [10.0], "theta": [1], "t_end": t_end,
+            "dt_over_h": {"implicit": list(ratios), "explicit": list(ratios)}}
+    return rows, grid
+
+
 def saved_figures(monkeypatch, module) -> list:
     """Replace module.save_figure by one that lays each figure out as save_figure does
     (tight_layout in its rect, or below its top) and keeps it instead of writing it: the

@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from conftest import saved_figures
+from conftest import saved_figures, stable_grid
 
 
 def _draw(monkeypatch, schemes, scene):
@@ -18,14 +18,10 @@ def _draw(monkeypatch, schemes, scene):
     import dyncontact.study.stability as st
 
     h, ratios = 0.1, [0.05, 0.5]
-    rows = [{"phase": "grid", "scheme": s.key, "h": h, "gamma0": 10.0, "theta": 1,
-             "dt_over_h": r, "classification": "stable", "stop_time": None}
-            for s in schemes for r in ratios]
+    rows, grid = stable_grid(schemes, h, ratios, t_end=30.0)
     crit = [{"scheme": s.key, "h": h, "gamma0": 10.0, "theta": 1, "bracket": "bisection",
              "dt_crit_lo": 0.02, "dt_crit_hi": 0.03, "dt_crit_over_h": 0.25 + 0.01 * k}
             for k, s in enumerate(schemes)]
-    grid = {"h": [h], "gamma0": [10.0], "theta": [1], "t_end": 30.0,
-            "dt_over_h": {"implicit": ratios, "explicit": ratios}}
     figs = saved_figures(monkeypatch, st)
     st._heatmaps(rows, crit, schemes, grid, "unused", scene=scene)
     return figs

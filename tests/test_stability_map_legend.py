@@ -9,6 +9,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from conftest import stable_grid
+
 
 def test_white_cells_not_run_are_explained(tmp_path, monkeypatch):
     import matplotlib
@@ -48,12 +50,9 @@ def test_title_fits_a_map_of_one_scheme(tmp_path, monkeypatch):
 
     h, ratios = 0.1, [0.05, 0.5]
     scheme = SimpleNamespace(key="hht-0.1", label="hht α=-0.1", explicit=False)
-    rows = [{"phase": "grid", "scheme": "hht-0.1", "h": h, "gamma0": 10.0, "theta": 1,
-             "dt_over_h": r, "classification": "stable", "stop_time": None} for r in ratios]
+    rows, grid = stable_grid([scheme], h, ratios)
     crit = [{"scheme": "hht-0.1", "h": h, "gamma0": 10.0, "theta": 1,
              "bracket": "above grid", "dt_crit_lo": 0.05, "dt_crit_over_h": None}]
-    grid = {"h": [h], "gamma0": [10.0], "theta": [1], "t_end": 1.0,
-            "dt_over_h": {"implicit": ratios, "explicit": ratios}}
     figs = []
 
     def keep(fig, path, **kw):

@@ -19,6 +19,7 @@ import math
 import os
 
 import pytest
+from conftest import stable_grid
 from test_studies import _cfl_lumped_1d
 
 from dyncontact import BadInputError, Scene
@@ -654,12 +655,9 @@ def test_scene_stability_map_gives_its_dt_over_h_to_3_digits_either_side_of_1(
 
     h, ratios = 0.0132187, [0.005 / 0.0132187, 0.04 / 0.0132187]
     scheme = SimpleNamespace(key="hht-0.1", label="hht α=-0.1", explicit=False)
-    rows = [{"phase": "grid", "scheme": "hht-0.1", "h": h, "gamma0": 10.0, "theta": 1,
-             "dt_over_h": r, "classification": "stable", "stop_time": None} for r in ratios]
+    rows, grid = stable_grid([scheme], h, ratios)
     crit = [{"scheme": "hht-0.1", "h": h, "gamma0": 10.0, "theta": 1,
              "bracket": "above grid", "dt_crit_lo": 0.04, "dt_crit_over_h": None}]
-    grid = {"h": [h], "gamma0": [10.0], "theta": [1], "t_end": 1.0,
-            "dt_over_h": {"implicit": ratios, "explicit": ratios}}
     figs = []
     monkeypatch.setattr(st, "save_figure", lambda fig, path, **kw: figs.append(fig) or path)
     st._heatmaps(rows, crit, [scheme], grid, str(tmp_path))
