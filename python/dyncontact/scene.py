@@ -130,6 +130,11 @@ class Scene:
         #: The keys set through :meth:`set` ('group.key'): a vector among them stays as
         #: set when the dimension changes (:meth:`_follow_dimension`).
         self._set_keys: frozenset[str] = frozenset()
+        #: The namelist text each key set through :meth:`set` was given as, with the value
+        #: the core read from it ('group.key' -> (text, value)): :meth:`to_text` writes that
+        #: text while the key keeps that value, so that a refusal quotes the user's own
+        #: text ('0', not its reading '0.0'; '1e-400', not '0.0').
+        self._set_texts: dict[str, tuple[str, Any]] = {}
 
     @classmethod
     def read(cls, path: str | os.PathLike) -> "Scene":
@@ -268,6 +273,8 @@ class Scene:
             parsed = self._follow_dimension(parsed, replace)
         self._values, self._given = parsed
         self._set_keys = self._set_keys | {f"{group}.{key}"}
+        self._set_texts = {**self._set_texts,
+                           f"{group}.{key}": (text, copy.deepcopy(parsed[0][group][key]))}
 
     def unset(self, *names: str) -> None:
         """Leave each ``'group.key'`` out of the scene: it is no longer given, takes its
@@ -290,6 +297,8 @@ class Scene:
             parsed = self._follow_dimension(parsed, omit=omit)
         self._values, self._given = parsed
         self._set_keys = self._set_keys - {f"{g}.{k}" for g, k in omit}
+        self._set_texts = {name: entry for name, entry in self._set_texts.items()
+                           if name not in {f"{g}.{k}" for g, k in omit}}
 
     def _follow_dimension(self, parsed: tuple[dict[str, dict[str, Any]], frozenset[str]],
                           replace: dict[tuple[str, str], str] | None = None,
@@ -339,6 +348,7 @@ class Scene:
         other._given = self._given
         other._mesh_dims = dict(self._mesh_dims)
         other._set_keys = self._set_keys
+        other._set_texts = dict(self._set_texts)      # (text, value): never changed in place
         return other
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
@@ -412,10 +422,13 @@ class Scene:
                 if absolute_mesh and (group, key) == ("mesh", "file") and value \
                         and not os.path.isabs(value):      # as the core reads it, '..' kept
                     value = os.path.abspath(value)
+                written = self._set_texts.get(f"{group}.{key}")
                 if replace and (group, key) in replace:
                     text = replace[(group, key)]
                 elif f"{group}.{key}" not in self._given:  # its default (a vector key:
                     continue                               # the dimension's)
+                elif written is not None and written[1] == value:
+                    text = written[0]            # as set (the core reads the same value)
                 elif isinstance(value, str):
                     text = _quote(value)
                 else:
