@@ -505,6 +505,11 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out, scene: str = "") -> list[str
     fig, axes = new_figure(len(g["h"]), 1, 0.9 * len(schemes) + 3, 0.3 * len(combos) + 2.2)
     finite = [c["dt_crit_over_h"] for c in crit_rows if c.get("dt_crit_over_h")]
     lims = (math.log10(min(finite)), math.log10(max(finite))) if finite else (None, None)
+    single = bool(finite) and lims[0] == lims[1]
+    if single:
+        # one value (or all equal): a range of zero width maps nothing; the decade
+        # centred on it, which colours its cells mid-map, and a tick at it
+        lims = (lims[0] - 0.5, lims[1] + 0.5)
     for ax, h in zip(axes.flat, g["h"]):
         z = np.full((len(combos), len(schemes)), np.nan)
         for i, (g0, th) in enumerate(combos):
@@ -533,12 +538,21 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out, scene: str = "") -> list[str
         ax.set_xticklabels([s.key for s in schemes], rotation=45, ha="right", fontsize=7)
         ax.set_yticks(range(len(combos)))
         ax.set_yticklabels([f"γ0={g0:g} θ={th:+d}" for g0, th in combos], fontsize=6)
+        # a cell is coloured only where a bisection measured Δt_crit; the key says what
+        # the others are: no Δt_crit in the grid's range (> / <), a scene the core
+        # refused, or no run at all (penalty and ALM have no Nitsche theta to vary);
         # wrapped to the panel's width (about 14 characters an inch at 9 points; the
         # colour bar takes a quarter of the figure's)
         ax.set_title("\n".join(textwrap.wrap(
-            f"critical Δt/h, h = {h:g}, T = {g['t_end']:g} (bisection; > / <: stable / "
-            "unstable on the whole grid)", width=int(10 * fig.get_figwidth()))), fontsize=9)
-        fig.colorbar(im, ax=ax, label="log10(Δt_crit/h)")
+            f"critical Δt/h, h = {h:g}, T = {g['t_end']:g} (bisection); uncoloured: no "
+            "Δt_crit measured, > / <: stable / unstable on the whole grid, 'refused': "
+            "refused by the core, no text: not run", width=int(10 * fig.get_figwidth()))),
+            fontsize=9)
+        if not finite:       # no value to scale: the bar would be an empty range
+            continue
+        bar = fig.colorbar(im, ax=ax, label="log10(Δt_crit/h)")
+        if single:
+            bar.set_ticks([lims[0], math.log10(finite[0]), lims[1]])
     top = 1.0
     if scene:
         lines = textwrap.wrap(scene, width=int(14 * fig.get_figwidth()))
