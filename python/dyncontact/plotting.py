@@ -366,7 +366,7 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         alike, followed by the scene keys that differ between them, or by the run's
         folder). A run whose status is not 'ok' is drawn up to
         where it stopped, marked with an 'x', and labelled '(unstable at t=...)'.
-    title : figure title.
+    title : figure title (wrapped to the figure's width; its own line breaks kept).
 
     The panels: u_n, v_n and p_n at the probe (p_n labelled with the formula of the runs'
     contact method, from summary.json), and the energy e_kin + e_el (solid) and
@@ -521,7 +521,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
         ax.set_xlabel("t")
     # the title as far below the figure's top in inches whatever the legend's rows make
     # the figure's height (matplotlib's y = 0.98 is a fraction of it)
-    title_text = fig.suptitle(title, y=1.0 - 0.02 * _FIG_H_IN / height) if title else None
+    title_text = _wrapped_title(fig, title, 1.0 - 0.02 * _FIG_H_IN / height) \
+        if title else None
     _fit_margins(fig, axes, ax_f, title_text)
     if ax_f is not None:
         _clear_columns(fig, ax_f, axes[3])
@@ -529,6 +530,32 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
                ncols=min(len(handles), 2), fontsize="small", frameon=False)
     _save(fig, out_png)
     return fig
+
+
+def _wrap(text: str, width: int) -> str:
+    """`text` broken into lines of at most `width` characters, its own line breaks kept
+    (a line too long alone, a path, is cut)."""
+    import textwrap
+
+    return "\n".join(line for part in str(text).splitlines()
+                     for line in textwrap.wrap(part, max(1, width)) or [""])
+
+
+def _wrapped_title(fig, title: str, y: float, pad_px: float = 4.0):
+    """The figure's title (suptitle at `y`) wrapped to the figure's width: lines of about
+    10 characters an inch at 12 points, then narrower while the text drawn is still wider
+    than the figure less pad_px each side (capitals and wide glyphs take more room than
+    the average); a long ``--title`` ran off both edges."""
+    width = int(10 * fig.get_figwidth())
+    text = fig.suptitle(_wrap(title, width), y=y)
+    room = fig.bbox.width - 2 * pad_px
+    for _ in range(8):
+        drawn = text.get_window_extent().width
+        if drawn <= room or width <= 1:
+            break
+        width = min(width - 1, int(width * room / drawn))
+        text.set_text(_wrap(title, width))
+    return text
 
 
 def run_colours(n: int) -> list:
