@@ -9,7 +9,11 @@ here, so one call is one factorization.
 The cases: the θ-scheme with a redistributed mass, whose definiteness check factorizes
 the node matrix S′ (or M′ itself) besides J0, direct and CG, in 1D, 2D and 3D; and, to
 show the counter agrees where the count was already right, the θ-scheme with a
-consistent mass and HHT with a redistributed and a lumped mass."""
+consistent mass and HHT with a redistributed and a lumped mass. With gravity the set-up
+also factorizes K + M/t_end² for the blow-up limit's load energy, outside the scheme:
+summary.json counts it apart (`setup_factorizations`, 1), and the two counts together are
+the calls made (HHT, the θ-scheme with CG, and central, whose automatic step makes the
+set-up's factorization come after the scheme's)."""
 
 from __future__ import annotations
 
@@ -63,11 +67,18 @@ __attribute__((destructor)) static void write_count(void)
 }
 """
 
-#: (scene file or None for the seed's 2D bar, scheme, mass, solver)
-CASES = [(scn, "theta", "redistributed", solver)
+#: (scene file or None for the seed's 2D bar, scheme, mass, solver, gravity or None)
+CASES = [(scn, "theta", "redistributed", solver, None)
          for scn in ("bar1d", None, "bar3d_hht") for solver in ("direct", "cg")]
-CASES += [(None, "theta", "consistent", "direct"), (None, "hht", "redistributed", "direct"),
-          (None, "hht", "lumped", "direct"), ("bar3d_hht", "hht", "redistributed", "cg")]
+CASES += [(None, "theta", "consistent", "direct", None),
+          (None, "hht", "redistributed", "direct", None),
+          (None, "hht", "lumped", "direct", None),
+          ("bar3d_hht", "hht", "redistributed", "cg", None)]
+# a load: the set-up's factorization of K + M/t_end^2 (setup_factorizations), for an
+# implicit scheme, and for central with its automatic step (made after the scheme's)
+CASES += [(None, "hht", "consistent", "direct", "0.0, -9.81"),
+          ("bar3d_hht", "theta", "redistributed", "cg", "0.0, 0.0, -9.81"),
+          (None, "central", "lumped", "direct", "0.0, -9.81")]
 
 
 @pytest.fixture(scope="module")
@@ -83,9 +94,9 @@ def counter(tmp_path_factory) -> str:
     return str(lib)
 
 
-@pytest.mark.parametrize("scn, scheme, mass, solver", CASES)
-def test_summary_counts_the_factorizations_made(scn, scheme, mass, solver, counter, exe,
-                                                tmp_path):
+@pytest.mark.parametrize("scn, scheme, mass, solver, gravity", CASES)
+def test_summary_counts_the_factorizations_made(scn, scheme, mass, solver, gravity, counter,
+                                                exe, tmp_path):
     s = Scene.read(ROOT / "scripts" / "scenes" / f"{scn}.nml") if scn else Scene()
     s.set("scheme.name", scheme)
     s.set("scheme.mass", mass)
@@ -93,6 +104,10 @@ def test_summary_counts_the_factorizations_made(scn, scheme, mass, solver, count
     s.set("scheme.t_end", 0.05)
     if scheme == "theta":
         s.set("scheme.theta", 0.6)     # (0.5 warns with a redistributed mass)
+    if scheme == "central":
+        s.set("scheme.dt", 0)          # the step the scheme chooses
+    if gravity is not None:
+        s.set("material.gravity", gravity)
     s.set("output.dir", str(tmp_path / "out"))
     s.write(tmp_path / "s.nml")
     env = dict(os.environ, LD_PRELOAD=counter, DYNCONTACT_FACTOR_RANGES="0",
@@ -103,7 +118,9 @@ def test_summary_counts_the_factorizations_made(scn, scheme, mass, solver, count
     assert res.returncode == 0, res.stderr
     made = int((tmp_path / "count").read_text())
     summary = dyncontact.core.read_summary(tmp_path / "out")
-    assert summary["factorizations"] == made, (summary["factorizations"], made)
+    counted = summary["factorizations"] + summary["setup_factorizations"]
+    assert counted == made, (summary["factorizations"], summary["setup_factorizations"], made)
+    assert summary["setup_factorizations"] == (0 if gravity is None else 1)
     if scheme == "theta" and mass == "redistributed":
         # the check's factorization and J0's (none for J0 with CG)
-        assert made == (1 if solver == "cg" else 2), made
+        assert summary["factorizations"] == (1 if solver == "cg" else 2), made

@@ -329,7 +329,8 @@ def analyse_exact1d(run_dir: str, result, snap_every: int = 0) -> dict[str, Any]
 
 
 #: The summary.json fields that the ``outputs`` analysis copies into its metrics.
-OUTPUT_COUNTERS = ("factorizations", "dofs", "elements", "isa", "blas", "solve_kernel")
+OUTPUT_COUNTERS = ("factorizations", "setup_factorizations", "dofs", "elements", "isa",
+                   "blas", "solve_kernel")
 
 
 @register_analysis("outputs")
