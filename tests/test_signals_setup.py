@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -209,6 +210,74 @@ def test_a_signal_during_a_restarts_setup_leaves_its_folder_as_it_was(exe, tmp_p
     proc = _start([str(exe), "s.nml", "--restart", "o"], tmp_path)
     with signal_after(proc, signal.SIGINT) as ended:
         _wait_into_setup(proc)
+    assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
+    assert ended.stderr == ("dyncontact: interrupted by signal 2 during the set-up "
+                            "(nothing written)\n"), ended.stderr
+    assert ended.waited < PROMPT_S, ended.waited
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+#: A restart whose contact columns take seconds to solve again: the built-in 2D strip
+#: 1 x 1 at h = 0.005 (some 80 000 dofs) under HHT, thrown onto the plane it touches, so
+#: that after its first step the whole bottom is in contact and the checkpoint's cache
+#: holds every group of columns (some 50 groups of 16 solves with J0). The first run
+#: makes that one step (its checkpoint at its end); the restart continues to 2 steps.
+COLUMNS_RESTART_SCENE = """&mesh dim = 2, length = 1.0, width = 1.0, h = 0.005 /
+&boundary clamped = 'top', contact = 'bottom' /
+&contact obstacle_point = 0.0, 0.0, obstacle_normal = 0.0, -1.0, probe = 0.5, 0.0 /
+&initial kind = 'velocity', velocity = 0.0, -1.0 /
+&scheme name = 'hht', dt = 1e-3, t_end = 1e-3 /
+&output dir = 'o', checkpoint_every = 1 /
+"""
+
+
+@pytest.fixture(scope="module")
+def stopped_after_contact(tmp_path_factory, exe) -> Path:
+    """A folder holding COLUMNS_RESTART_SCENE's run of one step (o/, its checkpoint at
+    the step) and the scene continued to 2 steps (s.nml)."""
+    folder = tmp_path_factory.mktemp("columns")
+    scene = _slow_setup_scene(folder, COLUMNS_RESTART_SCENE)
+    first = subprocess.run([str(exe), "s.nml"], cwd=folder, env=child_env(),
+                           capture_output=True, text=True, timeout=SUBPROCESS_TIMEOUT)
+    assert first.returncode == 0, first.stderr
+    scene.write_text(COLUMNS_RESTART_SCENE.replace("t_end = 1e-3", "t_end = 2e-3"),
+                     encoding="utf-8")
+    return folder
+
+
+def _wait_for_lock(proc: subprocess.Popen, out: Path, timeout: float = 60.0) -> None:
+    """Wait until the restart has taken its folder's lock: its set-up is over, and it
+    loads the checkpoint and then solves the checkpoint's contact columns again (seconds
+    here) before it writes anything."""
+    t_end = time.monotonic() + timeout
+    while time.monotonic() < t_end:
+        assert proc.poll() is None, ("ended before the signal", proc.communicate())
+        if (out / ".dyncontact.lock").exists():
+            time.sleep(0.05)       # past the checkpoint's read, into the columns
+            return
+        time.sleep(0.002)
+    pytest.fail("the restart did not take its folder's lock")
+
+
+@pytest.mark.parametrize("kind", ["exe", "cli"])
+def test_a_signal_while_a_restart_solves_its_columns_leaves_its_folder(
+        kind, stopped_after_contact, tmp_path):
+    """`--restart o` stopped while it solves the checkpoint's contact columns again (the
+    stop flag read before each group of columns, as a new run's set-up reads it): exit
+    130 within PROMPT_S, the line of a restart stopped in its set-up, and the folder byte
+    for byte as the stopped run left it, no lock. Unread, the signal waited for the
+    columns and the step after them, and the run then stopped with that step written
+    (its rows, its checkpoint, summary.json 'interrupted')."""
+    for name in ("s.nml", "o"):
+        src = stopped_after_contact / name
+        (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / name)
+    out = tmp_path / "o"
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert sorted(before) == ["checkpoint.bin", "summary.json", "trace.csv"], sorted(before)
+    args = entry(kind) + ["s.nml", "--restart", "o"] + (["--quiet"] if kind == "cli" else [])
+    proc = _start(args, tmp_path)
+    with signal_after(proc, signal.SIGINT) as ended:
+        _wait_for_lock(proc, out)
     assert ended.returncode == EXIT_SIGNAL, (ended.returncode, ended.stdout, ended.stderr)
     assert ended.stderr == ("dyncontact: interrupted by signal 2 during the set-up "
                             "(nothing written)\n"), ended.stderr

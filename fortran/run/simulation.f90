@@ -23,7 +23,8 @@ module simulation
     use time_scheme, only: time_scheme_t, state_t, state_eval, scheme_params_t, scheme_kind, &
                            SCHEME_PC, SCHEME_PC_HHT, SCHEME_PC_HHT_SEED, SCHEME_CENTRAL, &
                            FAILURE_CG
-    use implicit_schemes, only: implicit_scheme_t, implicit_solver_report
+    use implicit_schemes, only: implicit_scheme_t, implicit_solver_report, &
+                                implicit_restore_columns
     use explicit_schemes, only: pc_scheme_t
     use central_difference, only: central_scheme_t
     use critical_step, only: CRITICAL_SAFETY
@@ -148,8 +149,9 @@ contains
     !> caught during the set-up (module stop_signal: read between its phases and in its
     !> long loops) gives STAT_INTERRUPTED and the message of the run stopped; a new run's
     !> folder then holds it as stopped before its first step (open_stopped), a restart's
-    !> folder is left as it was (its checkpoint still continues it), and a model alone
-    !> (write_output = .false.) writes nothing.
+    !> folder is left as it was (its checkpoint still continues it; so too when the stop
+    !> comes while the restart solves the checkpoint's contact columns again, before it
+    !> writes anything), and a model alone (write_output = .false.) writes nothing.
     subroutine sim_open_scene(sim, scn, write_output, stat, errmsg, restart, out_said)
         type(simulation_t), intent(out) :: sim              !! the run
         type(scene_t), intent(in) :: scn                    !! validated scene
@@ -198,6 +200,12 @@ contains
             if (sim%locked) call lock_release(sim%scn%out_dir)
             sim%locked = .false.
             sim%outputs = .false.
+            if (stat == STAT_INTERRUPTED) then   ! a restart's contact columns: nothing written
+                sim%status = 'interrupted'
+                sim%message = 'interrupted by signal '//int_text(int(signal_caught(), i8))// &
+                              ' during the set-up'
+                call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message)//' (nothing written)')
+            end if
             return
         end if
         sim%finished = sim%step >= sim%n_steps
@@ -854,6 +862,14 @@ contains
             return
         end if
         call check_space(sim, dir, st, msg)     ! the rest of the run, to this t_end
+        if (st /= STAT_OK) return
+        ! the contact columns the checkpoint's cache held, solved again before anything
+        ! in the folder changes: a stop signal during them (STAT_INTERRUPTED) leaves it
+        ! as it was, as a stop in the rest of the set-up does
+        select type (s => sim%scheme)
+        type is (implicit_scheme_t)
+            call implicit_restore_columns(s, sim%mdl, st, msg)
+        end select
         if (st /= STAT_OK) return
         call trace_reopen(dir//'/trace.csv', trace_bytes, sim%trace, st, msg)
         if (st /= STAT_OK) return

@@ -285,7 +285,9 @@ contains
     !> basis columns in the same slots. The caller then forms each of them
     !> (zcache_basis_reform in every slot s with bowner(s) > 0: it knows the vectors) and
     !> calls zcache_restore_finish. The solves are not counted (the counters are the
-    !> checkpoint's; the caller's solver counts are its to put back).
+    !> checkpoint's; the caller's solver counts are its to put back). A restart's set-up
+    !> work, as zcache_ensure_all is a new run's: the stop flag is read before each group
+    !> (module stop_signal), STAT_INTERRUPTED when it is set.
     subroutine zcache_restore(zc, lu, a, val, cdofs, stat, errmsg)
         type(zcache_t), intent(inout) :: zc          !! cache (zcache_load done)
         type(factor_t), intent(inout) :: lu          !! factors of J0
@@ -298,6 +300,8 @@ contains
         stat = STAT_OK
         do g = 1, size(zc%restore_glast)
             if (zc%restore_glast(g) < 0) cycle
+            call check_stop('the contact columns', stat, errmsg)
+            if (stat /= STAT_OK) return
             call solve_group(zc, lu, a, val, cdofs, g, stat, errmsg)
             if (stat /= STAT_OK) return
         end do
@@ -317,7 +321,8 @@ contains
 
     !> Form the basis column of slot s again (zcache_restore): the groups of the columns
     !> of Z it reads are solved first where not held (the checkpoint's cache may have
-    !> dropped them since; zcache_restore_finish drops them again).
+    !> dropped them since; zcache_restore_finish drops them again), the stop flag read
+    !> before each (STAT_INTERRUPTED), as in zcache_restore.
     subroutine zcache_basis_reform(zc, lu, a, val, cdofs, s, cols, coef, stat, errmsg)
         type(zcache_t), intent(inout) :: zc          !! cache (zcache_restore done)
         type(factor_t), intent(inout) :: lu          !! factors of J0
@@ -334,6 +339,8 @@ contains
         do e = 1, size(cols)
             if (cols(e) <= 0) cycle
             if (zc%slot(cols(e)) > 0) cycle
+            call check_stop('the contact columns', stat, errmsg)
+            if (stat /= STAT_OK) return
             call solve_group(zc, lu, a, val, cdofs, (cols(e) - 1) / ZCHUNK + 1, stat, errmsg)
             if (stat /= STAT_OK) return
         end do

@@ -214,7 +214,7 @@ module implicit_schemes
         procedure :: factor_info => implicit_factor_info
     end type implicit_scheme_t
 
-    public :: implicit_solver_report
+    public :: implicit_solver_report, implicit_restore_columns
 
 contains
 
@@ -647,6 +647,21 @@ contains
             coef = mdl%ct%nvec(:, i, f)
         end if
     end subroutine basis_vector
+
+    !> A restart's set-up, once the checkpoint is loaded and before the run's folder is
+    !> written: the column cache as the checkpoint's (restore_columns), so that a stop
+    !> signal during its solves (the stop flag is read before each group of columns:
+    !> STAT_INTERRUPTED) leaves the folder as it was. Nothing to do without contact
+    !> columns or with none to restore; a checkpoint loaded otherwise (a Stepper's load)
+    !> has its columns restored before its next step.
+    subroutine implicit_restore_columns(this, mdl, stat, errmsg)
+        class(implicit_scheme_t), intent(inout) :: this     !! scheme (checkpoint loaded)
+        type(model_t), intent(in) :: mdl                    !! model
+        integer, intent(out) :: stat                        !! status
+        character(len=*), intent(inout), optional :: errmsg !! message
+        stat = STAT_OK
+        if (this%m > 0 .and. this%zc%restore_due) call restore_columns(this, mdl, stat, errmsg)
+    end subroutine implicit_restore_columns
 
     !> After a restart, before the first step: the column cache as the checkpoint's
     !> (contact_columns' zcache_restore: its groups solved again, its basis columns formed
