@@ -1,6 +1,6 @@
 """A long title given to plot_traces (`dyncontact plot --title`) is wrapped to the
 figure's width: drawn, it lies inside the figure, above the panels, every word kept
-(unwrapped, a title of 200 characters ran off both edges)."""
+(unwrapped, a title of 200 characters would run off both edges)."""
 
 from __future__ import annotations
 

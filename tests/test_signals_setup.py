@@ -265,9 +265,9 @@ def test_a_signal_while_a_restart_solves_its_columns_leaves_its_folder(
     """`--restart o` stopped while it solves the checkpoint's contact columns again (the
     stop flag read before each group of columns, as a new run's set-up reads it): exit
     130 within PROMPT_S, the line of a restart stopped in its set-up, and the folder byte
-    for byte as the stopped run left it, no lock. Unread, the signal waited for the
-    columns and the step after them, and the run then stopped with that step written
-    (its rows, its checkpoint, summary.json 'interrupted')."""
+    for byte as the stopped run left it, no lock. Unread there, the signal would wait
+    for the columns and the step after them, and the run would stop with that step
+    written (its rows, its checkpoint, its summary.json)."""
     for name in ("s.nml", "o"):
         src = stopped_after_contact / name
         (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / name)

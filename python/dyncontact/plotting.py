@@ -545,7 +545,7 @@ def _wrapped_title(fig, title: str, y: float, pad_px: float = 4.0):
     """The figure's title (suptitle at `y`) wrapped to the figure's width: lines of about
     10 characters an inch at 12 points, then narrower while the text drawn is still wider
     than the figure less pad_px each side (capitals and wide glyphs take more room than
-    the average); a long ``--title`` ran off both edges."""
+    the average): unwrapped, a long ``--title`` would run off both edges."""
     width = int(10 * fig.get_figwidth())
     text = fig.suptitle(_wrap(title, width), y=y)
     room = fig.bbox.width - 2 * pad_px
