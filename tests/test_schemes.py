@@ -30,9 +30,12 @@ ROOT = Path(__file__).resolve().parents[1]
 #: contact quadrature): max |du_n| and max |de_total| / e_total(0).
 REF_TOL_U = 1e-3
 REF_TOL_E = 1e-3
-#: Both codes solve the same discrete equations with Newton to 1e-10: they should
-#: agree far below that bound. Observed: ~1e-11 (u_n), ~1e-12 (energy).
-SAME_EQUATIONS_TOL = 1e-8
+#: Both codes solve the same discrete equations; a semi-smooth Newton's last iterate
+#: solves its active set's linear equations to round-off, so they agree to the reference
+#: files' rounding (11 significant digits: 5e-12 in u_n, 5e-13 in e_total, which is
+#: 4e-11 of e_total(0) = 0.0125). Observed, the four runs: u_n 5.1e-12 to 1.3e-11,
+#: e_total 4.0e-11 to 4.2e-11 of e_total(0) (tests/test_3d.py holds the 3D run to 1e-10).
+SAME_EQUATIONS_TOL = 1e-10
 #: Energy conservation of energy-conserving schemes in flight: a step in flight is one
 #: direct linear solve (Newton's first iteration solves the linear step exactly), so what
 #: is left is round-off over a few hundred steps. Observed: at most 2.5e-13 (newmark
