@@ -37,7 +37,7 @@ obstacle, tilted in 2D and 3D so the contact starts at a corner, spreads, cuts f
 tests/test_invariants.py's list, every mass, and the contact variants Nitsche theta = 1,
 0, -1 (and theta = 1 with Gauss rules: 3 points a segment in 2D, the 3- and 7-point
 triangle rules in 3D), penalty and the augmented Lagrangian (integral and nodal
-multipliers; integral in 2D). CASES lists which combinations run in each dimension.
+multipliers). CASES lists which combinations run in each dimension.
 The implicit schemes' kept Woodbury factors and cache of columns of J0^{-1} are checked
 against their references (the environment variables that form them afresh) in 1D, 2D
 and 3D, for each implicit family and Nitsche theta = 1, 0, -1 and penalty.
@@ -125,12 +125,12 @@ CASES = (
     + [(1, label, mass, contact, "direct") for label in SCHEMES for mass in MASSES
        for contact in ("nitsche1", "nitsche0", "nitsche-1", "penalty", "alm_nodal")
        if takes(label, mass, contact) and (mass == "consistent" or contact == "nitsche1")]
-    # 3D: every scheme, Nitsche theta = 1, 0, -1, the 3- and 7-point Gauss rules and
-    # penalty, 'nodal' multipliers, with the consistent mass; theta = 1 and penalty with
-    # every mass ('integral' multipliers on triangles: tests/test_alm.py)
+    # 3D: every scheme, Nitsche theta = 1, 0, -1, the 3- and 7-point Gauss rules,
+    # penalty and both multipliers, with the consistent mass; theta = 1 and penalty with
+    # every mass
     + [(3, label, mass, contact, "direct") for label in SCHEMES for mass in MASSES
        for contact in ("nitsche1", "nitsche0", "nitsche-1", "nitsche1_gauss3",
-                       "nitsche1_gauss7", "penalty", "alm_nodal")
+                       "nitsche1_gauss7", "penalty", "alm_integral", "alm_nodal")
        if takes(label, mass, contact)
        and (mass == "consistent" or contact in ("nitsche1", "penalty"))]
     # conjugate gradients for J0 (its solves and the contact correction's columns): the
@@ -314,8 +314,9 @@ class ContactReference:
             errors.append(("G", np.max(np.abs(g) / scale)))
             return errors, int(np.count_nonzero(act))
         n_mat = np.zeros((len(u), len(nodes)))
+        nfn = self.dim      # facet nodes: int psi_K psi_J = |F| (1 + delta_KJ) / 6 or / 12
         for fi, fac in enumerate(self.facets):
-            mf = self.measure[fi] / 6 * np.array([[2.0, 1.0], [1.0, 2.0]])
+            mf = self.measure[fi] / (nfn * (nfn + 1)) * (np.ones((nfn, nfn)) + np.eye(nfn))
             for j, kj in enumerate(fac):
                 for k, kk in enumerate(fac):
                     n_mat[dofs[where[int(kk)]], where[int(kj)]] += self.normal * mf[k, j]
@@ -329,6 +330,16 @@ class ContactReference:
             idx = [where[int(k)] for k in fac]
             r, meas = self.gamma[fi], self.measure[fi]
             p = lam[idx] - r * un[idx]
+            if self.dim == 3:   # the pieces where P < 0 and where not, 3 points a triangle
+                for piece, negative in triangle_pieces(p):
+                    frac = abs(np.linalg.det(piece))     # |piece| / |F|
+                    active += 3 * negative
+                    for c in ((2 / 3, 1 / 6, 1 / 6), (1 / 6, 2 / 3, 1 / 6), (1 / 6, 1 / 6, 2 / 3)):
+                        psi = np.asarray(c) @ piece
+                        value = un[idx] @ psi if negative else (lam[idx] @ psi) / r
+                        g[idx] += meas * frac / 3 * psi * value
+                gscale[idx] += meas * (np.max(umag[idx]) + np.max(np.abs(lam[idx])) / r)
+                continue
             cut = [0.0, 1.0] if (p[0] < 0) == (p[1] < 0) else [0.0, p[0] / (p[0] - p[1]), 1.0]
             active += 2 * bool(np.any(p < 0))
             for a, b in zip(cut[:-1], cut[1:]):
@@ -397,6 +408,29 @@ class ContactReference:
         i = int(np.flatnonzero(~neg)[0])   # the facet less the sub-triangle where P >= 0
         t = [p[i] / (p[i] - p[k]) for k in range(3) if k != i]
         return float(full - measure * t[0] * t[1] * corner * p[i] ** power)
+
+
+def triangle_pieces(p):
+    """The triangles, in barycentric coordinates of a facet (rows: a piece's vertices),
+    that make up its parts where the linear P (nodal values p) is negative and where it
+    is not, each with whether it is the negative part: the whole facet, or a corner
+    triangle cut off by the zero line and the quadrilateral left, split along a diagonal
+    into two triangles."""
+    eye = np.eye(3)
+    neg = p < 0
+    if neg.all() or not neg.any():
+        return [(eye, bool(neg.all()))]
+    lone = int(np.flatnonzero(neg if neg.sum() == 1 else ~neg)[0])
+    j, k = [m for m in range(3) if m != lone]
+
+    def zero(a, b):     # the zero of P on the edge a-b
+        t = p[a] / (p[a] - p[b])
+        return (1 - t) * eye[a] + t * eye[b]
+    corner = np.array([eye[lone], zero(lone, j), zero(lone, k)])
+    quad = [np.array([zero(lone, j), eye[j], eye[k]]), np.array([zero(lone, j), eye[k],
+                                                                  zero(lone, k)])]
+    corner_negative = bool(neg[lone])
+    return [(corner, corner_negative)] + [(q, not corner_negative) for q in quad]
 
 
 def scene_for(dim, label, mass, contact, solver="direct"):
