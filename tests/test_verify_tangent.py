@@ -11,7 +11,7 @@ plus noise of 1e-4. That the facets are cut is asserted, not assumed: a Gauss ru
 q points a facet has an active count that is not a multiple of q. B is piecewise linear,
 so central differences have no truncation error where no point switches, and their error
 is round-off, eps |B| / step: measured 5e-10 to 7e-10 relative, every theta, penalty,
-both quadratures, 2D and 3D. FD_TOL is sqrt(eps)-scaled (tblite's thr2, as in
+'exact' and every Gauss rule, 2D and 3D. FD_TOL is sqrt(eps)-scaled (tblite's thr2, as in
 test_schemes.py); every direction must keep the active count (none is skipped here).
 
 What only a cut facet shows: the tangent leaves out the derivative of the split point,
@@ -38,8 +38,10 @@ X0, SLOPE = 0.037, 0.05      # tilt line inside the first/second bottom facet (h
 #: Gauss rules whose counts prove a cut (points a facet)
 PROOF_RULE = {2: 5, 3: 3}
 CONTACT = [("nitsche", -1), ("nitsche", 0), ("nitsche", 1), ("penalty", 0)]
-#: (quadrature, quad_points) by dimension; 7 points is the 3D face rule (Radon's)
-QUADRATURE = {2: [("exact", 0), ("gauss", 3)], 3: [("exact", 0), ("gauss", 3), ("gauss", 7)]}
+#: (quadrature, quad_points) by dimension: 'exact' and every Gauss rule the scene takes
+#: (1..6 points a segment; the symmetric triangle rules of 1, 3, 6, 7 points)
+QUADRATURE = {2: [("exact", 0)] + [("gauss", n) for n in range(1, 7)],
+              3: [("exact", 0)] + [("gauss", n) for n in (1, 3, 6, 7)]}
 CASES = [(dim, method, theta, quadrature, points) for dim in (2, 3)
          for method, theta in CONTACT for quadrature, points in QUADRATURE[dim]]
 
