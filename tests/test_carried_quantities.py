@@ -334,8 +334,8 @@ class ContactReference:
                 for piece, negative in triangle_pieces(p):
                     frac = abs(np.linalg.det(piece))     # |piece| / |F|
                     active += 3 * negative
-                    for c in ((2 / 3, 1 / 6, 1 / 6), (1 / 6, 2 / 3, 1 / 6), (1 / 6, 1 / 6, 2 / 3)):
-                        psi = np.asarray(c) @ piece
+                    for c in np.full((3, 3), 1 / 6) + np.eye(3) / 2:   # (2/3, 1/6, 1/6) ...
+                        psi = c @ piece
                         value = un[idx] @ psi if negative else (lam[idx] @ psi) / r
                         g[idx] += meas * frac / 3 * psi * value
                 gscale[idx] += meas * (np.max(umag[idx]) + np.max(np.abs(lam[idx])) / r)

@@ -20,8 +20,9 @@ The runs: the 1D bar (h = 0.02), the seed's 2D bar (h = 0.05) and the 3D box (h 
 the compressed state through the first impact and release (T = 2.5); dt = h/10 and h/80
 for the implicit schemes, a fifth of that for the predictor-corrector and central (lumped
 mass). Measured, the ratio of max |E - E(0)| / E(0) at the two steps (theta = 1 with
-'exact' and the 3-point rule, and penalty, every scheme and dimension): 36 to 470, orders 1.7 to 3 (e.g. 2D newmark 1/4 1/2, theta = 1:
-1.2e-3 -> 2.6e-5; hht -0.1: 1.1e-2 -> 5.6e-5). Asserted: at least 8, first order. With
+'exact' and the 3-point rule, and penalty, every scheme and dimension): 36 to 470,
+orders 1.7 to 3 (e.g. 2D newmark 1/4 1/2, theta = 1: 1.2e-3 -> 2.6e-5; hht -0.1: 1.1e-2
+-> 5.6e-5). Asserted: at least 8, first order. With
 theta = -1 the drift tends to 1.4e-2 (1D), 0.47 (2D) and 0.27 (3D) of E(0), ratios 0.6 to
 1.0 (and 0.7 to 1.0 for e_total + 2 e_contact with theta = 1); asserted below 2.
 """

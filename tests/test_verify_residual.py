@@ -108,7 +108,8 @@ def formula_contact(ref, u, theta, penalty, gauss):
         b -= theta * meas / gam * sn[f] * s
         scale += abs(theta) * meas / gam * abs(sn[f]) * np.abs(s)
         shapes, w = facet_points(ref.dim, p[f], gauss)
-        pmag = ws * np.abs(s) @ np.abs(u) + gam * np.max(np.abs(ref.un[f] @ u) + np.abs(ref.gap[f]))
+        pmag = ws * np.abs(s) @ np.abs(u) + gam * np.max(np.abs(ref.un[f] @ u)
+                                                          + np.abs(ref.gap[f]))
         for phi, wq in zip(shapes, w):
             pq = phi @ p[f]
             if pq < 0:
@@ -142,7 +143,8 @@ def test_residual_is_the_formula_on_cut_facets(dim, variant, tmp_path):
         rng = np.random.default_rng(2)
         x = load_mesh(dim=dim, **mesh_keys)["x"][node, :dim]
         # a translation into the obstacle, a small strain (so sigma_n is not zero) and noise
-        u = DEPTH[dim] * n[comp] + 0.01 * x[:, -1] * n[comp] + 1e-4 * rng.standard_normal(comp.shape)
+        u = ((DEPTH[dim] + 0.01 * x[:, -1]) * n[comp]
+             + 1e-4 * rng.standard_normal(comp.shape))
         b, active = run.eval_b(u)
     expected, p, scale = formula_contact(ref, u, theta, penalty, gauss)
     if dim > 1:
