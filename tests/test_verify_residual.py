@@ -161,3 +161,30 @@ def test_residual_is_the_formula_on_cut_facets(dim, variant, tmp_path):
           f"max |(B - K u) - formula| / scale = {err:.1e}")
     assert share > 0.1        # the contact part is not lost beside K u
     assert err <= THR
+
+
+@pytest.mark.parametrize("dim, variant", [(dim, v) for dim in (1, 2, 3)
+                                          for v in ("nitsche1", "nitsche0", "nitsche-1",
+                                                    "penalty")])
+def test_k_theta_is_k_less_the_theta_term(dim, variant, tmp_path):
+    """The linear part the schemes factorize and carry, K_theta = K - theta sum_f |F| /
+    gamma_N s_f s_f^T (the theta-term of a_theta; penalty: K), against that sum written
+    from the mesh, to round-off (measured <= 1.9e-16 of |K_theta|): symmetric for every
+    theta."""
+    scene, mesh_keys, normal, point = scene_for(dim, "newmark_0.25_0.5", "consistent",
+                                                variant)
+    theta = 0 if variant == "penalty" else CONTACT[variant]["theta"]
+    with warns_as_designed(scene):
+        run = Stepper(scene, tmp_path / "run")
+    with run:
+        k, k_theta = run.matrix("K"), run.matrix("K_theta")
+        ref = ContactReference(dim, mesh_keys, scene.get("material.young"),
+                               scene.get("material.poisson"), scene.get("contact.gamma0"),
+                               normal, point, run.dof_map(), run.dofs)
+    expected = k - theta * np.einsum("f,fi,fj->ij", ref.measure / ref.gamma, ref.s, ref.s)
+    err = float(np.max(np.abs(k_theta - expected)) / np.max(np.abs(k_theta)))
+    print(f"{dim}D {variant}: |K_theta - formula| / |K_theta| = {err:.1e}")
+    assert err <= THR
+    assert np.max(np.abs(k_theta - k_theta.T)) <= THR * np.max(np.abs(k_theta))
+    if theta:
+        assert np.max(np.abs(k_theta - k)) > 1e-3 * np.max(np.abs(k))   # the term is there
