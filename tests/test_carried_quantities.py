@@ -35,8 +35,9 @@ The runs: a short bar (1D, 2D, 3D) thrown with velocity 1 and gravity onto a pla
 obstacle, tilted in 2D and 3D so the contact starts at a corner, spreads, cuts facets
 (the 'exact' quadrature splits them) and is released within t = 0.3; for every scheme of
 tests/test_invariants.py's list, every mass, and the contact variants Nitsche theta = 1,
-0, -1 (and theta = 1 with a 3-point Gauss rule in 2D), penalty and the augmented
-Lagrangian (integral and nodal multipliers).
+0, -1 (and theta = 1 with Gauss rules: 3 points a segment in 2D, the 3- and 7-point
+triangle rules in 3D), penalty and the augmented Lagrangian (integral and nodal
+multipliers). CASES lists which combinations run in each dimension.
 The implicit schemes' kept Woodbury factors and cache of columns of J0^{-1} are checked
 against their references (the environment variables that form them afresh) in 1D, 2D
 and 3D, for each implicit family and Nitsche theta = 1, 0, -1 and penalty.
@@ -91,11 +92,17 @@ CONTACT = {
     "penalty": {"method": "penalty"},
     "alm_integral": {"method": "alm", "multiplier": "integral"},
     "alm_nodal": {"method": "alm", "multiplier": "nodal"},
-    # a fixed 3-point Gauss rule on each segment (GetFEM's 2D runs), which does not
-    # resolve the kink: e_pen is that rule's sum
+    # a fixed 3-point Gauss rule on each segment (GetFEM's 2D runs; in 3D the symmetric
+    # 3-point rule of degree 2 on each triangle), which does not resolve the kink: e_pen
+    # is that rule's sum
     "nitsche1_gauss3": {"method": "nitsche", "theta": 1, "quadrature": "gauss",
                         "quad_points": 3},
+    # 3D only: Radon's 7-point rule of degree 5 (GetFEM's face rule of the 3D reference)
+    "nitsche1_gauss7": {"method": "nitsche", "theta": 1, "quadrature": "gauss",
+                        "quad_points": 7},
 }
+#: the contact variants of 2D segments only (1D: a point; 3D: triangles)
+ONLY_3D = ("nitsche1_gauss7",)
 IMPLICIT = ("newmark", "hht", "hht_seed", "theta", "galpha")
 MASSES = ("consistent", "lumped", "redistributed")
 
@@ -110,14 +117,22 @@ def takes(label, mass, contact):
 CASES = (
     # 2D: every scheme, every mass, every contact variant
     [(2, label, mass, contact, "direct") for label in SCHEMES for mass in MASSES
-     for contact in CONTACT if takes(label, mass, contact)
+     for contact in CONTACT if takes(label, mass, contact) and contact not in ONLY_3D
      and (mass == "consistent" or contact in ("nitsche1", "penalty", "alm_integral"))]
-    # 1D and 3D: every scheme, Nitsche theta = 1 and penalty (every mass in 1D), the
-    # augmented Lagrangian with the consistent mass
-    + [(dim, label, mass, contact, "direct") for dim in (1, 3) for label in SCHEMES
-       for mass in (MASSES if dim == 1 else ("consistent",))
-       for contact in ("nitsche1", "penalty", "alm_nodal")
+    # 1D: every scheme, Nitsche theta = 1, 0, -1 and penalty (every mass with theta = 1),
+    # the augmented Lagrangian (one contact node: 'nodal' is 'integral') with the
+    # consistent mass
+    + [(1, label, mass, contact, "direct") for label in SCHEMES for mass in MASSES
+       for contact in ("nitsche1", "nitsche0", "nitsche-1", "penalty", "alm_nodal")
        if takes(label, mass, contact) and (mass == "consistent" or contact == "nitsche1")]
+    # 3D: every scheme, Nitsche theta = 1, 0, -1, the 3- and 7-point Gauss rules,
+    # penalty and both multipliers, with the consistent mass; theta = 1 and penalty with
+    # every mass
+    + [(3, label, mass, contact, "direct") for label in SCHEMES for mass in MASSES
+       for contact in ("nitsche1", "nitsche0", "nitsche-1", "nitsche1_gauss3",
+                       "nitsche1_gauss7", "penalty", "alm_integral", "alm_nodal")
+       if takes(label, mass, contact)
+       and (mass == "consistent" or contact in ("nitsche1", "penalty"))]
     # conjugate gradients for J0 (its solves and the contact correction's columns): the
     # implicit schemes in 2D and 3D (1D stays direct)
     + [(dim, label, "consistent", "nitsche1", "cg") for dim in (2, 3) for label in SCHEMES
@@ -228,11 +243,10 @@ class ContactReference:
         pmag = ws * smag + self.gamma * (np.max(np.abs(self.un) @ np.abs(u), axis=1)
                                          + np.max(np.abs(self.gap), axis=1))
         pneg = np.max(np.maximum(-p, 0.0), axis=1)
-        if gauss:   # (a segment: Gauss-Legendre points, weights summing to 1)
-            xi, wq = np.polynomial.legendre.leggauss(gauss)
-            pq = np.outer(p[:, 0], (1 - xi) / 2) + np.outer(p[:, 1], (1 + xi) / 2)
+        if gauss:
+            pq, wq = self.gauss_values(p, gauss)
             e_pen = float(np.sum(self.measure / (2 * self.gamma)
-                                 * (np.minimum(pq, 0.0) ** 2 @ (wq / 2))))
+                                 * (np.minimum(pq, 0.0) ** 2 @ wq)))
         else:
             e_pen = sum(self.integral(p[f], self.measure[f]) / (2 * self.gamma[f])
                         for f in np.flatnonzero(np.any(p < 0, axis=1)))
@@ -252,10 +266,9 @@ class ContactReference:
         p = ws * (self.s @ u)[:, None] - self.gamma[:, None] * (self.un @ u - self.gap)
         pmag = ws * (np.abs(self.s) @ np.abs(u)) + self.gamma * (
             np.max(np.abs(self.un) @ np.abs(u), axis=1) + np.max(np.abs(self.gap), axis=1))
-        if gauss:   # (a segment: Gauss-Legendre points, weights summing to 1)
-            xi, wq = np.polynomial.legendre.leggauss(gauss)
-            pq = np.outer(p[:, 0], (1 - xi) / 2) + np.outer(p[:, 1], (1 + xi) / 2)
-            f_n = float(np.sum(self.measure * (np.minimum(pq, 0.0) @ (wq / 2))))
+        if gauss:
+            pq, wq = self.gauss_values(p, gauss)
+            f_n = float(np.sum(self.measure * (np.minimum(pq, 0.0) @ wq)))
         else:
             f_n = sum(self.integral(p[f], self.measure[f], power=1)
                       for f in np.flatnonzero(np.any(p < 0, axis=1)))
@@ -301,8 +314,9 @@ class ContactReference:
             errors.append(("G", np.max(np.abs(g) / scale)))
             return errors, int(np.count_nonzero(act))
         n_mat = np.zeros((len(u), len(nodes)))
+        nfn = self.dim      # facet nodes: int psi_K psi_J = |F| (1 + delta_KJ) / 6 or / 12
         for fi, fac in enumerate(self.facets):
-            mf = self.measure[fi] / 6 * np.array([[2.0, 1.0], [1.0, 2.0]])
+            mf = self.measure[fi] / (nfn * (nfn + 1)) * (np.ones((nfn, nfn)) + np.eye(nfn))
             for j, kj in enumerate(fac):
                 for k, kk in enumerate(fac):
                     n_mat[dofs[where[int(kk)]], where[int(kj)]] += self.normal * mf[k, j]
@@ -316,6 +330,16 @@ class ContactReference:
             idx = [where[int(k)] for k in fac]
             r, meas = self.gamma[fi], self.measure[fi]
             p = lam[idx] - r * un[idx]
+            if self.dim == 3:   # the pieces where P < 0 and where not, 3 points a triangle
+                for piece, negative in triangle_pieces(p):
+                    frac = abs(np.linalg.det(piece))     # |piece| / |F|
+                    active += 3 * negative
+                    for c in np.full((3, 3), 1 / 6) + np.eye(3) / 2:   # (2/3, 1/6, 1/6) ...
+                        psi = c @ piece
+                        value = un[idx] @ psi if negative else (lam[idx] @ psi) / r
+                        g[idx] += meas * frac / 3 * psi * value
+                gscale[idx] += meas * (np.max(umag[idx]) + np.max(np.abs(lam[idx])) / r)
+                continue
             cut = [0.0, 1.0] if (p[0] < 0) == (p[1] < 0) else [0.0, p[0] / (p[0] - p[1]), 1.0]
             active += 2 * bool(np.any(p < 0))
             for a, b in zip(cut[:-1], cut[1:]):
@@ -327,6 +351,28 @@ class ContactReference:
             gscale[idx] += meas * (np.max(umag[idx]) + np.max(np.abs(lam[idx])) / r)
         errors.append(("G", np.max(np.abs(g) / gscale)))
         return errors, active
+
+    def gauss_values(self, p, n):
+        """(P at the points of an n-point rule on each facet, (facets, n); the weights,
+        summing to 1). A segment: Gauss-Legendre. A triangle: the symmetric rules of
+        degree 2 (3 points: Strang-Fix, barycentric (2/3, 1/6, 1/6) and its rotations,
+        weights 1/3) and 5 (7 points: Radon; the centroid, weight 9/40, and the orbits
+        of (1 - 2a, a, a), a = (6 -+ sqrt 15)/21, weights (155 -+ sqrt 15)/1200)."""
+        if self.dim == 2:
+            xi, wq = np.polynomial.legendre.leggauss(n)
+            return p @ np.array([(1 - xi) / 2, (1 + xi) / 2]), wq / 2
+
+        def orbit(a):
+            return [[1 - 2 * a, a, a], [a, 1 - 2 * a, a], [a, a, 1 - 2 * a]]
+        if n == 3:
+            bary, wq = np.array(orbit(1 / 6)), np.full(3, 1 / 3)
+        elif n == 7:
+            r = np.sqrt(15.0)
+            bary = np.array([[1 / 3] * 3] + orbit((6 - r) / 21) + orbit((6 + r) / 21))
+            wq = np.array([9 / 40] + [(155 - r) / 1200] * 3 + [(155 + r) / 1200] * 3)
+        else:
+            raise ValueError(f"no {n}-point triangle rule here")
+        return p @ bary.T, wq
 
     def integral(self, p, measure, power=2):
         """int_F min(P, 0)^power (power 2 or 1) for P linear on the facet with nodal
@@ -362,6 +408,29 @@ class ContactReference:
         i = int(np.flatnonzero(~neg)[0])   # the facet less the sub-triangle where P >= 0
         t = [p[i] / (p[i] - p[k]) for k in range(3) if k != i]
         return float(full - measure * t[0] * t[1] * corner * p[i] ** power)
+
+
+def triangle_pieces(p):
+    """The triangles, in barycentric coordinates of a facet (rows: a piece's vertices),
+    that make up its parts where the linear P (nodal values p) is negative and where it
+    is not, each with whether it is the negative part: the whole facet, or a corner
+    triangle cut off by the zero line and the quadrilateral left, split along a diagonal
+    into two triangles."""
+    eye = np.eye(3)
+    neg = p < 0
+    if neg.all() or not neg.any():
+        return [(eye, bool(neg.all()))]
+    lone = int(np.flatnonzero(neg if neg.sum() == 1 else ~neg)[0])
+    j, k = [m for m in range(3) if m != lone]
+
+    def zero(a, b):     # the zero of P on the edge a-b
+        t = p[a] / (p[a] - p[b])
+        return (1 - t) * eye[a] + t * eye[b]
+    corner = np.array([eye[lone], zero(lone, j), zero(lone, k)])
+    quad = [np.array([zero(lone, j), eye[j], eye[k]]), np.array([zero(lone, j), eye[k],
+                                                                  zero(lone, k)])]
+    corner_negative = bool(neg[lone])
+    return [(corner, corner_negative)] + [(q, not corner_negative) for q in quad]
 
 
 def scene_for(dim, label, mass, contact, solver="direct"):

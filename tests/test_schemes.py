@@ -30,12 +30,21 @@ ROOT = Path(__file__).resolve().parents[1]
 #: contact quadrature): max |du_n| and max |de_total| / e_total(0).
 REF_TOL_U = 1e-3
 REF_TOL_E = 1e-3
-#: Both codes solve the same discrete equations with Newton to 1e-10: they should
-#: agree far below that bound. Observed: ~1e-11 (u_n), ~1e-12 (energy).
-SAME_EQUATIONS_TOL = 1e-8
-#: Energy conservation of energy-conserving schemes in flight (solver tolerance 1e-10
-#: over a few hundred steps). Observed: ~1e-13.
-CONSERVATION_TOL = 1e-9
+#: Both codes solve the same discrete equations; a semi-smooth Newton's last iterate
+#: solves its active set's linear equations to round-off, so they agree to the reference
+#: files' rounding (11 significant digits: 5e-12 in u_n, 5e-13 in e_total, which is
+#: 4e-11 of e_total(0) = 0.0125). Observed, the four runs: u_n 5.1e-12 to 1.3e-11,
+#: e_total 4.0e-11 to 4.2e-11 of e_total(0) (tests/test_3d.py holds the 3D run to 1e-10).
+SAME_EQUATIONS_TOL = 1e-10
+#: Energy conservation of energy-conserving schemes in flight: a step in flight is one
+#: direct linear solve (Newton's first iteration solves the linear step exactly), so what
+#: is left is round-off over a few hundred steps. Observed: at most 2.5e-13 (newmark
+#: theta = 0 and 1 over t <= 6, lumped mass and theta 1/2 over t <= 1, the bar without
+#: contact boundary over t <= 2); 1e-11 leaves 40 times that.
+CONSERVATION_TOL = 1e-11
+#: theta = 1/2 on (u, v) and newmark 1/4 1/2 in flight: the same trapezoidal rule by other
+#: formulas, so u_n (of order 0.5) agrees to round-off. Observed: 2.3e-14.
+SAME_RULE_TOL = 1e-12
 #: Finite differences of B (central, step 1e-7 relative): sqrt(eps)-scaled.
 FD_TOL = 1e-6
 
@@ -87,7 +96,9 @@ def test_generalized_derivative_matches_finite_differences(theta, quadrature, de
             assert active == 0
         else:
             assert active > 0
-        for err in fd_jacobian_errors(m, u, active, rng, 3):
+        errs = fd_jacobian_errors(m, u, active, rng, 3)
+        assert errs, "every direction switched a quadrature point"
+        for err in errs:
             assert err < FD_TOL, f"theta={theta} {quadrature}: relative FD error {err:.2e}"
 
 
@@ -232,7 +243,7 @@ def test_theta_half_matches_newmark_trapezoidal_in_flight(tmp_path):
     a = run(scene(scheme__name="theta", scheme__theta=0.5, scheme__t_end=1.0), tmp_path, "a")
     b = run(scene(scheme__name="newmark", scheme__t_end=1.0), tmp_path, "b")
     w = _flight_windows(a.trace)[0]
-    assert np.max(np.abs(a.trace["u_n"][w] - b.trace["u_n"][w])) < 1e-9
+    assert np.max(np.abs(a.trace["u_n"][w] - b.trace["u_n"][w])) < SAME_RULE_TOL
 
 
 # ----------------------------------------------------------------- small gamma0
