@@ -233,11 +233,13 @@ def lame(young, poisson):
             young / (2 * (1 + poisson)))
 
 
-def fd_jacobian_errors(m, u, active: int, rng, tries: int) -> list[float]:
+def fd_jacobian_errors(m, u, active: int, rng, tries: int,
+                       switch: str = "skip") -> list[float]:
     """Relative errors |FD - J du| / |J du| of a Model `m`'s Jacobian at u against
-    central differences of B, for `tries` random directions; a direction along which a
-    quadrature point switches (the active count differs from `active`) is skipped: B is
-    not differentiable there."""
+    central differences of B, for `tries` random directions. A direction along which a
+    quadrature point switches (the active count differs from `active`; B is not
+    differentiable there) is skipped with switch="skip", and fails the test with
+    switch="fail" (a state whose active set is meant to stay put)."""
     import numpy as np
 
     errs = []
@@ -247,6 +249,8 @@ def fd_jacobian_errors(m, u, active: int, rng, tries: int) -> list[float]:
         bp, act_p = m.eval_b(u + eps * du)
         bm, act_m = m.eval_b(u - eps * du)
         if act_p != active or act_m != active:
+            assert switch == "skip", f"a direction switched a point: {act_m}, {act_p} " \
+                                     f"active points against {active}"
             continue
         fd = (bp - bm) / (2 * eps)
         jdu = m.jacobian_apply(u, du)
