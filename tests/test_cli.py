@@ -418,10 +418,10 @@ def test_a_scene_given_for_the_command_says_the_run_command(capsys, tmp_path, mo
 
 
 @pytest.mark.parametrize("args, command", [
-    (("run", "s.nml", "--bogus"), "dyncontact run"),
-    (("run", "s.nml", "t.nml"), "dyncontact run"),
-    (("plot", "a", "--out", "x.png", "--bogus"), "dyncontact plot"),
-    (("--bogus",), "dyncontact"),
+    (("run", "s.nml", "--bogus"), "python -m dyncontact run"),
+    (("run", "s.nml", "t.nml"), "python -m dyncontact run"),
+    (("plot", "a", "--out", "x.png", "--bogus"), "python -m dyncontact plot"),
+    (("--bogus",), "python -m dyncontact"),
 ])
 def test_an_unknown_option_points_to_its_commands_help(capsys, args, command):
     """`run s.nml --bogus` pointed to `dyncontact --help`, which does not list run's

@@ -66,7 +66,7 @@ def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentP
 
 def _parser() -> argparse.ArgumentParser:
     p = OneLineParser(
-        prog="dyncontact study",
+        prog="python -m dyncontact study", label="dyncontact study",
         description="The studies: convergence, work-precision, stability, contact methods "
         "and Hertz's impact ('all': the first three and the which-scheme table); each "
         "writes CSV, PNG and summary.md into --out.")
