@@ -476,6 +476,29 @@ def test_the_executable_says_an_option_of_python_run_is_one(run_exe, run_cli, tm
     assert "unknown option --setx" in _one_error_line(run_exe("scene.nml", "--setx"), 2)
 
 
+@pytest.mark.parametrize("args", [
+    ("run", "scene.nml"),
+    ("run", "scene.nml", "--out", "o"),
+    ("mesh", "--geo", "m.geo", "--out", "m.msh"),
+    ("study", "all", "--out", "o"),
+    ("plot", "o", "--out", "x.png"),
+])
+def test_the_executable_says_a_command_of_python_m_dyncontact_is_one(run_exe, tmp_path, args):
+    """`build/dyncontact run scene.nml` (the word of `python -m dyncontact run`) said 'two
+    scene files given (run, scene.nml)', and `dyncontact mesh --geo ...` 'unknown option
+    --geo': one line saying the word is a command of `python -m dyncontact`, exit 2, nothing
+    run or written. A file of that name is still a scene file."""
+    (tmp_path / "scene.nml").write_text("&scheme t_end = 0.01 /\n")
+    line = _one_error_line(run_exe(*args), 2)
+    assert line.startswith(f"dyncontact: '{args[0]}' is a command of `python -m dyncontact`, "
+                           "not of the executable, which takes the scene file alone "
+                           "(usage: dyncontact SCENE.nml"), line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.nml"]
+    (tmp_path / "run").write_text("&scheme t_end = 0.01 /\n")
+    res = run_exe("run", "--out", "o")
+    assert res.returncode == 0 and (tmp_path / "o" / "trace.csv").is_file(), res.stderr
+
+
 # --------------------------------------------------------------------------- outputs
 
 def test_read_trace_drops_a_partial_last_line(tmp_path):
