@@ -548,6 +548,11 @@ def test_sweep_runs_write_no_checkpoint_of_the_base_scenes(tmp_path):
     ("stability", "&mesh dim = 7 /\n", "&mesh dim"),
     ("work-precision", "&scheme name = 'central', dt = 0.0 /\n", "dt = 0"),
     ("stability", "&scheme name = 'central', dt = 0.0 /\n", "scene.scheme.dt"),
+    ("stability", "&scheme name = 'central', dt = 0.0 /\n", "`python -m dyncontact run` it"),
+    # refused once the mesh is there: every run of the study would be refused
+    ("stability", "&contact probe = 0.05, 0.3 /\n", "&contact probe: the point is not on"),
+    ("work-precision", "&boundary clamped = 'lid' /\n", "&boundary clamped: group 'lid'"),
+    ("work-precision", "&contact gamma0 = 0.01 /\n", "&contact gamma0"),
     ("convergence", "", "1D closed form"),
     ("methods", "", "not for this study"),
     ("all", "", "not for this study"),
