@@ -499,6 +499,17 @@ def test_the_executable_says_a_command_of_python_m_dyncontact_is_one(run_exe, tm
     assert res.returncode == 0 and (tmp_path / "o" / "trace.csv").is_file(), res.stderr
 
 
+def test_a_set_value_given_as_a_word_of_its_own_names_the_set_item(capsys):
+    """`run s.nml --set scheme.dt 0.001` (a blank for the '=') said 'unrecognized
+    arguments: 0.001', about the value rather than the item that lost it: one line naming
+    the --set item and the form it takes."""
+    line = _main_line(capsys, "run", "s.nml", "--set", "scheme.dt", "0.001")
+    assert line == ("dyncontact: --set 'scheme.dt': expected group.key=value, one word "
+                    "(e.g. --set scheme.dt=0.001)"), line
+    line = _main_line(capsys, "run", "s.nml", "--set", "scheme.dt=0.01", "0.001")
+    assert line.startswith("dyncontact: unrecognized arguments: 0.001 "), line
+
+
 # --------------------------------------------------------------------------- outputs
 
 def test_read_trace_drops_a_partial_last_line(tmp_path):

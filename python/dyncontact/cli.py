@@ -60,7 +60,8 @@ def parse_set(item: str) -> tuple[str, str, str]:
     strings, comma-separated vectors) and checks, naming the key when it is wrong.
     """
     if "=" not in item:
-        raise UsageError(f"--set {item!r}: expected group.key=value")
+        raise UsageError(f"--set {item!r}: expected group.key=value, one word (e.g. "
+                         "--set scheme.dt=0.001)")
     lhs, raw = item.split("=", 1)
     lhs = lhs.strip()
     if lhs.count(".") != 1:
@@ -434,6 +435,9 @@ def main(argv: Sequence[str] | None = None, *, program: bool = False) -> int:
         parser = build_parser()
         args, extras = parser.parse_known_args(argv)
         if extras:
+            # `--set scheme.dt 0.001` leaves the value over: the item is said as wrong
+            for item in getattr(args, "set", None) or ():
+                parse_set(item)
             # the subcommand's parser leaves them to this one, whose error would point
             # to the top-level help, which does not list the subcommand's options
             command = f"{COMMAND} {args.command}" if args.command else COMMAND
