@@ -845,8 +845,20 @@ contains
         path = dir//'/'//CHECKPOINT_NAME
         inquire (file=path, exist=exists)
         if (.not. exists) then
-            call raise(st, msg, STAT_BAD_INPUT, path//': no checkpoint to restart from (no such'// &
-                       ' file; &output checkpoint_every writes one)')
+            inquire (file=dir//'/.', exist=exists)
+            if (.not. exists) then
+                call raise(st, msg, STAT_BAD_INPUT, dir//': no such folder (a restart continues a'// &
+                           ' stopped run in its output folder)')
+            else if (sim%scn%checkpoint_every > 0) then
+                ! the scene writes checkpoints: the run in the folder stopped before its first
+                call raise(st, msg, STAT_BAD_INPUT, path//': no checkpoint to restart from (no'// &
+                           ' such file; &output checkpoint_every = '// &
+                           int_text(int(sim%scn%checkpoint_every, i8))//' writes the first at'// &
+                           ' that step: a run stopped before it starts again without --restart)')
+            else
+                call raise(st, msg, STAT_BAD_INPUT, path//': no checkpoint to restart from (no'// &
+                           ' such file; &output checkpoint_every writes one)')
+            end if
             return
         end if
         call take_folder(sim, dir, st, msg)
