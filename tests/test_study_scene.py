@@ -590,6 +590,23 @@ def test_scene_shorter_than_the_studys_largest_step_is_one_line_exit_2(tmp_path,
     assert not (out / "cache").exists()
 
 
+def test_scene_stability_shorter_than_its_largest_step_is_one_line_exit_2(tmp_path, capsys):
+    """The same for the stability study, whose grid goes to 8 × the scene's Δt: three
+    runs failed to run, exit 1; one line naming the scene, T and that step, exit 2."""
+    from dyncontact.study.cli import main
+
+    scene = tmp_path / "short.nml"
+    scene.write_text("&scheme dt = 0.0025, t_end = 0.01 /\n")
+    out = tmp_path / "out"
+    assert main(["stability", "--quick", "--out", str(out), "--scene", str(scene),
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"dyncontact study: --scene {scene}: &scheme t_end = 0.01 is shorter than "
+                   "the study's largest step, 0.02 (the grid's 8 × the scene's Δt): give a "
+                   "t_end of a few of them at least"), err
+    assert not (out / "cache").exists()
+
+
 @pytest.mark.parametrize("factors, ratios", [((2.0, 1.0, 0.5, 0.25), (1.0, 0.2, 5.0)),
                                              ((1.0, 0.5), (1.0, 0.2, 5.0)),
                                              ((1.0, 0.5, 0.25), (1.0, 0.2, 5.0, 0.25))])
