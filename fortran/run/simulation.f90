@@ -1144,7 +1144,8 @@ contains
                 else
                     sim%message = trim(sim%message)//'; check &scheme dt (smaller), &contact'// &
                                   ' gamma0 (of the order of the material stiffness, '// &
-                                  'docs/scenes.md), &scheme newton_tol'
+                                  'docs/scenes.md), &scheme newton_tol and newton_maxit (= '// &
+                                  int_text(int(sim%scn%newton_maxit, i8))//')'
                 end if
                 ! the trace ends, as the snapshots do, at the last step accepted (off the
                 ! rows' grid its row is written here; the failed step changed no state)
