@@ -847,8 +847,8 @@ contains
         if (.not. exists) then
             inquire (file=dir//'/.', exist=exists)
             if (.not. exists) then
-                call raise(st, msg, STAT_BAD_INPUT, dir//': no such folder (a restart continues a'// &
-                           ' stopped run in its output folder)')
+                call raise(st, msg, STAT_BAD_INPUT, dir//': no such folder (a restart'// &
+                           ' continues a stopped run in its output folder)')
             else if (sim%scn%checkpoint_every > 0) then
                 ! the scene writes checkpoints: the run in the folder stopped before its first
                 call raise(st, msg, STAT_BAD_INPUT, path//': no checkpoint to restart from (no'// &

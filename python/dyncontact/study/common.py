@@ -504,7 +504,8 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
         raise UserSceneError(path, " ".join(str(exc).split())) from None
     if not values["scheme.dt"] > 0:
         hint = ("; central's automatic step is chosen when the scene runs: `python -m "
-                "dyncontact run` it once and give the Δt its summary.json records (scene.scheme.dt)"
+                "dyncontact run` it once and give the Δt its summary.json records "
+                "(scene.scheme.dt)"
                 if values["scheme.name"] == "central" else "")
         raise UserSceneError(path, f"&scheme dt = {values['scheme.dt']:g}: the study "
                              "derives its time steps from the scene's, give one > 0"
