@@ -65,3 +65,15 @@ def test_version_names_the_project(capsys):
     with pytest.raises(SystemExit):
         main(["--version"])
     assert capsys.readouterr().out == f"dyncontact {dyncontact.__version__}\n"
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["stability", "--help"], ["all", "--help"]])
+def test_study_help_gives_the_exit_statuses(capsys, argv):
+    """A study whose run fails to run completes and exits 1, which its help did not say:
+    every study's help ends with the exit statuses."""
+    from dyncontact.study.cli import main
+
+    assert main(argv) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "Exit status: 0 every run done" in text and "1 some runs failed to run" in text
+    assert "130 interrupted" in text, text
