@@ -418,10 +418,10 @@ def test_a_scene_given_for_the_command_says_the_run_command(capsys, tmp_path, mo
 
 
 @pytest.mark.parametrize("args, command", [
-    (("run", "s.nml", "--bogus"), "dyncontact run"),
-    (("run", "s.nml", "t.nml"), "dyncontact run"),
-    (("plot", "a", "--out", "x.png", "--bogus"), "dyncontact plot"),
-    (("--bogus",), "dyncontact"),
+    (("run", "s.nml", "--bogus"), "python -m dyncontact run"),
+    (("run", "s.nml", "t.nml"), "python -m dyncontact run"),
+    (("plot", "a", "--out", "x.png", "--bogus"), "python -m dyncontact plot"),
+    (("--bogus",), "python -m dyncontact"),
 ])
 def test_an_unknown_option_points_to_its_commands_help(capsys, args, command):
     """`run s.nml --bogus` pointed to `dyncontact --help`, which does not list run's
@@ -474,6 +474,40 @@ def test_the_executable_says_an_option_of_python_run_is_one(run_exe, run_cli, tm
     assert f" {name}" in run_cli("run", "--help").stdout
     assert {"-q": "--quiet"}.get(name, name) in " ".join(run_exe("--help").stdout.split())
     assert "unknown option --setx" in _one_error_line(run_exe("scene.nml", "--setx"), 2)
+
+
+@pytest.mark.parametrize("args", [
+    ("run", "scene.nml"),
+    ("run", "scene.nml", "--out", "o"),
+    ("mesh", "--geo", "m.geo", "--out", "m.msh"),
+    ("study", "all", "--out", "o"),
+    ("plot", "o", "--out", "x.png"),
+])
+def test_the_executable_says_a_command_of_python_m_dyncontact_is_one(run_exe, tmp_path, args):
+    """`build/dyncontact run scene.nml` (the word of `python -m dyncontact run`) said 'two
+    scene files given (run, scene.nml)', and `dyncontact mesh --geo ...` 'unknown option
+    --geo': one line saying the word is a command of `python -m dyncontact`, exit 2, nothing
+    run or written. A file of that name is still a scene file."""
+    (tmp_path / "scene.nml").write_text("&scheme t_end = 0.01 /\n")
+    line = _one_error_line(run_exe(*args), 2)
+    assert line.startswith(f"dyncontact: '{args[0]}' is a command of `python -m dyncontact`, "
+                           "not of the executable, which takes the scene file alone "
+                           "(usage: dyncontact SCENE.nml"), line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.nml"]
+    (tmp_path / "run").write_text("&scheme t_end = 0.01 /\n")
+    res = run_exe("run", "--out", "o")
+    assert res.returncode == 0 and (tmp_path / "o" / "trace.csv").is_file(), res.stderr
+
+
+def test_a_set_value_given_as_a_word_of_its_own_names_the_set_item(capsys):
+    """`run s.nml --set scheme.dt 0.001` (a blank for the '=') said 'unrecognized
+    arguments: 0.001', about the value rather than the item that lost it: one line naming
+    the --set item and the form it takes."""
+    line = _main_line(capsys, "run", "s.nml", "--set", "scheme.dt", "0.001")
+    assert line == ("dyncontact: --set 'scheme.dt': expected group.key=value, one word "
+                    "(e.g. --set scheme.dt=0.001)"), line
+    line = _main_line(capsys, "run", "s.nml", "--set", "scheme.dt=0.01", "0.001")
+    assert line.startswith("dyncontact: unrecognized arguments: 0.001 "), line
 
 
 # --------------------------------------------------------------------------- outputs

@@ -59,9 +59,9 @@ def test_study_help_names_every_study(capsys):
 
 
 @pytest.mark.parametrize("args, command", [
-    (("convergence", "--out", "o", "--bogus"), "dyncontact study convergence"),
-    (("work-precision", "--bogus", "--out", "o"), "dyncontact study work-precision"),
-    (("all", "--out", "o", "extra"), "dyncontact study all"),
+    (("convergence", "--out", "o", "--bogus"), "python -m dyncontact study convergence"),
+    (("work-precision", "--bogus", "--out", "o"), "python -m dyncontact study work-precision"),
+    (("all", "--out", "o", "extra"), "python -m dyncontact study all"),
 ])
 def test_study_unknown_option_points_to_the_studys_help(capsys, tmp_path, args, command):
     """`dyncontact study convergence --bogus` pointed to `dyncontact study --help`, which

@@ -17,7 +17,10 @@
 - a sweep task tagged with the name of a field of the run (`steps`, `status`, ...) or
   of a metric: refused (by_tags would put the run's value under the tag's name);
 - a study whose --out or --cache folder cannot be made: one line naming the study, the
-  option and the folder, exit 2 (not the system's bare message).
+  option and the folder, exit 2 (not the system's bare message);
+- a sweep task whose setting the core refuses (a key unknown or out of range, a probe off
+  the contact boundary): the record's message names the setting, not only the base scene
+  file, which does not hold that value.
 """
 
 from __future__ import annotations
@@ -115,6 +118,37 @@ def test_a_tag_named_as_a_field_of_the_run_is_refused(tmp_path):
     with pytest.raises(ValueError, match=f"'{metric}'"):
         by_tags(recs)
     assert by_tags(recs[:0]) == []
+
+
+def test_a_refused_setting_of_a_task_is_named_in_its_record(tmp_path):
+    """The record of a task whose setting the core refuses said `BadInputError:
+    /abs/base.nml: &scheme dt: must be > 0`, sending the user to a file that holds
+    another value: the message begins with the setting and names the base scene, at the
+    set (error) as at the run (refused); a refusal about a key the task does not set
+    still names the file."""
+    base = tmp_path / "base.nml"
+    base.write_text("&scheme t_end = 0.05 /\n&contact gamma0 = -1.0 /\n")
+    good = tmp_path / "good.nml"
+    good.write_text("&scheme t_end = 0.05 /\n")
+    tasks = [make_task(str(good), {"scheme.dt": -1.0}, tags={"n": 1}),
+             make_task(str(good), {"scheme.bogus": 1}, tags={"n": 2}),
+             make_task(str(good), {"contact.probe": [5.0, 5.0]}, tags={"n": 3}),
+             make_task("", {"scheme.dt": -1.0}, tags={"n": 4}),
+             make_task(str(base), {"scheme.dt": 0.01}, tags={"n": 5})]
+    rows = {r["n"]: r for r in by_tags(sweep(tasks, str(tmp_path / "cache"), workers=1,
+                                               progress=False))}
+    said = {n: rows[n]["message"] for n in rows}
+    assert said[1].startswith("BadInputError: setting scheme.dt=-1.0 of the task on "
+                              "good.nml: &scheme dt: must be > 0"), said[1]
+    assert said[2].startswith("BadInputError: setting scheme.bogus=1 of the task on "
+                              "good.nml: &scheme bogus: unknown key"), said[2]
+    assert rows[3]["status"] == "refused", rows[3]
+    assert said[3].startswith("BadInputError: setting contact.probe=[5.0, 5.0] of the task "
+                              "on good.nml: &contact probe: the point is not on the contact "
+                              "boundary"), said[3]
+    assert said[4].startswith("BadInputError: setting scheme.dt=-1.0 of the task on the "
+                              "default scene: &scheme dt:"), said[4]
+    assert said[5].startswith(f"BadInputError: {base}: &contact gamma0:"), said[5]
 
 
 @pytest.mark.parametrize("option", ["--out", "--cache"])

@@ -644,7 +644,7 @@ def test_generate_through_a_link_creates_its_targets_folders(tmp_path):
 def test_mesh_command_help(run_cli, tmp_path):
     r = run_cli("mesh", "--help", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    assert r.stdout.startswith("usage: dyncontact mesh") and "--out FILE.msh" in r.stdout
+    assert r.stdout.startswith("usage: python -m dyncontact mesh") and "--out FILE.msh" in r.stdout
     assert list(tmp_path.iterdir()) == []
 
 
@@ -662,7 +662,7 @@ def test_mesh_command_line_errors_are_one_line(capsys, tmp_path, monkeypatch, ar
     monkeypatch.chdir(tmp_path)
     assert main(["mesh", *args]) == 2
     err = capsys.readouterr().err
-    assert err == f"dyncontact mesh: {words} (see `dyncontact mesh --help`)\n", err
+    assert err == f"dyncontact mesh: {words} (see `python -m dyncontact mesh --help`)\n", err
     assert list(tmp_path.iterdir()) == []
 
 

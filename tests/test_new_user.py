@@ -702,6 +702,24 @@ def test_contact_impulse_is_the_momentum_change_normal_to_a_tilted_plane(tmp_pat
     assert dp @ normal < 0            # pushed back out of the obstacle
 
 
+@pytest.mark.parametrize("kind", ENTRIES)
+def test_a_missing_mesh_beside_a_scene_elsewhere_says_where_it_looked(kind, tmp_path):
+    """A scene in a sub-folder naming a mesh file that is not there said `cannot read
+    mesh file 'sub/m.msh' in the current folder`, as if the path were the user's: it says
+    that a relative path counts from the scene file's folder; a scene in the current
+    folder still says `in the current folder`."""
+    (tmp_path / "sub").mkdir()
+    for scene in (tmp_path / "sub" / "s.nml", tmp_path / "s.nml"):
+        scene.write_text("&mesh file = 'm.msh' /\n")
+    line = one_line(run(kind, "sub/s.nml", "--out", "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert line == ("dyncontact: sub/s.nml: &mesh file: cannot read mesh file 'sub/m.msh' (a "
+                    "relative path counts from the scene file's folder) (got 'm.msh')"), line
+    line = one_line(run(kind, "s.nml", "--out", "o", cwd=tmp_path), EXIT_BAD_INPUT)
+    assert line == ("dyncontact: s.nml: &mesh file: cannot read mesh file 'm.msh' in the "
+                    "current folder (got 'm.msh')"), line
+    assert not (tmp_path / "o").exists()
+
+
 def test_set_mesh_file_counts_from_the_current_folder(run_cli, tmp_path):
     """--set mesh.file=disk.msh, the very text of the scene's own relative mesh file,
     run from another folder than the scene's: the value counts from the current folder,

@@ -879,12 +879,13 @@ def test_scene_object_restarts_the_checkpoint_of_its_scene_file(tmp_path):
 
 
 @pytest.mark.parametrize("entry", ["exe", "cli"])
-def test_missing_restart_folder_is_refused_naming_the_file(entry, stopped, tmp_path):
+def test_missing_restart_folder_is_refused_naming_the_folder(entry, stopped, tmp_path):
     scene, _part = stopped
     cmd = exe_cmd if entry == "exe" else cli_cmd
     res = run(cmd(scene, "--restart", "nowhere"), tmp_path)
     assert res.returncode == EXIT_BAD_INPUT, res.stderr
-    assert f"nowhere/{CKPT}" in res.stderr and "no checkpoint" in res.stderr, res.stderr
+    assert res.stderr == ("dyncontact: nowhere: no such folder (a restart continues a "
+                          "stopped run in its output folder)\n"), res.stderr
     assert "Traceback" not in res.stderr
     assert not (tmp_path / "nowhere").exists()
 
@@ -972,6 +973,29 @@ def test_checkpoint_file_holds_the_state_it_stands_for(tmp_path):
         vec = np.frombuffer(payload[pos + 8:pos + 8 + 8 * count], dtype="<f8")
         assert np.array_equal(vec, st[key]), key
         pos += 8 + 8 * count
+
+
+@pytest.mark.parametrize("entry", ["exe", "cli"])
+def test_a_restart_without_a_checkpoint_says_why(entry, tmp_path):
+    """A run killed before its first checkpoint, restarted with its scene, which gives
+    checkpoint_every, was told `DIR/checkpoint.bin: no checkpoint to restart from (no such
+    file; &output checkpoint_every writes one)`:
+    a scene that writes checkpoints is told that a run stopped before the first one starts
+    again without --restart (a folder that is not there is said missing:
+    test_missing_restart_folder_is_refused_naming_the_folder)."""
+    cmd = exe_cmd if entry == "exe" else cli_cmd
+    scene = tmp_path / "s.nml"
+    scene.write_text(scene_text("newmark", t_end="1.5", every=200))
+    (tmp_path / "o").mkdir()        # what a run killed before its first checkpoint leaves
+    (tmp_path / "o" / "trace.csv").write_text("t\n")
+    line = refused_line(run(cmd(scene, "--restart", tmp_path / "o"), tmp_path), tmp_path / "o")
+    assert line.endswith("no checkpoint to restart from (no such file; &output "
+                         "checkpoint_every = 200 writes the first at that step: a run "
+                         "stopped before it starts again without --restart)"), line
+    plain = tmp_path / "plain.nml"
+    plain.write_text(scene_text("newmark", t_end="1.5", every=0))
+    line = refused_line(run(cmd(plain, "--restart", tmp_path / "o"), tmp_path), tmp_path / "o")
+    assert line.endswith("(no such file; &output checkpoint_every writes one)"), line
 
 
 @pytest.mark.parametrize("entry", ["exe", "cli"])

@@ -303,11 +303,13 @@ def test_newton_failure_stops_cleanly_with_trace(tmp_path):
     assert res.trace["t"][-1] <= t_stop
     assert "Newton" in res.message
     # numbers with a full 3-digit exponent (never Fortran's E-less '2.225-307')
-    assert re.search(r"Newton did not converge at t = \d\.\d{5}E[+-]\d{3} after 1 iterations "
+    assert re.search(r"Newton did not converge at t = \d\.\d{5}E[+-]\d{3} after 1 iteration "
                      r"\(relative residual \d\.\d{3}E[+-]\d{3}\)", res.message), res.message
     # t once (the scheme gives it), and the advice of a Newton failure, not of &solver
     assert res.message.count("at t = ") == 1, res.message
     assert "check &scheme dt (smaller)" in res.message and "&solver" not in res.message
+    # the limit the step ran into is named with its value (it was left out of the advice)
+    assert res.message.endswith("&scheme newton_tol and newton_maxit (= 1)"), res.message
 
 
 def test_factorizations_do_not_depend_on_contact(tmp_path):

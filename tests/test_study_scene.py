@@ -548,6 +548,11 @@ def test_sweep_runs_write_no_checkpoint_of_the_base_scenes(tmp_path):
     ("stability", "&mesh dim = 7 /\n", "&mesh dim"),
     ("work-precision", "&scheme name = 'central', dt = 0.0 /\n", "dt = 0"),
     ("stability", "&scheme name = 'central', dt = 0.0 /\n", "scene.scheme.dt"),
+    ("stability", "&scheme name = 'central', dt = 0.0 /\n", "`python -m dyncontact run` it"),
+    # refused once the mesh is there: every run of the study would be refused
+    ("stability", "&contact probe = 0.05, 0.3 /\n", "&contact probe: the point is not on"),
+    ("work-precision", "&boundary clamped = 'lid' /\n", "&boundary clamped: group 'lid'"),
+    ("work-precision", "&contact gamma0 = 0.01 /\n", "&contact gamma0"),
     ("convergence", "", "1D closed form"),
     ("methods", "", "not for this study"),
     ("all", "", "not for this study"),
@@ -563,6 +568,43 @@ def test_scene_bad_input_is_one_line_exit_2(tmp_path, capsys, study, scene_text,
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and message in err, err
     assert not out.exists()
+
+
+def test_scene_shorter_than_the_studys_largest_step_is_one_line_exit_2(tmp_path, capsys):
+    """A scene whose T is a few of its own steps (T = 4 Δt) ran the study and ended with
+    exit 1, `1 run(s) failed to run`: central's step, 5 × the scene's, passes T, which the
+    core refuses. The study says so in one line naming the scene, T and that step, exit 2,
+    before any run."""
+    from dyncontact.study.cli import main
+
+    scene = tmp_path / "short.nml"
+    scene.write_text("&scheme dt = 0.0025, t_end = 0.01 /\n")
+    out = tmp_path / "out"
+    assert main(["work-precision", "--quick", "--out", str(out), "--scene", str(scene),
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err == (f"dyncontact study: --scene {scene}: &scheme t_end = 0.01 is shorter than "
+                   "the study's largest step, 0.0125 (central, Δt×5): give a t_end of a few "
+                   "of them at least"), err
+    assert not (out / "cache").exists()
+
+
+def test_scene_stability_shorter_than_its_largest_step_is_one_line_exit_2(tmp_path, capsys):
+    """The same for the stability study, whose grid goes to 8 × the scene's Δt: three
+    runs failed to run, exit 1; one line naming the scene, T and that step, exit 2."""
+    from dyncontact.study.cli import main
+
+    scene = tmp_path / "short.nml"
+    scene.write_text("&scheme dt = 0.0025, t_end = 0.01 /\n")
+    out = tmp_path / "out"
+    assert main(["stability", "--quick", "--out", str(out), "--scene", str(scene),
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (f"dyncontact study: --scene {scene}: &scheme t_end = 0.01 is shorter than "
+                   "the study's largest step, 0.02 (the grid's 8 × the scene's Δt): give a "
+                   "t_end of a few of them at least"), err
+    assert not (out / "cache").exists()
 
 
 @pytest.mark.parametrize("factors, ratios", [((2.0, 1.0, 0.5, 0.25), (1.0, 0.2, 5.0)),

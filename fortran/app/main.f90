@@ -71,6 +71,11 @@ program main
                     call fail(STAT_BAD_INPUT, 'unknown option '//arg//' ('//USAGE//')')
                 end if
             end if
+            ! `dyncontact run s.nml`, `dyncontact mesh ...`: the Python command line's
+            ! words, said as such rather than as a missing scene file named 'run'
+            if (len_trim(scene_path) == 0 .and. is_python_command(arg)) call fail(STAT_BAD_INPUT, &
+                "'"//arg//"' is a command of `python -m dyncontact`, not of the executable, "// &
+                'which takes the scene file alone ('//USAGE//')')
             if (len_trim(scene_path) > 0) call fail(STAT_BAD_INPUT, 'two scene files given ('// &
                                                     trim(scene_path)//', '//arg//'); '//USAGE)
             scene_path = arg
@@ -159,6 +164,19 @@ contains
         starts_with = .false.
         if (len(a) >= len(prefix)) starts_with = a(1:len(prefix)) == prefix
     end function starts_with
+
+    !> Whether `a` is a command of `python -m dyncontact` (run, plot, mesh, study) and no
+    !> file of that name is there to be a scene file.
+    logical function is_python_command(a)
+        character(len=*), intent(in) :: a   !! the first argument that is not an option
+        logical :: exists
+        is_python_command = .false.
+        select case (a)
+        case ('run', 'plot', 'mesh', 'study')
+            inquire (file=a, exist=exists)
+            is_python_command = .not. exists
+        end select
+    end function is_python_command
 
     !> The option of `python -m dyncontact run` that the executable does not take which
     !> `a` is (its name, before any '=': `--set=scheme.dt=0.001` is --set), or ''.

@@ -919,7 +919,12 @@ contains
             else if (ios /= 0) then
                 ! a relative path here was given relative to the current folder (a scene
                 ! text or a Python Scene.set / --set value, which has no folder of its own)
-                if (file(1:1) /= '/') then
+                if (file(1:1) /= '/' .and. len(base) > 0 .and. scn%mesh_file(1:1) /= '/') then
+                    ! the scene file's folder was put before it: the path says where it looked
+                    msg = bad(keys, name, 'mesh', 'file', 'cannot read mesh file '''// &
+                              shown(file, VALUE_LEN)//''' (a relative path counts from the'// &
+                              ' scene file''s folder)')
+                else if (file(1:1) /= '/') then
                     msg = bad(keys, name, 'mesh', 'file', 'cannot read mesh file '''// &
                               shown(file, VALUE_LEN)//''' in the current folder')
                 else

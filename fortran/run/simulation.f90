@@ -845,8 +845,20 @@ contains
         path = dir//'/'//CHECKPOINT_NAME
         inquire (file=path, exist=exists)
         if (.not. exists) then
-            call raise(st, msg, STAT_BAD_INPUT, path//': no checkpoint to restart from (no such'// &
-                       ' file; &output checkpoint_every writes one)')
+            inquire (file=dir//'/.', exist=exists)
+            if (.not. exists) then
+                call raise(st, msg, STAT_BAD_INPUT, dir//': no such folder (a restart'// &
+                           ' continues a stopped run in its output folder)')
+            else if (sim%scn%checkpoint_every > 0) then
+                ! the scene writes checkpoints: the run in the folder stopped before its first
+                call raise(st, msg, STAT_BAD_INPUT, path//': no checkpoint to restart from (no'// &
+                           ' such file; &output checkpoint_every = '// &
+                           int_text(int(sim%scn%checkpoint_every, i8))//' writes the first at'// &
+                           ' that step: a run stopped before it starts again without --restart)')
+            else
+                call raise(st, msg, STAT_BAD_INPUT, path//': no checkpoint to restart from (no'// &
+                           ' such file; &output checkpoint_every writes one)')
+            end if
             return
         end if
         call take_folder(sim, dir, st, msg)
@@ -1132,7 +1144,8 @@ contains
                 else
                     sim%message = trim(sim%message)//'; check &scheme dt (smaller), &contact'// &
                                   ' gamma0 (of the order of the material stiffness, '// &
-                                  'docs/scenes.md), &scheme newton_tol'
+                                  'docs/scenes.md), &scheme newton_tol and newton_maxit (= '// &
+                                  int_text(int(sim%scn%newton_maxit, i8))//')'
                 end if
                 ! the trace ends, as the snapshots do, at the last step accepted (off the
                 ! rows' grid its row is written here; the failed step changed no state)

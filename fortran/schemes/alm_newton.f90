@@ -91,7 +91,8 @@ contains
             if (it >= maxit .or. .not. (gnorm == gnorm)) then
                 call raise(stat, errmsg, STAT_NUMERIC, 'Newton (augmented Lagrangian) did not ' &
                            //'converge at t = '//real_text(t, 6)//' after '//int_text(it) &
-                           //' iterations (relative residual '// &
+                           //' iteration'//trim(merge(' ', 's', it == 1)) &
+                           //' (relative residual '// &
                            real_text(gnorm / max(scale, tiny(1.0_dp)), 4)//')')
                 return
             end if

@@ -824,7 +824,8 @@ contains
                 this%failure = FAILURE_STEP
                 call raise(stat, errmsg, STAT_NUMERIC, 'Newton did not converge at t = ' &
                            //real_text(st%t + dt, 6)//' after '//int_text(it) &
-                           //' iterations (relative residual ' &
+                           //' iteration'//trim(merge(' ', 's', it == 1)) &
+                           //' (relative residual ' &
                            //real_text(rnorm / max(scale, tiny(1.0_dp)), 4)//')')
                 return
             end if

@@ -22,6 +22,10 @@ from typing import Sequence
 from . import core
 
 PROG = "dyncontact"
+#: The command as a user types it, in usage lines and in "see ... --help": the program
+#: `dyncontact` on a PATH (pip install, build/) is the executable, which runs a scene
+#: file and has no subcommands.
+COMMAND = "python -m dyncontact"
 #: Part of the core's message when another live run holds the output folder's lock.
 LOCK_HELD = "is writing into this output folder"
 #: Seconds between two attempts of `run --wait`.
@@ -56,7 +60,8 @@ def parse_set(item: str) -> tuple[str, str, str]:
     strings, comma-separated vectors) and checks, naming the key when it is wrong.
     """
     if "=" not in item:
-        raise UsageError(f"--set {item!r}: expected group.key=value")
+        raise UsageError(f"--set {item!r}: expected group.key=value, one word (e.g. "
+                         "--set scheme.dt=0.001)")
     lhs, raw = item.split("=", 1)
     lhs = lhs.strip()
     if lhs.count(".") != 1:
@@ -330,10 +335,10 @@ def run_help_text() -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog=PROG, description="Elastic bodies hitting a rigid obstacle "
+    p = _Parser(prog=COMMAND, description="Elastic bodies hitting a rigid obstacle "
                 "(Nitsche contact, P1 elements, implicit and explicit time schemes).")
     p.add_argument("--version", action="version",
-                   version=f"%(prog)s {_version()}")
+                   version=f"{PROG} {_version()}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     r = sub.add_parser("run", help="run a scene file", description="Run a scene file; "
@@ -371,10 +376,10 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--quiet", "-q", action="store_true")
     pl.set_defaults(func=cmd_plot)
 
-    sub.add_parser("mesh", help="mesh a .geo with gmsh into a .msh file (see `dyncontact "
-                   "mesh --help`)", add_help=False)
+    sub.add_parser("mesh", help="mesh a .geo with gmsh into a .msh file (see "
+                   f"`{COMMAND} mesh --help`)", add_help=False)
     sub.add_parser("study", help="convergence, work-precision, stability, contact methods and "
-                   "Hertz's impact studies (see `dyncontact study --help`)", add_help=False)
+                   f"Hertz's impact studies (see `{COMMAND} study --help`)", add_help=False)
     return p
 
 
@@ -430,9 +435,12 @@ def main(argv: Sequence[str] | None = None, *, program: bool = False) -> int:
         parser = build_parser()
         args, extras = parser.parse_known_args(argv)
         if extras:
+            # `--set scheme.dt 0.001` leaves the value over: the item is said as wrong
+            for item in getattr(args, "set", None) or ():
+                parse_set(item)
             # the subcommand's parser leaves them to this one, whose error would point
             # to the top-level help, which does not list the subcommand's options
-            command = f"{PROG} {args.command}" if args.command else PROG
+            command = f"{COMMAND} {args.command}" if args.command else COMMAND
             raise UsageError(f"unrecognized arguments: {' '.join(extras)} "
                              f"(see `{command} --help`)")
         if not getattr(args, "func", None):

@@ -590,7 +590,7 @@ def _check_out(out: str) -> None:
 
 class _Parser(argparse.ArgumentParser):
     """argparse whose errors are one line, as the other commands' (``dyncontact mesh:
-    MESSAGE (see `dyncontact mesh --help`)``, exit 2), not the usage and the message."""
+    MESSAGE (see `python -m dyncontact mesh --help`)``, exit 2), not the usage and the message."""
 
     def error(self, message):  # noqa: D102 - argparse API
         raise BadInputError(f"{message} (see `{self.prog} --help`)")
@@ -599,7 +599,7 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     """Parser of ``python -m dyncontact mesh``."""
     p = _Parser(
-        prog="dyncontact mesh",
+        prog="python -m dyncontact mesh",
         description="Mesh a .geo with gmsh (default: the bar of meshes/bar2d.geo, "
                     "structured triangles) and write it as .msh 4.1 ASCII. h, length and "
                     "width are set as the file's parameters of those names; where the file "

@@ -64,9 +64,17 @@ def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentP
     return action.choices[name]
 
 
+#: The exit statuses, at the end of every study's --help (a run of a study that fails is
+#: reported and the study completes, so a batch script needs to know what 1 means).
+EXIT_HELP = ("Exit status: 0 every run done (unstable runs are results), 1 some runs failed "
+             "to run (each named in the log, counted in summary.md; the study completes), 2 bad "
+             "input (one line), 4 an output that cannot be written, 130 interrupted "
+             "(Ctrl-C, SIGTERM: the finished runs are cached and the same command resumes).")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = OneLineParser(
-        prog="dyncontact study",
+    p = OneLineParser(epilog=EXIT_HELP,
+        prog="python -m dyncontact study", label="dyncontact study",
         description="The studies: convergence, work-precision, stability, contact methods "
         "and Hertz's impact ('all': the first three and the which-scheme table); each "
         "writes CSV, PNG and summary.md into --out.")
@@ -86,7 +94,7 @@ def _parser() -> argparse.ArgumentParser:
              "hertz": "the 3D ball refined under its pole against Hertz's impact (a/R = "
                       "0.2, 0.1, 0.05; v << c): contact time, F_max, approach, impulse"}
     for name in (*STUDIES, "methods", "hertz", "all"):
-        s = sub.add_parser(name, help=helps[name], description=helps[name])
+        s = sub.add_parser(name, help=helps[name], description=helps[name], epilog=EXIT_HELP)
         s.add_argument("--quick", action="store_true", help="small sizes (seconds)")
         s.add_argument("--out", required=True, metavar="DIR", type=_nonempty,
                        help="output folder")

@@ -13,7 +13,7 @@ import os
 import sys
 from typing import Any, Iterable, Iterator, Mapping, Sequence
 
-from ..core import BadInputError
+from ..core import BadInputError, Model
 from .sweep import SCHEDULER_TIMEOUT_S, default_scheduler_timeout
 
 __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0",
@@ -495,11 +495,17 @@ def read_user_scene(path, out: str | None = None) -> UserScene:
                 values[k] = None
         # the mesh's dimension, not &mesh dim: 0 (the default) means the file's, or 2D
         values["dim"] = scn.dimension()
+        # the checks that need the mesh (a group it lacks, a probe off the contact
+        # boundary, gamma0 below the element bound), which every run of the study would
+        # fail on: said here, once, before anything runs
+        with Model(path):
+            pass
     except Exception as exc:  # noqa: BLE001 - any refusal of the scene: one line
         raise UserSceneError(path, " ".join(str(exc).split())) from None
     if not values["scheme.dt"] > 0:
-        hint = ("; central's automatic step is chosen when the scene runs: `dyncontact "
-                "run` it once and give the Δt its summary.json records (scene.scheme.dt)"
+        hint = ("; central's automatic step is chosen when the scene runs: `python -m "
+                "dyncontact run` it once and give the Δt its summary.json records "
+                "(scene.scheme.dt)"
                 if values["scheme.name"] == "central" else "")
         raise UserSceneError(path, f"&scheme dt = {values['scheme.dt']:g}: the study "
                              "derives its time steps from the scene's, give one > 0"

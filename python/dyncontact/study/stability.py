@@ -683,6 +683,14 @@ def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
     if not schemes:
         raise UserSceneError(scn.path, "the core refuses every scheme of the study on "
                              f"it (first: {left_out[0][1]})")
+    largest = scn.dt * max(f for fs in g["dt_factors"].values() for f in fs)
+    if largest > scn.t_end:
+        # a run whose one step passes T is refused by the core (0 < t_end < dt): said
+        # once, here, rather than as runs that failed to run
+        raise UserSceneError(scn.path, f"&scheme t_end = {scn.t_end:g} is shorter than the "
+                             f"study's largest step, {largest:.4g} (the grid's "
+                             f"{largest / scn.dt:g} × the scene's Δt): give a t_end of a few "
+                             "of them at least")
     # critical_dt's grid is in Δt/h: the scene's Δt multiples over its own h, γ0, θ. A
     # .msh file's h is its own (&mesh h, which it does not use, would name every row
     # 0.05), and so is that of a .geo the scene gives no &mesh h for: it is meshed with

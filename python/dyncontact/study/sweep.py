@@ -308,7 +308,27 @@ def lookup(cache: str, key: str) -> dict[str, Any] | None:
     return rec
 
 
+def _said_of_setting(message: str, task: Task) -> str:
+    """A refusal of the core said of the task's setting that gave the key it names: the
+    core names the base scene (``BadInputError: base.nml: &scheme dt: must be > 0 ...``),
+    which holds another value or none, so the scene's name gives way to the setting
+    (``BadInputError: setting scheme.dt=-1.0 of the task on base.nml: &scheme dt: ...``),
+    as ``--set`` does on the command line. Other messages are returned as they are."""
+    kind, sep, text = message.partition(": ")
+    prefix = f"{task.base or '<scene>'}: "
+    if not sep or not text.startswith(prefix):
+        return message
+    rest = text[len(prefix):]
+    for name, value in reversed(task.settings):     # the last setting of a key is used
+        group, _, key = str(name).strip().lower().partition(".")
+        if rest.startswith((f"&{group} {key}:", f"&{group} {key} ")):
+            base = os.path.basename(task.base) if task.base else "the default scene"
+            return f"{kind}: setting {name}={value!r} of the task on {base}: {rest}"
+    return message
+
+
 def _error_record(task: Task, key: str | None, message: str) -> dict[str, Any]:
+    message = _said_of_setting(message, task)
     return {"key": key, "status": ERROR, "message": message, "t_end_reached": None,
             "steps": None, "wall_s": None, "cpu_s": None, "newton_its_total": None,
             "metrics": {}, "arrays": {}, "cached": False, "run_dir": None}

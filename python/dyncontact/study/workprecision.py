@@ -1077,6 +1077,13 @@ def run_work_precision_scene(out: str, scene: Any, *, quick: bool = False,
              else f"{s.label}, Δt×{c0 / c / divisors[skey]:.3g} (capped)", skey)
             for s, c, label, skey in kept]
     runs, levels = _scene_steps(kept, base, divisors, factors, size)
+    longest = max(runs, key=lambda run: run[-1])
+    if longest[-1] > scn.t_end:
+        # a run whose one step passes T is refused by the core (0 < t_end < dt): said
+        # once, here, rather than as a run that failed to run
+        raise UserSceneError(scn.path, f"&scheme t_end = {scn.t_end:g} is shorter than the "
+                             f"study's largest step, {longest[-1]:.4g} ({longest[2]}): give a "
+                             "t_end of a few of them at least")
     run_every, ref_every = _scene_rows([dt for *_, dt in runs], levels, spacing)
     tasks = [_trace_task(scn.path, s, dt, scn.t_end,
                          {"case": "scene", "series": skey, "label": label, "scheme": s.key,
