@@ -1151,6 +1151,25 @@ def test_skew_claim_counts_refused_settings_apart():
     assert "theta1: stable θ=-1 2/3, θ=+1 0/0 (3 refused)" in row["evidence"]
 
 
+def test_skew_claim_is_not_tested_above_the_theta1_bound():
+    """'Robust for small γ0' needs a γ0 below the element bound: where the core accepts
+    θ = 1 at the sweep's smallest γ0 (the quick sweep's γ0 = 10, above the 2D bar's
+    bound 2.83), the runs cannot decide the claim, whatever they show."""
+    from dyncontact.study.claims import _claim_skew
+
+    grid = {"gamma0": [10.0], "theta": [-1, 1], "t_end": 30.0}
+    recs = []
+    for scheme, sts in (("hht-0.1", ("ok", "ok")), ("pc", ("ok", "unstable"))):
+        for r, st in zip((0.05, 0.5), sts):
+            for th in (-1, 1):
+                recs.append({"status": st, "task": make_task(
+                    "base.nml", {}, tags={"scheme": scheme, "gamma0": 10.0, "theta": th,
+                                          "dt_over_h": r})})
+    row = _claim_skew(recs, grid)
+    assert row["verdict"] == "not tested"
+    assert "γ0 = 10, the smallest of the sweep, is not small" in row["evidence"]
+
+
 def test_stale_cleaning_spares_a_long_run_of_another_sweep(tmp_path):
     """A temporary entry is stale when nothing in it has changed for STALE_S: the entry
     folder's own time stops changing once its run sub-folder exists, so a run of another

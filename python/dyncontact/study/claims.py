@@ -9,7 +9,9 @@ each claim's row:
   (E_n / E_1)^(1/(n-1)) - 1 with E_k = e_total just before impact k (in flight the
   scheme's energy is constant up to the small theta = 1 effect noted in numerics.md);
   "significant" means more than +1 % of the energy per impact;
-- "robust" means stable at every dt/h of the grid. A setting the core refuses as bad input
+- "robust" means stable at every dt/h of the grid, and "small γ0" below the element bound
+  of θ = 1 (the sweep's smallest γ0 is tested only when the core refuses θ = 1 there;
+  above the bound the claim is not tested). A setting the core refuses as bad input
   (theta = 1 with gamma0 below its bound) is counted apart, as refused: it is neither
   stable nor unstable, and a theta is compared with another only on the settings it
   accepts.
@@ -213,6 +215,13 @@ def _claim_skew(recs, grid) -> dict:
     schemes = sorted({r["task"].tag("scheme") for r in recs
                       if r["task"].tag("theta") == -1},
                      key=lambda k: list(SCHEMES).index(k))
+    # "small" is below the element bound, where the core refuses θ = 1: a γ0 it accepts
+    # θ = 1 at is above the bound, and no run there can decide the claim
+    th1 = [r for r in _sel(recs, gamma0=g0, theta=1) if r["task"].tag("scheme") in schemes]
+    if th1 and not any(r["status"] == REFUSED for r in th1):
+        return _not_tested(claim, f"γ0 = {g0:g}, the smallest of the sweep, is not small: "
+                           "the core accepts θ = 1 there (γ0 above its bound); the claim "
+                           "needs a γ0 below the bound")
     for k in schemes:
         counts = {}   # θ: (stable, accepted, refused)
         for th in grid["theta"]:
