@@ -1209,3 +1209,37 @@ def test_summary_says_when_the_cheapest_runs_are_too_short_to_rank(tmp_path):
     short = lines(0.5 * wp.SHORT_CPU_S)
     assert "less than 20 ms of CPU (newmark)" in short and "not reliable" in short
     assert "not reliable" not in lines(1.0)
+
+
+def test_explicit_estimate_inside_the_bracket_is_undecided(tmp_path):
+    """The summary's estimate-against-measured section on made-up rows: an estimate
+    (or central's auto step, 0.9 × it) inside the bisection's bracket [lo, hi] is neither
+    on the safe nor on the unsafe side, whatever its ratio to the bracket's geometric
+    mean; one at or below lo is safe, one at or above hi unsafe."""
+    from dyncontact.study.stability import _summary
+
+    def row(theta, est, lo, hi):
+        mid = math.sqrt(lo * hi)
+        return {"scheme": "central_lumped", "mass": "lumped", "method": "nitsche",
+                "h": 0.1, "gamma0": 10.0, "theta": theta, "dt_crit_lo": lo,
+                "dt_crit_hi": hi, "dt_crit": mid, "dt_crit_over_h": mid / 0.1,
+                "dt_crit_estimate": est, "estimate_over_measured": est / mid,
+                "bracket": "bisection", "grid_stable": "2/3", "non_monotone": False,
+                "first_unstable_status": "unstable", "first_unstable_stop": 8.0,
+                "first_unstable_reason": ""}
+
+    # θ = -1: est 0.04575 and auto 0.0412 both in [0.04089, 0.05] (the quick sweep's
+    # numbers); θ = 0: auto 0.036 below lo; θ = 1: auto 0.054 above hi
+    crit = [row(-1, 0.04575, 0.04089, 0.05), row(0, 0.04, 0.0409, 0.05),
+            row(1, 0.06, 0.04, 0.05)]
+    grid = {"t_end": 30.0, "h": (0.1,), "gamma0": (10.0,), "theta": (-1, 0, 1),
+            "dt_over_h": {"implicit": (0.05,), "explicit": (0.05, 0.5)}, "rounds": 3}
+    report = {"grid": grid, "n_runs": 0, "n_cached": 0, "n_errors": 0, "n_refused": 0,
+              "wall_s": 0.0, "claims": [], "pngs": [], "critical": crit, "box3d": None}
+    text = open(_summary(report, [], str(tmp_path / "summary.md")), encoding="utf-8").read()
+    assert "| -1 | 0.04575 | 0.04089 – 0.05 | 1.012 (inside the bracket) |" in text
+    assert "| 0 | 0.04 | 0.0409 – 0.05 | 0.885 |" in text
+    assert ("is at or above the measured unstable bound in 1 of 3 settings: central_lumped "
+            "h=0.1 γ0=10 θ=+1; at or below the measured stable bound in 1; where the runs "
+            "cannot tell (inside the bracket, or beyond the grid's end) in 1: "
+            "central_lumped h=0.1 γ0=10 θ=-1.") in text

@@ -613,13 +613,17 @@ def _summary(report, schemes, path) -> str:
               "M⁻¹(K_θ + contact tangent with every contact point active) by power "
               "iterations, Ω_c the limit of the scheme's amplification matrix (2 for central, "
               "√2 for pc; docs/numerics.md, \"Explicit schemes\"); the measured critical Δt "
-              "is the bisection's bracket above. A ratio below 1 means the estimate is on "
-              "the safe side (central's dt = 0 runs at 0.9 × the estimate).", ""]
+              "is the bisection's bracket above, the ratio is to its geometric mean. The "
+              "estimate is on the safe side when it is at most the bracket's stable end, on "
+              "the unsafe side when at least its unstable end; inside the bracket the runs "
+              "cannot tell, whatever the ratio (central's dt = 0 runs at 0.9 × the "
+              "estimate).", ""]
     table = [[c["scheme"], c["mass"], fmt(c["h"], "g"), fmt(c["gamma0"], "g"), c["theta"],
               fmt(c["dt_crit_estimate"], ".4g"),
               (f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')}"
                if c["bracket"] == "bisection" else c["bracket"]),
-              fmt(c["estimate_over_measured"], ".3f")]
+              fmt(c["estimate_over_measured"], ".3f")
+              + {"in": " (inside the bracket)"}.get(_side(c, c["dt_crit_estimate"]), "")]
              for c in report["critical"] if c.get("dt_crit_estimate")]
     if table:
         lines += md_table(["scheme", "mass", "h", "γ0", "θ", "estimate", "measured",
@@ -634,18 +638,38 @@ def _summary(report, schemes, path) -> str:
         # dt = 0 is central's only
         auto = [c for c in report["critical"] if c.get("dt_crit_estimate")
                 and c["scheme"].startswith("central")]
-        unsafe = [c for c in auto if c["bracket"] in ("bisection", "below grid")
-                  and AUTO_FACTOR * c["dt_crit_estimate"] >= c["dt_crit_hi"]]
+        sides = {k: [c for c in auto if _side(c, AUTO_FACTOR * c["dt_crit_estimate"]) == k]
+                 for k in ("unsafe", "safe", "in")}
+
+        def which(cs):
+            return (": " + ", ".join(f"{c['scheme']} h={c['h']:g} γ0={c['gamma0']:g} "
+                                     f"θ={c['theta']:+d}" for c in cs)) if cs else ""
+
         lines += ["", f"Central's Δt = 0 (auto: {AUTO_FACTOR:g} × the estimate) is at or "
-                  f"above the measured unstable bound in {len(unsafe)} of {len(auto)} "
-                  f"settings" + (": " + ", ".join(
-                      f"{c['scheme']} h={c['h']:g} γ0={c['gamma0']:g} θ={c['theta']:+d}"
-                      for c in unsafe) if unsafe else "") + "."]
+                  f"above the measured unstable bound in {len(sides['unsafe'])} of "
+                  f"{len(auto)} settings{which(sides['unsafe'])}; at or below the measured "
+                  f"stable bound in {len(sides['safe'])}; where the runs cannot tell "
+                  f"(inside the bracket, or beyond the grid's end) in "
+                  f"{len(sides['in'])}{which(sides['in'])}."]
     else:
         lines.append("No explicit run in the sweep.")
     if report.get("box3d"):
         lines += _box3d_summary(report)
     return write_markdown(path, lines)
+
+
+def _side(c: Mapping[str, Any], dt: float) -> str:
+    """Where the step dt lies against the critical row c's measured bounds: 'safe' (at
+    or below a stable Δt), 'unsafe' (at or above an unstable one) or 'in' (the runs
+    cannot tell: inside the bisection's bracket, or beyond the end of the grid whose
+    runs all had the one verdict)."""
+    lo = c.get("dt_crit_lo") if c["bracket"] in ("bisection", "above grid") else None
+    hi = c.get("dt_crit_hi") if c["bracket"] in ("bisection", "below grid") else None
+    if lo is not None and dt <= lo:
+        return "safe"
+    if hi is not None and dt >= hi:
+        return "unsafe"
+    return "in"
 
 
 def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
