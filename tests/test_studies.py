@@ -528,6 +528,36 @@ def test_critical_rows_from_synthetic_groups():
             pc["first_unstable_reason"]) == ("unstable", 7.5, "energy above blowup")
 
 
+def test_a_run_that_could_not_be_done_is_no_stable_end_of_the_bracket():
+    """A grid run with status 'error' (it could not be done) says nothing about
+    stability: the bracket's stable end is the largest Δt that ran to T, a group whose
+    only run below the first unstable one errored is unstable on the whole grid, one
+    whose top run errored is stable above the last run that finished, and one of errors
+    only has no verdict."""
+    from dyncontact.study import stability as st
+
+    def rec(scheme, dt, status):
+        return {"task": make_task("", {}, tags={"scheme": scheme, "h": 0.1, "gamma0": 10.0,
+                                                "theta": 1, "dt": dt}),
+                "status": status, "t_end_reached": 1.0, "message": "", "metrics": {}}
+
+    recs = [rec("pc", 0.005, "ok"), rec("pc", 0.01, "error"), rec("pc", 0.05, "unstable"),
+            rec("central", 0.01, "error"), rec("central", 0.05, "unstable"),
+            rec("hht-0.1", 0.005, "ok"), rec("hht-0.1", 0.1, "error"),
+            rec("newmark", 0.005, "error"), rec("newmark", 0.1, "error")]
+    crit, brackets = st.critical_groups(recs)
+    key = {s: (s, 0.1, 10.0, 1) for s in ("pc", "central", "hht-0.1", "newmark")}
+    assert brackets == {key["pc"]: (0.005, 0.05)}
+    assert (crit[key["pc"]]["lo"], crit[key["pc"]]["hi"]) == (0.005, 0.05)
+    assert (crit[key["central"]]["bracket"], crit[key["central"]]["hi"]) == ("below grid",
+                                                                             0.05)
+    assert (crit[key["hht-0.1"]]["bracket"], crit[key["hht-0.1"]]["lo"]) == ("above grid",
+                                                                             0.005)
+    assert crit[key["newmark"]]["bracket"] == st.NO_VERDICT
+    assert st._crit_text(dict(crit[key["newmark"]], dt_crit_lo=None,
+                              dt_crit_hi=None)) == "no verdict"
+
+
 # --------------------------------------------------------------------------- sweep
 
 def _small_tasks(base):

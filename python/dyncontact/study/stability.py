@@ -155,12 +155,18 @@ def bisect_critical(groups: Mapping[Hashable, tuple[float, float]],
 
 # --------------------------------------------------------------------------- study
 
+#: The bracket of a group with no run that finished or was refused only (every run an
+#: 'error', the run could not be done): no critical Δt, stable or unstable.
+NO_VERDICT = "no verdict"
+
+
 def critical_groups(recs) -> tuple[dict[tuple, dict[str, Any]], dict[tuple, tuple]]:
     """Group the grid runs by (scheme, h, gamma0, theta) and bracket each group's
     critical dt on the grid: ({group: info}, {group: (lo, hi)} of the groups to bisect).
     info: grid_stable ('k/n'), bracket ('bisection', 'above grid', 'below grid',
-    'refused'), lo, hi, non_monotone, dt_crit_estimate, and the first unstable run's
-    status, stop time and reason."""
+    'refused', NO_VERDICT), lo (the largest Δt that ran to T below the first unstable
+    one; a run that could not be done is no stable end), hi, non_monotone,
+    dt_crit_estimate, and the first unstable run's status, stop time and reason."""
     groups: dict[tuple, list[dict]] = {}
     for r in recs:
         tg = r["task"].tag
@@ -177,15 +183,21 @@ def critical_groups(recs) -> tuple[dict[tuple, dict[str, Any]], dict[tuple, tupl
         info = {"grid_stable": f"{sum(ok)}/{len(ok)}", "non_monotone": False,
                 "lo": None, "hi": None, "bracket": "",
                 "dt_crit_estimate": est[0] if est else None}
+        # the bracket's stable end is a run that finished, never one that could not be
+        # done (an 'error' says nothing about stability)
+        stable = [i for i in range(len(rs) if first_bad is None else first_bad) if ok[i]]
         if all(r["status"] == REFUSED for r in rs):
             info.update(bracket="refused")
+        elif first_bad is None and not stable:
+            info.update(bracket=NO_VERDICT)
         elif first_bad is None:
-            info.update(bracket="above grid", lo=dts[-1])
-        elif first_bad == 0:
-            info.update(bracket="below grid", hi=dts[0])
+            info.update(bracket="above grid", lo=dts[stable[-1]])
+        elif not stable:
+            info.update(bracket="below grid", hi=dts[first_bad])
         else:
-            info.update(bracket="bisection", lo=dts[first_bad - 1], hi=dts[first_bad])
-            brackets[key] = (dts[first_bad - 1], dts[first_bad])
+            info.update(bracket="bisection", lo=dts[stable[-1]], hi=dts[first_bad])
+            brackets[key] = (dts[stable[-1]], dts[first_bad])
+        if first_bad is not None:
             info["non_monotone"] = any(ok[first_bad + 1:])
         if first_bad is not None:
             info["first_unstable_status"] = rs[first_bad]["status"]
@@ -375,8 +387,8 @@ def _crit_text(c) -> str:
         return f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')}"
     if c["bracket"] == "above grid":
         return f"> {fmt(c['dt_crit_lo'], '.4g')}"
-    if c["bracket"] == "refused":
-        return "refused"
+    if c["bracket"] in ("refused", NO_VERDICT):
+        return c["bracket"]
     return f"< {fmt(c['dt_crit_hi'], '.4g')}"
 
 
@@ -388,7 +400,7 @@ def _ratio_text(c, dt: float) -> str:
         return fmt(c["dt_crit"] / dt if c.get("dt_crit") else None, ".3g")
     if c["bracket"] == "above grid":
         return f"> {fmt(c['dt_crit_lo'] / dt, '.3g')}"
-    if c["bracket"] == "refused":
+    if c["bracket"] in ("refused", NO_VERDICT):
         return "-"
     return f"< {fmt(c['dt_crit_hi'] / dt, '.3g')}"
 
@@ -523,8 +535,8 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out, scene: str = "") -> list[str
                     txt = f"{c['dt_crit_over_h']:.3g}"
                 elif c["bracket"] == "above grid":
                     txt = f">{c['dt_crit_lo'] / h:.3g}"
-                elif c["bracket"] == "refused":
-                    txt = "refused"
+                elif c["bracket"] in ("refused", NO_VERDICT):
+                    txt = c["bracket"]
                 else:
                     txt = f"<{c['dt_crit_hi'] / h:.3g}"
                 # white on the dark end of the colour map (black was unreadable there)
@@ -598,6 +610,8 @@ def _summary(report, schemes, path) -> str:
             val = f"> {fmt(c['dt_crit_lo'], '.4g')} (stable on the whole grid)"
         elif c["bracket"] == "refused":
             val = "refused by the core (γ0 below the bound for θ = 1)"
+        elif c["bracket"] == NO_VERDICT:
+            val = "no verdict (no run finished: every one failed to run)"
         else:
             val = f"< {fmt(c['dt_crit_hi'], '.4g')} (unstable on the whole grid)"
         stop = f"{c['first_unstable_status']} at t={fmt(c['first_unstable_stop'], '.4g')}" \
