@@ -840,6 +840,37 @@ def _ramped(t, width, jumps=((1.0, 1.0), (2.0, -1.0))):
     return v
 
 
+def test_chatter_note_follows_the_reference_levels():
+    """The work-precision note on v_n and p_n says whether the consistent reference's
+    levels converge from its own differences: levels whose differences shrink (the quick
+    study's 0.182 → 0.124) are not said not to converge, levels whose differences grow
+    (the full study's p_n 0.121 → 0.141) are; each sequence carries its trend."""
+    from dyncontact.study.workprecision import _pn_note
+
+    def ref(ds):
+        return {"ok": True, **{k: {"d": d, "dt_err": 0.01,
+                                   "p": math.log2(d[-2] / d[-1]) if d[-1] < d[-2]
+                                   else math.nan} for k, d in ds.items()}}
+
+    filt = ref({"v_n": [0.0868, 0.048], "v_n_rms": [0.107, 0.0673],
+                "p_n": [0.0117, 0.00864, 0.00875, 0.00763],
+                "p_n_rms": [0.0324, 0.0229, 0.0266, 0.0275]})
+    shrink = ref({"v_n": [0.182, 0.124], "v_n_rms": [0.256, 0.175],
+                  "p_n": [0.106, 0.0728], "p_n_rms": [0.278, 0.2]})
+    grow = ref({"v_n": [0.2, 0.21], "v_n_rms": [0.256, 0.275],
+                "p_n": [0.121, 0.141], "p_n_rms": [0.278, 0.3]})
+    note = _pn_note({"references": {"consistent": shrink, "filtered": filt}})
+    assert "does not converge" not in note
+    assert "oscillation converges slowly if at all" in note
+    assert "v_n 0.182 → 0.124 (mean |·|, p = 0.55)" in note
+    assert ("p_n 0.0117 → 0.00864 → 0.00875 → 0.00763 (mean |·|, p = 0.20 from the last "
+            "two, not decreasing before), 0.0324 → 0.0229 → 0.0266 → 0.0275 (RMS, not "
+            "decreasing at the last level)") in note
+    note = _pn_note({"references": {"consistent": grow, "filtered": filt}})
+    assert "oscillation does not converge: the consistent reference's" in note
+    assert "p_n 0.121 → 0.141 (mean |·|, not decreasing at the last level)" in note
+
+
 def test_resolution_table_on_a_synthetic_case_with_a_known_answer(tmp_path):
     """The "is the reference converged enough" logic on traces whose errors are known.
 
