@@ -1192,6 +1192,27 @@ def test_robustness_counts_refused_settings_apart():
     assert x["accepted"] == 0 and math.isnan(x["score"]) and x["refused"] == 3
 
 
+def test_which_cheapest_pick_of_short_runs_says_its_ranking_is_not_reliable():
+    """The work-precision summary warns that runs under SHORT_CPU_S rank unreliably; a
+    which-scheme pick made from such runs carries the same caveat, one from longer runs
+    does not. Made-up rows: two curves, the cheaper one picked."""
+    from dyncontact.study import workprecision as wp
+    from dyncontact.study.which import cheapest, cheapest_evidence
+
+    def rows(cpu):
+        return [{"case": "1d", "series": s, "label": s, "status": "ok", "h": 0.04,
+                 "dt": 0.002, "cpu_s": c, "err_u_n": 5e-4}
+                for s, c in (("central", cpu), ("theta1", 1.2 * cpu))]
+
+    short = cheapest(rows(0.5 * wp.SHORT_CPU_S), "1d", "u_n")
+    assert short["pick"]["label"] == "central" and short["runner_up"]["label"] == "theta1"
+    ev = cheapest_evidence(short, "u_n")
+    assert "runner-up theta1" in ev and "(1.2×)" in ev
+    assert "less than 20 ms of CPU" in ev and "the ranking is not reliable" in ev
+    long = cheapest(rows(2 * wp.SHORT_CPU_S), "1d", "u_n")
+    assert "not reliable" not in cheapest_evidence(long, "u_n")
+
+
 def test_skew_claim_counts_refused_settings_apart():
     """The claim 'θ = −1 is robust for small γ0' compares θ on the settings each accepts:
     θ = +1 refused at the smallest γ0 (the core's bound) is no rival and shows as
