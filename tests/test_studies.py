@@ -1315,13 +1315,17 @@ def test_explicit_estimate_inside_the_bracket_is_undecided(tmp_path):
     # numbers); θ = 0: auto 0.036 below lo; θ = 1: auto 0.054 above hi
     crit = [row(-1, 0.04575, 0.04089, 0.05), row(0, 0.04, 0.0409, 0.05),
             row(1, 0.06, 0.04, 0.05)]
+    # stable on the whole grid (up to 0.05): an estimate above it is undecided too
+    crit.append(dict(row(1, 0.05478, 0.05, 0.05), scheme="pc_lumped", dt_crit_hi=None,
+                     dt_crit=None, estimate_over_measured=None, bracket="above grid"))
     grid = {"t_end": 30.0, "h": (0.1,), "gamma0": (10.0,), "theta": (-1, 0, 1),
             "dt_over_h": {"implicit": (0.05,), "explicit": (0.05, 0.5)}, "rounds": 3}
     report = {"grid": grid, "n_runs": 0, "n_cached": 0, "n_errors": 0, "n_refused": 0,
               "wall_s": 0.0, "claims": [], "pngs": [], "critical": crit, "box3d": None}
     text = open(_summary(report, [], str(tmp_path / "summary.md")), encoding="utf-8").read()
-    assert "| -1 | 0.04575 | 0.04089 – 0.05 | 1.012 (inside the bracket) |" in text
+    assert "| -1 | 0.04575 | 0.04089 – 0.05 | 1.012 (undecided: inside the bracket) |" in text
     assert "| 0 | 0.04 | 0.0409 – 0.05 | 0.885 |" in text
+    assert "| 1 | 0.05478 | above grid | - (undecided: above the grid's runs) |" in text
     assert ("is at or above the measured unstable bound in 1 of 3 settings: central_lumped "
             "h=0.1 γ0=10 θ=+1; at or below the measured stable bound in 1; where the runs "
             "cannot tell (inside the bracket, or beyond the grid's end) in 1: "

@@ -636,8 +636,7 @@ def _summary(report, schemes, path) -> str:
               fmt(c["dt_crit_estimate"], ".4g"),
               (f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')}"
                if c["bracket"] == "bisection" else c["bracket"]),
-              fmt(c["estimate_over_measured"], ".3f")
-              + {"in": " (inside the bracket)"}.get(_side(c, c["dt_crit_estimate"]), "")]
+              fmt(c["estimate_over_measured"], ".3f") + _undecided(c)]
              for c in report["critical"] if c.get("dt_crit_estimate")]
     if table:
         lines += md_table(["scheme", "mass", "h", "γ0", "θ", "estimate", "measured",
@@ -684,6 +683,16 @@ def _side(c: Mapping[str, Any], dt: float) -> str:
     if hi is not None and dt >= hi:
         return "unsafe"
     return "in"
+
+
+def _undecided(c: Mapping[str, Any]) -> str:
+    """' (undecided: ...)' when the row's estimate lies where its runs cannot tell
+    (:func:`_side`), naming where; '' otherwise."""
+    if _side(c, c["dt_crit_estimate"]) != "in":
+        return ""
+    where = {"bisection": "inside the bracket", "above grid": "above the grid's runs",
+             "below grid": "below the grid's runs"}.get(c["bracket"], "no bracket")
+    return f" (undecided: {where})"
 
 
 def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
