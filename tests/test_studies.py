@@ -1294,6 +1294,40 @@ def test_summary_says_when_the_cheapest_runs_are_too_short_to_rank(tmp_path):
     assert "not reliable" not in lines(1.0)
 
 
+def test_critical_dt_outside_the_grid_says_what_the_grid_showed(tmp_path):
+    """A group unstable at the grid's smallest Δt but stable at a larger one is
+    non-monotone, not 'unstable on the whole grid'; a group stable at every Δt that ran,
+    one of them not done ('error'), is not 'stable on the whole grid'."""
+    from dyncontact.study import stability as st
+    from dyncontact.study.common import scheme_list
+
+    def rec(scheme, dt, status):
+        return {"task": make_task("", {}, tags={"scheme": scheme, "h": 0.1, "gamma0": 10.0,
+                                                "theta": 1, "dt": dt}),
+                "status": status, "t_end_reached": 1.0, "message": "", "metrics": {}}
+
+    recs = [rec("newmark_alm", 0.005, "unstable"), rec("newmark_alm", 0.05, "ok"),
+            rec("newmark", 0.005, "unstable"), rec("newmark", 0.05, "unstable"),
+            rec("hht-0.1", 0.005, "ok"), rec("hht-0.1", 0.05, "error"),
+            rec("theta1", 0.005, "ok"), rec("theta1", 0.05, "ok")]
+    crit, _ = st.critical_groups(recs)
+    rows = st.critical_rows(crit, scheme_list(("newmark_alm", "newmark", "hht-0.1",
+                                               "theta1")))
+    grid = {"t_end": 30.0, "h": (0.1,), "gamma0": (10.0,), "theta": (1,),
+            "dt_over_h": {"implicit": (0.05, 0.5), "explicit": (0.05,)}, "rounds": 3}
+    report = {"grid": grid, "n_runs": 0, "n_cached": 0, "n_errors": 1, "n_refused": 0,
+              "wall_s": 0.0, "claims": [], "pngs": [], "critical": rows, "box3d": None}
+    text = open(st._summary(report, [], str(tmp_path / "summary.md")),
+                encoding="utf-8").read()
+    alm = next(r for r in rows if r["scheme"] == "newmark_alm")
+    assert (alm["bracket"], alm["non_monotone"]) == ("below grid", True)
+    assert ("< 0.005 (unstable at the grid's smallest Δt, stable at a larger one: "
+            "non-monotone) | 1/2 | yes |") in text
+    assert "< 0.005 (unstable on the whole grid) | 0/2 |" in text
+    assert "> 0.005 (stable at every Δt that ran) | 1/2 |" in text
+    assert "> 0.05 (stable on the whole grid) | 2/2 |" in text
+
+
 def test_explicit_estimate_inside_the_bracket_is_undecided(tmp_path):
     """The summary's estimate-against-measured section on made-up rows: an estimate
     (or central's auto step, 0.9 × it) inside the bisection's bracket [lo, hi] is neither

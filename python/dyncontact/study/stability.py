@@ -607,13 +607,13 @@ def _summary(report, schemes, path) -> str:
             val = f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')} " \
                   f"(h/{1 / c['dt_crit_over_h']:.3g})"
         elif c["bracket"] == "above grid":
-            val = f"> {fmt(c['dt_crit_lo'], '.4g')} (stable on the whole grid)"
+            val = f"> {fmt(c['dt_crit_lo'], '.4g')} ({_grid_words(c)})"
         elif c["bracket"] == "refused":
             val = "refused by the core (γ0 below the bound for θ = 1)"
         elif c["bracket"] == NO_VERDICT:
             val = "no verdict (no run finished: every one failed to run)"
         else:
-            val = f"< {fmt(c['dt_crit_hi'], '.4g')} (unstable on the whole grid)"
+            val = f"< {fmt(c['dt_crit_hi'], '.4g')} ({_grid_words(c)})"
         stop = f"{c['first_unstable_status']} at t={fmt(c['first_unstable_stop'], '.4g')}" \
             if c["first_unstable_status"] else ""
         table.append([c["scheme"], c["mass"], fmt(c["h"], "g"), fmt(c["gamma0"], "g"),
@@ -683,6 +683,19 @@ def _side(c: Mapping[str, Any], dt: float) -> str:
     if hi is not None and dt >= hi:
         return "unsafe"
     return "in"
+
+
+def _grid_words(c: Mapping[str, Any]) -> str:
+    """What the grid's runs say about a critical Δt outside the grid's range, from the
+    row's grid_stable 'k/n': stable (unstable) on the whole grid only when every run was;
+    a row below the grid with a stable run above its first unstable one is
+    non-monotone; runs that could not be done are neither."""
+    k, n = (int(x) for x in c["grid_stable"].split("/"))
+    if c["bracket"] == "above grid":
+        return "stable on the whole grid" if k == n else "stable at every Δt that ran"
+    if k == 0:
+        return "unstable on the whole grid"
+    return "unstable at the grid's smallest Δt, stable at a larger one: non-monotone"
 
 
 def _undecided(c: Mapping[str, Any]) -> str:
