@@ -1234,6 +1234,34 @@ def test_skew_claim_counts_refused_settings_apart():
     assert "theta1: stable θ=-1 2/3, θ=+1 0/0 (3 refused)" in row["evidence"]
 
 
+def test_pc_claim_counts_refused_settings_apart():
+    """'pc at h/20 becomes unstable after about 4–5 impacts' is judged on the settings
+    the core runs: a refused one (θ = 1 below the γ0 bound) is neither a setting where
+    it holds nor one where it does not. Made-up runs: three unstable after 4 impacts,
+    two refused."""
+    from dyncontact.study.claims import _claim_pc
+
+    grid = {"t_end": 30.0}
+    recs = []
+    for th, status in ((-1, "unstable"), (0, "unstable"), (1, "refused")):
+        for mass in ("consistent", "lumped"):
+            if th == 0 and mass == "lumped":
+                continue
+            recs.append({"status": status, "t_end_reached": 12.0,
+                         "metrics": {"impact_times": [1.0, 4.0, 7.0, 10.0]
+                                     if status == "unstable" else []},
+                         "task": make_task("base.nml", {}, tags={
+                             "scheme": "pc" if mass == "consistent" else "pc_lumped",
+                             "mass": mass, "h": 0.05, "gamma0": 0.01, "theta": th,
+                             "dt_over_h": 1 / 20})})
+    row = _claim_pc(recs, grid)
+    assert row["verdict"] == "holds"
+    assert ("holds: 3 (c/h0.05/γ0 0.01/θ-1 (t=12, 4), l/h0.05/γ0 0.01/θ-1 (t=12, 4), "
+            "c/h0.05/γ0 0.01/θ+0 (t=12, 4))") in row["evidence"]
+    assert ("counted apart: 2 (c/h0.05/γ0 0.01/θ+1, l/h0.05/γ0 0.01/θ+1)"
+            in row["evidence"])
+
+
 def test_skew_claim_is_not_tested_above_the_theta1_bound():
     """'Robust for small γ0' needs a γ0 below the element bound: where the core accepts
     θ = 1 at the sweep's smallest γ0 (the quick sweep's γ0 = 10, above the 2D bar's
