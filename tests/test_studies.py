@@ -1262,6 +1262,26 @@ def test_pc_claim_counts_refused_settings_apart():
             in row["evidence"])
 
 
+def test_seed_coefficients_claim_compares_among_accepted_settings():
+    """The seed's coefficients against the standard ones: stable runs are compared as a
+    fraction of the settings the core accepts. Made-up runs: the seed's scheme stable at
+    3 of its 3 accepted settings (1 refused), the standard one at 3 of 4: equal counts,
+    but the seed's is the more stable."""
+    from dyncontact.study.claims import _claim_seed_coeffs
+
+    recs = []
+    for scheme, sts in (("hht_seed-0.1", ("ok", "ok", "ok", "refused")),
+                        ("hht-0.1", ("ok", "ok", "ok", "unstable"))):
+        for g0, st in zip((0.01, 1.0, 10.0, 100.0), sts):
+            recs.append({"status": st, "t_end_reached": 3.0, "metrics": {},
+                         "task": make_task("base.nml", {}, tags={
+                             "scheme": scheme, "h": 0.1, "gamma0": g0, "theta": 1,
+                             "dt_over_h": 1 / 20})})
+    row = _claim_seed_coeffs(recs, {"t_end": 30.0})[0]
+    assert row["verdict"] == "the seed's coefficients are more stable"
+    assert "stable runs: hht_seed-0.1 3/3 (1 refused), hht-0.1 3/4." in row["evidence"]
+
+
 def test_skew_claim_is_not_tested_above_the_theta1_bound():
     """'Robust for small γ0' needs a γ0 below the element bound: where the core accepts
     θ = 1 at the sweep's smallest γ0 (the quick sweep's γ0 = 10, above the 2D bar's
