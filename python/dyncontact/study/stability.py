@@ -199,7 +199,6 @@ def critical_groups(recs) -> tuple[dict[tuple, dict[str, Any]], dict[tuple, tupl
             brackets[key] = (dts[stable[-1]], dts[first_bad])
         if first_bad is not None:
             info["non_monotone"] = any(ok[first_bad + 1:])
-        if first_bad is not None:
             info["first_unstable_status"] = rs[first_bad]["status"]
             info["first_unstable_stop"] = rs[first_bad].get("t_end_reached")
             info["first_unstable_reason"] = _first(rs[first_bad].get("message"))
