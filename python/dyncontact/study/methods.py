@@ -12,8 +12,8 @@ h = 0.1, T = 3). Per run (from its trace):
   runs from about 1.14 to 2.27 at h = 0.1) against the thin-bar value PN_BAR = -3/8: mean
   error and standard deviation (the chatter). The 1D closed form's contact stress is
   -amplitude x the bar's modulus, -1/2 for E = 1; the seed's strip has free lateral
-  sides in plane strain, so its bar modulus is E/(1 - nu^2) = 0.75 (docs/numerics.md,
-  Fig. 8: its waves and its contact phase run at c = 0.87), and its stress -3/8;
+  sides in plane strain, so its bar modulus is E/(1 - nu^2) = 0.75 (as docs/numerics.md
+  says of Fig. 8; its waves and its contact phase run at c = 0.87), and its stress -3/8;
 - penetration max u_n (g = 0 at the probe), Newton iterations a step, and the core's
   verdict (stable or unstable).
 
