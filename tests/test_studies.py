@@ -528,6 +528,36 @@ def test_critical_rows_from_synthetic_groups():
             pc["first_unstable_reason"]) == ("unstable", 7.5, "energy above blowup")
 
 
+def test_a_run_that_could_not_be_done_is_no_stable_end_of_the_bracket():
+    """A grid run with status 'error' (it could not be done) says nothing about
+    stability: the bracket's stable end is the largest Δt that ran to T, a group whose
+    only run below the first unstable one errored is unstable on the whole grid, one
+    whose top run errored is stable above the last run that finished, and one of errors
+    only has no verdict."""
+    from dyncontact.study import stability as st
+
+    def rec(scheme, dt, status):
+        return {"task": make_task("", {}, tags={"scheme": scheme, "h": 0.1, "gamma0": 10.0,
+                                                "theta": 1, "dt": dt}),
+                "status": status, "t_end_reached": 1.0, "message": "", "metrics": {}}
+
+    recs = [rec("pc", 0.005, "ok"), rec("pc", 0.01, "error"), rec("pc", 0.05, "unstable"),
+            rec("central", 0.01, "error"), rec("central", 0.05, "unstable"),
+            rec("hht-0.1", 0.005, "ok"), rec("hht-0.1", 0.1, "error"),
+            rec("newmark", 0.005, "error"), rec("newmark", 0.1, "error")]
+    crit, brackets = st.critical_groups(recs)
+    key = {s: (s, 0.1, 10.0, 1) for s in ("pc", "central", "hht-0.1", "newmark")}
+    assert brackets == {key["pc"]: (0.005, 0.05)}
+    assert (crit[key["pc"]]["lo"], crit[key["pc"]]["hi"]) == (0.005, 0.05)
+    assert (crit[key["central"]]["bracket"], crit[key["central"]]["hi"]) == ("below grid",
+                                                                             0.05)
+    assert (crit[key["hht-0.1"]]["bracket"], crit[key["hht-0.1"]]["lo"]) == ("above grid",
+                                                                             0.005)
+    assert crit[key["newmark"]]["bracket"] == st.NO_VERDICT
+    assert st._crit_text(dict(crit[key["newmark"]], dt_crit_lo=None,
+                              dt_crit_hi=None)) == "no verdict"
+
+
 # --------------------------------------------------------------------------- sweep
 
 def _small_tasks(base):
@@ -810,6 +840,37 @@ def _ramped(t, width, jumps=((1.0, 1.0), (2.0, -1.0))):
     return v
 
 
+def test_chatter_note_follows_the_reference_levels():
+    """The work-precision note on v_n and p_n says whether the consistent reference's
+    levels converge from its own differences: levels whose differences shrink (the quick
+    study's 0.182 → 0.124) are not said not to converge, levels whose differences grow
+    (the full study's p_n 0.121 → 0.141) are; each sequence carries its trend."""
+    from dyncontact.study.workprecision import _pn_note
+
+    def ref(ds):
+        return {"ok": True, **{k: {"d": d, "dt_err": 0.01,
+                                   "p": math.log2(d[-2] / d[-1]) if d[-1] < d[-2]
+                                   else math.nan} for k, d in ds.items()}}
+
+    filt = ref({"v_n": [0.0868, 0.048], "v_n_rms": [0.107, 0.0673],
+                "p_n": [0.0117, 0.00864, 0.00875, 0.00763],
+                "p_n_rms": [0.0324, 0.0229, 0.0266, 0.0275]})
+    shrink = ref({"v_n": [0.182, 0.124], "v_n_rms": [0.256, 0.175],
+                  "p_n": [0.106, 0.0728], "p_n_rms": [0.278, 0.2]})
+    grow = ref({"v_n": [0.2, 0.21], "v_n_rms": [0.256, 0.275],
+                "p_n": [0.121, 0.141], "p_n_rms": [0.278, 0.3]})
+    note = _pn_note({"references": {"consistent": shrink, "filtered": filt}})
+    assert "does not converge" not in note
+    assert "oscillation converges slowly if at all" in note
+    assert "v_n 0.182 → 0.124 (mean |·|, p = 0.55)" in note
+    assert ("p_n 0.0117 → 0.00864 → 0.00875 → 0.00763 (mean |·|, p = 0.20 from the last "
+            "two, not decreasing before), 0.0324 → 0.0229 → 0.0266 → 0.0275 (RMS, not "
+            "decreasing at the last level)") in note
+    note = _pn_note({"references": {"consistent": grow, "filtered": filt}})
+    assert "oscillation does not converge: the consistent reference's" in note
+    assert "p_n 0.121 → 0.141 (mean |·|, not decreasing at the last level)" in note
+
+
 def test_resolution_table_on_a_synthetic_case_with_a_known_answer(tmp_path):
     """The "is the reference converged enough" logic on traces whose errors are known.
 
@@ -1063,7 +1124,8 @@ def test_which_scheme_table_is_built_from_runs(which, work_precision):
         assert picks[(case, "least p_n oscillation")]["pick"] == best["label"]
         # among the schemes that keep the energy at impact: the redistributed mass
         cons = [x for x in osc if abs(x["e_first_contact"]) <= SIGNIFICANT_GAIN]
-        q = next(k for k in picks if k[0] == case and "without losing" in k[1])
+        # the question names what is kept: |E change| within 1 %, a gain as a loss
+        q = next(k for k in picks if k[0] == case and "energy kept within 1 %" in k[1])
         pick = picks[q]["pick"]
         assert "redistributed" in pick
         assert pick == min(cons, key=lambda x: x["pn_rel_std"])["label"]
@@ -1130,6 +1192,27 @@ def test_robustness_counts_refused_settings_apart():
     assert x["accepted"] == 0 and math.isnan(x["score"]) and x["refused"] == 3
 
 
+def test_which_cheapest_pick_of_short_runs_says_its_ranking_is_not_reliable():
+    """The work-precision summary warns that runs under SHORT_CPU_S rank unreliably; a
+    which-scheme pick made from such runs carries the same caveat, one from longer runs
+    does not. Made-up rows: two curves, the cheaper one picked."""
+    from dyncontact.study import workprecision as wp
+    from dyncontact.study.which import cheapest, cheapest_evidence
+
+    def rows(cpu):
+        return [{"case": "1d", "series": s, "label": s, "status": "ok", "h": 0.04,
+                 "dt": 0.002, "cpu_s": c, "err_u_n": 5e-4}
+                for s, c in (("central", cpu), ("theta1", 1.2 * cpu))]
+
+    short = cheapest(rows(0.5 * wp.SHORT_CPU_S), "1d", "u_n")
+    assert short["pick"]["label"] == "central" and short["runner_up"]["label"] == "theta1"
+    ev = cheapest_evidence(short, "u_n")
+    assert "runner-up theta1" in ev and "(1.2×)" in ev
+    assert "less than 20 ms of CPU" in ev and "the ranking is not reliable" in ev
+    long = cheapest(rows(2 * wp.SHORT_CPU_S), "1d", "u_n")
+    assert "not reliable" not in cheapest_evidence(long, "u_n")
+
+
 def test_skew_claim_counts_refused_settings_apart():
     """The claim 'θ = −1 is robust for small γ0' compares θ on the settings each accepts:
     θ = +1 refused at the smallest γ0 (the core's bound) is no rival and shows as
@@ -1149,6 +1232,73 @@ def test_skew_claim_counts_refused_settings_apart():
     assert "at least as often stable as the other θ for 2 of 2" in row["verdict"]
     assert "newmark: stable θ=-1 3/3, θ=+1 0/0 (3 refused)" in row["evidence"]
     assert "theta1: stable θ=-1 2/3, θ=+1 0/0 (3 refused)" in row["evidence"]
+
+
+def test_pc_claim_counts_refused_settings_apart():
+    """'pc at h/20 becomes unstable after about 4–5 impacts' is judged on the settings
+    the core runs: a refused one (θ = 1 below the γ0 bound) is neither a setting where
+    it holds nor one where it does not. Made-up runs: three unstable after 4 impacts,
+    two refused."""
+    from dyncontact.study.claims import _claim_pc
+
+    grid = {"t_end": 30.0}
+    recs = []
+    for th, status in ((-1, "unstable"), (0, "unstable"), (1, "refused")):
+        for mass in ("consistent", "lumped"):
+            if th == 0 and mass == "lumped":
+                continue
+            recs.append({"status": status, "t_end_reached": 12.0,
+                         "metrics": {"impact_times": [1.0, 4.0, 7.0, 10.0]
+                                     if status == "unstable" else []},
+                         "task": make_task("base.nml", {}, tags={
+                             "scheme": "pc" if mass == "consistent" else "pc_lumped",
+                             "mass": mass, "h": 0.05, "gamma0": 0.01, "theta": th,
+                             "dt_over_h": 1 / 20})})
+    row = _claim_pc(recs, grid)
+    assert row["verdict"] == "holds"
+    assert ("holds: 3 (c/h0.05/γ0 0.01/θ-1 (t=12, 4), l/h0.05/γ0 0.01/θ-1 (t=12, 4), "
+            "c/h0.05/γ0 0.01/θ+0 (t=12, 4))") in row["evidence"]
+    assert ("counted apart: 2 (c/h0.05/γ0 0.01/θ+1, l/h0.05/γ0 0.01/θ+1)"
+            in row["evidence"])
+
+
+def test_seed_coefficients_claim_compares_among_accepted_settings():
+    """The seed's coefficients against the standard ones: stable runs are compared as a
+    fraction of the settings the core accepts. Made-up runs: the seed's scheme stable at
+    3 of its 3 accepted settings (1 refused), the standard one at 3 of 4: equal counts,
+    but the seed's is the more stable."""
+    from dyncontact.study.claims import _claim_seed_coeffs
+
+    recs = []
+    for scheme, sts in (("hht_seed-0.1", ("ok", "ok", "ok", "refused")),
+                        ("hht-0.1", ("ok", "ok", "ok", "unstable"))):
+        for g0, st in zip((0.01, 1.0, 10.0, 100.0), sts):
+            recs.append({"status": st, "t_end_reached": 3.0, "metrics": {},
+                         "task": make_task("base.nml", {}, tags={
+                             "scheme": scheme, "h": 0.1, "gamma0": g0, "theta": 1,
+                             "dt_over_h": 1 / 20})})
+    row = _claim_seed_coeffs(recs, {"t_end": 30.0})[0]
+    assert row["verdict"] == "the seed's coefficients are more stable"
+    assert "stable runs: hht_seed-0.1 3/3 (1 refused), hht-0.1 3/4." in row["evidence"]
+
+
+def test_skew_claim_is_not_tested_above_the_theta1_bound():
+    """'Robust for small γ0' needs a γ0 below the element bound: where the core accepts
+    θ = 1 at the sweep's smallest γ0 (the quick sweep's γ0 = 10, above the 2D bar's
+    bound 2.83), the runs cannot decide the claim, whatever they show."""
+    from dyncontact.study.claims import _claim_skew
+
+    grid = {"gamma0": [10.0], "theta": [-1, 1], "t_end": 30.0}
+    recs = []
+    for scheme, sts in (("hht-0.1", ("ok", "ok")), ("pc", ("ok", "unstable"))):
+        for r, st in zip((0.05, 0.5), sts):
+            for th in (-1, 1):
+                recs.append({"status": st, "task": make_task(
+                    "base.nml", {}, tags={"scheme": scheme, "gamma0": 10.0, "theta": th,
+                                          "dt_over_h": r})})
+    row = _claim_skew(recs, grid)
+    assert row["verdict"] == "not tested"
+    assert "γ0 = 10, the smallest of the sweep, is not small" in row["evidence"]
 
 
 def test_stale_cleaning_spares_a_long_run_of_another_sweep(tmp_path):
@@ -1190,3 +1340,75 @@ def test_summary_says_when_the_cheapest_runs_are_too_short_to_rank(tmp_path):
     short = lines(0.5 * wp.SHORT_CPU_S)
     assert "less than 20 ms of CPU (newmark)" in short and "not reliable" in short
     assert "not reliable" not in lines(1.0)
+
+
+def test_critical_dt_outside_the_grid_says_what_the_grid_showed(tmp_path):
+    """A group unstable at the grid's smallest Δt but stable at a larger one is
+    non-monotone, not 'unstable on the whole grid'; a group stable at every Δt that ran,
+    one of them not done ('error'), is not 'stable on the whole grid'."""
+    from dyncontact.study import stability as st
+    from dyncontact.study.common import scheme_list
+
+    def rec(scheme, dt, status):
+        return {"task": make_task("", {}, tags={"scheme": scheme, "h": 0.1, "gamma0": 10.0,
+                                                "theta": 1, "dt": dt}),
+                "status": status, "t_end_reached": 1.0, "message": "", "metrics": {}}
+
+    recs = [rec("newmark_alm", 0.005, "unstable"), rec("newmark_alm", 0.05, "ok"),
+            rec("newmark", 0.005, "unstable"), rec("newmark", 0.05, "unstable"),
+            rec("hht-0.1", 0.005, "ok"), rec("hht-0.1", 0.05, "error"),
+            rec("theta1", 0.005, "ok"), rec("theta1", 0.05, "ok")]
+    crit, _ = st.critical_groups(recs)
+    rows = st.critical_rows(crit, scheme_list(("newmark_alm", "newmark", "hht-0.1",
+                                               "theta1")))
+    grid = {"t_end": 30.0, "h": (0.1,), "gamma0": (10.0,), "theta": (1,),
+            "dt_over_h": {"implicit": (0.05, 0.5), "explicit": (0.05,)}, "rounds": 3}
+    report = {"grid": grid, "n_runs": 0, "n_cached": 0, "n_errors": 1, "n_refused": 0,
+              "wall_s": 0.0, "claims": [], "pngs": [], "critical": rows, "box3d": None}
+    text = open(st._summary(report, [], str(tmp_path / "summary.md")),
+                encoding="utf-8").read()
+    alm = next(r for r in rows if r["scheme"] == "newmark_alm")
+    assert (alm["bracket"], alm["non_monotone"]) == ("below grid", True)
+    assert ("< 0.005 (unstable at the grid's smallest Δt, stable at a larger one: "
+            "non-monotone) | 1/2 | yes |") in text
+    assert "< 0.005 (unstable on the whole grid) | 0/2 |" in text
+    assert "> 0.005 (stable at every Δt that ran) | 1/2 |" in text
+    assert "> 0.05 (stable on the whole grid) | 2/2 |" in text
+
+
+def test_explicit_estimate_inside_the_bracket_is_undecided(tmp_path):
+    """The summary's estimate-against-measured section on made-up rows: an estimate
+    (or central's auto step, 0.9 × it) inside the bisection's bracket [lo, hi] is neither
+    on the safe nor on the unsafe side, whatever its ratio to the bracket's geometric
+    mean; one at or below lo is safe, one at or above hi unsafe."""
+    from dyncontact.study.stability import _summary
+
+    def row(theta, est, lo, hi):
+        mid = math.sqrt(lo * hi)
+        return {"scheme": "central_lumped", "mass": "lumped", "method": "nitsche",
+                "h": 0.1, "gamma0": 10.0, "theta": theta, "dt_crit_lo": lo,
+                "dt_crit_hi": hi, "dt_crit": mid, "dt_crit_over_h": mid / 0.1,
+                "dt_crit_estimate": est, "estimate_over_measured": est / mid,
+                "bracket": "bisection", "grid_stable": "2/3", "non_monotone": False,
+                "first_unstable_status": "unstable", "first_unstable_stop": 8.0,
+                "first_unstable_reason": ""}
+
+    # θ = -1: est 0.04575 and auto 0.0412 both in [0.04089, 0.05] (the quick sweep's
+    # numbers); θ = 0: auto 0.036 below lo; θ = 1: auto 0.054 above hi
+    crit = [row(-1, 0.04575, 0.04089, 0.05), row(0, 0.04, 0.0409, 0.05),
+            row(1, 0.06, 0.04, 0.05)]
+    # stable on the whole grid (up to 0.05): an estimate above it is undecided too
+    crit.append(dict(row(1, 0.05478, 0.05, 0.05), scheme="pc_lumped", dt_crit_hi=None,
+                     dt_crit=None, estimate_over_measured=None, bracket="above grid"))
+    grid = {"t_end": 30.0, "h": (0.1,), "gamma0": (10.0,), "theta": (-1, 0, 1),
+            "dt_over_h": {"implicit": (0.05,), "explicit": (0.05, 0.5)}, "rounds": 3}
+    report = {"grid": grid, "n_runs": 0, "n_cached": 0, "n_errors": 0, "n_refused": 0,
+              "wall_s": 0.0, "claims": [], "pngs": [], "critical": crit, "box3d": None}
+    text = open(_summary(report, [], str(tmp_path / "summary.md")), encoding="utf-8").read()
+    assert "| -1 | 0.04575 | 0.04089 – 0.05 | 1.012 (undecided: inside the bracket) |" in text
+    assert "| 0 | 0.04 | 0.0409 – 0.05 | 0.885 |" in text
+    assert "| 1 | 0.05478 | above grid | - (undecided: above the grid's runs) |" in text
+    assert ("is at or above the measured unstable bound in 1 of 3 settings: central_lumped "
+            "h=0.1 γ0=10 θ=+1; at or below the measured stable bound in 1; where the runs "
+            "cannot tell (inside the bracket, or beyond the grid's end) in 1: "
+            "central_lumped h=0.1 γ0=10 θ=-1.") in text

@@ -155,12 +155,18 @@ def bisect_critical(groups: Mapping[Hashable, tuple[float, float]],
 
 # --------------------------------------------------------------------------- study
 
+#: The bracket of a group with no run that finished or was refused only (every run an
+#: 'error', the run could not be done): no critical Δt, stable or unstable.
+NO_VERDICT = "no verdict"
+
+
 def critical_groups(recs) -> tuple[dict[tuple, dict[str, Any]], dict[tuple, tuple]]:
     """Group the grid runs by (scheme, h, gamma0, theta) and bracket each group's
     critical dt on the grid: ({group: info}, {group: (lo, hi)} of the groups to bisect).
     info: grid_stable ('k/n'), bracket ('bisection', 'above grid', 'below grid',
-    'refused'), lo, hi, non_monotone, dt_crit_estimate, and the first unstable run's
-    status, stop time and reason."""
+    'refused', NO_VERDICT), lo (the largest Δt that ran to T below the first unstable
+    one; a run that could not be done is no stable end), hi, non_monotone,
+    dt_crit_estimate, and the first unstable run's status, stop time and reason."""
     groups: dict[tuple, list[dict]] = {}
     for r in recs:
         tg = r["task"].tag
@@ -177,17 +183,22 @@ def critical_groups(recs) -> tuple[dict[tuple, dict[str, Any]], dict[tuple, tupl
         info = {"grid_stable": f"{sum(ok)}/{len(ok)}", "non_monotone": False,
                 "lo": None, "hi": None, "bracket": "",
                 "dt_crit_estimate": est[0] if est else None}
+        # the bracket's stable end is a run that finished, never one that could not be
+        # done (an 'error' says nothing about stability)
+        stable = [i for i in range(len(rs) if first_bad is None else first_bad) if ok[i]]
         if all(r["status"] == REFUSED for r in rs):
             info.update(bracket="refused")
+        elif first_bad is None and not stable:
+            info.update(bracket=NO_VERDICT)
         elif first_bad is None:
-            info.update(bracket="above grid", lo=dts[-1])
-        elif first_bad == 0:
-            info.update(bracket="below grid", hi=dts[0])
+            info.update(bracket="above grid", lo=dts[stable[-1]])
+        elif not stable:
+            info.update(bracket="below grid", hi=dts[first_bad])
         else:
-            info.update(bracket="bisection", lo=dts[first_bad - 1], hi=dts[first_bad])
-            brackets[key] = (dts[first_bad - 1], dts[first_bad])
-            info["non_monotone"] = any(ok[first_bad + 1:])
+            info.update(bracket="bisection", lo=dts[stable[-1]], hi=dts[first_bad])
+            brackets[key] = (dts[stable[-1]], dts[first_bad])
         if first_bad is not None:
+            info["non_monotone"] = any(ok[first_bad + 1:])
             info["first_unstable_status"] = rs[first_bad]["status"]
             info["first_unstable_stop"] = rs[first_bad].get("t_end_reached")
             info["first_unstable_reason"] = _first(rs[first_bad].get("message"))
@@ -375,8 +386,8 @@ def _crit_text(c) -> str:
         return f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')}"
     if c["bracket"] == "above grid":
         return f"> {fmt(c['dt_crit_lo'], '.4g')}"
-    if c["bracket"] == "refused":
-        return "refused"
+    if c["bracket"] in ("refused", NO_VERDICT):
+        return c["bracket"]
     return f"< {fmt(c['dt_crit_hi'], '.4g')}"
 
 
@@ -388,7 +399,7 @@ def _ratio_text(c, dt: float) -> str:
         return fmt(c["dt_crit"] / dt if c.get("dt_crit") else None, ".3g")
     if c["bracket"] == "above grid":
         return f"> {fmt(c['dt_crit_lo'] / dt, '.3g')}"
-    if c["bracket"] == "refused":
+    if c["bracket"] in ("refused", NO_VERDICT):
         return "-"
     return f"< {fmt(c['dt_crit_hi'] / dt, '.3g')}"
 
@@ -523,8 +534,8 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out, scene: str = "") -> list[str
                     txt = f"{c['dt_crit_over_h']:.3g}"
                 elif c["bracket"] == "above grid":
                     txt = f">{c['dt_crit_lo'] / h:.3g}"
-                elif c["bracket"] == "refused":
-                    txt = "refused"
+                elif c["bracket"] in ("refused", NO_VERDICT):
+                    txt = c["bracket"]
                 else:
                     txt = f"<{c['dt_crit_hi'] / h:.3g}"
                 # white on the dark end of the colour map (black was unreadable there)
@@ -595,11 +606,13 @@ def _summary(report, schemes, path) -> str:
             val = f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')} " \
                   f"(h/{1 / c['dt_crit_over_h']:.3g})"
         elif c["bracket"] == "above grid":
-            val = f"> {fmt(c['dt_crit_lo'], '.4g')} (stable on the whole grid)"
+            val = f"> {fmt(c['dt_crit_lo'], '.4g')} ({_grid_words(c)})"
         elif c["bracket"] == "refused":
             val = "refused by the core (γ0 below the bound for θ = 1)"
+        elif c["bracket"] == NO_VERDICT:
+            val = "no verdict (no run finished: every one failed to run)"
         else:
-            val = f"< {fmt(c['dt_crit_hi'], '.4g')} (unstable on the whole grid)"
+            val = f"< {fmt(c['dt_crit_hi'], '.4g')} ({_grid_words(c)})"
         stop = f"{c['first_unstable_status']} at t={fmt(c['first_unstable_stop'], '.4g')}" \
             if c["first_unstable_status"] else ""
         table.append([c["scheme"], c["mass"], fmt(c["h"], "g"), fmt(c["gamma0"], "g"),
@@ -613,13 +626,16 @@ def _summary(report, schemes, path) -> str:
               "M⁻¹(K_θ + contact tangent with every contact point active) by power "
               "iterations, Ω_c the limit of the scheme's amplification matrix (2 for central, "
               "√2 for pc; docs/numerics.md, \"Explicit schemes\"); the measured critical Δt "
-              "is the bisection's bracket above. A ratio below 1 means the estimate is on "
-              "the safe side (central's dt = 0 runs at 0.9 × the estimate).", ""]
+              "is the bisection's bracket above, the ratio is to its geometric mean. The "
+              "estimate is on the safe side when it is at most the bracket's stable end, on "
+              "the unsafe side when at least its unstable end; inside the bracket the runs "
+              "cannot tell, whatever the ratio (central's dt = 0 runs at 0.9 × the "
+              "estimate).", ""]
     table = [[c["scheme"], c["mass"], fmt(c["h"], "g"), fmt(c["gamma0"], "g"), c["theta"],
               fmt(c["dt_crit_estimate"], ".4g"),
               (f"{fmt(c['dt_crit_lo'], '.4g')} – {fmt(c['dt_crit_hi'], '.4g')}"
                if c["bracket"] == "bisection" else c["bracket"]),
-              fmt(c["estimate_over_measured"], ".3f")]
+              fmt(c["estimate_over_measured"], ".3f") + _undecided(c)]
              for c in report["critical"] if c.get("dt_crit_estimate")]
     if table:
         lines += md_table(["scheme", "mass", "h", "γ0", "θ", "estimate", "measured",
@@ -634,18 +650,61 @@ def _summary(report, schemes, path) -> str:
         # dt = 0 is central's only
         auto = [c for c in report["critical"] if c.get("dt_crit_estimate")
                 and c["scheme"].startswith("central")]
-        unsafe = [c for c in auto if c["bracket"] in ("bisection", "below grid")
-                  and AUTO_FACTOR * c["dt_crit_estimate"] >= c["dt_crit_hi"]]
+        sides = {k: [c for c in auto if _side(c, AUTO_FACTOR * c["dt_crit_estimate"]) == k]
+                 for k in ("unsafe", "safe", "in")}
+
+        def which(cs):
+            return (": " + ", ".join(f"{c['scheme']} h={c['h']:g} γ0={c['gamma0']:g} "
+                                     f"θ={c['theta']:+d}" for c in cs)) if cs else ""
+
         lines += ["", f"Central's Δt = 0 (auto: {AUTO_FACTOR:g} × the estimate) is at or "
-                  f"above the measured unstable bound in {len(unsafe)} of {len(auto)} "
-                  f"settings" + (": " + ", ".join(
-                      f"{c['scheme']} h={c['h']:g} γ0={c['gamma0']:g} θ={c['theta']:+d}"
-                      for c in unsafe) if unsafe else "") + "."]
+                  f"above the measured unstable bound in {len(sides['unsafe'])} of "
+                  f"{len(auto)} settings{which(sides['unsafe'])}; at or below the measured "
+                  f"stable bound in {len(sides['safe'])}; where the runs cannot tell "
+                  f"(inside the bracket, or beyond the grid's end) in "
+                  f"{len(sides['in'])}{which(sides['in'])}."]
     else:
         lines.append("No explicit run in the sweep.")
     if report.get("box3d"):
         lines += _box3d_summary(report)
     return write_markdown(path, lines)
+
+
+def _side(c: Mapping[str, Any], dt: float) -> str:
+    """Where the step dt lies against the critical row c's measured bounds: 'safe' (at
+    or below a stable Δt), 'unsafe' (at or above an unstable one) or 'in' (the runs
+    cannot tell: inside the bisection's bracket, or beyond the end of the grid whose
+    runs all had the one verdict)."""
+    lo = c.get("dt_crit_lo") if c["bracket"] in ("bisection", "above grid") else None
+    hi = c.get("dt_crit_hi") if c["bracket"] in ("bisection", "below grid") else None
+    if lo is not None and dt <= lo:
+        return "safe"
+    if hi is not None and dt >= hi:
+        return "unsafe"
+    return "in"
+
+
+def _grid_words(c: Mapping[str, Any]) -> str:
+    """What the grid's runs say about a critical Δt outside the grid's range, from the
+    row's grid_stable 'k/n': stable (unstable) on the whole grid only when every run was;
+    a row below the grid with a stable run above its first unstable one is
+    non-monotone; runs that could not be done are neither."""
+    k, n = (int(x) for x in c["grid_stable"].split("/"))
+    if c["bracket"] == "above grid":
+        return "stable on the whole grid" if k == n else "stable at every Δt that ran"
+    if k == 0:
+        return "unstable on the whole grid"
+    return "unstable at the grid's smallest Δt, stable at a larger one: non-monotone"
+
+
+def _undecided(c: Mapping[str, Any]) -> str:
+    """' (undecided: ...)' when the row's estimate lies where its runs cannot tell
+    (:func:`_side`), naming where; '' otherwise."""
+    if _side(c, c["dt_crit_estimate"]) != "in":
+        return ""
+    where = {"bisection": "inside the bracket", "above grid": "above the grid's runs",
+             "below grid": "below the grid's runs"}.get(c["bracket"], "no bracket")
+    return f" (undecided: {where})"
 
 
 def run_stability_scene(out: str, scene: Any, *, quick: bool = False,
