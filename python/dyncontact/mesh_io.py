@@ -51,7 +51,7 @@ from .scene import packaged_file
 __all__ = ["MeshData", "read_mesh", "read_msh_fortran", "builtin_bar", "generate_bar",
            "generate", "find_geo", "main"]
 
-#: ``dyncontact mesh --max-elements`` by default: the default of ``&mesh max_elements``.
+#: ``python -m dyncontact mesh --max-elements`` by default: the default of ``&mesh max_elements``.
 DEFAULT_MAX_ELEMENTS = 2000000
 
 #: Parameters of a .geo set by :func:`generate` and by the core (like gmsh -setnumber).
@@ -346,7 +346,7 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
 
     h, length and width are set as the file's parameters of those names (as
     ``gmsh -setnumber h 0.02`` would); where the file uses no h, h is the largest
-    mesh size. None (``dyncontact mesh`` without ``--h``, ``--length`` or ``--width``):
+    mesh size. None (``python -m dyncontact mesh`` without ``--h``, ``--length`` or ``--width``):
     as a run's .geo for a scene without that key, the parameter is not set: a file
     that defines it (``DefineConstant[h = {...}]``) keeps its own value, one that uses
     it without defining it gets the key's default (:data:`GEO_DEFAULTS`: 0.05, 1.0,
@@ -359,7 +359,7 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
     link stays): an error, a KeyboardInterrupt or a stop signal
     (:func:`dyncontact.core.exit_on_signal_during_mesh_read`) leaves no part of a mesh
     under that name, and an existing file of that name as it was. ``verify(path)``, when
-    given, is called with the temporary file before the rename (``dyncontact mesh`` reads
+    given, is called with the temporary file before the rename (``python -m dyncontact mesh`` reads
     it back); an exception it raises discards the file and goes on to the caller.
 
     ``max_elements > 0``: a .geo whose element count, estimated before meshing
@@ -380,7 +380,7 @@ def generate(geo_path: str | os.PathLike, out_path: str | os.PathLike,
         `CreateDir`, `Printf(...) > "file"`: docs/scenes.md), or gmsh cannot mesh it.
     DyncontactError
         gmsh cannot write `out_path` (nothing is left under that name). A write cut
-        short midway gmsh does not report: ``dyncontact mesh`` finds it when it reads
+        short midway gmsh does not report: ``python -m dyncontact mesh`` finds it when it reads
         the file back.
     """
     given = {k for k, v in (("h", h), ("length", length), ("width", width))

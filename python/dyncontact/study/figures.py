@@ -791,9 +791,10 @@ def _where(report: Mapping[str, Any]) -> str:
 
 def figures_main(argv: Sequence[str] | None = None, root: str | None = None) -> int:
     """``scripts/figures [--quick] [--workers N] [--scheduler ADDRESS] [--cache DIR]
-    [--out DIR]`` (the runner's options as ``dyncontact study`` takes them): 0 when every figure was drawn (unstable runs are results, not
-    failures), 1 otherwise, 2 on a bad command line, 130 on Ctrl-C or SIGTERM (the pool's
-    workers stopped, the finished runs cached)."""
+    [--out DIR]`` (the runner's options as ``python -m dyncontact study`` takes them):
+    0 when every figure was drawn (unstable runs are results, not failures), 1 otherwise,
+    2 on a bad command line, 130 on Ctrl-C or SIGTERM (the pool's workers stopped, the
+    finished runs cached)."""
     root = root or os.getcwd()
     p = OneLineParser(prog="scripts/figures", label="figures", description="Regenerate the "
                                 "seed's Figures 1-7, the 3D Figures 8-9 (runs in parallel) "
