@@ -570,40 +570,28 @@ def test_scene_bad_input_is_one_line_exit_2(tmp_path, capsys, study, scene_text,
     assert not out.exists()
 
 
-def test_scene_shorter_than_the_studys_largest_step_is_one_line_exit_2(tmp_path, capsys):
-    """A scene whose T is a few of its own steps (T = 4 Δt) ran the study and ended with
-    exit 1, `1 run(s) failed to run`: central's step, 5 × the scene's, passes T, which the
-    core refuses. The study says so in one line naming the scene, T and that step, exit 2,
-    before any run."""
+@pytest.mark.parametrize("study, step", [
+    ("work-precision", "0.0125 (central, Δt×5)"),
+    ("stability", "0.02 (the grid's 8 × the scene's Δt)"),
+])
+def test_scene_shorter_than_the_studys_largest_step_is_one_line_exit_2(tmp_path, capsys,
+                                                                       study, step):
+    """A scene whose T is a few of its own steps (T = 4 Δt) would run the study and end
+    with exit 1, runs failing to run: work-precision's central step (5 × the scene's) and
+    the stability grid's largest (8 ×) pass T, which the core refuses. The study says so in
+    one line naming the scene, T and that step, exit 2, before any run."""
     from dyncontact.study.cli import main
 
     scene = tmp_path / "short.nml"
     scene.write_text("&scheme dt = 0.0025, t_end = 0.01 /\n")
     out = tmp_path / "out"
-    assert main(["work-precision", "--quick", "--out", str(out), "--scene", str(scene),
+    assert main([study, "--quick", "--out", str(out), "--scene", str(scene),
                  "--no-progress"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1, err
     assert err == (f"dyncontact study: --scene {scene}: &scheme t_end = 0.01 is shorter than "
-                   "the study's largest step, 0.0125 (central, Δt×5): give a t_end of a few "
-                   "of them at least"), err
-    assert not (out / "cache").exists()
-
-
-def test_scene_stability_shorter_than_its_largest_step_is_one_line_exit_2(tmp_path, capsys):
-    """The same for the stability study, whose grid goes to 8 × the scene's Δt: three
-    runs failed to run, exit 1; one line naming the scene, T and that step, exit 2."""
-    from dyncontact.study.cli import main
-
-    scene = tmp_path / "short.nml"
-    scene.write_text("&scheme dt = 0.0025, t_end = 0.01 /\n")
-    out = tmp_path / "out"
-    assert main(["stability", "--quick", "--out", str(out), "--scene", str(scene),
-                 "--no-progress"]) == 2
-    err = capsys.readouterr().err.strip()
-    assert err == (f"dyncontact study: --scene {scene}: &scheme t_end = 0.01 is shorter than "
-                   "the study's largest step, 0.02 (the grid's 8 × the scene's Δt): give a "
-                   "t_end of a few of them at least"), err
+                   f"the study's largest step, {step}: give a t_end of a few of them at "
+                   "least"), err
     assert not (out / "cache").exists()
 
 
