@@ -7,8 +7,8 @@ program main
     use scene, only: PATH_LEN
     use os_files, only: signals_install
     use version_info, only: DYNCONTACT_VERSION
-    use text, only: int_text, real_text
-    use run_lines, only: start_line, restart_line, counted
+    use text, only: int_text, real_text, counted
+    use run_lines, only: start_line, restart_line
     use run_help_text, only: print_run_help
     implicit none
     interface

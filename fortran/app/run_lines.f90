@@ -4,10 +4,10 @@
 module run_lines
     use kinds, only: i8
     use simulation, only: simulation_t
-    use text, only: int_text, real_text
+    use text, only: int_text, real_text, counted
     implicit none
     private
-    public :: start_line, restart_line, counted
+    public :: start_line, restart_line
 
 contains
 
@@ -32,13 +32,4 @@ contains
         if (sim%restart_step >= 0) s = 'restart at step '//int_text(sim%restart_step)// &
             ', t='//real_text(sim%st%t, 6)
     end function restart_line
-
-    !> "n noun" with the noun in the plural unless n = 1 ('1 contact facet', '2 steps').
-    pure function counted(n, noun) result(s)
-        integer(i8), intent(in) :: n            !! the count
-        character(len=*), intent(in) :: noun    !! the noun, singular
-        character(len=:), allocatable :: s
-        s = int_text(n)//' '//noun
-        if (n /= 1_i8) s = s//'s'
-    end function counted
 end module run_lines

@@ -12,7 +12,7 @@ module text
         module procedure int_text_default, int_text_i8
     end interface int_text
 
-    public :: int_text, real_text, fixed_text, utf8_len, lower, env_text, json_string
+    public :: int_text, real_text, fixed_text, utf8_len, lower, env_text, json_string, counted
 
 contains
 
@@ -166,4 +166,13 @@ contains
         end if
     end function env_text
 
+
+    !> "n noun" with the noun in the plural unless n = 1 ('1 contact facet', '2 steps').
+    pure function counted(n, noun) result(s)
+        integer(i8), intent(in) :: n            !! the count
+        character(len=*), intent(in) :: noun    !! the noun, singular
+        character(len=:), allocatable :: s
+        s = int_text(n)//' '//noun
+        if (n /= 1_i8) s = s//'s'
+    end function counted
 end module text

@@ -18,8 +18,8 @@
 !> must not shrink with the iterate (a released node's lambda goes to 0 and with it the
 !> second term).
 module alm_newton
-    use kinds, only: dp
-    use text, only: int_text, real_text
+    use kinds, only: dp, i8
+    use text, only: int_text, real_text, counted
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use model, only: model_t
@@ -90,9 +90,8 @@ contains
         do
             if (it >= maxit .or. .not. (gnorm == gnorm)) then
                 call raise(stat, errmsg, STAT_NUMERIC, 'Newton (augmented Lagrangian) did not ' &
-                           //'converge at t = '//real_text(t, 6)//' after '//int_text(it) &
-                           //' iteration'//trim(merge(' ', 's', it == 1)) &
-                           //' (relative residual '// &
+                           //'converge at t = '//real_text(t, 6)//' after ' &
+                           //counted(int(it, i8), 'iteration')//' (relative residual '// &
                            real_text(gnorm / max(scale, tiny(1.0_dp)), 4)//')')
                 return
             end if

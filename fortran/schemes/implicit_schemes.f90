@@ -73,7 +73,7 @@
 module implicit_schemes
     use kinds, only: dp, i8
     use vector_ops, only: dot, lane_sum, LANES
-    use text, only: int_text, real_text, env_text
+    use text, only: int_text, real_text, env_text, counted
     use errors, only: STAT_OK, STAT_NUMERIC, raise
     use linear_solver, only: factor_t, ls_factor, ls_solve, ls_solve_many, ls_free, ls_kernel, &
                              ls_factor_info, ls_configure, ls_cg_counts, BACKEND_PCG
@@ -823,9 +823,8 @@ contains
             if (.not. (rnorm == rnorm) .or. it >= this%maxit) then
                 this%failure = FAILURE_STEP
                 call raise(stat, errmsg, STAT_NUMERIC, 'Newton did not converge at t = ' &
-                           //real_text(st%t + dt, 6)//' after '//int_text(it) &
-                           //' iteration'//trim(merge(' ', 's', it == 1)) &
-                           //' (relative residual ' &
+                           //real_text(st%t + dt, 6)//' after ' &
+                           //counted(int(it, i8), 'iteration')//' (relative residual ' &
                            //real_text(rnorm / max(scale, tiny(1.0_dp)), 4)//')')
                 return
             end if
