@@ -173,9 +173,7 @@ contains
         call set_up(sim, write_output, stat, errmsg)
         if (stat /= STAT_OK) call release_scheme(sim)
         if (stat == STAT_INTERRUPTED) then
-            sim%status = 'interrupted'
-            sim%message = 'interrupted by signal '//int_text(int(signal_caught(), i8))// &
-                          ' during the set-up'
+            call set_up_interrupted()
             if (write_output .and. .not. again) then
                 sim%message = interrupted_message(sim, trim(sim%message), .false.)
                 call open_stopped(sim, stat, errmsg)
@@ -201,14 +199,21 @@ contains
             sim%locked = .false.
             sim%outputs = .false.
             if (stat == STAT_INTERRUPTED) then   ! a restart's contact columns: nothing written
-                sim%status = 'interrupted'
-                sim%message = 'interrupted by signal '//int_text(int(signal_caught(), i8))// &
-                              ' during the set-up'
+                call set_up_interrupted()
                 call raise(stat, errmsg, STAT_INTERRUPTED, trim(sim%message)//' (nothing written)')
             end if
             return
         end if
         sim%finished = sim%step >= sim%n_steps
+
+    contains
+
+        !> The run's status and message when a stop signal ended its set-up.
+        subroutine set_up_interrupted()
+            sim%status = 'interrupted'
+            sim%message = 'interrupted by signal '//int_text(int(signal_caught(), i8))// &
+                          ' during the set-up'
+        end subroutine set_up_interrupted
     end subroutine sim_open_scene
 
     !> The set-up of a run before its outputs: the mesh and the model, the initial state
