@@ -267,10 +267,10 @@ contains
             end if
         else if (n == 0) then    ! a failed copy, not a scene: comments alone give the defaults
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': empty scene file (0 bytes)')
-        else if (n >= 2 .and. (text(1:min(2, n)) == achar(255)//achar(254) .or. &
-                               text(1:min(2, n)) == achar(254)//achar(255))) then
+        else if (n >= 2 .and. (text(1:min(2, n)) == char(255)//char(254) .or. &
+                               text(1:min(2, n)) == char(254)//char(255))) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': UTF-16 text (byte-order '// &
-                       'mark '//merge('FF FE', 'FE FF', text(1:1) == achar(255))// &
+                       'mark '//merge('FF FE', 'FE FF', text(1:1) == char(255))// &
                        '); save the scene as UTF-8')
         else if (n > MAX_FILE_BYTES) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
@@ -278,7 +278,7 @@ contains
         else
             ! a UTF-8 byte-order mark (some editors write one) is not part of the text
             if (n >= 3) then
-                if (text(1:3) == achar(239)//achar(187)//achar(191)) text = text(4:)
+                if (text(1:3) == char(239)//char(187)//char(191)) text = text(4:)
             end if
             call scene_parse(text, trim(path), path(1:index(path, '/', back=.true.)), .true., &
                              scn, stat, errmsg)
