@@ -792,10 +792,6 @@ def plot_field_snapshots(run_dir: str | os.PathLike, out_png: str | os.PathLike 
     if title:
         # wrapped to the figure's width (about 10 characters an inch at 12 points): a
         # figure of few snapshots is narrow, and a long title would run past both its edges
-        import textwrap
-
-        fig.suptitle("\n".join(line for part in str(title).splitlines()
-                               for line in textwrap.wrap(part, int(10 * fig.get_figwidth()))
-                               or [""]))
+        fig.suptitle(_wrap(title, int(10 * fig.get_figwidth())))
     _save(fig, out_png)
     return fig
