@@ -127,13 +127,12 @@ class Scene:
                                                      with_given=True)
         #: The mesh file's dimension by everything that makes the mesh read (:meth:`_mesh_key`).
         self._mesh_dims: dict[tuple, int] = {}
-        #: The keys set through :meth:`set` ('group.key'): a vector among them stays as
-        #: set when the dimension changes (:meth:`_follow_dimension`).
-        self._set_keys: frozenset[str] = frozenset()
-        #: The namelist text each key set through :meth:`set` was given as, with the value
-        #: the core read from it ('group.key' -> (text, value)): :meth:`to_text` writes that
-        #: text while the key keeps that value, so that a refusal quotes the user's own
-        #: text ('0', not its reading '0.0'; '1e-400', not '0.0').
+        #: The keys set through :meth:`set`, each with the namelist text it was given as
+        #: and the value the core read from it ('group.key' -> (text, value)). A vector
+        #: among them stays as set when the dimension changes (:meth:`_follow_dimension`);
+        #: :meth:`to_text` writes the text while the key keeps that value, so that a
+        #: refusal quotes the user's own text ('0', not its reading '0.0'; '1e-400', not
+        #: '0.0').
         self._set_texts: dict[str, tuple[str, Any]] = {}
 
     @classmethod
@@ -272,7 +271,6 @@ class Scene:
         if group == "mesh":
             parsed = self._follow_dimension(parsed, replace)
         self._values, self._given = parsed
-        self._set_keys = self._set_keys | {f"{group}.{key}"}
         self._set_texts = {**self._set_texts,
                            f"{group}.{key}": (text, copy.deepcopy(parsed[0][group][key]))}
 
@@ -296,9 +294,9 @@ class Scene:
         if any(group == "mesh" for group, _ in omit):   # a .geo's h, length, width
             parsed = self._follow_dimension(parsed, omit=omit)
         self._values, self._given = parsed
-        self._set_keys = self._set_keys - {f"{g}.{k}" for g, k in omit}
+        dropped = {f"{g}.{k}" for g, k in omit}
         self._set_texts = {name: entry for name, entry in self._set_texts.items()
-                           if name not in {f"{g}.{k}" for g, k in omit}}
+                           if name not in dropped}
 
     def _follow_dimension(self, parsed: tuple[dict[str, dict[str, Any]], frozenset[str]],
                           replace: dict[tuple[str, str], str] | None = None,
@@ -315,7 +313,7 @@ class Scene:
 
         def follows(gk: tuple[str, str], dim: int) -> bool:
             return values[gk[0]][gk[1]] == VECTOR_DEFAULTS[dim][gk] \
-                and f"{gk[0]}.{gk[1]}" not in self._set_keys
+                and f"{gk[0]}.{gk[1]}" not in self._set_texts
 
         if not any(follows(gk, dim) for dim in (1, 2) for gk in VECTOR_DEFAULTS[dim]):
             return parsed
@@ -347,7 +345,6 @@ class Scene:
         other._values = copy.deepcopy(self._values)
         other._given = self._given
         other._mesh_dims = dict(self._mesh_dims)
-        other._set_keys = self._set_keys
         other._set_texts = dict(self._set_texts)      # (text, value): never changed in place
         return other
 
