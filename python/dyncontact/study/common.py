@@ -23,7 +23,7 @@ __all__ = ["SchemeSpec", "SCHEMES", "scheme_list", "step_ratio", "PENALTY_GAMMA0
            "package_version", "add_runner_options", "MAX_ROWS", "OneLineParser",
            "positive", "mesh_sizes", "UserScene", "UserSceneError", "read_user_scene", "on_scene",
            "refusal_on_scene", "scene_step_ratio", "critical_step_estimate",
-           "contact_free_by_design"]
+           "contact_free_by_design", "ticks_at", "wrapped_suptitle"]
 
 #: The 1D exact case of SPEC section 2 (Dabaghi-Petrov-Pousin-Renard 2016). The base
 #: scenes give no key that a study's scheme or method may not use (the scheme's
@@ -726,6 +726,29 @@ def new_figure(nrows: int, ncols: int, width: float = 4.0, height: float = 3.2):
     fig, axes = plt.subplots(nrows, ncols, figsize=(width * ncols, height * nrows),
                              squeeze=False)
     return fig, axes
+
+
+def ticks_at(ax, values: Sequence[float], spec: str = "g") -> None:
+    """The x axis of a log-log panel ticked at ``values`` alone (the sizes a study ran),
+    each labelled in format ``spec``: over a decade or so the log axis's own ticks give
+    one number, or numbers (4×10⁻¹) that are not the values run."""
+    from matplotlib.ticker import FixedFormatter, FixedLocator, NullFormatter, NullLocator
+
+    ax.xaxis.set_major_locator(FixedLocator(values))
+    ax.xaxis.set_major_formatter(FixedFormatter([format(x, spec) for x in values]))
+    ax.xaxis.set_minor_locator(NullLocator())
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
+def wrapped_suptitle(fig, text: str) -> int:
+    """``text`` as the figure's title at 9 points, wrapped to the figure's width (about 14
+    characters an inch at that size); the number of lines, for the room the caller leaves
+    above the panels."""
+    import textwrap
+
+    lines = textwrap.wrap(text, width=int(14 * fig.get_figwidth()))
+    fig.suptitle("\n".join(lines), fontsize=9)
+    return len(lines)
 
 
 def save_figure(fig, path: str, top: float = 1.0,

@@ -33,7 +33,7 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .common import (fmt, md_table, new_figure, save_figure, scheme_list, slope,
-                     step_ratio, study_folder, write_csv, write_markdown,
+                     step_ratio, study_folder, ticks_at, write_csv, write_markdown,
                      PENALTY_GAMMA0)
 from .analyses import FIELD_NORMS, REL_NORMS
 from .sweep import make_task, sweep
@@ -269,8 +269,6 @@ def _box3d_summary(box) -> list[str]:
 
 
 def _plot(rows, schemes, path, t_end: float, c_implicit: float, c_explicit: float):
-    from matplotlib.ticker import FixedFormatter, FixedLocator, NullFormatter, NullLocator
-
     from ..plotting import run_colours
 
     fig, axes = new_figure(2, 4, 3.8, 3.2)
@@ -298,10 +296,7 @@ def _plot(rows, schemes, path, t_end: float, c_implicit: float, c_explicit: floa
         # the mesh sizes the study ran, as numbers: 0.04 ... 0.0025 spans 1.2 decades,
         # where the log axis's own ticks gave one number (10^-2)
         if len(hs):
-            ax.xaxis.set_major_locator(FixedLocator(hs))
-            ax.xaxis.set_major_formatter(FixedFormatter([f"{h:g}" for h in hs]))
-            ax.xaxis.set_minor_locator(NullLocator())
-            ax.xaxis.set_minor_formatter(NullFormatter())
+            ticks_at(ax, hs)
     ax = axes.flat[7]
     handles, labels = axes.flat[0].get_legend_handles_labels()
     ax.legend(handles, labels, loc="center", fontsize=6)

@@ -54,7 +54,8 @@ import numpy as np
 
 from ..mesh_io import find_geo
 from ..scene import find_scene
-from .common import fmt, md_table, new_figure, save_figure, slope, write_csv, write_markdown
+from .common import (fmt, md_table, new_figure, save_figure, slope, ticks_at, write_csv,
+                     write_markdown)
 from .sweep import ERROR, make_task, sweep
 
 __all__ = ["run_hertz", "hertz_impact", "hertz_time_factor", "hertz_speed", "hertz_spec",
@@ -309,8 +310,6 @@ def _chart(rows: list[dict[str, Any]], path: str) -> str:
     extrapolated to a/R -> 0 (:func:`extrapolated`), each with its fitted slope (the
     same against h_c/a as against h_c within a series); the title names the scene
     (:func:`_title`), the x axis the values of h_c/a run."""
-    from matplotlib.ticker import FixedFormatter, FixedLocator, NullFormatter, NullLocator
-
     fig, axes = new_figure(1, 3, width=4.2, height=4.6)
     ticks = sorted({1.0 / r["a_over_h"] for r in rows})
     ext = extrapolated(rows)
@@ -332,10 +331,7 @@ def _chart(rows: list[dict[str, Any]], path: str) -> str:
         # the values of h_c/a the study ran, as numbers (the log axis' own ticks gave
         # 4×10^-1 and 5×10^-1 for the quick study's 0.354 and 0.5)
         if ticks:
-            ax.xaxis.set_major_locator(FixedLocator(ticks))
-            ax.xaxis.set_major_formatter(FixedFormatter([f"{x:.3g}" for x in ticks]))
-            ax.xaxis.set_minor_locator(NullLocator())
-            ax.xaxis.set_minor_formatter(NullFormatter())
+            ticks_at(ax, ticks, ".3g")
         ax.legend(fontsize="x-small", loc="upper center", bbox_to_anchor=(0.5, -0.22))
     if rows:
         fig.suptitle(_title(rows), fontsize=9)

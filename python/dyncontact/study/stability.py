@@ -46,7 +46,7 @@ import numpy as np
 
 from . import analyses  # noqa: F401 - registers the analyses
 from .common import (STATUS_COLORS, fmt, md_table, new_figure, save_figure,
-                     scheme_list, study_folder, write_csv, write_markdown)
+                     scheme_list, study_folder, wrapped_suptitle, write_csv, write_markdown)
 from .analyses import impacts  # noqa: F401 - part of this module's API
 from .sweep import ERROR, REFUSED, Task, make_task, sweep
 
@@ -503,14 +503,12 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out, scene: str = "") -> list[str
         # white: a cell with no run (penalty and ALM have no Nitsche theta to vary); the
         # key wrapped to the figure's width (about 14 characters an inch at 9 points), which
         # is one panel wide for a study of one scheme
-        lines = textwrap.wrap(f"{on}h = {h:g}, T = {g['t_end']:g}: green stable, red unstable "
-                              "(stop time written), orange Newton failed, grey error, light "
-                              "grey refused by the core, white not run",
-                              width=int(14 * fig.get_figwidth()))
-        fig.suptitle("\n".join(lines), fontsize=9)
-        fig.set_figheight(fig.get_figheight() + 0.15 * (len(lines) - 1))
+        n_lines = wrapped_suptitle(fig, f"{on}h = {h:g}, T = {g['t_end']:g}: green stable, "
+                                   "red unstable (stop time written), orange Newton failed, "
+                                   "grey error, light grey refused by the core, white not run")
+        fig.set_figheight(fig.get_figheight() + 0.15 * (n_lines - 1))
         path = os.path.join(out, f"stability_h{h:g}.png")
-        pngs.append(save_figure(fig, path, top=1 - (0.2 + 0.15 * len(lines))
+        pngs.append(save_figure(fig, path, top=1 - (0.2 + 0.15 * n_lines)
                                 / fig.get_figheight()))
     # critical dt / h
     fig, axes = new_figure(len(g["h"]), 1, 0.9 * len(schemes) + 3, 0.3 * len(combos) + 2.2)
@@ -566,10 +564,9 @@ def _heatmaps(run_rows, crit_rows, schemes, g, out, scene: str = "") -> list[str
             bar.set_ticks([lims[0], math.log10(finite[0]), lims[1]])
     top = 1.0
     if scene:
-        lines = textwrap.wrap(scene, width=int(14 * fig.get_figwidth()))
-        fig.suptitle("\n".join(lines), fontsize=9)
-        fig.set_figheight(fig.get_figheight() + 0.15 * len(lines))
-        top = 1 - (0.1 + 0.15 * len(lines)) / fig.get_figheight()
+        n_lines = wrapped_suptitle(fig, scene)
+        fig.set_figheight(fig.get_figheight() + 0.15 * n_lines)
+        top = 1 - (0.1 + 0.15 * n_lines) / fig.get_figheight()
     pngs.append(save_figure(fig, os.path.join(out, "critical_dt.png"), top=top))
     return pngs
 

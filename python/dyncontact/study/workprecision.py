@@ -65,7 +65,8 @@ import numpy as np
 from . import analyses  # noqa: F401 - registers the analyses
 from .analyses import rms_in_time
 from .common import (SCHEMES, UserScene, fmt, md_table, new_figure, save_figure, step_ratio,
-                     study_folder, write_base_scenes, write_csv, write_markdown)
+                     study_folder, wrapped_suptitle, write_base_scenes, write_csv,
+                     write_markdown)
 from .sweep import Task, make_task, sweep
 
 __all__ = ["run_work_precision", "QUANTITIES", "DEFAULT_SERIES", "REFERENCES",
@@ -639,11 +640,7 @@ def _plot(rows, series, ref_info, path, cases=CASES, title: str = ""):
                title="open circle: not resolved by the reference", title_fontsize=7)
     top = 1.0
     if heading:
-        import textwrap
-
-        lines = textwrap.wrap(heading, width=int(14 * fig.get_figwidth()))
-        fig.suptitle("\n".join(lines), fontsize=9)
-        top = 1 - (0.1 + 0.17 * len(lines)) / fig.get_figheight()
+        top = 1 - (0.1 + 0.17 * wrapped_suptitle(fig, heading)) / fig.get_figheight()
     return save_figure(fig, path, rect=(0, 0, 0.82, top))
 
 
