@@ -356,22 +356,11 @@ class ContactReference:
         """(P at the points of an n-point rule on each facet, (facets, n); the weights,
         summing to 1). A segment: Gauss-Legendre. A triangle: the symmetric rules of
         degree 2 (3 points: Strang-Fix, barycentric (2/3, 1/6, 1/6) and its rotations,
-        weights 1/3) and 5 (7 points: Radon; the centroid, weight 9/40, and the orbits
-        of (1 - 2a, a, a), a = (6 -+ sqrt 15)/21, weights (155 -+ sqrt 15)/1200)."""
+        weights 1/3) and 5 (7 points: Radon), :func:`triangle_rule`."""
         if self.dim == 2:
             xi, wq = np.polynomial.legendre.leggauss(n)
             return p @ np.array([(1 - xi) / 2, (1 + xi) / 2]), wq / 2
-
-        def orbit(a):
-            return [[1 - 2 * a, a, a], [a, 1 - 2 * a, a], [a, a, 1 - 2 * a]]
-        if n == 3:
-            bary, wq = np.array(orbit(1 / 6)), np.full(3, 1 / 3)
-        elif n == 7:
-            r = np.sqrt(15.0)
-            bary = np.array([[1 / 3] * 3] + orbit((6 - r) / 21) + orbit((6 + r) / 21))
-            wq = np.array([9 / 40] + [(155 - r) / 1200] * 3 + [(155 + r) / 1200] * 3)
-        else:
-            raise ValueError(f"no {n}-point triangle rule here")
+        bary, wq = triangle_rule(n)
         return p @ bary.T, wq
 
     def integral(self, p, measure, power=2):
@@ -408,6 +397,22 @@ class ContactReference:
         i = int(np.flatnonzero(~neg)[0])   # the facet less the sub-triangle where P >= 0
         t = [p[i] / (p[i] - p[k]) for k in range(3) if k != i]
         return float(full - measure * t[0] * t[1] * corner * p[i] ** power)
+
+
+def triangle_rule(n):
+    """(barycentric points (n, 3), weights summing to 1) of the symmetric triangle rules
+    of degree 2 (n = 3: Strang-Fix, (2/3, 1/6, 1/6) and its rotations, weights 1/3) and
+    5 (n = 7: Radon; the centroid, weight 9/40, and the orbits of (1 - 2a, a, a),
+    a = (6 -+ sqrt 15)/21, weights (155 -+ sqrt 15)/1200)."""
+    def orbit(a):
+        return [[1 - 2 * a, a, a], [a, 1 - 2 * a, a], [a, a, 1 - 2 * a]]
+    if n == 3:
+        return np.array(orbit(1 / 6)), np.full(3, 1 / 3)
+    if n == 7:
+        r = np.sqrt(15.0)
+        return (np.array([[1 / 3] * 3] + orbit((6 - r) / 21) + orbit((6 + r) / 21)),
+                np.array([9 / 40] + [(155 - r) / 1200] * 3 + [(155 + r) / 1200] * 3))
+    raise ValueError(f"no {n}-point triangle rule here")
 
 
 def triangle_pieces(p):

@@ -37,7 +37,7 @@ from dyncontact.core import Stepper, load_mesh
 
 from conftest import warns_as_designed
 from test_carried_quantities import (CONTACT, GEOMETRY, ContactReference, scene_for,
-                                     triangle_pieces)
+                                     triangle_pieces, triangle_rule)
 
 THR = 1e-12
 #: translation into the obstacle along n (the gap runs from 0.004 to about 0.035 across
@@ -48,17 +48,6 @@ VARIANTS = {1: ["nitsche1", "nitsche0", "nitsche-1", "penalty"],
             3: ["nitsche1", "nitsche0", "nitsche-1", "penalty", "nitsche1_gauss3",
                 "nitsche1_gauss7"]}
 GAUSS_2D = {n: np.polynomial.legendre.leggauss(n) for n in range(1, 7)}
-
-
-def triangle_rule(n):
-    """(barycentric points, weights summing to 1) of the symmetric 3- and 7-point rules."""
-    def orbit(a):
-        return [[1 - 2 * a, a, a], [a, 1 - 2 * a, a], [a, a, 1 - 2 * a]]
-    if n == 3:
-        return np.array(orbit(1 / 6)), np.full(3, 1 / 3)
-    r = np.sqrt(15.0)
-    return (np.array([[1 / 3] * 3] + orbit((6 - r) / 21) + orbit((6 + r) / 21)),
-            np.array([9 / 40] + [(155 - r) / 1200] * 3 + [(155 + r) / 1200] * 3))
 
 
 def facet_points(dim, p, gauss):
