@@ -69,8 +69,8 @@ def test_version_names_the_project(capsys):
 
 @pytest.mark.parametrize("argv", [["--help"], ["stability", "--help"], ["all", "--help"]])
 def test_study_help_gives_the_exit_statuses(capsys, argv):
-    """A study whose run fails to run completes and exits 1, which its help did not say:
-    every study's help ends with the exit statuses."""
+    """A study whose run fails to run completes and exits 1, which a batch script must
+    know: every study's help ends with the exit statuses."""
     from dyncontact.study.cli import main
 
     assert main(argv) == 0

@@ -164,7 +164,7 @@ class Scene:
         if group not in self._values:
             raise SceneError(f"{self._name()}: unknown key '{name}' (expected group.key with "
                              f"group one of {', '.join(self._values)})")
-        if not key:     # a group alone ('scheme'): no key to name, '&scheme :' said nothing
+        if not key:     # a group alone ('scheme'): no key to name, '&scheme :' would say nothing
             raise SceneError(f"{self._name()}: unknown key '{name}' (expected group.key, "
                              f"'{group}.KEY' with KEY one of {', '.join(self._values[group])})")
         raise SceneError(f"{self._name()}: &{group} {key}: unknown key (expected one of "

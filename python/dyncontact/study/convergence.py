@@ -294,7 +294,7 @@ def _plot(rows, schemes, path, t_end: float, c_implicit: float, c_explicit: floa
         ax.set_xlabel("h")
         ax.grid(True, which="both", alpha=0.3)
         # the mesh sizes the study ran, as numbers: 0.04 ... 0.0025 spans 1.2 decades,
-        # where the log axis's own ticks gave one number (10^-2)
+        # where the log axis's own ticks would give one number (10^-2)
         if len(hs):
             ticks_at(ax, hs)
     ax = axes.flat[7]
