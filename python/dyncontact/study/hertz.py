@@ -328,7 +328,7 @@ def _chart(rows: list[dict[str, Any]], path: str) -> str:
         ax.set_xlabel("h_c / a (mesh size at the pole / patch radius)")
         ax.set_ylabel(f"relative error of {label}")
         ax.set_title(f"|{label} / Hertz - 1|")
-        # the values of h_c/a the study ran, as numbers (the log axis' own ticks gave
+        # the values of h_c/a the study ran, as numbers (the log axis' own ticks would give
         # 4×10^-1 and 5×10^-1 for the quick study's 0.354 and 0.5)
         if ticks:
             ticks_at(ax, ticks, ".3g")
