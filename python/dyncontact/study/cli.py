@@ -201,8 +201,10 @@ def write_index(out: str, reports: dict[str, dict[str, Any]], wall_s: float,
 
 
 def _scene_line(exc: UserSceneError) -> str:
-    """A study's refusal of the scene, said of the option that gave it."""
-    return f"--scene {exc.scene}: {exc.why}"
+    """A study's refusal of the scene, said of the option that gave it: ``--scene SCENE:
+    WHY``, the file named once (the core's refusals start with it)."""
+    why = exc.why.removeprefix(f"{exc.scene}: ")
+    return f"--scene {exc.scene}: {why}"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
