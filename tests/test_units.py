@@ -312,3 +312,36 @@ def test_gamma0_bound_scales_as_a_stress(tmp_path, label, L, tau, rho0):
     stress = rho0 * L**2 / tau**2
     assert numbers[1][0] / stress == pytest.approx(numbers[0][0], rel=1e-3)  # 4 digits shown
     assert numbers[1][1] >= 2.0 * numbers[1][0]       # 1, 2, 5 x 10^k of the scene's units
+
+
+def _overlapping_ticks(ax, renderer) -> list[str]:
+    """The x tick labels of ax that overlap their neighbour."""
+    labels = [lab for lab in ax.get_xticklabels() if lab.get_visible() and lab.get_text()]
+    boxes = [lab.get_window_extent(renderer) for lab in labels]
+    return [labels[i].get_text() for i in range(len(boxes) - 1)
+            if boxes[i].x1 > boxes[i + 1].x0]
+
+
+@pytest.mark.parametrize("L, tau, rho0", [(1e-3, 1e-3, 1.0), (0.01, 1e-4, 7850.0),
+                                          (1.0, 1e3, 1.0), POW2[0][1:]])
+def test_trace_chart_ticks_are_readable_in_any_units(tmp_path, L, tau, rho0):
+    """The chart of a run in small time units (an SI impact lasts 1e-4 s; the scalings
+    give time axes of 2e-4, 2e-5, 200 and 2e-7, stresses of 1e-3 to 1e9): each time axis
+    has ticks that do not overlap, and no two ticks of an axis are written alike."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from dyncontact.plotting import plot_traces
+
+    scn = _scene("bar2d_hht.nml", scheme__t_end=0.2)
+    for k, s in enumerate((scn, scaled(scn, L, tau, rho0, tmp_path))):
+        fig = plot_traces([_run(s, tmp_path / f"r{k}")])
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+        axes = fig.axes
+        for ax in axes[2:4]:
+            assert not _overlapping_ticks(ax, renderer), [t.get_text() for t in
+                                                          ax.get_xticklabels()]
+        for ax in axes:     # no two ticks written alike (0.000, 0.000, ...)
+            for ticks in (ax.get_xticklabels(), ax.get_yticklabels()):
+                shown = [t.get_text() for t in ticks if t.get_text()]
+                assert len(set(shown)) == len(shown), shown
