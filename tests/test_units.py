@@ -345,3 +345,13 @@ def test_trace_chart_ticks_are_readable_in_any_units(tmp_path, L, tau, rho0):
             for ticks in (ax.get_xticklabels(), ax.get_yticklabels()):
                 shown = [t.get_text() for t in ticks if t.get_text()]
                 assert len(set(shown)) == len(shown), shown
+
+
+def test_stability_map_ticks_say_the_ratio_in_any_units():
+    """The stability map's Δt/h ticks: 1/c for the nondimensional grids (Δt = h/20), the
+    number itself for a scene in SI (the steel strip's 4e-7 s / 0.05 m = 8e-6 s/m)."""
+    from dyncontact.study.stability import dt_over_h_text
+
+    assert [dt_over_h_text(r) for r in (1 / 100, 1 / 20, 1 / 2, 1.0)] == \
+        ["1/100", "1/20", "1/2", "1"]
+    assert [dt_over_h_text(r) for r in (8e-6, 6.4e-5, 1e-4)] == ["8e-06", "6.4e-05", "0.0001"]
