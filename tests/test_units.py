@@ -58,11 +58,13 @@ from dyncontact.core import BadInputError
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "scripts" / "scenes"
 MESHES = ROOT / "meshes"
+GEO = ROOT / "tests" / "data" / "geo"
 
 #: (name, L, tau, rho0): exact in binary; every derived unit (E, wave speed, the mass and
 #: stiffness matrices' scales) is an even power of 2.
 POW2 = [("2^-10 m, 2^-20 s, 2^12", 2.0**-10, 2.0**-20, 2.0**12),
-        ("2^10 m, 2^2 s, 2^-6", 2.0**10, 2.0**2, 2.0**-6)]
+        ("2^10 m, 2^2 s, 2^-6", 2.0**10, 2.0**2, 2.0**-6),
+        ("2^-30 m, 2^-30 s, 1", 2.0**-30, 2.0**-30, 1.0)]
 #: (name, L, tau, rho0): the unit systems of engineering.
 DECIMAL = [("mm-us", 1e-3, 1e-6, 1.0), ("km", 1e3, 1.0, 1.0), ("dense", 1.0, 1.0, 1e4),
            ("steel ball SI", 0.01, 0.01 * math.sqrt(7850.0 / 2.1e11), 7850.0)]
@@ -140,7 +142,7 @@ def scaled(scn: Scene, L: float, tau: float, rho0: float, folder: Path) -> Scene
         scale_msh(Path(mesh), dst, L)
         s.set("mesh.file", str(dst))
     else:
-        assert mesh == "" or mesh.endswith("bar2d.geo"), "a .geo scaled by its parameters"
+        assert mesh == "" or mesh.endswith(("bar2d.geo", "rod_two_ends.geo")), "a .geo scaled by its parameters"
     return s
 
 
@@ -168,6 +170,12 @@ def _cases(ball_msh: Path) -> dict[str, Scene]:
                                 scheme__mass="lumped", scheme__t_end=3.0),
         "1d central lumped": _scene("bar1d.nml", scheme__name="central", scheme__dt=0.0,
                                     scheme__mass="lumped", scheme__t_end=3.0),
+        # both ends in contact, the probe at one: a rod of 1e-9 (2^-30) found both ends
+        # within an absolute 1e-9 of the probe
+        "1d rod two ends": _scene("bar1d.nml", mesh__file=str(GEO / "rod_two_ends.geo"),
+                                  mesh__h=0.05, boundary__clamped="", boundary__contact="ends",
+                                  initial__kind="velocity", initial__velocity=[-1.0],
+                                  scheme__t_end=3.0),
         "2d seed": _scene("bar2d_hht_seed.nml", scheme__t_end=3.0),
         "2d hht lumped": _scene("bar2d_hht.nml", scheme__alpha=-0.1, scheme__mass="lumped",
                                 scheme__t_end=3.0),
@@ -277,7 +285,7 @@ def _compare(name, cases, L, tau, rho0, exact: bool):
             assert crit == pytest.approx(ref.summary["dt_crit_estimate"], rel=1e-12)
 
 
-CASE_NAMES = ["1d newmark", "1d hht lumped", "1d central lumped", "2d seed", "2d hht lumped",
+CASE_NAMES = ["1d newmark", "1d hht lumped", "1d central lumped", "1d rod two ends", "2d seed", "2d hht lumped",
               "2d newmark", "2d theta", "2d galpha", "2d central", "2d pc", "2d pc_hht lumped",
               "2d alm", "2d alm redistributed", "2d penalty", "2d cg", "2d gravity", "2d msh",
               "2d geo", "3d box", "3d msh", "3d ball"]

@@ -1107,7 +1107,9 @@ contains
             if (mdl%n_probe == 2 .and. dim < 3) exit
             xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
             if (dim == 1) then
-                tol = 1.0e-9_dp * max(1.0_dp, abs(xa(1)))
+                ! relative to the point's coordinate and the facet's cell (a bar of any
+                ! length: an absolute floor would take both ends of a bar shorter than it)
+                tol = 1.0e-9_dp * max(abs(xa(1)), facet_size(mdl, f))
                 if (abs(p(1) - xa(1)) <= tol) call add_probe_facet(mdl, f, facet_shape(1, 0.0_dp))
                 cycle
             else if (dim == 3) then
