@@ -363,3 +363,23 @@ def test_stability_map_ticks_say_the_ratio_in_any_units():
     assert [dt_over_h_text(r) for r in (1 / 100, 1 / 20, 1 / 2, 1.0)] == \
         ["1/100", "1/20", "1/2", "1"]
     assert [dt_over_h_text(r) for r in (8e-6, 6.4e-5, 1e-4)] == ["8e-06", "6.4e-05", "0.0001"]
+
+
+#: min p_n (Pa) of scripts/scenes/ball3d_steel_si.nml (measured, the value this test pins).
+STEEL_BALL_MIN_PN = -3.6483148486560295e10
+
+
+def test_steel_ball_in_si_units(tmp_path):
+    """scripts/scenes/ball3d_steel_si.nml, a user's scene in SI: the ball of radius 1 cm
+    falls 0.5 mm at 1 m/s (first contact at 0.5 ms), bounces off at the speed it came
+    (Newmark 1/4 1/2 conserves the energy: 3e-11 measured), the contact lasting about
+    90 us; pins the largest contact pressure."""
+    res = _run(SCENES / "ball3d_steel_si.nml", tmp_path / "o")
+    assert res.status == "ok"
+    tr = res.trace
+    touching = tr["t"][tr["active"] > 0]
+    assert touching[0] == pytest.approx(5e-4, rel=1e-9)
+    assert 7e-5 < touching[-1] - touching[0] < 1.1e-4
+    assert tr["v_n"][0] == 1.0 and tr["v_n"][-1] == pytest.approx(-1.0, abs=1e-4)
+    assert tr["e_total"][-1] == pytest.approx(tr["e_total"][0], rel=1e-9)
+    assert tr["p_n"].min() == pytest.approx(STEEL_BALL_MIN_PN, rel=1e-6)
