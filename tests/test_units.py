@@ -29,12 +29,14 @@ active or not, another step), or by a refusal.
   decision taken otherwise differs by O(1) in the rows after it, and the decisions
   themselves (iterations and active points of every step) are compared exactly.
 
-Exceptions, measured: the ALM with the redistributed mass is not bitwise under 2^10
-(the receiving nodes' moment system is factorized with pivots chosen by magnitude among
-entries of different units): its decisions and trace are compared as for the decimal
-scalings. The augmented Lagrangian's Newton stops on a relative test that some steps
-meet at the first or the second iteration by round-off (a mild scaling by 1.1 already
-moves its total of 2100 by 2): under decimal scalings its totals are compared to
+Exceptions, measured: the 3D box with the redistributed mass is not bitwise under powers
+of 2 that scale the mass (even rho0 = 2^-10 alone): from step 485, in contact, u at a
+massless contact dof differs in its last bit (6e-18 of 0.5; M, K and K_theta are the
+same bits, an operation of the contact step is not exactly homogeneous, not located),
+the trace by 3e-14 of u_n: POW2_NOT_BITWISE gives it 1e-12, the decisions exactly. The
+augmented Lagrangian's Newton stops on a relative test that
+some steps meet at the first or the second iteration by round-off (a mild scaling by 1.1
+already moves its total of 2100 by 2): under decimal scalings its totals are compared to
 ALM_ITS_RTOL = 1 % (measured at most 0.24 %), the traces as the others'. Two runs are
 round-off-chaotic and go to the power-of-two comparison only: central differences on
 the uniform 1D bar at 0.9 x its critical step (a mild scaling by 1.1 changes u_n by 4 %
@@ -70,6 +72,8 @@ DECIMAL = [("mm-us", 1e-3, 1e-6, 1.0), ("km", 1e3, 1.0, 1.0), ("dense", 1.0, 1.0
            ("steel ball SI", 0.01, 0.01 * math.sqrt(7850.0 / 2.1e11), 7850.0)]
 #: see the module's documentation
 TRACE_RTOL = 1e-6
+#: case -> the tolerance of its power-of-two comparison (module documentation)
+POW2_NOT_BITWISE = {"3d redistributed": 1e-12}
 ALM_ITS_RTOL = 0.01
 #: Values this small against their column's largest are zeros in the exact comparison
 #: (their subnormal bits are not kept by a scaling).
@@ -189,6 +193,8 @@ def _cases(ball_msh: Path) -> dict[str, Scene]:
                                    scheme__t_end=3.0),
         "2d alm": _scene("bar2d_alm_consistent.nml", scheme__t_end=4.0),
         "2d alm redistributed": _scene("bar2d_alm_redistributed.nml", scheme__t_end=4.0),
+        "3d redistributed": _scene("bar3d_hht.nml", scheme__mass="redistributed",
+                                   scheme__alpha=-0.1, scheme__t_end=3.0),
         "2d penalty": _scene("bar2d_hht.nml", contact__method="penalty", scheme__t_end=3.0),
         "2d cg": _scene("bar2d_hht.nml", solver__kind="cg", scheme__t_end=3.0),
         "2d gravity": _scene("bar2d_hht.nml", initial__kind="rest", initial__amplitude=0.0,
@@ -249,10 +255,7 @@ def _compare(name, cases, L, tau, rho0, exact: bool):
     ref = _ref(name, cases)
     tag = f"{name}_{L:g}_{tau:g}_{rho0:g}".replace(" ", "_")
     res = _run(scaled(scenes[name], L, tau, rho0, folder), folder / tag)
-    redistributed = ref.summary["scene"]["scheme"]["mass"] == "redistributed"
-    alm = ref.summary["scene"]["contact"]["method"] == "alm" and (not exact or redistributed)
-    if alm and exact:
-        exact = False
+    alm = ref.summary["scene"]["contact"]["method"] == "alm" and not exact
     assert _decisions(res, its=not alm) == _decisions(ref, its=not alm)
     if alm:
         assert res.summary["newton_its_total"] == pytest.approx(
@@ -261,6 +264,8 @@ def _compare(name, cases, L, tau, rho0, exact: bool):
         np.testing.assert_array_equal(res.trace[col], ref.trace[col], err_msg=col)
     u = units(ref.summary["dim"], L, tau, rho0)
     rtol = TRACE_RTOL
+    if exact and name in POW2_NOT_BITWISE:
+        exact, rtol = False, POW2_NOT_BITWISE[name]
     for col, x in ref.trace.items():
         if alm and col == "newton_its":
             continue
@@ -286,7 +291,7 @@ def _compare(name, cases, L, tau, rho0, exact: bool):
 
 CASE_NAMES = ["1d newmark", "1d hht lumped", "1d central lumped", "1d rod two ends", "2d seed", "2d hht lumped",
               "2d newmark", "2d theta", "2d galpha", "2d central", "2d pc", "2d pc_hht lumped",
-              "2d alm", "2d alm redistributed", "2d penalty", "2d cg", "2d gravity", "2d msh",
+              "2d alm", "2d alm redistributed", "3d redistributed", "2d penalty", "2d cg", "2d gravity", "2d msh",
               "2d geo", "3d box", "3d msh", "3d ball"]
 
 
