@@ -490,10 +490,11 @@ contains
                 e1 = msh%x(:, ct%nodes(2, f)) - msh%x(:, ct%nodes(1, f))
                 e2 = msh%x(:, ct%nodes(3, f)) - msh%x(:, ct%nodes(1, f))
                 ct%measure(f) = 0.5_dp * euclid_length([e1(2) * e2(3) - e1(3) * e2(2), &
-                                                e1(3) * e2(1) - e1(1) * e2(3), &
-                                                e1(1) * e2(2) - e1(2) * e2(1)])
+                                                        e1(3) * e2(1) - e1(1) * e2(3), &
+                                                        e1(1) * e2(2) - e1(2) * e2(1)])
             else
-                ct%measure(f) = euclid_length(msh%x(:, ct%nodes(2, f)) - msh%x(:, ct%nodes(1, f)))
+                ct%measure(f) = euclid_length(msh%x(:, ct%nodes(2, f)) &
+                                              - msh%x(:, ct%nodes(1, f)))
             end if
             ct%nvec(:, :, f) = 0.0_dp
             do a = 1, dim + 1
