@@ -1,5 +1,6 @@
-// An elastic ball of radius `width` centred at (0, 0, width + 0.01): unstructured
-// tetrahedra of size about h, its surface just above the obstacle plane z = 0.
+// An elastic ball of radius `width` centred at (0, 0, 1.05 width): unstructured
+// tetrahedra of size about h, its surface width/20 above the obstacle plane z = 0 (a gap
+// that scales with the ball: 0.01 at the scene's width 0.2, the same double as 0.2 + 0.01).
 // Physical groups: 1 surface (the whole sphere: the contact boundary), 2 body.
 // The parameters h and width (and length, unused) are those of the scene's &mesh when a
 // scene names this file, as `gmsh -3 -setnumber h 0.05 ball.geo` would set them.
@@ -11,7 +12,7 @@ DefineConstant[
   width = {0.2, Name "Parameters/width"}
 ];
 
-Sphere(1) = {0, 0, width + 0.01, width};
+Sphere(1) = {0, 0, 1.05 * width, width};
 MeshSize{ PointsOf{ Volume{1}; } } = h;
 Mesh.MeshSizeMax = h;
 

@@ -68,10 +68,18 @@ contains
         character(len=*), intent(inout), optional :: errmsg !! message
         integer :: dim, k, j, p, i, info, pass, piv(size(x, 1) + 1)
         real(dp) :: g(size(x, 1) + 1, size(x, 1) + 1), rhs(size(x, 1) + 1), phi(size(x, 1) + 1)
+        real(dp) :: ell
         logical :: removed, receiving
         stat = STAT_OK
         dim = size(x, 1)
         massless = contact_node(dof_node)
+        ! phi = (1, x / ell), ell the power of 2 just above the region's largest |x|: g's
+        ! entries are then pure numbers of at most the count of entries, so the LU's pivots
+        ! (largest magnitude in a column, which would compare a count with a length) are
+        ! the same in any units; a power of 2 changes no bit of E = phi . lambda
+        ell = 1.0_dp
+        if (any(region)) ell = maxval(abs(x), mask=spread(region, 1, dim))
+        ell = merge(scale(1.0_dp, exponent(ell)), 1.0_dp, ell > 0.0_dp)
         do k = 1, dim
             g = 0.0_dp
             rhs = 0.0_dp
@@ -112,14 +120,14 @@ contains
     contains
 
         !> Entry (ii, jj): removed (touches a contact node) or receiving (both in the
-        !> region); phi = (1, (x_ii + x_jj)/2).
+        !> region); phi = (1, (x_ii + x_jj)/(2 ell)).
         subroutine classify(ii, jj, rem, rec)
             integer, intent(in) :: ii, jj     !! row and column dof of the entry
             logical, intent(out) :: rem, rec  !! removed; receiving
             rem = contact_node(dof_node(ii)) .or. contact_node(dof_node(jj))
             rec = region(dof_node(ii)) .and. region(dof_node(jj))
             phi(1) = 1.0_dp
-            phi(2:) = 0.5_dp * (x(:, dof_node(ii)) + x(:, dof_node(jj)))
+            phi(2:) = 0.5_dp * (x(:, dof_node(ii)) + x(:, dof_node(jj))) / ell
         end subroutine classify
     end subroutine mass_redistribute
 

@@ -9,7 +9,7 @@ module model
                       mb_text, has_room, OOM_HINT_MESH
     use mesh, only: mesh_t, mesh_check, mesh_group_nodes, mesh_group_facets, mesh_parts
     use fe_p1, only: p1_lame, p1_stiffness, p1_mass
-    use simplex_geometry, only: simplex_measure, simplex_diameter
+    use simplex_geometry, only: simplex_measure, simplex_diameter, euclid_length
     use dense_lu, only: dense_lu_factor, dense_lu_solve
     use sparse, only: csc_t, csc_find, csc_matvec_t_values, csc_swap_values, block2_csc_values, &
                       csc_from_coo, &
@@ -777,14 +777,15 @@ contains
                 call facet_triangle(mdl, f, ta, tb, tc)
                 w = triangle_nearest(p, ta, tb, tc)
                 q = w(1) * ta + w(2) * tb + w(3) * tc
-                d = norm2(p - q)
-                t = max(norm2(tb - ta), norm2(tc - tb), norm2(ta - tc))
+                d = euclid_length(p - q)
+                t = max(euclid_length(tb - ta), euclid_length(tc - tb), &
+                        euclid_length(ta - tc))
             else
                 xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
                 t = dot_product(p - xa, xb - xa) / sum((xb - xa)**2)
                 q = xa + min(1.0_dp, max(0.0_dp, t)) * (xb - xa)
-                d = norm2(p - q)
-                t = norm2(xb - xa)
+                d = euclid_length(p - q)
+                t = euclid_length(xb - xa)
             end if
             if (d < dbest) then
                 dbest = d; best = q; hbest = t
@@ -866,7 +867,7 @@ contains
                 nf = [xb(2) - xa(2), xa(1) - xb(1)]
                 if (dot_product(nf, 0.5_dp * (xa + xb) - xc) < 0.0_dp) nf = -nf
             end if
-            c_max = max(c_max, dot_product(nf, mdl%normal(1:dim)) / norm2(nf))
+            c_max = max(c_max, dot_product(nf, mdl%normal(1:dim)) / euclid_length(nf))
         end do
         faces = .not. (mdl%ct%n_facets > 0 .and. c_max <= FACING)
         if (.not. faces) then
@@ -1035,7 +1036,7 @@ contains
             do b = 1, a - 1
                 r(1:ne, a) = r(1:ne, a) - dot_product(r(1:ne, a), r(1:ne, b)) * r(1:ne, b)
             end do
-            r(1:ne, a) = r(1:ne, a) / norm2(r(1:ne, a))
+            r(1:ne, a) = r(1:ne, a) / euclid_length(r(1:ne, a))
         end do
         scale = 0.0_dp
         do a = 1, ne
@@ -1107,14 +1108,17 @@ contains
             if (mdl%n_probe == 2 .and. dim < 3) exit
             xa = mdl%msh%x(:, mdl%ct%nodes(1, f))
             if (dim == 1) then
-                tol = 1.0e-9_dp * max(1.0_dp, abs(xa(1)))
+                ! relative to the point's coordinate and the facet's cell (a bar of any
+                ! length: an absolute floor would take both ends of a bar shorter than it)
+                tol = 1.0e-9_dp * max(abs(xa(1)), facet_size(mdl, f))
                 if (abs(p(1) - xa(1)) <= tol) call add_probe_facet(mdl, f, facet_shape(1, 0.0_dp))
                 cycle
             else if (dim == 3) then
                 call facet_triangle(mdl, f, ta, tb, tc)
                 w = triangle_nearest(p, ta, tb, tc)
-                dist = norm2(p - w(1) * ta - w(2) * tb - w(3) * tc)
-                tol = 1.0e-9_dp * max(norm2(tb - ta), norm2(tc - tb), norm2(ta - tc))
+                dist = euclid_length(p - w(1) * ta - w(2) * tb - w(3) * tc)
+                tol = 1.0e-9_dp * max(euclid_length(tb - ta), euclid_length(tc - tb), &
+                                      euclid_length(ta - tc))
                 if (dist > tol) cycle
                 where (w < 1.0e-9_dp) w = 0.0_dp   ! on an edge or node: exactly there
                 nsh = w / sum(w)
@@ -1124,7 +1128,7 @@ contains
             xb = mdl%msh%x(:, mdl%ct%nodes(2, f))
             len2 = sum((xb - xa)**2)
             t = dot_product(p - xa, xb - xa) / len2
-            dist = norm2(p - xa - t * (xb - xa))
+            dist = euclid_length(p - xa - t * (xb - xa))
             tol = 1.0e-9_dp * sqrt(len2)
             if (dist > tol .or. t < -1.0e-9_dp .or. t > 1.0_dp + 1.0e-9_dp) cycle
             call add_probe_facet(mdl, f, facet_shape(2, min(1.0_dp, max(0.0_dp, t))))

@@ -25,7 +25,7 @@ module nitsche_contact
     use errors, only: STAT_OK, STAT_BAD_INPUT, STAT_INTERNAL, raise
     use mesh, only: mesh_t
     use fe_p1, only: p1_gradients
-    use simplex_geometry, only: simplex_diameter
+    use simplex_geometry, only: simplex_diameter, euclid_length
     implicit none
     private
 
@@ -489,11 +489,12 @@ contains
             else if (dim == 3) then
                 e1 = msh%x(:, ct%nodes(2, f)) - msh%x(:, ct%nodes(1, f))
                 e2 = msh%x(:, ct%nodes(3, f)) - msh%x(:, ct%nodes(1, f))
-                ct%measure(f) = 0.5_dp * norm2([e1(2) * e2(3) - e1(3) * e2(2), &
-                                                e1(3) * e2(1) - e1(1) * e2(3), &
-                                                e1(1) * e2(2) - e1(2) * e2(1)])
+                ct%measure(f) = 0.5_dp * euclid_length([e1(2) * e2(3) - e1(3) * e2(2), &
+                                                        e1(3) * e2(1) - e1(1) * e2(3), &
+                                                        e1(1) * e2(2) - e1(2) * e2(1)])
             else
-                ct%measure(f) = norm2(msh%x(:, ct%nodes(2, f)) - msh%x(:, ct%nodes(1, f)))
+                ct%measure(f) = euclid_length(msh%x(:, ct%nodes(2, f)) &
+                                              - msh%x(:, ct%nodes(1, f)))
             end if
             ct%nvec(:, :, f) = 0.0_dp
             do a = 1, dim + 1

@@ -8,7 +8,7 @@ module simplex_geometry
     implicit none
     private
 
-    public :: simplex_measure, simplex_diameter, simplex_edges, det3, cross
+    public :: simplex_measure, simplex_diameter, simplex_edges, det3, cross, euclid_length
 
 contains
 
@@ -40,14 +40,26 @@ contains
             d = 0.0_dp
             do a = 1, 4
                 do b = a + 1, 4
-                    d = max(d, norm2(xe(:, b) - xe(:, a)))
+                    d = max(d, euclid_length(xe(:, b) - xe(:, a)))
                 end do
             end do
         else
-            d = max(norm2(xe(:, 2) - xe(:, 1)), norm2(xe(:, 3) - xe(:, 2)), &
-                    norm2(xe(:, 1) - xe(:, 3)))
+            d = max(euclid_length(xe(:, 2) - xe(:, 1)), &
+                    euclid_length(xe(:, 3) - xe(:, 2)), euclid_length(xe(:, 1) - xe(:, 3)))
         end if
     end function simplex_diameter
+
+    !> Euclidean length sqrt(sum(v**2)) of a vector of coordinates. Exactly homogeneous:
+    !> v x 2^k gives the length x 2^k, so a mesh in other units gives the same numbers in
+    !> those units (docs/numerics.md, "Units"). gfortran's norm2 is not: its scaled sum
+    !> starts from the scale 1 and rounds otherwise once a component exceeds 1 in
+    !> magnitude (the same bits as this below it). No guard against overflow: it is for
+    !> coordinates (their squares overflow beyond 1e154).
+    pure function euclid_length(v) result(d)
+        real(dp), intent(in) :: v(:)        !! vector
+        real(dp) :: d
+        d = sqrt(sum(v**2))
+    end function euclid_length
 
     !> Edges of a tetrahedron from node 1 as columns: [x2 - x1, x3 - x1, x4 - x1].
     pure function simplex_edges(xe) result(e)

@@ -515,6 +515,8 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
                      + ", ".join(_PER_DIM[d] for d in dims),
                      transform=axes[3].transAxes, fontsize=7, va="top", ha="center",
                      gid="dims-note", bbox={"fc": "white", "alpha": 0.8, "lw": 0})
+    for ax in [*axes, *([ax_f] if ax_f is not None else [])]:
+        _unit_free_ticks(ax)
     for ax in axes:
         ax.grid(True, lw=0.4, alpha=0.5)
     for ax in axes[2:]:
@@ -530,6 +532,23 @@ def plot_traces(dirs_or_results: Iterable, out_png: str | os.PathLike | None = N
                ncols=min(len(handles), 2), fontsize="small", frameon=False)
     _save(fig, out_png)
     return fig
+
+
+#: Powers of ten (matplotlib's axes.formatter.limits) outside which an axis writes its
+#: ticks as a mantissa and a common factor (1e-4): matplotlib's own (-5, 6) writes the
+#: time axis of an SI impact, ticks 2.5e-5 s apart, as nine overlapping 8-digit labels
+#: (0.000025, 0.000050, ...), and a stress in Pa up to 999999 in full. The nondimensional
+#: scenes' values (10^-3 to 10^4) keep their plain ticks.
+TICK_POWER_LIMITS = (-4, 5)
+
+
+def _unit_free_ticks(ax) -> None:
+    """Plain ticks for values of 10^-3 to 10^4, a mantissa and a factor beyond: readable
+    in whatever units a scene is given (docs/scenes.md)."""
+    for axis in (ax.xaxis, ax.yaxis):
+        fmt = axis.get_major_formatter()
+        if hasattr(fmt, "set_powerlimits"):
+            fmt.set_powerlimits(TICK_POWER_LIMITS)
 
 
 def _wrap(text: str, width: int) -> str:
