@@ -389,12 +389,16 @@ contains
             json = json//'"'//trim(keys(k)%name)//'": '
             if (associated(keys(k)%i)) json = json//int_text(keys(k)%i)
             if (associated(keys(k)%r)) json = json//real_text(keys(k)%r)
-            if (associated(keys(k)%v) .and. keys(k)%count == 0 .and. .not. scn%dim_checked) then
-                json = json//'null'    ! not given: the default of the mesh's dimension
-            else if (associated(keys(k)%v)) then
-                json = json//'['//real_text(keys(k)%v(1))//', '//real_text(keys(k)%v(2))
-                if (keys(k)%count == 3) json = json//', '//real_text(keys(k)%v(3))
-                json = json//']'
+            ! (count is read only for a vector key: Fortran's .and. need not short-circuit,
+            ! and the other keys' count is a null pointer)
+            if (associated(keys(k)%v)) then
+                if (keys(k)%count == 0 .and. .not. scn%dim_checked) then
+                    json = json//'null'    ! not given: the default of the mesh's dimension
+                else
+                    json = json//'['//real_text(keys(k)%v(1))//', '//real_text(keys(k)%v(2))
+                    if (keys(k)%count == 3) json = json//', '//real_text(keys(k)%v(3))
+                    json = json//']'
+                end if
             end if
             if (associated(keys(k)%s)) json = json//json_string(trim(keys(k)%s))
         end do
