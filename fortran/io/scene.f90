@@ -267,14 +267,14 @@ contains
             end if
         else if (n == 0) then    ! a failed copy, not a scene: comments alone give the defaults
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': empty scene file (0 bytes)')
+        else if (n > MAX_FILE_BYTES) then    ! (before the text is looked at: it was not read)
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
+                       '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
         else if (n >= 2 .and. (text(1:min(2, n)) == char(255)//char(254) .or. &
                                text(1:min(2, n)) == char(254)//char(255))) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': UTF-16 text (byte-order '// &
                        'mark '//merge('FF FE', 'FE FF', text(1:1) == char(255))// &
                        '); save the scene as UTF-8')
-        else if (n > MAX_FILE_BYTES) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
-                       '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
         else
             ! a UTF-8 byte-order mark (some editors write one) is not part of the text
             if (n >= 3) then
