@@ -221,6 +221,28 @@ def runs() -> list[Run]:
                     f"'{ROOT / 'meshes/bar2d_getfem_h0.05.msh'}'",
                     "mesh.dim": None, "mesh.length": None, "mesh.width": None,
                     "mesh.h": None}))
+    # more of the scene: a load and other initial states, slip boundaries, the scheme
+    # parameters off their defaults, the mass solves of pc by CG
+    more = {
+        "2D gravity from rest": {"initial.kind": "'rest'", "initial.amplitude": None,
+                                 "material.gravity": "0.0, -1.0",
+                                 "contact.obstacle_point": "0.0, -0.01"},
+        "2D initial velocity": {"initial.kind": "'velocity'", "initial.amplitude": None,
+                                "initial.velocity": "0.0, -1.0",
+                                "contact.obstacle_point": "0.0, -0.1"},
+        "2D slip top": {"boundary.clamped": "''", "boundary.slip_x": "'top'",
+                        "boundary.slip_y": "'top'"},
+        "2D newmark gamma 0.6": {**scheme_settings(2, "newmark"), "scheme.beta": "0.3025",
+                                 "scheme.gamma": "0.6"},
+        "2D galpha rho 0.5 redistributed": {**scheme_settings(2, "galpha"),
+                                            "scheme.rho_inf": "0.5",
+                                            "scheme.mass": "'redistributed'"},
+        "2D theta 0.6 redistributed": {**scheme_settings(2, "theta"), "scheme.theta": "0.6",
+                                       "scheme.mass": "'redistributed'"},
+        "2D pc solver cg": {**scheme_settings(2, "pc"), "solver.kind": "'cg'"},
+    }
+    for name, s in more.items():
+        out.append(Run(name, SCENES / BASE[2], {"scheme.t_end": "1.5", **s}))
     # 8. a restart: a run to t = 1.2 with checkpoints, continued to 1.5
     for dim in (1, 2, 3):
         out.append(Run(f"{dim}D restart", SCENES / BASE[dim],
