@@ -1,7 +1,7 @@
 !> Building a model raises no floating-point exception: with the penalty and the augmented
 !> Lagrangian (no element bound on gamma0, gamma0_min = 0) as with Nitsche's method, in 1D,
 !> 2D and 3D, model_build signals neither division by zero, nor an invalid operation, nor
-!> an overflow (the suggested gamma0 of its messages once took log10 of that 0). The IEEE
+!> an overflow (the suggested gamma0 of its messages must not take log10 of that 0). The IEEE
 !> flags are read, so this holds in a build that does not trap them (the checked build of
 !> scripts/checked traps them). Exit status 1 (error stop) on any failure.
 program test_model_fp_flags
