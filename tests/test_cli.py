@@ -582,7 +582,8 @@ def test_both_entry_points_record_the_output_folder_as_given(run_cli, run_exe, t
     ("demo", ["--quick"]), ("setup", ["DYNCONTACT_PYTHON"]),
     ("bench", ["--quick", "--scaling", "--getfem"]), ("figures", ["--workers"]),
     ("studies", ["out/studies", "--workers"]), ("convergence_1d", ["--schemes"]),
-    ("test", ["-k", "not slow"]), ("geo_estimate", ["--quick", "--2d"])])
+    ("test", ["-k", "not slow"]), ("geo_estimate", ["--quick", "--2d"]),
+    ("checked", ["--build", "--only", "--python"])])
 def test_every_script_answers_help(script, words):
     """`scripts/NAME --help` prints its usage and exits 0, without running anything (no install or
     build by setup, no usage error from demo, no '--out required' from studies);

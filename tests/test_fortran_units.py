@@ -13,7 +13,7 @@ BUILD = Path(__file__).resolve().parents[1] / "build" / "tests"
 @pytest.mark.parametrize("name", ["sparse", "umfpack", "cholmod", "vtk_output", "trace_output", "text",
                                   "vector_ops", "alm_contact", "mesh3d", "rotation3d", "facet3d",
                                   "blocks3d", "dense_lu", "zt_columns", "contact_clear",
-                                  "zcache_restore", "stop_signal"])
+                                  "zcache_restore", "stop_signal", "model_fp_flags"])
 def test_fortran_unit_program(name, tmp_path):
     exe = BUILD / f"test_{name}"
     if not exe.exists():

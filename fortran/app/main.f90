@@ -82,6 +82,9 @@ program main
         end select
         i = i + 1
     end do
+    ! (the program's variables live on its stack: what is still allocated when it returns
+    ! is, to a leak checker, memory lost)
+    if (allocated(arg)) deallocate (arg)
     if (len_trim(scene_path) == 0) then
         write (0, '(a)') USAGE
         call c_exit(2_c_int)

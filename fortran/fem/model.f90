@@ -952,7 +952,13 @@ contains
         ! 1.25-3.5 x it, and runs at 1.0003 x it stay stable)
         stiff = prm%young
         if (mdl%dim >= 2) stiff = lambda + 2.0_dp * mu
-        g_sug = round_up(SUGGEST * g_min)
+        ! the suggestion: twice the element bound, or the stiffness where there is no bound
+        ! (the penalty's and the augmented Lagrangian's 0, whose log10 round_up cannot take)
+        if (g_min > 0.0_dp) then
+            g_sug = round_up(SUGGEST * g_min)
+        else
+            g_sug = round_up(stiff)
+        end if
         if (prm%nitsche_theta == 1 .and. .not. prm%gamma0 > g_min * (1.0_dp + BOUND_RTOL)) then
             st = STAT_BAD_INPUT
             write (buf, '(a, es10.3e3, a, es10.3e3, a, es8.1e3, a, es10.3e3, a)') '', prm%gamma0, &
@@ -964,10 +970,8 @@ contains
                         all(ieee_is_finite(1.0_dp / mdl%ct%gamma)))) then
             ! the contact terms carry gamma_N and |F| / gamma_N: a gamma0 near either end
             ! of the range of reals (1e-320, 1e308) overflows one of them, and the first
-            ! step that touches the obstacle is NaN (the suggestion: twice the element bound,
-            ! or the stiffness where there is no bound, the penalty's 0)
+            ! step that touches the obstacle is NaN
             st = STAT_BAD_INPUT
-            if (.not. g_min > 0.0_dp) g_sug = round_up(stiff)
             write (buf, '(a, es10.3e3, a, es8.1e3, a)') '', prm%gamma0, ' is out of range: '// &
                 'gamma_N = gamma0 / h_T or 1 / gamma_N overflows on this mesh; use gamma0 = ', &
                 g_sug, ' (docs/scenes.md)'

@@ -267,14 +267,14 @@ contains
             end if
         else if (n == 0) then    ! a failed copy, not a scene: comments alone give the defaults
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': empty scene file (0 bytes)')
+        else if (n > MAX_FILE_BYTES) then    ! (before the text is looked at: it was not read)
+            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
+                       '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
         else if (n >= 2 .and. (text(1:min(2, n)) == char(255)//char(254) .or. &
                                text(1:min(2, n)) == char(254)//char(255))) then
             call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': UTF-16 text (byte-order '// &
                        'mark '//merge('FF FE', 'FE FF', text(1:1) == char(255))// &
                        '); save the scene as UTF-8')
-        else if (n > MAX_FILE_BYTES) then
-            call raise(stat, errmsg, STAT_BAD_INPUT, trim(path)//': scene file too large '// &
-                       '(more than '//int_text(MAX_FILE_BYTES)//' bytes)')
         else
             ! a UTF-8 byte-order mark (some editors write one) is not part of the text
             if (n >= 3) then
@@ -389,12 +389,16 @@ contains
             json = json//'"'//trim(keys(k)%name)//'": '
             if (associated(keys(k)%i)) json = json//int_text(keys(k)%i)
             if (associated(keys(k)%r)) json = json//real_text(keys(k)%r)
-            if (associated(keys(k)%v) .and. keys(k)%count == 0 .and. .not. scn%dim_checked) then
-                json = json//'null'    ! not given: the default of the mesh's dimension
-            else if (associated(keys(k)%v)) then
-                json = json//'['//real_text(keys(k)%v(1))//', '//real_text(keys(k)%v(2))
-                if (keys(k)%count == 3) json = json//', '//real_text(keys(k)%v(3))
-                json = json//']'
+            ! (count is read only for a vector key: Fortran's .and. need not short-circuit,
+            ! and the other keys' count is a null pointer)
+            if (associated(keys(k)%v)) then
+                if (keys(k)%count == 0 .and. .not. scn%dim_checked) then
+                    json = json//'null'    ! not given: the default of the mesh's dimension
+                else
+                    json = json//'['//real_text(keys(k)%v(1))//', '//real_text(keys(k)%v(2))
+                    if (keys(k)%count == 3) json = json//', '//real_text(keys(k)%v(3))
+                    json = json//']'
+                end if
             end if
             if (associated(keys(k)%s)) json = json//json_string(trim(keys(k)%s))
         end do

@@ -98,6 +98,8 @@ contains
         call checks%check(du <= TOL * umax, 'displacement field rotates: '//trim(what))
         print '(a, a, 3es9.2, a, es9.2)', trim(what), ': probe u_n, v_n, p_n max diff / scale ', &
             dq / scale, ', field ', du / umax
+        call h1%free()
+        call h2%free()
     end subroutine compare
 
     !> Initial state as the run sets it up.
