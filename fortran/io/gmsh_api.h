@@ -25,6 +25,11 @@ void gmshModelSetCurrent(const char *name, int *ierr);
 void gmshParserSetNumber(const char *name, const double *value, const size_t value_n,
                          int *ierr);
 void gmshParserGetNames(char ***names, size_t *names_n, const char *search, int *ierr);
+void gmshParserGetNumber(const char *name, double **value, size_t *value_n, int *ierr);
+void gmshParserGetString(const char *name, char ***value, size_t *value_n, int *ierr);
+void gmshParserSetString(const char *name, const char *const *value, const size_t value_n,
+                         int *ierr);
+void gmshOpen(const char *fileName, int *ierr);
 void gmshParserClear(const char *name, int *ierr);
 void gmshModelMeshGenerate(const int dim, int *ierr);
 int gmshModelGetDimension(int *ierr);

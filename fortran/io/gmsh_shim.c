@@ -511,6 +511,10 @@ static struct {
     __typeof__(&gmshModelMeshGetSizes) get_sizes;
     __typeof__(&gmshModelGetEntitiesForPhysicalGroup) get_entities_for_physical_group;
     __typeof__(&gmshModelGetType) get_type;
+    __typeof__(&gmshOpen) open;
+    __typeof__(&gmshParserGetNumber) parser_get_number;
+    __typeof__(&gmshParserGetString) parser_get_string;
+    __typeof__(&gmshParserSetString) parser_set_string;
 } G;
 
 static char load_error[512];
@@ -597,6 +601,9 @@ static int gmsh_load(void)
     OPT(get_entities_for_physical_group, "gmshModelGetEntitiesForPhysicalGroup")
     OPT(get_type, "gmshModelGetType") OPT(onelab_clear, "gmshOnelabClear")
     OPT(onelab_get, "gmshOnelabGet") OPT(onelab_set, "gmshOnelabSet")
+    OPT(open, "gmshOpen") OPT(parser_get_number, "gmshParserGetNumber")
+    OPT(parser_get_string, "gmshParserGetString")
+    OPT(parser_set_string, "gmshParserSetString")
 #undef OPT
     return 1;
 }
@@ -657,6 +664,74 @@ static void onelab_empty(const session_t *s)
     if (s->onelab_own) G.onelab_clear("", &ierr);
 }
 
+/* A parser variable of the caller's, kept across parse_bbox_reset. */
+typedef struct {
+    char *name;
+    double *num;
+    size_t n_num;
+    char **str;
+    size_t n_str;
+} parser_var_t;
+
+/* Make gmsh's parser forget the points of earlier parses, so that a .geo meshes to the
+ * same bits whatever the process parsed before, as in a fresh process. While it parses,
+ * gmsh takes its characteristic length (CTX lc, the scale of the tolerances of some of
+ * its geometric operations) from the bounding box of every point parsed since its last
+ * `open` of a file: a static of gmsh's that neither finalize and initialize, a new
+ * model, nor gmshClear reset (seen with gmsh 4.15: meshes/disk.geo read after the same
+ * file 1000 times larger had 177 of its 246 coordinates off in their last digits). gmshOpen resets it; of an empty file
+ * (/dev/null), it parses nothing, but it also clears the parser's variables, which are
+ * the caller's in a session the caller runs: its numbers and strings are saved before
+ * and set again after (its macros and SetFactory choice are not). The open empties the
+ * current model, this read's, and takes its name: it is added again. A libgmsh without
+ * gmshOpen or the parser's getters keeps that state. */
+static void parse_bbox_reset(const session_t *s)
+{
+    int ierr = 0;
+    size_t i, n = 0;
+    char **names = NULL;
+    parser_var_t *vars = NULL;
+    if (!G.open || !G.parser_get_number || !G.parser_get_string || !G.parser_set_string)
+        return;
+    if (!s->own) {
+        G.parser_get_names(&names, &n, "", &ierr);
+        if (ierr) return;
+        vars = calloc(n ? n : 1, sizeof *vars);
+        if (!vars) {
+            for (i = 0; i < n; i++) G.free(names[i]);
+            if (names) G.free(names);
+            return;
+        }
+        for (i = 0; i < n; i++) {
+            vars[i].name = names[i];
+            ierr = 0;
+            G.parser_get_number(names[i], &vars[i].num, &vars[i].n_num, &ierr);
+            ierr = 0;
+            G.parser_get_string(names[i], &vars[i].str, &vars[i].n_str, &ierr);
+        }
+        if (names) G.free(names);
+    }
+    ierr = 0;
+    G.open("/dev/null", &ierr);
+    ierr = 0;
+    G.model_remove(&ierr);
+    ierr = 0;
+    G.model_add(MODEL, &ierr);
+    for (i = 0; i < n; i++) {
+        ierr = 0;
+        if (vars[i].n_str)
+            G.parser_set_string(vars[i].name, (const char *const *)vars[i].str,
+                                vars[i].n_str, &ierr);
+        else
+            G.parser_set_number(vars[i].name, vars[i].num, vars[i].n_num, &ierr);
+        if (vars[i].num) G.free(vars[i].num);
+        for (size_t j = 0; j < vars[i].n_str; j++) G.free(vars[i].str[j]);
+        if (vars[i].str) G.free(vars[i].str);
+        G.free(vars[i].name);
+    }
+    free(vars);
+}
+
 static int session_begin(session_t *s)
 {
     int ierr = 0;
@@ -684,6 +759,7 @@ static int session_begin(session_t *s)
     onelab_empty(s);
     G.option_set_number("General.Terminal", 0, &ierr);
     G.model_add(MODEL, &ierr);
+    if (!ierr) parse_bbox_reset(s);
     return ierr;
 }
 

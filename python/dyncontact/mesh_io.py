@@ -161,6 +161,7 @@ def _gmsh_model(model: str) -> Iterator:
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add(model)
+        _parse_bbox_reset(gmsh, model)
         yield gmsh
     finally:
         if own:
@@ -179,6 +180,38 @@ def _gmsh_model(model: str) -> Iterator:
                 gmsh.option.setNumber(key, value)
             if previous_model is not None and previous_model in gmsh.model.list():
                 gmsh.model.setCurrent(previous_model)
+
+
+def _parse_bbox_reset(gmsh, model: str) -> None:
+    """Make gmsh's parser forget the points of earlier parses, so that a .geo meshes to the
+    same bits whatever the process parsed before, as in a fresh process (as the core's
+    reader does, fortran/io/gmsh_shim.c, parse_bbox_reset).
+
+    While it parses, gmsh takes its characteristic length (the scale of the tolerances of
+    some of its geometric operations) from the bounding box of every point parsed since
+    its last ``gmsh.open``: a state that neither ``gmsh.finalize``/``initialize``, a new
+    model nor ``gmsh.clear`` resets (gmsh 4.15: meshes/disk.geo meshed after the same
+    file 1000 times larger had 177 of its 246 coordinates off in their last digits). ``gmsh.open`` of an empty file resets
+    it and parses nothing, but also clears the parser's variables: the caller's numbers
+    and strings are set again after it (its macros and ``SetFactory`` choice are not).
+    The open empties the current model, `model`, and takes its name: it is added again."""
+    saved = {}
+    for name in gmsh.parser.getNames():
+        with contextlib.suppress(Exception):
+            strings = gmsh.parser.getString(name)
+            if strings:
+                saved[name] = ("s", strings)
+                continue
+        with contextlib.suppress(Exception):
+            saved[name] = ("n", gmsh.parser.getNumber(name))
+    gmsh.open(os.devnull)
+    gmsh.model.remove()
+    gmsh.model.add(model)
+    for name, (kind, value) in saved.items():
+        if kind == "s":
+            gmsh.parser.setString(name, list(value))
+        else:
+            gmsh.parser.setNumber(name, list(value))
 
 
 # --------------------------------------------------------------------------- reading
