@@ -679,10 +679,11 @@ typedef struct {
  * its geometric operations) from the bounding box of every point parsed since its last
  * `open` of a file: a static of gmsh's that neither finalize and initialize, a new
  * model, nor gmshClear reset (seen with gmsh 4.15: meshes/disk.geo read after the same
- * file 1000 times larger had 177 of its 246 coordinates off in their last digits). gmshOpen resets it; of an empty file
- * (/dev/null), it parses nothing, but it also clears the parser's variables, which are
- * the caller's in a session the caller runs: its numbers and strings are saved before
- * and set again after (its macros and SetFactory choice are not). The open empties the
+ * file 1000 times larger had 177 of its 246 coordinates off in their last digits).
+ * gmshOpen resets it; of an empty file (/dev/null), it parses nothing, but it also
+ * clears the parser's variables, which are the caller's in a session the caller runs:
+ * its numbers and strings are saved before and set again after (its macros and
+ * SetFactory choice are not). The open empties the
  * current model, this read's, and takes its name: it is added again. A libgmsh without
  * gmshOpen or the parser's getters keeps that state. */
 static void parse_bbox_reset(const session_t *s)

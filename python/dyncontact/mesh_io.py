@@ -191,10 +191,10 @@ def _parse_bbox_reset(gmsh, model: str) -> None:
     some of its geometric operations) from the bounding box of every point parsed since
     its last ``gmsh.open``: a state that neither ``gmsh.finalize``/``initialize``, a new
     model nor ``gmsh.clear`` resets (gmsh 4.15: meshes/disk.geo meshed after the same
-    file 1000 times larger had 177 of its 246 coordinates off in their last digits). ``gmsh.open`` of an empty file resets
-    it and parses nothing, but also clears the parser's variables: the caller's numbers
-    and strings are set again after it (its macros and ``SetFactory`` choice are not).
-    The open empties the current model, `model`, and takes its name: it is added again."""
+    file 1000 times larger had 177 of its 246 coordinates off in their last digits).
+    ``gmsh.open`` of an empty file resets it and parses nothing, but also clears the
+    parser's variables: the caller's numbers and strings are set again after it (its
+    macros and ``SetFactory`` choice are not). The open empties the current model, `model`, and takes its name: it is added again."""
     saved = {}
     for name in gmsh.parser.getNames():
         with contextlib.suppress(Exception):
