@@ -704,10 +704,10 @@ def test_contact_impulse_is_the_momentum_change_normal_to_a_tilted_plane(tmp_pat
 
 @pytest.mark.parametrize("kind", ENTRIES)
 def test_a_missing_mesh_beside_a_scene_elsewhere_says_where_it_looked(kind, tmp_path):
-    """A scene in a sub-folder naming a mesh file that is not there said `cannot read
-    mesh file 'sub/m.msh' in the current folder`, as if the path were the user's: it says
-    that a relative path counts from the scene file's folder; a scene in the current
-    folder still says `in the current folder`."""
+    """A scene in a sub-folder naming a mesh file that is not there is told that a
+    relative path counts from the scene file's folder (not `in the current folder`, which
+    would read as if the path were the user's); a scene in the current folder is told `in
+    the current folder`."""
     (tmp_path / "sub").mkdir()
     for scene in (tmp_path / "sub" / "s.nml", tmp_path / "s.nml"):
         scene.write_text("&mesh file = 'm.msh' /\n")

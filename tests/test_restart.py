@@ -978,11 +978,10 @@ def test_checkpoint_file_holds_the_state_it_stands_for(tmp_path):
 @pytest.mark.parametrize("entry", ["exe", "cli"])
 def test_a_restart_without_a_checkpoint_says_why(entry, tmp_path):
     """A run killed before its first checkpoint, restarted with its scene, which gives
-    checkpoint_every, was told `DIR/checkpoint.bin: no checkpoint to restart from (no such
-    file; &output checkpoint_every writes one)`:
-    a scene that writes checkpoints is told that a run stopped before the first one starts
-    again without --restart (a folder that is not there is said missing:
-    test_missing_restart_folder_is_refused_naming_the_folder)."""
+    checkpoint_every: the refusal says that a run stopped before the first checkpoint
+    starts again without --restart (`&output checkpoint_every writes one` alone would not
+    help a scene that gives it). A folder that is not there is said missing:
+    test_missing_restart_folder_is_refused_naming_the_folder."""
     cmd = exe_cmd if entry == "exe" else cli_cmd
     scene = tmp_path / "s.nml"
     scene.write_text(scene_text("newmark", t_end="1.5", every=200))

@@ -308,7 +308,7 @@ def test_newton_failure_stops_cleanly_with_trace(tmp_path):
     # t once (the scheme gives it), and the advice of a Newton failure, not of &solver
     assert res.message.count("at t = ") == 1, res.message
     assert "check &scheme dt (smaller)" in res.message and "&solver" not in res.message
-    # the limit the step ran into is named with its value (it was left out of the advice)
+    # the limit the step ran into is named with its value in the advice
     assert res.message.endswith("&scheme newton_tol and newton_maxit (= 1)"), res.message
 
 

@@ -173,8 +173,8 @@ def _cases(ball_msh: Path) -> dict[str, Scene]:
                                 scheme__mass="lumped", scheme__t_end=3.0),
         "1d central lumped": _scene("bar1d.nml", scheme__name="central", scheme__dt=0.0,
                                     scheme__mass="lumped", scheme__t_end=3.0),
-        # both ends in contact, the probe at one: a rod of 1e-9 (2^-30) found both ends
-        # within an absolute 1e-9 of the probe
+        # both ends in contact, the probe at one: on a rod of 1e-9 (2^-30) an absolute
+        # 1e-9 tolerance would put the probe on both ends
         "1d rod two ends": _scene("bar1d.nml", mesh__file=str(GEO / "rod_two_ends.geo"),
                                   mesh__h=0.05, boundary__clamped="", boundary__contact="ends",
                                   initial__kind="velocity", initial__velocity=[-1.0],
